@@ -1,0 +1,121 @@
+"""Compare runs of one lattice: snapshots at a common time and the difference over time.
+
+    python3 -m postprocess.compare ref.h5 other.h5 --time 1.0 -o compare.png
+
+Prints ``max_difference <value>``: the largest node distance from the first
+run over the common output times (the other runs are interpolated linearly to
+the first run's output times where those differ).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from postprocess import cli, plotting
+
+
+def check_same_lattice(runs) -> None:
+    ref = runs[0]
+    for run in runs[1:]:
+        if (run.nx, run.ny) != (ref.nx, ref.ny):
+            raise ValueError(f"lattices differ: {ref.path} is {ref.nx} x {ref.ny}, "
+                             f"{run.path} is {run.nx} x {run.ny}")
+        gap = np.max(np.abs(run.rest_position - ref.rest_position))
+        scale = max(np.max(np.abs(ref.rest_position)), 1e-300)
+        if gap > 1e-9 * scale:
+            raise ValueError(f"lattices differ: rest positions of {ref.path} and "
+                             f"{run.path} differ by up to {gap:g}")
+
+
+def common_interval(runs) -> tuple[float, float]:
+    t0 = max(float(r.time[0]) for r in runs)
+    t1 = min(float(r.time[-1]) for r in runs)
+    if t1 < t0:
+        raise ValueError("the runs share no time interval")
+    return t0, t1
+
+
+def difference(ref, other, interval) -> tuple[np.ndarray, np.ndarray]:
+    """(times, max node distance of `other` from `ref`) at ref's output times in interval."""
+    t0, t1 = interval
+    slack = 1e-9 * max(1.0, abs(t0), abs(t1))
+    sel = np.nonzero((ref.time >= t0 - slack) & (ref.time <= t1 + slack))[0]
+    times = ref.time[sel]
+    if other.nt == ref.nt and np.allclose(other.time, ref.time, rtol=0, atol=slack):
+        pos = other.position[sel]
+    else:
+        pos = np.stack([other.position_at(float(np.clip(t, t0, t1))) for t in times])
+    dist = np.linalg.norm(ref.position[sel] - pos, axis=-1)
+    return times, dist.reshape(len(times), -1).max(axis=1)
+
+
+def labels(runs) -> list[str]:
+    names = [Path(r.path).stem for r in runs]
+    if len(set(names)) < len(names):
+        names = [f"{k + 1}: {n}" for k, n in enumerate(names)]
+    return names
+
+
+def build_figure(runs, t: float, series, view: str = "iso"):
+    """Snapshots of each run at time t (top row) and the differences (bottom)."""
+    n = len(runs)
+    units = runs[0].units()
+    fig = plotting.blank_figure((4.2 * n, 7.0))
+    grid = fig.add_gridspec(2, n, height_ratios=(1.3, 1.0))
+    snaps = [r.position_at(t) for r in runs]
+    lo, hi = plotting.bounds(*snaps)
+    names = labels(runs)
+    for k, (pos, name) in enumerate(zip(snaps, names)):
+        ax = fig.add_subplot(grid[0, k], projection="3d")
+        plotting.draw_lattice(ax, pos, color=f"C{k}")
+        plotting.setup_3d(ax, lo, hi, units, view, title=f"{name}, t = {t:g} s")
+    ax = fig.add_subplot(grid[1, :])
+    for k, (times, dist) in enumerate(series, start=1):
+        ax.plot(times, dist, color=f"C{k}", label=f"{names[k]} vs {names[0]}")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel(plotting.length_label("max node distance", units))
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize="small")
+    return fig
+
+
+def _parser():
+    p = cli.parser(__doc__.splitlines()[0], "compare")
+    p.add_argument("runs", nargs="+", help="two or more nuno output files; the first is the reference")
+    p.add_argument("--time", type=float, default=None,
+                   help="time of the snapshots (default: the last common time)")
+    p.add_argument("--view", choices=tuple(plotting.VIEWS), default="iso")
+    p.add_argument("--tol", type=float, default=None,
+                   help="also print whether max_difference is within this tolerance "
+                        "(the exit status does not depend on it)")
+    p.add_argument("-o", "--output", default="compare.png", help="output file (default compare.png)")
+    p.add_argument("--dpi", type=int, default=120, help="resolution (default 120)")
+    return p
+
+
+def _body(args):
+    if len(args.runs) < 2:
+        raise cli.UsageError("compare needs at least two runs")
+    runs = [cli.load_run(path) for path in args.runs]
+    check_same_lattice(runs)
+    interval = common_interval(runs)
+    t = interval[1] if args.time is None else args.time
+    if not interval[0] - 1e-12 <= t <= interval[1] + 1e-12:
+        raise ValueError(f"time {t:g} outside the common interval "
+                         f"[{interval[0]:g}, {interval[1]:g}]")
+    series = [difference(runs[0], run, interval) for run in runs[1:]]
+    worst = max(float(dist.max()) for _, dist in series)
+    print(f"max_difference {worst:.17g}")
+    if args.tol is not None:
+        print(f"tolerance {args.tol:g} {'met' if worst <= args.tol else 'exceeded'}")
+    plotting.save(build_figure(runs, t, series, args.view), args.output, args.dpi)
+
+
+def main(argv=None) -> int:
+    return cli.run_main(_body, _parser().parse_args(argv))
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,205 @@
+"""The one reader of nuno output files (HDF5 layout of MODEL.md section 9).
+
+    from postprocess.reader import read_run
+    run = read_run("run.h5")
+    run.position        # [nt][ny][nx][3], float64
+    run.energy_balance()
+
+Arrays are C order as stored: /position[t] is [ny][nx][3] (node (i, j) is
+position[t, j, i]). A run that was killed may leave datasets longer than the
+steps it completed: only the first ``n_output_steps`` steps are read (root
+attribute, updated after each step is completely written); without that
+attribute, the shortest length over the time-dependent datasets.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from dataclasses import dataclass, field
+
+import h5py
+import numpy as np
+
+ENERGY_NAMES = ("kinetic", "stretch", "bend", "dissipated", "external_work")
+DIAGNOSTIC_NAMES = ("momentum", "angular_momentum", "length", "flatness",
+                    "steps", "rejected_steps", "newton_iterations",
+                    "linear_iterations")
+# Scenes of the report are written in mm, g, s (MODEL.md section 7).
+MM_SCENES = ("lift_release", "bend_release", "wave_point")
+_REQUIRED_ATTRS = ("nx", "ny")
+_REQUIRED_DATASETS = ("time", "position", "lattice/rest_position")
+
+
+def _text(value) -> str:
+    """An attribute as str: h5py gives str, bytes, numpy bytes or 1-element arrays."""
+    if value is None:
+        return ""
+    if isinstance(value, np.ndarray):
+        if value.size == 0:
+            return ""
+        value = value.ravel()[0] if value.size == 1 else b"".join(
+            v if isinstance(v, bytes) else str(v).encode() for v in value.ravel())
+    if isinstance(value, (bytes, np.bytes_)):
+        value = bytes(value).decode("utf-8", errors="replace")
+    # Fortran fixed-length strings are padded with blanks or NULs.
+    return str(value).rstrip("\x00 ")
+
+
+def _int(value) -> int:
+    """An integer attribute (scalar or 1-element array, as Fortran may write)."""
+    return int(np.asarray(value).ravel()[0])
+
+
+@dataclass
+class Run:
+    """One nuno run, truncated to its completely written output steps."""
+
+    path: str
+    nx: int
+    ny: int
+    n_ranks: int | None
+    program_version: str
+    namelist: str
+    petsc_options: str
+    status: str
+    complete: bool
+    time: np.ndarray                 # [nt]
+    position: np.ndarray             # [nt][ny][nx][3]
+    velocity: np.ndarray | None      # [nt][ny][nx][3] or None
+    rest_position: np.ndarray        # [ny][nx][3]
+    mass: np.ndarray | None          # [ny][nx]
+    energy: dict = field(default_factory=dict)       # name -> [nt]
+    diagnostics: dict = field(default_factory=dict)  # name -> [nt] or [nt][3]
+    n_stored: int = 0                # longest stored length (>= nt if killed)
+
+    @property
+    def nt(self) -> int:
+        """Number of complete output steps."""
+        return int(self.time.shape[0])
+
+    def status_line(self) -> str | None:
+        """The one-line notice for a run that did not finish, else None."""
+        if self.complete:
+            return None
+        return (f"run did not finish: status={self.status}; "
+                f"using {self.nt} complete output steps")
+
+    def energy_balance(self) -> np.ndarray:
+        """E_kin + E_stretch + E_bend + E_dissipated - W_external per step."""
+        missing = [n for n in ENERGY_NAMES if n not in self.energy]
+        if missing:
+            raise ValueError(f"{self.path}: energy datasets missing: {', '.join(missing)}")
+        e = self.energy
+        return (e["kinetic"] + e["stretch"] + e["bend"] + e["dissipated"]
+                - e["external_work"])
+
+    def scene(self) -> str | None:
+        """The scene named in the echoed namelist (``scene = '...'``), if any."""
+        m = re.search(r"\bscene\s*=\s*['\"]\s*([A-Za-z0-9_]+)", self.namelist,
+                      re.IGNORECASE)
+        return m.group(1).lower() if m else None
+
+    def units(self) -> str:
+        """Length unit for labels: a guess, the program itself is unit-agnostic.
+
+        An explicit ``units = '...'`` entry in the namelist wins; otherwise
+        'mm' for the report scenes (lift_release, bend_release, wave_point,
+        written in mm, g, s) and 'm' for hang or anything else.
+        """
+        m = re.search(r"\bunits\s*=\s*['\"]?\s*([A-Za-z]+)", self.namelist,
+                      re.IGNORECASE)
+        if m:
+            return m.group(1).lower()
+        return "mm" if self.scene() in MM_SCENES else "m"
+
+    def step_index(self, t: float) -> int:
+        """Index of the output step nearest to time t; ValueError outside the run."""
+        if self.nt == 0:
+            raise ValueError(f"{self.path}: no complete output steps")
+        t0, t1 = float(self.time[0]), float(self.time[-1])
+        slack = 1e-9 * max(1.0, abs(t0), abs(t1))
+        if not (t0 - slack <= t <= t1 + slack):
+            raise ValueError(f"time {t:g} outside the run's output times "
+                             f"[{t0:g}, {t1:g}]")
+        return int(np.argmin(np.abs(self.time - t)))
+
+    def position_at(self, t: float) -> np.ndarray:
+        """Position [ny][nx][3] at time t, linear between output steps."""
+        self.step_index(t)  # range check
+        k = int(np.searchsorted(self.time, t))
+        if k == 0:
+            return self.position[0].copy()
+        if k >= self.nt:
+            return self.position[-1].copy()
+        ta, tb = self.time[k - 1], self.time[k]
+        w = 0.0 if tb == ta else (t - ta) / (tb - ta)
+        return (1.0 - w) * self.position[k - 1] + w * self.position[k]
+
+
+def read_run(path, load_velocity: bool = True) -> Run:
+    """Read a nuno output file; FileNotFoundError or ValueError with a message."""
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"{path}: no such file")
+    try:
+        f = h5py.File(path, "r")
+    except OSError as exc:
+        raise ValueError(f"{path}: not an HDF5 file ({exc})") from None
+    with f:
+        missing = [a for a in _REQUIRED_ATTRS if a not in f.attrs]
+        missing += [d for d in _REQUIRED_DATASETS if d not in f]
+        if missing:
+            raise ValueError(f"{path}: not a nuno output file "
+                             f"(missing {', '.join(missing)})")
+        attrs = f.attrs
+        nx, ny = _int(attrs["nx"]), _int(attrs["ny"])
+
+        # Time-dependent datasets and their stored lengths.
+        timed = {"time": f["time"], "position": f["position"]}
+        if load_velocity and "velocity" in f:
+            timed["velocity"] = f["velocity"]
+        for group, names in (("energy", ENERGY_NAMES), ("diagnostics", DIAGNOSTIC_NAMES)):
+            for name in names:
+                key = f"{group}/{name}"
+                if key in f:
+                    timed[key] = f[key]
+        lengths = [ds.shape[0] if ds.shape else 0 for ds in timed.values()]
+        shortest, n_stored = min(lengths), max(lengths)
+        if "n_output_steps" in attrs:
+            nt = min(_int(attrs["n_output_steps"]), shortest)
+        else:
+            nt = shortest
+        nt = max(nt, 0)
+
+        data = {key: np.asarray(ds[:nt]) for key, ds in timed.items()}
+        pos = data["position"].astype(np.float64, copy=False)
+        if pos.shape[1:] != (ny, nx, 3):
+            raise ValueError(f"{path}: /position has shape {pos.shape}, "
+                             f"expected [nt][{ny}][{nx}][3]")
+        rest = np.asarray(f["lattice/rest_position"][()], dtype=np.float64)
+        if rest.shape != (ny, nx, 3):
+            raise ValueError(f"{path}: /lattice/rest_position has shape "
+                             f"{rest.shape}, expected [{ny}][{nx}][3]")
+        mass = np.asarray(f["lattice/mass"][()]) if "lattice/mass" in f else None
+
+        status = _text(attrs.get("status")) or "unknown"
+        return Run(
+            path=path, nx=nx, ny=ny,
+            n_ranks=_int(attrs["n_ranks"]) if "n_ranks" in attrs else None,
+            program_version=_text(attrs.get("program_version")),
+            namelist=_text(attrs.get("namelist")),
+            petsc_options=_text(attrs.get("petsc_options")),
+            status=status,
+            complete=status.strip().lower() == "complete",
+            time=data["time"].astype(np.float64, copy=False),
+            position=pos,
+            velocity=data.get("velocity"),
+            rest_position=rest,
+            mass=mass,
+            energy={n: data[f"energy/{n}"] for n in ENERGY_NAMES
+                    if f"energy/{n}" in data},
+            diagnostics={n: data[f"diagnostics/{n}"] for n in DIAGNOSTIC_NAMES
+                         if f"diagnostics/{n}" in data},
+            n_stored=n_stored,
+        )

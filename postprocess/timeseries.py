@@ -1,0 +1,116 @@
+"""Energies, energy-balance drift, momenta, length, flatness and solver counts against time.
+
+    python3 -m postprocess.timeseries run.h5 -o run_timeseries.png
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from postprocess import cli, plotting
+
+N_PANELS = 8
+
+
+def balance_drift(run) -> np.ndarray:
+    """(B(t) - B(0)) / scale, B the energy balance, scale the largest energy seen.
+
+    The scale is max over time of E_kin + E_stretch + E_bend + |W_external|
+    (B(0) alone is zero for a cloth released at rest without stored energy).
+    """
+    b = run.energy_balance()
+    e = run.energy
+    scale = np.max(np.abs(e["kinetic"]) + np.abs(e["stretch"]) + np.abs(e["bend"])
+                   + np.abs(e["external_work"]))
+    scale = scale if scale > 0 else 1.0
+    return (b - b[0]) / scale
+
+
+def _absent(ax, what):
+    ax.text(0.5, 0.5, f"{what} not in file", ha="center", va="center",
+            transform=ax.transAxes)
+
+
+def _vector(ax, t, data, name, ylabel):
+    if data is None:
+        _absent(ax, name)
+    else:
+        for c, comp in enumerate("xyz"):
+            ax.plot(t, data[:, c], label=f"{name} {comp}")
+        ax.legend(fontsize="small")
+    ax.set_ylabel(ylabel)
+
+
+def build_figure(run):
+    """An 8-panel figure (4 rows x 2 columns) of the run's diagnostics."""
+    units = run.units()
+    t = run.time
+    d = run.diagnostics
+    fig, axes = plotting.new_figure(N_PANELS, ncols=2, panel_size=(5.5, 2.8))
+    ax_e, ax_b, ax_p, ax_l, ax_len, ax_flat, ax_steps, ax_it = axes
+
+    for name, label in (("kinetic", "kinetic"), ("stretch", "stretch"), ("bend", "bend"),
+                        ("dissipated", "dissipated"), ("external_work", "external work")):
+        if name in run.energy:
+            ax_e.plot(t, run.energy[name], label=label)
+    try:
+        ax_e.plot(t, run.energy_balance(), "k--", label="balance")
+        ax_b.plot(t, balance_drift(run), color="C3")
+    except ValueError:
+        _absent(ax_b, "energies")
+    ax_e.set_ylabel(plotting.quantity_label("energy", units))
+    ax_e.legend(fontsize="small")
+    ax_b.set_ylabel("balance drift / max energy")
+    ax_b.set_title(r"$(E_{kin}+E_s+E_b+E_{diss}-W_{ext})(t) - (\cdot)(0)$", fontsize="small")
+
+    _vector(ax_p, t, d.get("momentum"), "p", plotting.quantity_label("momentum", units))
+    _vector(ax_l, t, d.get("angular_momentum"), "L",
+            plotting.quantity_label("angular momentum", units))
+
+    for ax, name, label in ((ax_len, "length", "centre-line length"),
+                            (ax_flat, "flatness", "flatness")):
+        if name in d:
+            ax.plot(t, d[name])
+        else:
+            _absent(ax, name)
+        ax.set_ylabel(plotting.length_label(label, units))
+
+    for ax, names in ((ax_steps, ("steps", "rejected_steps")),
+                      (ax_it, ("newton_iterations", "linear_iterations"))):
+        for name in names:
+            if name in d:
+                ax.step(t, d[name], where="post", label=name.replace("_", " "))
+        if ax.lines:
+            ax.legend(fontsize="small")
+        else:
+            _absent(ax, " and ".join(names))
+        ax.set_ylabel("cumulative count")
+    ax_it.set_yscale("symlog", linthresh=10)
+
+    for ax in axes:
+        ax.set_xlabel("t [s]")
+        ax.grid(True, alpha=0.3)
+    title = run.scene() or run.path
+    fig.suptitle(title if run.complete else f"{title} ({run.status})")
+    return fig
+
+
+def _parser():
+    p = cli.parser(__doc__.splitlines()[0], "timeseries")
+    p.add_argument("run", help="nuno output file (.h5)")
+    cli.add_output(p, "timeseries")
+    return p
+
+
+def _body(args):
+    run = cli.load_run(args.run)
+    plotting.save(build_figure(run), args.output or cli.default_output(args.run, "timeseries"),
+                  args.dpi)
+
+
+def main(argv=None) -> int:
+    return cli.run_main(_body, _parser().parse_args(argv))
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,81 @@
+!> The run configuration: every namelist key, its default, and the values
+!> derived from them. Filled by module input (read, validate, derive); read by
+!> every other module. Plain data: no PETSc, no MPI.
+module config
+  use kinds, only: rp
+  implicit none
+  private
+  public :: nuno_config, keyframe_max, label_len, path_len
+  public :: SPRING_AXIAL, SPRING_LINEAR
+  public :: BEND_NONE, BEND_PAPER, BEND_ENERGY
+  public :: SCALING_ELEMENT, SCALING_CONTINUUM
+  public :: MASS_UNIFORM, MASS_AREA
+  public :: SCENE_LIFT_RELEASE, SCENE_BEND_RELEASE, SCENE_WAVE_POINT, SCENE_HANG, SCENE_FLAT
+  public :: unset_real
+
+  integer, parameter :: keyframe_max = 32   !< most keyframes of a prescribed node
+  integer, parameter :: label_len = 32      !< length of a choice string ('axial', ...)
+  integer, parameter :: path_len = 512      !< length of a file name
+  !> Marks a real key the user did not set, so that a scene default applies.
+  real(rp), parameter :: unset_real = -huge(1.0_rp)
+
+  integer, parameter :: SPRING_AXIAL = 1, SPRING_LINEAR = 2
+  integer, parameter :: BEND_NONE = 0, BEND_PAPER = 1, BEND_ENERGY = 2
+  integer, parameter :: SCALING_ELEMENT = 1, SCALING_CONTINUUM = 2
+  integer, parameter :: MASS_UNIFORM = 1, MASS_AREA = 2
+  integer, parameter :: SCENE_LIFT_RELEASE = 1, SCENE_BEND_RELEASE = 2, SCENE_WAVE_POINT = 3, &
+                        SCENE_HANG = 4, SCENE_FLAT = 5
+
+  !> All inputs of a run. Strings hold the namelist spelling; the integer
+  !> codes beside them are derived by the input module.
+  type :: nuno_config
+    ! &lattice
+    integer :: nx = 11                       !< nodes along x (>= 3)
+    integer :: ny = 11                       !< nodes along y (>= 3)
+    real(rp) :: lx = 100.0_rp                !< rest size along x [length]
+    real(rp) :: ly = 100.0_rp                !< rest size along y [length]
+    real(rp) :: total_mass = 1.0_rp          !< mass of the whole cloth [mass]
+    character(label_len) :: mass_distribution = 'uniform'   !< uniform | area
+    character(label_len) :: lattice_scaling = 'element'     !< element | continuum
+    ! &material
+    character(label_len) :: spring_model = 'axial'          !< axial | linear
+    real(rp) :: e_s = 1.0_rp      !< structural stiffness [force/length] (continuum: Y_s [force/length])
+    real(rp) :: eta_s = 1.0_rp    !< structural damping [force time/length]
+    real(rp) :: e_d = 1.0_rp      !< shear (diagonal) stiffness
+    real(rp) :: eta_d = 1.0_rp    !< shear (diagonal) damping
+    character(label_len) :: bending_model = 'paper'         !< none | paper | energy
+    real(rp) :: k_b = unset_real  !< bending: paper [force/rad], energy [energy]; unset -> scene default
+    real(rp) :: eta_b = 0.0_rp    !< bending damping (energy model) [energy time]
+    ! &scene
+    character(label_len) :: scene = 'lift_release'  !< lift_release | bend_release | wave_point | hang | flat
+    real(rp) :: gravity(3) = 0.0_rp       !< [length/time^2]
+    real(rp) :: lift_length = 30.0_rp     !< lift_release: length of the folded part [length]
+    real(rp) :: lift_height = 15.0_rp     !< lift_release: height of edge i = nx-1 [length]
+    real(rp) :: bend_angle = 30.0_rp      !< bend_release: total angle of the arc [degree]
+    integer :: n_keyframes = 3            !< wave_point: number of keyframes used
+    real(rp) :: keyframe_time(keyframe_max) = 0.0_rp   !< wave_point: keyframe times [time]
+    real(rp) :: keyframe_dz(keyframe_max) = 0.0_rp     !< wave_point: corner z at those times [length]
+    real(rp) :: release_time = huge(1.0_rp)  !< time at which the scene's constraints end [time]
+    real(rp) :: initial_omega(3) = 0.0_rp    !< initial rigid angular velocity about the centroid [rad/time]
+    ! &time
+    real(rp) :: t_end = 2.0_rp            !< [time]
+    real(rp) :: dt = 1.0e-3_rp            !< (initial) step [time]
+    ! &output
+    real(rp) :: output_interval = 0.1_rp  !< [time]
+    logical :: write_velocity = .false.
+    character(path_len) :: output_file = 'nuno.h5'
+    character(1024) :: petsc_options = '' !< PETSc options; the command line overrides them
+
+    ! ---- derived by the input module ----
+    integer :: spring_code = SPRING_AXIAL
+    integer :: bending_code = BEND_PAPER
+    integer :: scaling_code = SCALING_ELEMENT
+    integer :: mass_code = MASS_UNIFORM
+    integer :: scene_code = SCENE_LIFT_RELEASE
+    real(rp) :: ax = 0.0_rp, ay = 0.0_rp  !< lattice spacings [length]
+    logical :: has_gravity = .false.
+    logical :: has_damping = .false.      !< any of eta_s, eta_d > 0
+    character(:), allocatable :: namelist_text  !< the input file as read, for the output file
+  end type nuno_config
+
+end module config

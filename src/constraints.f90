@@ -1,0 +1,110 @@
+!> Pinned and prescribed (keyframed) nodes of one rank (MODEL.md section 4).
+!>
+!> A constrained node k follows xbar(t) = x0_k + offset(t), where offset is 0
+!> (pinned) or the scene's keyframe path, piecewise linear in time through
+!> (kt(m), koff(:, m)) and held after the last keyframe. All constraints end
+!> at release_time. The integrator is stopped at every keyframe and at the
+!> release time; within one such time window the active segment is fixed
+!> (set by constraints_set_window), so that the prescribed velocity is the
+!> slope of that segment even when a stage is evaluated at the window's ends.
+module constraints
+  use kinds, only: rp
+  implicit none
+  private
+  public :: constraint_set_t, constraints_init, constraints_add, constraints_set_window
+  public :: constraint_target, constraint_events
+
+  integer, parameter, public :: PATH_FIXED = 0, PATH_KEYFRAMES = 1
+
+  type :: constraint_set_t
+    integer :: n = 0                       !< constrained nodes owned by this rank
+    integer, allocatable :: node(:, :)     !< (2, n) indices (i, j)
+    integer, allocatable :: path(:)        !< (n) PATH_FIXED or PATH_KEYFRAMES
+    real(rp), allocatable :: x0(:, :)      !< (3, n) base position [length]
+    real(rp) :: release_time = huge(1.0_rp)  !< [time]
+    integer :: nk = 0                      !< keyframes of the path
+    real(rp), allocatable :: kt(:)         !< (nk) keyframe times [time], increasing
+    real(rp), allocatable :: koff(:, :)    !< (3, nk) offsets at the keyframes [length]
+    ! window state, set by constraints_set_window
+    logical :: active = .true.             !< false once released
+    integer :: seg = 0                     !< segment of the path: kt(seg) <= t < kt(seg+1); 0 before, nk after
+    logical :: any_global = .false.        !< some rank has constraints (same on all ranks)
+  end type constraint_set_t
+
+contains
+
+  !> Empty set with room for nmax nodes and the keyframe path (kt, koff).
+  subroutine constraints_init(cs, nmax, kt, koff, release_time)
+    type(constraint_set_t), intent(out) :: cs
+    integer, intent(in) :: nmax
+    real(rp), intent(in) :: kt(:), koff(:, :)
+    real(rp), intent(in) :: release_time
+    allocate(cs%node(2, nmax), cs%path(nmax), cs%x0(3, nmax))
+    cs%nk = size(kt)
+    cs%kt = kt
+    cs%koff = koff
+    cs%release_time = release_time
+  end subroutine constraints_init
+
+  !> Constrain node (i, j) with base position x0 to a path.
+  subroutine constraints_add(cs, i, j, x0, path)
+    type(constraint_set_t), intent(inout) :: cs
+    integer, intent(in) :: i, j, path
+    real(rp), intent(in) :: x0(3)
+    cs%n = cs%n + 1
+    cs%node(:, cs%n) = [i, j]
+    cs%x0(:, cs%n) = x0
+    cs%path(cs%n) = path
+  end subroutine constraints_add
+
+  !> Fix the active segment and the release state for the window [ta, tb]
+  !> between two consecutive event times.
+  pure subroutine constraints_set_window(cs, ta, tb)
+    type(constraint_set_t), intent(inout) :: cs
+    real(rp), intent(in) :: ta, tb
+    real(rp) :: tm
+    integer :: m
+    tm = 0.5_rp * (ta + tb)
+    cs%active = tm < cs%release_time
+    cs%seg = 0
+    do m = 1, cs%nk
+      if (cs%kt(m) <= tm) cs%seg = m
+    end do
+  end subroutine constraints_set_window
+
+  !> Prescribed position xb(3) and velocity vb(3) of constrained node k at t.
+  pure subroutine constraint_target(cs, k, t, xb, vb)
+    type(constraint_set_t), intent(in) :: cs
+    integer, intent(in) :: k
+    real(rp), intent(in) :: t
+    real(rp), intent(out) :: xb(3), vb(3)
+    integer :: m
+    xb = cs%x0(:, k)
+    vb = 0.0_rp
+    if (cs%path(k) /= PATH_KEYFRAMES .or. cs%nk == 0) return
+    m = cs%seg
+    if (m == 0) then
+      xb = xb + cs%koff(:, 1)
+    else if (m >= cs%nk) then
+      xb = xb + cs%koff(:, cs%nk)
+    else
+      vb = (cs%koff(:, m + 1) - cs%koff(:, m)) / (cs%kt(m + 1) - cs%kt(m))
+      xb = xb + cs%koff(:, m) + (t - cs%kt(m)) * vb
+    end if
+  end subroutine constraint_target
+
+  !> Times in (0, t_end) at which the integrator must stop: keyframes and
+  !> the release time.
+  pure function constraint_events(cs, t_end) result(ev)
+    type(constraint_set_t), intent(in) :: cs
+    real(rp), intent(in) :: t_end
+    real(rp), allocatable :: ev(:)
+    integer :: m
+    allocate(ev(0))
+    do m = 1, cs%nk
+      if (cs%kt(m) > 0.0_rp .and. cs%kt(m) < t_end) ev = [ev, cs%kt(m)]
+    end do
+    if (cs%release_time > 0.0_rp .and. cs%release_time < t_end) ev = [ev, cs%release_time]
+  end function constraint_events
+
+end module constraints

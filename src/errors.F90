@@ -1,0 +1,130 @@
+!> Command-line helpers and the collective exit path.
+!> Every rank takes the same branch for input errors (all ranks parse the
+!> same text), so fatal_collective is called by all ranks together: rank 0
+!> prints one line, PETSc and MPI are finalised, and every rank exits 1.
+!> No barrier anywhere in an error path.
+module errors
+#include "petsc/finclude/petscsys.h"
+  use petscsys
+  use mpi
+  implicit none
+  private
+  public :: help_requested, input_path_argument, fatal_collective, apply_namelist_options
+  public :: petsc_options_text
+
+contains
+
+  !> True when an argument is --help or -h.
+  logical function help_requested()
+    integer :: k
+    character(len=64) :: arg
+    help_requested = .false.
+    do k = 1, command_argument_count()
+      call get_command_argument(k, arg)
+      if (arg == '--help' .or. arg == '-h') help_requested = .true.
+    end do
+  end function help_requested
+
+  !> The input file: the first argument, which must not be an option.
+  logical function input_path_argument(path)
+    character(len=*), intent(out) :: path
+    path = ''
+    input_path_argument = .false.
+    if (command_argument_count() < 1) return
+    call get_command_argument(1, path)
+    input_path_argument = len_trim(path) > 0 .and. path(1:1) /= '-'
+  end function input_path_argument
+
+  !> Collective error exit: one line on rank 0 (stderr), exit code 1 everywhere.
+  subroutine fatal_collective(msg)
+    character(len=*), intent(in) :: msg
+    integer :: rank, ierr
+    PetscBool :: initialized
+    call MPI_Comm_rank(MPI_COMM_WORLD, rank, ierr)
+    if (rank == 0) then
+      write(0, '(a)') 'nuno: error: '//trim(msg)
+      flush(0)
+    end if
+    call PetscInitialized(initialized, ierr)
+    if (initialized) call PetscFinalize(ierr)
+    error stop 1
+  end subroutine fatal_collective
+
+  !> Insert the namelist's petsc_options string, except options that the
+  !> command line already set (the command line wins).
+  subroutine apply_namelist_options(opts, ierr, errmsg)
+    character(len=*), intent(in) :: opts
+    PetscErrorCode, intent(out) :: ierr
+    character(len=*), intent(out) :: errmsg
+    character(len=256) :: tok(128)
+    integer :: n, k
+    PetscBool :: set
+    real :: r
+    integer :: ios
+
+    ierr = 0
+    errmsg = ''
+    call split_words(opts, tok, n)
+    k = 1
+    do while (k <= n)
+      if (tok(k)(1:1) /= '-') then
+        ierr = 1
+        errmsg = "input: &output: petsc_options: '"//trim(tok(k))//"' is not an option (options start with -)"
+        return
+      end if
+      call PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, trim(tok(k)), set, ierr)
+      if (ierr /= 0) return
+      ! A value follows unless the next word is another option (a negative number is a value).
+      ios = 1
+      if (k < n) read(tok(k + 1), *, iostat=ios) r
+      if (k < n .and. (tok(k + 1)(1:1) /= '-' .or. ios == 0)) then
+        if (.not. set) call PetscOptionsSetValue(PETSC_NULL_OPTIONS, trim(tok(k)), trim(tok(k + 1)), ierr)
+        k = k + 2
+      else
+        if (.not. set) call PetscOptionsSetValue(PETSC_NULL_OPTIONS, trim(tok(k)), PETSC_NULL_CHARACTER, ierr)
+        k = k + 1
+      end if
+      if (ierr /= 0) return
+    end do
+  end subroutine apply_namelist_options
+
+  !> Blank-separated words of s.
+  subroutine split_words(s, words, n)
+    character(len=*), intent(in) :: s
+    character(len=*), intent(out) :: words(:)
+    integer, intent(out) :: n
+    integer :: i, start
+    n = 0
+    i = 1
+    do while (i <= len_trim(s))
+      if (s(i:i) == ' ') then
+        i = i + 1
+        cycle
+      end if
+      start = i
+      do while (i <= len(s))
+        if (s(i:i) == ' ') exit
+        i = i + 1
+      end do
+      if (n < size(words)) then
+        n = n + 1
+        words(n) = s(start:i - 1)
+      end if
+    end do
+  end subroutine split_words
+
+  !> The PETSc options of this run, for the output file: the command-line
+  !> arguments after the input file.
+  function petsc_options_text() result(txt)
+    character(len=:), allocatable :: txt
+    character(len=1024) :: arg
+    integer :: k
+    txt = ''
+    do k = 2, command_argument_count()
+      call get_command_argument(k, arg)
+      txt = txt//trim(arg)//' '
+    end do
+    txt = trim(txt)
+  end function petsc_options_text
+
+end module errors

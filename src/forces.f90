@@ -1,0 +1,293 @@
+!> Loops over the elements of one strip: internal forces, element energies,
+!> dissipated power and the Jacobian blocks of one anchor row. Plain arrays
+!> in and out (no PETSc, no MPI); the per-element work is done by the kernels
+!> (springs, bending_paper, bending_energy). See module lattice for the index
+!> convention and the anchor rule.
+module forces
+  use kinds, only: rp
+  use config, only: BEND_NONE, BEND_PAPER, BEND_ENERGY
+  use lattice, only: lattice_t, link_dir, line_dir, link_constants, triple_constants
+  use springs, only: link_force, link_jacobian, link_energy, link_power
+  use bending_paper, only: paper_force, paper_jacobian, paper_energy
+  use bending_energy, only: energy_force, energy_jacobian, energy_bend_energy, energy_power
+  implicit none
+  private
+  public :: internal_forces, element_energies, dissipated_power
+  public :: jac_buffer_t, jac_buffer_init, jac_buffer_row, slot_of
+  public :: first_anchor_row
+
+  !> Jacobian blocks of the v-rows of three consecutive node rows (a rolling
+  !> buffer indexed by slot_of(j)): k(:,:,di,dj,i,s) = dF_v(i,j)/dx(i+di,j+dj)
+  !> = -df/dx, c(...) = dF_v/dv = -df/dv, without the mass term.
+  type :: jac_buffer_t
+    integer :: w = 1                      !< stencil half-width (halo)
+    real(rp), allocatable :: k(:, :, :, :, :, :)  !< (3,3,-w:w,-w:w,0:nx-1,0:2)
+    real(rp), allocatable :: c(:, :, :, :, :, :)  !< (3,3,-w:w,-w:w,0:nx-1,0:2)
+  end type jac_buffer_t
+
+contains
+
+  !> Lowest anchor row whose elements touch row ys.
+  pure integer function first_anchor_row(lat)
+    type(lattice_t), intent(in) :: lat
+    first_anchor_row = max(0, lat%ys - lat%halo)
+  end function first_anchor_row
+
+  !> Slot of node row j in the rolling Jacobian buffer.
+  pure integer function slot_of(j)
+    integer, intent(in) :: j
+    slot_of = modulo(j, 3)
+  end function slot_of
+
+  !> Rest vector X_p - X_q and rest length of a link p -> p + s.
+  pure subroutine rest_link(lat, s, d0, len0)
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: s(2)
+    real(rp), intent(out) :: d0(3), len0
+    d0 = [-real(s(1), rp) * lat%ax, -real(s(2), rp) * lat%ay, 0.0_rp]
+    len0 = norm2(d0)
+  end subroutine rest_link
+
+  !> True when node (i, j) exists.
+  pure logical function inside(lat, i, j)
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: i, j
+    inside = i >= 0 .and. i < lat%nx .and. j >= 0 .and. j < lat%ny
+  end function inside
+
+  !> Internal forces f(3, 0:nx-1, gys:gye) [force] of all elements touching
+  !> the owned rows, from the state u(0:5, 0:nx-1, gys:gye). Entries of ghost
+  !> rows are partial sums and must not be used. nbad counts elements whose
+  !> geometry is singular (zero length, bending angle at pi); bad holds the
+  !> anchor (i, j) of the last one.
+  subroutine internal_forces(lat, u, f, nbad, bad)
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: u(0:5, 0:lat%nx - 1, lat%gys:lat%gye)
+    real(rp), intent(out) :: f(3, 0:lat%nx - 1, lat%gys:lat%gye)
+    integer, intent(out) :: nbad, bad(2)
+    integer :: i, j, k, iq, jq, ir, jr
+    real(rp) :: d0(3, 4), len0(4), e, eta, fl(3), x9(9), v9(9), f9(9), kb, etab, theta
+    logical :: ok
+
+    f = 0.0_rp
+    nbad = 0
+    bad = -1
+    do k = 1, 4
+      call rest_link(lat, link_dir(:, k), d0(:, k), len0(k))
+    end do
+    do j = first_anchor_row(lat), lat%ye
+      do i = 0, lat%nx - 1
+        do k = 1, 4
+          iq = i + link_dir(1, k)
+          jq = j + link_dir(2, k)
+          if (.not. inside(lat, iq, jq) .or. jq < lat%ys) cycle
+          call link_constants(lat, i, j, k, e, eta)
+          call link_force(lat%spring_model, e, eta, d0(:, k), len0(k), u(0:2, i, j), u(0:2, iq, jq), &
+                          u(3:5, i, j), u(3:5, iq, jq), fl, ok)
+          if (.not. ok) then
+            nbad = nbad + 1
+            bad = [i, j]
+          end if
+          f(:, i, j) = f(:, i, j) + fl
+          f(:, iq, jq) = f(:, iq, jq) - fl
+        end do
+        if (lat%bending_model == BEND_NONE) cycle
+        do k = 1, 4
+          iq = i + line_dir(1, k)
+          jq = j + line_dir(2, k)
+          ir = iq + line_dir(1, k)
+          jr = jq + line_dir(2, k)
+          if (.not. inside(lat, ir, jr) .or. jr < lat%ys) cycle
+          call triple_constants(lat, k, kb, etab)
+          x9 = [u(0:2, i, j), u(0:2, iq, jq), u(0:2, ir, jr)]
+          if (lat%bending_model == BEND_PAPER) then
+            call paper_force(kb, x9, f9, theta, ok)
+          else
+            v9 = [u(3:5, i, j), u(3:5, iq, jq), u(3:5, ir, jr)]
+            call energy_force(kb, etab, x9, v9, f9, ok)
+          end if
+          if (.not. ok) then
+            nbad = nbad + 1
+            bad = [i, j]
+          end if
+          f(:, i, j) = f(:, i, j) + f9(1:3)
+          f(:, iq, jq) = f(:, iq, jq) + f9(4:6)
+          f(:, ir, jr) = f(:, ir, jr) + f9(7:9)
+        end do
+      end do
+    end do
+  end subroutine internal_forces
+
+  !> Stretch and bending energy of the elements anchored on owned rows
+  !> (so that a sum over ranks counts each element once).
+  subroutine element_energies(lat, u, stretch, bend)
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: u(0:5, 0:lat%nx - 1, lat%gys:lat%gye)
+    real(rp), intent(out) :: stretch, bend
+    integer :: i, j, k, iq, jq, ir, jr
+    real(rp) :: d0(3, 4), len0(4), e, eta, x9(9), kb, etab
+
+    stretch = 0.0_rp
+    bend = 0.0_rp
+    do k = 1, 4
+      call rest_link(lat, link_dir(:, k), d0(:, k), len0(k))
+    end do
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
+        do k = 1, 4
+          iq = i + link_dir(1, k)
+          jq = j + link_dir(2, k)
+          if (.not. inside(lat, iq, jq)) cycle
+          call link_constants(lat, i, j, k, e, eta)
+          stretch = stretch + link_energy(lat%spring_model, e, d0(:, k), len0(k), u(0:2, i, j), u(0:2, iq, jq))
+        end do
+        if (lat%bending_model == BEND_NONE) cycle
+        do k = 1, 4
+          iq = i + line_dir(1, k)
+          jq = j + line_dir(2, k)
+          ir = iq + line_dir(1, k)
+          jr = jq + line_dir(2, k)
+          if (.not. inside(lat, ir, jr)) cycle
+          call triple_constants(lat, k, kb, etab)
+          x9 = [u(0:2, i, j), u(0:2, iq, jq), u(0:2, ir, jr)]
+          if (lat%bending_model == BEND_PAPER) then
+            bend = bend + paper_energy(kb, x9)
+          else
+            bend = bend + energy_bend_energy(kb, x9)
+          end if
+        end do
+      end do
+    end do
+  end subroutine element_energies
+
+  !> Dissipated power [energy/time] of the elements anchored on owned rows:
+  !> link dampers, and bending dampers of the energy model.
+  subroutine dissipated_power(lat, u, power)
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: u(0:5, 0:lat%nx - 1, lat%gys:lat%gye)
+    real(rp), intent(out) :: power
+    integer :: i, j, k, iq, jq, ir, jr
+    real(rp) :: e, eta, x9(9), v9(9), kb, etab
+
+    power = 0.0_rp
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
+        do k = 1, 4
+          iq = i + link_dir(1, k)
+          jq = j + link_dir(2, k)
+          if (.not. inside(lat, iq, jq)) cycle
+          call link_constants(lat, i, j, k, e, eta)
+          if (eta == 0.0_rp) cycle
+          power = power + link_power(lat%spring_model, eta, u(0:2, i, j), u(0:2, iq, jq), &
+                                     u(3:5, i, j), u(3:5, iq, jq))
+        end do
+        if (lat%bending_model /= BEND_ENERGY) cycle
+        do k = 1, 4
+          iq = i + line_dir(1, k)
+          jq = j + line_dir(2, k)
+          ir = iq + line_dir(1, k)
+          jr = jq + line_dir(2, k)
+          if (.not. inside(lat, ir, jr)) cycle
+          call triple_constants(lat, k, kb, etab)
+          if (etab == 0.0_rp) cycle
+          x9 = [u(0:2, i, j), u(0:2, iq, jq), u(0:2, ir, jr)]
+          v9 = [u(3:5, i, j), u(3:5, iq, jq), u(3:5, ir, jr)]
+          power = power + energy_power(etab, x9, v9)
+        end do
+      end do
+    end do
+  end subroutine dissipated_power
+
+  !> Allocate the rolling buffer once (outside the time loop).
+  subroutine jac_buffer_init(buf, lat)
+    type(jac_buffer_t), intent(out) :: buf
+    type(lattice_t), intent(in) :: lat
+    buf%w = lat%halo
+    allocate(buf%k(3, 3, -buf%w:buf%w, -buf%w:buf%w, 0:lat%nx - 1, 0:2))
+    allocate(buf%c(3, 3, -buf%w:buf%w, -buf%w:buf%w, 0:lat%nx - 1, 0:2))
+    buf%k = 0.0_rp
+    buf%c = 0.0_rp
+  end subroutine jac_buffer_init
+
+  !> Add the Jacobian blocks of all elements anchored on row ja (that touch
+  !> an owned row) to the buffer. After this call, row ja is complete.
+  !> clamp drops the indefinite compression term of the springs and
+  !> gauss_newton keeps only -k_b J^T J of energy bending (preconditioner use).
+  subroutine jac_buffer_row(buf, lat, u, ja, clamp, gauss_newton)
+    type(jac_buffer_t), intent(inout) :: buf
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: u(0:5, 0:lat%nx - 1, lat%gys:lat%gye)
+    integer, intent(in) :: ja
+    logical, intent(in) :: clamp, gauss_newton
+    integer :: i, k, iq, jq, ir, jr, a, b, ia(3), jj(3)
+    real(rp) :: d0(3, 4), len0(4), e, eta, kl(3, 3), cl(3, 3), x9(9), v9(9), k9(9, 9), c9(9, 9), kb, etab
+    logical :: ok
+
+    do k = 1, 4
+      call rest_link(lat, link_dir(:, k), d0(:, k), len0(k))
+    end do
+    do i = 0, lat%nx - 1
+      do k = 1, 4
+        iq = i + link_dir(1, k)
+        jq = ja + link_dir(2, k)
+        if (.not. inside(lat, iq, jq) .or. jq < lat%ys) cycle
+        call link_constants(lat, i, ja, k, e, eta)
+        call link_jacobian(lat%spring_model, e, eta, d0(:, k), len0(k), u(0:2, i, ja), u(0:2, iq, jq), &
+                           u(3:5, i, ja), u(3:5, iq, jq), clamp, kl, cl, ok)
+        ! f_p depends on x_p through K and on x_q through -K; f_q = -f_p.
+        call add_pair(i, ja, iq, jq, kl, cl)
+      end do
+      if (lat%bending_model == BEND_NONE) cycle
+      do k = 1, 4
+        iq = i + line_dir(1, k)
+        jq = ja + line_dir(2, k)
+        ir = iq + line_dir(1, k)
+        jr = jq + line_dir(2, k)
+        if (.not. inside(lat, ir, jr) .or. jr < lat%ys) cycle
+        call triple_constants(lat, k, kb, etab)
+        x9 = [u(0:2, i, ja), u(0:2, iq, jq), u(0:2, ir, jr)]
+        if (lat%bending_model == BEND_PAPER) then
+          call paper_jacobian(kb, x9, k9, ok)
+          c9 = 0.0_rp
+        else
+          v9 = [u(3:5, i, ja), u(3:5, iq, jq), u(3:5, ir, jr)]
+          call energy_jacobian(kb, etab, x9, v9, gauss_newton, k9, c9, ok)
+        end if
+        ia = [i, iq, ir]
+        jj = [ja, jq, jr]
+        do a = 1, 3
+          do b = 1, 3
+            associate (dk => buf%k(:, :, ia(b) - ia(a), jj(b) - jj(a), ia(a), slot_of(jj(a))), &
+                       dc => buf%c(:, :, ia(b) - ia(a), jj(b) - jj(a), ia(a), slot_of(jj(a))))
+              dk = dk - k9(3*a - 2:3*a, 3*b - 2:3*b)
+              if (lat%bending_model == BEND_ENERGY) dc = dc - c9(3*a - 2:3*a, 3*b - 2:3*b)
+            end associate
+          end do
+        end do
+      end do
+    end do
+
+  contains
+
+    !> Blocks of one link p = (ip, jp), q = (iq2, jq2) with K = df_p/dx_p, C = df_p/dv_p.
+    subroutine add_pair(ip, jp, iq2, jq2, kk, cc)
+      integer, intent(in) :: ip, jp, iq2, jq2
+      real(rp), intent(in) :: kk(3, 3), cc(3, 3)
+      integer :: di, dj, sp, sq
+      di = iq2 - ip
+      dj = jq2 - jp
+      sp = slot_of(jp)
+      sq = slot_of(jq2)
+      buf%k(:, :, 0, 0, ip, sp) = buf%k(:, :, 0, 0, ip, sp) - kk
+      buf%k(:, :, di, dj, ip, sp) = buf%k(:, :, di, dj, ip, sp) + kk
+      buf%k(:, :, 0, 0, iq2, sq) = buf%k(:, :, 0, 0, iq2, sq) - kk
+      buf%k(:, :, -di, -dj, iq2, sq) = buf%k(:, :, -di, -dj, iq2, sq) + kk
+      buf%c(:, :, 0, 0, ip, sp) = buf%c(:, :, 0, 0, ip, sp) - cc
+      buf%c(:, :, di, dj, ip, sp) = buf%c(:, :, di, dj, ip, sp) + cc
+      buf%c(:, :, 0, 0, iq2, sq) = buf%c(:, :, 0, 0, iq2, sq) - cc
+      buf%c(:, :, -di, -dj, iq2, sq) = buf%c(:, :, -di, -dj, iq2, sq) + cc
+    end subroutine add_pair
+
+  end subroutine jac_buffer_row
+
+end module forces

@@ -1,0 +1,1118 @@
+!> Reads, completes and checks the run configuration (namelist input, in the
+!> manner of CaNS). Rank 0 reads the file; every rank parses the same text, so
+!> every rank reaches the same result and the same error: a bad input stops
+!> all ranks together and never hangs. Order: &scene (for the scene name),
+!> that scene's defaults, all groups over them, derived values, checks.
+!> Errors come back in ierr/errmsg; this module prints nothing and never stops.
+module input
+  use mpi
+  use kinds, only: rp
+  use config, only: nuno_config, keyframe_max, label_len, path_len, unset_real, &
+                    SPRING_AXIAL, SPRING_LINEAR, BEND_NONE, BEND_PAPER, BEND_ENERGY, &
+                    SCALING_ELEMENT, SCALING_CONTINUUM, MASS_UNIFORM, MASS_AREA, &
+                    SCENE_LIFT_RELEASE, SCENE_BEND_RELEASE, SCENE_WAVE_POINT, SCENE_HANG, SCENE_FLAT
+  implicit none
+  private
+  public :: input_read, input_usage, input_summary, input_parse
+
+  integer, parameter :: n_groups = 5
+  character(8), parameter :: group_names(n_groups) = &
+    [character(8) :: 'lattice', 'material', 'scene', 'time', 'output']
+  integer, parameter :: G_LATTICE = 1, G_MATERIAL = 2, G_SCENE = 3, G_TIME = 4, G_OUTPUT = 5
+  integer, parameter :: msg_len = 1024
+
+  character(*), parameter :: scene_list = 'lift_release, bend_release, wave_point, hang, flat'
+
+  !> The input text made ready for the namelist reader: comments and text
+  !> outside groups blanked, one record per line; each group's body kept
+  !> apart to locate a bad assignment.
+  type :: parsed_text
+    character(:), allocatable :: lines(:)
+    integer :: count(n_groups) = 0
+    character(:), allocatable :: body(:)
+  end type parsed_text
+
+contains
+
+  ! ==========================================================================
+  ! Reading and broadcasting
+  ! ==========================================================================
+
+  !> Read the namelist file `path` on rank 0, broadcast it, parse it on every rank.
+  subroutine input_read(path, comm, cfg, ierr, errmsg)
+    character(*), intent(in) :: path          !< input file name
+    integer, intent(in) :: comm               !< MPI communicator of the run
+    type(nuno_config), intent(out) :: cfg     !< the complete, checked configuration
+    integer, intent(out) :: ierr              !< 0: fine; else errmsg says why (same on all ranks)
+    character(*), intent(out) :: errmsg       !< one-line message; blank when ierr = 0
+    character(:), allocatable :: text
+    character(msg_len) :: iomsg
+    integer :: rank, mpierr, u, ios, nbytes, hdr(2)
+
+    ierr = 0
+    errmsg = ''
+    call MPI_Comm_rank(comm, rank, mpierr)
+    hdr = 0
+    if (rank == 0) then
+      ! Whole file as one string; a failure leaves its reason in text instead.
+      iomsg = ''
+      open(newunit=u, file=path, access='stream', form='unformatted', action='read', &
+           status='old', iostat=ios, iomsg=iomsg)
+      if (ios == 0) then
+        inquire(unit=u, size=nbytes)
+        if (nbytes < 0) then
+          ios = 1
+          iomsg = 'size unknown'
+        else
+          allocate(character(nbytes) :: text)
+          if (nbytes > 0) read(u, iostat=ios, iomsg=iomsg) text
+        end if
+        close(u)
+      end if
+      if (ios /= 0) then
+        text = trim(iomsg)
+        hdr(1) = 1
+      end if
+      hdr(2) = len(text)
+    end if
+    call MPI_Bcast(hdr, 2, MPI_INTEGER, 0, comm, mpierr)
+    if (rank /= 0) allocate(character(hdr(2)) :: text)
+    if (hdr(2) > 0) call MPI_Bcast(text, hdr(2), MPI_CHARACTER, 0, comm, mpierr)
+    if (hdr(1) /= 0) then
+      ierr = 1
+      errmsg = "input: cannot open input file '"//trim(path)//"' ("//text//")"
+      return
+    end if
+    call input_parse(text, cfg, ierr, errmsg)
+  end subroutine input_read
+
+  !> Parse namelist text (no MPI): scene, scene defaults, groups, derived values, checks.
+  !> Public so that tests and tools can build a configuration from a string.
+  subroutine input_parse(text, cfg, ierr, errmsg)
+    character(*), intent(in) :: text           !< the whole namelist file
+    type(nuno_config), intent(out) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: errmsg
+    type(parsed_text) :: pt
+    type(nuno_config) :: first
+    character(msg_len) :: msg
+    integer :: code
+
+    ierr = 0
+    errmsg = ''
+    msg = ''
+    call scan_text(text, pt, ierr, msg)
+    if (ierr /= 0) goto 900
+
+    ! 1. The scene name alone, read over the plain defaults.
+    call read_group(G_SCENE, pt, first, ierr, msg)
+    if (ierr /= 0) goto 900
+    first%scene = lower(adjustl(first%scene))
+    call check_choice('scene', 'scene', first%scene, scene_list, code, ierr, msg)
+    if (ierr /= 0) goto 900
+
+    ! 2. That scene's defaults; keys whose default depends on other keys start unset.
+    call scene_defaults(code, cfg)
+    cfg%k_b = unset_real
+    cfg%eta_b = unset_real
+    cfg%mass_distribution = ''
+
+    ! 3. Every group over them (&scene again, so its other keys see the scene's defaults).
+    call read_group(G_SCENE, pt, cfg, ierr, msg);    if (ierr /= 0) goto 900
+    call read_group(G_LATTICE, pt, cfg, ierr, msg);  if (ierr /= 0) goto 900
+    call read_group(G_MATERIAL, pt, cfg, ierr, msg); if (ierr /= 0) goto 900
+    call read_group(G_TIME, pt, cfg, ierr, msg);     if (ierr /= 0) goto 900
+    call read_group(G_OUTPUT, pt, cfg, ierr, msg);   if (ierr /= 0) goto 900
+    cfg%scene = lower(adjustl(cfg%scene))
+    cfg%scene_code = code
+    cfg%namelist_text = text
+
+    ! 4. Choices to codes, lattice spacing, keys left unset, then the checks.
+    call derive_codes(cfg, ierr, msg);        if (ierr /= 0) goto 900
+    call check_lattice_size(cfg, ierr, msg);  if (ierr /= 0) goto 900
+    call check_lattice_extent(cfg, ierr, msg); if (ierr /= 0) goto 900
+    cfg%ax = cfg%lx/real(cfg%nx - 1, rp)
+    cfg%ay = cfg%ly/real(cfg%ny - 1, rp)
+    call resolve_unset(cfg, ierr, msg);       if (ierr /= 0) goto 900
+    cfg%has_gravity = any(cfg%gravity /= 0.0_rp)
+    cfg%has_damping = cfg%eta_s > 0.0_rp .or. cfg%eta_d > 0.0_rp
+    call validate(cfg, ierr, msg)
+
+900 if (ierr /= 0) errmsg = trim(msg)
+  end subroutine input_parse
+
+  ! ==========================================================================
+  ! Text preparation
+  ! ==========================================================================
+
+  !> Blank comments and text outside groups, count the groups, keep each
+  !> group's body; reject unknown, repeated and unclosed groups. The key
+  !> `scene` of group &scene is renamed `scene_name` on the way: Fortran does
+  !> not let a namelist group and one of its objects share a name.
+  subroutine scan_text(text, pt, ierr, msg)
+    character(*), intent(in) :: text
+    type(parsed_text), intent(out) :: pt
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    character(:), allocatable :: clean
+    character(:), allocatable :: bodies      ! group g's body at (g-1)*cap + 1 ...
+    integer :: blen(n_groups), cap
+    character(1) :: c, quote
+    character(64) :: name
+    logical :: in_group, in_comment, at_word_start
+    integer :: i, k, n, nc, g, nlines, maxlen, line_start, cur, group_start_line, line_no
+
+    ierr = 0
+    msg = ''
+    n = len(text)
+    ! Every rename adds 5 characters to a key of at least 6 (with its '='): room enough.
+    cap = 2*n + 16
+    allocate(character(cap) :: clean)
+    allocate(character(n_groups*cap) :: bodies)
+    nc = 0
+    blen = 0
+    in_group = .false.
+    in_comment = .false.
+    quote = ' '
+    cur = 0
+    line_no = 1
+    group_start_line = 0
+    i = 1
+    do while (i <= n)
+      c = text(i:i)
+      if (c == achar(13) .or. c == achar(9)) c = ' '
+      if (c == achar(10)) then
+        call emit(achar(10))
+        in_comment = .false.
+        line_no = line_no + 1
+        if (cur > 0) call add_body(' ')
+        i = i + 1
+        cycle
+      end if
+      if (in_comment) then
+        i = i + 1
+        cycle
+      end if
+      if (quote /= ' ') then
+        ! Inside a string (only tracked in groups): copy; a doubled quote reopens at once.
+        call emit(c)
+        call add_body(c)
+        if (c == quote) quote = ' '
+        i = i + 1
+        cycle
+      end if
+      if (c == '!') then
+        in_comment = .true.
+        i = i + 1
+        cycle
+      end if
+      if (.not. in_group) then
+        ! A group starts with &name (or $name) at the start of a line or after a blank.
+        at_word_start = i == 1
+        if (i > 1) at_word_start = index(' '//achar(9)//achar(10)//achar(13), text(i - 1:i - 1)) > 0
+        if ((c == '&' .or. c == '$') .and. at_word_start) then
+          call get_name(text, i + 1, name, k)
+          if (len_trim(name) > 0 .and. .not. (name(1:1) >= '0' .and. name(1:1) <= '9')) then
+            g = group_index(name)
+            if (g == 0) then
+              ierr = 1
+              write(msg, '(a,i0,a)') 'input: line ', line_no, ': unknown namelist group &'//trim(name)// &
+                ' (groups: &lattice, &material, &scene, &time, &output)'
+              return
+            end if
+            pt%count(g) = pt%count(g) + 1
+            if (pt%count(g) > 1) then
+              ierr = 1
+              write(msg, '(a,i0,a)') 'input: &'//trim(group_names(g))//' appears again at line ', &
+                line_no, ': each group may appear at most once'
+              return
+            end if
+            in_group = .true.
+            group_start_line = line_no
+            cur = g
+            call emit('&'//trim(group_names(g))//' ')
+            i = k
+            cycle
+          end if
+        end if
+        ! Text outside groups is ignored (left out).
+        i = i + 1
+        cycle
+      end if
+      ! Inside a group.
+      if (c == '/') then
+        call emit('/')
+        in_group = .false.
+        cur = 0
+        i = i + 1
+        cycle
+      end if
+      if (c == '&' .or. c == '$') then
+        call get_name(text, i + 1, name, k)
+        if (trim(name) == 'end') then
+          ! Old-style terminator &end: hand the reader a plain '/'.
+          call emit('/')
+          in_group = .false.
+          cur = 0
+          i = k
+          cycle
+        end if
+        ierr = 1
+        write(msg, '(a,i0,a,i0)') 'input: &'//trim(group_names(cur))//' (line ', group_start_line, &
+          ') has no closing / before the '//c//' at line ', line_no
+        return
+      end if
+      if (c == "'" .or. c == '"') quote = c
+      if (cur == G_SCENE .and. is_name_char(c)) then
+        ! A whole name: copy it at once, renaming the key `scene`.
+        call get_name(text, i, name, k)
+        if (trim(name) == 'scene' .and. followed_by_equals(text, k)) then
+          call emit('scene_name')
+          call add_body_str('scene_name')
+        else
+          call emit(text(i:k - 1))
+          call add_body_str(text(i:k - 1))
+        end if
+        i = k
+        cycle
+      end if
+      call emit(c)
+      call add_body(c)
+      i = i + 1
+    end do
+    if (quote /= ' ') then
+      ierr = 1
+      msg = 'input: &'//trim(group_names(cur))//': unterminated string'
+      return
+    end if
+    if (in_group) then
+      ierr = 1
+      write(msg, '(a,i0,a)') 'input: &'//trim(group_names(cur))//' (line ', group_start_line, &
+        ') has no closing /'
+      return
+    end if
+
+    ! Split into records, one per line.
+    nlines = 1
+    maxlen = 1
+    line_start = 1
+    do i = 1, nc
+      if (clean(i:i) == achar(10)) then
+        maxlen = max(maxlen, i - line_start)
+        nlines = nlines + 1
+        line_start = i + 1
+      end if
+    end do
+    maxlen = max(maxlen, nc - line_start + 1)
+    allocate(character(maxlen) :: pt%lines(nlines))
+    pt%lines = ''
+    k = 1
+    line_start = 1
+    do i = 1, nc
+      if (clean(i:i) == achar(10)) then
+        if (i > line_start) pt%lines(k) = clean(line_start:i - 1)
+        k = k + 1
+        line_start = i + 1
+      end if
+    end do
+    if (nc >= line_start) pt%lines(k) = clean(line_start:nc)
+    allocate(character(max(1, maxval(blen))) :: pt%body(n_groups))
+    pt%body = ''
+    do g = 1, n_groups
+      if (blen(g) > 0) pt%body(g) = bodies((g - 1)*cap + 1:(g - 1)*cap + blen(g))
+    end do
+
+  contains
+
+    subroutine emit(str)
+      character(*), intent(in) :: str
+      clean(nc + 1:nc + len(str)) = str
+      nc = nc + len(str)
+    end subroutine emit
+
+    subroutine add_body(ch)
+      character(1), intent(in) :: ch
+      if (cur == 0) return
+      blen(cur) = blen(cur) + 1
+      bodies((cur - 1)*cap + blen(cur):(cur - 1)*cap + blen(cur)) = ch
+    end subroutine add_body
+
+    subroutine add_body_str(str)
+      character(*), intent(in) :: str
+      if (cur == 0) return
+      bodies((cur - 1)*cap + blen(cur) + 1:(cur - 1)*cap + blen(cur) + len(str)) = str
+      blen(cur) = blen(cur) + len(str)
+    end subroutine add_body_str
+
+  end subroutine scan_text
+
+  !> Whether text(k:) is blanks, optional subscripts, then '='.
+  logical function followed_by_equals(text, k)
+    character(*), intent(in) :: text
+    integer, intent(in) :: k
+    integer :: j
+    followed_by_equals = .false.
+    j = k
+    do while (j <= len(text))
+      if (text(j:j) /= ' ' .and. text(j:j) /= achar(9) .and. text(j:j) /= achar(10) .and. &
+          text(j:j) /= achar(13)) exit
+      j = j + 1
+    end do
+    if (j <= len(text)) followed_by_equals = text(j:j) == '='
+  end function followed_by_equals
+
+  !> Identifier starting at text(i:); k: first position after it.
+  subroutine get_name(text, i, name, k)
+    character(*), intent(in) :: text
+    integer, intent(in) :: i
+    character(*), intent(out) :: name
+    integer, intent(out) :: k
+    name = ''
+    k = i
+    do while (k <= len(text))
+      if (.not. is_name_char(text(k:k))) exit
+      k = k + 1
+    end do
+    if (k > i) name = lower(text(i:min(k - 1, i + len(name) - 1)))
+  end subroutine get_name
+
+  pure logical function is_name_char(c)
+    character(1), intent(in) :: c
+    is_name_char = (c >= 'a' .and. c <= 'z') .or. (c >= 'A' .and. c <= 'Z') .or. &
+                   (c >= '0' .and. c <= '9') .or. c == '_'
+  end function is_name_char
+
+  integer function group_index(name)
+    character(*), intent(in) :: name
+    integer :: g
+    group_index = 0
+    do g = 1, n_groups
+      if (trim(name) == trim(group_names(g))) group_index = g
+    end do
+  end function group_index
+
+  ! ==========================================================================
+  ! Namelist groups
+  ! ==========================================================================
+
+  !> Read group g over cfg when it is present; on error, name the assignment
+  !> at fault by reading the group's assignments one at a time.
+  subroutine read_group(g, pt, cfg, ierr, msg)
+    integer, intent(in) :: g
+    type(parsed_text), intent(in) :: pt
+    type(nuno_config), intent(inout) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    character(msg_len) :: iomsg, iomsg1
+    type(nuno_config) :: scratch
+    integer :: ios, ios1, p, q, nb
+    character(:), allocatable :: body
+
+    ierr = 0
+    msg = ''
+    if (pt%count(g) == 0) return
+    iomsg = ''
+    call read_nml(g, pt%lines, cfg, ios, iomsg)
+    if (ios == 0) return
+    ierr = 1
+    msg = 'input: &'//trim(group_names(g))//': '//trim(iomsg)
+    if (g == G_SCENE) call unrename_scene(msg)
+    ! Which assignment? Split the body before each "name =" and try each alone.
+    body = trim(pt%body(g))
+    nb = len(body)
+    p = next_assignment(body, 1)
+    do while (p <= nb)
+      q = next_assignment(body, p + 1)
+      block
+        character(q - p + 32) :: one(1)
+        one(1) = '&'//trim(group_names(g))//' '//body(p:q - 1)//' /'
+        scratch = cfg
+        iomsg1 = ''
+        call read_nml(g, one, scratch, ios1, iomsg1)
+      end block
+      if (ios1 /= 0) then
+        msg = 'input: &'//trim(group_names(g))//': '//trim(iomsg1)//' (in: '// &
+              trim(strip_commas(body(p:q - 1)))//')'
+        if (g == G_SCENE) call unrename_scene(msg)
+        return
+      end if
+      p = q
+    end do
+  end subroutine read_group
+
+  !> Undo the rename of the key `scene` in a message.
+  subroutine unrename_scene(msg)
+    character(*), intent(inout) :: msg
+    integer :: p
+    p = index(msg, 'scene_name')
+    do while (p > 0)
+      msg = msg(1:p + 4)//msg(p + 10:)
+      p = index(msg, 'scene_name')
+    end do
+  end subroutine unrename_scene
+
+  !> Position of the next "name =" (or "name(...) =") at or after `from`,
+  !> outside strings; len(body)+1 when none.
+  integer function next_assignment(body, from) result(p)
+    character(*), intent(in) :: body
+    integer, intent(in) :: from
+    character(1) :: quote
+    integer :: i, k, depth
+    quote = ' '
+    p = len(body) + 1
+    do i = 1, len(body)
+      if (quote /= ' ') then
+        if (body(i:i) == quote) quote = ' '
+        cycle
+      end if
+      if (body(i:i) == "'" .or. body(i:i) == '"') then
+        quote = body(i:i)
+        cycle
+      end if
+      if (i < from) cycle
+      if (.not. is_name_char(body(i:i))) cycle
+      if (i > 1) then
+        if (is_name_char(body(i - 1:i - 1)) .or. body(i - 1:i - 1) == '%' .or. &
+            body(i - 1:i - 1) == '.') cycle
+      end if
+      ! Name, optional subscripts and components, blanks, then '=' (not '==').
+      k = i
+      depth = 0
+      do while (k <= len(body))
+        if (depth > 0) then
+          if (body(k:k) == '(') depth = depth + 1
+          if (body(k:k) == ')') depth = depth - 1
+        else if (body(k:k) == '(') then
+          depth = 1
+        else if (.not. (is_name_char(body(k:k)) .or. body(k:k) == '%')) then
+          exit
+        end if
+        k = k + 1
+      end do
+      do while (k <= len(body))
+        if (body(k:k) /= ' ') exit
+        k = k + 1
+      end do
+      if (k <= len(body)) then
+        if (body(k:k) == '=') then
+          if (k == len(body)) then
+            p = i
+            return
+          else if (body(k + 1:k + 1) /= '=') then
+            p = i
+            return
+          end if
+        end if
+      end if
+    end do
+  end function next_assignment
+
+  !> An assignment without blanks and commas at its ends.
+  function strip_commas(s) result(r)
+    character(*), intent(in) :: s
+    character(:), allocatable :: r
+    integer :: e
+    r = trim(adjustl(s))
+    e = len(r)
+    do while (e > 0)
+      if (r(e:e) /= ',' .and. r(e:e) /= ' ') exit
+      e = e - 1
+    end do
+    r = r(1:e)
+  end function strip_commas
+
+  !> One namelist READ of group g from the records `lines`, over cfg.
+  subroutine read_nml(g, lines, cfg, ios, iomsg)
+    integer, intent(in) :: g
+    character(*), intent(in) :: lines(:)
+    type(nuno_config), intent(inout) :: cfg
+    integer, intent(out) :: ios
+    character(*), intent(inout) :: iomsg
+    ! Namelist objects must be variables: locals named after the keys.
+    integer :: nx, ny
+    real(rp) :: lx, ly, total_mass
+    character(label_len) :: mass_distribution, lattice_scaling
+    character(label_len) :: spring_model, bending_model
+    real(rp) :: e_s, eta_s, e_d, eta_d, k_b, eta_b
+    character(label_len) :: scene_name   ! the key `scene` (renamed by scan_text)
+    real(rp) :: gravity(3), lift_length, lift_height, bend_angle
+    integer :: n_keyframes
+    real(rp) :: keyframe_time(keyframe_max), keyframe_dz(keyframe_max)
+    real(rp) :: release_time, initial_omega(3)
+    real(rp) :: t_end, dt
+    real(rp) :: output_interval
+    logical :: write_velocity
+    character(path_len) :: output_file
+    character(len(cfg%petsc_options)) :: petsc_options
+    namelist /lattice/ nx, ny, lx, ly, total_mass, mass_distribution, lattice_scaling
+    namelist /material/ spring_model, e_s, eta_s, e_d, eta_d, bending_model, k_b, eta_b
+    namelist /scene/ scene_name, gravity, lift_length, lift_height, bend_angle, n_keyframes, &
+                     keyframe_time, keyframe_dz, release_time, initial_omega
+    namelist /time/ t_end, dt
+    namelist /output/ output_interval, write_velocity, output_file, petsc_options
+
+    ios = 0
+    select case (g)
+    case (G_LATTICE)
+      nx = cfg%nx; ny = cfg%ny; lx = cfg%lx; ly = cfg%ly; total_mass = cfg%total_mass
+      mass_distribution = cfg%mass_distribution; lattice_scaling = cfg%lattice_scaling
+      read(lines, nml=lattice, iostat=ios, iomsg=iomsg)
+      if (ios == 0) then
+      cfg%nx = nx; cfg%ny = ny; cfg%lx = lx; cfg%ly = ly; cfg%total_mass = total_mass
+      cfg%mass_distribution = mass_distribution; cfg%lattice_scaling = lattice_scaling
+      end if
+    case (G_MATERIAL)
+      spring_model = cfg%spring_model; e_s = cfg%e_s; eta_s = cfg%eta_s; e_d = cfg%e_d
+      eta_d = cfg%eta_d; bending_model = cfg%bending_model; k_b = cfg%k_b; eta_b = cfg%eta_b
+      read(lines, nml=material, iostat=ios, iomsg=iomsg)
+      if (ios == 0) then
+      cfg%spring_model = spring_model; cfg%e_s = e_s; cfg%eta_s = eta_s; cfg%e_d = e_d
+      cfg%eta_d = eta_d; cfg%bending_model = bending_model; cfg%k_b = k_b; cfg%eta_b = eta_b
+      end if
+    case (G_SCENE)
+      scene_name = cfg%scene; gravity = cfg%gravity; lift_length = cfg%lift_length
+      lift_height = cfg%lift_height; bend_angle = cfg%bend_angle; n_keyframes = cfg%n_keyframes
+      keyframe_time = cfg%keyframe_time; keyframe_dz = cfg%keyframe_dz
+      release_time = cfg%release_time; initial_omega = cfg%initial_omega
+      read(lines, nml=scene, iostat=ios, iomsg=iomsg)
+      if (ios == 0) then
+      cfg%scene = scene_name; cfg%gravity = gravity; cfg%lift_length = lift_length
+      cfg%lift_height = lift_height; cfg%bend_angle = bend_angle; cfg%n_keyframes = n_keyframes
+      cfg%keyframe_time = keyframe_time; cfg%keyframe_dz = keyframe_dz
+      cfg%release_time = release_time; cfg%initial_omega = initial_omega
+      end if
+    case (G_TIME)
+      t_end = cfg%t_end; dt = cfg%dt
+      read(lines, nml=time, iostat=ios, iomsg=iomsg)
+      if (ios == 0) then
+        cfg%t_end = t_end; cfg%dt = dt
+      end if
+    case (G_OUTPUT)
+      output_interval = cfg%output_interval; write_velocity = cfg%write_velocity
+      output_file = cfg%output_file; petsc_options = cfg%petsc_options
+      read(lines, nml=output, iostat=ios, iomsg=iomsg)
+      if (ios == 0) then
+      cfg%output_interval = output_interval; cfg%write_velocity = write_velocity
+      cfg%output_file = output_file; cfg%petsc_options = petsc_options
+      end if
+    end select
+    ! gfortran may report an end of file with iostat < 0: the group is known
+    ! to be present and closed, so any non-zero status is an error.
+    if (ios /= 0) then
+      if (len_trim(iomsg) == 0) iomsg = 'read error'
+      call reset_list_state()
+    end if
+  end subroutine read_nml
+
+  !> libgfortran 12 keeps state after a failed namelist read (e.g. a bad
+  !> logical: 'Bad repeat count'), and the next namelist read then succeeds
+  !> wrongly; any list-directed read clears it.
+  subroutine reset_list_state()
+    character(1) :: one
+    integer :: i, ios
+    one = '0'
+    read(one, *, iostat=ios) i
+  end subroutine reset_list_state
+
+  ! ==========================================================================
+  ! Scene defaults and derived values
+  ! ==========================================================================
+
+  !> Defaults of scene `code` (MODEL.md section 7) over the plain defaults.
+  !> Report scenes: mm, g, s; E = eta = 1 per link; paper bending k_b = 1.
+  subroutine scene_defaults(code, cfg)
+    integer, intent(in) :: code
+    type(nuno_config), intent(inout) :: cfg
+    type(nuno_config) :: plain
+
+    cfg = plain
+    ! Common to the report scenes (and flat).
+    cfg%nx = 11; cfg%ny = 11
+    cfg%lx = 100.0_rp; cfg%ly = 100.0_rp
+    cfg%total_mass = 1.0_rp
+    cfg%mass_distribution = 'uniform'
+    cfg%lattice_scaling = 'element'
+    cfg%spring_model = 'axial'
+    cfg%e_s = 1.0_rp; cfg%eta_s = 1.0_rp; cfg%e_d = 1.0_rp; cfg%eta_d = 1.0_rp
+    cfg%bending_model = 'paper'
+    cfg%gravity = 0.0_rp
+    cfg%lift_length = 30.0_rp; cfg%lift_height = 15.0_rp
+    cfg%bend_angle = 30.0_rp
+    cfg%n_keyframes = 3
+    cfg%keyframe_time = 0.0_rp; cfg%keyframe_dz = 0.0_rp
+    cfg%keyframe_time(1:3) = [0.0_rp, 0.5_rp, 1.0_rp]
+    cfg%keyframe_dz(1:3) = [0.0_rp, -10.0_rp, 15.0_rp]
+    cfg%release_time = huge(1.0_rp)
+    cfg%initial_omega = 0.0_rp
+    cfg%t_end = 5.0_rp; cfg%dt = 1.0e-3_rp
+    cfg%output_interval = 0.02_rp
+    cfg%write_velocity = .false.
+    cfg%petsc_options = ''
+    select case (code)
+    case (SCENE_LIFT_RELEASE)
+      cfg%scene = 'lift_release'
+      cfg%output_file = 'lift_release.h5'
+    case (SCENE_BEND_RELEASE)
+      cfg%scene = 'bend_release'
+      cfg%lx = 50.0_rp; cfg%ly = 50.0_rp
+      cfg%total_mass = 0.25_rp
+      cfg%output_file = 'bend_release.h5'
+    case (SCENE_WAVE_POINT)
+      cfg%scene = 'wave_point'
+      cfg%bending_model = 'none'
+      cfg%t_end = 3.0_rp
+      cfg%output_file = 'wave_point.h5'
+    case (SCENE_HANG)
+      cfg%scene = 'hang'
+      cfg%nx = 21; cfg%ny = 21
+      cfg%lx = 1.0_rp; cfg%ly = 1.0_rp
+      cfg%total_mass = 0.1_rp
+      cfg%mass_distribution = 'area'
+      cfg%e_s = 100.0_rp; cfg%eta_s = 0.1_rp; cfg%e_d = 100.0_rp; cfg%eta_d = 0.1_rp
+      cfg%bending_model = 'energy'
+      cfg%gravity = [0.0_rp, 0.0_rp, -9.81_rp]
+      cfg%t_end = 2.0_rp; cfg%dt = 1.0e-3_rp
+      cfg%output_interval = 0.05_rp
+      cfg%output_file = 'hang.h5'
+    case (SCENE_FLAT)
+      cfg%scene = 'flat'
+      cfg%t_end = 1.0_rp
+      cfg%output_interval = 0.1_rp
+      cfg%output_file = 'flat.h5'
+    end select
+    cfg%scene_code = code
+  end subroutine scene_defaults
+
+  !> String choices to integer codes.
+  subroutine derive_codes(cfg, ierr, msg)
+    type(nuno_config), intent(inout) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    cfg%lattice_scaling = lower(adjustl(cfg%lattice_scaling))
+    cfg%mass_distribution = lower(adjustl(cfg%mass_distribution))
+    cfg%spring_model = lower(adjustl(cfg%spring_model))
+    cfg%bending_model = lower(adjustl(cfg%bending_model))
+    call check_choice('lattice', 'lattice_scaling', cfg%lattice_scaling, 'element, continuum', &
+                      cfg%scaling_code, ierr, msg)
+    if (ierr /= 0) return
+    if (len_trim(cfg%mass_distribution) == 0) then
+      ! Unset: the continuum mode needs area masses; else the scene's default.
+      if (cfg%scaling_code == SCALING_CONTINUUM .or. cfg%scene_code == SCENE_HANG) then
+        cfg%mass_distribution = 'area'
+      else
+        cfg%mass_distribution = 'uniform'
+      end if
+    end if
+    call check_choice('lattice', 'mass_distribution', cfg%mass_distribution, 'uniform, area', &
+                      cfg%mass_code, ierr, msg)
+    if (ierr /= 0) return
+    call check_choice('material', 'spring_model', cfg%spring_model, 'axial, linear', &
+                      cfg%spring_code, ierr, msg)
+    if (ierr /= 0) return
+    call check_choice('material', 'bending_model', cfg%bending_model, 'none, paper, energy', &
+                      cfg%bending_code, ierr, msg)
+    if (ierr /= 0) return
+    cfg%bending_code = cfg%bending_code - 1   ! list order none, paper, energy = 0, 1, 2
+  end subroutine derive_codes
+
+  !> Keys left unset take defaults that depend on other keys:
+  !> k_b: the scene's value in the chosen model, converted between a force per
+  !> radian (paper) and an energy (energy) by the link length ax (MODEL.md 3);
+  !> eta_b: 1e-4 for hang with energy bending, else 0.
+  subroutine resolve_unset(cfg, ierr, msg)
+    type(nuno_config), intent(inout) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    real(rp) :: kb_paper, kb_energy
+    ierr = 0
+    msg = ''
+    if (cfg%scene_code == SCENE_HANG) then
+      kb_energy = 0.1_rp
+      kb_paper = kb_energy/cfg%ax
+    else
+      kb_paper = 1.0_rp
+      kb_energy = kb_paper*cfg%ax
+    end if
+    if (cfg%k_b == unset_real) then
+      select case (cfg%bending_code)
+      case (BEND_PAPER);  cfg%k_b = kb_paper
+      case (BEND_ENERGY); cfg%k_b = kb_energy
+      case default;       cfg%k_b = 0.0_rp
+      end select
+    end if
+    if (cfg%eta_b == unset_real) then
+      cfg%eta_b = 0.0_rp
+      if (cfg%scene_code == SCENE_HANG .and. cfg%bending_code == BEND_ENERGY) cfg%eta_b = 1.0e-4_rp
+    end if
+  end subroutine resolve_unset
+
+  ! ==========================================================================
+  ! Checks: one routine per concern; the first error wins
+  ! ==========================================================================
+
+  subroutine validate(cfg, ierr, msg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    call check_mass(cfg, ierr, msg);           if (ierr /= 0) return
+    call check_material(cfg, ierr, msg);       if (ierr /= 0) return
+    call check_scaling_bending(cfg, ierr, msg); if (ierr /= 0) return
+    call check_scene_geometry(cfg, ierr, msg); if (ierr /= 0) return
+    call check_keyframes(cfg, ierr, msg);      if (ierr /= 0) return
+    call check_time(cfg, ierr, msg);           if (ierr /= 0) return
+    call check_output(cfg, ierr, msg)
+  end subroutine validate
+
+  !> value (lower case) must be one of the comma-separated `allowed`; code = its position.
+  subroutine check_choice(group, key, value, allowed, code, ierr, msg)
+    character(*), intent(in) :: group, key, value, allowed
+    integer, intent(out) :: code, ierr
+    character(*), intent(out) :: msg
+    integer :: p, q, n
+    ierr = 0
+    msg = ''
+    code = 0
+    n = 0
+    p = 1
+    do while (p <= len(allowed))
+      q = index(allowed(p:), ',')
+      if (q == 0) then
+        q = len(allowed) + 1
+      else
+        q = p + q - 1
+      end if
+      n = n + 1
+      if (trim(adjustl(allowed(p:q - 1))) == trim(value)) then
+        code = n
+        return
+      end if
+      p = q + 1
+    end do
+    ierr = 1
+    msg = 'input: &'//group//': '//key//" = '"//trim(value)//"' is not one of "//allowed
+  end subroutine check_choice
+
+  subroutine check_lattice_size(cfg, ierr, msg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    call need_int_ge('lattice', 'nx', cfg%nx, 3, ierr, msg); if (ierr /= 0) return
+    call need_int_ge('lattice', 'ny', cfg%ny, 3, ierr, msg)
+  end subroutine check_lattice_size
+
+  subroutine check_lattice_extent(cfg, ierr, msg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    call need_positive('lattice', 'lx', cfg%lx, ierr, msg); if (ierr /= 0) return
+    call need_positive('lattice', 'ly', cfg%ly, ierr, msg)
+  end subroutine check_lattice_extent
+
+  subroutine check_mass(cfg, ierr, msg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    call need_positive('lattice', 'total_mass', cfg%total_mass, ierr, msg)
+  end subroutine check_mass
+
+  subroutine check_material(cfg, ierr, msg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    call need_nonnegative('material', 'e_s', cfg%e_s, ierr, msg);     if (ierr /= 0) return
+    call need_nonnegative('material', 'eta_s', cfg%eta_s, ierr, msg); if (ierr /= 0) return
+    call need_nonnegative('material', 'e_d', cfg%e_d, ierr, msg);     if (ierr /= 0) return
+    call need_nonnegative('material', 'eta_d', cfg%eta_d, ierr, msg); if (ierr /= 0) return
+    call need_nonnegative('material', 'k_b', cfg%k_b, ierr, msg);     if (ierr /= 0) return
+    call need_nonnegative('material', 'eta_b', cfg%eta_b, ierr, msg)
+  end subroutine check_material
+
+  !> The paper bending force does not scale with the spacing: no continuum limit.
+  subroutine check_scaling_bending(cfg, ierr, msg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    ierr = 0
+    msg = ''
+    if (cfg%scaling_code == SCALING_CONTINUUM .and. cfg%bending_code == BEND_PAPER) then
+      ierr = 1
+      msg = "input: &material: bending_model = 'paper' has no continuum limit: " // &
+            "not allowed with &lattice lattice_scaling = 'continuum' (use 'energy' or 'none')"
+    else if (cfg%scaling_code == SCALING_CONTINUUM .and. cfg%mass_code /= MASS_AREA) then
+      ierr = 1
+      msg = "input: &lattice: mass_distribution = '"//trim(cfg%mass_distribution)// &
+            "' not allowed with lattice_scaling = 'continuum' (needs 'area')"
+    end if
+  end subroutine check_scaling_bending
+
+  !> Geometry keys of the scene in use; the others are not used and not checked.
+  subroutine check_scene_geometry(cfg, ierr, msg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    integer :: i_fold
+    real(rp) :: flap
+    ierr = 0
+    msg = ''
+    if (.not. (cfg%release_time >= 0.0_rp)) then
+      ierr = 1
+      msg = 'input: &scene: release_time = '//fmt_real(cfg%release_time)//' must be >= 0'
+      return
+    end if
+    select case (cfg%scene_code)
+    case (SCENE_LIFT_RELEASE)
+      call need_positive('scene', 'lift_length', cfg%lift_length, ierr, msg); if (ierr /= 0) return
+      call need_nonnegative('scene', 'lift_height', cfg%lift_height, ierr, msg); if (ierr /= 0) return
+      ! The fold line is the node column nearest to x = lx - lift_length.
+      i_fold = nint((cfg%lx - cfg%lift_length)/cfg%ax)
+      if (i_fold < 0 .or. i_fold >= cfg%nx - 1) then
+        ierr = 1
+        msg = 'input: &scene: lift_length = '//fmt_real(cfg%lift_length)// &
+              ' leaves no part to lift (must lie between ax/2 and lx)'
+        return
+      end if
+      flap = cfg%lx - real(i_fold, rp)*cfg%ax
+      if (cfg%lift_height > flap*(1.0_rp + 1.0e-12_rp)) then
+        ierr = 1
+        msg = 'input: &scene: lift_height = '//fmt_real(cfg%lift_height)// &
+              ' must be <= the length of the lifted part ('//fmt_real(flap)//')'
+      end if
+    case (SCENE_BEND_RELEASE)
+      if (.not. (cfg%bend_angle >= 0.0_rp .and. cfg%bend_angle < 360.0_rp)) then
+        ierr = 1
+        msg = 'input: &scene: bend_angle = '//fmt_real(cfg%bend_angle)//' must be in [0, 360) degrees'
+      end if
+    end select
+  end subroutine check_scene_geometry
+
+  subroutine check_keyframes(cfg, ierr, msg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    character(16) :: a, b
+    integer :: k
+    ierr = 0
+    msg = ''
+    if (cfg%n_keyframes < 1 .or. cfg%n_keyframes > keyframe_max) then
+      ierr = 1
+      write(a, '(i0)') cfg%n_keyframes
+      write(b, '(i0)') keyframe_max
+      msg = 'input: &scene: n_keyframes = '//trim(a)//' must be in 1..'//trim(b)
+      return
+    end if
+    if (.not. (cfg%keyframe_time(1) >= 0.0_rp)) then
+      ierr = 1
+      msg = 'input: &scene: keyframe_time(1) = '//fmt_real(cfg%keyframe_time(1))//' must be >= 0'
+      return
+    end if
+    do k = 2, cfg%n_keyframes
+      if (.not. (cfg%keyframe_time(k) > cfg%keyframe_time(k - 1))) then
+        ierr = 1
+        write(a, '(i0)') k
+        write(b, '(i0)') k - 1
+        msg = 'input: &scene: keyframe_time('//trim(a)//') = '//fmt_real(cfg%keyframe_time(k))// &
+              ' must be > keyframe_time('//trim(b)//') = '//fmt_real(cfg%keyframe_time(k - 1))// &
+              ' (strictly increasing)'
+        return
+      end if
+    end do
+  end subroutine check_keyframes
+
+  subroutine check_time(cfg, ierr, msg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    call need_positive('time', 't_end', cfg%t_end, ierr, msg); if (ierr /= 0) return
+    call need_positive('time', 'dt', cfg%dt, ierr, msg)
+  end subroutine check_time
+
+  subroutine check_output(cfg, ierr, msg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    call need_positive('output', 'output_interval', cfg%output_interval, ierr, msg)
+    if (ierr /= 0) return
+    if (len_trim(cfg%output_file) == 0) then
+      ierr = 1
+      msg = "input: &output: output_file = '' must not be empty"
+    end if
+  end subroutine check_output
+
+  subroutine need_int_ge(group, key, value, lo, ierr, msg)
+    character(*), intent(in) :: group, key
+    integer, intent(in) :: value, lo
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    character(16) :: a, b
+    ierr = 0
+    msg = ''
+    if (value < lo) then
+      ierr = 1
+      write(a, '(i0)') value
+      write(b, '(i0)') lo
+      msg = 'input: &'//group//': '//key//' = '//trim(a)//' must be >= '//trim(b)
+    end if
+  end subroutine need_int_ge
+
+  !> value > 0 (NaN fails too).
+  subroutine need_positive(group, key, value, ierr, msg)
+    character(*), intent(in) :: group, key
+    real(rp), intent(in) :: value
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    ierr = 0
+    msg = ''
+    if (.not. (value > 0.0_rp .and. value <= huge(value))) then
+      ierr = 1
+      msg = 'input: &'//group//': '//key//' = '//fmt_real(value)//' must be > 0'
+    end if
+  end subroutine need_positive
+
+  !> value >= 0 (NaN fails too).
+  subroutine need_nonnegative(group, key, value, ierr, msg)
+    character(*), intent(in) :: group, key
+    real(rp), intent(in) :: value
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    ierr = 0
+    msg = ''
+    if (.not. (value >= 0.0_rp .and. value <= huge(value))) then
+      ierr = 1
+      msg = 'input: &'//group//': '//key//' = '//fmt_real(value)//' must be >= 0'
+    end if
+  end subroutine need_nonnegative
+
+  ! ==========================================================================
+  ! Help and summary
+  ! ==========================================================================
+
+  !> Write the `nuno --help` text.
+  subroutine input_usage(unit)
+    integer, intent(in) :: unit
+    write(unit, '(a)') 'usage: mpirun -n P nuno INPUT.nml [PETSc options]', &
+      '       nuno --help', &
+      '', &
+      'nuno integrates an implicit mass-spring cloth: an nx x ny lattice of mass points', &
+      'joined by Voigt elements (spring + dashpot) to their 8 neighbours, with bending', &
+      '(the report''s "paper" model or the energy-based "energy" model), gravity and', &
+      'pinned or prescribed nodes, in time with PETSc TS on a DMDA split in strips of', &
+      'rows over P ranks. Results go to one HDF5 file with an XDMF file beside it.', &
+      '', &
+      'INPUT.nml holds Fortran namelist groups, each optional, each at most once:', &
+      '  &scene     scene name (lift_release, bend_release, wave_point, hang, flat),', &
+      '             gravity, scene geometry, keyframes, release time, initial spin', &
+      '  &lattice   nx, ny, lx, ly, total_mass, mass_distribution, lattice_scaling', &
+      '  &material  spring_model, e_s, eta_s, e_d, eta_d, bending_model, k_b, eta_b', &
+      '  &time      t_end, dt', &
+      '  &output    output_interval, write_velocity, output_file, petsc_options', &
+      'The scene sets the defaults of every other key. Every key, its unit and its', &
+      'default: input/README.md; ready-made inputs: input/*.nml.', &
+      '', &
+      'PETSc options (petsc_options in &output; the command line overrides them):', &
+      '  -ts_type beuler|theta|cn|bdf|arkimex|rosw   integrator (backward Euler is the report''s)', &
+      '  -ts_adapt_type basic -ts_rtol R -ts_atol A  adaptive steps with error control', &
+      '  -ts_monitor, -snes_monitor, -ksp_monitor     progress of steps, Newton, Krylov', &
+      '  -snes_rtol R, -snes_max_it N                 Newton tolerance and iterations', &
+      '  -ksp_type gmres|bcgs|preonly, -pc_type ilu|lu|bjacobi|fieldsplit|gamg', &
+      '  -log_view                                    timings at the end'
+  end subroutine input_usage
+
+  !> Write a few lines that describe the run (call on one rank).
+  subroutine input_summary(cfg, unit)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(in) :: unit
+    character(256) :: terms, cons
+    write(unit, '(a)') 'scene     : '//trim(cfg%scene)
+    write(unit, '(a,i0,a,i0,a)') 'lattice   : ', cfg%nx, ' x ', cfg%ny, ' nodes, '// &
+      fmt_real(cfg%lx)//' x '//fmt_real(cfg%ly)//' (spacing '//fmt_real(cfg%ax)//' x '// &
+      fmt_real(cfg%ay)//'), mass '//fmt_real(cfg%total_mass)//' ('//trim(cfg%mass_distribution)// &
+      '), '//trim(cfg%lattice_scaling)//' constants'
+    write(unit, '(a)') 'springs   : '//trim(cfg%spring_model)//': E_s = '//fmt_real(cfg%e_s)// &
+      ', eta_s = '//fmt_real(cfg%eta_s)//', E_d = '//fmt_real(cfg%e_d)//', eta_d = '//fmt_real(cfg%eta_d)
+    select case (cfg%bending_code)
+    case (BEND_NONE)
+      write(unit, '(a)') 'bending   : none'
+    case (BEND_PAPER)
+      write(unit, '(a)') 'bending   : paper (report eqs. 2-3): k_b = '//fmt_real(cfg%k_b)//' per radian'
+    case (BEND_ENERGY)
+      write(unit, '(a)') 'bending   : energy: k_b = '//fmt_real(cfg%k_b)//', eta_b = '//fmt_real(cfg%eta_b)
+    end select
+    terms = ''
+    if (cfg%bending_code /= BEND_NONE) terms = trim(terms)//', bending'
+    if (cfg%has_damping .or. (cfg%bending_code == BEND_ENERGY .and. cfg%eta_b > 0.0_rp)) &
+      terms = trim(terms)//', damping'
+    if (cfg%has_gravity) terms = trim(terms)//', gravity ('//fmt_real(cfg%gravity(1))//', '// &
+      fmt_real(cfg%gravity(2))//', '//fmt_real(cfg%gravity(3))//')'
+    if (any(cfg%initial_omega /= 0.0_rp)) terms = trim(terms)//', initial spin'
+    write(unit, '(a)') 'terms     : springs'//trim(terms)
+    select case (cfg%scene_code)
+    case (SCENE_LIFT_RELEASE); cons = 'edge i = 0 pinned'
+    case (SCENE_WAVE_POINT);   cons = 'corner (0,0) prescribed through keyframes'
+    case (SCENE_HANG);         cons = 'corners (0,ny-1) and (nx-1,ny-1) pinned'
+    case default;              cons = 'none'
+    end select
+    if (cfg%release_time < huge(1.0_rp) .and. trim(cons) /= 'none') &
+      cons = trim(cons)//', released at t = '//fmt_real(cfg%release_time)
+    write(unit, '(a)') 'constraint: '//trim(cons)
+    write(unit, '(a)') 'time      : t_end = '//fmt_real(cfg%t_end)//', dt = '//fmt_real(cfg%dt)
+    if (cfg%write_velocity) then
+      write(unit, '(a)') 'output    : '//trim(cfg%output_file)//' every '//fmt_real(cfg%output_interval)// &
+        ' (with velocity)'
+    else
+      write(unit, '(a)') 'output    : '//trim(cfg%output_file)//' every '//fmt_real(cfg%output_interval)
+    end if
+  end subroutine input_summary
+
+  ! ==========================================================================
+  ! Small helpers
+  ! ==========================================================================
+
+  !> Shortest decimal that reads back as x (fixed notation for moderate values).
+  function fmt_real(x) result(s)
+    real(rp), intent(in) :: x
+    character(:), allocatable :: s
+    character(40) :: buf, fmt
+    real(rp) :: y
+    integer :: d, ios
+    if (x /= x) then
+      s = 'NaN'
+      return
+    else if (abs(x) > huge(x)) then
+      s = merge('+Infinity', '-Infinity', x > 0.0_rp)
+      return
+    else if (x == 0.0_rp) then
+      s = '0.0'
+      return
+    end if
+    do d = 1, 17
+      if (abs(x) >= 1.0e-3_rp .and. abs(x) < 1.0e7_rp) then
+        write(fmt, '(a,i0,a)') '(f0.', d, ')'
+      else
+        if (abs(x) >= 1.0e100_rp .or. abs(x) < 1.0e-99_rp) then
+          write(fmt, '(a,i0,a)') '(es30.', d, 'e3)'
+        else
+          write(fmt, '(a,i0,a)') '(es30.', d, ')'
+        end if
+      end if
+      write(buf, fmt) x
+      read(buf, *, iostat=ios) y
+      if (ios == 0 .and. y == x) exit
+    end do
+    s = trim(adjustl(buf))
+    if (s(1:1) == '.') s = '0'//s
+    if (len(s) >= 2) then
+      if (s(1:2) == '-.') s = '-0'//s(2:)
+    end if
+  end function fmt_real
+
+  pure function lower(s) result(r)
+    character(*), intent(in) :: s
+    character(len(s)) :: r
+    integer :: i
+    r = s
+    do i = 1, len(s)
+      if (s(i:i) >= 'A' .and. s(i:i) <= 'Z') r(i:i) = achar(iachar(s(i:i)) + 32)
+    end do
+  end function lower
+
+end module input

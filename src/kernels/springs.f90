@@ -1,0 +1,157 @@
+!> Voigt element (spring + dashpot in parallel) on one link p-q: force,
+!> Jacobian blocks, energy and dissipated power (MODEL.md section 2).
+!> Only the force on p is returned: the force on q is its negative, and the
+!> Jacobian blocks of q follow by sign (df_p/dx_q = -K, df_q/dx_q = K, same for C).
+!> The model code is a plain integer (1 = axial, 2 = linear, the values of
+!> config's SPRING_AXIAL / SPRING_LINEAR) so that the kernels need nothing
+!> outside src/kernels.
+module springs
+  use kinds, only: rp
+  implicit none
+  private
+  public :: link_force, link_jacobian, link_energy, link_power
+
+  ! Same values as config's SPRING_AXIAL / SPRING_LINEAR; kept private here.
+  integer, parameter :: MODEL_AXIAL = 1
+  integer, parameter :: MODEL_LINEAR = 2
+  ! An axial link shorter than this fraction of its rest length has no
+  ! direction n = d/l: the kernels report it instead of dividing by ~0.
+  real(rp), parameter :: SHORT_REL = 1.0e-12_rp
+  ! Absolute floor so that 1/l cannot overflow when L itself is ~0.
+  real(rp), parameter :: SHORT_ABS = 1.0e-150_rp
+
+contains
+
+  !> Force on p of link p-q; ok = .false. (and f = 0) for a zero-length axial link or an unknown model.
+  pure subroutine link_force(model, E, eta, d0, L, xp, xq, vp, vq, f, ok)
+    integer, intent(in) :: model              ! 1 axial, 2 linear
+    real(rp), intent(in) :: E                 ! stiffness [force/length]
+    real(rp), intent(in) :: eta               ! damping [force*time/length]
+    real(rp), intent(in) :: d0(3)             ! rest vector X_p - X_q [length]
+    real(rp), intent(in) :: L                 ! rest length |d0| [length]
+    real(rp), intent(in) :: xp(3), xq(3)      ! positions [length]
+    real(rp), intent(in) :: vp(3), vq(3)      ! velocities [length/time]
+    real(rp), intent(out) :: f(3)             ! force on p [force]
+    logical, intent(out) :: ok
+    real(rp) :: d(3), vr(3), ln, n(3), ldot
+
+    d = xp - xq
+    vr = vp - vq
+    ok = .true.
+    select case (model)
+    case (MODEL_LINEAR)
+      f = -(E*(d - d0) + eta*vr)
+    case (MODEL_AXIAL)
+      ln = norm2(d)
+      if (ln <= max(SHORT_REL*L, SHORT_ABS)) then
+        ok = .false.
+        f = 0.0_rp
+        return
+      end if
+      n = d/ln
+      ldot = dot_product(n, vr)
+      f = -(E*(ln - L) + eta*ldot)*n
+    case default
+      ok = .false.
+      f = 0.0_rp
+    end select
+  end subroutine link_force
+
+  !> K = df_p/dx_p, C = df_p/dv_p; clamp drops the indefinite compression term (preconditioner only).
+  pure subroutine link_jacobian(model, E, eta, d0, L, xp, xq, vp, vq, clamp, K, C, ok)
+    integer, intent(in) :: model              ! 1 axial, 2 linear
+    real(rp), intent(in) :: E, eta            ! stiffness, damping
+    real(rp), intent(in) :: d0(3)             ! rest vector (unused by both Jacobians; kept for a uniform call)
+    real(rp), intent(in) :: L                 ! rest length
+    real(rp), intent(in) :: xp(3), xq(3), vp(3), vq(3)
+    logical, intent(in) :: clamp              ! .true.: drop E(1-L/l)Q when l < L
+    real(rp), intent(out) :: K(3,3)           ! df_p/dx_p [force/length]
+    real(rp), intent(out) :: C(3,3)           ! df_p/dv_p [force*time/length]
+    logical, intent(out) :: ok
+    real(rp) :: d(3), vr(3), ln, n(3), ldot, qv(3), geo
+    integer :: i, j
+
+    d = xp - xq
+    vr = vp - vq
+    ok = .true.
+    select case (model)
+    case (MODEL_LINEAR)
+      K = 0.0_rp
+      C = 0.0_rp
+      do i = 1, 3
+        K(i,i) = -E
+        C(i,i) = -eta
+      end do
+    case (MODEL_AXIAL)
+      ln = norm2(d)
+      if (ln <= max(SHORT_REL*L, SHORT_ABS)) then
+        ok = .false.
+        K = 0.0_rp
+        C = 0.0_rp
+        return
+      end if
+      n = d/ln
+      ldot = dot_product(n, vr)
+      qv = vr - ldot*n                        ! Q (vp - vq), the transverse relative velocity
+      ! Coefficient of Q: geometric stiffness E(1 - L/l) plus the dashpot's
+      ! turning term eta*ldot/l. Clamping removes only the negative part of
+      ! the former (compression), the latter is not a stiffness.
+      geo = E*(1.0_rp - L/ln)
+      if (clamp) geo = max(geo, 0.0_rp)
+      geo = geo + eta*ldot/ln
+      do j = 1, 3
+        do i = 1, 3
+          ! -E P - geo Q - eta n (Q vr)^T / l, with P = n n^T, Q = I - P
+          K(i,j) = -(E - geo)*n(i)*n(j) - eta*n(i)*qv(j)/ln
+          C(i,j) = -eta*n(i)*n(j)
+        end do
+        K(j,j) = K(j,j) - geo
+      end do
+    case default
+      ok = .false.
+      K = 0.0_rp
+      C = 0.0_rp
+    end select
+  end subroutine link_jacobian
+
+  !> Stored energy of the link: 1/2 E (l-L)^2 (axial) or 1/2 E |d-d0|^2 (linear); 0 for an unknown model.
+  pure function link_energy(model, E, d0, L, xp, xq) result(w)
+    integer, intent(in) :: model
+    real(rp), intent(in) :: E, d0(3), L, xp(3), xq(3)
+    real(rp) :: w                              ! [energy]
+
+    select case (model)
+    case (MODEL_LINEAR)
+      w = 0.5_rp*E*sum((xp - xq - d0)**2)
+    case (MODEL_AXIAL)
+      w = 0.5_rp*E*(norm2(xp - xq) - L)**2
+    case default
+      w = 0.0_rp
+    end select
+  end function link_energy
+
+  !> Power dissipated by the dashpot: eta ldot^2 (axial) or eta |vp-vq|^2 (linear); >= 0.
+  pure function link_power(model, eta, xp, xq, vp, vq) result(pw)
+    integer, intent(in) :: model
+    real(rp), intent(in) :: eta, xp(3), xq(3), vp(3), vq(3)
+    real(rp) :: pw                             ! [energy/time]
+    real(rp) :: d(3), ln
+
+    select case (model)
+    case (MODEL_LINEAR)
+      pw = eta*sum((vp - vq)**2)
+    case (MODEL_AXIAL)
+      d = xp - xq
+      ln = norm2(d)
+      ! A zero-length link has no axis, hence no axial rate: no power.
+      if (ln <= SHORT_ABS) then
+        pw = 0.0_rp
+      else
+        pw = eta*(dot_product(d, vp - vq)/ln)**2
+      end if
+    case default
+      pw = 0.0_rp
+    end select
+  end function link_power
+
+end module springs

@@ -1,0 +1,70 @@
+!> nuno (布, "cloth"): implicit mass-spring cloth dynamics.
+!>   mpirun -n P nuno INPUT.nml [PETSc options]
+!> Reads the namelist, builds the DMDA strips and the PETSc TS, integrates
+!> the scene and writes one HDF5 file (+ XDMF sidecar). See input/README.md.
+program nuno
+#include "petsc/finclude/petscts.h"
+  use petscts
+  use mpi
+  use config, only: nuno_config
+  use lattice, only: rest_strip
+  use input, only: input_read, input_usage, input_summary
+  use timestepping, only: app_ctx, solver_create, solver_destroy, solver_run
+  use output, only: output_file, output_open, output_close
+  use errors, only: help_requested, fatal_collective, input_path_argument, apply_namelist_options, &
+                    petsc_options_text
+  implicit none
+
+  type(nuno_config) :: cfg
+  type(app_ctx), target :: ctx
+  type(output_file) :: out
+  PetscErrorCode :: ierr
+  integer :: rank, nranks
+  character(len=512) :: path, errmsg
+  character(len=1024) :: status
+  character(len=:), allocatable :: petsc_opts
+
+  ! 1. --help needs no input and no PETSc.
+  if (help_requested()) then
+    call MPI_Init(ierr)
+    call MPI_Comm_rank(MPI_COMM_WORLD, rank, ierr)
+    if (rank == 0) call input_usage(6)
+    call MPI_Finalize(ierr)
+    stop
+  end if
+
+  ! 2. PETSc, then the namelist (read on rank 0, parsed by every rank alike).
+  PetscCallA(PetscInitialize(ierr))
+  call MPI_Comm_rank(PETSC_COMM_WORLD, rank, ierr)
+  call MPI_Comm_size(PETSC_COMM_WORLD, nranks, ierr)
+  if (.not. input_path_argument(path)) &
+    call fatal_collective('usage: mpirun -n P nuno INPUT.nml [PETSc options]  (nuno --help for more)')
+  call input_read(trim(path), PETSC_COMM_WORLD, cfg, ierr, errmsg)
+  if (ierr /= 0) call fatal_collective(errmsg)
+  call apply_namelist_options(cfg%petsc_options, ierr, errmsg)
+  if (ierr /= 0) call fatal_collective(errmsg)
+  if (rank == 0) then
+    write(*, '(a,i0,a)') 'nuno 0.1.0 on ', nranks, ' rank(s): '//trim(path)
+    call input_summary(cfg, 6)
+  end if
+
+  ! 3. Lattice strips, scene, Jacobian, TS.
+  call solver_create(ctx, cfg, ierr)
+  if (ierr /= 0) call fatal_collective('could not set up the solver (PETSc error above)')
+
+  ! 4. Output file, the time loop, and the completion mark written last.
+  petsc_opts = petsc_options_text()
+  call output_open(out, trim(cfg%output_file), PETSC_COMM_WORLD, cfg%nx, cfg%ny, ctx%lat%ys, &
+                   ctx%lat%ye - ctx%lat%ys + 1, rest_strip(ctx%lat), ctx%lat%mass(:, ctx%lat%ys:ctx%lat%ye), &
+                   cfg%write_velocity, cfg%namelist_text, petsc_opts, ierr, errmsg)
+  if (ierr /= 0) call fatal_collective(errmsg)
+  call solver_run(ctx, out, status, ierr)
+  if (ierr /= 0 .and. status == 'complete') status = 'failed: PETSc or HDF5 error during the run (see above)'
+  call output_close(out, trim(status), ierr, errmsg)
+  if (ierr /= 0) call fatal_collective(errmsg)
+
+  ! 5. Clean up; a failed run exits non-zero on every rank.
+  call solver_destroy(ctx, ierr)
+  PetscCallA(PetscFinalize(ierr))
+  if (status /= 'complete') error stop 1
+end program nuno

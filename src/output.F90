@@ -1,0 +1,932 @@
+!> Parallel HDF5 output of a run (MODEL.md section 9) and its XDMF sidecar.
+!>
+!> Index convention: the caller's arrays are x(3, 0:nx-1, ys:ys+ym-1) with
+!> 0-based global row indices (a DMDA strip of whole rows). Fortran dims
+!> (3, nx, ny, nt) are C order [nt][ny][nx][3] in the file.
+!>
+!> Crash safety: every time-dependent dataset is extended by one step, written,
+!> then the root attribute n_output_steps is updated and the file is flushed.
+!> Readers trust the first n_output_steps steps only. The root attribute
+!> status is 'running' until output_close writes its final value, last.
+!>
+!> Errors: every h5*_f code is checked; a failure sets ierr /= 0 and a one-line
+!> errmsg naming the call and the dataset. The collective routines end with an
+!> MPI_Allreduce of the error flag, so all ranks return the same ierr (a rank
+!> that did not fail itself gets 'failed on another rank').
+module output
+  use, intrinsic :: iso_fortran_env, only: int64
+  use hdf5
+  use mpi
+  use kinds, only: rp
+  implicit none
+  private
+
+  public :: output_open, output_write_step, output_close
+
+  !> One output step's scalars (MODEL.md section 8); identical on all ranks.
+  type, public :: output_record
+    real(rp) :: time = 0
+    real(rp) :: kinetic = 0, stretch = 0, bend = 0, dissipated = 0, external_work = 0
+    real(rp) :: momentum(3) = 0, angular_momentum(3) = 0
+    real(rp) :: length = 0, flatness = 0
+    integer :: steps = 0, rejected_steps = 0, newton_iterations = 0, linear_iterations = 0
+  end type output_record
+
+  ! Time-dependent datasets, in the order they are extended and written.
+  integer, parameter :: d_time = 1, d_position = 2, d_velocity = 3, d_kinetic = 4, &
+    d_stretch = 5, d_bend = 6, d_dissipated = 7, d_external_work = 8, d_momentum = 9, &
+    d_angular_momentum = 10, d_length = 11, d_flatness = 12, d_steps = 13, &
+    d_rejected_steps = 14, d_newton_iterations = 15, d_linear_iterations = 16
+  integer, parameter :: n_dsets = 16
+  character(len=*), parameter :: dset_names(n_dsets) = [character(len=32) :: &
+    '/time', '/position', '/velocity', &
+    '/energy/kinetic', '/energy/stretch', '/energy/bend', '/energy/dissipated', &
+    '/energy/external_work', '/diagnostics/momentum', '/diagnostics/angular_momentum', &
+    '/diagnostics/length', '/diagnostics/flatness', '/diagnostics/steps', &
+    '/diagnostics/rejected_steps', '/diagnostics/newton_iterations', &
+    '/diagnostics/linear_iterations']
+  character(len=*), parameter :: dset_descriptions(n_dsets) = [character(len=96) :: &
+    'simulation time of each output step', &
+    'node positions [t][j][i][xyz] of the ny-by-nx lattice', &
+    'node velocities [t][j][i][xyz] of the ny-by-nx lattice', &
+    'kinetic energy, sum of 1/2 m |v|^2 over the nodes', &
+    'stretch (spring) energy', &
+    'bending energy (energy model) or bending indicator 1/2 k_b theta^2 (paper model)', &
+    'dissipated energy, time integral of the dissipated power', &
+    'external work: work of the constraints plus work of gravity', &
+    'total linear momentum, sum of m v, [t][xyz]', &
+    'total angular momentum about the origin, sum of m x cross v, [t][xyz]', &
+    'centre-line length along x at row j = (ny-1)/2', &
+    'flatness: largest node distance from the least-squares plane', &
+    'accepted time steps since the start (cumulative)', &
+    'rejected time steps since the start (cumulative)', &
+    'Newton iterations since the start (cumulative)', &
+    'linear solver iterations since the start (cumulative)']
+  ! Output steps per chunk of the small datasets (one step per chunk would make
+  ! thousands of tiny chunks; a crash still leaves complete steps readable).
+  integer(hsize_t), parameter :: scalar_chunk = 256
+
+  !> Opaque handle of an open output file.
+  type, public :: output_file
+    private
+    logical :: is_open = .false.
+    logical :: write_velocity = .false.
+    integer :: comm = MPI_COMM_NULL, rank = 0, n_ranks = 1
+    integer :: nx = 0, ny = 0, ys = 0, ym = 0   ! lattice and this rank's rows
+    integer :: nt = 0                           ! output steps completely written
+    integer(hid_t) :: file = -1, dxpl = -1
+    integer(hid_t) :: dset(n_dsets) = -1
+    integer :: drank(n_dsets) = 0
+    integer(hsize_t) :: ddims(4, n_dsets) = 0   ! Fortran dims, the last one is t
+    character(len=:), allocatable :: xmf_path, h5_base
+    real(rp), allocatable :: times(:)           ! output times, for the XDMF file
+  end type output_file
+
+contains
+
+  !> Create the file (truncating), write root attributes and the lattice, create the time series. Collective.
+  subroutine output_open(out, filename, comm, nx, ny, ys, ym, rest, mass, write_velocity, &
+                         attrs_namelist, attrs_petsc_options, ierr, errmsg, version)
+    type(output_file), intent(inout) :: out
+    character(*), intent(in) :: filename
+    integer, intent(in) :: comm                 ! MPI communicator of the run
+    integer, intent(in) :: nx, ny, ys, ym       ! lattice size, first row and row count here
+    real(rp), intent(in) :: rest(:, :, :)       ! (3, 0:nx-1, ys:ys+ym-1)
+    real(rp), intent(in) :: mass(:, :)          ! (0:nx-1, ys:ys+ym-1)
+    logical, intent(in) :: write_velocity
+    character(*), intent(in) :: attrs_namelist, attrs_petsc_options
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: errmsg
+    character(*), intent(in), optional :: version   ! default: the CMake project version
+    integer :: mpierr, rows
+
+    ierr = 0
+    errmsg = ''
+    if (out%is_open) then
+      ierr = 1
+      errmsg = 'output_open: handle already open ('//filename//')'
+      return
+    end if
+    call MPI_Comm_rank(comm, out%rank, mpierr)
+    call MPI_Comm_size(comm, out%n_ranks, mpierr)
+    ! Shape checks, then a reduction so that every rank takes the same branch.
+    if (nx < 1 .or. ny < 1 .or. ys < 0 .or. ym < 0 .or. ys + ym > ny) then
+      ierr = 1
+      errmsg = 'output_open: bad lattice strip (nx, ny, ys, ym) for '//filename
+    else if (size(rest, 1) /= 3 .or. size(rest, 2) /= nx .or. size(rest, 3) /= ym) then
+      ierr = 1
+      errmsg = 'output_open: rest must be (3, nx, ym) for /lattice/rest_position'
+    else if (size(mass, 1) /= nx .or. size(mass, 2) /= ym) then
+      ierr = 1
+      errmsg = 'output_open: mass must be (nx, ym) for /lattice/mass'
+    end if
+    call MPI_Allreduce(ym, rows, 1, MPI_INTEGER, MPI_SUM, comm, mpierr)
+    if (ierr == 0 .and. rows /= ny) then
+      ierr = 1
+      errmsg = 'output_open: the ranks'' rows do not add up to ny'
+    end if
+    call agree(comm, 'output_open', ierr, errmsg)
+    if (ierr /= 0) return
+
+    out%comm = comm
+    out%nx = nx
+    out%ny = ny
+    out%ys = ys
+    out%ym = ym
+    out%nt = 0
+    out%write_velocity = write_velocity
+    call sidecar_names(filename, out%xmf_path, out%h5_base)
+    allocate(out%times(16))
+
+    call open_local(out, filename, rest, mass, attrs_namelist, attrs_petsc_options, ierr, errmsg, version)
+    call agree(comm, 'output_open', ierr, errmsg)
+    if (ierr /= 0) then
+      call close_ids(out, ierr, errmsg)   ! best effort; ierr/errmsg keep the first error
+      out%is_open = .false.
+    end if
+  end subroutine output_open
+
+  !> Append one output step: extend all datasets, write this rank's strip and rank 0's scalars, flush. Collective.
+  subroutine output_write_step(out, rec, x, ierr, errmsg, v)
+    type(output_file), intent(inout) :: out
+    type(output_record), intent(in) :: rec
+    real(rp), intent(in) :: x(:, :, :)            ! positions (3, 0:nx-1, ys:ys+ym-1)
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: errmsg
+    real(rp), intent(in), optional :: v(:, :, :)  ! velocities, same shape; needed if write_velocity
+
+    ierr = 0
+    errmsg = ''
+    if (.not. out%is_open) then
+      ierr = 1
+      errmsg = 'output_write_step: the output file is not open'
+      return
+    end if
+    if (size(x, 1) /= 3 .or. size(x, 2) /= out%nx .or. size(x, 3) /= out%ym) then
+      ierr = 1
+      errmsg = 'output_write_step: x must be (3, nx, ym) for /position'
+    else if (out%write_velocity .and. .not. present(v)) then
+      ierr = 1
+      errmsg = 'output_write_step: v is required for /velocity'
+    else if (out%write_velocity) then
+      if (size(v, 1) /= 3 .or. size(v, 2) /= out%nx .or. size(v, 3) /= out%ym) then
+        ierr = 1
+        errmsg = 'output_write_step: v must be (3, nx, ym) for /velocity'
+      end if
+    end if
+    call agree(out%comm, 'output_write_step', ierr, errmsg)
+    if (ierr /= 0) return
+
+    if (out%write_velocity) then
+      call write_step_local(out, rec, x, ierr, errmsg, v)
+    else
+      call write_step_local(out, rec, x, ierr, errmsg)
+    end if
+    call agree(out%comm, 'output_write_step', ierr, errmsg)
+  end subroutine output_write_step
+
+  !> Write the XDMF file, then the root attribute status (last), then close every id and the file. Collective.
+  subroutine output_close(out, status, ierr, errmsg)
+    type(output_file), intent(inout) :: out
+    character(*), intent(in) :: status   ! 'complete' or 'failed: <reason>'
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: errmsg
+    integer :: e2
+    character(len=len(errmsg)) :: msg2
+
+    ierr = 0
+    errmsg = ''
+    if (.not. out%is_open) return   ! never opened, failed open, or closed already
+    if (out%rank == 0) call write_xdmf(out, ierr, errmsg)
+    ! status after everything else, so that 'complete' means complete.
+    e2 = 0
+    call set_attr_str(out%file, 'status', status, '/', e2, msg2)
+    if (e2 == 0) then
+      call h5fflush_f(out%file, H5F_SCOPE_GLOBAL_F, e2)
+      if (e2 < 0) call fail('h5fflush_f', '/', e2, msg2)
+    end if
+    call keep_first(ierr, errmsg, e2, msg2)
+    call close_ids(out, ierr, errmsg)
+    out%is_open = .false.
+    call agree(out%comm, 'output_close', ierr, errmsg)
+  end subroutine output_close
+
+  ! ---------------------------------------------------------------------------
+  ! Open: file, root attributes, lattice, time series.
+
+  subroutine open_local(out, filename, rest, mass, namelist, petsc_options, ierr, errmsg, version)
+    type(output_file), intent(inout) :: out
+    character(*), intent(in) :: filename
+    real(rp), intent(in) :: rest(:, :, :), mass(:, :)
+    character(*), intent(in) :: namelist, petsc_options
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    character(*), intent(in), optional :: version
+    integer(hid_t) :: fapl, grp
+    integer :: h, i
+    integer(hsize_t) :: chunk_rows
+#ifdef NUNO_VERSION
+    character(len=*), parameter :: default_version = NUNO_VERSION
+#else
+    character(len=*), parameter :: default_version = '0.1.0'
+#endif
+
+    call h5open_f(h)
+    if (h < 0) then
+      call fail('h5open_f', filename, ierr, errmsg); return
+    end if
+    call h5pcreate_f(H5P_FILE_ACCESS_F, fapl, h)
+    if (h < 0) then
+      call fail('h5pcreate_f(file access)', filename, ierr, errmsg); return
+    end if
+    call h5pset_fapl_mpio_f(fapl, out%comm, MPI_INFO_NULL, h)
+    if (h < 0) call fail('h5pset_fapl_mpio_f', filename, ierr, errmsg)
+    ! The 1.8 file format: attributes over 64 KiB (long namelists) are allowed,
+    ! and a file left open by a crash still opens without h5clear.
+    if (ierr == 0) then
+      call h5pset_libver_bounds_f(fapl, H5F_LIBVER_V18_F, H5F_LIBVER_V18_F, h)
+      if (h < 0) call fail('h5pset_libver_bounds_f', filename, ierr, errmsg)
+    end if
+    if (ierr == 0) then
+      call h5fcreate_f(filename, H5F_ACC_TRUNC_F, out%file, h, access_prp=fapl)
+      if (h < 0) call fail('h5fcreate_f', filename, ierr, errmsg)
+    end if
+    call h5pclose_f(fapl, h)
+    if (h < 0) call fail('h5pclose_f(file access)', filename, ierr, errmsg)
+    if (ierr /= 0) return
+    out%is_open = .true.
+
+    call h5pcreate_f(H5P_DATASET_XFER_F, out%dxpl, h)
+    if (h < 0) then
+      call fail('h5pcreate_f(dataset transfer)', filename, ierr, errmsg); return
+    end if
+    call h5pset_dxpl_mpio_f(out%dxpl, H5FD_MPIO_COLLECTIVE_F, h)
+    if (h < 0) then
+      call fail('h5pset_dxpl_mpio_f', filename, ierr, errmsg); return
+    end if
+
+    ! Root attributes (metadata: every rank makes the same calls with the same values).
+    if (present(version)) then
+      call set_attr_str(out%file, 'program_version', version, '/', ierr, errmsg)
+    else
+      call set_attr_str(out%file, 'program_version', default_version, '/', ierr, errmsg)
+    end if
+    if (ierr == 0) call set_attr_int(out%file, 'nx', out%nx, '/', ierr, errmsg)
+    if (ierr == 0) call set_attr_int(out%file, 'ny', out%ny, '/', ierr, errmsg)
+    if (ierr == 0) call set_attr_int(out%file, 'n_ranks', out%n_ranks, '/', ierr, errmsg)
+    if (ierr == 0) call set_attr_str(out%file, 'namelist', namelist, '/', ierr, errmsg)
+    if (ierr == 0) call set_attr_str(out%file, 'petsc_options', petsc_options, '/', ierr, errmsg)
+    if (ierr == 0) call set_attr_str(out%file, 'status', 'running', '/', ierr, errmsg)
+    if (ierr == 0) call set_attr_int(out%file, 'n_output_steps', 0, '/', ierr, errmsg)
+    if (ierr /= 0) return
+
+    ! Groups.
+    do i = 1, 3
+      block
+        character(len=12), parameter :: groups(3) = [character(len=12) :: 'lattice', 'energy', 'diagnostics']
+        call h5gcreate_f(out%file, trim(groups(i)), grp, h)
+        if (h < 0) then
+          call fail('h5gcreate_f', '/'//trim(groups(i)), ierr, errmsg); return
+        end if
+        call h5gclose_f(grp, h)
+        if (h < 0) then
+          call fail('h5gclose_f', '/'//trim(groups(i)), ierr, errmsg); return
+        end if
+      end block
+    end do
+
+    call write_lattice(out, rest, mass, ierr, errmsg)
+    if (ierr /= 0) return
+
+    ! Time series. Position chunks hold one step (whole rows, at most ~1 GiB).
+    chunk_rows = max(1_hsize_t, min(int(out%ny, hsize_t), (2_hsize_t**30)/(24_hsize_t*out%nx)))
+    call create_series(out, d_time, [integer(hsize_t) ::], [scalar_chunk], H5T_NATIVE_DOUBLE, ierr, errmsg)
+    if (ierr == 0) call create_series(out, d_position, [3_hsize_t, int(out%nx, hsize_t), int(out%ny, hsize_t)], &
+      [3_hsize_t, int(out%nx, hsize_t), chunk_rows, 1_hsize_t], H5T_NATIVE_DOUBLE, ierr, errmsg)
+    if (ierr == 0 .and. out%write_velocity) call create_series(out, d_velocity, &
+      [3_hsize_t, int(out%nx, hsize_t), int(out%ny, hsize_t)], &
+      [3_hsize_t, int(out%nx, hsize_t), chunk_rows, 1_hsize_t], H5T_NATIVE_DOUBLE, ierr, errmsg)
+    do i = d_kinetic, d_external_work
+      if (ierr == 0) call create_series(out, i, [integer(hsize_t) ::], [scalar_chunk], H5T_NATIVE_DOUBLE, ierr, errmsg)
+    end do
+    do i = d_momentum, d_angular_momentum
+      if (ierr == 0) call create_series(out, i, [3_hsize_t], [3_hsize_t, scalar_chunk], H5T_NATIVE_DOUBLE, ierr, errmsg)
+    end do
+    do i = d_length, d_flatness
+      if (ierr == 0) call create_series(out, i, [integer(hsize_t) ::], [scalar_chunk], H5T_NATIVE_DOUBLE, ierr, errmsg)
+    end do
+    do i = d_steps, d_linear_iterations
+      if (ierr == 0) call create_series(out, i, [integer(hsize_t) ::], [scalar_chunk], H5T_STD_I64LE, ierr, errmsg)
+    end do
+    if (ierr /= 0) return
+
+    call h5fflush_f(out%file, H5F_SCOPE_GLOBAL_F, h)
+    if (h < 0) call fail('h5fflush_f', filename, ierr, errmsg)
+  end subroutine open_local
+
+  !> /lattice/rest_position (3, nx, ny) and /lattice/mass (nx, ny), each rank its rows.
+  subroutine write_lattice(out, rest, mass, ierr, errmsg)
+    type(output_file), intent(inout) :: out
+    real(rp), intent(in) :: rest(:, :, :), mass(:, :)
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: dset
+    integer(hsize_t) :: nx, ny, ys, ym
+
+    nx = out%nx; ny = out%ny; ys = out%ys; ym = out%ym
+    call create_fixed(out, '/lattice/rest_position', [3_hsize_t, nx, ny], &
+                      'rest positions of the nodes [j][i][xyz]', dset, ierr, errmsg)
+    if (ierr /= 0) return
+    call write_rows3(out, dset, '/lattice/rest_position', [0_hsize_t, 0_hsize_t, ys], &
+                     [3_hsize_t, nx, ym], rest, ierr, errmsg)
+    call close_dset(dset, '/lattice/rest_position', ierr, errmsg)
+    if (ierr /= 0) return
+
+    call create_fixed(out, '/lattice/mass', [nx, ny], 'nodal masses [j][i]', dset, ierr, errmsg)
+    if (ierr /= 0) return
+    call write_rows2(out, dset, '/lattice/mass', [0_hsize_t, ys], [nx, ym], mass, ierr, errmsg)
+    call close_dset(dset, '/lattice/mass', ierr, errmsg)
+  end subroutine write_lattice
+
+  subroutine create_fixed(out, name, dims, description, dset, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    character(*), intent(in) :: name, description
+    integer(hsize_t), intent(in) :: dims(:)
+    integer(hid_t), intent(out) :: dset
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: space
+    integer :: h
+
+    dset = -1
+    call h5screate_simple_f(size(dims), dims, space, h)
+    if (h < 0) then
+      call fail('h5screate_simple_f', name, ierr, errmsg); return
+    end if
+    call h5dcreate_f(out%file, name, H5T_NATIVE_DOUBLE, space, dset, h)
+    if (h < 0) call fail('h5dcreate_f', name, ierr, errmsg)
+    call h5sclose_f(space, h)
+    if (h < 0) call fail('h5sclose_f', name, ierr, errmsg)
+    if (ierr == 0) call set_attr_str(dset, 'description', description, name, ierr, errmsg)
+  end subroutine create_fixed
+
+  !> An extendable dataset: Fortran dims (fixed..., 0), unlimited along t, chunked.
+  subroutine create_series(out, idx, fixed, chunk, ftype, ierr, errmsg)
+    type(output_file), intent(inout) :: out
+    integer, intent(in) :: idx
+    integer(hsize_t), intent(in) :: fixed(:), chunk(:)
+    integer(hid_t), intent(in) :: ftype
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hsize_t) :: dims(4), maxdims(4)
+    integer(hid_t) :: space, dcpl
+    integer :: r, h
+    character(len=:), allocatable :: name
+
+    name = trim(dset_names(idx))
+    r = size(fixed) + 1
+    dims(1:r) = [fixed, 0_hsize_t]
+    maxdims(1:r) = [fixed, H5S_UNLIMITED_F]
+    out%drank(idx) = r
+    out%ddims(1:r, idx) = dims(1:r)
+
+    call h5screate_simple_f(r, dims(1:r), space, h, maxdims(1:r))
+    if (h < 0) then
+      call fail('h5screate_simple_f', name, ierr, errmsg); return
+    end if
+    call h5pcreate_f(H5P_DATASET_CREATE_F, dcpl, h)
+    if (h < 0) then
+      call fail('h5pcreate_f(dataset create)', name, ierr, errmsg)
+    else
+      call h5pset_chunk_f(dcpl, r, chunk, h)
+      if (h < 0) call fail('h5pset_chunk_f', name, ierr, errmsg)
+      if (ierr == 0) then
+        call h5dcreate_f(out%file, name, ftype, space, out%dset(idx), h, dcpl_id=dcpl)
+        if (h < 0) call fail('h5dcreate_f', name, ierr, errmsg)
+      end if
+      call h5pclose_f(dcpl, h)
+      if (h < 0) call fail('h5pclose_f(dataset create)', name, ierr, errmsg)
+    end if
+    call h5sclose_f(space, h)
+    if (h < 0) call fail('h5sclose_f', name, ierr, errmsg)
+    if (ierr == 0) call set_attr_str(out%dset(idx), 'description', trim(dset_descriptions(idx)), name, ierr, errmsg)
+  end subroutine create_series
+
+  ! ---------------------------------------------------------------------------
+  ! One output step.
+
+  subroutine write_step_local(out, rec, x, ierr, errmsg, v)
+    type(output_file), intent(inout) :: out
+    type(output_record), intent(in) :: rec
+    real(rp), intent(in) :: x(:, :, :)
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    real(rp), intent(in), optional :: v(:, :, :)
+    integer(hsize_t) :: t, nx, ys, ym
+    integer :: i, h
+    real(rp), allocatable :: grown(:)
+
+    t = out%nt   ! 0-based index of the new step
+    nx = out%nx; ys = out%ys; ym = out%ym
+
+    ! Extend every dataset by one step (collective).
+    do i = 1, n_dsets
+      if (out%dset(i) < 0) cycle
+      out%ddims(out%drank(i), i) = t + 1
+      call h5dset_extent_f(out%dset(i), out%ddims(1:out%drank(i), i), h)
+      if (h < 0) then
+        call fail('h5dset_extent_f', trim(dset_names(i)), ierr, errmsg); return
+      end if
+    end do
+
+    ! Strips, each rank its rows.
+    call write_rows3(out, out%dset(d_position), '/position', [0_hsize_t, 0_hsize_t, ys, t], &
+                     [3_hsize_t, nx, ym, 1_hsize_t], x, ierr, errmsg)
+    if (ierr /= 0) return
+    if (out%write_velocity) then
+      call write_rows3(out, out%dset(d_velocity), '/velocity', [0_hsize_t, 0_hsize_t, ys, t], &
+                       [3_hsize_t, nx, ym, 1_hsize_t], v, ierr, errmsg)
+      if (ierr /= 0) return
+    end if
+
+    ! Scalars: rank 0 writes, the others join with an empty selection.
+    call write_reals(out, d_time, [rec%time], ierr, errmsg)
+    if (ierr == 0) call write_reals(out, d_kinetic, [rec%kinetic], ierr, errmsg)
+    if (ierr == 0) call write_reals(out, d_stretch, [rec%stretch], ierr, errmsg)
+    if (ierr == 0) call write_reals(out, d_bend, [rec%bend], ierr, errmsg)
+    if (ierr == 0) call write_reals(out, d_dissipated, [rec%dissipated], ierr, errmsg)
+    if (ierr == 0) call write_reals(out, d_external_work, [rec%external_work], ierr, errmsg)
+    if (ierr == 0) call write_reals(out, d_momentum, rec%momentum, ierr, errmsg)
+    if (ierr == 0) call write_reals(out, d_angular_momentum, rec%angular_momentum, ierr, errmsg)
+    if (ierr == 0) call write_reals(out, d_length, [rec%length], ierr, errmsg)
+    if (ierr == 0) call write_reals(out, d_flatness, [rec%flatness], ierr, errmsg)
+    if (ierr == 0) call write_int(out, d_steps, rec%steps, ierr, errmsg)
+    if (ierr == 0) call write_int(out, d_rejected_steps, rec%rejected_steps, ierr, errmsg)
+    if (ierr == 0) call write_int(out, d_newton_iterations, rec%newton_iterations, ierr, errmsg)
+    if (ierr == 0) call write_int(out, d_linear_iterations, rec%linear_iterations, ierr, errmsg)
+    if (ierr /= 0) return
+
+    ! The step is complete: count it, then flush so that a later crash keeps it.
+    call set_attr_int(out%file, 'n_output_steps', out%nt + 1, '/', ierr, errmsg)
+    if (ierr /= 0) return
+    call h5fflush_f(out%file, H5F_SCOPE_GLOBAL_F, h)
+    if (h < 0) then
+      call fail('h5fflush_f', '/', ierr, errmsg); return
+    end if
+    out%nt = out%nt + 1
+    if (out%nt > size(out%times)) then
+      allocate(grown(2*size(out%times)))
+      grown(1:size(out%times)) = out%times
+      call move_alloc(grown, out%times)
+    end if
+    out%times(out%nt) = rec%time
+    if (out%rank == 0) call write_xdmf(out, ierr, errmsg)
+  end subroutine write_step_local
+
+  !> Collective write of a rank-3 strip a(count(1:3)) at start(:) (rank 3 or 4 file space).
+  subroutine write_rows3(out, dset, name, start, count, a, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    integer(hid_t), intent(in) :: dset
+    character(*), intent(in) :: name
+    integer(hsize_t), intent(in) :: start(:), count(:)
+    real(rp), intent(in) :: a(:, :, :)
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: fspace, mspace
+    integer :: h
+    real(rp) :: empty(1) = 0
+
+    call select_spaces(dset, name, start, count, product(count) == 0, fspace, mspace, ierr, errmsg)
+    if (ierr == 0) then
+      if (product(count) == 0) then
+        call h5dwrite_f(dset, H5T_NATIVE_DOUBLE, empty, [1_hsize_t], h, &
+                        mem_space_id=mspace, file_space_id=fspace, xfer_prp=out%dxpl)
+      else
+        call h5dwrite_f(dset, H5T_NATIVE_DOUBLE, a, count(1:3), h, &
+                        mem_space_id=mspace, file_space_id=fspace, xfer_prp=out%dxpl)
+      end if
+      if (h < 0) call fail('h5dwrite_f', name, ierr, errmsg)
+    end if
+    call close_spaces(fspace, mspace, name, ierr, errmsg)
+  end subroutine write_rows3
+
+  !> Collective write of a rank-2 strip a(count(1:2)) at start(:).
+  subroutine write_rows2(out, dset, name, start, count, a, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    integer(hid_t), intent(in) :: dset
+    character(*), intent(in) :: name
+    integer(hsize_t), intent(in) :: start(:), count(:)
+    real(rp), intent(in) :: a(:, :)
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: fspace, mspace
+    integer :: h
+    real(rp) :: empty(1) = 0
+
+    call select_spaces(dset, name, start, count, product(count) == 0, fspace, mspace, ierr, errmsg)
+    if (ierr == 0) then
+      if (product(count) == 0) then
+        call h5dwrite_f(dset, H5T_NATIVE_DOUBLE, empty, [1_hsize_t], h, &
+                        mem_space_id=mspace, file_space_id=fspace, xfer_prp=out%dxpl)
+      else
+        call h5dwrite_f(dset, H5T_NATIVE_DOUBLE, a, count(1:2), h, &
+                        mem_space_id=mspace, file_space_id=fspace, xfer_prp=out%dxpl)
+      end if
+      if (h < 0) call fail('h5dwrite_f', name, ierr, errmsg)
+    end if
+    call close_spaces(fspace, mspace, name, ierr, errmsg)
+  end subroutine write_rows2
+
+  !> Step t of a real series ([t] or [t][k]): rank 0 writes vals, the others nothing.
+  subroutine write_reals(out, idx, vals, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    integer, intent(in) :: idx
+    real(rp), intent(in) :: vals(:)
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: fspace, mspace
+    integer(hsize_t) :: start(2), count(2)
+    integer :: r, h
+    character(len=:), allocatable :: name
+
+    name = trim(dset_names(idx))
+    r = out%drank(idx)
+    start(1:r) = 0
+    start(r) = out%nt
+    count(1:r) = out%ddims(1:r, idx)
+    count(r) = 1
+    call select_spaces(out%dset(idx), name, start(1:r), count(1:r), out%rank /= 0, fspace, mspace, ierr, errmsg)
+    if (ierr == 0) then
+      call h5dwrite_f(out%dset(idx), H5T_NATIVE_DOUBLE, vals, [int(size(vals), hsize_t)], h, &
+                      mem_space_id=mspace, file_space_id=fspace, xfer_prp=out%dxpl)
+      if (h < 0) call fail('h5dwrite_f', name, ierr, errmsg)
+    end if
+    call close_spaces(fspace, mspace, name, ierr, errmsg)
+  end subroutine write_reals
+
+  !> Step t of an integer series [t], stored as 64-bit integers.
+  subroutine write_int(out, idx, val, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    integer, intent(in) :: idx, val
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: fspace, mspace
+    integer(int64) :: buf(1)
+    integer :: h
+    character(len=:), allocatable :: name
+
+    name = trim(dset_names(idx))
+    buf(1) = val
+    call select_spaces(out%dset(idx), name, [int(out%nt, hsize_t)], [1_hsize_t], out%rank /= 0, &
+                       fspace, mspace, ierr, errmsg)
+    if (ierr == 0) then
+      call h5dwrite_f(out%dset(idx), h5kind_to_type(int64, H5_INTEGER_KIND), buf, [1_hsize_t], h, &
+                      mem_space_id=mspace, file_space_id=fspace, xfer_prp=out%dxpl)
+      if (h < 0) call fail('h5dwrite_f', name, ierr, errmsg)
+    end if
+    call close_spaces(fspace, mspace, name, ierr, errmsg)
+  end subroutine write_int
+
+  !> File space with the hyperslab (start, count) selected, and a matching memory
+  !> space; with empty, both select nothing (this rank joins the collective call only).
+  subroutine select_spaces(dset, name, start, count, empty, fspace, mspace, ierr, errmsg)
+    integer(hid_t), intent(in) :: dset
+    character(*), intent(in) :: name
+    integer(hsize_t), intent(in) :: start(:), count(:)
+    logical, intent(in) :: empty
+    integer(hid_t), intent(out) :: fspace, mspace
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer :: h
+
+    fspace = -1
+    mspace = -1
+    call h5dget_space_f(dset, fspace, h)
+    if (h < 0) then
+      fspace = -1
+      call fail('h5dget_space_f', name, ierr, errmsg); return
+    end if
+    if (empty) then
+      call h5sselect_none_f(fspace, h)
+      if (h < 0) then
+        call fail('h5sselect_none_f', name, ierr, errmsg); return
+      end if
+      call h5screate_simple_f(1, [1_hsize_t], mspace, h)
+      if (h < 0) then
+        mspace = -1
+        call fail('h5screate_simple_f', name, ierr, errmsg); return
+      end if
+      call h5sselect_none_f(mspace, h)
+      if (h < 0) call fail('h5sselect_none_f', name, ierr, errmsg)
+    else
+      call h5sselect_hyperslab_f(fspace, H5S_SELECT_SET_F, start, count, h)
+      if (h < 0) then
+        call fail('h5sselect_hyperslab_f', name, ierr, errmsg); return
+      end if
+      call h5screate_simple_f(size(count), count, mspace, h)
+      if (h < 0) then
+        mspace = -1
+        call fail('h5screate_simple_f', name, ierr, errmsg)
+      end if
+    end if
+  end subroutine select_spaces
+
+  subroutine close_spaces(fspace, mspace, name, ierr, errmsg)
+    integer(hid_t), intent(in) :: fspace, mspace
+    character(*), intent(in) :: name
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer :: h
+
+    if (mspace >= 0) then
+      call h5sclose_f(mspace, h)
+      if (h < 0) call fail('h5sclose_f', name, ierr, errmsg)
+    end if
+    if (fspace >= 0) then
+      call h5sclose_f(fspace, h)
+      if (h < 0) call fail('h5sclose_f', name, ierr, errmsg)
+    end if
+  end subroutine close_spaces
+
+  ! ---------------------------------------------------------------------------
+  ! Attributes (scalar; an existing one is deleted and re-created).
+
+  subroutine set_attr_str(loc, name, value, where, ierr, errmsg)
+    integer(hid_t), intent(in) :: loc
+    character(*), intent(in) :: name, value, where   ! where: the object, for messages
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: stype, space, attr
+    integer :: h
+    character(len=:), allocatable :: what, text
+
+    what = 'attribute '//name//' of '//where
+    ! A zero-size string type is not allowed: store an empty value as one NUL.
+    if (len(value) == 0) then
+      text = achar(0)
+    else
+      text = value
+    end if
+    call delete_attr(loc, name, what, ierr, errmsg)
+    if (ierr /= 0) return
+    call h5tcopy_f(H5T_NATIVE_CHARACTER, stype, h)
+    if (h < 0) then
+      call fail('h5tcopy_f', what, ierr, errmsg); return
+    end if
+    call h5tset_size_f(stype, int(len(text), size_t), h)
+    if (h < 0) call fail('h5tset_size_f', what, ierr, errmsg)
+    if (ierr == 0) then
+      call h5tset_strpad_f(stype, H5T_STR_NULLPAD_F, h)
+      if (h < 0) call fail('h5tset_strpad_f', what, ierr, errmsg)
+    end if
+    if (ierr == 0) then
+      call h5screate_f(H5S_SCALAR_F, space, h)
+      if (h < 0) then
+        call fail('h5screate_f', what, ierr, errmsg)
+      else
+        call h5acreate_f(loc, name, stype, space, attr, h)
+        if (h < 0) then
+          call fail('h5acreate_f', what, ierr, errmsg)
+        else
+          call h5awrite_f(attr, stype, text, [1_hsize_t], h)
+          if (h < 0) call fail('h5awrite_f', what, ierr, errmsg)
+          call h5aclose_f(attr, h)
+          if (h < 0) call fail('h5aclose_f', what, ierr, errmsg)
+        end if
+        call h5sclose_f(space, h)
+        if (h < 0) call fail('h5sclose_f', what, ierr, errmsg)
+      end if
+    end if
+    call h5tclose_f(stype, h)
+    if (h < 0) call fail('h5tclose_f', what, ierr, errmsg)
+  end subroutine set_attr_str
+
+  subroutine set_attr_int(loc, name, value, where, ierr, errmsg)
+    integer(hid_t), intent(in) :: loc
+    character(*), intent(in) :: name, where
+    integer, intent(in) :: value
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: space, attr
+    integer :: h
+    character(len=:), allocatable :: what
+
+    what = 'attribute '//name//' of '//where
+    call delete_attr(loc, name, what, ierr, errmsg)
+    if (ierr /= 0) return
+    call h5screate_f(H5S_SCALAR_F, space, h)
+    if (h < 0) then
+      call fail('h5screate_f', what, ierr, errmsg); return
+    end if
+    call h5acreate_f(loc, name, H5T_NATIVE_INTEGER, space, attr, h)
+    if (h < 0) then
+      call fail('h5acreate_f', what, ierr, errmsg)
+    else
+      call h5awrite_f(attr, H5T_NATIVE_INTEGER, value, [1_hsize_t], h)
+      if (h < 0) call fail('h5awrite_f', what, ierr, errmsg)
+      call h5aclose_f(attr, h)
+      if (h < 0) call fail('h5aclose_f', what, ierr, errmsg)
+    end if
+    call h5sclose_f(space, h)
+    if (h < 0) call fail('h5sclose_f', what, ierr, errmsg)
+  end subroutine set_attr_int
+
+  subroutine delete_attr(loc, name, what, ierr, errmsg)
+    integer(hid_t), intent(in) :: loc
+    character(*), intent(in) :: name, what
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    logical :: exists
+    integer :: h
+
+    call h5aexists_f(loc, name, exists, h)
+    if (h < 0) then
+      call fail('h5aexists_f', what, ierr, errmsg); return
+    end if
+    if (exists) then
+      call h5adelete_f(loc, name, h)
+      if (h < 0) call fail('h5adelete_f', what, ierr, errmsg)
+    end if
+  end subroutine delete_attr
+
+  ! ---------------------------------------------------------------------------
+  ! Closing, errors, file names.
+
+  !> Close every id that is open (datasets, transfer list, file); keeps the first error.
+  subroutine close_ids(out, ierr, errmsg)
+    type(output_file), intent(inout) :: out
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer :: i, h
+
+    do i = 1, n_dsets
+      if (out%dset(i) >= 0) call close_dset(out%dset(i), trim(dset_names(i)), ierr, errmsg)
+      out%dset(i) = -1
+    end do
+    if (out%dxpl >= 0) then
+      call h5pclose_f(out%dxpl, h)
+      if (h < 0) call fail('h5pclose_f(dataset transfer)', 'the output file', ierr, errmsg)
+      out%dxpl = -1
+    end if
+    if (out%file >= 0) then
+      call h5fclose_f(out%file, h)
+      if (h < 0) call fail('h5fclose_f', 'the output file', ierr, errmsg)
+      out%file = -1
+    end if
+  end subroutine close_ids
+
+  subroutine close_dset(dset, name, ierr, errmsg)
+    integer(hid_t), intent(in) :: dset
+    character(*), intent(in) :: name
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer :: h
+
+    if (dset < 0) return
+    call h5dclose_f(dset, h)
+    if (h < 0) call fail('h5dclose_f', name, ierr, errmsg)
+  end subroutine close_dset
+
+  !> Record a failed call unless an earlier error is already recorded.
+  subroutine fail(call_name, what, ierr, errmsg)
+    character(*), intent(in) :: call_name, what
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    if (ierr /= 0) return
+    ierr = 1
+    errmsg = 'output: '//call_name//' failed for '//what
+  end subroutine fail
+
+  subroutine keep_first(ierr, errmsg, e2, msg2)
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer, intent(in) :: e2
+    character(*), intent(in) :: msg2
+    if (ierr == 0 .and. e2 /= 0) then
+      ierr = e2
+      errmsg = msg2
+    end if
+  end subroutine keep_first
+
+  !> Make the error flag collective: every rank returns non-zero if any rank failed.
+  subroutine agree(comm, where, ierr, errmsg)
+    integer, intent(in) :: comm
+    character(*), intent(in) :: where
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer :: local, global, mpierr
+
+    local = merge(1, 0, ierr /= 0)
+    call MPI_Allreduce(local, global, 1, MPI_INTEGER, MPI_MAX, comm, mpierr)
+    if (mpierr /= MPI_SUCCESS .and. ierr == 0) then
+      ierr = 1
+      errmsg = where//': MPI_Allreduce of the error flag failed'
+    else if (global /= 0 .and. ierr == 0) then
+      ierr = 1
+      errmsg = where//': failed on another rank'
+    end if
+  end subroutine agree
+
+  !> run.h5 -> run.xmf beside it; the sidecar names the h5 file by its base name.
+  subroutine sidecar_names(filename, xmf_path, h5_base)
+    character(*), intent(in) :: filename
+    character(len=:), allocatable, intent(out) :: xmf_path, h5_base
+    integer :: n, slash
+
+    n = len_trim(filename)
+    if (n >= 3) then
+      if (filename(n-2:n) == '.h5') then
+        xmf_path = filename(1:n-3)//'.xmf'
+      else
+        xmf_path = filename(1:n)//'.xmf'
+      end if
+    else
+      xmf_path = filename(1:n)//'.xmf'
+    end if
+    slash = index(filename(1:n), '/', back=.true.)
+    h5_base = filename(slash+1:n)
+  end subroutine sidecar_names
+
+  ! ---------------------------------------------------------------------------
+  ! XDMF sidecar (rank 0, plain Fortran I/O, rewritten whole at each step).
+
+  subroutine write_xdmf(out, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer :: u, ios, k
+    character(len=256) :: iom
+    character(len=:), allocatable :: surf, full, slab
+
+    if (ierr /= 0) return
+    surf = str(out%ny)//' '//str(out%nx)
+    full = str(out%nt)//' '//surf//' 3'
+    open(newunit=u, file=out%xmf_path, status='replace', action='write', iostat=ios, iomsg=iom)
+    if (ios /= 0) then
+      ierr = 1
+      errmsg = 'output: cannot write '//out%xmf_path//': '//trim(iom)
+      return
+    end if
+    write(u, '(a)', iostat=ios) '<?xml version="1.0" ?>'
+    write(u, '(a)', iostat=ios) '<Xdmf Version="3.0">'
+    write(u, '(a)', iostat=ios) ' <Domain>'
+    write(u, '(a)', iostat=ios) '  <Grid Name="cloth" GridType="Collection" CollectionType="Temporal">'
+    do k = 1, out%nt
+      slab = str(k - 1)//' 0 0 0  1 1 1 1  1 '//surf//' 3'
+      write(u, '(a)', iostat=ios) '   <Grid Name="step_'//str(k - 1)//'" GridType="Uniform">'
+      write(u, '(a)', iostat=ios) '    <Time Value="'//real_str(out%times(k))//'"/>'
+      write(u, '(a)', iostat=ios) '    <Topology TopologyType="3DSMesh" Dimensions="'//surf//'"/>'
+      write(u, '(a)', iostat=ios) '    <Geometry GeometryType="XYZ">'
+      call slab_item('position')
+      write(u, '(a)', iostat=ios) '    </Geometry>'
+      if (out%write_velocity) then
+        write(u, '(a)', iostat=ios) '    <Attribute Name="velocity" AttributeType="Vector" Center="Node">'
+        call slab_item('velocity')
+        write(u, '(a)', iostat=ios) '    </Attribute>'
+      end if
+      write(u, '(a)', iostat=ios) '    <Attribute Name="mass" AttributeType="Scalar" Center="Node">'
+      write(u, '(a)', iostat=ios) '     <DataItem Dimensions="'//surf//'" NumberType="Float" Precision="8" Format="HDF">'// &
+        out%h5_base//':/lattice/mass</DataItem>'
+      write(u, '(a)', iostat=ios) '    </Attribute>'
+      write(u, '(a)', iostat=ios) '   </Grid>'
+    end do
+    write(u, '(a)', iostat=ios) '  </Grid>'
+    write(u, '(a)', iostat=ios) ' </Domain>'
+    write(u, '(a)', iostat=ios) '</Xdmf>'
+    if (ios /= 0) then
+      ierr = 1
+      errmsg = 'output: write error on '//out%xmf_path
+    end if
+    close(u, iostat=ios)
+    if (ios /= 0 .and. ierr == 0) then
+      ierr = 1
+      errmsg = 'output: close error on '//out%xmf_path
+    end if
+  contains
+    subroutine slab_item(dset)
+      character(*), intent(in) :: dset
+      write(u, '(a)', iostat=ios) '     <DataItem ItemType="HyperSlab" Dimensions="1 '//surf//' 3" Type="HyperSlab">'
+      write(u, '(a)', iostat=ios) '      <DataItem Dimensions="3 4" NumberType="UInt" Format="XML">'//slab//'</DataItem>'
+      write(u, '(a)', iostat=ios) '      <DataItem Dimensions="'//full//'" NumberType="Float" Precision="8" Format="HDF">'// &
+        out%h5_base//':/'//dset//'</DataItem>'
+      write(u, '(a)', iostat=ios) '     </DataItem>'
+    end subroutine slab_item
+  end subroutine write_xdmf
+
+  pure function str(i) result(s)
+    integer, intent(in) :: i
+    character(len=:), allocatable :: s
+    character(len=24) :: buf
+    write(buf, '(i0)') i
+    s = trim(buf)
+  end function str
+
+  pure function real_str(x) result(s)
+    real(rp), intent(in) :: x
+    character(len=:), allocatable :: s
+    character(len=32) :: buf
+    write(buf, '(es24.16e3)') x
+    s = trim(adjustl(buf))
+  end function real_str
+
+end module output

@@ -1,0 +1,608 @@
+!> Time integration with PETSc TS on a DMDA of 1 x P strips (MODEL.md
+!> sections 5 and 6): the solver context, the IFunction and the assembled
+!> IJacobian callbacks, the monitor that integrates dissipated power and
+!> constraint work, and the loop over time windows that stops exactly at
+!> output, keyframe and release times.
+!>
+!> State: DMDA dof 6 per node, u(0:2) position, u(3:5) velocity;
+!> F = [ xdot - v ; vdot - f(x, v)/m - g ] on free nodes and
+!> F = [ xdot - vbar ; vdot ] on constrained nodes.
+!> The rows are those of MODEL.md section 5 divided by the mass, so that
+!> dF/dUdot = I: PETSc's ARKIMEX (explicit first stage) takes
+!> Udot = -F(t, U, 0) and is wrong for any other form. A constrained node is
+!> put on its path at the start of each time window (enter_window), where
+!> its prescribed velocity is constant, so xdot = vbar keeps x = xbar(t)
+!> exactly under every consistent integrator.
+module timestepping
+#include "petsc/finclude/petscts.h"
+  use petscts
+  use petscdmda
+  use mpi
+  use kinds, only: rp
+  use config, only: nuno_config, BEND_NONE
+  use lattice, only: lattice_t, lattice_init
+  use forces, only: internal_forces, dissipated_power, jac_buffer_t, jac_buffer_init, jac_buffer_row, &
+                    slot_of, first_anchor_row
+  use constraints, only: constraint_set_t, constraints_set_window, constraint_target, constraint_events
+  use scenes, only: scene_setup
+  use diagnostics, only: state_diagnostics_t, state_diagnostics
+  use output, only: output_file, output_record, output_write_step
+  implicit none
+  private
+  public :: app_ctx, solver_create, solver_destroy, solver_run
+
+  !> Everything the callbacks need; passed to PETSc as the user context.
+  type :: app_ctx
+    type(nuno_config) :: cfg
+    type(lattice_t) :: lat
+    type(constraint_set_t) :: cs
+    type(jac_buffer_t) :: jbuf
+    type(tDM) :: da
+    type(tTS) :: ts
+    type(tVec) :: u                             !< global state
+    type(tMat) :: p                             !< assembled Jacobian (preconditioning matrix)
+    integer :: comm = MPI_COMM_NULL, rank = 0, size = 1
+    real(rp), allocatable :: f(:, :, :)         !< (3, 0:nx-1, gys:gye) force work array
+    logical, allocatable :: fixed(:, :)         !< (0:nx-1, ys:ye) constrained in the current window
+    real(rp), allocatable :: xout(:, :, :)      !< (3, 0:nx-1, ys:ye) output buffer
+    real(rp), allocatable :: vout(:, :, :)      !< (3, 0:nx-1, ys:ye) output buffer
+    real(rp), allocatable :: vals(:, :, :)      !< (6, 6, ncol) one block row of the Jacobian
+    integer, allocatable :: cols(:)             !< (ncol) its local block columns
+    real(rp) :: gravity(3) = 0
+    logical :: clamp = .false.                  !< drop indefinite spring compression terms in P
+    logical :: gauss_newton = .false.           !< Gauss-Newton energy-bending blocks in P
+    logical :: moving_constraints = .false.     !< a constrained node moves in this window
+    ! singular element seen by the last residual evaluation
+    integer :: nbad = 0, bad(2) = -1
+    real(rp) :: t_bad = 0
+    ! time integrals, advanced by the monitor (trapezoid rule over accepted steps)
+    real(rp) :: t_prev = 0, pdiss_prev = 0, pcon_prev = 0
+    real(rp) :: dissipated = 0                  !< dissipated energy [energy]
+    real(rp) :: work_constraints = 0            !< work of the constraint reactions [energy]
+    real(rp) :: mgx0 = 0                        !< sum m g . x at t = 0
+  end type app_ctx
+
+contains
+
+  !> Create the DMDA, the lattice strip, the initial state, the Jacobian
+  !> matrix and the TS. Collective.
+  subroutine solver_create(ctx, cfg, ierr)
+    type(app_ctx), intent(inout), target :: ctx
+    type(nuno_config), intent(in) :: cfg
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt :: xs, ys, zs, xm, ym, zm, gxs, gys, gzs, gxm, gym, gzm, w, nc, nxp, nyp
+    PetscInt, parameter :: one = 1, six = 6, minus_one = -1
+    type(tSNES) :: snes
+    type(tTSAdapt) :: adapt
+    PetscScalar, pointer :: ua(:, :, :)
+    character(len=64) :: mattype
+    PetscBool :: flg, found
+
+    ctx%cfg = cfg
+    ctx%comm = PETSC_COMM_WORLD
+    call MPI_Comm_rank(ctx%comm, ctx%rank, ierr)
+    call MPI_Comm_size(ctx%comm, ctx%size, ierr)
+    w = merge(1, 2, cfg%bending_code == BEND_NONE)
+    nxp = cfg%nx
+    nyp = cfg%ny
+
+    ! 1 x P processes: each rank owns whole rows, ghost width 2 with bending.
+    PetscCall(DMDACreate2d(ctx%comm, DM_BOUNDARY_NONE, DM_BOUNDARY_NONE, DMDA_STENCIL_BOX, nxp, nyp, one, PETSC_DECIDE, six, w, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, ctx%da, ierr))
+    ! BAIJ (6 x 6 blocks) assembles and multiplies fastest; -dm_mat_type aij for field splits.
+    mattype = MATBAIJ
+    PetscCall(PetscOptionsGetString(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-dm_mat_type', mattype, found, ierr))
+    PetscCall(DMSetMatType(ctx%da, mattype, ierr))
+    PetscCall(DMSetUp(ctx%da, ierr))
+    PetscCall(DMDASetFieldName(ctx%da, 0, 'x', ierr))
+    PetscCall(DMDASetFieldName(ctx%da, 1, 'y', ierr))
+    PetscCall(DMDASetFieldName(ctx%da, 2, 'z', ierr))
+    PetscCall(DMDASetFieldName(ctx%da, 3, 'vx', ierr))
+    PetscCall(DMDASetFieldName(ctx%da, 4, 'vy', ierr))
+    PetscCall(DMDASetFieldName(ctx%da, 5, 'vz', ierr))
+    PetscCall(DMDAGetCorners(ctx%da, xs, ys, zs, xm, ym, zm, ierr))
+    PetscCall(DMDAGetGhostCorners(ctx%da, gxs, gys, gzs, gxm, gym, gzm, ierr))
+
+    call lattice_init(ctx%lat, cfg, ys, ys + ym - 1)
+    if (xs /= 0 .or. xm /= cfg%nx .or. gys /= ctx%lat%gys .or. gys + gym - 1 /= ctx%lat%gye) then
+      ierr = PETSC_ERR_PLIB
+      SETERRQ(ctx%comm, ierr, 'nuno: the DMDA is not split into strips of whole rows')
+    end if
+    call jac_buffer_init(ctx%jbuf, ctx%lat)
+    allocate(ctx%f(3, 0:cfg%nx - 1, ctx%lat%gys:ctx%lat%gye))
+    allocate(ctx%fixed(0:cfg%nx - 1, ys:ys + ym - 1))
+    allocate(ctx%xout(3, 0:cfg%nx - 1, ys:ys + ym - 1), ctx%vout(3, 0:cfg%nx - 1, ys:ys + ym - 1))
+    nc = (2 * w + 1)**2
+    allocate(ctx%vals(6, 6, nc), ctx%cols(nc))
+    ctx%gravity = merge(cfg%gravity, [0.0_rp, 0.0_rp, 0.0_rp], cfg%has_gravity)
+    ctx%fixed = .false.
+
+    ! Initial state and constraints of the scene.
+    PetscCall(DMCreateGlobalVector(ctx%da, ctx%u, ierr))
+    PetscCall(DMDAVecGetArrayF90(ctx%da, ctx%u, ua, ierr))
+    call scene_setup(cfg, ctx%lat, ua, ctx%cs)
+    PetscCall(DMDAVecRestoreArrayF90(ctx%da, ctx%u, ua, ierr))
+
+    ! Jacobian with the DMDA's exact box-stencil preallocation.
+    PetscCall(DMCreateMatrix(ctx%da, ctx%p, ierr))
+    PetscCall(MatSetOption(ctx%p, MAT_ROW_ORIENTED, PETSC_FALSE, ierr))
+
+    PetscCall(PetscOptionsGetBool(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-nuno_clamp_compression', flg, found, ierr))
+    ctx%clamp = found .and. flg
+    PetscCall(PetscOptionsGetBool(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-nuno_gauss_newton', flg, found, ierr))
+    ctx%gauss_newton = found .and. flg
+
+    ! The report's scheme by default: backward Euler with the namelist's
+    ! fixed step; any implicit TS type and adaptivity through the options.
+    PetscCall(TSCreate(ctx%comm, ctx%ts, ierr))
+    PetscCall(TSSetDM(ctx%ts, ctx%da, ierr))
+    PetscCall(TSSetProblemType(ctx%ts, TS_NONLINEAR, ierr))
+    PetscCall(TSSetType(ctx%ts, TSBEULER, ierr))
+    PetscCall(TSSetIFunction(ctx%ts, PETSC_NULL_VEC, form_ifunction, ctx, ierr))
+    PetscCall(TSSetIJacobian(ctx%ts, ctx%p, ctx%p, form_ijacobian, ctx, ierr))
+    PetscCall(TSSetTime(ctx%ts, 0.0_rp, ierr))
+    PetscCall(TSSetTimeStep(ctx%ts, cfg%dt, ierr))
+    PetscCall(TSSetMaxTime(ctx%ts, cfg%t_end, ierr))
+    PetscCall(TSSetExactFinalTime(ctx%ts, TS_EXACTFINALTIME_MATCHSTEP, ierr))
+    PetscCall(TSGetAdapt(ctx%ts, adapt, ierr))
+    PetscCall(TSAdaptSetType(adapt, TSADAPTNONE, ierr))
+    PetscCall(TSSetMaxSNESFailures(ctx%ts, minus_one, ierr))
+    PetscCall(TSMonitorSet(ctx%ts, ts_monitor, ctx, PETSC_NULL_FUNCTION, ierr))
+    PetscCall(TSGetSNES(ctx%ts, snes, ierr))
+    PetscCall(TSSetFromOptions(ctx%ts, ierr))
+  end subroutine solver_create
+
+  !> Destroy the PETSc objects, in reverse order of creation.
+  subroutine solver_destroy(ctx, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    PetscErrorCode, intent(out) :: ierr
+    PetscCall(TSDestroy(ctx%ts, ierr))
+    PetscCall(MatDestroy(ctx%p, ierr))
+    PetscCall(VecDestroy(ctx%u, ierr))
+    PetscCall(DMDestroy(ctx%da, ierr))
+  end subroutine solver_destroy
+
+  ! ---------------------------------------------------------------- callbacks
+
+  !> F(t, U, Udot) (see the module header).
+  subroutine form_ifunction(ts, t, uvec, udotvec, fvec, ctx, ierr)
+    type(tTS) :: ts
+    PetscReal :: t
+    type(tVec) :: uvec, udotvec, fvec
+    type(app_ctx) :: ctx
+    PetscErrorCode :: ierr
+    type(tVec) :: uloc
+    PetscScalar, pointer :: u(:, :, :), ud(:, :, :), fv(:, :, :)
+
+    PetscCall(DMGetLocalVector(ctx%da, uloc, ierr))
+    PetscCall(DMGlobalToLocalBegin(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
+    PetscCall(DMGlobalToLocalEnd(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
+    PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
+    PetscCall(DMDAVecGetArrayReadF90(ctx%da, udotvec, ud, ierr))
+    PetscCall(DMDAVecGetArrayF90(ctx%da, fvec, fv, ierr))
+    call residual(ctx, t, u, ud, fv)
+    PetscCall(DMDAVecRestoreArrayF90(ctx%da, fvec, fv, ierr))
+    PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, udotvec, ud, ierr))
+    PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, uloc, u, ierr))
+    PetscCall(DMRestoreLocalVector(ctx%da, uloc, ierr))
+  end subroutine form_ifunction
+
+  !> The residual on plain arrays. A singular element (zero-length link,
+  !> bending triple at pi) makes the residual NaN, so that SNES fails the
+  !> step collectively; ctx%nbad says why.
+  subroutine residual(ctx, t, u, ud, fv)
+    type(app_ctx), intent(inout) :: ctx
+    real(rp), intent(in) :: t
+    real(rp), intent(in) :: u(0:5, 0:ctx%lat%nx - 1, ctx%lat%gys:ctx%lat%gye)
+    real(rp), intent(in) :: ud(0:5, 0:ctx%lat%nx - 1, ctx%lat%ys:ctx%lat%ye)
+    real(rp), intent(out) :: fv(0:5, 0:ctx%lat%nx - 1, ctx%lat%ys:ctx%lat%ye)
+    integer :: i, j, k, nbad, bad(2)
+    real(rp) :: xb(3), vb(3)
+
+    call internal_forces(ctx%lat, u, ctx%f, nbad, bad)
+    do j = ctx%lat%ys, ctx%lat%ye
+      do i = 0, ctx%lat%nx - 1
+        fv(0:2, i, j) = ud(0:2, i, j) - u(3:5, i, j)
+        fv(3:5, i, j) = ud(3:5, i, j) - ctx%f(:, i, j) / ctx%lat%mass(i, j) - ctx%gravity
+      end do
+    end do
+    if (ctx%cs%active) then
+      do k = 1, ctx%cs%n
+        call constraint_target(ctx%cs, k, t, xb, vb)
+        i = ctx%cs%node(1, k)
+        j = ctx%cs%node(2, k)
+        fv(0:2, i, j) = ud(0:2, i, j) - vb
+        fv(3:5, i, j) = ud(3:5, i, j)
+      end do
+    end if
+    if (nbad > 0) then
+      ctx%nbad = nbad
+      ctx%bad = bad
+      ctx%t_bad = t
+      fv(0, 0, ctx%lat%ys) = ieee_nan()
+    end if
+  end subroutine residual
+
+  !> dF/dU + a dF/dUdot (v-rows: -K/m and a I - C/m), assembled row by row from the rolling buffer of
+  !> element blocks: one MatSetValuesBlockedLocal per node, INSERT_VALUES
+  !> over the whole preallocated stencil (so no MatZeroEntries is needed).
+  subroutine form_ijacobian(ts, t, uvec, udotvec, a, jmat, pmat, ctx, ierr)
+    type(tTS) :: ts
+    PetscReal :: t, a
+    type(tVec) :: uvec, udotvec
+    type(tMat) :: jmat, pmat
+    type(app_ctx) :: ctx
+    PetscErrorCode :: ierr
+    type(tVec) :: uloc
+    PetscScalar, pointer :: u(:, :, :)
+    integer :: ja
+
+    PetscCall(DMGetLocalVector(ctx%da, uloc, ierr))
+    PetscCall(DMGlobalToLocalBegin(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
+    PetscCall(DMGlobalToLocalEnd(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
+    PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
+    ctx%jbuf%k = 0.0_rp
+    ctx%jbuf%c = 0.0_rp
+    do ja = first_anchor_row(ctx%lat), ctx%lat%ye
+      call jac_buffer_row(ctx%jbuf, ctx%lat, u, ja, ctx%clamp, ctx%gauss_newton)
+      if (ja >= ctx%lat%ys) then
+        PetscCall(insert_row(ctx, pmat, ja, a, ierr))
+      end if
+      ctx%jbuf%k(:, :, :, :, :, slot_of(ja)) = 0.0_rp
+      ctx%jbuf%c(:, :, :, :, :, slot_of(ja)) = 0.0_rp
+    end do
+    PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, uloc, u, ierr))
+    PetscCall(DMRestoreLocalVector(ctx%da, uloc, ierr))
+    PetscCall(MatAssemblyBegin(pmat, MAT_FINAL_ASSEMBLY, ierr))
+    PetscCall(MatAssemblyEnd(pmat, MAT_FINAL_ASSEMBLY, ierr))
+    if (jmat%v /= pmat%v) then
+      PetscCall(MatAssemblyBegin(jmat, MAT_FINAL_ASSEMBLY, ierr))
+      PetscCall(MatAssemblyEnd(jmat, MAT_FINAL_ASSEMBLY, ierr))
+    end if
+  end subroutine form_ijacobian
+
+  !> Insert the complete block rows of node row j.
+  subroutine insert_row(ctx, pmat, j, a, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    type(tMat) :: pmat
+    integer, intent(in) :: j
+    real(rp), intent(in) :: a
+    PetscErrorCode, intent(out) :: ierr
+    integer :: i, di, dj, w, nc, s, q
+    PetscInt :: row(1), ncol
+    real(rp) :: minv
+
+    w = ctx%jbuf%w
+    s = slot_of(j)
+    ierr = 0
+    do i = 0, ctx%lat%nx - 1
+      minv = 1.0_rp / ctx%lat%mass(i, j)
+      nc = 0
+      do dj = -w, w
+        if (j + dj < 0 .or. j + dj >= ctx%lat%ny) cycle
+        do di = -w, w
+          if (i + di < 0 .or. i + di >= ctx%lat%nx) cycle
+          nc = nc + 1
+          ctx%cols(nc) = (i + di) + (j + dj - ctx%lat%gys) * ctx%lat%nx
+          ctx%vals(:, :, nc) = 0.0_rp
+          if (ctx%fixed(i, j)) then
+            if (di == 0 .and. dj == 0) then
+              do q = 1, 6
+                ctx%vals(q, q, nc) = a
+              end do
+            end if
+            cycle
+          end if
+          ctx%vals(4:6, 1:3, nc) = ctx%jbuf%k(:, :, di, dj, i, s) * minv
+          ctx%vals(4:6, 4:6, nc) = ctx%jbuf%c(:, :, di, dj, i, s) * minv
+          if (di == 0 .and. dj == 0) then
+            do q = 1, 3
+              ctx%vals(q, q, nc) = a
+              ctx%vals(q, q + 3, nc) = -1.0_rp
+              ctx%vals(q + 3, q + 3, nc) = ctx%vals(q + 3, q + 3, nc) + a
+            end do
+          end if
+        end do
+      end do
+      row(1) = i + (j - ctx%lat%gys) * ctx%lat%nx
+      ncol = nc
+      PetscCall(set_block_row(pmat, row, ncol, ctx%cols, ctx%vals, 36 * nc, ierr))
+    end do
+  end subroutine insert_row
+
+  !> One block row into the matrix: vals as the flat array PETSc takes.
+  subroutine set_block_row(pmat, row, ncol, cols, vals, n, ierr)
+    type(tMat) :: pmat
+    PetscInt, intent(in) :: row(1), ncol
+    PetscInt, intent(in) :: cols(ncol)
+    integer, intent(in) :: n
+    PetscScalar, intent(in) :: vals(n)
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt, parameter :: one = 1
+    call MatSetValuesBlockedLocal(pmat, one, row, ncol, cols, vals, INSERT_VALUES, ierr)
+  end subroutine set_block_row
+
+  !> After every accepted step (and at the start of each TSSolve): advance
+  !> the trapezoid integrals of dissipated power and constraint power.
+  subroutine ts_monitor(ts, step, t, uvec, ctx, ierr)
+    type(tTS) :: ts
+    PetscInt :: step
+    PetscReal :: t
+    type(tVec) :: uvec
+    type(app_ctx) :: ctx
+    PetscErrorCode :: ierr
+    real(rp) :: p(2)
+
+    call powers(ctx, uvec, t, p, ierr)
+    if (ierr /= 0) return
+    if (t > ctx%t_prev) then
+      ctx%dissipated = ctx%dissipated + 0.5_rp * (ctx%pdiss_prev + p(1)) * (t - ctx%t_prev)
+      ctx%work_constraints = ctx%work_constraints + 0.5_rp * (ctx%pcon_prev + p(2)) * (t - ctx%t_prev)
+    end if
+    ctx%t_prev = t
+    ctx%pdiss_prev = p(1)
+    ctx%pcon_prev = p(2)
+  end subroutine ts_monitor
+
+  !> Global dissipated power p(1) and power of the constraint reactions p(2)
+  !> = -sum over moving constrained nodes of (f_internal + m g) . vbar.
+  subroutine powers(ctx, uvec, t, p, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    type(tVec) :: uvec
+    real(rp), intent(in) :: t
+    real(rp), intent(out) :: p(2)
+    PetscErrorCode, intent(out) :: ierr
+    type(tVec) :: uloc
+    PetscScalar, pointer :: u(:, :, :)
+    real(rp) :: loc(2), xb(3), vb(3)
+    integer :: k, i, j, nbad, bad(2)
+
+    loc = 0.0_rp
+    p = 0.0_rp
+    ierr = 0
+    if (.not. ctx%cfg%has_damping .and. ctx%cfg%eta_b == 0.0_rp .and. .not. ctx%moving_constraints) return
+    PetscCall(DMGetLocalVector(ctx%da, uloc, ierr))
+    PetscCall(DMGlobalToLocalBegin(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
+    PetscCall(DMGlobalToLocalEnd(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
+    PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
+    call dissipated_power(ctx%lat, u, loc(1))
+    if (ctx%moving_constraints) then
+      call internal_forces(ctx%lat, u, ctx%f, nbad, bad)
+      do k = 1, ctx%cs%n
+        call constraint_target(ctx%cs, k, t, xb, vb)
+        i = ctx%cs%node(1, k)
+        j = ctx%cs%node(2, k)
+        loc(2) = loc(2) - dot_product(ctx%f(:, i, j) + ctx%lat%mass(i, j) * ctx%gravity, vb)
+      end do
+    end if
+    PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, uloc, u, ierr))
+    PetscCall(DMRestoreLocalVector(ctx%da, uloc, ierr))
+    call MPI_Allreduce(loc, p, 2, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, ierr)
+  end subroutine powers
+
+  ! ------------------------------------------------------------- time loop
+
+  !> Set the constraints of the window [ta, tb] and move the constrained
+  !> nodes onto their prescribed path; returns the jump of their kinetic
+  !> energy (the work of the impulse at a keyframe). Collective.
+  subroutine enter_window(ctx, ta, tb, dke, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    real(rp), intent(in) :: ta, tb
+    real(rp), intent(out) :: dke
+    PetscErrorCode, intent(out) :: ierr
+    PetscScalar, pointer :: ua(:, :, :)
+    real(rp) :: xb(3), vb(3), loc(2), m
+    integer :: k, i, j
+
+    call constraints_set_window(ctx%cs, ta, tb)
+    ctx%fixed = .false.
+    loc = 0.0_rp
+    PetscCall(DMDAVecGetArrayF90(ctx%da, ctx%u, ua, ierr))
+    if (ctx%cs%active) then
+      do k = 1, ctx%cs%n
+        i = ctx%cs%node(1, k)
+        j = ctx%cs%node(2, k)
+        call constraint_target(ctx%cs, k, ta, xb, vb)
+        m = ctx%lat%mass(i, j)
+        loc(1) = loc(1) + 0.5_rp * m * (dot_product(vb, vb) - dot_product(ua(3:5, i, j), ua(3:5, i, j)))
+        if (any(vb /= 0.0_rp)) loc(2) = 1.0_rp
+        ua(0:2, i, j) = xb
+        ua(3:5, i, j) = vb
+        ctx%fixed(i, j) = .true.
+      end do
+    end if
+    PetscCall(DMDAVecRestoreArrayF90(ctx%da, ctx%u, ua, ierr))
+    call MPI_Allreduce(MPI_IN_PLACE, loc, 2, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, ierr)
+    dke = loc(1)
+    ctx%moving_constraints = loc(2) > 0.0_rp
+  end subroutine enter_window
+
+  !> Integrate from t = 0 to t_end, writing every output step. On a failed
+  !> step, status says why and ierr = 0 (the output so far is kept); ierr /= 0
+  !> is left for PETSc or HDF5 errors. Collective.
+  subroutine solver_run(ctx, out, status, ierr)
+    type(app_ctx), intent(inout), target :: ctx
+    type(output_file), intent(inout) :: out
+    character(len=*), intent(out) :: status
+    PetscErrorCode, intent(out) :: ierr
+    real(rp), allocatable :: events(:)
+    real(rp) :: t, tstop, tnext_out, h0, h, dke, eps, unorm
+    integer :: iout, ie
+    TSConvergedReason :: reason
+    character(len=256) :: msg, reasonname
+
+    status = 'complete'
+    events = constraint_events(ctx%cs, ctx%cfg%t_end)
+    eps = 1.0e-12_rp * max(1.0_rp, ctx%cfg%t_end)
+    PetscCall(TSGetTimeStep(ctx%ts, h0, ierr))   ! -ts_dt overrides the namelist's dt
+    h = h0
+    t = 0.0_rp
+    ie = 1
+    iout = 0
+    tstop = next_stop(t)
+    call enter_window(ctx, t, tstop, dke, ierr)
+    if (ierr /= 0) return
+    ctx%t_prev = 0.0_rp
+    call write_output(ctx, out, t, ierr)
+    if (ierr /= 0) return
+    iout = 1
+
+    do while (t < ctx%cfg%t_end - eps)
+      tstop = next_stop(t)
+      if (t > 0.0_rp) then
+        call enter_window(ctx, t, tstop, dke, ierr)
+        if (ierr /= 0) return
+        ctx%work_constraints = ctx%work_constraints + dke
+        PetscCall(TSRestartStep(ctx%ts, ierr))
+      end if
+      PetscCall(TSSetMaxTime(ctx%ts, tstop, ierr))
+      if (isfixedstep(ctx)) h = h0
+      if (t + 1.01_rp * h >= tstop) h = tstop - t
+      PetscCall(TSSetTimeStep(ctx%ts, h, ierr))
+      PetscCall(TSSolve(ctx%ts, ctx%u, ierr))
+      PetscCall(TSGetConvergedReason(ctx%ts, reason, ierr))
+      PetscCall(TSGetTime(ctx%ts, t, ierr))
+      PetscCall(VecNorm(ctx%u, NORM_INFINITY, unorm, ierr))
+      if (reason < 0 .or. unorm /= unorm .or. unorm > huge(1.0_rp)) then
+        call failure_reason(ctx, reason, t, msg)
+        status = 'failed: '//trim(msg)
+        if (ctx%rank == 0) write(*, '(a)') 'nuno: error: '//trim(msg)
+        return
+      end if
+      if (abs(t - tstop) > 1.0e3_rp * eps) then
+        write(reasonname, '(a,es12.5,a,es12.5)') 'time integration stopped at t = ', t, ' before ', tstop
+        status = 'failed: '//trim(reasonname)
+        if (ctx%rank == 0) write(*, '(a)') 'nuno: error: '//trim(reasonname)
+        return
+      end if
+      t = tstop
+      PetscCall(TSSetTime(ctx%ts, t, ierr))
+      PetscCall(TSGetTimeStep(ctx%ts, h, ierr))
+      if (abs(t - output_time(iout)) <= eps) then
+        call write_output(ctx, out, t, ierr)
+        if (ierr /= 0) return
+        iout = iout + 1
+      end if
+    end do
+
+  contains
+
+    !> Output times: multiples of output_interval, and t_end.
+    real(rp) function output_time(k)
+      integer, intent(in) :: k
+      output_time = min(real(k, rp) * ctx%cfg%output_interval, ctx%cfg%t_end)
+    end function output_time
+
+    !> Next time at which the integrator must stop after t.
+    real(rp) function next_stop(tt)
+      real(rp), intent(in) :: tt
+      integer :: m
+      next_stop = output_time(iout)
+      do m = 1, size(events)
+        if (events(m) > tt + eps) next_stop = min(next_stop, events(m))
+      end do
+    end function next_stop
+
+  end subroutine solver_run
+
+  !> True when the TS adaptor is 'none' (fixed steps).
+  logical function isfixedstep(ctx)
+    type(app_ctx), intent(in) :: ctx
+    type(tTSAdapt) :: adapt
+    PetscBool :: match
+    PetscErrorCode :: ierr
+    call TSGetAdapt(ctx%ts, adapt, ierr)
+    call PetscObjectTypeCompare(adapt, TSADAPTNONE, match, ierr)
+    isfixedstep = match
+  end function isfixedstep
+
+  !> One line saying why the run stopped.
+  subroutine failure_reason(ctx, reason, t, msg)
+    type(app_ctx), intent(in) :: ctx
+    TSConvergedReason, intent(in) :: reason
+    real(rp), intent(in) :: t
+    character(len=*), intent(out) :: msg
+    integer :: nbad(1), gbad(1), ierr, loc(3), glob(3)
+
+    nbad(1) = ctx%nbad
+    call MPI_Allreduce(nbad, gbad, 1, MPI_INTEGER, MPI_MAX, ctx%comm, ierr)
+    if (gbad(1) > 0) then
+      loc = -1
+      if (ctx%nbad > 0) loc = [ctx%bad(1), ctx%bad(2), 1]
+      call MPI_Allreduce(loc, glob, 3, MPI_INTEGER, MPI_MAX, ctx%comm, ierr)
+      write(msg, '(a,es12.5,a,i0,a,i0,a)') 'singular element at t = ', ctx%t_bad, &
+        ' (zero-length link or bending triple folded back to theta = pi) anchored at node (', &
+        glob(1), ', ', glob(2), ')'
+    else if (reason < 0) then
+      write(msg, '(a,es12.5,a,i0,a)') 'time step failed at t = ', t, ' (TSConvergedReason ', reason, &
+        '; nonlinear solve diverged: try a smaller dt or -ts_adapt_type basic)'
+    else
+      write(msg, '(a,es12.5)') 'state became NaN or infinite at t = ', t
+    end if
+  end subroutine failure_reason
+
+  !> Diagnostics and one output step; a one-line summary on rank 0.
+  subroutine write_output(ctx, out, t, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    type(output_file), intent(inout) :: out
+    real(rp), intent(in) :: t
+    PetscErrorCode, intent(out) :: ierr
+    type(tVec) :: uloc
+    PetscScalar, pointer :: u(:, :, :)
+    type(state_diagnostics_t) :: d
+    type(output_record) :: rec
+    PetscInt :: steps, rejects, nits, lits
+    character(len=512) :: errmsg
+    integer :: j
+
+    PetscCall(DMGetLocalVector(ctx%da, uloc, ierr))
+    PetscCall(DMGlobalToLocalBegin(ctx%da, ctx%u, INSERT_VALUES, uloc, ierr))
+    PetscCall(DMGlobalToLocalEnd(ctx%da, ctx%u, INSERT_VALUES, uloc, ierr))
+    PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
+    call state_diagnostics(ctx%lat, u, ctx%gravity, ctx%comm, d, ierr)
+    do j = ctx%lat%ys, ctx%lat%ye
+      ctx%xout(:, :, j) = u(0:2, :, j)
+      ctx%vout(:, :, j) = u(3:5, :, j)
+    end do
+    PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, uloc, u, ierr))
+    PetscCall(DMRestoreLocalVector(ctx%da, uloc, ierr))
+    if (t == 0.0_rp) ctx%mgx0 = d%mgx
+
+    PetscCall(TSGetStepNumber(ctx%ts, steps, ierr))
+    PetscCall(TSGetStepRejections(ctx%ts, rejects, ierr))
+    PetscCall(TSGetSNESIterations(ctx%ts, nits, ierr))
+    PetscCall(TSGetKSPIterations(ctx%ts, lits, ierr))
+    rec%time = t
+    rec%kinetic = d%kinetic
+    rec%stretch = d%stretch
+    rec%bend = d%bend
+    rec%dissipated = ctx%dissipated
+    rec%external_work = ctx%work_constraints + (d%mgx - ctx%mgx0)
+    rec%momentum = d%momentum
+    rec%angular_momentum = d%angular_momentum
+    rec%length = d%length
+    rec%flatness = d%flatness
+    rec%steps = steps
+    rec%rejected_steps = rejects
+    rec%newton_iterations = nits
+    rec%linear_iterations = lits
+    if (ctx%cfg%write_velocity) then
+      call output_write_step(out, rec, ctx%xout, ierr, errmsg, v=ctx%vout)
+    else
+      call output_write_step(out, rec, ctx%xout, ierr, errmsg)
+    end if
+    if (ierr /= 0) then
+      if (ctx%rank == 0) write(*, '(a)') 'nuno: error: '//trim(errmsg)
+      return
+    end if
+    if (ctx%rank == 0) write(*, '(a,es11.4,a,i7,a,i4,a,i7,a,i9,a,es12.5,a,es12.5)') &
+      't =', t, '  steps', steps, '  rejected', rejects, '  newton', nits, '  linear', lits, &
+      '  E_kin', d%kinetic, '  E_total', d%kinetic + d%stretch + d%bend + ctx%dissipated - rec%external_work
+  end subroutine write_output
+
+  !> A quiet NaN.
+  real(rp) function ieee_nan()
+    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
+    ieee_nan = ieee_value(1.0_rp, ieee_quiet_nan)
+  end function ieee_nan
+
+end module timestepping

@@ -1,0 +1,61 @@
+"""Run the real nuno program from a test: write a namelist, launch it under
+mpiexec on N ranks with a time bound, and read the result through the users'
+reader (postprocess.reader)."""
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from postprocess.reader import read_run  # noqa: E402
+
+
+def exe():
+    """Path of the nuno executable (set by CTest), or skip."""
+    path = os.environ.get("NUNO_EXE")
+    if not path:
+        pytest.skip("NUNO_EXE is not set (run through ctest)")
+    if not Path(path).exists():
+        pytest.fail(f"NUNO_EXE={path} does not exist")
+    return path
+
+
+def mpiexec():
+    return os.environ.get("NUNO_MPIEXEC", "mpiexec")
+
+
+def namelist(output_file, **groups):
+    """Namelist text from {group: 'key=value ...'} plus the output file."""
+    out = groups.pop("output", "")
+    lines = [f"&{g} {body} /" for g, body in groups.items()]
+    lines.append(f"&output output_file='{output_file}' {out} /")
+    return "\n".join(lines) + "\n"
+
+
+def run(tmp_path, name, nranks=1, options=(), timeout=300, check=True, **groups):
+    """Run nuno on a namelist built from groups; return (CompletedProcess, h5 path)."""
+    tmp_path = Path(tmp_path)
+    h5 = tmp_path / f"{name}.h5"
+    nml = tmp_path / f"{name}.nml"
+    nml.write_text(namelist(h5.name, **groups))
+    cmd = [mpiexec(), "-n", str(nranks), "--oversubscribe", exe(), str(nml), *options]
+    proc = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=timeout)
+    if check and proc.returncode != 0:
+        raise AssertionError(f"nuno failed ({proc.returncode}):\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}")
+    return proc, h5
+
+
+def run_and_read(tmp_path, name, **kw):
+    proc, h5 = run(tmp_path, name, **kw)
+    return proc, read_run(str(h5))
+
+
+def jacobian_ratios(text):
+    """All ||J - Jfd||_F/||J||_F values printed by -snes_test_jacobian."""
+    return [float(m) for m in re.findall(r"\|\|J - Jfd\|\|_F/\|\|J\|\|_F = ([0-9.eE+-]+)", text)]

@@ -1,0 +1,400 @@
+"""Tests of postprocess/: the reader and each script.
+
+Files come from the make_run writer (conftest.py; known analytic content) and,
+when NUNO_EXE is set, from a real solver run (the `run_file` fixture is
+parametrised over both; the solver variant is skipped without NUNO_EXE).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from PIL import Image
+
+from postprocess import animate, compare, convergence, plotting, snapshots, timeseries
+from postprocess import workprecision
+from postprocess.reader import DIAGNOSTIC_NAMES, ENERGY_NAMES, read_run
+
+REPO = Path(__file__).resolve().parents[2]
+SCRIPTS = ("snapshots", "timeseries", "animate", "compare", "convergence", "workprecision")
+
+
+def assert_png(path):
+    assert path.is_file() and path.stat().st_size > 0
+    with Image.open(path) as im:
+        assert im.format == "PNG"
+        assert im.size[0] > 100 and im.size[1] > 100
+
+
+def cli(*args):
+    """Run `python3 -m postprocess.<...>` as a user would; returns CompletedProcess."""
+    env = dict(os.environ, PYTHONPATH=str(REPO), MPLBACKEND="Agg")
+    return subprocess.run([sys.executable, "-m", *args], cwd=REPO, env=env,
+                          capture_output=True, text=True, timeout=300)
+
+
+def values(capsys, key):
+    """Values of the stdout lines `key <value> ...`."""
+    out = capsys.readouterr().out
+    return [float(line.split()[1]) for line in out.splitlines() if line.startswith(key + " ")]
+
+
+# ---------------------------------------------------------------- reader
+
+
+def test_reader_matches_independent_h5py_read(run_file):
+    run = read_run(run_file)
+    with h5py.File(run_file, "r") as f:
+        nt = int(f.attrs["n_output_steps"])
+        nx, ny = int(f.attrs["nx"]), int(f.attrs["ny"])
+        assert (run.nx, run.ny, run.nt) == (nx, ny, nt)
+        assert run.time.shape == (nt,)
+        assert run.position.shape == (nt, ny, nx, 3)
+        assert run.rest_position.shape == (ny, nx, 3)
+        assert run.mass.shape == (ny, nx)
+        np.testing.assert_array_equal(run.time, f["time"][:nt])
+        np.testing.assert_array_equal(run.position, f["position"][:nt])
+        np.testing.assert_array_equal(run.rest_position, f["lattice/rest_position"][()])
+        np.testing.assert_array_equal(run.mass, f["lattice/mass"][()])
+        if "velocity" in f:
+            assert run.velocity.shape == (nt, ny, nx, 3)
+            np.testing.assert_array_equal(run.velocity, f["velocity"][:nt])
+        else:
+            assert run.velocity is None
+        assert set(run.energy) == set(ENERGY_NAMES)
+        assert set(run.diagnostics) == set(DIAGNOSTIC_NAMES)
+        for name in ENERGY_NAMES:
+            assert run.energy[name].shape == (nt,)
+            np.testing.assert_array_equal(run.energy[name], f[f"energy/{name}"][:nt])
+        for name in DIAGNOSTIC_NAMES:
+            shape = (nt, 3) if "momentum" in name else (nt,)
+            assert run.diagnostics[name].shape == shape
+            np.testing.assert_array_equal(run.diagnostics[name], f[f"diagnostics/{name}"][:nt])
+    assert run.complete and run.status == "complete" and run.status_line() is None
+    assert "lift_release" in run.namelist and run.units() == "mm"
+    assert run.n_ranks == 2
+
+
+def test_reader_analytic_content(tmp_path, make_run):
+    ref = make_run(tmp_path / "a.h5", nx=7, ny=5, nt=9)
+    run = read_run(tmp_path / "a.h5")
+    total_mass = run.mass.sum()
+    np.testing.assert_allclose(total_mass, 1.0, rtol=1e-14)
+    for p in run.diagnostics["momentum"]:
+        np.testing.assert_allclose(p, total_mass * ref["velocity_translation"], atol=1e-12)
+    np.testing.assert_allclose(run.diagnostics["length"], ref["lx"], rtol=1e-12)
+    assert np.max(run.diagnostics["flatness"]) < 1e-9
+    balance = run.energy_balance()
+    np.testing.assert_allclose(balance, run.energy["kinetic"][0], rtol=1e-12)
+    assert np.ptp(run.energy["stretch"]) > 0.1  # the balance cancels real ramps
+    np.testing.assert_array_equal(run.position, ref["position"])
+
+
+def test_reader_units_guess(tmp_path, make_run):
+    for scene, hint, units in (("lift_release", "", "mm"), ("bend_release", "", "mm"),
+                               ("wave_point", "", "mm"), ("hang", "", "m"),
+                               ("hang", "&output units='cm' /", "cm")):
+        path = tmp_path / f"{scene}{len(hint)}.h5"
+        make_run(path, scene=scene, namelist_extra=hint)
+        assert read_run(path).units() == units, (scene, hint)
+
+
+def test_reader_truncated_running_file(tmp_path, make_run):
+    path = tmp_path / "killed.h5"
+    make_run(path, nt=4, complete=False, extra_steps=3)
+    with h5py.File(path, "r") as f:
+        assert f["position"].shape[0] == 7 and f.attrs["status"] == "running"
+    run = read_run(path)
+    assert run.nt == 4 and run.n_stored == 7
+    assert not run.complete and run.status == "running"
+    assert np.all(np.isfinite(run.position)) and np.all(np.isfinite(run.time))
+    assert run.diagnostics["steps"].shape == (4,) and 12345 not in run.diagnostics["steps"]
+    assert run.status_line() == "run did not finish: status=running; using 4 complete output steps"
+
+
+def test_reader_without_n_output_steps_uses_shortest(tmp_path, make_run):
+    path = tmp_path / "noattr.h5"
+    make_run(path, nt=5, n_output_steps=False, uneven=True, status="failed: diverged")
+    run = read_run(path)
+    assert run.nt == 5 and run.position.shape[0] == 5 and run.n_stored == 7
+    assert not run.complete and run.status == "failed: diverged"
+
+
+def test_reader_bytes_attributes(tmp_path, make_run):
+    path = tmp_path / "bytes.h5"
+    make_run(path, bytes_attrs=True)
+    with h5py.File(path, "r") as f:
+        assert isinstance(f.attrs["status"], bytes)
+    run = read_run(path)
+    assert run.status == "complete" and run.complete
+    assert run.petsc_options == "-ts_type beuler"
+    assert isinstance(run.namelist, str) and run.units() == "mm"
+
+
+def test_reader_errors(tmp_path):
+    with pytest.raises(FileNotFoundError, match="no such file"):
+        read_run(tmp_path / "missing.h5")
+    text = tmp_path / "text.h5"
+    text.write_text("not hdf5\n")
+    with pytest.raises(ValueError, match="not an HDF5 file"):
+        read_run(text)
+    other = tmp_path / "other.h5"
+    with h5py.File(other, "w") as f:
+        f["data"] = np.zeros(3)
+    with pytest.raises(ValueError, match="not a nuno output file"):
+        read_run(other)
+
+
+def test_position_at_interpolates_and_checks_range(tmp_path, make_run):
+    make_run(tmp_path / "a.h5", nt=4, dt=0.5)
+    run = read_run(tmp_path / "a.h5")
+    np.testing.assert_allclose(run.position_at(0.25), 0.5 * (run.position[0] + run.position[1]))
+    np.testing.assert_array_equal(run.position_at(1.5), run.position[3])
+    assert run.step_index(0.9) == 2
+    with pytest.raises(ValueError, match="outside"):
+        run.step_index(1.6)
+
+
+# ---------------------------------------------------------------- snapshots
+
+
+def test_snapshots_panels_and_png(run_file, tmp_path):
+    run = read_run(run_file)
+    t0, t1 = run.time[0], run.time[-1]
+    out = tmp_path / "snap.png"
+    times = [str(t0), str(0.5 * (t0 + t1)), str(t1)]
+    assert snapshots.main([str(run_file), "--times", *times, "-o", str(out)]) == 0
+    assert_png(out)
+    steps = snapshots.choose_steps(run, [t0, 0.5 * (t0 + t1), t1])
+    assert steps[0] == 0 and steps[-1] == run.nt - 1
+    assert len(plotting.panels(snapshots.build_figure(run, steps))) == 3
+    assert len(plotting.panels(snapshots.build_figure(run, steps, "overlay", "side"))) == 1
+    default = snapshots.choose_steps(run)
+    assert len(default) == min(4, run.nt) and default[-1] == run.nt - 1
+    assert len(plotting.panels(snapshots.build_figure(run, default))) == len(default)
+
+
+def test_snapshots_overlay_side_and_units(tmp_path, make_run):
+    make_run(tmp_path / "hang.h5", scene="hang")
+    out = tmp_path / "o.png"
+    assert snapshots.main([str(tmp_path / "hang.h5"), "--layout", "overlay", "--view", "side",
+                           "-o", str(out)]) == 0
+    assert_png(out)
+    run = read_run(tmp_path / "hang.h5")
+    fig = snapshots.build_figure(run, [0, 1], "panels")
+    assert fig.axes[0].get_xlabel() == "x [m]"
+    make_run(tmp_path / "lift.h5")
+    fig = snapshots.build_figure(read_run(tmp_path / "lift.h5"), [0], "panels")
+    assert fig.axes[0].get_zlabel() == "z [mm]"
+    # equal scales: the box aspect follows the data ranges of x and y
+    ax = fig.axes[0]
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    aspect = ax.get_box_aspect()
+    assert aspect[0] / aspect[1] == pytest.approx((x1 - x0) / (y1 - y0), rel=1e-6)
+
+
+# ---------------------------------------------------------------- timeseries
+
+
+def test_timeseries_panels_and_png(run_file, tmp_path):
+    out = tmp_path / "ts.png"
+    assert timeseries.main([str(run_file), "-o", str(out)]) == 0
+    assert_png(out)
+    run = read_run(run_file)
+    assert len(plotting.panels(timeseries.build_figure(run))) == timeseries.N_PANELS == 8
+
+
+def test_timeseries_balance_drift_is_zero_for_closed_balance(tmp_path, make_run):
+    make_run(tmp_path / "a.h5", nt=8)
+    drift = timeseries.balance_drift(read_run(tmp_path / "a.h5"))
+    assert np.max(np.abs(drift)) < 1e-12
+
+
+# ---------------------------------------------------------------- animate
+
+
+@pytest.mark.parametrize("stride", [1, 2])
+def test_animate_gif_frames(run_file, tmp_path, capsys, stride):
+    run = read_run(run_file)
+    out = tmp_path / "a.gif"
+    assert animate.main([str(run_file), "--stride", str(stride), "-o", str(out)]) == 0
+    with Image.open(out) as im:
+        assert im.format == "GIF"
+        assert im.n_frames == math.ceil(run.nt / stride)
+    err = capsys.readouterr().err
+    assert f"{math.ceil(run.nt / stride)}/{math.ceil(run.nt / stride)} frames" in err
+
+
+def test_animate_no_progress_and_mp4_without_ffmpeg(tmp_path, make_run, capsys, monkeypatch):
+    make_run(tmp_path / "a.h5", nt=3)
+    assert animate.main([str(tmp_path / "a.h5"), "--no-progress", "-o",
+                         str(tmp_path / "a.gif")]) == 0
+    assert "frames" not in capsys.readouterr().err
+    monkeypatch.setattr(animate.shutil, "which", lambda name: None)
+    assert animate.main([str(tmp_path / "a.h5"), "-o", str(tmp_path / "a.mp4")]) == 1
+    assert "error: ffmpeg not found" in capsys.readouterr().err
+
+
+def test_animate_mp4_with_ffmpeg(tmp_path, make_run):
+    if animate.shutil.which("ffmpeg") is None:
+        pytest.skip("ffmpeg not on PATH")
+    make_run(tmp_path / "a.h5", nt=4)
+    out = tmp_path / "a.mp4"
+    assert animate.main([str(tmp_path / "a.h5"), "--no-progress", "-o", str(out)]) == 0
+    assert out.stat().st_size > 0
+
+
+# ---------------------------------------------------------------- compare
+
+
+def test_compare_run_with_itself(run_file, tmp_path, capsys):
+    out = tmp_path / "c.png"
+    assert compare.main([str(run_file), str(run_file), "-o", str(out), "--tol", "0"]) == 0
+    assert values(capsys, "max_difference") == [0.0]
+    assert_png(out)
+
+
+def test_compare_different_runs_positive_and_exact(tmp_path, make_run, capsys):
+    a, b, c = tmp_path / "a.h5", tmp_path / "b.h5", tmp_path / "c.h5"
+    make_run(a, nt=11, dt=0.1, omega=0.0, velocity=(1.0, 0.0, 0.0))
+    make_run(b, nt=11, dt=0.1, omega=0.0, velocity=(1.0, 0.0, 0.3))
+    # other output times: linear motion, so interpolation is exact
+    make_run(c, nt=5, dt=0.2, omega=0.0, velocity=(1.0, 0.0, -0.2))
+    assert compare.main([str(a), str(b), str(c), "--time", "0.5", "-o",
+                         str(tmp_path / "c.png")]) == 0
+    (diff,) = values(capsys, "max_difference")
+    assert diff == pytest.approx(0.3 * 0.8, rel=1e-12)  # b at t = 0.8 (common end)
+    runs = [read_run(p) for p in (a, b, c)]
+    series = [compare.difference(runs[0], r, compare.common_interval(runs)) for r in runs[1:]]
+    np.testing.assert_allclose(series[1][1], 0.2 * series[1][0], atol=1e-12)
+    fig = compare.build_figure(runs, 0.5, series)
+    assert len(plotting.panels(fig)) == 4  # 3 snapshots + the difference
+
+
+def test_compare_rotating_runs_differ(tmp_path, make_run, capsys):
+    make_run(tmp_path / "a.h5", omega=0.7)
+    make_run(tmp_path / "b.h5", omega=0.8)
+    assert compare.main([str(tmp_path / "a.h5"), str(tmp_path / "b.h5"), "-o",
+                         str(tmp_path / "c.png")]) == 0
+    assert values(capsys, "max_difference")[0] > 0.1
+
+
+def test_compare_rejects_different_lattices(tmp_path, make_run, capsys):
+    make_run(tmp_path / "a.h5", nx=5)
+    make_run(tmp_path / "b.h5", nx=6)
+    make_run(tmp_path / "c.h5", nx=5, lx=90.0)
+    for other in ("b.h5", "c.h5"):
+        assert compare.main([str(tmp_path / "a.h5"), str(tmp_path / other), "-o",
+                             str(tmp_path / "x.png")]) == 1
+        err = capsys.readouterr().err
+        assert err.startswith("error: lattices differ") and err.count("\n") == 1
+
+
+# ---------------------------------------------------------------- log-log plots
+
+
+def write_csv(path, rows, header="parameter,error,run_time"):
+    path.write_text(header + "\n" + "".join(",".join(map(repr, r)) + "\n" for r in rows))
+    return path
+
+
+def test_convergence_slope_two(tmp_path, capsys):
+    hs = [0.1 / 2**k for k in range(5)]
+    csv_path = write_csv(tmp_path / "conv.csv", [(h, 3.7 * h**2, 1.0 / h) for h in hs])
+    out = tmp_path / "conv.png"
+    assert convergence.main([str(csv_path), "-o", str(out)]) == 0
+    (slope,) = values(capsys, "slope")
+    assert abs(slope - 2.0) < 1e-6
+    assert_png(out)
+
+
+def test_workprecision_slope_and_groups(tmp_path, capsys):
+    rows = []
+    for err in (1e-2, 1e-3, 1e-4, 1e-5):
+        rows.append(("beuler", err, 5.0 * err**-1.0))
+        rows.append(("cn", err, 2.0 * err**-0.5))
+    path = tmp_path / "wp.csv"
+    path.write_text("ts_type,tol_error,seconds\n"
+                    + "".join(f"{g},{e!r},{t!r}\n" for g, e, t in rows))
+    assert workprecision.main([str(path), "--x-column", "tol_error", "--y-column", "seconds",
+                               "--group-column", "ts_type", "-o", str(tmp_path / "wp.png")]) == 0
+    out = capsys.readouterr().out.splitlines()
+    slopes = {line.split()[2]: float(line.split()[1]) for line in out if line.startswith("slope ")}
+    assert slopes["beuler"] == pytest.approx(-1.0, abs=1e-9)
+    assert slopes["cn"] == pytest.approx(-0.5, abs=1e-9)
+    assert_png(tmp_path / "wp.png")
+
+
+def test_convergence_fit_range_and_one_panel(tmp_path, capsys):
+    from postprocess import loglog
+    hs = np.array([0.2, 0.1, 0.05, 0.025])
+    err = 2.0 * hs**2
+    err[0] = 1.0  # pre-asymptotic point, left out of the fit
+    series = {"": (np.sort(hs), err[np.argsort(hs)])}
+    fig, slopes = loglog.build_figure(series, "parameter", "error", (None, 0.1))
+    assert slopes[""] == pytest.approx(2.0, abs=1e-9)
+    assert len(plotting.panels(fig)) == 1
+
+
+# ---------------------------------------------------------------- command line
+
+
+@pytest.mark.parametrize("script", SCRIPTS)
+def test_help(script):
+    proc = cli(f"postprocess.{script}", "--help")
+    assert proc.returncode == 0 and "usage:" in proc.stdout and "--output" in proc.stdout
+
+
+def test_unfinished_run_notice(tmp_path, make_run):
+    make_run(tmp_path / "k.h5", nt=3, complete=False, extra_steps=2)
+    proc = cli("postprocess.timeseries", str(tmp_path / "k.h5"), "-o", str(tmp_path / "k.png"))
+    assert proc.returncode == 0, proc.stderr
+    assert "run did not finish: status=running; using 3 complete output steps" in proc.stderr
+    assert_png(tmp_path / "k.png")
+
+
+def test_bad_arguments(tmp_path, make_run):
+    make_run(tmp_path / "a.h5", nt=3, dt=0.1)
+    cases = [
+        (("postprocess.snapshots", str(tmp_path / "missing.h5")), 1, "no such file"),
+        (("postprocess.timeseries", str(tmp_path / "a.h5"), "--bogus"), 2, "unrecognized"),
+        (("postprocess.snapshots", str(tmp_path / "a.h5"), "--times", "5.0"), 1, "outside"),
+        (("postprocess.snapshots", str(tmp_path / "a.h5"), "--times", "x"), 2, "invalid float"),
+        (("postprocess.animate", str(tmp_path / "a.h5"), "--stride", "0"), 1, "stride"),
+        (("postprocess.compare", str(tmp_path / "a.h5")), 1, "at least two"),
+        (("postprocess.compare", str(tmp_path / "a.h5"), str(tmp_path / "a.h5"),
+          "--time", "9"), 1, "outside"),
+        (("postprocess.convergence", str(write_csv(tmp_path / "n.csv", [(1.0, 2.0)], "h,e"))),
+         1, "no column 'parameter'"),
+        (("postprocess.convergence", str(write_csv(tmp_path / "h.csv", [(1.0, 2.0, 3.0)],
+                                                     "1.0,1.0,1.0"))), 1, "no header"),
+        (("postprocess.convergence",), 2, "required"),
+    ]
+    for args, code, message in cases:
+        proc = cli(*args)
+        assert proc.returncode == code, (args, proc.returncode, proc.stderr)
+        assert message in proc.stderr, (args, proc.stderr)
+        if code == 1:
+            assert proc.stderr.startswith("error: ") and proc.stderr.count("\n") == 1, proc.stderr
+    assert not (REPO / "a_snapshots.png").exists()
+
+
+# ---------------------------------------------------------------- real solver
+
+
+def test_solver_run_metadata(solver_run):
+    run = read_run(solver_run)
+    assert (run.nx, run.ny, run.n_ranks) == (5, 5, 2)
+    assert run.complete and run.status == "complete"
+    np.testing.assert_allclose(run.time, 0.01 * np.arange(6), atol=1e-9)
+    assert run.scene() == "lift_release" and run.units() == "mm"
+    assert os.path.isfile(os.path.splitext(solver_run)[0] + ".xmf")
+    # lift_release: edge i = 0 is pinned for the whole run
+    assert np.max(np.abs(run.position[:, :, 0] - run.rest_position[:, 0])) < 1e-12

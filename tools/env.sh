@@ -1,0 +1,10 @@
+# Sourced by the tools/ scripts: environment that lets Open MPI run as root
+# and with more ranks than cores (CI machines have 2 cores).
+export OMPI_ALLOW_RUN_AS_ROOT=1
+export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+export OMPI_MCA_rmaps_base_oversubscribe=1
+export OMPI_MCA_btl_vader_single_copy_mechanism=none
+export PYTHONDONTWRITEBYTECODE=1
+export MPLBACKEND=Agg
+NUNO_ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+export NUNO_ROOT

@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# Install what nuno needs on Debian 12: compilers, Open MPI, PETSc 3.18,
+# parallel HDF5 (apt) and the Python packages of postprocess/ and the tests
+# (pip). Idempotent; prints nothing on success, the failing log otherwise.
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+log=$(mktemp)
+trap 'rm -f "$log"' EXIT
+
+sudo=""
+[ "$(id -u)" -ne 0 ] && sudo="sudo"
+debs=(gfortran gcc make cmake pkg-config openmpi-bin libopenmpi-dev petsc-dev libhdf5-openmpi-dev liblapack-dev python3 python3-pip)
+missing=()
+for p in "${debs[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  if ! { $sudo apt-get update -qq && DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq "${missing[@]}"; } >"$log" 2>&1; then
+    cat "$log" >&2
+    echo "install.sh: apt-get install failed for: ${missing[*]}" >&2
+    exit 1
+  fi
+fi
+
+if ! python3 -c "import numpy, h5py, matplotlib, PIL, pytest" >/dev/null 2>&1; then
+  if ! python3 -m pip install --quiet --disable-pip-version-check --root-user-action=ignore \
+       -r "$here/requirements.txt" >"$log" 2>&1; then
+    # Debian's own python3 refuses system-wide pip installs (PEP 668).
+    if ! python3 -m pip install --quiet --disable-pip-version-check --break-system-packages \
+         -r "$here/requirements.txt" >"$log" 2>&1; then
+      cat "$log" >&2
+      echo "install.sh: pip install failed" >&2
+      exit 1
+    fi
+  fi
+fi
