@@ -113,3 +113,16 @@ def time_colormap(t0: float, t1: float):
     norm = Normalize(vmin=t0, vmax=t1 if t1 > t0 else t0 + 1.0)
     cmap = colormaps[CMAP]
     return (lambda t: cmap(norm(t))), ScalarMappable(norm=norm, cmap=cmap)
+
+
+def draw_lattice_side(ax, pos, color="C0", linewidth=0.8):
+    """The lattice lines of [ny][nx][3] projected onto the x-z plane, on 2-D axes.
+
+    A side view along y without a 3-D box: rows and columns of the lattice as
+    x-z polylines. The caller sets the limits and ax.set_aspect("equal").
+    """
+    from matplotlib.collections import LineCollection  # only this view needs it
+
+    xz = np.asarray(pos)[..., ::2]  # [ny][nx][(x, z)]
+    lines = list(xz) + list(xz.transpose(1, 0, 2))
+    return ax.add_collection(LineCollection(lines, colors=[color], linewidths=linewidth))

@@ -9,7 +9,7 @@ module errors
   use mpi
   implicit none
   private
-  public :: help_requested, input_path_argument, fatal_collective, apply_namelist_options
+  public :: help_requested, input_path_argument, fatal_collective, fatal_local, apply_namelist_options
   public :: petsc_options_text
 
 contains
@@ -49,6 +49,19 @@ contains
     if (initialized) call PetscFinalize(ierr)
     error stop 1
   end subroutine fatal_collective
+
+  !> Local error exit, for an error that some ranks may not have seen (a
+  !> PETSc or HDF5 failure inside the run): one line with the rank, then
+  !> MPI_Abort, which ends every rank, so nothing can hang in a collective.
+  subroutine fatal_local(msg)
+    character(len=*), intent(in) :: msg
+    integer :: rank, ierr
+    call MPI_Comm_rank(MPI_COMM_WORLD, rank, ierr)
+    write(0, '(a,i0,a)') 'nuno: error (rank ', rank, '): '//trim(msg)
+    flush(0)
+    call MPI_Abort(MPI_COMM_WORLD, 1, ierr)
+    error stop 1
+  end subroutine fatal_local
 
   !> Insert the namelist's petsc_options string, except options that the
   !> command line already set (the command line wins).

@@ -9,9 +9,9 @@ program nuno
   use config, only: nuno_config
   use lattice, only: rest_strip
   use input, only: input_read, input_usage, input_summary
-  use timestepping, only: app_ctx, solver_create, solver_destroy, solver_run
+  use timestepping, only: app_ctx, solver_create, solver_destroy, solver_run, check_decomposition
   use output, only: output_file, output_open, output_close
-  use errors, only: help_requested, fatal_collective, input_path_argument, apply_namelist_options, &
+  use errors, only: help_requested, fatal_collective, fatal_local, input_path_argument, apply_namelist_options, &
                     petsc_options_text
   implicit none
 
@@ -48,9 +48,12 @@ program nuno
     call input_summary(cfg, 6)
   end if
 
-  ! 3. Lattice strips, scene, Jacobian, TS.
+  ! 3. Lattice strips, scene, Jacobian, TS. A PETSc error here may have been
+  !    seen by some ranks only (a bad option, a failed allocation): abort.
+  call check_decomposition(cfg, nranks, ierr, errmsg)
+  if (ierr /= 0) call fatal_collective(errmsg)
   call solver_create(ctx, cfg, ierr)
-  if (ierr /= 0) call fatal_collective('could not set up the solver (PETSc error above)')
+  if (ierr /= 0) call fatal_local('could not set up the solver (PETSc error above)')
 
   ! 4. Output file, the time loop, and the completion mark written last.
   petsc_opts = petsc_options_text()
@@ -58,8 +61,11 @@ program nuno
                    ctx%lat%ye - ctx%lat%ys + 1, rest_strip(ctx%lat), ctx%lat%mass(:, ctx%lat%ys:ctx%lat%ye), &
                    cfg%write_velocity, cfg%namelist_text, petsc_opts, ierr, errmsg)
   if (ierr /= 0) call fatal_collective(errmsg)
+  ! A failed step ends the run collectively (status 'failed: ...', ierr = 0);
+  ! a PETSc or HDF5 error (ierr /= 0) may be local to some ranks: abort,
+  ! leaving the file marked 'running', never 'complete'.
   call solver_run(ctx, out, status, ierr)
-  if (ierr /= 0 .and. status == 'complete') status = 'failed: PETSc or HDF5 error during the run (see above)'
+  if (ierr /= 0) call fatal_local('PETSc or HDF5 error during the run (see above); output not marked complete')
   call output_close(out, trim(status), ierr, errmsg)
   if (ierr /= 0) call fatal_collective(errmsg)
 

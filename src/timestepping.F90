@@ -29,7 +29,7 @@ module timestepping
   use output, only: output_file, output_record, output_write_step
   implicit none
   private
-  public :: app_ctx, solver_create, solver_destroy, solver_run
+  public :: app_ctx, solver_create, solver_destroy, solver_run, check_decomposition
 
   !> Everything the callbacks need; passed to PETSc as the user context.
   type :: app_ctx
@@ -63,6 +63,25 @@ module timestepping
   end type app_ctx
 
 contains
+
+  !> Every rank must own at least halo rows (the DMDA cannot build a halo
+  !> wider than a strip). Same answer on every rank: a collective check.
+  subroutine check_decomposition(cfg, nranks, ierr, errmsg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(in) :: nranks
+    integer, intent(out) :: ierr
+    character(len=*), intent(out) :: errmsg
+    integer :: w
+    w = merge(1, 2, cfg%bending_code == BEND_NONE)
+    ierr = 0
+    errmsg = ''
+    if (cfg%ny / nranks < w) then
+      ierr = 1
+      write(errmsg, '(a,i0,a,i0,a,i0,a,i0,a)') '&lattice: ny = ', cfg%ny, ' is too small for ', nranks, &
+        ' ranks: each rank owns whole rows and needs at least ', w, ' (the halo width) of them; use at most ', &
+        cfg%ny / w, ' ranks'
+    end if
+  end subroutine check_decomposition
 
   !> Create the DMDA, the lattice strip, the initial state, the Jacobian
   !> matrix and the TS. Collective.
@@ -146,6 +165,8 @@ contains
     PetscCall(TSGetAdapt(ctx%ts, adapt, ierr))
     PetscCall(TSAdaptSetType(adapt, TSADAPTNONE, ierr))
     PetscCall(TSSetMaxSNESFailures(ctx%ts, minus_one, ierr))
+    ! A failed step is reported by solver_run (time, reason), not raised as an error.
+    PetscCall(TSSetErrorIfStepFails(ctx%ts, PETSC_FALSE, ierr))
     PetscCall(TSMonitorSet(ctx%ts, ts_monitor, ctx, PETSC_NULL_FUNCTION, ierr))
     PetscCall(TSGetSNES(ctx%ts, snes, ierr))
     PetscCall(TSSetFromOptions(ctx%ts, ierr))
@@ -532,9 +553,12 @@ contains
       write(msg, '(a,es12.5,a,i0,a,i0,a)') 'singular element at t = ', ctx%t_bad, &
         ' (zero-length link or bending triple folded back to theta = pi) anchored at node (', &
         glob(1), ', ', glob(2), ')'
+    else if (reason == TS_DIVERGED_NONLINEAR_SOLVE) then
+      write(msg, '(a,es12.5,a)') 'time step from t = ', t, ' failed: nonlinear solve diverged '// &
+        '(TS_DIVERGED_NONLINEAR_SOLVE; try a smaller dt, -ts_adapt_type basic or -snes_monitor)'
     else if (reason < 0) then
-      write(msg, '(a,es12.5,a,i0,a)') 'time step failed at t = ', t, ' (TSConvergedReason ', reason, &
-        '; nonlinear solve diverged: try a smaller dt or -ts_adapt_type basic)'
+      write(msg, '(a,es12.5,a,i0,a)') 'time step from t = ', t, ' failed (TSConvergedReason ', reason, &
+        ', e.g. -2 = step rejected too often by the error controller)'
     else
       write(msg, '(a,es12.5)') 'state became NaN or infinite at t = ', t
     end if

@@ -1,0 +1,102 @@
+"""postprocess.report_figures on tiny runs (--quick: 7 x 7, dt 5 ms, short t_end).
+
+Runs the real program (NUNO_EXE, set by CTest; skipped without it) on all six
+cases into a tmp dir, then checks the three PNGs and the panel counts of the
+figures that the build_* functions return. The namelist editing is checked
+without the program.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+from PIL import Image
+
+from postprocess import plotting, report_figures
+from postprocess.reader import read_run
+
+NAMES = ("fig3_lift_release", "fig4_bend_release", "fig5_wave_point")
+
+
+def test_set_key_replaces_one_value_in_its_group():
+    text = "&lattice\n  nx = 11, ny = 11   ! nodes\n  lx = 100.0\n/\n&time t_end = 5.0 /\n"
+    out = report_figures.set_key(text, "ny", "7")
+    assert "nx = 11, ny = 7   ! nodes" in out
+    out = report_figures.set_key(out, "t_end", "0.5")
+    assert "&time t_end = 0.5 /" in out
+    with pytest.raises(ValueError, match="no such key"):
+        report_figures.set_key(text, "nodes", "1")  # only in a comment
+    with pytest.raises(ValueError, match="KEY=VALUE"):
+        report_figures.parse_sets(["nx"])
+
+
+def test_quick_namelist_drops_energy_k_b_and_sets_output():
+    case = report_figures.FIGURES["fig3_lift_release"][1]
+    text = report_figures.case_namelist(case, {"e_s": "2.0"}, quick=True)
+    body = "\n".join(ln.split("!")[0] for ln in text.splitlines())
+    assert "k_b" not in body  # the program rescales k_b = 1 * ax for 7 x 7
+    assert "nx = 7, ny = 7" in body and "e_s = 2.0" in body
+    assert "output_file     = 'lift_release_energy.h5'" in body
+
+
+@pytest.fixture(scope="module")
+def quick_figures(tmp_path_factory):
+    exe = os.environ.get("NUNO_EXE")
+    if not exe:
+        pytest.skip("NUNO_EXE is not set (run through ctest)")
+    if not Path(exe).is_file():
+        pytest.fail(f"NUNO_EXE={exe}: no such file")
+    for key in ("OMPI_ALLOW_RUN_AS_ROOT", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM",
+                "OMPI_MCA_rmaps_base_oversubscribe"):
+        os.environ.setdefault(key, "1")
+    work = tmp_path_factory.mktemp("report_figures")
+    outdir, rundir = work / "figures", work / "runs"
+    rc = report_figures.main(["--quick", "--exe", exe, "--nranks", "2",
+                              "--outdir", str(outdir), "--rundir", str(rundir)])
+    assert rc == 0
+    return outdir, rundir
+
+
+def test_quick_run_writes_three_pngs(quick_figures):
+    outdir, _ = quick_figures
+    for name in NAMES:
+        path = outdir / f"{name}.png"
+        assert path.is_file() and path.stat().st_size > 0, path
+        with Image.open(path) as im:
+            assert im.format == "PNG" and im.size[0] > 300 and im.size[1] > 200
+
+
+def test_quick_runs_are_7x7_and_panel_counts(quick_figures):
+    _, rundir = quick_figures
+    for name, cases in report_figures.FIGURES.items():
+        runs = [read_run(rundir / f"{c.name}.h5") for c in cases]
+        assert all(r.complete and (r.nx, r.ny) == (7, 7) for r in runs)
+        fig = report_figures.BUILDERS[name](runs, [c.label for c in cases])
+        n_times = len(report_figures.TIMES[name])
+        # Figs. 3, 4: a side view per model + two diagnostics; Fig. 5: models x times.
+        expected = 4 if name != "fig5_wave_point" else 2 * n_times
+        assert len(plotting.panels(fig)) == expected, name
+    # Fig. 5 with the report's run alone: one row.
+    wave = read_run(rundir / "wave_point.h5")
+    fig = report_figures.build_fig5([wave], ["no bending"])
+    assert len(plotting.panels(fig)) == len(report_figures.TIMES["fig5_wave_point"])
+
+
+def test_skip_run_replots_and_missing_runs_fail(quick_figures, tmp_path, capsys):
+    _, rundir = quick_figures
+    assert report_figures.main(["--skip-run", "--rundir", str(rundir),
+                                "--outdir", str(tmp_path)]) == 0
+    assert sorted(p.name for p in tmp_path.glob("*.png")) == [f"{n}.png" for n in NAMES]
+    assert report_figures.main(["--skip-run", "--rundir", str(tmp_path / "none"),
+                                "--outdir", str(tmp_path)]) == 1
+    assert "run without --skip-run first" in capsys.readouterr().err
+
+
+def test_failed_run_exits_nonzero_with_the_programs_message(quick_figures, tmp_path, capsys):
+    rc = report_figures.main(["--quick", "--set", "nx=2", "--exe", os.environ["NUNO_EXE"],
+                              "--outdir", str(tmp_path / "f"), "--rundir", str(tmp_path / "r")])
+    assert rc == 1
+    err = capsys.readouterr().err
+    assert "run lift_release failed" in err and "nx" in err

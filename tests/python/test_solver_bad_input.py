@@ -1,0 +1,69 @@
+"""Bad input: one clear line naming the key and the value, a non-zero exit
+on every rank, no hang, and no output file that looks like a result.
+Everything runs on 3 ranks under a time bound."""
+import subprocess
+
+import pytest
+
+from nunorun import exe, mpiexec
+
+CASES = {
+    "unknown_key": ("&lattice nx=5 ny=6 nz=3 /", ["&lattice", "nz"]),
+    "nx_too_small": ("&lattice nx=2 ny=6 /", ["nx", "2"]),
+    "negative_mass": ("&lattice total_mass=-1.0 /", ["total_mass", "-1"]),
+    "wrong_type": ("&lattice nx='abc' /", ["nx", "abc"]),
+    "unknown_scene": ("&scene scene='tablecloth' /", ["scene", "tablecloth"]),
+    "unknown_spring_model": ("&material spring_model='cubic' /", ["spring_model", "cubic"]),
+    "negative_dt": ("&time dt=-0.1 /", ["dt"]),
+    "continuum_paper": ("&lattice lattice_scaling='continuum' /\n&material bending_model='paper' /",
+                        ["continuum", "paper"]),
+    "too_many_ranks_for_ny": ("&lattice nx=5 ny=5 /", ["ny = 5", "ranks"]),
+    "bad_petsc_option_string": ("&output petsc_options='ts_type cn' /", ["petsc_options", "ts_type"]),
+}
+
+
+def launch(tmp_path, args, nranks=3):
+    cmd = [mpiexec(), "-n", str(nranks), "--oversubscribe", exe(), *args]
+    return subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=60)
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_bad_namelist_fails_cleanly_on_three_ranks(tmp_path, case):
+    text, words = CASES[case]
+    if "&output" not in text:
+        text += "\n&output output_file='bad.h5' /"
+    (tmp_path / "bad.nml").write_text(text + "\n")
+    proc = launch(tmp_path, ["bad.nml"])
+    assert proc.returncode != 0
+    errors = [ln for ln in proc.stderr.splitlines() if ln.startswith("nuno: error")]
+    assert len(errors) == 1, proc.stderr       # one line, from rank 0 only
+    for w in words:
+        assert w in errors[0], errors[0]
+    assert not (tmp_path / "bad.h5").exists()
+    assert not list(tmp_path.glob("*.h5"))
+
+
+def test_missing_input_file(tmp_path):
+    proc = launch(tmp_path, ["no_such_file.nml"])
+    assert proc.returncode != 0
+    assert "no_such_file.nml" in proc.stderr
+    assert not list(tmp_path.glob("*.h5"))
+
+
+def test_no_input_file_prints_usage(tmp_path):
+    proc = launch(tmp_path, [])
+    assert proc.returncode != 0
+    assert "usage" in proc.stderr
+
+
+def test_unknown_ts_type_stops_every_rank(tmp_path):
+    (tmp_path / "ok.nml").write_text("&lattice nx=5 ny=6 /\n&output output_file='x.h5' /\n")
+    proc = launch(tmp_path, ["ok.nml", "-ts_type", "no_such_method"])
+    assert proc.returncode != 0
+    assert "no_such_method" in proc.stdout + proc.stderr
+
+
+def test_help(tmp_path):
+    proc = launch(tmp_path, ["--help"], nranks=1)
+    assert proc.returncode == 0
+    assert "usage" in proc.stdout.lower() and "&lattice" in proc.stdout

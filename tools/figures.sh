@@ -1,0 +1,13 @@
+#!/usr/bin/env bash
+# The report's Figs. 3-5: build nuno if needed, run the three scenes with the
+# paper and the energy bending models, write docs/figures/fig{3,4,5}_*.png.
+# Arguments go to postprocess.report_figures (e.g. --skip-run, --quick, --help).
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+source "$here/env.sh"
+cd "$NUNO_ROOT"
+if [[ ! -x build/nuno ]]; then
+  echo "figures.sh: building nuno (tools/build.sh)"
+  bash "$here/build.sh"
+fi
+exec python3 -m postprocess.report_figures "$@"
