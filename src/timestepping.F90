@@ -90,7 +90,7 @@ contains
     type(nuno_config), intent(in) :: cfg
     PetscErrorCode, intent(out) :: ierr
     PetscInt :: xs, ys, zs, xm, ym, zm, gxs, gys, gzs, gxm, gym, gzm, w, nc, nxp, nyp
-    PetscInt, parameter :: one = 1, six = 6, minus_one = -1
+    PetscInt, parameter :: one = 1, six = 6, eight = 8
     type(tSNES) :: snes
     type(tTSAdapt) :: adapt
     PetscScalar, pointer :: ua(:, :, :)
@@ -164,11 +164,17 @@ contains
     PetscCall(TSSetExactFinalTime(ctx%ts, TS_EXACTFINALTIME_MATCHSTEP, ierr))
     PetscCall(TSGetAdapt(ctx%ts, adapt, ierr))
     PetscCall(TSAdaptSetType(adapt, TSADAPTNONE, ierr))
-    PetscCall(TSSetMaxSNESFailures(ctx%ts, minus_one, ierr))
+    ! A step whose Newton solve fails is retried with a smaller step a few
+    ! times (then the run stops with the reason), never forever.
+    PetscCall(TSSetMaxSNESFailures(ctx%ts, eight, ierr))
     ! A failed step is reported by solver_run (time, reason), not raised as an error.
     PetscCall(TSSetErrorIfStepFails(ctx%ts, PETSC_FALSE, ierr))
     PetscCall(TSMonitorSet(ctx%ts, ts_monitor, ctx, PETSC_NULL_FUNCTION, ierr))
+    ! Converge on the residual only: PETSc's default step-size test
+    ! (stol = 1e-8) declares CONVERGED_SNORM_RELATIVE when a poor
+    ! preconditioner stalls the line search, i.e. accepts an unsolved step.
     PetscCall(TSGetSNES(ctx%ts, snes, ierr))
+    PetscCall(SNESSetTolerances(snes, PETSC_DEFAULT_REAL, PETSC_DEFAULT_REAL, 0.0_rp, PETSC_DEFAULT_INTEGER, PETSC_DEFAULT_INTEGER, ierr))
     PetscCall(TSSetFromOptions(ctx%ts, ierr))
   end subroutine solver_create
 
