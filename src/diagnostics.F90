@@ -6,10 +6,11 @@ module diagnostics
   use mpi
   use kinds, only: rp
   use lattice, only: lattice_t
+  use vec3, only: cross
   use forces, only: element_energies
   implicit none
   private
-  public :: state_diagnostics_t, state_diagnostics, gravity_potential_sum
+  public :: state_diagnostics_t, state_diagnostics
 
   type :: state_diagnostics_t
     real(rp) :: kinetic = 0, stretch = 0, bend = 0
@@ -93,24 +94,6 @@ contains
     call MPI_Allreduce(dmax, d%flatness, 1, MPI_DOUBLE_PRECISION, MPI_MAX, comm, ierr)
   end subroutine state_diagnostics
 
-  !> Sum over owned nodes of m g . x (the potential of gravity, negated).
-  pure real(rp) function gravity_potential_sum(lat, u, gravity)
-    type(lattice_t), intent(in) :: lat
-    real(rp), intent(in) :: u(0:5, 0:lat%nx - 1, lat%gys:lat%gye)
-    real(rp), intent(in) :: gravity(3)
-    integer :: i, j
-    gravity_potential_sum = 0.0_rp
-    do j = lat%ys, lat%ye
-      do i = 0, lat%nx - 1
-        gravity_potential_sum = gravity_potential_sum + lat%mass(i, j) * dot_product(gravity, u(0:2, i, j))
-      end do
-    end do
-  end function gravity_potential_sum
 
-  pure function cross(a, b) result(c)
-    real(rp), intent(in) :: a(3), b(3)
-    real(rp) :: c(3)
-    c = [a(2) * b(3) - a(3) * b(2), a(3) * b(1) - a(1) * b(3), a(1) * b(2) - a(2) * b(1)]
-  end function cross
 
 end module diagnostics

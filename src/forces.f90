@@ -55,6 +55,32 @@ contains
     inside = i >= 0 .and. i < lat%nx .and. j >= 0 .and. j < lat%ny
   end function inside
 
+  !> Far end (iq, jq) of the link from anchor (i, j) along link_dir(:, k);
+  !> false when it lies outside the lattice.
+  pure subroutine link_end(lat, i, j, k, iq, jq, ok)
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: i, j, k
+    integer, intent(out) :: iq, jq
+    logical, intent(out) :: ok
+    iq = i + link_dir(1, k)
+    jq = j + link_dir(2, k)
+    ok = inside(lat, iq, jq)
+  end subroutine link_end
+
+  !> Middle (iq, jq) and far end (ir, jr) of the triple from anchor (i, j)
+  !> along line_dir(:, k); false when the far end lies outside the lattice.
+  pure subroutine triple_ends(lat, i, j, k, iq, jq, ir, jr, ok)
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: i, j, k
+    integer, intent(out) :: iq, jq, ir, jr
+    logical, intent(out) :: ok
+    iq = i + line_dir(1, k)
+    jq = j + line_dir(2, k)
+    ir = iq + line_dir(1, k)
+    jr = jq + line_dir(2, k)
+    ok = inside(lat, ir, jr)
+  end subroutine triple_ends
+
   !> Internal forces f(3, 0:nx-1, gys:gye) [force] of all elements touching
   !> the owned rows, from the state u(0:5, 0:nx-1, gys:gye). Entries of ghost
   !> rows are partial sums and must not be used. nbad counts elements whose
@@ -67,7 +93,7 @@ contains
     integer, intent(out) :: nbad, bad(2)
     integer :: i, j, k, iq, jq, ir, jr
     real(rp) :: d0(3, 4), len0(4), e, eta, fl(3), x9(9), v9(9), f9(9), kb, etab, theta
-    logical :: ok
+    logical :: ok, inl
 
     f = 0.0_rp
     nbad = 0
@@ -78,9 +104,9 @@ contains
     do j = first_anchor_row(lat), lat%ye
       do i = 0, lat%nx - 1
         do k = 1, 4
-          iq = i + link_dir(1, k)
-          jq = j + link_dir(2, k)
-          if (.not. inside(lat, iq, jq) .or. jq < lat%ys) cycle
+          call link_end(lat, i, j, k, iq, jq, inl)
+          if (.not. inl) cycle
+          if (jq < lat%ys) cycle
           call link_constants(lat, i, j, k, e, eta)
           call link_force(lat%spring_model, e, eta, d0(:, k), len0(k), u(0:2, i, j), u(0:2, iq, jq), &
                           u(3:5, i, j), u(3:5, iq, jq), fl, ok)
@@ -93,11 +119,9 @@ contains
         end do
         if (lat%bending_model == BEND_NONE) cycle
         do k = 1, 4
-          iq = i + line_dir(1, k)
-          jq = j + line_dir(2, k)
-          ir = iq + line_dir(1, k)
-          jr = jq + line_dir(2, k)
-          if (.not. inside(lat, ir, jr) .or. jr < lat%ys) cycle
+          call triple_ends(lat, i, j, k, iq, jq, ir, jr, inl)
+          if (.not. inl) cycle
+          if (jr < lat%ys) cycle
           call triple_constants(lat, k, kb, etab)
           x9 = [u(0:2, i, j), u(0:2, iq, jq), u(0:2, ir, jr)]
           if (lat%bending_model == BEND_PAPER) then
@@ -126,6 +150,7 @@ contains
     real(rp), intent(out) :: stretch, bend
     integer :: i, j, k, iq, jq, ir, jr
     real(rp) :: d0(3, 4), len0(4), e, eta, x9(9), kb, etab
+    logical :: inl
 
     stretch = 0.0_rp
     bend = 0.0_rp
@@ -135,19 +160,15 @@ contains
     do j = lat%ys, lat%ye
       do i = 0, lat%nx - 1
         do k = 1, 4
-          iq = i + link_dir(1, k)
-          jq = j + link_dir(2, k)
-          if (.not. inside(lat, iq, jq)) cycle
+          call link_end(lat, i, j, k, iq, jq, inl)
+          if (.not. inl) cycle
           call link_constants(lat, i, j, k, e, eta)
           stretch = stretch + link_energy(lat%spring_model, e, d0(:, k), len0(k), u(0:2, i, j), u(0:2, iq, jq))
         end do
         if (lat%bending_model == BEND_NONE) cycle
         do k = 1, 4
-          iq = i + line_dir(1, k)
-          jq = j + line_dir(2, k)
-          ir = iq + line_dir(1, k)
-          jr = jq + line_dir(2, k)
-          if (.not. inside(lat, ir, jr)) cycle
+          call triple_ends(lat, i, j, k, iq, jq, ir, jr, inl)
+          if (.not. inl) cycle
           call triple_constants(lat, k, kb, etab)
           x9 = [u(0:2, i, j), u(0:2, iq, jq), u(0:2, ir, jr)]
           if (lat%bending_model == BEND_PAPER) then
@@ -168,14 +189,14 @@ contains
     real(rp), intent(out) :: power
     integer :: i, j, k, iq, jq, ir, jr
     real(rp) :: e, eta, x9(9), v9(9), kb, etab
+    logical :: inl
 
     power = 0.0_rp
     do j = lat%ys, lat%ye
       do i = 0, lat%nx - 1
         do k = 1, 4
-          iq = i + link_dir(1, k)
-          jq = j + link_dir(2, k)
-          if (.not. inside(lat, iq, jq)) cycle
+          call link_end(lat, i, j, k, iq, jq, inl)
+          if (.not. inl) cycle
           call link_constants(lat, i, j, k, e, eta)
           if (eta == 0.0_rp) cycle
           power = power + link_power(lat%spring_model, eta, u(0:2, i, j), u(0:2, iq, jq), &
@@ -183,11 +204,8 @@ contains
         end do
         if (lat%bending_model /= BEND_ENERGY) cycle
         do k = 1, 4
-          iq = i + line_dir(1, k)
-          jq = j + line_dir(2, k)
-          ir = iq + line_dir(1, k)
-          jr = jq + line_dir(2, k)
-          if (.not. inside(lat, ir, jr)) cycle
+          call triple_ends(lat, i, j, k, iq, jq, ir, jr, inl)
+          if (.not. inl) cycle
           call triple_constants(lat, k, kb, etab)
           if (etab == 0.0_rp) cycle
           x9 = [u(0:2, i, j), u(0:2, iq, jq), u(0:2, ir, jr)]
@@ -221,16 +239,16 @@ contains
     logical, intent(in) :: clamp, gauss_newton
     integer :: i, k, iq, jq, ir, jr, a, b, ia(3), jj(3)
     real(rp) :: d0(3, 4), len0(4), e, eta, kl(3, 3), cl(3, 3), x9(9), v9(9), k9(9, 9), c9(9, 9), kb, etab
-    logical :: ok
+    logical :: ok, inl
 
     do k = 1, 4
       call rest_link(lat, link_dir(:, k), d0(:, k), len0(k))
     end do
     do i = 0, lat%nx - 1
       do k = 1, 4
-        iq = i + link_dir(1, k)
-        jq = ja + link_dir(2, k)
-        if (.not. inside(lat, iq, jq) .or. jq < lat%ys) cycle
+        call link_end(lat, i, ja, k, iq, jq, inl)
+        if (.not. inl) cycle
+        if (jq < lat%ys) cycle
         call link_constants(lat, i, ja, k, e, eta)
         call link_jacobian(lat%spring_model, e, eta, d0(:, k), len0(k), u(0:2, i, ja), u(0:2, iq, jq), &
                            u(3:5, i, ja), u(3:5, iq, jq), clamp, kl, cl, ok)
@@ -239,11 +257,9 @@ contains
       end do
       if (lat%bending_model == BEND_NONE) cycle
       do k = 1, 4
-        iq = i + line_dir(1, k)
-        jq = ja + line_dir(2, k)
-        ir = iq + line_dir(1, k)
-        jr = jq + line_dir(2, k)
-        if (.not. inside(lat, ir, jr) .or. jr < lat%ys) cycle
+        call triple_ends(lat, i, ja, k, iq, jq, ir, jr, inl)
+        if (.not. inl) cycle
+        if (jr < lat%ys) cycle
         call triple_constants(lat, k, kb, etab)
         x9 = [u(0:2, i, ja), u(0:2, iq, jq), u(0:2, ir, jr)]
         if (lat%bending_model == BEND_PAPER) then

@@ -6,6 +6,7 @@ module scenes
   use config, only: nuno_config, SCENE_LIFT_RELEASE, SCENE_BEND_RELEASE, SCENE_WAVE_POINT, &
                     SCENE_HANG, SCENE_FLAT
   use lattice, only: lattice_t, rest_position, node_mass
+  use vec3, only: cross
   use constraints, only: constraint_set_t, constraints_init, constraints_add, PATH_FIXED, PATH_KEYFRAMES
   implicit none
   private
@@ -117,10 +118,5 @@ contains
     if (.not. cs%any_global) cs%release_time = huge(1.0_rp)
   end subroutine scene_setup
 
-  pure function cross(a, b) result(c)
-    real(rp), intent(in) :: a(3), b(3)
-    real(rp) :: c(3)
-    c = [a(2) * b(3) - a(3) * b(2), a(3) * b(1) - a(1) * b(3), a(1) * b(2) - a(2) * b(1)]
-  end function cross
 
 end module scenes
