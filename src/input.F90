@@ -1014,7 +1014,13 @@ contains
       '  -ts_monitor, -snes_monitor, -ksp_monitor     progress of steps, Newton, Krylov', &
       '  -snes_rtol R, -snes_max_it N                 Newton tolerance and iterations', &
       '  -ksp_type gmres|bcgs|preonly, -pc_type ilu|lu|bjacobi|fieldsplit|gamg', &
-      '  -log_view                                    timings at the end'
+      '  -log_view                                    timings at the end', &
+      '  -dm_mat_type baij|aij                        Jacobian storage (default baij 6x6; aij for fieldsplit)', &
+      '  -nuno_gauss_newton                           energy bending: Gauss-Newton blocks -k_b J^T J in the', &
+      '                                               assembled matrix (with -snes_mf_operator: exact operator', &
+      '                                               applied matrix-free, Gauss-Newton preconditioner)', &
+      '  -nuno_clamp_compression                      drop the indefinite compression term of the springs', &
+      '                                               from the assembled matrix (preconditioner use)'
   end subroutine input_usage
 
   !> Write a few lines that describe the run (call on one rank).

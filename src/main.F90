@@ -57,6 +57,8 @@ program nuno
 
   ! 4. Output file, the time loop, and the completion mark written last.
   petsc_opts = petsc_options_text()
+  if (len_trim(cfg%petsc_options) > 0) &
+    petsc_opts = trim(petsc_opts//' [namelist, overridden by the above: '//trim(cfg%petsc_options)//']')
   call output_open(out, trim(cfg%output_file), PETSC_COMM_WORLD, cfg%nx, cfg%ny, ctx%lat%ys, &
                    ctx%lat%ye - ctx%lat%ys + 1, rest_strip(ctx%lat), ctx%lat%mass(:, ctx%lat%ys:ctx%lat%ye), &
                    cfg%write_velocity, cfg%namelist_text, petsc_opts, ierr, errmsg)

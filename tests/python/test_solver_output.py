@@ -6,7 +6,7 @@ import xml.etree.ElementTree as ET
 import h5py
 import numpy as np
 
-from nunorun import read_run, run
+from nunorun import read_run, run, run_and_read
 
 NX, NY = 6, 7
 GROUPS = dict(scene="scene='lift_release'", lattice=f"nx={NX} ny={NY}",  # 3 ranks need ny >= 6 (bending halo 2)
@@ -83,3 +83,16 @@ def test_failed_run_keeps_output_and_is_marked(tmp_path):
     r = read_run(str(h5))
     assert not r.complete and r.nt == 1
     assert r.position.shape == (1, NY, NX, 3)
+
+
+def test_namelist_petsc_options_yield_to_the_command_line(tmp_path):
+    """petsc_options in the namelist apply unless the command line sets the
+    same option: steps taken to t_end tell which -ts_dt was used."""
+    groups = dict(scene="scene='wave_point'", lattice="nx=5 ny=5", time="t_end=0.2 dt=0.01")
+    _, r = run_and_read(tmp_path, "nml", output="output_interval=0.2 petsc_options='-ts_dt 0.02 -ts_type cn'",
+                        **groups)
+    assert list(r.diagnostics["steps"]) == [0, 10]
+    _, r = run_and_read(tmp_path, "cmd", options=("-ts_dt", "0.05"),
+                        output="output_interval=0.2 petsc_options='-ts_dt 0.02 -ts_type cn'", **groups)
+    assert list(r.diagnostics["steps"]) == [0, 4]
+    assert "-ts_dt 0.05" in r.petsc_options and "namelist" in r.petsc_options
