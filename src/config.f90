@@ -55,6 +55,7 @@ module config
     integer :: n_keyframes = 3            !< wave_point: number of keyframes used
     real(rp) :: keyframe_time(keyframe_max) = 0.0_rp   !< wave_point: keyframe times [time]
     real(rp) :: keyframe_dz(keyframe_max) = 0.0_rp     !< wave_point: corner z at those times [length]
+    character(label_len) :: wave_nodes = 'corner'  !< wave_point: driven nodes: corner (0,0) | edge (every node of i = 0)
     real(rp) :: release_time = huge(1.0_rp)  !< time at which the scene's constraints end [time]
     real(rp) :: initial_omega(3) = 0.0_rp    !< initial rigid angular velocity about the centroid [rad/time]
     ! &time

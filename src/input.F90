@@ -538,6 +538,7 @@ contains
     real(rp) :: gravity(3), lift_length, lift_height, bend_angle
     integer :: n_keyframes
     real(rp) :: keyframe_time(keyframe_max), keyframe_dz(keyframe_max)
+    character(label_len) :: wave_nodes
     real(rp) :: release_time, initial_omega(3)
     real(rp) :: t_end, dt
     real(rp) :: output_interval
@@ -547,7 +548,7 @@ contains
     namelist /lattice/ nx, ny, lx, ly, total_mass, mass_distribution, lattice_scaling
     namelist /material/ spring_model, e_s, eta_s, e_d, eta_d, bending_model, k_b, eta_b
     namelist /scene/ scene_name, gravity, lift_length, lift_height, bend_angle, n_keyframes, &
-                     keyframe_time, keyframe_dz, release_time, initial_omega
+                     keyframe_time, keyframe_dz, wave_nodes, release_time, initial_omega
     namelist /time/ t_end, dt
     namelist /output/ output_interval, write_velocity, output_file, petsc_options
 
@@ -572,13 +573,13 @@ contains
     case (G_SCENE)
       scene_name = cfg%scene; gravity = cfg%gravity; lift_length = cfg%lift_length
       lift_height = cfg%lift_height; bend_angle = cfg%bend_angle; n_keyframes = cfg%n_keyframes
-      keyframe_time = cfg%keyframe_time; keyframe_dz = cfg%keyframe_dz
+      keyframe_time = cfg%keyframe_time; keyframe_dz = cfg%keyframe_dz; wave_nodes = cfg%wave_nodes
       release_time = cfg%release_time; initial_omega = cfg%initial_omega
       read(lines, nml=scene, iostat=ios, iomsg=iomsg)
       if (ios == 0) then
       cfg%scene = scene_name; cfg%gravity = gravity; cfg%lift_length = lift_length
       cfg%lift_height = lift_height; cfg%bend_angle = bend_angle; cfg%n_keyframes = n_keyframes
-      cfg%keyframe_time = keyframe_time; cfg%keyframe_dz = keyframe_dz
+      cfg%keyframe_time = keyframe_time; cfg%keyframe_dz = keyframe_dz; cfg%wave_nodes = wave_nodes
       cfg%release_time = release_time; cfg%initial_omega = initial_omega
       end if
     case (G_TIME)
@@ -692,6 +693,7 @@ contains
     cfg%mass_distribution = lower(adjustl(cfg%mass_distribution))
     cfg%spring_model = lower(adjustl(cfg%spring_model))
     cfg%bending_model = lower(adjustl(cfg%bending_model))
+    cfg%wave_nodes = lower(adjustl(cfg%wave_nodes))
     call check_choice('lattice', 'lattice_scaling', cfg%lattice_scaling, 'element, continuum', &
                       cfg%scaling_code, ierr, msg)
     if (ierr /= 0) return
@@ -759,6 +761,7 @@ contains
     call check_scaling_bending(cfg, ierr, msg); if (ierr /= 0) return
     call check_scene_geometry(cfg, ierr, msg); if (ierr /= 0) return
     call check_keyframes(cfg, ierr, msg);      if (ierr /= 0) return
+    call check_wave_nodes(cfg, ierr, msg);     if (ierr /= 0) return
     call check_time(cfg, ierr, msg);           if (ierr /= 0) return
     call check_output(cfg, ierr, msg)
   end subroutine validate
@@ -918,6 +921,15 @@ contains
     end do
   end subroutine check_keyframes
 
+  !> wave_point's driven nodes: the corner (0,0) or the whole edge i = 0.
+  subroutine check_wave_nodes(cfg, ierr, msg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    integer :: code
+    call check_choice('scene', 'wave_nodes', cfg%wave_nodes, 'corner, edge', code, ierr, msg)
+  end subroutine check_wave_nodes
+
   subroutine check_time(cfg, ierr, msg)
     type(nuno_config), intent(in) :: cfg
     integer, intent(out) :: ierr
@@ -1053,7 +1065,12 @@ contains
     write(unit, '(a)') 'terms     : springs'//trim(terms)
     select case (cfg%scene_code)
     case (SCENE_LIFT_RELEASE); cons = 'edge i = 0 pinned'
-    case (SCENE_WAVE_POINT);   cons = 'corner (0,0) prescribed through keyframes'
+    case (SCENE_WAVE_POINT)
+      if (trim(cfg%wave_nodes) == 'edge') then
+        cons = 'edge i = 0 prescribed through keyframes'
+      else
+        cons = 'corner (0,0) prescribed through keyframes'
+      end if
     case (SCENE_HANG);         cons = 'corners (0,ny-1) and (nx-1,ny-1) pinned'
     case default;              cons = 'none'
     end select

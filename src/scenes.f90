@@ -104,7 +104,13 @@ contains
       end do
     case (SCENE_WAVE_POINT)
       cs%any_global = .true.
-      if (lat%ys == 0) call constraints_add(cs, 0, 0, u(0:2, 0, 0), PATH_KEYFRAMES)
+      if (trim(cfg%wave_nodes) == 'edge') then
+        do j = lat%ys, lat%ye         ! every node of edge i = 0: a wave along +x
+          call constraints_add(cs, 0, j, u(0:2, 0, j), PATH_KEYFRAMES)
+        end do
+      else                            ! corner (0,0): a wave along the diagonal
+        if (lat%ys == 0) call constraints_add(cs, 0, 0, u(0:2, 0, 0), PATH_KEYFRAMES)
+      end if
     case (SCENE_HANG)
       cs%any_global = .true.
       j = lat%ny - 1                  ! the two corners of edge j = ny-1
