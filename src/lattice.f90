@@ -19,7 +19,7 @@ module lattice
   implicit none
   private
   public :: lattice_t, lattice_init, link_dir, line_dir, link_constants, triple_constants
-  public :: rest_position, node_mass, rest_strip
+  public :: rest_position, node_mass, rest_strip, halo_width
 
   !> Link directions from the anchor: +x, +y, +x+y, -x+y (each link once).
   integer, parameter :: link_dir(2, 4) = reshape([1, 0, 0, 1, 1, 1, -1, 1], [2, 4])
@@ -55,7 +55,7 @@ contains
     lat%ny = cfg%ny
     lat%ys = ys
     lat%ye = ye
-    lat%halo = merge(1, 2, cfg%bending_code == BEND_NONE)
+    lat%halo = halo_width(cfg)
     lat%gys = max(0, ys - lat%halo)
     lat%gye = min(cfg%ny - 1, ye + lat%halo)
     lat%ax = cfg%ax
@@ -81,6 +81,12 @@ contains
       end do
     end do
   end subroutine lattice_init
+
+  !> Ghost width of the strips: bending triples reach two rows, links one.
+  pure integer function halo_width(cfg)
+    type(nuno_config), intent(in) :: cfg
+    halo_width = merge(1, 2, cfg%bending_code == BEND_NONE)
+  end function halo_width
 
   !> Mass of node (i, j) [mass]: uniform (the report), or the node's Voronoi
   !> cell times the areal density (corners 1/4, edges 1/2 of an interior cell).

@@ -19,8 +19,8 @@ module timestepping
   use petscdmda
   use mpi
   use kinds, only: rp
-  use config, only: nuno_config, BEND_NONE
-  use lattice, only: lattice_t, lattice_init
+  use config, only: nuno_config
+  use lattice, only: lattice_t, lattice_init, halo_width
   use forces, only: internal_forces, dissipated_power, jac_buffer_t, jac_buffer_init, jac_buffer_row, &
                     slot_of, first_anchor_row
   use constraints, only: constraint_set_t, constraints_set_window, constraint_target, constraint_events
@@ -72,7 +72,7 @@ contains
     integer, intent(out) :: ierr
     character(len=*), intent(out) :: errmsg
     integer :: w
-    w = merge(1, 2, cfg%bending_code == BEND_NONE)
+    w = halo_width(cfg)
     ierr = 0
     errmsg = ''
     if (cfg%ny / nranks < w) then
@@ -101,7 +101,7 @@ contains
     ctx%comm = PETSC_COMM_WORLD
     call MPI_Comm_rank(ctx%comm, ctx%rank, ierr)
     call MPI_Comm_size(ctx%comm, ctx%size, ierr)
-    w = merge(1, 2, cfg%bending_code == BEND_NONE)
+    w = halo_width(cfg)
     nxp = cfg%nx
     nyp = cfg%ny
 

@@ -23,6 +23,8 @@ import h5py
 import numpy as np
 import pytest
 
+from nunorun import exe as nuno_exe
+
 REPO = Path(__file__).resolve().parents[2]
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
@@ -162,11 +164,7 @@ SOLVER_NAMELIST = """&scene scene='lift_release' /
 @pytest.fixture(scope="session")
 def solver_run(tmp_path_factory):
     """Path of a real solver output (2 ranks, 5 x 5 lift_release, t_end 0.05)."""
-    exe = os.environ.get("NUNO_EXE")
-    if not exe:
-        pytest.skip("NUNO_EXE not set: no solver run")
-    if not Path(exe).is_file():
-        pytest.fail(f"NUNO_EXE={exe}: no such file")
+    exe = nuno_exe()          # skips without NUNO_EXE, fails if it is missing
     work = tmp_path_factory.mktemp("solver")
     out = work / "run.h5"
     nml = work / "case.nml"

@@ -9,13 +9,14 @@ without the program.
 from __future__ import annotations
 
 import os
-from pathlib import Path
 
 import pytest
 from PIL import Image
 
 from postprocess import plotting, report_figures
 from postprocess.reader import read_run
+
+from nunorun import exe as nuno_exe
 
 NAMES = ("fig3_lift_release", "fig4_bend_release", "fig5_wave_point")
 
@@ -43,11 +44,7 @@ def test_quick_namelist_drops_energy_k_b_and_sets_output():
 
 @pytest.fixture(scope="module")
 def quick_figures(tmp_path_factory):
-    exe = os.environ.get("NUNO_EXE")
-    if not exe:
-        pytest.skip("NUNO_EXE is not set (run through ctest)")
-    if not Path(exe).is_file():
-        pytest.fail(f"NUNO_EXE={exe}: no such file")
+    exe = nuno_exe()          # skips without NUNO_EXE, fails if it is missing
     for key in ("OMPI_ALLOW_RUN_AS_ROOT", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM",
                 "OMPI_MCA_rmaps_base_oversubscribe"):
         os.environ.setdefault(key, "1")
