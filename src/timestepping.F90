@@ -27,6 +27,8 @@ module timestepping
   use scenes, only: scene_setup
   use diagnostics, only: state_diagnostics_t, state_diagnostics
   use output, only: output_file, output_record, output_write_step
+  use config, only: SPRING_LINEAR, BEND_NONE, BEND_ENERGY
+  use reduced, only: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach
   implicit none
   private
   public :: app_ctx, solver_create, solver_destroy, solver_run, check_decomposition
@@ -40,7 +42,9 @@ module timestepping
     type(tDM) :: da
     type(tTS) :: ts
     type(tVec) :: u                             !< global state
-    type(tMat) :: p                             !< assembled Jacobian (preconditioning matrix)
+    type(tMat) :: p                             !< assembled 6-dof Jacobian (-nuno_jacobian full only)
+    logical :: use_reduced = .true.             !< the reduced 3-dof solve (module reduced), the default
+    type(reduced_t) :: red                      !< its matrices and inner solver
     integer :: comm = MPI_COMM_NULL, rank = 0, size = 1
     real(rp), allocatable :: f(:, :, :)         !< (3, 0:nx-1, gys:gye) force work array
     logical, allocatable :: fixed(:, :)         !< (0:nx-1, ys:ye) constrained in the current window
@@ -52,6 +56,9 @@ module timestepping
     logical :: clamp = .false.                  !< drop indefinite spring compression terms in P
     logical :: gauss_newton = .false.           !< Gauss-Newton energy-bending blocks in P
     logical :: moving_constraints = .false.     !< a constrained node moves in this window
+    ! Newton's round-off floor (snes_converged)
+    real(rp) :: snes_floor = 1.0e-6_rp          !< -nuno_snes_floor: stagnation below this relative residual is convergence
+    real(rp) :: fnorm0 = 0, fnorm_prev = 0
     ! singular element seen by the last residual evaluation
     integer :: nbad = 0, bad(2) = -1
     real(rp) :: t_bad = 0
@@ -93,9 +100,11 @@ contains
     PetscInt, parameter :: one = 1, six = 6, eight = 8
     type(tSNES) :: snes
     type(tTSAdapt) :: adapt
+    SNESLineSearch :: linesearch
     PetscScalar, pointer :: ua(:, :, :)
-    character(len=64) :: mattype
+    character(len=64) :: mattype, jactype
     PetscBool :: flg, found
+    logical :: symmetric, constant, damping
 
     ctx%cfg = cfg
     ctx%comm = PETSC_COMM_WORLD
@@ -126,12 +135,9 @@ contains
       ierr = PETSC_ERR_PLIB
       SETERRQ(ctx%comm, ierr, 'nuno: the DMDA is not split into strips of whole rows')
     end if
-    call jac_buffer_init(ctx%jbuf, ctx%lat)
     allocate(ctx%f(3, 0:cfg%nx - 1, ctx%lat%gys:ctx%lat%gye))
     allocate(ctx%fixed(0:cfg%nx - 1, ys:ys + ym - 1))
     allocate(ctx%xout(3, 0:cfg%nx - 1, ys:ys + ym - 1), ctx%vout(3, 0:cfg%nx - 1, ys:ys + ym - 1))
-    nc = (2 * w + 1)**2
-    allocate(ctx%vals(6, 6, nc), ctx%cols(nc))
     ctx%gravity = merge(cfg%gravity, [0.0_rp, 0.0_rp, 0.0_rp], cfg%has_gravity)
     ctx%fixed = .false.
 
@@ -141,14 +147,41 @@ contains
     call scene_setup(cfg, ctx%lat, ua, ctx%cs)
     PetscCall(DMDAVecRestoreArrayF90(ctx%da, ctx%u, ua, ierr))
 
-    ! Jacobian with the DMDA's exact box-stencil preallocation.
-    PetscCall(DMCreateMatrix(ctx%da, ctx%p, ierr))
-    PetscCall(MatSetOption(ctx%p, MAT_ROW_ORIENTED, PETSC_FALSE, ierr))
-
     PetscCall(PetscOptionsGetBool(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-nuno_clamp_compression', flg, found, ierr))
     ctx%clamp = found .and. flg
     PetscCall(PetscOptionsGetBool(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-nuno_gauss_newton', flg, found, ierr))
     ctx%gauss_newton = found .and. flg
+
+    ! The Newton step: reduced 3-dof elimination (default) or the assembled
+    ! 6-dof Jacobian (the reference for -snes_test_jacobian and small scenes).
+    jactype = 'reduced'
+    PetscCall(PetscOptionsGetString(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-nuno_jacobian', jactype, found, ierr))
+    select case (trim(jactype))
+    case ('reduced')
+      ctx%use_reduced = .true.
+    case ('full')
+      ctx%use_reduced = .false.
+    case default
+      ierr = PETSC_ERR_ARG_UNKNOWN_TYPE
+      SETERRQ(ctx%comm, ierr, 'nuno: -nuno_jacobian '//trim(jactype)//' is not one of reduced, full')
+    end select
+    if (ctx%use_reduced) then
+      ! S is symmetric when K and C are: no moving dampers (linear springs
+      ! have constant ones), no paper bending, no bending damping.
+      damping = cfg%has_damping .or. (cfg%bending_code == BEND_ENERGY .and. cfg%eta_b /= 0.0_rp)
+      symmetric = (cfg%spring_code == SPRING_LINEAR .or. .not. cfg%has_damping) .and. &
+                  (cfg%bending_code == BEND_NONE .or. (cfg%bending_code == BEND_ENERGY .and. &
+                   (cfg%eta_b == 0.0_rp .or. ctx%gauss_newton)))
+      constant = cfg%spring_code == SPRING_LINEAR .and. cfg%bending_code == BEND_NONE
+      PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, symmetric, constant, damping, ctx%clamp, ctx%gauss_newton, ierr))
+    else
+      ! Jacobian with the DMDA's exact box-stencil preallocation.
+      PetscCall(DMCreateMatrix(ctx%da, ctx%p, ierr))
+      PetscCall(MatSetOption(ctx%p, MAT_ROW_ORIENTED, PETSC_FALSE, ierr))
+      call jac_buffer_init(ctx%jbuf, ctx%lat)
+      nc = (2 * w + 1)**2
+      allocate(ctx%vals(6, 6, nc), ctx%cols(nc))
+    end if
 
     ! The report's scheme by default: backward Euler with the namelist's
     ! fixed step; any implicit TS type and adaptivity through the options.
@@ -157,7 +190,11 @@ contains
     PetscCall(TSSetProblemType(ctx%ts, TS_NONLINEAR, ierr))
     PetscCall(TSSetType(ctx%ts, TSBEULER, ierr))
     PetscCall(TSSetIFunction(ctx%ts, PETSC_NULL_VEC, form_ifunction, ctx, ierr))
-    PetscCall(TSSetIJacobian(ctx%ts, ctx%p, ctx%p, form_ijacobian, ctx, ierr))
+    if (ctx%use_reduced) then
+      PetscCall(TSSetIJacobian(ctx%ts, ctx%red%jac, ctx%red%jac, form_ijacobian, ctx, ierr))
+    else
+      PetscCall(TSSetIJacobian(ctx%ts, ctx%p, ctx%p, form_ijacobian, ctx, ierr))
+    end if
     PetscCall(TSSetTime(ctx%ts, 0.0_rp, ierr))
     PetscCall(TSSetTimeStep(ctx%ts, cfg%dt, ierr))
     PetscCall(TSSetMaxTime(ctx%ts, cfg%t_end, ierr))
@@ -175,6 +212,16 @@ contains
     ! preconditioner stalls the line search, i.e. accepts an unsolved step.
     PetscCall(TSGetSNES(ctx%ts, snes, ierr))
     PetscCall(SNESSetTolerances(snes, PETSC_DEFAULT_REAL, PETSC_DEFAULT_REAL, 0.0_rp, PETSC_DEFAULT_INTEGER, PETSC_DEFAULT_INTEGER, ierr))
+    PetscCall(PetscOptionsGetReal(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-nuno_snes_floor', ctx%snes_floor, found, ierr))
+    PetscCall(SNESSetConvergenceTest(snes, snes_converged, ctx, PETSC_NULL_FUNCTION, ierr))
+    if (ctx%use_reduced) then
+      PetscCall(reduced_attach(ctx%red, snes, ierr))
+      ! The full step is exact in x and Newton-exact in v: no backtracking by
+      ! default (bt needs a Jacobian product, an extra pass over the
+      ! elements, for every Newton iteration); -snes_linesearch_type bt works.
+      PetscCall(SNESGetLineSearch(snes, linesearch, ierr))
+      PetscCall(SNESLineSearchSetType(linesearch, SNESLINESEARCHBASIC, ierr))
+    end if
     PetscCall(TSSetFromOptions(ctx%ts, ierr))
   end subroutine solver_create
 
@@ -183,7 +230,11 @@ contains
     type(app_ctx), intent(inout) :: ctx
     PetscErrorCode, intent(out) :: ierr
     PetscCall(TSDestroy(ctx%ts, ierr))
-    PetscCall(MatDestroy(ctx%p, ierr))
+    if (ctx%use_reduced) then
+      PetscCall(reduced_destroy(ctx%red, ierr))
+    else
+      PetscCall(MatDestroy(ctx%p, ierr))
+    end if
     PetscCall(VecDestroy(ctx%u, ierr))
     PetscCall(DMDestroy(ctx%da, ierr))
   end subroutine solver_destroy
@@ -259,14 +310,28 @@ contains
     type(tMat) :: jmat, pmat
     type(app_ctx) :: ctx
     PetscErrorCode :: ierr
-    type(tVec) :: uloc
-    PetscScalar, pointer :: u(:, :, :)
+    type(tVec) :: uloc, udloc
+    PetscScalar, pointer :: u(:, :, :), ud(:, :, :)
     integer :: ja
 
     PetscCall(DMGetLocalVector(ctx%da, uloc, ierr))
     PetscCall(DMGlobalToLocalBegin(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
     PetscCall(DMGlobalToLocalEnd(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
+    if (ctx%use_reduced) then
+      PetscCall(DMGetLocalVector(ctx%da, udloc, ierr))
+      PetscCall(DMGlobalToLocalBegin(ctx%da, udotvec, INSERT_VALUES, udloc, ierr))
+      PetscCall(DMGlobalToLocalEnd(ctx%da, udotvec, INSERT_VALUES, udloc, ierr))
+      PetscCall(DMDAVecGetArrayReadF90(ctx%da, udloc, ud, ierr))
+      PetscCall(reduced_assemble(ctx%red, u, ud, a, ierr))
+      PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, udloc, ud, ierr))
+      PetscCall(DMRestoreLocalVector(ctx%da, udloc, ierr))
+      PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, uloc, u, ierr))
+      PetscCall(DMRestoreLocalVector(ctx%da, uloc, ierr))
+      PetscCall(MatAssemblyBegin(jmat, MAT_FINAL_ASSEMBLY, ierr))
+      PetscCall(MatAssemblyEnd(jmat, MAT_FINAL_ASSEMBLY, ierr))
+      return
+    end if
     ctx%jbuf%k = 0.0_rp
     ctx%jbuf%c = 0.0_rp
     do ja = first_anchor_row(ctx%lat), ctx%lat%ye
@@ -347,6 +412,29 @@ contains
     PetscInt, parameter :: one = 1
     call MatSetValuesBlockedLocal(pmat, one, row, ncol, cols, vals, INSERT_VALUES, ierr)
   end subroutine set_block_row
+
+  !> PETSc's residual test, plus the round-off floor: once the residual is
+  !> below snes_floor times its initial value, an iteration that no longer
+  !> reduces it by 10 % has reached the floor of the residual's round-off
+  !> (which grows with stiffness and 1/dt), and the step is converged.
+  !> Without it, snes_rtol = 1e-8 below that floor fails good steps.
+  subroutine snes_converged(snes, it, xnorm, snorm, fnorm, reason, ctx, ierr)
+    type(tSNES) :: snes
+    PetscInt :: it
+    PetscReal :: xnorm, snorm, fnorm
+    SNESConvergedReason :: reason
+    type(app_ctx) :: ctx
+    PetscErrorCode :: ierr
+    call SNESConvergedDefault(snes, it, xnorm, snorm, fnorm, reason, PETSC_NULL_INTEGER, ierr)
+    if (ierr /= 0) return
+    if (it == 0) then
+      ctx%fnorm0 = fnorm
+    else if (reason == SNES_CONVERGED_ITERATING .and. fnorm <= ctx%snes_floor * ctx%fnorm0 .and. &
+             fnorm > 0.9_rp * ctx%fnorm_prev) then
+      reason = SNES_CONVERGED_FNORM_ABS
+    end if
+    ctx%fnorm_prev = fnorm
+  end subroutine snes_converged
 
   !> After every accepted step (and at the start of each TSSolve): advance
   !> the trapezoid integrals of dissipated power and constraint power.
@@ -439,6 +527,9 @@ contains
     end if
     PetscCall(DMDAVecRestoreArrayF90(ctx%da, ctx%u, ua, ierr))
     call MPI_Allreduce(MPI_IN_PLACE, loc, 2, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, ierr)
+    if (ctx%use_reduced) then
+      PetscCall(reduced_set_fixed(ctx%red, ctx%fixed, ierr))
+    end if
     dke = loc(1)
     ctx%moving_constraints = loc(2) > 0.0_rp
   end subroutine enter_window
@@ -601,6 +692,7 @@ contains
     PetscCall(TSGetStepRejections(ctx%ts, rejects, ierr))
     PetscCall(TSGetSNESIterations(ctx%ts, nits, ierr))
     PetscCall(TSGetKSPIterations(ctx%ts, lits, ierr))
+    if (ctx%use_reduced) lits = ctx%red%its        ! the outer KSP is preonly: count the inner iterations
     rec%time = t
     rec%kinetic = d%kinetic
     rec%stretch = d%stretch

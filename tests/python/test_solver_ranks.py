@@ -1,14 +1,20 @@
 """The same scene on 1, 2, 3 and 4 ranks gives the same positions (MODEL.md
 section 6): a strip decomposition must change nothing but reduction order.
-The linear solves are exact (MUMPS LU) so that the default preconditioner,
-which differs with the rank count (ILU on one rank, block Jacobi on several),
-cannot make a difference beyond round-off."""
+The linear solves are exact (MUMPS LU) so that a preconditioner that
+differs with the rank count (ILU on one rank, block Jacobi on several)
+cannot make a difference beyond round-off; both Newton paths are checked,
+the reduced 3-dof solve (the default) and the full 6-dof Jacobian."""
 import numpy as np
 import pytest
 
 from nunorun import run_and_read
 
-TIGHT = ("-ksp_type", "preonly", "-pc_type", "lu", "-pc_factor_mat_solver_type", "mumps")
+TIGHT = {
+    "reduced": ("-reduced_ksp_type", "preonly", "-reduced_pc_type", "lu",
+                "-reduced_pc_factor_mat_solver_type", "mumps"),
+    "full": ("-nuno_jacobian", "full", "-ksp_type", "preonly", "-pc_type", "lu",
+             "-pc_factor_mat_solver_type", "mumps"),
+}
 
 CASES = {
     # paper bending amplifies round-off: short times only (MODEL.md section 3)
@@ -24,11 +30,12 @@ CASES = {
 }
 
 
+@pytest.mark.parametrize("path", sorted(TIGHT))
 @pytest.mark.parametrize("case", sorted(CASES))
-def test_rank_count_does_not_change_positions(tmp_path, case):
+def test_rank_count_does_not_change_positions(tmp_path, case, path):
     runs = {}
     for p in (1, 2, 3, 4):
-        _, r = run_and_read(tmp_path, f"{case}_np{p}", nranks=p, options=TIGHT, **CASES[case])
+        _, r = run_and_read(tmp_path, f"{case}_np{p}", nranks=p, options=TIGHT[path], **CASES[case])
         assert r.complete
         assert r.n_ranks == p
         runs[p] = r

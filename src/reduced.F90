@@ -1,0 +1,610 @@
+!> The reduced (Baraff-Witkin) Newton solve: the 6-dof Newton step of the
+!> first-order system solved exactly by block elimination around a 3-dof
+!> velocity system, which is the only matrix assembled (docs/design.md).
+!>
+!> With shift a, the 6-dof Jacobian (rows divided by the mass, as in module
+!> timestepping) is [[a I, -I], [-K/m, a I - C/m]] on free nodes and a I on
+!> constrained ones (K = df/dx, C = df/dv). For a right-hand side
+!> b = (b_x, b_v) the x-rows give dx = (dv + b_x)/a (free) or b_x/a
+!> (constrained), and the v-rows, multiplied by the mass, give
+!>   S dv = m b_v + K b_x / a + C z,   S = a M - C - K/a,
+!> where z holds dv = b_v / a on constrained nodes and 0 elsewhere; S has
+!> the row a m I on constrained nodes and no constrained columns. S is
+!> symmetric whenever K and C are. K b_x/a + C z is computed element by
+!> element from the same Jacobian blocks as S (no K matrix is stored).
+!>
+!> PETSc structure: the TS's Jacobian is a MATSHELL (the exact 6-dof action,
+!> matrix-free, for outer Krylov methods and Eisenstat-Walker); the outer
+!> KSP is preonly with a PCSHELL that does the elimination; the inner KSP
+!> (options prefix -reduced_) solves S dv = rhs. Its convergence is the
+!> true residual of the 6-dof system's v-rows, times the mass.
+module reduced
+#include "petsc/finclude/petscsnes.h"
+#include "petsc/finclude/petscdmda.h"
+  use petscsnes
+  use petscdmda
+  use mpi
+  use kinds, only: rp
+  use lattice, only: lattice_t
+  use forces, only: jac_buffer_t, jac_buffer_init, jac_buffer_row, slot_of, first_anchor_row
+  use reduced_blocks, only: reduced_row_blocks, buffer_row_apply
+  implicit none
+  private
+  public :: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach
+  public :: reduced_pc_apply, reduced_jac_mult, reduced_rhs
+
+  !> Context of the reduced solve (PCSHELL and MATSHELL context).
+  type :: reduced_t
+    type(lattice_t), pointer :: lat => null()
+    type(tDM) :: da6                       !< the state's DMDA (dof 6; not owned)
+    type(tDM) :: da3                       !< dof 3, same strips and halo
+    type(tMat) :: s                        !< S = a M - C - K/a, BAIJ bs 3
+    type(tMat) :: jac                      !< 6-dof Jacobian action (MATSHELL)
+    type(tKSP) :: ksp                      !< inner solver, prefix reduced_
+    type(tKSP) :: outer                    !< the SNES's KSP (for Eisenstat-Walker forcing)
+    type(tSNES) :: snes                    !< the TS's SNES
+    type(tVec) :: rhs, dv                  !< 3-dof global work vectors
+    type(tVec) :: coords                   !< 3-dof node positions (GAMG near-null space)
+    type(jac_buffer_t) :: jbuf
+    real(rp) :: a = 0                      !< shift of the assembled S [1/time]
+    logical :: assembled = .false.
+    logical :: dirty = .true.              !< constraints changed since the last assembly
+    logical :: constant = .false.          !< K and C do not depend on the state (linear springs, no bending)
+    logical :: damping = .true.            !< some element has a damper (C /= 0)
+    logical :: clamp = .false., gauss_newton = .false.
+    logical :: use_nullspace = .false.     !< inner PC is GAMG: give it the rigid-body modes
+    logical :: forward_ew = .true.         !< pass the outer KSP's rtol (Eisenstat-Walker) to the inner one
+    integer :: pc_lag = 1                  !< rebuild the inner preconditioner every pc_lag assemblies
+    integer :: since_pc = 0                !< assemblies since the last rebuild
+    logical, allocatable :: fixedg(:, :)   !< (0:nx-1, gys:gye) constrained nodes, with ghosts
+    real(rp), allocatable :: ujac(:, :, :) !< (0:5, 0:nx-1, gys:gye) state at the last assembly
+    real(rp), allocatable :: w(:, :, :)    !< (0:5, 0:nx-1, gys:gye) work
+    real(rp), allocatable :: g(:, :, :)    !< (3, 0:nx-1, ys:ye) element products
+    ! Newton solves J du = F(u) at the state of the assembly: the products
+    ! for that right-hand side are formed during the assembly, in the same
+    ! pass over the elements (wpred, gpred); any other right-hand side is
+    ! recognised and gets its own pass.
+    real(rp), allocatable :: wpred(:, :, :) !< (0:5, 0:nx-1, gys:gye) w of b = F(u)
+    real(rp), allocatable :: gpred(:, :, :) !< (3, 0:nx-1, ys:ye) its products
+    logical :: have_pred = .false.
+    real(rp), allocatable :: vals(:, :, :) !< (3, 3, ncol) one block row
+    integer, allocatable :: cols(:)        !< (ncol)
+    integer :: its = 0                     !< inner Krylov iterations, cumulative
+    integer :: nsolve = 0                  !< inner solves, cumulative
+    integer :: nsetup = 0                  !< inner preconditioner rebuilds, cumulative
+    integer :: nretry = 0                  !< solves retried with a fresh preconditioner
+  end type reduced_t
+
+  interface
+    subroutine PCShellSetContext(pc, ctx, ierr)
+      import :: tPC, reduced_t
+      type(tPC) :: pc
+      type(reduced_t) :: ctx
+      PetscErrorCode :: ierr
+    end subroutine PCShellSetContext
+    subroutine PCShellGetContext(pc, ctx, ierr)
+      import :: tPC, reduced_t
+      type(tPC) :: pc
+      type(reduced_t), pointer :: ctx
+      PetscErrorCode :: ierr
+    end subroutine PCShellGetContext
+    subroutine MatShellSetContext(mat, ctx, ierr)
+      import :: tMat, reduced_t
+      type(tMat) :: mat
+      type(reduced_t) :: ctx
+      PetscErrorCode :: ierr
+    end subroutine MatShellSetContext
+    subroutine MatShellGetContext(mat, ctx, ierr)
+      import :: tMat, reduced_t
+      type(tMat) :: mat
+      type(reduced_t), pointer :: ctx
+      PetscErrorCode :: ierr
+    end subroutine MatShellGetContext
+  end interface
+
+contains
+
+  !> Build the 3-dof DMDA on the strips of da6, S with its exact box-stencil
+  !> preallocation, the 6-dof MATSHELL and the inner KSP (prefix reduced_).
+  !> symmetric selects the default inner Krylov method (CG or GMRES).
+  !> Collective.
+  subroutine reduced_create(red, da6, lat, symmetric, constant, damping, clamp, gauss_newton, ierr)
+    type(reduced_t), intent(inout), target :: red
+    type(tDM), intent(in) :: da6
+    type(lattice_t), intent(in), target :: lat
+    logical, intent(in) :: symmetric, constant, damping, clamp, gauss_newton
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt :: nx, ny, w, m, n, mg, ng, nranks, dummy(1), lag, xs, ys, zs, zm
+    PetscInt, allocatable :: ly(:)
+    PetscInt, parameter :: one = 1, three = 3
+    type(tPC) :: pc
+    PetscBool :: found
+    character(len=64) :: pctype, mattype
+    MPI_Comm :: comm
+    integer :: mpierr
+
+    red%lat => lat
+    red%da6 = da6
+    red%constant = constant
+    red%damping = damping
+    red%clamp = clamp
+    red%gauss_newton = gauss_newton
+    PetscCall(PetscObjectGetComm(da6, comm, ierr))
+    call MPI_Comm_size(comm, nranks, mpierr)
+    allocate(ly(nranks))
+    PetscCall(DMDAGetInfo(da6, PETSC_NULL_INTEGER, nx, ny, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, w, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, ierr))
+    PetscCall(DMDAGetOwnershipRanges(da6, dummy, ly, PETSC_NULL_INTEGER, ierr))
+    dummy(1) = nx
+    PetscCall(DMDACreate2d(comm, DM_BOUNDARY_NONE, DM_BOUNDARY_NONE, DMDA_STENCIL_BOX, nx, ny, one, nranks, three, w, dummy, ly, red%da3, ierr))
+    PetscCall(DMSetOptionsPrefix(red%da3, 'reduced_', ierr))
+
+    ! Inner solver: CG on a symmetric S, GMRES otherwise (right-preconditioned,
+    ! so that both test the true residual); GAMG with the rigid-body modes.
+    PetscCall(KSPCreate(comm, red%ksp, ierr))
+    PetscCall(KSPSetOptionsPrefix(red%ksp, 'reduced_', ierr))
+    if (symmetric) then
+      PetscCall(KSPSetType(red%ksp, KSPCG, ierr))
+      PetscCall(KSPSetNormType(red%ksp, KSP_NORM_UNPRECONDITIONED, ierr))
+    else
+      PetscCall(KSPSetType(red%ksp, KSPGMRES, ierr))
+      PetscCall(KSPSetPCSide(red%ksp, PC_RIGHT, ierr))
+    end if
+    PetscCall(default_preconditioner(red, nx, ny, w, nranks, ierr))
+    PetscCall(KSPSetTolerances(red%ksp, 1.0e-6_rp, 1.0e-50_rp, PETSC_DEFAULT_REAL, 500, ierr))
+    PetscCall(KSPSetFromOptions(red%ksp, ierr))
+    PetscCall(KSPGetPC(red%ksp, pc, ierr))
+    PetscCall(PCGetType(pc, pctype, ierr))
+    red%use_nullspace = pctype == PCGAMG
+
+    ! S: BAIJ (3 x 3 blocks) for the point-wise and block-local
+    ! preconditioners, whose kernels are blocked; AIJ (with block size 3) for
+    ! the algebraic multigrids, which need it. -reduced_dm_mat_type wins.
+    select case (trim(pctype))
+    case (PCJACOBI, PCPBJACOBI, PCBJACOBI, PCASM, PCSOR, PCILU, PCICC, PCNONE)
+      PetscCall(DMSetMatType(red%da3, MATBAIJ, ierr))
+    case default
+      PetscCall(DMSetMatType(red%da3, MATAIJ, ierr))
+    end select
+    PetscCall(DMSetFromOptions(red%da3, ierr))
+    PetscCall(DMSetUp(red%da3, ierr))
+    PetscCall(DMCreateMatrix(red%da3, red%s, ierr))
+    PetscCall(MatSetOption(red%s, MAT_ROW_ORIENTED, PETSC_FALSE, ierr))
+    PetscCall(MatSetOption(red%s, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE, ierr))
+    PetscCall(MatGetType(red%s, mattype, ierr))
+    if (index(mattype, 'sbaij') > 0) then
+      ! Symmetric storage keeps the upper triangle: S must be symmetric.
+      if (.not. symmetric) then
+        ierr = PETSC_ERR_ARG_INCOMP
+        SETERRQ(comm, ierr, 'nuno: -reduced_dm_mat_type sbaij needs a symmetric S (no moving dampers, no paper bending, eta_b = 0)')
+      end if
+      PetscCall(MatSetOption(red%s, MAT_IGNORE_LOWER_TRIANGULAR, PETSC_TRUE, ierr))
+    end if
+    if (symmetric) then
+      PetscCall(MatSetOption(red%s, MAT_SYMMETRIC, PETSC_TRUE, ierr))
+      PetscCall(MatSetOption(red%s, MAT_SYMMETRY_ETERNAL, PETSC_TRUE, ierr))
+    end if
+    PetscCall(KSPSetOperators(red%ksp, red%s, red%s, ierr))
+    ! The DM gives -reduced_pc_type mg its grid hierarchy; the operators stay ours.
+    PetscCall(KSPSetDM(red%ksp, red%da3, ierr))
+    PetscCall(KSPSetDMActive(red%ksp, PETSC_FALSE, ierr))
+    PetscCall(DMCreateGlobalVector(red%da3, red%rhs, ierr))
+    PetscCall(VecDuplicate(red%rhs, red%dv, ierr))
+    PetscCall(VecDuplicate(red%rhs, red%coords, ierr))
+
+    ! The 6-dof Jacobian: only its action, from the element blocks.
+    PetscCall(DMDAGetCorners(da6, xs, ys, zs, m, n, zm, ierr))
+    m = 6 * m * n
+    mg = 6 * nx * ny
+    ng = mg
+    n = m
+    PetscCall(MatCreateShell(comm, m, n, mg, ng, PETSC_NULL_INTEGER, red%jac, ierr))
+    PetscCall(MatShellSetContext(red%jac, red, ierr))
+    PetscCall(MatShellSetOperation(red%jac, MATOP_MULT, reduced_jac_mult, ierr))
+
+    call jac_buffer_init(red%jbuf, lat)
+    allocate(red%fixedg(0:lat%nx - 1, lat%gys:lat%gye))
+    allocate(red%ujac(0:5, 0:lat%nx - 1, lat%gys:lat%gye), red%w(0:5, 0:lat%nx - 1, lat%gys:lat%gye))
+    allocate(red%g(3, 0:lat%nx - 1, lat%ys:lat%ye), red%gpred(3, 0:lat%nx - 1, lat%ys:lat%ye))
+    allocate(red%wpred(0:5, 0:lat%nx - 1, lat%gys:lat%gye))
+    allocate(red%vals(3, 3, (2 * lat%halo + 1)**2), red%cols((2 * lat%halo + 1)**2))
+    red%fixedg = .false.
+    red%ujac = 0.0_rp
+
+    ! An explicit -reduced_ksp_rtol wins over the outer forcing term.
+    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_ksp_rtol', found, ierr))
+    red%forward_ew = .not. found
+    lag = 1
+    PetscCall(PetscOptionsGetInt(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-nuno_pc_lag', lag, found, ierr))
+    if (lag < 1) then
+      ierr = PETSC_ERR_ARG_OUTOFRANGE
+      SETERRQ(comm, ierr, 'nuno: -nuno_pc_lag must be >= 1')
+    end if
+    red%pc_lag = lag
+  end subroutine reduced_create
+
+  !> The default inner preconditioner, unless -reduced_pc_type is given:
+  !> geometric multigrid on the DMDA (Galerkin coarse operators, one SSOR
+  !> sweep as smoother) with as many levels as the lattice halves into;
+  !> block Jacobi/ILU(0) where fewer than three levels fit (small lattices,
+  !> for which it is the cheaper). Set in the options database, so that
+  !> -help shows them and every one can be overridden.
+  subroutine default_preconditioner(red, nx, ny, w, nranks, ierr)
+    type(reduced_t), intent(inout) :: red
+    PetscInt, intent(in) :: nx, ny, w, nranks
+    PetscErrorCode, intent(out) :: ierr
+    PetscBool :: set
+    integer :: levels, mx, my
+    character(len=16) :: txt
+
+    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_pc_type', set, ierr))
+    if (set) return
+    ! A level coarsens n -> (n-1)/2 + 1 in each direction; every coarse
+    ! strip keeps at least the halo width of rows, and the coarsest grid at
+    ! least 5 nodes a side.
+    levels = 1
+    mx = nx
+    my = ny
+    do while (mod(mx - 1, 2) == 0 .and. mod(my - 1, 2) == 0 .and. (mx - 1) / 2 + 1 >= 5 .and. &
+              (my - 1) / 2 + 1 >= max(5, 2 * w * nranks) .and. levels < 10)
+      mx = (mx - 1) / 2 + 1
+      my = (my - 1) / 2 + 1
+      levels = levels + 1
+    end do
+    if (levels < 3) then
+      PetscCall(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-reduced_pc_type', 'bjacobi', ierr))
+      return
+    end if
+    write(txt, '(i0)') levels
+    PetscCall(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-reduced_pc_type', 'mg', ierr))
+    PetscCall(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-reduced_pc_mg_levels', trim(txt), ierr))
+    PetscCall(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-reduced_pc_mg_galerkin', 'pmat', ierr))
+    call set_default('-reduced_mg_levels_ksp_type', 'richardson')
+    call set_default('-reduced_mg_levels_pc_type', 'sor')
+    call set_default('-reduced_mg_levels_ksp_max_it', '1')
+  contains
+    subroutine set_default(name, value)
+      character(len=*), intent(in) :: name, value
+      PetscBool :: given
+      call PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, name, given, ierr)
+      if (.not. given) call PetscOptionsSetValue(PETSC_NULL_OPTIONS, name, value, ierr)
+    end subroutine set_default
+  end subroutine default_preconditioner
+
+  !> Make the SNES's KSP preonly with the eliminating PCSHELL. Call before
+  !> TSSetFromOptions, so that options may still change it.
+  subroutine reduced_attach(red, snes, ierr)
+    type(reduced_t), intent(inout), target :: red
+    type(tSNES), intent(in) :: snes
+    PetscErrorCode, intent(out) :: ierr
+    type(tPC) :: pc
+    red%snes = snes
+    PetscCall(SNESGetKSP(snes, red%outer, ierr))
+    PetscCall(KSPSetType(red%outer, KSPPREONLY, ierr))
+    PetscCall(KSPGetPC(red%outer, pc, ierr))
+    PetscCall(PCSetType(pc, PCSHELL, ierr))
+    PetscCall(PCShellSetContext(pc, red, ierr))
+    PetscCall(PCShellSetApply(pc, reduced_pc_apply, ierr))
+    PetscCall(PCShellSetName(pc, 'nuno reduced elimination (inner solver: -reduced_ksp_view)', ierr))
+  end subroutine reduced_attach
+
+  subroutine reduced_destroy(red, ierr)
+    type(reduced_t), intent(inout) :: red
+    PetscErrorCode, intent(out) :: ierr
+    PetscCall(KSPDestroy(red%ksp, ierr))
+    PetscCall(MatDestroy(red%jac, ierr))
+    PetscCall(VecDestroy(red%coords, ierr))
+    PetscCall(VecDestroy(red%dv, ierr))
+    PetscCall(VecDestroy(red%rhs, ierr))
+    PetscCall(MatDestroy(red%s, ierr))
+    PetscCall(DMDestroy(red%da3, ierr))
+  end subroutine reduced_destroy
+
+  !> Mark the constrained nodes (owned rows: fixed(0:nx-1, ys:ye)) and
+  !> exchange the marks of the ghost rows. Collective; once per time window.
+  subroutine reduced_set_fixed(red, fixed, ierr)
+    type(reduced_t), intent(inout) :: red
+    logical, intent(in) :: fixed(0:, red%lat%ys:)
+    PetscErrorCode, intent(out) :: ierr
+    type(tVec) :: loc
+    PetscScalar, pointer :: fa(:, :, :), fl(:, :, :)
+    integer :: i, j
+    PetscCall(DMDAVecGetArrayF90(red%da3, red%dv, fa, ierr))
+    do j = red%lat%ys, red%lat%ye
+      do i = 0, red%lat%nx - 1
+        fa(0, i, j) = merge(1.0_rp, 0.0_rp, fixed(i, j))
+      end do
+    end do
+    PetscCall(DMDAVecRestoreArrayF90(red%da3, red%dv, fa, ierr))
+    PetscCall(DMGetLocalVector(red%da3, loc, ierr))
+    PetscCall(DMGlobalToLocalBegin(red%da3, red%dv, INSERT_VALUES, loc, ierr))
+    PetscCall(DMGlobalToLocalEnd(red%da3, red%dv, INSERT_VALUES, loc, ierr))
+    PetscCall(DMDAVecGetArrayReadF90(red%da3, loc, fl, ierr))
+    red%fixedg = fl(0, :, :) > 0.5_rp
+    PetscCall(DMDAVecRestoreArrayReadF90(red%da3, loc, fl, ierr))
+    PetscCall(DMRestoreLocalVector(red%da3, loc, ierr))
+    red%dirty = .true.
+  end subroutine reduced_set_fixed
+
+  !> Assemble S at the ghosted state u(0:5, 0:nx-1, gys:gye) (with its time
+  !> derivative ud, same shape) and shift a, and keep the state for the
+  !> matrix-free products. A constant Jacobian (linear springs, no bending)
+  !> is assembled again only when a or the constraints change. Collective.
+  subroutine reduced_assemble(red, u, ud, a, ierr)
+    type(reduced_t), intent(inout) :: red
+    real(rp), intent(in) :: u(0:, 0:, red%lat%gys:)
+    real(rp), intent(in) :: ud(0:, 0:, red%lat%gys:)
+    real(rp), intent(in) :: a
+    PetscErrorCode, intent(out) :: ierr
+    integer :: ja, i, j, nc
+    PetscInt :: row(1), ncol
+
+    ierr = 0
+    red%ujac = u
+    ! w of the right-hand side b = F(u): F_x = xdot - v, F_v = vdot on
+    ! constrained nodes (whose v is their prescribed velocity).
+    do j = red%lat%gys, red%lat%gye
+      do i = 0, red%lat%nx - 1
+        red%wpred(0:2, i, j) = (ud(0:2, i, j) - u(3:5, i, j)) / a
+        if (red%fixedg(i, j)) then
+          red%wpred(3:5, i, j) = ud(3:5, i, j) / a
+        else
+          red%wpred(3:5, i, j) = 0.0_rp
+        end if
+      end do
+    end do
+    red%have_pred = .true.
+    if (red%constant .and. red%assembled .and. .not. red%dirty .and. a == red%a) then
+      call element_products(red, red%wpred)
+      red%gpred = red%g
+      return
+    end if
+    red%jbuf%k = 0.0_rp
+    red%jbuf%c = 0.0_rp
+    do ja = first_anchor_row(red%lat), red%lat%ye
+      call jac_buffer_row(red%jbuf, red%lat, u, ja, red%clamp, red%gauss_newton)
+      if (ja >= red%lat%ys) then
+        call buffer_row_apply(red%jbuf, red%lat, red%wpred, ja, red%damping, red%gpred(:, :, ja))
+        do i = 0, red%lat%nx - 1
+          call reduced_row_blocks(red%jbuf, red%lat, red%fixedg, i, ja, a, red%damping, red%vals, red%cols, nc)
+          row(1) = i + (ja - red%lat%gys) * red%lat%nx
+          ncol = nc
+          PetscCall(set_block_row(red%s, row, ncol, red%cols, red%vals, 9 * nc, ierr))
+        end do
+      end if
+      red%jbuf%k(:, :, :, :, :, slot_of(ja)) = 0.0_rp
+      red%jbuf%c(:, :, :, :, :, slot_of(ja)) = 0.0_rp
+    end do
+    PetscCall(MatAssemblyBegin(red%s, MAT_FINAL_ASSEMBLY, ierr))
+    PetscCall(MatAssemblyEnd(red%s, MAT_FINAL_ASSEMBLY, ierr))
+    red%a = a
+    red%assembled = .true.
+    red%dirty = .false.
+    ! Preconditioner reuse: rebuild every pc_lag assemblies (and after a
+    ! failed inner solve, see solve_inner).
+    red%since_pc = red%since_pc + 1
+    if (red%since_pc >= red%pc_lag) then
+      red%since_pc = 0
+      PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_FALSE, ierr))
+      red%nsetup = red%nsetup + 1
+      if (red%use_nullspace) then
+        PetscCall(set_rigid_body_modes(red, u, ierr))
+      end if
+    else
+      PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_TRUE, ierr))
+    end if
+  end subroutine reduced_assemble
+
+  !> GAMG's near-null space: the six rigid-body modes of the current shape.
+  subroutine set_rigid_body_modes(red, u, ierr)
+    type(reduced_t), intent(inout) :: red
+    real(rp), intent(in) :: u(0:, 0:, red%lat%gys:)
+    PetscErrorCode, intent(out) :: ierr
+    PetscScalar, pointer :: c(:, :, :)
+    type(tMatNullSpace) :: nsp
+    PetscCall(DMDAVecGetArrayF90(red%da3, red%coords, c, ierr))
+    c(0:2, :, red%lat%ys:red%lat%ye) = u(0:2, :, red%lat%ys:red%lat%ye)
+    PetscCall(DMDAVecRestoreArrayF90(red%da3, red%coords, c, ierr))
+    PetscCall(MatNullSpaceCreateRigidBody(red%coords, nsp, ierr))
+    PetscCall(MatSetNearNullSpace(red%s, nsp, ierr))
+    PetscCall(MatNullSpaceDestroy(nsp, ierr))
+  end subroutine set_rigid_body_modes
+
+  !> One block row into the matrix: vals as the flat array PETSc takes.
+  subroutine set_block_row(mat, row, ncol, cols, vals, n, ierr)
+    type(tMat) :: mat
+    PetscInt, intent(in) :: row(1), ncol
+    integer, intent(in) :: cols(ncol)
+    integer, intent(in) :: n
+    PetscScalar, intent(in) :: vals(n)
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt, parameter :: one = 1
+    PetscInt :: pcols(ncol)
+    pcols = cols
+    call MatSetValuesBlockedLocal(mat, one, row, ncol, pcols, vals, INSERT_VALUES, ierr)
+  end subroutine set_block_row
+
+  !> g = -(K w_x + C w_v) on the owned rows, at the state of the last
+  !> assembly, from the element blocks (one pass over the elements).
+  subroutine element_products(red, w)
+    type(reduced_t), intent(inout) :: red
+    real(rp), intent(in) :: w(0:, 0:, red%lat%gys:)
+    integer :: ja
+    red%jbuf%k = 0.0_rp
+    red%jbuf%c = 0.0_rp
+    do ja = first_anchor_row(red%lat), red%lat%ye
+      call jac_buffer_row(red%jbuf, red%lat, red%ujac, ja, red%clamp, red%gauss_newton)
+      if (ja >= red%lat%ys) call buffer_row_apply(red%jbuf, red%lat, w, ja, red%damping, red%g(:, :, ja))
+      red%jbuf%k(:, :, :, :, :, slot_of(ja)) = 0.0_rp
+      red%jbuf%c(:, :, :, :, :, slot_of(ja)) = 0.0_rp
+    end do
+  end subroutine element_products
+
+  !> The right-hand side of S dv = rhs for the 6-dof right-hand side b
+  !> (global, dof 6): rhs = m b_v + K b_x/a + C z (see the module header).
+  !> Collective (one halo exchange of b).
+  subroutine reduced_rhs(red, b, rhs, ierr)
+    type(reduced_t), intent(inout) :: red
+    type(tVec) :: b, rhs
+    PetscErrorCode, intent(out) :: ierr
+    type(tVec) :: bloc
+    PetscScalar, pointer :: bl(:, :, :), r(:, :, :)
+    integer :: i, j
+    real(rp) :: ainv
+    logical :: any_w
+
+    ainv = 1.0_rp / red%a
+    PetscCall(DMGetLocalVector(red%da6, bloc, ierr))
+    PetscCall(DMGlobalToLocalBegin(red%da6, b, INSERT_VALUES, bloc, ierr))
+    PetscCall(DMGlobalToLocalEnd(red%da6, b, INSERT_VALUES, bloc, ierr))
+    PetscCall(DMDAVecGetArrayReadF90(red%da6, bloc, bl, ierr))
+    any_w = .false.
+    do j = red%lat%gys, red%lat%gye
+      do i = 0, red%lat%nx - 1
+        red%w(0:2, i, j) = ainv * bl(0:2, i, j)
+        if (red%fixedg(i, j)) then
+          red%w(3:5, i, j) = ainv * bl(3:5, i, j)
+        else
+          red%w(3:5, i, j) = 0.0_rp
+        end if
+      end do
+    end do
+    any_w = any(red%w /= 0.0_rp)
+    ! b_x = 0 and no constrained dv: the products vanish. b = +-F(u) at the
+    ! assembled state (a Newton step): formed during the assembly.
+    ! Anything else: one pass over the elements.
+    if (.not. any_w) then
+      red%g = 0.0_rp
+    else if (red%have_pred .and. same(red%w, red%wpred)) then
+      red%g = red%gpred
+    else if (red%have_pred .and. same(red%w, -red%wpred)) then
+      red%g = -red%gpred
+    else
+      call element_products(red, red%w)
+    end if
+    PetscCall(DMDAVecGetArrayF90(red%da3, rhs, r, ierr))
+    do j = red%lat%ys, red%lat%ye
+      do i = 0, red%lat%nx - 1
+        if (red%fixedg(i, j)) then
+          r(0:2, i, j) = red%lat%mass(i, j) * bl(3:5, i, j)
+        else
+          r(0:2, i, j) = red%lat%mass(i, j) * bl(3:5, i, j) - red%g(:, i, j)
+        end if
+      end do
+    end do
+    PetscCall(DMDAVecRestoreArrayF90(red%da3, rhs, r, ierr))
+    PetscCall(DMDAVecRestoreArrayReadF90(red%da6, bloc, bl, ierr))
+    PetscCall(DMRestoreLocalVector(red%da6, bloc, ierr))
+  end subroutine reduced_rhs
+
+  !> Equal up to round-off (both come from the same expressions).
+  pure logical function same(x, y)
+    real(rp), intent(in) :: x(:, :, :), y(:, :, :)
+    same = maxval(abs(x - y)) <= 1.0e-13_rp * maxval(abs(y))
+  end function same
+
+  !> PCSHELL apply: du = J^{-1} b by elimination, up to the inner solve's
+  !> tolerance. A failed inner solve is retried once with a freshly built
+  !> preconditioner when it was a reused one; if it still fails, the PC
+  !> reports failure and SNES fails the step (TS then retries it smaller).
+  subroutine reduced_pc_apply(pc, b, du, ierr)
+    type(tPC) :: pc
+    type(tVec) :: b, du
+    PetscErrorCode :: ierr
+    type(reduced_t), pointer :: red
+    PetscScalar, pointer :: bl(:, :, :), y(:, :, :), dv(:, :, :)
+    integer :: i, j
+    real(rp) :: ainv, rtol, atol, dtol
+    PetscInt :: maxit
+    KSPConvergedReason :: reason
+    PetscInt :: its
+    PetscBool :: ew, reused
+
+    PetscCall(PCShellGetContext(pc, red, ierr))
+    ! Eisenstat-Walker sets the outer KSP's rtol: that is the forcing term.
+    if (red%forward_ew) then
+      PetscCall(KSPGetTolerances(red%outer, rtol, atol, dtol, maxit, ierr))
+      PetscCall(SNESKSPGetUseEW(red%snes, ew, ierr))
+      if (ew) then
+        PetscCall(KSPSetTolerances(red%ksp, rtol, PETSC_DEFAULT_REAL, PETSC_DEFAULT_REAL, PETSC_DEFAULT_INTEGER, ierr))
+      end if
+    end if
+    PetscCall(reduced_rhs(red, b, red%rhs, ierr))
+    PetscCall(KSPSolve(red%ksp, red%rhs, red%dv, ierr))
+    PetscCall(KSPGetConvergedReason(red%ksp, reason, ierr))
+    PetscCall(KSPGetIterationNumber(red%ksp, its, ierr))
+    red%its = red%its + its
+    red%nsolve = red%nsolve + 1
+    if (reason < 0) then
+      PetscCall(KSPGetReusePreconditioner(red%ksp, reused, ierr))
+      if (reused) then
+        red%nretry = red%nretry + 1
+        red%nsetup = red%nsetup + 1
+        red%since_pc = 0
+        PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_FALSE, ierr))
+        PetscCall(KSPSetOperators(red%ksp, red%s, red%s, ierr))
+        PetscCall(KSPSolve(red%ksp, red%rhs, red%dv, ierr))
+        PetscCall(KSPGetConvergedReason(red%ksp, reason, ierr))
+        PetscCall(KSPGetIterationNumber(red%ksp, its, ierr))
+        red%its = red%its + its
+      end if
+    end if
+    if (reason < 0) then
+      PetscCall(PCSetFailedReason(pc, PC_SUBPC_ERROR, ierr))
+    end if
+
+    ainv = 1.0_rp / red%a
+    PetscCall(DMDAVecGetArrayReadF90(red%da6, b, bl, ierr))
+    PetscCall(DMDAVecGetArrayReadF90(red%da3, red%dv, dv, ierr))
+    PetscCall(DMDAVecGetArrayF90(red%da6, du, y, ierr))
+    do j = red%lat%ys, red%lat%ye
+      do i = 0, red%lat%nx - 1
+        y(3:5, i, j) = dv(0:2, i, j)
+        if (red%fixedg(i, j)) then
+          y(0:2, i, j) = ainv * bl(0:2, i, j)
+        else
+          y(0:2, i, j) = ainv * (dv(0:2, i, j) + bl(0:2, i, j))
+        end if
+      end do
+    end do
+    PetscCall(DMDAVecRestoreArrayF90(red%da6, du, y, ierr))
+    PetscCall(DMDAVecRestoreArrayReadF90(red%da3, red%dv, dv, ierr))
+    PetscCall(DMDAVecRestoreArrayReadF90(red%da6, b, bl, ierr))
+  end subroutine reduced_pc_apply
+
+  !> MATSHELL mult: y = J du, the exact 6-dof Jacobian at the last assembled
+  !> state (x-rows a dx - dv, v-rows a dv - (K dx + C dv)/m; a I on
+  !> constrained rows). Collective (one halo exchange of du).
+  subroutine reduced_jac_mult(mat, du, yv, ierr)
+    type(tMat) :: mat
+    type(tVec) :: du, yv
+    PetscErrorCode :: ierr
+    type(reduced_t), pointer :: red
+    type(tVec) :: dloc
+    PetscScalar, pointer :: d(:, :, :), y(:, :, :)
+    integer :: i, j
+    real(rp) :: a
+
+    PetscCall(MatShellGetContext(mat, red, ierr))
+    a = red%a
+    PetscCall(DMGetLocalVector(red%da6, dloc, ierr))
+    PetscCall(DMGlobalToLocalBegin(red%da6, du, INSERT_VALUES, dloc, ierr))
+    PetscCall(DMGlobalToLocalEnd(red%da6, du, INSERT_VALUES, dloc, ierr))
+    PetscCall(DMDAVecGetArrayReadF90(red%da6, dloc, d, ierr))
+    call element_products(red, d)
+    PetscCall(DMDAVecGetArrayF90(red%da6, yv, y, ierr))
+    do j = red%lat%ys, red%lat%ye
+      do i = 0, red%lat%nx - 1
+        if (red%fixedg(i, j)) then
+          y(:, i, j) = a * d(:, i, j)
+        else
+          y(0:2, i, j) = a * d(0:2, i, j) - d(3:5, i, j)
+          y(3:5, i, j) = a * d(3:5, i, j) + red%g(:, i, j) / red%lat%mass(i, j)
+        end if
+      end do
+    end do
+    PetscCall(DMDAVecRestoreArrayF90(red%da6, yv, y, ierr))
+    PetscCall(DMDAVecRestoreArrayReadF90(red%da6, dloc, d, ierr))
+    PetscCall(DMRestoreLocalVector(red%da6, dloc, ierr))
+  end subroutine reduced_jac_mult
+
+end module reduced

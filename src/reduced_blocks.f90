@@ -1,0 +1,92 @@
+!> Plain-array pieces of the reduced (Baraff-Witkin) solve, no PETSc, no MPI:
+!> the block row of the 3-dof matrix S = a M - C - K/a of one node row, and
+!> the product of the element Jacobian blocks of one row with a state-sized
+!> vector (the matrix-free K w_x + C w_v that the elimination needs).
+!>
+!> The blocks come from the rolling buffer of module forces, which holds
+!> k = -df/dx and c = -df/dv (no mass term), so that S = a m I + c + k/a.
+!> Constrained nodes: their row of S is a m I (dv = b_v / a, exact), and
+!> their columns are left out of the free rows (the known dv is moved to the
+!> right-hand side), which keeps S symmetric whenever K and C are.
+module reduced_blocks
+  use kinds, only: rp
+  use lattice, only: lattice_t
+  use forces, only: jac_buffer_t, slot_of
+  implicit none
+  private
+  public :: reduced_row_blocks, buffer_row_apply
+
+contains
+
+  !> Block row of S for node (i, j): blocks vals(3, 3, nc) (column-major
+  !> 3 x 3, as MatSetValuesBlocked takes with MAT_ROW_ORIENTED false) at the
+  !> ghosted local block columns cols(nc) = i' + (j' - gys) nx. Every block
+  !> of the preallocated stencil is written (zeros included), so the matrix
+  !> needs no zeroing between assemblies.
+  pure subroutine reduced_row_blocks(buf, lat, fixedg, i, j, a, with_damping, vals, cols, nc)
+    type(jac_buffer_t), intent(in) :: buf
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixedg(0:, lat%gys:)   !< (0:nx-1, gys:gye) constrained nodes
+    integer, intent(in) :: i, j                   !< the node of the row (an owned row)
+    real(rp), intent(in) :: a                     !< TS shift [1/time]
+    logical, intent(in) :: with_damping           !< add the damping blocks c
+    real(rp), intent(out) :: vals(:, :, :)        !< (3, 3, >= nc) [mass/time]
+    integer, intent(out) :: cols(:)               !< (>= nc)
+    integer, intent(out) :: nc
+    integer :: di, dj, w, s, q
+    real(rp) :: am, rinv
+
+    w = buf%w
+    s = slot_of(j)
+    am = a * lat%mass(i, j)
+    rinv = 1.0_rp / a
+    nc = 0
+    do dj = -w, w
+      if (j + dj < 0 .or. j + dj >= lat%ny) cycle
+      do di = -w, w
+        if (i + di < 0 .or. i + di >= lat%nx) cycle
+        nc = nc + 1
+        cols(nc) = (i + di) + (j + dj - lat%gys) * lat%nx
+        if (fixedg(i, j) .or. fixedg(i + di, j + dj)) then
+          vals(:, :, nc) = 0.0_rp
+        else if (with_damping) then
+          vals(:, :, nc) = buf%c(:, :, di, dj, i, s) + rinv * buf%k(:, :, di, dj, i, s)
+        else
+          vals(:, :, nc) = rinv * buf%k(:, :, di, dj, i, s)
+        end if
+        if (di == 0 .and. dj == 0) then
+          do q = 1, 3
+            vals(q, q, nc) = vals(q, q, nc) + am
+          end do
+        end if
+      end do
+    end do
+  end subroutine reduced_row_blocks
+
+  !> g(:, i) = sum over the stencil of k w_x + c w_v for every node i of row
+  !> j: minus (K w_x + C w_v) restricted to row j, w(0:5, 0:nx-1, gys:gye).
+  pure subroutine buffer_row_apply(buf, lat, w, j, with_damping, g)
+    type(jac_buffer_t), intent(in) :: buf
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: w(0:, 0:, lat%gys:)   !< (0:5, 0:nx-1, gys:gye)
+    integer, intent(in) :: j
+    logical, intent(in) :: with_damping
+    real(rp), intent(out) :: g(:, 0:)             !< (3, 0:nx-1) [force]
+    integer :: i, di, dj, s, hw, dj0, dj1
+
+    hw = buf%w
+    s = slot_of(j)
+    dj0 = max(-hw, -j)
+    dj1 = min(hw, lat%ny - 1 - j)
+    do i = 0, lat%nx - 1
+      g(:, i) = 0.0_rp
+      do dj = dj0, dj1
+        do di = max(-hw, -i), min(hw, lat%nx - 1 - i)
+          g(:, i) = g(:, i) + matmul(buf%k(:, :, di, dj, i, s), w(0:2, i + di, j + dj))
+          if (with_damping) g(:, i) = g(:, i) + matmul(buf%c(:, :, di, dj, i, s), w(3:5, i + di, j + dj))
+        end do
+      end do
+    end do
+  end subroutine buffer_row_apply
+
+end module reduced_blocks

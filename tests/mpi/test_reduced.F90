@@ -1,0 +1,346 @@
+!> MPI test of the reduced solve (module reduced) on a deformed, moving
+!> lattice with constrained nodes, for springs alone, energy bending with
+!> bending damping, and paper bending:
+!>  1. S y against central finite differences of the forces along
+!>     (x, v) + eps (y/a, y): S y = a M y - d/deps f (free rows, y = 0 on
+!>     constrained nodes), and S's constrained rows and columns exact;
+!>  2. the 6-dof MATSHELL against finite differences of the 6-dof residual;
+!>  3. the elimination (PCSHELL with an exact inner LU) inverts the MATSHELL:
+!>     J (P b) = b, for a general b and for the b = F(u) of a Newton step
+!>     (whose products are formed during the assembly).
+!> Every error is a global maximum, so every rank checks the same numbers.
+program test_reduced
+#include "petsc/finclude/petscsnes.h"
+#include "petsc/finclude/petscdmda.h"
+  use petscsnes
+  use petscdmda
+  use mpi
+  use kinds, only: rp
+  use config, only: nuno_config, BEND_NONE, BEND_PAPER, BEND_ENERGY, SPRING_AXIAL, MASS_AREA
+  use lattice, only: lattice_t, lattice_init, halo_width, rest_position
+  use forces, only: internal_forces
+  use reduced, only: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, &
+                     reduced_attach
+  use check, only: check_true, check_report
+  implicit none
+  PetscErrorCode :: ierr
+
+  PetscCallA(PetscInitialize(ierr))
+  ! An exact inner solve, so that the elimination is exact.
+  PetscCallA(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-reduced_ksp_type', 'preonly', ierr))
+  PetscCallA(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-reduced_pc_type', 'lu', ierr))
+  PetscCallA(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-reduced_pc_factor_mat_solver_type', 'mumps', ierr))
+  call run_case(BEND_NONE, 'springs')
+  call run_case(BEND_ENERGY, 'energy bending')
+  call run_case(BEND_PAPER, 'paper bending')
+  call check_report()
+  PetscCallA(PetscFinalize(ierr))
+
+contains
+
+  !> Deformed position and velocity of node (i, j): smooth, non-planar,
+  !> every link stretched or compressed and turning.
+  pure subroutine state_of(lat, i, j, x, v)
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: i, j
+    real(rp), intent(out) :: x(3), v(3)
+    real(rp) :: s, t
+    s = real(i, rp) / real(lat%nx - 1, rp)
+    t = real(j, rp) / real(lat%ny - 1, rp)
+    x = rest_position(lat, i, j) + 0.08_rp * [sin(2.0_rp * s + t), cos(3.0_rp * t) * s, 1.5_rp * sin(2.5_rp * s) * cos(2.0_rp * t)]
+    v = [0.3_rp * cos(s + 2.0_rp * t), -0.2_rp * s * t, 0.5_rp * sin(3.0_rp * s - t)]
+  end subroutine state_of
+
+  !> Global max of |x|.
+  real(rp) function gmax(x)
+    real(rp), intent(in) :: x
+    integer :: mpierr
+    call MPI_Allreduce(x, gmax, 1, MPI_DOUBLE_PRECISION, MPI_MAX, PETSC_COMM_WORLD, mpierr)
+  end function gmax
+
+  !> Forces at the ghosted state of the global vector uvec (owned rows valid).
+  subroutine forces_at(da, lat, uvec, f)
+    type(tDM), intent(in) :: da
+    type(lattice_t), intent(in) :: lat
+    type(tVec), intent(in) :: uvec
+    real(rp), intent(out) :: f(:, 0:, lat%gys:)
+    type(tVec) :: loc
+    PetscScalar, pointer :: u(:, :, :)
+    integer :: nbad, bad(2)
+    PetscErrorCode :: ierr
+    call DMGetLocalVector(da, loc, ierr)
+    call DMGlobalToLocalBegin(da, uvec, INSERT_VALUES, loc, ierr)
+    call DMGlobalToLocalEnd(da, uvec, INSERT_VALUES, loc, ierr)
+    call DMDAVecGetArrayReadF90(da, loc, u, ierr)
+    call internal_forces(lat, u, f, nbad, bad)
+    call DMDAVecRestoreArrayReadF90(da, loc, u, ierr)
+    call DMRestoreLocalVector(da, loc, ierr)
+  end subroutine forces_at
+
+  subroutine run_case(bend, label)
+    integer, intent(in) :: bend
+    character(*), intent(in) :: label
+    type(nuno_config) :: cfg
+    type(lattice_t), target :: lat
+    type(reduced_t), target :: red
+    type(tDM) :: da6
+    type(tVec) :: u, ud, up, um, y3, sy3, sy3b, b, du, jdu
+    type(tVec) :: uloc, udloc
+    type(tSNES) :: snes
+    type(tKSP) :: outer
+    PetscScalar, pointer :: ua(:, :, :), uda(:, :, :), ya(:, :, :), sa(:, :, :), sb(:, :, :), pa(:, :, :)
+    PetscScalar, pointer :: ba(:, :, :), ja(:, :, :), da(:, :, :), ul(:, :, :), udl(:, :, :)
+    PetscInt :: xs, ys, zs, xm, ym, zm, nxp, nyp, w
+    PetscInt, parameter :: one = 1, six = 6
+    real(rp), allocatable :: fp(:, :, :), fm(:, :, :)
+    logical, allocatable :: fixed(:, :)
+    real(rp) :: a, eps, x(3), vv(3), err, scale, fd(3), m
+    integer :: i, j
+
+    cfg%nx = 7
+    cfg%ny = 9
+    cfg%lx = 1.3_rp
+    cfg%ly = 1.7_rp
+    cfg%total_mass = 0.3_rp
+    cfg%mass_code = MASS_AREA
+    cfg%spring_code = SPRING_AXIAL
+    cfg%e_s = 2.0_rp
+    cfg%eta_s = 0.3_rp
+    cfg%e_d = 1.5_rp
+    cfg%eta_d = 0.2_rp
+    cfg%bending_code = bend
+    cfg%k_b = merge(0.01_rp, 0.05_rp, bend == BEND_PAPER)
+    cfg%eta_b = merge(0.02_rp, 0.0_rp, bend == BEND_ENERGY)
+    cfg%ax = cfg%lx / real(cfg%nx - 1, rp)
+    cfg%ay = cfg%ly / real(cfg%ny - 1, rp)
+    cfg%has_damping = .true.
+    w = halo_width(cfg)
+    nxp = cfg%nx
+    nyp = cfg%ny
+    a = 37.0_rp
+
+    PetscCallA(DMDACreate2d(PETSC_COMM_WORLD, DM_BOUNDARY_NONE, DM_BOUNDARY_NONE, DMDA_STENCIL_BOX, nxp, nyp, one, PETSC_DECIDE, six, w, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, da6, ierr))
+    PetscCallA(DMSetUp(da6, ierr))
+    PetscCallA(DMDAGetCorners(da6, xs, ys, zs, xm, ym, zm, ierr))
+    call lattice_init(lat, cfg, ys, ys + ym - 1)
+    allocate(fp(3, 0:cfg%nx - 1, lat%gys:lat%gye), fm(3, 0:cfg%nx - 1, lat%gys:lat%gye))
+    allocate(fixed(0:cfg%nx - 1, lat%ys:lat%ye))
+
+    ! State, its time derivative (any), constrained nodes.
+    PetscCallA(DMCreateGlobalVector(da6, u, ierr))
+    PetscCallA(VecDuplicate(u, ud, ierr))
+    PetscCallA(DMDAVecGetArrayF90(da6, u, ua, ierr))
+    PetscCallA(DMDAVecGetArrayF90(da6, ud, uda, ierr))
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
+        call state_of(lat, i, j, x, vv)
+        ua(0:2, i, j) = x
+        ua(3:5, i, j) = vv
+        uda(:, i, j) = [0.1_rp * i, -0.2_rp * j, 0.3_rp, 0.05_rp * i * j, 0.7_rp, -0.1_rp * i]
+        fixed(i, j) = (j == lat%ny - 1 .and. (i == 0 .or. i == lat%nx - 1)) .or. (i == 3 .and. j == 4)
+      end do
+    end do
+    PetscCallA(DMDAVecRestoreArrayF90(da6, ud, uda, ierr))
+    PetscCallA(DMDAVecRestoreArrayF90(da6, u, ua, ierr))
+
+    PetscCallA(reduced_create(red, da6, lat, .false., .false., .true., .false., .false., ierr))
+    PetscCallA(reduced_set_fixed(red, fixed, ierr))
+    PetscCallA(DMGetLocalVector(da6, uloc, ierr))
+    PetscCallA(DMGetLocalVector(da6, udloc, ierr))
+    PetscCallA(DMGlobalToLocalBegin(da6, u, INSERT_VALUES, uloc, ierr))
+    PetscCallA(DMGlobalToLocalEnd(da6, u, INSERT_VALUES, uloc, ierr))
+    PetscCallA(DMGlobalToLocalBegin(da6, ud, INSERT_VALUES, udloc, ierr))
+    PetscCallA(DMGlobalToLocalEnd(da6, ud, INSERT_VALUES, udloc, ierr))
+    PetscCallA(DMDAVecGetArrayReadF90(da6, uloc, ul, ierr))
+    PetscCallA(DMDAVecGetArrayReadF90(da6, udloc, udl, ierr))
+    PetscCallA(reduced_assemble(red, ul, udl, a, ierr))
+    PetscCallA(DMDAVecRestoreArrayReadF90(da6, udloc, udl, ierr))
+    PetscCallA(DMDAVecRestoreArrayReadF90(da6, uloc, ul, ierr))
+    PetscCallA(DMRestoreLocalVector(da6, udloc, ierr))
+    PetscCallA(DMRestoreLocalVector(da6, uloc, ierr))
+
+    ! 1. S y against finite differences (y = 0 on constrained nodes).
+    PetscCallA(VecDuplicate(red%rhs, y3, ierr))
+    PetscCallA(VecDuplicate(red%rhs, sy3, ierr))
+    PetscCallA(VecDuplicate(red%rhs, sy3b, ierr))
+    PetscCallA(DMDAVecGetArrayF90(red%da3, y3, ya, ierr))
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
+        ya(:, i, j) = [sin(1.0_rp + i + 2.0_rp * j), cos(0.5_rp * i - j), sin(0.3_rp * i * j + 0.2_rp)]
+        if (fixed(i, j)) ya(:, i, j) = 0.0_rp
+      end do
+    end do
+    PetscCallA(DMDAVecRestoreArrayF90(red%da3, y3, ya, ierr))
+    PetscCallA(MatMult(red%s, y3, sy3, ierr))
+    eps = 1.0e-6_rp
+    PetscCallA(VecDuplicate(u, up, ierr))
+    PetscCallA(VecDuplicate(u, um, ierr))
+    PetscCallA(DMDAVecGetArrayReadF90(red%da3, y3, ya, ierr))
+    PetscCallA(DMDAVecGetArrayReadF90(da6, u, ua, ierr))
+    PetscCallA(DMDAVecGetArrayF90(da6, up, pa, ierr))
+    pa = ua
+    pa(0:2, :, lat%ys:lat%ye) = pa(0:2, :, lat%ys:lat%ye) + eps / a * ya(0:2, :, lat%ys:lat%ye)
+    pa(3:5, :, lat%ys:lat%ye) = pa(3:5, :, lat%ys:lat%ye) + eps * ya(0:2, :, lat%ys:lat%ye)
+    PetscCallA(DMDAVecRestoreArrayF90(da6, up, pa, ierr))
+    PetscCallA(DMDAVecGetArrayF90(da6, um, pa, ierr))
+    pa = ua
+    pa(0:2, :, lat%ys:lat%ye) = pa(0:2, :, lat%ys:lat%ye) - eps / a * ya(0:2, :, lat%ys:lat%ye)
+    pa(3:5, :, lat%ys:lat%ye) = pa(3:5, :, lat%ys:lat%ye) - eps * ya(0:2, :, lat%ys:lat%ye)
+    PetscCallA(DMDAVecRestoreArrayF90(da6, um, pa, ierr))
+    PetscCallA(DMDAVecRestoreArrayReadF90(da6, u, ua, ierr))
+    call forces_at(da6, lat, up, fp)
+    call forces_at(da6, lat, um, fm)
+    err = 0.0_rp
+    scale = 0.0_rp
+    PetscCallA(DMDAVecGetArrayReadF90(red%da3, sy3, sa, ierr))
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
+        m = lat%mass(i, j)
+        if (fixed(i, j)) then
+          fd = a * m * ya(0:2, i, j)
+        else
+          fd = a * m * ya(0:2, i, j) - (fp(:, i, j) - fm(:, i, j)) / (2.0_rp * eps)
+        end if
+        err = max(err, maxval(abs(sa(0:2, i, j) - fd)))
+        scale = max(scale, maxval(abs(fd)))
+      end do
+    end do
+    PetscCallA(DMDAVecRestoreArrayReadF90(red%da3, sy3, sa, ierr))
+    PetscCallA(DMDAVecRestoreArrayReadF90(red%da3, y3, ya, ierr))
+    err = gmax(err)
+    scale = gmax(scale)
+    call check_true(scale > 0.0_rp .and. err <= 1.0e-7_rp * scale, label//': S y against finite differences')
+    if (err > 1.0e-7_rp * scale) write(*, '(a,es10.3,a,es10.3)') label//': |S y - fd| = ', err, ' of ', scale
+
+    ! Constrained columns and rows: changing y on constrained nodes changes
+    ! S y only there, by a m dy.
+    PetscCallA(DMDAVecGetArrayF90(red%da3, y3, ya, ierr))
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
+        if (fixed(i, j)) ya(:, i, j) = [1.0_rp, -2.0_rp, 3.0_rp]
+      end do
+    end do
+    PetscCallA(DMDAVecRestoreArrayF90(red%da3, y3, ya, ierr))
+    PetscCallA(MatMult(red%s, y3, sy3b, ierr))
+    PetscCallA(DMDAVecGetArrayReadF90(red%da3, sy3, sa, ierr))
+    PetscCallA(DMDAVecGetArrayReadF90(red%da3, sy3b, sb, ierr))
+    err = 0.0_rp
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
+        if (fixed(i, j)) then
+          fd = sa(0:2, i, j) + a * lat%mass(i, j) * [1.0_rp, -2.0_rp, 3.0_rp]
+        else
+          fd = sa(0:2, i, j)
+        end if
+        err = max(err, maxval(abs(sb(0:2, i, j) - fd)))
+      end do
+    end do
+    PetscCallA(DMDAVecRestoreArrayReadF90(red%da3, sy3b, sb, ierr))
+    PetscCallA(DMDAVecRestoreArrayReadF90(red%da3, sy3, sa, ierr))
+    err = gmax(err)
+    call check_true(err <= 1.0e-12_rp * scale, label//': constrained rows and columns of S')
+
+    ! 2. The MATSHELL J du against finite differences of the 6-dof residual
+    !    (x-rows a dx - dv, v-rows a dv - d/deps f / m; a du when constrained).
+    PetscCallA(VecDuplicate(u, b, ierr))
+    PetscCallA(VecDuplicate(u, du, ierr))
+    PetscCallA(VecDuplicate(u, jdu, ierr))
+    PetscCallA(DMDAVecGetArrayF90(da6, du, da, ierr))
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
+        da(:, i, j) = [cos(0.7_rp * i + j), sin(i - 0.4_rp * j), 0.5_rp, sin(0.2_rp * i * j), -0.3_rp, cos(real(i + j, rp))]
+      end do
+    end do
+    PetscCallA(DMDAVecRestoreArrayF90(da6, du, da, ierr))
+    PetscCallA(MatMult(red%jac, du, jdu, ierr))
+    PetscCallA(VecWAXPY(up, eps, du, u, ierr))
+    PetscCallA(VecWAXPY(um, -eps, du, u, ierr))
+    call forces_at(da6, lat, up, fp)
+    call forces_at(da6, lat, um, fm)
+    PetscCallA(DMDAVecGetArrayReadF90(da6, du, da, ierr))
+    PetscCallA(DMDAVecGetArrayReadF90(da6, jdu, ja, ierr))
+    err = 0.0_rp
+    scale = 0.0_rp
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
+        if (fixed(i, j)) then
+          err = max(err, maxval(abs(ja(:, i, j) - a * da(:, i, j))))
+        else
+          err = max(err, maxval(abs(ja(0:2, i, j) - (a * da(0:2, i, j) - da(3:5, i, j)))))
+          fd = a * da(3:5, i, j) - (fp(:, i, j) - fm(:, i, j)) / (2.0_rp * eps * lat%mass(i, j))
+          err = max(err, maxval(abs(ja(3:5, i, j) - fd)))
+          scale = max(scale, maxval(abs(fd)))
+        end if
+      end do
+    end do
+    PetscCallA(DMDAVecRestoreArrayReadF90(da6, jdu, ja, ierr))
+    PetscCallA(DMDAVecRestoreArrayReadF90(da6, du, da, ierr))
+    err = gmax(err)
+    scale = gmax(scale)
+    call check_true(scale > 0.0_rp .and. err <= 1.0e-7_rp * scale, label//': 6-dof Jacobian action against finite differences')
+    if (err > 1.0e-7_rp * scale) write(*, '(a,es10.3,a,es10.3)') label//': |J du - fd| = ', err, ' of ', scale
+
+    ! 3. Elimination with an exact inner solve inverts J: a general b ...
+    PetscCallA(SNESCreate(PETSC_COMM_WORLD, snes, ierr))
+    PetscCallA(reduced_attach(red, snes, ierr))
+    PetscCallA(SNESGetKSP(snes, outer, ierr))
+    PetscCallA(KSPSetOperators(outer, red%jac, red%jac, ierr))
+    PetscCallA(DMDAVecGetArrayF90(da6, b, ba, ierr))
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
+        ba(:, i, j) = [sin(real(i * j, rp)), 0.3_rp * i, -0.2_rp * j, cos(real(i - j, rp)), 0.1_rp, sin(real(i, rp))]
+      end do
+    end do
+    PetscCallA(DMDAVecRestoreArrayF90(da6, b, ba, ierr))
+    call check_inverse(outer, red%jac, b, du, jdu, label//': elimination inverts J, general b')
+    ! ... and b = F(u) as in a Newton step: F_x = xdot - v everywhere,
+    ! F_v = vdot on constrained nodes (free F_v arbitrary).
+    PetscCallA(DMDAVecGetArrayF90(da6, b, ba, ierr))
+    PetscCallA(DMDAVecGetArrayReadF90(da6, u, ua, ierr))
+    PetscCallA(DMDAVecGetArrayReadF90(da6, ud, uda, ierr))
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
+        ba(0:2, i, j) = uda(0:2, i, j) - ua(3:5, i, j)
+        if (fixed(i, j)) ba(3:5, i, j) = uda(3:5, i, j)
+      end do
+    end do
+    PetscCallA(DMDAVecRestoreArrayReadF90(da6, ud, uda, ierr))
+    PetscCallA(DMDAVecRestoreArrayReadF90(da6, u, ua, ierr))
+    PetscCallA(DMDAVecRestoreArrayF90(da6, b, ba, ierr))
+    call check_inverse(outer, red%jac, b, du, jdu, label//': elimination inverts J, b = F(u)')
+    PetscCallA(VecScale(b, -1.0_rp, ierr))
+    call check_inverse(outer, red%jac, b, du, jdu, label//': elimination inverts J, b = -F(u)')
+
+    PetscCallA(SNESDestroy(snes, ierr))
+    PetscCallA(VecDestroy(jdu, ierr))
+    PetscCallA(VecDestroy(du, ierr))
+    PetscCallA(VecDestroy(b, ierr))
+    PetscCallA(VecDestroy(um, ierr))
+    PetscCallA(VecDestroy(up, ierr))
+    PetscCallA(VecDestroy(sy3b, ierr))
+    PetscCallA(VecDestroy(sy3, ierr))
+    PetscCallA(VecDestroy(y3, ierr))
+    PetscCallA(reduced_destroy(red, ierr))
+    PetscCallA(VecDestroy(ud, ierr))
+    PetscCallA(VecDestroy(u, ierr))
+    PetscCallA(DMDestroy(da6, ierr))
+
+  end subroutine run_case
+
+  !> ||J (P b) - b|| <= 1e-10 ||b|| with P the outer KSP (preonly + elimination).
+  subroutine check_inverse(outer, jac, b, du, jdu, what)
+    type(tKSP), intent(in) :: outer
+    type(tMat), intent(in) :: jac
+    type(tVec), intent(in) :: b, du, jdu
+    character(*), intent(in) :: what
+    real(rp) :: rn, bn
+    PetscCallA(KSPSolve(outer, b, du, ierr))
+    PetscCallA(MatMult(jac, du, jdu, ierr))
+    PetscCallA(VecAXPY(jdu, -1.0_rp, b, ierr))
+    PetscCallA(VecNorm(jdu, NORM_INFINITY, rn, ierr))
+    PetscCallA(VecNorm(b, NORM_INFINITY, bn, ierr))
+    call check_true(bn > 0.0_rp .and. rn <= 1.0e-10_rp * bn, what)
+    if (rn > 1.0e-10_rp * bn) write(*, '(a,es10.3,a,es10.3)') what//': |J P b - b| = ', rn, ' of ', bn
+  end subroutine check_inverse
+
+end program test_reduced
