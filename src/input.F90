@@ -1025,14 +1025,31 @@ contains
       '  -ts_adapt_type basic -ts_rtol R -ts_atol A  adaptive steps with error control', &
       '  -ts_monitor, -snes_monitor, -ksp_monitor     progress of steps, Newton, Krylov', &
       '  -snes_rtol R, -snes_max_it N                 Newton tolerance and iterations', &
-      '  -ksp_type gmres|bcgs|preonly, -pc_type ilu|lu|bjacobi|fieldsplit|gamg', &
+      '  -snes_type ksponly                           Baraff-Witkin mode: one linearised solve a step', &
       '  -log_view                                    timings at the end', &
-      '  -dm_mat_type baij|aij                        Jacobian storage (default baij 6x6; aij for fieldsplit)', &
+      '', &
+      'The Newton step (docs/design.md):', &
+      '  -nuno_jacobian reduced|full                  reduced (default): only the 3-dof velocity system', &
+      '                                               S = a M - C - K/a is assembled and the 6-dof step is', &
+      '                                               solved exactly around it; full: the 6-dof Jacobian', &
+      '  -reduced_ksp_type, -reduced_pc_type, ...     the inner solver of S (default GMRES, or CG when S is', &
+      '                                               symmetric, rtol 1e-6; geometric multigrid on the DMDA,', &
+      '                                               block Jacobi/ILU on small lattices); -reduced_ksp_view', &
+      '  -reduced_dm_mat_type aij|baij|sbaij          storage of S (default: aij for multigrid, baij else)', &
+      '  -nuno_pc_lag N                               rebuild the inner preconditioner every N assemblies', &
+      '                                               (default 1; a failed solve rebuilds it and retries)', &
+      '  -nuno_snes_floor F                           a residual below F times its start that stops', &
+      '                                               decreasing is converged (default 1e-6; 0: off)', &
+      '  -snes_ksp_ew                                 Eisenstat-Walker: its forcing term is the inner rtol', &
       '  -nuno_gauss_newton                           energy bending: Gauss-Newton blocks -k_b J^T J in the', &
-      '                                               assembled matrix (with -snes_mf_operator: exact operator', &
+      '                                               assembled matrix, S or the 6-dof Jacobian (an inexact', &
+      '                                               Newton; with full and -snes_mf_operator: exact operator', &
       '                                               applied matrix-free, Gauss-Newton preconditioner)', &
       '  -nuno_clamp_compression                      drop the indefinite compression term of the springs', &
-      '                                               from the assembled matrix (preconditioner use)'
+      '                                               from the assembled matrix (preconditioner use)', &
+      'With -nuno_jacobian full:', &
+      '  -ksp_type gmres|bcgs|preonly, -pc_type ilu|lu|bjacobi|fieldsplit|gamg', &
+      '  -dm_mat_type baij|aij                        Jacobian storage (default baij 6x6; aij for fieldsplit)'
   end subroutine input_usage
 
   !> Write a few lines that describe the run (call on one rank).
