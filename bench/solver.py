@@ -5,7 +5,7 @@
   newton  full Newton at the default tolerances, dt = 1 ms;
   full6   the old 6-dof assembled path (-nuno_jacobian full, GMRES + ILU),
           dt = 1 ms, where it runs (65 x 65);
-and, with --no-bending, the same cloth without bending (3 x 3 stencil).
+and, with --bending no|both, the same cloth without bending (3 x 3 stencil).
 Per run: node-steps/s of TSStep (from -log_view), Newton and Krylov
 iterations per step, set-up time (wall time before the first step), peak
 memory per node (-memory_view, summed over ranks), the inner MatMult rate
@@ -14,6 +14,7 @@ Writes a JSON file of the raw numbers, a markdown table, and a plot.
 
     source tools/env.sh
     python3 bench/solver.py --output docs/performance-data.json --plot docs/figures/performance.png
+    python3 bench/solver.py --modes bw --bending no --output docs/performance-nobend.json
     python3 bench/solver.py --sizes 65 129 --modes bw      # a quick look
 """
 import argparse
@@ -145,7 +146,8 @@ def main(argv=None):
     ap.add_argument("--sizes", type=int, nargs="+", default=[65, 129, 257, 513, 1025])
     ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--modes", nargs="+", default=["bw", "newton", "full6"], choices=sorted(MODES))
-    ap.add_argument("--no-bending", action="store_true", help="also run the cloth without bending")
+    ap.add_argument("--bending", choices=["yes", "no", "both"], default="yes",
+                    help="hang's energy bending (yes), the same cloth without bending (no), or both")
     ap.add_argument("--timeout", type=float, default=900, help="seconds per run")
     ap.add_argument("--output", help="JSON file of the raw numbers")
     ap.add_argument("--plot", help="PNG of node-steps/s against N")
@@ -153,7 +155,7 @@ def main(argv=None):
     bw1, bw2 = triad(1), triad(2)
     print(f"triad: {bw1:.1f} GB/s on 1 core, {bw2:.1f} GB/s on 2", flush=True)
     rows = []
-    for bending in ([True, False] if a.no_bending else [True]):
+    for bending in {"yes": [True], "no": [False], "both": [True, False]}[a.bending]:
         for mode in a.modes:
             for n in a.sizes:
                 if mode == "full6" and n > 65:

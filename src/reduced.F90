@@ -144,14 +144,13 @@ contains
     PetscCall(KSPSetOptionsPrefix(red%ksp, 'reduced_', ierr))
     if (symmetric) then
       PetscCall(KSPSetType(red%ksp, KSPCG, ierr))
-      PetscCall(KSPSetNormType(red%ksp, KSP_NORM_UNPRECONDITIONED, ierr))
     else
       PetscCall(KSPSetType(red%ksp, KSPGMRES, ierr))
-      PetscCall(KSPSetPCSide(red%ksp, PC_RIGHT, ierr))
     end if
     PetscCall(default_preconditioner(red, nx, ny, w, nranks, ierr))
     PetscCall(KSPSetTolerances(red%ksp, 1.0e-6_rp, 1.0e-50_rp, PETSC_DEFAULT_REAL, 500, ierr))
     PetscCall(KSPSetFromOptions(red%ksp, ierr))
+    PetscCall(true_residual_defaults(red%ksp, ierr))
     PetscCall(KSPGetPC(red%ksp, pc, ierr))
     PetscCall(PCGetType(pc, pctype, ierr))
     red%use_nullspace = pctype == PCGAMG
@@ -269,6 +268,31 @@ contains
       if (.not. given) call PetscOptionsSetValue(PETSC_NULL_OPTIONS, name, value, ierr)
     end subroutine set_default
   end subroutine default_preconditioner
+
+  !> Krylov methods that can, stop on the true residual (which is the 6-dof
+  !> v-row residual): right preconditioning for the GMRES family, the
+  !> unpreconditioned norm for CG-like ones; unless the options say
+  !> otherwise.
+  subroutine true_residual_defaults(ksp, ierr)
+    type(tKSP), intent(inout) :: ksp
+    PetscErrorCode, intent(out) :: ierr
+    character(len=64) :: ktype
+    PetscBool :: side_set, norm_set
+    PetscCall(KSPGetType(ksp, ktype, ierr))
+    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_ksp_pc_side', side_set, ierr))
+    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_ksp_norm_type', norm_set, ierr))
+    select case (trim(ktype))
+    case (KSPGMRES, KSPFGMRES, KSPLGMRES, KSPDGMRES, KSPPGMRES, KSPBCGS, KSPIBCGS, KSPTFQMR)
+      if (.not. side_set .and. trim(ktype) /= KSPFGMRES) then
+        PetscCall(KSPSetPCSide(ksp, PC_RIGHT, ierr))
+      end if
+    case (KSPCG, KSPPIPECG, KSPCR, KSPFCG)
+      if (.not. norm_set) then
+        PetscCall(KSPSetNormType(ksp, KSP_NORM_UNPRECONDITIONED, ierr))
+      end if
+    case default
+    end select
+  end subroutine true_residual_defaults
 
   !> Make the SNES's KSP preonly with the eliminating PCSHELL. Call before
   !> TSSetFromOptions, so that options may still change it.

@@ -72,20 +72,29 @@ contains
     integer, intent(in) :: j
     logical, intent(in) :: with_damping
     real(rp), intent(out) :: g(:, 0:)             !< (3, 0:nx-1) [force]
-    integer :: i, di, dj, s, hw, dj0, dj1
+    integer :: i, di, dj, s, hw, dj0, dj1, q
+    real(rp) :: acc(3)
 
     hw = buf%w
     s = slot_of(j)
     dj0 = max(-hw, -j)
     dj1 = min(hw, lat%ny - 1 - j)
     do i = 0, lat%nx - 1
-      g(:, i) = 0.0_rp
+      acc = 0.0_rp
       do dj = dj0, dj1
         do di = max(-hw, -i), min(hw, lat%nx - 1 - i)
-          g(:, i) = g(:, i) + matmul(buf%k(:, :, di, dj, i, s), w(0:2, i + di, j + dj))
-          if (with_damping) g(:, i) = g(:, i) + matmul(buf%c(:, :, di, dj, i, s), w(3:5, i + di, j + dj))
+          do q = 1, 3
+            acc = acc + buf%k(:, q, di, dj, i, s) * w(q - 1, i + di, j + dj)
+          end do
+          ! w_v is zero on most nodes for a Newton right-hand side: skip those.
+          if (with_damping .and. any(w(3:5, i + di, j + dj) /= 0.0_rp)) then
+            do q = 1, 3
+              acc = acc + buf%c(:, q, di, dj, i, s) * w(q + 2, i + di, j + dj)
+            end do
+          end if
         end do
       end do
+      g(:, i) = acc
     end do
   end subroutine buffer_row_apply
 

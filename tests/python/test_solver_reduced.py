@@ -79,3 +79,22 @@ def test_default_solver_runs_hang_129(tmp_path):
     # the pinned corners have not moved
     assert np.abs(r.position[-1, -1, 0] - r.position[0, -1, 0]).max() == 0.0
     assert np.abs(r.position[-1, -1, -1] - r.position[0, -1, -1]).max() == 0.0
+
+
+def test_failing_inner_solves_fail_the_step_cleanly(tmp_path):
+    """An inner solver that cannot converge (one iteration to 1e-12) must
+    fail the Newton step (PC_SUBPC_ERROR -> SNES -> TS retries smaller),
+    and after the retries end the run with the reason: exit 1 on every
+    rank, the file marked failed, no hang."""
+    text = (ROOT / "input" / "hang.nml").read_text()
+    text = set_key(text, "t_end", 0.01)
+    text = set_key(text, "output_file", "'fail.h5'")
+    nml = Path(tmp_path) / "fail.nml"
+    nml.write_text(text)
+    cmd = [mpiexec(), "-n", "2", "--oversubscribe", exe(), str(nml), "-reduced_ksp_max_it", "1",
+           "-reduced_ksp_rtol", "1e-12"]
+    proc = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert proc.returncode != 0
+    assert "nonlinear solve diverged" in proc.stdout + proc.stderr
+    r = read_run(str(Path(tmp_path) / "fail.h5"))
+    assert not r.complete and r.status.startswith("failed")
