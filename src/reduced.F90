@@ -69,6 +69,7 @@ module reduced
     logical :: have_pred = .false.
     real(rp), allocatable :: vals(:, :, :) !< (3, 3, ncol) one block row
     integer, allocatable :: cols(:)        !< (ncol)
+    real(rp) :: floor_est = 0              !< round-off floor of ||F||_2 at the last assembly (see reduced_assemble)
     integer :: its = 0                     !< inner Krylov iterations, cumulative
     integer :: nsolve = 0                  !< inner solves, cumulative
     integer :: nsetup = 0                  !< inner preconditioner rebuilds, cumulative
@@ -108,13 +109,14 @@ contains
   !> preallocation, the 6-dof MATSHELL and the inner KSP (prefix reduced_).
   !> symmetric selects the default inner Krylov method (CG or GMRES).
   !> Collective.
-  subroutine reduced_create(red, da6, lat, symmetric, constant, damping, clamp, gauss_newton, ierr)
+  subroutine reduced_create(red, da6, lat, symmetric, constant, damping, clamp, gauss_newton, pc_lag, ierr)
     type(reduced_t), intent(inout), target :: red
     type(tDM), intent(in) :: da6
     type(lattice_t), intent(in), target :: lat
     logical, intent(in) :: symmetric, constant, damping, clamp, gauss_newton
+    integer, intent(in) :: pc_lag                  !< rebuild the inner preconditioner every pc_lag assemblies (>= 1)
     PetscErrorCode, intent(out) :: ierr
-    PetscInt :: nx, ny, w, m, n, mg, ng, nranks, dummy(1), lag, xs, ys, zs, zm
+    PetscInt :: nx, ny, w, m, n, mg, ng, nranks, dummy(1), xs, ys, zs, zm
     PetscInt, allocatable :: ly(:)
     PetscInt, parameter :: one = 1, three = 3
     type(tPC) :: pc
@@ -212,13 +214,7 @@ contains
     ! An explicit -reduced_ksp_rtol wins over the outer forcing term.
     PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_ksp_rtol', found, ierr))
     red%forward_ew = .not. found
-    lag = 1
-    PetscCall(PetscOptionsGetInt(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-nuno_pc_lag', lag, found, ierr))
-    if (lag < 1) then
-      ierr = PETSC_ERR_ARG_OUTOFRANGE
-      SETERRQ(comm, ierr, 'nuno: -nuno_pc_lag must be >= 1')
-    end if
-    red%pc_lag = lag
+    red%pc_lag = max(1, pc_lag)
   end subroutine reduced_create
 
   !> The default inner preconditioner, unless -reduced_pc_type is given:
@@ -359,8 +355,10 @@ contains
     real(rp), intent(in) :: ud(0:, 0:, red%lat%gys:)
     real(rp), intent(in) :: a
     PetscErrorCode, intent(out) :: ierr
-    integer :: ja, i, j, nc
+    integer :: ja, i, j, nc, q
     PetscInt :: row(1), ncol
+    real(rp) :: loc(2), glob(2)
+    MPI_Comm :: comm
 
     ierr = 0
     red%ujac = u
@@ -384,10 +382,18 @@ contains
     end if
     red%jbuf%k = 0.0_rp
     red%jbuf%c = 0.0_rp
+    loc = 0.0_rp
     do ja = first_anchor_row(red%lat), red%lat%ye
       call jac_buffer_row(red%jbuf, red%lat, u, ja, red%clamp, red%gauss_newton)
       if (ja >= red%lat%ys) then
         call buffer_row_apply(red%jbuf, red%lat, red%wpred, ja, red%damping, red%gpred(:, :, ja))
+        do i = 0, red%lat%nx - 1
+          if (red%fixedg(i, ja)) cycle
+          do q = 1, 3
+            loc(1) = loc(1) + (red%jbuf%k(q, q, 0, 0, i, slot_of(ja)) / red%lat%mass(i, ja))**2
+          end do
+          loc(2) = max(loc(2), maxval(abs(u(0:2, i, ja))))
+        end do
         do i = 0, red%lat%nx - 1
           call reduced_row_blocks(red%jbuf, red%lat, red%fixedg, i, ja, a, red%damping, red%vals, red%cols, nc)
           row(1) = i + (ja - red%lat%gys) * red%lat%nx
@@ -400,6 +406,15 @@ contains
     end do
     PetscCall(MatAssemblyBegin(red%s, MAT_FINAL_ASSEMBLY, ierr))
     PetscCall(MatAssemblyEnd(red%s, MAT_FINAL_ASSEMBLY, ierr))
+    ! Round-off floor of the residual: a position is known to eps |x|, and
+    ! the v-rows amplify that by the stiffness over the mass, K_ii/m_i (the
+    ! stiffest, bending, grows like N^4 on a refined lattice), so that
+    ! ||F||_2 cannot go below about eps max|x| (sum K_ii^2/m_i^2)^(1/2).
+    PetscCall(PetscObjectGetComm(red%da3, comm, ierr))
+    glob(1) = loc(1)
+    call MPI_Allreduce(loc(1), glob(1), 1, MPI_DOUBLE_PRECISION, MPI_SUM, comm, ierr)
+    call MPI_Allreduce(loc(2), glob(2), 1, MPI_DOUBLE_PRECISION, MPI_MAX, comm, ierr)
+    red%floor_est = epsilon(1.0_rp) * glob(2) * sqrt(glob(1))
     red%a = a
     red%assembled = .true.
     red%dirty = .false.

@@ -143,7 +143,7 @@ contains
     PetscCallA(DMDAVecRestoreArrayF90(da6, ud, uda, ierr))
     PetscCallA(DMDAVecRestoreArrayF90(da6, u, ua, ierr))
 
-    PetscCallA(reduced_create(red, da6, lat, .false., .false., .true., .false., .false., ierr))
+    PetscCallA(reduced_create(red, da6, lat, .false., .false., .true., .false., .false., 1, ierr))
     PetscCallA(reduced_set_fixed(red, fixed, ierr))
     PetscCallA(DMGetLocalVector(da6, uloc, ierr))
     PetscCallA(DMGetLocalVector(da6, udloc, ierr))
