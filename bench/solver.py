@@ -121,22 +121,38 @@ def plot(rows, path):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    fig, ax = plt.subplots(figsize=(9, 4.5))
     keys = sorted({(r["mode"], r["bending"], r["nranks"]) for r in rows if r["ok"]})
+    palette = plt.get_cmap("viridis")
+    combos = sorted({(m, b) for m, b, _ in keys})
+    colors = {c: palette(k / max(1, len(combos) - 1) * 0.9) for k, c in enumerate(combos)}
     for mode, bending, nranks in keys:
         pts = sorted((r["n"], r["node_steps_per_s"]) for r in rows
                      if r["ok"] and (r["mode"], r["bending"], r["nranks"]) == (mode, bending, nranks))
-        ax.loglog(*zip(*pts), "o-" if nranks == 1 else "s--",
+        ax.loglog(*zip(*pts), ("o-" if nranks == 1 else "s--"), color=colors[(mode, bending)],
                   label=f"{mode}, {'bending' if bending else 'no bending'}, {nranks} rank(s)")
     ax.axhline(6e5, color="k", lw=0.8, ls=":")
     ax.text(70, 6.6e5, "peer: 0.6 M per core (256 x 256, no bending)", fontsize=8)
     ax.set_xlabel("N (lattice N x N)")
     ax.set_ylabel("node-steps / s (TSStep)")
-    ax.set_title("nuno reduced solve, hang scene, this 2-core machine")
-    ax.legend(fontsize=7)
+    ax.set_title("nuno reduced solve, hang scene, this 2-core machine", fontsize=10)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
+
+
+def rows_from_table(path):
+    """Rows back from the markdown lines this script prints (to replot)."""
+    rows = []
+    for line in Path(path).read_text().splitlines():
+        f = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(f) < 13 or f[0] not in MODES or "failed" in line:
+            continue
+        rows.append(dict(ok=True, mode=f[0], bending=f[1] == "yes", n=int(f[2]), nranks=int(f[3]),
+                         steps=int(f[4]), node_steps_per_s=float(f[5]), newton_per_step=float(f[6]),
+                         krylov_per_step=float(f[7]), setup_s=float(f[8]), bytes_per_node=1024 * float(f[9])))
+    return rows
 
 
 def main(argv=None):
@@ -151,7 +167,17 @@ def main(argv=None):
     ap.add_argument("--timeout", type=float, default=900, help="seconds per run")
     ap.add_argument("--output", help="JSON file of the raw numbers")
     ap.add_argument("--plot", help="PNG of node-steps/s against N")
+    ap.add_argument("--replot", nargs="+", metavar="LOG",
+                    help="no runs: read the tables printed by earlier runs and write --output and --plot")
     a = ap.parse_args(argv)
+    if a.replot:
+        rows = [r for log in a.replot for r in rows_from_table(log)]
+        rows = list({(r["mode"], r["bending"], r["n"], r["nranks"]): r for r in rows}.values())
+        if a.output:
+            Path(a.output).write_text(json.dumps(dict(runs=rows), indent=1))
+        if a.plot:
+            plot(rows, a.plot)
+        return 0
     bw1, bw2 = triad(1), triad(2)
     print(f"triad: {bw1:.1f} GB/s on 1 core, {bw2:.1f} GB/s on 2", flush=True)
     rows = []

@@ -31,7 +31,7 @@ module reduced
   implicit none
   private
   public :: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach
-  public :: reduced_pc_apply, reduced_jac_mult, reduced_rhs
+  public :: reduced_pc_apply, reduced_jac_mult, reduced_rhs, set_block_row
 
   !> Context of the reduced solve (PCSHELL and MATSHELL context).
   type :: reduced_t
@@ -449,17 +449,16 @@ contains
   end subroutine set_rigid_body_modes
 
   !> One block row into the matrix: vals as the flat array PETSc takes.
+  !> (Also used by the 6-dof path in module timestepping.)
   subroutine set_block_row(mat, row, ncol, cols, vals, n, ierr)
     type(tMat) :: mat
     PetscInt, intent(in) :: row(1), ncol
-    integer, intent(in) :: cols(ncol)
+    PetscInt, intent(in) :: cols(ncol)
     integer, intent(in) :: n
     PetscScalar, intent(in) :: vals(n)
     PetscErrorCode, intent(out) :: ierr
     PetscInt, parameter :: one = 1
-    PetscInt :: pcols(ncol)
-    pcols = cols
-    call MatSetValuesBlockedLocal(mat, one, row, ncol, pcols, vals, INSERT_VALUES, ierr)
+    call MatSetValuesBlockedLocal(mat, one, row, ncol, cols, vals, INSERT_VALUES, ierr)
   end subroutine set_block_row
 
   !> g = -(K w_x + C w_v) on the owned rows, at the state of the last

@@ -29,7 +29,8 @@ module timestepping
   use diagnostics, only: state_diagnostics_t, state_diagnostics
   use output, only: output_file, output_record, output_write_step
   use config, only: SPRING_LINEAR, BEND_NONE, BEND_ENERGY
-  use reduced, only: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach
+  use reduced, only: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach, &
+                     set_block_row
   implicit none
   private
   public :: app_ctx, solver_create, solver_destroy, solver_run, check_decomposition
@@ -411,17 +412,6 @@ contains
     end do
   end subroutine insert_row
 
-  !> One block row into the matrix: vals as the flat array PETSc takes.
-  subroutine set_block_row(pmat, row, ncol, cols, vals, n, ierr)
-    type(tMat) :: pmat
-    PetscInt, intent(in) :: row(1), ncol
-    PetscInt, intent(in) :: cols(ncol)
-    integer, intent(in) :: n
-    PetscScalar, intent(in) :: vals(n)
-    PetscErrorCode, intent(out) :: ierr
-    PetscInt, parameter :: one = 1
-    call MatSetValuesBlockedLocal(pmat, one, row, ncol, cols, vals, INSERT_VALUES, ierr)
-  end subroutine set_block_row
 
   !> PETSc's residual test, plus the round-off floor of the residual, which
   !> grows with stiffness over mass (like N^5 for hang refined: 1.3e-5 at

@@ -98,3 +98,18 @@ def test_failing_inner_solves_fail_the_step_cleanly(tmp_path):
     assert "nonlinear solve diverged" in proc.stdout + proc.stderr
     r = read_run(str(Path(tmp_path) / "fail.h5"))
     assert not r.complete and r.status.startswith("failed")
+
+
+@pytest.mark.parametrize("option, value, words", [
+    ("-nuno_jacobian", "foo", "Unknown option foo for -nuno_jacobian"),
+    ("-nuno_pc_lag", "0", "-nuno_pc_lag 0 must be >= 1"),
+    ("-nuno_snes_floor", "2", "must be in [0, 1)"),
+])
+def test_bad_solver_option_is_refused_on_every_rank(tmp_path, option, value, words):
+    text = set_key((ROOT / "input" / "hang.nml").read_text(), "output_file", "'bad.h5'")
+    nml = Path(tmp_path) / "bad.nml"
+    nml.write_text(text)
+    cmd = [mpiexec(), "-n", "2", "--oversubscribe", exe(), str(nml), option, value]
+    proc = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert proc.returncode != 0
+    assert words in proc.stdout + proc.stderr
