@@ -512,9 +512,9 @@ contains
     ! Anything else: one pass over the elements.
     if (.not. any_w) then
       red%g = 0.0_rp
-    else if (red%have_pred .and. same(red%w, red%wpred)) then
+    else if (red%have_pred .and. same(red%w, red%wpred, 1.0_rp)) then
       red%g = red%gpred
-    else if (red%have_pred .and. same(red%w, -red%wpred)) then
+    else if (red%have_pred .and. same(red%w, red%wpred, -1.0_rp)) then
       red%g = -red%gpred
     else
       call element_products(red, red%w)
@@ -534,10 +534,24 @@ contains
     PetscCall(DMRestoreLocalVector(red%da6, bloc, ierr))
   end subroutine reduced_rhs
 
-  !> Equal up to round-off (both come from the same expressions).
-  pure logical function same(x, y)
+  !> x = sgn y up to round-off (both come from the same expressions); no
+  !> temporary arrays (called once per Newton iteration).
+  pure logical function same(x, y, sgn)
     real(rp), intent(in) :: x(:, :, :), y(:, :, :)
-    same = maxval(abs(x - y)) <= 1.0e-13_rp * maxval(abs(y))
+    real(rp), intent(in) :: sgn
+    real(rp) :: dmax, ymax
+    integer :: i, j, k
+    dmax = 0.0_rp
+    ymax = 0.0_rp
+    do k = 1, size(x, 3)
+      do j = 1, size(x, 2)
+        do i = 1, size(x, 1)
+          dmax = max(dmax, abs(x(i, j, k) - sgn * y(i, j, k)))
+          ymax = max(ymax, abs(y(i, j, k)))
+        end do
+      end do
+    end do
+    same = dmax <= 1.0e-13_rp * ymax
   end function same
 
   !> PCSHELL apply: du = J^{-1} b by elimination, up to the inner solve's
