@@ -31,14 +31,14 @@ module reduced
   implicit none
   private
   public :: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach
-  public :: reduced_pc_apply, reduced_jac_mult, reduced_rhs, set_block_row
+  public :: set_block_row
 
   !> Context of the reduced solve (PCSHELL and MATSHELL context).
   type :: reduced_t
     type(lattice_t), pointer :: lat => null()
     type(tDM) :: da6                       !< the state's DMDA (dof 6; not owned)
     type(tDM) :: da3                       !< dof 3, same strips and halo
-    type(tMat) :: s                        !< S = a M - C - K/a, BAIJ bs 3
+    type(tMat) :: s                        !< S = a M - C - K/a, block size 3 (AIJ for multigrid, else BAIJ)
     type(tMat) :: jac                      !< 6-dof Jacobian action (MATSHELL)
     type(tKSP) :: ksp                      !< inner solver, prefix reduced_
     type(tKSP) :: outer                    !< the SNES's KSP (for Eisenstat-Walker forcing)
@@ -71,9 +71,6 @@ module reduced
     integer, allocatable :: cols(:)        !< (ncol)
     real(rp) :: floor_est = 0              !< round-off floor of ||F||_2 at the last assembly (see reduced_assemble)
     integer :: its = 0                     !< inner Krylov iterations, cumulative
-    integer :: nsolve = 0                  !< inner solves, cumulative
-    integer :: nsetup = 0                  !< inner preconditioner rebuilds, cumulative
-    integer :: nretry = 0                  !< solves retried with a fresh preconditioner
   end type reduced_t
 
   interface
@@ -140,8 +137,8 @@ contains
     PetscCall(DMDACreate2d(comm, DM_BOUNDARY_NONE, DM_BOUNDARY_NONE, DMDA_STENCIL_BOX, nx, ny, one, nranks, three, w, dummy, ly, red%da3, ierr))
     PetscCall(DMSetOptionsPrefix(red%da3, 'reduced_', ierr))
 
-    ! Inner solver: CG on a symmetric S, GMRES otherwise (right-preconditioned,
-    ! so that both test the true residual); GAMG with the rigid-body modes.
+    ! Inner solver: CG on a symmetric S, GMRES otherwise, both stopping on
+    ! the true residual (true_residual_defaults); multigrid by default.
     PetscCall(KSPCreate(comm, red%ksp, ierr))
     PetscCall(KSPSetOptionsPrefix(red%ksp, 'reduced_', ierr))
     if (symmetric) then
@@ -149,7 +146,7 @@ contains
     else
       PetscCall(KSPSetType(red%ksp, KSPGMRES, ierr))
     end if
-    PetscCall(default_preconditioner(red, nx, ny, w, nranks, ierr))
+    PetscCall(default_preconditioner(nx, ny, w, nranks, ierr))
     PetscCall(KSPSetTolerances(red%ksp, 1.0e-6_rp, 1.0e-50_rp, PETSC_DEFAULT_REAL, 500, ierr))
     PetscCall(KSPSetFromOptions(red%ksp, ierr))
     PetscCall(true_residual_defaults(red%ksp, ierr))
@@ -223,8 +220,7 @@ contains
   !> block Jacobi/ILU(0) where fewer than three levels fit (small lattices,
   !> for which it is the cheaper). Set in the options database, so that
   !> -help shows them and every one can be overridden.
-  subroutine default_preconditioner(red, nx, ny, w, nranks, ierr)
-    type(reduced_t), intent(inout) :: red
+  subroutine default_preconditioner(nx, ny, w, nranks, ierr)
     PetscInt, intent(in) :: nx, ny, w, nranks
     PetscErrorCode, intent(out) :: ierr
     PetscBool :: set
@@ -362,6 +358,10 @@ contains
 
     ierr = 0
     red%ujac = u
+    ! A constant S is kept; the PC apply then forms the products itself
+    ! (one pass over the elements, none when they vanish).
+    red%have_pred = .not. (red%constant .and. red%assembled .and. .not. red%dirty .and. a == red%a)
+    if (.not. red%have_pred) return
     ! w of the right-hand side b = F(u): F_x = xdot - v, F_v = vdot on
     ! constrained nodes (whose v is their prescribed velocity).
     do j = red%lat%gys, red%lat%gye
@@ -374,12 +374,6 @@ contains
         end if
       end do
     end do
-    red%have_pred = .true.
-    if (red%constant .and. red%assembled .and. .not. red%dirty .and. a == red%a) then
-      call element_products(red, red%wpred)
-      red%gpred = red%g
-      return
-    end if
     red%jbuf%k = 0.0_rp
     red%jbuf%c = 0.0_rp
     loc = 0.0_rp
@@ -388,13 +382,12 @@ contains
       if (ja >= red%lat%ys) then
         call buffer_row_apply(red%jbuf, red%lat, red%wpred, ja, red%damping, red%gpred(:, :, ja))
         do i = 0, red%lat%nx - 1
-          if (red%fixedg(i, ja)) cycle
-          do q = 1, 3
-            loc(1) = loc(1) + (red%jbuf%k(q, q, 0, 0, i, slot_of(ja)) / red%lat%mass(i, ja))**2
-          end do
-          loc(2) = max(loc(2), maxval(abs(u(0:2, i, ja))))
-        end do
-        do i = 0, red%lat%nx - 1
+          if (.not. red%fixedg(i, ja)) then
+            do q = 1, 3
+              loc(1) = loc(1) + (red%jbuf%k(q, q, 0, 0, i, slot_of(ja)) / red%lat%mass(i, ja))**2
+            end do
+            loc(2) = max(loc(2), maxval(abs(u(0:2, i, ja))))
+          end if
           call reduced_row_blocks(red%jbuf, red%lat, red%fixedg, i, ja, a, red%damping, red%vals, red%cols, nc)
           row(1) = i + (ja - red%lat%gys) * red%lat%nx
           ncol = nc
@@ -411,7 +404,6 @@ contains
     ! stiffest, bending, grows like N^4 on a refined lattice), so that
     ! ||F||_2 cannot go below about eps max|x| (sum K_ii^2/m_i^2)^(1/2).
     PetscCall(PetscObjectGetComm(red%da3, comm, ierr))
-    glob(1) = loc(1)
     call MPI_Allreduce(loc(1), glob(1), 1, MPI_DOUBLE_PRECISION, MPI_SUM, comm, ierr)
     call MPI_Allreduce(loc(2), glob(2), 1, MPI_DOUBLE_PRECISION, MPI_MAX, comm, ierr)
     red%floor_est = epsilon(1.0_rp) * glob(2) * sqrt(glob(1))
@@ -419,12 +411,11 @@ contains
     red%assembled = .true.
     red%dirty = .false.
     ! Preconditioner reuse: rebuild every pc_lag assemblies (and after a
-    ! failed inner solve, see solve_inner).
+    ! failed inner solve, see reduced_pc_apply).
     red%since_pc = red%since_pc + 1
     if (red%since_pc >= red%pc_lag) then
       red%since_pc = 0
       PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_FALSE, ierr))
-      red%nsetup = red%nsetup + 1
       if (red%use_nullspace) then
         PetscCall(set_rigid_body_modes(red, u, ierr))
       end if
@@ -491,11 +482,11 @@ contains
     logical :: any_w
 
     ainv = 1.0_rp / red%a
+    any_w = .false.
     PetscCall(DMGetLocalVector(red%da6, bloc, ierr))
     PetscCall(DMGlobalToLocalBegin(red%da6, b, INSERT_VALUES, bloc, ierr))
     PetscCall(DMGlobalToLocalEnd(red%da6, b, INSERT_VALUES, bloc, ierr))
     PetscCall(DMDAVecGetArrayReadF90(red%da6, bloc, bl, ierr))
-    any_w = .false.
     do j = red%lat%gys, red%lat%gye
       do i = 0, red%lat%nx - 1
         red%w(0:2, i, j) = ainv * bl(0:2, i, j)
@@ -504,9 +495,9 @@ contains
         else
           red%w(3:5, i, j) = 0.0_rp
         end if
+        any_w = any_w .or. any(red%w(:, i, j) /= 0.0_rp)
       end do
     end do
-    any_w = any(red%w /= 0.0_rp)
     ! b_x = 0 and no constrained dv: the products vanish. b = +-F(u) at the
     ! assembled state (a Newton step): formed during the assembly.
     ! Anything else: one pass over the elements.
@@ -585,12 +576,9 @@ contains
     PetscCall(KSPGetConvergedReason(red%ksp, reason, ierr))
     PetscCall(KSPGetIterationNumber(red%ksp, its, ierr))
     red%its = red%its + its
-    red%nsolve = red%nsolve + 1
     if (reason < 0) then
       PetscCall(KSPGetReusePreconditioner(red%ksp, reused, ierr))
       if (reused) then
-        red%nretry = red%nretry + 1
-        red%nsetup = red%nsetup + 1
         red%since_pc = 0
         PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_FALSE, ierr))
         PetscCall(KSPSetOperators(red%ksp, red%s, red%s, ierr))

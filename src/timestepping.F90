@@ -20,7 +20,7 @@ module timestepping
   use mpi
   use, intrinsic :: iso_c_binding, only: c_int, c_double
   use kinds, only: rp
-  use config, only: nuno_config
+  use config, only: nuno_config, SPRING_LINEAR, BEND_NONE, BEND_ENERGY
   use lattice, only: lattice_t, lattice_init, halo_width
   use forces, only: internal_forces, dissipated_power, jac_buffer_t, jac_buffer_init, jac_buffer_row, &
                     slot_of, first_anchor_row
@@ -28,7 +28,6 @@ module timestepping
   use scenes, only: scene_setup
   use diagnostics, only: state_diagnostics_t, state_diagnostics
   use output, only: output_file, output_record, output_write_step
-  use config, only: SPRING_LINEAR, BEND_NONE, BEND_ENERGY
   use reduced, only: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach, &
                      set_block_row
   implicit none
@@ -411,7 +410,6 @@ contains
       PetscCall(set_block_row(pmat, row, ncol, ctx%cols, ctx%vals, 36 * nc, ierr))
     end do
   end subroutine insert_row
-
 
   !> PETSc's residual test, plus the round-off floor of the residual, which
   !> grows with stiffness over mass (like N^5 for hang refined: 1.3e-5 at
