@@ -27,7 +27,7 @@ module reduced
   use kinds, only: rp
   use lattice, only: lattice_t
   use forces, only: jac_buffer_t, jac_buffer_init, jac_buffer_row, slot_of, first_anchor_row
-  use reduced_blocks, only: reduced_row_blocks, buffer_row_apply
+  use reduced_blocks, only: reduced_row_blocks, buffer_row_apply, csr_put_block_row, csr_fits_block_row
   implicit none
   private
   public :: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach
@@ -69,9 +69,25 @@ module reduced
     logical :: have_pred = .false.
     real(rp), allocatable :: vals(:, :, :) !< (3, 3, ncol) one block row
     integer, allocatable :: cols(:)        !< (ncol)
+    ! An AIJ S is filled by writing its value arrays directly (its structure,
+    ! the stencil, never changes; checked once by check_direct).
+    logical :: direct = .false.
+    logical, allocatable :: owned(:)       !< (ncol) column node owned by this rank
+    integer, allocatable :: lcol(:)        !< (ncol) its local node index
     real(rp) :: floor_est = 0              !< round-off floor of ||F||_2 at the last assembly (see reduced_assemble)
     integer :: its = 0                     !< inner Krylov iterations, cumulative
   end type reduced_t
+
+  !> The parts of an assembled AIJ S as plain arrays: diagonal part (ia, ja,
+  !> av) and off-diagonal part (ib, jb, bv; empty on one rank), 1-based
+  !> pointers into PETSc's own arrays (no copies).
+  type :: aij_view_t
+    type(tMat) :: ad, ao
+    logical :: parallel = .false.
+    PetscInt :: na = 0, nb = 0
+    PetscInt, pointer :: ia(:) => null(), ja(:) => null(), ib(:) => null(), jb(:) => null()
+    PetscScalar, pointer :: av(:) => null(), bv(:) => null()
+  end type aij_view_t
 
   interface
     subroutine PCShellSetContext(pc, ctx, ierr)
@@ -205,8 +221,10 @@ contains
     allocate(red%g(3, 0:lat%nx - 1, lat%ys:lat%ye), red%gpred(3, 0:lat%nx - 1, lat%ys:lat%ye))
     allocate(red%wpred(0:5, 0:lat%nx - 1, lat%gys:lat%gye))
     allocate(red%vals(3, 3, (2 * lat%halo + 1)**2), red%cols((2 * lat%halo + 1)**2))
+    allocate(red%owned((2 * lat%halo + 1)**2), red%lcol((2 * lat%halo + 1)**2))
     red%fixedg = .false.
     red%ujac = 0.0_rp
+    PetscCall(check_direct(red, ierr))
 
     ! An explicit -reduced_ksp_rtol wins over the outer forcing term.
     PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_ksp_rtol', found, ierr))
@@ -355,6 +373,7 @@ contains
     PetscInt :: row(1), ncol
     real(rp) :: loc(2), glob(2)
     MPI_Comm :: comm
+    type(aij_view_t) :: view
 
     ierr = 0
     red%ujac = u
@@ -377,6 +396,9 @@ contains
     red%jbuf%k = 0.0_rp
     red%jbuf%c = 0.0_rp
     loc = 0.0_rp
+    if (red%direct) then
+      PetscCall(aij_open(red, view, ierr))
+    end if
     do ja = first_anchor_row(red%lat), red%lat%ye
       call jac_buffer_row(red%jbuf, red%lat, u, ja, red%clamp, red%gauss_newton)
       if (ja >= red%lat%ys) then
@@ -389,14 +411,23 @@ contains
             loc(2) = max(loc(2), maxval(abs(u(0:2, i, ja))))
           end if
           call reduced_row_blocks(red%jbuf, red%lat, red%fixedg, i, ja, a, red%damping, red%vals, red%cols, nc)
-          row(1) = i + (ja - red%lat%gys) * red%lat%nx
-          ncol = nc
-          PetscCall(set_block_row(red%s, row, ncol, red%cols, red%vals, 9 * nc, ierr))
+          if (red%direct) then
+            call mark_owned(red, nc)
+            call csr_put_block_row(red%vals, nc, red%owned, 3 * (i + (ja - red%lat%ys) * red%lat%nx), &
+                                   view%ia, view%av, view%ib, view%bv)
+          else
+            row(1) = i + (ja - red%lat%gys) * red%lat%nx
+            ncol = nc
+            PetscCall(set_block_row(red%s, row, ncol, red%cols, red%vals, 9 * nc, ierr))
+          end if
         end do
       end if
       red%jbuf%k(:, :, :, :, :, slot_of(ja)) = 0.0_rp
       red%jbuf%c(:, :, :, :, :, slot_of(ja)) = 0.0_rp
     end do
+    if (red%direct) then
+      PetscCall(aij_close(red, view, ierr))
+    end if
     PetscCall(MatAssemblyBegin(red%s, MAT_FINAL_ASSEMBLY, ierr))
     PetscCall(MatAssemblyEnd(red%s, MAT_FINAL_ASSEMBLY, ierr))
     ! Round-off floor of the residual: a position is known to eps |x|, and
@@ -423,6 +454,103 @@ contains
       PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_TRUE, ierr))
     end if
   end subroutine reduced_assemble
+
+  !> Column ownership of the block row in red%cols(1:nc): owned(n) when its
+  !> node lies in this rank's rows, lcol(n) its local node index there.
+  subroutine mark_owned(red, nc)
+    type(reduced_t), intent(inout) :: red
+    integer, intent(in) :: nc
+    integer :: n, jn
+    do n = 1, nc
+      jn = red%cols(n) / red%lat%nx + red%lat%gys
+      red%owned(n) = jn >= red%lat%ys .and. jn <= red%lat%ye
+      red%lcol(n) = red%cols(n) - (red%lat%ys - red%lat%gys) * red%lat%nx
+    end do
+  end subroutine mark_owned
+
+  !> Open the value and row arrays of an AIJ S (see aij_view_t).
+  subroutine aij_open(red, view, ierr)
+    type(reduced_t), intent(inout) :: red
+    type(aij_view_t), intent(inout) :: view
+    PetscErrorCode, intent(out) :: ierr
+    character(len=64) :: mattype
+    PetscInt :: ic(1)
+    PetscOffset :: iic
+    PetscBool :: done
+    PetscInt, parameter :: shift = 0
+    PetscInt, pointer, save :: none_i(:) => null()
+    PetscScalar, pointer, save :: none_s(:) => null()
+
+    if (.not. associated(none_i)) allocate(none_i(0), none_s(0))
+    PetscCall(MatGetType(red%s, mattype, ierr))
+    view%parallel = mattype == MATMPIAIJ
+    if (view%parallel) then
+      PetscCall(MatMPIAIJGetSeqAIJ(red%s, view%ad, view%ao, ic, iic, ierr))
+    else
+      view%ad = red%s
+    end if
+    PetscCall(MatGetRowIJF90(view%ad, shift, PETSC_FALSE, PETSC_FALSE, view%na, view%ia, view%ja, done, ierr))
+    PetscCall(MatSeqAIJGetArrayF90(view%ad, view%av, ierr))
+    if (view%parallel) then
+      PetscCall(MatGetRowIJF90(view%ao, shift, PETSC_FALSE, PETSC_FALSE, view%nb, view%ib, view%jb, done, ierr))
+      PetscCall(MatSeqAIJGetArrayF90(view%ao, view%bv, ierr))
+    else
+      view%ib => none_i
+      view%jb => none_i
+      view%bv => none_s
+    end if
+  end subroutine aij_open
+
+  !> Give the arrays back and assemble S (which also drops its cached
+  !> diagonal inverses, so that SOR sees the new values).
+  subroutine aij_close(red, view, ierr)
+    type(reduced_t), intent(inout) :: red
+    type(aij_view_t), intent(inout) :: view
+    PetscErrorCode, intent(out) :: ierr
+    PetscBool :: done
+    PetscInt, parameter :: shift = 0
+    PetscCall(MatSeqAIJRestoreArrayF90(view%ad, view%av, ierr))
+    PetscCall(MatRestoreRowIJF90(view%ad, shift, PETSC_FALSE, PETSC_FALSE, view%na, view%ia, view%ja, done, ierr))
+    if (view%parallel) then
+      PetscCall(MatSeqAIJRestoreArrayF90(view%ao, view%bv, ierr))
+      PetscCall(MatRestoreRowIJF90(view%ao, shift, PETSC_FALSE, PETSC_FALSE, view%nb, view%ib, view%jb, done, ierr))
+    end if
+  end subroutine aij_close
+
+  !> Write S's values directly when S is AIJ and its structure (from the
+  !> DMDA's preallocation) is the stencil of reduced_row_blocks, row by row
+  !> and in the same order, on every rank; otherwise keep MatSetValues.
+  !> Collective, once.
+  subroutine check_direct(red, ierr)
+    type(reduced_t), intent(inout) :: red
+    PetscErrorCode, intent(out) :: ierr
+    character(len=64) :: mattype
+    type(aij_view_t) :: view
+    integer :: i, j, nc, mpierr
+    logical :: ok, all_ok
+    MPI_Comm :: comm
+
+    red%direct = .false.
+    PetscCall(MatGetType(red%s, mattype, ierr))
+    ok = mattype == MATSEQAIJ .or. mattype == MATMPIAIJ
+    if (ok) then
+      PetscCall(aij_open(red, view, ierr))
+      red%jbuf%k = 0.0_rp
+      red%jbuf%c = 0.0_rp
+      do j = red%lat%ys, red%lat%ye
+        do i = 0, red%lat%nx - 1
+          call reduced_row_blocks(red%jbuf, red%lat, red%fixedg, i, j, 1.0_rp, red%damping, red%vals, red%cols, nc)
+          call mark_owned(red, nc)
+          ok = ok .and. csr_fits_block_row(nc, red%owned, red%lcol, 3 * (i + (j - red%lat%ys) * red%lat%nx), &
+                                           view%ia, view%ja, view%ib, view%jb)
+        end do
+      end do
+      PetscCall(aij_close(red, view, ierr))
+    end if
+    PetscCall(PetscObjectGetComm(red%da3, comm, ierr))
+    call MPI_Allreduce(ok, all_ok, 1, MPI_LOGICAL, MPI_LAND, comm, mpierr)
+    red%direct = all_ok
+  end subroutine check_direct
 
   !> GAMG's near-null space: the six rigid-body modes of the current shape.
   subroutine set_rigid_body_modes(red, u, ierr)

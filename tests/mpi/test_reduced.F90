@@ -82,7 +82,8 @@ contains
     character(*), intent(in) :: label
     type(nuno_config) :: cfg
     type(lattice_t), target :: lat
-    type(reduced_t), target :: red
+    type(reduced_t), target :: red, red2
+    PetscReal :: snorm, dnorm
     type(tDM) :: da6
     type(tVec) :: u, ud, up, um, y3, sy3, sy3b, b, du, jdu
     type(tVec) :: uloc, udloc
@@ -154,6 +155,18 @@ contains
     PetscCallA(DMDAVecGetArrayReadF90(da6, uloc, ul, ierr))
     PetscCallA(DMDAVecGetArrayReadF90(da6, udloc, udl, ierr))
     PetscCallA(reduced_assemble(red, ul, udl, a, ierr))
+    ! S is AIJ here (LU): its values are written straight into the arrays.
+    ! The same S through MatSetValues must be identical, on every rank count.
+    call check_true(red%direct, label//': AIJ S is written directly')
+    PetscCallA(reduced_create(red2, da6, lat, .false., .false., .true., .false., .false., 1, ierr))
+    red2%direct = .false.
+    PetscCallA(reduced_set_fixed(red2, fixed, ierr))
+    PetscCallA(reduced_assemble(red2, ul, udl, a, ierr))
+    PetscCallA(MatNorm(red2%s, NORM_FROBENIUS, snorm, ierr))
+    PetscCallA(MatAXPY(red2%s, -1.0_rp, red%s, SAME_NONZERO_PATTERN, ierr))
+    PetscCallA(MatNorm(red2%s, NORM_FROBENIUS, dnorm, ierr))
+    call check_true(dnorm == 0.0_rp .and. snorm > 0.0_rp, label//': direct S equals the MatSetValues S')
+    PetscCallA(reduced_destroy(red2, ierr))
     PetscCallA(DMDAVecRestoreArrayReadF90(da6, udloc, udl, ierr))
     PetscCallA(DMDAVecRestoreArrayReadF90(da6, uloc, ul, ierr))
     PetscCallA(DMRestoreLocalVector(da6, udloc, ierr))
