@@ -201,6 +201,9 @@ contains
     ! The DM gives -reduced_pc_type mg its grid hierarchy; the operators stay ours.
     PetscCall(KSPSetDM(red%ksp, red%da3, ierr))
     PetscCall(KSPSetDMActive(red%ksp, PETSC_FALSE, ierr))
+    if (pctype == PCMG) then
+      PetscCall(mg_interpolations(red, pc, ierr))
+    end if
     PetscCall(DMCreateGlobalVector(red%da3, red%rhs, ierr))
     PetscCall(VecDuplicate(red%rhs, red%dv, ierr))
     PetscCall(VecDuplicate(red%rhs, red%coords, ierr))
@@ -551,6 +554,40 @@ contains
     call MPI_Allreduce(ok, all_ok, 1, MPI_LOGICAL, MPI_LAND, comm, mpierr)
     red%direct = all_ok
   end subroutine check_direct
+
+  !> The multigrid's interpolations from the DMDA hierarchy, given to PCMG
+  !> as plain AIJ. The DMDA makes them MAIJ (one scalar operator for the 3
+  !> dof), and 3.18's Galerkin product of a sequential AIJ with a MAIJ
+  !> (MatPtAPNumeric_SeqAIJ_SeqMAIJ, "first draft only") sorts every row of
+  !> A P and scans every row of the product: converted once, the AIJ x AIJ
+  !> product is used at every set-up. (In parallel PETSc converts anyway.)
+  subroutine mg_interpolations(red, pc, ierr)
+    type(reduced_t), intent(inout) :: red
+    type(tPC), intent(inout) :: pc
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt :: nlev, l
+    type(tDM), allocatable :: dms(:)
+    type(tMat) :: p
+
+    PetscCall(PCMGGetLevels(pc, nlev, ierr))
+    if (nlev < 2) return
+    allocate(dms(nlev))
+    dms(nlev) = red%da3
+    do l = nlev - 1, 1, -1
+      PetscCall(DMCoarsen(dms(l + 1), MPI_COMM_NULL, dms(l), ierr))
+    end do
+    ! PCMG level l (0 = coarsest) is dms(l + 1); its interpolation maps
+    ! level l - 1 to level l.
+    do l = nlev - 1, 1, -1
+      PetscCall(DMCreateInterpolation(dms(l), dms(l + 1), p, PETSC_NULL_VEC, ierr))
+      PetscCall(MatConvert(p, MATAIJ, MAT_INPLACE_MATRIX, p, ierr))
+      PetscCall(PCMGSetInterpolation(pc, l, p, ierr))
+      PetscCall(MatDestroy(p, ierr))
+    end do
+    do l = 1, nlev - 1
+      PetscCall(DMDestroy(dms(l), ierr))
+    end do
+  end subroutine mg_interpolations
 
   !> GAMG's near-null space: the six rigid-body modes of the current shape.
   subroutine set_rigid_body_modes(red, u, ierr)
