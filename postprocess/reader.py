@@ -49,6 +49,19 @@ def _text(value) -> str:
     return str(value).rstrip("\x00 ")
 
 
+def _attrs(obj) -> dict:
+    """Attributes of a group as str, Python scalars or 1-D arrays."""
+    out = {}
+    for key, value in obj.attrs.items():
+        if isinstance(value, (bytes, np.bytes_, str)):
+            out[key] = _text(value)
+        elif np.ndim(value) == 0:
+            out[key] = np.asarray(value).item()
+        else:
+            out[key] = np.asarray(value)
+    return out
+
+
 def _int(value) -> int:
     """An integer attribute (scalar or 1-element array, as Fortran may write)."""
     return int(np.asarray(value).ravel()[0])
@@ -78,6 +91,7 @@ class Run:
     unit_system: str = ""            # root attribute units ('mm g s', 'SI'); '' in old files
     run_info: dict = field(default_factory=dict)   # attributes of /run (provenance)
     wall_time: np.ndarray | None = None            # [nt] wall seconds at each output step
+    config: dict = field(default_factory=dict)     # /config: {group: {key: value}}, the resolved keys
 
     @property
     def nt(self) -> int:
@@ -195,13 +209,8 @@ def read_run(path, load_velocity: bool = True) -> Run:
             raise ValueError(f"{path}: /lattice/rest_position has shape "
                              f"{rest.shape}, expected [{ny}][{nx}][3]")
         mass = np.asarray(f["lattice/mass"][()]) if "lattice/mass" in f else None
-        run_info = {}
-        if "run" in f:
-            for key, value in f["run"].attrs.items():
-                if isinstance(value, (bytes, np.bytes_, str)):
-                    run_info[key] = _text(value)
-                else:
-                    run_info[key] = np.asarray(value).ravel()[0].item()
+        run_info = _attrs(f["run"]) if "run" in f else {}
+        config = {g: _attrs(f["config"][g]) for g in f["config"]} if "config" in f else {}
         wall_time = None
         if "wall_time" in f:
             wall_time = np.asarray(f["wall_time"][:nt], dtype=np.float64)
@@ -228,4 +237,5 @@ def read_run(path, load_velocity: bool = True) -> Run:
             unit_system=_text(attrs.get("units")),
             run_info=run_info,
             wall_time=wall_time,
+            config=config,
         )

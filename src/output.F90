@@ -22,6 +22,12 @@ module output
   private
 
   public :: output_open, output_write_step, output_close, output_write_run_info, output_write_wall_time
+  public :: output_config_key
+
+  !> One key of the resolved configuration, as an attribute of /config/<group>.
+  interface output_config_key
+    module procedure config_key_str, config_key_int, config_key_reals
+  end interface output_config_key
 
   !> One output step's scalars (MODEL.md section 8); identical on all ranks.
   type, public :: output_record
@@ -288,6 +294,126 @@ contains
     end if
     call agree(out%comm, 'output_write_run_info', ierr, errmsg)
   end subroutine output_write_run_info
+
+  !> /config/<group>, created on first use; grp must be closed by the caller.
+  subroutine config_group(out, group, grp, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    character(*), intent(in) :: group
+    integer(hid_t), intent(out) :: grp
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: top
+    logical :: exists
+    integer :: h
+
+    grp = -1
+    if (ierr /= 0) return
+    if (.not. out%is_open) then
+      ierr = 1
+      errmsg = 'output_config_key: the output file is not open'
+      return
+    end if
+    call h5lexists_f(out%file, 'config', exists, h)
+    if (h < 0) then
+      call fail('h5lexists_f', '/config', ierr, errmsg); return
+    end if
+    if (exists) then
+      call h5gopen_f(out%file, 'config', top, h)
+    else
+      call h5gcreate_f(out%file, 'config', top, h)
+    end if
+    if (h < 0) then
+      call fail('h5gopen_f/h5gcreate_f', '/config', ierr, errmsg); return
+    end if
+    call h5lexists_f(top, group, exists, h)
+    if (h < 0) then
+      call fail('h5lexists_f', '/config/'//group, ierr, errmsg)
+    else if (exists) then
+      call h5gopen_f(top, group, grp, h)
+      if (h < 0) call fail('h5gopen_f', '/config/'//group, ierr, errmsg)
+    else
+      call h5gcreate_f(top, group, grp, h)
+      if (h < 0) call fail('h5gcreate_f', '/config/'//group, ierr, errmsg)
+    end if
+    if (ierr /= 0) grp = -1
+    call h5gclose_f(top, h)
+    if (h < 0) call fail('h5gclose_f', '/config', ierr, errmsg)
+  end subroutine config_group
+
+  subroutine close_group(grp, where, ierr, errmsg)
+    integer(hid_t), intent(in) :: grp
+    character(*), intent(in) :: where
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer :: h
+    if (grp < 0) return
+    call h5gclose_f(grp, h)
+    if (h < 0) call fail('h5gclose_f', where, ierr, errmsg)
+  end subroutine close_group
+
+  !> A string key of /config/<group>. Collective (same values on all ranks);
+  !> keeps the first error in ierr/errmsg, so that calls can be chained.
+  subroutine config_key_str(out, group, key, value, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    character(*), intent(in) :: group, key, value
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: grp
+    call config_group(out, group, grp, ierr, errmsg)
+    if (ierr == 0) call set_attr_str(grp, key, value, '/config/'//group, ierr, errmsg)
+    call close_group(grp, '/config/'//group, ierr, errmsg)
+  end subroutine config_key_str
+
+  subroutine config_key_int(out, group, key, value, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    character(*), intent(in) :: group, key
+    integer, intent(in) :: value
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: grp
+    call config_group(out, group, grp, ierr, errmsg)
+    if (ierr == 0) call set_attr_int(grp, key, value, '/config/'//group, ierr, errmsg)
+    call close_group(grp, '/config/'//group, ierr, errmsg)
+  end subroutine config_key_int
+
+  !> A real key (one value: a scalar attribute; several: a 1-D one).
+  subroutine config_key_reals(out, group, key, values, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    character(*), intent(in) :: group, key
+    real(rp), intent(in) :: values(:)
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: grp, space, attr
+    integer :: h
+    character(len=:), allocatable :: what
+
+    call config_group(out, group, grp, ierr, errmsg)
+    if (ierr == 0 .and. size(values) == 1) then
+      call set_attr_real(grp, key, values(1), '/config/'//group, ierr, errmsg)
+    else if (ierr == 0) then
+      what = 'attribute '//key//' of /config/'//group
+      call delete_attr(grp, key, what, ierr, errmsg)
+      if (ierr == 0) then
+        call h5screate_simple_f(1, [int(size(values), hsize_t)], space, h)
+        if (h < 0) then
+          call fail('h5screate_simple_f', what, ierr, errmsg)
+        else
+          call h5acreate_f(grp, key, H5T_NATIVE_DOUBLE, space, attr, h)
+          if (h < 0) then
+            call fail('h5acreate_f', what, ierr, errmsg)
+          else
+            call h5awrite_f(attr, H5T_NATIVE_DOUBLE, values, [int(size(values), hsize_t)], h)
+            if (h < 0) call fail('h5awrite_f', what, ierr, errmsg)
+            call h5aclose_f(attr, h)
+            if (h < 0) call fail('h5aclose_f', what, ierr, errmsg)
+          end if
+          call h5sclose_f(space, h)
+          if (h < 0) call fail('h5sclose_f', what, ierr, errmsg)
+        end if
+      end if
+    end if
+    call close_group(grp, '/config/'//group, ierr, errmsg)
+  end subroutine config_key_reals
 
   !> The attribute /run/wall_time [s], the wall time of the whole run; the
   !> same value on every rank (attributes are collective). Collective.

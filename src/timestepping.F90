@@ -29,7 +29,7 @@ module timestepping
   use scenes, only: scene_setup
   use diagnostics, only: state_diagnostics_t, state_diagnostics
   use output, only: output_file, output_record, output_write_step, run_info, output_write_run_info, &
-                    output_write_wall_time
+                    output_write_wall_time, output_config_key
   use reduced, only: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach, &
                      set_block_row
   implicit none
@@ -838,8 +838,65 @@ contains
     hlen = len(info%start_date)
     call MPI_Bcast(info%start_date, hlen, MPI_CHARACTER, 0, ctx%comm, ierr)
     call output_write_run_info(out, info, ierr, errmsg)
+    if (ierr == 0) call write_config(ctx%cfg, ctx%comm, out, ierr, errmsg)
     if (ierr /= 0 .and. ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//trim(errmsg)
   end subroutine write_run_info
+
+  !> The resolved configuration, /config/<group> with one attribute per key:
+  !> every key after scene defaults, derived defaults and overrides
+  !> (dt and t_end as in force after -ts_dt and -ts_max_time), so that a run
+  !> can be repeated without knowing the defaults of the version that made
+  !> it. Logicals are 0/1. Collective.
+  subroutine write_config(cfg, comm, out, ierr, errmsg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(in) :: comm
+    type(output_file), intent(inout) :: out
+    PetscErrorCode, intent(out) :: ierr
+    character(len=*), intent(inout) :: errmsg
+    integer :: e, nk
+
+    e = 0
+    call output_config_key(out, 'lattice', 'nx', cfg%nx, e, errmsg)
+    call output_config_key(out, 'lattice', 'ny', cfg%ny, e, errmsg)
+    call output_config_key(out, 'lattice', 'lx', [cfg%lx], e, errmsg)
+    call output_config_key(out, 'lattice', 'ly', [cfg%ly], e, errmsg)
+    call output_config_key(out, 'lattice', 'total_mass', [cfg%total_mass], e, errmsg)
+    call output_config_key(out, 'lattice', 'mass_distribution', trim(cfg%mass_distribution), e, errmsg)
+    call output_config_key(out, 'lattice', 'lattice_scaling', trim(cfg%lattice_scaling), e, errmsg)
+    call output_config_key(out, 'material', 'spring_model', trim(cfg%spring_model), e, errmsg)
+    call output_config_key(out, 'material', 'e_s', [cfg%e_s], e, errmsg)
+    call output_config_key(out, 'material', 'eta_s', [cfg%eta_s], e, errmsg)
+    call output_config_key(out, 'material', 'e_d', [cfg%e_d], e, errmsg)
+    call output_config_key(out, 'material', 'eta_d', [cfg%eta_d], e, errmsg)
+    call output_config_key(out, 'material', 'bending_model', trim(cfg%bending_model), e, errmsg)
+    call output_config_key(out, 'material', 'k_b', [cfg%k_b], e, errmsg)
+    call output_config_key(out, 'material', 'eta_b', [cfg%eta_b], e, errmsg)
+    call output_config_key(out, 'scene', 'scene', trim(cfg%scene), e, errmsg)
+    call output_config_key(out, 'scene', 'gravity', cfg%gravity, e, errmsg)
+    call output_config_key(out, 'scene', 'lift_length', [cfg%lift_length], e, errmsg)
+    call output_config_key(out, 'scene', 'lift_height', [cfg%lift_height], e, errmsg)
+    call output_config_key(out, 'scene', 'bend_angle', [cfg%bend_angle], e, errmsg)
+    call output_config_key(out, 'scene', 'n_keyframes', cfg%n_keyframes, e, errmsg)
+    ! The keyframes in use only (n_keyframes of them; none: not written).
+    nk = max(0, min(cfg%n_keyframes, size(cfg%keyframe_time)))
+    if (nk > 0) then
+      call output_config_key(out, 'scene', 'keyframe_time', cfg%keyframe_time(1:nk), e, errmsg)
+      call output_config_key(out, 'scene', 'keyframe_dz', cfg%keyframe_dz(1:nk), e, errmsg)
+    end if
+    call output_config_key(out, 'scene', 'wave_nodes', trim(cfg%wave_nodes), e, errmsg)
+    call output_config_key(out, 'scene', 'release_time', [cfg%release_time], e, errmsg)
+    call output_config_key(out, 'scene', 'initial_omega', cfg%initial_omega, e, errmsg)
+    call output_config_key(out, 'time', 't_end', [cfg%t_end], e, errmsg)
+    call output_config_key(out, 'time', 'dt', [cfg%dt], e, errmsg)
+    call output_config_key(out, 'output', 'output_interval', [cfg%output_interval], e, errmsg)
+    call output_config_key(out, 'output', 'write_velocity', merge(1, 0, cfg%write_velocity), e, errmsg)
+    call output_config_key(out, 'output', 'output_file', trim(cfg%output_file), e, errmsg)
+    call output_config_key(out, 'output', 'petsc_options', trim(cfg%petsc_options), e, errmsg)
+    ! One error flag for all ranks (each call above is local HDF5 metadata).
+    call MPI_Allreduce(MPI_IN_PLACE, e, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
+    ierr = e
+    if (e /= 0 .and. len_trim(errmsg) == 0) errmsg = 'output: writing /config failed on another rank'
+  end subroutine write_config
 
   !> The unit system of a scene's defaults (input/README.md, Scenes): the
   !> report scenes and flat use mm, g, s; hang uses SI. The program itself

@@ -208,3 +208,19 @@ def test_reader_prefers_the_units_attribute(tmp_path, make_run):
     with h5py.File(path, "r+") as f:
         f.attrs["units"] = np.bytes_(b"mm g s")
     assert read_run(path).units() == "mm"
+
+
+def test_output_records_the_resolved_configuration(tmp_path):
+    """/config holds every key as resolved: the namelist's, the scene's
+    defaults for the rest (lift_release: 100 x 100, fold 30 up 15; input/
+    README.md), and dt as overridden by -ts_dt."""
+    _, r = run_and_read(tmp_path, "cfg", options=("-ts_dt", "5e-4"), **lift(0.002, 0.002))
+    c = r.config
+    assert c["lattice"]["nx"] == 5 and c["lattice"]["ny"] == 5
+    assert c["lattice"]["lx"] == 100.0 and c["lattice"]["ly"] == 100.0
+    assert c["scene"]["scene"] == "lift_release"
+    assert c["scene"]["lift_length"] == 30.0 and c["scene"]["lift_height"] == 15.0
+    np.testing.assert_array_equal(c["scene"]["gravity"], [0.0, 0.0, 0.0])
+    assert c["time"]["t_end"] == pytest.approx(0.002) and c["time"]["dt"] == pytest.approx(5e-4)
+    assert c["output"]["output_file"] == "cfg.h5" and c["output"]["write_velocity"] == 0
+    assert c["material"]["bending_model"] in ("paper", "energy", "none")
