@@ -224,3 +224,41 @@ def test_output_records_the_resolved_configuration(tmp_path):
     assert c["time"]["t_end"] == pytest.approx(0.002) and c["time"]["dt"] == pytest.approx(5e-4)
     assert c["output"]["output_file"] == "cfg.h5" and c["output"]["write_velocity"] == 0
     assert c["material"]["bending_model"] in ("paper", "energy", "none")
+
+
+def test_progress_reaches_a_redirected_file_while_running(tmp_path):
+    """stdout redirected to a file (a batch job): each progress line is in
+    the file as soon as it is printed, not when an 8 KiB buffer fills (some
+    30 lines later, tens of seconds here). The first line after t = 0 must
+    appear within a few seconds of its own wall_s."""
+    import time
+    from nunorun import exe, namelist
+    nml = tmp_path / "long.nml"
+    nml.write_text(namelist("long.h5", scene="scene='flat'", lattice="nx=5 ny=5",
+                            time="t_end=1000.0 dt=1e-3", output="output_interval=2.0"))
+    log = tmp_path / "long.out"
+    with open(log, "w") as out:
+        # Launched alone (a singleton): under mpiexec Open MPI gives ranks a
+        # pty, which gfortran line-buffers anyway.
+        start = time.monotonic()
+        proc = subprocess.Popen([exe(), str(nml)], cwd=tmp_path,
+                                stdout=out, stderr=subprocess.DEVNULL, start_new_session=True)
+        try:
+            first = None
+            while time.monotonic() < start + 60 and proc.poll() is None:
+                lines = [ln for ln in progress_lines(log.read_text()) if not ln.startswith("t = 0.00000E+00")]
+                if lines:
+                    first = (time.monotonic() - start, lines[0])
+                    break
+                time.sleep(0.1)
+            assert proc.poll() is None, "the run ended: the check needs it still running"
+            assert first is not None, "no progress line after t = 0 in the file after 60 s"
+            elapsed, line = first
+            assert elapsed - fields(line)["wall_s"] < 5.0, (elapsed, line)
+        finally:
+            proc.terminate()
+            try:
+                proc.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait(timeout=30)
