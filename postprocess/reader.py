@@ -25,8 +25,11 @@ ENERGY_NAMES = ("kinetic", "stretch", "bend", "dissipated", "external_work")
 DIAGNOSTIC_NAMES = ("momentum", "angular_momentum", "length", "flatness",
                     "steps", "rejected_steps", "newton_iterations",
                     "linear_iterations")
-# Scenes of the report are written in mm, g, s (MODEL.md section 7).
-MM_SCENES = ("lift_release", "bend_release", "wave_point")
+# Files written before the root attribute ``units`` existed: the report
+# scenes (and flat) are in mm, g, s (MODEL.md section 7), hang in SI.
+MM_SCENES = ("lift_release", "bend_release", "wave_point", "flat")
+# Length unit of each unit system the program writes (root attribute units).
+UNIT_SYSTEM_LENGTH = {"mm g s": "mm", "si": "m"}
 _REQUIRED_ATTRS = ("nx", "ny")
 _REQUIRED_DATASETS = ("time", "position", "lattice/rest_position")
 
@@ -44,6 +47,19 @@ def _text(value) -> str:
         value = bytes(value).decode("utf-8", errors="replace")
     # Fortran fixed-length strings are padded with blanks or NULs.
     return str(value).rstrip("\x00 ")
+
+
+def _attrs(obj) -> dict:
+    """Attributes of a group as str, Python scalars or 1-D arrays."""
+    out = {}
+    for key, value in obj.attrs.items():
+        if isinstance(value, (bytes, np.bytes_, str)):
+            out[key] = _text(value)
+        elif np.ndim(value) == 0:
+            out[key] = np.asarray(value).item()
+        else:
+            out[key] = np.asarray(value)
+    return out
 
 
 def _int(value) -> int:
@@ -72,6 +88,10 @@ class Run:
     energy: dict = field(default_factory=dict)       # name -> [nt]
     diagnostics: dict = field(default_factory=dict)  # name -> [nt] or [nt][3]
     n_stored: int = 0                # longest stored length (>= nt if killed)
+    unit_system: str = ""            # root attribute units ('mm g s', 'SI'); '' in old files
+    run_info: dict = field(default_factory=dict)   # attributes of /run (provenance)
+    wall_time: np.ndarray | None = None            # [nt] wall seconds at each output step
+    config: dict = field(default_factory=dict)     # /config: {group: {key: value}}, the resolved keys
 
     @property
     def nt(self) -> int:
@@ -101,12 +121,19 @@ class Run:
         return m.group(1).lower() if m else None
 
     def units(self) -> str:
-        """Length unit for labels: a guess, the program itself is unit-agnostic.
+        """Length unit for labels, from the unit system the program recorded
+        (root attribute ``units``: 'mm g s' -> 'mm', 'SI' -> 'm').
 
-        An explicit ``units = '...'`` entry in the namelist wins; otherwise
-        'mm' for the report scenes (lift_release, bend_release, wave_point,
-        written in mm, g, s) and 'm' for hang or anything else.
+        Files without that attribute (older versions, synthetic files): an
+        explicit ``units = '...'`` entry in the namelist, else a guess from
+        the scene: 'mm' for lift_release, bend_release, wave_point and flat,
+        'm' for hang or anything else.
         """
+        system = self.unit_system.strip().lower()
+        if system in UNIT_SYSTEM_LENGTH:
+            return UNIT_SYSTEM_LENGTH[system]
+        if system:
+            return self.unit_system.split()[0]   # a system this reader does not know: its first word
         m = re.search(r"\bunits\s*=\s*['\"]?\s*([A-Za-z]+)", self.namelist,
                       re.IGNORECASE)
         if m:
@@ -182,6 +209,11 @@ def read_run(path, load_velocity: bool = True) -> Run:
             raise ValueError(f"{path}: /lattice/rest_position has shape "
                              f"{rest.shape}, expected [{ny}][{nx}][3]")
         mass = np.asarray(f["lattice/mass"][()]) if "lattice/mass" in f else None
+        run_info = _attrs(f["run"]) if "run" in f else {}
+        config = {g: _attrs(f["config"][g]) for g in f["config"]} if "config" in f else {}
+        wall_time = None
+        if "wall_time" in f:
+            wall_time = np.asarray(f["wall_time"][:nt], dtype=np.float64)
 
         status = _text(attrs.get("status")) or "unknown"
         return Run(
@@ -202,4 +234,8 @@ def read_run(path, load_velocity: bool = True) -> Run:
             diagnostics={n: data[f"diagnostics/{n}"] for n in DIAGNOSTIC_NAMES
                          if f"diagnostics/{n}" in data},
             n_stored=n_stored,
+            unit_system=_text(attrs.get("units")),
+            run_info=run_info,
+            wall_time=wall_time,
+            config=config,
         )

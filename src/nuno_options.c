@@ -1,22 +1,26 @@
 /* nuno's own solver options, read inside a PETSc options block so that they
  * appear in -help with their defaults and current values (PETSc 3.18 has no
  * Fortran interface to PetscOptionsBegin/End: ../shared/STYLE.md). Called
- * once from Fortran (module timestepping) through bind(C); collective. */
+ * once from Fortran (module timestepping) through bind(C); collective.
+ * Also the end-of-run report of options that nothing read. */
 #include <petscsys.h>
 
 /* jacobian: in/out 0 = reduced, 1 = full; pc_lag: in/out >= 1;
- * snes_floor: in/out >= 0; gauss_newton, clamp: in/out 0/1.
+ * snes_floor: in/out >= 0; gauss_newton, clamp: in/out 0/1;
+ * mattype: in/out NUL-terminated, mattype_len bytes; fail_newton: in/out >= 0.
  * Returns a PETSc error code (0 on success). */
 PetscErrorCode nuno_options_read(MPI_Fint fcomm, int *jacobian, int *pc_lag, double *snes_floor,
-                                 int *gauss_newton, int *clamp)
+                                 int *gauss_newton, int *clamp, char *mattype, int mattype_len, int *fail_newton)
 {
   static const char *const jacobians[] = {"reduced", "full"};
   MPI_Comm  comm = MPI_Comm_f2c(fcomm);
-  PetscInt  jac = *jacobian, lag = *pc_lag;
+  PetscInt  jac = *jacobian, lag = *pc_lag, nfail = *fail_newton;
   PetscReal floor = *snes_floor;
   PetscBool gn = *gauss_newton ? PETSC_TRUE : PETSC_FALSE, cl = *clamp ? PETSC_TRUE : PETSC_FALSE;
+  char      mt[64];
 
   PetscFunctionBeginUser;
+  PetscCall(PetscStrncpy(mt, mattype, sizeof(mt)));
   PetscOptionsBegin(comm, NULL, "nuno: the Newton step (docs/design.md, input/README.md)", "nuno");
   PetscCall(PetscOptionsEList("-nuno_jacobian", "reduced: assemble only the 3-dof velocity system and eliminate around it; full: the 6-dof Jacobian",
                               "nuno", jacobians, 2, jacobians[jac], &jac, NULL));
@@ -26,13 +30,52 @@ PetscErrorCode nuno_options_read(MPI_Fint fcomm, int *jacobian, int *pc_lag, dou
   PetscCall(PetscOptionsBool("-nuno_gauss_newton", "energy bending: assemble only the Gauss-Newton part -k_b J^T J", "nuno", gn, &gn, NULL));
   PetscCall(PetscOptionsBool("-nuno_clamp_compression", "drop the indefinite compression term of the springs from the assembled matrix",
                              "nuno", cl, &cl, NULL));
+  /* Read here rather than by DMSetFromOptions: that would also take
+   * -da_grid_x and friends, which would resize the lattice behind the namelist. */
+  PetscCall(PetscOptionsString("-dm_mat_type", "storage of the assembled 6-dof Jacobian (-nuno_jacobian full): baij, aij, ...", "DMSetMatType",
+                               mt, mt, sizeof(mt), NULL));
+  PetscCall(PetscOptionsInt("-nuno_fail_newton", "testing: declare the first N Newton solves failed, so that their steps are retried with a smaller dt",
+                            "nuno", nfail, &nfail, NULL));
   PetscOptionsEnd();
   PetscCheck(lag >= 1, comm, PETSC_ERR_ARG_OUTOFRANGE, "-nuno_pc_lag %" PetscInt_FMT " must be >= 1", lag);
   PetscCheck(floor >= 0.0 && floor < 1.0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-nuno_snes_floor %g must be in [0, 1)", (double)floor);
+  PetscCheck(nfail >= 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-nuno_fail_newton %" PetscInt_FMT " must be >= 0", nfail);
   *jacobian = (int)jac;
   *pc_lag = (int)lag;
   *snes_floor = floor;
   *gauss_newton = gn ? 1 : 0;
   *clamp = cl ? 1 : 0;
+  *fail_newton = (int)nfail;
+  PetscCall(PetscStrncpy(mattype, mt, (size_t)mattype_len));
+  PetscFunctionReturn(0);
+}
+
+/* Warn on stderr (rank 0, one line each) about every option that nothing
+ * read: a misspelt option (-ts_tpye) must not pass silently. PETSc itself
+ * only reports them with -options_left, so this runs unless the user chose:
+ * with -options_left (true) PETSc prints its own report at PetscFinalize,
+ * with -options_left no the user asked for silence. Call it after the run,
+ * before PetscFinalize. *nunused: how many were reported. Collective. */
+PetscErrorCode nuno_options_report_unused(MPI_Fint fcomm, int *nunused)
+{
+  MPI_Comm  comm = MPI_Comm_f2c(fcomm);
+  PetscBool chosen, left = PETSC_FALSE;
+  PetscInt  n, i;
+  char    **names, **values;
+
+  PetscFunctionBeginUser;
+  *nunused = 0;
+  PetscCall(PetscOptionsGetBool(NULL, NULL, "-options_left", &left, &chosen));
+  if (chosen) PetscFunctionReturn(0);
+  PetscCall(PetscOptionsLeftGet(NULL, &n, &names, &values));
+  for (i = 0; i < n; i++) {
+    if (values[i]) {
+      PetscCall(PetscFPrintf(comm, PETSC_STDERR, "nuno: warning: option -%s (value %s) was not used: misspelt, or not for this solver\n", names[i], values[i]));
+    } else {
+      PetscCall(PetscFPrintf(comm, PETSC_STDERR, "nuno: warning: option -%s was not used: misspelt, or not for this solver\n", names[i]));
+    }
+  }
+  *nunused = (int)n;
+  PetscCall(PetscOptionsLeftRestore(NULL, &n, &names, &values));
   PetscFunctionReturn(0);
 }

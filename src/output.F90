@@ -21,7 +21,13 @@ module output
   implicit none
   private
 
-  public :: output_open, output_write_step, output_close
+  public :: output_open, output_write_step, output_close, output_write_run_info, output_write_wall_time
+  public :: output_config_key
+
+  !> One key of the resolved configuration, as an attribute of /config/<group>.
+  interface output_config_key
+    module procedure config_key_str, config_key_int, config_key_reals
+  end interface output_config_key
 
   !> One output step's scalars (MODEL.md section 8); identical on all ranks.
   type, public :: output_record
@@ -30,21 +36,35 @@ module output
     real(rp) :: momentum(3) = 0, angular_momentum(3) = 0
     real(rp) :: length = 0, flatness = 0
     integer :: steps = 0, rejected_steps = 0, newton_iterations = 0, linear_iterations = 0
+    real(rp) :: wall_time = 0            !< wall-clock seconds since the run started (rank 0's clock) [s]
   end type output_record
+
+  !> Provenance of a run for the /run group: what a reader needs to
+  !> reproduce or compare it. Identical on all ranks (attributes are
+  !> collective). Git commit and HDF5 version are filled in here.
+  type, public :: run_info
+    character(len=32) :: units = 'unknown'       !< the scene's unit system: 'mm g s' or 'SI'
+    character(len=64) :: petsc_version = ''
+    character(len=64) :: ts_type = '', ts_adapt_type = ''   !< as used, after the options
+    real(rp) :: dt = 0, t_end = 0                !< effective (initial) step and end time [time]
+    integer :: max_steps = 0                     !< -ts_max_steps (huge when not set)
+    character(len=32) :: start_date = ''         !< ISO 8601, local time with offset
+    character(len=256) :: host = ''              !< host of rank 0
+  end type run_info
 
   ! Time-dependent datasets, in the order they are extended and written.
   integer, parameter :: d_time = 1, d_position = 2, d_velocity = 3, d_kinetic = 4, &
     d_stretch = 5, d_bend = 6, d_dissipated = 7, d_external_work = 8, d_momentum = 9, &
     d_angular_momentum = 10, d_length = 11, d_flatness = 12, d_steps = 13, &
-    d_rejected_steps = 14, d_newton_iterations = 15, d_linear_iterations = 16
-  integer, parameter :: n_dsets = 16
+    d_rejected_steps = 14, d_newton_iterations = 15, d_linear_iterations = 16, d_wall_time = 17
+  integer, parameter :: n_dsets = 17
   character(len=*), parameter :: dset_names(n_dsets) = [character(len=32) :: &
     '/time', '/position', '/velocity', &
     '/energy/kinetic', '/energy/stretch', '/energy/bend', '/energy/dissipated', &
     '/energy/external_work', '/diagnostics/momentum', '/diagnostics/angular_momentum', &
     '/diagnostics/length', '/diagnostics/flatness', '/diagnostics/steps', &
     '/diagnostics/rejected_steps', '/diagnostics/newton_iterations', &
-    '/diagnostics/linear_iterations']
+    '/diagnostics/linear_iterations', '/wall_time']
   character(len=*), parameter :: dset_descriptions(n_dsets) = [character(len=96) :: &
     'simulation time of each output step', &
     'node positions [t][j][i][xyz] of the ny-by-nx lattice', &
@@ -61,7 +81,8 @@ module output
     'accepted time steps since the start (cumulative)', &
     'rejected time steps since the start (cumulative)', &
     'Newton iterations since the start (cumulative)', &
-    'linear solver iterations since the start (cumulative)']
+    'linear solver iterations since the start (cumulative)', &
+    'wall-clock seconds from the start of the run to this output step']
   ! Output steps per chunk of the small datasets (one step per chunk would make
   ! thousands of tiny chunks; a crash still leaves complete steps readable).
   integer(hsize_t), parameter :: scalar_chunk = 256
@@ -210,6 +231,217 @@ contains
     out%is_open = .false.
     call agree(out%comm, 'output_close', ierr, errmsg)
   end subroutine output_close
+
+  !> The group /run (provenance: versions, git commit, solver as used, date,
+  !> host), the root attribute units, and the /wall_time series. Call once,
+  !> after output_open and before the first output_write_step. Collective.
+  subroutine output_write_run_info(out, info, ierr, errmsg)
+    type(output_file), intent(inout) :: out
+    type(run_info), intent(in) :: info
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: errmsg
+#ifdef NUNO_GIT_COMMIT
+    character(len=*), parameter :: git_commit = NUNO_GIT_COMMIT
+#else
+    character(len=*), parameter :: git_commit = 'unknown'
+#endif
+    integer(hid_t) :: grp
+    integer :: h, major, minor, release
+    character(len=32) :: hdf5_version
+
+    ierr = 0
+    errmsg = ''
+    if (.not. out%is_open) then
+      ierr = 1
+      errmsg = 'output_write_run_info: the output file is not open'
+      return
+    end if
+    if (out%nt /= 0) then
+      ierr = 1
+      errmsg = 'output_write_run_info: must come before the first output step (/wall_time)'
+    end if
+    ! The library actually linked, not the headers compiled against.
+    if (ierr == 0) then
+      call h5get_libversion_f(major, minor, release, h)
+      if (h < 0) call fail('h5get_libversion_f', '/run', ierr, errmsg)
+      write(hdf5_version, '(i0,a,i0,a,i0)') major, '.', minor, '.', release
+    end if
+    if (ierr == 0) call set_attr_str(out%file, 'units', trim(info%units), '/', ierr, errmsg)
+    if (ierr == 0) then
+      call h5gcreate_f(out%file, 'run', grp, h)
+      if (h < 0) call fail('h5gcreate_f', '/run', ierr, errmsg)
+    end if
+    if (ierr == 0) then
+      call set_attr_str(grp, 'git_commit', git_commit, '/run', ierr, errmsg)
+      if (ierr == 0) call set_attr_str(grp, 'petsc_version', trim(info%petsc_version), '/run', ierr, errmsg)
+      if (ierr == 0) call set_attr_str(grp, 'hdf5_version', trim(hdf5_version), '/run', ierr, errmsg)
+      if (ierr == 0) call set_attr_str(grp, 'ts_type', trim(info%ts_type), '/run', ierr, errmsg)
+      if (ierr == 0) call set_attr_str(grp, 'ts_adapt_type', trim(info%ts_adapt_type), '/run', ierr, errmsg)
+      if (ierr == 0) call set_attr_real(grp, 'dt', info%dt, '/run', ierr, errmsg)
+      if (ierr == 0) call set_attr_real(grp, 't_end', info%t_end, '/run', ierr, errmsg)
+      if (ierr == 0) call set_attr_int(grp, 'max_steps', info%max_steps, '/run', ierr, errmsg)
+      if (ierr == 0) call set_attr_str(grp, 'start_date', trim(info%start_date), '/run', ierr, errmsg)
+      if (ierr == 0) call set_attr_str(grp, 'host', trim(info%host), '/run', ierr, errmsg)
+      if (ierr == 0) call set_attr_int(grp, 'n_ranks', out%n_ranks, '/run', ierr, errmsg)
+      call h5gclose_f(grp, h)
+      if (h < 0) call fail('h5gclose_f', '/run', ierr, errmsg)
+    end if
+    if (ierr == 0) call create_series(out, d_wall_time, [integer(hsize_t) ::], [scalar_chunk], H5T_NATIVE_DOUBLE, &
+                                      ierr, errmsg)
+    if (ierr == 0) then
+      call h5fflush_f(out%file, H5F_SCOPE_GLOBAL_F, h)
+      if (h < 0) call fail('h5fflush_f', '/', ierr, errmsg)
+    end if
+    call agree(out%comm, 'output_write_run_info', ierr, errmsg)
+  end subroutine output_write_run_info
+
+  !> /config/<group>, created on first use; grp must be closed by the caller.
+  subroutine config_group(out, group, grp, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    character(*), intent(in) :: group
+    integer(hid_t), intent(out) :: grp
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: top
+    logical :: exists
+    integer :: h
+
+    grp = -1
+    if (ierr /= 0) return
+    if (.not. out%is_open) then
+      ierr = 1
+      errmsg = 'output_config_key: the output file is not open'
+      return
+    end if
+    call h5lexists_f(out%file, 'config', exists, h)
+    if (h < 0) then
+      call fail('h5lexists_f', '/config', ierr, errmsg); return
+    end if
+    if (exists) then
+      call h5gopen_f(out%file, 'config', top, h)
+    else
+      call h5gcreate_f(out%file, 'config', top, h)
+    end if
+    if (h < 0) then
+      call fail('h5gopen_f/h5gcreate_f', '/config', ierr, errmsg); return
+    end if
+    call h5lexists_f(top, group, exists, h)
+    if (h < 0) then
+      call fail('h5lexists_f', '/config/'//group, ierr, errmsg)
+    else if (exists) then
+      call h5gopen_f(top, group, grp, h)
+      if (h < 0) call fail('h5gopen_f', '/config/'//group, ierr, errmsg)
+    else
+      call h5gcreate_f(top, group, grp, h)
+      if (h < 0) call fail('h5gcreate_f', '/config/'//group, ierr, errmsg)
+    end if
+    if (ierr /= 0) grp = -1
+    call h5gclose_f(top, h)
+    if (h < 0) call fail('h5gclose_f', '/config', ierr, errmsg)
+  end subroutine config_group
+
+  subroutine close_group(grp, where, ierr, errmsg)
+    integer(hid_t), intent(in) :: grp
+    character(*), intent(in) :: where
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer :: h
+    if (grp < 0) return
+    call h5gclose_f(grp, h)
+    if (h < 0) call fail('h5gclose_f', where, ierr, errmsg)
+  end subroutine close_group
+
+  !> A string key of /config/<group>. Collective (same values on all ranks);
+  !> keeps the first error in ierr/errmsg, so that calls can be chained.
+  subroutine config_key_str(out, group, key, value, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    character(*), intent(in) :: group, key, value
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: grp
+    call config_group(out, group, grp, ierr, errmsg)
+    if (ierr == 0) call set_attr_str(grp, key, value, '/config/'//group, ierr, errmsg)
+    call close_group(grp, '/config/'//group, ierr, errmsg)
+  end subroutine config_key_str
+
+  subroutine config_key_int(out, group, key, value, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    character(*), intent(in) :: group, key
+    integer, intent(in) :: value
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: grp
+    call config_group(out, group, grp, ierr, errmsg)
+    if (ierr == 0) call set_attr_int(grp, key, value, '/config/'//group, ierr, errmsg)
+    call close_group(grp, '/config/'//group, ierr, errmsg)
+  end subroutine config_key_int
+
+  !> A real key (one value: a scalar attribute; several: a 1-D one).
+  subroutine config_key_reals(out, group, key, values, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    character(*), intent(in) :: group, key
+    real(rp), intent(in) :: values(:)
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: grp, space, attr
+    integer :: h
+    character(len=:), allocatable :: what
+
+    call config_group(out, group, grp, ierr, errmsg)
+    if (ierr == 0 .and. size(values) == 1) then
+      call set_attr_real(grp, key, values(1), '/config/'//group, ierr, errmsg)
+    else if (ierr == 0) then
+      what = 'attribute '//key//' of /config/'//group
+      call delete_attr(grp, key, what, ierr, errmsg)
+      if (ierr == 0) then
+        call h5screate_simple_f(1, [int(size(values), hsize_t)], space, h)
+        if (h < 0) then
+          call fail('h5screate_simple_f', what, ierr, errmsg)
+        else
+          call h5acreate_f(grp, key, H5T_NATIVE_DOUBLE, space, attr, h)
+          if (h < 0) then
+            call fail('h5acreate_f', what, ierr, errmsg)
+          else
+            call h5awrite_f(attr, H5T_NATIVE_DOUBLE, values, [int(size(values), hsize_t)], h)
+            if (h < 0) call fail('h5awrite_f', what, ierr, errmsg)
+            call h5aclose_f(attr, h)
+            if (h < 0) call fail('h5aclose_f', what, ierr, errmsg)
+          end if
+          call h5sclose_f(space, h)
+          if (h < 0) call fail('h5sclose_f', what, ierr, errmsg)
+        end if
+      end if
+    end if
+    call close_group(grp, '/config/'//group, ierr, errmsg)
+  end subroutine config_key_reals
+
+  !> The attribute /run/wall_time [s], the wall time of the whole run; the
+  !> same value on every rank (attributes are collective). Collective.
+  subroutine output_write_wall_time(out, seconds, ierr, errmsg)
+    type(output_file), intent(inout) :: out
+    real(rp), intent(in) :: seconds
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: errmsg
+    integer(hid_t) :: grp
+    integer :: h
+
+    ierr = 0
+    errmsg = ''
+    if (.not. out%is_open) then
+      ierr = 1
+      errmsg = 'output_write_wall_time: the output file is not open'
+      return
+    end if
+    call h5gopen_f(out%file, 'run', grp, h)
+    if (h < 0) then
+      call fail('h5gopen_f (output_write_run_info first)', '/run', ierr, errmsg)
+    else
+      call set_attr_real(grp, 'wall_time', seconds, '/run', ierr, errmsg)
+      call h5gclose_f(grp, h)
+      if (h < 0) call fail('h5gclose_f', '/run', ierr, errmsg)
+    end if
+    call agree(out%comm, 'output_write_wall_time', ierr, errmsg)
+  end subroutine output_write_wall_time
 
   ! ---------------------------------------------------------------------------
   ! Open: file, root attributes, lattice, time series.
@@ -464,6 +696,8 @@ contains
     if (ierr == 0) call write_int(out, d_rejected_steps, rec%rejected_steps, ierr, errmsg)
     if (ierr == 0) call write_int(out, d_newton_iterations, rec%newton_iterations, ierr, errmsg)
     if (ierr == 0) call write_int(out, d_linear_iterations, rec%linear_iterations, ierr, errmsg)
+    ! Created by output_write_run_info; absent for callers that never call it.
+    if (ierr == 0 .and. out%dset(d_wall_time) >= 0) call write_reals(out, d_wall_time, [rec%wall_time], ierr, errmsg)
     if (ierr /= 0) return
 
     ! The step is complete: count it, then flush so that a later crash keeps it.
@@ -730,6 +964,36 @@ contains
     call h5sclose_f(space, h)
     if (h < 0) call fail('h5sclose_f', what, ierr, errmsg)
   end subroutine set_attr_int
+
+  subroutine set_attr_real(loc, name, value, where, ierr, errmsg)
+    integer(hid_t), intent(in) :: loc
+    character(*), intent(in) :: name, where
+    real(rp), intent(in) :: value
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: space, attr
+    integer :: h
+    character(len=:), allocatable :: what
+
+    what = 'attribute '//name//' of '//where
+    call delete_attr(loc, name, what, ierr, errmsg)
+    if (ierr /= 0) return
+    call h5screate_f(H5S_SCALAR_F, space, h)
+    if (h < 0) then
+      call fail('h5screate_f', what, ierr, errmsg); return
+    end if
+    call h5acreate_f(loc, name, H5T_NATIVE_DOUBLE, space, attr, h)
+    if (h < 0) then
+      call fail('h5acreate_f', what, ierr, errmsg)
+    else
+      call h5awrite_f(attr, H5T_NATIVE_DOUBLE, value, [1_hsize_t], h)
+      if (h < 0) call fail('h5awrite_f', what, ierr, errmsg)
+      call h5aclose_f(attr, h)
+      if (h < 0) call fail('h5aclose_f', what, ierr, errmsg)
+    end if
+    call h5sclose_f(space, h)
+    if (h < 0) call fail('h5sclose_f', what, ierr, errmsg)
+  end subroutine set_attr_real
 
   subroutine delete_attr(loc, name, what, ierr, errmsg)
     integer(hid_t), intent(in) :: loc

@@ -18,16 +18,18 @@ module timestepping
   use petscts
   use petscdmda
   use mpi
-  use, intrinsic :: iso_c_binding, only: c_int, c_double
+  use, intrinsic :: iso_c_binding, only: c_int, c_double, c_char, c_null_char
+  use, intrinsic :: iso_fortran_env, only: output_unit, error_unit
   use kinds, only: rp
-  use config, only: nuno_config, SPRING_LINEAR, BEND_NONE, BEND_ENERGY
+  use config, only: nuno_config, SPRING_LINEAR, BEND_NONE, BEND_ENERGY, SCENE_HANG
   use lattice, only: lattice_t, lattice_init, halo_width
   use forces, only: internal_forces, dissipated_power, jac_buffer_t, jac_buffer_init, jac_buffer_row, &
                     slot_of, first_anchor_row
   use constraints, only: constraint_set_t, constraints_set_window, constraint_target, constraint_events
   use scenes, only: scene_setup
   use diagnostics, only: state_diagnostics_t, state_diagnostics
-  use output, only: output_file, output_record, output_write_step
+  use output, only: output_file, output_record, output_write_step, run_info, output_write_run_info, &
+                    output_write_wall_time, output_config_key
   use reduced, only: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach, &
                      set_block_row
   implicit none
@@ -40,13 +42,21 @@ module timestepping
 
   interface
     !> src/nuno_options.c: nuno's options in a PETSc options block.
-    integer(c_int) function nuno_options_read(fcomm, jacobian, pc_lag, snes_floor, gauss_newton, clamp) &
-        bind(C, name='nuno_options_read')
-      import :: c_int, c_double
+    integer(c_int) function nuno_options_read(fcomm, jacobian, pc_lag, snes_floor, gauss_newton, clamp, &
+                                              mattype, mattype_len, fail_newton) bind(C, name='nuno_options_read')
+      import :: c_int, c_double, c_char
       integer(c_int), value :: fcomm
-      integer(c_int), intent(inout) :: jacobian, pc_lag, gauss_newton, clamp
+      integer(c_int), intent(inout) :: jacobian, pc_lag, gauss_newton, clamp, fail_newton
       real(c_double), intent(inout) :: snes_floor
+      character(kind=c_char), intent(inout) :: mattype(*)
+      integer(c_int), value :: mattype_len
     end function nuno_options_read
+    !> src/nuno_options.c: warn about options that nothing read.
+    integer(c_int) function nuno_options_report_unused(fcomm, nunused) bind(C, name='nuno_options_report_unused')
+      import :: c_int
+      integer(c_int), value :: fcomm
+      integer(c_int), intent(out) :: nunused
+    end function nuno_options_report_unused
   end interface
 
   !> Everything the callbacks need; passed to PETSc as the user context.
@@ -83,6 +93,17 @@ module timestepping
     real(rp) :: dissipated = 0                  !< dissipated energy [energy]
     real(rp) :: work_constraints = 0            !< work of the constraint reactions [energy]
     real(rp) :: mgx0 = 0                        !< sum m g . x at t = 0
+    ! the time integration as used: the namelist's values after the PETSc options
+    real(rp) :: dt = 0                          !< fixed (or initial) step [time]: -ts_dt, else the namelist's
+    real(rp) :: t_end = 0                       !< end time [time]: -ts_max_time, else the namelist's
+    logical :: fixed_step = .true.              !< -ts_adapt_type none: every step is dt unless retried
+    PetscInt :: max_steps = 0                   !< -ts_max_steps: a clean end after this many steps
+    real(rp) :: tstop = 0                       !< end of the current time window [time]
+    PetscInt :: rejects_seen = 0                !< step rejections already answered by the monitor
+    integer :: fail_newton = 0                  !< -nuno_fail_newton: Newton solves still to be declared failed
+    ! progress
+    real(rp) :: wall0 = 0                       !< MPI_Wtime at the start of solver_run [s]
+    real(rp) :: t_written = -1                  !< time of the last output step [time]
   end type app_ctx
 
 contains
@@ -119,8 +140,8 @@ contains
     SNESLineSearch :: linesearch
     PetscScalar, pointer :: ua(:, :, :)
     character(len=64) :: mattype
-    PetscBool :: found
-    integer(c_int) :: jac_full, pc_lag, gn, cl
+    character(len=64, kind=c_char) :: cmattype
+    integer(c_int) :: jac_full, pc_lag, gn, cl, nfail
     logical :: symmetric, constant, damping
 
     ctx%cfg = cfg
@@ -133,9 +154,24 @@ contains
 
     ! 1 x P processes: each rank owns whole rows, ghost width 2 with bending.
     PetscCall(DMDACreate2d(ctx%comm, DM_BOUNDARY_NONE, DM_BOUNDARY_NONE, DMDA_STENCIL_BOX, nxp, nyp, one, PETSC_DECIDE, six, w, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, ctx%da, ierr))
-    ! BAIJ (6 x 6 blocks) assembles and multiplies fastest; -dm_mat_type aij for field splits.
-    mattype = MATBAIJ
-    PetscCall(PetscOptionsGetString(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-dm_mat_type', mattype, found, ierr))
+    ! nuno's own options, in an options block (so in -help): the Newton
+    ! step, reduced 3-dof elimination (default) or the assembled 6-dof
+    ! Jacobian (the reference for -snes_test_jacobian and small scenes),
+    ! and the storage of that Jacobian: BAIJ (6 x 6 blocks) assembles and
+    ! multiplies fastest; -dm_mat_type aij for field splits.
+    jac_full = 0
+    pc_lag = 1
+    gn = 0
+    cl = 0
+    nfail = 0
+    cmattype = MATBAIJ//c_null_char
+    ierr = nuno_options_read(ctx%comm, jac_full, pc_lag, ctx%snes_floor, gn, cl, cmattype, len(cmattype), nfail)
+    if (ierr /= 0) return
+    ctx%use_reduced = jac_full == 0
+    ctx%gauss_newton = gn /= 0
+    ctx%clamp = cl /= 0
+    ctx%fail_newton = nfail
+    mattype = cmattype(1:index(cmattype, c_null_char) - 1)
     PetscCall(DMSetMatType(ctx%da, mattype, ierr))
     PetscCall(DMSetUp(ctx%da, ierr))
     PetscCall(DMDASetFieldName(ctx%da, 0, 'x', ierr))
@@ -164,18 +200,6 @@ contains
     call scene_setup(cfg, ctx%lat, ua, ctx%cs)
     PetscCall(DMDAVecRestoreArrayF90(ctx%da, ctx%u, ua, ierr))
 
-    ! nuno's own options, in an options block (so in -help): the Newton
-    ! step, reduced 3-dof elimination (default) or the assembled 6-dof
-    ! Jacobian (the reference for -snes_test_jacobian and small scenes).
-    jac_full = 0
-    pc_lag = 1
-    gn = 0
-    cl = 0
-    ierr = nuno_options_read(ctx%comm, jac_full, pc_lag, ctx%snes_floor, gn, cl)
-    if (ierr /= 0) return
-    ctx%use_reduced = jac_full == 0
-    ctx%gauss_newton = gn /= 0
-    ctx%clamp = cl /= 0
     if (ctx%use_reduced) then
       ! S is symmetric when K and C are: no moving dampers (linear springs
       ! have constant ones), no paper bending, no bending damping.
@@ -233,12 +257,84 @@ contains
       PetscCall(SNESLineSearchSetType(linesearch, SNESLINESEARCHBASIC, ierr))
     end if
     PetscCall(TSSetFromOptions(ctx%ts, ierr))
+    PetscCall(effective_time_integration(ctx, ierr))
   end subroutine solver_create
 
-  !> Destroy the PETSc objects, in reverse order of creation.
+  !> Read back what the options made of the time integration, so that the
+  !> run, the start-up line and the output file use the values actually in
+  !> force: -ts_dt overrides the namelist's dt, -ts_max_time its t_end,
+  !> -ts_max_steps ends the run early (complete). Options the time loop
+  !> cannot honour are refused here. Collective.
+  subroutine effective_time_integration(ctx, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    PetscErrorCode, intent(out) :: ierr
+    type(tTSAdapt) :: adapt
+    TSExactFinalTimeOption :: eft
+    PetscBool :: match
+    character(len=64) :: tstype, adtype
+    character(len=512) :: line
+    real(rp) :: dt_namelist, t_end_namelist
+
+    dt_namelist = ctx%cfg%dt
+    t_end_namelist = ctx%cfg%t_end
+    PetscCall(TSGetTimeStep(ctx%ts, ctx%dt, ierr))
+    PetscCall(TSGetMaxTime(ctx%ts, ctx%t_end, ierr))
+    PetscCall(TSGetMaxSteps(ctx%ts, ctx%max_steps, ierr))
+    PetscCall(TSGetExactFinalTime(ctx%ts, eft, ierr))
+    PetscCall(TSGetAdapt(ctx%ts, adapt, ierr))
+    PetscCall(PetscObjectTypeCompare(adapt, TSADAPTNONE, match, ierr))
+    ctx%fixed_step = match
+    ! The time loop stops exactly at output, keyframe and release times.
+    if (eft /= TS_EXACTFINALTIME_MATCHSTEP) then
+      ierr = PETSC_ERR_ARG_WRONG
+      SETERRQ(ctx%comm, ierr, 'nuno: -ts_exact_final_time must be matchstep: the run stops exactly at every output, keyframe and release time')
+    end if
+    if (.not. (ctx%dt > 0.0_rp)) then
+      ierr = PETSC_ERR_ARG_OUTOFRANGE
+      SETERRQ(ctx%comm, ierr, 'nuno: -ts_dt must be > 0')
+    end if
+    if (.not. (ctx%t_end > 0.0_rp) .or. ctx%t_end > huge(1.0_rp)) then
+      ierr = PETSC_ERR_ARG_OUTOFRANGE
+      SETERRQ(ctx%comm, ierr, 'nuno: -ts_max_time must be > 0 and finite')
+    end if
+    if (ctx%max_steps < 0) then
+      ierr = PETSC_ERR_ARG_OUTOFRANGE
+      SETERRQ(ctx%comm, ierr, 'nuno: -ts_max_steps must be >= 0')
+    end if
+    ! From here on the effective values are the run's configuration.
+    ctx%cfg%dt = ctx%dt
+    ctx%cfg%t_end = ctx%t_end
+
+    if (ctx%rank == 0) then
+      PetscCall(TSGetType(ctx%ts, tstype, ierr))
+      PetscCall(TSAdaptGetType(adapt, adtype, ierr))
+      line = 'solver    : TS '//trim(tstype)//', adapt '//trim(adtype)
+      if (ctx%fixed_step) then
+        line = trim(line)//', dt = '//num(ctx%dt)
+      else
+        line = trim(line)//', initial dt = '//num(ctx%dt)
+      end if
+      if (ctx%dt /= dt_namelist) line = trim(line)//' (-ts_dt; namelist '//num(dt_namelist)//')'
+      line = trim(line)//', t_end = '//num(ctx%t_end)
+      if (ctx%t_end /= t_end_namelist) &
+        line = trim(line)//' (-ts_max_time; namelist '//num(t_end_namelist)//')'
+      if (ctx%max_steps < huge(ctx%max_steps)) &
+        line = trim(line)//', at most '//inum(ctx%max_steps)//' steps (-ts_max_steps)'
+      line = trim(line)//', Newton step '//trim(merge('reduced', 'full   ', ctx%use_reduced))
+      write(output_unit, '(a)') trim(line)
+      flush(output_unit)
+    end if
+  end subroutine effective_time_integration
+
+  !> Report the options nothing read (after the run, when every object has
+  !> read its options), then destroy the PETSc objects, in reverse order of
+  !> creation.
   subroutine solver_destroy(ctx, ierr)
     type(app_ctx), intent(inout) :: ctx
     PetscErrorCode, intent(out) :: ierr
+    integer(c_int) :: nunused
+    ierr = nuno_options_report_unused(ctx%comm, nunused)
+    if (ierr /= 0) return
     PetscCall(TSDestroy(ctx%ts, ierr))
     if (ctx%use_reduced) then
       PetscCall(reduced_destroy(ctx%red, ierr))
@@ -429,7 +525,11 @@ contains
     PetscErrorCode :: ierr
     call SNESConvergedDefault(snes, it, xnorm, snorm, fnorm, reason, PETSC_NULL_INTEGER, ierr)
     if (ierr /= 0) return
-    if (it == 0) then
+    if (it == 0 .and. ctx%fail_newton > 0) then
+      ! -nuno_fail_newton (tests): the same decision on every rank.
+      ctx%fail_newton = ctx%fail_newton - 1
+      reason = SNES_DIVERGED_FUNCTION_DOMAIN
+    else if (it == 0) then
       ctx%fnorm0 = fnorm
     else if (reason == SNES_CONVERGED_ITERATING .and. ctx%snes_floor > 0.0_rp) then
       if (fnorm <= ctx%snes_floor * ctx%fnorm0 .and. fnorm > 0.9_rp * ctx%fnorm_prev) then
@@ -444,7 +544,8 @@ contains
   end subroutine snes_converged
 
   !> After every accepted step (and at the start of each TSSolve): advance
-  !> the trapezoid integrals of dissipated power and constraint power.
+  !> the trapezoid integrals of dissipated power and constraint power, and
+  !> after a retried step go back to the fixed step.
   subroutine ts_monitor(ts, step, t, uvec, ctx, ierr)
     type(tTS) :: ts
     PetscInt :: step
@@ -452,7 +553,30 @@ contains
     type(tVec) :: uvec
     type(app_ctx) :: ctx
     PetscErrorCode :: ierr
-    real(rp) :: p(2)
+    real(rp) :: p(2), h, hmax
+    PetscInt :: rejects
+
+    ! A failed Newton solve makes the TS retry the step with dt/4, and with
+    ! -ts_adapt_type none it keeps that step: a fixed step would silently
+    ! stay 4 times smaller. Once the retried step is accepted, return to dt,
+    ! clipped to the window end as PETSc's matchstep does (no sliver step).
+    PetscCall(TSGetStepRejections(ts, rejects, ierr))
+    if (rejects > ctx%rejects_seen) then
+      ctx%rejects_seen = rejects
+      if (ctx%fixed_step) then
+        PetscCall(TSGetTimeStep(ts, h, ierr))
+        hmax = ctx%tstop - t
+        if (h < ctx%dt .and. hmax > 0.0_rp) then
+          h = ctx%dt
+          if (t + 1.01_rp * h >= ctx%tstop) then
+            h = hmax
+          else if (2.0_rp * h > hmax) then
+            h = 0.5_rp * hmax
+          end if
+          PetscCall(TSSetTimeStep(ts, h, ierr))
+        end if
+      end if
+    end if
 
     call powers(ctx, uvec, t, p, ierr)
     if (ierr /= 0) return
@@ -543,26 +667,32 @@ contains
 
   !> Integrate from t = 0 to t_end, writing every output step. On a failed
   !> step, status says why and ierr = 0 (the output so far is kept); ierr /= 0
-  !> is left for PETSc or HDF5 errors. Collective.
+  !> is left for PETSc or HDF5 errors. -ts_max_steps ends the run early but
+  !> complete, with the state of its last step written. Collective.
   subroutine solver_run(ctx, out, status, ierr)
     type(app_ctx), intent(inout), target :: ctx
     type(output_file), intent(inout) :: out
     character(len=*), intent(out) :: status
     PetscErrorCode, intent(out) :: ierr
     real(rp), allocatable :: events(:)
-    real(rp) :: t, tstop, tnext_out, h0, h, dke, eps, unorm
+    real(rp) :: t, tstop, h, dke, eps, unorm, wall
     integer :: iout, ie
+    logical :: at_max_steps
     TSConvergedReason :: reason
     character(len=256) :: msg, reasonname
+    character(len=512) :: errmsg
 
     status = 'complete'
-    events = constraint_events(ctx%cs, ctx%cfg%t_end)
-    eps = 1.0e-12_rp * max(1.0_rp, ctx%cfg%t_end)
-    PetscCall(TSGetTimeStep(ctx%ts, h0, ierr))   ! -ts_dt overrides the namelist's dt
-    h = h0
+    ctx%wall0 = MPI_Wtime()
+    call write_run_info(ctx, out, ierr)
+    if (ierr /= 0) return
+    events = constraint_events(ctx%cs, ctx%t_end)
+    eps = 1.0e-12_rp * max(1.0_rp, ctx%t_end)
+    h = ctx%dt
     t = 0.0_rp
     ie = 1
     iout = 0
+    at_max_steps = .false.
     tstop = next_stop(t)
     call enter_window(ctx, t, tstop, dke, ierr)
     if (ierr /= 0) return
@@ -571,8 +701,9 @@ contains
     if (ierr /= 0) return
     iout = 1
 
-    do while (t < ctx%cfg%t_end - eps)
+    do while (t < ctx%t_end - eps .and. .not. at_max_steps)
       tstop = next_stop(t)
+      ctx%tstop = tstop
       if (t > 0.0_rp) then
         call enter_window(ctx, t, tstop, dke, ierr)
         if (ierr /= 0) return
@@ -580,7 +711,7 @@ contains
         PetscCall(TSRestartStep(ctx%ts, ierr))
       end if
       PetscCall(TSSetMaxTime(ctx%ts, tstop, ierr))
-      if (isfixedstep(ctx)) h = h0
+      if (ctx%fixed_step) h = ctx%dt
       if (t + 1.01_rp * h >= tstop) h = tstop - t
       PetscCall(TSSetTimeStep(ctx%ts, h, ierr))
       PetscCall(TSSolve(ctx%ts, ctx%u, ierr))
@@ -590,31 +721,53 @@ contains
       if (reason < 0 .or. unorm /= unorm .or. unorm > huge(1.0_rp)) then
         call failure_reason(ctx, reason, t, msg)
         status = 'failed: '//trim(msg)
-        if (ctx%rank == 0) write(*, '(a)') 'nuno: error: '//trim(msg)
-        return
+        if (ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//trim(msg)
+        exit
       end if
-      if (abs(t - tstop) > 1.0e3_rp * eps) then
+      ! -ts_max_steps: PETSc counts steps over all TSSolve calls and stops
+      ! with TS_CONVERGED_ITS, possibly inside a window: a clean end.
+      at_max_steps = reason == TS_CONVERGED_ITS
+      if (abs(t - tstop) > 1.0e3_rp * eps .and. .not. at_max_steps) then
         write(reasonname, '(a,es12.5,a,es12.5)') 'time integration stopped at t = ', t, ' before ', tstop
         status = 'failed: '//trim(reasonname)
-        if (ctx%rank == 0) write(*, '(a)') 'nuno: error: '//trim(reasonname)
-        return
+        if (ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//trim(reasonname)
+        exit
       end if
-      t = tstop
-      PetscCall(TSSetTime(ctx%ts, t, ierr))
-      PetscCall(TSGetTimeStep(ctx%ts, h, ierr))
+      if (abs(t - tstop) <= 1.0e3_rp * eps) then
+        t = tstop
+        PetscCall(TSSetTime(ctx%ts, t, ierr))
+        PetscCall(TSGetTimeStep(ctx%ts, h, ierr))
+      end if
       if (abs(t - output_time(iout)) <= eps) then
         call write_output(ctx, out, t, ierr)
         if (ierr /= 0) return
         iout = iout + 1
+      else if (at_max_steps .and. t > ctx%t_written) then
+        ! Off the output grid (inside a window, or at a keyframe): the last state.
+        call write_output(ctx, out, t, ierr)
+        if (ierr /= 0) return
       end if
+      if (at_max_steps .and. t < ctx%t_end - eps .and. ctx%rank == 0) &
+        write(output_unit, '(a,es13.5e2,a)') 'nuno: -ts_max_steps '//inum(ctx%max_steps)// &
+          ' reached at t =', t, ': the run ends here, complete, with this state written'
     end do
+
+    ! The run's wall time, the same value on every rank (an attribute).
+    wall = MPI_Wtime() - ctx%wall0
+    call MPI_Allreduce(MPI_IN_PLACE, wall, 1, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
+    call output_write_wall_time(out, wall, ierr, errmsg)
+    if (ierr /= 0) then
+      if (ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//trim(errmsg)
+      return
+    end if
+    call final_summary(ctx, status, wall, ierr)
 
   contains
 
     !> Output times: multiples of output_interval, and t_end.
     real(rp) function output_time(k)
       integer, intent(in) :: k
-      output_time = min(real(k, rp) * ctx%cfg%output_interval, ctx%cfg%t_end)
+      output_time = min(real(k, rp) * ctx%cfg%output_interval, ctx%t_end)
     end function output_time
 
     !> Next time at which the integrator must stop after t.
@@ -629,16 +782,134 @@ contains
 
   end subroutine solver_run
 
-  !> True when the TS adaptor is 'none' (fixed steps).
-  logical function isfixedstep(ctx)
-    type(app_ctx), intent(in) :: ctx
+  !> One closing line on rank 0 (stdout; a failure's reason is already on
+  !> stderr) with the totals, the retries and the wall time.
+  subroutine final_summary(ctx, status, wall, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    character(len=*), intent(in) :: status
+    real(rp), intent(in) :: wall
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt :: steps, rejects, fails
+    real(rp) :: t
+
+    PetscCall(TSGetStepNumber(ctx%ts, steps, ierr))
+    PetscCall(TSGetStepRejections(ctx%ts, rejects, ierr))
+    PetscCall(TSGetSNESFailures(ctx%ts, fails, ierr))
+    PetscCall(TSGetTime(ctx%ts, t, ierr))
+    if (ctx%rank == 0) then
+      write(output_unit, '(a,es13.5e2,a,i0,a,i0,a,i0,a,es11.3e2,a)') 'nuno: '// &
+        trim(merge('complete', 'failed  ', status == 'complete'))//' at t =', t, ': ', steps, ' steps, ', rejects, ' rejected (', fails, &
+        ' retried after a failed Newton solve), wall time', wall, ' s'
+      flush(output_unit)
+    end if
+  end subroutine final_summary
+
+  !> The provenance of the run (/run in the output file): the time
+  !> integration as used after the options, versions, date and host.
+  subroutine write_run_info(ctx, out, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    type(output_file), intent(inout) :: out
+    PetscErrorCode, intent(out) :: ierr
+    type(run_info) :: info
     type(tTSAdapt) :: adapt
-    PetscBool :: match
-    PetscErrorCode :: ierr
-    call TSGetAdapt(ctx%ts, adapt, ierr)
-    call PetscObjectTypeCompare(adapt, TSADAPTNONE, match, ierr)
-    isfixedstep = match
-  end function isfixedstep
+    character(len=512) :: errmsg
+    character(len=8) :: date
+    character(len=10) :: clock
+    character(len=5) :: zone
+    integer :: hlen
+
+    PetscCall(TSGetType(ctx%ts, info%ts_type, ierr))
+    PetscCall(TSGetAdapt(ctx%ts, adapt, ierr))
+    PetscCall(TSAdaptGetType(adapt, info%ts_adapt_type, ierr))
+    PetscCall(PetscGetVersion(info%petsc_version, ierr))
+    info%dt = ctx%dt
+    info%t_end = ctx%t_end
+    info%max_steps = int(min(ctx%max_steps, int(huge(1), kind(ctx%max_steps))))
+    info%units = scene_units(ctx%cfg%scene_code)
+    ! Rank 0's host and clock, broadcast: attributes must be equal on all ranks.
+    if (ctx%rank == 0) then
+      PetscCall(PetscGetHostName(info%host, ierr))
+      call date_and_time(date, clock, zone)
+      info%start_date = date(1:4)//'-'//date(5:6)//'-'//date(7:8)//'T'//clock(1:2)//':'//clock(3:4)//':'// &
+                        clock(5:6)//zone(1:3)//':'//zone(4:5)
+    end if
+    hlen = len(info%host)
+    call MPI_Bcast(info%host, hlen, MPI_CHARACTER, 0, ctx%comm, ierr)
+    hlen = len(info%start_date)
+    call MPI_Bcast(info%start_date, hlen, MPI_CHARACTER, 0, ctx%comm, ierr)
+    call output_write_run_info(out, info, ierr, errmsg)
+    if (ierr == 0) call write_config(ctx%cfg, ctx%comm, out, ierr, errmsg)
+    if (ierr /= 0 .and. ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//trim(errmsg)
+  end subroutine write_run_info
+
+  !> The resolved configuration, /config/<group> with one attribute per key:
+  !> every key after scene defaults, derived defaults and overrides
+  !> (dt and t_end as in force after -ts_dt and -ts_max_time), so that a run
+  !> can be repeated without knowing the defaults of the version that made
+  !> it. Logicals are 0/1. Collective.
+  subroutine write_config(cfg, comm, out, ierr, errmsg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(in) :: comm
+    type(output_file), intent(inout) :: out
+    PetscErrorCode, intent(out) :: ierr
+    character(len=*), intent(inout) :: errmsg
+    integer :: e, nk
+
+    e = 0
+    call output_config_key(out, 'lattice', 'nx', cfg%nx, e, errmsg)
+    call output_config_key(out, 'lattice', 'ny', cfg%ny, e, errmsg)
+    call output_config_key(out, 'lattice', 'lx', [cfg%lx], e, errmsg)
+    call output_config_key(out, 'lattice', 'ly', [cfg%ly], e, errmsg)
+    call output_config_key(out, 'lattice', 'total_mass', [cfg%total_mass], e, errmsg)
+    call output_config_key(out, 'lattice', 'mass_distribution', trim(cfg%mass_distribution), e, errmsg)
+    call output_config_key(out, 'lattice', 'lattice_scaling', trim(cfg%lattice_scaling), e, errmsg)
+    call output_config_key(out, 'material', 'spring_model', trim(cfg%spring_model), e, errmsg)
+    call output_config_key(out, 'material', 'e_s', [cfg%e_s], e, errmsg)
+    call output_config_key(out, 'material', 'eta_s', [cfg%eta_s], e, errmsg)
+    call output_config_key(out, 'material', 'e_d', [cfg%e_d], e, errmsg)
+    call output_config_key(out, 'material', 'eta_d', [cfg%eta_d], e, errmsg)
+    call output_config_key(out, 'material', 'bending_model', trim(cfg%bending_model), e, errmsg)
+    call output_config_key(out, 'material', 'k_b', [cfg%k_b], e, errmsg)
+    call output_config_key(out, 'material', 'eta_b', [cfg%eta_b], e, errmsg)
+    call output_config_key(out, 'scene', 'scene', trim(cfg%scene), e, errmsg)
+    call output_config_key(out, 'scene', 'gravity', cfg%gravity, e, errmsg)
+    call output_config_key(out, 'scene', 'lift_length', [cfg%lift_length], e, errmsg)
+    call output_config_key(out, 'scene', 'lift_height', [cfg%lift_height], e, errmsg)
+    call output_config_key(out, 'scene', 'bend_angle', [cfg%bend_angle], e, errmsg)
+    call output_config_key(out, 'scene', 'n_keyframes', cfg%n_keyframes, e, errmsg)
+    ! The keyframes in use only (n_keyframes of them; none: not written).
+    nk = max(0, min(cfg%n_keyframes, size(cfg%keyframe_time)))
+    if (nk > 0) then
+      call output_config_key(out, 'scene', 'keyframe_time', cfg%keyframe_time(1:nk), e, errmsg)
+      call output_config_key(out, 'scene', 'keyframe_dz', cfg%keyframe_dz(1:nk), e, errmsg)
+    end if
+    call output_config_key(out, 'scene', 'wave_nodes', trim(cfg%wave_nodes), e, errmsg)
+    call output_config_key(out, 'scene', 'release_time', [cfg%release_time], e, errmsg)
+    call output_config_key(out, 'scene', 'initial_omega', cfg%initial_omega, e, errmsg)
+    call output_config_key(out, 'time', 't_end', [cfg%t_end], e, errmsg)
+    call output_config_key(out, 'time', 'dt', [cfg%dt], e, errmsg)
+    call output_config_key(out, 'output', 'output_interval', [cfg%output_interval], e, errmsg)
+    call output_config_key(out, 'output', 'write_velocity', merge(1, 0, cfg%write_velocity), e, errmsg)
+    call output_config_key(out, 'output', 'output_file', trim(cfg%output_file), e, errmsg)
+    call output_config_key(out, 'output', 'petsc_options', trim(cfg%petsc_options), e, errmsg)
+    ! One error flag for all ranks (each call above is local HDF5 metadata).
+    call MPI_Allreduce(MPI_IN_PLACE, e, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
+    ierr = e
+    if (e /= 0 .and. len_trim(errmsg) == 0) errmsg = 'output: writing /config failed on another rank'
+  end subroutine write_config
+
+  !> The unit system of a scene's defaults (input/README.md, Scenes): the
+  !> report scenes and flat use mm, g, s; hang uses SI. The program itself
+  !> is unit-agnostic: these are the units the scene's constants are in.
+  function scene_units(scene_code) result(units)
+    integer, intent(in) :: scene_code
+    character(len=8) :: units
+    if (scene_code == SCENE_HANG) then
+      units = 'SI'
+    else
+      units = 'mm g s'
+    end if
+  end function scene_units
 
   !> One line saying why the run stopped.
   subroutine failure_reason(ctx, reason, t, msg)
@@ -678,9 +949,10 @@ contains
     PetscScalar, pointer :: u(:, :, :)
     type(state_diagnostics_t) :: d
     type(output_record) :: rec
-    PetscInt :: steps, rejects, nits, lits
+    PetscInt :: steps, rejects, nits, lits, fails
     character(len=512) :: errmsg
     integer :: j
+    real(rp) :: wall, rate, eta
 
     PetscCall(DMGetLocalVector(ctx%da, uloc, ierr))
     PetscCall(DMGlobalToLocalBegin(ctx%da, ctx%u, INSERT_VALUES, uloc, ierr))
@@ -699,6 +971,7 @@ contains
     PetscCall(TSGetStepRejections(ctx%ts, rejects, ierr))
     PetscCall(TSGetSNESIterations(ctx%ts, nits, ierr))
     PetscCall(TSGetKSPIterations(ctx%ts, lits, ierr))
+    PetscCall(TSGetSNESFailures(ctx%ts, fails, ierr))
     if (ctx%use_reduced) lits = ctx%red%its        ! the outer KSP is preonly: count the inner iterations
     rec%time = t
     rec%kinetic = d%kinetic
@@ -714,19 +987,56 @@ contains
     rec%rejected_steps = rejects
     rec%newton_iterations = nits
     rec%linear_iterations = lits
+    wall = MPI_Wtime() - ctx%wall0
+    rec%wall_time = wall
     if (ctx%cfg%write_velocity) then
       call output_write_step(out, rec, ctx%xout, ierr, errmsg, v=ctx%vout)
     else
       call output_write_step(out, rec, ctx%xout, ierr, errmsg)
     end if
     if (ierr /= 0) then
-      if (ctx%rank == 0) write(*, '(a)') 'nuno: error: '//trim(errmsg)
+      if (ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//trim(errmsg)
       return
     end if
-    if (ctx%rank == 0) write(*, '(a,es11.4,a,i7,a,i4,a,i7,a,i9,a,es12.5,a,es12.5)') &
-      't =', t, '  steps', steps, '  rejected', rejects, '  newton', nits, '  linear', lits, &
-      '  E_kin', d%kinetic, '  E_total', d%kinetic + d%stretch + d%bend + ctx%dissipated - rec%external_work
+    ctx%t_written = t
+    ! Progress for a person and for awk: every field has a blank before it
+    ! (es13.5e2 of a negative value still starts with one; the integer
+    ! widths hold 10^8 steps), rates from the start of the run. Flushed: a
+    ! redirected run shows its progress and keeps it when killed. The order
+    ! up to 'linear' is the one bench/solver.py parses.
+    if (t > 0.0_rp .and. wall > 0.0_rp) then
+      rate = t / wall
+      eta = (ctx%t_end - t) / rate
+    else
+      rate = 0.0_rp
+      eta = ieee_nan()
+    end if
+    if (ctx%rank == 0) then
+      write(output_unit, '(a,es12.5e2, a,i9, a,i6, a,i9, a,i11, a,i6, 2(a,es13.5e2), 3(a,es10.3e2))') &
+        't =', t, '  steps', steps, '  rejected', rejects, '  newton', nits, '  linear', lits, &
+        '  retries', fails, '  E_kin', d%kinetic, &
+        '  E_total', d%kinetic + d%stretch + d%bend + ctx%dissipated - rec%external_work, &
+        '  wall_s', wall, '  sim_per_wall_s', rate, '  eta_s', eta
+      flush(output_unit)
+    end if
   end subroutine write_output
+
+  !> A real for a one-line message: short, and never glued to the text before it.
+  function num(x) result(s)
+    real(rp), intent(in) :: x
+    character(len=:), allocatable :: s
+    character(len=32) :: buf
+    write(buf, '(es13.5e2)') x
+    s = trim(adjustl(buf))
+  end function num
+
+  function inum(i) result(s)
+    PetscInt, intent(in) :: i
+    character(len=:), allocatable :: s
+    character(len=24) :: buf
+    write(buf, '(i0)') i
+    s = trim(buf)
+  end function inum
 
   !> A quiet NaN.
   real(rp) function ieee_nan()
