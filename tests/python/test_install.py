@@ -1,0 +1,58 @@
+"""Installation: `cmake --install` gives a working program and the scenes;
+`pip install .` gives the post-processing package and its commands, usable
+from any directory (issue 9, item 8)."""
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from conftest import nuno_exe
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_cmake_install_gives_a_working_program(tmp_path):
+    build = Path(nuno_exe()).resolve().parent
+    prefix = tmp_path / "prefix"
+    # cmake --install writes install_manifest.txt into the build tree: harmless.
+    p = subprocess.run(["cmake", "--install", str(build), "--prefix", str(prefix)],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    exe = prefix / "bin" / "nuno"
+    assert exe.is_file() and os.access(exe, os.X_OK)
+    assert sorted(x.name for x in (prefix / "share" / "nuno" / "input").glob("*.nml")) == \
+        sorted(x.name for x in (ROOT / "input").glob("*.nml"))
+    assert (prefix / "share" / "doc" / "nuno" / "model.md").is_file()
+    h = subprocess.run([str(exe), "--help"], capture_output=True, text=True, timeout=60, cwd=tmp_path)
+    assert h.returncode == 0 and "namelist" in (h.stdout + h.stderr).lower()
+
+
+def test_pip_install_gives_the_package_and_its_commands(tmp_path):
+    # A copy of the package sources, so that setuptools' build/ does not
+    # land in the repository's CMake build directory.
+    src = tmp_path / "src"
+    shutil.copytree(ROOT / "postprocess", src / "postprocess",
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copy(ROOT / "pyproject.toml", src)
+    target = tmp_path / "site"
+    p = subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "--no-deps",
+                        "--no-build-isolation", "--disable-pip-version-check",
+                        "--target", str(target), str(src)],
+                       capture_output=True, text=True, timeout=300)
+    if p.returncode != 0 and "setuptools" in p.stderr and "No module" in p.stderr:
+        pytest.skip("setuptools is not installed")
+    assert p.returncode == 0, p.stderr
+    assert (target / "postprocess" / "reader.py").is_file()
+    scripts = {x.name for x in (target / "bin").iterdir()}
+    assert {"nuno-snapshots", "nuno-timeseries", "nuno-compare"} <= scripts
+    # From elsewhere, with only the installed copy on the path.
+    env = dict(os.environ, PYTHONPATH=str(target))
+    r = subprocess.run([sys.executable, "-c", "import postprocess, sys; print(postprocess.__file__)"],
+                       capture_output=True, text=True, cwd=tmp_path, env=env, timeout=60)
+    assert r.returncode == 0 and str(target) in r.stdout
+    h = subprocess.run([str(target / "bin" / "nuno-snapshots"), "--help"],
+                       capture_output=True, text=True, cwd=tmp_path, env=env, timeout=60)
+    assert h.returncode == 0 and "usage" in h.stdout.lower()
