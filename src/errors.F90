@@ -3,6 +3,10 @@
 !> same text), so fatal_collective is called by all ranks together: rank 0
 !> prints one line, PETSc and MPI are finalised, and every rank exits 1.
 !> No barrier anywhere in an error path.
+!> Exits use `stop 1, quiet=.true.` (Fortran 2018): gfortran's `error stop 1`
+!> prints 'ERROR STOP 1' and a backtrace on every rank, and plain `stop 1`
+!> prints 'STOP 1', which made one clear line read as a crash. The banner
+!> mpirun adds on a non-zero exit is Open MPI's own (mpirun -q hides it).
 module errors
 #include "petsc/finclude/petscsys.h"
   use petscsys
@@ -10,7 +14,7 @@ module errors
   implicit none
   private
   public :: help_requested, input_path_argument, fatal_collective, fatal_local, apply_namelist_options
-  public :: petsc_options_text
+  public :: petsc_options_text, quiet_exit
 
 contains
 
@@ -47,8 +51,16 @@ contains
     end if
     call PetscInitialized(initialized, ierr)
     if (initialized) call PetscFinalize(ierr)
-    error stop 1
+    call quiet_exit(1)
   end subroutine fatal_collective
+
+  !> End this process with exit status `code` and nothing printed.
+  subroutine quiet_exit(code)
+    integer, intent(in) :: code
+    flush(6)
+    flush(0)
+    stop code, quiet=.true.
+  end subroutine quiet_exit
 
   !> Local error exit, for an error that some ranks may not have seen (a
   !> PETSc or HDF5 failure inside the run): one line with the rank, then
@@ -60,7 +72,7 @@ contains
     write(0, '(a,i0,a)') 'nuno: error (rank ', rank, '): '//trim(msg)
     flush(0)
     call MPI_Abort(MPI_COMM_WORLD, 1, ierr)
-    error stop 1
+    call quiet_exit(1)   ! not reached: MPI_Abort does not return
   end subroutine fatal_local
 
   !> Insert the namelist's petsc_options string, except options that the

@@ -12,7 +12,7 @@ program nuno
   use timestepping, only: app_ctx, solver_create, solver_destroy, solver_run, check_decomposition
   use output, only: output_file, output_open, output_close
   use errors, only: help_requested, fatal_collective, fatal_local, input_path_argument, apply_namelist_options, &
-                    petsc_options_text
+                    petsc_options_text, quiet_exit
   implicit none
 
   type(nuno_config) :: cfg
@@ -74,5 +74,6 @@ program nuno
   ! 5. Clean up; a failed run exits non-zero on every rank.
   call solver_destroy(ctx, ierr)
   PetscCallA(PetscFinalize(ierr))
-  if (status /= 'complete') error stop 1
+  ! Quiet: the failure was reported in one line already (no ERROR STOP, no backtrace).
+  if (status /= 'complete') call quiet_exit(1)
 end program nuno
