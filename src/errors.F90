@@ -11,10 +11,21 @@ module errors
 #include "petsc/finclude/petscsys.h"
   use petscsys
   use mpi
+  use, intrinsic :: iso_c_binding, only: c_int
   implicit none
   private
   public :: help_requested, input_path_argument, fatal_collective, fatal_local, apply_namelist_options
-  public :: petsc_options_text, quiet_exit
+  public :: petsc_options_text, quiet_exit, read_input_options
+
+  interface
+    !> src/nuno_input_options.c: the -nuno_allow_long option block.
+    function nuno_input_options_read(fcomm, allow_long) bind(C, name='nuno_input_options_read') result(code)
+      import :: c_int
+      integer(c_int), value :: fcomm
+      integer(c_int), intent(out) :: allow_long
+      integer(c_int) :: code
+    end function nuno_input_options_read
+  end interface
 
 contains
 
@@ -74,6 +85,17 @@ contains
     call MPI_Abort(MPI_COMM_WORLD, 1, ierr)
     call quiet_exit(1)   ! not reached: MPI_Abort does not return
   end subroutine fatal_local
+
+  !> nuno's input-check options (in -help): allow_long = -nuno_allow_long. Collective.
+  subroutine read_input_options(comm, allow_long, ierr)
+    integer, intent(in) :: comm
+    logical, intent(out) :: allow_long
+    PetscErrorCode, intent(out) :: ierr
+    integer(c_int) :: al
+    al = 0
+    ierr = nuno_input_options_read(int(comm, c_int), al)
+    allow_long = al /= 0
+  end subroutine read_input_options
 
   !> Insert the namelist's petsc_options string, except options that the
   !> command line already set (the command line wins).

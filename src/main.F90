@@ -8,11 +8,13 @@ program nuno
   use mpi
   use config, only: nuno_config
   use lattice, only: rest_strip
-  use input, only: input_read, input_usage, input_summary
+  use, intrinsic :: iso_fortran_env, only: int64
+  use input, only: input_read, input_usage, input_summary, input_check_run
   use timestepping, only: app_ctx, solver_create, solver_destroy, solver_run, check_decomposition
   use output, only: output_file, output_open, output_close
   use errors, only: help_requested, fatal_collective, fatal_local, input_path_argument, apply_namelist_options, &
-                    petsc_options_text, quiet_exit
+                    petsc_options_text, quiet_exit, &
+                    read_input_options
   implicit none
 
   type(nuno_config) :: cfg
@@ -23,6 +25,8 @@ program nuno
   character(len=512) :: path, errmsg
   character(len=1024) :: status
   character(len=:), allocatable :: petsc_opts
+  logical :: allow_long
+  PetscInt :: pint
 
   ! 1. --help needs no input and no PETSc.
   if (help_requested()) then
@@ -42,6 +46,13 @@ program nuno
   call input_read(trim(path), PETSC_COMM_WORLD, cfg, ierr, errmsg)
   if (ierr /= 0) call fatal_collective(errmsg)
   call apply_namelist_options(cfg%petsc_options, ierr, errmsg)
+  if (ierr /= 0) call fatal_collective(errmsg)
+  ! Step/output counts, index space and memory, before anything is allocated.
+  ! Indices: PETSc's and the default integers of the Fortran code.
+  call read_input_options(PETSC_COMM_WORLD, allow_long, ierr)
+  if (ierr /= 0) call fatal_local('could not read the -nuno_allow_long option (PETSc error above)')
+  call input_check_run(cfg, PETSC_COMM_WORLD, allow_long, min(int(huge(pint), int64), int(huge(0), int64)), &
+                       ierr, errmsg)
   if (ierr /= 0) call fatal_collective(errmsg)
   if (rank == 0) then
     write(*, '(a,i0,a)') 'nuno 0.1.0 on ', nranks, ' rank(s): '//trim(path)
