@@ -66,13 +66,16 @@ program nuno
   call solver_create(ctx, cfg, ierr)
   if (ierr /= 0) call fatal_local('could not set up the solver (PETSc error above)')
 
-  ! 4. Output file, the time loop, and the completion mark written last.
+  ! 4. Output file, the time loop, and the completion mark written last. The
+  !    run writes OUTPUT.partial under a lock and renames it onto the output
+  !    file after its first successful step (module output): a run that fails
+  !    before that leaves an earlier output file as it was.
   petsc_opts = petsc_options_text()
   if (len_trim(cfg%petsc_options) > 0) &
     petsc_opts = trim(petsc_opts//' [namelist, overridden by the above: '//trim(cfg%petsc_options)//']')
   call output_open(out, trim(cfg%output_file), PETSC_COMM_WORLD, cfg%nx, cfg%ny, ctx%lat%ys, &
                    ctx%lat%ye - ctx%lat%ys + 1, rest_strip(ctx%lat), ctx%lat%mass(:, ctx%lat%ys:ctx%lat%ye), &
-                   cfg%write_velocity, cfg%namelist_text, petsc_opts, ierr, errmsg)
+                   cfg%write_velocity, cfg%namelist_text, petsc_opts, ierr, errmsg, protect=trim(path))
   if (ierr /= 0) call fatal_collective(errmsg)
   ! A failed step ends the run collectively (status 'failed: ...', ierr = 0);
   ! a PETSc or HDF5 error (ierr /= 0) may be local to some ranks: abort,
