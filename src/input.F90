@@ -1265,6 +1265,9 @@ contains
       '(the report''s "paper" model or the energy-based "energy" model), gravity and', &
       'pinned or prescribed nodes, in time with PETSc TS on a DMDA split in strips of', &
       'rows over P ranks. Results go to one HDF5 file with an XDMF file beside it.', &
+      'The run writes OUTPUT.partial, locked against a second writer (OUTPUT.lock), and', &
+      'renames it onto OUTPUT after its first successful step: a run that fails at', &
+      'start-up leaves an earlier OUTPUT as it was. OUTPUT may not be the input file.', &
       '', &
       'INPUT.nml holds Fortran namelist groups, each optional, each at most once, and', &
       'nothing else but blanks and ! comments (an empty file or stray text is an error):', &
