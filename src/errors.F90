@@ -11,7 +11,7 @@ module errors
 #include "petsc/finclude/petscsys.h"
   use petscsys
   use mpi
-  use, intrinsic :: iso_c_binding, only: c_int
+  use, intrinsic :: iso_c_binding, only: c_int, c_double
   implicit none
   private
   public :: help_requested, input_path_argument, fatal_collective, fatal_local, apply_namelist_options
@@ -19,10 +19,12 @@ module errors
 
   interface
     !> src/nuno_input_options.c: the -nuno_allow_long option block.
-    function nuno_input_options_read(fcomm, allow_long) bind(C, name='nuno_input_options_read') result(code)
-      import :: c_int
+    function nuno_input_options_read(fcomm, allow_long, ts_dt, ts_dt_set) bind(C, name='nuno_input_options_read') &
+        result(code)
+      import :: c_int, c_double
       integer(c_int), value :: fcomm
-      integer(c_int), intent(out) :: allow_long
+      integer(c_int), intent(out) :: allow_long, ts_dt_set
+      real(c_double), intent(out) :: ts_dt
       integer(c_int) :: code
     end function nuno_input_options_read
   end interface
@@ -86,15 +88,24 @@ contains
     call quiet_exit(1)   ! not reached: MPI_Abort does not return
   end subroutine fatal_local
 
-  !> nuno's input-check options (in -help): allow_long = -nuno_allow_long. Collective.
-  subroutine read_input_options(comm, allow_long, ierr)
+  !> nuno's input-check options (in -help): allow_long = -nuno_allow_long;
+  !> ts_dt = -ts_dt when given (it overrides the namelist's dt), else dt_default. Collective.
+  subroutine read_input_options(comm, dt_default, allow_long, ts_dt, ts_dt_set, ierr)
     integer, intent(in) :: comm
-    logical, intent(out) :: allow_long
+    PetscReal, intent(in) :: dt_default
+    logical, intent(out) :: allow_long, ts_dt_set
+    PetscReal, intent(out) :: ts_dt
     PetscErrorCode, intent(out) :: ierr
-    integer(c_int) :: al
+    integer(c_int) :: al, set
+    real(c_double) :: dt
     al = 0
-    ierr = nuno_input_options_read(int(comm, c_int), al)
+    set = 0
+    dt = 0
+    ierr = nuno_input_options_read(int(comm, c_int), al, dt, set)
     allow_long = al /= 0
+    ts_dt_set = set /= 0
+    ts_dt = dt_default
+    if (ts_dt_set) ts_dt = real(dt, kind(ts_dt))
   end subroutine read_input_options
 
   !> Insert the namelist's petsc_options string, except options that the

@@ -104,13 +104,14 @@ contains
   !> the index space (6 unknowns a node) against index_max (the largest
   !> PetscInt), and the memory estimate against the memory the ranks' hosts
   !> have available. Collective over comm; every rank returns the same result.
-  subroutine input_check_run(cfg, comm, allow_long, index_max, ierr, errmsg)
+  subroutine input_check_run(cfg, comm, allow_long, index_max, ierr, errmsg, ts_dt)
     type(nuno_config), intent(in) :: cfg
     integer, intent(in) :: comm                     !< MPI communicator of the run
     logical, intent(in) :: allow_long               !< -nuno_allow_long given
     integer(int64), intent(in) :: index_max         !< largest index (PetscInt, default integer)
     integer, intent(out) :: ierr
     character(*), intent(out) :: errmsg
+    real(rp), intent(in), optional :: ts_dt         !< -ts_dt, which overrides the namelist's dt
     real(rp) :: nodes, need, per_node
     integer(int64) :: avail
     character(32) :: a, b, lim
@@ -118,8 +119,23 @@ contains
     ierr = 0
     errmsg = ''
     ! Counts in reals: t_end/dt may exceed every integer kind.
+    if (present(ts_dt)) then
+      if (.not. (ts_dt > 0.0_rp .and. ts_dt <= huge(ts_dt))) then
+        ierr = 1
+        errmsg = 'input: -ts_dt '//fmt_real(ts_dt)//' must be a finite number > 0'
+        return
+      end if
+    end if
     if (.not. allow_long) then
-      if (cfg%t_end/cfg%dt > max_steps) then
+      if (present(ts_dt)) then
+        if (cfg%t_end/ts_dt > max_steps) then
+          ierr = 1
+          errmsg = 'input: -ts_dt '//fmt_real(ts_dt)//' with &time t_end = '//fmt_real(cfg%t_end)//' is '// &
+                   fmt_count(cfg%t_end/ts_dt)//' steps, more than '//fmt_count(max_steps)// &
+                   ': give -nuno_allow_long to run it anyway'
+          return
+        end if
+      else if (cfg%t_end/cfg%dt > max_steps) then
         ierr = 1
         errmsg = 'input: &time: t_end = '//fmt_real(cfg%t_end)//', dt = '//fmt_real(cfg%dt)//' is '// &
                  fmt_count(cfg%t_end/cfg%dt)//' steps, more than '//fmt_count(max_steps)// &

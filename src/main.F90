@@ -25,8 +25,9 @@ program nuno
   character(len=512) :: path, errmsg
   character(len=1024) :: status
   character(len=:), allocatable :: petsc_opts
-  logical :: allow_long
+  logical :: allow_long, ts_dt_set
   PetscInt :: pint
+  PetscReal :: ts_dt
 
   ! 1. --help needs no input and no PETSc.
   if (help_requested()) then
@@ -49,10 +50,15 @@ program nuno
   if (ierr /= 0) call fatal_collective(errmsg)
   ! Step/output counts, index space and memory, before anything is allocated.
   ! Indices: PETSc's and the default integers of the Fortran code.
-  call read_input_options(PETSC_COMM_WORLD, allow_long, ierr)
+  call read_input_options(PETSC_COMM_WORLD, cfg%dt, allow_long, ts_dt, ts_dt_set, ierr)
   if (ierr /= 0) call fatal_local('could not read the -nuno_allow_long option (PETSc error above)')
-  call input_check_run(cfg, PETSC_COMM_WORLD, allow_long, min(int(huge(pint), int64), int(huge(0), int64)), &
-                       ierr, errmsg)
+  if (ts_dt_set) then
+    call input_check_run(cfg, PETSC_COMM_WORLD, allow_long, min(int(huge(pint), int64), int(huge(0), int64)), &
+                         ierr, errmsg, ts_dt=ts_dt)
+  else
+    call input_check_run(cfg, PETSC_COMM_WORLD, allow_long, min(int(huge(pint), int64), int(huge(0), int64)), &
+                         ierr, errmsg)
+  end if
   if (ierr /= 0) call fatal_collective(errmsg)
   if (rank == 0) then
     write(*, '(a,i0,a)') 'nuno 0.1.0 on ', nranks, ' rank(s): '//trim(path)

@@ -94,6 +94,15 @@ def test_allow_long_lifts_only_the_step_bound(tmp_path):
     assert "nx = 2000000000" in line and "steps" not in line
 
 
+def test_step_bound_uses_the_ts_dt_that_overrides_dt(tmp_path):
+    (tmp_path / "in.nml").write_text(SMALL + "&output output_file='x.h5' /\n")
+    line = one_error_line(launch(tmp_path, ["in.nml", "-ts_dt", "1e-11"]))
+    assert "-ts_dt 1.0E-11" in line and "-nuno_allow_long" in line
+    line = one_error_line(launch(tmp_path, ["in.nml", "-ts_dt", "nan"]))
+    assert "-ts_dt NaN" in line
+    assert not list(tmp_path.glob("*.h5*"))
+
+
 def _mem_available():
     for ln in Path("/proc/meminfo").read_text().splitlines():
         if ln.startswith("MemAvailable:"):
