@@ -249,3 +249,59 @@ def test_missing_directory_names_file_and_cause(tmp_path):
     (tmp_path / "in.nml").write_text(SMALL + "&output output_file='no_dir/x.h5' /\n")
     line = one_error_line(launch(tmp_path, ["in.nml"]))
     assert "no_dir/x.h5" in line and "No such file or directory" in line
+
+
+def _kill_session(proc):
+    """SIGKILL mpiexec and its ranks (Open MPI gives each rank its own
+    process group, but they stay in the session that Popen started)."""
+    ps = subprocess.run(["ps", "-o", "pid=", "--sid", str(proc.pid)], capture_output=True, text=True)
+    for pid in [int(p) for p in ps.stdout.split()]:
+        try:
+            os.kill(pid, 9)
+        except ProcessLookupError:
+            pass
+    proc.wait(timeout=30)
+
+
+def _check_readable(path):
+    """A file a kill left behind: opens, never 'complete' unless it is, and
+    every step it counts is there and finite. Returns n_output_steps."""
+    import numpy as np
+    with h5py.File(path, "r") as f:
+        status = f.attrs["status"].decode()
+        n = int(f.attrs["n_output_steps"])
+        assert status in ("running", "complete"), status
+        if status == "complete":
+            assert n == 21
+        assert f["position"].shape[0] >= n and f["time"].shape[0] >= n
+        assert np.isfinite(f["position"][:n]).all() and np.isfinite(f["time"][:n]).all()
+        assert (np.diff(f["time"][:n]) > 0).all()
+    return n
+
+
+def test_kill_9_at_random_times_leaves_readable_files(tmp_path):
+    import random
+    rng = random.Random(8)
+    (tmp_path / "k.nml").write_text(
+        "&scene scene='hang' /\n&time t_end=1.0 /\n&output output_file='k.h5' output_interval=0.05 /\n")
+    env = dict(os.environ, OMPI_MCA_orte_execute_quiet="1")
+    for delay in [rng.uniform(0.3, 6.0) for _ in range(3)]:
+        proc = subprocess.Popen([mpiexec(), "-n", "2", exe(), "k.nml"], cwd=tmp_path, env=env,
+                                stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
+                                start_new_session=True)
+        time.sleep(delay)
+        _kill_session(proc)
+        reported = sum(ln.startswith("t =") for ln in proc.stdout.read().splitlines())
+        counts = [_check_readable(p) for p in (tmp_path / "k.h5", tmp_path / "k.h5.partial") if p.exists()]
+        # A step printed as written is in a file; once a step after the first
+        # one is reported, the run's file has taken the final name.
+        if reported >= 2:
+            assert _check_readable(tmp_path / "k.h5") >= reported
+        elif reported == 1:
+            assert counts and max(counts) >= 1
+    # The lock of a killed run died with it: the next run is not refused.
+    proc = launch(tmp_path, ["k.nml"], nranks=2, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    with h5py.File(tmp_path / "k.h5", "r") as f:
+        assert f.attrs["status"].decode() == "complete" and int(f.attrs["n_output_steps"]) == 21
+    assert not (tmp_path / "k.h5.partial").exists() and not (tmp_path / "k.h5.lock").exists()
