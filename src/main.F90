@@ -14,7 +14,7 @@ program nuno
   use output, only: output_file, output_open, output_close
   use errors, only: help_requested, fatal_collective, fatal_local, input_path_argument, apply_namelist_options, &
                     petsc_options_text, quiet_exit, &
-                    read_input_options
+                    read_input_options, quiet_petsc_errors
   implicit none
 
   type(nuno_config) :: cfg
@@ -40,6 +40,9 @@ program nuno
 
   ! 2. PETSc, then the namelist (read on rank 0, parsed by every rank alike).
   PetscCallA(PetscInitialize(ierr))
+  ! PETSc errors become part of our one error line (module errors), not a
+  ! 30-line report from every rank.
+  call quiet_petsc_errors(ierr)
   call MPI_Comm_rank(PETSC_COMM_WORLD, rank, ierr)
   call MPI_Comm_size(PETSC_COMM_WORLD, nranks, ierr)
   if (.not. input_path_argument(path)) &
@@ -51,7 +54,7 @@ program nuno
   ! Step/output counts, index space and memory, before anything is allocated.
   ! Indices: PETSc's and the default integers of the Fortran code.
   call read_input_options(PETSC_COMM_WORLD, cfg%dt, allow_long, ts_dt, ts_dt_set, ierr)
-  if (ierr /= 0) call fatal_local('could not read the -nuno_allow_long option (PETSc error above)')
+  if (ierr /= 0) call fatal_local('could not read the -nuno_allow_long option')
   if (ts_dt_set) then
     call input_check_run(cfg, PETSC_COMM_WORLD, allow_long, min(int(huge(pint), int64), int(huge(0), int64)), &
                          ierr, errmsg, ts_dt=ts_dt)
@@ -70,7 +73,7 @@ program nuno
   call check_decomposition(cfg, nranks, ierr, errmsg)
   if (ierr /= 0) call fatal_collective(errmsg)
   call solver_create(ctx, cfg, ierr)
-  if (ierr /= 0) call fatal_local('could not set up the solver (PETSc error above)')
+  if (ierr /= 0) call fatal_local('could not set up the solver')
 
   ! 4. Output file, the time loop, and the completion mark written last. The
   !    run writes OUTPUT.partial under a lock and renames it onto the output
@@ -87,7 +90,7 @@ program nuno
   ! a PETSc or HDF5 error (ierr /= 0) may be local to some ranks: abort,
   ! leaving the file marked 'running', never 'complete'.
   call solver_run(ctx, out, status, ierr)
-  if (ierr /= 0) call fatal_local('PETSc or HDF5 error during the run (see above); output not marked complete')
+  if (ierr /= 0) call fatal_local('PETSc or HDF5 error during the run; output not marked complete')
   call output_close(out, trim(status), ierr, errmsg)
   if (ierr /= 0) call fatal_collective(errmsg)
 
