@@ -3,14 +3,45 @@
 !> same text), so fatal_collective is called by all ranks together: rank 0
 !> prints one line, PETSc and MPI are finalised, and every rank exits 1.
 !> No barrier anywhere in an error path.
+!> Exits use `stop 1, quiet=.true.` (Fortran 2018): gfortran's `error stop 1`
+!> prints 'ERROR STOP 1' and a backtrace on every rank, and plain `stop 1`
+!> prints 'STOP 1', which made one clear line read as a crash. The banner
+!> mpirun adds on a non-zero exit is Open MPI's own (mpirun -q hides it).
 module errors
 #include "petsc/finclude/petscsys.h"
   use petscsys
   use mpi
+  use, intrinsic :: iso_c_binding, only: c_int, c_double, c_char, c_null_char
   implicit none
   private
   public :: help_requested, input_path_argument, fatal_collective, fatal_local, apply_namelist_options
-  public :: petsc_options_text
+  public :: petsc_options_text, quiet_exit, read_input_options, quiet_petsc_errors
+
+  interface
+    !> src/nuno_errors.c: PETSc errors kept as text instead of printed.
+    function nuno_quiet_petsc_errors() bind(C, name='nuno_quiet_petsc_errors') result(code)
+      import :: c_int
+      integer(c_int) :: code
+    end function nuno_quiet_petsc_errors
+    subroutine nuno_petsc_error_text(buf, buflen) bind(C, name='nuno_petsc_error_text')
+      import :: c_int, c_char
+      character(kind=c_char), intent(out) :: buf(*)
+      integer(c_int), value :: buflen
+    end subroutine nuno_petsc_error_text
+    subroutine nuno_pause_ms(ms) bind(C, name='nuno_pause_ms')
+      import :: c_int
+      integer(c_int), value :: ms
+    end subroutine nuno_pause_ms
+    !> src/nuno_input_options.c: the -nuno_allow_long option block.
+    function nuno_input_options_read(fcomm, allow_long, ts_dt, ts_dt_set) bind(C, name='nuno_input_options_read') &
+        result(code)
+      import :: c_int, c_double
+      integer(c_int), value :: fcomm
+      integer(c_int), intent(out) :: allow_long, ts_dt_set
+      real(c_double), intent(out) :: ts_dt
+      integer(c_int) :: code
+    end function nuno_input_options_read
+  end interface
 
 contains
 
@@ -47,21 +78,66 @@ contains
     end if
     call PetscInitialized(initialized, ierr)
     if (initialized) call PetscFinalize(ierr)
-    error stop 1
+    call quiet_exit(1)
   end subroutine fatal_collective
 
+  !> End this process with exit status `code` and nothing printed.
+  subroutine quiet_exit(code)
+    integer, intent(in) :: code
+    flush(6)
+    flush(0)
+    stop code, quiet=.true.
+  end subroutine quiet_exit
+
   !> Local error exit, for an error that some ranks may not have seen (a
-  !> PETSc or HDF5 failure inside the run): one line with the rank, then
-  !> MPI_Abort, which ends every rank, so nothing can hang in a collective.
+  !> PETSc or HDF5 failure inside the run): one line with the rank and the
+  !> PETSc error's text (quiet_petsc_errors), then MPI_Abort, which ends
+  !> every rank, so nothing can hang in a collective. Most such errors are
+  !> seen by every rank alike (a bad option value): ranks other than 0 wait
+  !> a moment before printing, and rank 0's abort ends them first, so one
+  !> line comes out; an error of one rank alone is still printed by it.
   subroutine fatal_local(msg)
     character(len=*), intent(in) :: msg
     integer :: rank, ierr
+    character(kind=c_char, len=512) :: buf
+    character(len=:), allocatable :: petsc
     call MPI_Comm_rank(MPI_COMM_WORLD, rank, ierr)
-    write(0, '(a,i0,a)') 'nuno: error (rank ', rank, '): '//trim(msg)
+    buf = ''
+    call nuno_petsc_error_text(buf, int(len(buf), c_int))
+    petsc = buf(1:max(0, index(buf, c_null_char) - 1))
+    if (len_trim(petsc) > 0) petsc = ': PETSc: '//trim(petsc)
+    if (rank /= 0) call nuno_pause_ms(2000_c_int)
+    write(0, '(a,i0,a)') 'nuno: error (rank ', rank, '): '//trim(msg)//petsc
     flush(0)
     call MPI_Abort(MPI_COMM_WORLD, 1, ierr)
-    error stop 1
+    call quiet_exit(1)   ! not reached: MPI_Abort does not return
   end subroutine fatal_local
+
+  !> From here on a PETSc error prints nothing; fatal_local prints its text.
+  subroutine quiet_petsc_errors(ierr)
+    PetscErrorCode, intent(out) :: ierr
+    ierr = nuno_quiet_petsc_errors()
+  end subroutine quiet_petsc_errors
+
+  !> nuno's input-check options (in -help): allow_long = -nuno_allow_long;
+  !> ts_dt = -ts_dt when given (it overrides the namelist's dt), else dt_default. Collective.
+  subroutine read_input_options(comm, dt_default, allow_long, ts_dt, ts_dt_set, ierr)
+    integer, intent(in) :: comm
+    PetscReal, intent(in) :: dt_default
+    logical, intent(out) :: allow_long, ts_dt_set
+    PetscReal, intent(out) :: ts_dt
+    PetscErrorCode, intent(out) :: ierr
+    integer(c_int) :: al, set
+    real(c_double) :: dt
+    al = 0
+    set = 0
+    dt = 0
+    ierr = nuno_input_options_read(int(comm, c_int), al, dt, set)
+    allow_long = al /= 0
+    ts_dt_set = set /= 0
+    ts_dt = dt_default
+    if (ts_dt_set) ts_dt = real(dt, kind(ts_dt))
+  end subroutine read_input_options
 
   !> Insert the namelist's petsc_options string, except options that the
   !> command line already set (the command line wins).

@@ -8,11 +8,13 @@ program nuno
   use mpi
   use config, only: nuno_config
   use lattice, only: rest_strip
-  use input, only: input_read, input_usage, input_summary
+  use, intrinsic :: iso_fortran_env, only: int64
+  use input, only: input_read, input_usage, input_summary, input_check_run
   use timestepping, only: app_ctx, solver_create, solver_destroy, solver_run, check_decomposition
   use output, only: output_file, output_open, output_close
   use errors, only: help_requested, fatal_collective, fatal_local, input_path_argument, apply_namelist_options, &
-                    petsc_options_text
+                    petsc_options_text, quiet_exit, &
+                    read_input_options, quiet_petsc_errors
   implicit none
 
   type(nuno_config) :: cfg
@@ -23,6 +25,9 @@ program nuno
   character(len=512) :: path, errmsg
   character(len=1024) :: status
   character(len=:), allocatable :: petsc_opts
+  logical :: allow_long, ts_dt_set
+  PetscInt :: pint
+  PetscReal :: ts_dt
 
   ! 1. --help needs no input and no PETSc.
   if (help_requested()) then
@@ -35,6 +40,9 @@ program nuno
 
   ! 2. PETSc, then the namelist (read on rank 0, parsed by every rank alike).
   PetscCallA(PetscInitialize(ierr))
+  ! PETSc errors become part of our one error line (module errors), not a
+  ! 30-line report from every rank.
+  call quiet_petsc_errors(ierr)
   call MPI_Comm_rank(PETSC_COMM_WORLD, rank, ierr)
   call MPI_Comm_size(PETSC_COMM_WORLD, nranks, ierr)
   if (.not. input_path_argument(path)) &
@@ -42,6 +50,18 @@ program nuno
   call input_read(trim(path), PETSC_COMM_WORLD, cfg, ierr, errmsg)
   if (ierr /= 0) call fatal_collective(errmsg)
   call apply_namelist_options(cfg%petsc_options, ierr, errmsg)
+  if (ierr /= 0) call fatal_collective(errmsg)
+  ! Step/output counts, index space and memory, before anything is allocated.
+  ! Indices: PETSc's and the default integers of the Fortran code.
+  call read_input_options(PETSC_COMM_WORLD, cfg%dt, allow_long, ts_dt, ts_dt_set, ierr)
+  if (ierr /= 0) call fatal_local('could not read the -nuno_allow_long option')
+  if (ts_dt_set) then
+    call input_check_run(cfg, PETSC_COMM_WORLD, allow_long, min(int(huge(pint), int64), int(huge(0), int64)), &
+                         ierr, errmsg, ts_dt=ts_dt)
+  else
+    call input_check_run(cfg, PETSC_COMM_WORLD, allow_long, min(int(huge(pint), int64), int(huge(0), int64)), &
+                         ierr, errmsg)
+  end if
   if (ierr /= 0) call fatal_collective(errmsg)
   if (rank == 0) then
     write(*, '(a,i0,a)') 'nuno 0.1.0 on ', nranks, ' rank(s): '//trim(path)
@@ -53,26 +73,30 @@ program nuno
   call check_decomposition(cfg, nranks, ierr, errmsg)
   if (ierr /= 0) call fatal_collective(errmsg)
   call solver_create(ctx, cfg, ierr)
-  if (ierr /= 0) call fatal_local('could not set up the solver (PETSc error above)')
+  if (ierr /= 0) call fatal_local('could not set up the solver')
 
-  ! 4. Output file, the time loop, and the completion mark written last.
+  ! 4. Output file, the time loop, and the completion mark written last. The
+  !    run writes OUTPUT.partial under a lock and renames it onto the output
+  !    file after its first successful step (module output): a run that fails
+  !    before that leaves an earlier output file as it was.
   petsc_opts = petsc_options_text()
   if (len_trim(cfg%petsc_options) > 0) &
     petsc_opts = trim(petsc_opts//' [namelist, overridden by the above: '//trim(cfg%petsc_options)//']')
   call output_open(out, trim(cfg%output_file), PETSC_COMM_WORLD, cfg%nx, cfg%ny, ctx%lat%ys, &
                    ctx%lat%ye - ctx%lat%ys + 1, rest_strip(ctx%lat), ctx%lat%mass(:, ctx%lat%ys:ctx%lat%ye), &
-                   cfg%write_velocity, cfg%namelist_text, petsc_opts, ierr, errmsg)
+                   cfg%write_velocity, cfg%namelist_text, petsc_opts, ierr, errmsg, protect=trim(path))
   if (ierr /= 0) call fatal_collective(errmsg)
   ! A failed step ends the run collectively (status 'failed: ...', ierr = 0);
   ! a PETSc or HDF5 error (ierr /= 0) may be local to some ranks: abort,
   ! leaving the file marked 'running', never 'complete'.
   call solver_run(ctx, out, status, ierr)
-  if (ierr /= 0) call fatal_local('PETSc or HDF5 error during the run (see above); output not marked complete')
+  if (ierr /= 0) call fatal_local('PETSc or HDF5 error during the run; output not marked complete')
   call output_close(out, trim(status), ierr, errmsg)
   if (ierr /= 0) call fatal_collective(errmsg)
 
   ! 5. Clean up; a failed run exits non-zero on every rank.
   call solver_destroy(ctx, ierr)
   PetscCallA(PetscFinalize(ierr))
-  if (status /= 'complete') error stop 1
+  ! Quiet: the failure was reported in one line already (no ERROR STOP, no backtrace).
+  if (status /= 'complete') call quiet_exit(1)
 end program nuno

@@ -9,6 +9,13 @@
 !> Readers trust the first n_output_steps steps only. The root attribute
 !> status is 'running' until output_close writes its final value, last.
 !>
+!> Safe files (input/README.md, "Output files"): one writer per file (an
+!> flock'd `<file>.lock`, taken by rank 0 before anything is written); the
+!> run writes `<file>.partial` and renames it onto `<file>` once an output
+!> step after the first successful time step is on disk (or at the close when
+!> there is no earlier `<file>` to protect), so a run that fails at start-up
+!> never destroys an earlier result. The XDMF sidecar is written from then on.
+!>
 !> Errors: every h5*_f code is checked; a failure sets ierr /= 0 and a one-line
 !> errmsg naming the call and the dataset. The collective routines end with an
 !> MPI_Allreduce of the error flag, so all ranks return the same ierr (a rank
@@ -18,6 +25,7 @@ module output
   use hdf5
   use mpi
   use kinds, only: rp
+  use safe_files, only: lock_acquire, lock_release, same_file, file_exists, rename_file
   implicit none
   private
 
@@ -100,14 +108,20 @@ module output
     integer :: drank(n_dsets) = 0
     integer(hsize_t) :: ddims(4, n_dsets) = 0   ! Fortran dims, the last one is t
     character(len=:), allocatable :: xmf_path, h5_base
+    character(len=:), allocatable :: final_path  ! the output file's name
+    character(len=:), allocatable :: work_path   ! <final>.partial: written until committed
+    character(len=:), allocatable :: lock_path   ! <final>.lock: flock'd by rank 0
+    integer :: lock_fd = -1                      ! rank 0's lock file descriptor
+    logical :: committed = .false.               ! work_path renamed onto final_path
     real(rp), allocatable :: times(:)           ! output times, for the XDMF file
   end type output_file
 
 contains
 
-  !> Create the file (truncating), write root attributes and the lattice, create the time series. Collective.
+  !> Lock the file, create `<filename>.partial` (an earlier `filename` is left
+  !> alone), write root attributes and the lattice, create the time series. Collective.
   subroutine output_open(out, filename, comm, nx, ny, ys, ym, rest, mass, write_velocity, &
-                         attrs_namelist, attrs_petsc_options, ierr, errmsg, version)
+                         attrs_namelist, attrs_petsc_options, ierr, errmsg, version, protect)
     type(output_file), intent(inout) :: out
     character(*), intent(in) :: filename
     integer, intent(in) :: comm                 ! MPI communicator of the run
@@ -119,6 +133,7 @@ contains
     integer, intent(out) :: ierr
     character(*), intent(out) :: errmsg
     character(*), intent(in), optional :: version   ! default: the CMake project version
+    character(*), intent(in), optional :: protect   ! a file that must not be written (the input)
     integer :: mpierr, rows
 
     ierr = 0
@@ -157,15 +172,84 @@ contains
     out%nt = 0
     out%write_velocity = write_velocity
     call sidecar_names(filename, out%xmf_path, out%h5_base)
+    if (allocated(out%times)) deallocate(out%times)
     allocate(out%times(16))
+    out%final_path = filename
+    out%work_path = filename//'.partial'
+    out%lock_path = filename//'.lock'
+    out%committed = .false.
 
-    call open_local(out, filename, rest, mass, attrs_namelist, attrs_petsc_options, ierr, errmsg, version)
+    ! Before anything is written: not the input file, and no other writer.
+    if (out%rank == 0) call claim_files(out, ierr, errmsg, protect)
+    call agree(comm, 'output_open', ierr, errmsg)
+    if (ierr /= 0) then
+      if (out%rank == 0) call lock_release(out%lock_path, out%lock_fd)
+      return
+    end if
+
+    call open_local(out, out%work_path, rest, mass, attrs_namelist, attrs_petsc_options, ierr, errmsg, version)
     call agree(comm, 'output_open', ierr, errmsg)
     if (ierr /= 0) then
       call close_ids(out, ierr, errmsg)   ! best effort; ierr/errmsg keep the first error
       out%is_open = .false.
+      if (out%rank == 0) call lock_release(out%lock_path, out%lock_fd)
     end if
   end subroutine output_open
+
+  !> Rank 0: refuse to write over `protect` (by any of the names this run
+  !> writes), then take the lock. The lock file is made beside the output,
+  !> so a missing or unwritable directory is reported here, with its cause.
+  subroutine claim_files(out, ierr, errmsg, protect)
+    type(output_file), intent(inout) :: out
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    character(*), intent(in), optional :: protect
+    character(len=256) :: detail
+    integer :: code
+
+    if (present(protect)) then
+      if (same_file(protect, out%final_path) .or. same_file(protect, out%work_path) .or. &
+          same_file(protect, out%lock_path) .or. same_file(protect, out%xmf_path)) then
+        ierr = 1
+        errmsg = "input: &output: output_file = '"//out%final_path//"' would overwrite the input file "// &
+                 protect//': choose another output_file'
+        return
+      end if
+    end if
+    call lock_acquire(out%lock_path, out%lock_fd, code, detail)
+    if (code == 1) then
+      ierr = 1
+      errmsg = 'output: '//out%final_path//' is being written by another run ('//trim(detail)// &
+               ', lock '//out%lock_path//'): wait for it to end or choose another output_file'
+    else if (code /= 0) then
+      ierr = 1
+      errmsg = 'output: cannot create '//out%lock_path//' beside the output file: '//trim(detail)
+    end if
+  end subroutine claim_files
+
+  !> Rename `<file>.partial` onto `<file>` (rank 0), then write the XDMF
+  !> sidecar, which names `<file>`. Collective; from here on an earlier
+  !> `<file>` is replaced, atomically.
+  subroutine commit(out, ierr, errmsg)
+    type(output_file), intent(inout) :: out
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    character(len=256) :: detail
+    logical :: ok
+
+    if (out%committed .or. ierr /= 0) return
+    if (out%rank == 0) then
+      call rename_file(out%work_path, out%final_path, ok, detail)
+      if (.not. ok) then
+        ierr = 1
+        errmsg = 'output: cannot rename '//out%work_path//' to '//out%final_path//': '//trim(detail)
+      end if
+    end if
+    call agree(out%comm, 'output: rename', ierr, errmsg)
+    if (ierr /= 0) return
+    out%committed = .true.
+    if (out%rank == 0) call write_xdmf(out, ierr, errmsg)
+  end subroutine commit
 
   !> Append one output step: extend all datasets, write this rank's strip and rank 0's scalars, flush. Collective.
   subroutine output_write_step(out, rec, x, ierr, errmsg, v)
@@ -204,6 +288,8 @@ contains
       call write_step_local(out, rec, x, ierr, errmsg)
     end if
     call agree(out%comm, 'output_write_step', ierr, errmsg)
+    ! rec%steps > 0: a time step succeeded and its result is on disk.
+    if (ierr == 0 .and. rec%steps > 0) call commit(out, ierr, errmsg)
   end subroutine output_write_step
 
   !> Write the XDMF file, then the root attribute status (last), then close every id and the file. Collective.
@@ -212,13 +298,29 @@ contains
     character(*), intent(in) :: status   ! 'complete' or 'failed: <reason>'
     integer, intent(out) :: ierr
     character(*), intent(out) :: errmsg
-    integer :: e2
+    integer :: e2, mpierr
     character(len=len(errmsg)) :: msg2
+    logical :: keep
 
     ierr = 0
     errmsg = ''
     if (.not. out%is_open) return   ! never opened, failed open, or closed already
-    if (out%rank == 0) call write_xdmf(out, ierr, errmsg)
+    ! Not committed: no time step succeeded (or none was written). A complete
+    ! run, or one with no earlier file to protect, takes the name now; a
+    ! failed one leaves an earlier file as it was and its own as .partial.
+    if (.not. out%committed) then
+      keep = .false.
+      if (out%rank == 0) keep = status /= 'complete' .and. file_exists(out%final_path)
+      call MPI_Bcast(keep, 1, MPI_LOGICAL, 0, out%comm, mpierr)
+      if (keep) then
+        if (out%rank == 0) write(*, '(a)') 'output: the earlier '//out%final_path// &
+          ' is kept as it was; this run''s file is '//out%work_path
+      else
+        call commit(out, ierr, errmsg)   ! writes the XDMF sidecar
+      end if
+    else
+      if (out%rank == 0) call write_xdmf(out, ierr, errmsg)
+    end if
     ! status after everything else, so that 'complete' means complete.
     e2 = 0
     call set_attr_str(out%file, 'status', status, '/', e2, msg2)
@@ -229,6 +331,7 @@ contains
     call keep_first(ierr, errmsg, e2, msg2)
     call close_ids(out, ierr, errmsg)
     out%is_open = .false.
+    if (out%rank == 0) call lock_release(out%lock_path, out%lock_fd)
     call agree(out%comm, 'output_close', ierr, errmsg)
   end subroutine output_close
 
@@ -467,6 +570,8 @@ contains
     if (h < 0) then
       call fail('h5open_f', filename, ierr, errmsg); return
     end if
+    ! No HDF5 error stack on stderr: a failure comes back as one line of ours.
+    call h5eset_auto_f(0, h)
     call h5pcreate_f(H5P_FILE_ACCESS_F, fapl, h)
     if (h < 0) then
       call fail('h5pcreate_f(file access)', filename, ierr, errmsg); return
@@ -714,7 +819,7 @@ contains
       call move_alloc(grown, out%times)
     end if
     out%times(out%nt) = rec%time
-    if (out%rank == 0) call write_xdmf(out, ierr, errmsg)
+    if (out%rank == 0 .and. out%committed) call write_xdmf(out, ierr, errmsg)
   end subroutine write_step_local
 
   !> Collective write of a rank-3 strip a(count(1:3)) at start(:) (rank 3 or 4 file space).

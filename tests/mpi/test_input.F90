@@ -21,8 +21,8 @@ program test_input
   call MPI_Comm_rank(MPI_COMM_WORLD, rank, mpierr)
   root = source_root()
 
-  ! ---- defaults: an input with nothing but a comment is lift_release --------
-  call read_text('! nothing here'//nl//'just words outside groups'//nl, cfg, ierr, msg)
+  ! ---- defaults: an input with one empty group is lift_release --------------
+  call read_text('! nothing here'//nl//'&scene /'//nl, cfg, ierr, msg)
   call expect_ok('empty input')
   call check_true(trim(cfg%scene) == 'lift_release' .and. cfg%scene_code == SCENE_LIFT_RELEASE, 'default scene')
   call check_true(cfg%nx == 11 .and. cfg%ny == 11, 'default nx, ny')
@@ -42,7 +42,7 @@ program test_input
   call check_true(trim(cfg%output_file) == 'lift_release.h5', 'lift_release output_file')
   call check_true(allocated(cfg%namelist_text), 'namelist_text kept')
   if (allocated(cfg%namelist_text)) &
-    call check_true(cfg%namelist_text == '! nothing here'//nl//'just words outside groups'//nl, 'namelist_text = file')
+    call check_true(cfg%namelist_text == '! nothing here'//nl//'&scene /'//nl, 'namelist_text = file')
 
   ! ---- hang: SI scene defaults -----------------------------------------------
   call read_text("&scene scene = 'hang' /", cfg, ierr, msg)
@@ -80,7 +80,7 @@ program test_input
     '! a comment with &lattice nx = 5 / in it'//nl// &
     ' &LATTICE nx = 21, ! comment: &material'//nl// &
     '   ly = 50.0 /'//nl// &
-    'free text between groups'//nl// &
+    '! a comment between groups'//nl// &
     "&material bending_model = 'Energy' /"//nl// &
     "&scene keyframe_time(2) = 0.6 gravity = 0 0 -1 /"//nl// &
     "&output output_file = 'a!b&c/d.h5', petsc_options = '-ts_type bdf' &end"//nl// &
@@ -181,6 +181,19 @@ program test_input
   call expect_error('&lattice nx = 5 '//nl//'&time dt = 1 /', [character(60) :: '&lattice', 'closing'])
   call expect_error('&lattice nx = 5', [character(60) :: '&lattice', 'closing'])
   call expect_error("&output output_file = 'x.h5 /", [character(60) :: 'unterminated'])
+  ! Input that cannot be mistaken (issue 8): no silent defaults, no NaN/Inf.
+  call expect_error('', [character(60) :: 'empty'])
+  call expect_error('  '//nl//nl, [character(60) :: 'empty'])
+  call expect_error('! only a comment'//nl, [character(60) :: 'no namelist group'])
+  call expect_error('&time dt = 0.01 /'//nl//nl//'stray words'//nl, [character(60) :: 'line 3', 'stray words'])
+  call expect_error('&time dt = 0.01 / trailing', [character(60) :: 'line 1', 'trailing'])
+  call expect_error(achar(0)//achar(255)//'xyz', [character(60) :: 'line 1', 'outside'])
+  call expect_error('&scene gravity = 0 0 NaN /', [character(60) :: 'gravity(3) = NaN', 'finite'])
+  call expect_error('&scene initial_omega = 0 Inf 0 /', [character(60) :: 'initial_omega(2) = +Infinity'])
+  call expect_error('&scene keyframe_dz(2) = -Inf /', [character(60) :: 'keyframe_dz(2) = -Infinity'])
+  call expect_error('&scene release_time = Inf /', [character(60) :: 'release_time', 'finite'])
+  call expect_error('&material e_s = Inf /', [character(60) :: 'e_s = +Infinity'])
+  call expect_error('&time dt = NaN /', [character(60) :: '&time', 'dt = NaN'])
   call read_file('no_such_dir/no_such_file.nml', cfg, ierr, msg)
   call expect_collective_error('missing file', [character(60) :: 'cannot open input file', 'no_such_file.nml'])
 
