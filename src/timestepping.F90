@@ -39,6 +39,10 @@ module timestepping
   !> Fraction of the estimated round-off floor of ||F|| below which Newton
   !> has converged (the estimate is about 14 times the floor actually met).
   real(rp), parameter :: FLOOR_FACTOR = 0.25_rp
+  !> Adaptive steps: Newton has converged when its estimated remaining error
+  !> is below this fraction of the time integrator's tolerance (the
+  !> weighted RMS norm of TSAdapt, in which a step is accepted at <= 1).
+  real(rp), parameter :: NEWTON_TS_FRACTION = 0.01_rp
 
   interface
     !> src/nuno_options.c: nuno's options in a PETSc options block.
@@ -85,6 +89,7 @@ module timestepping
     ! Newton's round-off floor (snes_converged)
     real(rp) :: snes_floor = 1.0e-6_rp          !< -nuno_snes_floor: stagnation below this relative residual is convergence
     real(rp) :: fnorm0 = 0, fnorm_prev = 0
+    real(rp) :: snorm_prev = 0                  !< ||update|| of the previous Newton iteration
     ! singular element seen by the last residual evaluation
     integer :: nbad = 0, bad(2) = -1
     real(rp) :: t_bad = 0
@@ -516,6 +521,15 @@ contains
   !> a residual below FLOOR_FACTOR times the floor estimated at the last
   !> assembly (module reduced: eps max|x| ||diag(K)/m||_2, measured 14 times
   !> the actual floor at 129..513), which saves the iteration that (a) needs.
+  !> With adaptive steps also (c): the Newton error estimated from the
+  !> update and the convergence rate, |du_k| rate/(1 - rate) in the time
+  !> integrator's weighted norm (atol + rtol |u|), is below
+  !> NEWTON_TS_FRACTION of the tolerance (the test of CVODE and IDA). Tight
+  !> -ts_rtol shrinks the step, and with it the floor of F's x-rows
+  !> (eps a |x|, a = 1/dt) grows past any residual test: (c) ties Newton to
+  !> what the integrator asks for. It needs two iterations (a rate) and a
+  !> rate below 0.9, so a stalled solve (a weak preconditioner, small but
+  !> not shrinking updates) is not mistaken for a converged one.
   subroutine snes_converged(snes, it, xnorm, snorm, fnorm, reason, ctx, ierr)
     type(tSNES) :: snes
     PetscInt :: it
@@ -523,6 +537,7 @@ contains
     SNESConvergedReason :: reason
     type(app_ctx) :: ctx
     PetscErrorCode :: ierr
+    real(rp) :: rate, wnorm
     call SNESConvergedDefault(snes, it, xnorm, snorm, fnorm, reason, PETSC_NULL_INTEGER, ierr)
     if (ierr /= 0) return
     if (it == 0 .and. ctx%fail_newton > 0) then
@@ -540,8 +555,44 @@ contains
         reason = SNES_CONVERGED_FNORM_ABS
       end if
     end if
+    if (it >= 2 .and. reason == SNES_CONVERGED_ITERATING .and. .not. ctx%fixed_step .and. ctx%snorm_prev > 0.0_rp) then
+      rate = snorm / ctx%snorm_prev
+      if (rate < 0.9_rp) then
+        call update_wrms(snes, ctx, wnorm, ierr)
+        if (ierr /= 0) return
+        if (wnorm * rate / (1.0_rp - rate) <= NEWTON_TS_FRACTION) reason = SNES_CONVERGED_SNORM_RELATIVE
+      end if
+    end if
     ctx%fnorm_prev = fnorm
+    ctx%snorm_prev = snorm
   end subroutine snes_converged
+
+  !> The last Newton update in the weighted RMS norm of the time integrator:
+  !> sqrt(mean((du_i / (atol + rtol |u_i|))^2)) over all unknowns.
+  subroutine update_wrms(snes, ctx, wnorm, ierr)
+    type(tSNES) :: snes
+    type(app_ctx) :: ctx
+    real(rp), intent(out) :: wnorm
+    PetscErrorCode, intent(out) :: ierr
+    type(tVec) :: x, y
+    PetscScalar, pointer :: xa(:), ya(:)
+    PetscReal :: atol, rtol
+    real(rp) :: loc(2), glob(2)
+    integer :: mpierr
+
+    wnorm = huge(1.0_rp)
+    PetscCall(TSGetTolerances(ctx%ts, atol, PETSC_NULL_VEC, rtol, PETSC_NULL_VEC, ierr))
+    PetscCall(SNESGetSolution(snes, x, ierr))
+    PetscCall(SNESGetSolutionUpdate(snes, y, ierr))
+    PetscCall(VecGetArrayReadF90(x, xa, ierr))
+    PetscCall(VecGetArrayReadF90(y, ya, ierr))
+    loc(1) = sum((ya / (atol + rtol * abs(xa)))**2)
+    loc(2) = real(size(xa), rp)
+    PetscCall(VecRestoreArrayReadF90(y, ya, ierr))
+    PetscCall(VecRestoreArrayReadF90(x, xa, ierr))
+    call MPI_Allreduce(loc, glob, 2, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, mpierr)
+    if (glob(2) > 0.0_rp) wnorm = sqrt(glob(1) / glob(2))
+  end subroutine update_wrms
 
   !> After every accepted step (and at the start of each TSSolve): advance
   !> the trapezoid integrals of dissipated power and constraint power, and
