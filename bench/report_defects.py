@@ -111,7 +111,7 @@ def lattice_triples(nx, ny):
 
 
 def paper_forces(x, v, rest, links, triples, e, eta, k_b):
-    """Axial Voigt springs + report eqs. (2)-(3) bending, MODEL.md sections 2-3."""
+    """Axial Voigt springs + report eqs. (2)-(3) bending, docs/model.md sections 2-3."""
     f = np.zeros_like(x)
     p, q = links[:, 0], links[:, 1]
     d = x[p] - x[q]

@@ -1,4 +1,4 @@
-!> Pinned and prescribed (keyframed) nodes of one rank (MODEL.md section 4).
+!> Pinned and prescribed (keyframed) nodes of one rank (docs/model.md section 4).
 !>
 !> A constrained node k follows xbar(t) = x0_k + offset(t), where offset is 0
 !> (pinned) or the scene's keyframe path, piecewise linear in time through

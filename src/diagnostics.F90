@@ -1,4 +1,4 @@
-!> Diagnostics of one output time (MODEL.md section 8) that follow from the
+!> Diagnostics of one output time (docs/model.md section 8) that follow from the
 !> state alone: energies, momenta, centre-line length and flatness. Local sums
 !> over owned nodes and anchor-owned elements, then one sum-reduction and one
 !> max-reduction, so every rank gets the same values.

@@ -830,7 +830,7 @@ contains
   ! Scene defaults and derived values
   ! ==========================================================================
 
-  !> Defaults of scene `code` (MODEL.md section 7) over the plain defaults.
+  !> Defaults of scene `code` (docs/model.md section 7) over the plain defaults.
   !> Report scenes: mm, g, s; E = eta = 1 per link; paper bending k_b = 1.
   subroutine scene_defaults(code, cfg)
     integer, intent(in) :: code
@@ -930,7 +930,7 @@ contains
 
   !> Keys left unset take defaults that depend on other keys:
   !> k_b: the scene's value in the chosen model, converted between a force per
-  !> radian (paper) and an energy (energy) by the link length ax (MODEL.md 3);
+  !> radian (paper) and an energy (energy) by the link length ax (docs/model.md 3);
   !> eta_b: 1e-4 for hang with energy bending, else 0.
   subroutine resolve_unset(cfg, ierr, msg)
     type(nuno_config), intent(inout) :: cfg

@@ -1,5 +1,5 @@
 !> The lattice of one rank: its strip of whole rows, the rest geometry, the
-!> node masses and the per-element constants (MODEL.md sections 1 and 6).
+!> node masses and the per-element constants (docs/model.md sections 1 and 6).
 !>
 !> Index convention (everywhere in nuno): nodes (i, j) with 0-based global
 !> indices, i = 0..nx-1 along x, j = 0..ny-1 along y. A rank owns rows

@@ -1,4 +1,4 @@
-!> Parallel HDF5 output of a run (MODEL.md section 9) and its XDMF sidecar.
+!> Parallel HDF5 output of a run (docs/model.md section 9) and its XDMF sidecar.
 !>
 !> Index convention: the caller's arrays are x(3, 0:nx-1, ys:ys+ym-1) with
 !> 0-based global row indices (a DMDA strip of whole rows). Fortran dims
@@ -37,7 +37,7 @@ module output
     module procedure config_key_str, config_key_int, config_key_reals
   end interface output_config_key
 
-  !> One output step's scalars (MODEL.md section 8); identical on all ranks.
+  !> One output step's scalars (docs/model.md section 8); identical on all ranks.
   type, public :: output_record
     real(rp) :: time = 0
     real(rp) :: kinetic = 0, stretch = 0, bend = 0, dissipated = 0, external_work = 0

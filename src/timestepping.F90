@@ -1,4 +1,4 @@
-!> Time integration with PETSc TS on a DMDA of 1 x P strips (MODEL.md
+!> Time integration with PETSc TS on a DMDA of 1 x P strips (docs/model.md
 !> sections 5 and 6): the solver context, the IFunction and the assembled
 !> IJacobian callbacks, the monitor that integrates dissipated power and
 !> constraint work, and the loop over time windows that stops exactly at
@@ -7,7 +7,7 @@
 !> State: DMDA dof 6 per node, u(0:2) position, u(3:5) velocity;
 !> F = [ xdot - v ; vdot - f(x, v)/m - g ] on free nodes and
 !> F = [ xdot - vbar ; vdot ] on constrained nodes.
-!> The rows are those of MODEL.md section 5 divided by the mass, so that
+!> The rows are those of docs/model.md section 5 divided by the mass, so that
 !> dF/dUdot = I: PETSc's ARKIMEX (explicit first stage) takes
 !> Udot = -F(t, U, 0) and is wrong for any other form. A constrained node is
 !> put on its path at the start of each time window (enter_window), where

@@ -1,5 +1,5 @@
 !> Energy-based bending on one triple (p, q, r) centred on q, packed as
-!> x9 = [x_p; x_q; x_r] (MODEL.md section 3 'energy'). With the edges
+!> x9 = [x_p; x_q; x_r] (docs/model.md section 3 'energy'). With the edges
 !> e1 = x_q - x_p, e2 = x_r - x_q the curvature binormal is
 !>   kb = 2 (e1 x e2)/psi,  psi = |e1||e2| + e1.e2,  |kb| = 2 tan(theta/2),
 !> the energy W = 1/2 k_b |kb|^2 and the Rayleigh function R = 1/2 eta_b |J v|^2,

@@ -1,4 +1,4 @@
-!> The report's bending force (eqs. (2)-(3), MODEL.md section 3 'paper') on
+!> The report's bending force (eqs. (2)-(3), docs/model.md section 3 'paper') on
 !> one triple (p, q, r) centred on q, packed as x9 = [x_p; x_q; x_r].
 !> With u = x_p - x_q, w = x_r - x_q, c = cos(theta) = -u_hat.w_hat and
 !> g(c) = theta/sin(theta):
@@ -13,7 +13,7 @@ module bending_paper
   public :: paper_force, paper_jacobian, paper_energy
 
   ! Triples with 1 + cos(theta) below this are (nearly) folded back: the
-  ! straightening direction is undefined (MODEL.md: stop with a message).
+  ! straightening direction is undefined (docs/model.md: stop with a message).
   real(rp), parameter :: FOLD_TOL = 1.0e-12_rp
   ! An edge shorter than this fraction of the other (or than EDGE_ABS) counts as zero.
   real(rp), parameter :: EDGE_REL = 1.0e-12_rp

@@ -1,5 +1,5 @@
 !> Voigt element (spring + dashpot in parallel) on one link p-q: force,
-!> Jacobian blocks, energy and dissipated power (MODEL.md section 2).
+!> Jacobian blocks, energy and dissipated power (docs/model.md section 2).
 !> Only the force on p is returned: the force on q is its negative, and the
 !> Jacobian blocks of q follow by sign (df_p/dx_q = -K, df_q/dx_q = K, same for C).
 !> The model code is a plain integer (1 = axial, 2 = linear, the values of

@@ -1,11 +1,11 @@
-"""The energy bending model (MODEL.md sections 3 and 8) on free cloths, through
+"""The energy bending model (docs/model.md sections 3 and 8) on free cloths, through
 the real program: conservation laws, the order of the energy balance, the
 return to flat, and the matrix-free exact operator.
 
 Expectations are independent of the solver's own bookkeeping where that is
 possible: momentum and angular momentum are recomputed from the stored masses,
 positions and velocities; kinetic, stretch and bending energies are recomputed
-from MODEL.md's formulas (axial springs on the 8 links, 1/2 k_b |kb|^2 with
+from docs/model.md's formulas (axial springs on the 8 links, 1/2 k_b |kb|^2 with
 kb = 2 e1 x e2 / (|e1||e2| + e1.e2) on the triples of the 4 line directions)
 and compared with what the solver reports. Orders of accuracy are fitted over
 three time steps (dt, dt/2, dt/4).
@@ -28,7 +28,7 @@ DTS = (0.02, 0.01, 0.005)
 
 
 # ----------------------------------------------------------------------------
-# Independent evaluation of MODEL.md's quantities from the stored state.
+# Independent evaluation of docs/model.md's quantities from the stored state.
 
 def momentum(r):
     """Total linear momentum [nt][3] from masses and velocities."""
@@ -192,7 +192,7 @@ def test_bent_cloth_returns_flat_energy_not_paper(tmp_path):
     """bend_release (9 x 9, 30 degree arc): with the energy model and bending
     damping near critical (eta_b = 5) the cloth is flat again by t = 4 (the
     report's Fig. 4 complaint fixed). The paper model on the same scene does
-    not return flat: its flat state is unstable (MODEL.md section 3), so the
+    not return flat: its flat state is unstable (docs/model.md section 3), so the
     bend grows instead and the centre line lengthens."""
     common = dict(scene="scene='bend_release'", lattice="nx=9 ny=9",
                   time="t_end=4 dt=0.02", output="output_interval=0.5")

@@ -1,6 +1,6 @@
 """Order of accuracy against an exact solution. With spring_model='linear'
 and no bending the cloth is a linear system M xddot + C xdot + K (x - X) = 0
-(MODEL.md section 2). The test builds K and C itself from the links of the
+(docs/model.md section 2). The test builds K and C itself from the links of the
 lattice, solves the first-order system exactly by eigen-decomposition, and
 compares with nuno's positions at t_end as dt halves: backward Euler must
 converge at order 1, Crank-Nicolson (cn and theta 0.5) at order 2."""

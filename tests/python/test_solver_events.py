@@ -1,5 +1,5 @@
 """The integrator stops exactly at keyframe, release and output times,
-whatever the step size or adaptivity (MODEL.md sections 4 and 5), and the
+whatever the step size or adaptivity (docs/model.md sections 4 and 5), and the
 energy balance closes with the work of a prescribed node (wave_point)."""
 import numpy as np
 import pytest

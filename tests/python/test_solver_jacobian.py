@@ -14,7 +14,7 @@ ONE_STEP = ("-snes_test_jacobian", "-snes_max_it", "1", "-snes_convergence_test"
             "-ts_max_snes_failures", "-1")
 
 CASES = {
-    # paper bending at the flat state: its Jacobian is not zero (MODEL.md 3)
+    # paper bending at the flat state: its Jacobian is not zero (docs/model.md 3)
     "flat_paper": dict(scene="scene='flat'", lattice="nx=5 ny=4",
                        material="bending_model='paper' e_s=1e-3 e_d=1e-3 eta_s=0 eta_d=0"),
     # the report's fold, paper bending, axial dampers (at rest)

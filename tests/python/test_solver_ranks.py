@@ -1,4 +1,4 @@
-"""The same scene on 1, 2, 3 and 4 ranks gives the same positions (MODEL.md
+"""The same scene on 1, 2, 3 and 4 ranks gives the same positions (docs/model.md
 section 6): a strip decomposition must change nothing but reduction order.
 The linear solves are exact (MUMPS LU) so that a preconditioner that
 differs with the rank count (ILU on one rank, block Jacobi on several)
@@ -17,7 +17,7 @@ TIGHT = {
 }
 
 CASES = {
-    # paper bending amplifies round-off: short times only (MODEL.md section 3)
+    # paper bending amplifies round-off: short times only (docs/model.md section 3)
     "lift_release_paper": dict(scene="scene='lift_release'", lattice="nx=11 ny=11",
                                time="t_end=1.0 dt=0.02", output="output_interval=0.5"),
     "bend_release_energy": dict(scene="scene='bend_release' initial_omega=0,0,0.5",

@@ -50,7 +50,7 @@ def run_input(tmp_path, scene, name, nranks, options, t_end, dt, timeout=300, **
 @pytest.mark.parametrize("nranks", [1, 3])
 @pytest.mark.parametrize("scene", SCENES)
 def test_reduced_and_full_newton_give_the_same_trajectory(tmp_path, scene, nranks):
-    # paper bending amplifies round-off (MODEL.md section 3): short times
+    # paper bending amplifies round-off (docs/model.md section 3): short times
     t_end, dt = (0.2, 0.01) if scene != "hang" else (0.1, 0.005)
     _, red = run_input(tmp_path, scene, f"{scene}_red", nranks, REDUCED, t_end, dt)
     _, full = run_input(tmp_path, scene, f"{scene}_full", nranks, FULL, t_end, dt)
