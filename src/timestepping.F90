@@ -43,6 +43,9 @@ module timestepping
   !> is below this fraction of the time integrator's tolerance (the
   !> weighted RMS norm of TSAdapt, in which a step is accepted at <= 1).
   real(rp), parameter :: NEWTON_TS_FRACTION = 0.01_rp
+  !> Gauss-Legendre points (on [0, 1]) and weights, 3 points.
+  real(rp), parameter :: GAUSS_X(3) = [0.5_rp - sqrt(0.15_rp), 0.5_rp, 0.5_rp + sqrt(0.15_rp)]
+  real(rp), parameter :: GAUSS_W(3) = [5.0_rp / 18.0_rp, 8.0_rp / 18.0_rp, 5.0_rp / 18.0_rp]
 
   interface
     !> src/nuno_options.c: nuno's options in a PETSc options block.
@@ -93,7 +96,12 @@ module timestepping
     ! singular element seen by the last residual evaluation
     integer :: nbad = 0, bad(2) = -1
     real(rp) :: t_bad = 0
-    ! time integrals, advanced by the monitor (trapezoid rule over accepted steps)
+    ! time integrals, advanced by the monitor over each accepted step:
+    ! Gauss-Legendre on the integrator's own interpolant where it has one
+    ! (beuler, theta, cn, bdf), so that they close at the method's order;
+    ! the trapezoid rule otherwise
+    logical :: gauss = .false.
+    type(tVec) :: uq                            !< interpolated state (Gauss points)
     real(rp) :: t_prev = 0, pdiss_prev = 0, pcon_prev = 0
     real(rp) :: dissipated = 0                  !< dissipated energy [energy]
     real(rp) :: work_constraints = 0            !< work of the constraint reactions [energy]
@@ -309,6 +317,17 @@ contains
     ! From here on the effective values are the run's configuration.
     ctx%cfg%dt = ctx%dt
     ctx%cfg%t_end = ctx%t_end
+    ! The energy integrals use the integrator's interpolant where its
+    ! order is the method's (theta's is linear, bdf's the Lagrange
+    ! polynomial of its history); arkimex and rosw tableaus may lack one.
+    PetscCall(TSGetType(ctx%ts, tstype, ierr))
+    select case (trim(tstype))
+    case ('beuler', 'theta', 'cn', 'bdf')
+      ctx%gauss = .true.
+    case default
+      ctx%gauss = .false.
+    end select
+    PetscCall(VecDuplicate(ctx%u, ctx%uq, ierr))
 
     if (ctx%rank == 0) then
       PetscCall(TSGetType(ctx%ts, tstype, ierr))
@@ -347,6 +366,7 @@ contains
       PetscCall(MatDestroy(ctx%p, ierr))
     end if
     PetscCall(VecDestroy(ctx%u, ierr))
+    PetscCall(VecDestroy(ctx%uq, ierr))
     PetscCall(DMDestroy(ctx%da, ierr))
   end subroutine solver_destroy
 
@@ -595,7 +615,7 @@ contains
   end subroutine update_wrms
 
   !> After every accepted step (and at the start of each TSSolve): advance
-  !> the trapezoid integrals of dissipated power and constraint power, and
+  !> the integrals of dissipated power and constraint power, and
   !> after a retried step go back to the fixed step.
   subroutine ts_monitor(ts, step, t, uvec, ctx, ierr)
     type(tTS) :: ts
@@ -604,8 +624,9 @@ contains
     type(tVec) :: uvec
     type(app_ctx) :: ctx
     PetscErrorCode :: ierr
-    real(rp) :: p(2), h, hmax
+    real(rp) :: p(2), h, hmax, tq, pq(2)
     PetscInt :: rejects
+    integer :: q
 
     ! A failed Newton solve makes the TS retry the step with dt/4, and with
     ! -ts_adapt_type none it keeps that step: a fixed step would silently
@@ -631,7 +652,19 @@ contains
 
     call powers(ctx, uvec, t, p, ierr)
     if (ierr /= 0) return
-    if (t > ctx%t_prev) then
+    if (t > ctx%t_prev .and. ctx%gauss .and. step > 0) then
+      ! Three Gauss-Legendre points on [t_prev, t] (exact to degree 5): the
+      ! error is that of the interpolant, the method's order.
+      h = t - ctx%t_prev
+      do q = 1, 3
+        tq = ctx%t_prev + h * GAUSS_X(q)
+        PetscCall(TSInterpolate(ts, tq, ctx%uq, ierr))
+        call powers(ctx, ctx%uq, tq, pq, ierr)
+        if (ierr /= 0) return
+        ctx%dissipated = ctx%dissipated + h * GAUSS_W(q) * pq(1)
+        ctx%work_constraints = ctx%work_constraints + h * GAUSS_W(q) * pq(2)
+      end do
+    else if (t > ctx%t_prev) then
       ctx%dissipated = ctx%dissipated + 0.5_rp * (ctx%pdiss_prev + p(1)) * (t - ctx%t_prev)
       ctx%work_constraints = ctx%work_constraints + 0.5_rp * (ctx%pcon_prev + p(2)) * (t - ctx%t_prev)
     end if
