@@ -52,12 +52,13 @@ contains
   ! ==========================================================================
 
   !> Read the namelist file `path` on rank 0, broadcast it, parse it on every rank.
-  subroutine input_read(path, comm, cfg, ierr, errmsg)
+  subroutine input_read(path, comm, cfg, ierr, errmsg, overrides)
     character(*), intent(in) :: path          !< input file name
     integer, intent(in) :: comm               !< MPI communicator of the run
     type(nuno_config), intent(out) :: cfg     !< the complete, checked configuration
     integer, intent(out) :: ierr              !< 0: fine; else errmsg says why (same on all ranks)
     character(*), intent(out) :: errmsg       !< one-line message; blank when ierr = 0
+    character(*), intent(in), optional :: overrides !< -nuno_set: key=value,... over the file
     character(:), allocatable :: text
     character(msg_len) :: iomsg
     integer :: rank, mpierr, u, ios, nbytes, hdr(2)
@@ -96,7 +97,7 @@ contains
       errmsg = "input: cannot open input file '"//trim(path)//"' ("//text//")"
       return
     end if
-    call input_parse(text, cfg, ierr, errmsg)
+    call input_parse(text, cfg, ierr, errmsg, overrides)
   end subroutine input_read
 
   !> Checks of a parsed configuration against what the run can do, before
@@ -274,11 +275,12 @@ contains
 
   !> Parse namelist text (no MPI): scene, scene defaults, groups, derived values, checks.
   !> Public so that tests and tools can build a configuration from a string.
-  subroutine input_parse(text, cfg, ierr, errmsg)
+  subroutine input_parse(text, cfg, ierr, errmsg, overrides)
     character(*), intent(in) :: text           !< the whole namelist file
     type(nuno_config), intent(out) :: cfg
     integer, intent(out) :: ierr
     character(*), intent(out) :: errmsg
+    character(*), intent(in), optional :: overrides !< -nuno_set: key=value,... read after the file
     type(parsed_text) :: pt
     type(nuno_config) :: first
     character(msg_len) :: msg
@@ -304,6 +306,10 @@ contains
     ! 1. The scene name alone, read over the plain defaults.
     call read_group(G_SCENE, pt, first, ierr, msg)
     if (ierr /= 0) goto 900
+    if (present(overrides)) then
+      call apply_overrides(overrides, first, .true., ierr, msg)
+      if (ierr /= 0) goto 900
+    end if
     first%scene = lower(adjustl(first%scene))
     call check_choice('scene', 'scene', first%scene, scene_list, code, ierr, msg)
     if (ierr /= 0) goto 900
@@ -320,9 +326,15 @@ contains
     call read_group(G_MATERIAL, pt, cfg, ierr, msg); if (ierr /= 0) goto 900
     call read_group(G_TIME, pt, cfg, ierr, msg);     if (ierr /= 0) goto 900
     call read_group(G_OUTPUT, pt, cfg, ierr, msg);   if (ierr /= 0) goto 900
+    cfg%namelist_text = text
+    if (present(overrides)) then
+      ! Command-line keys win over the file's; they are recorded with it.
+      call apply_overrides(overrides, cfg, .false., ierr, msg)
+      if (ierr /= 0) goto 900
+      if (len_trim(overrides) > 0) cfg%namelist_text = text//new_line('a')//'! -nuno_set '//trim(overrides)
+    end if
     cfg%scene = lower(adjustl(cfg%scene))
     cfg%scene_code = code
-    cfg%namelist_text = text
 
     ! 4. Choices to codes, lattice spacing, keys left unset, then the checks.
     call derive_codes(cfg, ierr, msg);        if (ierr /= 0) goto 900
@@ -650,6 +662,94 @@ contains
       p = q
     end do
   end subroutine read_group
+
+  !> -nuno_set: comma-separated assignments key=value (namelist syntax:
+  !> strings quoted, arrays listed, elements by subscript), each key by its
+  !> name alone (names are unique across groups) or as group%key, read over
+  !> cfg as if written in its group. scene_only: apply the key `scene` only
+  !> (the scene picks the defaults before the groups are read).
+  subroutine apply_overrides(ov, cfg, scene_only, ierr, msg)
+    character(*), intent(in) :: ov
+    type(nuno_config), intent(inout) :: cfg
+    logical, intent(in) :: scene_only
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    character(msg_len) :: iomsg
+    character(:), allocatable :: a, key, base, rhs
+    integer :: n, p, q, e, pc, g, ios
+
+    ierr = 0
+    msg = ''
+    n = len_trim(ov)
+    if (n == 0) return
+    p = next_assignment(ov(1:n), 1)
+    if (p > n .or. verify(ov(1:p - 1), ' ,') /= 0) then
+      ierr = 1
+      msg = "input: -nuno_set '"//ov(1:n)//"': expected key=value[,key=value...]"
+      return
+    end if
+    do while (p <= n)
+      q = next_assignment(ov(1:n), p + 1)
+      a = trim(ov(p:q - 1))
+      do while (len(a) > 0)
+        if (a(len(a):len(a)) /= ',') exit
+        a = trim(a(1:len(a) - 1))
+      end do
+      p = q
+      e = index(a, '=')
+      key = lower(trim(adjustl(a(1:e - 1))))
+      rhs = a(e + 1:)
+      pc = index(key, '%')
+      if (pc > 0) then
+        g = group_index(key(1:pc - 1))
+        key = key(pc + 1:)
+      else
+        g = 0
+      end if
+      base = key
+      if (index(base, '(') > 0) base = base(1:index(base, '(') - 1)
+      if (g == 0) g = key_group(base)
+      if (g == 0) then
+        ierr = 1
+        msg = "input: -nuno_set: unknown key '"//trim(key)//"' (in: "//a//')'
+        return
+      end if
+      if (scene_only .and. base /= 'scene') cycle
+      if (base == 'scene') key = 'scene_name'//key(6:)
+      block
+        character(len(a) + 32) :: line(1)
+        line(1) = '&'//trim(group_names(g))//' '//key//' = '//rhs//' /'
+        iomsg = ''
+        call read_nml(g, line, cfg, ios, iomsg)
+      end block
+      if (ios /= 0) then
+        ierr = 1
+        msg = 'input: -nuno_set: &'//trim(group_names(g))//': '//trim(iomsg)//' (in: '//a//')'
+        call unrename_scene(msg)
+        return
+      end if
+    end do
+  end subroutine apply_overrides
+
+  !> The group of a key (0: no such key). Every key name is unique.
+  integer function key_group(name) result(g)
+    character(*), intent(in) :: name
+    select case (name)
+    case ('nx', 'ny', 'lx', 'ly', 'total_mass', 'mass_distribution', 'lattice_scaling')
+      g = G_LATTICE
+    case ('spring_model', 'e_s', 'eta_s', 'e_d', 'eta_d', 'bending_model', 'k_b', 'eta_b')
+      g = G_MATERIAL
+    case ('scene', 'gravity', 'lift_length', 'lift_height', 'bend_angle', 'n_keyframes', &
+          'keyframe_time', 'keyframe_dz', 'wave_nodes', 'release_time', 'initial_omega')
+      g = G_SCENE
+    case ('t_end', 'dt')
+      g = G_TIME
+    case ('output_interval', 'write_velocity', 'output_file', 'petsc_options')
+      g = G_OUTPUT
+    case default
+      g = 0
+    end select
+  end function key_group
 
   !> Undo the rename of the key `scene` in a message.
   subroutine unrename_scene(msg)
@@ -1301,6 +1401,12 @@ contains
       'Input checks:', &
       '  -nuno_allow_long                             run even with more than 1e8 steps (t_end/dt) or', &
       '                                               1e5 output steps (t_end/output_interval)', &
+      '', &
+      'Namelist keys from the command line (sweeps without copying files):', &
+      '  -nuno_set key=value[,key=value...]           over the file''s values, same checks; a key by its', &
+      '                                               name or as group%key; strings quoted, e.g.', &
+      '                                               -nuno_set "nx=257,ny=257,output_file=''h257.h5''"', &
+      '                                               (recorded in the output''s namelist attribute)', &
       '', &
       'PETSc options (petsc_options in &output; the command line overrides them):', &
       '  -ts_type beuler|theta|cn|bdf|arkimex|rosw   integrator (backward Euler is the report''s)', &

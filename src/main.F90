@@ -26,6 +26,8 @@ program nuno
   character(len=1024) :: status
   character(len=:), allocatable :: petsc_opts
   logical :: allow_long, ts_dt_set
+  character(len=4096) :: overrides
+  PetscBool :: have_set
   PetscInt :: pint
   PetscReal :: ts_dt
 
@@ -47,7 +49,14 @@ program nuno
   call MPI_Comm_size(PETSC_COMM_WORLD, nranks, ierr)
   if (.not. input_path_argument(path)) &
     call fatal_collective('usage: mpirun -n P nuno INPUT.nml [PETSc options]  (nuno --help for more)')
-  call input_read(trim(path), PETSC_COMM_WORLD, cfg, ierr, errmsg)
+  ! -nuno_set key=value,...: namelist keys from the command line, over the file's.
+  call PetscOptionsGetString(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-nuno_set', overrides, have_set, ierr)
+  if (ierr /= 0) call fatal_local('could not read the -nuno_set option')
+  if (have_set) then
+    call input_read(trim(path), PETSC_COMM_WORLD, cfg, ierr, errmsg, trim(overrides))
+  else
+    call input_read(trim(path), PETSC_COMM_WORLD, cfg, ierr, errmsg)
+  end if
   if (ierr /= 0) call fatal_collective(errmsg)
   call apply_namelist_options(cfg%petsc_options, ierr, errmsg)
   if (ierr /= 0) call fatal_collective(errmsg)

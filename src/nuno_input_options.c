@@ -18,6 +18,14 @@ PetscErrorCode nuno_input_options_read(MPI_Fint fcomm, int *allow_long, double *
   PetscOptionsBegin(comm, NULL, "nuno: input checks (input/README.md)", "nuno");
   PetscCall(PetscOptionsBool("-nuno_allow_long", "run even when t_end/dt exceeds 1e8 steps or t_end/output_interval exceeds 1e5 output steps",
                              "nuno", al, &al, NULL));
+  {
+    /* Read by main before the namelist (PetscOptionsGetString); declared
+     * here so that it appears in -help. */
+    char      buf[4096] = "";
+    PetscBool given;
+    PetscCall(PetscOptionsString("-nuno_set", "namelist keys over the input file's: key=value[,key=value...] (group%key where needed; strings quoted)",
+                                 "nuno", buf, buf, sizeof(buf), &given));
+  }
   PetscOptionsEnd();
   PetscCall(PetscOptionsGetReal(NULL, NULL, "-ts_dt", &dt, &set));
   *allow_long = al ? 1 : 0;
