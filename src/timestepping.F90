@@ -763,7 +763,8 @@ contains
     integer :: iout, ie
     logical :: at_max_steps
     TSConvergedReason :: reason
-    character(len=256) :: msg, reasonname
+    character(len=900) :: msg
+    character(len=256) :: reasonname
     character(len=512) :: errmsg
 
     status = 'complete'
@@ -995,6 +996,48 @@ contains
     end if
   end function scene_units
 
+  !> What is known to help a failed Newton solve, leaving out what the user
+  !> has already set: a smaller fixed step or adaptivity, more retries, a
+  !> stronger inner preconditioner or the full Jacobian, and the monitors.
+  function failure_hints(ctx) result(h)
+    type(app_ctx), intent(in) :: ctx
+    character(len=512) :: h
+    character(len=32) :: dtq
+    character(len=64) :: pctype
+    type(tPC) :: pc
+    PetscErrorCode :: ierr
+    h = 'try'
+    if (ctx%fixed_step) then
+      write(dtq, '(es10.3)') 0.25_rp * ctx%dt
+      h = trim(h)//' a smaller step (-ts_dt '//trim(adjustl(dtq))//'), adaptive steps (-ts_adapt_type basic),'
+    else if (.not. given('-ts_max_snes_failures')) then
+      h = trim(h)//' more retries (-ts_max_snes_failures -1),'
+    end if
+    if (ctx%use_reduced) then
+      ! (-reduced_pc_type is always in the options: nuno sets its default.)
+      call KSPGetPC(ctx%red%ksp, pc, ierr)
+      if (ierr == 0) call PCGetType(pc, pctype, ierr)
+      if (ierr == 0 .and. pctype /= PCLU .and. pctype /= PCCHOLESKY) &
+        h = trim(h)//' a stronger inner preconditioner (-reduced_pc_type lu on small lattices),'
+    end if
+    if (ctx%use_reduced) then
+      h = trim(h)//' the assembled 6-dof Jacobian (-nuno_jacobian full),'
+    end if
+    if (.not. given('-snes_monitor')) then
+      h = trim(h)//' and -snes_monitor -reduced_ksp_converged_reason to see where it stalls'
+    else
+      h = trim(h)//' and the monitor output above'
+    end if
+  contains
+    logical function given(name)
+      character(len=*), intent(in) :: name
+      PetscBool :: set
+      PetscErrorCode :: ierr
+      call PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, name, set, ierr)
+      given = set .and. ierr == 0
+    end function given
+  end function failure_hints
+
   !> One line saying why the run stopped.
   subroutine failure_reason(ctx, reason, t, msg)
     type(app_ctx), intent(in) :: ctx
@@ -1014,7 +1057,7 @@ contains
         glob(1), ', ', glob(2), ')'
     else if (reason == TS_DIVERGED_NONLINEAR_SOLVE) then
       write(msg, '(a,es12.5,a)') 'time step from t = ', t, ' failed: nonlinear solve diverged '// &
-        '(TS_DIVERGED_NONLINEAR_SOLVE; try a smaller dt, -ts_adapt_type basic or -snes_monitor)'
+        '(TS_DIVERGED_NONLINEAR_SOLVE) after its retries with smaller steps; '//trim(failure_hints(ctx))
     else if (reason < 0) then
       write(msg, '(a,es12.5,a,i0,a)') 'time step from t = ', t, ' failed (TSConvergedReason ', reason, &
         ', e.g. -2 = step rejected too often by the error controller)'

@@ -67,3 +67,24 @@ def test_a_stalling_inner_solver_does_not_give_unsolved_steps(tmp_path):
     # weighted norm <= 1e3 after two iterations completes here, with 230
     # rejected steps, 3.2e-6 away: the error control alone does not catch it.)
     assert diff < 2e-6, diff
+
+
+def test_failure_hints_leave_out_what_was_set(tmp_path):
+    """A step that fails after its retries names what is known to help, and
+    never suggests what the user already set (issue 8 item 7)."""
+    kw = dict(scene="scene='lift_release'", lattice="nx=5 ny=5", time="t_end=0.01 dt=1e-3",
+              output="output_interval=0.01")
+    proc, _ = run(tmp_path, "plain", nranks=2, check=False, options=("-nuno_fail_newton", "100"), **kw)
+    assert proc.returncode != 0
+    err = proc.stderr
+    assert "-ts_adapt_type basic" in err and "-ts_dt 2.500E-04" in err and "-reduced_pc_type lu" in err
+    proc, _ = run(tmp_path, "set", nranks=2, check=False,
+                  options=("-nuno_fail_newton", "100", "-ts_adapt_type", "basic", "-reduced_pc_type", "lu",
+                           "-snes_monitor"), **kw)
+    assert proc.returncode != 0
+    err = proc.stderr
+    line = [ln for ln in err.splitlines() if ln.startswith("nuno: error")]
+    assert len(line) == 1, err
+    for already in ("-ts_adapt_type basic", "-reduced_pc_type lu", "-snes_monitor -", "-ts_dt"):
+        assert already not in line[0], line[0]
+    assert "-ts_max_snes_failures -1" in line[0]
