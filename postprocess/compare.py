@@ -43,12 +43,13 @@ def difference(ref, other, interval) -> tuple[np.ndarray, np.ndarray]:
     slack = 1e-9 * max(1.0, abs(t0), abs(t1))
     sel = np.nonzero((ref.time >= t0 - slack) & (ref.time <= t1 + slack))[0]
     times = ref.time[sel]
-    if other.nt == ref.nt and np.allclose(other.time, ref.time, rtol=0, atol=slack):
-        pos = other.position[sel]
-    else:
-        pos = np.stack([other.position_at(float(np.clip(t, t0, t1))) for t in times])
-    dist = np.linalg.norm(ref.position[sel] - pos, axis=-1)
-    return times, dist.reshape(len(times), -1).max(axis=1)
+    same_times = other.nt == ref.nt and np.allclose(other.time, ref.time, rtol=0, atol=slack)
+    worst = np.empty(len(sel))
+    for n, k in enumerate(sel):  # one step at a time: bounded memory
+        pos = (other.position[int(k)] if same_times
+               else other.position_at(float(np.clip(times[n], t0, t1))))
+        worst[n] = np.linalg.norm(ref.position[int(k)] - pos, axis=-1).max()
+    return times, worst
 
 
 def labels(runs) -> list[str]:

@@ -162,6 +162,75 @@ def test_position_at_interpolates_and_checks_range(tmp_path, make_run):
         run.step_index(1.6)
 
 
+def test_reader_is_lazy_one_step_reads_one_step(tmp_path, make_run, monkeypatch):
+    """Indexing one step asks h5py for that step only (counted under the reader)."""
+    ref = make_run(tmp_path / "a.h5", nx=6, ny=5, nt=9)
+    requested = []
+    original = h5py.Dataset.__getitem__
+
+    def counting(self, key, *args, **kw):
+        out = original(self, key, *args, **kw)
+        if self.name in ("/position", "/velocity"):
+            requested.append((self.name, np.asarray(out).size))
+        return out
+
+    monkeypatch.setattr(h5py.Dataset, "__getitem__", counting)
+    with read_run(tmp_path / "a.h5") as run:
+        assert requested == []                   # opening reads no field
+        assert run.position.shape == (9, 5, 6, 3) and len(run.position) == 9
+        assert requested == []
+        np.testing.assert_array_equal(run.position[4], ref["position"][4])
+        assert requested == [("/position", 5 * 6 * 3)]
+        np.testing.assert_array_equal(run.position[2:7:2], ref["position"][2:7:2])
+        np.testing.assert_array_equal(run.position[[5, 1, 5]], ref["position"][[5, 1, 5]])
+        np.testing.assert_array_equal(run.position[-1, 2, 3], ref["position"][-1, 2, 3])
+        np.testing.assert_array_equal(run.velocity[1:3, 0], ref["velocity"][1:3, 0])
+        assert max(n for _, n in requested) <= 3 * 5 * 6 * 3
+        with pytest.raises(IndexError):
+            run.position[9]
+        # whole-array use still works for small files
+        np.testing.assert_array_equal(np.asarray(run.position), ref["position"])
+        np.testing.assert_allclose(run.position - ref["position"], 0.0)
+
+
+LAZY_RSS_SCRIPT = """
+import resource, sys
+import numpy as np
+from postprocess.reader import read_run
+before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+run = read_run(sys.argv[1])
+one = run.position[run.nt // 2]
+after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+print("growth_kib", after - before, "sum", float(one.sum()))
+"""
+
+
+def test_reader_one_step_of_a_large_file_in_bounded_memory(tmp_path):
+    """Peak RSS grows by about one step, far below the file's size."""
+    n, nt = 257, 48
+    path = tmp_path / "big.h5"
+    xs = np.linspace(0.0, 1.0, n)
+    rest = np.zeros((n, n, 3))
+    rest[..., 0], rest[..., 1] = np.meshgrid(xs, xs)
+    with h5py.File(path, "w") as f:
+        f.attrs.update(nx=np.int32(n), ny=np.int32(n), n_output_steps=np.int32(nt),
+                       status="complete", namelist="&scene scene='hang' /")
+        f["lattice/rest_position"] = rest
+        f["time"] = 0.01 * np.arange(nt)
+        ds = f.create_dataset("position", (nt, n, n, 3), "f8", chunks=(1, n, n, 3))
+        for k in range(nt):
+            ds[k] = rest + 0.001 * k
+    size_mib = nt * n * n * 3 * 8 / 2**20          # 72 MiB of positions
+    env = dict(os.environ, PYTHONPATH=str(REPO))
+    proc = subprocess.run([sys.executable, "-c", LAZY_RSS_SCRIPT, str(path)], env=env,
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    words = proc.stdout.split()
+    growth_mib = float(words[1]) / 1024
+    assert float(words[3]) == pytest.approx((rest + 0.001 * (nt // 2)).sum(), rel=1e-12)
+    assert growth_mib < 0.25 * size_mib, (growth_mib, size_mib)
+
+
 # ---------------------------------------------------------------- snapshots
 
 
