@@ -355,15 +355,49 @@ def test_compare_rotating_runs_differ(tmp_path, make_run, capsys):
     assert values(capsys, "max_difference")[0] > 0.1
 
 
-def test_compare_rejects_different_lattices(tmp_path, make_run, capsys):
+def test_compare_rejects_different_rest_sheets(tmp_path, make_run, capsys):
     make_run(tmp_path / "a.h5", nx=5)
-    make_run(tmp_path / "b.h5", nx=6)
     make_run(tmp_path / "c.h5", nx=5, lx=90.0)
-    for other in ("b.h5", "c.h5"):
+    make_run(tmp_path / "d.h5", nx=9, lx=90.0)
+    for other in ("c.h5", "d.h5"):
         assert compare.main([str(tmp_path / "a.h5"), str(tmp_path / other), "-o",
                              str(tmp_path / "x.png")]) == 1
         err = capsys.readouterr().err
         assert err.startswith("error: lattices differ") and err.count("\n") == 1
+
+
+@pytest.mark.parametrize("fine", [(9, 7, "nested"), (17, 13, "nested"), (6, 5, "interpolated"),
+                                  (12, 9, "interpolated")])
+def test_compare_different_lattices(tmp_path, make_run, capsys, fine):
+    """A rigid motion is linear in the rest position: nested sampling and bilinear
+    interpolation are both exact, so the difference is the known velocity gap."""
+    nx, ny, how = fine
+    a, b, c = tmp_path / "a.h5", tmp_path / "b.h5", tmp_path / "c.h5"
+    make_run(a, nx=5, ny=4, nt=6, omega=0.6)
+    make_run(b, nx=nx, ny=ny, nt=6, omega=0.6)
+    make_run(c, nx=nx, ny=ny, nt=6, omega=0.6, velocity=(2.0, -1.0, 0.9))
+    ra, rb = read_run(a), read_run(b)
+    assert compare.sampler(ra, rb)[1] == how
+    coarse = compare.sampler(ra, rb)[0](rb.position[3])
+    np.testing.assert_allclose(coarse, ra.position[3], atol=1e-11)
+    # the finer run first: the comparison still happens on the coarse nodes
+    assert compare.main([str(b), str(a), "-o", str(tmp_path / "ab.png"), "--tol", "1e-9"]) == 0
+    assert values(capsys, "max_difference")[0] < 1e-10
+    assert compare.main([str(a), str(c), "-o", str(tmp_path / "ac.png")]) == 0
+    assert values(capsys, "max_difference")[0] == pytest.approx(0.4 * 0.5, rel=1e-9)
+    assert_png(tmp_path / "ac.png")
+
+
+def test_compare_tol_exceeded_exits_1(tmp_path, make_run, capsys):
+    make_run(tmp_path / "a.h5", omega=0.7)
+    make_run(tmp_path / "b.h5", nx=9, ny=7, omega=0.8)
+    out = tmp_path / "c.png"
+    assert compare.main([str(tmp_path / "a.h5"), str(tmp_path / "b.h5"), "-o", str(out),
+                         "--tol", "1e-3"]) == 1
+    captured = capsys.readouterr()
+    assert captured.err.startswith("error: max_difference") and "exceeds --tol" in captured.err
+    assert captured.err.count("\n") == 1
+    assert_png(out)  # the figure is still written
 
 
 # ---------------------------------------------------------------- log-log plots
