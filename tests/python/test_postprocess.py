@@ -446,6 +446,90 @@ def test_convergence_fit_range_and_one_panel(tmp_path, capsys):
     assert len(plotting.panels(fig)) == 1
 
 
+def write_study_run(path, n, dt=0.01, err=0.0, scene="hang"):
+    """A [0, 1]^2 sheet of n x n nodes, two steps; at t = 1 the height is an exact
+    quadratic of the rest position plus err * g(x, y)."""
+    xs = np.linspace(0.0, 1.0, n)
+    rest = np.zeros((n, n, 3))
+    rest[..., 0], rest[..., 1] = np.meshgrid(xs, xs)
+    x, y = rest[..., 0], rest[..., 1]
+    end = rest.copy()
+    end[..., 2] = (0.3 * x**2 + 0.2 * x * y - 0.1 * y**2
+                   + err * np.sin(3 * x) * np.cos(2 * y))
+    with h5py.File(path, "w") as f:
+        f.attrs.update(nx=np.int32(n), ny=np.int32(n), n_output_steps=np.int32(2),
+                       status="complete",
+                       namelist=f"&scene scene='{scene}' /\n&time t_end=1.0 dt={dt!r} /\n")
+        f["lattice/rest_position"] = rest
+        f["time"] = np.array([0.0, 1.0])
+        f["position"] = np.stack([rest, end])
+    return path
+
+
+def g_max_on(n):
+    xs = np.linspace(0.0, 1.0, n)
+    return np.abs(np.sin(3 * xs)[None, :] * np.cos(2 * xs)[:, None]).max()
+
+
+@pytest.mark.parametrize("reference", ["richardson", "finest"])
+def test_convergence_of_lattices_exact(tmp_path, capsys, reference):
+    """Error term C h^2 g: Richardson removes it exactly (order 2); against the
+    finest run the errors are C g (h^2 - h_f^2) at the coarsest nodes."""
+    C = 5.0
+    paths = [write_study_run(tmp_path / f"r{n}.h5", n, err=C * (1.0 / (n - 1))**2)
+             for n in (41, 11, 21)]                     # any order on the command line
+    out = tmp_path / "conv.png"
+    assert convergence.main([*map(str, paths), "--reference", reference, "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    order = [float(w.split()[1]) for w in text.splitlines() if w.startswith("order ")]
+    errs = [tuple(map(float, w.split()[1:])) for w in text.splitlines()
+            if w.startswith("error ")]
+    h = np.array([0.1, 0.05, 0.025])
+    if reference == "richardson":
+        assert order[0] == pytest.approx(2.0, abs=1e-6)
+        np.testing.assert_allclose([e for _, e in errs], C * g_max_on(11) * h**2, rtol=1e-6)
+    else:
+        np.testing.assert_allclose([e for _, e in errs],
+                                   C * g_max_on(11) * (h[:2]**2 - h[2]**2), rtol=1e-9)
+        np.testing.assert_allclose([hh for hh, _ in errs], h[:2], rtol=1e-12)
+        expected = np.polyfit(np.log(h[:2]), np.log(h[:2]**2 - h[2]**2), 1)[0]
+        assert order[0] == pytest.approx(expected, abs=1e-9)
+    assert_png(out)
+    fig = convergence.build_figure(convergence.study(
+        [read_run(p) for p in paths], reference=reference))
+    ax = plotting.panels(fig)[0]
+    assert ax.get_xlabel() == "lattice spacing h [m]"
+    assert ax.get_ylabel().endswith("[m]") and ax.get_xscale() == "log"
+
+
+def test_convergence_of_time_steps_exact(tmp_path, capsys):
+    dts = (0.1, 0.05, 0.025)
+    paths = [write_study_run(tmp_path / f"dt{k}.h5", 11, dt=dt, err=0.7 * dt, scene="wave_point")
+             for k, dt in enumerate(dts)]
+    assert convergence.main([*map(str, paths), "--reference", "richardson",
+                             "-o", str(tmp_path / "dt.png")]) == 0
+    (order,) = values(capsys, "order")
+    assert order == pytest.approx(1.0, abs=1e-6)
+    fig = convergence.build_figure(convergence.study([read_run(p) for p in paths]))
+    assert plotting.panels(fig)[0].get_xlabel() == "time step dt [s]"
+    assert plotting.panels(fig)[0].get_ylabel().endswith("[mm]")
+
+
+def test_convergence_bad_studies(tmp_path):
+    a = write_study_run(tmp_path / "a.h5", 11, dt=0.1)
+    b = write_study_run(tmp_path / "b.h5", 21, dt=0.05)
+    c = write_study_run(tmp_path / "c.h5", 11, dt=0.1)
+    for args, message in (((a, b), "both the lattice and dt vary"),
+                          ((a, c), "distinct dt"),
+                          ((a, write_study_run(tmp_path / "d.h5", 21, dt=0.1)),
+                           "at least 3 runs")):
+        extra = ("--reference", "richardson") if message == "at least 3 runs" else ()
+        proc = cli("postprocess.convergence", *map(str, args), *extra,
+                   "-o", str(tmp_path / "x.png"))
+        assert proc.returncode == 1 and proc.stderr.startswith("error: ")
+        assert message in proc.stderr and proc.stderr.count("\n") == 1, proc.stderr
+
+
 # ---------------------------------------------------------------- command line
 
 
