@@ -585,3 +585,28 @@ def test_solver_run_metadata(solver_run):
     assert os.path.isfile(os.path.splitext(solver_run)[0] + ".xmf")
     # lift_release: edge i = 0 is pinned for the whole run
     assert np.max(np.abs(run.position[:, :, 0] - run.rest_position[:, 0])) < 1e-12
+
+
+def test_convergence_of_real_hang_lattices(tmp_path, capsys):
+    """hang with continuum scaling on 11, 21, 41 lattices (nested): the errors
+    against the finest run fall with h at a plausible order."""
+    import nunorun
+    paths = []
+    for n in (11, 21, 41):
+        _, h5 = nunorun.run(tmp_path, f"hang{n}", nranks=1, timeout=120,
+                            scene="scene='hang'",
+                            lattice=f"nx={n} ny={n} lattice_scaling='continuum' "
+                                    "mass_distribution='area'",
+                            time="t_end=0.02 dt=1.0e-3", output="output_interval=0.01")
+        paths.append(str(h5))
+    assert compare.main([paths[0], paths[2], "-o", str(tmp_path / "c.png")]) == 0
+    (gap,) = values(capsys, "max_difference")
+    assert 0 < gap < 0.01  # metres: the lattices agree to well under a centimetre
+    out = tmp_path / "conv.png"
+    assert convergence.main([*paths, "--time", "0.02", "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    errors = [float(w.split()[2]) for w in text.splitlines() if w.startswith("error ")]
+    (order,) = [float(w.split()[1]) for w in text.splitlines() if w.startswith("order ")]
+    assert len(errors) == 2 and errors[1] < errors[0]
+    assert 0.5 < order < 3.0, order
+    assert_png(out)
