@@ -88,3 +88,8 @@ def drop_key(text: str, key: str) -> str:
 def read(text: str):
     """The namelist as f90nml's Namelist (groups -> {key: value})."""
     return f90nml.reads(text)
+
+
+def write(groups: dict) -> str:
+    """Namelist text from {group: {key: python value}} (str, int, float, bool, lists)."""
+    return str(f90nml.Namelist({g: dict(keys) for g, keys in groups.items()})) + "\n"

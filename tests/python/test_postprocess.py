@@ -610,3 +610,27 @@ def test_convergence_of_real_hang_lattices(tmp_path, capsys):
     assert len(errors) == 2 and errors[1] < errors[0]
     assert 0.5 < order < 3.0, order
     assert_png(out)
+
+
+def test_namelist_edit_and_write_parse_back():
+    from postprocess import namelist
+    import f90nml
+    text = ("! header\n&lattice nx = 11, ny = 11 ! nodes = 3\n lx = 1.0 /\n"
+            "&scene scene = 'hang', gravity = 0.0, 0.0, -9.81 /\n&time dt = 1.0e-3 /\n")
+    out = namelist.edit(text, {"ny": "21", "gravity(3)": "-1.5", "scene%scene": "'flat'"},
+                        drop=("lx", "absent"))
+    nml = f90nml.reads(out)
+    assert dict(nml["lattice"]) == {"nx": 11, "ny": 21}
+    assert nml["scene"]["gravity"] == [0.0, 0.0, -1.5] and nml["scene"]["scene"] == "flat"
+    assert nml["time"]["dt"] == 1.0e-3
+    for key, message in (("nodes", "no such key"), ("time%nx", "no such key"),
+                         ("gravity(4)", "index outside")):
+        with pytest.raises(ValueError, match=message):
+            namelist.edit(text, {key: "1"})
+    with pytest.raises(ValueError, match="not a Fortran namelist value"):
+        namelist.edit(text, {"nx": "'unterminated"})
+    written = namelist.write({"lattice": {"nx": 5, "lx": 0.1}, "output": {"output_file": "a.h5",
+                                                                         "write_velocity": True}})
+    back = f90nml.reads(written)
+    assert back["lattice"]["nx"] == 5 and back["lattice"]["lx"] == 0.1
+    assert back["output"]["output_file"] == "a.h5" and back["output"]["write_velocity"] is True
