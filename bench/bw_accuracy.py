@@ -23,13 +23,16 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+from postprocess import namelist  # noqa: E402
 from postprocess.reader import read_run  # noqa: E402
 
 
 def run(exe, mpiexec, d, name, n, t_end, dt, out_dt, opts, nranks):
     nml = Path(d) / f"{name}.nml"
-    nml.write_text(f"&scene scene='hang' /\n&lattice nx={n} ny={n} /\n&time t_end={t_end!r} dt={dt!r} /\n"
-                   f"&output output_interval={out_dt!r} output_file='{name}.h5' /\n")
+    nml.write_text(namelist.write({"scene": {"scene": "hang"}, "lattice": {"nx": n, "ny": n},
+                                   "time": {"t_end": t_end, "dt": dt},
+                                   "output": {"output_interval": out_dt,
+                                              "output_file": f"{name}.h5"}}))
     t0 = time.perf_counter()
     subprocess.run([mpiexec, "-n", str(nranks), "--oversubscribe", exe, nml.name, *opts], cwd=d, check=True,
                    capture_output=True, text=True)

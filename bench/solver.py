@@ -28,6 +28,8 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+from postprocess import namelist  # noqa: E402
 
 # steps per run: enough to average, few enough for 1025 x 1025
 STEPS = {65: 30, 129: 15, 257: 6, 513: 3, 1025: 2}
@@ -59,10 +61,12 @@ def triad(nranks):
 def run(exe, mpiexec, n, nranks, mode, bending, timeout):
     dt, opts = MODES[mode]
     steps = STEPS.get(n, 3)
-    bend = "" if bending else "&material bending_model='none' /\n"
-    nml = (f"&scene scene='hang' /\n&lattice nx={n} ny={n} /\n{bend}"
-           f"&time t_end={steps * dt!r} dt={dt!r} /\n"
-           f"&output output_interval={steps * dt!r} output_file='b.h5' /\n")
+    groups = {"scene": {"scene": "hang"}, "lattice": {"nx": n, "ny": n}}
+    if not bending:
+        groups["material"] = {"bending_model": "none"}
+    groups["time"] = {"t_end": steps * dt, "dt": dt}
+    groups["output"] = {"output_interval": steps * dt, "output_file": "b.h5"}
+    nml = namelist.write(groups)
     with tempfile.TemporaryDirectory() as d:
         (Path(d) / "b.nml").write_text(nml)
         cmd = [mpiexec, "-n", str(nranks), "--oversubscribe", exe, "b.nml", "-log_view", "-memory_view", *opts]

@@ -8,6 +8,7 @@ from __future__ import annotations
 import shutil
 import sys
 
+import numpy as np
 from matplotlib.animation import FFMpegWriter, PillowWriter
 
 from postprocess import cli, plotting
@@ -48,7 +49,11 @@ def write_animation(run, output: str, stride: int = 1, fps: float = 10.0,
     steps = frame_steps(run, stride)
     writer = make_writer(output, fps)
     units = run.units()
-    lo, hi = plotting.bounds(run.position[steps])  # fixed box over the whole run
+    # Fixed box over the whole run, one step read at a time (bounded memory).
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for k in steps:
+        a, b = plotting.bounds(run.position[k])
+        lo, hi = np.minimum(lo, a), np.maximum(hi, b)
     fig, (ax,) = plotting.new_figure(1, ncols=1, projection="3d", panel_size=(6.0, 5.0))
     plotting.setup_3d(ax, lo, hi, units, view)
     wire = None

@@ -1,9 +1,18 @@
-"""The one reader of nuno output files (HDF5 layout of MODEL.md section 9).
+"""The one reader of nuno output files (HDF5 layout of docs/model.md section 9).
 
     from postprocess.reader import read_run
     run = read_run("run.h5")
-    run.position        # [nt][ny][nx][3], float64
+    run.position        # [nt][ny][nx][3], float64, read lazily (Steps)
+    run.position[k]     # one step [ny][nx][3]: reads only that step
     run.energy_balance()
+
+Positions and velocities stay in the file: ``run.position`` is a ``Steps``
+view of the open HDF5 dataset, and indexing it reads only the steps asked
+for, so a 1025 x 1025 run of hundreds of steps can be plotted step by step in
+bounded memory. ``np.asarray(run.position)`` (and arithmetic or numpy
+functions on it) read every step: fine for small files. The file stays open
+until ``run.close()`` (or the end of a ``with read_run(...) as run:`` block).
+Time, energies and diagnostics (one number per step) are read at once.
 
 Arrays are C order as stored: /position[t] is [ny][nx][3] (node (i, j) is
 position[t, j, i]). A run that was killed may leave datasets longer than the
@@ -20,13 +29,14 @@ from dataclasses import dataclass, field
 
 import h5py
 import numpy as np
+from numpy.lib.mixins import NDArrayOperatorsMixin
 
 ENERGY_NAMES = ("kinetic", "stretch", "bend", "dissipated", "external_work")
 DIAGNOSTIC_NAMES = ("momentum", "angular_momentum", "length", "flatness",
                     "steps", "rejected_steps", "newton_iterations",
                     "linear_iterations")
 # Files written before the root attribute ``units`` existed: the report
-# scenes (and flat) are in mm, g, s (MODEL.md section 7), hang in SI.
+# scenes (and flat) are in mm, g, s (docs/model.md section 7), hang in SI.
 MM_SCENES = ("lift_release", "bend_release", "wave_point", "flat")
 # Length unit of each unit system the program writes (root attribute units).
 UNIT_SYSTEM_LENGTH = {"mm g s": "mm", "si": "m"}
@@ -67,6 +77,76 @@ def _int(value) -> int:
     return int(np.asarray(value).ravel()[0])
 
 
+class Steps(NDArrayOperatorsMixin):
+    """The first ``nt`` steps of a time-dependent dataset, read on demand.
+
+    Indexing reads only what is asked for: ``steps[k]`` one step, ``steps[a:b]``
+    a range, ``steps[k, j, i]`` one node. ``len``, ``shape``, ``ndim`` and
+    ``dtype`` cost nothing; ``np.asarray(steps)``, iteration over whole-array
+    arithmetic and numpy functions read every step (float64).
+    """
+
+    def __init__(self, dataset, nt: int):
+        self._ds = dataset
+        self._nt = int(nt)
+        self.shape = (self._nt,) + tuple(dataset.shape[1:])
+        self.ndim = len(self.shape)
+        self.dtype = np.dtype(np.float64)
+        self.reads = 0  # number of h5py reads so far (tests count them)
+
+    def __len__(self) -> int:
+        return self._nt
+
+    def _read(self, key):
+        self.reads += 1
+        return np.asarray(self._ds[key], dtype=np.float64)
+
+    def __getitem__(self, key):
+        head, rest = (key[0], key[1:]) if isinstance(key, tuple) else (key, ())
+        if head is Ellipsis:
+            if not rest:
+                return self._read(slice(0, self._nt))
+            head, rest = slice(None), (Ellipsis,) + rest
+        if isinstance(head, (int, np.integer)):
+            k = int(head)
+            if not -self._nt <= k < self._nt:
+                raise IndexError(f"step {k} out of range for {self._nt} steps")
+            return self._read((k % self._nt,) + rest)
+        if isinstance(head, slice):
+            start, stop, step = head.indices(self._nt)
+            if step == 1:
+                return self._read((slice(start, max(start, stop)),) + rest)
+            head = np.arange(start, stop, step)
+        idx = np.asarray(head)
+        if idx.dtype == bool:
+            idx = np.nonzero(idx)[0]
+        idx = idx.astype(np.int64).ravel()
+        if idx.size and (idx.min() < -self._nt or idx.max() >= self._nt):
+            raise IndexError(f"step index out of range for {self._nt} steps")
+        idx %= max(self._nt, 1)
+        # h5py wants increasing unique indices: read those, then reorder.
+        uniq, inverse = np.unique(idx, return_inverse=True)
+        block = (np.stack([self._read((int(k),) + rest) for k in uniq])
+                 if uniq.size else self._read((slice(0, 0),) + rest))
+        out = block[inverse]
+        return out.reshape(np.asarray(head).shape + out.shape[1:]) if np.ndim(head) > 1 else out
+
+    def __iter__(self):
+        for k in range(self._nt):
+            yield self[k]
+
+    def __array__(self, dtype=None, copy=None):
+        a = self._read(slice(0, self._nt))
+        return a if dtype is None else a.astype(dtype, copy=False)
+
+    def __array_ufunc__(self, ufunc, method, *inputs, **kwargs):
+        inputs = tuple(np.asarray(x) if isinstance(x, Steps) else x for x in inputs)
+        return getattr(ufunc, method)(*inputs, **kwargs)
+
+    def __repr__(self) -> str:
+        return f"Steps(shape={self.shape}, dataset={self._ds.name!r})"
+
+
 @dataclass
 class Run:
     """One nuno run, truncated to its completely written output steps."""
@@ -81,8 +161,8 @@ class Run:
     status: str
     complete: bool
     time: np.ndarray                 # [nt]
-    position: np.ndarray             # [nt][ny][nx][3]
-    velocity: np.ndarray | None      # [nt][ny][nx][3] or None
+    position: Steps                  # [nt][ny][nx][3], read on demand
+    velocity: Steps | None           # [nt][ny][nx][3] or None
     rest_position: np.ndarray        # [ny][nx][3]
     mass: np.ndarray | None          # [ny][nx]
     energy: dict = field(default_factory=dict)       # name -> [nt]
@@ -92,6 +172,19 @@ class Run:
     run_info: dict = field(default_factory=dict)   # attributes of /run (provenance)
     wall_time: np.ndarray | None = None            # [nt] wall seconds at each output step
     config: dict = field(default_factory=dict)     # /config: {group: {key: value}}, the resolved keys
+    file: h5py.File | None = field(default=None, repr=False)  # kept open for Steps
+
+    def close(self) -> None:
+        """Close the HDF5 file (position and velocity can no longer be read)."""
+        if self.file is not None:
+            self.file.close()
+            self.file = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
 
     @property
     def nt(self) -> int:
@@ -173,7 +266,7 @@ def read_run(path, load_velocity: bool = True) -> Run:
         f = h5py.File(path, "r")
     except OSError as exc:
         raise ValueError(f"{path}: not an HDF5 file ({exc})") from None
-    with f:
+    try:
         missing = [a for a in _REQUIRED_ATTRS if a not in f.attrs]
         missing += [d for d in _REQUIRED_DATASETS if d not in f]
         if missing:
@@ -199,11 +292,14 @@ def read_run(path, load_velocity: bool = True) -> Run:
             nt = shortest
         nt = max(nt, 0)
 
-        data = {key: np.asarray(ds[:nt]) for key, ds in timed.items()}
-        pos = data["position"].astype(np.float64, copy=False)
+        # One number (or vector) per step: small, read now. Fields: lazily.
+        data = {key: np.asarray(ds[:nt]) for key, ds in timed.items()
+                if key not in ("position", "velocity")}
+        pos = Steps(f["position"], nt)
         if pos.shape[1:] != (ny, nx, 3):
             raise ValueError(f"{path}: /position has shape {pos.shape}, "
                              f"expected [nt][{ny}][{nx}][3]")
+        vel = Steps(timed["velocity"], nt) if "velocity" in timed else None
         rest = np.asarray(f["lattice/rest_position"][()], dtype=np.float64)
         if rest.shape != (ny, nx, 3):
             raise ValueError(f"{path}: /lattice/rest_position has shape "
@@ -226,7 +322,7 @@ def read_run(path, load_velocity: bool = True) -> Run:
             complete=status.strip().lower() == "complete",
             time=data["time"].astype(np.float64, copy=False),
             position=pos,
-            velocity=data.get("velocity"),
+            velocity=vel,
             rest_position=rest,
             mass=mass,
             energy={n: data[f"energy/{n}"] for n in ENERGY_NAMES
@@ -238,4 +334,8 @@ def read_run(path, load_velocity: bool = True) -> Run:
             run_info=run_info,
             wall_time=wall_time,
             config=config,
+            file=f,
         )
+    except BaseException:
+        f.close()
+        raise

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from postprocess import cli, plotting
+from postprocess import cli, namelist, plotting
 from postprocess.snapshots import choose_steps
 
 REPO = Path(__file__).resolve().parents[1]
@@ -70,51 +70,17 @@ class RunError(RuntimeError):
 # ------------------------------------------------------------------ namelists
 
 
-def _groups(text: str):
-    """(start, end) character spans of the namelist groups `&name ... /`."""
-    spans = []
-    for m in re.finditer(r"^[ \t]*&\w+", text, re.MULTILINE):
-        end = m.end()
-        # The group ends at a '/' outside quotes and comments.
-        quote, comment = None, False
-        while end < len(text):
-            c = text[end]
-            if comment:
-                comment = c != "\n"
-            elif quote:
-                quote = None if c == quote else quote
-            elif c in "'\"":
-                quote = c
-            elif c == "!":
-                comment = True
-            elif c == "/":
-                break
-            end += 1
-        spans.append((m.start(), end))
-    return spans
-
-
-_VALUE_END = r"(?=\s*,\s*[A-Za-z_]\w*(?:\(\d+\))?\s*=|\s*!|\s*/|\s*$)"
-
-
 def set_key(text: str, key: str, value: str) -> str:
-    """The namelist text with key's value replaced (key must be in the file)."""
-    pat = re.compile(rf"(\b{re.escape(key)}\s*=\s*)(.*?){_VALUE_END}",
-                     re.IGNORECASE | re.MULTILINE)
-    for start, end in _groups(text):
-        for m in pat.finditer(text, start, end):
-            line_start = text.rfind("\n", 0, m.start()) + 1
-            if "!" not in text[line_start:m.start()]:  # not inside a comment
-                return text[:m.start(2)] + value + text[m.end(2):]
-    raise ValueError(f"--set {key}: no such key in the namelist "
-                     "(only keys written in the input file can be set)")
+    """The namelist text with key's value replaced (key must be in the file; f90nml)."""
+    try:
+        return namelist.set_key(text, key, value)
+    except ValueError as exc:
+        raise ValueError(f"--set {exc} (only keys written in the input file can be set)") from None
 
 
 def drop_key(text: str, key: str) -> str:
-    """The namelist text without the line that sets key alone (if any)."""
-    pat = re.compile(rf"^[ \t]*{re.escape(key)}\s*=[^,\n]*?(?:!.*)?\n",
-                     re.IGNORECASE | re.MULTILINE)
-    return pat.sub("", text, count=1)
+    """The namelist text without key (if it is there; f90nml)."""
+    return namelist.drop_key(text, key)
 
 
 def parse_sets(items) -> dict:
@@ -133,13 +99,16 @@ def case_namelist(case: Case, overrides: dict, quick: bool) -> str:
     text = (REPO / "input" / f"{case.name}.nml").read_text()
     keys = dict(QUICK, t_end=QUICK_T_END[case.scene]) if quick else {}
     keys.update(overrides)
+    drop = ()
     if any(k.lower() in _AX_KEYS for k in keys) and "k_b" not in keys:
         # The energy files set k_b = 1 * ax for 11 x 11; let the program's
         # default conversion (input/README.md) rescale it for the new ax.
-        text = drop_key(text, "k_b")
-    for key, value in keys.items():
-        text = set_key(text, key, value)
-    return set_key(text, "output_file", f"'{case.name}.h5'")
+        drop = ("k_b",)
+    keys["output_file"] = f"'{case.name}.h5'"
+    try:
+        return namelist.edit(text, keys, drop)
+    except ValueError as exc:
+        raise ValueError(f"--set {exc} (only keys written in the input file can be set)") from None
 
 
 # ------------------------------------------------------------------ runs

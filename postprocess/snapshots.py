@@ -21,17 +21,18 @@ def choose_steps(run, times=None, count: int = 4) -> list[int]:
 def build_figure(run, steps, layout: str = "panels", view: str = "iso"):
     """The figure: one 3-D panel per step, or all steps in one coloured by time."""
     units = run.units()
-    lo, hi = plotting.bounds(*(run.position[k] for k in steps))
+    shown = {k: run.position[k] for k in steps}  # only the steps shown are read
+    lo, hi = plotting.bounds(*shown.values())
     if layout == "panels":
         fig, axes = plotting.new_figure(len(steps), projection="3d")
         for ax, k in zip(axes, steps):
-            plotting.draw_lattice(ax, run.position[k])
+            plotting.draw_lattice(ax, shown[k])
             plotting.setup_3d(ax, lo, hi, units, view, title=f"t = {run.time[k]:g} s")
         return fig
     fig, (ax,) = plotting.new_figure(1, ncols=1, projection="3d", panel_size=(6.5, 5.0))
     color, mappable = plotting.time_colormap(run.time[steps[0]], run.time[steps[-1]])
     for k in steps:
-        plotting.draw_lattice(ax, run.position[k], color=color(run.time[k]))
+        plotting.draw_lattice(ax, shown[k], color=color(run.time[k]))
     plotting.setup_3d(ax, lo, hi, units, view)
     fig.colorbar(mappable, ax=ax, label="t [s]", shrink=0.7)
     return fig

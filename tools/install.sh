@@ -22,7 +22,7 @@ if [ ${#missing[@]} -gt 0 ]; then
   fi
 fi
 
-if ! python3 -c "import numpy, h5py, matplotlib, PIL, pytest, setuptools, wheel" >/dev/null 2>&1; then
+if ! python3 -c "import numpy, h5py, matplotlib, PIL, pytest, setuptools, wheel, f90nml" >/dev/null 2>&1; then
   if ! python3 -m pip install --quiet --disable-pip-version-check --root-user-action=ignore \
        -r "$here/requirements.txt" >"$log" 2>&1; then
     # Debian's own python3 refuses system-wide pip installs (PEP 668).

@@ -1,6 +1,6 @@
 """Fixtures for the post-processing tests: synthetic nuno files and a real run.
 
-make_run writes a file with exactly the layout of MODEL.md section 9 and known
+make_run writes a file with exactly the layout of docs/model.md section 9 and known
 analytic content: a flat rectangular sheet that translates with velocity V and
 turns about the z axis through its centroid with rate omega (a rigid motion),
 so momentum = M V, the centre-line length stays lx, the sheet stays flat and

@@ -162,6 +162,75 @@ def test_position_at_interpolates_and_checks_range(tmp_path, make_run):
         run.step_index(1.6)
 
 
+def test_reader_is_lazy_one_step_reads_one_step(tmp_path, make_run, monkeypatch):
+    """Indexing one step asks h5py for that step only (counted under the reader)."""
+    ref = make_run(tmp_path / "a.h5", nx=6, ny=5, nt=9)
+    requested = []
+    original = h5py.Dataset.__getitem__
+
+    def counting(self, key, *args, **kw):
+        out = original(self, key, *args, **kw)
+        if self.name in ("/position", "/velocity"):
+            requested.append((self.name, np.asarray(out).size))
+        return out
+
+    monkeypatch.setattr(h5py.Dataset, "__getitem__", counting)
+    with read_run(tmp_path / "a.h5") as run:
+        assert requested == []                   # opening reads no field
+        assert run.position.shape == (9, 5, 6, 3) and len(run.position) == 9
+        assert requested == []
+        np.testing.assert_array_equal(run.position[4], ref["position"][4])
+        assert requested == [("/position", 5 * 6 * 3)]
+        np.testing.assert_array_equal(run.position[2:7:2], ref["position"][2:7:2])
+        np.testing.assert_array_equal(run.position[[5, 1, 5]], ref["position"][[5, 1, 5]])
+        np.testing.assert_array_equal(run.position[-1, 2, 3], ref["position"][-1, 2, 3])
+        np.testing.assert_array_equal(run.velocity[1:3, 0], ref["velocity"][1:3, 0])
+        assert max(n for _, n in requested) <= 3 * 5 * 6 * 3
+        with pytest.raises(IndexError):
+            run.position[9]
+        # whole-array use still works for small files
+        np.testing.assert_array_equal(np.asarray(run.position), ref["position"])
+        np.testing.assert_allclose(run.position - ref["position"], 0.0)
+
+
+LAZY_RSS_SCRIPT = """
+import resource, sys
+import numpy as np
+from postprocess.reader import read_run
+before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+run = read_run(sys.argv[1])
+one = run.position[run.nt // 2]
+after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+print("growth_kib", after - before, "sum", float(one.sum()))
+"""
+
+
+def test_reader_one_step_of_a_large_file_in_bounded_memory(tmp_path):
+    """Peak RSS grows by about one step, far below the file's size."""
+    n, nt = 257, 48
+    path = tmp_path / "big.h5"
+    xs = np.linspace(0.0, 1.0, n)
+    rest = np.zeros((n, n, 3))
+    rest[..., 0], rest[..., 1] = np.meshgrid(xs, xs)
+    with h5py.File(path, "w") as f:
+        f.attrs.update(nx=np.int32(n), ny=np.int32(n), n_output_steps=np.int32(nt),
+                       status="complete", namelist="&scene scene='hang' /")
+        f["lattice/rest_position"] = rest
+        f["time"] = 0.01 * np.arange(nt)
+        ds = f.create_dataset("position", (nt, n, n, 3), "f8", chunks=(1, n, n, 3))
+        for k in range(nt):
+            ds[k] = rest + 0.001 * k
+    size_mib = nt * n * n * 3 * 8 / 2**20          # 72 MiB of positions
+    env = dict(os.environ, PYTHONPATH=str(REPO))
+    proc = subprocess.run([sys.executable, "-c", LAZY_RSS_SCRIPT, str(path)], env=env,
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    words = proc.stdout.split()
+    growth_mib = float(words[1]) / 1024
+    assert float(words[3]) == pytest.approx((rest + 0.001 * (nt // 2)).sum(), rel=1e-12)
+    assert growth_mib < 0.25 * size_mib, (growth_mib, size_mib)
+
+
 # ---------------------------------------------------------------- snapshots
 
 
@@ -286,15 +355,49 @@ def test_compare_rotating_runs_differ(tmp_path, make_run, capsys):
     assert values(capsys, "max_difference")[0] > 0.1
 
 
-def test_compare_rejects_different_lattices(tmp_path, make_run, capsys):
+def test_compare_rejects_different_rest_sheets(tmp_path, make_run, capsys):
     make_run(tmp_path / "a.h5", nx=5)
-    make_run(tmp_path / "b.h5", nx=6)
     make_run(tmp_path / "c.h5", nx=5, lx=90.0)
-    for other in ("b.h5", "c.h5"):
+    make_run(tmp_path / "d.h5", nx=9, lx=90.0)
+    for other in ("c.h5", "d.h5"):
         assert compare.main([str(tmp_path / "a.h5"), str(tmp_path / other), "-o",
                              str(tmp_path / "x.png")]) == 1
         err = capsys.readouterr().err
         assert err.startswith("error: lattices differ") and err.count("\n") == 1
+
+
+@pytest.mark.parametrize("fine", [(9, 7, "nested"), (17, 13, "nested"), (6, 5, "interpolated"),
+                                  (12, 9, "interpolated")])
+def test_compare_different_lattices(tmp_path, make_run, capsys, fine):
+    """A rigid motion is linear in the rest position: nested sampling and bilinear
+    interpolation are both exact, so the difference is the known velocity gap."""
+    nx, ny, how = fine
+    a, b, c = tmp_path / "a.h5", tmp_path / "b.h5", tmp_path / "c.h5"
+    make_run(a, nx=5, ny=4, nt=6, omega=0.6)
+    make_run(b, nx=nx, ny=ny, nt=6, omega=0.6)
+    make_run(c, nx=nx, ny=ny, nt=6, omega=0.6, velocity=(2.0, -1.0, 0.9))
+    ra, rb = read_run(a), read_run(b)
+    assert compare.sampler(ra, rb)[1] == how
+    coarse = compare.sampler(ra, rb)[0](rb.position[3])
+    np.testing.assert_allclose(coarse, ra.position[3], atol=1e-11)
+    # the finer run first: the comparison still happens on the coarse nodes
+    assert compare.main([str(b), str(a), "-o", str(tmp_path / "ab.png"), "--tol", "1e-9"]) == 0
+    assert values(capsys, "max_difference")[0] < 1e-10
+    assert compare.main([str(a), str(c), "-o", str(tmp_path / "ac.png")]) == 0
+    assert values(capsys, "max_difference")[0] == pytest.approx(0.4 * 0.5, rel=1e-9)
+    assert_png(tmp_path / "ac.png")
+
+
+def test_compare_tol_exceeded_exits_1(tmp_path, make_run, capsys):
+    make_run(tmp_path / "a.h5", omega=0.7)
+    make_run(tmp_path / "b.h5", nx=9, ny=7, omega=0.8)
+    out = tmp_path / "c.png"
+    assert compare.main([str(tmp_path / "a.h5"), str(tmp_path / "b.h5"), "-o", str(out),
+                         "--tol", "1e-3"]) == 1
+    captured = capsys.readouterr()
+    assert captured.err.startswith("error: max_difference") and "exceeds --tol" in captured.err
+    assert captured.err.count("\n") == 1
+    assert_png(out)  # the figure is still written
 
 
 # ---------------------------------------------------------------- log-log plots
@@ -341,6 +444,90 @@ def test_convergence_fit_range_and_one_panel(tmp_path, capsys):
     fig, slopes = loglog.build_figure(series, "parameter", "error", (None, 0.1))
     assert slopes[""] == pytest.approx(2.0, abs=1e-9)
     assert len(plotting.panels(fig)) == 1
+
+
+def write_study_run(path, n, dt=0.01, err=0.0, scene="hang"):
+    """A [0, 1]^2 sheet of n x n nodes, two steps; at t = 1 the height is an exact
+    quadratic of the rest position plus err * g(x, y)."""
+    xs = np.linspace(0.0, 1.0, n)
+    rest = np.zeros((n, n, 3))
+    rest[..., 0], rest[..., 1] = np.meshgrid(xs, xs)
+    x, y = rest[..., 0], rest[..., 1]
+    end = rest.copy()
+    end[..., 2] = (0.3 * x**2 + 0.2 * x * y - 0.1 * y**2
+                   + err * np.sin(3 * x) * np.cos(2 * y))
+    with h5py.File(path, "w") as f:
+        f.attrs.update(nx=np.int32(n), ny=np.int32(n), n_output_steps=np.int32(2),
+                       status="complete",
+                       namelist=f"&scene scene='{scene}' /\n&time t_end=1.0 dt={dt!r} /\n")
+        f["lattice/rest_position"] = rest
+        f["time"] = np.array([0.0, 1.0])
+        f["position"] = np.stack([rest, end])
+    return path
+
+
+def g_max_on(n):
+    xs = np.linspace(0.0, 1.0, n)
+    return np.abs(np.sin(3 * xs)[None, :] * np.cos(2 * xs)[:, None]).max()
+
+
+@pytest.mark.parametrize("reference", ["richardson", "finest"])
+def test_convergence_of_lattices_exact(tmp_path, capsys, reference):
+    """Error term C h^2 g: Richardson removes it exactly (order 2); against the
+    finest run the errors are C g (h^2 - h_f^2) at the coarsest nodes."""
+    C = 5.0
+    paths = [write_study_run(tmp_path / f"r{n}.h5", n, err=C * (1.0 / (n - 1))**2)
+             for n in (41, 11, 21)]                     # any order on the command line
+    out = tmp_path / "conv.png"
+    assert convergence.main([*map(str, paths), "--reference", reference, "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    order = [float(w.split()[1]) for w in text.splitlines() if w.startswith("order ")]
+    errs = [tuple(map(float, w.split()[1:])) for w in text.splitlines()
+            if w.startswith("error ")]
+    h = np.array([0.1, 0.05, 0.025])
+    if reference == "richardson":
+        assert order[0] == pytest.approx(2.0, abs=1e-6)
+        np.testing.assert_allclose([e for _, e in errs], C * g_max_on(11) * h**2, rtol=1e-6)
+    else:
+        np.testing.assert_allclose([e for _, e in errs],
+                                   C * g_max_on(11) * (h[:2]**2 - h[2]**2), rtol=1e-9)
+        np.testing.assert_allclose([hh for hh, _ in errs], h[:2], rtol=1e-12)
+        expected = np.polyfit(np.log(h[:2]), np.log(h[:2]**2 - h[2]**2), 1)[0]
+        assert order[0] == pytest.approx(expected, abs=1e-9)
+    assert_png(out)
+    fig = convergence.build_figure(convergence.study(
+        [read_run(p) for p in paths], reference=reference))
+    ax = plotting.panels(fig)[0]
+    assert ax.get_xlabel() == "lattice spacing h [m]"
+    assert ax.get_ylabel().endswith("[m]") and ax.get_xscale() == "log"
+
+
+def test_convergence_of_time_steps_exact(tmp_path, capsys):
+    dts = (0.1, 0.05, 0.025)
+    paths = [write_study_run(tmp_path / f"dt{k}.h5", 11, dt=dt, err=0.7 * dt, scene="wave_point")
+             for k, dt in enumerate(dts)]
+    assert convergence.main([*map(str, paths), "--reference", "richardson",
+                             "-o", str(tmp_path / "dt.png")]) == 0
+    (order,) = values(capsys, "order")
+    assert order == pytest.approx(1.0, abs=1e-6)
+    fig = convergence.build_figure(convergence.study([read_run(p) for p in paths]))
+    assert plotting.panels(fig)[0].get_xlabel() == "time step dt [s]"
+    assert plotting.panels(fig)[0].get_ylabel().endswith("[mm]")
+
+
+def test_convergence_bad_studies(tmp_path):
+    a = write_study_run(tmp_path / "a.h5", 11, dt=0.1)
+    b = write_study_run(tmp_path / "b.h5", 21, dt=0.05)
+    c = write_study_run(tmp_path / "c.h5", 11, dt=0.1)
+    for args, message in (((a, b), "both the lattice and dt vary"),
+                          ((a, c), "distinct dt"),
+                          ((a, write_study_run(tmp_path / "d.h5", 21, dt=0.1)),
+                           "at least 3 runs")):
+        extra = ("--reference", "richardson") if message == "at least 3 runs" else ()
+        proc = cli("postprocess.convergence", *map(str, args), *extra,
+                   "-o", str(tmp_path / "x.png"))
+        assert proc.returncode == 1 and proc.stderr.startswith("error: ")
+        assert message in proc.stderr and proc.stderr.count("\n") == 1, proc.stderr
 
 
 # ---------------------------------------------------------------- command line
@@ -398,3 +585,52 @@ def test_solver_run_metadata(solver_run):
     assert os.path.isfile(os.path.splitext(solver_run)[0] + ".xmf")
     # lift_release: edge i = 0 is pinned for the whole run
     assert np.max(np.abs(run.position[:, :, 0] - run.rest_position[:, 0])) < 1e-12
+
+
+def test_convergence_of_real_hang_lattices(tmp_path, capsys):
+    """hang with continuum scaling on 11, 21, 41 lattices (nested): the errors
+    against the finest run fall with h at a plausible order."""
+    import nunorun
+    paths = []
+    for n in (11, 21, 41):
+        _, h5 = nunorun.run(tmp_path, f"hang{n}", nranks=1, timeout=120,
+                            scene="scene='hang'",
+                            lattice=f"nx={n} ny={n} lattice_scaling='continuum' "
+                                    "mass_distribution='area'",
+                            time="t_end=0.02 dt=1.0e-3", output="output_interval=0.01")
+        paths.append(str(h5))
+    assert compare.main([paths[0], paths[2], "-o", str(tmp_path / "c.png")]) == 0
+    (gap,) = values(capsys, "max_difference")
+    assert 0 < gap < 0.01  # metres: the lattices agree to well under a centimetre
+    out = tmp_path / "conv.png"
+    assert convergence.main([*paths, "--time", "0.02", "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    errors = [float(w.split()[2]) for w in text.splitlines() if w.startswith("error ")]
+    (order,) = [float(w.split()[1]) for w in text.splitlines() if w.startswith("order ")]
+    assert len(errors) == 2 and errors[1] < errors[0]
+    assert 0.5 < order < 3.0, order
+    assert_png(out)
+
+
+def test_namelist_edit_and_write_parse_back():
+    from postprocess import namelist
+    import f90nml
+    text = ("! header\n&lattice nx = 11, ny = 11 ! nodes = 3\n lx = 1.0 /\n"
+            "&scene scene = 'hang', gravity = 0.0, 0.0, -9.81 /\n&time dt = 1.0e-3 /\n")
+    out = namelist.edit(text, {"ny": "21", "gravity(3)": "-1.5", "scene%scene": "'flat'"},
+                        drop=("lx", "absent"))
+    nml = f90nml.reads(out)
+    assert dict(nml["lattice"]) == {"nx": 11, "ny": 21}
+    assert nml["scene"]["gravity"] == [0.0, 0.0, -1.5] and nml["scene"]["scene"] == "flat"
+    assert nml["time"]["dt"] == 1.0e-3
+    for key, message in (("nodes", "no such key"), ("time%nx", "no such key"),
+                         ("gravity(4)", "index outside")):
+        with pytest.raises(ValueError, match=message):
+            namelist.edit(text, {key: "1"})
+    with pytest.raises(ValueError, match="not a Fortran namelist value"):
+        namelist.edit(text, {"nx": "'unterminated"})
+    written = namelist.write({"lattice": {"nx": 5, "lx": 0.1}, "output": {"output_file": "a.h5",
+                                                                         "write_velocity": True}})
+    back = f90nml.reads(written)
+    assert back["lattice"]["nx"] == 5 and back["lattice"]["lx"] == 0.1
+    assert back["output"]["output_file"] == "a.h5" and back["output"]["write_velocity"] is True
