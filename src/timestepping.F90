@@ -18,7 +18,7 @@ module timestepping
   use petscts
   use petscdmda
   use mpi
-  use, intrinsic :: iso_c_binding, only: c_int, c_double, c_char, c_null_char
+  use, intrinsic :: iso_c_binding, only: c_int, c_double, c_char, c_null_char, c_intptr_t
   use, intrinsic :: iso_fortran_env, only: output_unit, error_unit
   use kinds, only: rp
   use config, only: nuno_config, SPRING_LINEAR, BEND_NONE, BEND_ENERGY, SCENE_HANG
@@ -48,6 +48,14 @@ module timestepping
   real(rp), parameter :: GAUSS_W(3) = [5.0_rp / 18.0_rp, 8.0_rp / 18.0_rp, 5.0_rp / 18.0_rp]
 
   interface
+    !> src/nuno_signals.c: SIGTERM/SIGINT end the run after the current step.
+    integer(c_int) function nuno_signals_install(ts) bind(C, name='nuno_signals_install')
+      import :: c_int, c_intptr_t
+      integer(c_intptr_t) :: ts             !< the TS handle (tTS%v), passed as TS*
+    end function nuno_signals_install
+    integer(c_int) function nuno_signal_agreed() bind(C, name='nuno_signal_agreed')
+      import :: c_int
+    end function nuno_signal_agreed
     !> src/nuno_options.c: nuno's options in a PETSc options block.
     integer(c_int) function nuno_options_read(fcomm, jacobian, pc_lag, snes_floor, gauss_newton, clamp, &
                                               mattype, mattype_len, fail_newton) bind(C, name='nuno_options_read')
@@ -255,6 +263,8 @@ contains
     ! A failed step is reported by solver_run (time, reason), not raised as an error.
     PetscCall(TSSetErrorIfStepFails(ctx%ts, PETSC_FALSE, ierr))
     PetscCall(TSMonitorSet(ctx%ts, ts_monitor, ctx, PETSC_NULL_FUNCTION, ierr))
+    ierr = nuno_signals_install(ctx%ts%v)
+    if (ierr /= 0) return
     ! Converge on the residual only: PETSc's default step-size test
     ! (stol = 1e-8) declares CONVERGED_SNORM_RELATIVE when a poor
     ! preconditioner stalls the line search, i.e. accepts an unsolved step.
@@ -803,6 +813,18 @@ contains
       PetscCall(TSGetConvergedReason(ctx%ts, reason, ierr))
       PetscCall(TSGetTime(ctx%ts, t, ierr))
       PetscCall(VecNorm(ctx%u, NORM_INFINITY, unorm, ierr))
+      if (reason >= 0 .and. nuno_signal_agreed() /= 0) then
+        ! SIGTERM/SIGINT: every rank finished the same step; keep its state.
+        if (t > ctx%t_written) then
+          call write_output(ctx, out, t, ierr)
+          if (ierr /= 0) return
+        end if
+        write(msg, '(a,es12.5,a)') trim(signal_name(nuno_signal_agreed()))//' at t = ', t, &
+          ': the run stopped after that step, with its state written'
+        status = 'interrupted: '//trim(msg)
+        if (ctx%rank == 0) write(error_unit, '(a)') 'nuno: interrupted: '//trim(msg)
+        exit
+      end if
       if (reason < 0 .or. unorm /= unorm .or. unorm > huge(1.0_rp)) then
         call failure_reason(ctx, reason, t, msg)
         status = 'failed: '//trim(msg)
@@ -883,7 +905,7 @@ contains
     PetscCall(TSGetTime(ctx%ts, t, ierr))
     if (ctx%rank == 0) then
       write(output_unit, '(a,es13.5e2,a,i0,a,i0,a,i0,a,es11.3e2,a)') 'nuno: '// &
-        trim(merge('complete', 'failed  ', status == 'complete'))//' at t =', t, ': ', steps, ' steps, ', rejects, ' rejected (', fails, &
+        trim(merge('complete   ', status(1:11), status == 'complete'))//' at t =', t, ': ', steps, ' steps, ', rejects, ' rejected (', fails, &
         ' retried after a failed Newton solve), wall time', wall, ' s'
       flush(output_unit)
     end if
@@ -1037,6 +1059,20 @@ contains
       given = set .and. ierr == 0
     end function given
   end function failure_hints
+
+  !> SIGTERM, SIGINT or the signal's number.
+  function signal_name(sig) result(name)
+    integer(c_int), intent(in) :: sig
+    character(len=16) :: name
+    select case (sig)
+    case (15)
+      name = 'SIGTERM'
+    case (2)
+      name = 'SIGINT'
+    case default
+      write(name, '(a,i0)') 'signal ', sig
+    end select
+  end function signal_name
 
   !> One line saying why the run stopped.
   subroutine failure_reason(ctx, reason, t, msg)

@@ -1,0 +1,62 @@
+/* SIGTERM and SIGINT (what batch schedulers send before SIGKILL, and
+ * Ctrl-C) end a run cleanly: the handler only records the signal; after
+ * every time step a TS post-step agrees on it over the ranks (one integer
+ * allreduce) and stops TSSolve with TS_CONVERGED_USER, so that every rank
+ * finishes the same step, writes the last state and marks the file
+ * 'interrupted: ...' (module timestepping). A second signal while the
+ * first is being handled ends the process at once (default action).
+ * C because the Fortran interface has no sigaction, and TSSetPostStep's
+ * Fortran stub takes no context. */
+#include <petscts.h>
+#include <signal.h>
+#include <string.h>
+
+static volatile sig_atomic_t caught = 0; /* the signal received, 0 if none */
+static int agreed = 0;                   /* the signal every rank has agreed on */
+
+static void on_signal(int sig)
+{
+  if (caught) {
+    signal(sig, SIG_DFL);
+    raise(sig);
+    return;
+  }
+  caught = sig;
+}
+
+static PetscErrorCode poststep(TS ts)
+{
+  int      mine = (int)caught, all = 0;
+  MPI_Comm comm;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscObjectGetComm((PetscObject)ts, &comm));
+  PetscCallMPI(MPI_Allreduce(&mine, &all, 1, MPI_INT, MPI_MAX, comm));
+  if (all) {
+    agreed = all;
+    PetscCall(TSSetConvergedReason(ts, TS_CONVERGED_USER));
+  }
+  PetscFunctionReturn(0);
+}
+
+/* Install the handlers and the post-step on ts. Returns a PETSc error code. */
+PetscErrorCode nuno_signals_install(TS *ts)
+{
+  struct sigaction sa;
+
+  PetscFunctionBeginUser;
+  memset(&sa, 0, sizeof(sa));
+  sa.sa_handler = on_signal;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = SA_RESTART;
+  sigaction(SIGTERM, &sa, NULL);
+  sigaction(SIGINT, &sa, NULL);
+  PetscCall(TSSetPostStep(*ts, poststep));
+  PetscFunctionReturn(0);
+}
+
+/* The signal all ranks agreed on after the last step (0: none). */
+int nuno_signal_agreed(void)
+{
+  return agreed;
+}

@@ -1,0 +1,70 @@
+"""SIGTERM and SIGINT, what batch schedulers send before SIGKILL (issue 8
+item 3): every rank finishes the step it is in, the last state is written,
+the file says 'interrupted: ...' (that word first), and the run exits
+non-zero within seconds. Sent to mpiexec (which forwards it to the ranks)
+and to the ranks themselves (as Slurm's scancel does)."""
+import os
+import signal
+import subprocess
+import time
+
+import numpy as np
+import pytest
+
+from nunorun import exe, mpiexec, namelist, read_run
+
+
+def start(tmp_path, name):
+    h5 = tmp_path / f"{name}.h5"
+    nml = tmp_path / f"{name}.nml"
+    # Long enough that it is still running when the signal comes.
+    nml.write_text(namelist(h5.name, scene="scene='hang'", lattice="nx=33 ny=33",
+                            time="t_end=50 dt=1e-3", output="output_interval=0.005"))
+    proc = subprocess.Popen([mpiexec(), "-n", "2", "--oversubscribe", exe(), str(nml)], cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # Wait for two progress lines after t = 0: the time loop is running.
+    seen = 0
+    deadline = time.time() + 120
+    while seen < 3 and time.time() < deadline:
+        line = proc.stdout.readline()
+        if not line:
+            break
+        seen += line.startswith("t =")
+    assert seen == 3, "the run did not get going"
+    return proc, h5
+
+
+def finish(proc, h5, signame, t_sent):
+    out, err = proc.communicate(timeout=60)
+    assert time.time() - t_sent < 20, "took too long to stop"
+    assert proc.returncode != 0
+    assert f"interrupted: {signame} at t =" in err, err
+    r = read_run(str(h5))
+    assert r.status.startswith("interrupted: " + signame), r.status
+    assert not r.complete
+    assert r.time[-1] > 0.005 and len(r.time) >= 2
+    assert np.all(np.isfinite(np.asarray(r.position[-1])))
+    # The last state is the one after the step the run stopped at, not an
+    # output-grid time only.
+    assert r.time[-1] < 50
+
+
+def test_sigterm_to_mpiexec_gives_an_interrupted_file(tmp_path):
+    proc, h5 = start(tmp_path, "term")
+    t0 = time.time()
+    proc.send_signal(signal.SIGTERM)
+    finish(proc, h5, "SIGTERM", t0)
+
+
+def test_sigint_to_the_ranks_gives_an_interrupted_file(tmp_path):
+    proc, h5 = start(tmp_path, "int")
+    kids = subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True).stdout.split()
+    ranks = [int(k) for k in kids
+             if "nuno" in open(f"/proc/{k}/cmdline", "rb").read().decode(errors="replace")]
+    if len(ranks) != 2:
+        proc.kill()
+        pytest.skip(f"could not find the 2 rank processes under mpiexec (found {kids})")
+    t0 = time.time()
+    for pid in ranks:
+        os.kill(pid, signal.SIGINT)
+    finish(proc, h5, "SIGINT", t0)
