@@ -14,7 +14,7 @@ module forces
   private
   public :: internal_forces, element_energies, dissipated_power
   public :: jac_buffer_t, jac_buffer_init, jac_buffer_row, slot_of
-  public :: first_anchor_row
+  public :: first_anchor_row, link_stretch_extremes
 
   !> Jacobian blocks of the v-rows of three consecutive node rows (a rolling
   !> buffer indexed by slot_of(j)): k(:,:,di,dj,i,s) = dF_v(i,j)/dx(i+di,j+dj)
@@ -305,5 +305,43 @@ contains
     end subroutine add_pair
 
   end subroutine jac_buffer_row
+
+  !> Largest and smallest stretch l/L of the links anchored in the owned
+  !> rows (a link that crosses into a ghost row is seen by both ranks: no
+  !> matter for extremes), with the anchor node and direction of each,
+  !> at(:) = (i, j, k). u(0:5, 0:nx-1, gys:gye), ghost rows filled.
+  pure subroutine link_stretch_extremes(lat, u, rmax, atmax, rmin, atmin)
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: u(0:5, 0:lat%nx - 1, lat%gys:lat%gye)
+    real(rp), intent(out) :: rmax, rmin
+    integer, intent(out) :: atmax(3), atmin(3)
+    real(rp) :: d0(3, 4), len0(4), r
+    integer :: i, j, k, iq, jq
+    logical :: inl
+    do k = 1, 4
+      call rest_link(lat, link_dir(:, k), d0(:, k), len0(k))
+    end do
+    rmax = -huge(1.0_rp)
+    rmin = huge(1.0_rp)
+    atmax = -1
+    atmin = -1
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
+        do k = 1, 4
+          call link_end(lat, i, j, k, iq, jq, inl)
+          if (.not. inl) cycle
+          r = norm2(u(0:2, iq, jq) - u(0:2, i, j)) / len0(k)
+          if (r > rmax) then
+            rmax = r
+            atmax = [i, j, k]
+          end if
+          if (r < rmin) then
+            rmin = r
+            atmin = [i, j, k]
+          end if
+        end do
+      end do
+    end do
+  end subroutine link_stretch_extremes
 
 end module forces

@@ -744,7 +744,7 @@ contains
       g = G_SCENE
     case ('t_end', 'dt')
       g = G_TIME
-    case ('output_interval', 'write_velocity', 'output_file', 'petsc_options')
+    case ('output_interval', 'write_velocity', 'output_file', 'petsc_options', 'stretch_limit')
       g = G_OUTPUT
     case default
       g = 0
@@ -852,7 +852,7 @@ contains
     character(label_len) :: wave_nodes
     real(rp) :: release_time, initial_omega(3)
     real(rp) :: t_end, dt
-    real(rp) :: output_interval
+    real(rp) :: output_interval, stretch_limit
     logical :: write_velocity
     character(path_len) :: output_file
     character(len(cfg%petsc_options)) :: petsc_options
@@ -861,7 +861,7 @@ contains
     namelist /scene/ scene_name, gravity, lift_length, lift_height, bend_angle, n_keyframes, &
                      keyframe_time, keyframe_dz, wave_nodes, release_time, initial_omega
     namelist /time/ t_end, dt
-    namelist /output/ output_interval, write_velocity, output_file, petsc_options
+    namelist /output/ output_interval, write_velocity, output_file, petsc_options, stretch_limit
 
     ios = 0
     select case (g)
@@ -902,10 +902,12 @@ contains
     case (G_OUTPUT)
       output_interval = cfg%output_interval; write_velocity = cfg%write_velocity
       output_file = cfg%output_file; petsc_options = cfg%petsc_options
+      stretch_limit = cfg%stretch_limit
       read(lines, nml=output, iostat=ios, iomsg=iomsg)
       if (ios == 0) then
       cfg%output_interval = output_interval; cfg%write_velocity = write_velocity
       cfg%output_file = output_file; cfg%petsc_options = petsc_options
+      cfg%stretch_limit = stretch_limit
       end if
     end select
     ! gfortran may report an end of file with iostat < 0: the group is known
@@ -1105,6 +1107,7 @@ contains
     call fin('time', 't_end', [cfg%t_end]);             if (ierr /= 0) return
     call fin('time', 'dt', [cfg%dt]);                   if (ierr /= 0) return
     call fin('output', 'output_interval', [cfg%output_interval])
+    call fin('output', 'stretch_limit', [cfg%stretch_limit])
   contains
     !> Arrays are named with the subscript of the first bad element.
     subroutine fin(group, key, values)
@@ -1316,6 +1319,11 @@ contains
     character(*), intent(out) :: msg
     call need_positive('output', 'output_interval', cfg%output_interval, ierr, msg)
     if (ierr /= 0) return
+    if (cfg%stretch_limit /= 0.0_rp .and. .not. cfg%stretch_limit > 1.0_rp) then
+      ierr = 1
+      msg = 'input: &output: stretch_limit = '//fmt_real(cfg%stretch_limit)//' must be > 1 (or 0: no warning)'
+      return
+    end if
     if (len_trim(cfg%output_file) == 0) then
       ierr = 1
       msg = "input: &output: output_file = '' must not be empty"
@@ -1392,7 +1400,7 @@ contains
       '  &lattice   nx, ny, lx, ly, total_mass, mass_distribution, lattice_scaling', &
       '  &material  spring_model, e_s, eta_s, e_d, eta_d, bending_model, k_b, eta_b', &
       '  &time      t_end, dt', &
-      '  &output    output_interval, write_velocity, output_file, petsc_options', &
+      '  &output    output_interval, write_velocity, output_file, petsc_options, stretch_limit', &
       'The scene sets the defaults of every other key. Every key, its unit and its', &
       'default: input/README.md; ready-made inputs: input/*.nml. Real keys must be', &
       'finite (no NaN, Inf); a lattice beyond the index range or the memory of the', &

@@ -22,8 +22,8 @@ module timestepping
   use, intrinsic :: iso_fortran_env, only: output_unit, error_unit
   use kinds, only: rp
   use config, only: nuno_config, SPRING_LINEAR, BEND_NONE, BEND_ENERGY, SCENE_HANG
-  use lattice, only: lattice_t, lattice_init, halo_width
-  use forces, only: internal_forces, dissipated_power, jac_buffer_t, jac_buffer_init, jac_buffer_row, &
+  use lattice, only: lattice_t, lattice_init, halo_width, link_dir
+  use forces, only: internal_forces, link_stretch_extremes, dissipated_power, jac_buffer_t, jac_buffer_init, jac_buffer_row, &
                     slot_of, first_anchor_row
   use constraints, only: constraint_set_t, constraints_set_window, constraint_target, constraint_events
   use scenes, only: scene_setup
@@ -125,6 +125,7 @@ module timestepping
     ! progress
     real(rp) :: wall0 = 0                       !< MPI_Wtime at the start of solver_run [s]
     real(rp) :: t_written = -1                  !< time of the last output step [time]
+    logical :: stretch_warned = .false.         !< the stretch_limit warning was given
   end type app_ctx
 
 contains
@@ -999,6 +1000,7 @@ contains
     call output_config_key(out, 'output', 'write_velocity', merge(1, 0, cfg%write_velocity), e, errmsg)
     call output_config_key(out, 'output', 'output_file', trim(cfg%output_file), e, errmsg)
     call output_config_key(out, 'output', 'petsc_options', trim(cfg%petsc_options), e, errmsg)
+    call output_config_key(out, 'output', 'stretch_limit', [cfg%stretch_limit], e, errmsg)
     ! One error flag for all ranks (each call above is local HDF5 metadata).
     call MPI_Allreduce(MPI_IN_PLACE, e, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
     ierr = e
@@ -1122,6 +1124,7 @@ contains
     PetscCall(DMGlobalToLocalEnd(ctx%da, ctx%u, INSERT_VALUES, uloc, ierr))
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
     call state_diagnostics(ctx%lat, u, ctx%gravity, ctx%comm, d, ierr)
+    if (.not. ctx%stretch_warned .and. ctx%cfg%stretch_limit > 0.0_rp) call check_stretch(ctx, u, t)
     do j = ctx%lat%ys, ctx%lat%ye
       ctx%xout(:, :, j) = u(0:2, :, j)
       ctx%vout(:, :, j) = u(3:5, :, j)
@@ -1183,6 +1186,44 @@ contains
       flush(output_unit)
     end if
   end subroutine write_output
+
+  !> Warn once (stderr, rank 0) when a link has stretched or shrunk beyond
+  !> stretch_limit times its rest length: a model far outside its regime
+  !> (a spun sheet, a step too large) that would otherwise complete silently.
+  !> At output steps only. Collective.
+  subroutine check_stretch(ctx, u, t)
+    type(app_ctx), intent(inout) :: ctx
+    real(rp), intent(in) :: u(0:, 0:, ctx%lat%gys:)
+    real(rp), intent(in) :: t
+    real(rp) :: r(2), g(2), lim
+    integer :: atmax(3), atmin(3), loc(3), glob(3), mpierr, iq, jq
+    character(len=16) :: what
+
+    call link_stretch_extremes(ctx%lat, u, r(1), atmax, r(2), atmin)
+    r(2) = 1.0_rp / max(r(2), tiny(1.0_rp))      ! shrink as a factor > 1
+    call MPI_Allreduce(r, g, 2, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, mpierr)
+    lim = ctx%cfg%stretch_limit
+    if (g(1) <= lim .and. g(2) <= lim) return
+    ctx%stretch_warned = .true.
+    loc = -1
+    if (g(1) > lim) then
+      if (r(1) == g(1)) loc = atmax
+      what = 'stretched'
+    else
+      if (r(2) == g(2)) loc = atmin
+      what = 'compressed'
+    end if
+    call MPI_Allreduce(loc, glob, 3, MPI_INTEGER, MPI_MAX, ctx%comm, mpierr)
+    iq = glob(1) + link_dir(1, glob(3))
+    jq = glob(2) + link_dir(2, glob(3))
+    if (ctx%rank == 0) then
+      write(error_unit, '(a)') 'nuno: warning: at t = '//num(t)//' the link from node ('//inum(glob(1))//', '// &
+        inum(glob(2))//') to ('//inum(iq)//', '//inum(jq)//') is '//trim(what)//' by a factor '// &
+        num(merge(g(1), g(2), g(1) > lim))//', beyond stretch_limit = '//num(lim)// &
+        ' (&output); the model is far outside its regime: check dt and the scene (warned once)'
+      flush(error_unit)
+    end if
+  end subroutine check_stretch
 
   !> A real for a one-line message: short, and never glued to the text before it.
   function num(x) result(s)
