@@ -28,6 +28,8 @@ module errors
       character(kind=c_char), intent(out) :: buf(*)
       integer(c_int), value :: buflen
     end subroutine nuno_petsc_error_text
+    subroutine nuno_signals_default() bind(C, name='nuno_signals_default')
+    end subroutine nuno_signals_default
     subroutine nuno_pause_ms(ms) bind(C, name='nuno_pause_ms')
       import :: c_int
       integer(c_int), value :: ms
@@ -96,12 +98,15 @@ contains
   !> seen by every rank alike (a bad option value): ranks other than 0 wait
   !> a moment before printing, and rank 0's abort ends them first, so one
   !> line comes out; an error of one rank alone is still printed by it.
+  !> (The SIGTERM handler of a run is removed first: the abort's SIGTERM
+  !> would otherwise cut the wait short.)
   subroutine fatal_local(msg)
     character(len=*), intent(in) :: msg
     integer :: rank, ierr
     character(kind=c_char, len=512) :: buf
     character(len=:), allocatable :: petsc
     call MPI_Comm_rank(MPI_COMM_WORLD, rank, ierr)
+    call nuno_signals_default()   ! the abort's SIGTERM must end the other ranks
     buf = ''
     call nuno_petsc_error_text(buf, int(len(buf), c_int))
     petsc = buf(1:max(0, index(buf, c_null_char) - 1))

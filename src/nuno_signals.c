@@ -55,6 +55,15 @@ PetscErrorCode nuno_signals_install(TS *ts)
   PetscFunctionReturn(0);
 }
 
+/* Back to the default actions: on an error exit, the SIGTERM that mpirun
+ * sends the other ranks after one rank's MPI_Abort must end them, not be
+ * taken for a request to finish the step (and cut their pause short). */
+void nuno_signals_default(void)
+{
+  signal(SIGTERM, SIG_DFL);
+  signal(SIGINT, SIG_DFL);
+}
+
 /* The signal all ranks agreed on after the last step (0: none). */
 int nuno_signal_agreed(void)
 {
