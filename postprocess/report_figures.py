@@ -288,7 +288,7 @@ def _parser():
     p.add_argument("--mpiexec", default=os.environ.get("NUNO_MPIEXEC") or "mpiexec",
                    help="MPI launcher, may hold options (default $NUNO_MPIEXEC or mpiexec)")
     p.add_argument("--skip-run", action="store_true",
-                   help="do not run; re-plot the .h5 files already in --rundir")
+                   help="do not run; re-plot the complete .h5 files already in --rundir (a figure whose runs are all missing is skipped)")
     p.add_argument("--quick", action="store_true",
                    help="7 x 7 lattices, dt 5 ms, t_end 0.4 s (lift, bend) and 1.2 s (wave)")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", default=[],
@@ -309,9 +309,24 @@ def _body(args):
     cases = [c for cs in figures.values() for c in cs]
     paths = {c.name: rundir / f"{c.name}.h5" for c in cases}
     if args.skip_run:
-        missing = [str(p) for p in paths.values() if not p.is_file()]
-        if missing:
-            raise FileNotFoundError(f"{', '.join(missing)}: no such file "
+        # Whatever complete runs exist: a figure is drawn from the runs of
+        # it that finished, and skipped (with a line on stderr) when none did.
+        usable = {}
+        for c in cases:
+            p = paths[c.name]
+            if not p.is_file():
+                print(f"skip: {p}: no such file", file=sys.stderr)
+                continue
+            try:
+                load(p)
+            except (RunError, ValueError, OSError) as e:
+                print(f"skip: {e}", file=sys.stderr)
+                continue
+            usable[c.name] = True
+        figures = {name: [c for c in cs if c.name in usable] for name, cs in figures.items()}
+        figures = {name: cs for name, cs in figures.items() if cs}
+        if not figures:
+            raise FileNotFoundError(f"{rundir}: no complete run to plot "
                                     "(run without --skip-run first)")
     else:
         exe = Path(args.exe).resolve()

@@ -104,3 +104,19 @@ def test_failed_run_exits_nonzero_with_the_programs_message(quick_figures, tmp_p
     assert rc == 1
     err = capsys.readouterr().err
     assert "run lift_release failed" in err and "nx" in err
+
+
+def test_skip_run_plots_whatever_complete_runs_exist(quick_figures, tmp_path, capsys):
+    """--skip-run with only some runs (issue 9 item 13): the figures whose
+    runs exist are drawn, from those runs; the others are skipped with a line."""
+    import shutil
+    _, rundir = quick_figures
+    part = tmp_path / "runs"
+    part.mkdir()
+    for name in ("bend_release", "bend_release_energy", "wave_point"):
+        shutil.copy(rundir / f"{name}.h5", part)
+    out = tmp_path / "fig"
+    assert report_figures.main(["--skip-run", "--rundir", str(part), "--outdir", str(out)]) == 0
+    assert sorted(p.name for p in out.glob("*.png")) == ["fig4_bend_release.png", "fig5_wave_point.png"]
+    err = capsys.readouterr().err
+    assert "lift_release.h5: no such file" in err and "wave_point_energy.h5: no such file" in err
