@@ -380,8 +380,8 @@ contains
       if (ierr == 0) call set_attr_str(grp, 'hdf5_version', trim(hdf5_version), '/run', ierr, errmsg)
       if (ierr == 0) call set_attr_str(grp, 'ts_type', trim(info%ts_type), '/run', ierr, errmsg)
       if (ierr == 0) call set_attr_str(grp, 'ts_adapt_type', trim(info%ts_adapt_type), '/run', ierr, errmsg)
-      if (ierr == 0) call set_attr_real(grp, 'dt', info%dt, '/run', ierr, errmsg)
-      if (ierr == 0) call set_attr_real(grp, 't_end', info%t_end, '/run', ierr, errmsg)
+      if (ierr == 0) call set_attr_reals(grp, 'dt', [info%dt], '/run', ierr, errmsg)
+      if (ierr == 0) call set_attr_reals(grp, 't_end', [info%t_end], '/run', ierr, errmsg)
       if (ierr == 0) call set_attr_int(grp, 'max_steps', info%max_steps, '/run', ierr, errmsg)
       if (ierr == 0) call set_attr_str(grp, 'start_date', trim(info%start_date), '/run', ierr, errmsg)
       if (ierr == 0) call set_attr_str(grp, 'host', trim(info%host), '/run', ierr, errmsg)
@@ -486,35 +486,10 @@ contains
     real(rp), intent(in) :: values(:)
     integer, intent(inout) :: ierr
     character(*), intent(inout) :: errmsg
-    integer(hid_t) :: grp, space, attr
-    integer :: h
-    character(len=:), allocatable :: what
+    integer(hid_t) :: grp
 
     call config_group(out, group, grp, ierr, errmsg)
-    if (ierr == 0 .and. size(values) == 1) then
-      call set_attr_real(grp, key, values(1), '/config/'//group, ierr, errmsg)
-    else if (ierr == 0) then
-      what = 'attribute '//key//' of /config/'//group
-      call delete_attr(grp, key, what, ierr, errmsg)
-      if (ierr == 0) then
-        call h5screate_simple_f(1, [int(size(values), hsize_t)], space, h)
-        if (h < 0) then
-          call fail('h5screate_simple_f', what, ierr, errmsg)
-        else
-          call h5acreate_f(grp, key, H5T_NATIVE_DOUBLE, space, attr, h)
-          if (h < 0) then
-            call fail('h5acreate_f', what, ierr, errmsg)
-          else
-            call h5awrite_f(attr, H5T_NATIVE_DOUBLE, values, [int(size(values), hsize_t)], h)
-            if (h < 0) call fail('h5awrite_f', what, ierr, errmsg)
-            call h5aclose_f(attr, h)
-            if (h < 0) call fail('h5aclose_f', what, ierr, errmsg)
-          end if
-          call h5sclose_f(space, h)
-          if (h < 0) call fail('h5sclose_f', what, ierr, errmsg)
-        end if
-      end if
-    end if
+    if (ierr == 0) call set_attr_reals(grp, key, values, '/config/'//group, ierr, errmsg)
     call close_group(grp, '/config/'//group, ierr, errmsg)
   end subroutine config_key_reals
 
@@ -539,7 +514,7 @@ contains
     if (h < 0) then
       call fail('h5gopen_f (output_write_run_info first)', '/run', ierr, errmsg)
     else
-      call set_attr_real(grp, 'wall_time', seconds, '/run', ierr, errmsg)
+      call set_attr_reals(grp, 'wall_time', [seconds], '/run', ierr, errmsg)
       call h5gclose_f(grp, h)
       if (h < 0) call fail('h5gclose_f', '/run', ierr, errmsg)
     end if
@@ -1070,10 +1045,11 @@ contains
     if (h < 0) call fail('h5sclose_f', what, ierr, errmsg)
   end subroutine set_attr_int
 
-  subroutine set_attr_real(loc, name, value, where, ierr, errmsg)
+  !> Real attribute: a scalar for one value, a 1-D array otherwise.
+  subroutine set_attr_reals(loc, name, values, where, ierr, errmsg)
     integer(hid_t), intent(in) :: loc
     character(*), intent(in) :: name, where
-    real(rp), intent(in) :: value
+    real(rp), intent(in) :: values(:)
     integer, intent(inout) :: ierr
     character(*), intent(inout) :: errmsg
     integer(hid_t) :: space, attr
@@ -1083,7 +1059,11 @@ contains
     what = 'attribute '//name//' of '//where
     call delete_attr(loc, name, what, ierr, errmsg)
     if (ierr /= 0) return
-    call h5screate_f(H5S_SCALAR_F, space, h)
+    if (size(values) == 1) then
+      call h5screate_f(H5S_SCALAR_F, space, h)
+    else
+      call h5screate_simple_f(1, [int(size(values), hsize_t)], space, h)
+    end if
     if (h < 0) then
       call fail('h5screate_f', what, ierr, errmsg); return
     end if
@@ -1091,14 +1071,14 @@ contains
     if (h < 0) then
       call fail('h5acreate_f', what, ierr, errmsg)
     else
-      call h5awrite_f(attr, H5T_NATIVE_DOUBLE, value, [1_hsize_t], h)
+      call h5awrite_f(attr, H5T_NATIVE_DOUBLE, values, [int(size(values), hsize_t)], h)
       if (h < 0) call fail('h5awrite_f', what, ierr, errmsg)
       call h5aclose_f(attr, h)
       if (h < 0) call fail('h5aclose_f', what, ierr, errmsg)
     end if
     call h5sclose_f(space, h)
     if (h < 0) call fail('h5sclose_f', what, ierr, errmsg)
-  end subroutine set_attr_real
+  end subroutine set_attr_reals
 
   subroutine delete_attr(loc, name, what, ierr, errmsg)
     integer(hid_t), intent(in) :: loc
