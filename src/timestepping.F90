@@ -661,27 +661,32 @@ contains
       end if
     end if
 
-    call powers(ctx, uvec, t, p, ierr)
-    if (ierr /= 0) return
-    if (t > ctx%t_prev .and. ctx%gauss .and. step > 0) then
+    if (ctx%gauss) then
       ! Three Gauss-Legendre points on [t_prev, t] (exact to degree 5): the
-      ! error is that of the interpolant, the method's order.
-      h = t - ctx%t_prev
-      do q = 1, 3
-        tq = ctx%t_prev + h * GAUSS_X(q)
-        PetscCall(TSInterpolate(ts, tq, ctx%uq, ierr))
-        call powers(ctx, ctx%uq, tq, pq, ierr)
-        if (ierr /= 0) return
-        ctx%dissipated = ctx%dissipated + h * GAUSS_W(q) * pq(1)
-        ctx%work_constraints = ctx%work_constraints + h * GAUSS_W(q) * pq(2)
-      end do
-    else if (t > ctx%t_prev) then
-      ctx%dissipated = ctx%dissipated + 0.5_rp * (ctx%pdiss_prev + p(1)) * (t - ctx%t_prev)
-      ctx%work_constraints = ctx%work_constraints + 0.5_rp * (ctx%pcon_prev + p(2)) * (t - ctx%t_prev)
+      ! error is that of the interpolant, the method's order. (The end
+      ! point's power is not needed.)
+      if (t > ctx%t_prev .and. step > 0) then
+        h = t - ctx%t_prev
+        do q = 1, 3
+          tq = ctx%t_prev + h * GAUSS_X(q)
+          PetscCall(TSInterpolate(ts, tq, ctx%uq, ierr))
+          call powers(ctx, ctx%uq, tq, pq, ierr)
+          if (ierr /= 0) return
+          ctx%dissipated = ctx%dissipated + h * GAUSS_W(q) * pq(1)
+          ctx%work_constraints = ctx%work_constraints + h * GAUSS_W(q) * pq(2)
+        end do
+      end if
+    else
+      call powers(ctx, uvec, t, p, ierr)
+      if (ierr /= 0) return
+      if (t > ctx%t_prev) then
+        ctx%dissipated = ctx%dissipated + 0.5_rp * (ctx%pdiss_prev + p(1)) * (t - ctx%t_prev)
+        ctx%work_constraints = ctx%work_constraints + 0.5_rp * (ctx%pcon_prev + p(2)) * (t - ctx%t_prev)
+      end if
+      ctx%pdiss_prev = p(1)
+      ctx%pcon_prev = p(2)
     end if
     ctx%t_prev = t
-    ctx%pdiss_prev = p(1)
-    ctx%pcon_prev = p(2)
   end subroutine ts_monitor
 
   !> Global dissipated power p(1) and power of the constraint reactions p(2)
