@@ -63,6 +63,7 @@ module config
     real(rp) :: dt = 1.0e-3_rp            !< (initial) step [time]
     ! &output
     real(rp) :: output_interval = 0.1_rp  !< [time]
+    real(rp) :: checkpoint_interval = 0.0_rp  !< checkpoint at the first output step this long after the last; 0: at the end only [time]
     real(rp) :: stretch_limit = 5.0_rp    !< warn once when a link's l/L leaves [1/limit, limit]; 0: never [1]
     logical :: write_velocity = .false.
     character(path_len) :: output_file = 'nuno.h5'

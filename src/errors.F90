@@ -12,6 +12,7 @@ module errors
   use petscsys
   use mpi
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_char, c_null_char
+  use kinds, only: rp
   implicit none
   private
   public :: help_requested, input_path_argument, fatal_collective, fatal_local, apply_namelist_options
@@ -35,12 +36,17 @@ module errors
       integer(c_int), value :: ms
     end subroutine nuno_pause_ms
     !> src/nuno_input_options.c: the -nuno_allow_long option block.
-    function nuno_input_options_read(fcomm, allow_long, ts_dt, ts_dt_set) bind(C, name='nuno_input_options_read') &
-        result(code)
-      import :: c_int, c_double
+    function nuno_input_options_read(fcomm, allow_long, ts_dt, ts_dt_set, restart, restart_len, walltime, bad, bad_len) &
+        bind(C, name='nuno_input_options_read') result(code)
+      import :: c_int, c_double, c_char
       integer(c_int), value :: fcomm
       integer(c_int), intent(out) :: allow_long, ts_dt_set
       real(c_double), intent(out) :: ts_dt
+      character(kind=c_char), intent(inout) :: restart(*)
+      integer(c_int), value :: restart_len
+      real(c_double), intent(out) :: walltime
+      character(kind=c_char), intent(inout) :: bad(*)
+      integer(c_int), value :: bad_len
       integer(c_int) :: code
     end function nuno_input_options_read
   end interface
@@ -125,23 +131,37 @@ contains
   end subroutine quiet_petsc_errors
 
   !> nuno's input-check options (in -help): allow_long = -nuno_allow_long;
-  !> ts_dt = -ts_dt when given (it overrides the namelist's dt), else dt_default. Collective.
-  subroutine read_input_options(comm, dt_default, allow_long, ts_dt, ts_dt_set, ierr)
+  !> ts_dt = -ts_dt when given (it overrides the namelist's dt), else
+  !> dt_default; restart = -nuno_restart ('' if none); walltime =
+  !> -nuno_checkpoint_walltime in seconds (0 if none); bad: the one-line
+  !> error for an option value that was refused ('' if none). Collective.
+  subroutine read_input_options(comm, dt_default, allow_long, ts_dt, ts_dt_set, restart, walltime, bad, ierr)
     integer, intent(in) :: comm
     PetscReal, intent(in) :: dt_default
     logical, intent(out) :: allow_long, ts_dt_set
     PetscReal, intent(out) :: ts_dt
+    character(len=*), intent(out) :: restart, bad
+    real(rp), intent(out) :: walltime
     PetscErrorCode, intent(out) :: ierr
     integer(c_int) :: al, set
-    real(c_double) :: dt
+    real(c_double) :: dt, wt
+    character(len=1024, kind=c_char) :: cres
+    character(len=512, kind=c_char) :: cbad
     al = 0
     set = 0
     dt = 0
-    ierr = nuno_input_options_read(int(comm, c_int), al, dt, set)
+    wt = 0
+    cres = c_null_char
+    cbad = c_null_char
+    ierr = nuno_input_options_read(int(comm, c_int), al, dt, set, cres, int(len(cres), c_int), wt, &
+                                   cbad, int(len(cbad), c_int))
     allow_long = al /= 0
     ts_dt_set = set /= 0
     ts_dt = dt_default
     if (ts_dt_set) ts_dt = real(dt, kind(ts_dt))
+    restart = cres(1:max(0, index(cres, c_null_char) - 1))
+    bad = cbad(1:max(0, index(cbad, c_null_char) - 1))
+    walltime = real(wt, rp)
   end subroutine read_input_options
 
   !> Insert the namelist's petsc_options string, except options that the

@@ -744,7 +744,7 @@ contains
       g = G_SCENE
     case ('t_end', 'dt')
       g = G_TIME
-    case ('output_interval', 'write_velocity', 'output_file', 'petsc_options', 'stretch_limit')
+    case ('output_interval', 'write_velocity', 'output_file', 'petsc_options', 'stretch_limit', 'checkpoint_interval')
       g = G_OUTPUT
     case default
       g = 0
@@ -852,7 +852,7 @@ contains
     character(label_len) :: wave_nodes
     real(rp) :: release_time, initial_omega(3)
     real(rp) :: t_end, dt
-    real(rp) :: output_interval, stretch_limit
+    real(rp) :: output_interval, stretch_limit, checkpoint_interval
     logical :: write_velocity
     character(path_len) :: output_file
     character(len(cfg%petsc_options)) :: petsc_options
@@ -861,7 +861,8 @@ contains
     namelist /scene/ scene_name, gravity, lift_length, lift_height, bend_angle, n_keyframes, &
                      keyframe_time, keyframe_dz, wave_nodes, release_time, initial_omega
     namelist /time/ t_end, dt
-    namelist /output/ output_interval, write_velocity, output_file, petsc_options, stretch_limit
+    namelist /output/ output_interval, write_velocity, output_file, petsc_options, stretch_limit, &
+                      checkpoint_interval
 
     ios = 0
     select case (g)
@@ -902,12 +903,12 @@ contains
     case (G_OUTPUT)
       output_interval = cfg%output_interval; write_velocity = cfg%write_velocity
       output_file = cfg%output_file; petsc_options = cfg%petsc_options
-      stretch_limit = cfg%stretch_limit
+      stretch_limit = cfg%stretch_limit; checkpoint_interval = cfg%checkpoint_interval
       read(lines, nml=output, iostat=ios, iomsg=iomsg)
       if (ios == 0) then
       cfg%output_interval = output_interval; cfg%write_velocity = write_velocity
       cfg%output_file = output_file; cfg%petsc_options = petsc_options
-      cfg%stretch_limit = stretch_limit
+      cfg%stretch_limit = stretch_limit; cfg%checkpoint_interval = checkpoint_interval
       end if
     end select
     ! gfortran may report an end of file with iostat < 0: the group is known
@@ -1106,8 +1107,9 @@ contains
     call fin('scene', 'initial_omega', cfg%initial_omega); if (ierr /= 0) return
     call fin('time', 't_end', [cfg%t_end]);             if (ierr /= 0) return
     call fin('time', 'dt', [cfg%dt]);                   if (ierr /= 0) return
-    call fin('output', 'output_interval', [cfg%output_interval])
-    call fin('output', 'stretch_limit', [cfg%stretch_limit])
+    call fin('output', 'output_interval', [cfg%output_interval]); if (ierr /= 0) return
+    call fin('output', 'stretch_limit', [cfg%stretch_limit]); if (ierr /= 0) return
+    call fin('output', 'checkpoint_interval', [cfg%checkpoint_interval])
   contains
     !> Arrays are named with the subscript of the first bad element.
     subroutine fin(group, key, values)
@@ -1324,6 +1326,12 @@ contains
       msg = 'input: &output: stretch_limit = '//fmt_real(cfg%stretch_limit)//' must be > 1 (or 0: no warning)'
       return
     end if
+    if (cfg%checkpoint_interval < 0.0_rp) then
+      ierr = 1
+      msg = 'input: &output: checkpoint_interval = '//fmt_real(cfg%checkpoint_interval)// &
+            ' must be >= 0 (0: a checkpoint at the end of the run only)'
+      return
+    end if
     if (len_trim(cfg%output_file) == 0) then
       ierr = 1
       msg = "input: &output: output_file = '' must not be empty"
@@ -1400,7 +1408,8 @@ contains
       '  &lattice   nx, ny, lx, ly, total_mass, mass_distribution, lattice_scaling', &
       '  &material  spring_model, e_s, eta_s, e_d, eta_d, bending_model, k_b, eta_b', &
       '  &time      t_end, dt', &
-      '  &output    output_interval, write_velocity, output_file, petsc_options, stretch_limit', &
+      '  &output    output_interval, write_velocity, output_file, petsc_options, stretch_limit,', &
+      '             checkpoint_interval', &
       'The scene sets the defaults of every other key. Every key, its unit and its', &
       'default: input/README.md; ready-made inputs: input/*.nml. Real keys must be', &
       'finite (no NaN, Inf); a lattice beyond the index range or the memory of the', &
@@ -1409,6 +1418,14 @@ contains
       'Input checks:', &
       '  -nuno_allow_long                             run even with more than 1e8 steps (t_end/dt) or', &
       '                                               1e5 output steps (t_end/output_interval)', &
+      '', &
+      'Checkpoints and restart (input/README.md, "Checkpoints and restart"):', &
+      '  -nuno_restart FILE                           continue the run in FILE from its last checkpoint,', &
+      '                                               appending to its series (t_end may be later)', &
+      '  -nuno_checkpoint_walltime D                  a checkpoint after each D of wall-clock time', &
+      '                                               (seconds, 90m, 23h, 1d or H:MM:SS); one is always', &
+      '                                               written at the end, on SIGTERM/SIGINT and every', &
+      '                                               checkpoint_interval (&output)', &
       '', &
       'Namelist keys from the command line (sweeps without copying files):', &
       '  -nuno_set key=value[,key=value...]           over the file''s values, same checks; a key by its', &

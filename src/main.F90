@@ -10,8 +10,10 @@ program nuno
   use lattice, only: rest_strip
   use, intrinsic :: iso_fortran_env, only: int64
   use input, only: input_read, input_usage, input_summary, input_check_run
-  use timestepping, only: app_ctx, solver_create, solver_destroy, solver_run, check_decomposition
-  use output, only: output_file, output_open, output_close
+  use timestepping, only: app_ctx, solver_create, solver_destroy, solver_run, check_decomposition, solver_restore
+  use output, only: output_file, output_open, output_close, output_reopen, checkpoint_t
+  use safe_files, only: same_file
+  use kinds, only: rp
   use errors, only: help_requested, fatal_collective, fatal_local, input_path_argument, apply_namelist_options, &
                     petsc_options_text, quiet_exit, &
                     read_input_options, quiet_petsc_errors
@@ -20,6 +22,7 @@ program nuno
   type(nuno_config) :: cfg
   type(app_ctx), target :: ctx
   type(output_file) :: out
+  type(checkpoint_t) :: ck
   PetscErrorCode :: ierr
   integer :: rank, nranks
   character(len=512) :: path, errmsg
@@ -27,6 +30,9 @@ program nuno
   character(len=:), allocatable :: petsc_opts
   logical :: allow_long, ts_dt_set
   character(len=4096) :: overrides
+  character(len=1024) :: restart_file
+  character(len=512) :: bad_option
+  real(rp) :: walltime
   PetscBool :: have_set
   PetscInt :: pint
   PetscReal :: ts_dt
@@ -62,8 +68,10 @@ program nuno
   if (ierr /= 0) call fatal_collective(errmsg)
   ! Step/output counts, index space and memory, before anything is allocated.
   ! Indices: PETSc's and the default integers of the Fortran code.
-  call read_input_options(PETSC_COMM_WORLD, cfg%dt, allow_long, ts_dt, ts_dt_set, ierr)
-  if (ierr /= 0) call fatal_local('could not read the -nuno_allow_long option')
+  call read_input_options(PETSC_COMM_WORLD, cfg%dt, allow_long, ts_dt, ts_dt_set, restart_file, walltime, &
+                          bad_option, ierr)
+  if (ierr /= 0) call fatal_local('could not read the -nuno_allow_long, -nuno_restart or -nuno_checkpoint_walltime option')
+  if (len_trim(bad_option) > 0) call fatal_collective(trim(bad_option))
   if (ts_dt_set) then
     call input_check_run(cfg, PETSC_COMM_WORLD, allow_long, min(int(huge(pint), int64), int(huge(0), int64)), &
                          ierr, errmsg, ts_dt=ts_dt)
@@ -87,14 +95,31 @@ program nuno
   ! 4. Output file, the time loop, and the completion mark written last. The
   !    run writes OUTPUT.partial under a lock and renames it onto the output
   !    file after its first successful step (module output): a run that fails
-  !    before that leaves an earlier output file as it was.
+  !    before that leaves an earlier output file as it was. -nuno_restart
+  !    continues an earlier run's file in place from its last checkpoint.
   petsc_opts = petsc_options_text()
   if (len_trim(cfg%petsc_options) > 0) &
     petsc_opts = trim(petsc_opts//' [namelist, overridden by the above: '//trim(cfg%petsc_options)//']')
-  call output_open(out, trim(cfg%output_file), PETSC_COMM_WORLD, cfg%nx, cfg%ny, ctx%lat%ys, &
-                   ctx%lat%ye - ctx%lat%ys + 1, rest_strip(ctx%lat), ctx%lat%mass(:, ctx%lat%ys:ctx%lat%ye), &
-                   cfg%write_velocity, cfg%namelist_text, petsc_opts, ierr, errmsg, protect=trim(path))
-  if (ierr /= 0) call fatal_collective(errmsg)
+  ctx%checkpoint_walltime = walltime
+  if (len_trim(restart_file) > 0) then
+    call output_reopen(out, trim(restart_file), PETSC_COMM_WORLD, cfg%nx, cfg%ny, ctx%lat%ys, &
+                       ctx%lat%ye - ctx%lat%ys + 1, cfg%write_velocity, ctx%t_end, cfg%namelist_text, petsc_opts, &
+                       ck, ctx%xout, ctx%vout, ierr, errmsg, protect=trim(path))
+    if (ierr /= 0) call fatal_collective(errmsg)
+    if (rank == 0 .and. .not. same_file(trim(restart_file), trim(cfg%output_file))) &
+      write(*, '(a)') 'nuno: -nuno_restart: the run goes on in '//trim(restart_file)//"; the input's output_file = '"// &
+                      trim(cfg%output_file)//"' is not used"
+    ctx%cfg%output_file = restart_file
+    call solver_restore(ctx, ck, ctx%xout, ctx%vout, ierr)
+    if (ierr /= 0) call fatal_local('could not restore the checkpoint')
+    if (rank == 0) write(*, '(a,i0,a,es12.5e2,a)') 'nuno: restart from checkpoint ', ck%sequence, ' at t =', ck%time, &
+      ' ('//trim(ck%reason)//') in '//trim(restart_file)
+  else
+    call output_open(out, trim(cfg%output_file), PETSC_COMM_WORLD, cfg%nx, cfg%ny, ctx%lat%ys, &
+                     ctx%lat%ye - ctx%lat%ys + 1, rest_strip(ctx%lat), ctx%lat%mass(:, ctx%lat%ys:ctx%lat%ye), &
+                     cfg%write_velocity, cfg%namelist_text, petsc_opts, ierr, errmsg, protect=trim(path))
+    if (ierr /= 0) call fatal_collective(errmsg)
+  end if
   ! A failed step ends the run collectively (status 'failed: ...', ierr = 0);
   ! a PETSc or HDF5 error (ierr /= 0) may be local to some ranks: abort,
   ! leaving the file marked 'running', never 'complete'.

@@ -4,11 +4,50 @@
  * solver's option block stays untouched. Called once from Fortran (module
  * errors) through bind(C); collective. */
 #include <petscsys.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* A wall-clock duration: seconds, or a number with s, m, h or d, or
+ * H:MM:SS (as batch schedulers write limits). *sec > 0 on success;
+ * returns 0 on success, 1 if text is not such a duration. */
+static int parse_duration(const char *text, double *sec)
+{
+  char  *end;
+  double h, m, s;
+
+  *sec = 0.0;
+  if (strchr(text, ':')) {
+    h = strtod(text, &end);
+    if (end == text || *end != ':') return 1;
+    text = end + 1;
+    m = strtod(text, &end);
+    if (end == text || *end != ':') return 1;
+    text = end + 1;
+    s = strtod(text, &end);
+    if (end == text || *end != '\0' || h < 0 || m < 0 || m >= 60 || s < 0 || s >= 60) return 1;
+    *sec = 3600.0 * h + 60.0 * m + s;
+  } else {
+    double v = strtod(text, &end), unit = 1.0;
+    if (end == text) return 1;
+    if (*end == 's') unit = 1.0, end++;
+    else if (*end == 'm') unit = 60.0, end++;
+    else if (*end == 'h') unit = 3600.0, end++;
+    else if (*end == 'd') unit = 86400.0, end++;
+    if (*end != '\0') return 1;
+    *sec = v * unit;
+  }
+  return (*sec > 0.0 && *sec < 1e12) ? 0 : 1;
+}
 
 /* allow_long: out 0/1; ts_dt, ts_dt_set: the -ts_dt that will override the
  * namelist's dt (out; ts_dt_set 0/1), so that the step bound checks the step
- * the run will take. Returns a PETSc error code (0 on success). */
-PetscErrorCode nuno_input_options_read(MPI_Fint fcomm, int *allow_long, double *ts_dt, int *ts_dt_set)
+ * the run will take. restart: out, the -nuno_restart file ('' if none),
+ * NUL-terminated in restart_len bytes; walltime: out, the
+ * -nuno_checkpoint_walltime interval in seconds (0 if none); bad: out, the
+ * option whose value was refused (NUL-terminated, '' if none), so that the
+ * caller reports it in its one error line. Returns a PETSc error code. */
+PetscErrorCode nuno_input_options_read(MPI_Fint fcomm, int *allow_long, double *ts_dt, int *ts_dt_set, char *restart,
+                                       int restart_len, double *walltime, char *bad, int bad_len)
 {
   MPI_Comm  comm = MPI_Comm_f2c(fcomm);
   PetscBool al   = PETSC_FALSE, set = PETSC_FALSE;
@@ -25,6 +64,21 @@ PetscErrorCode nuno_input_options_read(MPI_Fint fcomm, int *allow_long, double *
     PetscBool given;
     PetscCall(PetscOptionsString("-nuno_set", "namelist keys over the input file's: key=value[,key=value...] (group%key where needed; strings quoted)",
                                  "nuno", buf, buf, sizeof(buf), &given));
+  }
+  restart[0] = '\0';
+  PetscCall(PetscOptionsString("-nuno_restart", "continue the run from the last checkpoint in this output file, appending to it (input/README.md, Checkpoints)",
+                               "nuno", restart, restart, (size_t)restart_len, NULL));
+  {
+    char      wt[256] = "";
+    PetscBool given;
+    *walltime = 0.0;
+    bad[0]    = '\0';
+    PetscCall(PetscOptionsString("-nuno_checkpoint_walltime", "write a checkpoint after each such wall-clock time: seconds, or 90m, 23h, 1d, or H:MM:SS",
+                                 "nuno", wt, wt, sizeof(wt), &given));
+    if (given && parse_duration(wt, walltime)) {
+      PetscCall(PetscSNPrintf(bad, (size_t)bad_len, "-nuno_checkpoint_walltime %s: not a wall-clock duration > 0 (seconds, or 90m, 23h, 1d, or H:MM:SS)", wt));
+      *walltime = 0.0;
+    }
   }
   PetscOptionsEnd();
   PetscCall(PetscOptionsGetReal(NULL, NULL, "-ts_dt", &dt, &set));

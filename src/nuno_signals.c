@@ -13,6 +13,10 @@
 
 static volatile sig_atomic_t caught = 0; /* the signal received, 0 if none */
 static int agreed = 0;                   /* the signal every rank has agreed on */
+/* -nuno_checkpoint_walltime: a checkpoint after each `interval` seconds of
+ * wall-clock time, agreed after a step like the signals (the same allreduce). */
+static double interval = 0.0, deadline = 0.0;
+static int    due = 0; /* every rank agreed that a checkpoint is due */
 
 static void on_signal(int sig)
 {
@@ -26,17 +30,39 @@ static void on_signal(int sig)
 
 static PetscErrorCode poststep(TS ts)
 {
-  int      mine = (int)caught, all = 0;
+  int      mine[2], all[2] = {0, 0};
   MPI_Comm comm;
 
   PetscFunctionBeginUser;
+  mine[0] = (int)caught;
+  mine[1] = interval > 0.0 && MPI_Wtime() >= deadline;
   PetscCall(PetscObjectGetComm((PetscObject)ts, &comm));
-  PetscCallMPI(MPI_Allreduce(&mine, &all, 1, MPI_INT, MPI_MAX, comm));
-  if (all) {
-    agreed = all;
+  PetscCallMPI(MPI_Allreduce(mine, all, 2, MPI_INT, MPI_MAX, comm));
+  if (all[0]) {
+    agreed = all[0];
+    PetscCall(TSSetConvergedReason(ts, TS_CONVERGED_USER));
+  } else if (all[1]) {
+    due      = 1;
+    deadline = MPI_Wtime() + interval;
     PetscCall(TSSetConvergedReason(ts, TS_CONVERGED_USER));
   }
   PetscFunctionReturn(0);
+}
+
+/* A checkpoint after every `seconds` of wall-clock time from now (0: none). */
+void nuno_walltime_arm(double seconds)
+{
+  interval = seconds > 0.0 ? seconds : 0.0;
+  deadline = MPI_Wtime() + interval;
+  due      = 0;
+}
+
+/* 1 once after the step at which all ranks agreed a checkpoint is due. */
+int nuno_checkpoint_due(void)
+{
+  int d = due;
+  due   = 0;
+  return d;
 }
 
 /* Install the handlers and the post-step on ts. Returns a PETSc error code. */

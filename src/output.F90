@@ -31,6 +31,7 @@ module output
 
   public :: output_open, output_write_step, output_close, output_write_run_info, output_write_wall_time
   public :: output_config_key
+  public :: output_write_checkpoint, output_reopen
 
   !> One key of the resolved configuration, as an attribute of /config/<group>.
   interface output_config_key
@@ -60,12 +61,34 @@ module output
     character(len=256) :: host = ''              !< host of rank 0
   end type run_info
 
+  !> Everything a run needs, besides its state (positions and velocities),
+  !> to continue from a checkpoint (docs/design.md, "Checkpoints"). The
+  !> same values on every rank (they become attributes).
+  type, public :: checkpoint_t
+    real(rp) :: time = 0                  !< [time]
+    real(rp) :: dt_next = 0               !< the step the run takes next [time]
+    real(rp) :: wall_time = 0             !< wall-clock seconds of the run up to here, restarts included [s]
+    real(rp) :: dissipated = 0            !< dissipated energy so far [energy]
+    real(rp) :: work_constraints = 0      !< work of the constraint reactions so far [energy]
+    real(rp) :: mgx0 = 0                  !< sum m g . x at t = 0 [energy]
+    real(rp) :: t_written = -1            !< time of the last output step [time]
+    !> accepted steps, rejected steps, Newton iterations, linear iterations,
+    !> retried Newton solves, all since t = 0 (float64: exact to 2^53)
+    real(rp) :: counters(5) = 0
+    integer :: n_output_steps = 0         !< output steps in the file at this checkpoint
+    integer :: stretch_warned = 0         !< 1: the stretch_limit warning was given
+    character(len=64) :: reason = ''      !< why it was written: interval, end, SIGTERM, SIGINT, wall time
+    character(len=64) :: ts_type = ''     !< the integrator that wrote it
+    integer :: sequence = 0               !< 1, 2, ... in the order written (set by output_write_checkpoint)
+  end type checkpoint_t
+
   ! Time-dependent datasets, in the order they are extended and written.
   integer, parameter :: d_time = 1, d_position = 2, d_velocity = 3, d_kinetic = 4, &
     d_stretch = 5, d_bend = 6, d_dissipated = 7, d_external_work = 8, d_momentum = 9, &
     d_angular_momentum = 10, d_length = 11, d_flatness = 12, d_steps = 13, &
     d_rejected_steps = 14, d_newton_iterations = 15, d_linear_iterations = 16, d_wall_time = 17
   integer, parameter :: n_dsets = 17
+  character(len=*), parameter :: slot_names(0:1) = [character(len=24) :: '/checkpoint/slot_0', '/checkpoint/slot_1']
   character(len=*), parameter :: dset_names(n_dsets) = [character(len=32) :: &
     '/time', '/position', '/velocity', &
     '/energy/kinetic', '/energy/stretch', '/energy/bend', '/energy/dissipated', &
@@ -114,7 +137,12 @@ module output
     integer :: lock_fd = -1                      ! rank 0's lock file descriptor
     logical :: committed = .false.               ! work_path renamed onto final_path
     real(rp), allocatable :: times(:)           ! output times, for the XDMF file
+    logical :: reopened = .false.               ! continued by output_reopen (-nuno_restart)
+    integer :: restarts = 0                     ! restarts of the series, this one included
+    integer :: ck_seq = 0                       ! sequence of the last valid checkpoint (0: none)
+    integer :: ck_slot = -1                     ! its slot, /checkpoint/slot_0 or slot_1 (-1: none)
   end type output_file
+
 
 contains
 
@@ -351,6 +379,7 @@ contains
     integer(hid_t) :: grp
     integer :: h, major, minor, release
     character(len=32) :: hdf5_version
+    character(len=:), allocatable :: where
 
     ierr = 0
     errmsg = ''
@@ -359,7 +388,7 @@ contains
       errmsg = 'output_write_run_info: the output file is not open'
       return
     end if
-    if (out%nt /= 0) then
+    if (out%nt /= 0 .and. .not. out%reopened) then
       ierr = 1
       errmsg = 'output_write_run_info: must come before the first output step (/wall_time)'
     end if
@@ -370,33 +399,63 @@ contains
       write(hdf5_version, '(i0,a,i0,a,i0)') major, '.', minor, '.', release
     end if
     if (ierr == 0) call set_attr_str(out%file, 'units', trim(info%units), '/', ierr, errmsg)
-    if (ierr == 0) then
-      call h5gcreate_f(out%file, 'run', grp, h)
-      if (h < 0) call fail('h5gcreate_f', '/run', ierr, errmsg)
+    ! A continued run (output_reopen) keeps the first run's /run and
+    ! describes itself in /run/restart_<k>.
+    if (out%reopened) then
+      where = '/run/restart_'//str(out%restarts)
+    else
+      where = '/run'
     end if
+    if (ierr == 0) call open_or_create_group(out%file, where, grp, ierr, errmsg)
     if (ierr == 0) then
-      call set_attr_str(grp, 'git_commit', git_commit, '/run', ierr, errmsg)
-      if (ierr == 0) call set_attr_str(grp, 'petsc_version', trim(info%petsc_version), '/run', ierr, errmsg)
-      if (ierr == 0) call set_attr_str(grp, 'hdf5_version', trim(hdf5_version), '/run', ierr, errmsg)
-      if (ierr == 0) call set_attr_str(grp, 'ts_type', trim(info%ts_type), '/run', ierr, errmsg)
-      if (ierr == 0) call set_attr_str(grp, 'ts_adapt_type', trim(info%ts_adapt_type), '/run', ierr, errmsg)
-      if (ierr == 0) call set_attr_reals(grp, 'dt', [info%dt], '/run', ierr, errmsg)
-      if (ierr == 0) call set_attr_reals(grp, 't_end', [info%t_end], '/run', ierr, errmsg)
-      if (ierr == 0) call set_attr_int(grp, 'max_steps', info%max_steps, '/run', ierr, errmsg)
-      if (ierr == 0) call set_attr_str(grp, 'start_date', trim(info%start_date), '/run', ierr, errmsg)
-      if (ierr == 0) call set_attr_str(grp, 'host', trim(info%host), '/run', ierr, errmsg)
-      if (ierr == 0) call set_attr_int(grp, 'n_ranks', out%n_ranks, '/run', ierr, errmsg)
+      call set_attr_str(grp, 'git_commit', git_commit, where, ierr, errmsg)
+      if (ierr == 0) call set_attr_str(grp, 'petsc_version', trim(info%petsc_version), where, ierr, errmsg)
+      if (ierr == 0) call set_attr_str(grp, 'hdf5_version', trim(hdf5_version), where, ierr, errmsg)
+      if (ierr == 0) call set_attr_str(grp, 'ts_type', trim(info%ts_type), where, ierr, errmsg)
+      if (ierr == 0) call set_attr_str(grp, 'ts_adapt_type', trim(info%ts_adapt_type), where, ierr, errmsg)
+      if (ierr == 0) call set_attr_reals(grp, 'dt', [info%dt], where, ierr, errmsg)
+      if (ierr == 0) call set_attr_reals(grp, 't_end', [info%t_end], where, ierr, errmsg)
+      if (ierr == 0) call set_attr_int(grp, 'max_steps', info%max_steps, where, ierr, errmsg)
+      if (ierr == 0) call set_attr_str(grp, 'start_date', trim(info%start_date), where, ierr, errmsg)
+      if (ierr == 0) call set_attr_str(grp, 'host', trim(info%host), where, ierr, errmsg)
+      if (ierr == 0) call set_attr_int(grp, 'n_ranks', out%n_ranks, where, ierr, errmsg)
       call h5gclose_f(grp, h)
-      if (h < 0) call fail('h5gclose_f', '/run', ierr, errmsg)
+      if (h < 0) call fail('h5gclose_f', where, ierr, errmsg)
     end if
-    if (ierr == 0) call create_series(out, d_wall_time, [integer(hsize_t) ::], [scalar_chunk], H5T_NATIVE_DOUBLE, &
-                                      ierr, errmsg)
+    if (ierr == 0 .and. out%dset(d_wall_time) < 0) &
+      call create_series(out, d_wall_time, [integer(hsize_t) ::], [scalar_chunk], H5T_NATIVE_DOUBLE, ierr, errmsg)
     if (ierr == 0) then
       call h5fflush_f(out%file, H5F_SCOPE_GLOBAL_F, h)
       if (h < 0) call fail('h5fflush_f', '/', ierr, errmsg)
     end if
     call agree(out%comm, 'output_write_run_info', ierr, errmsg)
   end subroutine output_write_run_info
+
+  !> Open the group path (absolute, one level below an existing group), or
+  !> create it; grp must be closed by the caller.
+  subroutine open_or_create_group(file, path, grp, ierr, errmsg)
+    integer(hid_t), intent(in) :: file
+    character(*), intent(in) :: path
+    integer(hid_t), intent(out) :: grp
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    logical :: exists
+    integer :: h
+
+    grp = -1
+    call h5lexists_f(file, path, exists, h)
+    if (h < 0) then
+      call fail('h5lexists_f', path, ierr, errmsg); return
+    end if
+    if (exists) then
+      call h5gopen_f(file, path, grp, h)
+      if (h < 0) call fail('h5gopen_f', path, ierr, errmsg)
+    else
+      call h5gcreate_f(file, path, grp, h)
+      if (h < 0) call fail('h5gcreate_f', path, ierr, errmsg)
+    end if
+    if (ierr /= 0) grp = -1
+  end subroutine open_or_create_group
 
   !> /config/<group>, created on first use; grp must be closed by the caller.
   subroutine config_group(out, group, grp, ierr, errmsg)
@@ -1195,6 +1254,536 @@ contains
     slash = index(filename(1:n), '/', back=.true.)
     h5_base = filename(slash+1:n)
   end subroutine sidecar_names
+
+  ! ---------------------------------------------------------------------------
+  ! Checkpoints in the run's own file, and the reopening of that file to
+  ! continue the run (-nuno_restart).
+  !
+  ! Layout (docs/model.md section 9, docs/design.md "Checkpoints"):
+  ! /checkpoint/slot_0 and /checkpoint/slot_1, each with the datasets
+  ! position and velocity [ny][nx][3] (float64, the exact state) and the
+  ! attributes of checkpoint_t. A checkpoint goes into the slot that does not
+  ! hold the last valid one: its attribute sequence is set to 0 (invalid)
+  ! and flushed, then the state and attributes are written and flushed, then
+  ! sequence = the next number is written and flushed, last. A kill at any
+  ! moment leaves the other slot valid; a reader takes the slot with the
+  ! largest sequence > 0.
+
+
+  !> Write a checkpoint: the state strips x, v (3, 0:nx-1, ys:ys+ym-1) and
+  !> ck, into the slot that does not hold the last valid one; its
+  !> sequence attribute, written last, makes it valid. Collective.
+  subroutine output_write_checkpoint(out, ck, x, v, ierr, errmsg)
+    type(output_file), intent(inout) :: out
+    type(checkpoint_t), intent(inout) :: ck
+    real(rp), intent(in) :: x(:, :, :), v(:, :, :)
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: errmsg
+    integer(hid_t) :: grp, dset
+    integer(hsize_t) :: nx, ny, ys, ym
+    integer :: slot, k
+    character(len=:), allocatable :: where
+    character(len=*), parameter :: fields(2) = [character(len=8) :: 'position', 'velocity']
+
+    ierr = 0
+    errmsg = ''
+    if (.not. out%is_open) then
+      ierr = 1
+      errmsg = 'output_write_checkpoint: the output file is not open'
+      return
+    end if
+    nx = out%nx; ny = out%ny; ys = out%ys; ym = out%ym
+    if (size(x, 1) /= 3 .or. size(x, 2) /= out%nx .or. size(x, 3) /= out%ym .or. &
+        any(shape(v) /= shape(x))) then
+      ierr = 1
+      errmsg = 'output_write_checkpoint: x and v must be (3, nx, ym)'
+    end if
+    call agree(out%comm, 'output_write_checkpoint', ierr, errmsg)
+    if (ierr /= 0) return
+
+    ck%n_output_steps = out%nt
+    slot = merge(0, 1 - out%ck_slot, out%ck_slot < 0)
+    where = trim(slot_names(slot))
+    grp = -1
+    call open_or_create_group(out%file, '/checkpoint', grp, ierr, errmsg)
+    if (grp >= 0) call close_group(grp, '/checkpoint', ierr, errmsg)
+    if (ierr == 0) call open_or_create_group(out%file, where, grp, ierr, errmsg)
+    ! Invalid while it is being written, and that on disk before anything else.
+    if (ierr == 0) call set_attr_int(grp, 'sequence', 0, where, ierr, errmsg)
+    if (ierr == 0) call flush_file(out, ierr, errmsg)
+    do k = 1, 2
+      if (ierr /= 0) exit
+      call open_or_create_state(out, grp, where//'/'//trim(fields(k)), trim(fields(k)), dset, ierr, errmsg)
+      if (ierr /= 0) exit
+      if (k == 1) then
+        call write_rows3(out, dset, where//'/position', [0_hsize_t, 0_hsize_t, ys], [3_hsize_t, nx, ym], x, ierr, errmsg)
+      else
+        call write_rows3(out, dset, where//'/velocity', [0_hsize_t, 0_hsize_t, ys], [3_hsize_t, nx, ym], v, ierr, errmsg)
+      end if
+      call close_dset(dset, where//'/'//trim(fields(k)), ierr, errmsg)
+    end do
+    if (ierr == 0) call set_attr_reals(grp, 'time', [ck%time], where, ierr, errmsg)
+    if (ierr == 0) call set_attr_reals(grp, 'dt_next', [ck%dt_next], where, ierr, errmsg)
+    if (ierr == 0) call set_attr_reals(grp, 'wall_time', [ck%wall_time], where, ierr, errmsg)
+    if (ierr == 0) call set_attr_reals(grp, 'dissipated', [ck%dissipated], where, ierr, errmsg)
+    if (ierr == 0) call set_attr_reals(grp, 'work_constraints', [ck%work_constraints], where, ierr, errmsg)
+    if (ierr == 0) call set_attr_reals(grp, 'mgx0', [ck%mgx0], where, ierr, errmsg)
+    if (ierr == 0) call set_attr_reals(grp, 't_written', [ck%t_written], where, ierr, errmsg)
+    if (ierr == 0) call set_attr_reals(grp, 'counters', ck%counters, where, ierr, errmsg)
+    if (ierr == 0) call set_attr_int(grp, 'n_output_steps', ck%n_output_steps, where, ierr, errmsg)
+    if (ierr == 0) call set_attr_int(grp, 'stretch_warned', ck%stretch_warned, where, ierr, errmsg)
+    if (ierr == 0) call set_attr_str(grp, 'reason', trim(ck%reason), where, ierr, errmsg)
+    if (ierr == 0) call set_attr_str(grp, 'ts_type', trim(ck%ts_type), where, ierr, errmsg)
+    if (ierr == 0) call flush_file(out, ierr, errmsg)
+    ! Valid from here on.
+    if (ierr == 0) call set_attr_int(grp, 'sequence', out%ck_seq + 1, where, ierr, errmsg)
+    if (ierr == 0) call flush_file(out, ierr, errmsg)
+    if (grp >= 0) call close_group(grp, where, ierr, errmsg)
+    call agree(out%comm, 'output_write_checkpoint', ierr, errmsg)
+    if (ierr /= 0) then
+      errmsg = 'checkpoint not written: '//trim(errmsg)
+      return
+    end if
+    out%ck_seq = out%ck_seq + 1
+    out%ck_slot = slot
+    ck%sequence = out%ck_seq
+  end subroutine output_write_checkpoint
+
+  !> Open an earlier run's file to continue it from its last valid
+  !> checkpoint: lock it, check the lattice and that the checkpoint is
+  !> before t_end, read ck and the state strips, cut the series back to the
+  !> checkpoint's output steps, mark it running. Nothing is changed in the
+  !> file when a check fails. Collective.
+  subroutine output_reopen(out, filename, comm, nx, ny, ys, ym, write_velocity, t_end, attrs_namelist, &
+                                  attrs_petsc_options, ck, x, v, ierr, errmsg, protect)
+    type(output_file), intent(inout) :: out
+    character(*), intent(in) :: filename
+    integer, intent(in) :: comm, nx, ny, ys, ym
+    logical, intent(in) :: write_velocity
+    real(rp), intent(in) :: t_end
+    character(*), intent(in) :: attrs_namelist, attrs_petsc_options
+    type(checkpoint_t), intent(out) :: ck
+    real(rp), intent(out) :: x(:, :, :), v(:, :, :)
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: errmsg
+    character(*), intent(in), optional :: protect
+    integer(hid_t) :: fapl, grp
+    integer :: h, mpierr, fnx, fny, slot, seq(0:1), k, restarts
+    logical :: exists, has_velocity
+    character(len=:), allocatable :: where
+
+    ierr = 0
+    errmsg = ''
+    if (out%is_open) then
+      ierr = 1
+      errmsg = 'output_reopen: handle already open ('//filename//')'
+      return
+    end if
+    call MPI_Comm_rank(comm, out%rank, mpierr)
+    call MPI_Comm_size(comm, out%n_ranks, mpierr)
+    out%comm = comm
+    out%nx = nx
+    out%ny = ny
+    out%ys = ys
+    out%ym = ym
+    out%write_velocity = write_velocity
+    call sidecar_names(filename, out%xmf_path, out%h5_base)
+    out%final_path = filename
+    out%work_path = filename
+    out%lock_path = filename//'.lock'
+    ! Written in place from the start: the checkpoint is in it already.
+    out%committed = .true.
+    out%reopened = .true.
+
+    if (out%rank == 0) then
+      if (.not. file_exists(filename)) then
+        ierr = 1
+        errmsg = '-nuno_restart '//filename//': no such file'
+      else
+        call claim_files(out, ierr, errmsg, protect)
+      end if
+    end if
+    call agree(comm, '-nuno_restart', ierr, errmsg)
+    if (ierr /= 0) then
+      if (out%rank == 0) call lock_release(out%lock_path, out%lock_fd)
+      return
+    end if
+
+    call h5open_f(h)
+    call h5eset_auto_f(0, h)
+    call h5pcreate_f(H5P_FILE_ACCESS_F, fapl, h)
+    if (h < 0) call fail('h5pcreate_f(file access)', filename, ierr, errmsg)
+    if (ierr == 0) then
+      call h5pset_fapl_mpio_f(fapl, comm, MPI_INFO_NULL, h)
+      if (h < 0) call fail('h5pset_fapl_mpio_f', filename, ierr, errmsg)
+    end if
+    if (ierr == 0) then
+      call h5fopen_f(filename, H5F_ACC_RDWR_F, out%file, h, access_prp=fapl)
+      if (h < 0) then
+        ierr = 1
+        errmsg = '-nuno_restart '//filename//': not an HDF5 file that can be opened for writing'
+      end if
+      call h5pclose_f(fapl, h)
+    end if
+    call agree(comm, '-nuno_restart', ierr, errmsg)
+    if (ierr /= 0) then
+      if (out%rank == 0) call lock_release(out%lock_path, out%lock_fd)
+      return
+    end if
+    out%is_open = .true.
+    call h5pcreate_f(H5P_DATASET_XFER_F, out%dxpl, h)
+    if (h < 0) call fail('h5pcreate_f(dataset transfer)', filename, ierr, errmsg)
+    if (ierr == 0) then
+      call h5pset_dxpl_mpio_f(out%dxpl, H5FD_MPIO_COLLECTIVE_F, h)
+      if (h < 0) call fail('h5pset_dxpl_mpio_f', filename, ierr, errmsg)
+    end if
+
+    ! The same lattice and series; a valid checkpoint.
+    fnx = -1
+    fny = -1
+    if (ierr == 0) call get_attr_int(out%file, 'nx', '/', fnx, ierr, errmsg)
+    if (ierr == 0) call get_attr_int(out%file, 'ny', '/', fny, ierr, errmsg)
+    if (ierr /= 0) then
+      errmsg = '-nuno_restart '//filename//': not a nuno output file ('//trim(errmsg)//')'
+    else if (fnx /= nx .or. fny /= ny) then
+      ierr = 1
+      errmsg = '-nuno_restart '//filename//': its lattice is nx = '//str(fnx)//', ny = '//str(fny)// &
+               ', the input''s nx = '//str(nx)//', ny = '//str(ny)
+    end if
+    if (ierr == 0) then
+      call h5lexists_f(out%file, 'velocity', has_velocity, h)
+      if (h < 0) call fail('h5lexists_f', '/velocity', ierr, errmsg)
+      if (ierr == 0 .and. (has_velocity .neqv. write_velocity)) then
+        ierr = 1
+        errmsg = '-nuno_restart '//filename//': &output: write_velocity = '// &
+                 trim(merge('.true. ', '.false.', write_velocity))//' but the file was written with '// &
+                 trim(merge('.true. ', '.false.', has_velocity))//': the series must go on as it began'
+      end if
+    end if
+    seq = 0
+    do k = 0, 1
+      if (ierr /= 0) exit
+      call h5lexists_f(out%file, 'checkpoint', exists, h)
+      if (h < 0) call fail('h5lexists_f', '/checkpoint', ierr, errmsg)
+      if (.not. exists .or. ierr /= 0) exit
+      call h5lexists_f(out%file, trim(slot_names(k)), exists, h)
+      if (h < 0) call fail('h5lexists_f', trim(slot_names(k)), ierr, errmsg)
+      if (exists .and. ierr == 0) then
+        call h5gopen_f(out%file, trim(slot_names(k)), grp, h)
+        if (h < 0) then
+          call fail('h5gopen_f', trim(slot_names(k)), ierr, errmsg)
+        else
+          call h5aexists_f(grp, 'sequence', exists, h)
+          if (exists) call get_attr_int(grp, 'sequence', trim(slot_names(k)), seq(k), ierr, errmsg)
+          call close_group(grp, trim(slot_names(k)), ierr, errmsg)
+        end if
+      end if
+    end do
+    if (ierr == 0 .and. maxval(seq) <= 0) then
+      ierr = 1
+      errmsg = '-nuno_restart '//filename//': no valid checkpoint in it (one is written at the end of a run, '// &
+               'on SIGTERM/SIGINT, every checkpoint_interval and every -nuno_checkpoint_walltime)'
+    end if
+    if (ierr == 0) then
+      slot = maxloc(seq, 1) - 1
+      where = trim(slot_names(slot))
+      call read_checkpoint(out, where, ck, x, v, ierr, errmsg)
+      ck%sequence = seq(slot)
+      out%ck_seq = seq(slot)
+      out%ck_slot = slot
+      if (ierr == 0 .and. ck%time >= t_end - 1.0e-12_rp * max(1.0_rp, t_end)) then
+        ierr = 1
+        write(errmsg, '(a,es12.5e2,a,es12.5e2,a)') '-nuno_restart '//filename//': its last checkpoint is at t =', &
+          ck%time, ', not before t_end =', t_end, ': nothing to continue (a later t_end: -nuno_set t_end=...)'
+      end if
+    end if
+
+    ! The series, cut back to the checkpoint's output steps: what a run
+    ! wrote after its last checkpoint is computed again (the same way).
+    if (ierr == 0) call open_series(out, ck%n_output_steps, ierr, errmsg)
+    if (ierr == 0) then
+      restarts = 0
+      call h5aexists_by_name_f(out%file, 'run', 'restarts', exists, h)
+      if (h >= 0 .and. exists) then
+        call h5gopen_f(out%file, 'run', grp, h)
+        if (h >= 0) then
+          call get_attr_int(grp, 'restarts', '/run', restarts, ierr, errmsg)
+          call close_group(grp, '/run', ierr, errmsg)
+        end if
+      end if
+      out%restarts = restarts + 1
+      call open_or_create_group(out%file, '/run', grp, ierr, errmsg)
+      if (ierr == 0) call set_attr_int(grp, 'restarts', out%restarts, '/run', ierr, errmsg)
+      if (grp >= 0) call close_group(grp, '/run', ierr, errmsg)
+      where = '/run/restart_'//str(out%restarts)
+      if (ierr == 0) call open_or_create_group(out%file, where, grp, ierr, errmsg)
+      if (ierr == 0) call set_attr_reals(grp, 'from_time', [ck%time], where, ierr, errmsg)
+      if (ierr == 0) call set_attr_int(grp, 'from_checkpoint', ck%sequence, where, ierr, errmsg)
+      if (ierr == 0) call set_attr_str(grp, 'namelist', attrs_namelist, where, ierr, errmsg)
+      if (ierr == 0) call set_attr_str(grp, 'petsc_options', attrs_petsc_options, where, ierr, errmsg)
+      if (grp >= 0) call close_group(grp, where, ierr, errmsg)
+    end if
+    if (ierr == 0) call set_attr_str(out%file, 'status', 'running', '/', ierr, errmsg)
+    if (ierr == 0) call set_attr_int(out%file, 'n_ranks', out%n_ranks, '/', ierr, errmsg)
+    if (ierr == 0) call flush_file(out, ierr, errmsg)
+    call agree(comm, '-nuno_restart', ierr, errmsg)
+    if (ierr /= 0) then
+      call close_ids(out, ierr, errmsg)
+      out%is_open = .false.
+      if (out%rank == 0) call lock_release(out%lock_path, out%lock_fd)
+    end if
+  end subroutine output_reopen
+
+  ! ---------------------------------------------------------------------------
+
+  !> The attributes and state strips of the checkpoint slot `where`.
+  subroutine read_checkpoint(out, where, ck, x, v, ierr, errmsg)
+    type(output_file), intent(inout) :: out
+    character(*), intent(in) :: where
+    type(checkpoint_t), intent(out) :: ck
+    real(rp), intent(out) :: x(:, :, :), v(:, :, :)
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: grp
+    integer :: h
+    real(rp) :: r(1)
+
+    call h5gopen_f(out%file, where, grp, h)
+    if (h < 0) then
+      call fail('h5gopen_f', where, ierr, errmsg); return
+    end if
+    call get_attr_reals(grp, 'time', where, r, ierr, errmsg); ck%time = r(1)
+    call get_attr_reals(grp, 'dt_next', where, r, ierr, errmsg); ck%dt_next = r(1)
+    call get_attr_reals(grp, 'wall_time', where, r, ierr, errmsg); ck%wall_time = r(1)
+    call get_attr_reals(grp, 'dissipated', where, r, ierr, errmsg); ck%dissipated = r(1)
+    call get_attr_reals(grp, 'work_constraints', where, r, ierr, errmsg); ck%work_constraints = r(1)
+    call get_attr_reals(grp, 'mgx0', where, r, ierr, errmsg); ck%mgx0 = r(1)
+    call get_attr_reals(grp, 't_written', where, r, ierr, errmsg); ck%t_written = r(1)
+    call get_attr_reals(grp, 'counters', where, ck%counters, ierr, errmsg)
+    call get_attr_int(grp, 'n_output_steps', where, ck%n_output_steps, ierr, errmsg)
+    call get_attr_int(grp, 'stretch_warned', where, ck%stretch_warned, ierr, errmsg)
+    call get_attr_str(grp, 'reason', where, ck%reason, ierr, errmsg)
+    call get_attr_str(grp, 'ts_type', where, ck%ts_type, ierr, errmsg)
+    call close_group(grp, where, ierr, errmsg)
+    if (ierr /= 0) return
+    call read_rows3(out, where//'/position', x, ierr, errmsg)
+    call read_rows3(out, where//'/velocity', v, ierr, errmsg)
+  end subroutine read_checkpoint
+
+  !> Open the time series of an existing file and cut them to nt steps.
+  subroutine open_series(out, nt, ierr, errmsg)
+    type(output_file), intent(inout) :: out
+    integer, intent(in) :: nt
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: space
+    integer(hsize_t) :: dims(4), maxdims(4)
+    integer :: i, h, r, have
+    logical :: exists
+    integer(hid_t) :: fspace, mspace
+
+    call get_attr_int(out%file, 'n_output_steps', '/', have, ierr, errmsg)
+    if (ierr /= 0) return
+    if (nt > have .or. nt < 1) then
+      ierr = 1
+      errmsg = '-nuno_restart: the checkpoint counts '//str(nt)//' output steps, the file holds '//str(have)
+      return
+    end if
+    do i = 1, n_dsets
+      if (i == d_velocity .and. .not. out%write_velocity) cycle
+      call h5lexists_f(out%file, trim(dset_names(i)), exists, h)
+      if (h < 0) then
+        call fail('h5lexists_f', trim(dset_names(i)), ierr, errmsg); return
+      end if
+      if (.not. exists) then
+        if (i == d_wall_time) cycle   ! files of callers that never wrote /run
+        ierr = 1
+        errmsg = '-nuno_restart: the file has no '//trim(dset_names(i))
+        return
+      end if
+      call h5dopen_f(out%file, trim(dset_names(i)), out%dset(i), h)
+      if (h < 0) then
+        call fail('h5dopen_f', trim(dset_names(i)), ierr, errmsg); return
+      end if
+      call h5dget_space_f(out%dset(i), space, h)
+      if (h < 0) then
+        call fail('h5dget_space_f', trim(dset_names(i)), ierr, errmsg); return
+      end if
+      call h5sget_simple_extent_ndims_f(space, r, h)
+      if (h >= 0) call h5sget_simple_extent_dims_f(space, dims(1:r), maxdims(1:r), h)
+      call h5sclose_f(space, h)
+      out%drank(i) = r
+      out%ddims(1:r, i) = dims(1:r)
+      out%ddims(r, i) = int(nt, hsize_t)
+      call h5dset_extent_f(out%dset(i), out%ddims(1:r, i), h)
+      if (h < 0) then
+        call fail('h5dset_extent_f', trim(dset_names(i)), ierr, errmsg); return
+      end if
+    end do
+    out%nt = nt
+    if (allocated(out%times)) deallocate(out%times)
+    allocate(out%times(max(16, 2 * nt)))
+    call select_spaces(out%dset(d_time), '/time', [0_hsize_t], [int(nt, hsize_t)], .false., fspace, mspace, ierr, errmsg)
+    if (ierr == 0) then
+      call h5dread_f(out%dset(d_time), H5T_NATIVE_DOUBLE, out%times(1:nt), [int(nt, hsize_t)], h, &
+                     mem_space_id=mspace, file_space_id=fspace, xfer_prp=out%dxpl)
+      if (h < 0) call fail('h5dread_f', '/time', ierr, errmsg)
+    end if
+    call close_spaces(fspace, mspace, '/time', ierr, errmsg)
+    if (ierr == 0) call set_attr_int(out%file, 'n_output_steps', nt, '/', ierr, errmsg)
+  end subroutine open_series
+
+  !> A fixed [ny][nx][3] state dataset of a checkpoint slot, created on first use.
+  subroutine open_or_create_state(out, grp, path, name, dset, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    integer(hid_t), intent(in) :: grp
+    character(*), intent(in) :: path, name
+    integer(hid_t), intent(out) :: dset
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: space
+    logical :: exists
+    integer :: h
+
+    dset = -1
+    call h5lexists_f(grp, name, exists, h)
+    if (h < 0) then
+      call fail('h5lexists_f', path, ierr, errmsg); return
+    end if
+    if (exists) then
+      call h5dopen_f(grp, name, dset, h)
+      if (h < 0) call fail('h5dopen_f', path, ierr, errmsg)
+      return
+    end if
+    call h5screate_simple_f(3, [3_hsize_t, int(out%nx, hsize_t), int(out%ny, hsize_t)], space, h)
+    if (h < 0) then
+      call fail('h5screate_simple_f', path, ierr, errmsg); return
+    end if
+    call h5dcreate_f(grp, name, H5T_NATIVE_DOUBLE, space, dset, h)
+    if (h < 0) call fail('h5dcreate_f', path, ierr, errmsg)
+    call h5sclose_f(space, h)
+    if (ierr /= 0) dset = -1
+  end subroutine open_or_create_state
+
+  !> Collective read of this rank's rows of a [ny][nx][3] dataset into a(3, nx, ym).
+  subroutine read_rows3(out, path, a, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    character(*), intent(in) :: path
+    real(rp), intent(out) :: a(:, :, :)
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: dset, fspace, mspace
+    integer(hsize_t) :: count(3)
+    integer :: h
+    real(rp) :: empty(1)
+
+    a = 0
+    if (ierr /= 0) return
+    call h5dopen_f(out%file, path, dset, h)
+    if (h < 0) then
+      call fail('h5dopen_f', path, ierr, errmsg); return
+    end if
+    count = [3_hsize_t, int(out%nx, hsize_t), int(out%ym, hsize_t)]
+    call select_spaces(dset, path, [0_hsize_t, 0_hsize_t, int(out%ys, hsize_t)], count, product(count) == 0, &
+                       fspace, mspace, ierr, errmsg)
+    if (ierr == 0) then
+      if (product(count) == 0) then
+        call h5dread_f(dset, H5T_NATIVE_DOUBLE, empty, [1_hsize_t], h, mem_space_id=mspace, file_space_id=fspace, &
+                       xfer_prp=out%dxpl)
+      else
+        call h5dread_f(dset, H5T_NATIVE_DOUBLE, a, count, h, mem_space_id=mspace, file_space_id=fspace, &
+                       xfer_prp=out%dxpl)
+      end if
+      if (h < 0) call fail('h5dread_f', path, ierr, errmsg)
+    end if
+    call close_spaces(fspace, mspace, path, ierr, errmsg)
+    call close_dset(dset, path, ierr, errmsg)
+  end subroutine read_rows3
+
+  subroutine get_attr_int(loc, name, where, value, ierr, errmsg)
+    integer(hid_t), intent(in) :: loc
+    character(*), intent(in) :: name, where
+    integer, intent(out) :: value
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: attr
+    integer :: h, buf(1)
+
+    value = 0
+    if (ierr /= 0) return
+    call h5aopen_f(loc, name, attr, h)
+    if (h < 0) then
+      call fail('h5aopen_f', 'attribute '//name//' of '//where, ierr, errmsg); return
+    end if
+    call h5aread_f(attr, H5T_NATIVE_INTEGER, buf, [1_hsize_t], h)
+    if (h < 0) call fail('h5aread_f', 'attribute '//name//' of '//where, ierr, errmsg)
+    value = buf(1)
+    call h5aclose_f(attr, h)
+  end subroutine get_attr_int
+
+  !> A fixed-length string attribute into value (cut to its length).
+  subroutine get_attr_str(loc, name, where, value, ierr, errmsg)
+    integer(hid_t), intent(in) :: loc
+    character(*), intent(in) :: name, where
+    character(*), intent(out) :: value
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: attr, ftype, mtype
+    integer(size_t) :: n
+    integer :: h, k
+    character(len=:), allocatable :: buf
+
+    value = ''
+    if (ierr /= 0) return
+    call h5aopen_f(loc, name, attr, h)
+    if (h < 0) then
+      call fail('h5aopen_f', 'attribute '//name//' of '//where, ierr, errmsg); return
+    end if
+    call h5aget_type_f(attr, ftype, h)
+    if (h >= 0) call h5tget_size_f(ftype, n, h)
+    if (h >= 0) then
+      allocate(character(len=n) :: buf)
+      call h5tcopy_f(H5T_NATIVE_CHARACTER, mtype, h)
+      if (h >= 0) call h5tset_size_f(mtype, n, h)
+      if (h >= 0) call h5aread_f(attr, mtype, buf, [1_hsize_t], h)
+      call h5tclose_f(mtype, k)
+      k = index(buf, achar(0))
+      if (k > 0) buf = buf(1:k - 1)
+      value = buf
+    end if
+    if (h < 0) call fail('h5aread_f', 'attribute '//name//' of '//where, ierr, errmsg)
+    call h5tclose_f(ftype, k)
+    call h5aclose_f(attr, k)
+  end subroutine get_attr_str
+
+  subroutine get_attr_reals(loc, name, where, values, ierr, errmsg)
+    integer(hid_t), intent(in) :: loc
+    character(*), intent(in) :: name, where
+    real(rp), intent(out) :: values(:)
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: attr
+    integer :: h
+
+    values = 0
+    if (ierr /= 0) return
+    call h5aopen_f(loc, name, attr, h)
+    if (h < 0) then
+      call fail('h5aopen_f', 'attribute '//name//' of '//where, ierr, errmsg); return
+    end if
+    call h5aread_f(attr, H5T_NATIVE_DOUBLE, values, [int(size(values), hsize_t)], h)
+    if (h < 0) call fail('h5aread_f', 'attribute '//name//' of '//where, ierr, errmsg)
+    call h5aclose_f(attr, h)
+  end subroutine get_attr_reals
+
+  subroutine flush_file(out, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer :: h
+    call h5fflush_f(out%file, H5F_SCOPE_GLOBAL_F, h)
+    if (h < 0) call fail('h5fflush_f', out%final_path, ierr, errmsg)
+  end subroutine flush_file
 
   ! ---------------------------------------------------------------------------
   ! XDMF sidecar (rank 0, plain Fortran I/O, rewritten whole at each step).

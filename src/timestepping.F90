@@ -29,12 +29,12 @@ module timestepping
   use scenes, only: scene_setup
   use diagnostics, only: state_diagnostics_t, state_diagnostics
   use output, only: output_file, output_record, output_write_step, run_info, output_write_run_info, &
-                    output_write_wall_time, output_config_key
+                    output_write_wall_time, output_config_key, checkpoint_t, output_write_checkpoint
   use reduced, only: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach, &
                      set_block_row
   implicit none
   private
-  public :: app_ctx, solver_create, solver_destroy, solver_run, check_decomposition
+  public :: app_ctx, solver_create, solver_destroy, solver_run, check_decomposition, solver_restore
 
   !> Fraction of the estimated round-off floor of ||F|| below which Newton
   !> has converged (the estimate is about 14 times the floor actually met).
@@ -56,6 +56,14 @@ module timestepping
     integer(c_int) function nuno_signal_agreed() bind(C, name='nuno_signal_agreed')
       import :: c_int
     end function nuno_signal_agreed
+    !> src/nuno_signals.c: -nuno_checkpoint_walltime, agreed after each step.
+    subroutine nuno_walltime_arm(seconds) bind(C, name='nuno_walltime_arm')
+      import :: c_double
+      real(c_double), value :: seconds
+    end subroutine nuno_walltime_arm
+    integer(c_int) function nuno_checkpoint_due() bind(C, name='nuno_checkpoint_due')
+      import :: c_int
+    end function nuno_checkpoint_due
     !> src/nuno_options.c: nuno's options in a PETSc options block.
     integer(c_int) function nuno_options_read(fcomm, jacobian, pc_lag, snes_floor, gauss_newton, clamp, &
                                               mattype, mattype_len, fail_newton) bind(C, name='nuno_options_read')
@@ -126,6 +134,15 @@ module timestepping
     real(rp) :: wall0 = 0                       !< MPI_Wtime at the start of solver_run [s]
     real(rp) :: t_written = -1                  !< time of the last output step [time]
     logical :: stretch_warned = .false.         !< the stretch_limit warning was given
+    ! checkpoints and restarts (docs/design.md, "Checkpoints")
+    real(rp) :: checkpoint_walltime = 0         !< -nuno_checkpoint_walltime: a checkpoint after each [s]; 0: none
+    real(rp) :: t_checkpoint = -1               !< time of the last checkpoint written or restarted from [time]
+    logical :: restarted = .false.              !< continues a checkpoint (solver_restore)
+    real(rp) :: t_restart = 0, h_restart = 0    !< its time and next step [time]
+    real(rp) :: wall_before = 0                 !< wall-clock seconds of the runs before this one [s]
+    !> rejected steps, Newton and linear iterations and retries of the runs
+    !> before this one (the step count goes on in the TS itself)
+    real(rp) :: counts_before(5) = 0
   end type app_ctx
 
 contains
@@ -765,8 +782,11 @@ contains
     ctx%moving_constraints = loc(2) > 0.0_rp
   end subroutine enter_window
 
-  !> Integrate from t = 0 to t_end, writing every output step. On a failed
-  !> step, status says why and ierr = 0 (the output so far is kept); ierr /= 0
+  !> Integrate from t = 0 (or from the checkpoint of solver_restore) to
+  !> t_end, writing every output step and the checkpoints (every
+  !> checkpoint_interval at an output step, every -nuno_checkpoint_walltime
+  !> after a step, on SIGTERM/SIGINT, and at the end). On a failed step,
+  !> status says why and ierr = 0 (the output so far is kept); ierr /= 0
   !> is left for PETSc or HDF5 errors. -ts_max_steps ends the run early but
   !> complete, with the state of its last step written. Collective.
   subroutine solver_run(ctx, out, status, ierr)
@@ -777,16 +797,17 @@ contains
     real(rp), allocatable :: events(:)
     real(rp) :: t, tstop, h, dke, eps, unorm, wall
     integer :: iout, ie
-    logical :: at_max_steps
+    logical :: at_max_steps, resume, due
     TSConvergedReason :: reason
     character(len=900) :: msg
     character(len=256) :: reasonname
     character(len=512) :: errmsg
 
     status = 'complete'
-    ctx%wall0 = MPI_Wtime()
+    ctx%wall0 = MPI_Wtime() - ctx%wall_before
     call write_run_info(ctx, out, ierr)
     if (ierr /= 0) return
+    call nuno_walltime_arm(real(ctx%checkpoint_walltime, c_double))
     events = constraint_events(ctx%cs, ctx%t_end)
     eps = 1.0e-12_rp * max(1.0_rp, ctx%t_end)
     h = ctx%dt
@@ -794,39 +815,63 @@ contains
     ie = 1
     iout = 0
     at_max_steps = .false.
-    tstop = next_stop(t)
-    call enter_window(ctx, t, tstop, dke, ierr)
-    if (ierr /= 0) return
-    ctx%t_prev = 0.0_rp
-    call write_output(ctx, out, t, ierr)
-    if (ierr /= 0) return
-    iout = 1
+    resume = .false.
+    if (ctx%restarted) then
+      ! Go on from the checkpoint: its state, time and step number are in
+      ! the TS (solver_restore); the next output step is the first after t.
+      t = ctx%t_restart
+      if (.not. ctx%fixed_step) h = ctx%h_restart
+      iout = 1
+      do while (output_time(iout) <= t + eps .and. real(iout, rp) * ctx%cfg%output_interval < ctx%t_end)
+        iout = iout + 1
+      end do
+      ctx%t_prev = t
+    else
+      tstop = next_stop(t)
+      call enter_window(ctx, t, tstop, dke, ierr)
+      if (ierr /= 0) return
+      ctx%t_prev = 0.0_rp
+      call write_output(ctx, out, t, ierr)
+      if (ierr /= 0) return
+      iout = 1
+    end if
 
     do while (t < ctx%t_end - eps .and. .not. at_max_steps)
-      tstop = next_stop(t)
-      ctx%tstop = tstop
-      if (t > 0.0_rp) then
-        call enter_window(ctx, t, tstop, dke, ierr)
-        if (ierr /= 0) return
-        ctx%work_constraints = ctx%work_constraints + dke
-        PetscCall(TSRestartStep(ctx%ts, ierr))
+      if (resume) then
+        ! After a wall-clock checkpoint inside a window: the same window,
+        ! the TS's own step and history, as if nothing had happened.
+        resume = .false.
+      else
+        tstop = next_stop(t)
+        ctx%tstop = tstop
+        if (t > 0.0_rp) then
+          call enter_window(ctx, t, tstop, dke, ierr)
+          if (ierr /= 0) return
+          ctx%work_constraints = ctx%work_constraints + dke
+          PetscCall(TSRestartStep(ctx%ts, ierr))
+        end if
+        PetscCall(TSSetMaxTime(ctx%ts, tstop, ierr))
+        if (ctx%fixed_step) h = ctx%dt
+        if (t + 1.01_rp * h >= tstop) h = tstop - t
+        PetscCall(TSSetTimeStep(ctx%ts, h, ierr))
       end if
-      PetscCall(TSSetMaxTime(ctx%ts, tstop, ierr))
-      if (ctx%fixed_step) h = ctx%dt
-      if (t + 1.01_rp * h >= tstop) h = tstop - t
-      PetscCall(TSSetTimeStep(ctx%ts, h, ierr))
       PetscCall(TSSolve(ctx%ts, ctx%u, ierr))
       PetscCall(TSGetConvergedReason(ctx%ts, reason, ierr))
       PetscCall(TSGetTime(ctx%ts, t, ierr))
       PetscCall(VecNorm(ctx%u, NORM_INFINITY, unorm, ierr))
       if (reason >= 0 .and. nuno_signal_agreed() /= 0) then
-        ! SIGTERM/SIGINT: every rank finished the same step; keep its state.
+        ! SIGTERM/SIGINT: every rank finished the same step; keep its state
+        ! and a checkpoint to continue from.
         if (t > ctx%t_written) then
           call write_output(ctx, out, t, ierr)
           if (ierr /= 0) return
         end if
+        PetscCall(TSGetTimeStep(ctx%ts, h, ierr))
+        call take_checkpoint(ctx, out, t, h, trim(signal_name(nuno_signal_agreed())), ierr)
+        if (ierr /= 0) return
         write(msg, '(a,es12.5,a)') trim(signal_name(nuno_signal_agreed()))//' at t = ', t, &
-          ': the run stopped after that step, with its state written'
+          ': the run stopped after that step, with its state and a checkpoint written (continue it with'// &
+          ' -nuno_restart '//trim(ctx%cfg%output_file)//')'
         status = 'interrupted: '//trim(msg)
         if (ctx%rank == 0) write(error_unit, '(a)') 'nuno: interrupted: '//trim(msg)
         exit
@@ -836,6 +881,15 @@ contains
         status = 'failed: '//trim(msg)
         if (ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//trim(msg)
         exit
+      end if
+      due = reason >= 0 .and. nuno_checkpoint_due() /= 0
+      if (due .and. abs(t - tstop) > 1.0e3_rp * eps) then
+        ! -nuno_checkpoint_walltime, inside a window: write it, go on.
+        PetscCall(TSGetTimeStep(ctx%ts, h, ierr))
+        call take_checkpoint(ctx, out, t, h, 'wall time', ierr)
+        if (ierr /= 0) return
+        resume = .true.
+        cycle
       end if
       ! -ts_max_steps: PETSc counts steps over all TSSolve calls and stops
       ! with TS_CONVERGED_ITS, possibly inside a window: a clean end.
@@ -855,15 +909,30 @@ contains
         call write_output(ctx, out, t, ierr)
         if (ierr /= 0) return
         iout = iout + 1
+        if (ctx%cfg%checkpoint_interval > 0.0_rp .and. t < ctx%t_end - eps .and. &
+            t >= ctx%t_checkpoint + ctx%cfg%checkpoint_interval - eps) then
+          call take_checkpoint(ctx, out, t, h, 'checkpoint_interval', ierr)
+          if (ierr /= 0) return
+        end if
       else if (at_max_steps .and. t > ctx%t_written) then
         ! Off the output grid (inside a window, or at a keyframe): the last state.
         call write_output(ctx, out, t, ierr)
+        if (ierr /= 0) return
+      end if
+      if (due .and. ctx%t_checkpoint /= t) then
+        call take_checkpoint(ctx, out, t, h, 'wall time', ierr)
         if (ierr /= 0) return
       end if
       if (at_max_steps .and. t < ctx%t_end - eps .and. ctx%rank == 0) &
         write(output_unit, '(a,es13.5e2,a)') 'nuno: -ts_max_steps '//inum(ctx%max_steps)// &
           ' reached at t =', t, ': the run ends here, complete, with this state written'
     end do
+    ! The end of a complete run: a checkpoint, so that it can be continued
+    ! to a later t_end.
+    if (status == 'complete' .and. ctx%t_checkpoint /= t) then
+      call take_checkpoint(ctx, out, t, h, 'end', ierr)
+      if (ierr /= 0) return
+    end if
 
     ! The run's wall time, the same value on every rank (an attribute).
     wall = MPI_Wtime() - ctx%wall0
@@ -903,11 +972,13 @@ contains
     real(rp), intent(in) :: wall
     PetscErrorCode, intent(out) :: ierr
     PetscInt :: steps, rejects, fails
-    real(rp) :: t
+    real(rp) :: t, c(5)
 
-    PetscCall(TSGetStepNumber(ctx%ts, steps, ierr))
-    PetscCall(TSGetStepRejections(ctx%ts, rejects, ierr))
-    PetscCall(TSGetSNESFailures(ctx%ts, fails, ierr))
+    call run_counts(ctx, c, ierr)
+    if (ierr /= 0) return
+    steps = int(c(1), kind(steps))
+    rejects = int(c(2), kind(rejects))
+    fails = int(c(5), kind(fails))
     PetscCall(TSGetTime(ctx%ts, t, ierr))
     if (ctx%rank == 0) then
       write(output_unit, '(a,es13.5e2,a,i0,a,i0,a,i0,a,es11.3e2,a)') 'nuno: '// &
@@ -1006,6 +1077,7 @@ contains
     call output_config_key(out, 'output', 'output_file', trim(cfg%output_file), e, errmsg)
     call output_config_key(out, 'output', 'petsc_options', trim(cfg%petsc_options), e, errmsg)
     call output_config_key(out, 'output', 'stretch_limit', [cfg%stretch_limit], e, errmsg)
+    call output_config_key(out, 'output', 'checkpoint_interval', [cfg%checkpoint_interval], e, errmsg)
     ! One error flag for all ranks (each call above is local HDF5 metadata).
     call MPI_Allreduce(MPI_IN_PLACE, e, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
     ierr = e
@@ -1109,6 +1181,108 @@ contains
     end if
   end subroutine failure_reason
 
+  !> Accepted steps, rejected steps, Newton iterations, linear iterations
+  !> and retried Newton solves since t = 0, a restart's earlier runs
+  !> included (the same on every rank).
+  subroutine run_counts(ctx, c, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    real(rp), intent(out) :: c(5)
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt :: steps, rejects, nits, lits, fails
+
+    PetscCall(TSGetStepNumber(ctx%ts, steps, ierr))
+    PetscCall(TSGetStepRejections(ctx%ts, rejects, ierr))
+    PetscCall(TSGetSNESIterations(ctx%ts, nits, ierr))
+    PetscCall(TSGetKSPIterations(ctx%ts, lits, ierr))
+    PetscCall(TSGetSNESFailures(ctx%ts, fails, ierr))
+    if (ctx%use_reduced) lits = ctx%red%its        ! the outer KSP is preonly: count the inner iterations
+    c = [real(steps, rp), real(rejects, rp), real(nits, rp), real(lits, rp), real(fails, rp)] + ctx%counts_before
+    c(1) = real(steps, rp)                         ! the TS goes on counting from the checkpoint's step
+  end subroutine run_counts
+
+  !> Continue from a checkpoint: the state strips x, v (3, 0:nx-1, ys:ye)
+  !> into the state vector, the TS's time and step number, the integrals
+  !> and counters into the context. solver_run then goes on from ck%time.
+  !> Collective.
+  subroutine solver_restore(ctx, ck, x, v, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    type(checkpoint_t), intent(in) :: ck
+    real(rp), intent(in) :: x(:, :, :), v(:, :, :)
+    PetscErrorCode, intent(out) :: ierr
+    PetscScalar, pointer :: ua(:, :, :)
+    PetscInt :: step
+    integer :: j, k
+
+    PetscCall(DMDAVecGetArrayF90(ctx%da, ctx%u, ua, ierr))
+    do j = ctx%lat%ys, ctx%lat%ye
+      k = j - ctx%lat%ys + 1
+      ua(0:2, :, j) = x(:, :, k)
+      ua(3:5, :, j) = v(:, :, k)
+    end do
+    PetscCall(DMDAVecRestoreArrayF90(ctx%da, ctx%u, ua, ierr))
+    step = int(ck%counters(1), kind(step))
+    PetscCall(TSSetStepNumber(ctx%ts, step, ierr))
+    PetscCall(TSSetTime(ctx%ts, ck%time, ierr))
+    ctx%restarted = .true.
+    ctx%t_restart = ck%time
+    ctx%h_restart = ck%dt_next
+    ctx%t_checkpoint = ck%time
+    ctx%wall_before = ck%wall_time
+    ctx%counts_before = [0.0_rp, ck%counters(2:5)]
+    ctx%dissipated = ck%dissipated
+    ctx%work_constraints = ck%work_constraints
+    ctx%mgx0 = ck%mgx0
+    ctx%t_written = ck%t_written
+    ctx%stretch_warned = ck%stretch_warned /= 0
+  end subroutine solver_restore
+
+  !> Write a checkpoint of the state at t, h being the step the run takes
+  !> next (module output, submodule output_checkpoint), and say so on
+  !> stdout. Collective.
+  subroutine take_checkpoint(ctx, out, t, h, reason, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    type(output_file), intent(inout) :: out
+    real(rp), intent(in) :: t, h
+    character(*), intent(in) :: reason
+    PetscErrorCode, intent(out) :: ierr
+    type(checkpoint_t) :: ck
+    PetscScalar, pointer :: ua(:, :, :)
+    character(len=512) :: errmsg
+    integer :: j
+
+    PetscCall(DMDAVecGetArrayReadF90(ctx%da, ctx%u, ua, ierr))
+    do j = ctx%lat%ys, ctx%lat%ye
+      ctx%xout(:, :, j) = ua(0:2, :, j)
+      ctx%vout(:, :, j) = ua(3:5, :, j)
+    end do
+    PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, ctx%u, ua, ierr))
+    ck%time = t
+    ck%dt_next = h
+    ! Attributes must be equal on all ranks: the slowest rank's clock.
+    ck%wall_time = MPI_Wtime() - ctx%wall0
+    call MPI_Allreduce(MPI_IN_PLACE, ck%wall_time, 1, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
+    ck%dissipated = ctx%dissipated
+    ck%work_constraints = ctx%work_constraints
+    ck%mgx0 = ctx%mgx0
+    ck%t_written = ctx%t_written
+    call run_counts(ctx, ck%counters, ierr)
+    if (ierr /= 0) return
+    ck%stretch_warned = merge(1, 0, ctx%stretch_warned)
+    ck%reason = reason
+    PetscCall(TSGetType(ctx%ts, ck%ts_type, ierr))
+    call output_write_checkpoint(out, ck, ctx%xout, ctx%vout, ierr, errmsg)
+    if (ierr /= 0) then
+      if (ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//trim(errmsg)
+      return
+    end if
+    ctx%t_checkpoint = t
+    if (ctx%rank == 0) then
+      write(output_unit, '(a,i0,a,es12.5e2,a)') 'nuno: checkpoint ', ck%sequence, ' at t =', t, &
+        ' ('//trim(reason)//'), '//inum(int(ck%n_output_steps, kind(ctx%max_steps)))//' output steps'
+      flush(output_unit)
+    end if
+  end subroutine take_checkpoint
+
   !> Diagnostics and one output step; a one-line summary on rank 0.
   subroutine write_output(ctx, out, t, ierr)
     type(app_ctx), intent(inout) :: ctx
@@ -1122,7 +1296,7 @@ contains
     PetscInt :: steps, rejects, nits, lits, fails
     character(len=512) :: errmsg
     integer :: j
-    real(rp) :: wall, rate, eta
+    real(rp) :: wall, rate, eta, c(5)
 
     PetscCall(DMGetLocalVector(ctx%da, uloc, ierr))
     PetscCall(DMGlobalToLocalBegin(ctx%da, ctx%u, INSERT_VALUES, uloc, ierr))
@@ -1138,12 +1312,13 @@ contains
     PetscCall(DMRestoreLocalVector(ctx%da, uloc, ierr))
     if (t == 0.0_rp) ctx%mgx0 = d%mgx
 
-    PetscCall(TSGetStepNumber(ctx%ts, steps, ierr))
-    PetscCall(TSGetStepRejections(ctx%ts, rejects, ierr))
-    PetscCall(TSGetSNESIterations(ctx%ts, nits, ierr))
-    PetscCall(TSGetKSPIterations(ctx%ts, lits, ierr))
-    PetscCall(TSGetSNESFailures(ctx%ts, fails, ierr))
-    if (ctx%use_reduced) lits = ctx%red%its        ! the outer KSP is preonly: count the inner iterations
+    call run_counts(ctx, c, ierr)
+    if (ierr /= 0) return
+    steps = int(c(1), kind(steps))
+    rejects = int(c(2), kind(rejects))
+    nits = int(c(3), kind(nits))
+    lits = int(c(4), kind(lits))
+    fails = int(c(5), kind(fails))
     rec%time = t
     rec%kinetic = d%kinetic
     rec%stretch = d%stretch

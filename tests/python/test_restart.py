@@ -1,0 +1,190 @@
+"""Checkpoint and restart (issue 8 item 2): a run continued from a checkpoint
+with -nuno_restart must equal the run that went through, bitwise for
+fixed-step backward Euler on the same ranks, to solver tolerance for
+adaptive methods and other rank counts; SIGTERM leaves a file that can be
+continued; the wall-clock trigger changes nothing in the result; a
+half-written (invalid) checkpoint slot is never used; a restart that cannot
+be done says why in one line and leaves the file as it was.
+
+The expectation is always another run (the continuous one), never the
+program's own numbers pasted in."""
+import hashlib
+import signal
+import subprocess
+import time
+
+import h5py
+import numpy as np
+import pytest
+
+from nunorun import exe, mpiexec, namelist, run
+
+HANG = dict(scene="scene='hang'", lattice="nx=9 ny=7", time="t_end=0.2 dt=0.005",
+            output="output_interval=0.05 write_velocity=.true.")
+SERIES = ["time", "position", "velocity", "energy/kinetic", "energy/stretch", "energy/bend",
+          "energy/dissipated", "energy/external_work", "diagnostics/momentum", "diagnostics/steps",
+          "diagnostics/rejected_steps", "diagnostics/newton_iterations", "diagnostics/linear_iterations"]
+
+
+def series(h5):
+    with h5py.File(h5, "r") as f:
+        n = int(f.attrs["n_output_steps"])
+        return {k: f[k][:n] for k in SERIES if k in f}, f.attrs["status"].decode()
+
+
+def restart(tmp_path, name, h5, nranks=2, options=(), check=True, **groups):
+    """Run the input `name` again with -nuno_restart h5."""
+    return run(tmp_path, name, nranks=nranks, options=["-nuno_restart", str(h5), *options], check=check, **groups)
+
+
+def checkpoints(h5):
+    with h5py.File(h5, "r") as f:
+        return sorted((int(g.attrs["sequence"]), float(g.attrs["time"]), g.attrs["reason"].decode())
+                      for g in f["checkpoint"].values())
+
+
+def test_restart_equals_the_continuous_run_bitwise(tmp_path):
+    _, full = run(tmp_path, "full", nranks=2, **HANG)
+    half_groups = dict(HANG, time="t_end=0.1 dt=0.005")
+    _, half = run(tmp_path, "half", nranks=2, **half_groups)
+    assert checkpoints(half)[-1][1:] == (0.1, "end")
+    proc, _ = restart(tmp_path, "half", half, nranks=2, **HANG)
+    assert "restart from checkpoint 1 at t = 1.00000E-01 (end)" in proc.stdout
+    a, sa = series(full)
+    b, sb = series(half)
+    assert sa == sb == "complete"
+    assert a.keys() == b.keys() == set(SERIES)
+    for k in SERIES:
+        assert a[k].shape == b[k].shape and np.array_equal(a[k], b[k]), k
+    with h5py.File(half, "r") as f:
+        assert int(f["run"].attrs["restarts"]) == 1
+        assert float(f["run/restart_1"].attrs["from_time"]) == 0.1
+        # The wall time goes on from the first run's, it does not start again.
+        w = f["wall_time"][:]
+        assert np.all(np.diff(w) >= 0)
+
+
+def test_restart_on_other_ranks_and_adaptive_bdf_agrees_to_tolerance(tmp_path):
+    adaptive = ["-ts_type", "bdf", "-ts_adapt_type", "basic", "-ts_rtol", "1e-7", "-ts_atol", "1e-7"]
+    _, full = run(tmp_path, "full", nranks=1, options=adaptive, **HANG)
+    _, half = run(tmp_path, "half", nranks=3, options=adaptive, **dict(HANG, time="t_end=0.1 dt=0.005"))
+    restart(tmp_path, "half", half, nranks=2, options=adaptive, **HANG)
+    a, _ = series(full)
+    b, _ = series(half)
+    assert np.array_equal(a["time"], b["time"])
+    # Up to t = 0.1 the same steps were taken (other ranks: other
+    # preconditioner blocks, so the same solution to the solver's tolerance).
+    assert np.abs(a["position"][:3] - b["position"][:3]).max() < 1e-8
+    # After it the restarted bdf starts again at first order: the same
+    # solution to the integrator's tolerance (cloth size 1).
+    err = np.abs(a["position"] - b["position"]).max()
+    assert 0 < err < 1e-5, err
+
+
+def test_sigterm_leaves_a_file_that_continues_to_the_same_result(tmp_path):
+    groups = dict(scene="scene='hang'", lattice="nx=15 ny=15", time="t_end=1 dt=0.002",
+                  output="output_interval=0.05")
+    _, full = run(tmp_path, "full", nranks=2, **groups)
+    h5 = tmp_path / "term.h5"
+    nml = tmp_path / "term.nml"
+    nml.write_text(namelist(h5.name, **groups))
+    proc = subprocess.Popen([mpiexec(), "-n", "2", "--oversubscribe", exe(), str(nml)], cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    seen = 0
+    deadline = time.time() + 120
+    while seen < 3 and time.time() < deadline:
+        line = proc.stdout.readline()
+        if not line:
+            break
+        seen += line.startswith("t =")
+    assert seen == 3, "the run did not get going"
+    proc.send_signal(signal.SIGTERM)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode != 0 and "interrupted: SIGTERM" in err, err
+    ck = checkpoints(h5)
+    assert ck[-1][2] == "SIGTERM" and 0.1 <= ck[-1][1] < 1
+    _, status = series(h5)
+    assert status.startswith("interrupted: SIGTERM")
+    proc2, _ = restart(tmp_path, "term", h5, nranks=2, **groups)
+    a, _ = series(full)
+    b, status = series(h5)
+    assert status == "complete"
+    # The interrupted run wrote its last state off the output grid; the
+    # restart's series holds it as well, then the grid from there on.
+    on_grid = np.isin(b["time"], a["time"])
+    assert np.array_equal(b["time"][on_grid], a["time"])
+    err = np.abs(a["position"] - b["position"][on_grid]).max()
+    assert err < 1e-9, err
+
+
+def test_wall_clock_checkpoints_change_nothing(tmp_path):
+    groups = dict(scene="scene='hang'", lattice="nx=21 ny=21", time="t_end=0.3 dt=0.002",
+                  output="output_interval=0.1")
+    _, plain = run(tmp_path, "plain", nranks=2, **groups)
+    proc, often = run(tmp_path, "often", nranks=2, options=["-nuno_checkpoint_walltime", "0.05s"], **groups)
+    ck = checkpoints(often)
+    assert proc.stdout.count("(wall time)") >= 2, proc.stdout
+    assert ck[-1][2] == "end"
+    a, _ = series(plain)
+    b, _ = series(often)
+    assert a.keys() == b.keys()
+    for k in a:
+        assert np.array_equal(a[k], b[k]), k
+
+
+def test_a_half_written_checkpoint_is_never_used(tmp_path):
+    groups = dict(HANG, output=HANG["output"] + " checkpoint_interval=0.05")
+    _, full = run(tmp_path, "full", nranks=2, **HANG)
+    proc, h5 = run(tmp_path, "ck", nranks=2, **dict(groups, time="t_end=0.15 dt=0.005"))
+    ck = checkpoints(h5)
+    assert [round(t, 12) for _, t, _ in ck] == [0.1, 0.15], ck   # two slots: the last two
+    # As a kill during the last checkpoint would leave it: invalid.
+    with h5py.File(h5, "r+") as f:
+        for g in f["checkpoint"].values():
+            if abs(g.attrs["time"] - 0.15) < 1e-12:
+                g.attrs["sequence"] = np.int32(0)
+    proc, _ = run(tmp_path, "ck", nranks=3, options=["-nuno_restart", str(h5)], **groups)
+    assert "at t = 1.00000E-01 (checkpoint_interval)" in proc.stdout, proc.stdout
+    a, _ = series(full)
+    b, _ = series(h5)
+    # The steps after t = 0.1 were cut and computed again, to t_end = 0.2
+    # (on 3 ranks instead of 2: to the solver's tolerance).
+    assert np.array_equal(a["time"], b["time"])
+    assert np.abs(a["position"] - b["position"]).max() < 1e-8
+
+
+def md5(path):
+    return hashlib.md5(path.read_bytes()).hexdigest()
+
+
+@pytest.mark.parametrize("case", ["missing", "no_checkpoint", "lattice", "not_later", "velocity", "walltime"])
+def test_a_restart_that_cannot_be_done_says_why_and_changes_nothing(tmp_path, case):
+    _, h5 = run(tmp_path, "r", nranks=2, **HANG)
+    groups = dict(HANG)
+    target = h5
+    if case == "missing":
+        target = tmp_path / "nothere.h5"
+        expect = "nothere.h5: no such file"
+    elif case == "no_checkpoint":
+        with h5py.File(h5, "r+") as f:
+            del f["checkpoint"]
+        expect = "no valid checkpoint in it"
+    elif case == "lattice":
+        groups["lattice"] = "nx=9 ny=9"
+        expect = "its lattice is nx = 9, ny = 7, the input's nx = 9, ny = 9"
+    elif case == "not_later":
+        expect = "not before t_end = 2.00000E-01: nothing to continue"
+    elif case == "velocity":
+        groups["output"] = "output_interval=0.05"
+        groups["time"] = "t_end=0.3 dt=0.005"
+        expect = "write_velocity = .false. but the file was written with .true."
+    else:
+        groups["time"] = "t_end=0.3 dt=0.005"
+        expect = "-nuno_checkpoint_walltime 5x: not a wall-clock duration"
+    before = md5(h5)
+    opts = ["-nuno_restart", str(target)] + (["-nuno_checkpoint_walltime", "5x"] if case == "walltime" else [])
+    proc, _ = run(tmp_path, "bad", nranks=3, options=opts, check=False, timeout=120, **groups)
+    assert proc.returncode != 0
+    errors = [ln for ln in proc.stderr.splitlines() if ln.startswith("nuno: error")]
+    assert len(errors) == 1 and expect in errors[0], proc.stderr
+    assert md5(h5) == before
