@@ -74,13 +74,19 @@ contains
     input_path_argument = len_trim(path) > 0 .and. path(1:1) /= '-'
   end function input_path_argument
 
-  !> Collective error exit: one line on rank 0 (stderr), exit code 1 everywhere.
-  subroutine fatal_collective(msg)
+  !> Collective error exit: one line on rank 0 (stderr), exit code 1
+  !> everywhere; with reported, no line (the cause was reported already and
+  !> this error follows from it, e.g. a full disk refusing the close).
+  subroutine fatal_collective(msg, reported)
     character(len=*), intent(in) :: msg
+    logical, intent(in), optional :: reported
     integer :: rank, ierr
     PetscBool :: initialized
+    logical :: quiet
+    quiet = .false.
+    if (present(reported)) quiet = reported
     call MPI_Comm_rank(MPI_COMM_WORLD, rank, ierr)
-    if (rank == 0) then
+    if (rank == 0 .and. .not. quiet) then
       write(0, '(a)') 'nuno: error: '//trim(msg)
       flush(0)
     end if

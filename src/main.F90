@@ -21,7 +21,7 @@ program nuno
 
   type(nuno_config) :: cfg
   type(app_ctx), target :: ctx
-  type(output_file) :: out
+  type(output_file), target :: out
   type(checkpoint_t) :: ck
   PetscErrorCode :: ierr
   integer :: rank, nranks
@@ -102,6 +102,9 @@ program nuno
     petsc_opts = trim(petsc_opts//' [namelist, overridden by the above: '//trim(cfg%petsc_options)//']')
   ctx%checkpoint_walltime = walltime
   if (len_trim(restart_file) > 0) then
+    if (len_trim(restart_file) > len(ctx%cfg%output_file)) &
+      call fatal_collective('-nuno_restart: the file name is longer than '//trim(adjustl(itoa(len(ctx%cfg%output_file))))// &
+                            ' characters')
     call output_reopen(out, trim(restart_file), PETSC_COMM_WORLD, cfg%nx, cfg%ny, ctx%lat%ys, &
                        ctx%lat%ye - ctx%lat%ys + 1, cfg%write_velocity, ctx%t_end, cfg%namelist_text, petsc_opts, &
                        ck, ctx%xout, ctx%vout, ierr, errmsg, protect=trim(path))
@@ -109,7 +112,7 @@ program nuno
     if (rank == 0 .and. .not. same_file(trim(restart_file), trim(cfg%output_file))) &
       write(*, '(a)') 'nuno: -nuno_restart: the run goes on in '//trim(restart_file)//"; the input's output_file = '"// &
                       trim(cfg%output_file)//"' is not used"
-    ctx%cfg%output_file = restart_file
+    ctx%cfg%output_file = restart_file(1:len(ctx%cfg%output_file))
     call solver_restore(ctx, ck, ctx%xout, ctx%vout, ierr)
     if (ierr /= 0) call fatal_local('could not restore the checkpoint')
     if (rank == 0) write(*, '(a,i0,a,es12.5e2,a)') 'nuno: restart from checkpoint ', ck%sequence, ' at t =', ck%time, &
@@ -126,11 +129,18 @@ program nuno
   call solver_run(ctx, out, status, ierr)
   if (ierr /= 0) call fatal_local('PETSc or HDF5 error during the run; output not marked complete')
   call output_close(out, trim(status), ierr, errmsg)
-  if (ierr /= 0) call fatal_collective(errmsg)
+  ! After a failed write (a full disk) the close fails too: that was said.
+  if (ierr /= 0) call fatal_collective(errmsg, reported=status /= 'complete' .and. len_trim(ctx%io_error) > 0)
 
   ! 5. Clean up; a failed run exits non-zero on every rank.
   call solver_destroy(ctx, ierr)
   PetscCallA(PetscFinalize(ierr))
   ! Quiet: the failure was reported in one line already (no ERROR STOP, no backtrace).
   if (status /= 'complete') call quiet_exit(1)
+contains
+  function itoa(i) result(s)
+    integer, intent(in) :: i
+    character(len=12) :: s
+    write(s, '(i0)') i
+  end function itoa
 end program nuno

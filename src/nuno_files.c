@@ -111,3 +111,16 @@ int nuno_rename(const char *from, const char *to, char *msg, int msglen)
   snprintf(msg, msglen, "%s", strerror(errno));
   return 1;
 }
+
+/* Bytes free for an unprivileged writer on the file system that holds
+ * path (statvfs of its directory), or -1 when that cannot be told. For the
+ * cause of a failed write: a full disk says nothing else. */
+#include <sys/statvfs.h>
+double nuno_free_bytes(const char *path)
+{
+  char          buf[PATH_MAX];
+  struct statvfs s;
+  snprintf(buf, sizeof(buf), "%s", path);
+  if (statvfs(dirname(buf), &s) != 0) return -1.0;
+  return (double)s.f_bavail * (double)s.f_frsize;
+}

@@ -1,7 +1,8 @@
 /* SIGTERM and SIGINT (what batch schedulers send before SIGKILL, and
  * Ctrl-C) end a run cleanly: the handler only records the signal; after
- * every time step a TS post-step agrees on it over the ranks (one integer
- * allreduce) and stops TSSolve with TS_CONVERGED_USER, so that every rank
+ * every time step a TS post-step agrees on it over the ranks (one 2-integer
+ * allreduce, shared with the wall-clock checkpoints) and stops TSSolve
+ * with TS_CONVERGED_USER, so that every rank
  * finishes the same step, writes the last state and marks the file
  * 'interrupted: ...' (module timestepping). A second signal while the
  * first is being handled ends the process at once (default action).
@@ -13,11 +14,6 @@
 
 static volatile sig_atomic_t caught = 0; /* the signal received, 0 if none */
 static int agreed = 0;                   /* the signal every rank has agreed on */
-/* -nuno_checkpoint_walltime: a checkpoint after each `interval` seconds of
- * wall-clock time, agreed after a step like the signals (the same allreduce). */
-static double interval = 0.0, deadline = 0.0;
-static int    due = 0; /* every rank agreed that a checkpoint is due */
-
 static void on_signal(int sig)
 {
   if (caught) {
@@ -27,6 +23,14 @@ static void on_signal(int sig)
   }
   caught = sig;
 }
+
+/* -nuno_checkpoint_walltime: a checkpoint after each `interval` seconds of
+ * wall-clock time, agreed after a step like the signals (the same
+ * allreduce); the monitor of that step (which runs after the post-step, once
+ * the step's energy integrals are added) writes it without stopping
+ * TSSolve, so the integration goes on exactly as without it. */
+static double interval = 0.0, deadline = 0.0;
+static int    due = 0; /* every rank agreed that a checkpoint is due after this step */
 
 static PetscErrorCode poststep(TS ts)
 {
@@ -44,7 +48,6 @@ static PetscErrorCode poststep(TS ts)
   } else if (all[1]) {
     due      = 1;
     deadline = MPI_Wtime() + interval;
-    PetscCall(TSSetConvergedReason(ts, TS_CONVERGED_USER));
   }
   PetscFunctionReturn(0);
 }
@@ -94,4 +97,13 @@ void nuno_signals_default(void)
 int nuno_signal_agreed(void)
 {
   return agreed;
+}
+
+/* Stop TSSolve after this step (TS_CONVERGED_USER, which the Fortran
+ * interface of PETSc 3.18 does not define). Returns a PETSc error code. */
+PetscErrorCode nuno_ts_stop(TS *ts)
+{
+  PetscFunctionBeginUser;
+  PetscCall(TSSetConvergedReason(*ts, TS_CONVERGED_USER));
+  PetscFunctionReturn(0);
 }

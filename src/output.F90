@@ -18,14 +18,17 @@
 !>
 !> Errors: every h5*_f code is checked; a failure sets ierr /= 0 and a one-line
 !> errmsg naming the call and the dataset. The collective routines end with an
-!> MPI_Allreduce of the error flag, so all ranks return the same ierr (a rank
-!> that did not fail itself gets 'failed on another rank').
+!> MPI_Allreduce of the error flag, so all ranks return the same ierr and the
+!> message of the first rank that failed; within a sequence of collective
+!> calls that can fail on some ranks only (dataset writes and flushes: a
+!> full disk), every call is agreed on before the next, so that no rank is
+!> left waiting in a collective call the others have given up.
 module output
   use, intrinsic :: iso_fortran_env, only: int64
   use hdf5
   use mpi
   use kinds, only: rp
-  use safe_files, only: lock_acquire, lock_release, same_file, file_exists, rename_file
+  use safe_files, only: lock_acquire, lock_release, same_file, file_exists, rename_file, free_bytes
   implicit none
   private
 
@@ -215,6 +218,13 @@ contains
       return
     end if
 
+    ! The file, the lattice and a first step must fit (check_space).
+    call check_space(out, 32.0_rp * nx * ny + step_bytes(out) + 2.0_rp * (len(attrs_namelist) + len(attrs_petsc_options)), &
+                     'a new output file', ierr, errmsg)
+    if (ierr /= 0) then
+      if (out%rank == 0) call lock_release(out%lock_path, out%lock_fd)
+      return
+    end if
     call open_local(out, out%work_path, rest, mass, attrs_namelist, attrs_petsc_options, ierr, errmsg, version)
     call agree(comm, 'output_open', ierr, errmsg)
     if (ierr /= 0) then
@@ -309,6 +319,8 @@ contains
     end if
     call agree(out%comm, 'output_write_step', ierr, errmsg)
     if (ierr /= 0) return
+    call check_space(out, step_bytes(out), 'output step '//str(out%nt), ierr, errmsg)
+    if (ierr /= 0) return
 
     if (out%write_velocity) then
       call write_step_local(out, rec, x, ierr, errmsg, v)
@@ -316,9 +328,76 @@ contains
       call write_step_local(out, rec, x, ierr, errmsg)
     end if
     call agree(out%comm, 'output_write_step', ierr, errmsg)
+    if (ierr /= 0) call add_cause(out, errmsg)
     ! rec%steps > 0: a time step succeeded and its result is on disk.
     if (ierr == 0 .and. rec%steps > 0) call commit(out, ierr, errmsg)
   end subroutine output_write_step
+
+  !> Bytes of one output step in the file (the strips and a margin for the
+  !> scalars and metadata).
+  real(rp) function step_bytes(out)
+    type(output_file), intent(in) :: out
+    step_bytes = 24.0_rp * out%nx * out%ny * merge(2, 1, out%write_velocity) + 65536.0_rp
+  end function step_bytes
+
+  !> Refuse a write of about `bytes` before any HDF5 call when the file
+  !> system does not have twice that free: a full disk found inside a
+  !> collective HDF5 call fails on some ranks only, and parallel HDF5 1.10
+  !> then leaves the others waiting (a hang). Rank 0 asks (statvfs), every
+  !> rank gets the answer. Collective.
+  subroutine check_space(out, bytes, what, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    real(rp), intent(in) :: bytes
+    character(*), intent(in) :: what
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    real(rp) :: free
+    character(len=24) :: fb, nb
+    character(len=:), allocatable :: path
+
+    if (out%rank == 0) then
+      path = out%work_path
+      if (out%committed) path = out%final_path
+      free = free_bytes(path)
+      if (free >= 0.0_rp .and. free < 2.0_rp * bytes) then
+        write(fb, '(es10.3e2)') free
+        write(nb, '(es10.3e2)') 2.0_rp * bytes
+        ierr = 1
+        errmsg = 'output: no space left for '//what//' in '//path//' ('//trim(adjustl(fb))//' bytes free, '// &
+                 trim(adjustl(nb))//' needed)'
+        if (out%is_open) errmsg = trim(errmsg)//': the file holds the '//str(out%nt)//' output steps before it'
+      end if
+    end if
+    call agree(out%comm, 'output', ierr, errmsg)
+  end subroutine check_space
+
+  !> A failed write says nothing of its cause through HDF5: rank 0 adds
+  !> what the file system says (a full disk, or free space: then quota,
+  !> permissions or an I/O error), the same text on every rank. Collective.
+  subroutine add_cause(out, errmsg)
+    type(output_file), intent(in) :: out
+    character(*), intent(inout) :: errmsg
+    real(rp) :: free
+    character(len=32) :: buf
+    integer :: mpierr
+    character(len=:), allocatable :: path
+
+    if (out%rank == 0) then
+      path = out%work_path
+      if (out%committed) path = out%final_path
+      free = free_bytes(path)
+      write(buf, '(es10.3e2)') free
+      if (free < 0.0_rp) then
+        continue
+      else if (free < 2.0_rp * step_bytes(out)) then
+        errmsg = trim(errmsg)//' in '//path//': no space left on its file system ('//trim(adjustl(buf))//' bytes free)'
+      else
+        errmsg = trim(errmsg)//' in '//path//' (its file system has '//trim(adjustl(buf))// &
+                 ' bytes free: a quota, permissions or an I/O error)'
+      end if
+    end if
+    call MPI_Bcast(errmsg, len(errmsg), MPI_CHARACTER, 0, out%comm, mpierr)
+  end subroutine add_cause
 
   !> Write the XDMF file, then the root attribute status (last), then close every id and the file. Collective.
   subroutine output_close(out, status, ierr, errmsg)
@@ -771,6 +850,14 @@ contains
     else
       call h5pset_chunk_f(dcpl, r, chunk, h)
       if (h < 0) call fail('h5pset_chunk_f', name, ierr, errmsg)
+      ! Parallel HDF5 allocates a chunk when the extent grows; without this
+      ! it also writes fill values into it there, a second write of every
+      ! output step (and, on a full disk, a write that fails inside the
+      ! collective H5Dset_extent on some ranks only, which hangs the others).
+      if (ierr == 0) then
+        call h5pset_fill_time_f(dcpl, H5D_FILL_TIME_NEVER_F, h)
+        if (h < 0) call fail('h5pset_fill_time_f', name, ierr, errmsg)
+      end if
       if (ierr == 0) then
         call h5dcreate_f(out%file, name, ftype, space, out%dset(idx), h, dcpl_id=dcpl)
         if (h < 0) call fail('h5dcreate_f', name, ierr, errmsg)
@@ -786,6 +873,11 @@ contains
   ! ---------------------------------------------------------------------------
   ! One output step.
 
+  !> Every collective call is followed by an agreement on its error
+  !> (agree): a rank whose write failed (a full disk shows on the MPI-IO
+  !> aggregators only) must not leave the others waiting in the next
+  !> collective call. So all ranks stop at the same call, with the message of
+  !> the first rank that failed.
   subroutine write_step_local(out, rec, x, ierr, errmsg, v)
     type(output_file), intent(inout) :: out
     type(output_record), intent(in) :: rec
@@ -805,47 +897,45 @@ contains
       if (out%dset(i) < 0) cycle
       out%ddims(out%drank(i), i) = t + 1
       call h5dset_extent_f(out%dset(i), out%ddims(1:out%drank(i), i), h)
-      if (h < 0) then
-        call fail('h5dset_extent_f', trim(dset_names(i)), ierr, errmsg); return
-      end if
+      if (h < 0) call fail('h5dset_extent_f', trim(dset_names(i)), ierr, errmsg)
+      if (.not. all_ok()) return
     end do
 
     ! Strips, each rank its rows.
     call write_rows3(out, out%dset(d_position), '/position', [0_hsize_t, 0_hsize_t, ys, t], &
                      [3_hsize_t, nx, ym, 1_hsize_t], x, ierr, errmsg)
-    if (ierr /= 0) return
+    if (.not. all_ok()) return
     if (out%write_velocity) then
       call write_rows3(out, out%dset(d_velocity), '/velocity', [0_hsize_t, 0_hsize_t, ys, t], &
                        [3_hsize_t, nx, ym, 1_hsize_t], v, ierr, errmsg)
-      if (ierr /= 0) return
+      if (.not. all_ok()) return
     end if
 
     ! Scalars: rank 0 writes, the others join with an empty selection.
     call write_reals(out, d_time, [rec%time], ierr, errmsg)
-    if (ierr == 0) call write_reals(out, d_kinetic, [rec%kinetic], ierr, errmsg)
-    if (ierr == 0) call write_reals(out, d_stretch, [rec%stretch], ierr, errmsg)
-    if (ierr == 0) call write_reals(out, d_bend, [rec%bend], ierr, errmsg)
-    if (ierr == 0) call write_reals(out, d_dissipated, [rec%dissipated], ierr, errmsg)
-    if (ierr == 0) call write_reals(out, d_external_work, [rec%external_work], ierr, errmsg)
-    if (ierr == 0) call write_reals(out, d_momentum, rec%momentum, ierr, errmsg)
-    if (ierr == 0) call write_reals(out, d_angular_momentum, rec%angular_momentum, ierr, errmsg)
-    if (ierr == 0) call write_reals(out, d_length, [rec%length], ierr, errmsg)
-    if (ierr == 0) call write_reals(out, d_flatness, [rec%flatness], ierr, errmsg)
-    if (ierr == 0) call write_int(out, d_steps, rec%steps, ierr, errmsg)
-    if (ierr == 0) call write_int(out, d_rejected_steps, rec%rejected_steps, ierr, errmsg)
-    if (ierr == 0) call write_int(out, d_newton_iterations, rec%newton_iterations, ierr, errmsg)
-    if (ierr == 0) call write_int(out, d_linear_iterations, rec%linear_iterations, ierr, errmsg)
+    if (all_ok()) call write_reals(out, d_kinetic, [rec%kinetic], ierr, errmsg)
+    if (all_ok()) call write_reals(out, d_stretch, [rec%stretch], ierr, errmsg)
+    if (all_ok()) call write_reals(out, d_bend, [rec%bend], ierr, errmsg)
+    if (all_ok()) call write_reals(out, d_dissipated, [rec%dissipated], ierr, errmsg)
+    if (all_ok()) call write_reals(out, d_external_work, [rec%external_work], ierr, errmsg)
+    if (all_ok()) call write_reals(out, d_momentum, rec%momentum, ierr, errmsg)
+    if (all_ok()) call write_reals(out, d_angular_momentum, rec%angular_momentum, ierr, errmsg)
+    if (all_ok()) call write_reals(out, d_length, [rec%length], ierr, errmsg)
+    if (all_ok()) call write_reals(out, d_flatness, [rec%flatness], ierr, errmsg)
+    if (all_ok()) call write_int(out, d_steps, rec%steps, ierr, errmsg)
+    if (all_ok()) call write_int(out, d_rejected_steps, rec%rejected_steps, ierr, errmsg)
+    if (all_ok()) call write_int(out, d_newton_iterations, rec%newton_iterations, ierr, errmsg)
+    if (all_ok()) call write_int(out, d_linear_iterations, rec%linear_iterations, ierr, errmsg)
     ! Created by output_write_run_info; absent for callers that never call it.
-    if (ierr == 0 .and. out%dset(d_wall_time) >= 0) call write_reals(out, d_wall_time, [rec%wall_time], ierr, errmsg)
-    if (ierr /= 0) return
+    if (all_ok() .and. out%dset(d_wall_time) >= 0) call write_reals(out, d_wall_time, [rec%wall_time], ierr, errmsg)
+    if (.not. all_ok()) return
 
     ! The step is complete: count it, then flush so that a later crash keeps it.
     call set_attr_int(out%file, 'n_output_steps', out%nt + 1, '/', ierr, errmsg)
-    if (ierr /= 0) return
+    if (.not. all_ok()) return
     call h5fflush_f(out%file, H5F_SCOPE_GLOBAL_F, h)
-    if (h < 0) then
-      call fail('h5fflush_f', '/', ierr, errmsg); return
-    end if
+    if (h < 0) call fail('h5fflush_f', '/', ierr, errmsg)
+    if (.not. all_ok()) return
     out%nt = out%nt + 1
     if (out%nt > size(out%times)) then
       allocate(grown(2*size(out%times)))
@@ -854,6 +944,11 @@ contains
     end if
     out%times(out%nt) = rec%time
     if (out%rank == 0 .and. out%committed) call write_xdmf(out, ierr, errmsg)
+  contains
+    logical function all_ok()
+      call agree(out%comm, 'output', ierr, errmsg)
+      all_ok = ierr == 0
+    end function all_ok
   end subroutine write_step_local
 
   !> Collective write of a rank-3 strip a(count(1:3)) at start(:) (rank 3 or 4 file space).
@@ -1216,23 +1311,32 @@ contains
     end if
   end subroutine keep_first
 
-  !> Make the error flag collective: every rank returns non-zero if any rank failed.
+  !> Make the error flag collective: every rank returns non-zero if any rank
+  !> failed, and every rank gets the message of the first rank that failed
+  !> (so that rank 0's one error line names the cause, wherever it arose).
   subroutine agree(comm, where, ierr, errmsg)
     integer, intent(in) :: comm
     character(*), intent(in) :: where
     integer, intent(inout) :: ierr
     character(*), intent(inout) :: errmsg
-    integer :: local, global, mpierr
+    integer :: local, global, mpierr, rank, first, size_
 
     local = merge(1, 0, ierr /= 0)
     call MPI_Allreduce(local, global, 1, MPI_INTEGER, MPI_MAX, comm, mpierr)
-    if (mpierr /= MPI_SUCCESS .and. ierr == 0) then
-      ierr = 1
-      errmsg = where//': MPI_Allreduce of the error flag failed'
-    else if (global /= 0 .and. ierr == 0) then
-      ierr = 1
-      errmsg = where//': failed on another rank'
+    if (mpierr /= MPI_SUCCESS) then
+      if (ierr == 0) then
+        ierr = 1
+        errmsg = where//': MPI_Allreduce of the error flag failed'
+      end if
+      return
     end if
+    if (global == 0) return
+    call MPI_Comm_rank(comm, rank, mpierr)
+    call MPI_Comm_size(comm, size_, mpierr)
+    local = merge(rank, size_, ierr /= 0)
+    call MPI_Allreduce(local, first, 1, MPI_INTEGER, MPI_MIN, comm, mpierr)
+    call MPI_Bcast(errmsg, len(errmsg), MPI_CHARACTER, first, comm, mpierr)
+    if (ierr == 0) ierr = 1
   end subroutine agree
 
   !> run.h5 -> run.xmf beside it; the sidecar names the h5 file by its base name.
@@ -1302,19 +1406,25 @@ contains
     if (ierr /= 0) return
 
     ck%n_output_steps = out%nt
+    call check_space(out, 48.0_rp * out%nx * out%ny + 65536.0_rp, 'a checkpoint', ierr, errmsg)
+    if (ierr /= 0) then
+      errmsg = 'checkpoint not written: '//trim(errmsg)
+      return
+    end if
     slot = merge(0, 1 - out%ck_slot, out%ck_slot < 0)
     where = trim(slot_names(slot))
     grp = -1
     call open_or_create_group(out%file, '/checkpoint', grp, ierr, errmsg)
     if (grp >= 0) call close_group(grp, '/checkpoint', ierr, errmsg)
-    if (ierr == 0) call open_or_create_group(out%file, where, grp, ierr, errmsg)
+    grp = -1
+    if (all_ok()) call open_or_create_group(out%file, where, grp, ierr, errmsg)
     ! Invalid while it is being written, and that on disk before anything else.
-    if (ierr == 0) call set_attr_int(grp, 'sequence', 0, where, ierr, errmsg)
-    if (ierr == 0) call flush_file(out, ierr, errmsg)
+    if (all_ok()) call set_attr_int(grp, 'sequence', 0, where, ierr, errmsg)
+    if (all_ok()) call flush_file(out, ierr, errmsg)
     do k = 1, 2
-      if (ierr /= 0) exit
+      if (.not. all_ok()) exit
       call open_or_create_state(out, grp, where//'/'//trim(fields(k)), trim(fields(k)), dset, ierr, errmsg)
-      if (ierr /= 0) exit
+      if (.not. all_ok()) exit
       if (k == 1) then
         call write_rows3(out, dset, where//'/position', [0_hsize_t, 0_hsize_t, ys], [3_hsize_t, nx, ym], x, ierr, errmsg)
       else
@@ -1322,31 +1432,40 @@ contains
       end if
       call close_dset(dset, where//'/'//trim(fields(k)), ierr, errmsg)
     end do
-    if (ierr == 0) call set_attr_reals(grp, 'time', [ck%time], where, ierr, errmsg)
-    if (ierr == 0) call set_attr_reals(grp, 'dt_next', [ck%dt_next], where, ierr, errmsg)
-    if (ierr == 0) call set_attr_reals(grp, 'wall_time', [ck%wall_time], where, ierr, errmsg)
-    if (ierr == 0) call set_attr_reals(grp, 'dissipated', [ck%dissipated], where, ierr, errmsg)
-    if (ierr == 0) call set_attr_reals(grp, 'work_constraints', [ck%work_constraints], where, ierr, errmsg)
-    if (ierr == 0) call set_attr_reals(grp, 'mgx0', [ck%mgx0], where, ierr, errmsg)
-    if (ierr == 0) call set_attr_reals(grp, 't_written', [ck%t_written], where, ierr, errmsg)
-    if (ierr == 0) call set_attr_reals(grp, 'counters', ck%counters, where, ierr, errmsg)
-    if (ierr == 0) call set_attr_int(grp, 'n_output_steps', ck%n_output_steps, where, ierr, errmsg)
-    if (ierr == 0) call set_attr_int(grp, 'stretch_warned', ck%stretch_warned, where, ierr, errmsg)
-    if (ierr == 0) call set_attr_str(grp, 'reason', trim(ck%reason), where, ierr, errmsg)
-    if (ierr == 0) call set_attr_str(grp, 'ts_type', trim(ck%ts_type), where, ierr, errmsg)
-    if (ierr == 0) call flush_file(out, ierr, errmsg)
+    ! Attributes: metadata, written at the flush (which is agreed on).
+    if (all_ok()) then
+      call set_attr_reals(grp, 'time', [ck%time], where, ierr, errmsg)
+      if (ierr == 0) call set_attr_reals(grp, 'dt_next', [ck%dt_next], where, ierr, errmsg)
+      if (ierr == 0) call set_attr_reals(grp, 'wall_time', [ck%wall_time], where, ierr, errmsg)
+      if (ierr == 0) call set_attr_reals(grp, 'dissipated', [ck%dissipated], where, ierr, errmsg)
+      if (ierr == 0) call set_attr_reals(grp, 'work_constraints', [ck%work_constraints], where, ierr, errmsg)
+      if (ierr == 0) call set_attr_reals(grp, 'mgx0', [ck%mgx0], where, ierr, errmsg)
+      if (ierr == 0) call set_attr_reals(grp, 't_written', [ck%t_written], where, ierr, errmsg)
+      if (ierr == 0) call set_attr_reals(grp, 'counters', ck%counters, where, ierr, errmsg)
+      if (ierr == 0) call set_attr_int(grp, 'n_output_steps', ck%n_output_steps, where, ierr, errmsg)
+      if (ierr == 0) call set_attr_int(grp, 'stretch_warned', ck%stretch_warned, where, ierr, errmsg)
+      if (ierr == 0) call set_attr_str(grp, 'reason', trim(ck%reason), where, ierr, errmsg)
+      if (ierr == 0) call set_attr_str(grp, 'ts_type', trim(ck%ts_type), where, ierr, errmsg)
+    end if
+    if (all_ok()) call flush_file(out, ierr, errmsg)
     ! Valid from here on.
-    if (ierr == 0) call set_attr_int(grp, 'sequence', out%ck_seq + 1, where, ierr, errmsg)
-    if (ierr == 0) call flush_file(out, ierr, errmsg)
+    if (all_ok()) call set_attr_int(grp, 'sequence', out%ck_seq + 1, where, ierr, errmsg)
+    if (all_ok()) call flush_file(out, ierr, errmsg)
     if (grp >= 0) call close_group(grp, where, ierr, errmsg)
     call agree(out%comm, 'output_write_checkpoint', ierr, errmsg)
     if (ierr /= 0) then
+      call add_cause(out, errmsg)
       errmsg = 'checkpoint not written: '//trim(errmsg)
       return
     end if
     out%ck_seq = out%ck_seq + 1
     out%ck_slot = slot
     ck%sequence = out%ck_seq
+  contains
+    logical function all_ok()
+      call agree(out%comm, 'output_write_checkpoint', ierr, errmsg)
+      all_ok = ierr == 0
+    end function all_ok
   end subroutine output_write_checkpoint
 
   !> Open an earlier run's file to continue it from its last valid

@@ -2,10 +2,10 @@
 !> with strerror causes) for the safe output files of module output. Local:
 !> each call acts on the calling rank only; the caller makes it collective.
 module safe_files
-  use, intrinsic :: iso_c_binding, only: c_int, c_char, c_null_char
+  use, intrinsic :: iso_c_binding, only: c_int, c_char, c_null_char, c_double
   implicit none
   private
-  public :: lock_acquire, lock_release, same_file, file_exists, rename_file
+  public :: lock_acquire, lock_release, same_file, file_exists, rename_file, free_bytes
 
   integer, parameter :: cmsg_len = 256
 
@@ -40,6 +40,11 @@ module safe_files
       integer(c_int), value :: msglen
       integer(c_int) :: code
     end function c_rename
+    function c_free_bytes(path) bind(C, name='nuno_free_bytes') result(bytes)
+      import :: c_char, c_double
+      character(kind=c_char), intent(in) :: path(*)
+      real(c_double) :: bytes
+    end function c_free_bytes
   end interface
 
 contains
@@ -89,6 +94,12 @@ contains
     ok = c_rename(from//c_null_char, to//c_null_char, buf, int(cmsg_len, c_int)) == 0
     detail = c_text(buf)
   end subroutine rename_file
+
+  !> Bytes free on the file system that holds path (-1: unknown).
+  real(c_double) function free_bytes(path)
+    character(*), intent(in) :: path
+    free_bytes = c_free_bytes(path//c_null_char)
+  end function free_bytes
 
   !> The text of a NUL-terminated C buffer.
   function c_text(buf) result(s)

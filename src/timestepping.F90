@@ -57,6 +57,7 @@ module timestepping
       import :: c_int
     end function nuno_signal_agreed
     !> src/nuno_signals.c: -nuno_checkpoint_walltime, agreed after each step.
+    !> Due after a step: the monitor of that step writes the checkpoint.
     subroutine nuno_walltime_arm(seconds) bind(C, name='nuno_walltime_arm')
       import :: c_double
       real(c_double), value :: seconds
@@ -64,6 +65,11 @@ module timestepping
     integer(c_int) function nuno_checkpoint_due() bind(C, name='nuno_checkpoint_due')
       import :: c_int
     end function nuno_checkpoint_due
+    !> Stop TSSolve after this step (TS_CONVERGED_USER).
+    integer(c_int) function nuno_ts_stop(ts) bind(C, name='nuno_ts_stop')
+      import :: c_int, c_intptr_t
+      integer(c_intptr_t) :: ts             !< the TS handle (tTS%v), passed as TS*
+    end function nuno_ts_stop
     !> src/nuno_options.c: nuno's options in a PETSc options block.
     integer(c_int) function nuno_options_read(fcomm, jacobian, pc_lag, snes_floor, gauss_newton, clamp, &
                                               mattype, mattype_len, fail_newton) bind(C, name='nuno_options_read')
@@ -138,11 +144,15 @@ module timestepping
     real(rp) :: checkpoint_walltime = 0         !< -nuno_checkpoint_walltime: a checkpoint after each [s]; 0: none
     real(rp) :: t_checkpoint = -1               !< time of the last checkpoint written or restarted from [time]
     logical :: restarted = .false.              !< continues a checkpoint (solver_restore)
+    logical :: checkpoint_current = .false.     !< the last checkpoint was written after the last output step
     real(rp) :: t_restart = 0, h_restart = 0    !< its time and next step [time]
     real(rp) :: wall_before = 0                 !< wall-clock seconds of the runs before this one [s]
     !> rejected steps, Newton and linear iterations and retries of the runs
     !> before this one (the step count goes on in the TS itself)
     real(rp) :: counts_before(5) = 0
+    !> the (collective) output error that ended the run, '' if none
+    character(len=512) :: io_error = ''
+    type(output_file), pointer :: out => null() !< the output file, for the wall-clock checkpoints (solver_run)
   end type app_ctx
 
 contains
@@ -704,6 +714,19 @@ contains
       ctx%pcon_prev = p(2)
     end if
     ctx%t_prev = t
+    ! -nuno_checkpoint_walltime: due after this step (agreed by the
+    ! post-step, which runs before the monitor); written here, with the
+    ! step's energy integrals, without stopping TSSolve, so that the run
+    ! goes on exactly as without it. A failed write stops the run.
+    if (nuno_checkpoint_due() /= 0) then
+      PetscCall(TSGetTimeStep(ts, h, ierr))
+      call take_checkpoint(ctx, ctx%out, t, h, 'wall time', ierr)
+      if (ierr /= 0) then
+        ierr = 0
+        if (len_trim(ctx%io_error) == 0) ctx%io_error = 'the wall-clock checkpoint at t = '//num(t)//' failed'
+        ierr = nuno_ts_stop(ts%v)
+      end if
+    end if
   end subroutine ts_monitor
 
   !> Global dissipated power p(1) and power of the constraint reactions p(2)
@@ -791,13 +814,13 @@ contains
   !> complete, with the state of its last step written. Collective.
   subroutine solver_run(ctx, out, status, ierr)
     type(app_ctx), intent(inout), target :: ctx
-    type(output_file), intent(inout) :: out
+    type(output_file), intent(inout), target :: out
     character(len=*), intent(out) :: status
     PetscErrorCode, intent(out) :: ierr
     real(rp), allocatable :: events(:)
     real(rp) :: t, tstop, h, dke, eps, unorm, wall
     integer :: iout, ie
-    logical :: at_max_steps, resume, due
+    logical :: at_max_steps
     TSConvergedReason :: reason
     character(len=900) :: msg
     character(len=256) :: reasonname
@@ -806,7 +829,8 @@ contains
     status = 'complete'
     ctx%wall0 = MPI_Wtime() - ctx%wall_before
     call write_run_info(ctx, out, ierr)
-    if (ierr /= 0) return
+    if (io_failed()) return
+    ctx%out => out
     call nuno_walltime_arm(real(ctx%checkpoint_walltime, c_double))
     events = constraint_events(ctx%cs, ctx%t_end)
     eps = 1.0e-12_rp * max(1.0_rp, ctx%t_end)
@@ -815,47 +839,60 @@ contains
     ie = 1
     iout = 0
     at_max_steps = .false.
-    resume = .false.
     if (ctx%restarted) then
       ! Go on from the checkpoint: its state, time and step number are in
       ! the TS (solver_restore); the next output step is the first after t.
       t = ctx%t_restart
       if (.not. ctx%fixed_step) h = ctx%h_restart
+      ! The next output step is the first after the last one written.
       iout = 1
-      do while (output_time(iout) <= t + eps .and. real(iout, rp) * ctx%cfg%output_interval < ctx%t_end)
+      do while (output_time(iout) <= ctx%t_written + eps .and. real(iout, rp) * ctx%cfg%output_interval < ctx%t_end)
         iout = iout + 1
       end do
       ctx%t_prev = t
+      ! A wall-clock checkpoint after a window's last step is at the
+      ! window's end, before solver_run wrote that output step: as the run
+      ! did next, put t onto it and write it.
+      tstop = next_stop(t - 1.0e3_rp * eps)
+      if (abs(t - tstop) <= 1.0e3_rp * eps) then
+        t = tstop
+        ctx%t_prev = t
+        PetscCall(TSSetTime(ctx%ts, t, ierr))
+        if (abs(t - output_time(iout)) <= eps) then
+          call write_output(ctx, out, t, ierr)
+          if (io_failed()) return
+          iout = iout + 1
+        end if
+      end if
     else
       tstop = next_stop(t)
       call enter_window(ctx, t, tstop, dke, ierr)
       if (ierr /= 0) return
       ctx%t_prev = 0.0_rp
       call write_output(ctx, out, t, ierr)
-      if (ierr /= 0) return
+      if (io_failed()) return
       iout = 1
     end if
 
     do while (t < ctx%t_end - eps .and. .not. at_max_steps)
-      if (resume) then
-        ! After a wall-clock checkpoint inside a window: the same window,
-        ! the TS's own step and history, as if nothing had happened.
-        resume = .false.
-      else
-        tstop = next_stop(t)
-        ctx%tstop = tstop
-        if (t > 0.0_rp) then
-          call enter_window(ctx, t, tstop, dke, ierr)
-          if (ierr /= 0) return
-          ctx%work_constraints = ctx%work_constraints + dke
-          PetscCall(TSRestartStep(ctx%ts, ierr))
-        end if
-        PetscCall(TSSetMaxTime(ctx%ts, tstop, ierr))
-        if (ctx%fixed_step) h = ctx%dt
-        if (t + 1.01_rp * h >= tstop) h = tstop - t
-        PetscCall(TSSetTimeStep(ctx%ts, h, ierr))
+      tstop = next_stop(t)
+      ctx%tstop = tstop
+      if (t > 0.0_rp) then
+        call enter_window(ctx, t, tstop, dke, ierr)
+        if (ierr /= 0) return
+        ctx%work_constraints = ctx%work_constraints + dke
+        PetscCall(TSRestartStep(ctx%ts, ierr))
       end if
+      PetscCall(TSSetMaxTime(ctx%ts, tstop, ierr))
+      if (ctx%fixed_step) h = ctx%dt
+      if (t + 1.01_rp * h >= tstop) h = tstop - t
+      PetscCall(TSSetTimeStep(ctx%ts, h, ierr))
       PetscCall(TSSolve(ctx%ts, ctx%u, ierr))
+      if (len_trim(ctx%io_error) > 0) then
+        ! A wall-clock checkpoint could not be written (wall_checkpoint).
+        status = 'failed: '//trim(ctx%io_error)
+        exit
+      end if
       PetscCall(TSGetConvergedReason(ctx%ts, reason, ierr))
       PetscCall(TSGetTime(ctx%ts, t, ierr))
       PetscCall(VecNorm(ctx%u, NORM_INFINITY, unorm, ierr))
@@ -864,11 +901,11 @@ contains
         ! and a checkpoint to continue from.
         if (t > ctx%t_written) then
           call write_output(ctx, out, t, ierr)
-          if (ierr /= 0) return
+          if (io_failed()) return
         end if
         PetscCall(TSGetTimeStep(ctx%ts, h, ierr))
         call take_checkpoint(ctx, out, t, h, trim(signal_name(nuno_signal_agreed())), ierr)
-        if (ierr /= 0) return
+        if (io_failed()) return
         write(msg, '(a,es12.5,a)') trim(signal_name(nuno_signal_agreed()))//' at t = ', t, &
           ': the run stopped after that step, with its state and a checkpoint written (continue it with'// &
           ' -nuno_restart '//trim(ctx%cfg%output_file)//')'
@@ -881,15 +918,6 @@ contains
         status = 'failed: '//trim(msg)
         if (ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//trim(msg)
         exit
-      end if
-      due = reason >= 0 .and. nuno_checkpoint_due() /= 0
-      if (due .and. abs(t - tstop) > 1.0e3_rp * eps) then
-        ! -nuno_checkpoint_walltime, inside a window: write it, go on.
-        PetscCall(TSGetTimeStep(ctx%ts, h, ierr))
-        call take_checkpoint(ctx, out, t, h, 'wall time', ierr)
-        if (ierr /= 0) return
-        resume = .true.
-        cycle
       end if
       ! -ts_max_steps: PETSc counts steps over all TSSolve calls and stops
       ! with TS_CONVERGED_ITS, possibly inside a window: a clean end.
@@ -907,21 +935,17 @@ contains
       end if
       if (abs(t - output_time(iout)) <= eps) then
         call write_output(ctx, out, t, ierr)
-        if (ierr /= 0) return
+        if (io_failed()) return
         iout = iout + 1
         if (ctx%cfg%checkpoint_interval > 0.0_rp .and. t < ctx%t_end - eps .and. &
             t >= ctx%t_checkpoint + ctx%cfg%checkpoint_interval - eps) then
           call take_checkpoint(ctx, out, t, h, 'checkpoint_interval', ierr)
-          if (ierr /= 0) return
+          if (io_failed()) return
         end if
       else if (at_max_steps .and. t > ctx%t_written) then
         ! Off the output grid (inside a window, or at a keyframe): the last state.
         call write_output(ctx, out, t, ierr)
-        if (ierr /= 0) return
-      end if
-      if (due .and. ctx%t_checkpoint /= t) then
-        call take_checkpoint(ctx, out, t, h, 'wall time', ierr)
-        if (ierr /= 0) return
+        if (io_failed()) return
       end if
       if (at_max_steps .and. t < ctx%t_end - eps .and. ctx%rank == 0) &
         write(output_unit, '(a,es13.5e2,a)') 'nuno: -ts_max_steps '//inum(ctx%max_steps)// &
@@ -929,9 +953,9 @@ contains
     end do
     ! The end of a complete run: a checkpoint, so that it can be continued
     ! to a later t_end.
-    if (status == 'complete' .and. ctx%t_checkpoint /= t) then
+    if (status == 'complete' .and. .not. ctx%checkpoint_current) then
       call take_checkpoint(ctx, out, t, h, 'end', ierr)
-      if (ierr /= 0) return
+      if (io_failed()) return
     end if
 
     ! The run's wall time, the same value on every rank (an attribute).
@@ -940,11 +964,23 @@ contains
     call output_write_wall_time(out, wall, ierr, errmsg)
     if (ierr /= 0) then
       if (ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//trim(errmsg)
-      return
+      ctx%io_error = errmsg
+      if (io_failed()) return
     end if
     call final_summary(ctx, status, wall, ierr)
 
   contains
+
+    !> An output or checkpoint write failed on some rank (a full disk):
+    !> agreed by every rank and reported in one line already, so the run
+    !> ends collectively as failed (ierr = 0); other errors stay errors.
+    logical function io_failed()
+      io_failed = ierr /= 0
+      if (io_failed .and. len_trim(ctx%io_error) > 0) then
+        status = 'failed: '//trim(ctx%io_error)
+        ierr = 0
+      end if
+    end function io_failed
 
     !> Output times: multiples of output_interval, and t_end.
     real(rp) function output_time(k)
@@ -1023,7 +1059,10 @@ contains
     call MPI_Bcast(info%start_date, hlen, MPI_CHARACTER, 0, ctx%comm, ierr)
     call output_write_run_info(out, info, ierr, errmsg)
     if (ierr == 0) call write_config(ctx%cfg, ctx%comm, out, ierr, errmsg)
-    if (ierr /= 0 .and. ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//trim(errmsg)
+    if (ierr /= 0) then
+      if (ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//trim(errmsg)
+      ctx%io_error = errmsg
+    end if
   end subroutine write_run_info
 
   !> The resolved configuration, /config/<group> with one attribute per key:
@@ -1273,15 +1312,18 @@ contains
     call output_write_checkpoint(out, ck, ctx%xout, ctx%vout, ierr, errmsg)
     if (ierr /= 0) then
       if (ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//trim(errmsg)
+      ctx%io_error = errmsg
       return
     end if
     ctx%t_checkpoint = t
+    ctx%checkpoint_current = .true.
     if (ctx%rank == 0) then
       write(output_unit, '(a,i0,a,es12.5e2,a)') 'nuno: checkpoint ', ck%sequence, ' at t =', t, &
         ' ('//trim(reason)//'), '//inum(int(ck%n_output_steps, kind(ctx%max_steps)))//' output steps'
       flush(output_unit)
     end if
   end subroutine take_checkpoint
+
 
   !> Diagnostics and one output step; a one-line summary on rank 0.
   subroutine write_output(ctx, out, t, ierr)
@@ -1342,9 +1384,11 @@ contains
     end if
     if (ierr /= 0) then
       if (ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//trim(errmsg)
+      ctx%io_error = errmsg
       return
     end if
     ctx%t_written = t
+    ctx%checkpoint_current = .false.
     ! Progress for a person and for awk: every field has a blank before it
     ! (es13.5e2 of a negative value still starts with one; the integer
     ! widths hold 10^8 steps), rates from the start of the run. Flushed: a
