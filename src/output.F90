@@ -1907,50 +1907,81 @@ contains
   ! ---------------------------------------------------------------------------
   ! XDMF sidecar (rank 0, plain Fortran I/O, rewritten whole at each step).
 
+  ! Layout, checked with ParaView 5.11's legacy "XDMF Reader" (Xdmf2) by
+  ! tests/python/test_xdmf.py: a temporal collection of n_output_steps
+  ! uniform grids, each a 3DSMesh of Dimensions "1 ny nx" (one layer of
+  ! ny x nx points: VTK dimensions (nx, ny, 1), point j*nx + i), XYZ
+  ! geometry from a HyperSlab of /position, and point data:
+  !   displacement  Function "$0 - $1" of that HyperSlab and /lattice/rest_position
+  !   velocity      HyperSlab of /velocity (when written)
+  !   mass          HyperSlab of /lattice/mass (the whole of it, seen as 1 x ny x nx)
+  ! Every item that the reader selects from has the topology's rank (+1 for
+  ! vectors): the reader selects the point range of a structured grid on it.
+  ! Not 2DSMesh "ny nx": with it the reader's own selection of vector point
+  ! data goes wrong (46 tuples instead of 35 on 7 x 5, and an HDF5 error per
+  ! array and step). The Xdmf3 readers load no array of a HyperSlab or
+  ! Function item (the item's number type is unknown to them before it is
+  ! read: "Skipping unrecognized array type [None]", 0 points); the
+  ! hyperslab syntax they read ("file.h5:/position|start:stride:count:dims")
+  ! is one the legacy reader cannot open (postprocess/README.md).
   subroutine write_xdmf(out, ierr, errmsg)
     type(output_file), intent(in) :: out
     integer, intent(inout) :: ierr
     character(*), intent(inout) :: errmsg
     integer :: u, ios, k
+    logical :: bad
     character(len=256) :: iom
-    character(len=:), allocatable :: surf, full, slab
+    character(len=:), allocatable :: plane, surf, series, f8, h5
 
     if (ierr /= 0) return
-    surf = str(out%ny)//' '//str(out%nx)
-    full = str(out%nt)//' '//surf//' 3'
+    h5 = xml_escape(out%h5_base)                  ! the file's name in XML text
+    plane = str(out%ny)//' '//str(out%nx)        ! /lattice/mass [ny][nx]
+    surf = '1 '//plane                            ! the topology, one layer of points
+    series = str(out%nt)//' '//plane//' 3'        ! /position, /velocity: the steps written
+    f8 = 'NumberType="Float" Precision="8"'
     open(newunit=u, file=out%xmf_path, status='replace', action='write', iostat=ios, iomsg=iom)
     if (ios /= 0) then
       ierr = 1
       errmsg = 'output: cannot write '//out%xmf_path//': '//trim(iom)
       return
     end if
-    write(u, '(a)', iostat=ios) '<?xml version="1.0" ?>'
-    write(u, '(a)', iostat=ios) '<Xdmf Version="3.0">'
-    write(u, '(a)', iostat=ios) ' <Domain>'
-    write(u, '(a)', iostat=ios) '  <Grid Name="cloth" GridType="Collection" CollectionType="Temporal">'
+    bad = .false.
+    call put('<?xml version="1.0" ?>')
+    call put('<Xdmf Version="3.0">')
+    call put(' <Domain>')
+    call put('  <Grid Name="cloth" GridType="Collection" CollectionType="Temporal">')
     do k = 1, out%nt
-      slab = str(k - 1)//' 0 0 0  1 1 1 1  1 '//surf//' 3'
-      write(u, '(a)', iostat=ios) '   <Grid Name="step_'//str(k - 1)//'" GridType="Uniform">'
-      write(u, '(a)', iostat=ios) '    <Time Value="'//real_str(out%times(k))//'"/>'
-      write(u, '(a)', iostat=ios) '    <Topology TopologyType="3DSMesh" Dimensions="'//surf//'"/>'
-      write(u, '(a)', iostat=ios) '    <Geometry GeometryType="XYZ">'
-      call slab_item('position')
-      write(u, '(a)', iostat=ios) '    </Geometry>'
+      call put('   <Grid Name="step_'//str(k - 1)//'" GridType="Uniform">')
+      call put('    <Time Value="'//real_str(out%times(k))//'"/>')
+      call put('    <Topology TopologyType="3DSMesh" Dimensions="'//surf//'"/>')
+      call put('    <Geometry GeometryType="XYZ">')
+      call slab_item('     ', 'position', k - 1)
+      call put('    </Geometry>')
+      call put('    <Attribute Name="displacement" AttributeType="Vector" Center="Node">')
+      call put('     <DataItem ItemType="Function" Function="$0 - $1" Dimensions="'//surf//' 3" '//f8//'>')
+      call slab_item('      ', 'position', k - 1)
+      call put('      <DataItem Dimensions="'//plane//' 3" '//f8//' Format="HDF">'// &
+               h5//':/lattice/rest_position</DataItem>')
+      call put('     </DataItem>')
+      call put('    </Attribute>')
       if (out%write_velocity) then
-        write(u, '(a)', iostat=ios) '    <Attribute Name="velocity" AttributeType="Vector" Center="Node">'
-        call slab_item('velocity')
-        write(u, '(a)', iostat=ios) '    </Attribute>'
+        call put('    <Attribute Name="velocity" AttributeType="Vector" Center="Node">')
+        call slab_item('     ', 'velocity', k - 1)
+        call put('    </Attribute>')
       end if
-      write(u, '(a)', iostat=ios) '    <Attribute Name="mass" AttributeType="Scalar" Center="Node">'
-      write(u, '(a)', iostat=ios) '     <DataItem Dimensions="'//surf//'" NumberType="Float" Precision="8" Format="HDF">'// &
-        out%h5_base//':/lattice/mass</DataItem>'
-      write(u, '(a)', iostat=ios) '    </Attribute>'
-      write(u, '(a)', iostat=ios) '   </Grid>'
+      call put('    <Attribute Name="mass" AttributeType="Scalar" Center="Node">')
+      call put('     <DataItem ItemType="HyperSlab" Dimensions="'//surf//'" '//f8//'>')
+      call put('      <DataItem Dimensions="3 2" NumberType="Int" Format="XML">0 0  1 1  '//plane//'</DataItem>')
+      call put('      <DataItem Dimensions="'//plane//'" '//f8//' Format="HDF">'// &
+               h5//':/lattice/mass</DataItem>')
+      call put('     </DataItem>')
+      call put('    </Attribute>')
+      call put('   </Grid>')
     end do
-    write(u, '(a)', iostat=ios) '  </Grid>'
-    write(u, '(a)', iostat=ios) ' </Domain>'
-    write(u, '(a)', iostat=ios) '</Xdmf>'
-    if (ios /= 0) then
+    call put('  </Grid>')
+    call put(' </Domain>')
+    call put('</Xdmf>')
+    if (bad) then
       ierr = 1
       errmsg = 'output: write error on '//out%xmf_path
     end if
@@ -1960,13 +1991,23 @@ contains
       errmsg = 'output: close error on '//out%xmf_path
     end if
   contains
-    subroutine slab_item(dset)
-      character(*), intent(in) :: dset
-      write(u, '(a)', iostat=ios) '     <DataItem ItemType="HyperSlab" Dimensions="1 '//surf//' 3" Type="HyperSlab">'
-      write(u, '(a)', iostat=ios) '      <DataItem Dimensions="3 4" NumberType="UInt" Format="XML">'//slab//'</DataItem>'
-      write(u, '(a)', iostat=ios) '      <DataItem Dimensions="'//full//'" NumberType="Float" Precision="8" Format="HDF">'// &
-        out%h5_base//':/'//dset//'</DataItem>'
-      write(u, '(a)', iostat=ios) '     </DataItem>'
+    subroutine put(line)
+      character(*), intent(in) :: line
+      if (bad) return
+      write(u, '(a)', iostat=ios) line
+      if (ios /= 0) bad = .true.
+    end subroutine put
+
+    !> Step t (0-based) of /position or /velocity [nt][ny][nx][3], as 1 x ny x nx x 3.
+    subroutine slab_item(indent, dset, t)
+      character(*), intent(in) :: indent, dset
+      integer, intent(in) :: t
+      call put(indent//'<DataItem ItemType="HyperSlab" Dimensions="'//surf//' 3" '//f8//'>')
+      call put(indent//' <DataItem Dimensions="3 4" NumberType="Int" Format="XML">'// &
+               str(t)//' 0 0 0  1 1 1 1  1 '//plane//' 3</DataItem>')
+      call put(indent//' <DataItem Dimensions="'//series//'" '//f8//' Format="HDF">'// &
+               h5//':/'//dset//'</DataItem>')
+      call put(indent//'</DataItem>')
     end subroutine slab_item
   end subroutine write_xdmf
 
@@ -1977,6 +2018,23 @@ contains
     write(buf, '(i0)') i
     s = trim(buf)
   end function str
+
+  !> s with the characters that XML text and attribute values cannot hold escaped.
+  pure function xml_escape(s) result(r)
+    character(*), intent(in) :: s
+    character(len=:), allocatable :: r
+    integer :: i
+    r = ''
+    do i = 1, len(s)
+      select case (s(i:i))
+      case ('&'); r = r//'&amp;'
+      case ('<'); r = r//'&lt;'
+      case ('>'); r = r//'&gt;'
+      case ('"'); r = r//'&quot;'
+      case default; r = r//s(i:i)
+      end select
+    end do
+  end function xml_escape
 
   pure function real_str(x) result(s)
     real(rp), intent(in) :: x

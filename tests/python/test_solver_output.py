@@ -67,8 +67,8 @@ def test_layout_of_section_9(tmp_path):
                 assert fname == h5.name
                 assert dset.lstrip("/") in f, dset
     topo = grids[0].find("Topology")
-    assert topo.get("TopologyType") == "3DSMesh"
-    assert topo.get("Dimensions").split() == [str(NY), str(NX)]
+    assert topo.get("TopologyType") == "3DSMesh"      # one layer of points (test_xdmf.py)
+    assert topo.get("Dimensions").split() == ["1", str(NY), str(NX)]
 
 
 def test_failed_run_keeps_output_and_is_marked(tmp_path):
