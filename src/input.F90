@@ -1445,7 +1445,7 @@ contains
       '  -nuno_jacobian reduced|full                  reduced (default): only the 3-dof velocity system', &
       '                                               S = a M - C - K/a is assembled and the 6-dof step is', &
       '                                               solved exactly around it; full: the 6-dof Jacobian', &
-      '  -reduced_ksp_type, -reduced_pc_type, ...     the inner solver of S (default GMRES, or CG when S is', &
+      '  -reduced_ksp_type, -reduced_pc_type, ...     the inner solver of S (default FGMRES, or CG when S is', &
       '                                               symmetric, rtol 1e-6; geometric multigrid on the DMDA,', &
       '                                               block Jacobi/ILU on small lattices); -reduced_ksp_view', &
       '  -reduced_dm_mat_type aij|baij|sbaij          storage of S (default: aij for multigrid, baij else)', &

@@ -118,10 +118,9 @@ module timestepping
     ! singular element seen by the last residual evaluation
     integer :: nbad = 0, bad(2) = -1
     real(rp) :: t_bad = 0
-    ! time integrals, advanced by the monitor over each accepted step:
-    ! Gauss-Legendre on the integrator's own interpolant where it has one
-    ! (beuler, theta, cn, bdf), so that they close at the method's order;
-    ! the trapezoid rule otherwise
+    ! time integrals, advanced by the monitor over each accepted step so
+    ! that they close at the method's order: Gauss-Legendre on the
+    ! interpolant of bdf (order up to 6), the trapezoid rule otherwise
     logical :: gauss = .false.
     type(tVec) :: uq                            !< interpolated state (Gauss points)
     real(rp) :: t_prev = 0, pdiss_prev = 0, pcon_prev = 0
@@ -355,16 +354,14 @@ contains
     ! From here on the effective values are the run's configuration.
     ctx%cfg%dt = ctx%dt
     ctx%cfg%t_end = ctx%t_end
-    ! The energy integrals use the integrator's interpolant where its
-    ! order is the method's (theta's is linear, bdf's the Lagrange
-    ! polynomial of its history); arkimex and rosw tableaus may lack one.
+    ! The energy integrals close at the method's order: the trapezoid rule
+    ! over each step (one power pass a step) is second order, enough for
+    ! beuler, theta and cn (order <= 2); bdf (up to order 6) gets three
+    ! Gauss-Legendre points on its interpolant, the Lagrange polynomial of
+    ! its history (three passes a step). arkimex and rosw tableaus may lack
+    ! an interpolant: trapezoid.
     PetscCall(TSGetType(ctx%ts, tstype, ierr))
-    select case (trim(tstype))
-    case ('beuler', 'theta', 'cn', 'bdf')
-      ctx%gauss = .true.
-    case default
-      ctx%gauss = .false.
-    end select
+    ctx%gauss = trim(tstype) == 'bdf'
     PetscCall(VecDuplicate(ctx%u, ctx%uq, ierr))
 
     if (ctx%rank == 0) then
