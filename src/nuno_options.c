@@ -5,7 +5,7 @@
  * Also the end-of-run report of options that nothing read. */
 #include <petscsys.h>
 
-/* jacobian: in/out 0 = reduced, 1 = full; pc_lag: in/out >= 1;
+/* jacobian: in/out 0 = reduced, 1 = full; pc_lag: in/out >= 0 (0: default);
  * snes_floor: in/out >= 0; gauss_newton, clamp: in/out 0/1;
  * mattype: in/out NUL-terminated, mattype_len bytes; fail_newton: in/out >= 0.
  * Returns a PETSc error code (0 on success). */
@@ -24,7 +24,7 @@ PetscErrorCode nuno_options_read(MPI_Fint fcomm, int *jacobian, int *pc_lag, dou
   PetscOptionsBegin(comm, NULL, "nuno: the Newton step (docs/design.md, input/README.md)", "nuno");
   PetscCall(PetscOptionsEList("-nuno_jacobian", "reduced: assemble only the 3-dof velocity system and eliminate around it; full: the 6-dof Jacobian",
                               "nuno", jacobians, 2, jacobians[jac], &jac, NULL));
-  PetscCall(PetscOptionsInt("-nuno_pc_lag", "rebuild the inner (reduced_) preconditioner every N assemblies", "nuno", lag, &lag, NULL));
+  PetscCall(PetscOptionsInt("-nuno_pc_lag", "rebuild the inner (reduced_) preconditioner every N assemblies (0: 3 with the default multigrid, 1 otherwise)", "nuno", lag, &lag, NULL));
   PetscCall(PetscOptionsReal("-nuno_snes_floor", "Newton: converged when a residual below this fraction of its start stops decreasing, or (reduced) is at the round-off floor estimated from S (0: off)",
                              "nuno", floor, &floor, NULL));
   PetscCall(PetscOptionsBool("-nuno_gauss_newton", "energy bending: assemble only the Gauss-Newton part -k_b J^T J", "nuno", gn, &gn, NULL));
@@ -37,7 +37,7 @@ PetscErrorCode nuno_options_read(MPI_Fint fcomm, int *jacobian, int *pc_lag, dou
   PetscCall(PetscOptionsInt("-nuno_fail_newton", "testing: declare the first N Newton solves failed, so that their steps are retried with a smaller dt",
                             "nuno", nfail, &nfail, NULL));
   PetscOptionsEnd();
-  PetscCheck(lag >= 1, comm, PETSC_ERR_ARG_OUTOFRANGE, "-nuno_pc_lag %" PetscInt_FMT " must be >= 1", lag);
+  PetscCheck(lag >= 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-nuno_pc_lag %" PetscInt_FMT " must be >= 1 (or 0: the default)", lag);
   PetscCheck(floor >= 0.0 && floor < 1.0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-nuno_snes_floor %g must be in [0, 1)", (double)floor);
   PetscCheck(nfail >= 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-nuno_fail_newton %" PetscInt_FMT " must be >= 0", nfail);
   *jacobian = (int)jac;

@@ -127,7 +127,7 @@ contains
     type(tDM), intent(in) :: da6
     type(lattice_t), intent(in), target :: lat
     logical, intent(in) :: symmetric, constant, damping, clamp, gauss_newton
-    integer, intent(in) :: pc_lag                  !< rebuild the inner preconditioner every pc_lag assemblies (>= 1)
+    integer, intent(in) :: pc_lag                  !< rebuild the inner preconditioner every pc_lag assemblies (>= 1; 0: default)
     PetscErrorCode, intent(out) :: ierr
     PetscInt :: nx, ny, w, m, n, mg, ng, nranks, dummy(1), xs, ys, zs, zm
     PetscInt, allocatable :: ly(:)
@@ -236,7 +236,17 @@ contains
     ! An explicit -reduced_ksp_rtol wins over the outer forcing term.
     PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_ksp_rtol', found, ierr))
     red%forward_ew = .not. found
-    red%pc_lag = max(1, pc_lag)
+    ! 0: the default, measured (docs/performance.md, "Third round"): the
+    ! multigrid's Galerkin coarse operators kept for 3 assemblies (its
+    ! fine-level smoother and residual always use the current S, so only
+    ! the coarse correction ages), any other preconditioner rebuilt each time.
+    if (pc_lag > 0) then
+      red%pc_lag = pc_lag
+    else if (pctype == PCMG) then
+      red%pc_lag = 3
+    else
+      red%pc_lag = 1
+    end if
   end subroutine reduced_create
 
   !> The default inner preconditioner, unless -reduced_pc_type is given:

@@ -208,7 +208,7 @@ contains
     ! and the storage of that Jacobian: BAIJ (6 x 6 blocks) assembles and
     ! multiplies fastest; -dm_mat_type aij for field splits.
     jac_full = 0
-    pc_lag = 1
+    pc_lag = 0                     ! the default: 3 with the multigrid, 1 otherwise (module reduced)
     gn = 0
     cl = 0
     nfail = 0

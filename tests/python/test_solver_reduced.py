@@ -102,7 +102,7 @@ def test_failing_inner_solves_fail_the_step_cleanly(tmp_path):
 
 @pytest.mark.parametrize("option, value, words", [
     ("-nuno_jacobian", "foo", "Unknown option foo for -nuno_jacobian"),
-    ("-nuno_pc_lag", "0", "-nuno_pc_lag 0 must be >= 1"),
+    ("-nuno_pc_lag", "-1", "-nuno_pc_lag -1 must be >= 1"),
     ("-nuno_snes_floor", "2", "must be in [0, 1)"),
 ])
 def test_bad_solver_option_is_refused_on_every_rank(tmp_path, option, value, words):
