@@ -166,8 +166,10 @@ def _centroid_fixed(run, k):
 def _side_panels(fig, runs, labels, times, shift_centroid=False):
     """Top row: one x-z side view per run, states coloured by time.
 
-    Each panel has its own box (x and z on one scale): the paper model's
+    Each panel has its own limits (x and z on one scale): the paper model's
     excursions would otherwise flatten the energy model's shapes to a line.
+    The panels are the same size: the limits grow to fill each box
+    (adjustable="datalim") instead of the box shrinking to the data.
     """
     steps = [_steps(run, times) for run in runs]
     shapes = [[(_centroid_fixed(run, k) if shift_centroid else run.position[k], run.time[k])
@@ -176,21 +178,35 @@ def _side_panels(fig, runs, labels, times, shift_centroid=False):
     color, mappable = plotting.time_colormap(min(t_all), max(t_all))
     axes = []
     n = len(runs)
+    # One box shape for all panels (the tallest data ratio, within [0.3, 1]):
+    # each panel's limits are widened around its shapes to that ratio.
+    boxes = []
+    for shape in shapes:
+        lo, hi = plotting.bounds(*(p for p, _ in shape))
+        pad = 0.04 * max(hi[0] - lo[0], hi[2] - lo[2])
+        boxes.append((lo[0] - pad, hi[0] + pad, lo[2] - pad, hi[2] + pad))
+    ratio = min(1.0, max(0.3, max((z1 - z0) / (x1 - x0) for x0, x1, z0, z1 in boxes)))
     for col, (run, label, shape) in enumerate(zip(runs, labels, shapes)):
         ax = fig.add_subplot(2, n, col + 1)
         for pos, t in shape:
             plotting.draw_lattice_side(ax, pos, color=color(t), linewidth=0.7)
-        lo, hi = plotting.bounds(*(p for p, _ in shape))
-        pad = 0.04 * max(hi[0] - lo[0], hi[2] - lo[2])
-        ax.set_xlim(lo[0] - pad, hi[0] + pad)
-        ax.set_ylim(lo[2] - pad, hi[2] + pad)
+        x0, x1, z0, z1 = boxes[col]
+        w, h = x1 - x0, z1 - z0
+        if h < ratio * w:
+            zc, h = 0.5 * (z0 + z1), ratio * w
+            z0, z1 = zc - 0.5 * h, zc + 0.5 * h
+        else:
+            xc, w = 0.5 * (x0 + x1), h / ratio
+            x0, x1 = xc - 0.5 * w, xc + 0.5 * w
+        ax.set_xlim(x0, x1)
+        ax.set_ylim(z0, z1)
         ax.set_aspect("equal")
         ax.set_xlabel(plotting.length_label("x", run.units()))
         ax.set_ylabel(plotting.length_label("z", run.units()))
         ax.set_title(label)
         ax.grid(True, alpha=0.3)
         axes.append(ax)
-    fig.colorbar(mappable, ax=axes, label="t [s]", shrink=0.9)
+    fig.colorbar(mappable, ax=axes, label="t [s]", shrink=0.9, pad=0.02)
     return axes, steps
 
 
@@ -263,11 +279,19 @@ def build_fig5(runs, labels, times=TIMES["fig5_wave_point"]):
             ax.plot(*pos[0, 0], "o", color="C3", ms=4)  # the driven corner (0,0)
             plotting.setup_3d(ax, lo, hi, run.units(), "iso",
                               title=f"{label}\nT = {run.time[k]:g} s")
-            # A smaller box than setup_3d's leaves room for the z label.
+            # A smaller box than setup_3d's leaves room for the z label;
+            # three ticks an axis and padded labels keep them apart.
             ax.set_box_aspect(tuple(np.ptp([ax.get_xlim(), ax.get_ylim(), ax.get_zlim()],
-                                           axis=1)), zoom=0.95)
+                                           axis=1)), zoom=0.9)
+            for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+                axis.set_major_locator(plotting.MaxNLocator(nbins=3))
+                axis.labelpad = 6
+            ax.tick_params(labelsize="small", pad=1)
     fig.suptitle("Fig. 5 scene: corner (red) to z = -10 mm at 0.5 s, "
                  "to +15 mm at 1.0 s, then held")
+    # The iso view puts each z label right of its box's tick labels, where
+    # constrained layout does not see it: room for the last column's.
+    fig.get_layout_engine().set(rect=(0.0, 0.0, 0.975, 1.0))
     return fig
 
 
