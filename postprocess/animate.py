@@ -56,6 +56,8 @@ def write_animation(run, output: str, stride: int = 1, fps: float = 10.0,
         lo, hi = np.minimum(lo, a), np.maximum(hi, b)
     fig, (ax,) = plotting.new_figure(1, ncols=1, projection="3d", panel_size=(6.0, 5.0))
     plotting.setup_3d(ax, lo, hi, units, view)
+    plotting.shrink_3d_box(ax)
+    plotting.room_for_3d_labels(fig)
     wire = None
     with writer.saving(fig, output, dpi):
         for n, k in enumerate(steps, start=1):

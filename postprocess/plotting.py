@@ -85,8 +85,12 @@ def setup_3d(ax, lo, hi, units: str, view: str = "iso", title: str | None = None
     ax.set_ylim(lo[1], hi[1])
     ax.set_zlim(lo[2], hi[2])
     ax.set_box_aspect(tuple(hi - lo), zoom=1.15)  # one unit, one length on every axis
+    # Three ticks an axis and padded labels keep tick labels and axis labels
+    # apart at panel size.
     for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
-        axis.set_major_locator(MaxNLocator(nbins=4))
+        axis.set_major_locator(MaxNLocator(nbins=3))
+        axis.labelpad = 6
+    ax.tick_params(labelsize="small", pad=1)
     ax.set_xlabel(length_label("x", units))
     ax.set_ylabel(length_label("y", units))
     ax.set_zlabel(length_label("z", units))
@@ -99,6 +103,17 @@ def setup_3d(ax, lo, hi, units: str, view: str = "iso", title: str | None = None
         ax.xaxis.labelpad = 12  # clear of the tick labels when seen edge-on
     if title:
         ax.set_title(title)
+
+
+def shrink_3d_box(ax, zoom: float = 0.9) -> None:
+    """A smaller box than setup_3d's (same scales), leaving room for the z label."""
+    ax.set_box_aspect(tuple(np.ptp([ax.get_xlim(), ax.get_ylim(), ax.get_zlim()], axis=1)), zoom=zoom)
+
+
+def room_for_3d_labels(fig) -> None:
+    """3-D axes put each z label right of the box's tick labels, where
+    constrained layout does not see it: keep a margin for the last column's."""
+    fig.get_layout_engine().set(rect=(0.0, 0.0, 0.975, 1.0))
 
 
 def draw_lattice(ax, pos, color="C0", linewidth=0.8, label=None):

@@ -279,19 +279,10 @@ def build_fig5(runs, labels, times=TIMES["fig5_wave_point"]):
             ax.plot(*pos[0, 0], "o", color="C3", ms=4)  # the driven corner (0,0)
             plotting.setup_3d(ax, lo, hi, run.units(), "iso",
                               title=f"{label}\nT = {run.time[k]:g} s")
-            # A smaller box than setup_3d's leaves room for the z label;
-            # three ticks an axis and padded labels keep them apart.
-            ax.set_box_aspect(tuple(np.ptp([ax.get_xlim(), ax.get_ylim(), ax.get_zlim()],
-                                           axis=1)), zoom=0.9)
-            for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
-                axis.set_major_locator(plotting.MaxNLocator(nbins=3))
-                axis.labelpad = 6
-            ax.tick_params(labelsize="small", pad=1)
+            plotting.shrink_3d_box(ax)
     fig.suptitle("Fig. 5 scene: corner (red) to z = -10 mm at 0.5 s, "
                  "to +15 mm at 1.0 s, then held")
-    # The iso view puts each z label right of its box's tick labels, where
-    # constrained layout does not see it: room for the last column's.
-    fig.get_layout_engine().set(rect=(0.0, 0.0, 0.975, 1.0))
+    plotting.room_for_3d_labels(fig)
     return fig
 
 
