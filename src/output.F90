@@ -16,6 +16,12 @@
 !> there is no earlier `<file>` to protect), so a run that fails at start-up
 !> never destroys an earlier result. The XDMF sidecar is written from then on.
 !>
+!> XDMF views: /xdmf/position_<k> (and velocity_<k>) are HDF5 virtual
+!> datasets [1][ny][nx][3] that map step k of /position (/velocity) of the
+!> same file, /xdmf/mass and /xdmf/rest_position map the lattice: metadata
+!> only, no data is copied. They let the sidecar name every array by a plain
+!> HDF DataItem, which all of ParaView's XDMF readers read (write_xdmf).
+!>
 !> Errors: every h5*_f code is checked; a failure sets ierr /= 0 and a one-line
 !> errmsg naming the call and the dataset. The collective routines end with an
 !> MPI_Allreduce of the error flag, so all ranks return the same ierr and the
@@ -692,9 +698,12 @@ contains
     call h5pset_fapl_mpio_f(fapl, out%comm, MPI_INFO_NULL, h)
     if (h < 0) call fail('h5pset_fapl_mpio_f', filename, ierr, errmsg)
     ! The 1.8 file format: attributes over 64 KiB (long namelists) are allowed,
-    ! and a file left open by a crash still opens without h5clear.
+    ! and a file left open by a crash still opens without h5clear (superblock
+    ! version 2). Objects up to the 1.10 format are allowed, for the virtual
+    ! datasets of /xdmf (layout message version 4; HDF5 refuses them with
+    ! the bound at 1.8); everything else is written as with 1.8 bounds.
     if (ierr == 0) then
-      call h5pset_libver_bounds_f(fapl, H5F_LIBVER_V18_F, H5F_LIBVER_V18_F, h)
+      call h5pset_libver_bounds_f(fapl, H5F_LIBVER_V18_F, H5F_LIBVER_V110_F, h)
       if (h < 0) call fail('h5pset_libver_bounds_f', filename, ierr, errmsg)
     end if
     if (ierr == 0) then
@@ -746,6 +755,8 @@ contains
     end do
 
     call write_lattice(out, rest, mass, ierr, errmsg)
+    if (ierr /= 0) return
+    call lattice_views(out, ierr, errmsg)
     if (ierr /= 0) return
 
     ! Time series. Position chunks hold one step (whole rows, at most ~1 GiB).
@@ -819,6 +830,143 @@ contains
     if (h < 0) call fail('h5sclose_f', name, ierr, errmsg)
     if (ierr == 0) call set_attr_str(dset, 'description', description, name, ierr, errmsg)
   end subroutine create_fixed
+
+  ! ---------------------------------------------------------------------------
+  ! XDMF views: HDF5 virtual datasets in /xdmf that map a part of a dataset
+  ! of the same file (source file '.', so a renamed or moved file keeps
+  ! them). Shapes have a leading 1 (one layer of points, the sidecar's
+  ! 3DSMesh "1 ny nx"): /xdmf/position_<k>, /xdmf/velocity_<k> [1][ny][nx][3]
+  ! (step k, 0-based), /xdmf/rest_position [1][ny][nx][3], /xdmf/mass
+  ! [1][ny][nx]. Creating or deleting one is metadata only; every rank
+  ! makes the same calls.
+
+  !> The group /xdmf and its views of the lattice, made when missing.
+  subroutine lattice_views(out, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: grp
+    integer(hsize_t) :: nx, ny
+    logical :: exists
+    integer :: h
+
+    nx = out%nx; ny = out%ny
+    call open_or_create_group(out%file, '/xdmf', grp, ierr, errmsg)
+    if (ierr == 0) call set_attr_str(grp, 'description', 'views for the XDMF sidecar NAME.xmf: '// &
+      'HDF5 virtual datasets (no data of their own) of /lattice and of step k of /position and /velocity, '// &
+      'shaped [1][ny][nx](3); only the first n_output_steps steps are complete', '/xdmf', ierr, errmsg)
+    call close_group(grp, '/xdmf', ierr, errmsg)
+    if (ierr /= 0) return
+    call h5lexists_f(out%file, '/xdmf/rest_position', exists, h)
+    if (h < 0) then
+      call fail('h5lexists_f', '/xdmf/rest_position', ierr, errmsg); return
+    end if
+    if (.not. exists) call make_view(out, 'rest_position', '/lattice/rest_position', [0_hsize_t, 0_hsize_t, 0_hsize_t], &
+                                     [3_hsize_t, nx, ny], ierr, errmsg)
+    if (ierr /= 0) return
+    call h5lexists_f(out%file, '/xdmf/mass', exists, h)
+    if (h < 0) then
+      call fail('h5lexists_f', '/xdmf/mass', ierr, errmsg); return
+    end if
+    if (.not. exists) call make_view(out, 'mass', '/lattice/mass', [0_hsize_t, 0_hsize_t], [nx, ny], ierr, errmsg)
+  end subroutine lattice_views
+
+  !> /xdmf/<name>: a virtual dataset of Fortran dims (count..., 1) (C order
+  !> [1][...]) that maps the hyperslab (start, count) of the dataset src of
+  !> this file, counted the source's way (a t index stays in count as 1).
+  subroutine make_view(out, name, src, start, count, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    character(*), intent(in) :: name, src
+    integer(hsize_t), intent(in) :: start(:), count(:)
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: sdset, sspace, vspace, dcpl, dset
+    integer(hsize_t) :: vdims(4)
+    integer :: h, r
+    character(len=:), allocatable :: path
+
+    if (ierr /= 0) return
+    path = '/xdmf/'//name
+    ! The view's dims: the source's selection without its t index, then 1.
+    r = size(count)
+    if (size(count) == 4) r = 3
+    vdims(1:r) = count(1:r)
+    vdims(r + 1) = 1
+    sdset = -1; sspace = -1; vspace = -1; dcpl = -1
+    call h5dopen_f(out%file, src, sdset, h)
+    if (h < 0) then
+      call fail('h5dopen_f', src, ierr, errmsg); return
+    end if
+    call h5dget_space_f(sdset, sspace, h)
+    if (h < 0) then
+      sspace = -1
+      call fail('h5dget_space_f', src, ierr, errmsg)
+    end if
+    if (ierr == 0) then
+      call h5sselect_hyperslab_f(sspace, H5S_SELECT_SET_F, start, count, h)
+      if (h < 0) call fail('h5sselect_hyperslab_f', src//' for '//path, ierr, errmsg)
+    end if
+    if (ierr == 0) then
+      call h5screate_simple_f(r + 1, vdims(1:r + 1), vspace, h)
+      if (h < 0) then
+        vspace = -1
+        call fail('h5screate_simple_f', path, ierr, errmsg)
+      end if
+    end if
+    if (ierr == 0) then
+      call h5pcreate_f(H5P_DATASET_CREATE_F, dcpl, h)
+      if (h < 0) then
+        dcpl = -1
+        call fail('h5pcreate_f(dataset create)', path, ierr, errmsg)
+      end if
+    end if
+    if (ierr == 0) then
+      call h5pset_virtual_f(dcpl, vspace, '.', src, sspace, h)
+      if (h < 0) call fail('h5pset_virtual_f', path, ierr, errmsg)
+    end if
+    if (ierr == 0) then
+      call h5dcreate_f(out%file, path, H5T_NATIVE_DOUBLE, vspace, dset, h, dcpl_id=dcpl)
+      if (h < 0) then
+        call fail('h5dcreate_f(virtual)', path, ierr, errmsg)
+      else
+        call close_dset(dset, path, ierr, errmsg)
+      end if
+    end if
+    if (dcpl >= 0) then
+      call h5pclose_f(dcpl, h)
+      if (h < 0) call fail('h5pclose_f(dataset create)', path, ierr, errmsg)
+    end if
+    call close_spaces(sspace, vspace, path, ierr, errmsg)
+    call close_dset(sdset, src, ierr, errmsg)
+  end subroutine make_view
+
+  !> Delete /xdmf/<name> if it is there (its link; the few bytes of its
+  !> header stay in the file).
+  subroutine drop_view(out, name, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    character(*), intent(in) :: name
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    logical :: exists
+    integer :: h
+
+    if (ierr /= 0) return
+    call h5lexists_f(out%file, '/xdmf/'//name, exists, h)
+    if (h < 0) then
+      call fail('h5lexists_f', '/xdmf/'//name, ierr, errmsg); return
+    end if
+    if (exists) then
+      call h5ldelete_f(out%file, '/xdmf/'//name, h)
+      if (h < 0) call fail('h5ldelete_f', '/xdmf/'//name, ierr, errmsg)
+    end if
+  end subroutine drop_view
+
+  !> The name in /xdmf of the view of step k (0-based) of /position or /velocity.
+  function step_view(idx, k) result(name)
+    integer, intent(in) :: idx, k
+    character(len=:), allocatable :: name
+    name = trim(dset_names(idx)(2:))//'_'//str(k)
+  end function step_view
 
   !> An extendable dataset: Fortran dims (fixed..., 0), unlimited along t, chunked.
   subroutine create_series(out, idx, fixed, chunk, ftype, ierr, errmsg)
@@ -929,6 +1077,16 @@ contains
     ! Created by output_write_run_info; absent for callers that never call it.
     if (all_ok() .and. out%dset(d_wall_time) >= 0) call write_reals(out, d_wall_time, [rec%wall_time], ierr, errmsg)
     if (.not. all_ok()) return
+
+    ! The step's views for the XDMF sidecar (metadata only). None of this
+    ! step is there: a new file has none, output_reopen deleted those of the
+    ! steps it cut off (sync_views); were one there, h5dcreate_f would fail.
+    do i = d_position, d_velocity
+      if (out%dset(i) < 0) cycle
+      call make_view(out, step_view(i, out%nt), trim(dset_names(i)), [0_hsize_t, 0_hsize_t, 0_hsize_t, t], &
+                     [3_hsize_t, nx, int(out%ny, hsize_t), 1_hsize_t], ierr, errmsg)
+      if (.not. all_ok()) return
+    end do
 
     ! The step is complete: count it, then flush so that a later crash keeps it.
     call set_attr_int(out%file, 'n_output_steps', out%nt + 1, '/', ierr, errmsg)
@@ -1487,7 +1645,7 @@ contains
     character(*), intent(out) :: errmsg
     character(*), intent(in), optional :: protect
     integer(hid_t) :: fapl, grp
-    integer :: h, mpierr, fnx, fny, slot, seq(0:1), k, restarts
+    integer :: h, mpierr, fnx, fny, slot, seq(0:1), k, restarts, extent
     logical :: exists, has_velocity
     character(len=:), allocatable :: where
 
@@ -1619,7 +1777,14 @@ contains
 
     ! The series, cut back to the checkpoint's output steps: what a run
     ! wrote after its last checkpoint is computed again (the same way).
-    if (ierr == 0) call open_series(out, ck%n_output_steps, ierr, errmsg)
+    ! So are the XDMF views: those of later steps are deleted, those of the
+    ! kept steps (and of the lattice) made where the file lacks them (a file
+    ! of an earlier version). All ranks take part (collective calls).
+    call agree(comm, '-nuno_restart', ierr, errmsg)
+    extent = 0
+    if (ierr == 0) call open_series(out, ck%n_output_steps, extent, ierr, errmsg)
+    call agree(comm, '-nuno_restart', ierr, errmsg)
+    if (ierr == 0) call sync_views(out, extent, ierr, errmsg)
     if (ierr == 0) then
       restarts = 0
       call h5aexists_by_name_f(out%file, 'run', 'restarts', exists, h)
@@ -1689,10 +1854,12 @@ contains
     call read_rows3(out, where//'/velocity', v, ierr, errmsg)
   end subroutine read_checkpoint
 
-  !> Open the time series of an existing file and cut them to nt steps.
-  subroutine open_series(out, nt, ierr, errmsg)
+  !> Open the time series of an existing file and cut them to nt steps;
+  !> extent: the steps /position had before (a killed run: n_output_steps + 1).
+  subroutine open_series(out, nt, extent, ierr, errmsg)
     type(output_file), intent(inout) :: out
     integer, intent(in) :: nt
+    integer, intent(out) :: extent
     integer, intent(inout) :: ierr
     character(*), intent(inout) :: errmsg
     integer(hid_t) :: space
@@ -1701,6 +1868,7 @@ contains
     logical :: exists
     integer(hid_t) :: fspace, mspace
 
+    extent = 0
     call get_attr_int(out%file, 'n_output_steps', '/', have, ierr, errmsg)
     if (ierr /= 0) return
     if (nt > have .or. nt < 1) then
@@ -1731,6 +1899,7 @@ contains
       call h5sget_simple_extent_ndims_f(space, r, h)
       if (h >= 0) call h5sget_simple_extent_dims_f(space, dims(1:r), maxdims(1:r), h)
       call h5sclose_f(space, h)
+      if (i == d_position) extent = int(dims(r))
       out%drank(i) = r
       out%ddims(1:r, i) = dims(1:r)
       out%ddims(r, i) = int(nt, hsize_t)
@@ -1751,6 +1920,49 @@ contains
     call close_spaces(fspace, mspace, '/time', ierr, errmsg)
     if (ierr == 0) call set_attr_int(out%file, 'n_output_steps', nt, '/', ierr, errmsg)
   end subroutine open_series
+
+  !> After open_series cut the series to out%nt steps: delete the views of
+  !> steps out%nt .. extent-1 (and any later ones), make those of the kept steps and of the
+  !> lattice where missing. Collective; every call that changes the file is
+  !> agreed on before the next.
+  subroutine sync_views(out, extent, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    integer, intent(in) :: extent
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer :: i, k, h
+    logical :: exists
+
+    call lattice_views(out, ierr, errmsg)
+    if (.not. all_ok()) return
+    do i = d_position, d_velocity
+      if (out%dset(i) < 0) cycle
+      ! Views are made in step order: delete up to the extent, and on
+      ! while there are more (left by an earlier cut that did not finish).
+      k = out%nt
+      do
+        call h5lexists_f(out%file, '/xdmf/'//step_view(i, k), exists, h)
+        if (h < 0) call fail('h5lexists_f', '/xdmf/'//step_view(i, k), ierr, errmsg)
+        if (ierr == 0 .and. .not. exists .and. k >= extent) exit
+        if (ierr == 0 .and. exists) call drop_view(out, step_view(i, k), ierr, errmsg)
+        if (.not. all_ok()) return
+        k = k + 1
+      end do
+      do k = 0, out%nt - 1
+        call h5lexists_f(out%file, '/xdmf/'//step_view(i, k), exists, h)
+        if (h < 0) call fail('h5lexists_f', '/xdmf/'//step_view(i, k), ierr, errmsg)
+        if (ierr == 0 .and. .not. exists) &
+          call make_view(out, step_view(i, k), trim(dset_names(i)), [0_hsize_t, 0_hsize_t, 0_hsize_t, int(k, hsize_t)], &
+                         [3_hsize_t, int(out%nx, hsize_t), int(out%ny, hsize_t), 1_hsize_t], ierr, errmsg)
+        if (.not. all_ok()) return
+      end do
+    end do
+  contains
+    logical function all_ok()
+      call agree(out%comm, '-nuno_restart', ierr, errmsg)
+      all_ok = ierr == 0
+    end function all_ok
+  end subroutine sync_views
 
   !> A fixed [ny][nx][3] state dataset of a checkpoint slot, created on first use.
   subroutine open_or_create_state(out, grp, path, name, dset, ierr, errmsg)
@@ -1907,23 +2119,26 @@ contains
   ! ---------------------------------------------------------------------------
   ! XDMF sidecar (rank 0, plain Fortran I/O, rewritten whole at each step).
 
-  ! Layout, checked with ParaView 5.11's legacy "XDMF Reader" (Xdmf2) by
-  ! tests/python/test_xdmf.py: a temporal collection of n_output_steps
-  ! uniform grids, each a 3DSMesh of Dimensions "1 ny nx" (one layer of
-  ! ny x nx points: VTK dimensions (nx, ny, 1), point j*nx + i), XYZ
-  ! geometry from a HyperSlab of /position, and point data:
-  !   displacement  Function "$0 - $1" of that HyperSlab and /lattice/rest_position
-  !   velocity      HyperSlab of /velocity (when written)
-  !   mass          HyperSlab of /lattice/mass (the whole of it, seen as 1 x ny x nx)
-  ! Every item that the reader selects from has the topology's rank (+1 for
-  ! vectors): the reader selects the point range of a structured grid on it.
-  ! Not 2DSMesh "ny nx": with it the reader's own selection of vector point
-  ! data goes wrong (46 tuples instead of 35 on 7 x 5, and an HDF5 error per
-  ! array and step). The Xdmf3 readers load no array of a HyperSlab or
-  ! Function item (the item's number type is unknown to them before it is
-  ! read: "Skipping unrecognized array type [None]", 0 points); the
-  ! hyperslab syntax they read ("file.h5:/position|start:stride:count:dims")
-  ! is one the legacy reader cannot open (postprocess/README.md).
+  ! Layout, checked with ParaView 5.11's three XDMF readers (the legacy
+  ! "XDMF Reader" on Xdmf2, and Xdmf3ReaderS/T) by tests/python/test_xdmf.py:
+  ! a temporal collection of n_output_steps uniform grids, each a 3DSMesh of
+  ! Dimensions "1 ny nx" (one layer of ny x nx points: VTK dimensions
+  ! (nx, ny, 1), point j*nx + i), XYZ geometry /xdmf/position_<k>, and the
+  ! point data
+  !   velocity       /xdmf/velocity_<k> (when written)
+  !   rest_position  /xdmf/rest_position
+  !   mass           /xdmf/mass
+  !   displacement   Function "$0 - $1" of /xdmf/position_<k> and
+  !                  /lattice/rest_position (legacy reader only)
+  ! Each is a plain HDF DataItem of a virtual dataset (lattice_views,
+  ! make_view) shaped like the topology (+ 3 for vectors): the legacy reader
+  ! selects the point range of a structured grid on it (not 2DSMesh
+  ! "ny nx": with it that selection goes wrong for vector point data). The
+  ! Xdmf3 readers read no HyperSlab or Function item (the item's number
+  ! type is unknown to them before it is read): they skip displacement with
+  ! one line "Skipping unrecognized array type [None]" per step and load
+  ! everything else; Calculator "coords - rest_position" gives it there.
+  ! No view is needed by the Function's operand rest_position (read whole).
   subroutine write_xdmf(out, ierr, errmsg)
     type(output_file), intent(in) :: out
     integer, intent(inout) :: ierr
@@ -1931,13 +2146,12 @@ contains
     integer :: u, ios, k
     logical :: bad
     character(len=256) :: iom
-    character(len=:), allocatable :: plane, surf, series, f8, h5
+    character(len=:), allocatable :: plane, surf, f8, h5
 
     if (ierr /= 0) return
     h5 = xml_escape(out%h5_base)                  ! the file's name in XML text
     plane = str(out%ny)//' '//str(out%nx)        ! /lattice/mass [ny][nx]
-    surf = '1 '//plane                            ! the topology, one layer of points
-    series = str(out%nt)//' '//plane//' 3'        ! /position, /velocity: the steps written
+    surf = '1 '//plane                            ! the topology, one layer of points; the views
     f8 = 'NumberType="Float" Precision="8"'
     open(newunit=u, file=out%xmf_path, status='replace', action='write', iostat=ios, iomsg=iom)
     if (ios /= 0) then
@@ -1955,25 +2169,23 @@ contains
       call put('    <Time Value="'//real_str(out%times(k))//'"/>')
       call put('    <Topology TopologyType="3DSMesh" Dimensions="'//surf//'"/>')
       call put('    <Geometry GeometryType="XYZ">')
-      call slab_item('     ', 'position', k - 1)
+      call item('     ', surf//' 3', '/xdmf/'//step_view(d_position, k - 1))
       call put('    </Geometry>')
-      call put('    <Attribute Name="displacement" AttributeType="Vector" Center="Node">')
-      call put('     <DataItem ItemType="Function" Function="$0 - $1" Dimensions="'//surf//' 3" '//f8//'>')
-      call slab_item('      ', 'position', k - 1)
-      call put('      <DataItem Dimensions="'//plane//' 3" '//f8//' Format="HDF">'// &
-               h5//':/lattice/rest_position</DataItem>')
-      call put('     </DataItem>')
-      call put('    </Attribute>')
       if (out%write_velocity) then
         call put('    <Attribute Name="velocity" AttributeType="Vector" Center="Node">')
-        call slab_item('     ', 'velocity', k - 1)
+        call item('     ', surf//' 3', '/xdmf/'//step_view(d_velocity, k - 1))
         call put('    </Attribute>')
       end if
+      call put('    <Attribute Name="rest_position" AttributeType="Vector" Center="Node">')
+      call item('     ', surf//' 3', '/xdmf/rest_position')
+      call put('    </Attribute>')
       call put('    <Attribute Name="mass" AttributeType="Scalar" Center="Node">')
-      call put('     <DataItem ItemType="HyperSlab" Dimensions="'//surf//'" '//f8//'>')
-      call put('      <DataItem Dimensions="3 2" NumberType="Int" Format="XML">0 0  1 1  '//plane//'</DataItem>')
-      call put('      <DataItem Dimensions="'//plane//'" '//f8//' Format="HDF">'// &
-               h5//':/lattice/mass</DataItem>')
+      call item('     ', surf, '/xdmf/mass')
+      call put('    </Attribute>')
+      call put('    <Attribute Name="displacement" AttributeType="Vector" Center="Node">')
+      call put('     <DataItem ItemType="Function" Function="$0 - $1" Dimensions="'//surf//' 3" '//f8//'>')
+      call item('      ', surf//' 3', '/xdmf/'//step_view(d_position, k - 1))
+      call item('      ', plane//' 3', '/lattice/rest_position')
       call put('     </DataItem>')
       call put('    </Attribute>')
       call put('   </Grid>')
@@ -1998,17 +2210,11 @@ contains
       if (ios /= 0) bad = .true.
     end subroutine put
 
-    !> Step t (0-based) of /position or /velocity [nt][ny][nx][3], as 1 x ny x nx x 3.
-    subroutine slab_item(indent, dset, t)
-      character(*), intent(in) :: indent, dset
-      integer, intent(in) :: t
-      call put(indent//'<DataItem ItemType="HyperSlab" Dimensions="'//surf//' 3" '//f8//'>')
-      call put(indent//' <DataItem Dimensions="3 4" NumberType="Int" Format="XML">'// &
-               str(t)//' 0 0 0  1 1 1 1  1 '//plane//' 3</DataItem>')
-      call put(indent//' <DataItem Dimensions="'//series//'" '//f8//' Format="HDF">'// &
-               h5//':/'//dset//'</DataItem>')
-      call put(indent//'</DataItem>')
-    end subroutine slab_item
+    !> A plain float64 HDF DataItem of the dataset path (C-order dims).
+    subroutine item(indent, dims, path)
+      character(*), intent(in) :: indent, dims, path
+      call put(indent//'<DataItem Dimensions="'//dims//'" '//f8//' Format="HDF">'//h5//':'//path//'</DataItem>')
+    end subroutine item
   end subroutine write_xdmf
 
   pure function str(i) result(s)

@@ -1,6 +1,6 @@
 !> MPI test of the parallel HDF5 output: strips of rows as a DMDA would give
 !> them, known values written collectively, read back on rank 0 with the
-!> serial HDF5 API (shapes, values, attributes). Three files:
+!> serial HDF5 API (shapes, values, attributes, the XDMF views). Three files:
 !>   a: 5 x 7 lattice with velocity, 3 steps, closed 'complete';
 !>   b: 5 x 7 lattice, 2 steps, read back while still open (as after a crash);
 !>   c: 4 x 2 lattice: on 3 ranks one rank has no rows.
@@ -200,6 +200,30 @@ contains
       if (size(got) == size(want)) call check_close_array(got, -want, 0.0_rp, 0.0_rp, filename//': /velocity values')
     end if
 
+    ! The XDMF views (virtual datasets, C [1][ny][nx][3]) read as step k.
+    do k = 0, nt - 1
+      call read_real(file, '/xdmf/position_'//itoa(k), dims, got)
+      call check_true(all(dims == [integer(hsize_t) :: 3, nx, ny, 1]), filename//': /xdmf/position_k shape')
+      if (size(got) == 3*nx*ny) call check_close_array(got, want(1 + 3*nx*ny*k:3*nx*ny*(k + 1)), 0.0_rp, 0.0_rp, &
+                                                       filename//': /xdmf/position_'//itoa(k)//' values')
+      call h5lexists_f(file, '/xdmf/velocity_'//itoa(k), exists, h)
+      call check_true(h == 0 .and. (exists .eqv. with_velocity), filename//': /xdmf/velocity_k present iff asked')
+      if (with_velocity .and. exists) then
+        call read_real(file, '/xdmf/velocity_'//itoa(k), dims, got)
+        call check_true(all(dims == [integer(hsize_t) :: 3, nx, ny, 1]), filename//': /xdmf/velocity_k shape')
+        if (size(got) == 3*nx*ny) call check_close_array(got, -want(1 + 3*nx*ny*k:3*nx*ny*(k + 1)), 0.0_rp, 0.0_rp, &
+                                                         filename//': /xdmf/velocity_'//itoa(k)//' values')
+      end if
+    end do
+    call h5lexists_f(file, '/xdmf/position_'//itoa(nt), exists, h)
+    call check_true(h == 0 .and. .not. exists, filename//': no view of a step not written')
+    call read_real(file, '/xdmf/mass', dims, got)
+    call check_true(all(dims == [integer(hsize_t) :: nx, ny, 1]), filename//': /xdmf/mass shape')
+    if (size(got) == nx*ny) call check_close_array(got, [((mass_expected(i, j, nx), i = 0, nx - 1), j = 0, ny - 1)], &
+                                                   0.0_rp, 0.0_rp, filename//': /xdmf/mass values')
+    call read_real(file, '/xdmf/rest_position', dims, got)
+    call check_true(all(dims == [integer(hsize_t) :: 3, nx, ny, 1]), filename//': /xdmf/rest_position shape')
+
     call read_real(file, '/time', dims, got)
     call check_true(all(dims == [integer(hsize_t) :: nt]), filename//': /time shape')
     if (size(got) == nt) call check_close_array(got, [(0.5_rp*k, k = 0, nt - 1)], 0.0_rp, 0.0_rp, filename//': /time values')
@@ -238,6 +262,14 @@ contains
     inquire(file=filename(1:len(filename)-3)//'.xmf', exist=exists)
     call check_true(exists, filename//': XDMF sidecar exists')
   end subroutine check_file
+
+  pure function itoa(i) result(s)
+    integer, intent(in) :: i
+    character(len=:), allocatable :: s
+    character(len=16) :: buf
+    write(buf, '(i0)') i
+    s = trim(buf)
+  end function itoa
 
   subroutine read_real(file, name, dims, buf)
     integer(hid_t), intent(in) :: file

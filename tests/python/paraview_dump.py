@@ -3,13 +3,15 @@
 Run by test_xdmf.py under ParaView's own Python (pvpython, or Debian's
 python3 with python3-paraview), not by pytest:
 
-    pvpython paraview_dump.py READER OUT.json FILE.xmf [FILE.xmf ...]
+    pvpython paraview_dump.py READER OUT.json [--calculator NAME=EXPR] FILE.xmf [FILE.xmf ...]
 
 READER is a paraview.simple reader: XDMFReader (the legacy Xdmf2 reader,
 "XDMF Reader" in the GUI), Xdmf3ReaderS or Xdmf3ReaderT. For each file,
 OUT.json gets the time steps the reader reports and, at each of them, the
 number of points, the structured dimensions, the points and every point
-array, as lists of float64.
+array, as lists of float64. With --calculator, a Calculator filter
+(ResultArrayName NAME, Function EXPR) follows the reader and its output is
+dumped instead: the reader's arrays and NAME.
 """
 import json
 import sys
@@ -18,12 +20,17 @@ from paraview import servermanager, simple
 from vtkmodules.util.numpy_support import vtk_to_numpy
 
 
-def load(reader, path):
+def load(reader, path, calculator=None):
     if reader == "XDMFReader":
         src = simple.XDMFReader(FileNames=[path])
     else:
         src = getattr(simple, reader)(FileName=[path])
     times = src.TimestepValues
+    reader_src = src
+    if calculator:
+        name, expr = calculator.split("=", 1)
+        src = simple.Calculator(Input=reader_src, ResultArrayName=name, Function=expr,
+                                ResultArrayType="Double")
     times = [] if times is None else ([float(times)] if isinstance(times, float) else [float(t) for t in times])
     steps = []
     for t in times or [None]:
@@ -45,13 +52,18 @@ def load(reader, path):
             a = pd.GetArray(i)
             step["arrays"][a.GetName()] = vtk_to_numpy(a).tolist()
         steps.append(step)
-    simple.Delete(src)
+    if src is not reader_src:
+        simple.Delete(src)
+    simple.Delete(reader_src)
     return {"times": times, "steps": steps}
 
 
 def main():
     reader, out, paths = sys.argv[1], sys.argv[2], sys.argv[3:]
-    result = {path: load(reader, path) for path in paths}
+    calculator = None
+    if paths and paths[0] == "--calculator":
+        calculator, paths = paths[1], paths[2:]
+    result = {path: load(reader, path, calculator) for path in paths}
     with open(out, "w") as f:
         json.dump(result, f)
 
