@@ -43,6 +43,8 @@ module timestepping
   !> is below this fraction of the time integrator's tolerance (the
   !> weighted RMS norm of TSAdapt, in which a step is accepted at <= 1).
   real(rp), parameter :: NEWTON_TS_FRACTION = 0.01_rp
+  !> Wall seconds without a line on stdout after which the monitor prints one.
+  real(rp), parameter :: HEARTBEAT_S = 10.0_rp
   !> Gauss-Legendre points (on [0, 1]) and weights, 3 points.
   real(rp), parameter :: GAUSS_X(3) = [0.5_rp - sqrt(0.15_rp), 0.5_rp, 0.5_rp + sqrt(0.15_rp)]
   real(rp), parameter :: GAUSS_W(3) = [5.0_rp / 18.0_rp, 8.0_rp / 18.0_rp, 5.0_rp / 18.0_rp]
@@ -138,6 +140,7 @@ module timestepping
     ! progress
     real(rp) :: wall0 = 0                       !< MPI_Wtime at the start of solver_run [s]
     real(rp) :: t_written = -1                  !< time of the last output step [time]
+    real(rp) :: wall_said = 0                   !< MPI_Wtime of the last line on stdout (rank 0) [s]
     logical :: stretch_warned = .false.         !< the stretch_limit warning was given
     ! checkpoints and restarts (docs/design.md, "Checkpoints")
     real(rp) :: checkpoint_walltime = 0         !< -nuno_checkpoint_walltime: a checkpoint after each [s]; 0: none
@@ -711,6 +714,18 @@ contains
       ctx%pcon_prev = p(2)
     end if
     ctx%t_prev = t
+    ! A long output interval (tiny adaptive steps on a stiff scene) must not
+    ! look like a hang: rank 0 says where it is every HEARTBEAT_S of wall
+    ! time (TS values only, so nothing collective).
+    if (ctx%rank == 0 .and. step > 0) then
+      if (MPI_Wtime() - ctx%wall_said >= HEARTBEAT_S) then
+        PetscCall(TSGetTimeStep(ts, h, ierr))
+        write(output_unit, '(a,es12.5e2,a,i9,a,es10.3e2,a,es10.3e2,a)') '  ... t =', t, '  steps', step, &
+          '  dt', h, '  wall_s', MPI_Wtime() - ctx%wall0, '  (between output steps)'
+        flush(output_unit)
+        ctx%wall_said = MPI_Wtime()
+      end if
+    end if
     ! -nuno_checkpoint_walltime: due after this step (agreed by the
     ! post-step, which runs before the monitor); written here, with the
     ! step's energy integrals, without stopping TSSolve, so that the run
@@ -825,6 +840,7 @@ contains
 
     status = 'complete'
     ctx%wall0 = MPI_Wtime() - ctx%wall_before
+    ctx%wall_said = MPI_Wtime()
     call write_run_info(ctx, out, ierr)
     if (io_failed()) return
     ctx%out => out
@@ -1405,6 +1421,7 @@ contains
         '  E_total', d%kinetic + d%stretch + d%bend + ctx%dissipated - rec%external_work, &
         '  wall_s', wall, '  sim_per_wall_s', rate, '  eta_s', eta
       flush(output_unit)
+      ctx%wall_said = MPI_Wtime()
     end if
   end subroutine write_output
 
