@@ -247,7 +247,17 @@ def write_report(rows, md, png, cmd):
         "",
         "The figure: for each method, the largest step of the matrix with which hang (15 x 15, k_b = 0.1) "
         "completed, against e_s = e_d; the dashed line is where an explicit method would stop, "
-        "dt = 2/omega_max with omega_max = 2 sqrt(4 e/m) of the lightest node (an estimate).",
+        "dt = 2/omega_max with omega_max = 2 sqrt(4 e/m) of the lightest node (an estimate). "
+        "The matrix's steps are 1e-4, 1e-2 and 1, so the plot resolves no finer; bdf adapts its "
+        "step, so for it the value is the initial step it was given.",
+        "",
+        "What it shows: no run hangs, crashes without a message, writes a NaN or is marked complete "
+        "when it is not. The fixed-step methods stop at dt = 1 (and on the stiffest fast-moving "
+        "scenes at 1e-2) with one line saying the Newton solve diverged after its retries and what "
+        "to try; they complete at 1e-2 on hang at every stiffness, 1e4 times the explicit limit at "
+        "e = 1e6. Adaptive bdf completes almost everywhere, but on the corner moved 50 mm in 0.01 s "
+        "with e = 1e6 its error control resolves the links' oscillation with steps of about 5e-6 "
+        "(runs marked slow): it advances, says so every 10 s, and prints its ETA.",
         "",
     ]
     md.write_text("\n".join(lines))
