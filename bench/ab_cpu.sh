@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Compare two nuno builds on hang, alternating runs, by the CPU time of the
+# rank (user + sys, start-up included): on a shared machine that moves far
+# less than wall time. One rank.
+#   bench/ab_cpu.sh OLD_EXE NEW_EXE N BENDING MODE STEPS REPS
+#   bench/ab_cpu.sh /work/wt-old/build/nuno build/nuno 257 none bw 24 2
+# BENDING: energy | none; MODE: bw (ksponly, rtol 1e-3, dt 1/600) | newton (dt 1e-3)
+set -euo pipefail
+old=$(realpath "$1"); new=$(realpath "$2"); N=$3; bend=$4; mode=$5; steps=$6; reps=$7
+source "$(dirname "$0")/../tools/env.sh"
+dt=0.001; [ "$mode" = bw ] && dt=0.0016666666666666668
+tend=$(python3 -c "print($steps*$dt)")
+d=$(mktemp -d); trap 'rm -rf "$d"' EXIT; cd "$d"
+cat > m.nml <<EON
+&scene scene_name='hang' /
+&lattice nx=$N, ny=$N /
+&material bending_model='$bend' /
+&time t_end=$tend, dt=$dt /
+&output output_interval=$tend, output_file='m.h5' /
+EON
+mo=(); [ "$mode" = bw ] && mo=(-snes_type ksponly -reduced_ksp_rtol 1e-3)
+for r in $(seq "$reps"); do
+  for b in "$old" "$new"; do
+    mpiexec -n 1 /usr/bin/time -f "CPU %U %S" "$b" m.nml "${mo[@]}" > run.txt 2>&1
+    cpu=$(awk '/^CPU/ {print $2 + $3}' run.txt)
+    lin=$(grep '^t = ' run.txt | tail -1 | awk '{print $11}')
+    echo "$N $bend $mode $b cpu_s $cpu linear $lin node-steps/cpu-s $(python3 -c "print('%.3g' % ($N*$N*$steps/$cpu))")"
+  done
+done
