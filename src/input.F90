@@ -1467,10 +1467,12 @@ contains
   end subroutine input_usage
 
   !> Write a few lines that describe the run (call on one rank).
-  subroutine input_summary(cfg, unit)
+  subroutine input_summary(cfg, unit, ts_dt, ts_max_time)
     type(nuno_config), intent(in) :: cfg
     integer, intent(in) :: unit
+    real(rp), intent(in), optional :: ts_dt, ts_max_time   !< -ts_dt, -ts_max_time when given: they win
     character(256) :: terms, cons
+    character(len=:), allocatable :: tline
     write(unit, '(a)') 'scene     : '//trim(cfg%scene)
     write(unit, '(a,i0,a,i0,a)') 'lattice   : ', cfg%nx, ' x ', cfg%ny, ' nodes, '// &
       fmt_real(cfg%lx)//' x '//fmt_real(cfg%ly)//' (spacing '//fmt_real(cfg%ax)//' x '// &
@@ -1508,7 +1510,18 @@ contains
     if (cfg%release_time < huge(1.0_rp) .and. trim(cons) /= 'none') &
       cons = trim(cons)//', released at t = '//fmt_real(cfg%release_time)
     write(unit, '(a)') 'constraint: '//trim(cons)
-    write(unit, '(a)') 'time      : t_end = '//fmt_real(cfg%t_end)//', dt = '//fmt_real(cfg%dt)
+    ! The values the run uses: an option over the namelist says so.
+    if (present(ts_max_time)) then
+      tline = 'time      : t_end = '//fmt_real(ts_max_time)//' (-ts_max_time; namelist '//fmt_real(cfg%t_end)//')'
+    else
+      tline = 'time      : t_end = '//fmt_real(cfg%t_end)
+    end if
+    if (present(ts_dt)) then
+      tline = tline//', dt = '//fmt_real(ts_dt)//' (-ts_dt; namelist '//fmt_real(cfg%dt)//')'
+    else
+      tline = tline//', dt = '//fmt_real(cfg%dt)
+    end if
+    write(unit, '(a)') tline
     if (cfg%write_velocity) then
       write(unit, '(a)') 'output    : '//trim(cfg%output_file)//' every '//fmt_real(cfg%output_interval)// &
         ' (with velocity)'

@@ -33,7 +33,8 @@ program nuno
   character(len=1024) :: restart_file
   character(len=512) :: bad_option
   real(rp) :: walltime
-  PetscBool :: have_set
+  PetscBool :: have_set, have_max_time
+  PetscReal :: ts_max_time
   PetscInt :: pint
   PetscReal :: ts_dt
 
@@ -82,7 +83,16 @@ program nuno
   if (ierr /= 0) call fatal_collective(errmsg)
   if (rank == 0) then
     write(*, '(a,i0,a)') 'nuno 0.1.0 on ', nranks, ' rank(s): '//trim(path)
-    call input_summary(cfg, 6)
+    call PetscOptionsGetReal(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-ts_max_time', ts_max_time, have_max_time, ierr)
+    if (ts_dt_set .and. have_max_time) then
+      call input_summary(cfg, 6, ts_dt=ts_dt, ts_max_time=ts_max_time)
+    else if (ts_dt_set) then
+      call input_summary(cfg, 6, ts_dt=ts_dt)
+    else if (have_max_time) then
+      call input_summary(cfg, 6, ts_max_time=ts_max_time)
+    else
+      call input_summary(cfg, 6)
+    end if
   end if
 
   ! 3. Lattice strips, scene, Jacobian, TS. A PETSc error here may have been

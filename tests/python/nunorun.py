@@ -7,6 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import f90nml
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -31,11 +32,23 @@ def mpiexec():
 
 
 def namelist(output_file, **groups):
-    """Namelist text from {group: 'key=value ...'} plus the output file."""
+    """Namelist text from {group: 'key=value ...'} plus the output file.
+
+    The groups are read and written by f90nml (a Fortran namelist parser),
+    so what a test passes is a namelist, not a string pasted together. A
+    fragment f90nml cannot read is kept as written: the bad-input tests
+    hand the program malformed text on purpose."""
     out = groups.pop("output", "")
-    lines = [f"&{g} {body} /" for g, body in groups.items()]
-    lines.append(f"&output output_file='{output_file}' {out} /")
-    return "\n".join(lines) + "\n"
+    raw = [f"&{g} {body} /" for g, body in groups.items()]
+    raw.append(f"&output output_file='{output_file}' {out} /")
+    text = "\n".join(raw) + "\n"
+    try:
+        parsed = f90nml.reads(text)
+    except Exception:  # f90nml raises several types on bad input
+        return text
+    if set(parsed.keys()) != {g.lower() for g in (*groups, "output")}:
+        return text
+    return str(parsed) + "\n"
 
 
 def run(tmp_path, name, nranks=1, options=(), timeout=300, check=True, **groups):
