@@ -217,9 +217,7 @@ def speedups(rows, key):
     return out
 
 
-def replot(args) -> int:
-    """Figure and doc again from bench/results (no runs)."""
-    res = Path(args.results)
+def load_results(res: Path):
     summary = json.loads((res / "workprecision.json").read_text())
     rows = []
     with open(res / "workprecision.csv", newline="") as f:
@@ -227,6 +225,13 @@ def replot(args) -> int:
             for k in ("parameter", "error", "time_s", "cpu_s"):
                 r[k] = float(r[k]) if r[k] not in ("", "nan") else float("nan")
             rows.append(r)
+    return rows, summary
+
+
+def replot(args) -> int:
+    """Figure and doc again from bench/results (no runs)."""
+    res = Path(args.results)
+    rows, summary = load_results(res)
     for key, info in summary["scenes"].items():
         info["speedup"] = speedups(rows, key)
     (res / "workprecision.json").write_text(json.dumps(summary, indent=1, default=float) + "\n")
@@ -341,6 +346,18 @@ def main(argv=None) -> int:
         return 0
     res = Path(args.results)
     res.mkdir(parents=True, exist_ok=True)
+    if args.scenes and (res / "workprecision.json").exists():
+        # Some scenes again: replace theirs in the results, keep the others.
+        old_rows, old = load_results(res)
+        again = set(summary["scenes"])
+        rows = [r for r in old_rows if r["scene"] not in again] + rows
+        order = [s["key"] for s in plan(False)]
+        rows.sort(key=lambda r: order.index(r["scene"]) if r["scene"] in order else len(order))
+        old["scenes"].update(summary["scenes"])
+        old["scenes"] = {k: old["scenes"][k] for k in sorted(old["scenes"], key=lambda k: order.index(k) if k in order else 99)}
+        old.setdefault("reruns", []).append({"scenes": sorted(again), "git": summary["git"],
+                                             "elapsed_s": summary["elapsed_s"], "machine": summary["machine"]})
+        summary = old
     fields = ["scene", "program", "method", "parameter", "error", "time_s", "cpu_s", "steps", "options", "note"]
     with open(res / "workprecision.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=fields)
@@ -398,7 +415,11 @@ BEGIN, END = "<!-- results begin (bench/workprecision.py) -->", "<!-- results en
 
 def write_doc(rows, summary, path: Path):
     out = [BEGIN, "", f"Command: `{summary['command']}` (commit {summary['git']}), "
-           f"{summary['elapsed_s'] / 60:.1f} min.", "", f"Machine: {summary['machine']}.", "",
+           f"{summary['elapsed_s'] / 60:.1f} min."]
+    for rr in summary.get("reruns", []):
+        out.append(f"Run again with `--scenes '{','.join(rr['scenes'])}'` (commit {rr['git']}), "
+                   f"{rr['elapsed_s'] / 60:.1f} min: those scenes' results are from that run.")
+    out += ["", f"Machine: {summary['machine']}.", "",
            "![work-precision](figures/workprecision.png)", ""]
     out += ["### Speed-up at equal error", "",
             "At the error of each SciPy run on SciPy's lower envelope (the faster of BDF and Radau "

@@ -1439,7 +1439,7 @@ contains
       '  -nuno_atol_position A                        absolute tolerance of positions [length] (default', &
       '                                               -ts_atol, else R times the cloth size max(lx, ly))', &
       '  -nuno_atol_velocity B                        absolute tolerance of velocities [length/time] (default', &
-      '                                               the position one over t_end); velocities also get R |v|', &
+      '                                               the position one per time unit); velocities also get R |v|', &
       '  for a final position error E (relative to the cloth size): -ts_type arkimex -ts_arkimex_type 5', &
       '    -ts_arkimex_fully_implicit -ts_adapt_type basic -ts_adapt_wnormtype infinity -ts_rtol E', &
       '    (docs/workprecision.md)', &

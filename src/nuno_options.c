@@ -66,7 +66,7 @@ PetscErrorCode nuno_tolerance_options_read(MPI_Fint fcomm, double *atol_x, doubl
   PetscOptionsBegin(comm, NULL, "nuno: error tolerances of adaptive steps (input/README.md, \"Error tolerances\")", "nuno");
   PetscCall(PetscOptionsReal("-nuno_atol_position", "absolute tolerance of positions [length] (default: -ts_atol, else -ts_rtol times the cloth size max(lx, ly))",
                              "TSSetTolerances", ax, &ax, &sx));
-  PetscCall(PetscOptionsReal("-nuno_atol_velocity", "absolute tolerance of velocities [length/time] (default: the position tolerance over t_end, docs/workprecision.md)",
+  PetscCall(PetscOptionsReal("-nuno_atol_velocity", "absolute tolerance of velocities [length/time] (default: the position tolerance per unit of time, docs/workprecision.md)",
                              "TSSetTolerances", av, &av, &sv));
   PetscOptionsEnd();
   PetscCheck(ax > 0.0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-nuno_atol_position %g must be > 0", (double)ax);

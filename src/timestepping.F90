@@ -43,6 +43,12 @@ module timestepping
   !> is below this fraction of the time integrator's tolerance (the
   !> weighted RMS norm of TSAdapt, in which a step is accepted at <= 1).
   real(rp), parameter :: NEWTON_TS_FRACTION = 0.01_rp
+  !> The default velocity tolerance is the position tolerance over this
+  !> [time]: one time unit (1 s in every scene), a constant, so that the
+  !> tolerances, and so the steps, do not depend on t_end (a run to 2 s
+  !> takes the steps of a run to 1 s over its first second, and a restart
+  !> to a later t_end keeps them; docs/workprecision.md, "Tolerances").
+  real(rp), parameter :: TOLERANCE_TIME = 1.0_rp
   !> Gauss-Legendre points (on [0, 1]) and weights, 3 points.
   real(rp), parameter :: GAUSS_X(3) = [0.5_rp - sqrt(0.15_rp), 0.5_rp, 0.5_rp + sqrt(0.15_rp)]
   real(rp), parameter :: GAUSS_W(3) = [5.0_rp / 18.0_rp, 8.0_rp / 18.0_rp, 5.0_rp / 18.0_rp]
@@ -405,8 +411,8 @@ contains
   !> atol_x alone [length], velocities atol_v + rtol |v| [length/time]
   !> (input/README.md, "Error tolerances"), with atol_x from
   !> -nuno_atol_position, else -ts_atol, else rtol times the cloth size
-  !> max(lx, ly); -nuno_atol_velocity, else the position tolerance over the
-  !> scene's time scale (tolerance_time_scale). srcx, srcv say where each
+  !> max(lx, ly); -nuno_atol_velocity, else the position tolerance per unit
+  !> of time (TOLERANCE_TIME). srcx, srcv say where each
   !> came from. Also what update_wrms weighs Newton's updates with. Collective.
   subroutine set_tolerances(ctx, srcx, srcv, ierr)
     type(app_ctx), intent(inout) :: ctx
@@ -428,11 +434,11 @@ contains
       ax = rtol * max(ctx%cfg%lx, ctx%cfg%ly)
       srcx = 'rtol x cloth size'
     end if
-    av = ax / tolerance_time_scale(ctx%cfg)
+    av = ax / TOLERANCE_TIME
     ierr = nuno_tolerance_options_read(ctx%comm, ax, av, gx, gv)
     if (ierr /= 0) return
     if (gx /= 0) srcx = '-nuno_atol_position'
-    srcv = 'position atol / t_end'
+    srcv = 'position atol / 1 time unit'
     if (gv /= 0) srcv = '-nuno_atol_velocity'
     ctx%rtol = rtol
     ctx%atol_x = ax
@@ -453,15 +459,6 @@ contains
     PetscCall(VecDestroy(vatol, ierr))             ! the TS keeps its references
     PetscCall(VecDestroy(vrtol, ierr))
   end subroutine set_tolerances
-
-  !> The time that turns the position tolerance into the velocity one
-  !> [time]: the run's t_end (after -ts_max_time), so that a velocity error
-  !> of atol_v left uncorrected moves a node by atol_x over the run
-  !> (docs/workprecision.md, "Tolerances").
-  pure real(rp) function tolerance_time_scale(cfg)
-    type(nuno_config), intent(in) :: cfg
-    tolerance_time_scale = cfg%t_end
-  end function tolerance_time_scale
 
   !> Report the options nothing read (after the run, when every object has
   !> read its options), then destroy the PETSc objects, in reverse order of

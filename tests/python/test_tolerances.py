@@ -22,23 +22,23 @@ def solver_line(stdout):
     return next(ln for ln in stdout.splitlines() if ln.startswith("solver"))
 
 
-def test_default_tolerances_from_rtol_cloth_size_and_t_end(tmp_path):
+def test_default_tolerances_from_rtol_and_cloth_size(tmp_path):
     proc, r = run_and_read(tmp_path, "d", options=("-ts_type", "bdf", "-ts_adapt_type", "basic", "-ts_rtol", "1e-5"),
                            time="t_end=0.05", output="output_interval=0.05", **BRE)
     line = solver_line(proc.stdout)
-    # 50 mm cloth: 1e-5 * 50 mm; velocities 5e-4 mm / 0.05 s
+    # 50 mm cloth: 1e-5 * 50 mm; velocities 5e-4 mm per time unit (not per t_end)
     assert "rtol 1.00000E-05, atol position 5.00000E-04 (rtol x cloth size), " \
-           "velocity 1.00000E-02 (position atol / t_end)" in line, line
+           "velocity 5.00000E-04 (position atol / 1 time unit)" in line, line
     assert r.run_info["rtol"] == pytest.approx(1e-5)
     assert r.run_info["atol_position"] == pytest.approx(5e-4)
-    assert r.run_info["atol_velocity"] == pytest.approx(1e-2)
+    assert r.run_info["atol_velocity"] == pytest.approx(5e-4)
 
 
 def test_given_tolerances_are_used(tmp_path):
     opts = ("-ts_type", "bdf", "-ts_adapt_type", "basic", "-ts_rtol", "1e-6")
     kw = dict(time="t_end=0.1", output="output_interval=0.1", **BRE)
     proc, a = run_and_read(tmp_path, "a", options=opts + ("-ts_atol", "1e-4"), **kw)
-    assert "atol position 1.00000E-04 (-ts_atol), velocity 1.00000E-03 (position atol / t_end)" in solver_line(proc.stdout)
+    assert "atol position 1.00000E-04 (-ts_atol), velocity 1.00000E-04 (position atol / 1 time unit)" in solver_line(proc.stdout)
     proc, b = run_and_read(tmp_path, "b", options=opts + ("-nuno_atol_position", "1e-4", "-nuno_atol_velocity", "1e3"), **kw)
     line = solver_line(proc.stdout)
     assert "atol position 1.00000E-04 (-nuno_atol_position), velocity 1.00000E+03 (-nuno_atol_velocity)" in line, line
