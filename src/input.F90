@@ -1436,6 +1436,13 @@ contains
       'PETSc options (petsc_options in &output; the command line overrides them):', &
       '  -ts_type beuler|theta|cn|bdf|arkimex|rosw   integrator (backward Euler is the report''s)', &
       '  -ts_adapt_type basic -ts_rtol R -ts_atol A  adaptive steps with error control', &
+      '  -nuno_atol_position A                        absolute tolerance of positions [length] (default', &
+      '                                               -ts_atol, else R times the cloth size max(lx, ly))', &
+      '  -nuno_atol_velocity B                        absolute tolerance of velocities [length/time] (default', &
+      '                                               the position one per time unit); velocities also get R |v|', &
+      '  for a final position error E (relative to the cloth size): -ts_type arkimex -ts_arkimex_type 5', &
+      '    -ts_arkimex_fully_implicit -ts_adapt_type basic -ts_adapt_wnormtype infinity -ts_rtol E', &
+      '    (docs/workprecision.md)', &
       '  -ts_monitor, -snes_monitor, -ksp_monitor     progress of steps, Newton, Krylov', &
       '  -snes_rtol R, -snes_max_it N                 Newton tolerance and iterations', &
       '  -snes_type ksponly                           Baraff-Witkin mode: one linearised solve a step', &

@@ -50,6 +50,34 @@ PetscErrorCode nuno_options_read(MPI_Fint fcomm, int *jacobian, int *pc_lag, dou
   PetscFunctionReturn(0);
 }
 
+/* The absolute error tolerances of adaptive steps, per field (input/README.md,
+ * "Error tolerances"): positions in the scene's length unit, velocities in
+ * length/time; together they become TS's vector atol. Read after
+ * TSSetFromOptions, in their own options block, so that -help shows the
+ * defaults derived from -ts_rtol/-ts_atol and the cloth (atol_x, atol_v
+ * in/out, > 0). *given_x, *given_v: set on the command line. Collective. */
+PetscErrorCode nuno_tolerance_options_read(MPI_Fint fcomm, double *atol_x, double *atol_v, int *given_x, int *given_v)
+{
+  MPI_Comm  comm = MPI_Comm_f2c(fcomm);
+  PetscReal ax = *atol_x, av = *atol_v;
+  PetscBool sx = PETSC_FALSE, sv = PETSC_FALSE;
+
+  PetscFunctionBeginUser;
+  PetscOptionsBegin(comm, NULL, "nuno: error tolerances of adaptive steps (input/README.md, \"Error tolerances\")", "nuno");
+  PetscCall(PetscOptionsReal("-nuno_atol_position", "absolute tolerance of positions [length] (default: -ts_atol, else -ts_rtol times the cloth size max(lx, ly))",
+                             "TSSetTolerances", ax, &ax, &sx));
+  PetscCall(PetscOptionsReal("-nuno_atol_velocity", "absolute tolerance of velocities [length/time] (default: the position tolerance per unit of time, docs/workprecision.md)",
+                             "TSSetTolerances", av, &av, &sv));
+  PetscOptionsEnd();
+  PetscCheck(ax > 0.0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-nuno_atol_position %g must be > 0", (double)ax);
+  PetscCheck(av > 0.0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-nuno_atol_velocity %g must be > 0", (double)av);
+  *atol_x = ax;
+  *atol_v = av;
+  *given_x = sx ? 1 : 0;
+  *given_v = sv ? 1 : 0;
+  PetscFunctionReturn(0);
+}
+
 /* Warn on stderr (rank 0, one line each) about every option that nothing
  * read: a misspelt option (-ts_tpye) must not pass silently. PETSc itself
  * only reports them with -options_left, so this runs unless the user chose:

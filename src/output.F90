@@ -66,6 +66,9 @@ module output
     character(len=64) :: ts_type = '', ts_adapt_type = ''   !< as used, after the options
     real(rp) :: dt = 0, t_end = 0                !< effective (initial) step and end time [time]
     integer :: max_steps = 0                     !< -ts_max_steps (huge when not set)
+    real(rp) :: rtol = 0                         !< -ts_rtol [1] (adaptive steps)
+    real(rp) :: atol_position = 0                !< absolute tolerance of positions [length]
+    real(rp) :: atol_velocity = 0                !< absolute tolerance of velocities [length/time]
     character(len=32) :: start_date = ''         !< ISO 8601, local time with offset
     character(len=256) :: host = ''              !< host of rank 0
   end type run_info
@@ -501,6 +504,9 @@ contains
       if (ierr == 0) call set_attr_reals(grp, 'dt', [info%dt], where, ierr, errmsg)
       if (ierr == 0) call set_attr_reals(grp, 't_end', [info%t_end], where, ierr, errmsg)
       if (ierr == 0) call set_attr_int(grp, 'max_steps', info%max_steps, where, ierr, errmsg)
+      if (ierr == 0) call set_attr_reals(grp, 'rtol', [info%rtol], where, ierr, errmsg)
+      if (ierr == 0) call set_attr_reals(grp, 'atol_position', [info%atol_position], where, ierr, errmsg)
+      if (ierr == 0) call set_attr_reals(grp, 'atol_velocity', [info%atol_velocity], where, ierr, errmsg)
       if (ierr == 0) call set_attr_str(grp, 'start_date', trim(info%start_date), where, ierr, errmsg)
       if (ierr == 0) call set_attr_str(grp, 'host', trim(info%host), where, ierr, errmsg)
       if (ierr == 0) call set_attr_int(grp, 'n_ranks', out%n_ranks, where, ierr, errmsg)

@@ -45,6 +45,12 @@ module timestepping
   real(rp), parameter :: NEWTON_TS_FRACTION = 0.01_rp
   !> Wall seconds without a line on stdout after which the monitor prints one.
   real(rp), parameter :: HEARTBEAT_S = 10.0_rp
+  !> The default velocity tolerance is the position tolerance over this
+  !> [time]: one time unit (1 s in every scene), a constant, so that the
+  !> tolerances, and so the steps, do not depend on t_end (a run to 2 s
+  !> takes the steps of a run to 1 s over its first second, and a restart
+  !> to a later t_end keeps them; docs/workprecision.md, "Tolerances").
+  real(rp), parameter :: TOLERANCE_TIME = 1.0_rp
   !> Gauss-Legendre points (on [0, 1]) and weights, 3 points.
   real(rp), parameter :: GAUSS_X(3) = [0.5_rp - sqrt(0.15_rp), 0.5_rp, 0.5_rp + sqrt(0.15_rp)]
   real(rp), parameter :: GAUSS_W(3) = [5.0_rp / 18.0_rp, 8.0_rp / 18.0_rp, 5.0_rp / 18.0_rp]
@@ -82,6 +88,14 @@ module timestepping
       character(kind=c_char), intent(inout) :: mattype(*)
       integer(c_int), value :: mattype_len
     end function nuno_options_read
+    !> src/nuno_options.c: -nuno_atol_position, -nuno_atol_velocity (after TSSetFromOptions).
+    integer(c_int) function nuno_tolerance_options_read(fcomm, atol_x, atol_v, given_x, given_v) &
+        bind(C, name='nuno_tolerance_options_read')
+      import :: c_int, c_double
+      integer(c_int), value :: fcomm
+      real(c_double), intent(inout) :: atol_x, atol_v
+      integer(c_int), intent(out) :: given_x, given_v
+    end function nuno_tolerance_options_read
     !> src/nuno_options.c: warn about options that nothing read.
     integer(c_int) function nuno_options_report_unused(fcomm, nunused) bind(C, name='nuno_options_report_unused')
       import :: c_int
@@ -134,6 +148,10 @@ module timestepping
     real(rp) :: t_end = 0                       !< end time [time]: -ts_max_time, else the namelist's
     logical :: fixed_step = .true.              !< -ts_adapt_type none: every step is dt unless retried
     PetscInt :: max_steps = 0                   !< -ts_max_steps: a clean end after this many steps
+    ! error tolerances of adaptive steps (TSSetTolerances: scalar rtol, vector atol)
+    real(rp) :: rtol = 0                        !< -ts_rtol [1]
+    real(rp) :: atol_x = 0                      !< absolute tolerance of positions [length]
+    real(rp) :: atol_v = 0                      !< absolute tolerance of velocities [length/time]
     real(rp) :: tstop = 0                       !< end of the current time window [time]
     PetscInt :: rejects_seen = 0                !< step rejections already answered by the monitor
     integer :: fail_newton = 0                  !< -nuno_fail_newton: Newton solves still to be declared failed
@@ -326,6 +344,7 @@ contains
     PetscBool :: match
     character(len=64) :: tstype, adtype
     character(len=512) :: line
+    character(len=40) :: srcx, srcv
     real(rp) :: dt_namelist, t_end_namelist
 
     dt_namelist = ctx%cfg%dt
@@ -366,6 +385,7 @@ contains
     PetscCall(TSGetType(ctx%ts, tstype, ierr))
     ctx%gauss = trim(tstype) == 'bdf'
     PetscCall(VecDuplicate(ctx%u, ctx%uq, ierr))
+    PetscCall(set_tolerances(ctx, srcx, srcv, ierr))
 
     if (ctx%rank == 0) then
       PetscCall(TSGetType(ctx%ts, tstype, ierr))
@@ -382,11 +402,66 @@ contains
         line = trim(line)//' (-ts_max_time; namelist '//num(t_end_namelist)//')'
       if (ctx%max_steps < huge(ctx%max_steps)) &
         line = trim(line)//', at most '//inum(ctx%max_steps)//' steps (-ts_max_steps)'
+      if (.not. ctx%fixed_step) line = trim(line)//', rtol '//num(ctx%rtol)//', atol position '// &
+        num(ctx%atol_x)//' ('//trim(srcx)//'), velocity '//num(ctx%atol_v)//' ('//trim(srcv)//')'
       line = trim(line)//', Newton step '//trim(merge('reduced', 'full   ', ctx%use_reduced))
       write(output_unit, '(a)') trim(line)
       flush(output_unit)
     end if
   end subroutine effective_time_integration
+
+  !> The error tolerances of adaptive steps, as vectors for TS: positions
+  !> atol_x alone [length], velocities atol_v + rtol |v| [length/time]
+  !> (input/README.md, "Error tolerances"), with atol_x from
+  !> -nuno_atol_position, else -ts_atol, else rtol times the cloth size
+  !> max(lx, ly); -nuno_atol_velocity, else the position tolerance per unit
+  !> of time (TOLERANCE_TIME). srcx, srcv say where each
+  !> came from. Also what update_wrms weighs Newton's updates with. Collective.
+  subroutine set_tolerances(ctx, srcx, srcv, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    character(len=*), intent(out) :: srcx, srcv
+    PetscErrorCode, intent(out) :: ierr
+    PetscReal :: atol, rtol
+    PetscBool :: atol_given
+    PetscScalar, pointer :: va(:, :, :)
+    type(tVec) :: vatol, vrtol
+    real(c_double) :: ax, av
+    integer(c_int) :: gx, gv
+
+    PetscCall(TSGetTolerances(ctx%ts, atol, PETSC_NULL_VEC, rtol, PETSC_NULL_VEC, ierr))
+    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-ts_atol', atol_given, ierr))
+    if (atol_given) then
+      ax = atol
+      srcx = '-ts_atol'
+    else
+      ax = rtol * max(ctx%cfg%lx, ctx%cfg%ly)
+      srcx = 'rtol x cloth size'
+    end if
+    av = ax / TOLERANCE_TIME
+    ierr = nuno_tolerance_options_read(ctx%comm, ax, av, gx, gv)
+    if (ierr /= 0) return
+    if (gx /= 0) srcx = '-nuno_atol_position'
+    srcv = 'position atol / 1 time unit'
+    if (gv /= 0) srcv = '-nuno_atol_velocity'
+    ctx%rtol = rtol
+    ctx%atol_x = ax
+    ctx%atol_v = av
+    PetscCall(DMCreateGlobalVector(ctx%da, vatol, ierr))
+    PetscCall(DMDAVecGetArrayF90(ctx%da, vatol, va, ierr))
+    va(0:2, :, :) = ax
+    va(3:5, :, :) = av
+    PetscCall(DMDAVecRestoreArrayF90(ctx%da, vatol, va, ierr))
+    ! No relative tolerance on positions: |x| depends on where the origin
+    ! is, the cloth size does not. Velocities: atol_v + rtol |v|.
+    PetscCall(DMCreateGlobalVector(ctx%da, vrtol, ierr))
+    PetscCall(DMDAVecGetArrayF90(ctx%da, vrtol, va, ierr))
+    va(0:2, :, :) = 0.0_rp
+    va(3:5, :, :) = rtol
+    PetscCall(DMDAVecRestoreArrayF90(ctx%da, vrtol, va, ierr))
+    PetscCall(TSSetTolerances(ctx%ts, atol, vatol, rtol, vrtol, ierr))
+    PetscCall(VecDestroy(vatol, ierr))             ! the TS keeps its references
+    PetscCall(VecDestroy(vrtol, ierr))
+  end subroutine set_tolerances
 
   !> Report the options nothing read (after the run, when every object has
   !> read its options), then destroy the PETSc objects, in reverse order of
@@ -626,7 +701,9 @@ contains
   end subroutine snes_converged
 
   !> The last Newton update in the weighted RMS norm of the time integrator:
-  !> sqrt(mean((du_i / (atol + rtol |u_i|))^2)) over all unknowns.
+  !> sqrt(mean((du_i / (atol_i + rtol_i |u_i|))^2)) over all unknowns: the
+  !> tolerances of set_tolerances, atol_x alone on positions, atol_v +
+  !> rtol |v| on velocities.
   subroutine update_wrms(snes, ctx, wnorm, ierr)
     type(tSNES) :: snes
     type(app_ctx) :: ctx
@@ -634,17 +711,24 @@ contains
     PetscErrorCode, intent(out) :: ierr
     type(tVec) :: x, y
     PetscScalar, pointer :: xa(:), ya(:)
-    PetscReal :: atol, rtol
     real(rp) :: loc(2), glob(2)
-    integer :: mpierr
+    integer :: mpierr, k
 
     wnorm = huge(1.0_rp)
-    PetscCall(TSGetTolerances(ctx%ts, atol, PETSC_NULL_VEC, rtol, PETSC_NULL_VEC, ierr))
     PetscCall(SNESGetSolution(snes, x, ierr))
     PetscCall(SNESGetSolutionUpdate(snes, y, ierr))
     PetscCall(VecGetArrayReadF90(x, xa, ierr))
     PetscCall(VecGetArrayReadF90(y, ya, ierr))
-    loc(1) = sum((ya / (atol + rtol * abs(xa)))**2)
+    ! The vector atol of set_tolerances: the 6 dofs of a node are stored
+    ! together, positions first.
+    loc(1) = 0.0_rp
+    do k = 1, size(xa)
+      if (mod(k - 1, 6) < 3) then
+        loc(1) = loc(1) + (ya(k) / ctx%atol_x)**2
+      else
+        loc(1) = loc(1) + (ya(k) / (ctx%atol_v + ctx%rtol * abs(xa(k))))**2
+      end if
+    end do
     loc(2) = real(size(xa), rp)
     PetscCall(VecRestoreArrayReadF90(y, ya, ierr))
     PetscCall(VecRestoreArrayReadF90(x, xa, ierr))
@@ -1058,6 +1142,9 @@ contains
     info%dt = ctx%dt
     info%t_end = ctx%t_end
     info%max_steps = int(min(ctx%max_steps, int(huge(1), kind(ctx%max_steps))))
+    info%rtol = ctx%rtol
+    info%atol_position = ctx%atol_x
+    info%atol_velocity = ctx%atol_v
     info%units = scene_units(ctx%cfg%scene_code)
     ! Rank 0's host and clock, broadcast: attributes must be equal on all ranks.
     if (ctx%rank == 0) then

@@ -37,7 +37,7 @@ if ! dpkg-query -W -f='${Status}' python3-paraview 2>/dev/null | grep -q "instal
   fi
 fi
 
-if ! python3 -c "import numpy, h5py, matplotlib, PIL, pytest, setuptools, wheel, f90nml" >/dev/null 2>&1; then
+if ! python3 -c "import numpy, h5py, matplotlib, PIL, pytest, setuptools, wheel, f90nml, scipy" >/dev/null 2>&1; then
   if ! python3 -m pip install --quiet --disable-pip-version-check --root-user-action=ignore \
        -r "$here/requirements.txt" >"$log" 2>&1; then
     # Debian's own python3 refuses system-wide pip installs (PEP 668).
