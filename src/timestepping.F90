@@ -35,6 +35,7 @@ module timestepping
   implicit none
   private
   public :: app_ctx, solver_create, solver_destroy, solver_run, check_decomposition, solver_restore
+  public :: enter_window            ! module identify: the constraint state of a time window
 
   !> Fraction of the estimated round-off floor of ||F|| below which Newton
   !> has converged (the estimate is about 14 times the floor actually met).
