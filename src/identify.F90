@@ -126,7 +126,12 @@ contains
     call default_option('-ksp_rtol', '1e-12', ierr); if (ierr /= 0) return
     call default_option('-ksp_atol', '1e-50', ierr); if (ierr /= 0) return
     call default_option('-ksp_max_it', '10000', ierr); if (ierr /= 0) return
-    call default_option('-snes_rtol', '1e-12', ierr)
+    ! Newton to its round-off floor (the stagnation test of timestepping's
+    ! snes_converged) with full steps: a backtracking line search fails at
+    ! the floor, and a retried step changes the step sequence, which makes
+    ! the objective jump between neighbouring parameters.
+    call default_option('-snes_rtol', '1e-10', ierr); if (ierr /= 0) return
+    call default_option('-snes_linesearch_type', 'basic', ierr)
   contains
     subroutine default_option(name, value, ierr)
       character(*), intent(in) :: name, value
@@ -584,6 +589,8 @@ contains
       PetscCall(TSGetTime(app%ts, t, ierr))
       if (reason < 0 .or. abs(t - id%wb(w)) > 1.0e3_rp * eps) then
         id%failed = .true.
+        if (app%rank == 0) write(output_unit, '(a,i0,a,es14.6,a,es14.6)') 'identify: forward run stopped (TSConvergedReason ', &
+          reason, ') at t = ', t, ' in the window ending at ', id%wb(w)
         exit
       end if
       t = id%wb(w)

@@ -68,6 +68,26 @@ void nuno_ts_trajectory_fresh_(TS *ts, PetscReal *horizon, PetscReal *dt, PetscI
     *ierr = TSTrajectorySetType(tj, *ts, TSTRAJECTORYBASIC);
     if (*ierr) return;
   }
+  {
+    /* A run that stopped with an error leaves its files behind, and the
+     * basic trajectory refuses a directory that is not empty: the
+     * directory is this output file's own (OUTPUT.adjoint), so clear it. */
+    PetscMPIInt rank;
+    PetscBool   exists;
+    MPI_Comm    comm;
+    *ierr = PetscObjectGetComm((PetscObject)*ts, &comm);
+    if (*ierr) return;
+    *ierr = MPI_Comm_rank(comm, &rank);
+    if (*ierr) return;
+    if (!rank) {
+      *ierr = PetscTestDirectory(dirname, 'w', &exists);
+      if (*ierr) return;
+      if (exists) *ierr = PetscRMTree(dirname);
+      if (*ierr) return;
+    }
+    *ierr = MPI_Barrier(comm);
+    if (*ierr) return;
+  }
   *ierr = TSTrajectorySetDirname(tj, dirname);
   if (*ierr) return;
   *ierr = TSTrajectorySetFromOptions(tj, *ts);
