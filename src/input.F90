@@ -1526,6 +1526,9 @@ contains
       '  &time      t_end, dt', &
       '  &output    output_interval, write_velocity, output_file, petsc_options, stretch_limit,', &
       '             checkpoint_interval', &
+      '  &identify  observed_file, fit, fit_lower, fit_upper, tikhonov: fit parameters to an', &
+      '             observed motion (docs/identification.md); -identify_check_gradient', &
+      '             prints the adjoint gradient against central differences and stops', &
       'The scene sets the defaults of every other key. Every key, its unit and its', &
       'default: input/README.md; ready-made inputs: input/*.nml. Real keys must be', &
       'finite (no NaN, Inf); a lattice beyond the index range or the memory of the', &

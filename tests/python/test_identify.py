@@ -102,8 +102,22 @@ def test_recovers_parameters_within_uncertainty_with_noise(tmp_path):
                 **dict(LIFT, material=material(start)))
     values, unc, _, _, _ = fit_values(h5)
     for k in ("e_s", "eta_s", "k_b"):
-        assert 0 < unc[k] < 0.5 * TRUE[k], (k, unc[k])
+        # (0.2 s of lift_release determines e_s to some 70 %, k_b to 1 %)
+        assert 0 < unc[k] < 2 * TRUE[k], (k, unc[k])
         assert abs(values[k] - TRUE[k]) < 3 * unc[k], (k, values[k], unc[k])
+
+
+def test_recovers_hang_parameters_without_noise(tmp_path):
+    """hang 21 x 21 (SI, energy bending, gravity, pinned corners): e_s and k_b
+    from 2.5x off; one rank, LU for the (transposed) solves."""
+    groups = dict(scene="scene='hang'", time="t_end=0.2 dt=0.01")
+    obs = observe(tmp_path, "obs", groups, output="output_interval=0.05")
+    _, h5 = run(tmp_path, "fit", timeout=900, options=["-pc_type", "lu"],
+                identify=f"observed_file='{obs.name}' fit='e_s,k_b'",
+                material="e_s=250 k_b=0.04", **groups)
+    values, unc, objective, _, _ = fit_values(h5)
+    assert abs(values["e_s"] / 100.0 - 1) < 1e-6, values
+    assert abs(values["k_b"] / 0.1 - 1) < 1e-6, values
 
 
 @pytest.mark.parametrize("nranks", [1, 2])
