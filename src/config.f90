@@ -12,12 +12,17 @@ module config
   public :: MASS_UNIFORM, MASS_AREA
   public :: SCENE_LIFT_RELEASE, SCENE_BEND_RELEASE, SCENE_WAVE_POINT, SCENE_HANG, SCENE_FLAT
   public :: unset_real
+  public :: n_fit_kinds, fit_kind_names
 
   integer, parameter :: keyframe_max = 32   !< most keyframes of a prescribed node
   integer, parameter :: label_len = 32      !< length of a choice string ('axial', ...)
   integer, parameter :: path_len = 512      !< length of a file name
   !> Marks a real key the user did not set, so that a scene default applies.
   real(rp), parameter :: unset_real = -huge(1.0_rp)
+  !> Parameters an identification run can fit (&identify fit), by code 1..7.
+  integer, parameter :: n_fit_kinds = 7
+  character(len=10), parameter :: fit_kind_names(n_fit_kinds) = &
+    [character(len=10) :: 'e_s', 'e_d', 'eta_s', 'eta_d', 'k_b', 'eta_b', 'total_mass']
 
   integer, parameter :: SPRING_AXIAL = 1, SPRING_LINEAR = 2
   integer, parameter :: BEND_NONE = 0, BEND_PAPER = 1, BEND_ENERGY = 2
@@ -68,8 +73,17 @@ module config
     logical :: write_velocity = .false.
     character(path_len) :: output_file = 'nuno.h5'
     character(1024) :: petsc_options = '' !< PETSc options; the command line overrides them
+    ! &identify (docs/identification.md): present = an identification run
+    character(path_len) :: observed_file = ''  !< observed motion (HDF5: /time, /position [nt][ny][nx][3])
+    character(256) :: fit = ''                 !< comma-separated parameters to fit (fit_kind_names)
+    real(rp) :: fit_lower(n_fit_kinds) = unset_real  !< lower bounds, in the order of fit; unset: initial / 1000
+    real(rp) :: fit_upper(n_fit_kinds) = unset_real  !< upper bounds, in the order of fit; unset: initial x 1000
+    real(rp) :: tikhonov = 0.0_rp              !< weight of sum (ln p - ln p_initial)^2 in the objective [length^2]
 
     ! ---- derived by the input module ----
+    logical :: identify = .false.         !< the input has an &identify group
+    integer :: n_fit = 0                  !< parameters fitted
+    integer :: fit_code(n_fit_kinds) = 0  !< their codes (index into fit_kind_names), in the order of fit
     integer :: spring_code = SPRING_AXIAL
     integer :: bending_code = BEND_PAPER
     integer :: scaling_code = SCALING_ELEMENT

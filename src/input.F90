@@ -11,16 +11,17 @@ module input
   use config, only: nuno_config, keyframe_max, label_len, path_len, unset_real, &
                     SPRING_AXIAL, SPRING_LINEAR, BEND_NONE, BEND_PAPER, BEND_ENERGY, &
                     SCALING_ELEMENT, SCALING_CONTINUUM, MASS_UNIFORM, MASS_AREA, &
-                    SCENE_LIFT_RELEASE, SCENE_BEND_RELEASE, SCENE_WAVE_POINT, SCENE_HANG, SCENE_FLAT
+                    SCENE_LIFT_RELEASE, SCENE_BEND_RELEASE, SCENE_WAVE_POINT, SCENE_HANG, SCENE_FLAT, &
+                    n_fit_kinds, fit_kind_names
   implicit none
   private
   public :: input_read, input_usage, input_summary, input_parse, input_check_run
   public :: max_steps, max_outputs, bytes_per_node_bending, bytes_per_node_plain
 
-  integer, parameter :: n_groups = 5
+  integer, parameter :: n_groups = 6
   character(8), parameter :: group_names(n_groups) = &
-    [character(8) :: 'lattice', 'material', 'scene', 'time', 'output']
-  integer, parameter :: G_LATTICE = 1, G_MATERIAL = 2, G_SCENE = 3, G_TIME = 4, G_OUTPUT = 5
+    [character(8) :: 'lattice', 'material', 'scene', 'time', 'output', 'identify']
+  integer, parameter :: G_LATTICE = 1, G_MATERIAL = 2, G_SCENE = 3, G_TIME = 4, G_OUTPUT = 5, G_IDENTIFY = 6
   integer, parameter :: msg_len = 1024
 
   character(*), parameter :: scene_list = 'lift_release, bend_release, wave_point, hang, flat'
@@ -326,6 +327,8 @@ contains
     call read_group(G_MATERIAL, pt, cfg, ierr, msg); if (ierr /= 0) goto 900
     call read_group(G_TIME, pt, cfg, ierr, msg);     if (ierr /= 0) goto 900
     call read_group(G_OUTPUT, pt, cfg, ierr, msg);   if (ierr /= 0) goto 900
+    call read_group(G_IDENTIFY, pt, cfg, ierr, msg); if (ierr /= 0) goto 900
+    cfg%identify = pt%count(G_IDENTIFY) > 0
     cfg%namelist_text = text
     if (present(overrides)) then
       ! Command-line keys win over the file's; they are recorded with it.
@@ -431,7 +434,7 @@ contains
             if (g == 0) then
               ierr = 1
               write(msg, '(a,i0,a)') 'input: line ', line_no, ': unknown namelist group &'//trim(name)// &
-                ' (groups: &lattice, &material, &scene, &time, &output)'
+                ' (groups: &lattice, &material, &scene, &time, &output, &identify)'
               return
             end if
             pt%count(g) = pt%count(g) + 1
@@ -746,6 +749,8 @@ contains
       g = G_TIME
     case ('output_interval', 'write_velocity', 'output_file', 'petsc_options', 'stretch_limit', 'checkpoint_interval')
       g = G_OUTPUT
+    case ('observed_file', 'fit', 'fit_lower', 'fit_upper', 'tikhonov')
+      g = G_IDENTIFY
     case default
       g = 0
     end select
@@ -863,6 +868,10 @@ contains
     namelist /time/ t_end, dt
     namelist /output/ output_interval, write_velocity, output_file, petsc_options, stretch_limit, &
                       checkpoint_interval
+    character(path_len) :: observed_file
+    character(len(cfg%fit)) :: fit
+    real(rp) :: fit_lower(n_fit_kinds), fit_upper(n_fit_kinds), tikhonov
+    namelist /identify/ observed_file, fit, fit_lower, fit_upper, tikhonov
 
     ios = 0
     select case (g)
@@ -909,6 +918,14 @@ contains
       cfg%output_interval = output_interval; cfg%write_velocity = write_velocity
       cfg%output_file = output_file; cfg%petsc_options = petsc_options
       cfg%stretch_limit = stretch_limit; cfg%checkpoint_interval = checkpoint_interval
+      end if
+    case (G_IDENTIFY)
+      observed_file = cfg%observed_file; fit = cfg%fit; fit_lower = cfg%fit_lower
+      fit_upper = cfg%fit_upper; tikhonov = cfg%tikhonov
+      read(lines, nml=identify, iostat=ios, iomsg=iomsg)
+      if (ios == 0) then
+        cfg%observed_file = observed_file; cfg%fit = fit; cfg%fit_lower = fit_lower
+        cfg%fit_upper = fit_upper; cfg%tikhonov = tikhonov
       end if
     end select
     ! gfortran may report an end of file with iostat < 0: the group is known
@@ -1067,7 +1084,7 @@ contains
   ! ==========================================================================
 
   subroutine validate(cfg, ierr, msg)
-    type(nuno_config), intent(in) :: cfg
+    type(nuno_config), intent(inout) :: cfg
     integer, intent(out) :: ierr
     character(*), intent(out) :: msg
     call check_mass(cfg, ierr, msg);           if (ierr /= 0) return
@@ -1077,8 +1094,107 @@ contains
     call check_keyframes(cfg, ierr, msg);      if (ierr /= 0) return
     call check_wave_nodes(cfg, ierr, msg);     if (ierr /= 0) return
     call check_time(cfg, ierr, msg);           if (ierr /= 0) return
-    call check_output(cfg, ierr, msg)
+    call check_output(cfg, ierr, msg);         if (ierr /= 0) return
+    call check_identify(cfg, ierr, msg)
   end subroutine validate
+
+  !> &identify: known, distinct parameter names, each with an initial guess
+  !> > 0 (fitted in log space) inside its bounds; a model that has the
+  !> parameter; an observed file named. The names go to cfg%fit_code.
+  subroutine check_identify(cfg, ierr, msg)
+    type(nuno_config), intent(inout) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    character(:), allocatable :: rest, name
+    integer :: p, k, code
+    real(rp) :: p0
+
+    ierr = 0
+    msg = ''
+    cfg%n_fit = 0
+    if (.not. cfg%identify) return
+    ierr = 1
+    if (len_trim(cfg%observed_file) == 0) then
+      msg = "input: &identify: observed_file is required (an HDF5 file with /time and /position [nt][ny][nx][3])"
+      return
+    end if
+    rest = lower(trim(adjustl(cfg%fit)))
+    if (len(rest) == 0) then
+      msg = 'input: &identify: fit is required: a comma-separated list of '//kinds_list()
+      return
+    end if
+    do while (len(rest) > 0)
+      p = index(rest, ',')
+      if (p == 0) p = len(rest) + 1
+      name = trim(adjustl(rest(1:p - 1)))
+      rest = trim(adjustl(rest(min(p + 1, len(rest) + 1):)))
+      code = 0
+      do k = 1, n_fit_kinds
+        if (name == trim(fit_kind_names(k))) code = k
+      end do
+      if (code == 0) then
+        msg = "input: &identify: fit: unknown parameter '"//name//"' (known: "//kinds_list()//')'
+        return
+      end if
+      if (any(cfg%fit_code(1:cfg%n_fit) == code)) then
+        msg = "input: &identify: fit: '"//name//"' is named twice"
+        return
+      end if
+      cfg%n_fit = cfg%n_fit + 1
+      cfg%fit_code(cfg%n_fit) = code
+      if ((code == 5 .or. code == 6) .and. cfg%bending_code == BEND_NONE) then
+        msg = "input: &identify: fit: '"//name//"' needs bending (&material bending_model = 'none')"
+        return
+      end if
+      if (code == 6 .and. cfg%bending_code /= BEND_ENERGY) then
+        msg = "input: &identify: fit: 'eta_b' exists only with bending_model = 'energy'"
+        return
+      end if
+      p0 = fit_initial(cfg, code)
+      if (.not. (p0 > 0.0_rp)) then
+        msg = "input: &identify: fit: '"//name//"' = "//fmt_real(p0)//' cannot be fitted: parameters are '// &
+              'fitted in log space, so the initial guess (the namelist value) must be > 0'
+        return
+      end if
+      k = cfg%n_fit
+      if (cfg%fit_lower(k) == unset_real) cfg%fit_lower(k) = p0 / 1000.0_rp
+      if (cfg%fit_upper(k) == unset_real) cfg%fit_upper(k) = p0 * 1000.0_rp
+      if (.not. (cfg%fit_lower(k) > 0.0_rp .and. cfg%fit_lower(k) <= p0 .and. p0 <= cfg%fit_upper(k))) then
+        msg = "input: &identify: the bounds of '"//name//"' must satisfy 0 < fit_lower <= initial guess <= "// &
+              'fit_upper (got '//fmt_real(cfg%fit_lower(k))//' <= '//fmt_real(p0)//' <= '//fmt_real(cfg%fit_upper(k))//')'
+        return
+      end if
+    end do
+    if (.not. (cfg%tikhonov >= 0.0_rp)) then
+      msg = 'input: &identify: tikhonov must be >= 0 (got '//fmt_real(cfg%tikhonov)//')'
+      return
+    end if
+    ierr = 0
+  contains
+    function kinds_list() result(s)
+      character(:), allocatable :: s
+      integer :: m
+      s = trim(fit_kind_names(1))
+      do m = 2, n_fit_kinds
+        s = s//', '//trim(fit_kind_names(m))
+      end do
+    end function kinds_list
+  end subroutine check_identify
+
+  !> The namelist value of fit parameter `code` (the initial guess).
+  pure real(rp) function fit_initial(cfg, code)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(in) :: code
+    select case (code)
+    case (1); fit_initial = cfg%e_s
+    case (2); fit_initial = cfg%e_d
+    case (3); fit_initial = cfg%eta_s
+    case (4); fit_initial = cfg%eta_d
+    case (5); fit_initial = cfg%k_b
+    case (6); fit_initial = cfg%eta_b
+    case default; fit_initial = cfg%total_mass
+    end select
+  end function fit_initial
 
   !> Every real key finite: NaN or Inf would pass some range checks (a NaN
   !> compares false both ways) and run, writing NaN into the output.
@@ -1410,6 +1526,9 @@ contains
       '  &time      t_end, dt', &
       '  &output    output_interval, write_velocity, output_file, petsc_options, stretch_limit,', &
       '             checkpoint_interval', &
+      '  &identify  observed_file, fit, fit_lower, fit_upper, tikhonov: fit parameters to an', &
+      '             observed motion (docs/identification.md); -identify_check_gradient', &
+      '             prints the adjoint gradient against central differences and stops', &
       'The scene sets the defaults of every other key. Every key, its unit and its', &
       'default: input/README.md; ready-made inputs: input/*.nml. Real keys must be', &
       'finite (no NaN, Inf); a lattice beyond the index range or the memory of the', &

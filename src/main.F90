@@ -11,7 +11,8 @@ program nuno
   use, intrinsic :: iso_fortran_env, only: int64
   use input, only: input_read, input_usage, input_summary, input_check_run
   use timestepping, only: app_ctx, solver_create, solver_destroy, solver_run, check_decomposition, solver_restore
-  use output, only: output_file, output_open, output_close, output_reopen, checkpoint_t
+  use output, only: output_file, output_open, output_close, output_reopen, checkpoint_t, output_write_identify
+  use identify, only: ident_t, identify_prepare_options, identify_run, identify_result
   use safe_files, only: same_file
   use kinds, only: rp
   use errors, only: help_requested, fatal_collective, fatal_local, input_path_argument, apply_namelist_options, &
@@ -23,6 +24,11 @@ program nuno
   type(app_ctx), target :: ctx
   type(output_file), target :: out
   type(checkpoint_t) :: ck
+  type(ident_t), target :: id
+  logical :: id_done
+  character(len=16), allocatable :: id_names(:)
+  real(rp), allocatable :: id_values(:), id_unc(:), id_initial(:), id_hist(:, :)
+  real(rp) :: id_objective
   PetscErrorCode :: ierr
   integer :: rank, nranks
   character(len=512) :: path, errmsg
@@ -99,8 +105,26 @@ program nuno
   !    seen by some ranks only (a bad option, a failed allocation): abort.
   call check_decomposition(cfg, nranks, ierr, errmsg)
   if (ierr /= 0) call fatal_collective(errmsg)
+  ! An &identify group: fit the parameters to the observed motion first
+  ! (module identify); the run below then writes the fitted motion and /identify.
+  if (cfg%identify) then
+    if (len_trim(restart_file) > 0) call fatal_collective('-nuno_restart cannot continue an identification (&identify)')
+    call identify_prepare_options(ierr)
+    if (ierr /= 0) call fatal_local('could not set the options of the identification')
+  end if
   call solver_create(ctx, cfg, ierr)
   if (ierr /= 0) call fatal_local('could not set up the solver')
+  if (cfg%identify) then
+    call identify_run(id, ctx, id_done, ierr, errmsg)
+    if (ierr == 1) call fatal_collective(errmsg)
+    if (ierr /= 0) call fatal_local('PETSc error during the identification')
+    if (id_done) then
+      call solver_destroy(ctx, ierr)
+      PetscCallA(PetscFinalize(ierr))
+      stop
+    end if
+    cfg = ctx%cfg          ! the fitted parameters
+  end if
 
   ! 4. Output file, the time loop, and the completion mark written last. The
   !    run writes OUTPUT.partial under a lock and renames it onto the output
@@ -138,6 +162,11 @@ program nuno
   ! leaving the file marked 'running', never 'complete'.
   call solver_run(ctx, out, status, ierr)
   if (ierr /= 0) call fatal_local('PETSc or HDF5 error during the run; output not marked complete')
+  if (cfg%identify .and. status == 'complete') then
+    call identify_result(id, id_names, id_values, id_unc, id_initial, id_objective, id_hist)
+    call output_write_identify(out, id_names, id_values, id_unc, id_initial, id_objective, id_hist, ierr, errmsg)
+    if (ierr /= 0) call fatal_collective(errmsg)
+  end if
   call output_close(out, trim(status), ierr, errmsg)
   ! After a failed write (a full disk) the close fails too: that was said.
   if (ierr /= 0) call fatal_collective(errmsg, reported=status /= 'complete' .and. len_trim(ctx%io_error) > 0)

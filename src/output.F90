@@ -41,6 +41,7 @@ module output
   public :: output_open, output_write_step, output_close, output_write_run_info, output_write_wall_time
   public :: output_config_key
   public :: output_write_checkpoint, output_reopen
+  public :: output_write_identify
 
   !> One key of the resolved configuration, as an attribute of /config/<group>.
   interface output_config_key
@@ -521,6 +522,69 @@ contains
     end if
     call agree(out%comm, 'output_write_run_info', ierr, errmsg)
   end subroutine output_write_run_info
+
+  !> /identify of an identification run (docs/identification.md): names
+  !> [np] (strings), values, uncertainty, initial [np], objective (scalar),
+  !> history [n_iterations][np+1] (objective, then the values, per TAO
+  !> iteration). Small datasets: every rank writes the same values. Collective.
+  subroutine output_write_identify(out, names, values, unc, initial, objective, hist, ierr, errmsg)
+    type(output_file), intent(inout) :: out
+    character(len=*), intent(in) :: names(:)
+    real(rp), intent(in) :: values(:), unc(:), initial(:), objective, hist(:, :)
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: errmsg
+    integer(hid_t) :: grp, strtype, space, dset
+    integer :: h
+
+    ierr = 0
+    errmsg = ''
+    call open_or_create_group(out%file, '/identify', grp, ierr, errmsg)
+    if (ierr /= 0) goto 900
+    call put('values', values, [int(size(values), hsize_t)])
+    call put('uncertainty', unc, [int(size(unc), hsize_t)])
+    call put('initial', initial, [int(size(initial), hsize_t)])
+    call put('objective', [objective], [1_hsize_t])
+    call put('history', reshape(hist, [size(hist)]), [int(size(hist, 1), hsize_t), int(size(hist, 2), hsize_t)])
+    if (ierr == 0) then
+      call h5tcopy_f(H5T_FORTRAN_S1, strtype, h)
+      call h5tset_size_f(strtype, int(len(names), size_t), h)
+      call h5screate_simple_f(1, [int(size(names), hsize_t)], space, h)
+      call h5dcreate_f(grp, 'names', strtype, space, dset, h)
+      if (h < 0) then
+        call fail('h5dcreate_f', '/identify/names', ierr, errmsg)
+      else
+        call h5dwrite_f(dset, strtype, names, [int(size(names), hsize_t)], h)
+        if (h < 0) call fail('h5dwrite_f', '/identify/names', ierr, errmsg)
+        call h5dclose_f(dset, h)
+      end if
+      call h5sclose_f(space, h)
+      call h5tclose_f(strtype, h)
+    end if
+    call h5gclose_f(grp, h)
+    if (ierr == 0) then
+      call h5fflush_f(out%file, H5F_SCOPE_GLOBAL_F, h)
+      if (h < 0) call fail('h5fflush_f', '/identify', ierr, errmsg)
+    end if
+900 call agree(out%comm, 'output_write_identify', ierr, errmsg)
+  contains
+    subroutine put(name, v, dims)
+      character(*), intent(in) :: name
+      real(rp), intent(in) :: v(:)
+      integer(hsize_t), intent(in) :: dims(:)
+      integer(hid_t) :: sp, ds
+      if (ierr /= 0) return
+      call h5screate_simple_f(size(dims), dims, sp, h)
+      call h5dcreate_f(grp, name, H5T_NATIVE_DOUBLE, sp, ds, h)
+      if (h < 0) then
+        call fail('h5dcreate_f', '/identify/'//name, ierr, errmsg)
+      else
+        call h5dwrite_f(ds, H5T_NATIVE_DOUBLE, v, dims, h)
+        if (h < 0) call fail('h5dwrite_f', '/identify/'//name, ierr, errmsg)
+        call h5dclose_f(ds, h)
+      end if
+      call h5sclose_f(sp, h)
+    end subroutine put
+  end subroutine output_write_identify
 
   !> Open the group path (absolute, one level below an existing group), or
   !> create it; grp must be closed by the caller.

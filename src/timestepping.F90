@@ -35,6 +35,7 @@ module timestepping
   implicit none
   private
   public :: app_ctx, solver_create, solver_destroy, solver_run, check_decomposition, solver_restore
+  public :: enter_window            ! module identify: the constraint state of a time window
 
   !> Fraction of the estimated round-off floor of ||F|| below which Newton
   !> has converged (the estimate is about 14 times the floor actually met).
@@ -1217,6 +1218,14 @@ contains
     call output_config_key(out, 'output', 'petsc_options', trim(cfg%petsc_options), e, errmsg)
     call output_config_key(out, 'output', 'stretch_limit', [cfg%stretch_limit], e, errmsg)
     call output_config_key(out, 'output', 'checkpoint_interval', [cfg%checkpoint_interval], e, errmsg)
+    if (cfg%identify) then
+      ! /config/material holds the fitted values (those of the run written); the initial guess is /identify/initial.
+      call output_config_key(out, 'identify', 'observed_file', trim(cfg%observed_file), e, errmsg)
+      call output_config_key(out, 'identify', 'fit', trim(cfg%fit), e, errmsg)
+      call output_config_key(out, 'identify', 'fit_lower', cfg%fit_lower(1:cfg%n_fit), e, errmsg)
+      call output_config_key(out, 'identify', 'fit_upper', cfg%fit_upper(1:cfg%n_fit), e, errmsg)
+      call output_config_key(out, 'identify', 'tikhonov', [cfg%tikhonov], e, errmsg)
+    end if
     ! One error flag for all ranks (each call above is local HDF5 metadata).
     call MPI_Allreduce(MPI_IN_PLACE, e, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
     ierr = e

@@ -1,0 +1,108 @@
+/* PETSc 3.18 gaps for the adjoint (module identify): TSSetIJacobianP has no
+ * Fortran stub (the C symbol exists), and TSTrajectorySetType none either.
+ * The Fortran callback is stored on the TS with PetscObjectSetFortranCallback,
+ * the pattern of PETSc's own src/ts/interface/ftn-custom/ztsf.c, and called
+ * from a C trampoline with Fortran's by-reference arguments. */
+#include <petsc/private/petscimpl.h>
+#include <petscts.h>
+#include <string.h>
+
+typedef void (*nuno_ijacp_f)(TS *, PetscReal *, Vec *, Vec *, PetscReal *, Mat *, void *, PetscErrorCode *);
+
+static PetscFortranCallbackId cb_ijacobianp = 0;
+
+static PetscErrorCode nuno_ijacobianp_trampoline(TS ts, PetscReal t, Vec U, Vec Udot, PetscReal shift, Mat A, void *unused)
+{
+  nuno_ijacp_f   f;
+  void          *fctx;
+  PetscErrorCode ierr = 0;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscObjectGetFortranCallback((PetscObject)ts, PETSC_FORTRAN_CALLBACK_CLASS, cb_ijacobianp, (void (**)(void)) & f, &fctx));
+  (*f)(&ts, &t, &U, &Udot, &shift, &A, fctx, &ierr);
+  PetscCall(ierr);
+  PetscFunctionReturn(0);
+}
+
+/* Fortran: call nuno_ts_set_ijacobianp(ts, A, func, ctx, ierr), func as for
+ * TSSetIJacobian but (ts, t, u, udot, shift, A, ctx, ierr): A = dF/dp. */
+void nuno_ts_set_ijacobianp_(TS *ts, Mat *A, nuno_ijacp_f func, void *ctx, PetscErrorCode *ierr)
+{
+  *ierr = PetscObjectSetFortranCallback((PetscObject)*ts, PETSC_FORTRAN_CALLBACK_CLASS, &cb_ijacobianp, (void (*)(void))func, ctx);
+  if (*ierr) return;
+  *ierr = TSSetIJacobianP(*ts, *A, nuno_ijacobianp_trampoline, NULL);
+}
+
+/* A fresh trajectory for the next forward run. The identification runs one
+ * TSSolve per time window (module identify); PETSc 3.18's memory trajectory
+ * does not survive that (TSSolve saves a window's first state while the TS
+ * is still marked converged from the window before, the checkpoint is
+ * skipped, and the adjoint of that window pops the wrong one: a crash), so
+ * the default is `basic`, one file a step in the directory `dirname`
+ * (removed at the end), and -ts_trajectory_type memory is refused when
+ * there is more than one window. Its set-up sizes it for the whole run,
+ * `horizon` [time] at step `dt`. Fortran: call
+ * nuno_ts_trajectory_fresh(ts, horizon, dt, nwindows, dirname, ierr), dirname
+ * NUL-terminated. ierr = -1: memory with several windows. */
+void nuno_ts_trajectory_fresh_(TS *ts, PetscReal *horizon, PetscReal *dt, PetscInt *nwindows, const char *dirname, PetscErrorCode *ierr)
+{
+  TSTrajectory tj;
+  PetscBool    set, ismemory;
+  PetscReal    tmax, h;
+  char         type[64];
+
+  *ierr = TSSetSaveTrajectory(*ts);
+  if (*ierr) return;
+  *ierr = TSResetTrajectory(*ts);
+  if (*ierr) return;
+  *ierr = TSGetTrajectory(*ts, &tj);
+  if (*ierr) return;
+  *ierr = PetscOptionsGetString(NULL, NULL, "-ts_trajectory_type", type, sizeof(type), &set);
+  if (*ierr) return;
+  ismemory = set && !strcmp(type, TSTRAJECTORYMEMORY);
+  if (ismemory && *nwindows > 1) {
+    *ierr = -1;
+    return;
+  }
+  if (!set) {
+    *ierr = TSTrajectorySetType(tj, *ts, TSTRAJECTORYBASIC);
+    if (*ierr) return;
+  }
+  {
+    /* A run that stopped with an error leaves its files behind, and the
+     * basic trajectory refuses a directory that is not empty: the
+     * directory is this output file's own (OUTPUT.adjoint), so clear it. */
+    PetscMPIInt rank;
+    PetscBool   exists;
+    MPI_Comm    comm;
+    *ierr = PetscObjectGetComm((PetscObject)*ts, &comm);
+    if (*ierr) return;
+    *ierr = MPI_Comm_rank(comm, &rank);
+    if (*ierr) return;
+    if (!rank) {
+      *ierr = PetscTestDirectory(dirname, 'w', &exists);
+      if (*ierr) return;
+      if (exists) *ierr = PetscRMTree(dirname);
+      if (*ierr) return;
+    }
+    *ierr = MPI_Barrier(comm);
+    if (*ierr) return;
+  }
+  *ierr = TSTrajectorySetDirname(tj, dirname);
+  if (*ierr) return;
+  *ierr = TSTrajectorySetFromOptions(tj, *ts);
+  if (*ierr) return;
+  *ierr = TSGetMaxTime(*ts, &tmax);
+  if (*ierr) return;
+  *ierr = TSGetTimeStep(*ts, &h);
+  if (*ierr) return;
+  *ierr = TSSetMaxTime(*ts, *horizon);
+  if (*ierr) return;
+  *ierr = TSSetTimeStep(*ts, *dt);
+  if (*ierr) return;
+  *ierr = TSTrajectorySetUp(tj, *ts);
+  if (*ierr) return;
+  *ierr = TSSetMaxTime(*ts, tmax);
+  if (*ierr) return;
+  *ierr = TSSetTimeStep(*ts, h);
+}
