@@ -620,8 +620,6 @@ contains
     integer, intent(inout) :: ierr
     character(*), intent(inout) :: errmsg
     integer(hid_t) :: top
-    logical :: exists
-    integer :: h
 
     grp = -1
     if (ierr /= 0) return
@@ -630,31 +628,10 @@ contains
       errmsg = 'output_config_key: the output file is not open'
       return
     end if
-    call h5lexists_f(out%file, 'config', exists, h)
-    if (h < 0) then
-      call fail('h5lexists_f', '/config', ierr, errmsg); return
-    end if
-    if (exists) then
-      call h5gopen_f(out%file, 'config', top, h)
-    else
-      call h5gcreate_f(out%file, 'config', top, h)
-    end if
-    if (h < 0) then
-      call fail('h5gopen_f/h5gcreate_f', '/config', ierr, errmsg); return
-    end if
-    call h5lexists_f(top, group, exists, h)
-    if (h < 0) then
-      call fail('h5lexists_f', '/config/'//group, ierr, errmsg)
-    else if (exists) then
-      call h5gopen_f(top, group, grp, h)
-      if (h < 0) call fail('h5gopen_f', '/config/'//group, ierr, errmsg)
-    else
-      call h5gcreate_f(top, group, grp, h)
-      if (h < 0) call fail('h5gcreate_f', '/config/'//group, ierr, errmsg)
-    end if
-    if (ierr /= 0) grp = -1
-    call h5gclose_f(top, h)
-    if (h < 0) call fail('h5gclose_f', '/config', ierr, errmsg)
+    call open_or_create_group(out%file, '/config', top, ierr, errmsg)
+    if (ierr /= 0) return
+    call open_or_create_group(out%file, '/config/'//group, grp, ierr, errmsg)
+    call close_group(top, '/config', ierr, errmsg)
   end subroutine config_group
 
   subroutine close_group(grp, where, ierr, errmsg)
