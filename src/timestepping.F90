@@ -1061,8 +1061,7 @@ contains
     call MPI_Allreduce(MPI_IN_PLACE, wall, 1, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
     call output_write_wall_time(out, wall, ierr, errmsg)
     if (ierr /= 0) then
-      if (ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//trim(errmsg)
-      ctx%io_error = errmsg
+      call report_io_error(ctx, errmsg)
       if (io_failed()) return
     end if
     call final_summary(ctx, status, wall, ierr)
@@ -1161,8 +1160,7 @@ contains
     call output_write_run_info(out, info, ierr, errmsg)
     if (ierr == 0) call write_config(ctx%cfg, ctx%comm, out, ierr, errmsg)
     if (ierr /= 0) then
-      if (ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//trim(errmsg)
-      ctx%io_error = errmsg
+      call report_io_error(ctx, errmsg)
     end if
   end subroutine write_run_info
 
@@ -1420,8 +1418,7 @@ contains
     PetscCall(TSGetType(ctx%ts, ck%ts_type, ierr))
     call output_write_checkpoint(out, ck, ctx%xout, ctx%vout, ierr, errmsg)
     if (ierr /= 0) then
-      if (ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//trim(errmsg)
-      ctx%io_error = errmsg
+      call report_io_error(ctx, errmsg)
       return
     end if
     ctx%t_checkpoint = t
@@ -1433,6 +1430,15 @@ contains
     end if
   end subroutine take_checkpoint
 
+
+  !> An output write failed (agreed by every rank): its one line on stderr
+  !> (rank 0), and the reason kept, so that solver_run ends the run as failed.
+  subroutine report_io_error(ctx, errmsg)
+    type(app_ctx), intent(inout) :: ctx
+    character(*), intent(in) :: errmsg
+    if (ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//trim(errmsg)
+    ctx%io_error = errmsg
+  end subroutine report_io_error
 
   !> Diagnostics and one output step; a one-line summary on rank 0.
   subroutine write_output(ctx, out, t, ierr)
@@ -1492,8 +1498,7 @@ contains
       call output_write_step(out, rec, ctx%xout, ierr, errmsg)
     end if
     if (ierr /= 0) then
-      if (ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//trim(errmsg)
-      ctx%io_error = errmsg
+      call report_io_error(ctx, errmsg)
       return
     end if
     ctx%t_written = t
