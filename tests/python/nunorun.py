@@ -64,6 +64,29 @@ def run(tmp_path, name, nranks=1, options=(), timeout=300, check=True, **groups)
     return proc, h5
 
 
+def start_running(tmp_path, name, nranks=2, lines=3, **groups):
+    """Launch nuno in the background and return (Popen, h5 path) once it has
+    printed `lines` progress lines ('t = ...'): the time loop is running."""
+    import time
+    tmp_path = Path(tmp_path)
+    h5 = tmp_path / f"{name}.h5"
+    nml = tmp_path / f"{name}.nml"
+    nml.write_text(namelist(h5.name, **groups))
+    proc = subprocess.Popen([mpiexec(), "-n", str(nranks), "--oversubscribe", exe(), str(nml)], cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    seen = 0
+    deadline = time.time() + 120
+    while seen < lines and time.time() < deadline:
+        line = proc.stdout.readline()
+        if not line:
+            break
+        seen += line.startswith("t =")
+    if seen < lines:
+        proc.kill()
+        raise AssertionError("the run did not get going")
+    return proc, h5
+
+
 def run_and_read(tmp_path, name, **kw):
     proc, h5 = run(tmp_path, name, **kw)
     return proc, read_run(str(h5))

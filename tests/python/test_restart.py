@@ -10,14 +10,12 @@ The expectation is always another run (the continuous one), never the
 program's own numbers pasted in."""
 import hashlib
 import signal
-import subprocess
-import time
 
 import h5py
 import numpy as np
 import pytest
 
-from nunorun import exe, mpiexec, namelist, run
+from nunorun import run, start_running
 
 HANG = dict(scene="scene='hang'", lattice="nx=9 ny=7", time="t_end=0.2 dt=0.005",
             output="output_interval=0.05 write_velocity=.true.")
@@ -85,19 +83,7 @@ def test_sigterm_leaves_a_file_that_continues_to_the_same_result(tmp_path):
     groups = dict(scene="scene='hang'", lattice="nx=15 ny=15", time="t_end=1 dt=0.002",
                   output="output_interval=0.05")
     _, full = run(tmp_path, "full", nranks=2, **groups)
-    h5 = tmp_path / "term.h5"
-    nml = tmp_path / "term.nml"
-    nml.write_text(namelist(h5.name, **groups))
-    proc = subprocess.Popen([mpiexec(), "-n", "2", "--oversubscribe", exe(), str(nml)], cwd=tmp_path,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    seen = 0
-    deadline = time.time() + 120
-    while seen < 3 and time.time() < deadline:
-        line = proc.stdout.readline()
-        if not line:
-            break
-        seen += line.startswith("t =")
-    assert seen == 3, "the run did not get going"
+    proc, h5 = start_running(tmp_path, "term", **groups)
     proc.send_signal(signal.SIGTERM)
     out, err = proc.communicate(timeout=60)
     assert proc.returncode != 0 and "interrupted: SIGTERM" in err, err

@@ -11,27 +11,14 @@ import time
 import numpy as np
 import pytest
 
-from nunorun import exe, mpiexec, namelist, read_run
+from nunorun import read_run, start_running
 
 
 def start(tmp_path, name):
-    h5 = tmp_path / f"{name}.h5"
-    nml = tmp_path / f"{name}.nml"
-    # Long enough that it is still running when the signal comes.
-    nml.write_text(namelist(h5.name, scene="scene='hang'", lattice="nx=33 ny=33",
-                            time="t_end=50 dt=1e-3", output="output_interval=0.005"))
-    proc = subprocess.Popen([mpiexec(), "-n", "2", "--oversubscribe", exe(), str(nml)], cwd=tmp_path,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    # Wait for two progress lines after t = 0: the time loop is running.
-    seen = 0
-    deadline = time.time() + 120
-    while seen < 3 and time.time() < deadline:
-        line = proc.stdout.readline()
-        if not line:
-            break
-        seen += line.startswith("t =")
-    assert seen == 3, "the run did not get going"
-    return proc, h5
+    # Long enough that it is still running when the signal comes; two
+    # progress lines after t = 0: the time loop is running.
+    return start_running(tmp_path, name, scene="scene='hang'", lattice="nx=33 ny=33",
+                         time="t_end=50 dt=1e-3", output="output_interval=0.005")
 
 
 def finish(proc, h5, signame, t_sent):
