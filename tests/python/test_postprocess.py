@@ -446,9 +446,10 @@ def test_convergence_fit_range_and_one_panel(tmp_path, capsys):
     assert len(plotting.panels(fig)) == 1
 
 
-def write_study_run(path, n, dt=0.01, err=0.0, scene="hang"):
+def write_study_run(path, n, dt=0.01, err=0.0, scene="hang", run_attrs=None):
     """A [0, 1]^2 sheet of n x n nodes, two steps; at t = 1 the height is an exact
-    quadratic of the rest position plus err * g(x, y)."""
+    quadratic of the rest position plus err * g(x, y). run_attrs: a /run group
+    with these attributes (the program's record of the run)."""
     xs = np.linspace(0.0, 1.0, n)
     rest = np.zeros((n, n, 3))
     rest[..., 0], rest[..., 1] = np.meshgrid(xs, xs)
@@ -463,6 +464,8 @@ def write_study_run(path, n, dt=0.01, err=0.0, scene="hang"):
         f["lattice/rest_position"] = rest
         f["time"] = np.array([0.0, 1.0])
         f["position"] = np.stack([rest, end])
+        if run_attrs is not None:
+            f.create_group("run").attrs.update(run_attrs)
     return path
 
 
@@ -513,6 +516,62 @@ def test_convergence_of_time_steps_exact(tmp_path, capsys):
     fig = convergence.build_figure(convergence.study([read_run(p) for p in paths]))
     assert plotting.panels(fig)[0].get_xlabel() == "time step dt [s]"
     assert plotting.panels(fig)[0].get_ylabel().endswith("[mm]")
+
+
+@pytest.mark.parametrize("norm", ["max", "rms"])
+def test_convergence_of_time_steps_against_a_reference_run(tmp_path, capsys, norm):
+    """Errors C dt^2 g against an exact reference run: every run is kept, the
+    errors are C dt^2 times the max (or rms) of g on the nodes, the order
+    between each pair of successive runs is 2, and the differences of
+    successive runs (C g (dt1^2 - dt2^2)) fall at order 2 as well."""
+    C, dts = 3.0, np.array([0.04, 0.02, 0.01])
+    paths = [write_study_run(tmp_path / f"dt{k}.h5", 11, dt=float(dt), err=C * dt**2)
+             for k, dt in enumerate(dts)]
+    ref = write_study_run(tmp_path / "ref.h5", 11, dt=1e-4, err=0.0)
+    assert convergence.main([*map(str, paths), "--reference-run", str(ref), "--norm", norm,
+                             "-o", str(tmp_path / "dt.png")]) == 0
+    text = capsys.readouterr().out.splitlines()
+    errs = np.array([float(w.split()[2]) for w in text if w.startswith("error ")])
+    (orders,) = [list(map(float, w.split()[1:])) for w in text if w.startswith("orders ")]
+    (observed,) = [float(w.split()[1]) for w in text if w.startswith("observed_order_differences ")]
+    xs = np.linspace(0.0, 1.0, 11)
+    g = np.abs(np.sin(3 * xs)[None, :] * np.cos(2 * xs)[:, None])
+    gnorm = g.max() if norm == "max" else np.sqrt(np.mean(g**2))
+    np.testing.assert_allclose(errs, C * dts**2 * gnorm, rtol=1e-9)
+    np.testing.assert_allclose(orders, [2.0, 2.0], atol=1e-9)
+    assert observed == pytest.approx(2.0, abs=1e-9)
+    res = convergence.study([read_run(p) for p in paths], reference_run=read_run(ref), norm=norm)
+    assert res["reference"] == "run" and len(res["h"]) == 3
+    ax = plotting.panels(convergence.build_figure(res))[0]
+    assert ax.get_ylabel().startswith(f"{norm} node distance from reference run")
+
+
+def test_convergence_of_lattices_against_a_finer_reference_run(tmp_path):
+    """A reference run on a finer nested lattice: compared at the coarsest nodes."""
+    C = 2.0
+    runs = [read_run(write_study_run(tmp_path / f"r{n}.h5", n, err=C * (1.0 / (n - 1))**2))
+            for n in (11, 21)]
+    ref = read_run(write_study_run(tmp_path / "r81.h5", 81, err=0.0))
+    res = convergence.study(runs, reference_run=ref)
+    h = np.array([0.1, 0.05])
+    np.testing.assert_allclose(res["h"], h, rtol=1e-12)
+    np.testing.assert_allclose(res["errors"], C * g_max_on(11) * h**2, rtol=1e-9)
+    assert res["order"] == pytest.approx(2.0, abs=1e-9)
+
+
+def test_time_step_is_the_runs_record(tmp_path):
+    """The step a run took is /run's dt (-ts_dt, -nuno_set), not the namelist's
+    key; an adaptive run has no fixed step."""
+    a = write_study_run(tmp_path / "a.h5", 11, dt=1e-3, err=0.1, run_attrs={"dt": 0.02, "ts_adapt_type": "none"})
+    b = write_study_run(tmp_path / "b.h5", 11, dt=1e-3, err=0.05, run_attrs={"dt": 0.01, "ts_adapt_type": "none"})
+    ref = write_study_run(tmp_path / "ref.h5", 11, dt=1e-3, run_attrs={"dt": 1e-3, "ts_adapt_type": "basic"})
+    assert convergence.run_dt(read_run(a)) == 0.02
+    res = convergence.study([read_run(a), read_run(b)], reference_run=read_run(ref))
+    assert res["kind"] == "dt" and list(res["h"]) == [0.02, 0.01]
+    assert res["order"] == pytest.approx(1.0, abs=1e-9)
+    c = write_study_run(tmp_path / "c.h5", 11, dt=1e-3, run_attrs={"dt": 0.01, "ts_adapt_type": "basic"})
+    proc = cli("postprocess.convergence", str(a), str(c), "-o", str(tmp_path / "x.png"))
+    assert proc.returncode == 1 and "adaptive steps" in proc.stderr, proc.stderr
 
 
 def test_convergence_bad_studies(tmp_path):
