@@ -140,8 +140,9 @@ class Nuno:
         self.exe, self.work, self.log = exe, work, log
         self.n = 0
 
-    def run(self, scene: dict, opts: str) -> dict:
-        """One run on one rank (no mpiexec: the process's CPU time is nuno's alone)."""
+    def run(self, scene: dict, opts: str, keep: bool = False) -> dict:
+        """One run on one rank (no mpiexec: the process's CPU time is nuno's alone).
+        keep: leave the output file in the work folder, its path in res["h5"]."""
         self.n += 1
         name = f"run{self.n}"
         t_end = scene["t_end"]
@@ -166,7 +167,10 @@ class Nuno:
         res["time_s"] = float(r.run_info["wall_time"])
         res["steps"] = int(np.asarray(r.diagnostics["steps"])[-1])
         r.close()
-        h5.unlink()
+        if keep:
+            res["h5"] = h5
+        else:
+            h5.unlink()
         return res
 
 
@@ -451,14 +455,20 @@ def write_doc(rows, summary, path: Path):
         e = f"{r['error']:.2e}" if np.isfinite(r["error"]) else f"failed: {r['note']}"
         out.append(f"| {r['scene']} | {r['method']} | {r['parameter']:g} | {e} | {r['time_s']:.3g} | "
                    f"{r['cpu_s']:.3g} | {r['steps']} |")
-    out += ["", END]
-    text = path.read_text() if path.exists() else f"# Work-precision\n\n{BEGIN}\n{END}\n"
-    if BEGIN in text and END in text:
-        head, rest = text.split(BEGIN, 1)
-        tail = rest.split(END, 1)[1]
-        text = head + "\n".join(out) + tail
+    replace_results(path, out[1:], BEGIN, END, "# Work-precision")
+
+
+def replace_results(path: Path, lines, begin: str, end: str, title: str):
+    """Write lines between the markers begin and end of the document at path
+    (the text around them is kept; appended, markers and all, when they are
+    missing; a new document with the title when there is none)."""
+    block = "\n".join([begin, *lines, "", end])
+    text = path.read_text() if path.exists() else f"{title}\n\n{begin}\n{end}\n"
+    if begin in text and end in text:
+        head, rest = text.split(begin, 1)
+        text = head + block + rest.split(end, 1)[1]
     else:
-        text = text.rstrip() + "\n\n" + "\n".join(out) + "\n"
+        text = text.rstrip() + "\n\n" + block + "\n"
     path.write_text(text)
 
 
