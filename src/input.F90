@@ -1553,19 +1553,36 @@ contains
       '                                               (recorded in the output''s namelist attribute)', &
       '', &
       'PETSc options (petsc_options in &output; the command line overrides them):', &
-      '  -ts_type beuler|theta|cn|bdf|arkimex|rosw   integrator (backward Euler is the report''s)', &
-      '  -ts_adapt_type basic -ts_rtol R -ts_atol A  adaptive steps with error control', &
+      '  -ts_type beuler|theta|cn|bdf|arkimex|rosw   integrator (default: backward Euler, the report''s, with', &
+      '                                               the namelist''s fixed dt)', &
+      '  -ts_adapt_type basic -ts_rtol R -ts_atol A  adaptive steps with error control; without -ts_type they', &
+      '                                               use rosw (Rosenbrock-W ra34pw2, the fastest at moderate', &
+      '                                               tolerance in docs/workprecision.md)', &
+      '  -nuno_adaptive_ts_type T                     that default TS type of adaptive runs (default rosw)', &
       '  -nuno_atol_position A                        absolute tolerance of positions [length] (default', &
       '                                               -ts_atol, else R times the cloth size max(lx, ly))', &
       '  -nuno_atol_velocity B                        absolute tolerance of velocities [length/time] (default', &
       '                                               the position one per time unit); velocities also get R |v|', &
-      '  for a final position error E (relative to the cloth size): -ts_type arkimex -ts_arkimex_type 5', &
-      '    -ts_arkimex_fully_implicit -ts_adapt_type basic -ts_adapt_wnormtype infinity -ts_rtol E', &
-      '    (docs/workprecision.md)', &
       '  -ts_monitor, -snes_monitor, -ksp_monitor     progress of steps, Newton, Krylov', &
       '  -snes_rtol R, -snes_max_it N                 Newton tolerance and iterations', &
       '  -snes_type ksponly                           Baraff-Witkin mode: one linearised solve a step', &
       '  -log_view                                    timings at the end', &
+      '', &
+      'Which integrator for which goal (docs/workprecision.md, docs/convergence.md):', &
+      '  fast, moderate accuracy                      -ts_adapt_type basic [-ts_rtol R]: rosw ra34pw2, final', &
+      '    (errors 1e-3 .. 1e-5 of the cloth size)    error about 0.4-9 R with the default 2-norm', &
+      '  tight accuracy, a final position error E     -ts_type arkimex -ts_arkimex_type 5', &
+      '    (relative to the cloth size)               -ts_arkimex_fully_implicit -ts_adapt_type basic', &
+      '                                               -ts_adapt_wnormtype infinity -ts_rtol E  (at most 10 E', &
+      '                                               measured; -ts_type bdf -ts_bdf_order 4 or 5 is often', &
+      '                                               faster, but its error is not tied to R: check it)', &
+      '  speed on large lattices                      -snes_type ksponly -reduced_ksp_rtol 1e-3 with fixed', &
+      '                                               steps: the Baraff-Witkin mode, one linear solve a step,', &
+      '                                               first order', &
+      '  reproducible runs                            fixed steps (no -ts_adapt_type) with -ts_dt DT: the same', &
+      '                                               steps whatever the solution; beuler (default) is order 1,', &
+      '                                               -ts_type cn order 2, -ts_type rosw order 3 at about the', &
+      '                                               cost of cn (fixed-step bdf 3-5: order 2, see docs)', &
       '', &
       'The Newton step (docs/design.md):', &
       '  -nuno_jacobian reduced|full                  reduced (default): only the 3-dof velocity system', &

@@ -3,7 +3,14 @@
  * Fortran interface to PetscOptionsBegin/End: ../shared/STYLE.md). Called
  * once from Fortran (module timestepping) through bind(C); collective.
  * Also the end-of-run report of options that nothing read. */
-#include <petscsys.h>
+#include <petscts.h>
+#include <string.h>
+
+/* The integrator of adaptive runs when -ts_type is not given: the method
+ * that won the work-precision measurement at moderate tolerance
+ * (docs/workprecision.md, "The default of adaptive runs"). PETSc's rosw
+ * is Rosenbrock-W ra34pw2 unless -ts_rosw_type says otherwise. */
+#define NUNO_ADAPTIVE_TS_TYPE TSROSW
 
 /* jacobian: in/out 0 = reduced, 1 = full; pc_lag: in/out >= 0 (0: default);
  * snes_floor: in/out >= 0; gauss_newton, clamp: in/out 0/1;
@@ -75,6 +82,79 @@ PetscErrorCode nuno_tolerance_options_read(MPI_Fint fcomm, double *atol_x, doubl
   *atol_v = av;
   *given_x = sx ? 1 : 0;
   *given_v = sv ? 1 : 0;
+  PetscFunctionReturn(0);
+}
+
+/* The integrator of an adaptive run whose -ts_type is not given: nuno's
+ * default is backward Euler with the namelist's fixed step (the report's
+ * scheme); with -ts_adapt_type other than none and no -ts_type it is
+ * -nuno_adaptive_ts_type (default NUNO_ADAPTIVE_TS_TYPE), so that a user
+ * who only asks for adaptive steps gets the fastest method at moderate
+ * tolerance. An explicit -ts_type always wins. Call after TSSetType(ts,
+ * beuler) and before TSSetFromOptions (which still applies -ts_rosw_type
+ * and the like). *applied: 1 when it set the type. Collective. */
+PetscErrorCode nuno_adaptive_default(MPI_Fint fcomm, TS *ts, int *applied)
+{
+  MPI_Comm  comm = MPI_Comm_f2c(fcomm);
+  char      type[64] = NUNO_ADAPTIVE_TS_TYPE, adapt[64] = TSADAPTNONE;
+  PetscBool has_adapt, has_type;
+
+  PetscFunctionBeginUser;
+  *applied = 0;
+  PetscOptionsBegin(comm, NULL, "nuno: the integrator of adaptive runs (docs/workprecision.md)", "nuno");
+  PetscCall(PetscOptionsString("-nuno_adaptive_ts_type", "TS type of an adaptive run (-ts_adapt_type not none) whose -ts_type is not given; fixed steps stay beuler",
+                               "TSSetType", type, type, sizeof(type), NULL));
+  PetscOptionsEnd();
+  PetscCall(PetscOptionsGetString(NULL, NULL, "-ts_adapt_type", adapt, sizeof(adapt), &has_adapt));
+  PetscCall(PetscOptionsHasName(NULL, NULL, "-ts_type", &has_type));
+  if (has_adapt && strcmp(adapt, TSADAPTNONE) != 0 && !has_type) {
+    PetscCall(TSSetType(*ts, type));
+    *applied = 1;
+  }
+  PetscFunctionReturn(0);
+}
+
+/* The TS type with its scheme, for the start-up line: "rosw ra34pw2",
+ * "arkimex 5", "bdf order 4", "theta 0.5", else the type alone. NUL-terminated
+ * in buf (len bytes). Collective. */
+PetscErrorCode nuno_ts_scheme(TS *ts, char *buf, int len)
+{
+  TSType    type;
+  PetscBool is;
+
+  PetscFunctionBeginUser;
+  PetscCall(TSGetType(*ts, &type));
+  PetscCall(PetscObjectTypeCompare((PetscObject)*ts, TSROSW, &is));
+  if (is) {
+    TSRosWType sub;
+    PetscCall(TSRosWGetType(*ts, &sub));
+    PetscCall(PetscSNPrintf(buf, (size_t)len, "%s %s", type, sub));
+    PetscFunctionReturn(0);
+  }
+  PetscCall(PetscObjectTypeCompare((PetscObject)*ts, TSARKIMEX, &is));
+  if (is) {
+    TSARKIMEXType sub;
+    PetscBool     implicit;
+    PetscCall(TSARKIMEXGetType(*ts, &sub));
+    PetscCall(TSARKIMEXGetFullyImplicit(*ts, &implicit));
+    PetscCall(PetscSNPrintf(buf, (size_t)len, "%s %s%s", type, sub, implicit ? " fully implicit" : ""));
+    PetscFunctionReturn(0);
+  }
+  PetscCall(PetscObjectTypeCompare((PetscObject)*ts, TSBDF, &is));
+  if (is) {
+    PetscInt order;
+    PetscCall(TSBDFGetOrder(*ts, &order));
+    PetscCall(PetscSNPrintf(buf, (size_t)len, "%s order %" PetscInt_FMT, type, order));
+    PetscFunctionReturn(0);
+  }
+  PetscCall(PetscObjectTypeCompare((PetscObject)*ts, TSTHETA, &is));
+  if (is) {
+    PetscReal theta;
+    PetscCall(TSThetaGetTheta(*ts, &theta));
+    PetscCall(PetscSNPrintf(buf, (size_t)len, "%s %g", type, (double)theta));
+    PetscFunctionReturn(0);
+  }
+  PetscCall(PetscStrncpy(buf, type, (size_t)len));
   PetscFunctionReturn(0);
 }
 

@@ -97,6 +97,21 @@ module timestepping
       real(c_double), intent(inout) :: atol_x, atol_v
       integer(c_int), intent(out) :: given_x, given_v
     end function nuno_tolerance_options_read
+    !> src/nuno_options.c: -nuno_adaptive_ts_type, the integrator of an
+    !> adaptive run without -ts_type (before TSSetFromOptions).
+    integer(c_int) function nuno_adaptive_default(fcomm, ts, applied) bind(C, name='nuno_adaptive_default')
+      import :: c_int, c_intptr_t
+      integer(c_int), value :: fcomm
+      integer(c_intptr_t) :: ts             !< the TS handle (tTS%v), passed as TS*
+      integer(c_int), intent(out) :: applied
+    end function nuno_adaptive_default
+    !> src/nuno_options.c: "rosw ra34pw2", "bdf order 4", ...: the TS type with its scheme.
+    integer(c_int) function nuno_ts_scheme(ts, buf, len) bind(C, name='nuno_ts_scheme')
+      import :: c_int, c_intptr_t, c_char
+      integer(c_intptr_t) :: ts             !< the TS handle (tTS%v), passed as TS*
+      character(kind=c_char), intent(out) :: buf(*)
+      integer(c_int), value :: len
+    end function nuno_ts_scheme
     !> src/nuno_options.c: warn about options that nothing read.
     integer(c_int) function nuno_options_report_unused(fcomm, nunused) bind(C, name='nuno_options_report_unused')
       import :: c_int
@@ -148,6 +163,7 @@ module timestepping
     real(rp) :: dt = 0                          !< fixed (or initial) step [time]: -ts_dt, else the namelist's
     real(rp) :: t_end = 0                       !< end time [time]: -ts_max_time, else the namelist's
     logical :: fixed_step = .true.              !< -ts_adapt_type none: every step is dt unless retried
+    logical :: adaptive_default = .false.       !< the TS type is -nuno_adaptive_ts_type's (no -ts_type given)
     PetscInt :: max_steps = 0                   !< -ts_max_steps: a clean end after this many steps
     ! error tolerances of adaptive steps (TSSetTolerances: scalar rtol, vector atol)
     real(rp) :: rtol = 0                        !< -ts_rtol [1]
@@ -211,7 +227,7 @@ contains
     PetscScalar, pointer :: ua(:, :, :)
     character(len=64) :: mattype
     character(len=64, kind=c_char) :: cmattype
-    integer(c_int) :: jac_full, pc_lag, gn, cl, nfail
+    integer(c_int) :: jac_full, pc_lag, gn, cl, nfail, applied
     logical :: symmetric, constant, damping
 
     ctx%cfg = cfg
@@ -328,6 +344,15 @@ contains
       PetscCall(SNESGetLineSearch(snes, linesearch, ierr))
       PetscCall(SNESLineSearchSetType(linesearch, SNESLINESEARCHBASIC, ierr))
     end if
+    ! An adaptive run without -ts_type: the method that won the
+    ! work-precision measurement at moderate tolerance (nuno_options.c). The
+    ! identification keeps beuler: its adjoint needs a theta method.
+    ctx%adaptive_default = .false.
+    if (.not. cfg%identify) then
+      ierr = nuno_adaptive_default(ctx%comm, ctx%ts%v, applied)
+      if (ierr /= 0) return
+      ctx%adaptive_default = applied /= 0
+    end if
     PetscCall(TSSetFromOptions(ctx%ts, ierr))
     PetscCall(effective_time_integration(ctx, ierr))
   end subroutine solver_create
@@ -344,6 +369,7 @@ contains
     TSExactFinalTimeOption :: eft
     PetscBool :: match
     character(len=64) :: tstype, adtype
+    character(len=64, kind=c_char) :: scheme
     character(len=512) :: line
     character(len=40) :: srcx, srcv
     real(rp) :: dt_namelist, t_end_namelist
@@ -388,10 +414,13 @@ contains
     PetscCall(VecDuplicate(ctx%u, ctx%uq, ierr))
     PetscCall(set_tolerances(ctx, srcx, srcv, ierr))
 
+    ierr = nuno_ts_scheme(ctx%ts%v, scheme, len(scheme))
+    if (ierr /= 0) return
     if (ctx%rank == 0) then
-      PetscCall(TSGetType(ctx%ts, tstype, ierr))
       PetscCall(TSAdaptGetType(adapt, adtype, ierr))
-      line = 'solver    : TS '//trim(tstype)//', adapt '//trim(adtype)
+      line = 'solver    : TS '//scheme(1:index(scheme, c_null_char) - 1)
+      if (ctx%adaptive_default) line = trim(line)//' (the default of adaptive runs, -nuno_adaptive_ts_type)'
+      line = trim(line)//', adapt '//trim(adtype)
       if (ctx%fixed_step) then
         line = trim(line)//', dt = '//num(ctx%dt)
       else
