@@ -671,6 +671,26 @@ def test_convergence_of_real_hang_lattices(tmp_path, capsys):
     assert_png(out)
 
 
+@pytest.mark.parametrize("ts_type,order", [("-ts_type cn", 2), ("-ts_type rosw -ts_rosw_type ra34pw2", 3)])
+def test_convergence_of_real_time_steps(tmp_path, capsys, ts_type, order):
+    """Fixed steps halved against a tight adaptive run (--reference-run): the
+    final positions converge at the method's order (cn 2, rosw ra34pw2 3;
+    measured 1.97-1.99 and 3.06), what bench/convergence.py reports."""
+    import nunorun
+    kw = dict(scene="scene='bend_release'", material="bending_model='energy'",
+              time="t_end=0.1", output="output_interval=0.1")
+    _, ref = nunorun.run(tmp_path, "ref", options=("-ts_type", "bdf", "-ts_bdf_order", "6", "-ts_adapt_type", "basic",
+                                                    "-ts_adapt_wnormtype", "infinity", "-ts_rtol", "1e-11"), **kw)
+    paths = []
+    for dt in (1e-2, 5e-3, 2.5e-3):
+        _, h5 = nunorun.run(tmp_path, f"dt{dt:g}", options=(*ts_type.split(), "-ts_dt", repr(dt)), **kw)
+        paths.append(str(h5))
+    assert convergence.main([*paths, "--reference-run", str(ref), "-o", str(tmp_path / "dt.png")]) == 0
+    text = capsys.readouterr().out.splitlines()
+    (orders,) = [list(map(float, w.split()[1:])) for w in text if w.startswith("orders ")]
+    assert len(orders) == 2 and all(abs(p - order) < 0.2 for p in orders), orders
+
+
 def test_namelist_edit_and_write_parse_back():
     from postprocess import namelist
     import f90nml
