@@ -1570,7 +1570,7 @@ contains
       '', &
       'Which integrator for which goal (docs/workprecision.md, docs/convergence.md):', &
       '  fast, moderate accuracy                      -ts_adapt_type basic [-ts_rtol R]: rosw ra34pw2, final', &
-      '    (errors 1e-3 .. 1e-5 of the cloth size)    error about 0.4-9 R with the default 2-norm', &
+      '    (errors 1e-3 .. 1e-5 of the cloth size)    error 0.3-12 R measured (default 2-norm)', &
       '  tight accuracy, a final position error E     -ts_type arkimex -ts_arkimex_type 5', &
       '    (relative to the cloth size)               -ts_arkimex_fully_implicit -ts_adapt_type basic', &
       '                                               -ts_adapt_wnormtype infinity -ts_rtol E  (at most 10 E', &
