@@ -27,7 +27,8 @@ module reduced
   use kinds, only: rp
   use lattice, only: lattice_t
   use forces, only: jac_buffer_t, jac_buffer_init, jac_buffer_row, slot_of, first_anchor_row
-  use reduced_blocks, only: reduced_row_blocks, buffer_row_apply, csr_put_block_row, csr_fits_block_row
+  use reduced_blocks, only: reduced_row_blocks, buffer_row_apply, csr_fits_block_row
+  use reduced_assembly, only: csr_assemble
   implicit none
   private
   public :: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach
@@ -66,6 +67,8 @@ module reduced
     ! recognised and gets its own pass.
     real(rp), allocatable :: wpred(:, :, :) !< (0:5, 0:nx-1, gys:gye) w of b = F(u)
     real(rp), allocatable :: gpred(:, :, :) !< (3, 0:nx-1, ys:ye) its products
+    real(rp), allocatable :: kd(:, :, :)    !< (3, 0:nx-1, ys:ye) diagonal of -df/dx (direct assembly)
+    real(rp), allocatable :: lb(:, :, :, :, :) !< (3, 3, 4, 0:nx-1, 0:1) link blocks of two rows (direct assembly)
     logical :: have_pred = .false.
     real(rp), allocatable :: vals(:, :, :) !< (3, 3, ncol) one block row
     integer, allocatable :: cols(:)        !< (ncol)
@@ -226,7 +229,8 @@ contains
     allocate(red%fixedg(0:lat%nx - 1, lat%gys:lat%gye))
     allocate(red%ujac(0:5, 0:lat%nx - 1, lat%gys:lat%gye), red%w(0:5, 0:lat%nx - 1, lat%gys:lat%gye))
     allocate(red%g(3, 0:lat%nx - 1, lat%ys:lat%ye), red%gpred(3, 0:lat%nx - 1, lat%ys:lat%ye))
-    allocate(red%wpred(0:5, 0:lat%nx - 1, lat%gys:lat%gye))
+    allocate(red%wpred(0:5, 0:lat%nx - 1, lat%gys:lat%gye), red%kd(3, 0:lat%nx - 1, lat%ys:lat%ye))
+    allocate(red%lb(3, 3, 4, 0:lat%nx - 1, 0:1))
     allocate(red%vals(3, 3, (2 * lat%halo + 1)**2), red%cols((2 * lat%halo + 1)**2))
     allocate(red%owned((2 * lat%halo + 1)**2), red%lcol((2 * lat%halo + 1)**2))
     red%fixedg = .false.
@@ -410,40 +414,43 @@ contains
         end if
       end do
     end do
-    red%jbuf%k = 0.0_rp
-    red%jbuf%c = 0.0_rp
     loc = 0.0_rp
     if (red%direct) then
+      ! AIJ: element blocks straight into the CSR values (module reduced_assembly).
       PetscCall(aij_open(red, view, ierr))
-    end if
-    do ja = first_anchor_row(red%lat), red%lat%ye
-      call jac_buffer_row(red%jbuf, red%lat, u, ja, red%clamp, red%gauss_newton)
-      if (ja >= red%lat%ys) then
-        call buffer_row_apply(red%jbuf, red%lat, red%wpred, ja, red%damping, red%gpred(:, :, ja))
+      call csr_assemble(red%lat, u, red%fixedg, a, red%damping, red%clamp, red%gauss_newton, red%wpred, &
+                        red%lb, red%vals, view%ia, view%av, view%ib, view%bv, red%gpred, red%kd)
+      PetscCall(aij_close(red, view, ierr))
+      do ja = red%lat%ys, red%lat%ye
         do i = 0, red%lat%nx - 1
-          if (.not. red%fixedg(i, ja)) then
-            do q = 1, 3
-              loc(1) = loc(1) + (red%jbuf%k(q, q, 0, 0, i, slot_of(ja)) / red%lat%mass(i, ja))**2
-            end do
-            loc(2) = max(loc(2), maxval(abs(u(0:2, i, ja))))
-          end if
-          call reduced_row_blocks(red%jbuf, red%lat, red%fixedg, i, ja, a, red%damping, red%vals, red%cols, nc)
-          if (red%direct) then
-            call mark_owned(red, nc)
-            call csr_put_block_row(red%vals, nc, red%owned, 3 * (i + (ja - red%lat%ys) * red%lat%nx), &
-                                   view%ia, view%av, view%ib, view%bv)
-          else
+          if (red%fixedg(i, ja)) cycle
+          loc(1) = loc(1) + sum((red%kd(:, i, ja) / red%lat%mass(i, ja))**2)
+          loc(2) = max(loc(2), maxval(abs(u(0:2, i, ja))))
+        end do
+      end do
+    else
+      red%jbuf%k = 0.0_rp
+      red%jbuf%c = 0.0_rp
+      do ja = first_anchor_row(red%lat), red%lat%ye
+        call jac_buffer_row(red%jbuf, red%lat, u, ja, red%clamp, red%gauss_newton)
+        if (ja >= red%lat%ys) then
+          call buffer_row_apply(red%jbuf, red%lat, red%wpred, ja, red%damping, red%gpred(:, :, ja))
+          do i = 0, red%lat%nx - 1
+            if (.not. red%fixedg(i, ja)) then
+              do q = 1, 3
+                loc(1) = loc(1) + (red%jbuf%k(q, q, 0, 0, i, slot_of(ja)) / red%lat%mass(i, ja))**2
+              end do
+              loc(2) = max(loc(2), maxval(abs(u(0:2, i, ja))))
+            end if
+            call reduced_row_blocks(red%jbuf, red%lat, red%fixedg, i, ja, a, red%damping, red%vals, red%cols, nc)
             row(1) = i + (ja - red%lat%gys) * red%lat%nx
             ncol = nc
             PetscCall(set_block_row(red%s, row, ncol, red%cols, red%vals, 9 * nc, ierr))
-          end if
-        end do
-      end if
-      red%jbuf%k(:, :, :, :, :, slot_of(ja)) = 0.0_rp
-      red%jbuf%c(:, :, :, :, :, slot_of(ja)) = 0.0_rp
-    end do
-    if (red%direct) then
-      PetscCall(aij_close(red, view, ierr))
+          end do
+        end if
+        red%jbuf%k(:, :, :, :, :, slot_of(ja)) = 0.0_rp
+        red%jbuf%c(:, :, :, :, :, slot_of(ja)) = 0.0_rp
+      end do
     end if
     PetscCall(MatAssemblyBegin(red%s, MAT_FINAL_ASSEMBLY, ierr))
     PetscCall(MatAssemblyEnd(red%s, MAT_FINAL_ASSEMBLY, ierr))
