@@ -1576,8 +1576,12 @@ contains
       '                                               block Jacobi/ILU on small lattices); -reduced_ksp_view', &
       '  -reduced_dm_mat_type aij|baij|sbaij          storage of S (default: aij for multigrid, baij else)', &
       '  -nuno_pc_lag N                               rebuild the inner preconditioner every N assemblies', &
-      '                                               (default 3 with the multigrid, 1 otherwise; a failed', &
-      '                                               solve rebuilds it and retries)', &
+      '                                               (default 3 with the multigrid, 10 with its cubic', &
+      '                                               interpolation, 1 otherwise; a failed solve rebuilds', &
+      '                                               it and retries)', &
+      '  -nuno_mg_interpolation auto|linear|cubic     interpolation of the inner multigrid (auto: cubic', &
+      '                                               with bending, whose fourth-order modes bilinear', &
+      '                                               interpolation does not carry; linear without)', &
       '  -nuno_snes_floor F                           a residual below F times its start that stops', &
       '                                               decreasing is converged (default 1e-6; 0: off)', &
       '  -snes_ksp_ew                                 Eisenstat-Walker: its forcing term is the inner rtol', &

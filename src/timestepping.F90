@@ -80,11 +80,11 @@ module timestepping
       integer(c_intptr_t) :: ts             !< the TS handle (tTS%v), passed as TS*
     end function nuno_ts_stop
     !> src/nuno_options.c: nuno's options in a PETSc options block.
-    integer(c_int) function nuno_options_read(fcomm, jacobian, pc_lag, snes_floor, gauss_newton, clamp, &
+    integer(c_int) function nuno_options_read(fcomm, jacobian, pc_lag, mg_interp, snes_floor, gauss_newton, clamp, &
                                               mattype, mattype_len, fail_newton) bind(C, name='nuno_options_read')
       import :: c_int, c_double, c_char
       integer(c_int), value :: fcomm
-      integer(c_int), intent(inout) :: jacobian, pc_lag, gauss_newton, clamp, fail_newton
+      integer(c_int), intent(inout) :: jacobian, pc_lag, mg_interp, gauss_newton, clamp, fail_newton
       real(c_double), intent(inout) :: snes_floor
       character(kind=c_char), intent(inout) :: mattype(*)
       integer(c_int), value :: mattype_len
@@ -211,7 +211,7 @@ contains
     PetscScalar, pointer :: ua(:, :, :)
     character(len=64) :: mattype
     character(len=64, kind=c_char) :: cmattype
-    integer(c_int) :: jac_full, pc_lag, gn, cl, nfail
+    integer(c_int) :: jac_full, pc_lag, gn, cl, nfail, mg_interp
     logical :: symmetric, constant, damping
 
     ctx%cfg = cfg
@@ -231,11 +231,12 @@ contains
     ! multiplies fastest; -dm_mat_type aij for field splits.
     jac_full = 0
     pc_lag = 0                     ! the default: 3 with the multigrid, 1 otherwise (module reduced)
+    mg_interp = 0                  ! auto: cubic with bending, linear without (module reduced)
     gn = 0
     cl = 0
     nfail = 0
     cmattype = MATBAIJ//c_null_char
-    ierr = nuno_options_read(ctx%comm, jac_full, pc_lag, ctx%snes_floor, gn, cl, cmattype, len(cmattype), nfail)
+    ierr = nuno_options_read(ctx%comm, jac_full, pc_lag, mg_interp, ctx%snes_floor, gn, cl, cmattype, len(cmattype), nfail)
     if (ierr /= 0) return
     ctx%use_reduced = jac_full == 0
     ctx%gauss_newton = gn /= 0
@@ -278,7 +279,7 @@ contains
                   (cfg%bending_code == BEND_NONE .or. (cfg%bending_code == BEND_ENERGY .and. &
                    (cfg%eta_b == 0.0_rp .or. ctx%gauss_newton)))
       constant = cfg%spring_code == SPRING_LINEAR .and. cfg%bending_code == BEND_NONE
-      PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, symmetric, constant, damping, ctx%clamp, ctx%gauss_newton, pc_lag, ierr))
+      PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, symmetric, constant, damping, ctx%clamp, ctx%gauss_newton, pc_lag, ierr, mg_interpolation=mg_interp))
     else
       ! Jacobian with the DMDA's exact box-stencil preallocation.
       PetscCall(DMCreateMatrix(ctx%da, ctx%p, ierr))
