@@ -1579,9 +1579,10 @@ contains
       '                                               (default 3 with the multigrid, 10 with its cubic', &
       '                                               interpolation, 1 otherwise; a failed solve rebuilds', &
       '                                               it and retries)', &
-      '  -nuno_mg_interpolation auto|linear|cubic     interpolation of the inner multigrid (auto: cubic', &
-      '                                               with bending, whose fourth-order modes bilinear', &
-      '                                               interpolation does not carry; linear without)', &
+      '  -nuno_mg_interpolation auto|linear|cubic|coarse_cubic  interpolation of the inner multigrid', &
+      '                                               (auto: with bending, whose fourth-order modes', &
+      '                                               bilinear transfer does not carry, cubic on every', &
+      '                                               level but the finest; linear without)', &
       '  -nuno_snes_floor F                           a residual below F times its start that stops', &
       '                                               decreasing is converged (default 1e-6; 0: off)', &
       '  -snes_ksp_ew                                 Eisenstat-Walker: its forcing term is the inner rtol', &

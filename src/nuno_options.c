@@ -6,7 +6,7 @@
 #include <petscsys.h>
 
 /* jacobian: in/out 0 = reduced, 1 = full; pc_lag: in/out >= 0 (0: default);
- * mg_interp: in/out 0 = auto, 1 = linear, 2 = cubic;
+ * mg_interp: in/out 0 = auto, 1 = linear, 2 = cubic, 3 = coarse_cubic (module reduced's INTERP_*);
  * snes_floor: in/out >= 0; gauss_newton, clamp: in/out 0/1;
  * mattype: in/out NUL-terminated, mattype_len bytes; fail_newton: in/out >= 0.
  * Returns a PETSc error code (0 on success). */
@@ -14,7 +14,7 @@ PetscErrorCode nuno_options_read(MPI_Fint fcomm, int *jacobian, int *pc_lag, int
                                  int *gauss_newton, int *clamp, char *mattype, int mattype_len, int *fail_newton)
 {
   static const char *const jacobians[] = {"reduced", "full"};
-  static const char *const interps[]   = {"auto", "linear", "cubic"};
+  static const char *const interps[]   = {"auto", "linear", "cubic", "coarse_cubic"};
   MPI_Comm  comm = MPI_Comm_f2c(fcomm);
   PetscInt  jac = *jacobian, lag = *pc_lag, nfail = *fail_newton, interp = *mg_interp;
   PetscReal floor = *snes_floor;
@@ -27,8 +27,8 @@ PetscErrorCode nuno_options_read(MPI_Fint fcomm, int *jacobian, int *pc_lag, int
   PetscCall(PetscOptionsEList("-nuno_jacobian", "reduced: assemble only the 3-dof velocity system and eliminate around it; full: the 6-dof Jacobian",
                               "nuno", jacobians, 2, jacobians[jac], &jac, NULL));
   PetscCall(PetscOptionsInt("-nuno_pc_lag", "rebuild the inner (reduced_) preconditioner every N assemblies (0: with the default multigrid 3, or 10 with cubic interpolation; 1 otherwise)", "nuno", lag, &lag, NULL));
-  PetscCall(PetscOptionsEList("-nuno_mg_interpolation", "interpolation of the inner multigrid: auto (cubic with bending, linear without), linear, cubic",
-                              "nuno", interps, 3, interps[interp], &interp, NULL));
+  PetscCall(PetscOptionsEList("-nuno_mg_interpolation", "interpolation of the inner multigrid: auto (coarse_cubic with bending, linear without), linear, cubic (every level), coarse_cubic (every level but the finest)",
+                              "nuno", interps, 4, interps[interp], &interp, NULL));
   PetscCall(PetscOptionsReal("-nuno_snes_floor", "Newton: converged when a residual below this fraction of its start stops decreasing, or (reduced) is at the round-off floor estimated from S (0: off)",
                              "nuno", floor, &floor, NULL));
   PetscCall(PetscOptionsBool("-nuno_gauss_newton", "energy bending: assemble only the Gauss-Newton part -k_b J^T J", "nuno", gn, &gn, NULL));

@@ -35,6 +35,11 @@ module reduced
   private
   public :: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach
   public :: set_block_row
+  public :: INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
+
+  !> Interpolation between multigrid levels (-nuno_mg_interpolation; the
+  !> values of src/nuno_options.c's list, 0 being auto).
+  integer, parameter :: INTERP_LINEAR = 1, INTERP_CUBIC = 2, INTERP_COARSE_CUBIC = 3
 
   !> Context of the reduced solve (PCSHELL and MATSHELL context).
   type :: reduced_t
@@ -56,7 +61,7 @@ module reduced
     logical :: damping = .true.            !< some element has a damper (C /= 0)
     logical :: clamp = .false., gauss_newton = .false.
     logical :: use_nullspace = .false.     !< inner PC is GAMG: give it the rigid-body modes
-    logical :: cubic = .false.             !< multigrid with cubic interpolation (bending), else bilinear
+    integer :: interp = 1                  !< multigrid interpolation: INTERP_LINEAR, _CUBIC, _COARSE_CUBIC
     logical :: forward_ew = .true.         !< pass the outer KSP's rtol (Eisenstat-Walker) to the inner one
     integer :: pc_lag = 1                  !< rebuild the inner preconditioner every pc_lag assemblies
     integer :: since_pc = 0                !< assemblies since the last rebuild
@@ -135,7 +140,7 @@ contains
     logical, intent(in) :: symmetric, constant, damping, clamp, gauss_newton
     integer, intent(in) :: pc_lag                  !< rebuild the inner preconditioner every pc_lag assemblies (>= 1; 0: default)
     PetscErrorCode, intent(out) :: ierr
-    integer, intent(in), optional :: mg_interpolation  !< multigrid interpolation: 0 auto (cubic with bending), 1 linear, 2 cubic
+    integer, intent(in), optional :: mg_interpolation  !< multigrid interpolation: 0 auto, else an INTERP_ code
     PetscInt :: nx, ny, w, m, n, mg, ng, nranks, dummy(1), xs, ys, zs, zm
     PetscInt, allocatable :: ly(:)
     PetscInt, parameter :: one = 1, three = 3
@@ -213,10 +218,14 @@ contains
     PetscCall(KSPSetDM(red%ksp, red%da3, ierr))
     PetscCall(KSPSetDMActive(red%ksp, PETSC_FALSE, ierr))
     if (pctype == PCMG) then
-      red%cubic = lat%bending_model /= BEND_NONE
+      ! auto: with bending, cubic on every level but the finest (measured,
+      ! docs/performance.md "Fourth round": as fast as cubic everywhere,
+      ! and the parallel Galerkin product of the finest level with a cubic
+      ! P doubled the peak memory at 1025 x 1025 on 2 ranks).
+      red%interp = INTERP_LINEAR
+      if (lat%bending_model /= BEND_NONE) red%interp = INTERP_COARSE_CUBIC
       if (present(mg_interpolation)) then
-        if (mg_interpolation == 1) red%cubic = .false.
-        if (mg_interpolation == 2) red%cubic = .true.
+        if (mg_interpolation > 0) red%interp = mg_interpolation
       end if
       PetscCall(mg_interpolations(red, pc, ierr))
     end if
@@ -257,7 +266,7 @@ contains
     ! preconditioner rebuilt each time.
     if (pc_lag > 0) then
       red%pc_lag = pc_lag
-    else if (pctype == PCMG .and. red%cubic) then
+    else if (pctype == PCMG .and. red%interp /= INTERP_LINEAR) then
       red%pc_lag = 10
     else if (pctype == PCMG) then
       red%pc_lag = 3
@@ -613,7 +622,7 @@ contains
     ! PCMG level l (0 = coarsest) is dms(l + 1); its interpolation maps
     ! level l - 1 to level l.
     do l = nlev - 1, 1, -1
-      if (red%cubic) then
+      if (red%interp == INTERP_CUBIC .or. (red%interp == INTERP_COARSE_CUBIC .and. l < nlev - 1)) then
         PetscCall(cubic_interpolation(dms(l), dms(l + 1), p, ierr))
       else
         PetscCall(DMCreateInterpolation(dms(l), dms(l + 1), p, PETSC_NULL_VEC, ierr))

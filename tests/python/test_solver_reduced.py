@@ -115,13 +115,14 @@ def test_bad_solver_option_is_refused_on_every_rank(tmp_path, option, value, wor
     assert words in proc.stdout + proc.stderr
 
 
-@pytest.mark.parametrize("interpolation", ["linear", "cubic"])
+@pytest.mark.parametrize("interpolation", ["linear", "cubic", "coarse_cubic"])
 def test_parallel_multigrid_gives_the_one_rank_answer(tmp_path, interpolation):
     """The default inner solver on 65 x 65 is geometric multigrid (5 levels
     on 1 rank, 3 on 3 ranks, where every coarse strip must keep the halo's
-    rows), with cubic interpolation by default (hang has bending) or
-    bilinear: with tight tolerances 1 and 3 ranks give the same positions
-    (the cubic P is built row by row across the strips' boundaries)."""
+    rows), with cubic interpolation below the finest level by default (hang
+    has bending), everywhere, or bilinear: with tight tolerances 1 and 3
+    ranks give the same positions (the cubic P is built row by row across
+    the strips' boundaries)."""
     tight = ("-snes_rtol", "1e-12", "-reduced_ksp_rtol", "1e-11", "-reduced_ksp_view",
              "-nuno_mg_interpolation", interpolation)
     runs = {}
