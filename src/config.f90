@@ -59,7 +59,9 @@ module config
     real(rp) :: bend_angle = 30.0_rp      !< bend_release: total angle of the arc [degree]
     integer :: n_keyframes = 3            !< wave_point: number of keyframes used
     real(rp) :: keyframe_time(keyframe_max) = 0.0_rp   !< wave_point: keyframe times [time]
-    real(rp) :: keyframe_dz(keyframe_max) = 0.0_rp     !< wave_point: corner z at those times [length]
+    real(rp) :: keyframe_dx(keyframe_max) = 0.0_rp     !< wave_point: x offset of the driven nodes at those times [length]
+    real(rp) :: keyframe_dy(keyframe_max) = 0.0_rp     !< wave_point: y offset of the driven nodes at those times [length]
+    real(rp) :: keyframe_dz(keyframe_max) = 0.0_rp     !< wave_point: z offset of the driven nodes at those times [length]
     character(label_len) :: wave_nodes = 'corner'  !< wave_point: driven nodes: corner (0,0) | edge (every node of i = 0)
     real(rp) :: release_time = huge(1.0_rp)  !< time at which the scene's constraints end [time]
     real(rp) :: initial_omega(3) = 0.0_rp    !< initial rigid angular velocity about the centroid [rad/time]

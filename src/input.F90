@@ -743,7 +743,8 @@ contains
     case ('spring_model', 'e_s', 'eta_s', 'e_d', 'eta_d', 'bending_model', 'k_b', 'eta_b')
       g = G_MATERIAL
     case ('scene', 'gravity', 'lift_length', 'lift_height', 'bend_angle', 'n_keyframes', &
-          'keyframe_time', 'keyframe_dz', 'wave_nodes', 'release_time', 'initial_omega')
+          'keyframe_time', 'keyframe_dx', 'keyframe_dy', 'keyframe_dz', 'wave_nodes', 'release_time', &
+          'initial_omega')
       g = G_SCENE
     case ('t_end', 'dt')
       g = G_TIME
@@ -853,7 +854,8 @@ contains
     character(label_len) :: scene_name   ! the key `scene` (renamed by scan_text)
     real(rp) :: gravity(3), lift_length, lift_height, bend_angle
     integer :: n_keyframes
-    real(rp) :: keyframe_time(keyframe_max), keyframe_dz(keyframe_max)
+    real(rp) :: keyframe_time(keyframe_max), keyframe_dx(keyframe_max), keyframe_dy(keyframe_max), &
+                keyframe_dz(keyframe_max)
     character(label_len) :: wave_nodes
     real(rp) :: release_time, initial_omega(3)
     real(rp) :: t_end, dt
@@ -864,7 +866,7 @@ contains
     namelist /lattice/ nx, ny, lx, ly, total_mass, mass_distribution, lattice_scaling
     namelist /material/ spring_model, e_s, eta_s, e_d, eta_d, bending_model, k_b, eta_b
     namelist /scene/ scene_name, gravity, lift_length, lift_height, bend_angle, n_keyframes, &
-                     keyframe_time, keyframe_dz, wave_nodes, release_time, initial_omega
+                     keyframe_time, keyframe_dx, keyframe_dy, keyframe_dz, wave_nodes, release_time, initial_omega
     namelist /time/ t_end, dt
     namelist /output/ output_interval, write_velocity, output_file, petsc_options, stretch_limit, &
                       checkpoint_interval
@@ -895,12 +897,14 @@ contains
       scene_name = cfg%scene; gravity = cfg%gravity; lift_length = cfg%lift_length
       lift_height = cfg%lift_height; bend_angle = cfg%bend_angle; n_keyframes = cfg%n_keyframes
       keyframe_time = cfg%keyframe_time; keyframe_dz = cfg%keyframe_dz; wave_nodes = cfg%wave_nodes
+      keyframe_dx = cfg%keyframe_dx; keyframe_dy = cfg%keyframe_dy
       release_time = cfg%release_time; initial_omega = cfg%initial_omega
       read(lines, nml=scene, iostat=ios, iomsg=iomsg)
       if (ios == 0) then
       cfg%scene = scene_name; cfg%gravity = gravity; cfg%lift_length = lift_length
       cfg%lift_height = lift_height; cfg%bend_angle = bend_angle; cfg%n_keyframes = n_keyframes
       cfg%keyframe_time = keyframe_time; cfg%keyframe_dz = keyframe_dz; cfg%wave_nodes = wave_nodes
+      cfg%keyframe_dx = keyframe_dx; cfg%keyframe_dy = keyframe_dy
       cfg%release_time = release_time; cfg%initial_omega = initial_omega
       end if
     case (G_TIME)
@@ -971,7 +975,7 @@ contains
     cfg%lift_length = 30.0_rp; cfg%lift_height = 15.0_rp
     cfg%bend_angle = 30.0_rp
     cfg%n_keyframes = 3
-    cfg%keyframe_time = 0.0_rp; cfg%keyframe_dz = 0.0_rp
+    cfg%keyframe_time = 0.0_rp; cfg%keyframe_dx = 0.0_rp; cfg%keyframe_dy = 0.0_rp; cfg%keyframe_dz = 0.0_rp
     cfg%keyframe_time(1:3) = [0.0_rp, 0.5_rp, 1.0_rp]
     cfg%keyframe_dz(1:3) = [0.0_rp, -10.0_rp, 15.0_rp]
     cfg%release_time = huge(1.0_rp)
@@ -1218,6 +1222,8 @@ contains
     call fin('scene', 'lift_height', [cfg%lift_height]); if (ierr /= 0) return
     call fin('scene', 'bend_angle', [cfg%bend_angle]);  if (ierr /= 0) return
     call fin('scene', 'keyframe_time', cfg%keyframe_time); if (ierr /= 0) return
+    call fin('scene', 'keyframe_dx', cfg%keyframe_dx);  if (ierr /= 0) return
+    call fin('scene', 'keyframe_dy', cfg%keyframe_dy);  if (ierr /= 0) return
     call fin('scene', 'keyframe_dz', cfg%keyframe_dz);  if (ierr /= 0) return
     call fin('scene', 'release_time', [cfg%release_time]); if (ierr /= 0) return
     call fin('scene', 'initial_omega', cfg%initial_omega); if (ierr /= 0) return
