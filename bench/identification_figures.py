@@ -39,6 +39,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from postprocess import cli, control_plot, identify_plot, plotting  # noqa: E402
+from postprocess.reader import read_states  # noqa: E402
 from postprocess.report_figures import Case, RunError, run_case  # noqa: E402
 
 # mm, relative to rest, at keyframe_time 0, 0.5, 1.0, 1.5 s: x, y, z rows.
@@ -92,7 +93,7 @@ def control(args):
             + "&control target_file='control_target.h5' components='xyz' max_speed=100 velocity_weight=0.01 /\n",
             args)
     fig = control_plot.build_figure(cli.load_run(rd / "control.h5"),
-                                    control_plot.target_states(rd / "control_target.h5"),
+                                    read_states(rd / "control_target.h5"),
                                     cli.load_run(rd / "control_initial.h5"), TARGET_PATH.T)
     return fig, "control_wave_point.png"
 
@@ -113,7 +114,7 @@ def identify(args):
         run("identify", LIFT + lift_material(GUESS) + output("identify", 0.02)
             + "&identify observed_file='identify_observed.h5' fit='e_s,e_d,eta_s,eta_d,k_b' /\n", args)
     fig = identify_plot.build_figure(cli.load_run(rd / "identify.h5"),
-                                     control_plot.target_states(rd / "identify_observed.h5"),
+                                     read_states(rd / "identify_observed.h5"),
                                      cli.load_run(rd / "identify_initial.h5"), TRUE)
     return fig, "identify_lift_release.png"
 

@@ -15,26 +15,12 @@ solid, the TAO iterates thin) and the objective per iteration.
 
 from __future__ import annotations
 
-import h5py
 import numpy as np
 
 from postprocess import cli, plotting
-from postprocess.reader import read_run
+from postprocess.reader import read_states
 
 COMPONENTS = "xyz"
-
-
-def target_states(path):
-    """(times [nt], positions [nt][ny][nx][3]) of a target file, nuno's or plain."""
-    try:
-        run = read_run(path, load_velocity=False)
-    except ValueError:
-        with h5py.File(path, "r") as f:
-            if "time" not in f or "position" not in f:
-                raise ValueError(f"{path}: a target file needs /time and /position") from None
-            return np.asarray(f["time"][()], float), np.asarray(f["position"][()], float)
-    with run:
-        return np.asarray(run.time, float), np.asarray(run.position)
 
 
 def path_offsets(times, offsets, t):
@@ -112,15 +98,10 @@ def build_figure(opt, target, initial=None, target_path=None):
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize="small")
 
-    ax = fig.add_subplot(2, 2, 4)
-    f = np.asarray(c["objective_history"], float)
-    ax.semilogy(np.arange(len(f)), np.where(f > 0, f, np.nan), "o-", ms=3, color="C1")
-    ax.set_xlabel("TAO iteration")
-    ax.set_ylabel(f"objective [{units}$^2$]")
     speed = float(np.ravel(c.get("max_speed", [np.inf]))[0])
     bound = "no speed bound" if not np.isfinite(speed) else f"speed bound {speed:g} {units}/s"
-    ax.set_title(f"objective per iteration ({c.get('components', '')}; {bound})", fontsize="medium")
-    ax.grid(True, which="both", alpha=0.3)
+    plotting.objective_panel(fig.add_subplot(2, 2, 4), c["objective_history"], units,
+                             f"objective per iteration ({c.get('components', '')}; {bound})", color="C1")
     return fig
 
 
@@ -136,7 +117,7 @@ def _parser():
 def _body(args):
     opt = cli.load_run(args.run)
     initial = cli.load_run(args.initial) if args.initial else None
-    fig = build_figure(opt, target_states(args.target), initial)
+    fig = build_figure(opt, read_states(args.target), initial)
     plotting.save(fig, args.output or cli.default_output(args.run, "control"), args.dpi)
 
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from postprocess import cli, plotting
-from postprocess.control_plot import target_states
+from postprocess.reader import read_states
 
 
 def parse_true(text):
@@ -111,13 +111,8 @@ def build_figure(fit, observed, initial=None, true=None):
     ax.legend(fontsize="small")
     ax.set_title("fitted values" + (" against the true ones" if true else ""), fontsize="medium")
 
-    ax = fig.add_subplot(2, 2, 4)
-    f = np.asarray(g["history"], float)[:, 0]
-    ax.semilogy(np.arange(len(f)), np.where(f > 0, f, np.nan), "o-", ms=3, color="C0")
-    ax.set_xlabel("TAO iteration")
-    ax.set_ylabel(f"objective [{units}$^2$]")
-    ax.set_title("objective per iteration", fontsize="medium")
-    ax.grid(True, which="both", alpha=0.3)
+    plotting.objective_panel(fig.add_subplot(2, 2, 4), np.asarray(g["history"], float)[:, 0], units,
+                             "objective per iteration")
     return fig
 
 
@@ -134,7 +129,7 @@ def _parser():
 def _body(args):
     fit = cli.load_run(args.run)
     initial = cli.load_run(args.initial) if args.initial else None
-    fig = build_figure(fit, target_states(args.observed), initial, parse_true(args.true))
+    fig = build_figure(fit, read_states(args.observed), initial, parse_true(args.true))
     plotting.save(fig, args.output or cli.default_output(args.run, "identify"), args.dpi)
 
 

@@ -359,3 +359,18 @@ def read_run(path, load_velocity: bool = True) -> Run:
     except BaseException:
         f.close()
         raise
+
+
+def read_states(path) -> tuple[np.ndarray, np.ndarray]:
+    """(time [nt], position [nt][ny][nx][3]) of an observed or target file
+    (&identify observed_file, &control target_file): a nuno output file or
+    a plain HDF5 file with /time and /position."""
+    try:
+        run = read_run(path, load_velocity=False)
+    except ValueError:
+        with h5py.File(path, "r") as f:
+            if "time" not in f or "position" not in f:
+                raise ValueError(f"{path}: an observed or target file needs /time and /position") from None
+            return np.asarray(f["time"][()], float), np.asarray(f["position"][()], float)
+    with run:
+        return np.asarray(run.time, float), np.asarray(run.position)

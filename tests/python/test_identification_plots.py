@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from postprocess import control_plot, identify_plot
-from postprocess.reader import read_run
+from postprocess.reader import read_run, read_states
 
 REPO = Path(__file__).resolve().parents[2]
 KT = np.array([0.0, 0.2, 0.4])
@@ -72,7 +72,7 @@ def test_reader_reads_the_small_groups(tmp_path, make_run):
 def test_control_figure_draws_the_path_and_the_objective(tmp_path, make_run, with_initial):
     opt = read_run(control_file(tmp_path / "c.h5", make_run))
     make_run(tmp_path / "t.h5", scene="wave_point", nt=6, dt=0.1, omega=0.2)
-    target = control_plot.target_states(tmp_path / "t.h5")
+    target = read_states(tmp_path / "t.h5")
     initial = read_run(tmp_path / "t.h5") if with_initial else None
     fig = control_plot.build_figure(opt, target, initial)
     axes = fig.axes
@@ -93,7 +93,7 @@ def test_control_figure_draws_the_path_and_the_objective(tmp_path, make_run, wit
 def test_identify_figure_draws_values_relative_to_the_truth(tmp_path, make_run):
     fit = read_run(identify_file(tmp_path / "i.h5", make_run))
     make_run(tmp_path / "o.h5", scene="lift_release", nt=6, dt=0.1)
-    observed = identify_plot.target_states(tmp_path / "o.h5")
+    observed = read_states(tmp_path / "o.h5")
     fig = identify_plot.build_figure(fit, observed, None, {"e_s": 1.0, "k_b": 10.0})
     side, edge, vals, obj = [ax for ax in fig.axes if ax.get_label() != "<colorbar>"]
     (dots,) = [ln for ln in edge.get_lines() if ln.get_label() == "observed"]
