@@ -21,7 +21,7 @@ module timestepping
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_char, c_null_char, c_intptr_t
   use, intrinsic :: iso_fortran_env, only: output_unit, error_unit
   use kinds, only: rp
-  use config, only: nuno_config, SPRING_LINEAR, BEND_NONE, BEND_ENERGY, SCENE_HANG
+  use config, only: nuno_config, SPRING_LINEAR, BEND_NONE, BEND_ENERGY, SCENE_HANG, unset_real
   use lattice, only: lattice_t, lattice_init, halo_width, link_dir
   use forces, only: internal_forces, link_stretch_extremes, dissipated_power, jac_buffer_t, jac_buffer_init, jac_buffer_row, &
                     slot_of, first_anchor_row
@@ -1204,6 +1204,8 @@ contains
     nk = max(0, min(cfg%n_keyframes, size(cfg%keyframe_time)))
     if (nk > 0) then
       call output_config_key(out, 'scene', 'keyframe_time', cfg%keyframe_time(1:nk), e, errmsg)
+      call output_config_key(out, 'scene', 'keyframe_dx', cfg%keyframe_dx(1:nk), e, errmsg)
+      call output_config_key(out, 'scene', 'keyframe_dy', cfg%keyframe_dy(1:nk), e, errmsg)
       call output_config_key(out, 'scene', 'keyframe_dz', cfg%keyframe_dz(1:nk), e, errmsg)
     end if
     call output_config_key(out, 'scene', 'wave_nodes', trim(cfg%wave_nodes), e, errmsg)
@@ -1224,6 +1226,14 @@ contains
       call output_config_key(out, 'identify', 'fit_lower', cfg%fit_lower(1:cfg%n_fit), e, errmsg)
       call output_config_key(out, 'identify', 'fit_upper', cfg%fit_upper(1:cfg%n_fit), e, errmsg)
       call output_config_key(out, 'identify', 'tikhonov', [cfg%tikhonov], e, errmsg)
+    end if
+    if (cfg%control) then
+      ! /config/scene holds the optimised keyframes (those of the run written); the initial guess is /control/initial_offset.
+      call output_config_key(out, 'control', 'target_file', trim(cfg%target_file), e, errmsg)
+      call output_config_key(out, 'control', 'components', trim(cfg%components), e, errmsg)
+      if (cfg%max_speed /= unset_real) call output_config_key(out, 'control', 'max_speed', [cfg%max_speed], e, errmsg)
+      call output_config_key(out, 'control', 'velocity_weight', [cfg%velocity_weight], e, errmsg)
+      call output_config_key(out, 'control', 'keyframe_tikhonov', [cfg%keyframe_tikhonov], e, errmsg)
     end if
     ! One error flag for all ranks (each call above is local HDF5 metadata).
     call MPI_Allreduce(MPI_IN_PLACE, e, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
