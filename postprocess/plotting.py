@@ -141,3 +141,14 @@ def draw_lattice_side(ax, pos, color="C0", linewidth=0.8):
     xz = np.asarray(pos)[..., ::2]  # [ny][nx][(x, z)]
     lines = list(xz) + list(xz.transpose(1, 0, 2))
     return ax.add_collection(LineCollection(lines, colors=[color], linewidths=linewidth))
+
+
+def objective_panel(ax, history, units: str, title: str, color: str = "C0") -> None:
+    """An optimiser's objective per iteration on a log axis (identification, control;
+    objective in the run's length unit squared)."""
+    f = np.asarray(history, dtype=float)
+    ax.semilogy(np.arange(len(f)), np.where(f > 0, f, np.nan), "o-", ms=3, color=color)
+    ax.set_xlabel("TAO iteration")
+    ax.set_ylabel(f"objective [{units}$^2$]")
+    ax.set_title(title, fontsize="medium")
+    ax.grid(True, which="both", alpha=0.3)

@@ -72,6 +72,20 @@ def _attrs(obj) -> dict:
     return out
 
 
+def _small_group(f, name: str) -> dict:
+    """A group of small datasets (/identify, /control) read at once, with its
+    attributes: {name: array or list of str}; {} when absent."""
+    if name not in f:
+        return {}
+    out = _attrs(f[name])
+    for key, ds in f[name].items():
+        value = ds[()]
+        if ds.dtype.kind in "SO":
+            value = [_text(v) for v in np.ravel(value)]
+        out[key] = value
+    return out
+
+
 def _int(value) -> int:
     """An integer attribute (scalar or 1-element array, as Fortran may write)."""
     return int(np.asarray(value).ravel()[0])
@@ -172,6 +186,8 @@ class Run:
     run_info: dict = field(default_factory=dict)   # attributes of /run (provenance)
     wall_time: np.ndarray | None = None            # [nt] wall seconds at each output step
     config: dict = field(default_factory=dict)     # /config: {group: {key: value}}, the resolved keys
+    identify: dict = field(default_factory=dict)   # /identify of an identification run: {dataset: array}, names as str
+    control: dict = field(default_factory=dict)    # /control of a control run: {dataset: array} + its attributes
     file: h5py.File | None = field(default=None, repr=False)  # kept open for Steps
 
     def close(self) -> None:
@@ -307,6 +323,8 @@ def read_run(path, load_velocity: bool = True) -> Run:
         mass = np.asarray(f["lattice/mass"][()]) if "lattice/mass" in f else None
         run_info = _attrs(f["run"]) if "run" in f else {}
         config = {g: _attrs(f["config"][g]) for g in f["config"]} if "config" in f else {}
+        identify = _small_group(f, "identify")
+        control = _small_group(f, "control")
         wall_time = None
         if "wall_time" in f:
             wall_time = np.asarray(f["wall_time"][:nt], dtype=np.float64)
@@ -334,8 +352,25 @@ def read_run(path, load_velocity: bool = True) -> Run:
             run_info=run_info,
             wall_time=wall_time,
             config=config,
+            identify=identify,
+            control=control,
             file=f,
         )
     except BaseException:
         f.close()
         raise
+
+
+def read_states(path) -> tuple[np.ndarray, np.ndarray]:
+    """(time [nt], position [nt][ny][nx][3]) of an observed or target file
+    (&identify observed_file, &control target_file): a nuno output file or
+    a plain HDF5 file with /time and /position."""
+    try:
+        run = read_run(path, load_velocity=False)
+    except ValueError:
+        with h5py.File(path, "r") as f:
+            if "time" not in f or "position" not in f:
+                raise ValueError(f"{path}: an observed or target file needs /time and /position") from None
+            return np.asarray(f["time"][()], float), np.asarray(f["position"][()], float)
+    with run:
+        return np.asarray(run.time, float), np.asarray(run.position)

@@ -59,7 +59,9 @@ module config
     real(rp) :: bend_angle = 30.0_rp      !< bend_release: total angle of the arc [degree]
     integer :: n_keyframes = 3            !< wave_point: number of keyframes used
     real(rp) :: keyframe_time(keyframe_max) = 0.0_rp   !< wave_point: keyframe times [time]
-    real(rp) :: keyframe_dz(keyframe_max) = 0.0_rp     !< wave_point: corner z at those times [length]
+    real(rp) :: keyframe_dx(keyframe_max) = 0.0_rp     !< wave_point: x offset of the driven nodes at those times [length]
+    real(rp) :: keyframe_dy(keyframe_max) = 0.0_rp     !< wave_point: y offset of the driven nodes at those times [length]
+    real(rp) :: keyframe_dz(keyframe_max) = 0.0_rp     !< wave_point: z offset of the driven nodes at those times [length]
     character(label_len) :: wave_nodes = 'corner'  !< wave_point: driven nodes: corner (0,0) | edge (every node of i = 0)
     real(rp) :: release_time = huge(1.0_rp)  !< time at which the scene's constraints end [time]
     real(rp) :: initial_omega(3) = 0.0_rp    !< initial rigid angular velocity about the centroid [rad/time]
@@ -79,11 +81,19 @@ module config
     real(rp) :: fit_lower(n_fit_kinds) = unset_real  !< lower bounds, in the order of fit; unset: initial / 1000
     real(rp) :: fit_upper(n_fit_kinds) = unset_real  !< upper bounds, in the order of fit; unset: initial x 1000
     real(rp) :: tikhonov = 0.0_rp              !< weight of sum (ln p - ln p_initial)^2 in the objective [length^2]
+    ! &control (docs/identification.md, "Deformation control"): present = a control run
+    character(path_len) :: target_file = ''    !< target (HDF5: /time, /position [nt][ny][nx][3], optional /velocity)
+    character(label_len) :: components = 'xyz' !< components of the keyframe path that are optimised: letters of xyz
+    real(rp) :: max_speed = unset_real         !< bound on each component of the driven nodes' speed [length/time]; unset: none
+    real(rp) :: velocity_weight = 0.0_rp       !< weight of |v - v_target|^2 beside |x - x_target|^2 [time^2]
+    real(rp) :: keyframe_tikhonov = 0.0_rp     !< weight of sum (d - d_initial)^2 over the optimised keyframe steps d [1]
 
     ! ---- derived by the input module ----
     logical :: identify = .false.         !< the input has an &identify group
     integer :: n_fit = 0                  !< parameters fitted
     integer :: fit_code(n_fit_kinds) = 0  !< their codes (index into fit_kind_names), in the order of fit
+    logical :: control = .false.          !< the input has a &control group
+    logical :: control_comp(3) = .false.  !< x, y, z of the keyframe offsets optimised (components)
     integer :: spring_code = SPRING_AXIAL
     integer :: bending_code = BEND_PAPER
     integer :: scaling_code = SCALING_ELEMENT

@@ -12,7 +12,7 @@ module constraints
   implicit none
   private
   public :: constraint_set_t, constraints_init, constraints_add, constraints_set_window
-  public :: constraint_target, constraint_events
+  public :: constraint_target, constraint_events, constraint_step_sensitivity
 
   integer, parameter, public :: PATH_FIXED = 0, PATH_KEYFRAMES = 1
 
@@ -92,6 +92,39 @@ contains
       xb = xb + cs%koff(:, m) + (t - cs%kt(m)) * vb
     end if
   end subroutine constraint_target
+
+  !> Derivatives of the prescribed position xb and velocity vb of a node on
+  !> the keyframe path (constraint_target, same window) with respect to the
+  !> step d_m = koff(c, m) - koff(c, m-1) of the path (2 <= m <= nk), with
+  !> koff(:, 1) and the other steps held: dxb_c/dd_m = sx, dvb_c/dd_m = sv
+  !> for each component c (components do not mix). With s = seg and
+  !> koff(s) = koff(1) + d_2 + ... + d_s: before the first keyframe (s = 0)
+  !> nothing depends on d_m; on segment s, xb = x0 + koff(s) + (t - kt(s)) vb
+  !> with vb = d_(s+1) / (kt(s+1) - kt(s)); after the last (s = nk) xb = x0 +
+  !> koff(nk). Module identify's deformation control (docs/identification.md).
+  pure subroutine constraint_step_sensitivity(cs, t, m, sx, sv)
+    type(constraint_set_t), intent(in) :: cs
+    real(rp), intent(in) :: t
+    integer, intent(in) :: m
+    real(rp), intent(out) :: sx, sv
+    integer :: s
+    real(rp) :: h
+    sx = 0.0_rp
+    sv = 0.0_rp
+    s = cs%seg
+    if (s == 0 .or. m < 2 .or. m > cs%nk) return
+    if (s >= cs%nk) then
+      sx = 1.0_rp
+      return
+    end if
+    h = cs%kt(s + 1) - cs%kt(s)
+    if (m <= s) then
+      sx = 1.0_rp
+    else if (m == s + 1) then
+      sx = (t - cs%kt(s)) / h
+      sv = 1.0_rp / h
+    end if
+  end subroutine constraint_step_sensitivity
 
   !> Times in (0, t_end) at which the integrator must stop: keyframes and
   !> the release time.

@@ -1,34 +1,53 @@
-!> Identification (docs/identification.md): fit model parameters to an
-!> observed motion. The objective is
-!>   J(p) = sum_k w_k sum_nodes mask_n |x_n(t_k; p) - xobs_n,k|^2
-!>          + tikhonov sum_i (ln p_i - ln p_i,initial)^2,
-!> minimised over ln p within bounds by PETSc TAO (bqnls by default), with
-!> the exact gradient of the discrete trajectory from TSAdjoint.
+!> Identification and deformation control (docs/identification.md): one
+!> forward run, one objective and one exact TSAdjoint gradient serve both.
+!>
+!> Identification fits model parameters to an observed motion: theta = ln p
+!> for the fitted p (&identify fit). Deformation control optimises the
+!> keyframe path of the driven nodes (wave_point's corner or edge, a
+!> gripper) so that the cloth reaches a target: theta = the steps
+!> d = koff(c, m) - koff(c, m-1) of the path into keyframes m = 2..nk, for
+!> the chosen components c (&control components), so that a bound on the
+!> speed of a segment, |d| <= max_speed (kt(m) - kt(m-1)), is a bound on
+!> one variable. In both,
+!>   J(theta) = sum_k w_k sum_nodes mask_n (|x_n(t_k) - xobs_n,k|^2
+!>              + velocity_weight |v_n(t_k) - vobs_n,k|^2)
+!>              + tikhonov sum_i (theta_i - theta_i,initial)^2,
+!> minimised within bounds by PETSc TAO (bqnls by default), with the exact
+!> gradient of the discrete trajectory from TSAdjoint.
 !>
 !> The time loop: one window per interval between consecutive observed
 !> times, keyframe and release times (enter_window of module timestepping
 !> fixes the constraints of each, as in solver_run). The adjoint runs the
 !> windows backward, one TSAdjointSolve of exactly that window's steps each
-!> (TSAdjointSetSteps), after adding dJ_k/dx(t_k) to lambda at the window's
+!> (TSAdjointSetSteps), after adding dJ_k/dU(t_k) to lambda at the window's
 !> end: the discrete sum of the objective enters at the observed times
 !> themselves, and every window's Jacobians see the constraint state of that
-!> window. What enter_window does to the state at a window's start (put
-!> constrained nodes on their path) needs no adjoint: the constrained rows
-!> of F do not depend on free nodes or on p, so the adjoint of the free
-!> nodes never sees lambda of constrained ones, and the initial state does
-!> not depend on p.
+!> window.
 !>
-!> dF/dp (TSSetIJacobianP, through src/nuno_adjoint.c): every force is
-!> linear in each of e_s, e_d, eta_s, eta_d, k_b, eta_b, so dF_v/d(ln p) =
-!> -f_p/m with f_p the force of the elements computed with only p non-zero
-!> (the kernels of module forces on a lattice copy); for total_mass (every
-!> node mass is proportional to it) dF_v/d(ln M) = +f/m. Constrained rows
-!> and the x-rows do not depend on p.
+!> dF/dtheta (TSSetIJacobianP, through src/nuno_adjoint.c). Identification:
+!> every force is linear in each of e_s, e_d, eta_s, eta_d, k_b, eta_b, so
+!> dF_v/d(ln p) = -f_p/m with f_p the force of the elements computed with
+!> only p non-zero (the kernels of module forces on a lattice copy); for
+!> total_mass (every node mass is proportional to it) dF_v/d(ln M) = +f/m.
+!> Control: only the x-rows of the driven nodes depend on theta, F_x =
+!> xdot - vb with vb the slope of the window's segment, so dF_x/dd =
+!> -dvb/dd (constraints: constraint_step_sensitivity).
 !>
-!> The adjoint needs the transpose of the Newton matrix: the identification
-!> runs with the assembled 6-dof Jacobian (-nuno_jacobian full), whose KSP
-!> (GMRES + ILU by default) does KSPSolveTranspose; the reduced path's
-!> PCSHELL has no transpose apply.
+!> The start of a window: enter_window puts each constrained node on its
+!> path, x = xb(ta), v = vb, forgetting the state it had. For
+!> identification nothing of that depends on p, and the lambda of
+!> constrained nodes never reaches free ones (their rows of F do not depend
+!> on free nodes), so it needs no adjoint term. For control it does depend
+!> on theta: after the window's TSAdjointSolve, lambda holds dJ/dU at the
+!> window's start, and the adjoint of the reset adds lambda_x . dxb/dd +
+!> lambda_v . dvb/dd of the driven nodes to the gradient and sets the
+!> lambda of every constrained node to zero (it would otherwise enter
+!> dF_x/dd of the window before).
+!>
+!> The adjoint needs the transpose of the Newton matrix: both run with the
+!> assembled 6-dof Jacobian (-nuno_jacobian full), whose KSP (GMRES + ILU
+!> by default) does KSPSolveTranspose; the reduced path's PCSHELL has no
+!> transpose apply.
 module identify
 #include "petsc/finclude/petscts.h"
 #include "petsc/finclude/petsctao.h"
@@ -38,37 +57,54 @@ module identify
   use mpi
   use hdf5
   use, intrinsic :: iso_fortran_env, only: output_unit
-  use, intrinsic :: iso_c_binding, only: c_null_char
+  use, intrinsic :: iso_c_binding, only: c_null_char, c_int
   use kinds, only: rp
-  use config, only: nuno_config, n_fit_kinds, fit_kind_names
+  use config, only: nuno_config, fit_kind_names, unset_real
   use lattice, only: lattice_t, lattice_init
   use forces, only: internal_forces
   use scenes, only: scene_setup
-  use constraints, only: constraint_events
+  use constraints, only: constraint_events, constraint_step_sensitivity, PATH_KEYFRAMES
   use timestepping, only: app_ctx, enter_window
   implicit none
   private
-  public :: ident_t, identify_prepare_options, identify_run, identify_result
+  public :: ident_t, identify_prepare_options, identify_run, identify_result, control_result
 
-  !> Step of the central differences in ln p: the Gauss-Newton Hessian
-  !> (uncertainty) and -identify_check_gradient.
-  real(rp), parameter :: FD_STEP = 1.0e-4_rp
+  integer, parameter :: MODE_IDENTIFY = 1, MODE_CONTROL = 2
+  !> Step of the central differences (the Gauss-Newton Hessian of the
+  !> uncertainty, -identify_check_gradient): in ln p; for control in the
+  !> keyframe positions, times the cloth size max(lx, ly).
+  real(rp), parameter :: FD_STEP = 1.0e-4_rp, FD_STEP_LENGTH = 1.0e-5_rp
+  !> No bound: TAO's PETSC_INFINITY (PETSC_MAX_REAL / 4; no Fortran name in 3.18).
+  real(rp), parameter :: NO_BOUND = huge(1.0_rp) / 4
+  character(len=1), parameter :: XYZ(3) = ['x', 'y', 'z']
 
-  !> Everything the TAO and TS callbacks of an identification need.
+  !> Everything the TAO and TS callbacks of an identification or a control need.
   type :: ident_t
     type(app_ctx), pointer :: app => null()
-    integer :: np = 0                             !< fitted parameters
-    integer :: code(n_fit_kinds) = 0              !< their codes (config: fit_kind_names)
-    real(rp) :: logp0(n_fit_kinds) = 0            !< ln of the initial guess
-    real(rp) :: lo(n_fit_kinds) = 0, hi(n_fit_kinds) = 0   !< ln of the bounds
-    real(rp) :: logp(n_fit_kinds) = 0             !< current ln p
-    real(rp) :: tikhonov = 0
-    ! observation (owned rows only)
+    integer :: mode = MODE_IDENTIFY
+    character(len=8) :: tag = 'identify'          !< prefix of the printed lines: identify | control
+    integer :: np = 0                             !< TAO variables theta
+    real(rp), allocatable :: theta0(:), theta(:)  !< (np) initial and current theta
+    real(rp), allocatable :: lo(:), hi(:)         !< (np) bounds of theta
+    real(rp) :: tikhonov = 0                      !< weight of sum (theta - theta0)^2
+    real(rp) :: fd_step = FD_STEP                 !< step of the central differences in theta
+    ! identification: theta = ln p
+    integer, allocatable :: code(:)               !< (np) parameter codes (config: fit_kind_names)
+    real(rp), allocatable :: unc(:)               !< (np) 1-sigma uncertainty of the fitted values [their units]
+    ! control: theta(k) = step of component kc(k) into keyframe km(k)
+    integer, allocatable :: km(:), kc(:)          !< (np) keyframe 2..nk, component 1..3
+    integer :: nk = 0                             !< keyframes of the path
+    real(rp), allocatable :: kt(:)                !< (nk) keyframe times [time]
+    real(rp), allocatable :: koff0(:, :)          !< (3, nk) initial keyframe offsets [length]
+    real(rp) :: vweight = 0                       !< weight of the velocity term [time^2]
+    ! observation or target (owned rows only)
     integer :: nt = 0                             !< observed times used (t > 0)
     real(rp), allocatable :: tobs(:), wt(:)       !< (nt) times [time], weights [1]
     real(rp), allocatable :: xobs(:, :, :, :)     !< (3, 0:nx-1, ys:ye, nt) observed positions [length]
+    real(rp), allocatable :: vobs(:, :, :, :)     !< as xobs, velocities [length/time] (vweight > 0 only)
     real(rp), allocatable :: mask(:, :)           !< (0:nx-1, ys:ye) node weights (markers) [1]
     real(rp), allocatable :: res(:, :, :, :)      !< x - xobs of the last forward run, as xobs
+    real(rp), allocatable :: resv(:, :, :, :)     !< v - vobs of the last forward run (vweight > 0 only)
     real(rp) :: nobs = 0                          !< scalar observations with weight > 0 (all ranks)
     ! time windows: [wa, wb], observation index at wb (0: none), TS step at wb
     integer :: nw = 0
@@ -76,13 +112,14 @@ module identify
     integer, allocatable :: wobs(:)
     PetscInt, allocatable :: wsteps(:)
     ! PETSc objects of the adjoint
-    type(tMat) :: jacp                            !< dF/d(ln p), dense, np columns on rank 0
-    type(tVec) :: lam(1), mu(1)                   !< cost gradients w.r.t. the state and ln p
+    type(tMat) :: jacp                            !< dF/dtheta, dense, np columns on rank 0
+    type(tVec) :: lam(1), mu(1)                   !< cost gradients w.r.t. the state and theta
     ! results
     real(rp) :: objective = 0, objective_data = 0
-    real(rp) :: unc(n_fit_kinds) = 0              !< 1-sigma uncertainty of the fitted values [their units]
+    integer :: nrow = 0                           !< values per history row after the objective
     integer :: nhist = 0
-    real(rp), allocatable :: hist(:, :)           !< (0:np, nhist): objective, fitted values per TAO iteration
+    real(rp), allocatable :: hist(:, :)           !< (0:nrow, nhist): objective, then the fitted values
+                                                  !< (identify) or the keyframe offsets (3, nk) (control)
     ! cost measurements
     integer :: n_forward = 0, n_adjoint = 0
     real(rp) :: t_forward = 0, t_adjoint = 0      !< wall-clock seconds of all forward / adjoint sweeps
@@ -113,6 +150,13 @@ module identify
       character(*) :: dirname
       PetscErrorCode :: ierr
     end subroutine nuno_ts_trajectory_fresh
+    !> src/nuno_adjoint.c: -identify_check_gradient, -control_check_gradient (in -help).
+    integer(c_int) function nuno_adjoint_options_read(fcomm, check_identify, check_control) &
+        bind(C, name='nuno_adjoint_options_read')
+      import :: c_int
+      integer(c_int), value :: fcomm
+      integer(c_int), intent(out) :: check_identify, check_control
+    end function nuno_adjoint_options_read
   end interface
 
 contains
@@ -144,38 +188,47 @@ contains
     end subroutine default_option
   end subroutine identify_prepare_options
 
-  !> The identification: read the observation, fit with TAO, estimate the
-  !> uncertainty; on return ctx holds the fitted parameters and the initial
-  !> state, ready for solver_run to write the fitted motion. ierr = 1 with
-  !> errmsg: a collective error (bad observation, failed forward run); ierr
-  !> > 1: a PETSc error. done: nothing more to do (-identify_check_gradient).
+  !> The identification (&identify) or the control (&control): read the
+  !> observation or target, optimise with TAO (identification: estimate the
+  !> uncertainty too); on return ctx holds the fitted parameters or the
+  !> optimised keyframes and the initial state, ready for solver_run to
+  !> write the resulting motion. ierr = 1 with errmsg: a collective error
+  !> (bad observation, failed forward run); ierr > 1: a PETSc error. done:
+  !> nothing more to do (-identify_check_gradient, -control_check_gradient).
   subroutine identify_run(id, ctx, done, ierr, errmsg)
     type(ident_t), intent(inout), target :: id
     type(app_ctx), intent(inout), target :: ctx
     logical, intent(out) :: done
     PetscErrorCode, intent(out) :: ierr
     character(*), intent(out) :: errmsg
-    PetscBool :: check
-    PetscErrorCode :: e
+    integer(c_int) :: check_identify, check_control
 
     done = .false.
     errmsg = ''
     id%app => ctx
+    ierr = nuno_adjoint_options_read(ctx%comm, check_identify, check_control)
+    if (ierr /= 0) return
     call setup(id, ierr, errmsg)
     if (ierr /= 0) return
-    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-identify_check_gradient', check, e))
-    if (check) then
+    ! The two names are one check (each reads better in its own input).
+    if (check_identify /= 0 .or. check_control /= 0) then
       call check_gradient(id, ierr, errmsg)
       done = .true.
     else
       call fit(id, ierr, errmsg)
-      if (ierr == 0) call uncertainty(id, ierr, errmsg)
+      if (ierr == 0) then
+        if (id%mode == MODE_IDENTIFY) then
+          call uncertainty(id, ierr, errmsg)
+        else
+          call final_objective(id, ierr, errmsg)
+        end if
+      end if
       if (ierr == 0) call report(id)
     end if
     if (ierr == 1 .and. len_trim(id%fail_msg) > 0) errmsg = id%fail_msg
     if (ierr /= 0) return
-    ! The fitted motion, from t = 0, for solver_run.
-    call reset_state(id, id%logp, ierr)
+    ! The resulting motion, from t = 0, for solver_run.
+    call reset_state(id, id%theta, ierr)
     if (ierr /= 0) ierr = 2
   end subroutine identify_run
 
@@ -192,19 +245,16 @@ contains
     integer :: k, w
 
     app => id%app
-    id%np = app%cfg%n_fit
-    id%code(1:id%np) = app%cfg%fit_code(1:id%np)
-    do k = 1, id%np
-      id%logp0(k) = log(param_value(app%cfg, id%code(k)))
-      id%lo(k) = log(app%cfg%fit_lower(k))
-      id%hi(k) = log(app%cfg%fit_upper(k))
-    end do
-    id%logp = id%logp0
-    id%tikhonov = app%cfg%tikhonov
-    id%traj_dir = trim(app%cfg%output_file)//'.adjoint'
-
-    call read_observation(id, trim(app%cfg%observed_file), ierr, errmsg)
+    if (app%cfg%control) then
+      call setup_control(id, app%cfg)
+      call read_observation(id, trim(app%cfg%target_file), 'control', 'target_file', ierr, errmsg)
+    else
+      call setup_identify(id, app%cfg)
+      call read_observation(id, trim(app%cfg%observed_file), 'identify', 'observed_file', ierr, errmsg)
+    end if
     if (ierr /= 0) return
+    id%theta = id%theta0
+    id%traj_dir = trim(app%cfg%output_file)//'.adjoint'
 
     ! Windows: every observed time, keyframe and release time up to the last observation.
     tmax = id%tobs(id%nt)
@@ -226,9 +276,13 @@ contains
     id%wsteps = 0
     allocate(id%res, mold=id%xobs)
     id%res = 0.0_rp
-    allocate(id%hist(0:id%np, 0))
+    if (id%vweight > 0.0_rp) then
+      allocate(id%resv, mold=id%xobs)
+      id%resv = 0.0_rp
+    end if
+    allocate(id%hist(0:id%nrow, 0))
 
-    ! dF/d(ln p): dense, the state's rows, np columns kept on rank 0 (the
+    ! dF/dtheta: dense, the state's rows, np columns kept on rank 0 (the
     ! layout of TAO's vector).
     nloc = 6 * app%lat%nx * (app%lat%ye - app%lat%ys + 1)
     np = id%np
@@ -244,11 +298,76 @@ contains
     call nuno_ts_set_ijacobianp(app%ts, id%jacp, ident_ijacobianp, id, ierr)
     if (ierr /= 0) return
     if (app%rank == 0) then
-      write(output_unit, '(a,i0,a,i0,a,i0,a)') 'identify  : ', id%np, ' parameter(s), ', id%nt, &
-        ' observed times, ', id%nw, ' time windows; '//trim(app%cfg%observed_file)
+      if (id%mode == MODE_CONTROL) then
+        write(output_unit, '(a,i0,a,i0,a,i0,a,i0,a)') 'control   : ', id%np, ' variable(s) (the steps of ', id%nk, &
+          ' keyframes in '//trim(app%cfg%components)//'), ', id%nt, ' target time(s), ', id%nw, &
+          ' time windows; '//trim(app%cfg%target_file)
+      else
+        write(output_unit, '(a,i0,a,i0,a,i0,a)') 'identify  : ', id%np, ' parameter(s), ', id%nt, &
+          ' observed times, ', id%nw, ' time windows; '//trim(app%cfg%observed_file)
+      end if
       flush(output_unit)
     end if
   end subroutine setup
+
+  !> &identify: theta = ln p of the fitted parameters, within ln of the bounds.
+  subroutine setup_identify(id, cfg)
+    type(ident_t), intent(inout) :: id
+    type(nuno_config), intent(in) :: cfg
+    integer :: k
+    id%mode = MODE_IDENTIFY
+    id%tag = 'identify'
+    id%np = cfg%n_fit
+    id%code = cfg%fit_code(1:id%np)
+    allocate(id%theta0(id%np), id%lo(id%np), id%hi(id%np), id%unc(id%np))
+    do k = 1, id%np
+      id%theta0(k) = log(param_value(cfg, id%code(k)))
+      id%lo(k) = log(cfg%fit_lower(k))
+      id%hi(k) = log(cfg%fit_upper(k))
+    end do
+    id%unc = 0.0_rp
+    id%tikhonov = cfg%tikhonov
+    id%fd_step = FD_STEP
+    id%nrow = id%np
+  end subroutine setup_identify
+
+  !> &control: theta = the steps of the chosen components into keyframes
+  !> 2..nk (keyframe-major), bounded by max_speed times the segment's
+  !> duration when it is set; the first keyframe stays as given.
+  subroutine setup_control(id, cfg)
+    type(ident_t), intent(inout) :: id
+    type(nuno_config), intent(in) :: cfg
+    integer :: m, c, k
+    real(rp) :: bound
+    id%mode = MODE_CONTROL
+    id%tag = 'control'
+    id%nk = cfg%n_keyframes
+    id%kt = cfg%keyframe_time(1:id%nk)
+    allocate(id%koff0(3, id%nk))
+    id%koff0(1, :) = cfg%keyframe_dx(1:id%nk)
+    id%koff0(2, :) = cfg%keyframe_dy(1:id%nk)
+    id%koff0(3, :) = cfg%keyframe_dz(1:id%nk)
+    id%np = (id%nk - 1) * count(cfg%control_comp)
+    allocate(id%km(id%np), id%kc(id%np), id%theta0(id%np), id%lo(id%np), id%hi(id%np))
+    k = 0
+    do m = 2, id%nk
+      bound = NO_BOUND
+      if (cfg%max_speed /= unset_real) bound = cfg%max_speed * (id%kt(m) - id%kt(m - 1))
+      do c = 1, 3
+        if (.not. cfg%control_comp(c)) cycle
+        k = k + 1
+        id%km(k) = m
+        id%kc(k) = c
+        id%theta0(k) = id%koff0(c, m) - id%koff0(c, m - 1)
+        id%lo(k) = -bound
+        id%hi(k) = bound
+      end do
+    end do
+    id%tikhonov = cfg%keyframe_tikhonov
+    id%vweight = cfg%velocity_weight
+    id%fd_step = FD_STEP_LENGTH * max(cfg%lx, cfg%ly)
+    id%nrow = 3 * id%nk
+  end subroutine setup_control
 
   !> Sort ascending and drop values within eps of the previous one.
   subroutine sort_unique(a, eps)
@@ -280,18 +399,21 @@ contains
   !> The observed motion: /time [nt] and /position [nt][ny][nx][3] (the
   !> layout of nuno's own output, model.md section 9), optional /mask
   !> [ny][nx] (node weights: 1 at an observed marker, 0 elsewhere) and
-  !> /weight [nt] (per time). Times <= 0 are left out (the initial state
-  !> does not depend on the parameters). Every rank reads its own rows; the
+  !> /weight [nt] (per time), and /velocity [nt][ny][nx][3] where the
+  !> objective weighs velocities (&control velocity_weight; absent: zero,
+  !> the cloth at rest). Times <= 0 are left out (the initial positions do
+  !> not depend on the parameters). Every rank reads its own rows; the
   !> checks are the same on every rank and the error flag is agreed.
-  subroutine read_observation(id, path, ierr, errmsg)
+  subroutine read_observation(id, path, group, key, ierr, errmsg)
     type(ident_t), intent(inout) :: id
     character(*), intent(in) :: path
+    character(*), intent(in) :: group, key    !< the namelist key that names the file, for messages
     PetscErrorCode, intent(out) :: ierr
     character(*), intent(out) :: errmsg
     integer(hid_t) :: file, dset, space, mspace
     integer(hsize_t) :: dims(4), maxdims(4), start(4), cnt(4)
     integer :: h, ndims, nx, ny, ys, nyl, ntall, k, n, e, mpierr
-    real(rp), allocatable :: tall(:), wall(:), pall(:, :, :, :), m2(:, :)
+    real(rp), allocatable :: tall(:), wall(:), pall(:, :, :, :), vall(:, :, :, :), m2(:, :)
     logical :: exists, have_mask, have_weight
     character(len=:), allocatable :: where
 
@@ -299,8 +421,9 @@ contains
     ny = id%app%lat%ny
     ys = id%app%lat%ys
     nyl = id%app%lat%ye - ys + 1
-    where = "&identify: observed_file '"//path//"'"
+    where = '&'//group//': '//key//" '"//path//"'"
     e = 0
+    ntall = 0          ! sizes the /weight buffer even when /time was never read
     errmsg = ''
     file = -1
     call h5open_f(h)
@@ -327,28 +450,13 @@ contains
       if (h < 0) call bad('cannot read /time')
       call h5dclose_f(dset, h)
     end if
-    ! /position, this rank's rows
-    if (e == 0) call open_dset('/position', 4, .true.)
+    ! /position, this rank's rows; /velocity (optional) as /position, when
+    ! the objective has a velocity term (control's velocity_weight)
+    if (e == 0) call read_states('/position', pall, .true.)
     if (e == 0) then
-      if (dims(1) /= 3 .or. dims(2) /= nx .or. dims(3) /= ny .or. dims(4) /= ntall) then
-        write(errmsg, '(a,4(i0,a),3(i0,a))') 'input: '//where//': /position is [', dims(4), '][', dims(3), '][', &
-          dims(2), '][', dims(1), '] but the run needs [nt][ny][nx][3] = [', ntall, '][', ny, '][', nx, &
-          '][3] (nt from /time, the lattice from &lattice)'
-        e = 1
-      end if
-    end if
-    if (e == 0) then
-      allocate(pall(3, 0:nx - 1, ys:ys + nyl - 1, ntall))
-      start = [0_hsize_t, 0_hsize_t, int(ys, hsize_t), 0_hsize_t]
-      cnt = [3_hsize_t, int(nx, hsize_t), int(nyl, hsize_t), int(ntall, hsize_t)]
-      call h5dget_space_f(dset, space, h)
-      call h5sselect_hyperslab_f(space, H5S_SELECT_SET_F, start, cnt, h)
-      call h5screate_simple_f(4, cnt, mspace, h)
-      call h5dread_f(dset, H5T_NATIVE_DOUBLE, pall, cnt, h, mspace, space)
-      if (h < 0) call bad('cannot read /position')
-      call h5sclose_f(mspace, h)
-      call h5sclose_f(space, h)
-      call h5dclose_f(dset, h)
+      allocate(vall(3, 0:nx - 1, ys:ys + nyl - 1, ntall))
+      vall = 0.0_rp
+      if (id%vweight > 0.0_rp) call read_states('/velocity', vall, .false.)
     end if
     ! optional /mask and /weight
     allocate(m2(0:nx - 1, 0:ny - 1))
@@ -397,9 +505,9 @@ contains
       else if (count_pos(tall) == 0) then
         e = 1
         errmsg = 'input: '//where//': no observed time > 0'
-      else if (any(pall /= pall)) then
+      else if (any(pall /= pall) .or. any(vall /= vall)) then
         e = 1
-        errmsg = 'input: '//where//': /position holds NaN'
+        errmsg = 'input: '//where//': /position or /velocity holds NaN'
       end if
     end if
     ! One decision for all ranks.
@@ -413,6 +521,7 @@ contains
     n = count_pos(tall)
     id%nt = n
     allocate(id%tobs(n), id%wt(n), id%xobs(3, 0:nx - 1, ys:ys + nyl - 1, n))
+    if (id%vweight > 0.0_rp) allocate(id%vobs, mold=id%xobs)
     n = 0
     do k = 1, ntall
       if (tall(k) <= 0.0_rp) cycle
@@ -420,6 +529,7 @@ contains
       id%tobs(n) = tall(k)
       id%wt(n) = wall(k)
       id%xobs(:, :, :, n) = pall(:, :, :, k)
+      if (id%vweight > 0.0_rp) id%vobs(:, :, :, n) = vall(:, :, :, k)
     end do
     allocate(id%mask(0:nx - 1, ys:ys + nyl - 1))
     id%mask = m2(:, ys:ys + nyl - 1)
@@ -435,6 +545,39 @@ contains
       e = 1
       errmsg = 'input: '//where//': '//what
     end subroutine bad
+    !> A [nt][ny][nx][3] dataset like /position, this rank's rows, into a
+    !> (3, 0:nx-1, ys:ye, nt); left as it is when absent and not required.
+    subroutine read_states(name, a, required)
+      character(*), intent(in) :: name
+      real(rp), allocatable, intent(inout) :: a(:, :, :, :)
+      logical, intent(in) :: required
+      logical :: ex
+      if (.not. required) then
+        call h5lexists_f(file, name, ex, h)
+        if (h < 0 .or. .not. ex) return
+      end if
+      call open_dset(name, 4, .true.)
+      if (e /= 0) return
+      if (dims(1) /= 3 .or. dims(2) /= nx .or. dims(3) /= ny .or. dims(4) /= ntall) then
+        write(errmsg, '(a,4(i0,a),3(i0,a))') 'input: '//where//': '//name//' is [', dims(4), '][', dims(3), '][', &
+          dims(2), '][', dims(1), '] but the run needs [nt][ny][nx][3] = [', ntall, '][', ny, '][', nx, &
+          '][3] (nt from /time, the lattice from &lattice)'
+        e = 1
+        call h5dclose_f(dset, h)
+        return
+      end if
+      if (.not. allocated(a)) allocate(a(3, 0:nx - 1, ys:ys + nyl - 1, ntall))
+      start = [0_hsize_t, 0_hsize_t, int(ys, hsize_t), 0_hsize_t]
+      cnt = [3_hsize_t, int(nx, hsize_t), int(nyl, hsize_t), int(ntall, hsize_t)]
+      call h5dget_space_f(dset, space, h)
+      call h5sselect_hyperslab_f(space, H5S_SELECT_SET_F, start, cnt, h)
+      call h5screate_simple_f(4, cnt, mspace, h)
+      call h5dread_f(dset, H5T_NATIVE_DOUBLE, a, cnt, h, mspace, space)
+      if (h < 0) call bad('cannot read '//name)
+      call h5sclose_f(mspace, h)
+      call h5sclose_f(space, h)
+      call h5dclose_f(dset, h)
+    end subroutine read_states
     subroutine open_dset(name, rank, required)
       character(*), intent(in) :: name
       integer, intent(in) :: rank
@@ -497,25 +640,70 @@ contains
     end select
   end subroutine set_param
 
-  !> Parameters exp(logp) into the configuration and the lattice (masses,
-  !> constants), the scene's initial state into the state vector, the TS
-  !> back at t = 0 with a fresh trajectory. Collective.
-  subroutine reset_state(id, logp, ierr)
+  !> Control: the keyframe offsets (3, nk) [length] of theta: the first
+  !> keyframe and the components not optimised as given, the others the
+  !> sums of the steps.
+  pure function keyframes(id, theta) result(off)
+    type(ident_t), intent(in) :: id
+    real(rp), intent(in) :: theta(:)
+    real(rp) :: off(3, id%nk)
+    integer :: k
+    off = id%koff0
+    do k = 1, id%np                 ! keyframe-major: keyframe km(k) - 1 is already set
+      off(id%kc(k), id%km(k)) = off(id%kc(k), id%km(k) - 1) + theta(k)
+    end do
+  end function keyframes
+
+  !> The values a history row holds after the objective: the fitted values
+  !> (identify) or the keyframe offsets (control).
+  function row_values(id, theta) result(v)
+    type(ident_t), intent(in) :: id
+    real(rp), intent(in) :: theta(:)
+    real(rp) :: v(id%nrow)
+    if (id%mode == MODE_CONTROL) then
+      v = reshape(keyframes(id, theta), [id%nrow])
+    else
+      v = exp(theta(1:id%np))
+    end if
+  end function row_values
+
+  !> theta into the configuration: the parameters exp(theta), or the
+  !> keyframe offsets of the path.
+  subroutine apply_theta(id, theta, cfg)
+    type(ident_t), intent(in) :: id
+    real(rp), intent(in) :: theta(:)
+    type(nuno_config), intent(inout) :: cfg
+    real(rp) :: off(3, id%nk)
+    integer :: k
+    if (id%mode == MODE_CONTROL) then
+      off = keyframes(id, theta)
+      cfg%keyframe_dx(1:id%nk) = off(1, :)
+      cfg%keyframe_dy(1:id%nk) = off(2, :)
+      cfg%keyframe_dz(1:id%nk) = off(3, :)
+    else
+      do k = 1, id%np
+        call set_param(cfg, id%code(k), exp(theta(k)))
+      end do
+      cfg%has_damping = cfg%eta_s > 0.0_rp .or. cfg%eta_d > 0.0_rp
+    end if
+  end subroutine apply_theta
+
+  !> theta into the configuration and the lattice (masses, constants) or
+  !> the constraints (keyframe path), the scene's initial state into the
+  !> state vector, the TS back at t = 0 with a fresh trajectory. Collective.
+  subroutine reset_state(id, theta, ierr)
     type(ident_t), intent(inout) :: id
-    real(rp), intent(in) :: logp(:)
+    real(rp), intent(in) :: theta(:)
     PetscErrorCode, intent(out) :: ierr
     type(app_ctx), pointer :: app
     PetscScalar, pointer :: ua(:, :, :)
-    integer :: k, ys, ye
+    integer :: ys, ye
     PetscInt, parameter :: zero = 0
     PetscReal :: horizon
     PetscInt :: nw
 
     app => id%app
-    do k = 1, id%np
-      call set_param(app%cfg, id%code(k), exp(logp(k)))
-    end do
-    app%cfg%has_damping = app%cfg%eta_s > 0.0_rp .or. app%cfg%eta_d > 0.0_rp
+    call apply_theta(id, theta, app%cfg)
     ys = app%lat%ys
     ye = app%lat%ye
     call lattice_init(app%lat, app%cfg, ys, ye)
@@ -532,7 +720,7 @@ contains
       ierr = 1
       id%failed = .true.
       id%fail_msg = '-ts_trajectory_type memory: PETSc 3.18 cannot checkpoint in memory across the '// &
-        'identification''s time windows (observed, keyframe and release times); use basic (the default)'
+        trim(id%tag)//' run''s time windows (observed, keyframe and release times); use basic (the default)'
       return
     end if
     if (ierr /= 0) return
@@ -546,12 +734,12 @@ contains
 
   ! ------------------------------------------------------ forward, adjoint
 
-  !> One forward run at ln p = logp over all windows, saving the trajectory;
-  !> the objective f and the residuals x - xobs at the observed times.
-  !> A failed step sets id%failed (f = huge). Collective.
-  subroutine forward(id, logp, f, ierr)
+  !> One forward run at theta over all windows, saving the trajectory; the
+  !> objective f and the residuals x - xobs (v - vobs) at the observed
+  !> times. A failed step sets id%failed (f = huge). Collective.
+  subroutine forward(id, theta, f, ierr)
     type(ident_t), intent(inout) :: id
-    real(rp), intent(in) :: logp(:)
+    real(rp), intent(in) :: theta(:)
     real(rp), intent(out) :: f
     PetscErrorCode, intent(out) :: ierr
     type(app_ctx), pointer :: app
@@ -563,7 +751,7 @@ contains
 
     app => id%app
     wall0 = MPI_Wtime()
-    call reset_state(id, logp, ierr)
+    call reset_state(id, theta, ierr)
     if (ierr /= 0) return
     PetscCall(PetscMallocGetCurrentUsage(mem0, ierr))
     id%failed = .false.
@@ -589,8 +777,8 @@ contains
       PetscCall(TSGetTime(app%ts, t, ierr))
       if (reason < 0 .or. abs(t - id%wb(w)) > 1.0e3_rp * eps) then
         id%failed = .true.
-        if (app%rank == 0) write(output_unit, '(a,i0,a,es14.6,a,es14.6)') 'identify: forward run stopped (TSConvergedReason ', &
-          reason, ') at t = ', t, ' in the window ending at ', id%wb(w)
+        if (app%rank == 0) write(output_unit, '(a,i0,a,es14.6,a,es14.6)') trim(id%tag)// &
+          ': forward run stopped (TSConvergedReason ', reason, ') at t = ', t, ' in the window ending at ', id%wb(w)
         exit
       end if
       t = id%wb(w)
@@ -603,6 +791,10 @@ contains
           do i = 0, app%lat%nx - 1
             id%res(:, i, j, k) = ua(0:2, i, j) - id%xobs(:, i, j, k)
             floc = floc + id%wt(k) * id%mask(i, j) * sum(id%res(:, i, j, k)**2)
+            if (id%vweight > 0.0_rp) then
+              id%resv(:, i, j, k) = ua(3:5, i, j) - id%vobs(:, i, j, k)
+              floc = floc + id%wt(k) * id%mask(i, j) * id%vweight * sum(id%resv(:, i, j, k)**2)
+            end if
           end do
         end do
         PetscCall(DMDAVecRestoreArrayReadF90(app%da, app%u, ua, ierr))
@@ -617,33 +809,34 @@ contains
     id%traj_disk_bytes = real(id%wsteps(id%nw) + 1, rp) * 96.0_rp * real(app%lat%nx, rp) * real(app%lat%ny, rp)
     call MPI_Allreduce(floc, f, 1, MPI_DOUBLE_PRECISION, MPI_SUM, app%comm, mpierr)
     id%objective_data = f
-    f = f + id%tikhonov * sum((logp(1:id%np) - id%logp0(1:id%np))**2)
+    f = f + id%tikhonov * sum((theta(1:id%np) - id%theta0)**2)
     if (id%failed) f = huge(1.0_rp)
     id%nsteps = int(id%wsteps(id%nw))
     id%n_forward = id%n_forward + 1
     id%t_forward = id%t_forward + (MPI_Wtime() - wall0)
   end subroutine forward
 
-  !> Objective and its exact gradient with respect to ln p (one forward
+  !> Objective and its exact gradient with respect to theta (one forward
   !> run, then the adjoint backward over the windows). Collective.
-  subroutine objective_gradient(id, logp, f, g, ierr)
+  subroutine objective_gradient(id, theta, f, g, ierr)
     type(ident_t), intent(inout) :: id
-    real(rp), intent(in) :: logp(:)
+    real(rp), intent(in) :: theta(:)
     real(rp), intent(out) :: f, g(:)
     PetscErrorCode, intent(out) :: ierr
     type(app_ctx), pointer :: app
     PetscScalar, pointer :: la(:, :, :), ma(:)
     PetscInt :: nsteps
-    real(rp) :: dke, wall0
+    real(rp) :: dke, wall0, greset(id%np)
     integer :: w, k, j, i, mpierr
     PetscInt, parameter :: one = 1
 
     app => id%app
-    call forward(id, logp, f, ierr)
+    call forward(id, theta, f, ierr)
     if (ierr /= 0) return
     g = 0.0_rp
     if (id%failed) return
     wall0 = MPI_Wtime()
+    greset = 0.0_rp
     PetscCall(VecZeroEntries(id%lam(1), ierr))
     PetscCall(VecZeroEntries(id%mu(1), ierr))
     PetscCall(TSSetCostGradients(app%ts, one, id%lam(1), id%mu(1), ierr))
@@ -654,6 +847,8 @@ contains
         do j = app%lat%ys, app%lat%ye
           do i = 0, app%lat%nx - 1
             la(0:2, i, j) = la(0:2, i, j) + 2.0_rp * id%wt(k) * id%mask(i, j) * id%res(:, i, j, k)
+            if (id%vweight > 0.0_rp) la(3:5, i, j) = la(3:5, i, j) + &
+              2.0_rp * id%wt(k) * id%mask(i, j) * id%vweight * id%resv(:, i, j, k)
           end do
         end do
         PetscCall(DMDAVecRestoreArrayF90(app%da, id%lam(1), la, ierr))
@@ -664,6 +859,10 @@ contains
       nsteps = id%wsteps(w) - id%wsteps(w - 1)
       PetscCall(TSAdjointSetSteps(app%ts, nsteps, ierr))
       PetscCall(TSAdjointSolve(app%ts, ierr))
+      if (id%mode == MODE_CONTROL) then
+        call reset_adjoint(id, id%wa(w), greset, ierr)
+        if (ierr /= 0) return
+      end if
     end do
     if (app%rank == 0) then
       PetscCall(VecGetArrayReadF90(id%mu(1), ma, ierr))
@@ -671,12 +870,48 @@ contains
       PetscCall(VecRestoreArrayReadF90(id%mu(1), ma, ierr))
     end if
     call MPI_Bcast(g, id%np, MPI_DOUBLE_PRECISION, 0, app%comm, mpierr)
-    g(1:id%np) = g(1:id%np) + 2.0_rp * id%tikhonov * (logp(1:id%np) - id%logp0(1:id%np))
+    call MPI_Allreduce(MPI_IN_PLACE, greset, id%np, MPI_DOUBLE_PRECISION, MPI_SUM, app%comm, mpierr)
+    g(1:id%np) = g(1:id%np) + greset + 2.0_rp * id%tikhonov * (theta(1:id%np) - id%theta0)
     id%n_adjoint = id%n_adjoint + 1
     id%t_adjoint = id%t_adjoint + (MPI_Wtime() - wall0)
   end subroutine objective_gradient
 
-  !> TSSetIJacobianP callback: A = dF/d(ln p) at U (see the module header).
+  !> Control: the adjoint of enter_window at the start ta of a window whose
+  !> TSAdjointSolve has just run (lambda = dJ/dU there, the window's
+  !> constraint state still set). There x = xb(ta) and v = vb of every
+  !> constrained node, whatever they were before: g gets lambda_x . dxb/dd
+  !> + lambda_v . dvb/dd of the driven nodes (this rank's part), and the
+  !> lambda of every constrained node becomes 0.
+  subroutine reset_adjoint(id, ta, g, ierr)
+    type(ident_t), intent(inout) :: id
+    real(rp), intent(in) :: ta
+    real(rp), intent(inout) :: g(:)
+    PetscErrorCode, intent(out) :: ierr
+    type(app_ctx), pointer :: app
+    PetscScalar, pointer :: la(:, :, :)
+    real(rp) :: sx, sv
+    integer :: n, i, j, k, c
+
+    app => id%app
+    ierr = 0
+    if (.not. app%cs%active) return
+    PetscCall(DMDAVecGetArrayF90(app%da, id%lam(1), la, ierr))
+    do n = 1, app%cs%n
+      i = app%cs%node(1, n)
+      j = app%cs%node(2, n)
+      if (app%cs%path(n) == PATH_KEYFRAMES) then
+        do k = 1, id%np
+          call constraint_step_sensitivity(app%cs, ta, id%km(k), sx, sv)
+          c = id%kc(k) - 1
+          g(k) = g(k) + la(c, i, j) * sx + la(3 + c, i, j) * sv
+        end do
+      end if
+      la(0:5, i, j) = 0.0_rp
+    end do
+    PetscCall(DMDAVecRestoreArrayF90(app%da, id%lam(1), la, ierr))
+  end subroutine reset_adjoint
+
+  !> TSSetIJacobianP callback: A = dF/dtheta at U (see the module header).
   subroutine ident_ijacobianp(ts, t, uvec, udotvec, shift, amat, id, ierr)
     type(tTS) :: ts
     PetscReal :: t, shift
@@ -688,16 +923,31 @@ contains
     type(lattice_t) :: lp
     type(tVec) :: uloc
     PetscScalar, pointer :: u(:, :, :), a(:, :)
-    integer :: k, i, j, r, nbad, bad(2)
-    real(rp) :: sgn
+    integer :: k, i, j, r, n, nbad, bad(2)
+    real(rp) :: sgn, sx, sv
 
     app => id%app
+    PetscCall(MatDenseGetArrayF90(amat, a, ierr))
+    a = 0.0_rp
+    if (id%mode == MODE_CONTROL) then
+      ! F_x = xdot - vb on the driven nodes: dF_x/dd = -dvb/dd.
+      if (app%cs%active) then
+        do n = 1, app%cs%n
+          if (app%cs%path(n) /= PATH_KEYFRAMES) cycle
+          r = 6 * (app%cs%node(1, n) + app%lat%nx * (app%cs%node(2, n) - app%lat%ys))
+          do k = 1, id%np
+            call constraint_step_sensitivity(app%cs, t, id%km(k), sx, sv)
+            a(r + id%kc(k), k) = -sv
+          end do
+        end do
+      end if
+      PetscCall(MatDenseRestoreArrayF90(amat, a, ierr))
+      return
+    end if
     PetscCall(DMGetLocalVector(app%da, uloc, ierr))
     PetscCall(DMGlobalToLocalBegin(app%da, uvec, INSERT_VALUES, uloc, ierr))
     PetscCall(DMGlobalToLocalEnd(app%da, uvec, INSERT_VALUES, uloc, ierr))
     PetscCall(DMDAVecGetArrayReadF90(app%da, uloc, u, ierr))
-    PetscCall(MatDenseGetArrayF90(amat, a, ierr))
-    a = 0.0_rp
     do k = 1, id%np
       lp = app%lat
       sgn = -1.0_rp
@@ -730,43 +980,68 @@ contains
 
   ! ------------------------------------------------------------ gradient check
 
-  !> -identify_check_gradient: the adjoint gradient at the initial guess
-  !> against central differences of the objective (step FD_STEP in ln p),
-  !> one line per parameter on rank 0, and the measured costs.
+  !> -identify_check_gradient (-control_check_gradient): the adjoint
+  !> gradient at the initial guess against central differences of the
+  !> objective (step fd_step; second order for identification, fourth
+  !> order for control), one line per direction on rank 0, and the
+  !> measured costs. Identification: each ln p. Control: each optimised
+  !> component of each keyframe position m = 2..nk (moving keyframe m alone
+  !> changes the steps into m and out of it: dJ/dkoff(c, m) = dJ/dd_m -
+  !> dJ/dd_(m+1)).
   subroutine check_gradient(id, ierr, errmsg)
     type(ident_t), intent(inout) :: id
     PetscErrorCode, intent(out) :: ierr
     character(*), intent(out) :: errmsg
-    real(rp) :: f, fp, fm, g(n_fit_kinds), lp(n_fit_kinds), fd, tf, wall0
-    integer :: k
+    real(rp) :: f, fp, fm, f2p, f2m, g(id%np), dir(id%np), gd, fd, tf, wall0
+    integer :: k, q
+    character(len=32) :: label
 
     wall0 = MPI_Wtime()
-    call forward(id, id%logp0, f, ierr)
+    call forward(id, id%theta0, f, ierr)
     if (ierr /= 0) return
     tf = MPI_Wtime() - wall0
     wall0 = MPI_Wtime()
-    call objective_gradient(id, id%logp0, f, g, ierr)
+    call objective_gradient(id, id%theta0, f, g, ierr)
     if (ierr /= 0) return
     if (failed_run(id, errmsg, ierr)) return
     if (id%app%rank == 0) then
-      write(output_unit, '(a,es24.16)') 'identify: objective ', f
-      write(output_unit, '(a,es12.4,a,es12.4,a,f7.3,2(a,es12.4),a,i0,a)') 'identify: cost forward_s ', tf, &
+      write(output_unit, '(a,es24.16)') trim(id%tag)//': objective ', f
+      write(output_unit, '(a,es12.4,a,es12.4,a,f7.3,2(a,es12.4),a,i0,a)') trim(id%tag)//': cost forward_s ', tf, &
         ' gradient_s ', MPI_Wtime() - wall0, ' ratio ', (MPI_Wtime() - wall0) / tf, &
         ' trajectory_memory_bytes ', id%traj_bytes, ' trajectory_file_bytes ', id%traj_disk_bytes, ' steps ', id%nsteps, ' (gradient = forward + adjoint)'
     end if
     do k = 1, id%np
-      lp = id%logp0
-      lp(k) = lp(k) + FD_STEP
-      call forward(id, lp, fp, ierr)
+      dir = 0.0_rp
+      dir(k) = 1.0_rp
+      if (id%mode == MODE_CONTROL) then
+        do q = 1, id%np
+          if (id%km(q) == id%km(k) + 1 .and. id%kc(q) == id%kc(k)) dir(q) = -1.0_rp
+        end do
+        write(label, '(a,i0,a)') 'keyframe_d'//XYZ(id%kc(k))//'(', id%km(k), ')'
+      else
+        label = fit_kind_names(id%code(k))
+      end if
+      gd = dot_product(g, dir)
+      call forward(id, id%theta0 + id%fd_step * dir, fp, ierr)
       if (ierr /= 0) return
-      lp(k) = id%logp0(k) - FD_STEP
-      call forward(id, lp, fm, ierr)
+      call forward(id, id%theta0 - id%fd_step * dir, fm, ierr)
       if (ierr /= 0) return
       if (failed_run(id, errmsg, ierr)) return
-      fd = (fp - fm) / (2.0_rp * FD_STEP)
-      if (id%app%rank == 0) write(output_unit, '(a,a,a,es24.16,a,es24.16,a,es10.3)') 'identify: gradient ', &
-        trim(fit_kind_names(id%code(k))), ' adjoint ', g(k), ' fd ', fd, ' relerr ', &
-        abs(g(k) - fd) / max(abs(fd), tiny(1.0_rp))
+      fd = (fp - fm) / (2.0_rp * id%fd_step)
+      if (id%mode == MODE_CONTROL) then
+        ! The fourth-order central difference: in-plane steps stretch
+        ! links, and the second-order one's truncation error (measured
+        ! 1e-4 relative at a step of 1e-5 lx, 1e-6 at 1e-6 lx, where
+        ! round-off begins) would hide an error of the adjoint.
+        call forward(id, id%theta0 + 2.0_rp * id%fd_step * dir, f2p, ierr)
+        if (ierr /= 0) return
+        call forward(id, id%theta0 - 2.0_rp * id%fd_step * dir, f2m, ierr)
+        if (ierr /= 0) return
+        if (failed_run(id, errmsg, ierr)) return
+        fd = (8.0_rp * (fp - fm) - (f2p - f2m)) / (12.0_rp * id%fd_step)
+      end if
+      if (id%app%rank == 0) write(output_unit, '(a,a,a,es24.16,a,es24.16,a,es10.3)') trim(id%tag)//': gradient ', &
+        trim(label), ' adjoint ', gd, ' fd ', fd, ' relerr ', abs(gd - fd) / max(abs(fd), tiny(1.0_rp))
     end do
     if (id%app%rank == 0) flush(output_unit)
   end subroutine check_gradient
@@ -780,27 +1055,52 @@ contains
     errmsg = ''
     if (failed_run) then
       ierr = 1
-      errmsg = 'identify: a forward run failed (a time step did not converge) at the parameters '// &
-               trim(values_text(id, id%logp))
+      errmsg = trim(id%tag)//': a forward run failed (a time step did not converge) at the '// &
+               merge('keyframes ', 'parameters', id%mode == MODE_CONTROL)//trim(values_text(id, id%theta))
     end if
   end function failed_run
 
-  function values_text(id, logp) result(s)
+  !> theta for messages: the fitted values, or the keyframe offsets.
+  function values_text(id, theta) result(s)
     type(ident_t), intent(in) :: id
-    real(rp), intent(in) :: logp(:)
-    character(len=512) :: s
+    real(rp), intent(in) :: theta(:)
+    character(len=2048) :: s
     character(len=32) :: b
-    integer :: k
+    real(rp) :: off(3, id%nk)
+    integer :: k, m, c
     s = ''
+    if (id%mode == MODE_CONTROL) then
+      off = keyframes(id, theta)
+      do m = 2, id%nk
+        write(b, '(i0)') m
+        s = trim(s)//' '//trim(b)//': ('
+        do c = 1, 3
+          write(b, '(es12.4e2)') off(c, m)
+          s = trim(s)//trim(adjustl(b))//merge(', ', ') ', c < 3)
+        end do
+      end do
+      return
+    end if
     do k = 1, id%np
-      write(b, '(es14.6e2)') exp(logp(k))
+      write(b, '(es14.6e2)') exp(theta(k))
       s = trim(s)//' '//trim(fit_kind_names(id%code(k)))//' = '//trim(adjustl(b))
     end do
   end function values_text
 
+  !> Control: the largest speed of a component on a segment [length/time].
+  real(rp) function max_speed_of(id, theta)
+    type(ident_t), intent(in) :: id
+    real(rp), intent(in) :: theta(:)
+    integer :: k
+    max_speed_of = 0.0_rp
+    do k = 1, id%np
+      max_speed_of = max(max_speed_of, abs(theta(k)) / (id%kt(id%km(k)) - id%kt(id%km(k) - 1)))
+    end do
+  end function max_speed_of
+
   ! --------------------------------------------------------------------- TAO
 
-  !> Minimise J over ln p within the bounds: TAO bqnls by default (a
+  !> Minimise J over theta within the bounds: TAO bqnls by default (a
   !> bound-constrained quasi-Newton), any -tao_* option.
   subroutine fit(id, ierr, errmsg)
     type(ident_t), intent(inout), target :: id
@@ -808,27 +1108,17 @@ contains
     character(*), intent(out) :: errmsg
     Tao :: tao
     type(tVec) :: x, xl, xu
-    PetscScalar, pointer :: xa(:)
     TaoConvergedReason :: reason
     PetscInt :: its
-    integer :: mpierr
     PetscInt, parameter :: maxit = 200
 
     errmsg = ''
     PetscCall(VecDuplicate(id%mu(1), x, ierr))
     PetscCall(VecDuplicate(id%mu(1), xl, ierr))
     PetscCall(VecDuplicate(id%mu(1), xu, ierr))
-    if (id%app%rank == 0) then
-      PetscCall(VecGetArrayF90(x, xa, ierr))
-      xa = id%logp0(1:id%np)
-      PetscCall(VecRestoreArrayF90(x, xa, ierr))
-      PetscCall(VecGetArrayF90(xl, xa, ierr))
-      xa = id%lo(1:id%np)
-      PetscCall(VecRestoreArrayF90(xl, xa, ierr))
-      PetscCall(VecGetArrayF90(xu, xa, ierr))
-      xa = id%hi(1:id%np)
-      PetscCall(VecRestoreArrayF90(xu, xa, ierr))
-    end if
+    call put_rank0(id, x, id%theta0, ierr); if (ierr /= 0) return
+    call put_rank0(id, xl, id%lo, ierr);    if (ierr /= 0) return
+    call put_rank0(id, xu, id%hi, ierr);    if (ierr /= 0) return
     PetscCall(TaoCreate(id%app%comm, tao, ierr))
     PetscCall(TaoSetType(tao, 'bqnls', ierr))
     PetscCall(TaoSetSolution(tao, x, ierr))
@@ -836,64 +1126,92 @@ contains
     PetscCall(TaoSetObjectiveAndGradient(tao, PETSC_NULL_VEC, tao_objgrad, id, ierr))
     PetscCall(TaoSetMonitor(tao, tao_monitor, id, PETSC_NULL_FUNCTION, ierr))
     PetscCall(TaoSetMaximumIterations(tao, maxit, ierr))
-    PetscCall(TaoSetTolerances(tao, 1.0e-10_rp, 0.0_rp, 0.0_rp, ierr))
+    ! Control also stops when |g| fell by 1e-8 from the start (the
+    ! objective by some 1e-16, its round-off floor for a target reached):
+    ! gatol alone would spend the last half of 200 iterations there.
+    if (id%mode == MODE_CONTROL) then
+      PetscCall(TaoSetTolerances(tao, 1.0e-10_rp, 0.0_rp, 1.0e-8_rp, ierr))
+    else
+      PetscCall(TaoSetTolerances(tao, 1.0e-10_rp, 0.0_rp, 0.0_rp, ierr))
+    end if
     PetscCall(TaoSetFromOptions(tao, ierr))
     PetscCall(TaoSolve(tao, ierr))
     PetscCall(TaoGetConvergedReason(tao, reason, ierr))
     PetscCall(TaoGetIterationNumber(tao, its, ierr))
-    if (id%app%rank == 0) then
-      PetscCall(VecGetArrayReadF90(x, xa, ierr))
-      id%logp(1:id%np) = xa
-      PetscCall(VecRestoreArrayReadF90(x, xa, ierr))
-    end if
-    call MPI_Bcast(id%logp, id%np, MPI_DOUBLE_PRECISION, 0, id%app%comm, mpierr)
+    call get_rank0(id, x, id%theta, ierr)
+    if (ierr /= 0) return
     PetscCall(TaoDestroy(tao, ierr))
     PetscCall(VecDestroy(xu, ierr))
     PetscCall(VecDestroy(xl, ierr))
     PetscCall(VecDestroy(x, ierr))
     if (id%app%rank == 0) then
-      write(output_unit, '(a,i0,a,i0,a)') 'identify: TAO stopped after ', its, ' iterations (TaoConvergedReason ', &
-        reason, ')'
+      write(output_unit, '(a,i0,a,i0,a)') trim(id%tag)//': TAO stopped after ', its, &
+        ' iterations (TaoConvergedReason ', reason, ')'
       flush(output_unit)
     end if
     if (id%failed .or. reason < 0) then
       ! A diverged TAO still returns its best point; a failed forward run is an error.
       if (id%failed) then
         ierr = 1
-        errmsg = 'identify: a forward run failed during the fit; try a smaller &time dt, tighter bounds '// &
-                 '(&identify fit_lower, fit_upper) or a better initial guess'
+        if (id%mode == MODE_CONTROL) then
+          errmsg = 'control: a forward run failed during the optimisation; try a smaller &time dt, a lower '// &
+                   '&control max_speed or a better initial guess (&scene keyframe_dx, keyframe_dy, keyframe_dz)'
+        else
+          errmsg = 'identify: a forward run failed during the fit; try a smaller &time dt, tighter bounds '// &
+                   '(&identify fit_lower, fit_upper) or a better initial guess'
+        end if
       else if (id%app%rank == 0) then
-        write(output_unit, '(a)') 'identify: warning: TAO did not converge (negative reason); the values '// &
+        write(output_unit, '(a)') trim(id%tag)//': warning: TAO did not converge (negative reason); the values '// &
           'below are its last iterate'
       end if
     end if
   end subroutine fit
 
-  !> TAO callback: objective and gradient at x = ln p.
+  !> v into TAO's vector x, whose entries all lie on rank 0.
+  subroutine put_rank0(id, x, v, ierr)
+    type(ident_t), intent(in) :: id
+    type(tVec) :: x
+    real(rp), intent(in) :: v(:)
+    PetscErrorCode, intent(out) :: ierr
+    PetscScalar, pointer :: xa(:)
+    ierr = 0
+    if (id%app%rank /= 0) return
+    PetscCall(VecGetArrayF90(x, xa, ierr))
+    xa = v
+    PetscCall(VecRestoreArrayF90(x, xa, ierr))
+  end subroutine put_rank0
+
+  !> TAO's vector x (entries on rank 0) into v on every rank. Collective.
+  subroutine get_rank0(id, x, v, ierr)
+    type(ident_t), intent(in) :: id
+    type(tVec) :: x
+    real(rp), intent(out) :: v(:)
+    PetscErrorCode, intent(out) :: ierr
+    PetscScalar, pointer :: xa(:)
+    integer :: mpierr
+    ierr = 0
+    if (id%app%rank == 0) then
+      PetscCall(VecGetArrayReadF90(x, xa, ierr))
+      v = xa
+      PetscCall(VecRestoreArrayReadF90(x, xa, ierr))
+    end if
+    call MPI_Bcast(v, size(v), MPI_DOUBLE_PRECISION, 0, id%app%comm, mpierr)
+  end subroutine get_rank0
+
+  !> TAO callback: objective and gradient at x = theta.
   subroutine tao_objgrad(tao, x, f, g, id, ierr)
     Tao :: tao
     type(tVec) :: x, g
     PetscReal :: f
     type(ident_t) :: id
     PetscErrorCode :: ierr
-    PetscScalar, pointer :: xa(:), ga(:)
-    real(rp) :: lp(n_fit_kinds), gl(n_fit_kinds)
-    integer :: mpierr
+    real(rp) :: theta(id%np), gl(id%np)
 
-    lp = id%logp0
-    if (id%app%rank == 0) then
-      PetscCall(VecGetArrayReadF90(x, xa, ierr))
-      lp(1:id%np) = xa
-      PetscCall(VecRestoreArrayReadF90(x, xa, ierr))
-    end if
-    call MPI_Bcast(lp, id%np, MPI_DOUBLE_PRECISION, 0, id%app%comm, mpierr)
-    call objective_gradient(id, lp, f, gl, ierr)
+    call get_rank0(id, x, theta, ierr)
     if (ierr /= 0) return
-    if (id%app%rank == 0) then
-      PetscCall(VecGetArrayF90(g, ga, ierr))
-      ga = gl(1:id%np)
-      PetscCall(VecRestoreArrayF90(g, ga, ierr))
-    end if
+    call objective_gradient(id, theta, f, gl, ierr)
+    if (ierr /= 0) return
+    call put_rank0(id, g, gl, ierr)
   end subroutine tao_objgrad
 
   !> TAO monitor: the history, one row per iteration, and a line on rank 0.
@@ -902,29 +1220,31 @@ contains
     type(ident_t) :: id
     PetscErrorCode :: ierr
     type(tVec) :: x
-    PetscScalar, pointer :: xa(:)
     PetscInt :: its
     PetscReal :: f, gnorm, cnorm, xdiff
     TaoConvergedReason :: reason
-    real(rp) :: lp(n_fit_kinds), row(0:n_fit_kinds)
-    integer :: mpierr
+    real(rp) :: theta(id%np), row(0:id%nrow)
+    real(rp), allocatable :: grown(:, :)
 
     PetscCall(TaoGetSolutionStatus(tao, its, f, gnorm, cnorm, xdiff, reason, ierr))
     PetscCall(TaoGetSolution(tao, x, ierr))
-    lp = id%logp0
-    if (id%app%rank == 0) then
-      PetscCall(VecGetArrayReadF90(x, xa, ierr))
-      lp(1:id%np) = xa
-      PetscCall(VecRestoreArrayReadF90(x, xa, ierr))
-    end if
-    call MPI_Bcast(lp, id%np, MPI_DOUBLE_PRECISION, 0, id%app%comm, mpierr)
+    call get_rank0(id, x, theta, ierr)
+    if (ierr /= 0) return
     row(0) = f
-    row(1:id%np) = exp(lp(1:id%np))
-    id%hist = reshape([reshape(id%hist, [size(id%hist)]), row(0:id%np)], [id%np + 1, id%nhist + 1])
+    row(1:) = row_values(id, theta)
+    allocate(grown(0:id%nrow, id%nhist + 1))     ! (an assignment would reset the lower bound to 1)
+    grown(:, 1:id%nhist) = id%hist
+    grown(:, id%nhist + 1) = row
+    call move_alloc(grown, id%hist)
     id%nhist = id%nhist + 1
     if (id%app%rank == 0) then
-      write(output_unit, '(a,i4,a,es14.6e2,a,es10.3e2,a)') 'identify: iteration ', its, '  objective ', f, &
-        '  |g| ', gnorm, ' '//trim(values_text(id, lp))
+      if (id%mode == MODE_CONTROL) then
+        write(output_unit, '(a,i4,a,es14.6e2,a,es10.3e2,a,es10.3e2)') 'control: iteration ', its, '  objective ', f, &
+          '  |g| ', gnorm, '  max speed ', max_speed_of(id, theta)
+      else
+        write(output_unit, '(a,i4,a,es14.6e2,a,es10.3e2,a)') 'identify: iteration ', its, '  objective ', f, &
+          '  |g| ', gnorm, trim(values_text(id, theta))
+      end if
       flush(output_unit)
     end if
   end subroutine tao_monitor
@@ -941,19 +1261,19 @@ contains
     PetscErrorCode, intent(out) :: ierr
     character(*), intent(out) :: errmsg
     real(rp), allocatable :: a(:, :, :, :, :), rp_(:, :, :, :)
-    real(rp) :: hmat(n_fit_kinds, n_fit_kinds), cov(n_fit_kinds, n_fit_kinds), lp(n_fit_kinds), f, fdata, s2
-    integer :: k, l, kt, np, info, mpierr, ipiv(n_fit_kinds)
+    real(rp) :: hmat(id%np, id%np), cov(id%np, id%np), lp(id%np), f, fdata, s2
+    integer :: k, l, kt, np, info, mpierr, ipiv(id%np)
 
     np = id%np
     errmsg = ''
     allocate(a(3, 0:id%app%lat%nx - 1, id%app%lat%ys:id%app%lat%ye, id%nt, np))
     do k = 1, np
-      lp = id%logp
+      lp = id%theta
       lp(k) = lp(k) + FD_STEP
       call forward(id, lp, f, ierr)
       if (ierr /= 0) return
       rp_ = id%res
-      lp(k) = id%logp(k) - FD_STEP
+      lp(k) = id%theta(k) - FD_STEP
       call forward(id, lp, f, ierr)
       if (ierr /= 0) return
       if (failed_run(id, errmsg, ierr)) return
@@ -968,12 +1288,12 @@ contains
         end do
       end do
     end do
-    call MPI_Allreduce(MPI_IN_PLACE, hmat, n_fit_kinds**2, MPI_DOUBLE_PRECISION, MPI_SUM, id%app%comm, mpierr)
+    call MPI_Allreduce(MPI_IN_PLACE, hmat, np**2, MPI_DOUBLE_PRECISION, MPI_SUM, id%app%comm, mpierr)
     do k = 1, np
       hmat(k, k) = hmat(k, k) + 2.0_rp * id%tikhonov
     end do
     ! The objective at the fit (and its residuals, for what is written).
-    call forward(id, id%logp, f, ierr)
+    call forward(id, id%theta, f, ierr)
     if (ierr /= 0) return
     fdata = id%objective_data
     id%objective = f
@@ -982,29 +1302,50 @@ contains
     do k = 1, np
       cov(k, k) = 1.0_rp
     end do
-    call dgesv(np, np, hmat, n_fit_kinds, ipiv, cov, n_fit_kinds, info)
+    call dgesv(np, np, hmat, np, ipiv, cov, np, info)
     id%unc = 0.0_rp
     if (info == 0) then
       do k = 1, np
-        id%unc(k) = exp(id%logp(k)) * sqrt(max(2.0_rp * s2 * cov(k, k), 0.0_rp))
+        id%unc(k) = exp(id%theta(k)) * sqrt(max(2.0_rp * s2 * cov(k, k), 0.0_rp))
       end do
     else
-      id%unc(1:np) = huge(1.0_rp)   ! singular: a parameter the observation does not determine
+      id%unc = huge(1.0_rp)   ! singular: a parameter the observation does not determine
     end if
   end subroutine uncertainty
 
-  !> The fitted values on rank 0, and the cost of a gradient.
+  !> Control: the objective at the optimum (one forward run).
+  subroutine final_objective(id, ierr, errmsg)
+    type(ident_t), intent(inout) :: id
+    PetscErrorCode, intent(out) :: ierr
+    character(*), intent(out) :: errmsg
+    call forward(id, id%theta, id%objective, ierr)
+    if (ierr /= 0) return
+    if (failed_run(id, errmsg, ierr)) return
+  end subroutine final_objective
+
+  !> The result on rank 0 (fitted values with their uncertainty, or the
+  !> optimised keyframes), and the cost of a gradient.
   subroutine report(id)
     type(ident_t), intent(in) :: id
-    integer :: k
+    real(rp) :: off(3, id%nk)
+    integer :: k, m
     if (id%app%rank /= 0) return
-    write(output_unit, '(a,es24.16)') 'identify: objective ', id%objective
-    do k = 1, id%np
-      write(output_unit, '(a,a12,a,es24.16,a,es12.4e2,a,es12.4e2)') 'identify: fitted ', &
-        trim(fit_kind_names(id%code(k))), ' ', exp(id%logp(k)), ' +- ', id%unc(k), '  initial ', exp(id%logp0(k))
-    end do
+    write(output_unit, '(a,es24.16)') trim(id%tag)//': objective ', id%objective
+    if (id%mode == MODE_CONTROL) then
+      off = keyframes(id, id%theta)
+      do m = 1, id%nk
+        write(output_unit, '(a,i3,a,es14.6e2,a,3es16.8e2,a,3es12.4e2,a)') 'control: keyframe ', m, '  t ', id%kt(m), &
+          '  offset ', off(:, m), '  (initial', id%koff0(:, m), ')'
+      end do
+      write(output_unit, '(a,es12.4e2)') 'control: max speed of a component on a segment ', max_speed_of(id, id%theta)
+    else
+      do k = 1, id%np
+        write(output_unit, '(a,a12,a,es24.16,a,es12.4e2,a,es12.4e2)') 'identify: fitted ', &
+          trim(fit_kind_names(id%code(k))), ' ', exp(id%theta(k)), ' +- ', id%unc(k), '  initial ', exp(id%theta0(k))
+      end do
+    end if
     if (id%n_forward > 0 .and. id%n_adjoint > 0) &
-      write(output_unit, '(a,es10.3,a,es10.3,a,f6.2,2(a,es10.3),a)') 'identify: cost: forward run ', &
+      write(output_unit, '(a,es10.3,a,es10.3,a,f6.2,2(a,es10.3),a)') trim(id%tag)//': cost: forward run ', &
         id%t_forward / id%n_forward, ' s, adjoint sweep ', id%t_adjoint / id%n_adjoint, &
         ' s, gradient/forward ', 1.0_rp + (id%t_adjoint / id%n_adjoint) / (id%t_forward / id%n_forward), &
         ', trajectory ', id%traj_bytes, ' bytes in memory, ', id%traj_disk_bytes, ' bytes in files'
@@ -1024,11 +1365,27 @@ contains
     do k = 1, id%np
       names(k) = fit_kind_names(id%code(k))
     end do
-    values = exp(id%logp(1:id%np))
-    unc = id%unc(1:id%np)
-    initial = exp(id%logp0(1:id%np))
+    values = exp(id%theta)
+    unc = id%unc
+    initial = exp(id%theta0)
     objective = id%objective
     hist = id%hist
   end subroutine identify_result
+
+  !> What /control holds: the keyframe times [nk], the optimised and the
+  !> initial keyframe offsets (3, nk), the objective at the optimum, and per
+  !> TAO iteration the objective [nit] and the keyframe offsets (3, nk, nit).
+  subroutine control_result(id, times, offsets, initial, objective, objective_hist, offset_hist)
+    type(ident_t), intent(in) :: id
+    real(rp), allocatable, intent(out) :: times(:), offsets(:, :), initial(:, :), objective_hist(:), &
+                                          offset_hist(:, :, :)
+    real(rp), intent(out) :: objective
+    times = id%kt
+    offsets = keyframes(id, id%theta)
+    initial = id%koff0
+    objective = id%objective
+    objective_hist = id%hist(0, :)
+    offset_hist = reshape(id%hist(1:, :), [3, id%nk, id%nhist])
+  end subroutine control_result
 
 end module identify

@@ -18,10 +18,11 @@ module input
   public :: input_read, input_usage, input_summary, input_parse, input_check_run
   public :: max_steps, max_outputs, bytes_per_node_bending, bytes_per_node_plain
 
-  integer, parameter :: n_groups = 6
+  integer, parameter :: n_groups = 7
   character(8), parameter :: group_names(n_groups) = &
-    [character(8) :: 'lattice', 'material', 'scene', 'time', 'output', 'identify']
-  integer, parameter :: G_LATTICE = 1, G_MATERIAL = 2, G_SCENE = 3, G_TIME = 4, G_OUTPUT = 5, G_IDENTIFY = 6
+    [character(8) :: 'lattice', 'material', 'scene', 'time', 'output', 'identify', 'control']
+  integer, parameter :: G_LATTICE = 1, G_MATERIAL = 2, G_SCENE = 3, G_TIME = 4, G_OUTPUT = 5, G_IDENTIFY = 6, &
+                        G_CONTROL = 7
   integer, parameter :: msg_len = 1024
 
   character(*), parameter :: scene_list = 'lift_release, bend_release, wave_point, hang, flat'
@@ -328,7 +329,9 @@ contains
     call read_group(G_TIME, pt, cfg, ierr, msg);     if (ierr /= 0) goto 900
     call read_group(G_OUTPUT, pt, cfg, ierr, msg);   if (ierr /= 0) goto 900
     call read_group(G_IDENTIFY, pt, cfg, ierr, msg); if (ierr /= 0) goto 900
+    call read_group(G_CONTROL, pt, cfg, ierr, msg);  if (ierr /= 0) goto 900
     cfg%identify = pt%count(G_IDENTIFY) > 0
+    cfg%control = pt%count(G_CONTROL) > 0
     cfg%namelist_text = text
     if (present(overrides)) then
       ! Command-line keys win over the file's; they are recorded with it.
@@ -434,7 +437,7 @@ contains
             if (g == 0) then
               ierr = 1
               write(msg, '(a,i0,a)') 'input: line ', line_no, ': unknown namelist group &'//trim(name)// &
-                ' (groups: &lattice, &material, &scene, &time, &output, &identify)'
+                ' (groups: &lattice, &material, &scene, &time, &output, &identify, &control)'
               return
             end if
             pt%count(g) = pt%count(g) + 1
@@ -743,7 +746,8 @@ contains
     case ('spring_model', 'e_s', 'eta_s', 'e_d', 'eta_d', 'bending_model', 'k_b', 'eta_b')
       g = G_MATERIAL
     case ('scene', 'gravity', 'lift_length', 'lift_height', 'bend_angle', 'n_keyframes', &
-          'keyframe_time', 'keyframe_dz', 'wave_nodes', 'release_time', 'initial_omega')
+          'keyframe_time', 'keyframe_dx', 'keyframe_dy', 'keyframe_dz', 'wave_nodes', 'release_time', &
+          'initial_omega')
       g = G_SCENE
     case ('t_end', 'dt')
       g = G_TIME
@@ -751,6 +755,8 @@ contains
       g = G_OUTPUT
     case ('observed_file', 'fit', 'fit_lower', 'fit_upper', 'tikhonov')
       g = G_IDENTIFY
+    case ('target_file', 'components', 'max_speed', 'velocity_weight', 'keyframe_tikhonov')
+      g = G_CONTROL
     case default
       g = 0
     end select
@@ -853,7 +859,8 @@ contains
     character(label_len) :: scene_name   ! the key `scene` (renamed by scan_text)
     real(rp) :: gravity(3), lift_length, lift_height, bend_angle
     integer :: n_keyframes
-    real(rp) :: keyframe_time(keyframe_max), keyframe_dz(keyframe_max)
+    real(rp) :: keyframe_time(keyframe_max), keyframe_dx(keyframe_max), keyframe_dy(keyframe_max), &
+                keyframe_dz(keyframe_max)
     character(label_len) :: wave_nodes
     real(rp) :: release_time, initial_omega(3)
     real(rp) :: t_end, dt
@@ -864,7 +871,7 @@ contains
     namelist /lattice/ nx, ny, lx, ly, total_mass, mass_distribution, lattice_scaling
     namelist /material/ spring_model, e_s, eta_s, e_d, eta_d, bending_model, k_b, eta_b
     namelist /scene/ scene_name, gravity, lift_length, lift_height, bend_angle, n_keyframes, &
-                     keyframe_time, keyframe_dz, wave_nodes, release_time, initial_omega
+                     keyframe_time, keyframe_dx, keyframe_dy, keyframe_dz, wave_nodes, release_time, initial_omega
     namelist /time/ t_end, dt
     namelist /output/ output_interval, write_velocity, output_file, petsc_options, stretch_limit, &
                       checkpoint_interval
@@ -872,6 +879,10 @@ contains
     character(len(cfg%fit)) :: fit
     real(rp) :: fit_lower(n_fit_kinds), fit_upper(n_fit_kinds), tikhonov
     namelist /identify/ observed_file, fit, fit_lower, fit_upper, tikhonov
+    character(path_len) :: target_file
+    character(label_len) :: components
+    real(rp) :: max_speed, velocity_weight, keyframe_tikhonov
+    namelist /control/ target_file, components, max_speed, velocity_weight, keyframe_tikhonov
 
     ios = 0
     select case (g)
@@ -895,12 +906,14 @@ contains
       scene_name = cfg%scene; gravity = cfg%gravity; lift_length = cfg%lift_length
       lift_height = cfg%lift_height; bend_angle = cfg%bend_angle; n_keyframes = cfg%n_keyframes
       keyframe_time = cfg%keyframe_time; keyframe_dz = cfg%keyframe_dz; wave_nodes = cfg%wave_nodes
+      keyframe_dx = cfg%keyframe_dx; keyframe_dy = cfg%keyframe_dy
       release_time = cfg%release_time; initial_omega = cfg%initial_omega
       read(lines, nml=scene, iostat=ios, iomsg=iomsg)
       if (ios == 0) then
       cfg%scene = scene_name; cfg%gravity = gravity; cfg%lift_length = lift_length
       cfg%lift_height = lift_height; cfg%bend_angle = bend_angle; cfg%n_keyframes = n_keyframes
       cfg%keyframe_time = keyframe_time; cfg%keyframe_dz = keyframe_dz; cfg%wave_nodes = wave_nodes
+      cfg%keyframe_dx = keyframe_dx; cfg%keyframe_dy = keyframe_dy
       cfg%release_time = release_time; cfg%initial_omega = initial_omega
       end if
     case (G_TIME)
@@ -926,6 +939,14 @@ contains
       if (ios == 0) then
         cfg%observed_file = observed_file; cfg%fit = fit; cfg%fit_lower = fit_lower
         cfg%fit_upper = fit_upper; cfg%tikhonov = tikhonov
+      end if
+    case (G_CONTROL)
+      target_file = cfg%target_file; components = cfg%components; max_speed = cfg%max_speed
+      velocity_weight = cfg%velocity_weight; keyframe_tikhonov = cfg%keyframe_tikhonov
+      read(lines, nml=control, iostat=ios, iomsg=iomsg)
+      if (ios == 0) then
+        cfg%target_file = target_file; cfg%components = components; cfg%max_speed = max_speed
+        cfg%velocity_weight = velocity_weight; cfg%keyframe_tikhonov = keyframe_tikhonov
       end if
     end select
     ! gfortran may report an end of file with iostat < 0: the group is known
@@ -971,7 +992,7 @@ contains
     cfg%lift_length = 30.0_rp; cfg%lift_height = 15.0_rp
     cfg%bend_angle = 30.0_rp
     cfg%n_keyframes = 3
-    cfg%keyframe_time = 0.0_rp; cfg%keyframe_dz = 0.0_rp
+    cfg%keyframe_time = 0.0_rp; cfg%keyframe_dx = 0.0_rp; cfg%keyframe_dy = 0.0_rp; cfg%keyframe_dz = 0.0_rp
     cfg%keyframe_time(1:3) = [0.0_rp, 0.5_rp, 1.0_rp]
     cfg%keyframe_dz(1:3) = [0.0_rp, -10.0_rp, 15.0_rp]
     cfg%release_time = huge(1.0_rp)
@@ -1095,7 +1116,8 @@ contains
     call check_wave_nodes(cfg, ierr, msg);     if (ierr /= 0) return
     call check_time(cfg, ierr, msg);           if (ierr /= 0) return
     call check_output(cfg, ierr, msg);         if (ierr /= 0) return
-    call check_identify(cfg, ierr, msg)
+    call check_identify(cfg, ierr, msg);       if (ierr /= 0) return
+    call check_control(cfg, ierr, msg)
   end subroutine validate
 
   !> &identify: known, distinct parameter names, each with an initial guess
@@ -1181,6 +1203,86 @@ contains
     end function kinds_list
   end subroutine check_identify
 
+  !> &control: not with &identify; a target file; a scene with keyframed
+  !> nodes and at least two keyframes (the steps between them are what is
+  !> optimised); components letters of xyz, each once; max_speed > 0 when
+  !> set, and the initial keyframes within it; weights >= 0. The letters go
+  !> to cfg%control_comp.
+  subroutine check_control(cfg, ierr, msg)
+    type(nuno_config), intent(inout) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    character(*), parameter :: xyz = 'xyz'
+    character(len=:), allocatable :: comps
+    real(rp) :: off(3, keyframe_max), dt, speed
+    integer :: k, c, m
+    character(16) :: a, b
+
+    ierr = 0
+    msg = ''
+    cfg%control_comp = .false.
+    if (.not. cfg%control) return
+    ierr = 1
+    if (cfg%identify) then
+      msg = 'input: &control and &identify cannot be in one input: a run either fits the model to an '// &
+            'observation or optimises the keyframes for a target'
+      return
+    end if
+    if (len_trim(cfg%target_file) == 0) then
+      msg = 'input: &control: target_file is required (an HDF5 file with /time and /position [nt][ny][nx][3])'
+      return
+    end if
+    if (cfg%scene_code /= SCENE_WAVE_POINT) then
+      msg = "input: &control: scene = '"//trim(cfg%scene)//"' has no nodes on a keyframe path to control "// &
+            "(wave_point drives its corner or, with wave_nodes = 'edge', its edge i = 0)"
+      return
+    end if
+    if (cfg%n_keyframes < 2) then
+      write(a, '(i0)') cfg%n_keyframes
+      msg = 'input: &control: &scene n_keyframes = '//trim(a)//' leaves nothing to optimise: the steps '// &
+            'between consecutive keyframes are the controls, so at least 2 keyframes are needed'
+      return
+    end if
+    comps = lower(trim(adjustl(cfg%components)))
+    if (len(comps) == 0 .or. verify(comps, xyz) /= 0) then
+      msg = "input: &control: components = '"//trim(cfg%components)//"' must be letters among x, y, z (e.g. 'z' or 'xyz')"
+      return
+    end if
+    do k = 1, len(comps)
+      c = index(xyz, comps(k:k))
+      if (cfg%control_comp(c)) then
+        msg = "input: &control: components = '"//trim(cfg%components)//"' names "//comps(k:k)//' twice'
+        return
+      end if
+      cfg%control_comp(c) = .true.
+    end do
+    if (cfg%max_speed /= unset_real) then
+      call need_positive('control', 'max_speed', cfg%max_speed, ierr, msg)
+      if (ierr /= 0) return
+      ierr = 1
+      off(1, :) = cfg%keyframe_dx
+      off(2, :) = cfg%keyframe_dy
+      off(3, :) = cfg%keyframe_dz
+      do m = 2, cfg%n_keyframes
+        dt = cfg%keyframe_time(m) - cfg%keyframe_time(m - 1)
+        do c = 1, 3
+          if (.not. cfg%control_comp(c)) cycle
+          speed = abs(off(c, m) - off(c, m - 1)) / dt
+          if (speed > cfg%max_speed * (1.0_rp + 1.0e-12_rp)) then
+            write(a, '(i0)') m
+            write(b, '(i0)') m - 1
+            msg = 'input: &control: the initial keyframes exceed max_speed = '//fmt_real(cfg%max_speed)// &
+                  ': keyframe_d'//xyz(c:c)//'('//trim(a)//') - keyframe_d'//xyz(c:c)//'('//trim(b)//') = '// &
+                  fmt_real(off(c, m) - off(c, m - 1))//' in '//fmt_real(dt)//' is a speed of '//fmt_real(speed)
+            return
+          end if
+        end do
+      end do
+    end if
+    call need_nonnegative('control', 'velocity_weight', cfg%velocity_weight, ierr, msg); if (ierr /= 0) return
+    call need_nonnegative('control', 'keyframe_tikhonov', cfg%keyframe_tikhonov, ierr, msg)
+  end subroutine check_control
+
   !> The namelist value of fit parameter `code` (the initial guess).
   pure real(rp) function fit_initial(cfg, code)
     type(nuno_config), intent(in) :: cfg
@@ -1218,6 +1320,8 @@ contains
     call fin('scene', 'lift_height', [cfg%lift_height]); if (ierr /= 0) return
     call fin('scene', 'bend_angle', [cfg%bend_angle]);  if (ierr /= 0) return
     call fin('scene', 'keyframe_time', cfg%keyframe_time); if (ierr /= 0) return
+    call fin('scene', 'keyframe_dx', cfg%keyframe_dx);  if (ierr /= 0) return
+    call fin('scene', 'keyframe_dy', cfg%keyframe_dy);  if (ierr /= 0) return
     call fin('scene', 'keyframe_dz', cfg%keyframe_dz);  if (ierr /= 0) return
     call fin('scene', 'release_time', [cfg%release_time]); if (ierr /= 0) return
     call fin('scene', 'initial_omega', cfg%initial_omega); if (ierr /= 0) return
@@ -1225,7 +1329,10 @@ contains
     call fin('time', 'dt', [cfg%dt]);                   if (ierr /= 0) return
     call fin('output', 'output_interval', [cfg%output_interval]); if (ierr /= 0) return
     call fin('output', 'stretch_limit', [cfg%stretch_limit]); if (ierr /= 0) return
-    call fin('output', 'checkpoint_interval', [cfg%checkpoint_interval])
+    call fin('output', 'checkpoint_interval', [cfg%checkpoint_interval]); if (ierr /= 0) return
+    call fin('control', 'max_speed', [cfg%max_speed]);  if (ierr /= 0) return
+    call fin('control', 'velocity_weight', [cfg%velocity_weight]); if (ierr /= 0) return
+    call fin('control', 'keyframe_tikhonov', [cfg%keyframe_tikhonov])
   contains
     !> Arrays are named with the subscript of the first bad element.
     subroutine fin(group, key, values)
@@ -1529,6 +1636,9 @@ contains
       '  &identify  observed_file, fit, fit_lower, fit_upper, tikhonov: fit parameters to an', &
       '             observed motion (docs/identification.md); -identify_check_gradient', &
       '             prints the adjoint gradient against central differences and stops', &
+      '  &control   target_file, components, max_speed, velocity_weight, keyframe_tikhonov:', &
+      '             optimise the keyframes of the driven nodes so that the cloth reaches the', &
+      '             target (docs/identification.md); -control_check_gradient as above', &
       'The scene sets the defaults of every other key. Every key, its unit and its', &
       'default: input/README.md; ready-made inputs: input/*.nml. Real keys must be', &
       'finite (no NaN, Inf); a lattice beyond the index range or the memory of the', &
@@ -1593,8 +1703,13 @@ contains
       '                                               block Jacobi/ILU on small lattices); -reduced_ksp_view', &
       '  -reduced_dm_mat_type aij|baij|sbaij          storage of S (default: aij for multigrid, baij else)', &
       '  -nuno_pc_lag N                               rebuild the inner preconditioner every N assemblies', &
-      '                                               (default 3 with the multigrid, 1 otherwise; a failed', &
-      '                                               solve rebuilds it and retries)', &
+      '                                               (default 3 with the multigrid, 10 with its cubic', &
+      '                                               interpolation, 1 otherwise; a failed solve rebuilds', &
+      '                                               it and retries)', &
+      '  -nuno_mg_interpolation auto|linear|cubic|coarse_cubic  interpolation of the inner multigrid', &
+      '                                               (auto: with bending, whose fourth-order modes', &
+      '                                               bilinear transfer does not carry, cubic on every', &
+      '                                               level but the finest; linear without)', &
       '  -nuno_snes_floor F                           a residual below F times its start that stops', &
       '                                               decreasing is converged (default 1e-6; 0: off)', &
       '  -snes_ksp_ew                                 Eisenstat-Walker: its forcing term is the inner rtol', &

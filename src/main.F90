@@ -11,8 +11,11 @@ program nuno
   use, intrinsic :: iso_fortran_env, only: int64
   use input, only: input_read, input_usage, input_summary, input_check_run
   use timestepping, only: app_ctx, solver_create, solver_destroy, solver_run, check_decomposition, solver_restore
-  use output, only: output_file, output_open, output_close, output_reopen, checkpoint_t, output_write_identify
-  use identify, only: ident_t, identify_prepare_options, identify_run, identify_result
+  use output, only: output_file, output_open, output_close, output_reopen, checkpoint_t, output_write_identify, &
+                    output_write_control
+  use identify, only: ident_t, identify_prepare_options, identify_run, identify_result, control_result
+  use config, only: unset_real
+  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_positive_inf
   use safe_files, only: same_file
   use kinds, only: rp
   use errors, only: help_requested, fatal_collective, fatal_local, input_path_argument, apply_namelist_options, &
@@ -29,6 +32,7 @@ program nuno
   character(len=16), allocatable :: id_names(:)
   real(rp), allocatable :: id_values(:), id_unc(:), id_initial(:), id_hist(:, :)
   real(rp) :: id_objective
+  real(rp), allocatable :: kf_time(:), kf_offset(:, :), kf_initial(:, :), kf_fhist(:), kf_hist(:, :, :)
   PetscErrorCode :: ierr
   integer :: rank, nranks
   character(len=512) :: path, errmsg
@@ -105,25 +109,28 @@ program nuno
   !    seen by some ranks only (a bad option, a failed allocation): abort.
   call check_decomposition(cfg, nranks, ierr, errmsg)
   if (ierr /= 0) call fatal_collective(errmsg)
-  ! An &identify group: fit the parameters to the observed motion first
-  ! (module identify); the run below then writes the fitted motion and /identify.
-  if (cfg%identify) then
-    if (len_trim(restart_file) > 0) call fatal_collective('-nuno_restart cannot continue an identification (&identify)')
+  ! An &identify group: fit the parameters to the observed motion first; a
+  ! &control group: optimise the keyframes for the target first (module
+  ! identify); the run below then writes the resulting motion and
+  ! /identify or /control.
+  if (cfg%identify .or. cfg%control) then
+    if (len_trim(restart_file) > 0) &
+      call fatal_collective('-nuno_restart cannot continue an identification or a control run (&identify, &control)')
     call identify_prepare_options(ierr)
-    if (ierr /= 0) call fatal_local('could not set the options of the identification')
+    if (ierr /= 0) call fatal_local('could not set the options of the identification or control')
   end if
   call solver_create(ctx, cfg, ierr)
   if (ierr /= 0) call fatal_local('could not set up the solver')
-  if (cfg%identify) then
+  if (cfg%identify .or. cfg%control) then
     call identify_run(id, ctx, id_done, ierr, errmsg)
     if (ierr == 1) call fatal_collective(errmsg)
-    if (ierr /= 0) call fatal_local('PETSc error during the identification')
+    if (ierr /= 0) call fatal_local('PETSc error during the identification or control')
     if (id_done) then
       call solver_destroy(ctx, ierr)
       PetscCallA(PetscFinalize(ierr))
       stop
     end if
-    cfg = ctx%cfg          ! the fitted parameters
+    cfg = ctx%cfg          ! the fitted parameters, the optimised keyframes
   end if
 
   ! 4. Output file, the time loop, and the completion mark written last. The
@@ -165,6 +172,13 @@ program nuno
   if (cfg%identify .and. status == 'complete') then
     call identify_result(id, id_names, id_values, id_unc, id_initial, id_objective, id_hist)
     call output_write_identify(out, id_names, id_values, id_unc, id_initial, id_objective, id_hist, ierr, errmsg)
+    if (ierr /= 0) call fatal_collective(errmsg)
+  end if
+  if (cfg%control .and. status == 'complete') then
+    call control_result(id, kf_time, kf_offset, kf_initial, id_objective, kf_fhist, kf_hist)
+    call output_write_control(out, kf_time, kf_offset, kf_initial, id_objective, kf_fhist, kf_hist, &
+                              merge(ieee_value(1.0_rp, ieee_positive_inf), cfg%max_speed, cfg%max_speed == unset_real), &
+                              cfg%components, ierr, errmsg)
     if (ierr /= 0) call fatal_collective(errmsg)
   end if
   call output_close(out, trim(status), ierr, errmsg)

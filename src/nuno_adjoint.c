@@ -106,3 +106,24 @@ void nuno_ts_trajectory_fresh_(TS *ts, PetscReal *horizon, PetscReal *dt, PetscI
   if (*ierr) return;
   *ierr = TSSetTimeStep(*ts, h);
 }
+
+/* The options of the identification and the control, in an options block so
+ * that they appear in -help (PETSc 3.18 has no Fortran PetscOptionsBegin:
+ * ../shared/STYLE.md). check_identify, check_control: out 0/1. Called once
+ * from module identify through bind(C); collective. */
+PetscErrorCode nuno_adjoint_options_read(MPI_Fint fcomm, int *check_identify, int *check_control)
+{
+  MPI_Comm  comm = MPI_Comm_f2c(fcomm);
+  PetscBool ci = PETSC_FALSE, cc = PETSC_FALSE;
+
+  PetscFunctionBeginUser;
+  PetscOptionsBegin(comm, NULL, "nuno: identification (&identify) and deformation control (&control), docs/identification.md", "nuno");
+  PetscCall(PetscOptionsBool("-identify_check_gradient", "&identify: print the adjoint gradient at the initial guess against central differences of the objective, the cost of a gradient, and stop",
+                             "nuno", ci, &ci, NULL));
+  PetscCall(PetscOptionsBool("-control_check_gradient", "&control: print the adjoint gradient with respect to the keyframe positions against central differences, the cost of a gradient, and stop",
+                             "nuno", cc, &cc, NULL));
+  PetscOptionsEnd();
+  *check_identify = ci ? 1 : 0;
+  *check_control  = cc ? 1 : 0;
+  PetscFunctionReturn(0);
+}

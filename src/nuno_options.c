@@ -13,15 +13,17 @@
 #define NUNO_ADAPTIVE_TS_TYPE TSROSW
 
 /* jacobian: in/out 0 = reduced, 1 = full; pc_lag: in/out >= 0 (0: default);
+ * mg_interp: in/out 0 = auto, 1 = linear, 2 = cubic, 3 = coarse_cubic (module reduced's INTERP_*);
  * snes_floor: in/out >= 0; gauss_newton, clamp: in/out 0/1;
  * mattype: in/out NUL-terminated, mattype_len bytes; fail_newton: in/out >= 0.
  * Returns a PETSc error code (0 on success). */
-PetscErrorCode nuno_options_read(MPI_Fint fcomm, int *jacobian, int *pc_lag, double *snes_floor,
+PetscErrorCode nuno_options_read(MPI_Fint fcomm, int *jacobian, int *pc_lag, int *mg_interp, double *snes_floor,
                                  int *gauss_newton, int *clamp, char *mattype, int mattype_len, int *fail_newton)
 {
   static const char *const jacobians[] = {"reduced", "full"};
+  static const char *const interps[]   = {"auto", "linear", "cubic", "coarse_cubic"};
   MPI_Comm  comm = MPI_Comm_f2c(fcomm);
-  PetscInt  jac = *jacobian, lag = *pc_lag, nfail = *fail_newton;
+  PetscInt  jac = *jacobian, lag = *pc_lag, nfail = *fail_newton, interp = *mg_interp;
   PetscReal floor = *snes_floor;
   PetscBool gn = *gauss_newton ? PETSC_TRUE : PETSC_FALSE, cl = *clamp ? PETSC_TRUE : PETSC_FALSE;
   char      mt[64];
@@ -31,7 +33,9 @@ PetscErrorCode nuno_options_read(MPI_Fint fcomm, int *jacobian, int *pc_lag, dou
   PetscOptionsBegin(comm, NULL, "nuno: the Newton step (docs/design.md, input/README.md)", "nuno");
   PetscCall(PetscOptionsEList("-nuno_jacobian", "reduced: assemble only the 3-dof velocity system and eliminate around it; full: the 6-dof Jacobian",
                               "nuno", jacobians, 2, jacobians[jac], &jac, NULL));
-  PetscCall(PetscOptionsInt("-nuno_pc_lag", "rebuild the inner (reduced_) preconditioner every N assemblies (0: 3 with the default multigrid, 1 otherwise)", "nuno", lag, &lag, NULL));
+  PetscCall(PetscOptionsInt("-nuno_pc_lag", "rebuild the inner (reduced_) preconditioner every N assemblies (0: with the default multigrid 3, or 10 with cubic interpolation; 1 otherwise)", "nuno", lag, &lag, NULL));
+  PetscCall(PetscOptionsEList("-nuno_mg_interpolation", "interpolation of the inner multigrid: auto (coarse_cubic with bending, linear without), linear, cubic (every level), coarse_cubic (every level but the finest)",
+                              "nuno", interps, 4, interps[interp], &interp, NULL));
   PetscCall(PetscOptionsReal("-nuno_snes_floor", "Newton: converged when a residual below this fraction of its start stops decreasing, or (reduced) is at the round-off floor estimated from S (0: off)",
                              "nuno", floor, &floor, NULL));
   PetscCall(PetscOptionsBool("-nuno_gauss_newton", "energy bending: assemble only the Gauss-Newton part -k_b J^T J", "nuno", gn, &gn, NULL));
@@ -49,6 +53,7 @@ PetscErrorCode nuno_options_read(MPI_Fint fcomm, int *jacobian, int *pc_lag, dou
   PetscCheck(nfail >= 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-nuno_fail_newton %" PetscInt_FMT " must be >= 0", nfail);
   *jacobian = (int)jac;
   *pc_lag = (int)lag;
+  *mg_interp = (int)interp;
   *snes_floor = floor;
   *gauss_newton = gn ? 1 : 0;
   *clamp = cl ? 1 : 0;

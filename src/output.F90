@@ -41,7 +41,7 @@ module output
   public :: output_open, output_write_step, output_close, output_write_run_info, output_write_wall_time
   public :: output_config_key
   public :: output_write_checkpoint, output_reopen
-  public :: output_write_identify
+  public :: output_write_identify, output_write_control
 
   !> One key of the resolved configuration, as an attribute of /config/<group>.
   interface output_config_key
@@ -540,11 +540,12 @@ contains
     errmsg = ''
     call open_or_create_group(out%file, '/identify', grp, ierr, errmsg)
     if (ierr /= 0) goto 900
-    call put('values', values, [int(size(values), hsize_t)])
-    call put('uncertainty', unc, [int(size(unc), hsize_t)])
-    call put('initial', initial, [int(size(initial), hsize_t)])
-    call put('objective', [objective], [1_hsize_t])
-    call put('history', reshape(hist, [size(hist)]), [int(size(hist, 1), hsize_t), int(size(hist, 2), hsize_t)])
+    call put_doubles(grp, '/identify', 'values', values, [int(size(values), hsize_t)], ierr, errmsg)
+    call put_doubles(grp, '/identify', 'uncertainty', unc, [int(size(unc), hsize_t)], ierr, errmsg)
+    call put_doubles(grp, '/identify', 'initial', initial, [int(size(initial), hsize_t)], ierr, errmsg)
+    call put_doubles(grp, '/identify', 'objective', [objective], [1_hsize_t], ierr, errmsg)
+    call put_doubles(grp, '/identify', 'history', reshape(hist, [size(hist)]), &
+                     [int(size(hist, 1), hsize_t), int(size(hist, 2), hsize_t)], ierr, errmsg)
     if (ierr == 0) then
       call h5tcopy_f(H5T_FORTRAN_S1, strtype, h)
       call h5tset_size_f(strtype, int(len(names), size_t), h)
@@ -560,31 +561,87 @@ contains
       call h5sclose_f(space, h)
       call h5tclose_f(strtype, h)
     end if
-    call h5gclose_f(grp, h)
-    if (ierr == 0) then
-      call h5fflush_f(out%file, H5F_SCOPE_GLOBAL_F, h)
-      if (h < 0) call fail('h5fflush_f', '/identify', ierr, errmsg)
-    end if
+    call close_and_flush(out, grp, '/identify', ierr, errmsg)
 900 call agree(out%comm, 'output_write_identify', ierr, errmsg)
-  contains
-    subroutine put(name, v, dims)
-      character(*), intent(in) :: name
-      real(rp), intent(in) :: v(:)
-      integer(hsize_t), intent(in) :: dims(:)
-      integer(hid_t) :: sp, ds
-      if (ierr /= 0) return
-      call h5screate_simple_f(size(dims), dims, sp, h)
-      call h5dcreate_f(grp, name, H5T_NATIVE_DOUBLE, sp, ds, h)
-      if (h < 0) then
-        call fail('h5dcreate_f', '/identify/'//name, ierr, errmsg)
-      else
-        call h5dwrite_f(ds, H5T_NATIVE_DOUBLE, v, dims, h)
-        if (h < 0) call fail('h5dwrite_f', '/identify/'//name, ierr, errmsg)
-        call h5dclose_f(ds, h)
-      end if
-      call h5sclose_f(sp, h)
-    end subroutine put
   end subroutine output_write_identify
+
+  !> /control of a deformation-control run (docs/identification.md):
+  !> keyframe_time [nk], keyframe_offset and initial_offset [nk][3] (the
+  !> optimised and the initial offsets of the driven nodes from rest),
+  !> objective [1] (at the optimum), objective_history [nit] and
+  !> keyframe_history [nit][nk][3] (per TAO iteration), max_speed [1] (the
+  !> bound; +Infinity: none), attribute components. Small datasets: every
+  !> rank writes the same values. Collective.
+  subroutine output_write_control(out, times, offsets, initial, objective, objective_hist, offset_hist, &
+                                  max_speed, components, ierr, errmsg)
+    type(output_file), intent(inout) :: out
+    real(rp), intent(in) :: times(:), offsets(:, :), initial(:, :), objective, objective_hist(:), &
+                            offset_hist(:, :, :), max_speed
+    character(*), intent(in) :: components
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: errmsg
+    integer(hid_t) :: grp
+    integer(hsize_t) :: nk, nit
+
+    ierr = 0
+    errmsg = ''
+    nk = int(size(times), hsize_t)
+    nit = int(size(objective_hist), hsize_t)
+    call open_or_create_group(out%file, '/control', grp, ierr, errmsg)
+    if (ierr /= 0) goto 900
+    call put_doubles(grp, '/control', 'keyframe_time', times, [nk], ierr, errmsg)
+    call put_doubles(grp, '/control', 'keyframe_offset', reshape(offsets, [size(offsets)]), [3_hsize_t, nk], &
+                     ierr, errmsg)
+    call put_doubles(grp, '/control', 'initial_offset', reshape(initial, [size(initial)]), [3_hsize_t, nk], &
+                     ierr, errmsg)
+    call put_doubles(grp, '/control', 'objective', [objective], [1_hsize_t], ierr, errmsg)
+    call put_doubles(grp, '/control', 'objective_history', objective_hist, [nit], ierr, errmsg)
+    call put_doubles(grp, '/control', 'keyframe_history', reshape(offset_hist, [size(offset_hist)]), &
+                     [3_hsize_t, nk, nit], ierr, errmsg)
+    call put_doubles(grp, '/control', 'max_speed', [max_speed], [1_hsize_t], ierr, errmsg)
+    if (ierr == 0) call set_attr_str(grp, 'components', trim(components), '/control', ierr, errmsg)
+    call close_and_flush(out, grp, '/control', ierr, errmsg)
+900 call agree(out%comm, 'output_write_control', ierr, errmsg)
+  end subroutine output_write_control
+
+  !> Close the group grp (at gpath, for messages) and flush the file, so
+  !> that what was written survives a later failure.
+  subroutine close_and_flush(out, grp, gpath, ierr, errmsg)
+    type(output_file), intent(inout) :: out
+    integer(hid_t), intent(in) :: grp
+    character(*), intent(in) :: gpath
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer :: h
+    call h5gclose_f(grp, h)
+    if (ierr /= 0) return
+    call h5fflush_f(out%file, H5F_SCOPE_GLOBAL_F, h)
+    if (h < 0) call fail('h5fflush_f', gpath, ierr, errmsg)
+  end subroutine close_and_flush
+
+  !> A float64 dataset `name` of shape dims (Fortran order: C order reversed)
+  !> in grp (at path gpath, for messages); nothing when ierr /= 0 already.
+  subroutine put_doubles(grp, gpath, name, v, dims, ierr, errmsg)
+    integer(hid_t), intent(in) :: grp
+    character(*), intent(in) :: gpath, name
+    real(rp), intent(in) :: v(:)
+    integer(hsize_t), intent(in) :: dims(:)
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: sp, ds
+    integer :: h
+    if (ierr /= 0) return
+    call h5screate_simple_f(size(dims), dims, sp, h)
+    call h5dcreate_f(grp, name, H5T_NATIVE_DOUBLE, sp, ds, h)
+    if (h < 0) then
+      call fail('h5dcreate_f', gpath//'/'//name, ierr, errmsg)
+    else
+      call h5dwrite_f(ds, H5T_NATIVE_DOUBLE, v, dims, h)
+      if (h < 0) call fail('h5dwrite_f', gpath//'/'//name, ierr, errmsg)
+      call h5dclose_f(ds, h)
+    end if
+    call h5sclose_f(sp, h)
+  end subroutine put_doubles
 
   !> Open the group path (absolute, one level below an existing group), or
   !> create it; grp must be closed by the caller.

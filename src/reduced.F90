@@ -26,12 +26,20 @@ module reduced
   use mpi
   use kinds, only: rp
   use lattice, only: lattice_t
+  use config, only: BEND_NONE
   use forces, only: jac_buffer_t, jac_buffer_init, jac_buffer_row, slot_of, first_anchor_row
-  use reduced_blocks, only: reduced_row_blocks, buffer_row_apply, csr_put_block_row, csr_fits_block_row
+  use reduced_blocks, only: reduced_row_blocks, buffer_row_apply, csr_fits_block_row
+  use reduced_assembly, only: csr_assemble
+  use interpolation, only: cubic_weights
   implicit none
   private
   public :: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach
   public :: set_block_row
+  public :: INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
+
+  !> Interpolation between multigrid levels (-nuno_mg_interpolation; the
+  !> values of src/nuno_options.c's list, 0 being auto).
+  integer, parameter :: INTERP_LINEAR = 1, INTERP_CUBIC = 2, INTERP_COARSE_CUBIC = 3
 
   !> Context of the reduced solve (PCSHELL and MATSHELL context).
   type :: reduced_t
@@ -53,6 +61,7 @@ module reduced
     logical :: damping = .true.            !< some element has a damper (C /= 0)
     logical :: clamp = .false., gauss_newton = .false.
     logical :: use_nullspace = .false.     !< inner PC is GAMG: give it the rigid-body modes
+    integer :: interp = 1                  !< multigrid interpolation: INTERP_LINEAR, _CUBIC, _COARSE_CUBIC
     logical :: forward_ew = .true.         !< pass the outer KSP's rtol (Eisenstat-Walker) to the inner one
     integer :: pc_lag = 1                  !< rebuild the inner preconditioner every pc_lag assemblies
     integer :: since_pc = 0                !< assemblies since the last rebuild
@@ -66,6 +75,8 @@ module reduced
     ! recognised and gets its own pass.
     real(rp), allocatable :: wpred(:, :, :) !< (0:5, 0:nx-1, gys:gye) w of b = F(u)
     real(rp), allocatable :: gpred(:, :, :) !< (3, 0:nx-1, ys:ye) its products
+    real(rp), allocatable :: kd(:, :, :)    !< (3, 0:nx-1, ys:ye) diagonal of -df/dx (direct assembly)
+    real(rp), allocatable :: lb(:, :, :, :, :) !< (3, 3, 4, 0:nx-1, 0:1) link blocks of two rows (direct assembly)
     logical :: have_pred = .false.
     real(rp), allocatable :: vals(:, :, :) !< (3, 3, ncol) one block row
     integer, allocatable :: cols(:)        !< (ncol)
@@ -122,13 +133,14 @@ contains
   !> preallocation, the 6-dof MATSHELL and the inner KSP (prefix reduced_).
   !> symmetric selects the default inner Krylov method (CG or GMRES).
   !> Collective.
-  subroutine reduced_create(red, da6, lat, symmetric, constant, damping, clamp, gauss_newton, pc_lag, ierr)
+  subroutine reduced_create(red, da6, lat, symmetric, constant, damping, clamp, gauss_newton, pc_lag, ierr, mg_interpolation)
     type(reduced_t), intent(inout), target :: red
     type(tDM), intent(in) :: da6
     type(lattice_t), intent(in), target :: lat
     logical, intent(in) :: symmetric, constant, damping, clamp, gauss_newton
     integer, intent(in) :: pc_lag                  !< rebuild the inner preconditioner every pc_lag assemblies (>= 1; 0: default)
     PetscErrorCode, intent(out) :: ierr
+    integer, intent(in), optional :: mg_interpolation  !< multigrid interpolation: 0 auto, else an INTERP_ code
     PetscInt :: nx, ny, w, m, n, mg, ng, nranks, dummy(1), xs, ys, zs, zm
     PetscInt, allocatable :: ly(:)
     PetscInt, parameter :: one = 1, three = 3
@@ -206,6 +218,15 @@ contains
     PetscCall(KSPSetDM(red%ksp, red%da3, ierr))
     PetscCall(KSPSetDMActive(red%ksp, PETSC_FALSE, ierr))
     if (pctype == PCMG) then
+      ! auto: with bending, cubic on every level but the finest (measured,
+      ! docs/performance.md "Fourth round": as fast as cubic everywhere,
+      ! and the parallel Galerkin product of the finest level with a cubic
+      ! P doubled the peak memory at 1025 x 1025 on 2 ranks).
+      red%interp = INTERP_LINEAR
+      if (lat%bending_model /= BEND_NONE) red%interp = INTERP_COARSE_CUBIC
+      if (present(mg_interpolation)) then
+        if (mg_interpolation > 0) red%interp = mg_interpolation
+      end if
       PetscCall(mg_interpolations(red, pc, ierr))
     end if
     PetscCall(DMCreateGlobalVector(red%da3, red%rhs, ierr))
@@ -226,7 +247,8 @@ contains
     allocate(red%fixedg(0:lat%nx - 1, lat%gys:lat%gye))
     allocate(red%ujac(0:5, 0:lat%nx - 1, lat%gys:lat%gye), red%w(0:5, 0:lat%nx - 1, lat%gys:lat%gye))
     allocate(red%g(3, 0:lat%nx - 1, lat%ys:lat%ye), red%gpred(3, 0:lat%nx - 1, lat%ys:lat%ye))
-    allocate(red%wpred(0:5, 0:lat%nx - 1, lat%gys:lat%gye))
+    allocate(red%wpred(0:5, 0:lat%nx - 1, lat%gys:lat%gye), red%kd(3, 0:lat%nx - 1, lat%ys:lat%ye))
+    allocate(red%lb(3, 3, 4, 0:lat%nx - 1, 0:1))
     allocate(red%vals(3, 3, (2 * lat%halo + 1)**2), red%cols((2 * lat%halo + 1)**2))
     allocate(red%owned((2 * lat%halo + 1)**2), red%lcol((2 * lat%halo + 1)**2))
     red%fixedg = .false.
@@ -236,12 +258,16 @@ contains
     ! An explicit -reduced_ksp_rtol wins over the outer forcing term.
     PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_ksp_rtol', found, ierr))
     red%forward_ew = .not. found
-    ! 0: the default, measured (docs/performance.md, "Third round"): the
-    ! multigrid's Galerkin coarse operators kept for 3 assemblies (its
-    ! fine-level smoother and residual always use the current S, so only
-    ! the coarse correction ages), any other preconditioner rebuilt each time.
+    ! 0: the default, measured (docs/performance.md, "Third round" and
+    ! "Fourth round"): the multigrid's Galerkin coarse operators kept for 3
+    ! assemblies, 10 with the cubic interpolation, whose products cost
+    ! about five times more (its fine-level smoother and residual always
+    ! use the current S, so only the coarse correction ages), any other
+    ! preconditioner rebuilt each time.
     if (pc_lag > 0) then
       red%pc_lag = pc_lag
+    else if (pctype == PCMG .and. red%interp /= INTERP_LINEAR) then
+      red%pc_lag = 10
     else if (pctype == PCMG) then
       red%pc_lag = 3
     else
@@ -410,40 +436,43 @@ contains
         end if
       end do
     end do
-    red%jbuf%k = 0.0_rp
-    red%jbuf%c = 0.0_rp
     loc = 0.0_rp
     if (red%direct) then
+      ! AIJ: element blocks straight into the CSR values (module reduced_assembly).
       PetscCall(aij_open(red, view, ierr))
-    end if
-    do ja = first_anchor_row(red%lat), red%lat%ye
-      call jac_buffer_row(red%jbuf, red%lat, u, ja, red%clamp, red%gauss_newton)
-      if (ja >= red%lat%ys) then
-        call buffer_row_apply(red%jbuf, red%lat, red%wpred, ja, red%damping, red%gpred(:, :, ja))
+      call csr_assemble(red%lat, u, red%fixedg, a, red%damping, red%clamp, red%gauss_newton, red%wpred, &
+                        red%lb, red%vals, view%ia, view%av, view%ib, view%bv, red%gpred, red%kd)
+      PetscCall(aij_close(red, view, ierr))
+      do ja = red%lat%ys, red%lat%ye
         do i = 0, red%lat%nx - 1
-          if (.not. red%fixedg(i, ja)) then
-            do q = 1, 3
-              loc(1) = loc(1) + (red%jbuf%k(q, q, 0, 0, i, slot_of(ja)) / red%lat%mass(i, ja))**2
-            end do
-            loc(2) = max(loc(2), maxval(abs(u(0:2, i, ja))))
-          end if
-          call reduced_row_blocks(red%jbuf, red%lat, red%fixedg, i, ja, a, red%damping, red%vals, red%cols, nc)
-          if (red%direct) then
-            call mark_owned(red, nc)
-            call csr_put_block_row(red%vals, nc, red%owned, 3 * (i + (ja - red%lat%ys) * red%lat%nx), &
-                                   view%ia, view%av, view%ib, view%bv)
-          else
+          if (red%fixedg(i, ja)) cycle
+          loc(1) = loc(1) + sum((red%kd(:, i, ja) / red%lat%mass(i, ja))**2)
+          loc(2) = max(loc(2), maxval(abs(u(0:2, i, ja))))
+        end do
+      end do
+    else
+      red%jbuf%k = 0.0_rp
+      red%jbuf%c = 0.0_rp
+      do ja = first_anchor_row(red%lat), red%lat%ye
+        call jac_buffer_row(red%jbuf, red%lat, u, ja, red%clamp, red%gauss_newton)
+        if (ja >= red%lat%ys) then
+          call buffer_row_apply(red%jbuf, red%lat, red%wpred, ja, red%damping, red%gpred(:, :, ja))
+          do i = 0, red%lat%nx - 1
+            if (.not. red%fixedg(i, ja)) then
+              do q = 1, 3
+                loc(1) = loc(1) + (red%jbuf%k(q, q, 0, 0, i, slot_of(ja)) / red%lat%mass(i, ja))**2
+              end do
+              loc(2) = max(loc(2), maxval(abs(u(0:2, i, ja))))
+            end if
+            call reduced_row_blocks(red%jbuf, red%lat, red%fixedg, i, ja, a, red%damping, red%vals, red%cols, nc)
             row(1) = i + (ja - red%lat%gys) * red%lat%nx
             ncol = nc
             PetscCall(set_block_row(red%s, row, ncol, red%cols, red%vals, 9 * nc, ierr))
-          end if
-        end do
-      end if
-      red%jbuf%k(:, :, :, :, :, slot_of(ja)) = 0.0_rp
-      red%jbuf%c(:, :, :, :, :, slot_of(ja)) = 0.0_rp
-    end do
-    if (red%direct) then
-      PetscCall(aij_close(red, view, ierr))
+          end do
+        end if
+        red%jbuf%k(:, :, :, :, :, slot_of(ja)) = 0.0_rp
+        red%jbuf%c(:, :, :, :, :, slot_of(ja)) = 0.0_rp
+      end do
     end if
     PetscCall(MatAssemblyBegin(red%s, MAT_FINAL_ASSEMBLY, ierr))
     PetscCall(MatAssemblyEnd(red%s, MAT_FINAL_ASSEMBLY, ierr))
@@ -593,8 +622,12 @@ contains
     ! PCMG level l (0 = coarsest) is dms(l + 1); its interpolation maps
     ! level l - 1 to level l.
     do l = nlev - 1, 1, -1
-      PetscCall(DMCreateInterpolation(dms(l), dms(l + 1), p, PETSC_NULL_VEC, ierr))
-      PetscCall(MatConvert(p, MATAIJ, MAT_INPLACE_MATRIX, p, ierr))
+      if (red%interp == INTERP_CUBIC .or. (red%interp == INTERP_COARSE_CUBIC .and. l < nlev - 1)) then
+        PetscCall(cubic_interpolation(dms(l), dms(l + 1), p, ierr))
+      else
+        PetscCall(DMCreateInterpolation(dms(l), dms(l + 1), p, PETSC_NULL_VEC, ierr))
+        PetscCall(MatConvert(p, MATAIJ, MAT_INPLACE_MATRIX, p, ierr))
+      end if
       PetscCall(PCMGSetInterpolation(pc, l, p, ierr))
       PetscCall(MatDestroy(p, ierr))
     end do
@@ -602,6 +635,54 @@ contains
       PetscCall(DMDestroy(dms(l), ierr))
     end do
   end subroutine mg_interpolations
+
+  !> Tensor-product cubic interpolation (module interpolation: 4-point
+  !> Lagrange, one-sided at the ends, exact for cubics) from the coarse DMDA
+  !> dc to the fine df (2:1, vertex-centred), the same for each of the 3
+  !> dof, as AIJ (at most 16 non-zeros a row; rows and columns in the
+  !> natural order, which is PETSc's for 1 x P strips). With bending the
+  !> bilinear interpolation's coarse correction weakens as the lattice is
+  !> refined (iterations grew 4 -> 26 from 65 to 1025); cubic keeps it.
+  subroutine cubic_interpolation(dc, df, p, ierr)
+    type(tDM), intent(in) :: dc, df
+    type(tMat), intent(out) :: p
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt :: mxc, myc, mxf, myf, xs, ys, zs, xm, ym, zm, cxs, cys, cxm, cym
+    PetscInt :: row(1), cols(16), nz, i, j, d, a, b, idum
+    PetscInt, parameter :: one = 1
+    PetscScalar :: v(16)
+    integer :: ncx, ncy, ix(4), iy(4)
+    real(rp) :: wx(4), wy(4)
+    MPI_Comm :: comm
+
+    PetscCall(PetscObjectGetComm(df, comm, ierr))
+    PetscCall(DMDAGetInfo(dc, PETSC_NULL_INTEGER, mxc, myc, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, idum, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, ierr))
+    PetscCall(DMDAGetInfo(df, PETSC_NULL_INTEGER, mxf, myf, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, idum, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, ierr))
+    PetscCall(DMDAGetCorners(df, xs, ys, zs, xm, ym, zm, ierr))
+    PetscCall(DMDAGetCorners(dc, cxs, cys, zs, cxm, cym, zm, ierr))
+    PetscCall(MatCreateAIJ(comm, 3 * xm * ym, 3 * cxm * cym, PETSC_DETERMINE, PETSC_DETERMINE, 16, PETSC_NULL_INTEGER, 16, PETSC_NULL_INTEGER, p, ierr))
+    PetscCall(MatSetBlockSizes(p, 3, 3, ierr))
+    do j = ys, ys + ym - 1
+      call cubic_weights(j, myc, iy, wy, ncy)
+      do i = xs, xs + xm - 1
+        call cubic_weights(i, mxc, ix, wx, ncx)
+        do d = 0, 2
+          row(1) = 3 * (i + j * mxf) + d
+          nz = 0
+          do b = 1, ncy
+            do a = 1, ncx
+              nz = nz + 1
+              cols(nz) = 3 * (ix(a) + iy(b) * mxc) + d
+              v(nz) = wx(a) * wy(b)
+            end do
+          end do
+          PetscCall(MatSetValues(p, one, row, nz, cols, v, INSERT_VALUES, ierr))
+        end do
+      end do
+    end do
+    PetscCall(MatAssemblyBegin(p, MAT_FINAL_ASSEMBLY, ierr))
+    PetscCall(MatAssemblyEnd(p, MAT_FINAL_ASSEMBLY, ierr))
+  end subroutine cubic_interpolation
 
   !> GAMG's near-null space: the six rigid-body modes of the current shape.
   subroutine set_rigid_body_modes(red, u, ierr)

@@ -14,7 +14,7 @@ module reduced_blocks
   use forces, only: jac_buffer_t, slot_of
   implicit none
   private
-  public :: reduced_row_blocks, buffer_row_apply, csr_put_block_row, csr_fits_block_row
+  public :: reduced_row_blocks, buffer_row_apply, csr_fits_block_row
 
 contains
 
@@ -97,37 +97,6 @@ contains
       g(:, i) = acc
     end do
   end subroutine buffer_row_apply
-
-  !> Write the block row vals(3, 3, nc) of one node straight into the value
-  !> arrays of an assembled AIJ matrix (the three scalar rows row0..row0+2,
-  !> 0-based): the blocks whose column node is owned go to the diagonal part
-  !> (av, row starts ia), the others to the off-diagonal part (bv, ib), each
-  !> in the order of the row, which is the order of the columns in both
-  !> parts (ascending global index). This replaces MatSetValues' search of
-  !> every column in the row; csr_fits_block_row checks the structure once.
-  pure subroutine csr_put_block_row(vals, nc, owned, row0, ia, av, ib, bv)
-    real(rp), intent(in) :: vals(:, :, :)   !< (3, 3, >= nc)
-    integer, intent(in) :: nc
-    logical, intent(in) :: owned(:)         !< (>= nc) column node owned by this rank
-    integer, intent(in) :: row0
-    integer, intent(in) :: ia(0:), ib(0:)   !< row starts (0-based offsets into av, bv)
-    real(rp), intent(inout) :: av(0:), bv(0:)
-    integer :: r, n, pa, pb
-    do r = 0, 2
-      pa = ia(row0 + r)
-      pb = 0
-      if (size(ib) > 0) pb = ib(row0 + r)
-      do n = 1, nc
-        if (owned(n)) then
-          av(pa:pa + 2) = vals(r + 1, :, n)
-          pa = pa + 3
-        else
-          bv(pb:pb + 2) = vals(r + 1, :, n)
-          pb = pb + 3
-        end if
-      end do
-    end do
-  end subroutine csr_put_block_row
 
   !> Does the assembled structure hold exactly this block row, in this order?
   !> Diagonal part: row lengths and the column indices (local, 3 per block:

@@ -90,7 +90,8 @@ contains
       nk = cfg%n_keyframes
       kt = cfg%keyframe_time(1:nk)
       allocate(koff(3, nk))
-      koff = 0.0_rp
+      koff(1, :) = cfg%keyframe_dx(1:nk)
+      koff(2, :) = cfg%keyframe_dy(1:nk)
       koff(3, :) = cfg%keyframe_dz(1:nk)
     else
       allocate(kt(0), koff(3, 0))

@@ -21,7 +21,7 @@ module timestepping
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_char, c_null_char, c_intptr_t
   use, intrinsic :: iso_fortran_env, only: output_unit, error_unit
   use kinds, only: rp
-  use config, only: nuno_config, SPRING_LINEAR, BEND_NONE, BEND_ENERGY, SCENE_HANG
+  use config, only: nuno_config, SPRING_LINEAR, BEND_NONE, BEND_ENERGY, SCENE_HANG, unset_real
   use lattice, only: lattice_t, lattice_init, halo_width, link_dir
   use forces, only: internal_forces, link_stretch_extremes, dissipated_power, jac_buffer_t, jac_buffer_init, jac_buffer_row, &
                     slot_of, first_anchor_row
@@ -80,11 +80,11 @@ module timestepping
       integer(c_intptr_t) :: ts             !< the TS handle (tTS%v), passed as TS*
     end function nuno_ts_stop
     !> src/nuno_options.c: nuno's options in a PETSc options block.
-    integer(c_int) function nuno_options_read(fcomm, jacobian, pc_lag, snes_floor, gauss_newton, clamp, &
+    integer(c_int) function nuno_options_read(fcomm, jacobian, pc_lag, mg_interp, snes_floor, gauss_newton, clamp, &
                                               mattype, mattype_len, fail_newton) bind(C, name='nuno_options_read')
       import :: c_int, c_double, c_char
       integer(c_int), value :: fcomm
-      integer(c_int), intent(inout) :: jacobian, pc_lag, gauss_newton, clamp, fail_newton
+      integer(c_int), intent(inout) :: jacobian, pc_lag, mg_interp, gauss_newton, clamp, fail_newton
       real(c_double), intent(inout) :: snes_floor
       character(kind=c_char), intent(inout) :: mattype(*)
       integer(c_int), value :: mattype_len
@@ -227,7 +227,7 @@ contains
     PetscScalar, pointer :: ua(:, :, :)
     character(len=64) :: mattype
     character(len=64, kind=c_char) :: cmattype
-    integer(c_int) :: jac_full, pc_lag, gn, cl, nfail, applied
+    integer(c_int) :: jac_full, pc_lag, gn, cl, nfail, mg_interp, applied
     logical :: symmetric, constant, damping
 
     ctx%cfg = cfg
@@ -247,11 +247,12 @@ contains
     ! multiplies fastest; -dm_mat_type aij for field splits.
     jac_full = 0
     pc_lag = 0                     ! the default: 3 with the multigrid, 1 otherwise (module reduced)
+    mg_interp = 0                  ! auto: cubic with bending, linear without (module reduced)
     gn = 0
     cl = 0
     nfail = 0
     cmattype = MATBAIJ//c_null_char
-    ierr = nuno_options_read(ctx%comm, jac_full, pc_lag, ctx%snes_floor, gn, cl, cmattype, len(cmattype), nfail)
+    ierr = nuno_options_read(ctx%comm, jac_full, pc_lag, mg_interp, ctx%snes_floor, gn, cl, cmattype, len(cmattype), nfail)
     if (ierr /= 0) return
     ctx%use_reduced = jac_full == 0
     ctx%gauss_newton = gn /= 0
@@ -294,7 +295,7 @@ contains
                   (cfg%bending_code == BEND_NONE .or. (cfg%bending_code == BEND_ENERGY .and. &
                    (cfg%eta_b == 0.0_rp .or. ctx%gauss_newton)))
       constant = cfg%spring_code == SPRING_LINEAR .and. cfg%bending_code == BEND_NONE
-      PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, symmetric, constant, damping, ctx%clamp, ctx%gauss_newton, pc_lag, ierr))
+      PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, symmetric, constant, damping, ctx%clamp, ctx%gauss_newton, pc_lag, ierr, mg_interpolation=mg_interp))
     else
       ! Jacobian with the DMDA's exact box-stencil preallocation.
       PetscCall(DMCreateMatrix(ctx%da, ctx%p, ierr))
@@ -346,9 +347,9 @@ contains
     end if
     ! An adaptive run without -ts_type: the method that won the
     ! work-precision measurement at moderate tolerance (nuno_options.c). The
-    ! identification keeps beuler: its adjoint needs a theta method.
+    ! identification and the control keep beuler: their adjoint needs a theta method.
     ctx%adaptive_default = .false.
-    if (.not. cfg%identify) then
+    if (.not. (cfg%identify .or. cfg%control)) then
       ierr = nuno_adaptive_default(ctx%comm, ctx%ts%v, applied)
       if (ierr /= 0) return
       ctx%adaptive_default = applied /= 0
@@ -1232,6 +1233,8 @@ contains
     nk = max(0, min(cfg%n_keyframes, size(cfg%keyframe_time)))
     if (nk > 0) then
       call output_config_key(out, 'scene', 'keyframe_time', cfg%keyframe_time(1:nk), e, errmsg)
+      call output_config_key(out, 'scene', 'keyframe_dx', cfg%keyframe_dx(1:nk), e, errmsg)
+      call output_config_key(out, 'scene', 'keyframe_dy', cfg%keyframe_dy(1:nk), e, errmsg)
       call output_config_key(out, 'scene', 'keyframe_dz', cfg%keyframe_dz(1:nk), e, errmsg)
     end if
     call output_config_key(out, 'scene', 'wave_nodes', trim(cfg%wave_nodes), e, errmsg)
@@ -1252,6 +1255,14 @@ contains
       call output_config_key(out, 'identify', 'fit_lower', cfg%fit_lower(1:cfg%n_fit), e, errmsg)
       call output_config_key(out, 'identify', 'fit_upper', cfg%fit_upper(1:cfg%n_fit), e, errmsg)
       call output_config_key(out, 'identify', 'tikhonov', [cfg%tikhonov], e, errmsg)
+    end if
+    if (cfg%control) then
+      ! /config/scene holds the optimised keyframes (those of the run written); the initial guess is /control/initial_offset.
+      call output_config_key(out, 'control', 'target_file', trim(cfg%target_file), e, errmsg)
+      call output_config_key(out, 'control', 'components', trim(cfg%components), e, errmsg)
+      if (cfg%max_speed /= unset_real) call output_config_key(out, 'control', 'max_speed', [cfg%max_speed], e, errmsg)
+      call output_config_key(out, 'control', 'velocity_weight', [cfg%velocity_weight], e, errmsg)
+      call output_config_key(out, 'control', 'keyframe_tikhonov', [cfg%keyframe_tikhonov], e, errmsg)
     end if
     ! One error flag for all ranks (each call above is local HDF5 metadata).
     call MPI_Allreduce(MPI_IN_PLACE, e, 1, MPI_INTEGER, MPI_MAX, comm, ierr)

@@ -155,8 +155,10 @@ contains
     PetscCallA(DMDAVecGetArrayReadF90(da6, uloc, ul, ierr))
     PetscCallA(DMDAVecGetArrayReadF90(da6, udloc, udl, ierr))
     PetscCallA(reduced_assemble(red, ul, udl, a, ierr))
-    ! S is AIJ here (LU): its values are written straight into the arrays.
-    ! The same S through MatSetValues must be identical, on every rank count.
+    ! S is AIJ here (LU): its values are written straight into the arrays,
+    ! element by element (module reduced_assembly). The S of the block
+    ! buffer through MatSetValues sums the same terms in another order: the
+    ! two must agree to round-off, on every rank count.
     call check_true(red%direct, label//': AIJ S is written directly')
     PetscCallA(reduced_create(red2, da6, lat, .false., .false., .true., .false., .false., 1, ierr))
     red2%direct = .false.
@@ -165,7 +167,8 @@ contains
     PetscCallA(MatNorm(red2%s, NORM_FROBENIUS, snorm, ierr))
     PetscCallA(MatAXPY(red2%s, -1.0_rp, red%s, SAME_NONZERO_PATTERN, ierr))
     PetscCallA(MatNorm(red2%s, NORM_FROBENIUS, dnorm, ierr))
-    call check_true(dnorm == 0.0_rp .and. snorm > 0.0_rp, label//': direct S equals the MatSetValues S')
+    if (dnorm > 1.0e-14_rp * snorm) print '(a, es10.2)', ' relative difference ', dnorm / snorm
+    call check_true(dnorm <= 1.0e-14_rp * snorm .and. snorm > 0.0_rp, label//': direct S equals the MatSetValues S')
     PetscCallA(reduced_destroy(red2, ierr))
     PetscCallA(DMDAVecRestoreArrayReadF90(da6, udloc, udl, ierr))
     PetscCallA(DMDAVecRestoreArrayReadF90(da6, uloc, ul, ierr))

@@ -115,14 +115,20 @@ def test_bad_solver_option_is_refused_on_every_rank(tmp_path, option, value, wor
     assert words in proc.stdout + proc.stderr
 
 
-def test_parallel_multigrid_gives_the_one_rank_answer(tmp_path):
+@pytest.mark.parametrize("interpolation", ["linear", "cubic", "coarse_cubic"])
+def test_parallel_multigrid_gives_the_one_rank_answer(tmp_path, interpolation):
     """The default inner solver on 65 x 65 is geometric multigrid (5 levels
     on 1 rank, 3 on 3 ranks, where every coarse strip must keep the halo's
-    rows): with tight tolerances both give the same positions."""
-    tight = ("-snes_rtol", "1e-12", "-reduced_ksp_rtol", "1e-11", "-reduced_ksp_view")
+    rows), with cubic interpolation below the finest level by default (hang
+    has bending), everywhere, or bilinear: with tight tolerances 1 and 3
+    ranks give the same positions (the cubic P is built row by row across
+    the strips' boundaries)."""
+    tight = ("-snes_rtol", "1e-12", "-reduced_ksp_rtol", "1e-11", "-reduced_ksp_view",
+             "-nuno_mg_interpolation", interpolation)
     runs = {}
     for p in (1, 3):
-        proc, runs[p] = run_input(tmp_path, "hang", f"mg_np{p}", p, tight, 0.005, 1e-3, nx=65, ny=65)
+        proc, runs[p] = run_input(tmp_path, "hang", f"mg_{interpolation}_np{p}", p, tight, 0.005, 1e-3,
+                                  nx=65, ny=65)
         assert "type: mg" in proc.stdout, f"no multigrid on {p} ranks"
     ref = runs[1].position
     moved = np.abs(ref[-1] - ref[0]).max()

@@ -1,0 +1,285 @@
+!> Direct assembly of the reduced matrix S = a M - C - K/a into the CSR
+!> arrays of an AIJ matrix, element by element (no PETSc, no MPI).
+!>
+!> Each link adds its 3 x 3 block B = (c + k/a) to four places of S (two
+!> diagonal blocks with one sign, the two coupling blocks with the other),
+!> each bending triple its nine 3 x 3 blocks, straight into the value arrays
+!> at positions computed from the stencil (csr_block_pos). This replaces
+!> the rolling block buffer of module forces, which is zeroed, summed per
+!> row and copied once more before the CSR write (docs/performance.md,
+!> "Fourth round"); that buffer path stays for the other storage formats
+!> and for the matrix-free products.
+!>
+!> Layout (as made by the DMDA for 1 x P strips, natural ordering): the owned
+!> node (i, j) has the scalar rows 3 lp + 0..2, lp = i + (j - ys) nx. Its
+!> stencil blocks (i + di, j + dj), |di|, |dj| <= w, inside the lattice, are
+!> stored in the order of (dj, di), in the diagonal part (av, row starts ia)
+!> when row j + dj is owned, in the off-diagonal part (bv, ib) otherwise;
+!> each block takes three consecutive columns of each of the three rows.
+!> module reduced checks once that the matrix has exactly this layout.
+module reduced_assembly
+  use kinds, only: rp
+  use config, only: BEND_NONE, BEND_PAPER, BEND_ENERGY
+  use lattice, only: lattice_t, link_dir, line_dir, link_constants, triple_constants
+  use springs, only: link_jacobian
+  use bending_paper, only: paper_jacobian
+  use bending_energy, only: energy_jacobian
+  implicit none
+  private
+  public :: csr_assemble, csr_block_pos
+
+  !> Where S is written: CSR arrays (0-based offsets) of this rank's rows.
+  type :: csr_t
+    integer, pointer :: ia(:) => null(), ib(:) => null()
+    real(rp), pointer :: av(:) => null(), bv(:) => null()
+  end type csr_t
+
+contains
+
+  !> Offsets pos(0:2) of the first entry of block (i + di, j + dj) in the
+  !> three scalar rows of owned node (i, j); diag: in av (else in bv).
+  pure subroutine csr_block_pos(lat, ia, ib, i, j, di, dj, pos, diag)
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: ia(0:), ib(0:)
+    integer, intent(in) :: i, j, di, dj
+    integer, intent(out) :: pos(0:2)
+    logical, intent(out) :: diag
+    integer :: w, di0, ndi, dj0, ja0, ja1, r0, idx, r, below
+
+    w = lat%halo
+    di0 = max(-w, -i)
+    ndi = min(w, lat%nx - 1 - i) - di0 + 1
+    dj0 = max(-w, -j)
+    ja0 = max(dj0, lat%ys - j)                    ! owned rows of the stencil: ja0..ja1
+    ja1 = min(w, lat%ny - 1 - j, lat%ye - j)
+    r0 = 3 * (i + (j - lat%ys) * lat%nx)
+    diag = dj >= ja0 .and. dj <= ja1
+    if (diag) then
+      idx = (dj - ja0) * ndi + (di - di0)
+      do r = 0, 2
+        pos(r) = ia(r0 + r) + 3 * idx
+      end do
+    else
+      below = dj - dj0                            ! stencil rows before dj ...
+      if (dj > ja1) below = below - (ja1 - ja0 + 1)   ! ... that are not owned
+      idx = below * ndi + (di - di0)
+      do r = 0, 2
+        pos(r) = ib(r0 + r) + 3 * idx
+      end do
+    end if
+  end subroutine csr_block_pos
+
+  !> S on the owned rows, written over the values of av and bv (every
+  !> stored entry is set), g = -(K w_x + C w_v) on the owned rows, and
+  !> kd(:, i, j) the diagonal of -df/dx of node (i, j) (round-off floor).
+  !> Constrained rows get a m I and constrained columns nothing, as in
+  !> module reduced_blocks. u, w(0:5, 0:nx-1, gys:gye), ghost rows filled.
+  !>
+  !> Links are gathered: the blocks of the links of two anchor rows are kept
+  !> (lb), and each node row is then written whole, in the CSR order, with
+  !> no zeroing and no read-modify-write. Bending triples (9 blocks each,
+  !> reaching two rows) are added to the written rows afterwards.
+  subroutine csr_assemble(lat, u, fixedg, a, with_damping, clamp, gauss_newton, w, lb, vals, ia, av, ib, bv, g, kd)
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)    !< (0:5, 0:nx-1, gys:gye) state
+    logical, intent(in) :: fixedg(0:, lat%gys:)    !< (0:nx-1, gys:gye) constrained nodes
+    real(rp), intent(in) :: a                      !< TS shift [1/time]
+    logical, intent(in) :: with_damping, clamp, gauss_newton
+    real(rp), intent(in) :: w(0:, 0:, lat%gys:)    !< (0:5, 0:nx-1, gys:gye) vector of the products
+    real(rp), intent(inout) :: lb(:, :, :, 0:, 0:) !< (3, 3, 4, 0:nx-1, 0:1) work: link blocks c + k/a
+    real(rp), intent(inout) :: vals(:, :, :)       !< (3, 3, (2 halo + 1)^2) work: one block row
+    integer, intent(in), target :: ia(0:), ib(0:)
+    real(rp), intent(inout), target :: av(0:), bv(0:)
+    real(rp), intent(out) :: g(:, 0:, lat%ys:)     !< (3, 0:nx-1, ys:ye) [force]
+    real(rp), intent(out) :: kd(:, 0:, lat%ys:)    !< (3, 0:nx-1, ys:ye) [force/length]
+    type(csr_t) :: s
+    integer :: i, j, k, iq, jq, ir, jr, p, q, n(2, 3), l
+    real(rp) :: d0(3, 4), len0(4), e, eta, kl(3, 3), cl(3, 3), t(3), x9(9), v9(9), k9(9, 9), c9(9, 9), kb, etab, rinv
+    logical :: ok, own_p, own_q
+
+    s%ia => ia
+    s%ib => ib
+    s%av => av
+    s%bv => bv
+    g = 0.0_rp
+    kd = 0.0_rp
+    rinv = 1.0_rp / a
+    do k = 1, 4
+      d0(:, k) = [-real(link_dir(1, k), rp) * lat%ax, -real(link_dir(2, k), rp) * lat%ay, 0.0_rp]
+      len0(k) = norm2(d0(:, k))
+    end do
+    cl = 0.0_rp
+    do j = max(0, lat%ys - 1), lat%ye
+      own_p = j >= lat%ys
+      do i = 0, lat%nx - 1
+        do k = 1, 4
+          iq = i + link_dir(1, k)
+          jq = j + link_dir(2, k)
+          if (iq < 0 .or. iq >= lat%nx .or. jq >= lat%ny .or. jq < lat%ys) cycle
+          call link_constants(lat, i, j, k, e, eta)
+          call link_jacobian(lat%spring_model, e, eta, d0(:, k), len0(k), u(0:2, i, j), u(0:2, iq, jq), &
+                             u(3:5, i, j), u(3:5, iq, jq), clamp, kl, cl, ok)
+          ! f_p = -f_q: dF_p/dx_p = dF_q/dx_q = kl, dF_p/dx_q = dF_q/dx_p = -kl (same for cl).
+          if (with_damping) then
+            t = matmul(kl, w(0:2, i, j) - w(0:2, iq, jq)) + matmul(cl, w(3:5, i, j) - w(3:5, iq, jq))
+            lb(:, :, k, i, modulo(j, 2)) = cl + rinv * kl
+          else
+            t = matmul(kl, w(0:2, i, j) - w(0:2, iq, jq))
+            lb(:, :, k, i, modulo(j, 2)) = rinv * kl
+          end if
+          own_q = jq <= lat%ye
+          do l = 1, 3
+            if (own_p) kd(l, i, j) = kd(l, i, j) - kl(l, l)
+            if (own_q) kd(l, iq, jq) = kd(l, iq, jq) - kl(l, l)
+          end do
+          if (own_p) g(:, i, j) = g(:, i, j) - t
+          if (own_q) g(:, iq, jq) = g(:, iq, jq) + t
+        end do
+      end do
+      if (own_p) then
+        do i = 0, lat%nx - 1
+          call put_row(i, j)
+        end do
+      end if
+    end do
+    if (lat%bending_model == BEND_NONE) return
+    c9 = 0.0_rp
+    do j = max(0, lat%ys - lat%halo), lat%ye
+      do i = 0, lat%nx - 1
+        do k = 1, 4
+          iq = i + line_dir(1, k)
+          jq = j + line_dir(2, k)
+          ir = iq + line_dir(1, k)
+          jr = jq + line_dir(2, k)
+          if (ir < 0 .or. ir >= lat%nx .or. jr >= lat%ny .or. jr < lat%ys) cycle
+          call triple_constants(lat, k, kb, etab)
+          x9 = [u(0:2, i, j), u(0:2, iq, jq), u(0:2, ir, jr)]
+          if (lat%bending_model == BEND_PAPER) then
+            call paper_jacobian(kb, x9, k9, ok)
+          else
+            v9 = [u(3:5, i, j), u(3:5, iq, jq), u(3:5, ir, jr)]
+            call energy_jacobian(kb, etab, x9, v9, gauss_newton, k9, c9, ok)
+            if (.not. with_damping) c9 = 0.0_rp
+          end if
+          n(:, 1) = [i, j]
+          n(:, 2) = [iq, jq]
+          n(:, 3) = [ir, jr]
+          do p = 1, 3
+            do q = 1, 3
+              call add_element_block(n, p, q, k9(3*p - 2:3*p, 3*q - 2:3*q), c9(3*p - 2:3*p, 3*q - 2:3*q))
+            end do
+          end do
+        end do
+      end do
+    end do
+
+  contains
+
+    !> Write the whole block row of owned node (i0, j0): a m I minus the
+    !> blocks of its links on the diagonal, the link blocks at the link
+    !> neighbours, zero elsewhere in the stencil (constraints as above).
+    subroutine put_row(i0, j0)
+      integer, intent(in) :: i0, j0
+      integer :: di, dj, nc, kk, ia0, ja0, r, pa, pb, m, hw
+      logical :: fixed_row, owned_blk(25)
+      real(rp) :: dsum(3, 3)
+      hw = lat%halo
+      fixed_row = fixedg(i0, j0)
+      dsum = 0.0_rp
+      nc = 0
+      do dj = -hw, hw
+        if (j0 + dj < 0 .or. j0 + dj >= lat%ny) cycle
+        do di = -hw, hw
+          if (i0 + di < 0 .or. i0 + di >= lat%nx) cycle
+          nc = nc + 1
+          owned_blk(nc) = j0 + dj >= lat%ys .and. j0 + dj <= lat%ye
+          vals(:, :, nc) = 0.0_rp
+          if (max(abs(di), abs(dj)) /= 1) cycle
+          ! The link p -> p + (di, dj) is anchored at its lower end.
+          if (dj > 0 .or. (dj == 0 .and. di > 0)) then
+            kk = link_index(di, dj)
+            ia0 = i0
+            ja0 = j0
+          else
+            kk = link_index(-di, -dj)
+            ia0 = i0 + di
+            ja0 = j0 + dj
+          end if
+          dsum = dsum + lb(:, :, kk, ia0, modulo(ja0, 2))
+          if (.not. (fixed_row .or. fixedg(i0 + di, j0 + dj))) vals(:, :, nc) = lb(:, :, kk, ia0, modulo(ja0, 2))
+        end do
+      end do
+      ! The diagonal block: index of (0, 0) among the blocks.
+      m = (min(hw, j0) ) * (min(hw, lat%nx - 1 - i0) + min(hw, i0) + 1) + min(hw, i0) + 1
+      if (fixed_row) dsum = 0.0_rp
+      vals(:, :, m) = -dsum
+      do r = 1, 3
+        vals(r, r, m) = vals(r, r, m) + a * lat%mass(i0, j0)
+      end do
+      do r = 0, 2
+        pa = s%ia(3 * (i0 + (j0 - lat%ys) * lat%nx) + r)
+        pb = 0
+        if (size(s%ib) > 0) pb = s%ib(3 * (i0 + (j0 - lat%ys) * lat%nx) + r)
+        do kk = 1, nc
+          if (owned_blk(kk)) then
+            s%av(pa:pa + 2) = vals(r + 1, :, kk)
+            pa = pa + 3
+          else
+            s%bv(pb:pb + 2) = vals(r + 1, :, kk)
+            pb = pb + 3
+          end if
+        end do
+      end do
+    end subroutine put_row
+
+    !> Block (p, q) of a bending triple with nodes n(:, 1..3): kk = dF_p/dx_q,
+    !> cc = dF_p/dv_q. S gets -(cc + kk/a) in row p, column q,
+    !> g_p gets -(kk w_x(q) + cc w_v(q)), kd_p the diagonal of -kk.
+    subroutine add_element_block(n, p, q, kk, cc)
+      integer, intent(in) :: n(:, :), p, q
+      real(rp), intent(in) :: kk(3, 3), cc(3, 3)
+      integer :: ip, jp, iq2, jq2, l
+      ip = n(1, p)
+      jp = n(2, p)
+      if (jp < lat%ys .or. jp > lat%ye) return
+      iq2 = n(1, q)
+      jq2 = n(2, q)
+      g(:, ip, jp) = g(:, ip, jp) - (matmul(kk, w(0:2, iq2, jq2)) + matmul(cc, w(3:5, iq2, jq2)))
+      if (p == q) then
+        do l = 1, 3
+          kd(l, ip, jp) = kd(l, ip, jp) - kk(l, l)
+        end do
+      end if
+      if (fixedg(ip, jp) .or. fixedg(iq2, jq2)) return
+      call add_block(ip, jp, iq2 - ip, jq2 - jp, -(cc + rinv * kk))
+    end subroutine add_element_block
+    !> S(node (ip, jp), node (ip + di, jp + dj)) += blk.
+    subroutine add_block(ip, jp, di, dj, blk)
+      integer, intent(in) :: ip, jp, di, dj
+      real(rp), intent(in) :: blk(3, 3)
+      integer :: pos(0:2), r
+      logical :: diag
+      call csr_block_pos(lat, s%ia, s%ib, ip, jp, di, dj, pos, diag)
+      if (diag) then
+        do r = 0, 2
+          s%av(pos(r):pos(r) + 2) = s%av(pos(r):pos(r) + 2) + blk(r + 1, :)
+        end do
+      else
+        do r = 0, 2
+          s%bv(pos(r):pos(r) + 2) = s%bv(pos(r):pos(r) + 2) + blk(r + 1, :)
+        end do
+      end if
+    end subroutine add_block
+
+  end subroutine csr_assemble
+
+  !> Index k of link_dir for the direction (di, dj) of a link from its anchor.
+  pure integer function link_index(di, dj) result(k)
+    integer, intent(in) :: di, dj
+    do k = 1, 4
+      if (link_dir(1, k) == di .and. link_dir(2, k) == dj) return
+    end do
+    k = 0
+  end function link_index
+
+end module reduced_assembly
