@@ -62,3 +62,14 @@ def test_help_and_readme_name_the_default():
     assert "-nuno_adaptive_ts_type" in text and "Which integrator for which goal" in text
     readme = re.sub(r"\s+", " ", (ROOT / "README.md").read_text())
     assert f"`-ts_adapt_type basic` alone uses `{DEFAULT[0]}` ({DEFAULT[1]}," in readme
+
+
+def test_identification_keeps_backward_euler(tmp_path):
+    """An identification's adjoint needs a theta method: with -ts_adapt_type
+    basic and no -ts_type it stays beuler (docs/workprecision.md)."""
+    groups = dict(scene="scene='lift_release'", lattice="nx=5 ny=5", time="t_end=0.04 dt=0.01")
+    _, obs = run(tmp_path, "obs", output="output_interval=0.02", **groups)
+    proc, _ = run(tmp_path, "id", options=("-ts_adapt_type", "basic", "-identify_check_gradient"),
+                  identify=f"observed_file='{obs.name}' fit='k_b'", output="output_interval=0.02", **groups)
+    line = solver_line(proc.stdout)
+    assert line.startswith("solver    : TS beuler, adapt basic"), line
