@@ -217,6 +217,12 @@ contains
     ! The DM gives -reduced_pc_type mg its grid hierarchy; the operators stay ours.
     PetscCall(KSPSetDM(red%ksp, red%da3, ierr))
     PetscCall(KSPSetDMActive(red%ksp, PETSC_FALSE, ierr))
+    if (present(mg_interpolation)) then
+      if (mg_interpolation > 0 .and. pctype /= PCMG) then
+        ierr = PETSC_ERR_ARG_INCOMP
+        SETERRQ(comm, ierr, 'nuno: -nuno_mg_interpolation needs the inner multigrid, -reduced_pc_type mg (the default from 3 levels on)')
+      end if
+    end if
     if (pctype == PCMG) then
       ! auto: with bending, cubic on every level but the finest (measured,
       ! docs/performance.md "Fourth round": as fast as cubic everywhere,

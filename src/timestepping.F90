@@ -255,6 +255,10 @@ contains
     ierr = nuno_options_read(ctx%comm, jac_full, pc_lag, mg_interp, ctx%snes_floor, gn, cl, cmattype, len(cmattype), nfail)
     if (ierr /= 0) return
     ctx%use_reduced = jac_full == 0
+    if (.not. ctx%use_reduced .and. mg_interp > 0) then
+      ierr = PETSC_ERR_ARG_INCOMP
+      SETERRQ(ctx%comm, ierr, 'nuno: -nuno_mg_interpolation is for the reduced solve, not -nuno_jacobian full')
+    end if
     ctx%gauss_newton = gn /= 0
     ctx%clamp = cl /= 0
     ctx%fail_newton = nfail

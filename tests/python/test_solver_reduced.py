@@ -104,6 +104,9 @@ def test_failing_inner_solves_fail_the_step_cleanly(tmp_path):
     ("-nuno_jacobian", "foo", "Unknown option foo for -nuno_jacobian"),
     ("-nuno_pc_lag", "-1", "-nuno_pc_lag -1 must be >= 1"),
     ("-nuno_snes_floor", "2", "must be in [0, 1)"),
+    # hang.nml is 21 x 21: on 2 ranks fewer than 3 levels fit, no multigrid
+    ("-nuno_mg_interpolation", "cubic", "-nuno_mg_interpolation needs the inner multigrid"),
+    ("-nuno_mg_interpolation", "quintic", "Unknown option quintic for -nuno_mg_interpolation"),
 ])
 def test_bad_solver_option_is_refused_on_every_rank(tmp_path, option, value, words):
     text = set_key((ROOT / "input" / "hang.nml").read_text(), "output_file", "'bad.h5'")
