@@ -1,10 +1,12 @@
 !> Direct assembly of the reduced matrix S = a M - C - K/a into the CSR
 !> arrays of an AIJ matrix, element by element (no PETSc, no MPI).
 !>
-!> Each link adds its 3 x 3 block B = (c + k/a) to four places of S (two
-!> diagonal blocks with one sign, the two coupling blocks with the other),
-!> each bending triple its nine 3 x 3 blocks, straight into the value arrays
-!> at positions computed from the stencil (csr_block_pos). This replaces
+!> Each link's 3 x 3 block B = (c + k/a) belongs to four places of S (two
+!> diagonal blocks with one sign, the two coupling blocks with the other):
+!> the blocks of the links of two anchor rows are kept, and every node row
+!> is then gathered from them and written once, whole, in the CSR order.
+!> Each bending triple then adds its nine 3 x 3 blocks at positions
+!> computed from the stencil (csr_block_pos). This replaces
 !> the rolling block buffer of module forces, which is zeroed, summed per
 !> row and copied once more before the CSR write (docs/performance.md,
 !> "Fourth round"); that buffer path stays for the other storage formats
