@@ -75,7 +75,7 @@ module reduced
     ! recognised and gets its own pass.
     real(rp), allocatable :: wpred(:, :, :) !< (0:5, 0:nx-1, gys:gye) w of b = F(u)
     real(rp), allocatable :: gpred(:, :, :) !< (3, 0:nx-1, ys:ye) its products
-    real(rp), allocatable :: kd(:, :, :)    !< (3, 0:nx-1, ys:ye) diagonal of -df/dx (direct assembly)
+    real(rp), allocatable :: kd(:, :, :)    !< (3, 0:nx-1, ys:ye) diagonal of -df/dx at the assembly (round-off floor)
     real(rp), allocatable :: lb(:, :, :, :, :) !< (3, 3, 4, 0:nx-1, 0:1) link blocks of two rows (direct assembly)
     logical :: have_pred = .false.
     real(rp), allocatable :: vals(:, :, :) !< (3, 3, ncol) one block row
@@ -449,13 +449,6 @@ contains
       call csr_assemble(red%lat, u, red%fixedg, a, red%damping, red%clamp, red%gauss_newton, red%wpred, &
                         red%lb, red%vals, view%ia, view%av, view%ib, view%bv, red%gpred, red%kd)
       PetscCall(aij_close(red, view, ierr))
-      do ja = red%lat%ys, red%lat%ye
-        do i = 0, red%lat%nx - 1
-          if (red%fixedg(i, ja)) cycle
-          loc(1) = loc(1) + sum((red%kd(:, i, ja) / red%lat%mass(i, ja))**2)
-          loc(2) = max(loc(2), maxval(abs(u(0:2, i, ja))))
-        end do
-      end do
     else
       red%jbuf%k = 0.0_rp
       red%jbuf%c = 0.0_rp
@@ -464,12 +457,9 @@ contains
         if (ja >= red%lat%ys) then
           call buffer_row_apply(red%jbuf, red%lat, red%wpred, ja, red%damping, red%gpred(:, :, ja))
           do i = 0, red%lat%nx - 1
-            if (.not. red%fixedg(i, ja)) then
-              do q = 1, 3
-                loc(1) = loc(1) + (red%jbuf%k(q, q, 0, 0, i, slot_of(ja)) / red%lat%mass(i, ja))**2
-              end do
-              loc(2) = max(loc(2), maxval(abs(u(0:2, i, ja))))
-            end if
+            do q = 1, 3
+              red%kd(q, i, ja) = red%jbuf%k(q, q, 0, 0, i, slot_of(ja))
+            end do
             call reduced_row_blocks(red%jbuf, red%lat, red%fixedg, i, ja, a, red%damping, red%vals, red%cols, nc)
             row(1) = i + (ja - red%lat%gys) * red%lat%nx
             ncol = nc
@@ -482,6 +472,13 @@ contains
     end if
     PetscCall(MatAssemblyBegin(red%s, MAT_FINAL_ASSEMBLY, ierr))
     PetscCall(MatAssemblyEnd(red%s, MAT_FINAL_ASSEMBLY, ierr))
+    do ja = red%lat%ys, red%lat%ye
+      do i = 0, red%lat%nx - 1
+        if (red%fixedg(i, ja)) cycle
+        loc(1) = loc(1) + sum((red%kd(:, i, ja) / red%lat%mass(i, ja))**2)
+        loc(2) = max(loc(2), maxval(abs(u(0:2, i, ja))))
+      end do
+    end do
     ! Round-off floor of the residual: a position is known to eps |x|, and
     ! the v-rows amplify that by the stiffness over the mass, K_ii/m_i (the
     ! stiffest, bending, grows like N^4 on a refined lattice), so that

@@ -30,12 +30,6 @@ module reduced_assembly
   private
   public :: csr_assemble, csr_block_pos
 
-  !> Where S is written: CSR arrays (0-based offsets) of this rank's rows.
-  type :: csr_t
-    integer, pointer :: ia(:) => null(), ib(:) => null()
-    real(rp), pointer :: av(:) => null(), bv(:) => null()
-  end type csr_t
-
 contains
 
   !> Offsets pos(0:2) of the first entry of block (i + di, j + dj) in the
@@ -90,19 +84,14 @@ contains
     real(rp), intent(in) :: w(0:, 0:, lat%gys:)    !< (0:5, 0:nx-1, gys:gye) vector of the products
     real(rp), intent(inout) :: lb(:, :, :, 0:, 0:) !< (3, 3, 4, 0:nx-1, 0:1) work: link blocks c + k/a
     real(rp), intent(inout) :: vals(:, :, :)       !< (3, 3, (2 halo + 1)^2) work: one block row
-    integer, intent(in), target :: ia(0:), ib(0:)
-    real(rp), intent(inout), target :: av(0:), bv(0:)
+    integer, intent(in) :: ia(0:), ib(0:)          !< row starts (0-based offsets into av, bv)
+    real(rp), intent(inout) :: av(0:), bv(0:)
     real(rp), intent(out) :: g(:, 0:, lat%ys:)     !< (3, 0:nx-1, ys:ye) [force]
     real(rp), intent(out) :: kd(:, 0:, lat%ys:)    !< (3, 0:nx-1, ys:ye) [force/length]
-    type(csr_t) :: s
     integer :: i, j, k, iq, jq, ir, jr, p, q, n(2, 3), l
     real(rp) :: d0(3, 4), len0(4), e, eta, kl(3, 3), cl(3, 3), t(3), x9(9), v9(9), k9(9, 9), c9(9, 9), kb, etab, rinv
     logical :: ok, own_p, own_q
 
-    s%ia => ia
-    s%ib => ib
-    s%av => av
-    s%bv => bv
     g = 0.0_rp
     kd = 0.0_rp
     rinv = 1.0_rp / a
@@ -219,15 +208,15 @@ contains
         vals(r, r, m) = vals(r, r, m) + a * lat%mass(i0, j0)
       end do
       do r = 0, 2
-        pa = s%ia(3 * (i0 + (j0 - lat%ys) * lat%nx) + r)
+        pa = ia(3 * (i0 + (j0 - lat%ys) * lat%nx) + r)
         pb = 0
-        if (size(s%ib) > 0) pb = s%ib(3 * (i0 + (j0 - lat%ys) * lat%nx) + r)
+        if (size(ib) > 0) pb = ib(3 * (i0 + (j0 - lat%ys) * lat%nx) + r)
         do kk = 1, nc
           if (owned_blk(kk)) then
-            s%av(pa:pa + 2) = vals(r + 1, :, kk)
+            av(pa:pa + 2) = vals(r + 1, :, kk)
             pa = pa + 3
           else
-            s%bv(pb:pb + 2) = vals(r + 1, :, kk)
+            bv(pb:pb + 2) = vals(r + 1, :, kk)
             pb = pb + 3
           end if
         end do
@@ -261,14 +250,14 @@ contains
       real(rp), intent(in) :: blk(3, 3)
       integer :: pos(0:2), r
       logical :: diag
-      call csr_block_pos(lat, s%ia, s%ib, ip, jp, di, dj, pos, diag)
+      call csr_block_pos(lat, ia, ib, ip, jp, di, dj, pos, diag)
       if (diag) then
         do r = 0, 2
-          s%av(pos(r):pos(r) + 2) = s%av(pos(r):pos(r) + 2) + blk(r + 1, :)
+          av(pos(r):pos(r) + 2) = av(pos(r):pos(r) + 2) + blk(r + 1, :)
         end do
       else
         do r = 0, 2
-          s%bv(pos(r):pos(r) + 2) = s%bv(pos(r):pos(r) + 2) + blk(r + 1, :)
+          bv(pos(r):pos(r) + 2) = bv(pos(r):pos(r) + 2) + blk(r + 1, :)
         end do
       end if
     end subroutine add_block
