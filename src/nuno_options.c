@@ -15,10 +15,10 @@
 /* jacobian: in/out 0 = reduced, 1 = full; pc_lag: in/out >= 0 (0: default);
  * mg_interp: in/out 0 = auto, 1 = linear, 2 = cubic, 3 = coarse_cubic (module reduced's INTERP_*);
  * snes_floor: in/out >= 0; gauss_newton, clamp: in/out 0/1;
- * mattype: in/out NUL-terminated, mattype_len bytes; fail_newton: in/out >= 0.
- * Returns a PETSc error code (0 on success). */
+ * mattype: in/out NUL-terminated, mattype_len bytes; fail_newton: in/out >= 0;
+ * forcing: in/out 0/1. Returns a PETSc error code (0 on success). */
 PetscErrorCode nuno_options_read(MPI_Fint fcomm, int *jacobian, int *pc_lag, int *mg_interp, double *snes_floor,
-                                 int *gauss_newton, int *clamp, char *mattype, int mattype_len, int *fail_newton)
+                                 int *gauss_newton, int *clamp, char *mattype, int mattype_len, int *fail_newton, int *forcing)
 {
   static const char *const jacobians[] = {"reduced", "full"};
   static const char *const interps[]   = {"auto", "linear", "cubic", "coarse_cubic"};
@@ -26,6 +26,7 @@ PetscErrorCode nuno_options_read(MPI_Fint fcomm, int *jacobian, int *pc_lag, int
   PetscInt  jac = *jacobian, lag = *pc_lag, nfail = *fail_newton, interp = *mg_interp;
   PetscReal floor = *snes_floor;
   PetscBool gn = *gauss_newton ? PETSC_TRUE : PETSC_FALSE, cl = *clamp ? PETSC_TRUE : PETSC_FALSE;
+  PetscBool fc = *forcing ? PETSC_TRUE : PETSC_FALSE;
   char      mt[64];
 
   PetscFunctionBeginUser;
@@ -38,6 +39,8 @@ PetscErrorCode nuno_options_read(MPI_Fint fcomm, int *jacobian, int *pc_lag, int
                               "nuno", interps, 4, interps[interp], &interp, NULL));
   PetscCall(PetscOptionsReal("-nuno_snes_floor", "Newton: converged when a residual below this fraction of its start stops decreasing, or (reduced) is at the round-off floor estimated from S (0: off)",
                              "nuno", floor, &floor, NULL));
+  PetscCall(PetscOptionsBool("-nuno_newton_forcing", "reduced Newton: solve each inner system only as far as the step needs (its Newton remainder, or half the residual at which Newton stops); off: always -reduced_ksp_rtol",
+                             "nuno", fc, &fc, NULL));
   PetscCall(PetscOptionsBool("-nuno_gauss_newton", "energy bending: assemble only the Gauss-Newton part -k_b J^T J", "nuno", gn, &gn, NULL));
   PetscCall(PetscOptionsBool("-nuno_clamp_compression", "drop the indefinite compression term of the springs from the assembled matrix",
                              "nuno", cl, &cl, NULL));
@@ -58,7 +61,43 @@ PetscErrorCode nuno_options_read(MPI_Fint fcomm, int *jacobian, int *pc_lag, int
   *gauss_newton = gn ? 1 : 0;
   *clamp = cl ? 1 : 0;
   *fail_newton = (int)nfail;
+  *forcing = fc ? 1 : 0;
   PetscCall(PetscStrncpy(mattype, mt, (size_t)mattype_len));
+  PetscFunctionReturn(0);
+}
+
+/* nuno's structured multigrid, the default inner preconditioner (module
+ * stencil_mg): impl in/out 0 = stencil (nuno's), 1 = petsc (PETSc's PCMG
+ * with Galerkin operators and SOR, the earlier default); cycle in/out 1 =
+ * v (multiplicative), 2 = kaskade; sweeps in/out >= 1 symmetric
+ * Gauss-Seidel sweeps per smoothing; levels in/out >= 0 (0: as many as
+ * fit); *given: 1 when -nuno_mg_cycle, -nuno_mg_sweeps or -nuno_mg_levels
+ * is set (they are refused where nuno's multigrid is not used). Collective. */
+PetscErrorCode nuno_mg_options_read(MPI_Fint fcomm, int *impl, int *cycle, int *sweeps, int *levels, int *given)
+{
+  static const char *const impls[]  = {"stencil", "petsc"};
+  static const char *const cycles[] = {"none", "v", "kaskade"};
+  MPI_Comm  comm = MPI_Comm_f2c(fcomm);
+  PetscInt  im = *impl, cy = *cycle, sw = *sweeps, lv = *levels;
+  PetscBool s1 = PETSC_FALSE, s2 = PETSC_FALSE, s3 = PETSC_FALSE;
+
+  PetscFunctionBeginUser;
+  PetscOptionsBegin(comm, NULL, "nuno: the inner multigrid (docs/design.md, docs/performance.md)", "nuno");
+  PetscCall(PetscOptionsEList("-nuno_mg", "inner multigrid where 3 levels fit and -reduced_pc_type is not given: stencil (nuno's, single precision, no index arrays) or petsc (PCMG, Galerkin, SOR)",
+                              "nuno", impls, 2, impls[im], &im, NULL));
+  PetscCall(PetscOptionsEList("-nuno_mg_cycle", "cycle of nuno's multigrid: v (smooth, restrict the residual, correct, smooth) or kaskade (restrict the right-hand side, then only upwards)",
+                              "nuno", cycles + 1, 2, cycles[cy], &cy, &s1));
+  if (s1) cy += 1;
+  PetscCall(PetscOptionsInt("-nuno_mg_sweeps", "symmetric Gauss-Seidel sweeps of nuno's multigrid per smoothing", "nuno", sw, &sw, &s2));
+  PetscCall(PetscOptionsInt("-nuno_mg_levels", "levels of nuno's multigrid (0: as many as fit, down to 5 nodes a side)", "nuno", lv, &lv, &s3));
+  PetscOptionsEnd();
+  PetscCheck(sw >= 1, comm, PETSC_ERR_ARG_OUTOFRANGE, "-nuno_mg_sweeps %" PetscInt_FMT " must be >= 1", sw);
+  PetscCheck(lv >= 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-nuno_mg_levels %" PetscInt_FMT " must be >= 1 (or 0: as many as fit)", lv);
+  *impl = (int)im;
+  *cycle = (int)cy;
+  *sweeps = (int)sw;
+  *levels = (int)lv;
+  *given = (s1 || s2 || s3) ? 1 : 0;
   PetscFunctionReturn(0);
 }
 
@@ -116,6 +155,44 @@ PetscErrorCode nuno_adaptive_default(MPI_Fint fcomm, TS *ts, int *applied)
     PetscCall(TSSetType(*ts, type));
     *applied = 1;
   }
+  PetscFunctionReturn(0);
+}
+
+/* Defaults of the time step's Newton solve that the options may override
+ * (set in the options database before TSSetFromOptions, after the type is
+ * set; measured in docs/performance.md, "Fifth round"). Collective.
+ * - Backward Euler starts each Newton solve from the state extrapolated
+ *   along the last step (x + dt xdot, PETSc's
+ *   -ts_theta_initial_guess_extrapolate) rather than from the last state:
+ *   its residual is 20-50 times smaller on hang 257 x 257, and Newton's
+ *   remainder after one iteration, quadratic in it, some 400-2500 times.
+ *   Only for beuler: theta < 1 (cn) keeps its stiff modes oscillating from
+ *   step to step, and extrapolating them doubles their error. The first
+ *   step of a window (TSRestartStep) is not extrapolated.
+ * - On the reduced path (reduced != 0) S is assembled at every other
+ *   Newton iteration (-snes_lag_jacobian 2): the second iteration of a
+ *   step, which starts from a residual some 1e-4 of the first, converges
+ *   to the round-off floor with the first one's S (a chord step), and an
+ *   assembly is most of an iteration's cost outside the inner solve. A
+ *   third iteration, if one is needed, assembles S again. */
+PetscErrorCode nuno_step_defaults(TS *ts, int reduced)
+{
+  char      type[64] = "";
+  PetscBool has_type, given, beuler;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscOptionsHasName(NULL, NULL, "-ts_theta_initial_guess_extrapolate", &given));
+  if (!given) {
+    PetscCall(PetscOptionsGetString(NULL, NULL, "-ts_type", type, sizeof(type), &has_type));
+    if (has_type) {
+      PetscCall(PetscStrcmp(type, TSBEULER, &beuler));
+    } else {
+      PetscCall(PetscObjectTypeCompare((PetscObject)*ts, TSBEULER, &beuler));
+    }
+    if (beuler) PetscCall(PetscOptionsSetValue(NULL, "-ts_theta_initial_guess_extrapolate", "true"));
+  }
+  PetscCall(PetscOptionsHasName(NULL, NULL, "-snes_lag_jacobian", &given));
+  if (reduced && !given) PetscCall(PetscOptionsSetValue(NULL, "-snes_lag_jacobian", "2"));
   PetscFunctionReturn(0);
 }
 

@@ -24,6 +24,7 @@ module reduced
   use petscsnes
   use petscdmda
   use mpi
+  use, intrinsic :: iso_c_binding, only: c_int
   use kinds, only: rp
   use lattice, only: lattice_t
   use config, only: BEND_NONE
@@ -31,6 +32,8 @@ module reduced
   use reduced_blocks, only: reduced_row_blocks, buffer_row_apply, csr_fits_block_row
   use reduced_assembly, only: csr_assemble
   use interpolation, only: cubic_weights
+  use stencil_mg, only: stencil_mg_t, mg_create, mg_destroy, mg_set_fine, mg_build_coarse, mg_apply, &
+                        MG_MULTIPLICATIVE, MG_KASKADE
   implicit none
   private
   public :: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach
@@ -61,6 +64,10 @@ module reduced
     logical :: damping = .true.            !< some element has a damper (C /= 0)
     logical :: clamp = .false., gauss_newton = .false.
     logical :: use_nullspace = .false.     !< inner PC is GAMG: give it the rigid-body modes
+    logical :: use_mg = .false.            !< inner PC is nuno's structured multigrid (module stencil_mg)
+    type(stencil_mg_t) :: mg
+    logical :: mg_built = .false.          !< its coarse levels exist
+    real(rp), allocatable :: st(:, :, :, :, :, :) !< (3, 3, -w:w, -w:w, 0:nx-1, ys:ye) S by stencil offset, node by node (with use_mg)
     integer :: interp = 1                  !< multigrid interpolation: INTERP_LINEAR, _CUBIC, _COARSE_CUBIC
     logical :: forward_ew = .true.         !< pass the outer KSP's rtol (Eisenstat-Walker) to the inner one
     integer :: pc_lag = 1                  !< rebuild the inner preconditioner every pc_lag assemblies
@@ -87,6 +94,10 @@ module reduced
     integer, allocatable :: lcol(:)        !< (ncol) its local node index
     real(rp) :: floor_est = 0              !< round-off floor of ||F||_2 at the last assembly (see reduced_assemble)
     integer :: its = 0                     !< inner Krylov iterations, cumulative
+    ! Inexact Newton (module newton_forcing; set by the SNES convergence test)
+    real(rp) :: rtol0 = 1.0e-6_rp          !< the inner rtol of the options (-reduced_ksp_rtol, default 1e-6)
+    real(rp) :: eta = 0                    !< inner rtol of the next Newton solve; 0: rtol0
+    real(rp) :: lin_rel = 0                !< relative residual the last inner solve left
   end type reduced_t
 
   !> The parts of an assembled AIJ S as plain arrays: diagonal part (ia, ja,
@@ -101,6 +112,13 @@ module reduced
   end type aij_view_t
 
   interface
+    !> src/nuno_options.c: the options of nuno's multigrid (-nuno_mg ...).
+    integer(c_int) function nuno_mg_options_read(fcomm, impl, cycle, sweeps, levels, given) bind(C, name='nuno_mg_options_read')
+      import :: c_int
+      integer(c_int), value :: fcomm
+      integer(c_int), intent(inout) :: impl, cycle, sweeps, levels
+      integer(c_int), intent(out) :: given
+    end function nuno_mg_options_read
     subroutine PCShellSetContext(pc, ctx, ierr)
       import :: tPC, reduced_t
       type(tPC) :: pc
@@ -141,9 +159,13 @@ contains
     integer, intent(in) :: pc_lag                  !< rebuild the inner preconditioner every pc_lag assemblies (>= 1; 0: default)
     PetscErrorCode, intent(out) :: ierr
     integer, intent(in), optional :: mg_interpolation  !< multigrid interpolation: 0 auto, else an INTERP_ code
-    PetscInt :: nx, ny, w, m, n, mg, ng, nranks, dummy(1), xs, ys, zs, zm
+    PetscInt :: nx, ny, w, m, n, mg, ng, nranks, dummy(1), xs, ys, zs, zm, maxit0
+    PetscReal :: atol0, dtol0
+    integer :: levels, l
+    integer(c_int) :: mg_impl, mg_cycle, mg_sweeps, mg_levels, mg_given
+    logical, allocatable :: cubic(:)
     PetscInt, allocatable :: ly(:)
-    PetscInt, parameter :: one = 1, three = 3
+    PetscInt, parameter :: one = 1, three = 3, izero = 0, ione = 1
     type(tPC) :: pc
     PetscBool :: found
     character(len=64) :: pctype, mattype
@@ -165,65 +187,85 @@ contains
     PetscCall(DMDACreate2d(comm, DM_BOUNDARY_NONE, DM_BOUNDARY_NONE, DMDA_STENCIL_BOX, nx, ny, one, nranks, three, w, dummy, ly, red%da3, ierr))
     PetscCall(DMSetOptionsPrefix(red%da3, 'reduced_', ierr))
 
-    ! Inner solver: CG on a symmetric S, FGMRES otherwise, both stopping on
-    ! the true residual (true_residual_defaults); multigrid by default.
+    ! Inner solver: FGMRES with nuno's multigrid by default; with another
+    ! preconditioner CG on a symmetric S, FGMRES otherwise; all stop on
+    ! the true residual (true_residual_defaults).
     ! FGMRES rather than right-preconditioned GMRES: the same iterates, but
     ! it keeps the preconditioned directions, so the solution needs no
     ! further V-cycle at the end (with 1-2 iterations a step in the bw
     ! mode that cycle was a third of the smoothing; docs/performance.md).
     PetscCall(KSPCreate(comm, red%ksp, ierr))
     PetscCall(KSPSetOptionsPrefix(red%ksp, 'reduced_', ierr))
-    if (symmetric) then
-      PetscCall(KSPSetType(red%ksp, KSPCG, ierr))
-    else
-      PetscCall(KSPSetType(red%ksp, KSPFGMRES, ierr))
+    PetscCall(KSPSetType(red%ksp, KSPFGMRES, ierr))
+    ! The inner preconditioner: nuno's structured multigrid where three
+    ! levels fit and -reduced_pc_type is not given (-nuno_mg petsc: PETSc's
+    ! PCMG with Galerkin operators instead), else what default_preconditioner
+    ! puts in the options.
+    ! nuno's multigrid replicates its coarsest level where strips get too
+    ! thin, so only the lattice's size limits its levels; PETSc's needs
+    ! the halo's rows in every coarse strip.
+    red%use_mg = levels_that_fit(nx, ny, izero, ione) >= 3
+    levels = levels_that_fit(nx, ny, w, nranks)
+    mg_impl = 0
+    mg_cycle = MG_KASKADE
+    mg_sweeps = 1
+    mg_levels = 0
+    ierr = nuno_mg_options_read(comm, mg_impl, mg_cycle, mg_sweeps, mg_levels, mg_given)
+    if (ierr /= 0) return
+    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_pc_type', found, ierr))
+    red%use_mg = red%use_mg .and. .not. found .and. mg_impl == 0
+    if (mg_given /= 0 .and. .not. red%use_mg) then
+      ierr = PETSC_ERR_ARG_INCOMP
+      SETERRQ(comm, ierr, 'nuno: -nuno_mg_cycle, -nuno_mg_sweeps and -nuno_mg_levels are for nuno''s multigrid (-nuno_mg stencil, the default from 3 levels on, no -reduced_pc_type)')
     end if
-    PetscCall(default_preconditioner(nx, ny, w, nranks, ierr))
+    if (red%use_mg) then
+      ! FGMRES even where S is symmetric: the kaskade cycle is not, and
+      ! FGMRES + kaskade beat CG + V-cycles by 1.4x on a symmetric hang
+      ! (docs/performance.md, "Fifth round").
+      PetscCall(KSPGetPC(red%ksp, pc, ierr))
+      PetscCall(PCSetType(pc, PCSHELL, ierr))
+    else
+      if (symmetric) then
+        PetscCall(KSPSetType(red%ksp, KSPCG, ierr))
+      end if
+      PetscCall(default_preconditioner(levels, ierr))
+    end if
     PetscCall(KSPSetTolerances(red%ksp, 1.0e-6_rp, 1.0e-50_rp, PETSC_DEFAULT_REAL, 500, ierr))
     PetscCall(KSPSetFromOptions(red%ksp, ierr))
     PetscCall(true_residual_defaults(red%ksp, ierr))
+    PetscCall(KSPGetTolerances(red%ksp, red%rtol0, atol0, dtol0, maxit0, ierr))
     PetscCall(KSPGetPC(red%ksp, pc, ierr))
     PetscCall(PCGetType(pc, pctype, ierr))
     red%use_nullspace = pctype == PCGAMG
 
-    ! S: BAIJ (3 x 3 blocks) for the point-wise and block-local
-    ! preconditioners, whose kernels are blocked; AIJ (with block size 3) for
-    ! the algebraic multigrids, which need it. -reduced_dm_mat_type wins.
-    select case (trim(pctype))
-    case (PCJACOBI, PCPBJACOBI, PCBJACOBI, PCASM, PCSOR, PCILU, PCICC, PCNONE)
-      PetscCall(DMSetMatType(red%da3, MATBAIJ, ierr))
-    case default
-      PetscCall(DMSetMatType(red%da3, MATAIJ, ierr))
-    end select
-    PetscCall(DMSetFromOptions(red%da3, ierr))
-    PetscCall(DMSetUp(red%da3, ierr))
-    PetscCall(DMCreateMatrix(red%da3, red%s, ierr))
-    PetscCall(MatSetOption(red%s, MAT_ROW_ORIENTED, PETSC_FALSE, ierr))
-    PetscCall(MatSetOption(red%s, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE, ierr))
-    PetscCall(MatGetType(red%s, mattype, ierr))
-    if (index(mattype, 'sbaij') > 0) then
-      ! Symmetric storage keeps the upper triangle: S must be symmetric.
-      if (.not. symmetric) then
-        ierr = PETSC_ERR_ARG_INCOMP
-        SETERRQ(comm, ierr, 'nuno: -reduced_dm_mat_type sbaij needs a symmetric S (no moving dampers, no paper bending, eta_b = 0)')
-      end if
-      PetscCall(MatSetOption(red%s, MAT_IGNORE_LOWER_TRIANGULAR, PETSC_TRUE, ierr))
+    if (red%use_mg) then
+      ! S by stencil offset (reduced_assemble), its product a MATSHELL:
+      ! nuno's multigrid needs no PETSc matrix, and no column indices are
+      ! stored (1.8 KB a node with bending against 2.6 in AIJ).
+      PetscCall(DMSetUp(red%da3, ierr))
+      PetscCall(DMDAGetCorners(da6, xs, ys, zs, m, n, zm, ierr))
+      allocate(red%st(3, 3, -w:w, -w:w, 0:nx - 1, ys:ys + n - 1))
+      red%st = 0.0_rp
+      m = 3 * nx * n
+      mg = 3 * nx * ny
+      PetscCall(MatCreateShell(comm, m, m, mg, mg, PETSC_NULL_INTEGER, red%s, ierr))
+      PetscCall(MatShellSetContext(red%s, red, ierr))
+      PetscCall(MatShellSetOperation(red%s, MATOP_MULT, stencil_mult, ierr))
+    else
+      PetscCall(aij_or_baij_s(ierr))
     end if
-    if (symmetric) then
-      PetscCall(MatSetOption(red%s, MAT_SYMMETRIC, PETSC_TRUE, ierr))
-      PetscCall(MatSetOption(red%s, MAT_SYMMETRY_ETERNAL, PETSC_TRUE, ierr))
-    end if
+    PetscCall(KSPSetOperators(red%ksp, red%s, red%s, ierr))
     PetscCall(KSPSetOperators(red%ksp, red%s, red%s, ierr))
     ! The DM gives -reduced_pc_type mg its grid hierarchy; the operators stay ours.
     PetscCall(KSPSetDM(red%ksp, red%da3, ierr))
     PetscCall(KSPSetDMActive(red%ksp, PETSC_FALSE, ierr))
     if (present(mg_interpolation)) then
-      if (mg_interpolation > 0 .and. pctype /= PCMG) then
+      if (mg_interpolation > 0 .and. pctype /= PCMG .and. .not. red%use_mg) then
         ierr = PETSC_ERR_ARG_INCOMP
-        SETERRQ(comm, ierr, 'nuno: -nuno_mg_interpolation needs the inner multigrid, -reduced_pc_type mg (the default from 3 levels on)')
+        SETERRQ(comm, ierr, 'nuno: -nuno_mg_interpolation needs an inner multigrid: nuno''s (the default from 3 levels on) or -reduced_pc_type mg')
       end if
     end if
-    if (pctype == PCMG) then
+    if (pctype == PCMG .or. red%use_mg) then
       ! auto: with bending, cubic on every level but the finest (measured,
       ! docs/performance.md "Fourth round": as fast as cubic everywhere,
       ! and the parallel Galerkin product of the finest level with a cubic
@@ -233,7 +275,20 @@ contains
       if (present(mg_interpolation)) then
         if (mg_interpolation > 0) red%interp = mg_interpolation
       end if
-      PetscCall(mg_interpolations(red, pc, ierr))
+      if (red%use_mg) then
+        ! Transfer l joins level l + 1 to level l (1 = the lattice).
+        allocate(cubic(10))
+        do l = 1, size(cubic)
+          cubic(l) = red%interp == INTERP_CUBIC .or. (red%interp == INTERP_COARSE_CUBIC .and. l > 1)
+        end do
+        PetscCall(DMDAGetCorners(da6, xs, ys, zs, m, n, zm, ierr))
+        call mg_create(red%mg, comm, nx, ny, ys, ys + n - 1, w, cubic, merge(int(mg_levels), 10, mg_levels > 0), mg_cycle, mg_sweeps)
+        PetscCall(PCShellSetContext(pc, red, ierr))
+        PetscCall(PCShellSetApply(pc, mg_pc_apply, ierr))
+        PetscCall(PCShellSetName(pc, 'nuno structured multigrid (module stencil_mg)', ierr))
+      else
+        PetscCall(mg_interpolations(red, pc, ierr))
+      end if
     end if
     PetscCall(DMCreateGlobalVector(red%da3, red%rhs, ierr))
     PetscCall(VecDuplicate(red%rhs, red%dv, ierr))
@@ -259,7 +314,9 @@ contains
     allocate(red%owned((2 * lat%halo + 1)**2), red%lcol((2 * lat%halo + 1)**2))
     red%fixedg = .false.
     red%ujac = 0.0_rp
-    PetscCall(check_direct(red, ierr))
+    if (.not. red%use_mg) then
+      PetscCall(check_direct(red, ierr))
+    end if
 
     ! An explicit -reduced_ksp_rtol wins over the outer forcing term.
     PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_ksp_rtol', found, ierr))
@@ -272,33 +329,55 @@ contains
     ! preconditioner rebuilt each time.
     if (pc_lag > 0) then
       red%pc_lag = pc_lag
-    else if (pctype == PCMG .and. red%interp /= INTERP_LINEAR) then
+    else if ((pctype == PCMG .or. red%use_mg) .and. red%interp /= INTERP_LINEAR) then
       red%pc_lag = 10
-    else if (pctype == PCMG) then
+    else if (pctype == PCMG .or. red%use_mg) then
       red%pc_lag = 3
     else
       red%pc_lag = 1
     end if
+  contains
+
+    !> S assembled in a PETSc matrix: BAIJ (3 x 3 blocks) for the point-wise
+    !> and block-local preconditioners, whose kernels are blocked; AIJ (with
+    !> block size 3) for the algebraic multigrids, which need it.
+    !> -reduced_dm_mat_type wins.
+    subroutine aij_or_baij_s(ierr)
+      PetscErrorCode, intent(out) :: ierr
+      character(len=64) :: mattype
+      select case (trim(pctype))
+    case (PCJACOBI, PCPBJACOBI, PCBJACOBI, PCASM, PCSOR, PCILU, PCICC, PCNONE)
+        PetscCall(DMSetMatType(red%da3, MATBAIJ, ierr))
+      case default
+        PetscCall(DMSetMatType(red%da3, MATAIJ, ierr))
+      end select
+      PetscCall(DMSetFromOptions(red%da3, ierr))
+      PetscCall(DMSetUp(red%da3, ierr))
+      PetscCall(DMCreateMatrix(red%da3, red%s, ierr))
+      PetscCall(MatSetOption(red%s, MAT_ROW_ORIENTED, PETSC_FALSE, ierr))
+      PetscCall(MatSetOption(red%s, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE, ierr))
+      PetscCall(MatGetType(red%s, mattype, ierr))
+      if (index(mattype, 'sbaij') > 0) then
+        ! Symmetric storage keeps the upper triangle: S must be symmetric.
+        if (.not. symmetric) then
+          ierr = PETSC_ERR_ARG_INCOMP
+          SETERRQ(comm, ierr, 'nuno: -reduced_dm_mat_type sbaij needs a symmetric S (no moving dampers, no paper bending, eta_b = 0)')
+        end if
+        PetscCall(MatSetOption(red%s, MAT_IGNORE_LOWER_TRIANGULAR, PETSC_TRUE, ierr))
+      end if
+      if (symmetric) then
+        PetscCall(MatSetOption(red%s, MAT_SYMMETRIC, PETSC_TRUE, ierr))
+        PetscCall(MatSetOption(red%s, MAT_SYMMETRY_ETERNAL, PETSC_TRUE, ierr))
+      end if
+    end subroutine aij_or_baij_s
   end subroutine reduced_create
 
-  !> The default inner preconditioner, unless -reduced_pc_type is given:
-  !> geometric multigrid on the DMDA (Galerkin coarse operators, one SSOR
-  !> sweep as smoother) with as many levels as the lattice halves into;
-  !> block Jacobi/ILU(0) where fewer than three levels fit (small lattices,
-  !> for which it is the cheaper). Set in the options database, so that
-  !> -help shows them and every one can be overridden.
-  subroutine default_preconditioner(nx, ny, w, nranks, ierr)
+  !> Multigrid levels of the lattice: as many as it halves into with at
+  !> least 5 nodes a side and, in every strip, the halo width of rows on
+  !> the coarsest grid (a level coarsens n -> (n-1)/2 + 1 in each direction).
+  integer function levels_that_fit(nx, ny, w, nranks) result(levels)
     PetscInt, intent(in) :: nx, ny, w, nranks
-    PetscErrorCode, intent(out) :: ierr
-    PetscBool :: set
-    integer :: levels, mx, my
-    character(len=16) :: txt
-
-    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_pc_type', set, ierr))
-    if (set) return
-    ! A level coarsens n -> (n-1)/2 + 1 in each direction; every coarse
-    ! strip keeps at least the halo width of rows, and the coarsest grid at
-    ! least 5 nodes a side.
+    integer :: mx, my
     levels = 1
     mx = nx
     my = ny
@@ -308,6 +387,22 @@ contains
       my = (my - 1) / 2 + 1
       levels = levels + 1
     end do
+  end function levels_that_fit
+
+  !> The inner preconditioner when it is not nuno's multigrid, unless
+  !> -reduced_pc_type is given: PETSc's geometric multigrid on the DMDA
+  !> (Galerkin coarse operators, one SSOR sweep as smoother) with the given
+  !> levels; block Jacobi/ILU(0) where fewer than three fit (small
+  !> lattices, for which it is the cheaper). Set in the options database,
+  !> so that -help shows them and every one can be overridden.
+  subroutine default_preconditioner(levels, ierr)
+    integer, intent(in) :: levels
+    PetscErrorCode, intent(out) :: ierr
+    PetscBool :: set
+    character(len=16) :: txt
+
+    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_pc_type', set, ierr))
+    if (set) return
     if (levels < 3) then
       PetscCall(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-reduced_pc_type', 'bjacobi', ierr))
       return
@@ -374,6 +469,7 @@ contains
     type(reduced_t), intent(inout) :: red
     PetscErrorCode, intent(out) :: ierr
     PetscCall(KSPDestroy(red%ksp, ierr))
+    if (red%use_mg) call mg_destroy(red%mg)
     PetscCall(MatDestroy(red%jac, ierr))
     PetscCall(VecDestroy(red%coords, ierr))
     PetscCall(VecDestroy(red%dv, ierr))
@@ -406,6 +502,10 @@ contains
     PetscCall(DMDAVecRestoreArrayReadF90(red%da3, loc, fl, ierr))
     PetscCall(DMRestoreLocalVector(red%da3, loc, ierr))
     red%dirty = .true.
+    ! The preconditioner is built afresh at the window's first assembly, so
+    ! that a run restarted at a window's start (a checkpoint) takes the same
+    ! iterations as the run that went through it.
+    red%since_pc = red%pc_lag
   end subroutine reduced_set_fixed
 
   !> Assemble S at the ghosted state u(0:5, 0:nx-1, gys:gye) (with its time
@@ -443,11 +543,15 @@ contains
       end do
     end do
     loc = 0.0_rp
-    if (red%direct) then
+    if (red%use_mg) then
+      ! By stencil offset (module reduced_assembly), for nuno's multigrid.
+      call csr_assemble(red%lat, u, red%fixedg, a, red%damping, red%clamp, red%gauss_newton, red%wpred, &
+                        red%lb, red%vals, red%gpred, red%kd, st=red%st)
+    else if (red%direct) then
       ! AIJ: element blocks straight into the CSR values (module reduced_assembly).
       PetscCall(aij_open(red, view, ierr))
       call csr_assemble(red%lat, u, red%fixedg, a, red%damping, red%clamp, red%gauss_newton, red%wpred, &
-                        red%lb, red%vals, view%ia, view%av, view%ib, view%bv, red%gpred, red%kd)
+                        red%lb, red%vals, red%gpred, red%kd, view%ia, view%av, view%ib, view%bv)
       PetscCall(aij_close(red, view, ierr))
     else
       red%jbuf%k = 0.0_rp
@@ -472,6 +576,9 @@ contains
     end if
     PetscCall(MatAssemblyBegin(red%s, MAT_FINAL_ASSEMBLY, ierr))
     PetscCall(MatAssemblyEnd(red%s, MAT_FINAL_ASSEMBLY, ierr))
+    if (red%use_mg) then
+      PetscCall(mg_fine_level(red, ierr))
+    end if
     do ja = red%lat%ys, red%lat%ye
       do i = 0, red%lat%nx - 1
         if (red%fixedg(i, ja)) cycle
@@ -496,11 +603,17 @@ contains
     if (red%since_pc >= red%pc_lag) then
       red%since_pc = 0
       PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_FALSE, ierr))
+      if (red%use_mg) then
+        PetscCall(mg_coarse_levels(red, ierr))
+      end if
       if (red%use_nullspace) then
         PetscCall(set_rigid_body_modes(red, u, ierr))
       end if
     else
       PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_TRUE, ierr))
+      if (red%use_mg .and. .not. red%mg_built) then
+        PetscCall(mg_coarse_levels(red, ierr))
+      end if
     end if
   end subroutine reduced_assemble
 
@@ -516,6 +629,87 @@ contains
       red%lcol(n) = red%cols(n) - (red%lat%ys - red%lat%gys) * red%lat%nx
     end do
   end subroutine mark_owned
+
+  !> The multigrid's finest level from the assembled S (every assembly: its
+  !> smoother and residual use the current S, as PETSc's PCMG does with a
+  !> reused hierarchy).
+  subroutine mg_fine_level(red, ierr)
+    type(reduced_t), intent(inout) :: red
+    PetscErrorCode, intent(out) :: ierr
+    ierr = 0
+    call mg_set_fine(red%mg, red%st)
+  end subroutine mg_fine_level
+
+  !> The multigrid's coarse operators (Galerkin) and coarsest factorisation.
+  subroutine mg_coarse_levels(red, ierr)
+    type(reduced_t), intent(inout) :: red
+    PetscErrorCode, intent(out) :: ierr
+    integer :: info
+    MPI_Comm :: comm
+    call mg_build_coarse(red%mg, info)
+    red%mg_built = .true.
+    ierr = 0
+    if (info /= 0) then
+      PetscCall(PetscObjectGetComm(red%da3, comm, ierr))
+      ierr = PETSC_ERR_MAT_LU_ZRPVT
+      SETERRQ(comm, ierr, 'nuno: the coarsest multigrid matrix is singular')
+    end if
+  end subroutine mg_coarse_levels
+
+  !> MATSHELL mult of S stored by stencil offset: y = S x (one halo
+  !> exchange of x, then node by node over S's blocks, which are stored in
+  !> that order). Collective.
+  subroutine stencil_mult(mat, x, y, ierr)
+    type(tMat) :: mat
+    type(tVec) :: x, y
+    PetscErrorCode :: ierr
+    type(reduced_t), pointer :: red
+    type(tVec) :: xloc
+    PetscScalar, pointer :: xl(:, :, :), ya(:, :, :)
+    integer :: i, j, di, dj, w, i0, i1, j0, j1
+    real(rp) :: acc(3)
+    PetscCall(MatShellGetContext(mat, red, ierr))
+    w = red%lat%halo
+    PetscCall(DMGetLocalVector(red%da3, xloc, ierr))
+    PetscCall(DMGlobalToLocalBegin(red%da3, x, INSERT_VALUES, xloc, ierr))
+    PetscCall(DMGlobalToLocalEnd(red%da3, x, INSERT_VALUES, xloc, ierr))
+    PetscCall(DMDAVecGetArrayReadF90(red%da3, xloc, xl, ierr))
+    PetscCall(DMDAVecGetArrayF90(red%da3, y, ya, ierr))
+    do j = red%lat%ys, red%lat%ye
+      j0 = max(-w, -j)
+      j1 = min(w, red%lat%ny - 1 - j)
+      do i = 0, red%lat%nx - 1
+        i0 = max(-w, -i)
+        i1 = min(w, red%lat%nx - 1 - i)
+        acc = 0.0_rp
+        do dj = j0, j1
+          do di = i0, i1
+            acc = acc + red%st(:, 1, di, dj, i, j) * xl(0, i + di, j + dj) + red%st(:, 2, di, dj, i, j) * xl(1, i + di, j + dj) &
+                      + red%st(:, 3, di, dj, i, j) * xl(2, i + di, j + dj)
+          end do
+        end do
+        ya(0:2, i, j) = acc
+      end do
+    end do
+    PetscCall(DMDAVecRestoreArrayF90(red%da3, y, ya, ierr))
+    PetscCall(DMDAVecRestoreArrayReadF90(red%da3, xloc, xl, ierr))
+    PetscCall(DMRestoreLocalVector(red%da3, xloc, ierr))
+  end subroutine stencil_mult
+
+  !> PCSHELL apply of the inner KSP: one cycle of nuno's multigrid.
+  subroutine mg_pc_apply(pc, x, y, ierr)
+    type(tPC) :: pc
+    type(tVec) :: x, y
+    PetscErrorCode :: ierr
+    type(reduced_t), pointer :: red
+    PetscScalar, pointer :: xa(:, :, :), ya(:, :, :)
+    PetscCall(PCShellGetContext(pc, red, ierr))
+    PetscCall(DMDAVecGetArrayReadF90(red%da3, x, xa, ierr))
+    PetscCall(DMDAVecGetArrayF90(red%da3, y, ya, ierr))
+    call mg_apply(red%mg, xa, ya)
+    PetscCall(DMDAVecRestoreArrayF90(red%da3, y, ya, ierr))
+    PetscCall(DMDAVecRestoreArrayReadF90(red%da3, x, xa, ierr))
+  end subroutine mg_pc_apply
 
   !> Open the value and row arrays of an AIJ S (see aij_view_t).
   subroutine aij_open(red, view, ierr)
@@ -752,7 +946,16 @@ contains
     PetscCall(DMDAVecGetArrayReadF90(red%da6, bloc, bl, ierr))
     do j = red%lat%gys, red%lat%gye
       do i = 0, red%lat%nx - 1
-        red%w(0:2, i, j) = ainv * bl(0:2, i, j)
+        ! After a Newton update the x-rows are solved exactly: what is left
+        ! of b_x is the round-off of xdot - v (a few eps (a |x| + |v|)), and
+        ! its products, of that size too, would cost a pass over the elements
+        ! (a lagged S: -snes_lag_jacobian).
+        if (all(abs(bl(0:2, i, j)) <= 8.0_rp * epsilon(1.0_rp) * &
+                (red%a * maxval(abs(red%ujac(0:2, i, j))) + maxval(abs(red%ujac(3:5, i, j)))))) then
+          red%w(0:2, i, j) = 0.0_rp
+        else
+          red%w(0:2, i, j) = ainv * bl(0:2, i, j)
+        end if
         if (red%fixedg(i, j)) then
           red%w(3:5, i, j) = ainv * bl(3:5, i, j)
         else
@@ -819,32 +1022,41 @@ contains
     type(reduced_t), pointer :: red
     PetscScalar, pointer :: bl(:, :, :), y(:, :, :), dv(:, :, :)
     integer :: i, j
-    real(rp) :: ainv, rtol, atol, dtol
+    real(rp) :: ainv, rtol, atol, dtol, rnorm, bnorm
     PetscInt :: maxit
     KSPConvergedReason :: reason
     PetscInt :: its
     PetscBool :: ew, reused
 
     PetscCall(PCShellGetContext(pc, red, ierr))
-    ! Eisenstat-Walker sets the outer KSP's rtol: that is the forcing term.
+    ! Eisenstat-Walker sets the outer KSP's rtol: that is the forcing term;
+    ! otherwise the Newton iteration's own (timestepping: set_newton_forcing),
+    ! unless -reduced_ksp_rtol fixes it.
     if (red%forward_ew) then
       PetscCall(KSPGetTolerances(red%outer, rtol, atol, dtol, maxit, ierr))
       PetscCall(SNESKSPGetUseEW(red%snes, ew, ierr))
-      if (ew) then
-        PetscCall(KSPSetTolerances(red%ksp, rtol, PETSC_DEFAULT_REAL, PETSC_DEFAULT_REAL, PETSC_DEFAULT_INTEGER, ierr))
-      end if
+      if (.not. ew) rtol = merge(red%eta, red%rtol0, red%eta > 0.0_rp)
+      PetscCall(KSPSetTolerances(red%ksp, rtol, PETSC_DEFAULT_REAL, PETSC_DEFAULT_REAL, PETSC_DEFAULT_INTEGER, ierr))
     end if
+    red%eta = 0.0_rp
     PetscCall(reduced_rhs(red, b, red%rhs, ierr))
     PetscCall(KSPSolve(red%ksp, red%rhs, red%dv, ierr))
     PetscCall(KSPGetConvergedReason(red%ksp, reason, ierr))
     PetscCall(KSPGetIterationNumber(red%ksp, its, ierr))
     red%its = red%its + its
+    PetscCall(KSPGetResidualNorm(red%ksp, rnorm, ierr))
+    PetscCall(VecNorm(red%rhs, NORM_2, bnorm, ierr))
+    red%lin_rel = 0.0_rp
+    if (bnorm > 0.0_rp) red%lin_rel = rnorm / bnorm
     if (reason < 0) then
       PetscCall(KSPGetReusePreconditioner(red%ksp, reused, ierr))
       if (reused) then
         red%since_pc = 0
         PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_FALSE, ierr))
         PetscCall(KSPSetOperators(red%ksp, red%s, red%s, ierr))
+        if (red%use_mg) then
+          PetscCall(mg_coarse_levels(red, ierr))
+        end if
         PetscCall(KSPSolve(red%ksp, red%rhs, red%dv, ierr))
         PetscCall(KSPGetConvergedReason(red%ksp, reason, ierr))
         PetscCall(KSPGetIterationNumber(red%ksp, its, ierr))

@@ -30,6 +30,7 @@ module timestepping
   use diagnostics, only: state_diagnostics_t, state_diagnostics
   use output, only: output_file, output_record, output_write_step, run_info, output_write_run_info, &
                     output_write_wall_time, output_config_key, checkpoint_t, output_write_checkpoint
+  use newton_forcing, only: forcing_term, quadratic_constant
   use reduced, only: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach, &
                      set_block_row
   implicit none
@@ -81,10 +82,10 @@ module timestepping
     end function nuno_ts_stop
     !> src/nuno_options.c: nuno's options in a PETSc options block.
     integer(c_int) function nuno_options_read(fcomm, jacobian, pc_lag, mg_interp, snes_floor, gauss_newton, clamp, &
-                                              mattype, mattype_len, fail_newton) bind(C, name='nuno_options_read')
+                                              mattype, mattype_len, fail_newton, forcing) bind(C, name='nuno_options_read')
       import :: c_int, c_double, c_char
       integer(c_int), value :: fcomm
-      integer(c_int), intent(inout) :: jacobian, pc_lag, mg_interp, gauss_newton, clamp, fail_newton
+      integer(c_int), intent(inout) :: jacobian, pc_lag, mg_interp, gauss_newton, clamp, fail_newton, forcing
       real(c_double), intent(inout) :: snes_floor
       character(kind=c_char), intent(inout) :: mattype(*)
       integer(c_int), value :: mattype_len
@@ -105,6 +106,12 @@ module timestepping
       integer(c_intptr_t) :: ts             !< the TS handle (tTS%v), passed as TS*
       integer(c_int), intent(out) :: applied
     end function nuno_adaptive_default
+    !> src/nuno_options.c: the Newton solve's defaults (extrapolated start for beuler, lagged S).
+    integer(c_int) function nuno_step_defaults(ts, reduced) bind(C, name='nuno_step_defaults')
+      import :: c_int, c_intptr_t
+      integer(c_intptr_t) :: ts             !< the TS handle (tTS%v), passed as TS*
+      integer(c_int), value :: reduced      !< 1 on the reduced path
+    end function nuno_step_defaults
     !> src/nuno_options.c: "rosw ra34pw2", "bdf order 4", ...: the TS type with its scheme.
     integer(c_int) function nuno_ts_scheme(ts, buf, len) bind(C, name='nuno_ts_scheme')
       import :: c_int, c_intptr_t, c_char
@@ -147,6 +154,9 @@ module timestepping
     real(rp) :: snes_floor = 1.0e-6_rp          !< -nuno_snes_floor: stagnation below this relative residual is convergence
     real(rp) :: fnorm0 = 0, fnorm_prev = 0
     real(rp) :: snorm_prev = 0                  !< ||update|| of the previous Newton iteration
+    ! inexact Newton (module newton_forcing, -nuno_newton_forcing)
+    logical :: newton_forcing = .true.          !< inner tolerance from the step's needs (reduced path)
+    real(rp) :: cquad = 0                       !< estimate of C in ||F_k+1|| ~ C ||F_k||^2; 0 at every window start
     ! singular element seen by the last residual evaluation
     integer :: nbad = 0, bad(2) = -1
     real(rp) :: t_bad = 0
@@ -227,7 +237,7 @@ contains
     PetscScalar, pointer :: ua(:, :, :)
     character(len=64) :: mattype
     character(len=64, kind=c_char) :: cmattype
-    integer(c_int) :: jac_full, pc_lag, gn, cl, nfail, mg_interp, applied
+    integer(c_int) :: jac_full, pc_lag, gn, cl, nfail, mg_interp, applied, forcing
     logical :: symmetric, constant, damping
 
     ctx%cfg = cfg
@@ -252,8 +262,10 @@ contains
     cl = 0
     nfail = 0
     cmattype = MATBAIJ//c_null_char
-    ierr = nuno_options_read(ctx%comm, jac_full, pc_lag, mg_interp, ctx%snes_floor, gn, cl, cmattype, len(cmattype), nfail)
+    forcing = 1
+    ierr = nuno_options_read(ctx%comm, jac_full, pc_lag, mg_interp, ctx%snes_floor, gn, cl, cmattype, len(cmattype), nfail, forcing)
     if (ierr /= 0) return
+    ctx%newton_forcing = forcing /= 0
     ctx%use_reduced = jac_full == 0
     if (.not. ctx%use_reduced .and. mg_interp > 0) then
       ierr = PETSC_ERR_ARG_INCOMP
@@ -358,6 +370,8 @@ contains
       if (ierr /= 0) return
       ctx%adaptive_default = applied /= 0
     end if
+    ierr = nuno_step_defaults(ctx%ts%v, merge(1_c_int, 0_c_int, ctx%use_reduced))
+    if (ierr /= 0) return
     PetscCall(TSSetFromOptions(ctx%ts, ierr))
     PetscCall(effective_time_integration(ctx, ierr))
   end subroutine solver_create
@@ -731,9 +745,39 @@ contains
         if (wnorm * rate / (1.0_rp - rate) <= NEWTON_TS_FRACTION) reason = SNES_CONVERGED_SNORM_RELATIVE
       end if
     end if
+    if (reason == SNES_CONVERGED_ITERATING .and. ctx%use_reduced .and. ctx%newton_forcing) then
+      PetscCall(set_newton_forcing(snes, it, fnorm, ctx, ierr))
+    end if
     ctx%fnorm_prev = fnorm
     ctx%snorm_prev = snorm
   end subroutine snes_converged
+
+  !> The inner tolerance of the coming Newton iteration's solve (module
+  !> newton_forcing): no tighter than the Newton remainder C ||F||^2 that
+  !> the step leaves anyway, nor than half the residual at which
+  !> snes_converged stops: max(snes_atol, snes_rtol ||F_0||, and on this
+  !> path FLOOR_FACTOR times the round-off floor of the last assembly). C
+  !> comes from the iterations before that did not converge (at the floor
+  !> ||F|| says nothing about it), in this window; the bounds are the inner
+  !> solver's own rtol (never tighter than without this) and 0.1. The
+  !> reduced solve uses it unless -snes_ksp_ew or -reduced_ksp_rtol is given.
+  subroutine set_newton_forcing(snes, it, fnorm, ctx, ierr)
+    type(tSNES) :: snes
+    PetscInt, intent(in) :: it
+    PetscReal, intent(in) :: fnorm
+    type(app_ctx), intent(inout) :: ctx
+    PetscErrorCode, intent(out) :: ierr
+    real(rp), parameter :: ETA_MAX = 0.1_rp
+    PetscReal :: atol, rtol, stol
+    PetscInt :: maxit, maxf
+    real(rp) :: target
+
+    PetscCall(SNESGetTolerances(snes, atol, rtol, stol, maxit, maxf, ierr))
+    if (it >= 1) ctx%cquad = quadratic_constant(ctx%fnorm_prev, fnorm, ctx%red%lin_rel)
+    target = max(atol, rtol * ctx%fnorm0)
+    if (ctx%snes_floor > 0.0_rp) target = max(target, FLOOR_FACTOR * ctx%red%floor_est)
+    ctx%red%eta = forcing_term(fnorm, target, ctx%cquad, ctx%red%rtol0, ETA_MAX)
+  end subroutine set_newton_forcing
 
   !> The last Newton update in the weighted RMS norm of the time integrator:
   !> sqrt(mean((du_i / (atol_i + rtol_i |u_i|))^2)) over all unknowns: the
@@ -911,6 +955,10 @@ contains
     integer :: k, i, j
 
     call constraints_set_window(ctx%cs, ta, tb)
+    ! The Newton remainder is learnt anew in each window, so that a run
+    ! restarted at a window's start takes the same iterations as the run
+    ! that went through it.
+    ctx%cquad = 0.0_rp
     ctx%fixed = .false.
     loc = 0.0_rp
     PetscCall(DMDAVecGetArrayF90(ctx%da, ctx%u, ua, ierr))

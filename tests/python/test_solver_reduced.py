@@ -104,12 +104,16 @@ def test_failing_inner_solves_fail_the_step_cleanly(tmp_path):
     ("-nuno_jacobian", "foo", "Unknown option foo for -nuno_jacobian"),
     ("-nuno_pc_lag", "-1", "-nuno_pc_lag -1 must be >= 1"),
     ("-nuno_snes_floor", "2", "must be in [0, 1)"),
-    # hang.nml is 21 x 21: on 2 ranks fewer than 3 levels fit, no multigrid
-    ("-nuno_mg_interpolation", "cubic", "-nuno_mg_interpolation needs the inner multigrid"),
+    # on 11 x 11 fewer than 3 levels fit: no multigrid
+    ("-nuno_mg_interpolation", "cubic", "-nuno_mg_interpolation needs an inner multigrid"),
+    ("-nuno_mg_cycle", "w", "Unknown option w for -nuno_mg_cycle"),
+    ("-nuno_mg_cycle", "v", "-nuno_mg_cycle, -nuno_mg_sweeps and -nuno_mg_levels are for nuno's multigrid"),
+    ("-nuno_mg_sweeps", "0", "-nuno_mg_sweeps 0 must be >= 1"),
     ("-nuno_mg_interpolation", "quintic", "Unknown option quintic for -nuno_mg_interpolation"),
 ])
 def test_bad_solver_option_is_refused_on_every_rank(tmp_path, option, value, words):
     text = set_key((ROOT / "input" / "hang.nml").read_text(), "output_file", "'bad.h5'")
+    text = set_key(set_key(text, "nx", 11), "ny", 11)
     nml = Path(tmp_path) / "bad.nml"
     nml.write_text(text)
     cmd = [mpiexec(), "-n", "2", "--oversubscribe", exe(), str(nml), option, value]
@@ -118,26 +122,53 @@ def test_bad_solver_option_is_refused_on_every_rank(tmp_path, option, value, wor
     assert words in proc.stdout + proc.stderr
 
 
-@pytest.mark.parametrize("interpolation", ["linear", "cubic", "coarse_cubic"])
-def test_parallel_multigrid_gives_the_one_rank_answer(tmp_path, interpolation):
-    """The default inner solver on 65 x 65 is geometric multigrid (5 levels
-    on 1 rank, 3 on 3 ranks, where every coarse strip must keep the halo's
-    rows), with cubic interpolation below the finest level by default (hang
-    has bending), everywhere, or bilinear: with tight tolerances 1 and 3
-    ranks give the same positions (the cubic P is built row by row across
-    the strips' boundaries)."""
-    tight = ("-snes_rtol", "1e-12", "-reduced_ksp_rtol", "1e-11", "-reduced_ksp_view",
-             "-nuno_mg_interpolation", interpolation)
+@pytest.mark.parametrize("impl, interpolation, cycle", [
+    ("stencil", "coarse_cubic", "kaskade"), ("stencil", "linear", "kaskade"), ("stencil", "cubic", "v"),
+    ("petsc", "linear", None), ("petsc", "cubic", None), ("petsc", "coarse_cubic", None)])
+def test_parallel_multigrid_gives_the_one_rank_answer(tmp_path, impl, interpolation, cycle):
+    """The default inner solver on 65 x 65 is nuno's structured multigrid
+    (module stencil_mg: 5 levels on 1 rank, the coarsest replicated earlier
+    on 3 ranks), with cubic interpolation below the finest level by default
+    (hang has bending), everywhere, or bilinear, kaskade or V-cycles;
+    -nuno_mg petsc is PETSc's PCMG with Galerkin operators (3 levels on 3
+    ranks, where every coarse strip must keep the halo's rows). With tight
+    tolerances 1 and 3 ranks give the same positions (the Galerkin sums and
+    the cubic P cross the strips' boundaries)."""
+    tight = ["-snes_rtol", "1e-12", "-reduced_ksp_rtol", "1e-11", "-reduced_ksp_view",
+             "-nuno_mg", impl, "-nuno_mg_interpolation", interpolation]
+    if cycle:
+        tight += ["-nuno_mg_cycle", cycle]
     runs = {}
     for p in (1, 3):
-        proc, runs[p] = run_input(tmp_path, "hang", f"mg_{interpolation}_np{p}", p, tight, 0.005, 1e-3,
+        proc, runs[p] = run_input(tmp_path, "hang", f"mg_{impl}_{interpolation}_np{p}", p, tight, 0.005, 1e-3,
                                   nx=65, ny=65)
-        assert "type: mg" in proc.stdout, f"no multigrid on {p} ranks"
+        used = "nuno structured multigrid" if impl == "stencil" else "type: mg"
+        assert used in proc.stdout, f"no {impl} multigrid on {p} ranks"
     ref = runs[1].position
     moved = np.abs(ref[-1] - ref[0]).max()
     assert moved > 1e-5
     err = np.abs(runs[3].position - ref).max() / moved
     assert err < 1e-8, f"3 ranks differ from 1 by {err:.3e} of the displacement"
+
+
+@pytest.mark.parametrize("scene, nranks", [("hang", 1), ("hang", 3), ("wave_point_energy", 2)])
+def test_default_inner_solver_gives_the_exact_newton_trajectory(tmp_path, scene, nranks):
+    """The default inner solve (FGMRES with nuno's single-precision
+    multigrid) asked for a tight tolerance gives the trajectory of the
+    6-dof path with LU (so the preconditioner's precision costs iterations,
+    not accuracy): hang, and wave_point with its keyframed corner on a 33 x 33
+    lattice (where 4 levels fit), constrained nodes exact."""
+    tight = ("-snes_rtol", "1e-12", "-reduced_ksp_rtol", "1e-11", "-reduced_ksp_view")
+    keys = dict(nx=33, ny=33)
+    t_end, dt = (0.005, 1e-3) if scene == "hang" else (0.1, 0.01)
+    proc, red = run_input(tmp_path, scene, f"def_{scene}_{nranks}", nranks, tight, t_end, dt, **keys)
+    assert "nuno structured multigrid" in proc.stdout
+    _, full = run_input(tmp_path, scene, f"full_{scene}_{nranks}", nranks, FULL, t_end, dt, **keys)
+    ref = full.position
+    moved = np.abs(ref[-1] - ref[0]).max()
+    assert moved > 1e-6
+    err = np.abs(red.position - ref).max() / moved
+    assert err < 1e-8, f"{scene} on {nranks} ranks: default differs from full by {err:.3e} of the displacement"
 
 
 def test_constant_jacobian_of_linear_springs(tmp_path):

@@ -1,0 +1,430 @@
+!> Kernels of nuno's structured multigrid (module stencil_mg): a level's
+!> operator on a strip of lattice rows stored by stencil offset, its
+!> smoother, residual, Galerkin coarse operator and the transfers between
+!> levels. Plain arrays; no PETSc, no MPI (unit-tested alone:
+!> tests/unit/test_mg_kernels.f90).
+!>
+!> Storage. An operator A on 3 dof per node with stencil reach r (|di|,
+!> |dj| <= r) is kept in "difference form":
+!>   (A x)_p = D_p x_p + sum_{o /= 0} B_{p,o} (x_{p+o} - x_p),
+!> with B_{p,o} = A(p, p+o) the off-diagonal blocks and D_p = sum over the
+!> whole block row (the row sums: a m I for a free node of S = a M - C -
+!> K/a, since every element's forces are invariant under a translation).
+!> The large stiffness blocks then enter only through differences, and the
+!> small mass term is kept apart, so storing B in single precision (kind
+!> mp) loses nothing of the smooth modes, where K x nearly cancels: the
+!> operator stored is exactly D + L with L x = 0 for x constant. The
+!> diagonal block A_pp = D_p - sum_o B_{p,o} is only needed inverted, for
+!> the smoother. Arrays run along x fastest, (0:nx-1, 3, 3, offset, row),
+!> so that every loop over a row vectorises.
+!>
+!> Vectors are padded: x(-h:nx-1+h, 3, ys-h:ye+h), h >= r; the padding
+!> outside the lattice stays zero and blocks pointing outside it are zero,
+!> so the loops need no tests at the edges. Ghost rows inside the lattice
+!> (another rank's) are filled by the caller.
+!>
+!> Transfers are tensor products of 1-D weights (bilinear, or the cubic
+!> ones of module interpolation), fine point f of nf from coarse points of
+!> nc = (nf - 1)/2 + 1.
+module mg_kernels
+  use, intrinsic :: iso_fortran_env, only: real32
+  use kinds, only: rp
+  use interpolation, only: cubic_weights
+  implicit none
+  private
+  public :: mp, stencil_t, transfer_t, stencil_init, stencil_put_row, stencil_finish, stencil_from_full, transfer_init, coarse_reach
+  public :: gs_sweep, residual, stencil_apply, interpolate, restrict_add, galerkin_add, block_inverse
+
+  !> Kind of the multigrid's matrices and vectors (single precision: half
+  !> the bytes of every pass; the smoother and the coarse correction only
+  !> have to be good to a few digits, the outer Krylov method works in
+  !> double precision on the exact S).
+  integer, parameter :: mp = real32
+
+  !> One level's operator on rows ys..ye of an nx x ny lattice.
+  type :: stencil_t
+    integer :: nx = 0, ny = 0, ys = 0, ye = -1
+    integer :: r = 0                             !< stencil reach
+    integer :: nb = 0                            !< off-diagonal offsets, (2r+1)^2 - 1
+    integer, allocatable :: odi(:), odj(:)       !< (nb) offsets, (dj, di) in lexicographic order
+    real(mp), allocatable :: b(:, :, :, :, :)    !< (0:nx-1, 3, 3, nb, ys:ye) B_{p,o} = A(p, p+o)
+    real(mp), allocatable :: d(:, :, :, :)       !< (0:nx-1, 3, 3, ys:ye) row sums D_p
+    real(mp), allocatable :: ainv(:, :, :, :)    !< (0:nx-1, 3, 3, ys:ye) inverse of A_pp
+  end type stencil_t
+
+  !> 1-D transfer: fine point f takes w(1:n(f), f) of coarse points c(1:n(f), f).
+  type :: transfer_t
+    integer :: nf = 0, nc = 0
+    integer, allocatable :: n(:)                 !< (0:nf-1)
+    integer, allocatable :: c(:, :)              !< (4, 0:nf-1) 0-based coarse indices
+    real(rp), allocatable :: w(:, :)             !< (4, 0:nf-1)
+  end type transfer_t
+
+contains
+
+  !> Allocate the operator of rows ys..ye of an nx x ny lattice with reach r.
+  subroutine stencil_init(st, nx, ny, ys, ye, r)
+    type(stencil_t), intent(inout) :: st
+    integer, intent(in) :: nx, ny, ys, ye, r
+    integer :: di, dj, k
+    st%nx = nx
+    st%ny = ny
+    st%ys = ys
+    st%ye = ye
+    st%r = r
+    st%nb = (2 * r + 1)**2 - 1
+    if (allocated(st%odi)) deallocate(st%odi, st%odj, st%b, st%d, st%ainv)
+    allocate(st%odi(st%nb), st%odj(st%nb))
+    k = 0
+    do dj = -r, r
+      do di = -r, r
+        if (di == 0 .and. dj == 0) cycle
+        k = k + 1
+        st%odi(k) = di
+        st%odj(k) = dj
+      end do
+    end do
+    allocate(st%b(0:nx - 1, 3, 3, st%nb, ys:ye), st%d(0:nx - 1, 3, 3, ys:ye), st%ainv(0:nx - 1, 3, 3, ys:ye))
+    st%b = 0.0_mp
+    st%d = 0.0_mp
+    st%ainv = 0.0_mp
+  end subroutine stencil_init
+
+  !> Store the block row of node (i, j) given as full blocks
+  !> blk(3, 3, -r:r, -r:r) = A(p, p + (di, dj)) (zero outside the lattice),
+  !> in double precision: B, the row sum D and the inverse of the diagonal
+  !> block are formed before rounding to kind mp.
+  subroutine stencil_put_row(st, i, j, blk)
+    type(stencil_t), intent(inout) :: st
+    integer, intent(in) :: i, j
+    real(rp), intent(in) :: blk(:, :, -st%r:, -st%r:)
+    real(rp) :: dsum(3, 3), inv(3, 3)
+    integer :: k
+    dsum = blk(:, :, 0, 0)
+    do k = 1, st%nb
+      st%b(i, :, :, k, j) = real(blk(:, :, st%odi(k), st%odj(k)), mp)
+      dsum = dsum + blk(:, :, st%odi(k), st%odj(k))
+    end do
+    st%d(i, :, :, j) = real(dsum, mp)
+    call block_inverse(blk(:, :, 0, 0), inv)
+    st%ainv(i, :, :, j) = real(inv, mp)
+  end subroutine stencil_put_row
+
+  !> The coarse operator from its Galerkin sums ac(0:nx-1, 3, 3, -r:r, -r:r,
+  !> ys:ye) (full blocks, double precision; see galerkin_add).
+  subroutine stencil_finish(st, ac)
+    type(stencil_t), intent(inout) :: st
+    real(rp), intent(in) :: ac(0:, :, :, -st%r:, -st%r:, st%ys:)
+    integer :: i, j
+    do j = st%ys, st%ye
+      do i = 0, st%nx - 1
+        call stencil_put_row(st, i, j, ac(i, :, :, :, :, j))
+      end do
+    end do
+  end subroutine stencil_finish
+
+  !> The whole operator from full blocks in double precision, node by node,
+  !> full(3, 3, -r:r, -r:r, 0:nx-1, ys:ye) = A(p, p + (di, dj)) (zero
+  !> outside the lattice): B, the row sums D and the inverted diagonal blocks.
+  subroutine stencil_from_full(st, full)
+    type(stencil_t), intent(inout) :: st
+    real(rp), intent(in) :: full(:, :, -st%r:, -st%r:, 0:, st%ys:)
+    real(rp) :: dsum(3, 3), inv(3, 3)
+    integer :: i, j, k
+    do j = st%ys, st%ye
+      do i = 0, st%nx - 1
+        dsum = full(:, :, 0, 0, i, j)
+        do k = 1, st%nb
+          st%b(i, :, :, k, j) = real(full(:, :, st%odi(k), st%odj(k), i, j), mp)
+          dsum = dsum + full(:, :, st%odi(k), st%odj(k), i, j)
+        end do
+        st%d(i, :, :, j) = real(dsum, mp)
+        call block_inverse(full(:, :, 0, 0, i, j), inv)
+        st%ainv(i, :, :, j) = real(inv, mp)
+      end do
+    end do
+  end subroutine stencil_from_full
+
+  !> Inverse of a 3 x 3 block by cofactors (identity for a singular block:
+  !> the smoother then leaves that node to the coarse correction).
+  pure subroutine block_inverse(a, inv)
+    real(rp), intent(in) :: a(3, 3)
+    real(rp), intent(out) :: inv(3, 3)
+    real(rp) :: det
+    inv(1, 1) = a(2, 2) * a(3, 3) - a(2, 3) * a(3, 2)
+    inv(1, 2) = a(1, 3) * a(3, 2) - a(1, 2) * a(3, 3)
+    inv(1, 3) = a(1, 2) * a(2, 3) - a(1, 3) * a(2, 2)
+    inv(2, 1) = a(2, 3) * a(3, 1) - a(2, 1) * a(3, 3)
+    inv(2, 2) = a(1, 1) * a(3, 3) - a(1, 3) * a(3, 1)
+    inv(2, 3) = a(1, 3) * a(2, 1) - a(1, 1) * a(2, 3)
+    inv(3, 1) = a(2, 1) * a(3, 2) - a(2, 2) * a(3, 1)
+    inv(3, 2) = a(1, 2) * a(3, 1) - a(1, 1) * a(3, 2)
+    inv(3, 3) = a(1, 1) * a(2, 2) - a(1, 2) * a(2, 1)
+    det = a(1, 1) * inv(1, 1) + a(1, 2) * inv(2, 1) + a(1, 3) * inv(3, 1)
+    if (det == 0.0_rp) then
+      inv = 0.0_rp
+      inv(1, 1) = 1.0_rp
+      inv(2, 2) = 1.0_rp
+      inv(3, 3) = 1.0_rp
+    else
+      inv = inv / det
+    end if
+  end subroutine block_inverse
+
+  !> 1-D weights from nc = (nf - 1)/2 + 1 coarse points to nf fine ones:
+  !> bilinear, or cubic (module interpolation).
+  subroutine transfer_init(tr, nf, cubic)
+    type(transfer_t), intent(inout) :: tr
+    integer, intent(in) :: nf
+    logical, intent(in) :: cubic
+    integer :: f, ix(4), n
+    real(rp) :: w(4)
+    tr%nf = nf
+    tr%nc = (nf - 1) / 2 + 1
+    if (allocated(tr%n)) deallocate(tr%n, tr%c, tr%w)
+    allocate(tr%n(0:nf - 1), tr%c(4, 0:nf - 1), tr%w(4, 0:nf - 1))
+    tr%c = 0
+    tr%w = 0.0_rp
+    do f = 0, nf - 1
+      if (cubic) then
+        call cubic_weights(f, tr%nc, ix, w, n)
+      else if (mod(f, 2) == 0) then
+        n = 1
+        ix(1) = f / 2
+        w(1) = 1.0_rp
+      else
+        n = 2
+        ix(1:2) = [(f - 1) / 2, (f + 1) / 2]
+        w(1:2) = 0.5_rp
+      end if
+      tr%n(f) = n
+      tr%c(1:n, f) = ix(1:n)
+      tr%w(1:n, f) = w(1:n)
+    end do
+  end subroutine transfer_init
+
+  !> Reach of the Galerkin operator P^T A P along one direction, for an A
+  !> of reach r: the largest |I - J| with I a parent of f1, J of f2,
+  !> |f1 - f2| <= r (one-sided cubic weights at the ends included).
+  pure integer function coarse_reach(tr, r) result(rc)
+    type(transfer_t), intent(in) :: tr
+    integer, intent(in) :: r
+    integer :: f1, f2, a, b
+    rc = 0
+    do f1 = 0, tr%nf - 1
+      do f2 = max(0, f1 - r), min(tr%nf - 1, f1 + r)
+        do a = 1, tr%n(f1)
+          do b = 1, tr%n(f2)
+            rc = max(rc, abs(tr%c(a, f1) - tr%c(b, f2)))
+          end do
+        end do
+      end do
+    end do
+  end function coarse_reach
+
+  !> One Gauss-Seidel sweep with 3 x 3 blocks over rows ys..ye, forward
+  !> (rows and points in increasing order) or backward. Within a row the
+  !> couplings to other rows and to the points not yet visited are summed
+  !> first, vectorised along the row; only the couplings to the points of
+  !> the same row already visited are done point by point. Ghost rows of x
+  !> hold the neighbour ranks' values (block Jacobi between strips, as
+  !> PETSc's SOR). t(0:nx-1, 3): work.
+  subroutine gs_sweep(st, h, x, rhs, forward, t)
+    type(stencil_t), intent(in) :: st
+    integer, intent(in) :: h
+    real(mp), intent(inout) :: x(-h:, :, st%ys - h:)
+    real(mp), intent(in) :: rhs(0:, :, st%ys:)
+    logical, intent(in) :: forward
+    real(mp), intent(inout) :: t(0:, :)
+    integer :: j, jj, i, ii, k, di, dj, c1, c2, nx, nseq, seq(max(st%r, 1))
+    real(mp) :: s1, s2, s3, y1, y2, y3
+
+    nx = st%nx
+    ! The couplings along the row towards the points already visited.
+    nseq = 0
+    do k = 1, st%nb
+      if (st%odj(k) == 0 .and. ((st%odi(k) < 0) .eqv. forward)) then
+        nseq = nseq + 1
+        seq(nseq) = k
+      end if
+    end do
+    do jj = 0, st%ye - st%ys
+      j = merge(st%ys + jj, st%ye - jj, forward)
+      t = rhs(:, :, j)
+      do k = 1, st%nb
+        di = st%odi(k)
+        dj = st%odj(k)
+        if (dj == 0 .and. ((di < 0) .eqv. forward)) cycle
+        do c2 = 1, 3
+          do c1 = 1, 3
+            t(:, c1) = t(:, c1) - st%b(:, c1, c2, k, j) * x(di:nx - 1 + di, c2, j + dj)
+          end do
+        end do
+      end do
+      do ii = 0, nx - 1
+        i = merge(ii, nx - 1 - ii, forward)
+        s1 = t(i, 1)
+        s2 = t(i, 2)
+        s3 = t(i, 3)
+        do k = 1, nseq
+          di = st%odi(seq(k))
+          y1 = x(i + di, 1, j)
+          y2 = x(i + di, 2, j)
+          y3 = x(i + di, 3, j)
+          s1 = s1 - st%b(i, 1, 1, seq(k), j) * y1 - st%b(i, 1, 2, seq(k), j) * y2 - st%b(i, 1, 3, seq(k), j) * y3
+          s2 = s2 - st%b(i, 2, 1, seq(k), j) * y1 - st%b(i, 2, 2, seq(k), j) * y2 - st%b(i, 2, 3, seq(k), j) * y3
+          s3 = s3 - st%b(i, 3, 1, seq(k), j) * y1 - st%b(i, 3, 2, seq(k), j) * y2 - st%b(i, 3, 3, seq(k), j) * y3
+        end do
+        x(i, 1, j) = st%ainv(i, 1, 1, j) * s1 + st%ainv(i, 1, 2, j) * s2 + st%ainv(i, 1, 3, j) * s3
+        x(i, 2, j) = st%ainv(i, 2, 1, j) * s1 + st%ainv(i, 2, 2, j) * s2 + st%ainv(i, 2, 3, j) * s3
+        x(i, 3, j) = st%ainv(i, 3, 1, j) * s1 + st%ainv(i, 3, 2, j) * s2 + st%ainv(i, 3, 3, j) * s3
+      end do
+    end do
+  end subroutine gs_sweep
+
+  !> res = rhs - A x on rows ys..ye, in difference form (ghost rows of x filled).
+  subroutine residual(st, h, x, rhs, res)
+    type(stencil_t), intent(in) :: st
+    integer, intent(in) :: h
+    real(mp), intent(in) :: x(-h:, :, st%ys - h:)
+    real(mp), intent(in) :: rhs(0:, :, st%ys:)
+    real(mp), intent(out) :: res(0:, :, st%ys:)
+    integer :: j, k, di, dj, c1, c2, nx
+    nx = st%nx
+    do j = st%ys, st%ye
+      res(:, :, j) = rhs(:, :, j)
+      do c2 = 1, 3
+        do c1 = 1, 3
+          res(:, c1, j) = res(:, c1, j) - st%d(:, c1, c2, j) * x(0:nx - 1, c2, j)
+        end do
+      end do
+      do k = 1, st%nb
+        di = st%odi(k)
+        dj = st%odj(k)
+        do c2 = 1, 3
+          do c1 = 1, 3
+            res(:, c1, j) = res(:, c1, j) - st%b(:, c1, c2, k, j) * (x(di:nx - 1 + di, c2, j + dj) - x(0:nx - 1, c2, j))
+          end do
+        end do
+      end do
+    end do
+  end subroutine residual
+
+  !> y = A x on rows ys..ye (ghost rows of x filled); y(0:nx-1, 3, ys:ye).
+  subroutine stencil_apply(st, h, x, y)
+    type(stencil_t), intent(in) :: st
+    integer, intent(in) :: h
+    real(mp), intent(in) :: x(-h:, :, st%ys - h:)
+    real(mp), intent(out) :: y(0:, :, st%ys:)
+    real(mp), allocatable :: zero(:, :, :)
+    allocate(zero(0:st%nx - 1, 3, st%ys:st%ye))
+    zero = 0.0_mp
+    call residual(st, h, x, zero, y)
+    y = -y
+  end subroutine stencil_apply
+
+  !> xf = P xc (add: xf = xf + P xc) on fine rows ysf..yef. xc holds every
+  !> coarse row that those rows need (its own padding hc). t(0:nxc-1, 3): work.
+  subroutine interpolate(tx, ty, ysf, yef, hc, ysc, xc, hf, xf, add, t)
+    type(transfer_t), intent(in) :: tx, ty
+    integer, intent(in) :: ysf, yef, hc, ysc, hf
+    real(mp), intent(in) :: xc(-hc:, :, ysc - hc:)
+    real(mp), intent(inout) :: xf(-hf:, :, ysf - hf:)
+    logical, intent(in) :: add
+    real(mp), intent(inout) :: t(0:, :)
+    integer :: j, i, b, a, c, nxc
+    nxc = tx%nc
+    do j = ysf, yef
+      t = 0.0_mp
+      do b = 1, ty%n(j)
+        t = t + real(ty%w(b, j), mp) * xc(0:nxc - 1, :, ty%c(b, j))
+      end do
+      if (.not. add) xf(0:tx%nf - 1, :, j) = 0.0_mp
+      do c = 1, 3
+        do i = 0, tx%nf - 1
+          do a = 1, tx%n(i)
+            xf(i, c, j) = xf(i, c, j) + real(tx%w(a, i), mp) * t(tx%c(a, i), c)
+          end do
+        end do
+      end do
+    end do
+  end subroutine interpolate
+
+  !> rc = rc + P^T rf restricted to the contributions of fine rows
+  !> ysf..yef; rc is padded (hc) so that it takes the coarse rows of other
+  !> ranks too (the caller adds them where they belong). t(0:nxc-1, 3): work.
+  subroutine restrict_add(tx, ty, ysf, yef, rf, hc, ysc, rc, t)
+    type(transfer_t), intent(in) :: tx, ty
+    integer, intent(in) :: ysf, yef, hc, ysc
+    real(mp), intent(in) :: rf(0:, :, ysf:)
+    real(mp), intent(inout) :: rc(-hc:, :, ysc - hc:)
+    real(mp), intent(inout) :: t(0:, :)
+    integer :: j, i, b, a, c, nxc
+    nxc = tx%nc
+    do j = ysf, yef
+      t = 0.0_mp
+      do c = 1, 3
+        do i = 0, tx%nf - 1
+          do a = 1, tx%n(i)
+            t(tx%c(a, i), c) = t(tx%c(a, i), c) + real(tx%w(a, i), mp) * rf(i, c, j)
+          end do
+        end do
+      end do
+      do b = 1, ty%n(j)
+        rc(0:nxc - 1, :, ty%c(b, j)) = rc(0:nxc - 1, :, ty%c(b, j)) + real(ty%w(b, j), mp) * t
+      end do
+    end do
+  end subroutine restrict_add
+
+  !> ac = ac + P^T A P restricted to the contributions of the fine rows
+  !> ys..ye of A (full 3 x 3 blocks, double precision): ac(0:nxc-1, 3, 3,
+  !> -rc:rc, -rc:rc, jc0:) with rows for every coarse row these fine rows
+  !> touch (the caller adds other ranks' rows where they belong).
+  subroutine galerkin_add(st, tx, ty, rc, jc0, ac)
+    type(stencil_t), intent(in) :: st
+    type(transfer_t), intent(in) :: tx, ty
+    integer, intent(in) :: rc, jc0
+    real(rp), intent(inout) :: ac(0:, :, :, -rc:, -rc:, jc0:)
+    real(rp) :: blk(3, 3), w1
+    integer :: i, j, k, di, dj, i2, j2, a1, b1, a2, b2, ci, cj, cdi, cdj
+    do j = st%ys, st%ye
+      do i = 0, st%nx - 1
+        do k = 0, st%nb
+          if (k == 0) then
+            di = 0
+            dj = 0
+            blk = real(st%d(i, :, :, j), rp)
+            do a1 = 1, st%nb
+              blk = blk - real(st%b(i, :, :, a1, j), rp)
+            end do
+          else
+            di = st%odi(k)
+            dj = st%odj(k)
+            i2 = i + di
+            j2 = j + dj
+            if (i2 < 0 .or. i2 >= st%nx .or. j2 < 0 .or. j2 >= st%ny) cycle
+            blk = real(st%b(i, :, :, k, j), rp)
+            if (all(blk == 0.0_rp)) cycle
+          end if
+          i2 = i + di
+          j2 = j + dj
+          do b1 = 1, ty%n(j)
+            cj = ty%c(b1, j)
+            do a1 = 1, tx%n(i)
+              ci = tx%c(a1, i)
+              w1 = ty%w(b1, j) * tx%w(a1, i)
+              do b2 = 1, ty%n(j2)
+                cdj = ty%c(b2, j2) - cj
+                do a2 = 1, tx%n(i2)
+                  cdi = tx%c(a2, i2) - ci
+                  ac(ci, :, :, cdi, cdj, cj) = ac(ci, :, :, cdi, cdj, cj) + (w1 * ty%w(b2, j2) * tx%w(a2, i2)) * blk
+                end do
+              end do
+            end do
+          end do
+        end do
+      end do
+    end do
+  end subroutine galerkin_add
+
+end module mg_kernels

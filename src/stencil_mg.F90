@@ -1,0 +1,451 @@
+!> nuno's structured multigrid for the reduced system S dv = rhs (the
+!> default inner preconditioner, docs/design.md): geometric levels of the
+!> lattice (vertex-centred 2:1 coarsening), Galerkin coarse operators
+!> P^T A P, block Gauss-Seidel smoothing, a banded LU of the coarsest level
+!> on every rank. Every level is a strip of whole rows per rank, as the
+!> DMDA's; its operator and vectors are in module mg_kernels' single-precision
+!> stencil storage (no column indices, no PETSc matrix). MPI only for the
+!> halo rows between neighbouring strips and for the coarsest level; no
+!> PETSc (module reduced is the glue).
+!>
+!> Ownership: coarse row J belongs to the rank that owns fine row 2 J.
+!> A level is kept distributed while every rank owns at least its halo
+!> (the stencil reach, and the rows the transfers reach beyond the strip)
+!> of it; the first level where that fails, or the last one of the
+!> hierarchy, is the coarsest: replicated on every rank (each rank's
+!> partial sums of its right-hand side and Galerkin operator are summed
+!> over all ranks) and solved directly.
+!>
+!> Cycles: multiplicative (a V-cycle: nu symmetric Gauss-Seidel sweeps
+!> before and after the coarse correction) or kaskade (the right-hand side
+!> restricted to the coarsest level, solved there, then interpolated up
+!> with nu symmetric sweeps on each level and no return to coarser ones:
+!> the cheapest application, PETSc's PC_MG_KASKADE).
+module stencil_mg
+  use mpi
+  use kinds, only: rp
+  use mg_kernels, only: mp, stencil_t, transfer_t, stencil_init, stencil_put_row, stencil_finish, stencil_from_full, transfer_init, &
+                        coarse_reach, gs_sweep, residual, interpolate, restrict_add, galerkin_add
+  implicit none
+  private
+  public :: stencil_mg_t, mg_create, mg_destroy, mg_set_fine_row, mg_set_fine, mg_build_coarse, mg_apply
+  public :: MG_MULTIPLICATIVE, MG_KASKADE
+
+  integer, parameter :: MG_MULTIPLICATIVE = 1, MG_KASKADE = 2
+
+  type :: mg_level_t
+    type(stencil_t) :: a                         !< the operator (rows ys..ye)
+    integer :: h = 0                             !< padding rows and columns of the vectors
+    logical :: replicated = .false.              !< every rank holds every row (the coarsest level)
+    real(mp), allocatable :: x(:, :, :)          !< (-h:nx-1+h, 3, ys-h:ye+h) solution
+    real(mp), allocatable :: w(:, :, :)          !< (-h:nx-1+h, 3, ys-h:ye+h) restriction sums (with other ranks' rows)
+    real(mp), allocatable :: rhs(:, :, :)        !< (0:nx-1, 3, ys:ye) right-hand side
+    real(mp), allocatable :: res(:, :, :)        !< (0:nx-1, 3, ys:ye) residual
+    real(mp), allocatable :: t(:, :)             !< (0:nx-1, 3) row work
+    type(transfer_t) :: tx, ty                   !< from the next coarser level to this one
+    real(rp), allocatable :: ac(:, :, :, :, :, :) !< (0:nx-1, 3, 3, -r:r, -r:r, ys-h:ye+h) Galerkin sums of this level
+  end type mg_level_t
+
+  !> The hierarchy: lev(1) is the lattice itself.
+  type :: stencil_mg_t
+    integer :: comm = MPI_COMM_NULL, rank = 0, nranks = 1, below = MPI_PROC_NULL, above = MPI_PROC_NULL
+    integer :: nlev = 0
+    integer :: cycle_type = MG_MULTIPLICATIVE
+    integer :: nu = 1                            !< symmetric Gauss-Seidel sweeps per smoothing
+    type(mg_level_t), allocatable :: lev(:)
+    ! the coarsest level's banded LU (LAPACK dgbtrf), same on every rank
+    integer :: n = 0, kl = 0
+    real(rp), allocatable :: ab(:, :)            !< (3 kl + 1, n)
+    real(rp), allocatable :: xc(:)               !< (n)
+    integer, allocatable :: ipiv(:)              !< (n)
+  end type stencil_mg_t
+
+contains
+
+  !> Build the levels of an nx x ny lattice whose rows ys..ye this rank
+  !> owns (strips of 1 x P ranks, in rank order), with stencil reach r on
+  !> the lattice. cubic(l) (l = 1, 2, ...): cubic transfer between level
+  !> l + 1 and level l, else bilinear. At most max_levels levels; coarsening
+  !> stops at 5 points a side. Collective.
+  subroutine mg_create(mg, comm, nx, ny, ys, ye, r, cubic, max_levels, cycle_type, nu)
+    type(stencil_mg_t), intent(inout) :: mg
+    integer, intent(in) :: comm, nx, ny, ys, ye, r, max_levels, cycle_type, nu
+    logical, intent(in) :: cubic(:)
+    type(mg_level_t), allocatable :: tmp(:)
+    integer :: ierr, l, nxc, nyc, ysc, yec, rc, hc, need, fewest, k
+    logical :: last
+
+    mg%comm = comm
+    call MPI_Comm_rank(comm, mg%rank, ierr)
+    call MPI_Comm_size(comm, mg%nranks, ierr)
+    mg%below = merge(mg%rank - 1, MPI_PROC_NULL, mg%rank > 0)
+    mg%above = merge(mg%rank + 1, MPI_PROC_NULL, mg%rank < mg%nranks - 1)
+    mg%cycle_type = cycle_type
+    mg%nu = max(nu, 1)
+
+    allocate(mg%lev(max(max_levels, 1)))
+    call stencil_init(mg%lev(1)%a, nx, ny, ys, ye, r)
+    mg%lev(1)%h = r
+    mg%lev(1)%replicated = mg%nranks == 1
+    l = 1
+    last = max_levels <= 1
+    do while (.not. last)
+      associate (f => mg%lev(l))
+        if (mod(f%a%nx - 1, 2) /= 0 .or. mod(f%a%ny - 1, 2) /= 0) exit
+        nxc = (f%a%nx - 1) / 2 + 1
+        nyc = (f%a%ny - 1) / 2 + 1
+        if (min(nxc, nyc) < 5) exit
+        call transfer_init(f%tx, f%a%nx, cubic(min(l, size(cubic))))
+        call transfer_init(f%ty, f%a%ny, cubic(min(l, size(cubic))))
+        rc = max(coarse_reach(f%tx, f%a%r), coarse_reach(f%ty, f%a%r))
+        ! Coarse rows of this rank, and how far its fine rows' parents
+        ! reach beyond them (restriction and interpolation cross that far).
+        ysc = (f%a%ys + 1) / 2
+        yec = f%a%ye / 2
+        hc = rc
+        do k = f%a%ys, f%a%ye
+          hc = max(hc, ysc - minval(f%ty%c(1:f%ty%n(k), k)), maxval(f%ty%c(1:f%ty%n(k), k)) - yec)
+        end do
+        call MPI_Allreduce(MPI_IN_PLACE, hc, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
+        ! Distributed only if every rank owns at least hc rows of it.
+        need = yec - ysc + 1
+        call MPI_Allreduce(need, fewest, 1, MPI_INTEGER, MPI_MIN, comm, ierr)
+        last = fewest < max(hc, 1) .or. l + 1 >= max_levels .or. min((nxc - 1) / 2 + 1, (nyc - 1) / 2 + 1) < 5 &
+               .or. mod(nxc - 1, 2) /= 0 .or. mod(nyc - 1, 2) /= 0
+        if (last) then
+          ysc = 0
+          yec = nyc - 1
+        end if
+      end associate
+      l = l + 1
+      call stencil_init(mg%lev(l)%a, nxc, nyc, ysc, yec, rc)
+      mg%lev(l)%h = hc
+      mg%lev(l)%replicated = last .or. mg%nranks == 1
+    end do
+    mg%nlev = l
+    if (mg%nlev < size(mg%lev)) then
+      allocate(tmp(mg%nlev))
+      tmp = mg%lev(1:mg%nlev)
+      call move_alloc(tmp, mg%lev)
+    end if
+    do l = 1, mg%nlev
+      call level_arrays(mg%lev(l))
+    end do
+    ! The coarsest level's band: node-major unknowns 3 (i + nx j) + c.
+    associate (c => mg%lev(mg%nlev))
+      mg%n = 3 * c%a%nx * c%a%ny
+      mg%kl = 3 * (c%a%r * c%a%nx + c%a%r) + 2
+      allocate(mg%ab(3 * mg%kl + 1, mg%n), mg%xc(mg%n), mg%ipiv(mg%n))
+    end associate
+  end subroutine mg_create
+
+  subroutine level_arrays(lv)
+    type(mg_level_t), intent(inout) :: lv
+    integer :: nx, ys, ye, h, r
+    nx = lv%a%nx
+    ys = lv%a%ys
+    ye = lv%a%ye
+    h = lv%h
+    r = lv%a%r
+    allocate(lv%x(-h:nx - 1 + h, 3, ys - h:ye + h), lv%w(-h:nx - 1 + h, 3, ys - h:ye + h))
+    allocate(lv%rhs(0:nx - 1, 3, ys:ye), lv%res(0:nx - 1, 3, ys:ye), lv%t(0:nx - 1, 3))
+    lv%x = 0.0_mp
+    lv%w = 0.0_mp
+    lv%rhs = 0.0_mp
+    lv%res = 0.0_mp
+    allocate(lv%ac(0:nx - 1, 3, 3, -r:r, -r:r, ys - h:ye + h))
+    lv%ac = 0.0_rp
+  end subroutine level_arrays
+
+  subroutine mg_destroy(mg)
+    type(stencil_mg_t), intent(inout) :: mg
+    if (allocated(mg%lev)) deallocate(mg%lev)
+    if (allocated(mg%ab)) deallocate(mg%ab, mg%xc, mg%ipiv)
+    mg%nlev = 0
+  end subroutine mg_destroy
+
+  !> The finest level's block row of node (i, j) (owned): blk(3, 3, -r:r,
+  !> -r:r) = S(p, p + (di, dj)), zero outside the lattice.
+  subroutine mg_set_fine_row(mg, i, j, blk)
+    type(stencil_mg_t), intent(inout) :: mg
+    integer, intent(in) :: i, j
+    real(rp), intent(in) :: blk(:, :, :, :)
+    call stencil_put_row(mg%lev(1)%a, i, j, blk)
+  end subroutine mg_set_fine_row
+
+  !> The finest level from S by stencil offset, node by node,
+  !> full(3, 3, -r:r, -r:r, 0:nx-1, ys:ye) = S(p, p + (di, dj)) (double
+  !> precision, zero outside the lattice).
+  subroutine mg_set_fine(mg, full)
+    type(stencil_mg_t), intent(inout) :: mg
+    real(rp), intent(in) :: full(:, :, :, :, :, :)
+    call stencil_from_full(mg%lev(1)%a, full)
+  end subroutine mg_set_fine
+
+  !> The coarse operators from the finest one (Galerkin, level by level)
+  !> and the coarsest level's factorisation. ierr /= 0: the coarsest
+  !> matrix is singular (LAPACK's info). Collective.
+  subroutine mg_build_coarse(mg, ierr)
+    type(stencil_mg_t), intent(inout) :: mg
+    integer, intent(out) :: ierr
+    integer :: l, j, i, di, dj, c1, c2, row, col, n
+    ierr = 0
+    do l = 2, mg%nlev
+      associate (f => mg%lev(l - 1), c => mg%lev(l))
+        c%ac = 0.0_rp
+        call galerkin_add(f%a, f%tx, f%ty, c%a%r, c%a%ys - c%h, c%ac)
+        call finish_sums_ac(mg, c)
+        call stencil_finish(c%a, c%ac(:, :, :, :, :, c%a%ys:c%a%ye))
+      end associate
+    end do
+    ! Banded LU of the coarsest level (full blocks from its Galerkin sums,
+    ! or the finest level's rows on one level).
+    associate (c => mg%lev(mg%nlev))
+      mg%ab = 0.0_rp
+      n = mg%n
+      do j = 0, c%a%ny - 1
+        do i = 0, c%a%nx - 1
+          do dj = -c%a%r, c%a%r
+            if (j + dj < 0 .or. j + dj >= c%a%ny) cycle
+            do di = -c%a%r, c%a%r
+              if (i + di < 0 .or. i + di >= c%a%nx) cycle
+              do c2 = 1, 3
+                do c1 = 1, 3
+                  row = 3 * (i + c%a%nx * j) + c1
+                  col = 3 * ((i + di) + c%a%nx * (j + dj)) + c2
+                  mg%ab(2 * mg%kl + 1 + row - col, col) = block_entry(c, i, j, di, dj, c1, c2)
+                end do
+              end do
+            end do
+          end do
+        end do
+      end do
+      call dgbtrf(n, n, mg%kl, mg%kl, mg%ab, 3 * mg%kl + 1, mg%ipiv, ierr)
+    end associate
+  contains
+    !> Entry (c1, c2) of block A(p, p + (di, dj)) of the coarsest level,
+    !> from its stored difference form (the diagonal block is D - sum B).
+    real(rp) function block_entry(c, i, j, di, dj, c1, c2) result(v)
+      type(mg_level_t), intent(in) :: c
+      integer, intent(in) :: i, j, di, dj, c1, c2
+      integer :: k
+      if (di == 0 .and. dj == 0) then
+        v = real(c%a%d(i, c1, c2, j), rp)
+        do k = 1, c%a%nb
+          v = v - real(c%a%b(i, c1, c2, k, j), rp)
+        end do
+      else
+        k = (dj + c%a%r) * (2 * c%a%r + 1) + (di + c%a%r) + 1
+        if (k > (c%a%nb + 1) / 2) k = k - 1
+        v = real(c%a%b(i, c1, c2, k, j), rp)
+      end if
+    end function block_entry
+  end subroutine mg_build_coarse
+
+  !> The Galerkin sums of level c as every rank's partial sums added where
+  !> they belong: over all ranks for a replicated level, else the rows
+  !> computed for the neighbours' strips sent to them and added.
+  subroutine finish_sums_ac(mg, c)
+    type(stencil_mg_t), intent(inout) :: mg
+    type(mg_level_t), intent(inout) :: c
+    integer :: ierr, cnt, h, ys, ye
+    real(rp), allocatable :: buf(:, :, :, :, :, :)
+    if (c%replicated) then
+      if (mg%nranks > 1) then
+        cnt = size(c%ac(:, :, :, :, :, c%a%ys:c%a%ye))
+        call MPI_Allreduce(MPI_IN_PLACE, c%ac(0, 1, 1, -c%a%r, -c%a%r, c%a%ys), cnt, MPI_DOUBLE_PRECISION, MPI_SUM, mg%comm, ierr)
+      end if
+      return
+    end if
+    h = c%h
+    ys = c%a%ys
+    ye = c%a%ye
+    cnt = size(c%ac(:, :, :, :, :, ys:ys + h - 1))
+    allocate(buf(0:c%a%nx - 1, 3, 3, -c%a%r:c%a%r, -c%a%r:c%a%r, h))
+    ! rows below my strip go to the rank below; the rank above sends me its rows below its strip
+    buf = 0.0_rp
+    call MPI_Sendrecv(c%ac(0, 1, 1, -c%a%r, -c%a%r, ys - h), cnt, MPI_DOUBLE_PRECISION, mg%below, 11, &
+                      buf, cnt, MPI_DOUBLE_PRECISION, mg%above, 11, mg%comm, MPI_STATUS_IGNORE, ierr)
+    if (mg%above /= MPI_PROC_NULL) c%ac(:, :, :, :, :, ye - h + 1:ye) = c%ac(:, :, :, :, :, ye - h + 1:ye) + buf
+    buf = 0.0_rp
+    call MPI_Sendrecv(c%ac(0, 1, 1, -c%a%r, -c%a%r, ye + 1), cnt, MPI_DOUBLE_PRECISION, mg%above, 12, &
+                      buf, cnt, MPI_DOUBLE_PRECISION, mg%below, 12, mg%comm, MPI_STATUS_IGNORE, ierr)
+    if (mg%below /= MPI_PROC_NULL) c%ac(:, :, :, :, :, ys:ys + h - 1) = c%ac(:, :, :, :, :, ys:ys + h - 1) + buf
+  end subroutine finish_sums_ac
+
+  !> The restriction sums of level c (in c%w) completed as in finish_sums_ac,
+  !> into c%rhs.
+  subroutine finish_sums_w(mg, c)
+    type(stencil_mg_t), intent(inout) :: mg
+    type(mg_level_t), intent(inout) :: c
+    integer :: ierr, cnt, h, ys, ye
+    h = c%h
+    ys = c%a%ys
+    ye = c%a%ye
+    if (c%replicated) then
+      c%rhs = c%w(0:c%a%nx - 1, :, ys:ye)
+      if (mg%nranks > 1) call MPI_Allreduce(MPI_IN_PLACE, c%rhs, size(c%rhs), MPI_REAL, MPI_SUM, mg%comm, ierr)
+      return
+    end if
+    cnt = size(c%w(:, :, ys:ys + h - 1))
+    ! The padding rows of x serve as receive buffers (x is set afterwards).
+    c%x(:, :, ye + 1:ye + h) = 0.0_mp
+    c%x(:, :, ys - h:ys - 1) = 0.0_mp
+    call MPI_Sendrecv(c%w(-h, 1, ys - h), cnt, MPI_REAL, mg%below, 13, c%x(-h, 1, ye + 1), cnt, MPI_REAL, mg%above, 13, &
+                      mg%comm, MPI_STATUS_IGNORE, ierr)
+    call MPI_Sendrecv(c%w(-h, 1, ye + 1), cnt, MPI_REAL, mg%above, 14, c%x(-h, 1, ys - h), cnt, MPI_REAL, mg%below, 14, &
+                      mg%comm, MPI_STATUS_IGNORE, ierr)
+    c%rhs = c%w(0:c%a%nx - 1, :, ys:ye)
+    c%rhs(:, :, ye - h + 1:ye) = c%rhs(:, :, ye - h + 1:ye) + c%x(0:c%a%nx - 1, :, ye + 1:ye + h)
+    c%rhs(:, :, ys:ys + h - 1) = c%rhs(:, :, ys:ys + h - 1) + c%x(0:c%a%nx - 1, :, ys - h:ys - 1)
+  end subroutine finish_sums_w
+
+  !> Fill the ghost rows of a level's x from the neighbouring strips.
+  subroutine exchange(mg, lv)
+    type(stencil_mg_t), intent(inout) :: mg
+    type(mg_level_t), intent(inout) :: lv
+    integer :: ierr, cnt, h, ys, ye
+    if (lv%replicated .or. mg%nranks == 1) return
+    h = lv%h
+    ys = lv%a%ys
+    ye = lv%a%ye
+    cnt = size(lv%x(:, :, ys:ys + h - 1))
+    call MPI_Sendrecv(lv%x(-h, 1, ys), cnt, MPI_REAL, mg%below, 15, lv%x(-h, 1, ye + 1), cnt, MPI_REAL, mg%above, 15, &
+                      mg%comm, MPI_STATUS_IGNORE, ierr)
+    call MPI_Sendrecv(lv%x(-h, 1, ye - h + 1), cnt, MPI_REAL, mg%above, 16, lv%x(-h, 1, ys - h), cnt, MPI_REAL, mg%below, 16, &
+                      mg%comm, MPI_STATUS_IGNORE, ierr)
+  end subroutine exchange
+
+  !> One symmetric Gauss-Seidel smoothing (forward, then backward sweep),
+  !> the ghost rows exchanged before each: within a strip lexicographic,
+  !> between strips block Jacobi, as PETSc's SOR. (Rows coloured by j mod
+  !> (r + 1), the same smoother on any number of ranks, took 7 % more
+  !> iterations on hang 257 x 257: docs/performance.md.)
+  subroutine smooth(mg, lv)
+    type(stencil_mg_t), intent(inout) :: mg
+    type(mg_level_t), intent(inout) :: lv
+    call exchange(mg, lv)
+    call gs_sweep(lv%a, lv%h, lv%x, lv%rhs, .true., lv%t)
+    call exchange(mg, lv)
+    call gs_sweep(lv%a, lv%h, lv%x, lv%rhs, .false., lv%t)
+  end subroutine smooth
+
+  !> Restrict level l's residual (or, with from_rhs, its right-hand side)
+  !> into level l + 1's right-hand side.
+  subroutine restrict_level(mg, l, from_rhs)
+    type(stencil_mg_t), intent(inout) :: mg
+    integer, intent(in) :: l
+    logical, intent(in) :: from_rhs
+    associate (f => mg%lev(l), c => mg%lev(l + 1))
+      c%w = 0.0_mp
+      if (from_rhs) then
+        call restrict_add(f%tx, f%ty, f%a%ys, f%a%ye, f%rhs, c%h, c%a%ys, c%w, c%t)
+      else
+        call restrict_add(f%tx, f%ty, f%a%ys, f%a%ye, f%res, c%h, c%a%ys, c%w, c%t)
+      end if
+      call finish_sums_w(mg, c)
+    end associate
+  end subroutine restrict_level
+
+  !> The coarsest level: x = A^{-1} rhs by the banded LU, on every rank.
+  subroutine coarse_solve(mg)
+    type(stencil_mg_t), intent(inout) :: mg
+    integer :: i, j, c1, info
+    associate (c => mg%lev(mg%nlev))
+      do j = 0, c%a%ny - 1
+        do c1 = 1, 3
+          do i = 0, c%a%nx - 1
+            mg%xc(3 * (i + c%a%nx * j) + c1) = real(c%rhs(i, c1, j), rp)
+          end do
+        end do
+      end do
+      call dgbtrs('N', mg%n, mg%kl, mg%kl, 1, mg%ab, 3 * mg%kl + 1, mg%ipiv, mg%xc, mg%n, info)
+      do j = 0, c%a%ny - 1
+        do c1 = 1, 3
+          do i = 0, c%a%nx - 1
+            c%x(i, c1, j) = real(mg%xc(3 * (i + c%a%nx * j) + c1), mp)
+          end do
+        end do
+      end do
+    end associate
+  end subroutine coarse_solve
+
+  !> One V-cycle on level l and below, x from zero.
+  recursive subroutine vcycle(mg, l)
+    type(stencil_mg_t), intent(inout) :: mg
+    integer, intent(in) :: l
+    integer :: k
+    if (l == mg%nlev) then
+      call coarse_solve(mg)
+      return
+    end if
+    associate (f => mg%lev(l), c => mg%lev(l + 1))
+      f%x = 0.0_mp
+      do k = 1, mg%nu
+        call smooth(mg, f)
+      end do
+      call exchange(mg, f)
+      call residual(f%a, f%h, f%x, f%rhs, f%res)
+      call restrict_level(mg, l, .false.)
+      call vcycle(mg, l + 1)
+      call exchange(mg, c)
+      call interpolate(f%tx, f%ty, f%a%ys, f%a%ye, c%h, c%a%ys, c%x, f%h, f%x, .true., c%t)
+      do k = 1, mg%nu
+        call smooth(mg, f)
+      end do
+    end associate
+  end subroutine vcycle
+
+  !> Kaskade: rhs restricted to the coarsest level, solved, then up level by
+  !> level: interpolated, smoothed, never back down.
+  subroutine kcycle(mg)
+    type(stencil_mg_t), intent(inout) :: mg
+    integer :: l, k
+    do l = 1, mg%nlev - 1
+      call restrict_level(mg, l, .true.)
+    end do
+    call coarse_solve(mg)
+    do l = mg%nlev - 1, 1, -1
+      associate (f => mg%lev(l), c => mg%lev(l + 1))
+        call exchange(mg, c)
+        call interpolate(f%tx, f%ty, f%a%ys, f%a%ye, c%h, c%a%ys, c%x, f%h, f%x, .false., c%t)
+        do k = 1, mg%nu
+          call smooth(mg, f)
+        end do
+      end associate
+    end do
+  end subroutine kcycle
+
+  !> x = M^{-1} b, one cycle: b(3, 0:nx-1, ys:ye), x likewise (the layout
+  !> of a 3-dof DMDA vector). Collective.
+  subroutine mg_apply(mg, b, x)
+    type(stencil_mg_t), intent(inout) :: mg
+    real(rp), intent(in) :: b(:, 0:, mg%lev(1)%a%ys:)
+    real(rp), intent(out) :: x(:, 0:, mg%lev(1)%a%ys:)
+    integer :: i, j, c
+    associate (f => mg%lev(1))
+      do j = f%a%ys, f%a%ye
+        do c = 1, 3
+          do i = 0, f%a%nx - 1
+            f%rhs(i, c, j) = real(b(c, i, j), mp)
+          end do
+        end do
+      end do
+      if (mg%nlev == 1) then
+        call coarse_solve(mg)
+      else if (mg%cycle_type == MG_KASKADE) then
+        call kcycle(mg)
+      else
+        call vcycle(mg, 1)
+      end if
+      do j = f%a%ys, f%a%ye
+        do i = 0, f%a%nx - 1
+          do c = 1, 3
+            x(c, i, j) = real(f%x(i, c, j), rp)
+          end do
+        end do
+      end do
+    end associate
+  end subroutine mg_apply
+
+end module stencil_mg

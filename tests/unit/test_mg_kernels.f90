@@ -1,0 +1,322 @@
+!> Unit test of the structured multigrid's kernels (module mg_kernels)
+!> against dense matrices built independently from the same blocks:
+!>  - the difference form reproduces A x (random blocks, zero row sums plus
+!>    a mass-like diagonal, 11 x 9 lattice, reach 2);
+!>  - restriction is the transpose of interpolation (bilinear and cubic);
+!>  - galerkin_add + stencil_finish give the dense P^T A P (both transfers,
+!>    reach 1 and 2), including the coarse reach coarse_reach predicts;
+!>  - symmetric Gauss-Seidel sweeps converge to the dense solution of a
+!>    diagonally dominant system, forward and backward alike;
+!>  - the row sums survive single precision: for a stiff operator
+!>    (stiffness 1e6 times the mass) applied to a constant vector the stored
+!>    operator gives the mass term to single-precision accuracy, where
+!>    rounding the full blocks would not.
+program test_mg_kernels
+  use kinds, only: rp
+  use mg_kernels, only: mp, stencil_t, transfer_t, stencil_init, stencil_put_row, stencil_finish, transfer_init, &
+                        coarse_reach, gs_sweep, residual, stencil_apply, interpolate, restrict_add, galerkin_add
+  use check, only: check_true, check_close, check_report
+  implicit none
+
+  call test_apply(2)
+  call test_apply(1)
+  call test_transpose(.false.)
+  call test_transpose(.true.)
+  call test_galerkin(1, .false.)
+  call test_galerkin(2, .false.)
+  call test_galerkin(2, .true.)
+  call test_smoother()
+  call test_row_sums()
+  call check_report()
+
+contains
+
+  !> Dense index of (node i, j; component c) on an nx x ny lattice.
+  pure integer function gidx(nx, i, j, c)
+    integer, intent(in) :: nx, i, j, c
+    gidx = 3 * (i + nx * j) + c
+  end function gidx
+
+  !> A random operator of reach r on nx x ny: blocks of every link inside the
+  !> lattice with zero row sums, plus mass m I on the diagonal; returned as
+  !> the stored stencil and the dense matrix.
+  subroutine random_operator(nx, ny, r, mass, stiff, st, dense)
+    integer, intent(in) :: nx, ny, r
+    real(rp), intent(in) :: mass, stiff
+    type(stencil_t), intent(out) :: st
+    real(rp), allocatable, intent(out) :: dense(:, :)
+    real(rp) :: blk(3, 3, -r:r, -r:r), rnd(3, 3)
+    integer :: i, j, di, dj, c1, c2
+    call stencil_init(st, nx, ny, 0, ny - 1, r)
+    allocate(dense(3 * nx * ny, 3 * nx * ny))
+    dense = 0.0_rp
+    do j = 0, ny - 1
+      do i = 0, nx - 1
+        blk = 0.0_rp
+        do dj = -r, r
+          do di = -r, r
+            if (di == 0 .and. dj == 0) cycle
+            if (i + di < 0 .or. i + di >= nx .or. j + dj < 0 .or. j + dj >= ny) cycle
+            call random_number(rnd)
+            blk(:, :, di, dj) = -stiff * (0.5_rp + rnd)
+            blk(:, :, 0, 0) = blk(:, :, 0, 0) - blk(:, :, di, dj)
+          end do
+        end do
+        do c1 = 1, 3
+          blk(c1, c1, 0, 0) = blk(c1, c1, 0, 0) + mass
+        end do
+        call stencil_put_row(st, i, j, blk)
+        ! The dense matrix from the stored (rounded) off-diagonal blocks, so
+        ! that only the arithmetic of the kernels is compared.
+        do dj = -r, r
+          do di = -r, r
+            if (i + di < 0 .or. i + di >= nx .or. j + dj < 0 .or. j + dj >= ny) cycle
+            do c2 = 1, 3
+              do c1 = 1, 3
+                if (di == 0 .and. dj == 0) cycle
+                dense(gidx(nx, i, j, c1), gidx(nx, i + di, j + dj, c2)) = real(st%b(i, c1, c2, offset(st, di, dj), j), rp)
+              end do
+            end do
+          end do
+        end do
+        do c2 = 1, 3
+          do c1 = 1, 3
+            dense(gidx(nx, i, j, c1), gidx(nx, i, j, c2)) = real(st%d(i, c1, c2, j), rp)
+          end do
+        end do
+      end do
+    end do
+    ! diagonal blocks = D - sum of the row's stored off-diagonal blocks
+    do j = 0, ny - 1
+      do i = 0, nx - 1
+        do dj = -r, r
+          do di = -r, r
+            if (di == 0 .and. dj == 0) cycle
+            if (i + di < 0 .or. i + di >= nx .or. j + dj < 0 .or. j + dj >= ny) cycle
+            do c2 = 1, 3
+              do c1 = 1, 3
+                dense(gidx(nx, i, j, c1), gidx(nx, i, j, c2)) = dense(gidx(nx, i, j, c1), gidx(nx, i, j, c2)) &
+                  - dense(gidx(nx, i, j, c1), gidx(nx, i + di, j + dj, c2))
+              end do
+            end do
+          end do
+        end do
+      end do
+    end do
+  end subroutine random_operator
+
+  pure integer function offset(st, di, dj) result(k)
+    type(stencil_t), intent(in) :: st
+    integer, intent(in) :: di, dj
+    do k = 1, st%nb
+      if (st%odi(k) == di .and. st%odj(k) == dj) return
+    end do
+    k = 0
+  end function offset
+
+  !> Padded vector (h) from a dense one.
+  subroutine to_padded(nx, ny, h, v, x)
+    integer, intent(in) :: nx, ny, h
+    real(rp), intent(in) :: v(:)
+    real(mp), intent(out) :: x(-h:, :, -h:)
+    integer :: i, j, c
+    x = 0.0_mp
+    do j = 0, ny - 1
+      do i = 0, nx - 1
+        do c = 1, 3
+          x(i, c, j) = real(v(gidx(nx, i, j, c)), mp)
+        end do
+      end do
+    end do
+  end subroutine to_padded
+
+  subroutine test_apply(r)
+    integer, intent(in) :: r
+    integer, parameter :: nx = 11, ny = 9
+    type(stencil_t) :: st
+    real(rp), allocatable :: dense(:, :), v(:), av(:)
+    real(mp) :: x(-r:nx - 1 + r, 3, -r:ny - 1 + r), y(0:nx - 1, 3, 0:ny - 1)
+    real(rp) :: err, scale
+    integer :: i, j, c
+    character(len=64) :: label
+    call random_operator(nx, ny, r, 1.0_rp, 1.0_rp, st, dense)
+    allocate(v(3 * nx * ny))
+    call random_number(v)
+    call to_padded(nx, ny, r, v, x)
+    v = [(((real(x(i, c, j), rp), c = 1, 3), i = 0, nx - 1), j = 0, ny - 1)]
+    av = matmul(dense, v)
+    call stencil_apply(st, r, x, y)
+    err = 0.0_rp
+    do j = 0, ny - 1
+      do i = 0, nx - 1
+        do c = 1, 3
+          err = max(err, abs(real(y(i, c, j), rp) - av(gidx(nx, i, j, c))))
+        end do
+      end do
+    end do
+    scale = maxval(abs(av))
+    write(label, '(a, i0)') 'difference form applies A, reach ', r
+    call check_close(err, 0.0_rp, 0.0_rp, 1.0e-5_rp * scale, trim(label))
+  end subroutine test_apply
+
+  subroutine test_transpose(cubic)
+    logical, intent(in) :: cubic
+    integer, parameter :: nxf = 17, nyf = 13, h = 3
+    type(transfer_t) :: tx, ty
+    real(mp) :: xc(-h:8 + h, 3, -h:6 + h), xf(-h:nxf - 1 + h, 3, -h:nyf - 1 + h), rf(0:nxf - 1, 3, 0:nyf - 1)
+    real(mp) :: rc(-h:8 + h, 3, -h:6 + h), t(0:8, 3)
+    real(rp) :: lhs, rhs
+    call transfer_init(tx, nxf, cubic)
+    call transfer_init(ty, nyf, cubic)
+    call check_true(tx%nc == 9 .and. ty%nc == 7, 'coarse sizes')
+    xc = 0.0_mp
+    call random_number(xc(0:8, :, 0:6))
+    call random_number(rf)
+    xf = 0.0_mp
+    call interpolate(tx, ty, 0, nyf - 1, h, 0, xc, h, xf, .false., t)
+    rc = 0.0_mp
+    call restrict_add(tx, ty, 0, nyf - 1, rf, h, 0, rc, t)
+    lhs = sum(real(xf(0:nxf - 1, :, 0:nyf - 1), rp) * real(rf, rp))
+    rhs = sum(real(xc(0:8, :, 0:6), rp) * real(rc(0:8, :, 0:6), rp))
+    call check_close(lhs, rhs, 1.0e-5_rp, 0.0_rp, merge('restriction = interpolation^T, cubic   ', &
+                                                          'restriction = interpolation^T, bilinear', cubic))
+    ! Interpolation reproduces a constant (the weights sum to 1).
+    xc = 0.0_mp
+    xc(0:8, :, 0:6) = 2.5_mp
+    call interpolate(tx, ty, 0, nyf - 1, h, 0, xc, h, xf, .false., t)
+    call check_close(real(maxval(abs(xf(0:nxf - 1, :, 0:nyf - 1) - 2.5_mp)), rp), 0.0_rp, 0.0_rp, 1.0e-6_rp, &
+                     'interpolation keeps constants')
+  end subroutine test_transpose
+
+  subroutine test_galerkin(r, cubic)
+    integer, intent(in) :: r
+    logical, intent(in) :: cubic
+    integer, parameter :: nx = 17, ny = 9
+    type(stencil_t) :: st, sc
+    type(transfer_t) :: tx, ty
+    real(rp), allocatable :: dense(:, :), p(:, :), ac_dense(:, :), ac(:, :, :, :, :, :)
+    integer :: rc, nxc, nyc, i, j, a, b, c, ic, jc, di, dj, c1, c2
+    real(rp) :: err, scale, v
+    character(len=64) :: label
+    call random_operator(nx, ny, r, 1.0_rp, 1.0_rp, st, dense)
+    call transfer_init(tx, nx, cubic)
+    call transfer_init(ty, ny, cubic)
+    nxc = tx%nc
+    nyc = ty%nc
+    allocate(p(3 * nx * ny, 3 * nxc * nyc))
+    p = 0.0_rp
+    do j = 0, ny - 1
+      do i = 0, nx - 1
+        do b = 1, ty%n(j)
+          do a = 1, tx%n(i)
+            do c = 1, 3
+              p(gidx(nx, i, j, c), gidx(nxc, tx%c(a, i), ty%c(b, j), c)) = tx%w(a, i) * ty%w(b, j)
+            end do
+          end do
+        end do
+      end do
+    end do
+    ac_dense = matmul(transpose(p), matmul(dense, p))
+    rc = max(coarse_reach(tx, r), coarse_reach(ty, r))
+    call stencil_init(sc, nxc, nyc, 0, nyc - 1, rc)
+    allocate(ac(0:nxc - 1, 3, 3, -rc:rc, -rc:rc, 0:nyc - 1))
+    ac = 0.0_rp
+    call galerkin_add(st, tx, ty, rc, 0, ac)
+    ! Every non-zero of the dense product lies within the predicted reach,
+    ! and every block equals it.
+    err = 0.0_rp
+    scale = maxval(abs(ac_dense))
+    do jc = 0, nyc - 1
+      do ic = 0, nxc - 1
+        do j = 0, nyc - 1
+          do i = 0, nxc - 1
+            di = i - ic
+            dj = j - jc
+            do c2 = 1, 3
+              do c1 = 1, 3
+                v = ac_dense(gidx(nxc, ic, jc, c1), gidx(nxc, i, j, c2))
+                if (abs(di) > rc .or. abs(dj) > rc) then
+                  err = max(err, abs(v))
+                else
+                  err = max(err, abs(v - ac(ic, c1, c2, di, dj, jc)))
+                end if
+              end do
+            end do
+          end do
+        end do
+      end do
+    end do
+    write(label, '(a, i0, a, l1)') 'Galerkin P^T A P, reach ', r, ', cubic ', cubic
+    call check_close(err, 0.0_rp, 0.0_rp, 1.0e-12_rp * scale, trim(label))
+    call stencil_finish(sc, ac)
+    call check_true(all(sc%ainv == sc%ainv), 'coarse diagonal blocks inverted')
+  end subroutine test_galerkin
+
+  subroutine test_smoother()
+    integer, parameter :: nx = 9, ny = 7, r = 2
+    type(stencil_t) :: st
+    real(rp), allocatable :: dense(:, :), v(:), xref(:)
+    real(mp) :: x(-r:nx - 1 + r, 3, -r:ny - 1 + r), rhs(0:nx - 1, 3, 0:ny - 1), res(0:nx - 1, 3, 0:ny - 1), t(0:nx - 1, 3)
+    integer :: k, n, i, j, c, ipiv(3 * nx * ny), info
+    real(rp) :: err
+    ! Diagonally dominant: mass 30 against 24 neighbours of stiffness <= 1.5.
+    call random_operator(nx, ny, r, 30.0_rp, 1.0_rp, st, dense)
+    n = 3 * nx * ny
+    allocate(v(n))
+    call random_number(v)
+    xref = v
+    call dgesv(n, 1, dense, n, ipiv, xref, n, info)
+    call check_true(info == 0, 'dense solve')
+    do j = 0, ny - 1
+      do i = 0, nx - 1
+        do c = 1, 3
+          rhs(i, c, j) = real(v(gidx(nx, i, j, c)), mp)
+        end do
+      end do
+    end do
+    x = 0.0_mp
+    do k = 1, 30
+      call gs_sweep(st, r, x, rhs, .true., t)
+      call gs_sweep(st, r, x, rhs, .false., t)
+    end do
+    err = 0.0_rp
+    do j = 0, ny - 1
+      do i = 0, nx - 1
+        do c = 1, 3
+          err = max(err, abs(real(x(i, c, j), rp) - xref(gidx(nx, i, j, c))))
+        end do
+      end do
+    end do
+    call check_close(err, 0.0_rp, 0.0_rp, 1.0e-5_rp * maxval(abs(xref)), 'symmetric Gauss-Seidel converges to A^-1 b')
+    call residual(st, r, x, rhs, res)
+    call check_true(maxval(abs(res)) < 1.0e-4 * maxval(abs(rhs)), 'its residual is small')
+  end subroutine test_smoother
+
+  subroutine test_row_sums()
+    integer, parameter :: nx = 9, ny = 9, r = 2
+    type(stencil_t) :: st
+    real(rp), allocatable :: dense(:, :)
+    real(mp) :: x(-r:nx - 1 + r, 3, -r:ny - 1 + r), y(0:nx - 1, 3, 0:ny - 1)
+    real(rp) :: rounded_err
+    integer :: i, j, c
+    ! Stiffness 1e6 times the mass: a constant vector sees only the mass.
+    call random_operator(nx, ny, r, 1.0_rp, 1.0e6_rp, st, dense)
+    x = 0.0_mp
+    x(0:nx - 1, :, 0:ny - 1) = 1.0_mp
+    call stencil_apply(st, r, x, y)
+    call check_close(real(maxval(abs(y - 1.0_mp)), rp), 0.0_rp, 0.0_rp, 1.0e-6_rp, &
+                     'difference form: A 1 = mass to single precision, stiffness 1e6')
+    ! Rounding the full row instead loses the mass: its error is of the order
+    ! of the stiffness times the unit roundoff, here far above the mass.
+    rounded_err = 0.0_rp
+    do j = 0, ny - 1
+      do i = 0, nx - 1
+        do c = 1, 3
+          rounded_err = max(rounded_err, abs(sum(real(real(dense(gidx(nx, i, j, c), :), mp), rp)) - 1.0_rp))
+        end do
+      end do
+    end do
+    call check_true(rounded_err > 1.0e-2_rp, 'rounded full rows would not keep the mass (control)')
+  end subroutine test_row_sums
+
+end program test_mg_kernels
