@@ -25,7 +25,7 @@ module reduced_assembly
   use lattice, only: lattice_t, link_dir, line_dir, link_constants, triple_constants
   use springs, only: link_jacobian
   use bending_paper, only: paper_jacobian
-  use bending_energy, only: energy_jacobian
+  use bending_energy, only: energy_jacobian_edges
   implicit none
   private
   public :: csr_assemble, csr_block_pos, csr_row_blocks
@@ -95,6 +95,7 @@ contains
     integer, parameter :: CHUNK = 32
     integer :: i, j, k, iq, jq, ir, jr, p, q, n(2, 3), l, i0
     real(rp) :: d0(3, 4), len0(4), e, eta, kl(3, 3), cl(3, 3), t(3), x9(9), v9(9), k9(9, 9), c9(9, 9), kb, etab, rinv
+    real(rp) :: ke(6, 6), ce(6, 6)
     logical :: ok, own_p, own_q
 
     g = 0.0_rp
@@ -154,21 +155,22 @@ contains
           if (ir < 0 .or. ir >= lat%nx .or. jr >= lat%ny .or. jr < lat%ys) cycle
           call triple_constants(lat, k, kb, etab)
           x9 = [u(0:2, i, j), u(0:2, iq, jq), u(0:2, ir, jr)]
-          if (lat%bending_model == BEND_PAPER) then
-            call paper_jacobian(kb, x9, k9, ok)
-          else
-            v9 = [u(3:5, i, j), u(3:5, iq, jq), u(3:5, ir, jr)]
-            call energy_jacobian(kb, etab, x9, v9, gauss_newton, k9, c9, ok)
-            if (.not. with_damping) c9 = 0.0_rp
-          end if
           n(:, 1) = [i, j]
           n(:, 2) = [iq, jq]
           n(:, 3) = [ir, jr]
-          do p = 1, 3
-            do q = 1, 3
-              call add_element_block(n, p, q, k9, c9)
+          if (lat%bending_model == BEND_PAPER) then
+            call paper_jacobian(kb, x9, k9, ok)
+            do p = 1, 3
+              do q = 1, 3
+                call add_element_block(n, p, q, k9, c9)
+              end do
             end do
-          end do
+          else
+            v9 = [u(3:5, i, j), u(3:5, iq, jq), u(3:5, ir, jr)]
+            call energy_jacobian_edges(kb, etab, x9, v9, gauss_newton, ke, ce, ok)
+            if (.not. with_damping) ce = 0.0_rp
+            call add_triple_edges(n, ke, ce)
+          end if
         end do
       end do
     end do
@@ -187,6 +189,33 @@ contains
       hw = lat%halo
       fixed_row = fixedg(i0, j0)
       dsum = 0.0_rp
+      if (present(st)) then
+        ! By stencil offset: the node's row zeroed, the link blocks and the
+        ! diagonal written straight into it.
+        st(:, :, :, :, i0, j0) = 0.0_rp
+        do dj = max(-1, -j0), min(1, lat%ny - 1 - j0)
+          do di = max(-1, -i0), min(1, lat%nx - 1 - i0)
+            if (di == 0 .and. dj == 0) cycle
+            if (dj > 0 .or. (dj == 0 .and. di > 0)) then
+              kk = link_index(di, dj)
+              ia0 = i0
+              ja0 = j0
+            else
+              kk = link_index(-di, -dj)
+              ia0 = i0 + di
+              ja0 = j0 + dj
+            end if
+            dsum = dsum + lb(:, :, kk, ia0, modulo(ja0, 2))
+            if (.not. (fixed_row .or. fixedg(i0 + di, j0 + dj))) st(:, :, di, dj, i0, j0) = lb(:, :, kk, ia0, modulo(ja0, 2))
+          end do
+        end do
+        if (fixed_row) dsum = 0.0_rp
+        st(:, :, 0, 0, i0, j0) = -dsum
+        do r = 1, 3
+          st(r, r, 0, 0, i0, j0) = st(r, r, 0, 0, i0, j0) + a * lat%mass(i0, j0)
+        end do
+        return
+      end if
       nc = 0
       do dj = -hw, hw
         if (j0 + dj < 0 .or. j0 + dj >= lat%ny) cycle
@@ -217,18 +246,6 @@ contains
       do r = 1, 3
         vals(r, r, m) = vals(r, r, m) + a * lat%mass(i0, j0)
       end do
-      if (present(st)) then
-        ! The stencil: blocks in the same (dj, di) order, zero outside the lattice.
-        st(:, :, :, :, i0, j0) = 0.0_rp
-        kk = 0
-        do dj = max(-hw, -j0), min(hw, lat%ny - 1 - j0)
-          do di = max(-hw, -i0), min(hw, lat%nx - 1 - i0)
-            kk = kk + 1
-            st(:, :, di, dj, i0, j0) = vals(:, :, kk)
-          end do
-        end do
-        return
-      end if
       do r = 0, 2
         pa = ia(3 * (i0 + (j0 - lat%ys) * lat%nx) + r)
         pb = 0
@@ -278,6 +295,46 @@ contains
       end do
       call add_block(ip, jp, iq2 - ip, jq2 - jp, blk)
     end subroutine add_element_block
+    !> The nine blocks of an energy-bending triple with nodes n(:, 1..3)
+    !> from its Jacobians in the edge variables, K9 = T^T ke T, C9 = T^T ce T
+    !> (e_a = sum_P t(a, P) x_P: e1 = x_q - x_p, e2 = x_r - x_q), combined
+    !> there first: S_PQ gets sum_ab t(a, P) t(b, Q) m_ab with
+    !> m = -(ce + ke/a), g_P gets -(T^T (ke T w_x + ce T w_v))_P, kd_P the
+    !> diagonal of -K9_PP. (Two 9 x 9 matrices and their 81-entry blocks are
+    !> never formed: a third of the bending assembly.)
+    subroutine add_triple_edges(n, ke, ce)
+      integer, intent(in) :: n(:, :)
+      real(rp), intent(in) :: ke(6, 6), ce(6, 6)
+      integer, parameter :: t(2, 3) = reshape([-1, 0, 1, -1, 0, 1], [2, 3])
+      real(rp) :: m(6, 6), ewx(6), ewv(6), h(6), blk(3, 3)
+      integer :: pp, qq, ip, jp, iq2, jq2, l
+      m = -(ce + rinv * ke)
+      ewx(1:3) = w(0:2, n(1, 2), n(2, 2)) - w(0:2, n(1, 1), n(2, 1))
+      ewx(4:6) = w(0:2, n(1, 3), n(2, 3)) - w(0:2, n(1, 2), n(2, 2))
+      ewv(1:3) = w(3:5, n(1, 2), n(2, 2)) - w(3:5, n(1, 1), n(2, 1))
+      ewv(4:6) = w(3:5, n(1, 3), n(2, 3)) - w(3:5, n(1, 2), n(2, 2))
+      h = matmul(ke, ewx) + matmul(ce, ewv)
+      do pp = 1, 3
+        ip = n(1, pp)
+        jp = n(2, pp)
+        if (jp < lat%ys .or. jp > lat%ye) cycle
+        g(:, ip, jp) = g(:, ip, jp) - (t(1, pp) * h(1:3) + t(2, pp) * h(4:6))
+        do l = 1, 3
+          kd(l, ip, jp) = kd(l, ip, jp) - (t(1, pp)**2 * ke(l, l) + t(1, pp) * t(2, pp) * (ke(l, 3 + l) + ke(3 + l, l)) &
+                                           + t(2, pp)**2 * ke(3 + l, 3 + l))
+        end do
+        if (fixedg(ip, jp)) cycle
+        do qq = 1, 3
+          iq2 = n(1, qq)
+          jq2 = n(2, qq)
+          if (fixedg(iq2, jq2)) cycle
+          blk = (t(1, pp) * t(1, qq)) * m(1:3, 1:3) + (t(1, pp) * t(2, qq)) * m(1:3, 4:6) &
+                + (t(2, pp) * t(1, qq)) * m(4:6, 1:3) + (t(2, pp) * t(2, qq)) * m(4:6, 4:6)
+          call add_block(ip, jp, iq2 - ip, jq2 - jp, blk)
+        end do
+      end do
+    end subroutine add_triple_edges
+
     !> S(node (ip, jp), node (ip + di, jp + dj)) += blk.
     subroutine add_block(ip, jp, di, dj, blk)
       integer, intent(in) :: ip, jp, di, dj

@@ -24,7 +24,8 @@
 module stencil_mg
   use mpi
   use kinds, only: rp
-  use mg_kernels, only: mp, stencil_t, transfer_t, stencil_init, stencil_put_row, stencil_finish, stencil_from_full, transfer_init, &
+  use mg_kernels, only: mp, stencil_t, transfer_t, stencil_init, stencil_put_row, stencil_finish, stencil_from_full, transfer_init, offset_index, &
+                        stencil_block, &
                         coarse_reach, gs_sweep, residual, interpolate, restrict_add, galerkin_add
   implicit none
   private
@@ -84,7 +85,7 @@ contains
     mg%nu = max(nu, 1)
 
     allocate(mg%lev(max(max_levels, 1)))
-    call stencil_init(mg%lev(1)%a, nx, ny, ys, ye, r)
+    call stencil_init(mg%lev(1)%a, nx, ny, ys, ye, r, lines=.true.)
     mg%lev(1)%h = r
     mg%lev(1)%replicated = mg%nranks == 1
     l = 1
@@ -228,16 +229,21 @@ contains
     real(rp) function block_entry(c, i, j, di, dj, c1, c2) result(v)
       type(mg_level_t), intent(in) :: c
       integer, intent(in) :: i, j, di, dj, c1, c2
+      real(rp) :: blk(3, 3)
       integer :: k
       if (di == 0 .and. dj == 0) then
-        v = real(c%a%d(i, c1, c2, j), rp)
+        blk = real(c%a%d(i, :, :, j), rp)
         do k = 1, c%a%nb
-          v = v - real(c%a%b(i, c1, c2, k, j), rp)
+          blk = blk - stencil_block(c%a, i, j, k)
         end do
+        v = blk(c1, c2)
       else
-        k = (dj + c%a%r) * (2 * c%a%r + 1) + (di + c%a%r) + 1
-        if (k > (c%a%nb + 1) / 2) k = k - 1
-        v = real(c%a%b(i, c1, c2, k, j), rp)
+        k = offset_index(c%a, di, dj)
+        v = 0.0_rp
+        if (k > 0) then
+          blk = stencil_block(c%a, i, j, k)
+          v = blk(c1, c2)
+        end if
       end if
     end function block_entry
   end subroutine mg_build_coarse

@@ -14,7 +14,7 @@ module bending_energy
   use kinds, only: rp
   implicit none
   private
-  public :: energy_force, energy_jacobian, energy_bend_energy, energy_power
+  public :: energy_force, energy_jacobian, energy_jacobian_edges, energy_bend_energy, energy_power
 
   ! 1 + cos(theta) = psi/(|e1||e2|) below this: kb blows up (folded-back triple).
   real(rp), parameter :: FOLD_TOL = 1.0e-12_rp
@@ -56,26 +56,44 @@ contains
     real(rp), intent(out) :: K9(9,9)      ! [force/length]
     real(rp), intent(out) :: C9(9,9)      ! [force*time/length]
     logical, intent(out) :: ok
-    real(rp) :: e1(3), e2(3), l1, l2, psi, kb(3), gpsi(6), je(3,6)
-    real(rp) :: jtj(6,6), ke(6,6), hs(6,6), ae(3,6), dl(6), kbdot(3), lam(3), gs(6), s
-    real(rp) :: e1h(3), e2h(3), hpd(6), dpsi, sk(3,3)
-    logical :: damped
-    integer :: i, j
+    real(rp) :: ke(6,6), ce(6,6)
 
     K9 = 0.0_rp
     C9 = 0.0_rp
+    call energy_jacobian_edges(k_b, eta_b, x9, v9, gauss_newton, ke, ce, ok)
+    if (.not. ok) return
+    call edge_to_nodes_mat(ke, K9)
+    if (eta_b /= 0.0_rp) call edge_to_nodes_mat(ce, C9)
+  end subroutine energy_jacobian
+
+  !> The Jacobians in the edge variables e = (x_q - x_p, x_r - x_q):
+  !> K9 = T^T ke T, C9 = T^T ce T (ce = 0 when eta_b == 0), for callers that
+  !> combine them before going to the nodes (module reduced_assembly).
+  pure subroutine energy_jacobian_edges(k_b, eta_b, x9, v9, gauss_newton, ke, ce, ok)
+    real(rp), intent(in) :: k_b, eta_b    ! [energy], [energy*time]
+    real(rp), intent(in) :: x9(9), v9(9)  ! [length], [length/time]
+    logical, intent(in) :: gauss_newton   ! .true.: symmetric negative semidefinite part only
+    real(rp), intent(out) :: ke(6,6)      ! [force/length]
+    real(rp), intent(out) :: ce(6,6)      ! [force*time/length]
+    logical, intent(out) :: ok
+    real(rp) :: e1(3), e2(3), l1, l2, psi, kb(3), gpsi(6), je(3,6)
+    real(rp) :: jtj(6,6), hs(6,6), ae(3,6), dl(6), kbdot(3), lam(3), gs(6), s
+    real(rp) :: e1h(3), e2h(3), hpd(6), dpsi, sk(3,3), ipsi
+    logical :: damped
+    integer :: i, j
+
+    ke = 0.0_rp
+    ce = 0.0_rp
     call edge_state(x9, e1, e2, l1, l2, psi, kb, gpsi, je, ok)
     if (.not. ok) return
     jtj = matmul(transpose(je), je)
     damped = eta_b /= 0.0_rp            ! exact zero test: skip the damping work when off
-    if (damped) then
-      ke = -eta_b*jtj
-      call edge_to_nodes_mat(ke, C9)
-    end if
+    if (damped) ce = -eta_b*jtj
     ke = -k_b*jtj
     if (.not. gauss_newton) then
-      e1h = e1/l1
-      e2h = e2/l2
+      ipsi = 1.0_rp/psi
+      e1h = e1*(1.0_rp/l1)
+      e2h = e2*(1.0_rp/l2)
       lam = k_b*kb
       if (damped) then
         call edge_rate(v9, dl)
@@ -89,7 +107,7 @@ contains
         ae(:,4:6) = 2.0_rp*skew(dl(1:3))
         do j = 1, 6
           do i = 1, 3
-            ae(i,j) = (ae(i,j) - dpsi*je(i,j) - kbdot(i)*gpsi(j) - kb(i)*hpd(j))/psi
+            ae(i,j) = (ae(i,j) - dpsi*je(i,j) - kbdot(i)*gpsi(j) - kb(i)*hpd(j))*ipsi
           end do
         end do
         do j = 1, 6
@@ -111,10 +129,9 @@ contains
       ! Hess(lambda.z): z = e1 x e2, lambda.z = e1.(e2 x lambda); blocks (1,2) = -[lambda]x, (2,1) = [lambda]x.
       hs(1:3,4:6) = hs(1:3,4:6) - 2.0_rp*sk
       hs(4:6,1:3) = hs(4:6,1:3) + 2.0_rp*sk
-      ke = ke - hs/psi
+      ke = ke - hs*ipsi
     end if
-    call edge_to_nodes_mat(ke, K9)
-  end subroutine energy_jacobian
+  end subroutine energy_jacobian_edges
 
   !> Bending energy 1/2 k_b |kb|^2; 0 for a degenerate triple.
   pure function energy_bend_energy(k_b, x9) result(w)
@@ -150,13 +167,16 @@ contains
     real(rp), intent(in) :: x9(9)
     real(rp), intent(out) :: e1(3), e2(3), l1, l2, psi, kb(3), gpsi(6), je(3,6)
     logical, intent(out) :: ok
-    real(rp) :: z(3)
+    real(rp) :: z(3), ipsi
     integer :: j
 
     e1 = x9(4:6) - x9(1:3)
     e2 = x9(7:9) - x9(4:6)
-    l1 = norm2(e1)
-    l2 = norm2(e2)
+    ! (not norm2: gfortran's guards against overflow with a division per
+    ! component; edges of a cloth are nowhere near 1e154, and below
+    ! EDGE_ABS a triple is degenerate anyway)
+    l1 = sqrt(dot_product(e1, e1))
+    l2 = sqrt(dot_product(e2, e2))
     psi = 0.0_rp
     kb = 0.0_rp
     gpsi = 0.0_rp
@@ -173,14 +193,15 @@ contains
     z(1) = e1(2)*e2(3) - e1(3)*e2(2)
     z(2) = e1(3)*e2(1) - e1(1)*e2(3)
     z(3) = e1(1)*e2(2) - e1(2)*e2(1)
-    kb = 2.0_rp*z/psi
+    ipsi = 1.0_rp/psi
+    kb = (2.0_rp*ipsi)*z
     gpsi(1:3) = (l2/l1)*e1 + e2
     gpsi(4:6) = (l1/l2)*e2 + e1
     ! d z/d e1 = -[e2]x, d z/d e2 = [e1]x; d kb = (2 dz - kb dpsi)/psi.
     je(:,1:3) = -2.0_rp*skew(e2)
     je(:,4:6) = 2.0_rp*skew(e1)
     do j = 1, 6
-      je(:,j) = (je(:,j) - kb*gpsi(j))/psi
+      je(:,j) = (je(:,j) - kb*gpsi(j))*ipsi
     end do
   end subroutine edge_state
 

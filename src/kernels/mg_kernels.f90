@@ -32,7 +32,8 @@ module mg_kernels
   use interpolation, only: cubic_weights
   implicit none
   private
-  public :: mp, stencil_t, transfer_t, stencil_init, stencil_put_row, stencil_finish, stencil_from_full, transfer_init, coarse_reach
+  public :: mp, stencil_t, transfer_t, stencil_init, stencil_put_row, stencil_finish, stencil_from_full, transfer_init, coarse_reach, &
+            coupled_by_elements, offset_index, stencil_block
   public :: gs_sweep, residual, stencil_apply, interpolate, restrict_add, galerkin_add, block_inverse
 
   !> Kind of the multigrid's matrices and vectors (single precision: half
@@ -41,15 +42,24 @@ module mg_kernels
   !> double precision on the exact S).
   integer, parameter :: mp = real32
 
-  !> One level's operator on rows ys..ye of an nx x ny lattice.
+  !> One level's operator on rows ys..ye of an nx x ny lattice. The blocks
+  !> coupling a node to other rows are stored along x fastest (the smoother
+  !> sums them over a whole row at once); those within its row and the
+  !> inverted diagonal blocks node by node (the smoother's point-by-point
+  !> part reads them in that order: along x fastest, their 36 streams
+  !> outran the prefetchers and that part took longer than the rest).
   type :: stencil_t
     integer :: nx = 0, ny = 0, ys = 0, ye = -1
     integer :: r = 0                             !< stencil reach
-    integer :: nb = 0                            !< off-diagonal offsets, (2r+1)^2 - 1
+    integer :: nb = 0                            !< off-diagonal offsets stored
     integer, allocatable :: odi(:), odj(:)       !< (nb) offsets, (dj, di) in lexicographic order
-    real(mp), allocatable :: b(:, :, :, :, :)    !< (0:nx-1, 3, 3, nb, ys:ye) B_{p,o} = A(p, p+o)
+    integer, allocatable :: slot(:)              !< (nb) index of offset k in b (dj /= 0) or br (dj == 0)
+    integer :: nv = 0, nr = 0                    !< offsets to other rows, within the row
+    integer, allocatable :: kv(:), kr(:)         !< (nv), (nr) their k
+    real(mp), allocatable :: b(:, :, :, :, :)    !< (0:nx-1, 3, 3, nv, ys:ye) A(p, p+o), o to another row
+    real(mp), allocatable :: br(:, :, :, :, :)   !< (3, 3, nr, 0:nx-1, ys:ye) A(p, p+o), o within the row
     real(mp), allocatable :: d(:, :, :, :)       !< (0:nx-1, 3, 3, ys:ye) row sums D_p
-    real(mp), allocatable :: ainv(:, :, :, :)    !< (0:nx-1, 3, 3, ys:ye) inverse of A_pp
+    real(mp), allocatable :: ainv(:, :, :, :)    !< (3, 3, 0:nx-1, ys:ye) inverse of A_pp
   end type stencil_t
 
   !> 1-D transfer: fine point f takes w(1:n(f), f) of coarse points c(1:n(f), f).
@@ -63,32 +73,108 @@ module mg_kernels
 contains
 
   !> Allocate the operator of rows ys..ye of an nx x ny lattice with reach r.
-  subroutine stencil_init(st, nx, ny, ys, ye, r)
+  !> lines: only the offsets that the cloth's elements couple (the eight
+  !> neighbours of the links and, at reach 2, the far ends of the bending
+  !> triples along x, y and the diagonals): the finest level's S, where
+  !> the other eight offsets of the 5 x 5 stencil ((1, 2), (2, 1), ...) are
+  !> always zero. Coarse levels (Galerkin) fill the whole square.
+  subroutine stencil_init(st, nx, ny, ys, ye, r, lines)
     type(stencil_t), intent(inout) :: st
     integer, intent(in) :: nx, ny, ys, ye, r
-    integer :: di, dj, k
+    logical, intent(in), optional :: lines
+    integer :: di, dj, k, pass
     st%nx = nx
     st%ny = ny
     st%ys = ys
     st%ye = ye
     st%r = r
-    st%nb = (2 * r + 1)**2 - 1
-    if (allocated(st%odi)) deallocate(st%odi, st%odj, st%b, st%d, st%ainv)
-    allocate(st%odi(st%nb), st%odj(st%nb))
-    k = 0
-    do dj = -r, r
-      do di = -r, r
-        if (di == 0 .and. dj == 0) cycle
-        k = k + 1
-        st%odi(k) = di
-        st%odj(k) = dj
+    if (allocated(st%odi)) deallocate(st%odi, st%odj, st%slot, st%kv, st%kr, st%b, st%br, st%d, st%ainv)
+    do pass = 1, 2
+      k = 0
+      do dj = -r, r
+        do di = -r, r
+          if (di == 0 .and. dj == 0) cycle
+          if (present(lines)) then
+            if (lines .and. .not. coupled_by_elements(di, dj)) cycle
+          end if
+          k = k + 1
+          if (pass == 2) then
+            st%odi(k) = di
+            st%odj(k) = dj
+          end if
+        end do
       end do
+      if (pass == 1) then
+        st%nb = k
+        allocate(st%odi(st%nb), st%odj(st%nb), st%slot(st%nb))
+      end if
     end do
-    allocate(st%b(0:nx - 1, 3, 3, st%nb, ys:ye), st%d(0:nx - 1, 3, 3, ys:ye), st%ainv(0:nx - 1, 3, 3, ys:ye))
+    st%nr = count(st%odj == 0)
+    st%nv = st%nb - st%nr
+    allocate(st%kv(st%nv), st%kr(st%nr))
+    st%nv = 0
+    st%nr = 0
+    do k = 1, st%nb
+      if (st%odj(k) == 0) then
+        st%nr = st%nr + 1
+        st%kr(st%nr) = k
+        st%slot(k) = st%nr
+      else
+        st%nv = st%nv + 1
+        st%kv(st%nv) = k
+        st%slot(k) = st%nv
+      end if
+    end do
+    allocate(st%b(0:nx - 1, 3, 3, st%nv, ys:ye), st%br(3, 3, st%nr, 0:nx - 1, ys:ye))
+    allocate(st%d(0:nx - 1, 3, 3, ys:ye), st%ainv(3, 3, 0:nx - 1, ys:ye))
     st%b = 0.0_mp
+    st%br = 0.0_mp
     st%d = 0.0_mp
     st%ainv = 0.0_mp
   end subroutine stencil_init
+
+  !> Offset (di, dj) couples two nodes through a link (|di|, |dj| <= 1) or
+  !> through the ends of a bending triple along a lattice line (2 s, s one
+  !> of (1, 0), (0, 1), (1, 1), (1, -1)).
+  pure logical function coupled_by_elements(di, dj)
+    integer, intent(in) :: di, dj
+    coupled_by_elements = max(abs(di), abs(dj)) <= 1 .or. &
+      (mod(di, 2) == 0 .and. mod(dj, 2) == 0 .and. max(abs(di), abs(dj)) == 2)
+  end function coupled_by_elements
+
+  !> Index k of offset (di, dj) in st%odi, st%odj; 0 if not stored.
+  pure integer function offset_index(st, di, dj) result(k)
+    type(stencil_t), intent(in) :: st
+    integer, intent(in) :: di, dj
+    do k = 1, st%nb
+      if (st%odi(k) == di .and. st%odj(k) == dj) return
+    end do
+    k = 0
+  end function offset_index
+
+  !> Block A(p, p + offset k) of node (i, j), in double precision.
+  pure function stencil_block(st, i, j, k) result(blk)
+    type(stencil_t), intent(in) :: st
+    integer, intent(in) :: i, j, k
+    real(rp) :: blk(3, 3)
+    if (st%odj(k) == 0) then
+      blk = real(st%br(:, :, st%slot(k), i, j), rp)
+    else
+      blk = real(st%b(i, :, :, st%slot(k), j), rp)
+    end if
+  end function stencil_block
+
+  !> Set block A(p, p + offset k) of node (i, j) (rounded to kind mp).
+  pure subroutine set_block(st, i, j, k, blk)
+    type(stencil_t), intent(inout) :: st
+    integer, intent(in) :: i, j, k
+    real(rp), intent(in) :: blk(3, 3)
+    if (st%odj(k) == 0) then
+      st%br(:, :, st%slot(k), i, j) = real(blk, mp)
+    else
+      st%b(i, :, :, st%slot(k), j) = real(blk, mp)
+    end if
+  end subroutine set_block
 
   !> Store the block row of node (i, j) given as full blocks
   !> blk(3, 3, -r:r, -r:r) = A(p, p + (di, dj)) (zero outside the lattice),
@@ -100,14 +186,13 @@ contains
     real(rp), intent(in) :: blk(:, :, -st%r:, -st%r:)
     real(rp) :: dsum(3, 3), inv(3, 3)
     integer :: k
-    dsum = blk(:, :, 0, 0)
+    dsum = sum(sum(blk, dim=4), dim=3)
     do k = 1, st%nb
-      st%b(i, :, :, k, j) = real(blk(:, :, st%odi(k), st%odj(k)), mp)
-      dsum = dsum + blk(:, :, st%odi(k), st%odj(k))
+      call set_block(st, i, j, k, blk(:, :, st%odi(k), st%odj(k)))
     end do
     st%d(i, :, :, j) = real(dsum, mp)
     call block_inverse(blk(:, :, 0, 0), inv)
-    st%ainv(i, :, :, j) = real(inv, mp)
+    st%ainv(:, :, i, j) = real(inv, mp)
   end subroutine stencil_put_row
 
   !> The coarse operator from its Galerkin sums ac(0:nx-1, 3, 3, -r:r, -r:r,
@@ -134,13 +219,18 @@ contains
     do j = st%ys, st%ye
       do i = 0, st%nx - 1
         dsum = full(:, :, 0, 0, i, j)
-        do k = 1, st%nb
-          st%b(i, :, :, k, j) = real(full(:, :, st%odi(k), st%odj(k), i, j), mp)
-          dsum = dsum + full(:, :, st%odi(k), st%odj(k), i, j)
+        do k = 1, st%nr
+          st%br(:, :, k, i, j) = real(full(:, :, st%odi(st%kr(k)), 0, i, j), mp)
+          dsum = dsum + full(:, :, st%odi(st%kr(k)), 0, i, j)
         end do
+        do k = 1, st%nv
+          st%b(i, :, :, k, j) = real(full(:, :, st%odi(st%kv(k)), st%odj(st%kv(k)), i, j), mp)
+          dsum = dsum + full(:, :, st%odi(st%kv(k)), st%odj(st%kv(k)), i, j)
+        end do
+        ! (offsets not stored are zero: lines only where the elements couple)
         st%d(i, :, :, j) = real(dsum, mp)
         call block_inverse(full(:, :, 0, 0, i, j), inv)
-        st%ainv(i, :, :, j) = real(inv, mp)
+        st%ainv(:, :, i, j) = real(inv, mp)
       end do
     end do
   end subroutine stencil_from_full
@@ -236,48 +326,32 @@ contains
     real(mp), intent(in) :: rhs(0:, :, st%ys:)
     logical, intent(in) :: forward
     real(mp), intent(inout) :: t(0:, :)
-    integer :: j, jj, i, ii, k, di, dj, c1, c2, nx, nseq, seq(max(st%r, 1))
-    real(mp) :: s1, s2, s3, y1, y2, y3
+    integer :: j, jj, i, ii, k, di, dj, c1, c2, nx
+    real(mp) :: s(3), y(3)
 
     nx = st%nx
-    ! The couplings along the row towards the points already visited.
-    nseq = 0
-    do k = 1, st%nb
-      if (st%odj(k) == 0 .and. ((st%odi(k) < 0) .eqv. forward)) then
-        nseq = nseq + 1
-        seq(nseq) = k
-      end if
-    end do
     do jj = 0, st%ye - st%ys
       j = merge(st%ys + jj, st%ye - jj, forward)
       t = rhs(:, :, j)
-      do k = 1, st%nb
-        di = st%odi(k)
-        dj = st%odj(k)
-        if (dj == 0 .and. ((di < 0) .eqv. forward)) cycle
+      ! the other rows: below already visited in a forward sweep, above not
+      do k = 1, st%nv
+        di = st%odi(st%kv(k))
+        dj = st%odj(st%kv(k))
         do c2 = 1, 3
           do c1 = 1, 3
             t(:, c1) = t(:, c1) - st%b(:, c1, c2, k, j) * x(di:nx - 1 + di, c2, j + dj)
           end do
         end do
       end do
+      ! along the row, point by point: the points on one side visited already
       do ii = 0, nx - 1
         i = merge(ii, nx - 1 - ii, forward)
-        s1 = t(i, 1)
-        s2 = t(i, 2)
-        s3 = t(i, 3)
-        do k = 1, nseq
-          di = st%odi(seq(k))
-          y1 = x(i + di, 1, j)
-          y2 = x(i + di, 2, j)
-          y3 = x(i + di, 3, j)
-          s1 = s1 - st%b(i, 1, 1, seq(k), j) * y1 - st%b(i, 1, 2, seq(k), j) * y2 - st%b(i, 1, 3, seq(k), j) * y3
-          s2 = s2 - st%b(i, 2, 1, seq(k), j) * y1 - st%b(i, 2, 2, seq(k), j) * y2 - st%b(i, 2, 3, seq(k), j) * y3
-          s3 = s3 - st%b(i, 3, 1, seq(k), j) * y1 - st%b(i, 3, 2, seq(k), j) * y2 - st%b(i, 3, 3, seq(k), j) * y3
+        s = t(i, :)
+        do k = 1, st%nr
+          y = x(i + st%odi(st%kr(k)), :, j)
+          s = s - st%br(:, 1, k, i, j) * y(1) - st%br(:, 2, k, i, j) * y(2) - st%br(:, 3, k, i, j) * y(3)
         end do
-        x(i, 1, j) = st%ainv(i, 1, 1, j) * s1 + st%ainv(i, 1, 2, j) * s2 + st%ainv(i, 1, 3, j) * s3
-        x(i, 2, j) = st%ainv(i, 2, 1, j) * s1 + st%ainv(i, 2, 2, j) * s2 + st%ainv(i, 2, 3, j) * s3
-        x(i, 3, j) = st%ainv(i, 3, 1, j) * s1 + st%ainv(i, 3, 2, j) * s2 + st%ainv(i, 3, 3, j) * s3
+        x(i, :, j) = st%ainv(:, 1, i, j) * s(1) + st%ainv(:, 2, i, j) * s(2) + st%ainv(:, 3, i, j) * s(3)
       end do
     end do
   end subroutine gs_sweep
@@ -289,7 +363,7 @@ contains
     real(mp), intent(in) :: x(-h:, :, st%ys - h:)
     real(mp), intent(in) :: rhs(0:, :, st%ys:)
     real(mp), intent(out) :: res(0:, :, st%ys:)
-    integer :: j, k, di, dj, c1, c2, nx
+    integer :: i, j, k, di, dj, c1, c2, nx
     nx = st%nx
     do j = st%ys, st%ye
       res(:, :, j) = rhs(:, :, j)
@@ -298,13 +372,19 @@ contains
           res(:, c1, j) = res(:, c1, j) - st%d(:, c1, c2, j) * x(0:nx - 1, c2, j)
         end do
       end do
-      do k = 1, st%nb
-        di = st%odi(k)
-        dj = st%odj(k)
+      do k = 1, st%nv
+        di = st%odi(st%kv(k))
+        dj = st%odj(st%kv(k))
         do c2 = 1, 3
           do c1 = 1, 3
             res(:, c1, j) = res(:, c1, j) - st%b(:, c1, c2, k, j) * (x(di:nx - 1 + di, c2, j + dj) - x(0:nx - 1, c2, j))
           end do
+        end do
+      end do
+      do i = 0, nx - 1
+        do k = 1, st%nr
+          di = st%odi(st%kr(k))
+          res(i, :, j) = res(i, :, j) - matmul(st%br(:, :, k, i, j), x(i + di, :, j) - x(i, :, j))
         end do
       end do
     end do
@@ -395,7 +475,7 @@ contains
             dj = 0
             blk = real(st%d(i, :, :, j), rp)
             do a1 = 1, st%nb
-              blk = blk - real(st%b(i, :, :, a1, j), rp)
+              blk = blk - stencil_block(st, i, j, a1)
             end do
           else
             di = st%odi(k)
@@ -403,7 +483,7 @@ contains
             i2 = i + di
             j2 = j + dj
             if (i2 < 0 .or. i2 >= st%nx .or. j2 < 0 .or. j2 >= st%ny) cycle
-            blk = real(st%b(i, :, :, k, j), rp)
+            blk = stencil_block(st, i, j, k)
             if (all(blk == 0.0_rp)) cycle
           end if
           i2 = i + di

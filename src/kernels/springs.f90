@@ -42,7 +42,7 @@ contains
     case (MODEL_LINEAR)
       f = -(E*(d - d0) + eta*vr)
     case (MODEL_AXIAL)
-      ln = norm2(d)
+      ln = sqrt(dot_product(d, d))
       if (ln <= max(SHORT_REL*L, SHORT_ABS)) then
         ok = .false.
         f = 0.0_rp
@@ -68,7 +68,7 @@ contains
     real(rp), intent(out) :: K(3,3)           ! df_p/dx_p [force/length]
     real(rp), intent(out) :: C(3,3)           ! df_p/dv_p [force*time/length]
     logical, intent(out) :: ok
-    real(rp) :: d(3), vr(3), ln, n(3), ldot, qv(3), geo
+    real(rp) :: d(3), vr(3), ln, il, n(3), ldot, qv(3), geo
     integer :: i, j
 
     d = xp - xq
@@ -83,26 +83,27 @@ contains
         C(i,i) = -eta
       end do
     case (MODEL_AXIAL)
-      ln = norm2(d)
+      ln = sqrt(dot_product(d, d))
       if (ln <= max(SHORT_REL*L, SHORT_ABS)) then
         ok = .false.
         K = 0.0_rp
         C = 0.0_rp
         return
       end if
-      n = d/ln
+      il = 1.0_rp/ln
+      n = d*il
       ldot = dot_product(n, vr)
       qv = vr - ldot*n                        ! Q (vp - vq), the transverse relative velocity
       ! Coefficient of Q: geometric stiffness E(1 - L/l) plus the dashpot's
       ! turning term eta*ldot/l. Clamping removes only the negative part of
       ! the former (compression), the latter is not a stiffness.
-      geo = E*(1.0_rp - L/ln)
+      geo = E*(1.0_rp - L*il)
       if (clamp) geo = max(geo, 0.0_rp)
-      geo = geo + eta*ldot/ln
+      geo = geo + eta*ldot*il
       do j = 1, 3
         do i = 1, 3
           ! -E P - geo Q - eta n (Q vr)^T / l, with P = n n^T, Q = I - P
-          K(i,j) = -(E - geo)*n(i)*n(j) - eta*n(i)*qv(j)/ln
+          K(i,j) = -(E - geo)*n(i)*n(j) - eta*il*n(i)*qv(j)
           C(i,j) = -eta*n(i)*n(j)
         end do
         K(j,j) = K(j,j) - geo
@@ -124,7 +125,7 @@ contains
     case (MODEL_LINEAR)
       w = 0.5_rp*E*sum((xp - xq - d0)**2)
     case (MODEL_AXIAL)
-      w = 0.5_rp*E*(norm2(xp - xq) - L)**2
+      w = 0.5_rp*E*(sqrt(dot_product(xp - xq, xp - xq)) - L)**2
     case default
       w = 0.0_rp
     end select
@@ -142,7 +143,7 @@ contains
       pw = eta*sum((vp - vq)**2)
     case (MODEL_AXIAL)
       d = xp - xq
-      ln = norm2(d)
+      ln = sqrt(dot_product(d, d))
       ! A zero-length link has no axis, hence no axial rate: no power.
       if (ln <= SHORT_ABS) then
         pw = 0.0_rp

@@ -196,8 +196,9 @@ contains
         scale = 0.0_rp
         if (a%r == a1%r .and. a%nx == a1%nx) then
           do j = a%ys, a%ye
-            err = max(err, maxval(abs(a%b(:, :, :, :, j) - a1%b(:, :, :, :, j))), maxval(abs(a%d(:, :, :, j) - a1%d(:, :, :, j))))
-            scale = max(scale, maxval(abs(a1%b(:, :, :, :, j))), maxval(abs(a1%d(:, :, :, j))))
+            err = max(err, maxval(abs(a%b(:, :, :, :, j) - a1%b(:, :, :, :, j))), maxval(abs(a%d(:, :, :, j) - a1%d(:, :, :, j))), &
+                      maxval(abs(a%br(:, :, :, :, j) - a1%br(:, :, :, :, j))))
+            scale = max(scale, maxval(abs(a1%b(:, :, :, :, j))), maxval(abs(a1%d(:, :, :, j))), maxval(abs(a1%br(:, :, :, :, j))))
           end do
         else
           err = huge(1.0_rp)

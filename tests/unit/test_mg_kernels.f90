@@ -14,7 +14,7 @@
 program test_mg_kernels
   use kinds, only: rp
   use mg_kernels, only: mp, stencil_t, transfer_t, stencil_init, stencil_put_row, stencil_finish, transfer_init, &
-                        coarse_reach, gs_sweep, residual, stencil_apply, interpolate, restrict_add, galerkin_add
+                        coarse_reach, coupled_by_elements, stencil_block, gs_sweep, residual, stencil_apply, interpolate, restrict_add, galerkin_add
   use check, only: check_true, check_close, check_report
   implicit none
 
@@ -25,6 +25,7 @@ program test_mg_kernels
   call test_galerkin(1, .false.)
   call test_galerkin(2, .false.)
   call test_galerkin(2, .true.)
+  call test_galerkin(2, .false., lines=.true.)
   call test_smoother()
   call test_row_sums()
   call check_report()
@@ -40,14 +41,18 @@ contains
   !> A random operator of reach r on nx x ny: blocks of every link inside the
   !> lattice with zero row sums, plus mass m I on the diagonal; returned as
   !> the stored stencil and the dense matrix.
-  subroutine random_operator(nx, ny, r, mass, stiff, st, dense)
+  subroutine random_operator(nx, ny, r, mass, stiff, st, dense, lines)
     integer, intent(in) :: nx, ny, r
     real(rp), intent(in) :: mass, stiff
     type(stencil_t), intent(out) :: st
     real(rp), allocatable, intent(out) :: dense(:, :)
-    real(rp) :: blk(3, 3, -r:r, -r:r), rnd(3, 3)
+    logical, intent(in), optional :: lines    !< only the offsets the cloth's elements couple
+    real(rp) :: blk(3, 3, -r:r, -r:r), rnd(3, 3), blk1(3, 3)
     integer :: i, j, di, dj, c1, c2
-    call stencil_init(st, nx, ny, 0, ny - 1, r)
+    logical :: only_lines
+    only_lines = .false.
+    if (present(lines)) only_lines = lines
+    call stencil_init(st, nx, ny, 0, ny - 1, r, lines=only_lines)
     allocate(dense(3 * nx * ny, 3 * nx * ny))
     dense = 0.0_rp
     do j = 0, ny - 1
@@ -57,6 +62,7 @@ contains
           do di = -r, r
             if (di == 0 .and. dj == 0) cycle
             if (i + di < 0 .or. i + di >= nx .or. j + dj < 0 .or. j + dj >= ny) cycle
+            if (only_lines .and. .not. coupled_by_elements(di, dj)) cycle
             call random_number(rnd)
             blk(:, :, di, dj) = -stiff * (0.5_rp + rnd)
             blk(:, :, 0, 0) = blk(:, :, 0, 0) - blk(:, :, di, dj)
@@ -74,7 +80,9 @@ contains
             do c2 = 1, 3
               do c1 = 1, 3
                 if (di == 0 .and. dj == 0) cycle
-                dense(gidx(nx, i, j, c1), gidx(nx, i + di, j + dj, c2)) = real(st%b(i, c1, c2, offset(st, di, dj), j), rp)
+                if (offset(st, di, dj) == 0) cycle
+                blk1 = stencil_block(st, i, j, offset(st, di, dj))
+                dense(gidx(nx, i, j, c1), gidx(nx, i + di, j + dj, c2)) = blk1(c1, c2)
               end do
             end do
           end do
@@ -188,9 +196,10 @@ contains
                      'interpolation keeps constants')
   end subroutine test_transpose
 
-  subroutine test_galerkin(r, cubic)
+  subroutine test_galerkin(r, cubic, lines)
     integer, intent(in) :: r
     logical, intent(in) :: cubic
+    logical, intent(in), optional :: lines
     integer, parameter :: nx = 17, ny = 9
     type(stencil_t) :: st, sc
     type(transfer_t) :: tx, ty
@@ -198,7 +207,8 @@ contains
     integer :: rc, nxc, nyc, i, j, a, b, c, ic, jc, di, dj, c1, c2
     real(rp) :: err, scale, v
     character(len=64) :: label
-    call random_operator(nx, ny, r, 1.0_rp, 1.0_rp, st, dense)
+    call random_operator(nx, ny, r, 1.0_rp, 1.0_rp, st, dense, lines)
+    if (present(lines)) call check_true(st%nb == 16, 'the lines of the elements: 16 offsets at reach 2')
     call transfer_init(tx, nx, cubic)
     call transfer_init(ty, ny, cubic)
     nxc = tx%nc
@@ -246,7 +256,7 @@ contains
         end do
       end do
     end do
-    write(label, '(a, i0, a, l1)') 'Galerkin P^T A P, reach ', r, ', cubic ', cubic
+    write(label, '(a, i0, a, l1, a, l1)') 'Galerkin P^T A P, reach ', r, ', cubic ', cubic, ', lines ', present(lines)
     call check_close(err, 0.0_rp, 0.0_rp, 1.0e-12_rp * scale, trim(label))
     call stencil_finish(sc, ac)
     call check_true(all(sc%ainv == sc%ainv), 'coarse diagonal blocks inverted')
