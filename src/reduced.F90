@@ -32,11 +32,11 @@ module reduced
   use reduced_blocks, only: reduced_row_blocks, buffer_row_apply, csr_fits_block_row
   use reduced_assembly, only: csr_assemble
   use interpolation, only: cubic_weights
-  use stencil_mg, only: stencil_mg_t, mg_create, mg_destroy, mg_set_fine, mg_build_coarse, mg_apply, &
+  use stencil_mg, only: stencil_mg_t, mg_create, mg_destroy, mg_set_fine, mg_build_coarse, mg_apply, mg_describe, &
                         MG_MULTIPLICATIVE, MG_KASKADE
   implicit none
   private
-  public :: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach
+  public :: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach, reduced_describe
   public :: set_block_row
   public :: INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
 
@@ -294,6 +294,7 @@ contains
         call mg_create(red%mg, comm, nx, ny, ys, ys + n - 1, w, cubic, merge(int(mg_levels), 10, mg_levels > 0), mg_cycle, mg_sweeps)
         PetscCall(PCShellSetContext(pc, red, ierr))
         PetscCall(PCShellSetApply(pc, mg_pc_apply, ierr))
+        PetscCall(PCShellSetView(pc, mg_pc_view, ierr))
         PetscCall(PCShellSetName(pc, 'nuno structured multigrid (module stencil_mg)', ierr))
       else
         PetscCall(mg_interpolations(red, pc, ierr))
@@ -456,6 +457,32 @@ contains
     case default
     end select
   end subroutine true_residual_defaults
+
+  !> One line on the inner solver for the start-up summary: Krylov method,
+  !> tolerance, preconditioner; for nuno's multigrid its levels, cycle and
+  !> the bytes a cycle reads. Collective.
+  subroutine reduced_describe(red, line, ierr)
+    type(reduced_t), intent(inout) :: red
+    character(len=*), intent(out) :: line
+    PetscErrorCode, intent(out) :: ierr
+    character(len=64) :: ktype, ptype
+    character(len=160) :: text(16)
+    character(len=16) :: rt
+    integer :: n
+    type(tPC) :: pc
+    PetscCall(KSPGetType(red%ksp, ktype, ierr))
+    PetscCall(KSPGetPC(red%ksp, pc, ierr))
+    PetscCall(PCGetType(pc, ptype, ierr))
+    write(rt, '(es8.1)') red%rtol0
+    line = trim(ktype)//', rtol '//trim(adjustl(rt))
+    if (red%use_mg) then
+      call mg_describe(red%mg, text, n)
+      line = trim(line)//' + nuno multigrid: '//trim(text(1)(1:index(text(1), ', single') - 1))// &
+             ', '//trim(adjustl(text(n)(index(text(n), 'reads'):index(text(n), ' over') - 1)))
+    else
+      line = trim(line)//' + '//trim(ptype)
+    end if
+  end subroutine reduced_describe
 
   !> Make the SNES's KSP preonly with the eliminating PCSHELL. Call before
   !> TSSetFromOptions, so that options may still change it.
@@ -712,6 +739,21 @@ contains
     PetscCall(DMDAVecRestoreArrayReadF90(red%da3, xloc, xl, ierr))
     PetscCall(DMRestoreLocalVector(red%da3, xloc, ierr))
   end subroutine stencil_mult
+
+  !> PCSHELL view (-reduced_ksp_view): the hierarchy of nuno's multigrid.
+  subroutine mg_pc_view(pc, viewer, ierr)
+    type(tPC) :: pc
+    type(tPetscViewer) :: viewer
+    PetscErrorCode :: ierr
+    type(reduced_t), pointer :: red
+    character(len=160) :: text(16)
+    integer :: n, k
+    PetscCall(PCShellGetContext(pc, red, ierr))
+    call mg_describe(red%mg, text, n)
+    do k = 1, n
+      PetscCall(PetscViewerASCIIPrintf(viewer, '  '//trim(text(k))//new_line('a'), ierr))
+    end do
+  end subroutine mg_pc_view
 
   !> PCSHELL apply of the inner KSP: one cycle of nuno's multigrid.
   subroutine mg_pc_apply(pc, x, y, ierr)

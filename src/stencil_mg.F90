@@ -29,7 +29,7 @@ module stencil_mg
                         coarse_reach, gs_sweep, residual, interpolate, restrict_add, galerkin_add
   implicit none
   private
-  public :: stencil_mg_t, mg_create, mg_destroy, mg_set_fine_row, mg_set_fine, mg_build_coarse, mg_apply
+  public :: stencil_mg_t, mg_create, mg_destroy, mg_set_fine_row, mg_set_fine, mg_build_coarse, mg_apply, mg_describe
   public :: MG_MULTIPLICATIVE, MG_KASKADE
 
   integer, parameter :: MG_MULTIPLICATIVE = 1, MG_KASKADE = 2
@@ -453,5 +453,48 @@ contains
       end do
     end associate
   end subroutine mg_apply
+
+  !> Lines that describe the hierarchy (for -reduced_ksp_view): per level
+  !> its lattice, reach, stored blocks a node, bytes a node, and the bytes
+  !> one cycle reads over all ranks (operators and vectors; the bandwidth
+  !> bound of docs/performance.md). Collective.
+  subroutine mg_describe(mg, text, n)
+    type(stencil_mg_t), intent(in) :: mg
+    character(len=*), intent(out) :: text(:)
+    integer, intent(out) :: n
+    integer :: l, ierr
+    integer(kind=8) :: nodes8
+    real(rp) :: per_node, sweep, cycle_bytes, mp_bytes
+    mp_bytes = real(storage_size(1.0_mp) / 8, rp)
+    n = 1
+    write(text(1), '(a, i0, a, a, a, i0, a)') 'levels ', mg%nlev, ', ', trim(merge('kaskade cycle', 'V-cycle      ', &
+      mg%cycle_type == MG_KASKADE)), ', ', mg%nu, ' symmetric Gauss-Seidel sweep(s) a smoothing, single precision'
+    cycle_bytes = 0.0_rp
+    do l = 1, mg%nlev
+      associate (a => mg%lev(l)%a)
+        nodes8 = int(a%nx, 8) * int(a%ye - a%ys + 1, 8)
+        if (.not. mg%lev(l)%replicated) call MPI_Allreduce(MPI_IN_PLACE, nodes8, 1, MPI_INTEGER8, MPI_SUM, mg%comm, ierr)
+        ! operator: blocks of 9, the row sums and the inverted diagonal
+        per_node = 9.0_rp * mp_bytes * real(a%nb + 2, rp)
+        ! a sweep reads the operator (not the row sums), the right-hand side
+        ! and x, and writes x
+        sweep = 9.0_rp * mp_bytes * real(a%nb + 1, rp) + 9.0_rp * mp_bytes
+        if (l < mg%nlev) then
+          if (mg%cycle_type == MG_KASKADE) then
+            cycle_bytes = cycle_bytes + real(nodes8, rp) * 2.0_rp * mg%nu * sweep
+          else
+            ! 2 nu smoothings and a residual (operator, row sums, x, rhs, res)
+            cycle_bytes = cycle_bytes + real(nodes8, rp) * (4.0_rp * mg%nu * sweep + per_node + 9.0_rp * mp_bytes)
+          end if
+        end if
+        n = n + 1
+        write(text(n), '(a, i0, a, i0, a, i0, a, i0, a, i0, a, f0.0, a, a)') 'level ', l, ': ', a%nx, ' x ', a%ny, &
+          ', reach ', a%r, ', ', a%nb, ' blocks a node, ', per_node, ' B a node', &
+          trim(merge(' (coarsest: banded LU on every rank)', '                                    ', l == mg%nlev))
+      end associate
+    end do
+    n = n + 1
+    write(text(n), '(a, f0.1, a)') 'one cycle reads about ', cycle_bytes / 1.0e6_rp, ' MB over all ranks (levels above the coarsest)'
+  end subroutine mg_describe
 
 end module stencil_mg

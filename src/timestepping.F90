@@ -32,6 +32,7 @@ module timestepping
                     output_write_wall_time, output_config_key, checkpoint_t, output_write_checkpoint
   use newton_forcing, only: forcing_term, quadratic_constant
   use reduced, only: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach, &
+                     reduced_describe, &
                      set_block_row
   implicit none
   private
@@ -389,7 +390,9 @@ contains
     PetscBool :: match
     character(len=64) :: tstype, adtype
     character(len=64, kind=c_char) :: scheme
-    character(len=512) :: line
+    character(len=512) :: line, inner
+    character(len=64) :: sntype
+    type(tSNES) :: snes
     character(len=40) :: srcx, srcv
     real(rp) :: dt_namelist, t_end_namelist
 
@@ -435,6 +438,14 @@ contains
 
     ierr = nuno_ts_scheme(ctx%ts%v, scheme, len(scheme))
     if (ierr /= 0) return
+    inner = ''
+    if (ctx%use_reduced) then
+      PetscCall(reduced_describe(ctx%red, inner, ierr))
+      PetscCall(TSGetSNES(ctx%ts, snes, ierr))
+      PetscCall(SNESGetType(snes, sntype, ierr))
+      if (trim(sntype) == SNESNEWTONLS .and. ctx%newton_forcing .and. ctx%red%forward_ew) &
+        inner = trim(inner)//'; Newton: inner rtol from the step''s needs (-nuno_newton_forcing)'
+    end if
     if (ctx%rank == 0) then
       PetscCall(TSAdaptGetType(adapt, adtype, ierr))
       line = 'solver    : TS '//scheme(1:index(scheme, c_null_char) - 1)
@@ -455,6 +466,7 @@ contains
         num(ctx%atol_x)//' ('//trim(srcx)//'), velocity '//num(ctx%atol_v)//' ('//trim(srcv)//')'
       line = trim(line)//', Newton step '//trim(merge('reduced', 'full   ', ctx%use_reduced))
       write(output_unit, '(a)') trim(line)
+      if (ctx%use_reduced) write(output_unit, '(a)') 'inner     : '//trim(inner)
       flush(output_unit)
     end if
   end subroutine effective_time_integration

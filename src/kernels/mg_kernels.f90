@@ -215,8 +215,21 @@ contains
     type(stencil_t), intent(inout) :: st
     real(rp), intent(in) :: full(:, :, -st%r:, -st%r:, 0:, st%ys:)
     real(rp) :: dsum(3, 3), inv(3, 3)
-    integer :: i, j, k
+    integer :: i, j, k, c1, c2, di, dj
     do j = st%ys, st%ye
+      ! the blocks to other rows, one entry at a time along the row (the
+      ! stores run along x; node by node they were 72 streams at once)
+      do k = 1, st%nv
+        di = st%odi(st%kv(k))
+        dj = st%odj(st%kv(k))
+        do c2 = 1, 3
+          do c1 = 1, 3
+            do i = 0, st%nx - 1
+              st%b(i, c1, c2, k, j) = real(full(c1, c2, di, dj, i, j), mp)
+            end do
+          end do
+        end do
+      end do
       do i = 0, st%nx - 1
         dsum = full(:, :, 0, 0, i, j)
         do k = 1, st%nr
@@ -224,7 +237,6 @@ contains
           dsum = dsum + full(:, :, st%odi(st%kr(k)), 0, i, j)
         end do
         do k = 1, st%nv
-          st%b(i, :, :, k, j) = real(full(:, :, st%odi(st%kv(k)), st%odj(st%kv(k)), i, j), mp)
           dsum = dsum + full(:, :, st%odi(st%kv(k)), st%odj(st%kv(k)), i, j)
         end do
         ! (offsets not stored are zero: lines only where the elements couple)
