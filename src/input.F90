@@ -1698,18 +1698,34 @@ contains
       '  -nuno_jacobian reduced|full                  reduced (default): only the 3-dof velocity system', &
       '                                               S = a M - C - K/a is assembled and the 6-dof step is', &
       '                                               solved exactly around it; full: the 6-dof Jacobian', &
-      '  -reduced_ksp_type, -reduced_pc_type, ...     the inner solver of S (default FGMRES, or CG when S is', &
-      '                                               symmetric, rtol 1e-6; geometric multigrid on the DMDA,', &
-      '                                               block Jacobi/ILU on small lattices); -reduced_ksp_view', &
-      '  -reduced_dm_mat_type aij|baij|sbaij          storage of S (default: aij for multigrid, baij else)', &
+      '  -reduced_ksp_type, -reduced_pc_type, ...     the inner solver of S (default FGMRES, rtol 1e-6, with', &
+      '                                               nuno''s structured multigrid where 3 levels fit, else', &
+      '                                               block Jacobi/ILU; CG when S is symmetric and another', &
+      '                                               preconditioner is given); -reduced_ksp_view', &
+      '  -nuno_mg stencil|petsc                       the inner multigrid: nuno''s (default; single precision,', &
+      '                                               stored by stencil offset, no PETSc matrix) or PETSc''s', &
+      '                                               PCMG with Galerkin operators and SOR', &
+      '  -nuno_mg_cycle kaskade|v                     nuno''s multigrid: kaskade (default: restrict the', &
+      '                                               right-hand side, then only upwards) or V-cycles', &
+      '  -nuno_mg_sweeps N, -nuno_mg_levels N         symmetric Gauss-Seidel sweeps a smoothing (1), levels', &
+      '                                               (0: as many as fit, down to 5 nodes a side)', &
+      '  -reduced_dm_mat_type aij|baij|sbaij          storage of S with -reduced_pc_type (default: aij for', &
+      '                                               multigrid, baij else); nuno''s multigrid needs none', &
       '  -nuno_pc_lag N                               rebuild the inner preconditioner every N assemblies', &
       '                                               (default 3 with the multigrid, 10 with its cubic', &
-      '                                               interpolation, 1 otherwise; a failed solve rebuilds', &
-      '                                               it and retries)', &
+      '                                               interpolation, 1 otherwise; and at every output step;', &
+      '                                               a failed solve rebuilds it and retries)', &
       '  -nuno_mg_interpolation auto|linear|cubic|coarse_cubic  interpolation of the inner multigrid', &
       '                                               (auto: with bending, whose fourth-order modes', &
       '                                               bilinear transfer does not carry, cubic on every', &
       '                                               level but the finest; linear without)', &
+      '  -nuno_newton_forcing [true|false]            Newton solves each inner system only as far as the', &
+      '                                               step needs: its Newton remainder, or half the residual', &
+      '                                               at which Newton stops (default true)', &
+      '  -snes_lag_jacobian N                         S assembled every N Newton iterations (default 2: the', &
+      '                                               second iteration of a step reuses the first one''s S)', &
+      '  -ts_theta_initial_guess_extrapolate          beuler starts Newton from x + dt xdot (default true,', &
+      '                                               reduced path)', &
       '  -nuno_snes_floor F                           a residual below F times its start that stops', &
       '                                               decreasing is converged (default 1e-6; 0: off)', &
       '  -snes_ksp_ew                                 Eisenstat-Walker: its forcing term is the inner rtol', &
