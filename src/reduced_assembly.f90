@@ -183,9 +183,9 @@ contains
     !> neighbours, zero elsewhere in the stencil (constraints as above).
     subroutine put_row(i0, j0)
       integer, intent(in) :: i0, j0
-      integer :: di, dj, nc, kk, ia0, ja0, r, pa, pb, m, hw
+      integer :: di, dj, nc, kk, r, pa, pb, m, hw
       logical :: fixed_row, owned_blk(25)
-      real(rp) :: dsum(3, 3)
+      real(rp) :: dsum(3, 3), blk(3, 3)
       hw = lat%halo
       fixed_row = fixedg(i0, j0)
       dsum = 0.0_rp
@@ -196,17 +196,9 @@ contains
         do dj = max(-1, -j0), min(1, lat%ny - 1 - j0)
           do di = max(-1, -i0), min(1, lat%nx - 1 - i0)
             if (di == 0 .and. dj == 0) cycle
-            if (dj > 0 .or. (dj == 0 .and. di > 0)) then
-              kk = link_index(di, dj)
-              ia0 = i0
-              ja0 = j0
-            else
-              kk = link_index(-di, -dj)
-              ia0 = i0 + di
-              ja0 = j0 + dj
-            end if
-            dsum = dsum + lb(:, :, kk, ia0, modulo(ja0, 2))
-            if (.not. (fixed_row .or. fixedg(i0 + di, j0 + dj))) st(:, :, di, dj, i0, j0) = lb(:, :, kk, ia0, modulo(ja0, 2))
+            blk = link_block(i0, j0, di, dj)
+            dsum = dsum + blk
+            if (.not. (fixed_row .or. fixedg(i0 + di, j0 + dj))) st(:, :, di, dj, i0, j0) = blk
           end do
         end do
         if (fixed_row) dsum = 0.0_rp
@@ -225,18 +217,9 @@ contains
           owned_blk(nc) = j0 + dj >= lat%ys .and. j0 + dj <= lat%ye
           vals(:, :, nc) = 0.0_rp
           if (max(abs(di), abs(dj)) /= 1) cycle
-          ! The link p -> p + (di, dj) is anchored at its lower end.
-          if (dj > 0 .or. (dj == 0 .and. di > 0)) then
-            kk = link_index(di, dj)
-            ia0 = i0
-            ja0 = j0
-          else
-            kk = link_index(-di, -dj)
-            ia0 = i0 + di
-            ja0 = j0 + dj
-          end if
-          dsum = dsum + lb(:, :, kk, ia0, modulo(ja0, 2))
-          if (.not. (fixed_row .or. fixedg(i0 + di, j0 + dj))) vals(:, :, nc) = lb(:, :, kk, ia0, modulo(ja0, 2))
+          blk = link_block(i0, j0, di, dj)
+          dsum = dsum + blk
+          if (.not. (fixed_row .or. fixedg(i0 + di, j0 + dj))) vals(:, :, nc) = blk
         end do
       end do
       ! The diagonal block: index of (0, 0) among the blocks.
@@ -295,6 +278,18 @@ contains
       end do
       call add_block(ip, jp, iq2 - ip, jq2 - jp, blk)
     end subroutine add_element_block
+    !> The kept block c + k/a of the link from node (i0, j0) to its
+    !> neighbour (i0 + di, j0 + dj): a link is anchored at its lower end.
+    function link_block(i0, j0, di, dj) result(blk)
+      integer, intent(in) :: i0, j0, di, dj
+      real(rp) :: blk(3, 3)
+      if (dj > 0 .or. (dj == 0 .and. di > 0)) then
+        blk = lb(:, :, link_index(di, dj), i0, modulo(j0, 2))
+      else
+        blk = lb(:, :, link_index(-di, -dj), i0 + di, modulo(j0 + dj, 2))
+      end if
+    end function link_block
+
     !> The nine blocks of an energy-bending triple with nodes n(:, 1..3)
     !> from its Jacobians in the edge variables, K9 = T^T ke T, C9 = T^T ce T
     !> (e_a = sum_P t(a, P) x_P: e1 = x_q - x_p, e2 = x_r - x_q), combined

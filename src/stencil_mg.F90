@@ -25,7 +25,7 @@ module stencil_mg
   use mpi
   use kinds, only: rp
   use mg_kernels, only: mp, stencil_t, transfer_t, stencil_init, stencil_put_row, stencil_finish, stencil_from_full, transfer_init, offset_index, &
-                        stencil_block, &
+                        stencil_block, diagonal_block, &
                         coarse_reach, gs_sweep, residual, interpolate, restrict_add, galerkin_add
   implicit none
   private
@@ -232,10 +232,7 @@ contains
       real(rp) :: blk(3, 3)
       integer :: k
       if (di == 0 .and. dj == 0) then
-        blk = real(c%a%d(i, :, :, j), rp)
-        do k = 1, c%a%nb
-          blk = blk - stencil_block(c%a, i, j, k)
-        end do
+        blk = diagonal_block(c%a, i, j)
         v = blk(c1, c2)
       else
         k = offset_index(c%a, di, dj)

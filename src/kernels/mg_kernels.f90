@@ -33,7 +33,7 @@ module mg_kernels
   implicit none
   private
   public :: mp, stencil_t, transfer_t, stencil_init, stencil_put_row, stencil_finish, stencil_from_full, transfer_init, coarse_reach, &
-            coupled_by_elements, offset_index, stencil_block
+            coupled_by_elements, offset_index, stencil_block, diagonal_block
   public :: gs_sweep, residual, stencil_apply, interpolate, restrict_add, galerkin_add, block_inverse
 
   !> Kind of the multigrid's matrices and vectors (single precision: half
@@ -163,6 +163,18 @@ contains
       blk = real(st%b(i, :, :, st%slot(k), j), rp)
     end if
   end function stencil_block
+
+  !> Diagonal block A_pp = D_p - sum_o B_{p,o} of node (i, j), in double precision.
+  pure function diagonal_block(st, i, j) result(blk)
+    type(stencil_t), intent(in) :: st
+    integer, intent(in) :: i, j
+    real(rp) :: blk(3, 3)
+    integer :: k
+    blk = real(st%d(i, :, :, j), rp)
+    do k = 1, st%nb
+      blk = blk - stencil_block(st, i, j, k)
+    end do
+  end function diagonal_block
 
   !> Set block A(p, p + offset k) of node (i, j) (rounded to kind mp).
   pure subroutine set_block(st, i, j, k, blk)
@@ -485,10 +497,7 @@ contains
           if (k == 0) then
             di = 0
             dj = 0
-            blk = real(st%d(i, :, :, j), rp)
-            do a1 = 1, st%nb
-              blk = blk - stencil_block(st, i, j, a1)
-            end do
+            blk = diagonal_block(st, i, j)
           else
             di = st%odi(k)
             dj = st%odj(k)

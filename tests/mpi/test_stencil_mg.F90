@@ -110,7 +110,7 @@ contains
   end subroutine fill
 
   !> res = b - A x on rows y0..y1, double precision; x on rows y0-r..y1+r
-  !> (those outside the lattice zero).
+  !> (those outside the lattice zero); also the whole lattice on one rank.
   subroutine model_residual(x, b, res, y0, y1)
     integer, intent(in) :: y0, y1
     real(rp), intent(in) :: x(:, -r:, y0 - r:), b(:, 0:, y0:)
@@ -268,7 +268,7 @@ contains
       write(what, '(a, a, i0, a)') label, ': one cycle on ', nranks, ' ranks as on one, to 1 %'
       call check_close(err, 0.0_rp, 0.0_rp, 1.0e-2_rp * maxval(abs(e1)), trim(what))
       do it = 1, 40
-        call residual_whole(x1, b1, res1)
+        call model_residual(x1, b1, res1, 0, n - 1)
         call mg_apply(mg1, res1, e1)
         x1(:, 0:n - 1, 0:n - 1) = x1(:, 0:n - 1, 0:n - 1) + e1
         if (cycle_type == MG_KASKADE) exit      ! (step 3 only for the V-cycle)
@@ -291,23 +291,5 @@ contains
     call mg_destroy(mg1)
   end subroutine run_case
 
-  !> res = b - A x on the whole lattice (one rank's copy).
-  subroutine residual_whole(x, b, res)
-    real(rp), intent(in) :: x(:, -r:, -r:), b(:, 0:, 0:)
-    real(rp), intent(out) :: res(:, 0:, 0:)
-    real(rp) :: blk(3, 3, -r:r, -r:r)
-    integer :: i, j, di, dj
-    do j = 0, n - 1
-      do i = 0, n - 1
-        call model_row(i, j, blk)
-        res(:, i, j) = b(:, i, j)
-        do dj = -r, r
-          do di = -r, r
-            res(:, i, j) = res(:, i, j) - matmul(blk(:, :, di, dj), x(:, i + di, j + dj))
-          end do
-        end do
-      end do
-    end do
-  end subroutine residual_whole
 
 end program test_stencil_mg

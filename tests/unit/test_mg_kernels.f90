@@ -14,7 +14,7 @@
 program test_mg_kernels
   use kinds, only: rp
   use mg_kernels, only: mp, stencil_t, transfer_t, stencil_init, stencil_put_row, stencil_finish, transfer_init, &
-                        coarse_reach, coupled_by_elements, stencil_block, gs_sweep, residual, stencil_apply, interpolate, restrict_add, galerkin_add
+                        coarse_reach, coupled_by_elements, stencil_block, offset_index, gs_sweep, residual, stencil_apply, interpolate, restrict_add, galerkin_add
   use check, only: check_true, check_close, check_report
   implicit none
 
@@ -80,8 +80,8 @@ contains
             do c2 = 1, 3
               do c1 = 1, 3
                 if (di == 0 .and. dj == 0) cycle
-                if (offset(st, di, dj) == 0) cycle
-                blk1 = stencil_block(st, i, j, offset(st, di, dj))
+                if (offset_index(st, di, dj) == 0) cycle
+                blk1 = stencil_block(st, i, j, offset_index(st, di, dj))
                 dense(gidx(nx, i, j, c1), gidx(nx, i + di, j + dj, c2)) = blk1(c1, c2)
               end do
             end do
@@ -112,15 +112,6 @@ contains
       end do
     end do
   end subroutine random_operator
-
-  pure integer function offset(st, di, dj) result(k)
-    type(stencil_t), intent(in) :: st
-    integer, intent(in) :: di, dj
-    do k = 1, st%nb
-      if (st%odi(k) == di .and. st%odj(k) == dj) return
-    end do
-    k = 0
-  end function offset
 
   !> Padded vector (h) from a dense one.
   subroutine to_padded(nx, ny, h, v, x)
