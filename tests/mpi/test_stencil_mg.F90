@@ -291,5 +291,4 @@ contains
     call mg_destroy(mg1)
   end subroutine run_case
 
-
 end program test_stencil_mg
