@@ -31,6 +31,7 @@ module reduced
   use forces, only: jac_buffer_t, jac_buffer_init, jac_buffer_row, slot_of, first_anchor_row
   use reduced_blocks, only: reduced_row_blocks, buffer_row_apply, csr_fits_block_row
   use reduced_assembly, only: csr_assemble
+  use offset_product, only: stencil_product, offset_count
   use interpolation, only: cubic_weights
   use stencil_mg, only: stencil_mg_t, mg_create, mg_destroy, mg_set_fine, mg_build_coarse, mg_apply, mg_describe, &
                         MG_MULTIPLICATIVE, MG_KASKADE
@@ -71,7 +72,7 @@ module reduced
     PetscLogEvent :: ev_assemble = 0       !< S assembled (and the multigrid's finest level from it)
     PetscLogEvent :: ev_galerkin = 0       !< the multigrid's coarse levels and coarsest factorisation
     PetscLogEvent :: ev_cycle = 0          !< one multigrid cycle
-    real(rp), allocatable :: st(:, :, :, :, :, :) !< (3, 3, -w:w, -w:w, 0:nx-1, ys:ye) S by stencil offset, node by node (with use_mg)
+    real(rp), allocatable :: st(:, :, :, :, :) !< (3, 3, offset_count(w), 0:nx-1, ys:ye) S by stencil offset, node by node (with use_mg; module offset_product)
     integer :: interp = 1                  !< multigrid interpolation: INTERP_LINEAR, _CUBIC, _COARSE_CUBIC
     logical :: forward_ew = .true.         !< pass the outer KSP's rtol (Eisenstat-Walker) to the inner one
     integer :: pc_lag = 1                  !< rebuild the inner preconditioner every pc_lag assemblies
@@ -250,10 +251,10 @@ contains
     if (red%use_mg) then
       ! S by stencil offset (reduced_assemble), its product a MATSHELL:
       ! nuno's multigrid needs no PETSc matrix, and no column indices are
-      ! stored (1.8 KB a node with bending against 2.6 in AIJ).
+      ! stored (1.2 KB a node with bending against 2.6 in AIJ).
       PetscCall(DMSetUp(red%da3, ierr))
       PetscCall(DMDAGetCorners(da6, xs, ys, zs, m, n, zm, ierr))
-      allocate(red%st(3, 3, -w:w, -w:w, 0:nx - 1, ys:ys + n - 1))
+      allocate(red%st(3, 3, offset_count(w), 0:nx - 1, ys:ys + n - 1))
       red%st = 0.0_rp
       m = 3 * nx * n
       mg = 3 * nx * ny
@@ -698,45 +699,25 @@ contains
 
   !> MATSHELL mult of S stored by stencil offset: y = S x (one halo
   !> exchange of x, then node by node over S's blocks, which are stored in
-  !> that order; it runs at about the memory bandwidth: a copy of S along
-  !> x, product by whole rows, saved 17 % of the products and cost as much
-  !> at each assembly). Collective.
+  !> that order: kernel offset_product). Collective.
   subroutine stencil_mult(mat, x, y, ierr)
     type(tMat) :: mat
     type(tVec) :: x, y
     PetscErrorCode :: ierr
     type(reduced_t), pointer :: red
     type(tVec) :: xloc
-    PetscScalar, pointer :: xl(:, :, :), ya(:, :, :)
-    integer :: i, j, di, dj, w, i0, i1, j0, j1
-    real(rp) :: acc(3)
+    PetscScalar, pointer :: xl(:), ya(:)
     PetscCall(MatShellGetContext(mat, red, ierr))
-    w = red%lat%halo
     PetscCall(DMGetLocalVector(red%da3, xloc, ierr))
     PetscCall(DMGlobalToLocalBegin(red%da3, x, INSERT_VALUES, xloc, ierr))
     PetscCall(DMGlobalToLocalEnd(red%da3, x, INSERT_VALUES, xloc, ierr))
-    PetscCall(DMDAVecGetArrayReadF90(red%da3, xloc, xl, ierr))
-    PetscCall(DMDAVecGetArrayF90(red%da3, y, ya, ierr))
-    do j = red%lat%ys, red%lat%ye
-      j0 = max(-w, -j)
-      j1 = min(w, red%lat%ny - 1 - j)
-      do i = 0, red%lat%nx - 1
-        i0 = max(-w, -i)
-        i1 = min(w, red%lat%nx - 1 - i)
-        acc = 0.0_rp
-        do dj = j0, j1
-          do di = i0, i1
-            ! (1, 2), (2, 1), ...: no element couples them, always zero
-            if (abs(di) + abs(dj) == 3) cycle
-            acc = acc + red%st(:, 1, di, dj, i, j) * xl(0, i + di, j + dj) + red%st(:, 2, di, dj, i, j) * xl(1, i + di, j + dj) &
-                      + red%st(:, 3, di, dj, i, j) * xl(2, i + di, j + dj)
-          end do
-        end do
-        ya(0:2, i, j) = acc
-      end do
-    end do
-    PetscCall(DMDAVecRestoreArrayF90(red%da3, y, ya, ierr))
-    PetscCall(DMDAVecRestoreArrayReadF90(red%da3, xloc, xl, ierr))
+    PetscCall(VecGetArrayReadF90(xloc, xl, ierr))
+    PetscCall(VecGetArrayF90(y, ya, ierr))
+    associate (lat => red%lat)
+      call stencil_product(lat%nx, lat%ny, lat%ys, lat%ye, lat%gys, lat%gye, lat%halo, red%st, xl, ya)
+    end associate
+    PetscCall(VecRestoreArrayF90(y, ya, ierr))
+    PetscCall(VecRestoreArrayReadF90(xloc, xl, ierr))
     PetscCall(DMRestoreLocalVector(red%da3, xloc, ierr))
   end subroutine stencil_mult
 

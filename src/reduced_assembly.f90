@@ -26,6 +26,7 @@ module reduced_assembly
   use springs, only: link_jacobian
   use bending_paper, only: paper_jacobian
   use bending_energy, only: energy_jacobian_edges
+  use offset_product, only: offset_table
   implicit none
   private
   public :: csr_assemble, csr_block_pos, csr_row_blocks
@@ -88,16 +89,19 @@ contains
     real(rp), intent(out) :: kd(:, 0:, lat%ys:)    !< (3, 0:nx-1, ys:ye) [force/length]
     integer, intent(in), optional :: ia(0:), ib(0:) !< row starts (0-based offsets into av, bv)
     real(rp), intent(inout), optional :: av(0:), bv(0:)
-    !> or S by stencil offset, node by node (3, 3, -halo:halo, -halo:halo,
-    !> 0:nx-1, ys:ye): S(p, p + (di, dj)) = st(:, :, di, dj, i, j), zero
-    !> outside the lattice
-    real(rp), intent(inout), optional, contiguous :: st(:, :, -lat%halo:, -lat%halo:, 0:, lat%ys:)
+    !> or S by stencil offset, node by node (3, 3, offset_count(halo),
+    !> 0:nx-1, ys:ye): S(p, p + (di, dj)) = st(:, :, kof(di, dj), i, j)
+    !> (module offset_product), zero outside the lattice
+    real(rp), intent(inout), optional, contiguous :: st(:, :, :, 0:, lat%ys:)
     integer, parameter :: CHUNK = 32
     integer :: i, j, k, iq, jq, ir, jr, p, q, n(2, 3), l, i0
     real(rp) :: d0(3, 4), len0(4), e, eta, kl(3, 3), cl(3, 3), t(3), x9(9), v9(9), k9(9, 9), c9(9, 9), kb, etab, rinv
     real(rp) :: ke(6, 6), ce(6, 6)
     logical :: ok, own_p, own_q
+    integer :: kof(-2:2, -2:2)                     ! slot of each offset in st
 
+    kof = 0
+    call offset_table(lat%halo, kof(-lat%halo:lat%halo, -lat%halo:lat%halo))
     g = 0.0_rp
     kd = 0.0_rp
     rinv = 1.0_rp / a
@@ -192,19 +196,19 @@ contains
       if (present(st)) then
         ! By stencil offset: the node's row zeroed, the link blocks and the
         ! diagonal written straight into it.
-        st(:, :, :, :, i0, j0) = 0.0_rp
+        st(:, :, :, i0, j0) = 0.0_rp
         do dj = max(-1, -j0), min(1, lat%ny - 1 - j0)
           do di = max(-1, -i0), min(1, lat%nx - 1 - i0)
             if (di == 0 .and. dj == 0) cycle
             blk = link_block(i0, j0, di, dj)
             dsum = dsum + blk
-            if (.not. (fixed_row .or. fixedg(i0 + di, j0 + dj))) st(:, :, di, dj, i0, j0) = blk
+            if (.not. (fixed_row .or. fixedg(i0 + di, j0 + dj))) st(:, :, kof(di, dj), i0, j0) = blk
           end do
         end do
         if (fixed_row) dsum = 0.0_rp
-        st(:, :, 0, 0, i0, j0) = -dsum
+        st(:, :, kof(0, 0), i0, j0) = -dsum
         do r = 1, 3
-          st(r, r, 0, 0, i0, j0) = st(r, r, 0, 0, i0, j0) + a * lat%mass(i0, j0)
+          st(r, r, kof(0, 0), i0, j0) = st(r, r, kof(0, 0), i0, j0) + a * lat%mass(i0, j0)
         end do
         return
       end if
@@ -301,7 +305,7 @@ contains
       integer, intent(in) :: n(:, :)
       real(rp), intent(in) :: ke(6, 6), ce(6, 6)
       integer, parameter :: t(2, 3) = reshape([-1, 0, 1, -1, 0, 1], [2, 3])
-      real(rp) :: m(6, 6), ewx(6), ewv(6), h(6), blk(3, 3)
+      real(rp) :: m(6, 6), ewx(6), ewv(6), h(6), tm(3, 6, 3), blk(3, 3)
       integer :: pp, qq, ip, jp, iq2, jq2, l
       m = -(ce + rinv * ke)
       ewx(1:3) = w(0:2, n(1, 2), n(2, 2)) - w(0:2, n(1, 1), n(2, 1))
@@ -309,6 +313,12 @@ contains
       ewv(1:3) = w(3:5, n(1, 2), n(2, 2)) - w(3:5, n(1, 1), n(2, 1))
       ewv(4:6) = w(3:5, n(1, 3), n(2, 3)) - w(3:5, n(1, 2), n(2, 2))
       h = matmul(ke, ewx) + matmul(ce, ewv)
+      ! The rows of T^T m by node, tm(:, :, P) = sum_a t(a, P) m(rows of
+      ! edge a, :), then block (P, Q) = sum_b t(b, Q) tm(:, cols of edge b, P):
+      ! t is -1, 0 or 1, so sums and differences, no products.
+      tm(:, :, 1) = -m(1:3, :)
+      tm(:, :, 2) = m(1:3, :) - m(4:6, :)
+      tm(:, :, 3) = m(4:6, :)
       do pp = 1, 3
         ip = n(1, pp)
         jp = n(2, pp)
@@ -323,8 +333,14 @@ contains
           iq2 = n(1, qq)
           jq2 = n(2, qq)
           if (fixedg(iq2, jq2)) cycle
-          blk = (t(1, pp) * t(1, qq)) * m(1:3, 1:3) + (t(1, pp) * t(2, qq)) * m(1:3, 4:6) &
-                + (t(2, pp) * t(1, qq)) * m(4:6, 1:3) + (t(2, pp) * t(2, qq)) * m(4:6, 4:6)
+          select case (qq)
+          case (1)
+            blk = -tm(:, 1:3, pp)
+          case (2)
+            blk = tm(:, 1:3, pp) - tm(:, 4:6, pp)
+          case default
+            blk = tm(:, 4:6, pp)
+          end select
           call add_block(ip, jp, iq2 - ip, jq2 - jp, blk)
         end do
       end do
@@ -337,7 +353,7 @@ contains
       integer :: pos(0:2), r
       logical :: diag
       if (present(st)) then
-        st(:, :, di, dj, ip, jp) = st(:, :, di, dj, ip, jp) + blk
+        st(:, :, kof(di, dj), ip, jp) = st(:, :, kof(di, dj), ip, jp) + blk
         return
       end if
       call csr_block_pos(lat, ia, ib, ip, jp, di, dj, pos, diag)

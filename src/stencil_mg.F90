@@ -44,7 +44,7 @@ module stencil_mg
     real(mp), allocatable :: res(:, :, :)        !< (0:nx-1, 3, ys:ye) residual
     real(mp), allocatable :: t(:, :)             !< (0:nx-1, 3) row work
     type(transfer_t) :: tx, ty                   !< from the next coarser level to this one
-    real(rp), allocatable :: ac(:, :, :, :, :, :) !< (0:nx-1, 3, 3, -r:r, -r:r, ys-h:ye+h) Galerkin sums of this level
+    real(rp), allocatable :: ac(:, :, :, :, :, :) !< (3, 3, -r:r, -r:r, 0:nx-1, ys-h:ye+h) Galerkin sums of this level
   end type mg_level_t
 
   !> The hierarchy: lev(1) is the lattice itself.
@@ -154,7 +154,7 @@ contains
     lv%w = 0.0_mp
     lv%rhs = 0.0_mp
     lv%res = 0.0_mp
-    allocate(lv%ac(0:nx - 1, 3, 3, -r:r, -r:r, ys - h:ye + h))
+    allocate(lv%ac(3, 3, -r:r, -r:r, 0:nx - 1, ys - h:ye + h))
     lv%ac = 0.0_rp
   end subroutine level_arrays
 
@@ -175,11 +175,11 @@ contains
   end subroutine mg_set_fine_row
 
   !> The finest level from S by stencil offset, node by node,
-  !> full(3, 3, -r:r, -r:r, 0:nx-1, ys:ye) = S(p, p + (di, dj)) (double
-  !> precision, zero outside the lattice).
+  !> full(3, 3, offset_slot(r, di, dj), 0:nx-1, ys:ye) = S(p, p + (di, dj))
+  !> (module offset_product; double precision, zero outside the lattice).
   subroutine mg_set_fine(mg, full)
     type(stencil_mg_t), intent(inout) :: mg
-    real(rp), intent(in) :: full(:, :, :, :, :, :)
+    real(rp), intent(in) :: full(:, :, :, :, :)
     call stencil_from_full(mg%lev(1)%a, full)
   end subroutine mg_set_fine
 
@@ -256,7 +256,7 @@ contains
     if (c%replicated) then
       if (mg%nranks > 1) then
         cnt = size(c%ac(:, :, :, :, :, c%a%ys:c%a%ye))
-        call MPI_Allreduce(MPI_IN_PLACE, c%ac(0, 1, 1, -c%a%r, -c%a%r, c%a%ys), cnt, MPI_DOUBLE_PRECISION, MPI_SUM, mg%comm, ierr)
+        call MPI_Allreduce(MPI_IN_PLACE, c%ac(1, 1, -c%a%r, -c%a%r, 0, c%a%ys), cnt, MPI_DOUBLE_PRECISION, MPI_SUM, mg%comm, ierr)
       end if
       return
     end if
@@ -264,14 +264,14 @@ contains
     ys = c%a%ys
     ye = c%a%ye
     cnt = size(c%ac(:, :, :, :, :, ys:ys + h - 1))
-    allocate(buf(0:c%a%nx - 1, 3, 3, -c%a%r:c%a%r, -c%a%r:c%a%r, h))
+    allocate(buf(3, 3, -c%a%r:c%a%r, -c%a%r:c%a%r, 0:c%a%nx - 1, h))
     ! rows below my strip go to the rank below; the rank above sends me its rows below its strip
     buf = 0.0_rp
-    call MPI_Sendrecv(c%ac(0, 1, 1, -c%a%r, -c%a%r, ys - h), cnt, MPI_DOUBLE_PRECISION, mg%below, 11, &
+    call MPI_Sendrecv(c%ac(1, 1, -c%a%r, -c%a%r, 0, ys - h), cnt, MPI_DOUBLE_PRECISION, mg%below, 11, &
                       buf, cnt, MPI_DOUBLE_PRECISION, mg%above, 11, mg%comm, MPI_STATUS_IGNORE, ierr)
     if (mg%above /= MPI_PROC_NULL) c%ac(:, :, :, :, :, ye - h + 1:ye) = c%ac(:, :, :, :, :, ye - h + 1:ye) + buf
     buf = 0.0_rp
-    call MPI_Sendrecv(c%ac(0, 1, 1, -c%a%r, -c%a%r, ye + 1), cnt, MPI_DOUBLE_PRECISION, mg%above, 12, &
+    call MPI_Sendrecv(c%ac(1, 1, -c%a%r, -c%a%r, 0, ye + 1), cnt, MPI_DOUBLE_PRECISION, mg%above, 12, &
                       buf, cnt, MPI_DOUBLE_PRECISION, mg%below, 12, mg%comm, MPI_STATUS_IGNORE, ierr)
     if (mg%below /= MPI_PROC_NULL) c%ac(:, :, :, :, :, ys:ys + h - 1) = c%ac(:, :, :, :, :, ys:ys + h - 1) + buf
   end subroutine finish_sums_ac

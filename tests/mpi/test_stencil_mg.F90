@@ -28,6 +28,7 @@ program test_stencil_mg
   use stencil_mg, only: stencil_mg_t, mg_create, mg_destroy, mg_set_fine, mg_build_coarse, mg_apply, &
                         MG_MULTIPLICATIVE, MG_KASKADE
   use check, only: check_true, check_close, check_report
+  use offset_product, only: offset_count, offset_slot
   implicit none
   integer, parameter :: n = 65, r = 2
   integer :: ierr, rank, nranks, ys, ye, rows, base, extra, k
@@ -98,15 +99,31 @@ contains
     end do
   end subroutine model_row
 
+  !> The model operator in the storage of module offset_product: only the
+  !> offsets the elements couple (the model has no others: checked).
   subroutine fill(full, y0, y1)
-    real(rp), intent(out) :: full(:, :, -r:, -r:, 0:, y0:)
+    real(rp), intent(out) :: full(:, :, :, 0:, y0:)
     integer, intent(in) :: y0, y1
-    integer :: i, j
+    real(rp) :: blk(3, 3, -r:r, -r:r)
+    integer :: i, j, di, dj, k
+    logical :: others_zero
+    others_zero = .true.
     do j = y0, y1
       do i = 0, n - 1
-        call model_row(i, j, full(:, :, :, :, i, j))
+        call model_row(i, j, blk)
+        do dj = -r, r
+          do di = -r, r
+            k = offset_slot(r, di, dj)
+            if (k > 0) then
+              full(:, :, k, i, j) = blk(:, :, di, dj)
+            else
+              others_zero = others_zero .and. all(blk(:, :, di, dj) == 0.0_rp)
+            end if
+          end do
+        end do
       end do
     end do
+    call check_true(others_zero, 'the model couples only the stored offsets')
   end subroutine fill
 
   !> res = b - A x on rows y0..y1, double precision; x on rows y0-r..y1+r
@@ -168,7 +185,7 @@ contains
     integer, intent(in) :: cycle_type
     character(len=*), intent(in) :: label
     type(stencil_mg_t) :: mg, mg1
-    real(rp), allocatable :: full(:, :, :, :, :, :), full1(:, :, :, :, :, :)
+    real(rp), allocatable :: full(:, :, :, :, :), full1(:, :, :, :, :)
     real(rp), allocatable :: x(:, :, :), b(:, :, :), res(:, :, :), e(:, :, :), ae(:, :, :), xs(:, :, :), x1(:, :, :)
     logical :: flags(10)
     real(rp) :: err, scale, r0, rk, alpha
@@ -177,7 +194,7 @@ contains
 
     flags = cubic
     flags(1) = .false.              ! the finest transfer bilinear, as nuno's default with bending
-    allocate(full(3, 3, -r:r, -r:r, 0:n - 1, ys:ye), full1(3, 3, -r:r, -r:r, 0:n - 1, 0:n - 1))
+    allocate(full(3, 3, offset_count(r), 0:n - 1, ys:ye), full1(3, 3, offset_count(r), 0:n - 1, 0:n - 1))
     call fill(full, ys, ye)
     call fill(full1, 0, n - 1)
     call mg_create(mg, MPI_COMM_WORLD, n, n, ys, ye, r, flags, 10, cycle_type, 1)

@@ -220,7 +220,7 @@ contains
     ac_dense = matmul(transpose(p), matmul(dense, p))
     rc = max(coarse_reach(tx, r), coarse_reach(ty, r))
     call stencil_init(sc, nxc, nyc, 0, nyc - 1, rc)
-    allocate(ac(0:nxc - 1, 3, 3, -rc:rc, -rc:rc, 0:nyc - 1))
+    allocate(ac(3, 3, -rc:rc, -rc:rc, 0:nxc - 1, 0:nyc - 1))
     ac = 0.0_rp
     call galerkin_add(st, tx, ty, rc, 0, ac)
     ! Every non-zero of the dense product lies within the predicted reach,
@@ -239,7 +239,7 @@ contains
                 if (abs(di) > rc .or. abs(dj) > rc) then
                   err = max(err, abs(v))
                 else
-                  err = max(err, abs(v - ac(ic, c1, c2, di, dj, jc)))
+                  err = max(err, abs(v - ac(c1, c2, di, dj, ic, jc)))
                 end if
               end do
             end do
