@@ -167,7 +167,7 @@ contains
     real(rp), intent(in) :: x9(9)
     real(rp), intent(out) :: e1(3), e2(3), l1, l2, psi, kb(3), gpsi(6), je(3,6)
     logical, intent(out) :: ok
-    real(rp) :: z(3), ipsi
+    real(rp) :: z(3), ipsi, il1, il2
     integer :: j
 
     e1 = x9(4:6) - x9(1:3)
@@ -184,8 +184,12 @@ contains
     ok = min(l1, l2) > max(EDGE_REL*max(l1, l2), EDGE_ABS)
     if (.not. ok) return
     psi = l1*l2 + dot_product(e1, e2)
-    ! psi/(l1 l2) = 1 + cos(theta); divide by the lengths one at a time (no overflow).
-    if ((psi/l1)/l2 <= FOLD_TOL) then
+    ! psi/(l1 l2) = 1 + cos(theta); by the lengths one at a time (no
+    ! overflow), as products with their reciprocals (divisions were a good
+    ! part of this routine, called for every triple in every assembly).
+    il1 = 1.0_rp/l1
+    il2 = 1.0_rp/l2
+    if ((psi*il1)*il2 <= FOLD_TOL) then
       ok = .false.
       psi = 0.0_rp
       return
@@ -195,8 +199,8 @@ contains
     z(3) = e1(1)*e2(2) - e1(2)*e2(1)
     ipsi = 1.0_rp/psi
     kb = (2.0_rp*ipsi)*z
-    gpsi(1:3) = (l2/l1)*e1 + e2
-    gpsi(4:6) = (l1/l2)*e2 + e1
+    gpsi(1:3) = (l2*il1)*e1 + e2
+    gpsi(4:6) = (l1*il2)*e2 + e1
     ! d z/d e1 = -[e2]x, d z/d e2 = [e1]x; d kb = (2 dz - kb dpsi)/psi.
     je(:,1:3) = -2.0_rp*skew(e2)
     je(:,4:6) = 2.0_rp*skew(e1)
@@ -210,17 +214,20 @@ contains
   pure subroutine hess_psi(e1h, e2h, l1, l2, h)
     real(rp), intent(in) :: e1h(3), e2h(3), l1, l2
     real(rp), intent(out) :: h(6,6)
+    real(rp) :: r12, r21
     integer :: i, j
 
+    r12 = l2/l1
+    r21 = l1/l2
     do j = 1, 3
       do i = 1, 3
-        h(i,j) = -(l2/l1)*e1h(i)*e1h(j)
-        h(i+3,j+3) = -(l1/l2)*e2h(i)*e2h(j)
+        h(i,j) = -r12*e1h(i)*e1h(j)
+        h(i+3,j+3) = -r21*e2h(i)*e2h(j)
         h(i,j+3) = e1h(i)*e2h(j)
         h(i+3,j) = e2h(i)*e1h(j)
       end do
-      h(j,j) = h(j,j) + l2/l1
-      h(j+3,j+3) = h(j+3,j+3) + l1/l2
+      h(j,j) = h(j,j) + r12
+      h(j+3,j+3) = h(j+3,j+3) + r21
       h(j,j+3) = h(j,j+3) + 1.0_rp
       h(j+3,j) = h(j+3,j) + 1.0_rp
     end do
