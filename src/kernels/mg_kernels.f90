@@ -352,22 +352,57 @@ contains
   !> the same row already visited are done point by point. Ghost rows of x
   !> hold the neighbour ranks' values (block Jacobi between strips, as
   !> PETSc's SOR). t(0:nx-1, 3): work.
-  subroutine gs_sweep(st, h, x, rhs, forward, t)
+  !>
+  !> low(0:nx-1, 3, ys:ye), for a symmetric sweep (forward, then backward
+  !> with the same rhs): the forward sweep keeps in it each row's sum over
+  !> the blocks to the rows below, and the backward sweep takes it from
+  !> there instead of reading those blocks again (a fifth of a symmetric
+  !> sweep's bytes on the finest level with bending, more on the wide
+  !> coarse levels): the rows below a row are not changed between its two
+  !> visits. Not for the first r rows of a strip, whose rows below are the
+  !> neighbour rank's, refreshed between the sweeps.
+  subroutine gs_sweep(st, h, x, rhs, forward, t, low)
     type(stencil_t), intent(in) :: st
     integer, intent(in) :: h
     real(mp), intent(inout) :: x(-h:, :, st%ys - h:)
     real(mp), intent(in) :: rhs(0:, :, st%ys:)
     logical, intent(in) :: forward
     real(mp), intent(inout) :: t(0:, :)
-    integer :: j, jj, i, ii, k, di, dj, c1, c2, nx
+    real(mp), intent(inout), optional :: low(0:, :, st%ys:)
+    integer :: j, jj, i, ii, k, di, dj, c1, c2, nx, nlow, kbeg
     real(mp) :: s(3), y(3)
 
     nx = st%nx
+    ! the offsets to other rows are in lexicographic order: those to the
+    ! rows below first
+    nlow = count(st%odj(st%kv(1:st%nv)) < 0)
     do jj = 0, st%ye - st%ys
       j = merge(st%ys + jj, st%ye - jj, forward)
-      t = rhs(:, :, j)
+      kbeg = 1
+      if (present(low)) then
+        if (forward) then
+          low(:, :, j) = 0.0_mp
+          do k = 1, nlow
+            di = st%odi(st%kv(k))
+            dj = st%odj(st%kv(k))
+            do c2 = 1, 3
+              do c1 = 1, 3
+                low(:, c1, j) = low(:, c1, j) + st%b(:, c1, c2, k, j) * x(di:nx - 1 + di, c2, j + dj)
+              end do
+            end do
+          end do
+          kbeg = nlow + 1
+        else if (j >= st%ys + st%r) then
+          kbeg = nlow + 1
+        end if
+      end if
+      if (kbeg > 1) then
+        t = rhs(:, :, j) - low(:, :, j)
+      else
+        t = rhs(:, :, j)
+      end if
       ! the other rows: below already visited in a forward sweep, above not
-      do k = 1, st%nv
+      do k = kbeg, st%nv
         di = st%odi(st%kv(k))
         dj = st%odj(st%kv(k))
         do c2 = 1, 3
@@ -376,7 +411,7 @@ contains
           end do
         end do
       end do
-      ! along the row, point by point: the points on one side visited already
+    ! along the row, point by point: the points on one side visited already
       do ii = 0, nx - 1
         i = merge(ii, nx - 1 - ii, forward)
         s = t(i, :)
