@@ -174,7 +174,7 @@ contains
     PetscInt, parameter :: one = 1, three = 3, izero = 0, ione = 1
     type(tPC) :: pc
     PetscBool :: found
-    character(len=64) :: pctype, mattype
+    character(len=64) :: pctype
     MPI_Comm :: comm
     integer :: mpierr
 
