@@ -234,6 +234,8 @@ contains
     do k = 1, st%nr
       sr(k) = offset_slot(st%r, st%odi(st%kr(k)), 0)
     end do
+    ! (an internal invariant: only the finest level, made with lines, comes here)
+    if (any(sv(1:st%nv) == 0) .or. any(sr(1:st%nr) == 0)) error stop 'stencil_from_full: the level stores offsets S does not'
     do j = st%ys, st%ye
       ! the blocks to other rows, a transpose in tiles of TILE nodes: the
       ! tile's blocks stay in the first-level cache while each entry's
