@@ -43,7 +43,7 @@ module stencil_mg
     real(mp), allocatable :: rhs(:, :, :)        !< (0:nx-1, 3, ys:ye) right-hand side
     real(mp), allocatable :: res(:, :, :)        !< (0:nx-1, 3, ys:ye) residual
     real(mp), allocatable :: t(:, :)             !< (0:nx-1, 3) row work
-    real(mp), allocatable :: low(:, :, :)        !< (0:nx-1, 3, ys:ye) a forward sweep's sums over the rows below (gs_sweep)
+    real(mp), allocatable :: low(:, :, :)        !< (0:nx-1, 3, ys:ye) a forward sweep's rhs minus the sums over the rows below (gs_sweep)
     type(transfer_t) :: tx, ty                   !< from the next coarser level to this one
     real(rp), allocatable :: ac(:, :, :, :, :, :) !< (3, 3, -r:r, -r:r, 0:nx-1, ys-h:ye+h) Galerkin sums of this level
   end type mg_level_t

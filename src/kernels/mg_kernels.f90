@@ -356,9 +356,9 @@ contains
   !> PETSc's SOR). t(0:nx-1, 3): work.
   !>
   !> low(0:nx-1, 3, ys:ye), for a symmetric sweep (forward, then backward
-  !> with the same rhs): the forward sweep keeps in it each row's sum over
-  !> the blocks to the rows below, and the backward sweep takes it from
-  !> there instead of reading those blocks again (a fifth of a symmetric
+  !> with the same rhs): the forward sweep keeps in it each row's rhs minus
+  !> the sums over the blocks to the rows below, and the backward sweep
+  !> takes it from there instead of reading those blocks again (a fifth of a symmetric
   !> sweep's bytes on the finest level with bending, more on the wide
   !> coarse levels): the rows below a row are not changed between its two
   !> visits. Not for the first r rows of a strip, whose rows below are the
@@ -371,7 +371,7 @@ contains
     logical, intent(in) :: forward
     real(mp), intent(inout) :: t(0:, :)
     real(mp), intent(inout), optional :: low(0:, :, st%ys:)
-    integer :: j, jj, i, ii, k, di, dj, c1, c2, nx, nlow, kbeg
+    integer :: j, jj, i, ii, k, nx, nlow, kbeg
     real(mp) :: s(3), y(3)
 
     nx = st%nx
@@ -383,37 +383,19 @@ contains
       kbeg = 1
       if (present(low)) then
         if (forward) then
-          low(:, :, j) = 0.0_mp
-          do k = 1, nlow
-            di = st%odi(st%kv(k))
-            dj = st%odj(st%kv(k))
-            do c2 = 1, 3
-              do c1 = 1, 3
-                low(:, c1, j) = low(:, c1, j) + st%b(:, c1, c2, k, j) * x(di:nx - 1 + di, c2, j + dj)
-              end do
-            end do
-          end do
-          kbeg = nlow + 1
-        else if (j >= st%ys + st%r) then
-          kbeg = nlow + 1
+          low(:, :, j) = rhs(:, :, j)
+          call subtract_rows(1, nlow, j, low(:, :, j))
         end if
+        if (forward .or. j >= st%ys + st%r) kbeg = nlow + 1
       end if
       if (kbeg > 1) then
-        t = rhs(:, :, j) - low(:, :, j)
+        t = low(:, :, j)
       else
         t = rhs(:, :, j)
       end if
       ! the other rows: below already visited in a forward sweep, above not
-      do k = kbeg, st%nv
-        di = st%odi(st%kv(k))
-        dj = st%odj(st%kv(k))
-        do c2 = 1, 3
-          do c1 = 1, 3
-            t(:, c1) = t(:, c1) - st%b(:, c1, c2, k, j) * x(di:nx - 1 + di, c2, j + dj)
-          end do
-        end do
-      end do
-    ! along the row, point by point: the points on one side visited already
+      call subtract_rows(kbeg, st%nv, j, t)
+      ! along the row, point by point: the points on one side visited already
       do ii = 0, nx - 1
         i = merge(ii, nx - 1 - ii, forward)
         s = t(i, :)
@@ -424,6 +406,23 @@ contains
         x(i, :, j) = st%ainv(:, 1, i, j) * s(1) + st%ainv(:, 2, i, j) * s(2) + st%ainv(:, 3, i, j) * s(3)
       end do
     end do
+  contains
+    !> acc = acc - sum over the offsets kv(k0:k1) to other rows of row j's
+    !> blocks times x, along the whole row.
+    subroutine subtract_rows(k0, k1, j, acc)
+      integer, intent(in) :: k0, k1, j
+      real(mp), intent(inout) :: acc(0:, :)
+      integer :: k, di, dj, c1, c2
+      do k = k0, k1
+        di = st%odi(st%kv(k))
+        dj = st%odj(st%kv(k))
+        do c2 = 1, 3
+          do c1 = 1, 3
+            acc(:, c1) = acc(:, c1) - st%b(:, c1, c2, k, j) * x(di:nx - 1 + di, c2, j + dj)
+          end do
+        end do
+      end do
+    end subroutine subtract_rows
   end subroutine gs_sweep
 
   !> res = rhs - A x on rows ys..ye, in difference form (ghost rows of x filled).
