@@ -33,7 +33,7 @@ module reduced
   use reduced_assembly, only: csr_assemble
   use offset_product, only: stencil_product, offset_count
   use interpolation, only: cubic_weights
-  use stencil_mg, only: stencil_mg_t, mg_create, mg_destroy, mg_set_fine, mg_build_coarse, mg_apply, mg_describe, &
+  use stencil_mg, only: stencil_mg_t, mg_create, mg_destroy, mg_build_coarse, mg_apply, mg_describe, &
                         MG_MULTIPLICATIVE, MG_KASKADE
   implicit none
   private
@@ -582,9 +582,12 @@ contains
     loc = 0.0_rp
     PetscCall(PetscLogEventBegin(red%ev_assemble, ierr))
     if (red%use_mg) then
-      ! By stencil offset (module reduced_assembly), for nuno's multigrid.
+      ! By stencil offset (module reduced_assembly), for nuno's multigrid,
+      ! whose finest level is made from it row by row on the way (every
+      ! assembly: its smoother and residual use the current S, as PETSc's
+      ! PCMG does with a reused hierarchy).
       call csr_assemble(red%lat, u, red%fixedg, a, red%damping, red%clamp, red%gauss_newton, red%wpred, &
-                        red%lb, red%vals, red%gpred, red%kd, st=red%st)
+                        red%lb, red%vals, red%gpred, red%kd, st=red%st, fine=red%mg%lev(1)%a)
     else if (red%direct) then
       ! AIJ: element blocks straight into the CSR values (module reduced_assembly).
       PetscCall(aij_open(red, view, ierr))
@@ -614,9 +617,6 @@ contains
     end if
     PetscCall(MatAssemblyBegin(red%s, MAT_FINAL_ASSEMBLY, ierr))
     PetscCall(MatAssemblyEnd(red%s, MAT_FINAL_ASSEMBLY, ierr))
-    if (red%use_mg) then
-      PetscCall(mg_fine_level(red, ierr))
-    end if
     PetscCall(PetscLogEventEnd(red%ev_assemble, ierr))
     do ja = red%lat%ys, red%lat%ye
       do i = 0, red%lat%nx - 1
@@ -668,16 +668,6 @@ contains
       red%lcol(n) = red%cols(n) - (red%lat%ys - red%lat%gys) * red%lat%nx
     end do
   end subroutine mark_owned
-
-  !> The multigrid's finest level from the assembled S (every assembly: its
-  !> smoother and residual use the current S, as PETSc's PCMG does with a
-  !> reused hierarchy).
-  subroutine mg_fine_level(red, ierr)
-    type(reduced_t), intent(inout) :: red
-    PetscErrorCode, intent(out) :: ierr
-    ierr = 0
-    call mg_set_fine(red%mg, red%st)
-  end subroutine mg_fine_level
 
   !> The multigrid's coarse operators (Galerkin) and coarsest factorisation.
   subroutine mg_coarse_levels(red, ierr)

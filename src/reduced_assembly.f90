@@ -25,8 +25,9 @@ module reduced_assembly
   use lattice, only: lattice_t, link_dir, line_dir, link_constants, triple_constants
   use springs, only: link_jacobian
   use bending_paper, only: paper_jacobian
-  use bending_energy, only: energy_jacobian_edges
+  use bending_energy, only: energy_jacobian_lanes
   use offset_product, only: offset_table
+  use mg_kernels, only: stencil_t, stencil_row_from_full
   implicit none
   private
   public :: csr_assemble, csr_block_pos, csr_row_blocks
@@ -75,8 +76,8 @@ contains
   !> Links are gathered: the blocks of the links of two anchor rows are kept
   !> (lb), and each node row is then written whole, in the CSR order, with
   !> no zeroing and no read-modify-write. Bending triples (9 blocks each,
-  !> reaching two rows) are added to the written rows afterwards.
-  subroutine csr_assemble(lat, u, fixedg, a, with_damping, clamp, gauss_newton, w, lb, vals, g, kd, ia, av, ib, bv, st)
+  !> reaching two rows) are added to the written rows two rows later.
+  subroutine csr_assemble(lat, u, fixedg, a, with_damping, clamp, gauss_newton, w, lb, vals, g, kd, ia, av, ib, bv, st, fine)
     type(lattice_t), intent(in) :: lat
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)    !< (0:5, 0:nx-1, gys:gye) state
     logical, intent(in) :: fixedg(0:, lat%gys:)    !< (0:nx-1, gys:gye) constrained nodes
@@ -93,11 +94,11 @@ contains
     !> 0:nx-1, ys:ye): S(p, p + (di, dj)) = st(:, :, kof(di, dj), i, j)
     !> (module offset_product), zero outside the lattice
     real(rp), intent(inout), optional, contiguous :: st(:, :, :, 0:, lat%ys:)
-    integer, parameter :: CHUNK = 32
-    integer :: i, j, k, iq, jq, ir, jr, p, q, n(2, 3), l, i0
-    real(rp) :: d0(3, 4), len0(4), e, eta, kl(3, 3), cl(3, 3), t(3), x9(9), v9(9), k9(9, 9), c9(9, 9), kb, etab, rinv
-    real(rp) :: ke(6, 6), ce(6, 6)
-    logical :: ok, own_p, own_q
+    !> and, when given, the multigrid's finest level made from st row by row
+    !> (stencil_row_from_full)
+    type(stencil_t), intent(inout), optional :: fine
+    integer :: j, k, jt, lag
+    real(rp) :: d0(3, 4), len0(4), cl(3, 3), c9(9, 9), rinv
     integer :: kof(-2:2, -2:2)                     ! slot of each offset in st
 
     kof = 0
@@ -110,77 +111,196 @@ contains
       len0(k) = norm2(d0(:, k))
     end do
     cl = 0.0_rp
-    do j = max(0, lat%ys - 1), lat%ye
-      own_p = j >= lat%ys
+    c9 = 0.0_rp
+    ! One pass over the rows: row j's links and its block row written, the
+    ! bending triples anchored lag rows below added (they reach rows
+    ! j - lag .. j, all written by then), and row j - lag, now complete,
+    ! converted for the multigrid while its blocks are still in the cache
+    ! (as separate passes over S, the first touches of S's rows in each
+    ! were most of the bending pass and of the conversion).
+    lag = 0
+    if (lat%bending_model /= BEND_NONE) lag = 2
+    do j = max(0, lat%ys - 1), lat%ye + lag
+      if (j <= lat%ye) call link_row(j)
+      jt = j - lag
+      if (lag > 0 .and. jt >= max(0, lat%ys - lat%halo) .and. jt <= lat%ye) call triple_row(jt)
+      if (present(fine) .and. present(st) .and. jt >= lat%ys .and. jt <= lat%ye) call stencil_row_from_full(fine, st, jt)
+    end do
+
+  contains
+
+    !> The links anchored at row j0 (kept in lb, their products in g, their
+    !> diagonals in kd) and, when row j0 is owned, its block row.
+    subroutine link_row(j0)
+      integer, intent(in) :: j0
+      integer :: i, k, iq, jq, l
+      real(rp) :: e, eta, kl(3, 3), t(3)
+      logical :: ok, own_p, own_q
+      own_p = j0 >= lat%ys
       do i = 0, lat%nx - 1
         do k = 1, 4
           iq = i + link_dir(1, k)
-          jq = j + link_dir(2, k)
+          jq = j0 + link_dir(2, k)
           if (iq < 0 .or. iq >= lat%nx .or. jq >= lat%ny .or. jq < lat%ys) cycle
-          call link_constants(lat, i, j, k, e, eta)
-          call link_jacobian(lat%spring_model, e, eta, d0(:, k), len0(k), u(0:2, i, j), u(0:2, iq, jq), &
-                             u(3:5, i, j), u(3:5, iq, jq), clamp, kl, cl, ok)
+          call link_constants(lat, i, j0, k, e, eta)
+          call link_jacobian(lat%spring_model, e, eta, d0(:, k), len0(k), u(0:2, i, j0), u(0:2, iq, jq), &
+                             u(3:5, i, j0), u(3:5, iq, jq), clamp, kl, cl, ok)
           ! f_p = -f_q: dF_p/dx_p = dF_q/dx_q = kl, dF_p/dx_q = dF_q/dx_p = -kl (same for cl).
           if (with_damping) then
-            t = matmul(kl, w(0:2, i, j) - w(0:2, iq, jq)) + matmul(cl, w(3:5, i, j) - w(3:5, iq, jq))
-            lb(:, :, k, i, modulo(j, 2)) = cl + rinv * kl
+            t = matmul(kl, w(0:2, i, j0) - w(0:2, iq, jq)) + matmul(cl, w(3:5, i, j0) - w(3:5, iq, jq))
+            lb(:, :, k, i, modulo(j0, 2)) = cl + rinv * kl
           else
-            t = matmul(kl, w(0:2, i, j) - w(0:2, iq, jq))
-            lb(:, :, k, i, modulo(j, 2)) = rinv * kl
+            t = matmul(kl, w(0:2, i, j0) - w(0:2, iq, jq))
+            lb(:, :, k, i, modulo(j0, 2)) = rinv * kl
           end if
           own_q = jq <= lat%ye
           do l = 1, 3
-            if (own_p) kd(l, i, j) = kd(l, i, j) - kl(l, l)
+            if (own_p) kd(l, i, j0) = kd(l, i, j0) - kl(l, l)
             if (own_q) kd(l, iq, jq) = kd(l, iq, jq) - kl(l, l)
           end do
-          if (own_p) g(:, i, j) = g(:, i, j) - t
+          if (own_p) g(:, i, j0) = g(:, i, j0) - t
           if (own_q) g(:, iq, jq) = g(:, iq, jq) + t
         end do
       end do
       if (own_p) then
         do i = 0, lat%nx - 1
-          call put_row(i, j)
+          call put_row(i, j0)
         end do
       end if
-    end do
-    if (lat%bending_model == BEND_NONE) return
-    c9 = 0.0_rp
-    ! In chunks of CHUNK columns: a triple adds to the rows of its three
-    ! nodes, and over a chunk the rows written stay in the cache (over whole
-    ! rows, three of S's rows, 1.4 MB at 257 x 257 with bending, did not).
-    do i0 = 0, lat%nx - 1, CHUNK
-    do j = max(0, lat%ys - lat%halo), lat%ye
-      do i = i0, min(i0 + CHUNK, lat%nx) - 1
+    end subroutine link_row
+
+    !> The bending triples anchored at row j0 (their lowest row), added to
+    !> the block rows of their owned nodes. Energy bending: the triples of
+    !> one direction NL at a time through the vectorised kernel
+    !> (energy_jacobian_lanes; one at a time they were a sixth of a
+    !> Baraff-Witkin step).
+    subroutine triple_row(j0)
+      integer, intent(in) :: j0
+      integer, parameter :: NL = 32
+      integer :: i, k, iq, jq, ir, jr, n(2, 3), p, q, dx, dy, ilo, ihi, i0, nl1, l
+      real(rp) :: x9(9), k9(9, 9), kb, etab
+      real(rp) :: e1(NL, 3), e2(NL, 3), de(NL, 6), ke(NL, 6, 6), ce(NL, 6, 6)
+      logical :: ok, okl(NL)
+      if (lat%bending_model == BEND_ENERGY) then
+        do k = 1, 4
+          dx = line_dir(1, k)
+          dy = line_dir(2, k)
+          jq = j0 + dy
+          jr = jq + dy
+          if (jr >= lat%ny .or. jr < lat%ys) cycle
+          call triple_constants(lat, k, kb, etab)
+          ilo = max(0, -2 * dx)
+          ihi = min(lat%nx - 1, lat%nx - 1 - 2 * dx)
+          do i0 = ilo, ihi, NL
+            nl1 = min(NL, ihi - i0 + 1)
+            do l = 1, nl1
+              i = i0 + l - 1
+              e1(l, :) = u(0:2, i + dx, jq) - u(0:2, i, j0)
+              e2(l, :) = u(0:2, i + 2 * dx, jr) - u(0:2, i + dx, jq)
+              de(l, 1:3) = u(3:5, i + dx, jq) - u(3:5, i, j0)
+              de(l, 4:6) = u(3:5, i + 2 * dx, jr) - u(3:5, i + dx, jq)
+            end do
+            call energy_jacobian_lanes(nl1, NL, kb, etab, e1, e2, de, gauss_newton, ke, ce, okl)
+            if (.not. with_damping) ce = 0.0_rp
+            if (present(st)) then
+              call add_triple_lanes(j0, i0, nl1, NL, dx, dy, ke, ce)
+              cycle
+            end if
+            do l = 1, nl1
+              i = i0 + l - 1
+              n(:, 1) = [i, j0]
+              n(:, 2) = [i + dx, jq]
+              n(:, 3) = [i + 2 * dx, jr]
+              call add_triple_edges(n, ke(l, :, :), ce(l, :, :))
+            end do
+          end do
+        end do
+        return
+      end if
+      do i = 0, lat%nx - 1
         do k = 1, 4
           iq = i + line_dir(1, k)
-          jq = j + line_dir(2, k)
+          jq = j0 + line_dir(2, k)
           ir = iq + line_dir(1, k)
           jr = jq + line_dir(2, k)
           if (ir < 0 .or. ir >= lat%nx .or. jr >= lat%ny .or. jr < lat%ys) cycle
           call triple_constants(lat, k, kb, etab)
-          x9 = [u(0:2, i, j), u(0:2, iq, jq), u(0:2, ir, jr)]
-          n(:, 1) = [i, j]
+          x9 = [u(0:2, i, j0), u(0:2, iq, jq), u(0:2, ir, jr)]
+          n(:, 1) = [i, j0]
           n(:, 2) = [iq, jq]
           n(:, 3) = [ir, jr]
-          if (lat%bending_model == BEND_PAPER) then
-            call paper_jacobian(kb, x9, k9, ok)
-            do p = 1, 3
-              do q = 1, 3
-                call add_element_block(n, p, q, k9, c9)
-              end do
+          call paper_jacobian(kb, x9, k9, ok)
+          do p = 1, 3
+            do q = 1, 3
+              call add_element_block(n, p, q, k9, c9)
             end do
-          else
-            v9 = [u(3:5, i, j), u(3:5, iq, jq), u(3:5, ir, jr)]
-            call energy_jacobian_edges(kb, etab, x9, v9, gauss_newton, ke, ce, ok)
-            if (.not. with_damping) ce = 0.0_rp
-            call add_triple_edges(n, ke, ce)
-          end if
+          end do
         end do
       end do
-    end do
-    end do
+    end subroutine triple_row
 
-  contains
+    !> add_triple_edges for the nl triples (i0 + l - 1, j0) + (0, 1, 2) (dx, dy),
+    !> l = 1..nl, from their Jacobians in the edge variables ke(l, :, :),
+    !> ce(l, :, :), into S by stencil offset: each sum formed for all the
+    !> triples at once (vector loops over l), then added to nl consecutive
+    !> nodes of a row (no two the same).
+    subroutine add_triple_lanes(j0, i0, nl, ld, dx, dy, ke, ce)
+      integer, intent(in) :: j0, i0, nl, ld, dx, dy
+      real(rp), intent(in) :: ke(ld, 6, 6), ce(ld, 6, 6)
+      ! T = [[-I, I, 0], [0, -I, I]]: t(a, P) the factor of node P in edge a
+      real(rp), parameter :: t(2, 3) = reshape([-1.0_rp, 0.0_rp, 1.0_rp, -1.0_rp, 0.0_rp, 1.0_rp], [2, 3])
+      real(rp) :: m(ld, 6, 6), ewx(ld, 6), ewv(ld, 6), h(ld, 6), free(ld), v
+      integer :: l, pp, qq, ip0, jp, iq0, jq2, c1, c2, sl, i
+      do l = 1, nl
+        i = i0 + l - 1
+        ewx(l, 1:3) = w(0:2, i + dx, j0 + dy) - w(0:2, i, j0)
+        ewx(l, 4:6) = w(0:2, i + 2 * dx, j0 + 2 * dy) - w(0:2, i + dx, j0 + dy)
+        ewv(l, 1:3) = w(3:5, i + dx, j0 + dy) - w(3:5, i, j0)
+        ewv(l, 4:6) = w(3:5, i + 2 * dx, j0 + 2 * dy) - w(3:5, i + dx, j0 + dy)
+      end do
+      h(1:nl, :) = 0.0_rp
+      do c2 = 1, 6
+        do c1 = 1, 6
+          do l = 1, nl
+            h(l, c1) = h(l, c1) + ke(l, c1, c2) * ewx(l, c2) + ce(l, c1, c2) * ewv(l, c2)
+            m(l, c1, c2) = -(ce(l, c1, c2) + rinv * ke(l, c1, c2))
+          end do
+        end do
+      end do
+      do pp = 1, 3
+        ip0 = i0 + (pp - 1) * dx
+        jp = j0 + (pp - 1) * dy
+        if (jp < lat%ys .or. jp > lat%ye) cycle
+        do l = 1, nl
+          g(:, ip0 + l - 1, jp) = g(:, ip0 + l - 1, jp) - (t(1, pp) * h(l, 1:3) + t(2, pp) * h(l, 4:6))
+        end do
+        do c1 = 1, 3
+          do l = 1, nl
+            kd(c1, ip0 + l - 1, jp) = kd(c1, ip0 + l - 1, jp) - (t(1, pp)**2 * ke(l, c1, c1) &
+              + t(1, pp) * t(2, pp) * (ke(l, c1, 3 + c1) + ke(l, 3 + c1, c1)) + t(2, pp)**2 * ke(l, 3 + c1, 3 + c1))
+          end do
+        end do
+        do qq = 1, 3
+          iq0 = i0 + (qq - 1) * dx
+          jq2 = j0 + (qq - 1) * dy
+          sl = kof((qq - pp) * dx, (qq - pp) * dy)
+          ! constrained rows and columns get nothing (as add_triple_edges)
+          do l = 1, nl
+            free(l) = merge(0.0_rp, 1.0_rp, fixedg(ip0 + l - 1, jp) .or. fixedg(iq0 + l - 1, jq2))
+          end do
+          ! block (P, Q) = sum_ab t(a, P) t(b, Q) m_ab
+          do c2 = 1, 3
+            do c1 = 1, 3
+              do l = 1, nl
+                v = t(1, pp) * (t(1, qq) * m(l, c1, c2) + t(2, qq) * m(l, c1, 3 + c2)) &
+                    + t(2, pp) * (t(1, qq) * m(l, 3 + c1, c2) + t(2, qq) * m(l, 3 + c1, 3 + c2))
+                st(c1, c2, sl, ip0 + l - 1, jp) = st(c1, c2, sl, ip0 + l - 1, jp) + free(l) * v
+              end do
+            end do
+          end do
+        end do
+      end do
+    end subroutine add_triple_lanes
 
     !> Write the whole block row of owned node (i0, j0): a m I minus the
     !> blocks of its links on the diagonal, the link blocks at the link

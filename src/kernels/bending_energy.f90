@@ -14,7 +14,7 @@ module bending_energy
   use kinds, only: rp
   implicit none
   private
-  public :: energy_force, energy_jacobian, energy_jacobian_edges, energy_bend_energy, energy_power
+  public :: energy_force, energy_jacobian, energy_jacobian_edges, energy_jacobian_lanes, energy_bend_energy, energy_power
 
   ! 1 + cos(theta) = psi/(|e1||e2|) below this: kb blows up (folded-back triple).
   real(rp), parameter :: FOLD_TOL = 1.0e-12_rp
@@ -132,6 +132,160 @@ contains
       ke = ke - hs*ipsi
     end if
   end subroutine energy_jacobian_edges
+
+  !> energy_jacobian_edges for n triples at once (the same k_b and eta_b),
+  !> lane i from its edges e1(i, :) = x_q - x_p, e2(i, :) = x_r - x_q and
+  !> their rates de(i, 1:3), de(i, 4:6) (T v9): ke(i, :, :), ce(i, :, :),
+  !> ok(i) as energy_jacobian_edges gives them, up to round-off. Written
+  !> for the compiler to vectorise over the lanes (one loop of scalar
+  !> work, small loops unrolled, degenerate lanes computed on harmless
+  !> values and zeroed): the assembly takes a row of triples at a time.
+  !> The damping terms are always formed (they vanish with eta_b = 0).
+  pure subroutine energy_jacobian_lanes(n, ld, k_b, eta_b, e1, e2, de, gauss_newton, ke, ce, ok)
+    integer, intent(in) :: n              ! lanes 1..n of arrays of leading dimension ld >= n
+    integer, intent(in) :: ld
+    real(rp), intent(in) :: k_b, eta_b    ! [energy], [energy*time]
+    real(rp), intent(in) :: e1(ld, 3), e2(ld, 3)  ! [length]
+    real(rp), intent(in) :: de(ld, 6)     ! [length/time]
+    logical, intent(in) :: gauss_newton
+    real(rp), intent(inout) :: ke(ld, 6, 6)  ! [force/length] (lanes 1..n set)
+    real(rp), intent(inout) :: ce(ld, 6, 6)  ! [force*time/length] (lanes 1..n set)
+    logical, intent(inout) :: ok(ld)
+    real(rp) :: a(3), b(3), dl(6), l1, l2, psi, ipsi, il1, il2, r12, r21, z(3), kb(3), gpsi(6), je(3, 6)
+    real(rp) :: kbdot(3), lam(3), e1h(3), e2h(3), hpd(6), dpsi, ae(3, 6), gs(6), sv, hs(6, 6), full, keep, jtj
+    real(rp) :: a1, a2, ejae
+    logical :: good
+    integer :: i, p, q, c
+
+    full = merge(0.0_rp, 1.0_rp, gauss_newton)
+    !GCC$ ivdep
+    do i = 1, n
+      !GCC$ unroll 3
+      do c = 1, 3
+        a(c) = e1(i, c)
+        b(c) = e2(i, c)
+      end do
+      !GCC$ unroll 6
+      do c = 1, 6
+        dl(c) = de(i, c)
+      end do
+      l1 = sqrt(a(1)*a(1) + a(2)*a(2) + a(3)*a(3))
+      l2 = sqrt(b(1)*b(1) + b(2)*b(2) + b(3)*b(3))
+      good = min(l1, l2) > max(EDGE_REL*max(l1, l2), EDGE_ABS)
+      ! degenerate lanes go on with unit lengths (no division by zero), then are zeroed
+      l1 = merge(l1, 1.0_rp, good)
+      l2 = merge(l2, 1.0_rp, good)
+      il1 = 1.0_rp/l1
+      il2 = 1.0_rp/l2
+      psi = l1*l2 + (a(1)*b(1) + a(2)*b(2) + a(3)*b(3))
+      ! (no .and.: a branch would keep the loop from vectorising)
+      keep = merge(1.0_rp, 0.0_rp, good)*merge(1.0_rp, 0.0_rp, (psi*il1)*il2 > FOLD_TOL)
+      psi = merge(psi, 1.0_rp, keep > 0.0_rp)
+      ok(i) = keep > 0.0_rp
+      ipsi = 1.0_rp/psi
+      z(1) = a(2)*b(3) - a(3)*b(2)
+      z(2) = a(3)*b(1) - a(1)*b(3)
+      z(3) = a(1)*b(2) - a(2)*b(1)
+      !GCC$ unroll 3
+      do c = 1, 3
+        kb(c) = (2.0_rp*ipsi)*z(c)
+        gpsi(c) = (l2*il1)*a(c) + b(c)
+        gpsi(c + 3) = (l1*il2)*b(c) + a(c)
+      end do
+      ! Je = (2 dz - kb dpsi)/psi, dz/de1 = -[e2]x, dz/de2 = [e1]x
+      je(1, 1) = 0.0_rp;       je(1, 2) = 2.0_rp*b(3);  je(1, 3) = -2.0_rp*b(2)
+      je(2, 1) = -2.0_rp*b(3); je(2, 2) = 0.0_rp;       je(2, 3) = 2.0_rp*b(1)
+      je(3, 1) = 2.0_rp*b(2);  je(3, 2) = -2.0_rp*b(1); je(3, 3) = 0.0_rp
+      je(1, 4) = 0.0_rp;       je(1, 5) = -2.0_rp*a(3); je(1, 6) = 2.0_rp*a(2)
+      je(2, 4) = 2.0_rp*a(3);  je(2, 5) = 0.0_rp;       je(2, 6) = -2.0_rp*a(1)
+      je(3, 4) = -2.0_rp*a(2); je(3, 5) = 2.0_rp*a(1);  je(3, 6) = 0.0_rp
+      !GCC$ unroll 6
+      do q = 1, 6
+        !GCC$ unroll 3
+        do c = 1, 3
+          je(c, q) = (je(c, q) - kb(c)*gpsi(q))*ipsi
+        end do
+      end do
+      ! kbdot = Je dl, lambda = k_b kb + eta_b kbdot
+      !GCC$ unroll 3
+      do c = 1, 3
+        kbdot(c) = je(c, 1)*dl(1) + je(c, 2)*dl(2) + je(c, 3)*dl(3) + je(c, 4)*dl(4) + je(c, 5)*dl(5) + je(c, 6)*dl(6)
+        lam(c) = k_b*kb(c) + eta_b*kbdot(c)
+        e1h(c) = a(c)*il1
+        e2h(c) = b(c)*il2
+      end do
+      r12 = l2*il1
+      r21 = l1*il2
+      ! (Hess psi) dl and dpsi = gpsi.dl
+      a1 = e1h(1)*dl(1) + e1h(2)*dl(2) + e1h(3)*dl(3)
+      a2 = e2h(1)*dl(4) + e2h(2)*dl(5) + e2h(3)*dl(6)
+      dpsi = 0.0_rp
+      !GCC$ unroll 3
+      do c = 1, 3
+        hpd(c) = r12*(dl(c) - a1*e1h(c)) + a2*e1h(c) + dl(c + 3)
+        hpd(c + 3) = r21*(dl(c + 3) - a2*e2h(c)) + a1*e2h(c) + dl(c)
+        dpsi = dpsi + gpsi(c)*dl(c) + gpsi(c + 3)*dl(c + 3)
+      end do
+      ! A_e = d Je[dl]: rows (Hess kb_c dl)^T
+      ae(1, 1) = 0.0_rp;         ae(1, 2) = 2.0_rp*dl(6);  ae(1, 3) = -2.0_rp*dl(5)
+      ae(2, 1) = -2.0_rp*dl(6);  ae(2, 2) = 0.0_rp;        ae(2, 3) = 2.0_rp*dl(4)
+      ae(3, 1) = 2.0_rp*dl(5);   ae(3, 2) = -2.0_rp*dl(4); ae(3, 3) = 0.0_rp
+      ae(1, 4) = 0.0_rp;         ae(1, 5) = -2.0_rp*dl(3); ae(1, 6) = 2.0_rp*dl(2)
+      ae(2, 4) = 2.0_rp*dl(3);   ae(2, 5) = 0.0_rp;        ae(2, 6) = -2.0_rp*dl(1)
+      ae(3, 4) = -2.0_rp*dl(2);  ae(3, 5) = 2.0_rp*dl(1);  ae(3, 6) = 0.0_rp
+      !GCC$ unroll 6
+      do q = 1, 6
+        !GCC$ unroll 3
+        do c = 1, 3
+          ae(c, q) = (ae(c, q) - dpsi*je(c, q) - kbdot(c)*gpsi(q) - kb(c)*hpd(q))*ipsi
+        end do
+      end do
+      ! weighted Hessian sum_c lambda_c Hess kb_c
+      sv = lam(1)*kb(1) + lam(2)*kb(2) + lam(3)*kb(3)
+      !GCC$ unroll 6
+      do q = 1, 6
+        gs(q) = lam(1)*je(1, q) + lam(2)*je(2, q) + lam(3)*je(3, q)
+      end do
+      !GCC$ unroll 3
+      do q = 1, 3
+        !GCC$ unroll 3
+        do p = 1, 3
+          hs(p, q) = -r12*e1h(p)*e1h(q)
+          hs(p + 3, q + 3) = -r21*e2h(p)*e2h(q)
+          hs(p, q + 3) = e1h(p)*e2h(q)
+          hs(p + 3, q) = e2h(p)*e1h(q)
+        end do
+        hs(q, q) = hs(q, q) + r12
+        hs(q + 3, q + 3) = hs(q + 3, q + 3) + r21
+        hs(q, q + 3) = hs(q, q + 3) + 1.0_rp
+        hs(q + 3, q) = hs(q + 3, q) + 1.0_rp
+      end do
+      !GCC$ unroll 6
+      do q = 1, 6
+        !GCC$ unroll 6
+        do p = 1, 6
+          hs(p, q) = -sv*hs(p, q) - gs(p)*gpsi(q) - gpsi(p)*gs(q)
+        end do
+      end do
+      ! Hess(lambda.z): blocks (1,2) = -2 [lambda]x, (2,1) = 2 [lambda]x
+      hs(1, 5) = hs(1, 5) + 2.0_rp*lam(3);  hs(1, 6) = hs(1, 6) - 2.0_rp*lam(2)
+      hs(2, 4) = hs(2, 4) - 2.0_rp*lam(3);  hs(2, 6) = hs(2, 6) + 2.0_rp*lam(1)
+      hs(3, 4) = hs(3, 4) + 2.0_rp*lam(2);  hs(3, 5) = hs(3, 5) - 2.0_rp*lam(1)
+      hs(4, 2) = hs(4, 2) - 2.0_rp*lam(3);  hs(4, 3) = hs(4, 3) + 2.0_rp*lam(2)
+      hs(5, 1) = hs(5, 1) + 2.0_rp*lam(3);  hs(5, 3) = hs(5, 3) - 2.0_rp*lam(1)
+      hs(6, 1) = hs(6, 1) - 2.0_rp*lam(2);  hs(6, 2) = hs(6, 2) + 2.0_rp*lam(1)
+      !GCC$ unroll 6
+      do q = 1, 6
+        !GCC$ unroll 6
+        do p = 1, 6
+          jtj = je(1, p)*je(1, q) + je(2, p)*je(2, q) + je(3, p)*je(3, q)
+          ejae = je(1, p)*ae(1, q) + je(2, p)*ae(2, q) + je(3, p)*ae(3, q)
+          ke(i, p, q) = keep*(-k_b*jtj - full*(eta_b*ejae + hs(p, q)*ipsi))
+          ce(i, p, q) = keep*(-eta_b*jtj)
+        end do
+      end do
+    end do
+  end subroutine energy_jacobian_lanes
 
   !> Bending energy 1/2 k_b |kb|^2; 0 for a degenerate triple.
   pure function energy_bend_energy(k_b, x9) result(w)

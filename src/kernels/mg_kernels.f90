@@ -33,7 +33,8 @@ module mg_kernels
   use offset_product, only: coupled_by_elements, offset_slot
   implicit none
   private
-  public :: mp, stencil_t, transfer_t, stencil_init, stencil_put_row, stencil_finish, stencil_from_full, transfer_init, coarse_reach, &
+  public :: mp, stencil_t, transfer_t, stencil_init, stencil_put_row, stencil_finish, stencil_from_full, stencil_row_from_full, transfer_init, &
+            coarse_reach, &
             coupled_by_elements, offset_index, stencil_block, diagonal_block
   public :: gs_sweep, residual, stencil_apply, interpolate, restrict_add, galerkin_add, block_inverse
 
@@ -222,9 +223,22 @@ contains
     !> (3, 3, slot, 0:nx-1, ys:ye) A(p, p + (di, dj)) in slot
     !> offset_slot(r, di, dj), zero outside the lattice
     real(rp), intent(in) :: full(:, :, :, 0:, st%ys:)
+    integer :: j
+    do j = st%ys, st%ye
+      call stencil_row_from_full(st, full, j)
+    end do
+  end subroutine stencil_from_full
+
+  !> Row j of the operator from full, as stencil_from_full (the assembly
+  !> calls it for each row as soon as the row is complete, while its
+  !> blocks are still in the cache: module reduced_assembly).
+  subroutine stencil_row_from_full(st, full, j)
+    type(stencil_t), intent(inout) :: st
+    real(rp), intent(in) :: full(:, :, :, 0:, st%ys:)   !< as in stencil_from_full
+    integer, intent(in) :: j
     integer, parameter :: TILE = 16                ! 64 bytes of kind mp
     real(rp) :: dsum(3, 3), inv(3, 3)
-    integer :: i, j, k, c1, c2, s0, sv(st%nb), sr(st%nb), i0, i1
+    integer :: i, k, c1, c2, s0, sv(st%nb), sr(st%nb), i0, i1
     ! the slot in full of every offset this level stores (the level stores
     ! the offsets the elements couple: stencil_init with lines)
     s0 = offset_slot(st%r, 0, 0)
@@ -236,39 +250,37 @@ contains
     end do
     ! (an internal invariant: only the finest level, made with lines, comes here)
     if (any(sv(1:st%nv) == 0) .or. any(sr(1:st%nr) == 0)) error stop 'stencil_from_full: the level stores offsets S does not'
-    do j = st%ys, st%ye
-      ! the blocks to other rows, a transpose in tiles of TILE nodes: the
-      ! tile's blocks stay in the first-level cache while each entry's
-      ! TILE values are written as one cache line (a whole row at a time
-      ! read one entry a node from 257 cache lines per pass; node by node
-      ! the stores were 72 streams at once)
-      do i0 = 0, st%nx - 1, TILE
-        i1 = min(i0 + TILE, st%nx) - 1
-        do k = 1, st%nv
-          do c2 = 1, 3
-            do c1 = 1, 3
-              do i = i0, i1
-                st%b(i, c1, c2, k, j) = real(full(c1, c2, sv(k), i, j), mp)
-              end do
+    ! the blocks to other rows, a transpose in tiles of TILE nodes: the
+    ! tile's blocks stay in the first-level cache while each entry's
+    ! TILE values are written as one cache line (a whole row at a time
+    ! read one entry a node from 257 cache lines per pass; node by node
+    ! the stores were 72 streams at once)
+    do i0 = 0, st%nx - 1, TILE
+      i1 = min(i0 + TILE, st%nx) - 1
+      do k = 1, st%nv
+        do c2 = 1, 3
+          do c1 = 1, 3
+            do i = i0, i1
+              st%b(i, c1, c2, k, j) = real(full(c1, c2, sv(k), i, j), mp)
             end do
           end do
         end do
       end do
-      do i = 0, st%nx - 1
-        dsum = full(:, :, s0, i, j)
-        do k = 1, st%nr
-          st%br(:, :, k, i, j) = real(full(:, :, sr(k), i, j), mp)
-          dsum = dsum + full(:, :, sr(k), i, j)
-        end do
-        do k = 1, st%nv
-          dsum = dsum + full(:, :, sv(k), i, j)
-        end do
-        st%d(i, :, :, j) = real(dsum, mp)
-        call block_inverse(full(:, :, s0, i, j), inv)
-        st%ainv(:, :, i, j) = real(inv, mp)
-      end do
     end do
-  end subroutine stencil_from_full
+    do i = 0, st%nx - 1
+      dsum = full(:, :, s0, i, j)
+      do k = 1, st%nr
+        st%br(:, :, k, i, j) = real(full(:, :, sr(k), i, j), mp)
+        dsum = dsum + full(:, :, sr(k), i, j)
+      end do
+      do k = 1, st%nv
+        dsum = dsum + full(:, :, sv(k), i, j)
+      end do
+      st%d(i, :, :, j) = real(dsum, mp)
+      call block_inverse(full(:, :, s0, i, j), inv)
+      st%ainv(:, :, i, j) = real(inv, mp)
+    end do
+  end subroutine stencil_row_from_full
 
   !> Inverse of a 3 x 3 block by cofactors (identity for a singular block:
   !> the smoother then leaves that node to the coarse correction).

@@ -2,10 +2,12 @@
 !> against finite differences of the energy and of the Rayleigh function,
 !> exact K9 and C9 against finite differences of the forces (flat to large
 !> angles, 3-D, with and without damping), translation and rotation
-!> invariance, |kb| = 2 tan(theta/2), the Gauss-Newton part, degenerate cases.
+!> invariance, |kb| = 2 tan(theta/2), the Gauss-Newton part, degenerate cases;
+!> the row-of-triples kernel (energy_jacobian_lanes) against the one-triple
+!> kernel lane by lane (so against the finite differences above).
 program test_bending_energy
   use kinds, only: rp
-  use bending_energy, only: energy_force, energy_jacobian, energy_bend_energy, energy_power
+  use bending_energy, only: energy_force, energy_jacobian, energy_jacobian_edges, energy_jacobian_lanes, energy_bend_energy, energy_power
   use check, only: check_true, check_close, check_close_array, check_report
   implicit none
   real(rp), parameter :: PI = acos(-1.0_rp)
@@ -49,9 +51,54 @@ program test_bending_energy
   call check_close_array(f9, [(0.0_rp, i = 1, 9)], 0.0_rp, 1.0e-14_rp, 'translation: no damping force')
   call check_close(energy_power(ETA, x9, y), 0.0_rp, 0.0_rp, 1.0e-28_rp, 'translation: no power')
 
+  call lanes_checks()
+
   call check_report()
 
 contains
+
+  ! energy_jacobian_lanes on 11 triples of arrays with room for 16 (lanes
+  ! beyond n untouched): every angle and orientation above, a folded-back
+  ! triple and a zero edge among them; each lane equal to
+  ! energy_jacobian_edges up to round-off, with and without damping and
+  ! Gauss-Newton.
+  subroutine lanes_checks()
+    integer, parameter :: LD = 16, N = 11
+    real(rp) :: x(9, N), v(9, N), e1(LD, 3), e2(LD, 3), de(LD, 6), ke(LD, 6, 6), ce(LD, 6, 6), kes(6, 6), ces(6, 6)
+    real(rp) :: eta_l                ! (not eta: that is the host's ETA)
+    logical :: okl(LD), oks, gn
+    integer :: l, m, c
+    character(len=40) :: tag
+    do l = 1, N
+      call make_triple(angles(mod(l - 1, size(angles)) + 1), 1.3_rp - 0.05_rp*l, 0.7_rp, mod(l - 1, 3) + 1, x(:, l))
+      v(:, l) = [(sin(0.37_rp*real(l*c, rp)), c = 1, 9)]
+    end do
+    call make_triple(PI - 1.0e-8_rp, 1.0_rp, 1.0_rp, 2, x(:, 4))
+    x(7:9, 9) = x(4:6, 9)
+    do l = 1, N
+      e1(l, :) = x(4:6, l) - x(1:3, l)
+      e2(l, :) = x(7:9, l) - x(4:6, l)
+      de(l, 1:3) = v(4:6, l) - v(1:3, l)
+      de(l, 4:6) = v(7:9, l) - v(4:6, l)
+    end do
+    do m = 1, 3
+      eta_l = merge(0.0_rp, ETA, m == 1)
+      gn = m == 3
+      ke = -7.0_rp
+      ce = -7.0_rp
+      call energy_jacobian_lanes(N, LD, KB, eta_l, e1, e2, de, gn, ke, ce, okl)
+      do l = 1, N
+        write(tag, '(a,i0,a,i0)') ' (lanes: case ', m, ', lane ', l
+        call energy_jacobian_edges(KB, eta_l, x(:, l), v(:, l), gn, kes, ces, oks)
+        call check_true(okl(l) .eqv. oks, 'ok'//trim(tag)//')')
+        call check_close_array(reshape(ke(l, :, :), [36]), reshape(kes, [36]), 1.0e-12_rp, 0.0_rp, 'ke'//trim(tag)//')')
+        call check_close_array(reshape(ce(l, :, :), [36]), reshape(ces, [36]), 1.0e-12_rp, 0.0_rp, 'ce'//trim(tag)//')')
+      end do
+      call check_true(all(ke(N + 1:, :, :) == -7.0_rp) .and. all(ce(N + 1:, :, :) == -7.0_rp), &
+        'lanes beyond n untouched')
+    end do
+    call check_true(.not. okl(4) .and. .not. okl(9) .and. count(okl(1:N)) == N - 2, 'lanes: the two degenerate triples found')
+  end subroutine lanes_checks
 
   ! A triple with bend angle theta, |x_q - x_p| = l1, |x_r - x_q| = l2,
   ! rotated by orientation io (1: identity, 2, 3: about oblique axes), shifted.
