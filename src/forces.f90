@@ -9,7 +9,7 @@ module forces
   use lattice, only: lattice_t, link_dir, line_dir, link_constants, triple_constants
   use springs, only: link_force, link_jacobian, link_energy, link_power
   use bending_paper, only: paper_force, paper_jacobian, paper_energy
-  use bending_energy, only: energy_force, energy_jacobian, energy_bend_energy, energy_power
+  use bending_energy, only: energy_force_lanes, energy_jacobian, energy_bend_energy, energy_power
   implicit none
   private
   public :: internal_forces, element_energies, dissipated_power
@@ -85,14 +85,14 @@ contains
   !> the owned rows, from the state u(0:5, 0:nx-1, gys:gye). Entries of ghost
   !> rows are partial sums and must not be used. nbad counts elements whose
   !> geometry is singular (zero length, bending angle at pi); bad holds the
-  !> anchor (i, j) of the last one.
+  !> anchor (i, j) of one of them.
   subroutine internal_forces(lat, u, f, nbad, bad)
     type(lattice_t), intent(in) :: lat
     real(rp), intent(in) :: u(0:5, 0:lat%nx - 1, lat%gys:lat%gye)
     real(rp), intent(out) :: f(3, 0:lat%nx - 1, lat%gys:lat%gye)
     integer, intent(out) :: nbad, bad(2)
     integer :: i, j, k, iq, jq, ir, jr
-    real(rp) :: d0(3, 4), len0(4), e, eta, fl(3), x9(9), v9(9), f9(9), kb, etab, theta
+    real(rp) :: d0(3, 4), len0(4), e, eta, fl(3), x9(9), f9(9), kb, etab, theta
     logical :: ok, inl
 
     f = 0.0_rp
@@ -117,19 +117,14 @@ contains
           f(:, i, j) = f(:, i, j) + fl
           f(:, iq, jq) = f(:, iq, jq) - fl
         end do
-        if (lat%bending_model == BEND_NONE) cycle
+        if (lat%bending_model /= BEND_PAPER) cycle
         do k = 1, 4
           call triple_ends(lat, i, j, k, iq, jq, ir, jr, inl)
           if (.not. inl) cycle
           if (jr < lat%ys) cycle
           call triple_constants(lat, k, kb, etab)
           x9 = [u(0:2, i, j), u(0:2, iq, jq), u(0:2, ir, jr)]
-          if (lat%bending_model == BEND_PAPER) then
-            call paper_force(kb, x9, f9, theta, ok)
-          else
-            v9 = [u(3:5, i, j), u(3:5, iq, jq), u(3:5, ir, jr)]
-            call energy_force(kb, etab, x9, v9, f9, ok)
-          end if
+          call paper_force(kb, x9, f9, theta, ok)
           if (.not. ok) then
             nbad = nbad + 1
             bad = [i, j]
@@ -139,7 +134,51 @@ contains
           f(:, ir, jr) = f(:, ir, jr) + f9(7:9)
         end do
       end do
+      if (lat%bending_model == BEND_ENERGY) call energy_triples_row(j)
     end do
+
+  contains
+
+    !> Energy bending: the triples anchored at row j0, NL of one direction
+    !> at a time through the vectorised kernel (energy_force_lanes).
+    subroutine energy_triples_row(j0)
+      integer, intent(in) :: j0
+      integer, parameter :: NL = 32
+      real(rp) :: e1(NL, 3), e2(NL, 3), de(NL, 6), fl9(NL, 9)
+      logical :: okl(NL)
+      integer :: k, dx, dy, jq, jr, ilo, ihi, i0, nl1, l, i
+      do k = 1, 4
+        dx = line_dir(1, k)
+        dy = line_dir(2, k)
+        jq = j0 + dy
+        jr = jq + dy
+        if (jr >= lat%ny .or. jr < lat%ys) cycle
+        call triple_constants(lat, k, kb, etab)
+        ilo = max(0, -2 * dx)
+        ihi = min(lat%nx - 1, lat%nx - 1 - 2 * dx)
+        do i0 = ilo, ihi, NL
+          nl1 = min(NL, ihi - i0 + 1)
+          do l = 1, nl1
+            i = i0 + l - 1
+            e1(l, :) = u(0:2, i + dx, jq) - u(0:2, i, j0)
+            e2(l, :) = u(0:2, i + 2 * dx, jr) - u(0:2, i + dx, jq)
+            de(l, 1:3) = u(3:5, i + dx, jq) - u(3:5, i, j0)
+            de(l, 4:6) = u(3:5, i + 2 * dx, jr) - u(3:5, i + dx, jq)
+          end do
+          call energy_force_lanes(nl1, NL, kb, etab, e1, e2, de, fl9, okl)
+          do l = 1, nl1
+            i = i0 + l - 1
+            if (.not. okl(l)) then
+              nbad = nbad + 1
+              bad = [i, j0]
+            end if
+            f(:, i, j0) = f(:, i, j0) + fl9(l, 1:3)
+            f(:, i + dx, jq) = f(:, i + dx, jq) + fl9(l, 4:6)
+            f(:, i + 2 * dx, jr) = f(:, i + 2 * dx, jr) + fl9(l, 7:9)
+          end do
+        end do
+      end do
+    end subroutine energy_triples_row
   end subroutine internal_forces
 
   !> Stretch and bending energy of the elements anchored on owned rows

@@ -14,7 +14,7 @@ module bending_energy
   use kinds, only: rp
   implicit none
   private
-  public :: energy_force, energy_jacobian, energy_jacobian_edges, energy_jacobian_lanes, energy_bend_energy, energy_power
+  public :: energy_force, energy_force_lanes, energy_jacobian, energy_jacobian_edges, energy_jacobian_lanes, energy_bend_energy, energy_power
 
   ! 1 + cos(theta) = psi/(|e1||e2|) below this: kb blows up (folded-back triple).
   real(rp), parameter :: FOLD_TOL = 1.0e-12_rp
@@ -47,6 +47,87 @@ contains
     call edge_to_nodes_vec(ge, f9)
     f9 = -f9
   end subroutine energy_force
+
+  !> energy_force for n triples at once (the same k_b and eta_b), from
+  !> their edges and edge rates as energy_jacobian_lanes takes them:
+  !> f(i, 1:9) = [f_p; f_q; f_r] of lane i, ok(i), as energy_force gives
+  !> them up to round-off (degenerate lanes: f = 0, ok false). Vectorised
+  !> over the lanes as energy_jacobian_lanes.
+  pure subroutine energy_force_lanes(n, ld, k_b, eta_b, e1, e2, de, f, ok)
+    integer, intent(in) :: n              ! lanes 1..n of arrays of leading dimension ld >= n
+    integer, intent(in) :: ld
+    real(rp), intent(in) :: k_b, eta_b    ! [energy], [energy*time]
+    real(rp), intent(in) :: e1(ld, 3), e2(ld, 3)  ! [length]
+    real(rp), intent(in) :: de(ld, 6)     ! [length/time]
+    real(rp), intent(inout) :: f(ld, 9)   ! [force] (lanes 1..n set)
+    logical, intent(inout) :: ok(ld)
+    real(rp) :: a(3), b(3), dl(6), l1, l2, psi, ipsi, il1, il2, z(3), kb(3), gpsi(6), je(3, 6), lam(3), ge(6), keep
+    logical :: good
+    integer :: i, q, c
+
+    !GCC$ ivdep
+    do i = 1, n
+      !GCC$ unroll 3
+      do c = 1, 3
+        a(c) = e1(i, c)
+        b(c) = e2(i, c)
+      end do
+      !GCC$ unroll 6
+      do c = 1, 6
+        dl(c) = de(i, c)
+      end do
+      l1 = sqrt(a(1)*a(1) + a(2)*a(2) + a(3)*a(3))
+      l2 = sqrt(b(1)*b(1) + b(2)*b(2) + b(3)*b(3))
+      good = min(l1, l2) > max(EDGE_REL*max(l1, l2), EDGE_ABS)
+      l1 = merge(l1, 1.0_rp, good)
+      l2 = merge(l2, 1.0_rp, good)
+      il1 = 1.0_rp/l1
+      il2 = 1.0_rp/l2
+      psi = l1*l2 + (a(1)*b(1) + a(2)*b(2) + a(3)*b(3))
+      keep = merge(1.0_rp, 0.0_rp, good)*merge(1.0_rp, 0.0_rp, (psi*il1)*il2 > FOLD_TOL)
+      psi = merge(psi, 1.0_rp, keep > 0.0_rp)
+      ok(i) = keep > 0.0_rp
+      ipsi = 1.0_rp/psi
+      z(1) = a(2)*b(3) - a(3)*b(2)
+      z(2) = a(3)*b(1) - a(1)*b(3)
+      z(3) = a(1)*b(2) - a(2)*b(1)
+      !GCC$ unroll 3
+      do c = 1, 3
+        kb(c) = (2.0_rp*ipsi)*z(c)
+        gpsi(c) = (l2*il1)*a(c) + b(c)
+        gpsi(c + 3) = (l1*il2)*b(c) + a(c)
+      end do
+      je(1, 1) = 0.0_rp;       je(1, 2) = 2.0_rp*b(3);  je(1, 3) = -2.0_rp*b(2)
+      je(2, 1) = -2.0_rp*b(3); je(2, 2) = 0.0_rp;       je(2, 3) = 2.0_rp*b(1)
+      je(3, 1) = 2.0_rp*b(2);  je(3, 2) = -2.0_rp*b(1); je(3, 3) = 0.0_rp
+      je(1, 4) = 0.0_rp;       je(1, 5) = -2.0_rp*a(3); je(1, 6) = 2.0_rp*a(2)
+      je(2, 4) = 2.0_rp*a(3);  je(2, 5) = 0.0_rp;       je(2, 6) = -2.0_rp*a(1)
+      je(3, 4) = -2.0_rp*a(2); je(3, 5) = 2.0_rp*a(1);  je(3, 6) = 0.0_rp
+      !GCC$ unroll 6
+      do q = 1, 6
+        !GCC$ unroll 3
+        do c = 1, 3
+          je(c, q) = (je(c, q) - kb(c)*gpsi(q))*ipsi
+        end do
+      end do
+      !GCC$ unroll 3
+      do c = 1, 3
+        lam(c) = k_b*kb(c) + eta_b*(je(c, 1)*dl(1) + je(c, 2)*dl(2) + je(c, 3)*dl(3) &
+                                    + je(c, 4)*dl(4) + je(c, 5)*dl(5) + je(c, 6)*dl(6))
+      end do
+      !GCC$ unroll 6
+      do q = 1, 6
+        ge(q) = keep*(lam(1)*je(1, q) + lam(2)*je(2, q) + lam(3)*je(3, q))
+      end do
+      ! f9 = -T^T ge
+      !GCC$ unroll 3
+      do c = 1, 3
+        f(i, c) = ge(c)
+        f(i, 3 + c) = ge(3 + c) - ge(c)
+        f(i, 6 + c) = -ge(3 + c)
+      end do
+    end do
+  end subroutine energy_force_lanes
 
   !> K9 = df9/dx9 (exact, or -k_b J^T J with gauss_newton) and C9 = df9/dv9 = -eta_b J^T J.
   pure subroutine energy_jacobian(k_b, eta_b, x9, v9, gauss_newton, K9, C9, ok)

@@ -3,11 +3,12 @@
 !> exact K9 and C9 against finite differences of the forces (flat to large
 !> angles, 3-D, with and without damping), translation and rotation
 !> invariance, |kb| = 2 tan(theta/2), the Gauss-Newton part, degenerate cases;
-!> the row-of-triples kernel (energy_jacobian_lanes) against the one-triple
-!> kernel lane by lane (so against the finite differences above).
+!> the row-of-triples kernels (energy_force_lanes, energy_jacobian_lanes)
+!> against the one-triple kernels lane by lane (so against the finite
+!> differences above).
 program test_bending_energy
   use kinds, only: rp
-  use bending_energy, only: energy_force, energy_jacobian, energy_jacobian_edges, energy_jacobian_lanes, energy_bend_energy, energy_power
+  use bending_energy, only: energy_force, energy_force_lanes, energy_jacobian, energy_jacobian_edges, energy_jacobian_lanes, energy_bend_energy, energy_power
   use check, only: check_true, check_close, check_close_array, check_report
   implicit none
   real(rp), parameter :: PI = acos(-1.0_rp)
@@ -65,6 +66,7 @@ contains
   subroutine lanes_checks()
     integer, parameter :: LD = 16, N = 11
     real(rp) :: x(9, N), v(9, N), e1(LD, 3), e2(LD, 3), de(LD, 6), ke(LD, 6, 6), ce(LD, 6, 6), kes(6, 6), ces(6, 6)
+    real(rp) :: fl(LD, 9), fs(9)
     real(rp) :: eta_l                ! (not eta: that is the host's ETA)
     logical :: okl(LD), oks, gn
     integer :: l, m, c
@@ -96,6 +98,16 @@ contains
       end do
       call check_true(all(ke(N + 1:, :, :) == -7.0_rp) .and. all(ce(N + 1:, :, :) == -7.0_rp), &
         'lanes beyond n untouched')
+      if (gn) cycle
+      fl = -7.0_rp
+      call energy_force_lanes(N, LD, KB, eta_l, e1, e2, de, fl, okl)
+      do l = 1, N
+        write(tag, '(a,i0,a,i0)') ' (force lanes: case ', m, ', lane ', l
+        call energy_force(KB, eta_l, x(:, l), v(:, l), fs, oks)
+        call check_true(okl(l) .eqv. oks, 'ok'//trim(tag)//')')
+        call check_close_array(fl(l, :), fs, 1.0e-12_rp, 0.0_rp, 'f'//trim(tag)//')')
+      end do
+      call check_true(all(fl(N + 1:, :) == -7.0_rp), 'force lanes beyond n untouched')
     end do
     call check_true(.not. okl(4) .and. .not. okl(9) .and. count(okl(1:N)) == N - 2, 'lanes: the two degenerate triples found')
   end subroutine lanes_checks
