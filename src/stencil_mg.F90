@@ -46,6 +46,7 @@ module stencil_mg
     real(mp), allocatable :: low(:, :, :)        !< (0:nx-1, 3, ys:ye) a forward sweep's rhs minus the sums over the rows below (gs_sweep)
     type(transfer_t) :: tx, ty                   !< from the next coarser level to this one
     real(rp), allocatable :: ac(:, :, :, :, :, :) !< (3, 3, -r:r, -r:r, 0:nx-1, ys-h:ye+h) Galerkin sums of this level
+    real(rp), allocatable :: bx(:, :, :, :, :)    !< (3, 3, -r:r, -rf:rf, 0:nx-1) work of galerkin_add (rf: the finer level's reach)
   end type mg_level_t
 
   !> The hierarchy: lev(1) is the lattice itself.
@@ -133,6 +134,11 @@ contains
     do l = 1, mg%nlev
       call level_arrays(mg%lev(l))
     end do
+    do l = 2, mg%nlev
+      associate (c => mg%lev(l)%a)
+        allocate(mg%lev(l)%bx(3, 3, -c%r:c%r, -mg%lev(l - 1)%a%r:mg%lev(l - 1)%a%r, 0:c%nx - 1))
+      end associate
+    end do
     ! The coarsest level's band: node-major unknowns 3 (i + nx j) + c.
     associate (c => mg%lev(mg%nlev))
       mg%n = 3 * c%a%nx * c%a%ny
@@ -196,7 +202,7 @@ contains
     do l = 2, mg%nlev
       associate (f => mg%lev(l - 1), c => mg%lev(l))
         c%ac = 0.0_rp
-        call galerkin_add(f%a, f%tx, f%ty, c%a%r, c%a%ys - c%h, c%ac)
+        call galerkin_add(f%a, f%tx, f%ty, c%a%r, c%a%ys - c%h, c%ac, c%bx)
         call finish_sums_ac(mg, c)
         call stencil_finish(c%a, c%ac(:, :, :, :, :, c%a%ys:c%a%ye))
       end associate

@@ -540,50 +540,71 @@ contains
   !> ac = ac + P^T A P restricted to the contributions of the fine rows
   !> ys..ye of A (full 3 x 3 blocks, double precision): ac(3, 3, -rc:rc,
   !> -rc:rc, 0:nxc-1, jc0:) with rows for every coarse row these fine rows
-  !> touch (the caller adds other ranks' rows where they belong). The sums
-  !> are block by block, node by node: each fine block adds to up to 16
-  !> (bilinear) or 256 (cubic) coarse blocks, and a block's nine entries
-  !> and its neighbours along the offsets lie together (along x fastest
-  !> they were nine cache lines an update: 13 % of a Baraff-Witkin step
-  !> without bending).
-  subroutine galerkin_add(st, tx, ty, rc, jc0, ac)
+  !> touch (the caller adds other ranks' rows where they belong).
+  !> Factored, P = P_y (x) P_x: each fine row j's blocks are first summed
+  !> along x into bx(3, 3, cdi, dj, ci) = sum_{i, i'} P_x(i, ci) A(ij, i'j')
+  !> P_x(i', ci + cdi) (dj = j' - j), then bx along y into ac. Each fine
+  !> block then takes (parents in x)^2 updates and each bx block (parents
+  !> in y)^2, where the direct sum took their product: 16 against 4 + 4
+  !> (bilinear), 256 against 16 + 16 (cubic), at worst. Block by block,
+  !> node by node: a block's nine entries and its neighbours along the
+  !> offsets lie together.
+  subroutine galerkin_add(st, tx, ty, rc, jc0, ac, bx)
     type(stencil_t), intent(in) :: st
     type(transfer_t), intent(in) :: tx, ty
     integer, intent(in) :: rc, jc0
     real(rp), intent(inout) :: ac(:, :, -rc:, -rc:, 0:, jc0:)
-    real(rp) :: blk(3, 3), wy, wyx
-    integer :: i, j, k, di, dj, i2, j2, a1, b1, a2, b2, ci, cj, cdi, cdj
+    real(rp), intent(inout) :: bx(:, :, -rc:, -st%r:, 0:)  !< (3, 3, -rc:rc, -r:r, 0:nxc-1) work
+    real(rp) :: blk(3, 3), wy, wx
+    real(rp) :: dg(3, 3, 0:st%nx - 1)              ! the row's diagonal blocks D_p - sum_o B_{p,o}
+    integer :: i, j, k, di, dj, i2, j2, a1, a2, b1, b2, ci, cj, cdi, cdj
     do j = st%ys, st%ye
+      bx = 0.0_rp
       do i = 0, st%nx - 1
-        do k = 0, st%nb
-          if (k == 0) then
-            di = 0
-            dj = 0
-            blk = diagonal_block(st, i, j)
-          else
-            di = st%odi(k)
-            dj = st%odj(k)
-            i2 = i + di
-            j2 = j + dj
-            if (i2 < 0 .or. i2 >= st%nx .or. j2 < 0 .or. j2 >= st%ny) cycle
+        dg(:, :, i) = real(st%d(i, :, :, j), rp)
+      end do
+      ! offset by offset along the row (the blocks to other rows are stored
+      ! along x fastest: node by node they were nine strided reads a block),
+      ! the diagonal blocks last
+      do k = 1, st%nb + 1
+        if (k <= st%nb) then
+          di = st%odi(k)
+          dj = st%odj(k)
+        else
+          di = 0
+          dj = 0
+        end if
+        j2 = j + dj
+        if (j2 < 0 .or. j2 >= st%ny) cycle
+        do i = max(0, -di), min(st%nx - 1, st%nx - 1 - di)
+          if (k <= st%nb) then
             blk = stencil_block(st, i, j, k)
+            dg(:, :, i) = dg(:, :, i) - blk
             if (all(blk == 0.0_rp)) cycle
+          else
+            blk = dg(:, :, i)
           end if
           i2 = i + di
-          j2 = j + dj
-          do b1 = 1, ty%n(j)
-            cj = ty%c(b1, j)
-            do b2 = 1, ty%n(j2)
-              cdj = ty%c(b2, j2) - cj
-              wy = ty%w(b1, j) * ty%w(b2, j2)
-              do a1 = 1, tx%n(i)
-                ci = tx%c(a1, i)
-                wyx = wy * tx%w(a1, i)
-                do a2 = 1, tx%n(i2)
-                  cdi = tx%c(a2, i2) - ci
-                  ac(:, :, cdi, cdj, ci, cj) = ac(:, :, cdi, cdj, ci, cj) + (wyx * tx%w(a2, i2)) * blk
-                end do
-              end do
+          do a1 = 1, tx%n(i)
+            ci = tx%c(a1, i)
+            wx = tx%w(a1, i)
+            do a2 = 1, tx%n(i2)
+              cdi = tx%c(a2, i2) - ci
+              bx(:, :, cdi, dj, ci) = bx(:, :, cdi, dj, ci) + (wx * tx%w(a2, i2)) * blk
+            end do
+          end do
+        end do
+      end do
+      do dj = -st%r, st%r
+        j2 = j + dj
+        if (j2 < 0 .or. j2 >= st%ny) cycle
+        do b1 = 1, ty%n(j)
+          cj = ty%c(b1, j)
+          do b2 = 1, ty%n(j2)
+            cdj = ty%c(b2, j2) - cj
+            wy = ty%w(b1, j) * ty%w(b2, j2)
+            do ci = 0, tx%nc - 1
+              ac(:, :, :, cdj, ci, cj) = ac(:, :, :, cdj, ci, cj) + wy * bx(:, :, :, dj, ci)
             end do
           end do
         end do
