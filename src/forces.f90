@@ -14,7 +14,7 @@ module forces
   private
   public :: internal_forces, element_energies, dissipated_power
   public :: jac_buffer_t, jac_buffer_init, jac_buffer_row, slot_of
-  public :: first_anchor_row, link_stretch_extremes
+  public :: first_anchor_row, link_stretch_extremes, triple_lane_range, triple_lane_edges, TRIPLE_LANES
 
   !> Jacobian blocks of the v-rows of three consecutive node rows (a rolling
   !> buffer indexed by slot_of(j)): k(:,:,di,dj,i,s) = dF_v(i,j)/dx(i+di,j+dj)
@@ -25,7 +25,45 @@ module forces
     real(rp), allocatable :: c(:, :, :, :, :, :)  !< (3,3,-w:w,-w:w,0:nx-1,0:2)
   end type jac_buffer_t
 
+  !> Triples of one direction taken at once by the vectorised bending
+  !> kernels (energy_force_lanes, energy_jacobian_lanes).
+  integer, parameter :: TRIPLE_LANES = 32
+
 contains
+
+  !> The triples p, p + s, p + 2 s anchored at row j0 along s = line_dir(:, k)
+  !> that touch the owned rows: i = ilo..ihi (none when ihi < ilo).
+  pure subroutine triple_lane_range(lat, j0, k, ilo, ihi)
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: j0, k
+    integer, intent(out) :: ilo, ihi
+    integer :: jr
+    jr = j0 + 2 * line_dir(2, k)
+    ilo = max(0, -2 * line_dir(1, k))
+    ihi = min(lat%nx - 1, lat%nx - 1 - 2 * line_dir(1, k))
+    if (jr >= lat%ny .or. jr < lat%ys) ihi = ilo - 1
+  end subroutine triple_lane_range
+
+  !> Edges e1 = x_q - x_p, e2 = x_r - x_q and their rates de of the nl
+  !> triples anchored at (i0 + l - 1, j0), l = 1..nl, along line_dir(:, k),
+  !> by lanes (leading dimension ld), as the lane kernels take them.
+  pure subroutine triple_lane_edges(lat, u, j0, k, i0, nl, ld, e1, e2, de)
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)    !< (0:5, 0:nx-1, gys:gye)
+    integer, intent(in) :: j0, k, i0, nl, ld
+    real(rp), intent(out) :: e1(ld, 3), e2(ld, 3) !< [length]
+    real(rp), intent(out) :: de(ld, 6)             !< [length/time]
+    integer :: l, i, dx, dy
+    dx = line_dir(1, k)
+    dy = line_dir(2, k)
+    do l = 1, nl
+      i = i0 + l - 1
+      e1(l, :) = u(0:2, i + dx, j0 + dy) - u(0:2, i, j0)
+      e2(l, :) = u(0:2, i + 2 * dx, j0 + 2 * dy) - u(0:2, i + dx, j0 + dy)
+      de(l, 1:3) = u(3:5, i + dx, j0 + dy) - u(3:5, i, j0)
+      de(l, 4:6) = u(3:5, i + 2 * dx, j0 + 2 * dy) - u(3:5, i + dx, j0 + dy)
+    end do
+  end subroutine triple_lane_edges
 
   !> Lowest anchor row whose elements touch row ys.
   pure integer function first_anchor_row(lat)
@@ -139,32 +177,22 @@ contains
 
   contains
 
-    !> Energy bending: the triples anchored at row j0, NL of one direction
-    !> at a time through the vectorised kernel (energy_force_lanes).
+    !> Energy bending: the triples anchored at row j0, TRIPLE_LANES of one
+    !> direction at a time through the vectorised kernel (energy_force_lanes).
     subroutine energy_triples_row(j0)
       integer, intent(in) :: j0
-      integer, parameter :: NL = 32
+      integer, parameter :: NL = TRIPLE_LANES
       real(rp) :: e1(NL, 3), e2(NL, 3), de(NL, 6), fl9(NL, 9)
       logical :: okl(NL)
-      integer :: k, dx, dy, jq, jr, ilo, ihi, i0, nl1, l, i
+      integer :: k, dx, dy, ilo, ihi, i0, nl1, l, i
       do k = 1, 4
         dx = line_dir(1, k)
         dy = line_dir(2, k)
-        jq = j0 + dy
-        jr = jq + dy
-        if (jr >= lat%ny .or. jr < lat%ys) cycle
+        call triple_lane_range(lat, j0, k, ilo, ihi)
         call triple_constants(lat, k, kb, etab)
-        ilo = max(0, -2 * dx)
-        ihi = min(lat%nx - 1, lat%nx - 1 - 2 * dx)
         do i0 = ilo, ihi, NL
           nl1 = min(NL, ihi - i0 + 1)
-          do l = 1, nl1
-            i = i0 + l - 1
-            e1(l, :) = u(0:2, i + dx, jq) - u(0:2, i, j0)
-            e2(l, :) = u(0:2, i + 2 * dx, jr) - u(0:2, i + dx, jq)
-            de(l, 1:3) = u(3:5, i + dx, jq) - u(3:5, i, j0)
-            de(l, 4:6) = u(3:5, i + 2 * dx, jr) - u(3:5, i + dx, jq)
-          end do
+          call triple_lane_edges(lat, u, j0, k, i0, nl1, NL, e1, e2, de)
           call energy_force_lanes(nl1, NL, kb, etab, e1, e2, de, fl9, okl)
           do l = 1, nl1
             i = i0 + l - 1
@@ -173,8 +201,8 @@ contains
               bad = [i, j0]
             end if
             f(:, i, j0) = f(:, i, j0) + fl9(l, 1:3)
-            f(:, i + dx, jq) = f(:, i + dx, jq) + fl9(l, 4:6)
-            f(:, i + 2 * dx, jr) = f(:, i + 2 * dx, jr) + fl9(l, 7:9)
+            f(:, i + dx, j0 + dy) = f(:, i + dx, j0 + dy) + fl9(l, 4:6)
+            f(:, i + 2 * dx, j0 + 2 * dy) = f(:, i + 2 * dx, j0 + 2 * dy) + fl9(l, 7:9)
           end do
         end do
       end do

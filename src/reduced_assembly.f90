@@ -27,6 +27,7 @@ module reduced_assembly
   use bending_paper, only: paper_jacobian
   use bending_energy, only: energy_jacobian_lanes
   use offset_product, only: offset_table
+  use forces, only: triple_lane_range, triple_lane_edges, TRIPLE_LANES
   use mg_kernels, only: stencil_t, stencil_row_from_full
   implicit none
   private
@@ -171,12 +172,12 @@ contains
 
     !> The bending triples anchored at row j0 (their lowest row), added to
     !> the block rows of their owned nodes. Energy bending: the triples of
-    !> one direction NL at a time through the vectorised kernel
+    !> one direction TRIPLE_LANES at a time through the vectorised kernel
     !> (energy_jacobian_lanes; one at a time they were a sixth of a
     !> Baraff-Witkin step).
     subroutine triple_row(j0)
       integer, intent(in) :: j0
-      integer, parameter :: NL = 32
+      integer, parameter :: NL = TRIPLE_LANES
       integer :: i, k, iq, jq, ir, jr, n(2, 3), p, q, dx, dy, ilo, ihi, i0, nl1, l
       real(rp) :: x9(9), k9(9, 9), kb, etab
       real(rp) :: e1(NL, 3), e2(NL, 3), de(NL, 6), ke(NL, 6, 6), ce(NL, 6, 6)
@@ -185,21 +186,11 @@ contains
         do k = 1, 4
           dx = line_dir(1, k)
           dy = line_dir(2, k)
-          jq = j0 + dy
-          jr = jq + dy
-          if (jr >= lat%ny .or. jr < lat%ys) cycle
+          call triple_lane_range(lat, j0, k, ilo, ihi)
           call triple_constants(lat, k, kb, etab)
-          ilo = max(0, -2 * dx)
-          ihi = min(lat%nx - 1, lat%nx - 1 - 2 * dx)
           do i0 = ilo, ihi, NL
             nl1 = min(NL, ihi - i0 + 1)
-            do l = 1, nl1
-              i = i0 + l - 1
-              e1(l, :) = u(0:2, i + dx, jq) - u(0:2, i, j0)
-              e2(l, :) = u(0:2, i + 2 * dx, jr) - u(0:2, i + dx, jq)
-              de(l, 1:3) = u(3:5, i + dx, jq) - u(3:5, i, j0)
-              de(l, 4:6) = u(3:5, i + 2 * dx, jr) - u(3:5, i + dx, jq)
-            end do
+            call triple_lane_edges(lat, u, j0, k, i0, nl1, NL, e1, e2, de)
             call energy_jacobian_lanes(nl1, NL, kb, etab, e1, e2, de, gauss_newton, ke, ce, okl)
             if (.not. with_damping) ce = 0.0_rp
             if (present(st)) then
@@ -209,8 +200,8 @@ contains
             do l = 1, nl1
               i = i0 + l - 1
               n(:, 1) = [i, j0]
-              n(:, 2) = [i + dx, jq]
-              n(:, 3) = [i + 2 * dx, jr]
+              n(:, 2) = [i + dx, j0 + dy]
+              n(:, 3) = [i + 2 * dx, j0 + 2 * dy]
               call add_triple_edges(n, ke(l, :, :), ce(l, :, :))
             end do
           end do

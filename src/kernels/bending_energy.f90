@@ -61,55 +61,14 @@ contains
     real(rp), intent(in) :: de(ld, 6)     ! [length/time]
     real(rp), intent(inout) :: f(ld, 9)   ! [force] (lanes 1..n set)
     logical, intent(inout) :: ok(ld)
-    real(rp) :: a(3), b(3), dl(6), l1, l2, psi, ipsi, il1, il2, z(3), kb(3), gpsi(6), je(3, 6), lam(3), ge(6), keep
+    real(rp) :: a(3), b(3), dl(6), l1, l2, ipsi, il1, il2, kb(3), gpsi(6), je(3, 6), lam(3), ge(6), keep
+    real(rp) :: psi, z(3)                 ! (work of lane_geometry.inc)
     logical :: good
     integer :: i, q, c
 
     !GCC$ ivdep
     do i = 1, n
-      !GCC$ unroll 3
-      do c = 1, 3
-        a(c) = e1(i, c)
-        b(c) = e2(i, c)
-      end do
-      !GCC$ unroll 6
-      do c = 1, 6
-        dl(c) = de(i, c)
-      end do
-      l1 = sqrt(a(1)*a(1) + a(2)*a(2) + a(3)*a(3))
-      l2 = sqrt(b(1)*b(1) + b(2)*b(2) + b(3)*b(3))
-      good = min(l1, l2) > max(EDGE_REL*max(l1, l2), EDGE_ABS)
-      l1 = merge(l1, 1.0_rp, good)
-      l2 = merge(l2, 1.0_rp, good)
-      il1 = 1.0_rp/l1
-      il2 = 1.0_rp/l2
-      psi = l1*l2 + (a(1)*b(1) + a(2)*b(2) + a(3)*b(3))
-      keep = merge(1.0_rp, 0.0_rp, good)*merge(1.0_rp, 0.0_rp, (psi*il1)*il2 > FOLD_TOL)
-      psi = merge(psi, 1.0_rp, keep > 0.0_rp)
-      ok(i) = keep > 0.0_rp
-      ipsi = 1.0_rp/psi
-      z(1) = a(2)*b(3) - a(3)*b(2)
-      z(2) = a(3)*b(1) - a(1)*b(3)
-      z(3) = a(1)*b(2) - a(2)*b(1)
-      !GCC$ unroll 3
-      do c = 1, 3
-        kb(c) = (2.0_rp*ipsi)*z(c)
-        gpsi(c) = (l2*il1)*a(c) + b(c)
-        gpsi(c + 3) = (l1*il2)*b(c) + a(c)
-      end do
-      je(1, 1) = 0.0_rp;       je(1, 2) = 2.0_rp*b(3);  je(1, 3) = -2.0_rp*b(2)
-      je(2, 1) = -2.0_rp*b(3); je(2, 2) = 0.0_rp;       je(2, 3) = 2.0_rp*b(1)
-      je(3, 1) = 2.0_rp*b(2);  je(3, 2) = -2.0_rp*b(1); je(3, 3) = 0.0_rp
-      je(1, 4) = 0.0_rp;       je(1, 5) = -2.0_rp*a(3); je(1, 6) = 2.0_rp*a(2)
-      je(2, 4) = 2.0_rp*a(3);  je(2, 5) = 0.0_rp;       je(2, 6) = -2.0_rp*a(1)
-      je(3, 4) = -2.0_rp*a(2); je(3, 5) = 2.0_rp*a(1);  je(3, 6) = 0.0_rp
-      !GCC$ unroll 6
-      do q = 1, 6
-        !GCC$ unroll 3
-        do c = 1, 3
-          je(c, q) = (je(c, q) - kb(c)*gpsi(q))*ipsi
-        end do
-      end do
+      include 'lane_geometry.inc'
       !GCC$ unroll 3
       do c = 1, 3
         lam(c) = k_b*kb(c) + eta_b*(je(c, 1)*dl(1) + je(c, 2)*dl(2) + je(c, 3)*dl(3) &
@@ -221,6 +180,8 @@ contains
   !> for the compiler to vectorise over the lanes (one loop of scalar
   !> work, small loops unrolled, degenerate lanes computed on harmless
   !> values and zeroed): the assembly takes a row of triples at a time.
+  !> Hess psi is spelled out here as in hess_psi: called, it was neither
+  !> inlined nor vectorised.
   !> The damping terms are always formed (they vanish with eta_b = 0).
   pure subroutine energy_jacobian_lanes(n, ld, k_b, eta_b, e1, e2, de, gauss_newton, ke, ce, ok)
     integer, intent(in) :: n              ! lanes 1..n of arrays of leading dimension ld >= n
@@ -232,61 +193,17 @@ contains
     real(rp), intent(inout) :: ke(ld, 6, 6)  ! [force/length] (lanes 1..n set)
     real(rp), intent(inout) :: ce(ld, 6, 6)  ! [force*time/length] (lanes 1..n set)
     logical, intent(inout) :: ok(ld)
-    real(rp) :: a(3), b(3), dl(6), l1, l2, psi, ipsi, il1, il2, r12, r21, z(3), kb(3), gpsi(6), je(3, 6)
+    real(rp) :: a(3), b(3), dl(6), l1, l2, ipsi, il1, il2, r12, r21, kb(3), gpsi(6), je(3, 6)
     real(rp) :: kbdot(3), lam(3), e1h(3), e2h(3), hpd(6), dpsi, ae(3, 6), gs(6), sv, hs(6, 6), full, keep, jtj
     real(rp) :: a1, a2, ejae
+    real(rp) :: psi, z(3)                 ! (work of lane_geometry.inc)
     logical :: good
     integer :: i, p, q, c
 
     full = merge(0.0_rp, 1.0_rp, gauss_newton)
     !GCC$ ivdep
     do i = 1, n
-      !GCC$ unroll 3
-      do c = 1, 3
-        a(c) = e1(i, c)
-        b(c) = e2(i, c)
-      end do
-      !GCC$ unroll 6
-      do c = 1, 6
-        dl(c) = de(i, c)
-      end do
-      l1 = sqrt(a(1)*a(1) + a(2)*a(2) + a(3)*a(3))
-      l2 = sqrt(b(1)*b(1) + b(2)*b(2) + b(3)*b(3))
-      good = min(l1, l2) > max(EDGE_REL*max(l1, l2), EDGE_ABS)
-      ! degenerate lanes go on with unit lengths (no division by zero), then are zeroed
-      l1 = merge(l1, 1.0_rp, good)
-      l2 = merge(l2, 1.0_rp, good)
-      il1 = 1.0_rp/l1
-      il2 = 1.0_rp/l2
-      psi = l1*l2 + (a(1)*b(1) + a(2)*b(2) + a(3)*b(3))
-      ! (no .and.: a branch would keep the loop from vectorising)
-      keep = merge(1.0_rp, 0.0_rp, good)*merge(1.0_rp, 0.0_rp, (psi*il1)*il2 > FOLD_TOL)
-      psi = merge(psi, 1.0_rp, keep > 0.0_rp)
-      ok(i) = keep > 0.0_rp
-      ipsi = 1.0_rp/psi
-      z(1) = a(2)*b(3) - a(3)*b(2)
-      z(2) = a(3)*b(1) - a(1)*b(3)
-      z(3) = a(1)*b(2) - a(2)*b(1)
-      !GCC$ unroll 3
-      do c = 1, 3
-        kb(c) = (2.0_rp*ipsi)*z(c)
-        gpsi(c) = (l2*il1)*a(c) + b(c)
-        gpsi(c + 3) = (l1*il2)*b(c) + a(c)
-      end do
-      ! Je = (2 dz - kb dpsi)/psi, dz/de1 = -[e2]x, dz/de2 = [e1]x
-      je(1, 1) = 0.0_rp;       je(1, 2) = 2.0_rp*b(3);  je(1, 3) = -2.0_rp*b(2)
-      je(2, 1) = -2.0_rp*b(3); je(2, 2) = 0.0_rp;       je(2, 3) = 2.0_rp*b(1)
-      je(3, 1) = 2.0_rp*b(2);  je(3, 2) = -2.0_rp*b(1); je(3, 3) = 0.0_rp
-      je(1, 4) = 0.0_rp;       je(1, 5) = -2.0_rp*a(3); je(1, 6) = 2.0_rp*a(2)
-      je(2, 4) = 2.0_rp*a(3);  je(2, 5) = 0.0_rp;       je(2, 6) = -2.0_rp*a(1)
-      je(3, 4) = -2.0_rp*a(2); je(3, 5) = 2.0_rp*a(1);  je(3, 6) = 0.0_rp
-      !GCC$ unroll 6
-      do q = 1, 6
-        !GCC$ unroll 3
-        do c = 1, 3
-          je(c, q) = (je(c, q) - kb(c)*gpsi(q))*ipsi
-        end do
-      end do
+      include 'lane_geometry.inc'
       ! kbdot = Je dl, lambda = k_b kb + eta_b kbdot
       !GCC$ unroll 3
       do c = 1, 3
