@@ -23,7 +23,7 @@ module reduced_assembly
   use kinds, only: rp
   use config, only: BEND_NONE, BEND_PAPER, BEND_ENERGY
   use lattice, only: lattice_t, link_dir, line_dir, link_constants, triple_constants
-  use springs, only: link_jacobian
+  use springs, only: link_jacobian_lanes
   use bending_paper, only: paper_jacobian
   use bending_energy, only: energy_jacobian_lanes
   use offset_product, only: offset_table
@@ -99,7 +99,7 @@ contains
     !> (stencil_row_from_full)
     type(stencil_t), intent(inout), optional :: fine
     integer :: j, k, jt, lag
-    real(rp) :: d0(3, 4), len0(4), cl(3, 3), c9(9, 9), rinv
+    real(rp) :: d0(3, 4), len0(4), c9(9, 9), rinv
     integer :: kof(-2:2, -2:2)                     ! slot of each offset in st
 
     kof = 0
@@ -111,7 +111,6 @@ contains
       d0(:, k) = [-real(link_dir(1, k), rp) * lat%ax, -real(link_dir(2, k), rp) * lat%ay, 0.0_rp]
       len0(k) = norm2(d0(:, k))
     end do
-    cl = 0.0_rp
     c9 = 0.0_rp
     ! One pass over the rows: row j's links and its block row written, the
     ! bending triples anchored lag rows below added (they reach rows
@@ -131,36 +130,56 @@ contains
   contains
 
     !> The links anchored at row j0 (kept in lb, their products in g, their
-    !> diagonals in kd) and, when row j0 is owned, its block row.
+    !> diagonals in kd) and, when row j0 is owned, its block row. The links
+    !> of one direction NL at a time through the vectorised kernel
+    !> (link_jacobian_lanes).
     subroutine link_row(j0)
       integer, intent(in) :: j0
-      integer :: i, k, iq, jq, l
-      real(rp) :: e, eta, kl(3, 3), t(3)
-      logical :: ok, own_p, own_q
+      integer, parameter :: NL = 32
+      integer :: i, k, iq, jq, l, r, c, dx, ilo, ihi, i0, nl1, sj
+      real(rp) :: e(NL), eta(NL), dd(NL, 3), vr(NL, 3), kl(NL, 3, 3), cll(NL, 3, 3), t(NL, 3), wx(NL, 3), wv(NL, 3)
+      logical :: okl(NL), own_p, own_q
       own_p = j0 >= lat%ys
-      do i = 0, lat%nx - 1
-        do k = 1, 4
-          iq = i + link_dir(1, k)
-          jq = j0 + link_dir(2, k)
-          if (iq < 0 .or. iq >= lat%nx .or. jq >= lat%ny .or. jq < lat%ys) cycle
-          call link_constants(lat, i, j0, k, e, eta)
-          call link_jacobian(lat%spring_model, e, eta, d0(:, k), len0(k), u(0:2, i, j0), u(0:2, iq, jq), &
-                             u(3:5, i, j0), u(3:5, iq, jq), clamp, kl, cl, ok)
-          ! f_p = -f_q: dF_p/dx_p = dF_q/dx_q = kl, dF_p/dx_q = dF_q/dx_p = -kl (same for cl).
-          if (with_damping) then
-            t = matmul(kl, w(0:2, i, j0) - w(0:2, iq, jq)) + matmul(cl, w(3:5, i, j0) - w(3:5, iq, jq))
-            lb(:, :, k, i, modulo(j0, 2)) = cl + rinv * kl
-          else
-            t = matmul(kl, w(0:2, i, j0) - w(0:2, iq, jq))
-            lb(:, :, k, i, modulo(j0, 2)) = rinv * kl
-          end if
-          own_q = jq <= lat%ye
-          do l = 1, 3
-            if (own_p) kd(l, i, j0) = kd(l, i, j0) - kl(l, l)
-            if (own_q) kd(l, iq, jq) = kd(l, iq, jq) - kl(l, l)
+      sj = modulo(j0, 2)
+      do k = 1, 4
+        dx = link_dir(1, k)
+        jq = j0 + link_dir(2, k)
+        if (jq >= lat%ny .or. jq < lat%ys) cycle
+        own_q = jq <= lat%ye
+        ilo = max(0, -dx)
+        ihi = min(lat%nx - 1, lat%nx - 1 - dx)
+        do i0 = ilo, ihi, NL
+          nl1 = min(NL, ihi - i0 + 1)
+          do l = 1, nl1
+            i = i0 + l - 1
+            call link_constants(lat, i, j0, k, e(l), eta(l))
+            dd(l, :) = u(0:2, i, j0) - u(0:2, i + dx, jq)
+            vr(l, :) = u(3:5, i, j0) - u(3:5, i + dx, jq)
+            wx(l, :) = w(0:2, i, j0) - w(0:2, i + dx, jq)
+            wv(l, :) = w(3:5, i, j0) - w(3:5, i + dx, jq)
           end do
-          if (own_p) g(:, i, j0) = g(:, i, j0) - t
-          if (own_q) g(:, iq, jq) = g(:, iq, jq) + t
+          call link_jacobian_lanes(nl1, NL, lat%spring_model, e, eta, len0(k), dd, vr, clamp, kl, cll, okl)
+          ! f_p = -f_q: dF_p/dx_p = dF_q/dx_q = kl, dF_p/dx_q = dF_q/dx_p = -kl (same for cl).
+          if (.not. with_damping) cll(1:nl1, :, :) = 0.0_rp
+          t(1:nl1, :) = 0.0_rp
+          do c = 1, 3
+            do r = 1, 3
+              do l = 1, nl1
+                t(l, r) = t(l, r) + kl(l, r, c) * wx(l, c) + cll(l, r, c) * wv(l, c)
+              end do
+            end do
+          end do
+          do l = 1, nl1
+            i = i0 + l - 1
+            iq = i + dx
+            lb(:, :, k, i, sj) = cll(l, :, :) + rinv * kl(l, :, :)
+            do r = 1, 3
+              if (own_p) kd(r, i, j0) = kd(r, i, j0) - kl(l, r, r)
+              if (own_q) kd(r, iq, jq) = kd(r, iq, jq) - kl(l, r, r)
+            end do
+            if (own_p) g(:, i, j0) = g(:, i, j0) - t(l, :)
+            if (own_q) g(:, iq, jq) = g(:, iq, jq) + t(l, :)
+          end do
         end do
       end do
       if (own_p) then
@@ -305,17 +324,34 @@ contains
       fixed_row = fixedg(i0, j0)
       dsum = 0.0_rp
       if (present(st)) then
-        ! By stencil offset: the node's row zeroed, the link blocks and the
-        ! diagonal written straight into it.
-        st(:, :, :, i0, j0) = 0.0_rp
-        do dj = max(-1, -j0), min(1, lat%ny - 1 - j0)
-          do di = max(-1, -i0), min(1, lat%nx - 1 - i0)
+        ! By stencil offset: every slot of the node's row written once (it
+        ! was zeroed whole first, 3 % of a bw step without bending): the link
+        ! blocks (zero outside the lattice and to or from a constrained
+        ! node), the diagonal, zero at the bending triples' far ends, which
+        ! the triples then add to.
+        do dj = -1, 1
+          do di = -1, 1
             if (di == 0 .and. dj == 0) cycle
+            if (i0 + di < 0 .or. i0 + di >= lat%nx .or. j0 + dj < 0 .or. j0 + dj >= lat%ny) then
+              st(:, :, kof(di, dj), i0, j0) = 0.0_rp
+              cycle
+            end if
             blk = link_block(i0, j0, di, dj)
             dsum = dsum + blk
-            if (.not. (fixed_row .or. fixedg(i0 + di, j0 + dj))) st(:, :, kof(di, dj), i0, j0) = blk
+            if (fixed_row .or. fixedg(i0 + di, j0 + dj)) then
+              st(:, :, kof(di, dj), i0, j0) = 0.0_rp
+            else
+              st(:, :, kof(di, dj), i0, j0) = blk
+            end if
           end do
         end do
+        if (hw == 2) then
+          do dj = -2, 2, 2
+            do di = -2, 2, 2
+              if (di /= 0 .or. dj /= 0) st(:, :, kof(di, dj), i0, j0) = 0.0_rp
+            end do
+          end do
+        end if
         if (fixed_row) dsum = 0.0_rp
         st(:, :, kof(0, 0), i0, j0) = -dsum
         do r = 1, 3

@@ -9,7 +9,7 @@ module springs
   use kinds, only: rp
   implicit none
   private
-  public :: link_force, link_jacobian, link_energy, link_power
+  public :: link_force, link_jacobian, link_jacobian_lanes, link_energy, link_power
 
   ! Same values as config's SPRING_AXIAL / SPRING_LINEAR; kept private here.
   integer, parameter :: MODEL_AXIAL = 1
@@ -114,6 +114,77 @@ contains
       C = 0.0_rp
     end select
   end subroutine link_jacobian
+
+  !> link_jacobian for n links at once (the same model, rest length L and
+  !> clamp), lane i from d(i, :) = x_p - x_q, vr(i, :) = v_p - v_q and its
+  !> constants e(i), eta(i): K(i, :, :), C(i, :, :), ok(i) as link_jacobian
+  !> gives them, up to round-off. One loop the compiler vectorises (no
+  !> branch in it: a too short axial link is computed on a unit length and
+  !> zeroed); the assembly takes a row of links of one direction at a time.
+  pure subroutine link_jacobian_lanes(n, ld, model, e, eta, L, d, vr, clamp, K, C, ok)
+    integer, intent(in) :: n                  ! lanes 1..n of arrays of leading dimension ld >= n
+    integer, intent(in) :: ld
+    integer, intent(in) :: model              ! 1 axial, 2 linear
+    real(rp), intent(in) :: e(ld), eta(ld)    ! stiffness, damping
+    real(rp), intent(in) :: L                 ! rest length
+    real(rp), intent(in) :: d(ld, 3), vr(ld, 3)
+    logical, intent(in) :: clamp
+    real(rp), intent(inout) :: K(ld, 3, 3)    ! df_p/dx_p [force/length] (lanes 1..n set)
+    real(rp), intent(inout) :: C(ld, 3, 3)    ! df_p/dv_p [force*time/length] (lanes 1..n set)
+    logical, intent(inout) :: ok(ld)
+    real(rp) :: ln, il, nv(3), ldot, qv(3), geo, keep, cmin
+    integer :: i, a, b
+
+    if (model == MODEL_LINEAR) then
+      do b = 1, 3
+        do a = 1, 3
+          K(1:n, a, b) = 0.0_rp
+          C(1:n, a, b) = 0.0_rp
+        end do
+        K(1:n, b, b) = -e(1:n)
+        C(1:n, b, b) = -eta(1:n)
+      end do
+      ok(1:n) = .true.
+      return
+    end if
+    if (model /= MODEL_AXIAL) then
+      K(1:n, :, :) = 0.0_rp
+      C(1:n, :, :) = 0.0_rp
+      ok(1:n) = .false.
+      return
+    end if
+    ! clamp: geo >= 0; else no bound
+    cmin = merge(0.0_rp, -huge(1.0_rp), clamp)
+    !GCC$ ivdep
+    do i = 1, n
+      ln = sqrt(d(i, 1)*d(i, 1) + d(i, 2)*d(i, 2) + d(i, 3)*d(i, 3))
+      keep = merge(1.0_rp, 0.0_rp, ln > max(SHORT_REL*L, SHORT_ABS))
+      ln = merge(ln, 1.0_rp, keep > 0.0_rp)
+      il = 1.0_rp/ln
+      !GCC$ unroll 3
+      do a = 1, 3
+        nv(a) = d(i, a)*il
+      end do
+      ldot = nv(1)*vr(i, 1) + nv(2)*vr(i, 2) + nv(3)*vr(i, 3)
+      !GCC$ unroll 3
+      do a = 1, 3
+        qv(a) = vr(i, a) - ldot*nv(a)
+      end do
+      geo = max(e(i)*(1.0_rp - L*il), cmin) + eta(i)*ldot*il
+      !GCC$ unroll 3
+      do b = 1, 3
+        !GCC$ unroll 3
+        do a = 1, 3
+          K(i, a, b) = keep*(-(e(i) - geo)*nv(a)*nv(b) - eta(i)*il*nv(a)*qv(b) - merge(geo, 0.0_rp, a == b))
+          C(i, a, b) = keep*(-eta(i)*nv(a)*nv(b))
+        end do
+      end do
+    end do
+    ! (apart: a logical stored in the loop above kept it from vectorising)
+    do i = 1, n
+      ok(i) = sqrt(d(i, 1)*d(i, 1) + d(i, 2)*d(i, 2) + d(i, 3)*d(i, 3)) > max(SHORT_REL*L, SHORT_ABS)
+    end do
+  end subroutine link_jacobian_lanes
 
   !> Stored energy of the link: 1/2 E (l-L)^2 (axial) or 1/2 E |d-d0|^2 (linear); 0 for an unknown model.
   pure function link_energy(model, E, d0, L, xp, xq) result(w)

@@ -1,9 +1,11 @@
 !> Unit tests of the Voigt link kernels (module springs): hand-computed
 !> forces, action = reaction, Jacobians against central finite differences of
-!> the force, energy against the force, power against the damping force.
+!> the force, energy against the force, power against the damping force;
+!> the row-of-links kernel (link_jacobian_lanes) against link_jacobian
+!> lane by lane.
 program test_springs
   use kinds, only: rp
-  use springs, only: link_force, link_jacobian, link_energy, link_power
+  use springs, only: link_force, link_jacobian, link_jacobian_lanes, link_energy, link_power
   use check, only: check_true, check_close, check_close_array, check_report
   implicit none
   integer, parameter :: AXIAL = 1, LINEAR = 2
@@ -104,9 +106,47 @@ program test_springs
   call link_force(7, E, eta, d0, L, xp, xq, vp, vq, f, ok)
   call check_true(.not. ok, 'unknown model: not ok')
 
+  call lanes_checks()
+
   call check_report()
 
 contains
+
+  ! link_jacobian_lanes on 9 links in arrays with room for 12 (lanes beyond
+  ! n untouched): stretched, compressed (clamped or not), a zero-length
+  ! one, each model; every lane equal to link_jacobian up to round-off.
+  subroutine lanes_checks()
+    integer, parameter :: LD = 12, N = 9
+    real(rp) :: dl(LD, 3), vl(LD, 3), el(LD), etal(LD), kl(LD, 3, 3), cl(LD, 3, 3), ks(3, 3), cs(3, 3)
+    real(rp) :: zero(3)
+    logical :: okl(LD), oks, cl_on
+    integer :: l, m, c, pass
+    character(len=48) :: tag
+    zero = 0.0_rp
+    do l = 1, N
+      dl(l, :) = [(cos(0.7_rp*real(l*c, rp)) * (0.3_rp + 0.25_rp*l), c = 1, 3)]
+      vl(l, :) = [(sin(0.37_rp*real(l + c, rp)), c = 1, 3)]
+      el(l) = 3.0_rp + l
+      etal(l) = 0.1_rp*l
+    end do
+    dl(5, :) = 0.0_rp
+    do pass = 1, 4
+      m = merge(AXIAL, LINEAR, pass <= 2)
+      cl_on = mod(pass, 2) == 0
+      kl = -7.0_rp
+      cl = -7.0_rp
+      call link_jacobian_lanes(N, LD, m, el, etal, 1.5_rp, dl, vl, cl_on, kl, cl, okl)
+      do l = 1, N
+        write(tag, '(a,i0,a,i0,a)') ' (lanes: pass ', pass, ', lane ', l, ')'
+        call link_jacobian(m, el(l), etal(l), zero, 1.5_rp, dl(l, :), zero, vl(l, :), zero, cl_on, ks, cs, oks)
+        call check_true(okl(l) .eqv. oks, 'ok'//trim(tag))
+        call check_close_array(reshape(kl(l, :, :), [9]), reshape(ks, [9]), 1.0e-13_rp, 1.0e-300_rp, 'K'//trim(tag))
+        call check_close_array(reshape(cl(l, :, :), [9]), reshape(cs, [9]), 1.0e-13_rp, 1.0e-300_rp, 'C'//trim(tag))
+      end do
+      call check_true(all(kl(N + 1:, :, :) == -7.0_rp) .and. all(cl(N + 1:, :, :) == -7.0_rp), 'lanes beyond n untouched')
+      if (m == AXIAL) call check_true(.not. okl(5) .and. count(okl(1:N)) == N - 1, 'lanes: the zero-length axial link found')
+    end do
+  end subroutine lanes_checks
 
   ! Compare K = df_p/dx_p, -K = df_p/dx_q, C = df_p/dv_p, -C = df_p/dv_q with
   ! central differences of link_force, for d = xp - xq and vr = vp - vq.
