@@ -259,7 +259,7 @@ contains
       real(rp), intent(in) :: ke(ld, 6, 6), ce(ld, 6, 6)
       ! T = [[-I, I, 0], [0, -I, I]]: t(a, P) the factor of node P in edge a
       real(rp), parameter :: t(2, 3) = reshape([-1.0_rp, 0.0_rp, 1.0_rp, -1.0_rp, 0.0_rp, 1.0_rp], [2, 3])
-      real(rp) :: m(ld, 6, 6), ewx(ld, 6), ewv(ld, 6), h(ld, 6), free(ld), v
+      real(rp) :: m(ld, 6, 6), ewx(ld, 6), ewv(ld, 6), h(ld, 6), free(ld), bq(ld, 3, 3)
       integer :: l, pp, qq, ip0, jp, iq0, jq2, c1, c2, sl, i
       do l = 1, nl
         i = i0 + l - 1
@@ -298,15 +298,18 @@ contains
           do l = 1, nl
             free(l) = merge(0.0_rp, 1.0_rp, fixedg(ip0 + l - 1, jp) .or. fixedg(iq0 + l - 1, jq2))
           end do
-          ! block (P, Q) = sum_ab t(a, P) t(b, Q) m_ab
+          ! block (P, Q) = sum_ab t(a, P) t(b, Q) m_ab, formed for all lanes,
+          ! then added block by block (a block's nine entries together)
           do c2 = 1, 3
             do c1 = 1, 3
               do l = 1, nl
-                v = t(1, pp) * (t(1, qq) * m(l, c1, c2) + t(2, qq) * m(l, c1, 3 + c2)) &
-                    + t(2, pp) * (t(1, qq) * m(l, 3 + c1, c2) + t(2, qq) * m(l, 3 + c1, 3 + c2))
-                st(c1, c2, sl, ip0 + l - 1, jp) = st(c1, c2, sl, ip0 + l - 1, jp) + free(l) * v
+                bq(l, c1, c2) = free(l) * (t(1, pp) * (t(1, qq) * m(l, c1, c2) + t(2, qq) * m(l, c1, 3 + c2)) &
+                    + t(2, pp) * (t(1, qq) * m(l, 3 + c1, c2) + t(2, qq) * m(l, 3 + c1, 3 + c2)))
               end do
             end do
+          end do
+          do l = 1, nl
+            st(:, :, sl, ip0 + l - 1, jp) = st(:, :, sl, ip0 + l - 1, jp) + bq(l, :, :)
           end do
         end do
       end do
