@@ -9,7 +9,7 @@ module forces
   use lattice, only: lattice_t, link_dir, line_dir, link_constants, triple_constants
   use springs, only: link_force, link_jacobian, link_energy, link_power
   use bending_paper, only: paper_force, paper_jacobian, paper_energy
-  use bending_energy, only: energy_force_lanes, energy_jacobian, energy_bend_energy, energy_power
+  use bending_energy, only: energy_force_lanes, energy_jacobian, energy_bend_energy, energy_power_lanes
   implicit none
   private
   public :: internal_forces, element_energies, dissipated_power
@@ -254,8 +254,8 @@ contains
     type(lattice_t), intent(in) :: lat
     real(rp), intent(in) :: u(0:5, 0:lat%nx - 1, lat%gys:lat%gye)
     real(rp), intent(out) :: power
-    integer :: i, j, k, iq, jq, ir, jr
-    real(rp) :: e, eta, x9(9), v9(9), kb, etab
+    integer :: i, j, k, iq, jq
+    real(rp) :: e, eta, kb, etab
     logical :: inl
 
     power = 0.0_rp
@@ -269,18 +269,31 @@ contains
           power = power + link_power(lat%spring_model, eta, u(0:2, i, j), u(0:2, iq, jq), &
                                      u(3:5, i, j), u(3:5, iq, jq))
         end do
-        if (lat%bending_model /= BEND_ENERGY) cycle
-        do k = 1, 4
-          call triple_ends(lat, i, j, k, iq, jq, ir, jr, inl)
-          if (.not. inl) cycle
-          call triple_constants(lat, k, kb, etab)
-          if (etab == 0.0_rp) cycle
-          x9 = [u(0:2, i, j), u(0:2, iq, jq), u(0:2, ir, jr)]
-          v9 = [u(3:5, i, j), u(3:5, iq, jq), u(3:5, ir, jr)]
-          power = power + energy_power(etab, x9, v9)
+      end do
+      if (lat%bending_model == BEND_ENERGY) call energy_power_row(j)
+    end do
+
+  contains
+
+    !> The energy-bending triples anchored at row j0, TRIPLE_LANES of one
+    !> direction at a time (energy_power_lanes).
+    subroutine energy_power_row(j0)
+      integer, intent(in) :: j0
+      integer, parameter :: NL = TRIPLE_LANES
+      real(rp) :: e1(NL, 3), e2(NL, 3), de(NL, 6), pw(NL)
+      integer :: k, ilo, ihi, i0, nl1
+      do k = 1, 4
+        call triple_constants(lat, k, kb, etab)
+        if (etab == 0.0_rp) cycle
+        call triple_lane_range(lat, j0, k, ilo, ihi)
+        do i0 = ilo, ihi, NL
+          nl1 = min(NL, ihi - i0 + 1)
+          call triple_lane_edges(lat, u, j0, k, i0, nl1, NL, e1, e2, de)
+          call energy_power_lanes(nl1, NL, etab, e1, e2, de, pw)
+          power = power + sum(pw(1:nl1))
         end do
       end do
-    end do
+    end subroutine energy_power_row
   end subroutine dissipated_power
 
   !> Allocate the rolling buffer once (outside the time loop).

@@ -14,7 +14,7 @@ module bending_energy
   use kinds, only: rp
   implicit none
   private
-  public :: energy_force, energy_force_lanes, energy_jacobian, energy_jacobian_edges, energy_jacobian_lanes, energy_bend_energy, energy_power
+  public :: energy_force, energy_force_lanes, energy_jacobian, energy_jacobian_edges, energy_jacobian_lanes, energy_bend_energy, energy_power, energy_power_lanes
 
   ! 1 + cos(theta) = psi/(|e1||e2|) below this: kb blows up (folded-back triple).
   real(rp), parameter :: FOLD_TOL = 1.0e-12_rp
@@ -311,6 +311,33 @@ contains
     kbdot = matmul(je, dl)
     pw = eta_b*dot_product(kbdot, kbdot)
   end function energy_power
+
+  !> energy_power for n triples at once (the same eta_b), from their edges
+  !> and edge rates as energy_force_lanes takes them: pw(i) = eta_b |J v|^2
+  !> of lane i (0 for a degenerate triple), up to round-off. Vectorised
+  !> over the lanes as energy_force_lanes.
+  pure subroutine energy_power_lanes(n, ld, eta_b, e1, e2, de, pw)
+    integer, intent(in) :: n              ! lanes 1..n of arrays of leading dimension ld >= n
+    integer, intent(in) :: ld
+    real(rp), intent(in) :: eta_b         ! [energy*time]
+    real(rp), intent(in) :: e1(ld, 3), e2(ld, 3)  ! [length]
+    real(rp), intent(in) :: de(ld, 6)     ! [length/time]
+    real(rp), intent(inout) :: pw(ld)     ! [energy/time] (lanes 1..n set)
+    real(rp) :: a(3), b(3), dl(6), l1, l2, ipsi, il1, il2, kb(3), gpsi(6), je(3, 6), kbdot(3), keep
+    real(rp) :: psi, z(3)                 ! (work of lane_geometry.inc)
+    logical :: good, ok(ld)
+    integer :: i, q, c
+
+    !GCC$ ivdep
+    do i = 1, n
+      include 'lane_geometry.inc'
+      !GCC$ unroll 3
+      do c = 1, 3
+        kbdot(c) = je(c, 1)*dl(1) + je(c, 2)*dl(2) + je(c, 3)*dl(3) + je(c, 4)*dl(4) + je(c, 5)*dl(5) + je(c, 6)*dl(6)
+      end do
+      pw(i) = keep*eta_b*(kbdot(1)*kbdot(1) + kbdot(2)*kbdot(2) + kbdot(3)*kbdot(3))
+    end do
+  end subroutine energy_power_lanes
 
   ! Edges, lengths, psi, kb, grad psi (6) and Je = d kb/d(e1, e2) (3x6).
   ! ok = .false. for a zero edge or 1 + cos(theta) <= FOLD_TOL; nothing is

@@ -3,12 +3,14 @@
 !> exact K9 and C9 against finite differences of the forces (flat to large
 !> angles, 3-D, with and without damping), translation and rotation
 !> invariance, |kb| = 2 tan(theta/2), the Gauss-Newton part, degenerate cases;
-!> the row-of-triples kernels (energy_force_lanes, energy_jacobian_lanes)
+!> the row-of-triples kernels (energy_force_lanes, energy_jacobian_lanes,
+!> energy_power_lanes)
 !> against the one-triple kernels lane by lane (so against the finite
 !> differences above).
 program test_bending_energy
   use kinds, only: rp
-  use bending_energy, only: energy_force, energy_force_lanes, energy_jacobian, energy_jacobian_edges, energy_jacobian_lanes, energy_bend_energy, energy_power
+  use bending_energy, only: energy_force, energy_force_lanes, energy_jacobian, energy_jacobian_edges, energy_jacobian_lanes, energy_bend_energy, energy_power, &
+                            energy_power_lanes
   use check, only: check_true, check_close, check_close_array, check_report
   implicit none
   real(rp), parameter :: PI = acos(-1.0_rp)
@@ -66,7 +68,7 @@ contains
   subroutine lanes_checks()
     integer, parameter :: LD = 16, N = 11
     real(rp) :: x(9, N), v(9, N), e1(LD, 3), e2(LD, 3), de(LD, 6), ke(LD, 6, 6), ce(LD, 6, 6), kes(6, 6), ces(6, 6)
-    real(rp) :: fl(LD, 9), fs(9)
+    real(rp) :: fl(LD, 9), fs(9), pwl(LD)
     real(rp) :: eta_l                ! (not eta: that is the host's ETA)
     logical :: okl(LD), oks, gn
     integer :: l, m, c
@@ -108,6 +110,13 @@ contains
         call check_close_array(fl(l, :), fs, 1.0e-12_rp, 0.0_rp, 'f'//trim(tag)//')')
       end do
       call check_true(all(fl(N + 1:, :) == -7.0_rp), 'force lanes beyond n untouched')
+      pwl = -7.0_rp
+      call energy_power_lanes(N, LD, eta_l, e1, e2, de, pwl)
+      do l = 1, N
+        write(tag, '(a,i0,a,i0)') ' (power lanes: case ', m, ', lane ', l
+        call check_close(pwl(l), energy_power(eta_l, x(:, l), v(:, l)), 1.0e-12_rp, 0.0_rp, 'power'//trim(tag)//')')
+      end do
+      call check_true(all(pwl(N + 1:) == -7.0_rp), 'power lanes beyond n untouched')
     end do
     call check_true(.not. okl(4) .and. .not. okl(9) .and. count(okl(1:N)) == N - 2, 'lanes: the two degenerate triples found')
   end subroutine lanes_checks
