@@ -378,15 +378,18 @@ contains
   subroutine gs_sweep(st, h, x, rhs, forward, t, low)
     type(stencil_t), intent(in) :: st
     integer, intent(in) :: h
-    real(mp), intent(inout) :: x(-h:, :, st%ys - h:)
+    real(mp), intent(inout), contiguous :: x(-h:, :, st%ys - h:)
     real(mp), intent(in) :: rhs(0:, :, st%ys:)
     logical, intent(in) :: forward
-    real(mp), intent(inout) :: t(0:, :)
+    real(mp), intent(inout), contiguous :: t(0:, :)
     real(mp), intent(inout), optional :: low(0:, :, st%ys:)
-    integer :: j, jj, i, ii, k, nx, nlow, kbeg
-    real(mp) :: s(3), y(3)
+    integer :: j, jj, k, nx, nlow, kbeg
+    integer :: dik(st%nr)                         ! the offsets along the row, by k
 
     nx = st%nx
+    do k = 1, st%nr
+      dik(k) = st%odi(st%kr(k))
+    end do
     ! the offsets to other rows are in lexicographic order: those to the
     ! rows below first
     nlow = count(st%odj(st%kv(1:st%nv)) < 0)
@@ -408,15 +411,7 @@ contains
       ! the other rows: below already visited in a forward sweep, above not
       call subtract_rows(kbeg, st%nv, j, t)
       ! along the row, point by point: the points on one side visited already
-      do ii = 0, nx - 1
-        i = merge(ii, nx - 1 - ii, forward)
-        s = t(i, :)
-        do k = 1, st%nr
-          y = x(i + st%odi(st%kr(k)), :, j)
-          s = s - st%br(:, 1, k, i, j) * y(1) - st%br(:, 2, k, i, j) * y(2) - st%br(:, 3, k, i, j) * y(3)
-        end do
-        x(i, :, j) = st%ainv(:, 1, i, j) * s(1) + st%ainv(:, 2, i, j) * s(2) + st%ainv(:, 3, i, j) * s(3)
-      end do
+      call point_row(nx, h, st%nr, dik, st%br(:, :, :, :, j), st%ainv(:, :, :, j), t, x(:, :, j), forward)
     end do
   contains
     !> acc = acc - sum over the offsets kv(k0:k1) to other rows of row j's
@@ -436,6 +431,44 @@ contains
       end do
     end subroutine subtract_rows
   end subroutine gs_sweep
+
+  !> The point-by-point part of a sweep over one row, in the sweep's order:
+  !> x_i = A_ii^-1 (t_i - sum_k br(:, :, k, i) x_{i + dik(k)}), the points
+  !> already visited at their new values. Explicit shapes and scalar
+  !> temporaries: each point waits on the one before it, so the work per
+  !> point is the chain's length (written over the derived type's
+  !> components, the loop reloaded their descriptors and offsets at every
+  !> point and took a third of a multigrid cycle).
+  pure subroutine point_row(nx, h, nr, dik, br, ainv, t, x, forward)
+    integer, intent(in) :: nx, h, nr
+    integer, intent(in) :: dik(nr)
+    real(mp), intent(in) :: br(3, 3, nr, 0:nx - 1)   !< blocks within the row
+    real(mp), intent(in) :: ainv(3, 3, 0:nx - 1)     !< inverted diagonal blocks
+    real(mp), intent(in) :: t(0:nx - 1, 3)           !< rhs minus the sums over the other rows
+    real(mp), intent(inout) :: x(-h:nx - 1 + h, 3)   !< the row of the iterate (padding zero)
+    logical, intent(in) :: forward
+    integer :: ii, i, k, q
+    real(mp) :: s1, s2, s3, y1, y2, y3
+    do ii = 0, nx - 1
+      i = ii
+      if (.not. forward) i = nx - 1 - ii
+      s1 = t(i, 1)
+      s2 = t(i, 2)
+      s3 = t(i, 3)
+      do k = 1, nr
+        q = i + dik(k)
+        y1 = x(q, 1)
+        y2 = x(q, 2)
+        y3 = x(q, 3)
+        s1 = s1 - br(1, 1, k, i) * y1 - br(1, 2, k, i) * y2 - br(1, 3, k, i) * y3
+        s2 = s2 - br(2, 1, k, i) * y1 - br(2, 2, k, i) * y2 - br(2, 3, k, i) * y3
+        s3 = s3 - br(3, 1, k, i) * y1 - br(3, 2, k, i) * y2 - br(3, 3, k, i) * y3
+      end do
+      x(i, 1) = ainv(1, 1, i) * s1 + ainv(1, 2, i) * s2 + ainv(1, 3, i) * s3
+      x(i, 2) = ainv(2, 1, i) * s1 + ainv(2, 2, i) * s2 + ainv(2, 3, i) * s3
+      x(i, 3) = ainv(3, 1, i) * s1 + ainv(3, 2, i) * s2 + ainv(3, 3, i) * s3
+    end do
+  end subroutine point_row
 
   !> res = rhs - A x on rows ys..ye, in difference form (ghost rows of x filled).
   subroutine residual(st, h, x, rhs, res)

@@ -258,7 +258,7 @@ contains
   subroutine test_smoother()
     integer, parameter :: nx = 9, ny = 7, r = 2
     type(stencil_t) :: st
-    real(rp), allocatable :: dense(:, :), v(:), xref(:)
+    real(rp), allocatable :: dense(:, :), v(:), xref(:), ad(:, :), xd(:), bd(:)
     real(mp) :: x(-r:nx - 1 + r, 3, -r:ny - 1 + r), rhs(0:nx - 1, 3, 0:ny - 1), res(0:nx - 1, 3, 0:ny - 1), t(0:nx - 1, 3)
     real(mp) :: x0(-r:nx - 1 + r, 3, -r:ny - 1 + r), x1(-r:nx - 1 + r, 3, -r:ny - 1 + r), low(0:nx - 1, 3, 0:ny - 1)
     integer :: k, n, i, j, c, ipiv(3 * nx * ny), info
@@ -268,6 +268,7 @@ contains
     allocate(v(n))
     call random_number(v)
     xref = v
+    ad = dense
     call dgesv(n, 1, dense, n, ipiv, xref, n, info)
     call check_true(info == 0, 'dense solve')
     do j = 0, ny - 1
@@ -307,7 +308,49 @@ contains
       call gs_sweep(st, r, x1, rhs, .false., t, low)
     end do
     call check_close(error_to_ref(nx, ny, r, x1, xref), 0.0_rp, 0.0_rp, 1.0e-5_rp * maxval(abs(xref)), 'it converges to A^-1 b too')
+    ! One forward and one backward sweep from a random start against block
+    ! Gauss-Seidel on the dense matrix, node by node in the sweep's order
+    ! (rows, then the points of a row): the order matters, converging alone
+    ! would not show it.
+    allocate(xd(n), bd(n))
+    do j = 0, ny - 1
+      do i = 0, nx - 1
+        do c = 1, 3
+          xd(gidx(nx, i, j, c)) = real(x0(i, c, j), rp)
+          bd(gidx(nx, i, j, c)) = real(rhs(i, c, j), rp)
+        end do
+      end do
+    end do
+    x = x0
+    call gs_sweep(st, r, x, rhs, .true., t)
+    call dense_gs_sweep(nx, ny, ad, bd, xd, .true.)
+    call check_close(error_to_ref(nx, ny, r, x, xd), 0.0_rp, 0.0_rp, 1.0e-5_rp * maxval(abs(xd)), &
+                     'a forward sweep is block Gauss-Seidel in lexicographic order')
+    call gs_sweep(st, r, x, rhs, .false., t)
+    call dense_gs_sweep(nx, ny, ad, bd, xd, .false.)
+    call check_close(error_to_ref(nx, ny, r, x, xd), 0.0_rp, 0.0_rp, 1.0e-5_rp * maxval(abs(xd)), &
+                     'a backward sweep is block Gauss-Seidel in reverse order')
   end subroutine test_smoother
+
+  !> One block Gauss-Seidel sweep on the dense matrix a (node order of
+  !> gidx): x_p = A_pp^-1 (b_p - sum_{q /= p} A_pq x_q), nodes in
+  !> lexicographic order (rows slowest) or its reverse.
+  subroutine dense_gs_sweep(nx, ny, a, b, x, forward)
+    integer, intent(in) :: nx, ny
+    real(rp), intent(in) :: a(:, :), b(:)
+    real(rp), intent(inout) :: x(:)
+    logical, intent(in) :: forward
+    real(rp) :: app(3, 3), s(3)
+    integer :: m, p, c, ip(3), info, ipiv(3)
+    do m = 0, nx * ny - 1
+      p = merge(m, nx * ny - 1 - m, forward)
+      ip = [(3 * p + c, c = 1, 3)]
+      s = b(ip) - matmul(a(ip, :), x) + matmul(a(ip, ip), x(ip))
+      app = a(ip, ip)
+      call dgesv(3, 1, app, 3, ipiv, s, 3, info)
+      x(ip) = s
+    end do
+  end subroutine dense_gs_sweep
 
   !> max |xs - xref| over an nx x ny lattice (xs padded by r, xref dense).
   real(rp) function error_to_ref(nx, ny, r, xs, xref) result(err)
