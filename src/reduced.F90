@@ -33,6 +33,7 @@ module reduced
   use reduced_assembly, only: csr_assemble
   use offset_product, only: stencil_product, offset_count
   use interpolation, only: cubic_weights
+  use mg_kernels, only: stencil_product_mixed
   use stencil_mg, only: stencil_mg_t, mg_create, mg_destroy, mg_build_coarse, mg_apply, mg_describe, &
                         MG_MULTIPLICATIVE, MG_KASKADE
   implicit none
@@ -73,6 +74,11 @@ module reduced
     PetscLogEvent :: ev_galerkin = 0       !< the multigrid's coarse levels and coarsest factorisation
     PetscLogEvent :: ev_cycle = 0          !< one multigrid cycle
     real(rp), allocatable :: st(:, :, :, :, :) !< (3, 3, offset_count(w), 0:nx-1, ys:ye) S by stencil offset, node by node (with use_mg; module offset_product)
+    ! The product with S from the multigrid's finest level (single-precision
+    ! blocks in difference form, double-precision vectors; -nuno_mg_product)
+    logical :: mixed_product = .false.
+    real(rp), allocatable :: pxs(:, :, :)  !< (-w:nx-1+w, 3, 0:2w) work: rows of x along x fastest
+    real(rp), allocatable :: pacc(:, :)    !< (0:nx-1, 4) work: one row of y
     integer :: interp = 1                  !< multigrid interpolation: INTERP_LINEAR, _CUBIC, _COARSE_CUBIC
     logical :: forward_ew = .true.         !< pass the outer KSP's rtol (Eisenstat-Walker) to the inner one
     integer :: pc_lag = 1                  !< rebuild the inner preconditioner every pc_lag assemblies
@@ -118,10 +124,10 @@ module reduced
 
   interface
     !> src/nuno_options.c: the options of nuno's multigrid (-nuno_mg ...).
-    integer(c_int) function nuno_mg_options_read(fcomm, impl, cycle, sweeps, levels, given) bind(C, name='nuno_mg_options_read')
+    integer(c_int) function nuno_mg_options_read(fcomm, impl, cycle, sweeps, levels, product, given) bind(C, name='nuno_mg_options_read')
       import :: c_int
       integer(c_int), value :: fcomm
-      integer(c_int), intent(inout) :: impl, cycle, sweeps, levels
+      integer(c_int), intent(inout) :: impl, cycle, sweeps, levels, product
       integer(c_int), intent(out) :: given
     end function nuno_mg_options_read
     subroutine PCShellSetContext(pc, ctx, ierr)
@@ -168,7 +174,7 @@ contains
     PetscReal :: atol0, dtol0
     integer :: levels, l
     PetscClassId :: classid
-    integer(c_int) :: mg_impl, mg_cycle, mg_sweeps, mg_levels, mg_given
+    integer(c_int) :: mg_impl, mg_cycle, mg_sweeps, mg_levels, mg_product, mg_given
     logical, allocatable :: cubic(:)
     PetscInt, allocatable :: ly(:)
     PetscInt, parameter :: one = 1, three = 3, izero = 0, ione = 1
@@ -220,14 +226,16 @@ contains
     mg_cycle = MG_KASKADE
     mg_sweeps = 1
     mg_levels = 0
-    ierr = nuno_mg_options_read(comm, mg_impl, mg_cycle, mg_sweeps, mg_levels, mg_given)
+    mg_product = 0
+    ierr = nuno_mg_options_read(comm, mg_impl, mg_cycle, mg_sweeps, mg_levels, mg_product, mg_given)
     if (ierr /= 0) return
     PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_pc_type', found, ierr))
     red%use_mg = red%use_mg .and. .not. found .and. mg_impl == 0
     if (mg_given /= 0 .and. .not. red%use_mg) then
       ierr = PETSC_ERR_ARG_INCOMP
-      SETERRQ(comm, ierr, 'nuno: -nuno_mg_cycle, -nuno_mg_sweeps and -nuno_mg_levels are for nuno''s multigrid (-nuno_mg stencil, the default from 3 levels on, no -reduced_pc_type)')
+      SETERRQ(comm, ierr, 'nuno: -nuno_mg_cycle, -nuno_mg_sweeps, -nuno_mg_levels and -nuno_mg_product are for nuno''s multigrid (-nuno_mg stencil, the default from 3 levels on, no -reduced_pc_type)')
     end if
+    red%mixed_product = red%use_mg .and. mg_product == 0
     if (red%use_mg) then
       ! FGMRES even where S is symmetric: the kaskade cycle is not, and
       ! FGMRES + kaskade beat CG + V-cycles by 1.4x on a symmetric hang
@@ -256,6 +264,7 @@ contains
       PetscCall(DMDAGetCorners(da6, xs, ys, zs, m, n, zm, ierr))
       allocate(red%st(3, 3, offset_count(w), 0:nx - 1, ys:ys + n - 1))
       red%st = 0.0_rp
+      allocate(red%pxs(-w:nx - 1 + w, 3, 0:2 * w), red%pacc(0:nx - 1, 4))
       m = 3 * nx * n
       mg = 3 * nx * ny
       PetscCall(MatCreateShell(comm, m, m, mg, mg, PETSC_NULL_INTEGER, red%s, ierr))
@@ -687,9 +696,12 @@ contains
     end if
   end subroutine mg_coarse_levels
 
-  !> MATSHELL mult of S stored by stencil offset: y = S x (one halo
-  !> exchange of x, then node by node over S's blocks, which are stored in
-  !> that order: kernel offset_product). Collective.
+  !> MATSHELL mult of S: y = S x, one halo exchange of x, then by default
+  !> from the multigrid's finest level (single-precision blocks in
+  !> difference form, double-precision vectors and sums: kernel
+  !> stencil_product_mixed, half the bytes), or with -nuno_mg_product double
+  !> node by node over S in double precision (kernel offset_product).
+  !> Collective.
   subroutine stencil_mult(mat, x, y, ierr)
     type(tMat) :: mat
     type(tVec) :: x, y
@@ -704,7 +716,12 @@ contains
     PetscCall(VecGetArrayReadF90(xloc, xl, ierr))
     PetscCall(VecGetArrayF90(y, ya, ierr))
     associate (lat => red%lat)
-      call stencil_product(lat%nx, lat%ny, lat%ys, lat%ye, lat%gys, lat%gye, lat%halo, red%st, xl, ya)
+      if (red%mixed_product) then
+        ! the finest level is made from S at every assembly (reduced_assemble)
+        call stencil_product_mixed(red%mg%lev(1)%a, lat%gys, lat%gye, xl, ya, red%pxs, red%pacc)
+      else
+        call stencil_product(lat%nx, lat%ny, lat%ys, lat%ye, lat%gys, lat%gye, lat%halo, red%st, xl, ya)
+      end if
     end associate
     PetscCall(VecRestoreArrayF90(y, ya, ierr))
     PetscCall(VecRestoreArrayReadF90(xloc, xl, ierr))

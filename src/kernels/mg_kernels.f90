@@ -37,6 +37,7 @@ module mg_kernels
             coarse_reach, &
             coupled_by_elements, offset_index, stencil_block, diagonal_block
   public :: gs_sweep, residual, stencil_apply, interpolate, restrict_add, galerkin_add, block_inverse
+  public :: stencil_product_mixed
 
   !> Kind of the multigrid's matrices and vectors (single precision: half
   !> the bytes of every pass; the smoother and the coarse correction only
@@ -503,6 +504,105 @@ contains
       end do
     end do
   end subroutine residual
+
+  !> y = A x in double precision from this level's single-precision
+  !> operator, in difference form: y_p = D_p x_p + sum_o B_{p,o} (x_{p+o} - x_p),
+  !> each block widened to double before it multiplies a difference formed
+  !> in double. The Krylov method's product with S on the finest level
+  !> (module reduced, -nuno_mg_product mixed): half the bytes of S in double
+  !> precision, and every block is off by at most a relative 6e-8 (single
+  !> rounding) of itself, the mass term D included; the large stiffness
+  !> blocks act only on differences, so no cancellation of K x magnifies
+  !> that (docs/design.md). x(3, 0:nx-1, gys:gye) and y(3, 0:nx-1, ys:ye)
+  !> in the layout of a 3-dof DMDA vector, x with the rows ys - r .. ye + r
+  !> that lie in the lattice. xs(-r:nx-1+r, 3, 0:2r): work, 2 r + 1 rows of
+  !> x along x fastest (row jr in slot modulo(jr, 2 r + 1)); acc(0:nx-1, 4): work.
+  subroutine stencil_product_mixed(st, gys, gye, x, y, xs, acc)
+    type(stencil_t), intent(in) :: st
+    integer, intent(in) :: gys, gye
+    real(rp), intent(in) :: x(3, 0:st%nx - 1, gys:gye)
+    real(rp), intent(out) :: y(3, 0:st%nx - 1, st%ys:st%ye)
+    real(rp), intent(inout) :: xs(-st%r:, :, 0:)
+    real(rp), intent(inout) :: acc(0:, :)
+    integer :: j, jr
+    ! the padding columns stay zero (the blocks that point there are zero too)
+    xs = 0.0_rp
+    do jr = st%ys - st%r, st%ys + st%r - 1
+      call load_row(jr)
+    end do
+    do j = st%ys, st%ye
+      call load_row(j + st%r)
+      call product_row(st, j, xs, acc, y)
+    end do
+  contains
+    !> Row jr of x into its slot of xs (zero outside the lattice).
+    subroutine load_row(jr)
+      integer, intent(in) :: jr
+      integer :: s, ii
+      s = modulo(jr, 2 * st%r + 1)
+      if (jr < 0 .or. jr > st%ny - 1) then
+        xs(:, :, s) = 0.0_rp
+        return
+      end if
+      do ii = 0, st%nx - 1
+        xs(ii, 1, s) = x(1, ii, jr)
+        xs(ii, 2, s) = x(2, ii, jr)
+        xs(ii, 3, s) = x(3, ii, jr)
+      end do
+    end subroutine load_row
+  end subroutine stencil_product_mixed
+
+  !> Row j of y = A x, as stencil_product_mixed, from the rows j - r .. j + r
+  !> of x in their slots of xs.
+  subroutine product_row(st, j, xs, acc, y)
+    type(stencil_t), intent(in) :: st
+    integer, intent(in) :: j
+    real(rp), intent(in) :: xs(-st%r:, :, 0:)
+    real(rp), intent(inout) :: acc(0:, :)
+    real(rp), intent(inout) :: y(:, 0:, st%ys:)
+    integer :: nx, r, k, di, dj, c1, c2, i, q, sj, sq
+    integer :: dik(st%nr)
+    real(rp) :: d1, d2, d3
+    nx = st%nx
+    r = st%r
+    do k = 1, st%nr
+      dik(k) = st%odi(st%kr(k))
+    end do
+    sj = modulo(j, 2 * r + 1)
+    do c1 = 1, 3
+      acc(0:nx - 1, c1) = st%d(:, c1, 1, j) * xs(0:nx - 1, 1, sj) + st%d(:, c1, 2, j) * xs(0:nx - 1, 2, sj) &
+                        + st%d(:, c1, 3, j) * xs(0:nx - 1, 3, sj)
+    end do
+    ! the other rows, along the row (acc(:, 4): the difference)
+    do k = 1, st%nv
+      di = st%odi(st%kv(k))
+      dj = st%odj(st%kv(k))
+      sq = modulo(j + dj, 2 * r + 1)
+      do c2 = 1, 3
+        acc(0:nx - 1, 4) = xs(di:nx - 1 + di, c2, sq) - xs(0:nx - 1, c2, sj)
+        do c1 = 1, 3
+          acc(0:nx - 1, c1) = acc(0:nx - 1, c1) + st%b(:, c1, c2, k, j) * acc(0:nx - 1, 4)
+        end do
+      end do
+    end do
+    ! within the row, node by node (as the smoother keeps these blocks)
+    do i = 0, nx - 1
+      do k = 1, st%nr
+        q = i + dik(k)
+        d1 = xs(q, 1, sj) - xs(i, 1, sj)
+        d2 = xs(q, 2, sj) - xs(i, 2, sj)
+        d3 = xs(q, 3, sj) - xs(i, 3, sj)
+        acc(i, 1) = acc(i, 1) + st%br(1, 1, k, i, j) * d1 + st%br(1, 2, k, i, j) * d2 + st%br(1, 3, k, i, j) * d3
+        acc(i, 2) = acc(i, 2) + st%br(2, 1, k, i, j) * d1 + st%br(2, 2, k, i, j) * d2 + st%br(2, 3, k, i, j) * d3
+        acc(i, 3) = acc(i, 3) + st%br(3, 1, k, i, j) * d1 + st%br(3, 2, k, i, j) * d2 + st%br(3, 3, k, i, j) * d3
+      end do
+    end do
+    do i = 0, nx - 1
+      y(1, i, j) = acc(i, 1)
+      y(2, i, j) = acc(i, 2)
+      y(3, i, j) = acc(i, 3)
+    end do
+  end subroutine product_row
 
   !> y = A x on rows ys..ye (ghost rows of x filled); y(0:nx-1, 3, ys:ye).
   subroutine stencil_apply(st, h, x, y)

@@ -107,7 +107,9 @@ def test_failing_inner_solves_fail_the_step_cleanly(tmp_path):
     # on 11 x 11 fewer than 3 levels fit: no multigrid
     ("-nuno_mg_interpolation", "cubic", "-nuno_mg_interpolation needs an inner multigrid"),
     ("-nuno_mg_cycle", "w", "Unknown option w for -nuno_mg_cycle"),
-    ("-nuno_mg_cycle", "v", "-nuno_mg_cycle, -nuno_mg_sweeps and -nuno_mg_levels are for nuno's multigrid"),
+    ("-nuno_mg_cycle", "v", "-nuno_mg_cycle, -nuno_mg_sweeps, -nuno_mg_levels and -nuno_mg_product are for nuno's multigrid"),
+    ("-nuno_mg_product", "double", "-nuno_mg_product are for nuno's multigrid"),
+    ("-nuno_mg_product", "single", "Unknown option single for -nuno_mg_product"),
     ("-nuno_mg_sweeps", "0", "-nuno_mg_sweeps 0 must be >= 1"),
     ("-nuno_mg_interpolation", "quintic", "Unknown option quintic for -nuno_mg_interpolation"),
 ])
@@ -151,17 +153,23 @@ def test_parallel_multigrid_gives_the_one_rank_answer(tmp_path, impl, interpolat
     assert err < 1e-8, f"3 ranks differ from 1 by {err:.3e} of the displacement"
 
 
-@pytest.mark.parametrize("scene, nranks", [("hang", 1), ("hang", 3), ("wave_point_energy", 2)])
-def test_default_inner_solver_gives_the_exact_newton_trajectory(tmp_path, scene, nranks):
+@pytest.mark.parametrize("scene, nranks, product", [("hang", 1, None), ("hang", 3, None), ("hang", 3, "double"),
+                                                     ("wave_point_energy", 2, None)])
+def test_default_inner_solver_gives_the_exact_newton_trajectory(tmp_path, scene, nranks, product):
     """The default inner solve (FGMRES with nuno's single-precision
-    multigrid) asked for a tight tolerance gives the trajectory of the
-    6-dof path with LU (so the preconditioner's precision costs iterations,
-    not accuracy): hang, and wave_point with its keyframed corner on a 33 x 33
-    lattice (where 4 levels fit), constrained nodes exact."""
+    multigrid, its product with S from the multigrid's single-precision
+    blocks in difference form) asked for a tight tolerance gives the
+    trajectory of the 6-dof path with LU (so the preconditioner's and the
+    product's precision cost iterations, not accuracy): hang, and
+    wave_point with its keyframed corner on a 33 x 33 lattice (where 4
+    levels fit), constrained nodes exact; and with the product over S in
+    double precision (-nuno_mg_product double)."""
     tight = ("-snes_rtol", "1e-12", "-reduced_ksp_rtol", "1e-11", "-reduced_ksp_view")
+    if product:
+        tight += ("-nuno_mg_product", product)
     keys = dict(nx=33, ny=33)
     t_end, dt = (0.005, 1e-3) if scene == "hang" else (0.1, 0.01)
-    proc, red = run_input(tmp_path, scene, f"def_{scene}_{nranks}", nranks, tight, t_end, dt, **keys)
+    proc, red = run_input(tmp_path, scene, f"def_{scene}_{nranks}_{product}", nranks, tight, t_end, dt, **keys)
     assert "nuno structured multigrid" in proc.stdout
     _, full = run_input(tmp_path, scene, f"full_{scene}_{nranks}", nranks, FULL, t_end, dt, **keys)
     ref = full.position

@@ -15,7 +15,9 @@
 program test_mg_kernels
   use kinds, only: rp
   use mg_kernels, only: mp, stencil_t, transfer_t, stencil_init, stencil_put_row, stencil_finish, transfer_init, &
-                        coarse_reach, coupled_by_elements, stencil_block, offset_index, gs_sweep, residual, stencil_apply, interpolate, restrict_add, galerkin_add
+                        coarse_reach, coupled_by_elements, stencil_block, offset_index, gs_sweep, residual, stencil_apply, interpolate, restrict_add, galerkin_add, &
+                        stencil_from_full, stencil_product_mixed
+  use offset_product, only: stencil_product, offset_count, offset_slot
   use check, only: check_true, check_close, check_report
   implicit none
 
@@ -29,6 +31,10 @@ program test_mg_kernels
   call test_galerkin(2, .false., lines=.true.)
   call test_smoother()
   call test_row_sums()
+  call test_product_mixed(1, 0, 8)
+  call test_product_mixed(2, 0, 8)
+  call test_product_mixed(2, 3, 5)
+  call test_product_mixed(1, 2, 6)
   call check_report()
 
 contains
@@ -331,6 +337,69 @@ contains
     call check_close(error_to_ref(nx, ny, r, x, xd), 0.0_rp, 0.0_rp, 1.0e-5_rp * maxval(abs(xd)), &
                      'a backward sweep is block Gauss-Seidel in reverse order')
   end subroutine test_smoother
+
+  !> The product in double precision from the single-precision difference
+  !> form (stencil_product_mixed) against S in double precision
+  !> (offset_product's stencil_product) on rows ys..ye of an 11 x 9 lattice,
+  !> reach r: a random x (to single rounding of the blocks), and, on a stiff
+  !> operator (mass 1e-3 against links of 1e3), a constant x, for which S x
+  !> is the small mass term alone: there the difference form keeps the
+  !> relative error at single rounding (blocks stored whole in single
+  !> precision would be off by 100 %).
+  subroutine test_product_mixed(r, ys, ye)
+    integer, intent(in) :: r, ys, ye
+    integer, parameter :: nx = 11, ny = 9
+    type(stencil_t) :: st
+    real(rp), allocatable :: full(:, :, :, :, :), x(:, :, :), y(:, :, :), yd(:, :, :), xs(:, :, :), acc(:, :)
+    real(rp) :: rnd(3, 3), mass, stiff, scale
+    integer :: i, j, di, dj, c, gys, gye, pass, k0
+    character(len=96) :: label
+    gys = max(0, ys - r)
+    gye = min(ny - 1, ye + r)
+    allocate(full(3, 3, offset_count(r), 0:nx - 1, 0:ny - 1), x(3, 0:nx - 1, gys:gye), y(3, 0:nx - 1, ys:ye), yd(3, 0:nx - 1, ys:ye))
+    allocate(xs(-r:nx - 1 + r, 3, 0:2 * r), acc(0:nx - 1, 4))
+    do pass = 1, 2
+      mass = merge(30.0_rp, 1.0e-3_rp, pass == 1)
+      stiff = merge(1.0_rp, 1.0e3_rp, pass == 1)
+      full = 0.0_rp
+      k0 = offset_slot(r, 0, 0)
+      do j = 0, ny - 1
+        do i = 0, nx - 1
+          do c = 1, 3
+            full(c, c, k0, i, j) = mass
+          end do
+          do dj = -r, r
+            do di = -r, r
+              if (offset_slot(r, di, dj) == 0 .or. (di == 0 .and. dj == 0)) cycle
+              if (i + di < 0 .or. i + di >= nx .or. j + dj < 0 .or. j + dj >= ny) cycle
+              call random_number(rnd)
+              full(:, :, offset_slot(r, di, dj), i, j) = -stiff * (0.5_rp + rnd)
+              full(:, :, k0, i, j) = full(:, :, k0, i, j) + stiff * (0.5_rp + rnd)
+            end do
+          end do
+        end do
+      end do
+      call stencil_init(st, nx, ny, ys, ye, r, lines=.true.)
+      call stencil_from_full(st, full(:, :, :, :, ys:ye))
+      if (pass == 1) then
+        call random_number(x)
+        x = x - 0.5_rp
+      else
+        x = 1.0_rp
+      end if
+      call stencil_product_mixed(st, gys, gye, x, y, xs, acc)
+      call stencil_product(nx, ny, ys, ye, gys, gye, r, full(:, :, :, :, ys:ye), x, yd)
+      if (pass == 1) then
+        scale = 2.0_rp * stiff * offset_count(r) * maxval(abs(x))
+        write(label, '(a, i0, a, i0, a, i0)') 'mixed product, random x, reach ', r, ', rows ', ys, '..', ye
+      else
+        scale = maxval(abs(yd))
+        call check_close(scale, mass, 1.0e-7_rp, 0.0_rp, 'S times a constant is its mass term')
+        write(label, '(a, i0, a, i0, a, i0)') 'mixed product, stiff S, constant x, reach ', r, ', rows ', ys, '..', ye
+      end if
+      call check_close(maxval(abs(y - yd)), 0.0_rp, 0.0_rp, 1.0e-6_rp * scale, trim(label))
+    end do
+  end subroutine test_product_mixed
 
   !> One block Gauss-Seidel sweep on the dense matrix a (node order of
   !> gidx): x_p = A_pp^-1 (b_p - sum_{q /= p} A_pq x_q), nodes in
