@@ -100,8 +100,13 @@ def run(exe, mpiexec, n, nranks, mode, bending, timeout):
     _, t_asm, _ = event(out, "nunoAssembleS")
     reads = re.search(r"reads about ([0-9.]+) MB", out)
     # S by stencil offset, node by node: the blocks the elements couple
-    # (17 with bending, 9 without) and the two vectors
-    s_bytes = n * n * ((17 if bending else 9) * 72 + 48)
+    # (17 with bending, 9 without) and the two vectors; with the mixed
+    # product (the default since 3 Dec 2026, -nuno_mg_product) the
+    # multigrid's single-precision blocks (16 or 8, and the row sums D)
+    if "product with S mixed" in out:
+        s_bytes = n * n * (((16 if bending else 8) + 1) * 36 + 48)
+    else:
+        s_bytes = n * n * ((17 if bending else 9) * 72 + 48)
     mm_gbs = (n_mm * s_bytes / t_mm / 1e9) if (n_cyc and t_mm > 0) else 6e-3 * mf_mm
     cyc_gbs = (n_cyc * float(reads.group(1)) * 1e6 / t_cyc / 1e9) if (n_cyc and reads and t_cyc > 0) else float("nan")
     _, t_jac, _ = event(out, "SNESJacobianEval")

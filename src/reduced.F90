@@ -489,6 +489,8 @@ contains
       call mg_describe(red%mg, text, n)
       line = trim(line)//' + nuno multigrid: '//trim(text(1)(1:index(text(1), ', single') - 1))// &
              ', '//trim(adjustl(text(n)(index(text(n), 'reads'):index(text(n), ' over') - 1)))
+      line = trim(line)//'; product with S '//trim(merge('mixed (the finest level''s single-precision blocks)', &
+                                                           'double                                            ', red%mixed_product))
     else
       line = trim(line)//' + '//trim(ptype)
     end if
