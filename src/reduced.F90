@@ -73,7 +73,7 @@ module reduced
     PetscLogEvent :: ev_assemble = 0       !< S assembled (and the multigrid's finest level from it)
     PetscLogEvent :: ev_galerkin = 0       !< the multigrid's coarse levels and coarsest factorisation
     PetscLogEvent :: ev_cycle = 0          !< one multigrid cycle
-    real(rp), allocatable :: st(:, :, :, :, :) !< (3, 3, offset_count(w), 0:nx-1, ys:ye) S by stencil offset, node by node (with use_mg; module offset_product)
+    real(rp), allocatable :: st(:, :, :, :, :) !< (3, 3, offset_count(w), 0:nx-1, 0:nrow-1) S by stencil offset, node by node (with use_mg; module offset_product): rows ys..ye, or with the mixed product a ring of 2w - 1 rows (module reduced_assembly)
     ! The product with S from the multigrid's finest level (single-precision
     ! blocks in difference form, double-precision vectors; -nuno_mg_product)
     logical :: mixed_product = .false.
@@ -262,7 +262,14 @@ contains
       ! stored (1.2 KB a node with bending against 2.6 in AIJ).
       PetscCall(DMSetUp(red%da3, ierr))
       PetscCall(DMDAGetCorners(da6, xs, ys, zs, m, n, zm, ierr))
-      allocate(red%st(3, 3, offset_count(w), 0:nx - 1, ys:ys + n - 1))
+      ! the whole strip for the product in double precision; with the mixed
+      ! product only the rows the assembly is writing (a ring: with bending
+      ! the triples reach two rows back; module reduced_assembly)
+      if (red%mixed_product) then
+        allocate(red%st(3, 3, offset_count(w), 0:nx - 1, 0:2 * w - 2))
+      else
+        allocate(red%st(3, 3, offset_count(w), 0:nx - 1, 0:n - 1))
+      end if
       red%st = 0.0_rp
       allocate(red%pxs(-w:nx - 1 + w, 3, 0:2 * w), red%pacc(0:nx - 1, 4))
       m = 3 * nx * n

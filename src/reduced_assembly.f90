@@ -92,9 +92,13 @@ contains
     integer, intent(in), optional :: ia(0:), ib(0:) !< row starts (0-based offsets into av, bv)
     real(rp), intent(inout), optional :: av(0:), bv(0:)
     !> or S by stencil offset, node by node (3, 3, offset_count(halo),
-    !> 0:nx-1, ys:ye): S(p, p + (di, dj)) = st(:, :, kof(di, dj), i, j)
-    !> (module offset_product), zero outside the lattice
-    real(rp), intent(inout), optional, contiguous :: st(:, :, :, 0:, lat%ys:)
+    !> 0:nx-1, 0:nrow-1): S(p, p + (di, dj)) = st(:, :, kof(di, dj), i, srow(j))
+    !> (module offset_product), zero outside the lattice; row j in slot
+    !> modulo(j - ys, nrow): nrow = ye - ys + 1 keeps the whole strip, and
+    !> with fine, nrow = lag + 1 (3 with bending, 1 without) is enough, a
+    !> ring of the rows the assembly is writing (each row is converted for
+    !> the multigrid as soon as it is complete, then overwritten)
+    real(rp), intent(inout), optional, contiguous :: st(:, :, :, 0:, 0:)
     !> and, when given, the multigrid's finest level made from st row by row
     !> (stencil_row_from_full)
     type(stencil_t), intent(inout), optional :: fine
@@ -120,14 +124,26 @@ contains
     ! were most of the bending pass and of the conversion).
     lag = 0
     if (lat%bending_model /= BEND_NONE) lag = 2
+    if (present(st)) then
+      ! (an internal invariant: a ring of rows only where each row is converted when complete)
+      if (size(st, 5) < lat%ye - lat%ys + 1 .and. (size(st, 5) < lag + 1 .or. .not. present(fine))) &
+        error stop 'csr_assemble: st holds too few rows'
+    end if
     do j = max(0, lat%ys - 1), lat%ye + lag
       if (j <= lat%ye) call link_row(j)
       jt = j - lag
       if (lag > 0 .and. jt >= max(0, lat%ys - lat%halo) .and. jt <= lat%ye) call triple_row(jt)
-      if (present(fine) .and. present(st) .and. jt >= lat%ys .and. jt <= lat%ye) call stencil_row_from_full(fine, st, jt)
+      if (present(fine) .and. present(st) .and. jt >= lat%ys .and. jt <= lat%ye) &
+        call stencil_row_from_full(fine, st(:, :, :, :, srow(jt)), jt)
     end do
 
   contains
+
+    !> Slot of owned row j in st.
+    pure integer function srow(j)
+      integer, intent(in) :: j
+      srow = modulo(j - lat%ys, size(st, 5))
+    end function srow
 
     !> The links anchored at row j0 (kept in lb, their products in g, their
     !> diagonals in kd) and, when row j0 is owned, its block row. The links
@@ -260,7 +276,7 @@ contains
       ! T = [[-I, I, 0], [0, -I, I]]: t(a, P) the factor of node P in edge a
       real(rp), parameter :: t(2, 3) = reshape([-1.0_rp, 0.0_rp, 1.0_rp, -1.0_rp, 0.0_rp, 1.0_rp], [2, 3])
       real(rp) :: m(ld, 6, 6), ewx(ld, 6), ewv(ld, 6), h(ld, 6), free(ld), bq(ld, 3, 3)
-      integer :: l, pp, qq, ip0, jp, iq0, jq2, c1, c2, sl, i
+      integer :: l, pp, qq, ip0, jp, iq0, jq2, c1, c2, sl, i, sp
       do l = 1, nl
         i = i0 + l - 1
         ewx(l, 1:3) = w(0:2, i + dx, j0 + dy) - w(0:2, i, j0)
@@ -281,6 +297,7 @@ contains
         ip0 = i0 + (pp - 1) * dx
         jp = j0 + (pp - 1) * dy
         if (jp < lat%ys .or. jp > lat%ye) cycle
+        sp = srow(jp)
         do l = 1, nl
           g(:, ip0 + l - 1, jp) = g(:, ip0 + l - 1, jp) - (t(1, pp) * h(l, 1:3) + t(2, pp) * h(l, 4:6))
         end do
@@ -309,7 +326,7 @@ contains
             end do
           end do
           do l = 1, nl
-            st(:, :, sl, ip0 + l - 1, jp) = st(:, :, sl, ip0 + l - 1, jp) + bq(l, :, :)
+            st(:, :, sl, ip0 + l - 1, sp) = st(:, :, sl, ip0 + l - 1, sp) + bq(l, :, :)
           end do
         end do
       end do
@@ -320,13 +337,14 @@ contains
     !> neighbours, zero elsewhere in the stencil (constraints as above).
     subroutine put_row(i0, j0)
       integer, intent(in) :: i0, j0
-      integer :: di, dj, nc, kk, r, pa, pb, m, hw
+      integer :: di, dj, nc, kk, r, pa, pb, m, hw, s0
       logical :: fixed_row, owned_blk(25)
       real(rp) :: dsum(3, 3), blk(3, 3)
       hw = lat%halo
       fixed_row = fixedg(i0, j0)
       dsum = 0.0_rp
       if (present(st)) then
+        s0 = srow(j0)
         ! By stencil offset: every slot of the node's row written once (it
         ! was zeroed whole first, 3 % of a bw step without bending): the link
         ! blocks (zero outside the lattice and to or from a constrained
@@ -336,29 +354,29 @@ contains
           do di = -1, 1
             if (di == 0 .and. dj == 0) cycle
             if (i0 + di < 0 .or. i0 + di >= lat%nx .or. j0 + dj < 0 .or. j0 + dj >= lat%ny) then
-              st(:, :, kof(di, dj), i0, j0) = 0.0_rp
+              st(:, :, kof(di, dj), i0, s0) = 0.0_rp
               cycle
             end if
             blk = link_block(i0, j0, di, dj)
             dsum = dsum + blk
             if (fixed_row .or. fixedg(i0 + di, j0 + dj)) then
-              st(:, :, kof(di, dj), i0, j0) = 0.0_rp
+              st(:, :, kof(di, dj), i0, s0) = 0.0_rp
             else
-              st(:, :, kof(di, dj), i0, j0) = blk
+              st(:, :, kof(di, dj), i0, s0) = blk
             end if
           end do
         end do
         if (hw == 2) then
           do dj = -2, 2, 2
             do di = -2, 2, 2
-              if (di /= 0 .or. dj /= 0) st(:, :, kof(di, dj), i0, j0) = 0.0_rp
+              if (di /= 0 .or. dj /= 0) st(:, :, kof(di, dj), i0, s0) = 0.0_rp
             end do
           end do
         end if
         if (fixed_row) dsum = 0.0_rp
-        st(:, :, kof(0, 0), i0, j0) = -dsum
+        st(:, :, kof(0, 0), i0, s0) = -dsum
         do r = 1, 3
-          st(r, r, kof(0, 0), i0, j0) = st(r, r, kof(0, 0), i0, j0) + a * lat%mass(i0, j0)
+          st(r, r, kof(0, 0), i0, s0) = st(r, r, kof(0, 0), i0, s0) + a * lat%mass(i0, j0)
         end do
         return
       end if
@@ -494,7 +512,7 @@ contains
           if (present(st)) then
             ! (add_block's path for S by offset, written here: nine calls a
             ! triple were 5 % of a Baraff-Witkin step with bending)
-            st(:, :, kof(iq2 - ip, jq2 - jp), ip, jp) = st(:, :, kof(iq2 - ip, jq2 - jp), ip, jp) + blk
+            st(:, :, kof(iq2 - ip, jq2 - jp), ip, srow(jp)) = st(:, :, kof(iq2 - ip, jq2 - jp), ip, srow(jp)) + blk
           else
             call add_block(ip, jp, iq2 - ip, jq2 - jp, blk)
           end if
@@ -509,7 +527,7 @@ contains
       integer :: pos(0:2), r
       logical :: diag
       if (present(st)) then
-        st(:, :, kof(di, dj), ip, jp) = st(:, :, kof(di, dj), ip, jp) + blk
+        st(:, :, kof(di, dj), ip, srow(jp)) = st(:, :, kof(di, dj), ip, srow(jp)) + blk
         return
       end if
       call csr_block_pos(lat, ia, ib, ip, jp, di, dj, pos, diag)

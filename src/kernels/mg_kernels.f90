@@ -226,16 +226,16 @@ contains
     real(rp), intent(in) :: full(:, :, :, 0:, st%ys:)
     integer :: j
     do j = st%ys, st%ye
-      call stencil_row_from_full(st, full, j)
+      call stencil_row_from_full(st, full(:, :, :, :, j), j)
     end do
   end subroutine stencil_from_full
 
-  !> Row j of the operator from full, as stencil_from_full (the assembly
-  !> calls it for each row as soon as the row is complete, while its
-  !> blocks are still in the cache: module reduced_assembly).
+  !> Row j of the operator from that row of full, as stencil_from_full
+  !> (the assembly calls it for each row as soon as the row is complete,
+  !> while its blocks are still in the cache: module reduced_assembly).
   subroutine stencil_row_from_full(st, full, j)
     type(stencil_t), intent(inout) :: st
-    real(rp), intent(in) :: full(:, :, :, 0:, st%ys:)   !< as in stencil_from_full
+    real(rp), intent(in) :: full(:, :, :, 0:)   !< (3, 3, slot, 0:nx-1) row j of full in stencil_from_full
     integer, intent(in) :: j
     integer, parameter :: TILE = 16                ! 64 bytes of kind mp
     real(rp) :: dsum(3, 3), inv(3, 3)
@@ -262,23 +262,23 @@ contains
         do c2 = 1, 3
           do c1 = 1, 3
             do i = i0, i1
-              st%b(i, c1, c2, k, j) = real(full(c1, c2, sv(k), i, j), mp)
+              st%b(i, c1, c2, k, j) = real(full(c1, c2, sv(k), i), mp)
             end do
           end do
         end do
       end do
     end do
     do i = 0, st%nx - 1
-      dsum = full(:, :, s0, i, j)
+      dsum = full(:, :, s0, i)
       do k = 1, st%nr
-        st%br(:, :, k, i, j) = real(full(:, :, sr(k), i, j), mp)
-        dsum = dsum + full(:, :, sr(k), i, j)
+        st%br(:, :, k, i, j) = real(full(:, :, sr(k), i), mp)
+        dsum = dsum + full(:, :, sr(k), i)
       end do
       do k = 1, st%nv
-        dsum = dsum + full(:, :, sv(k), i, j)
+        dsum = dsum + full(:, :, sv(k), i)
       end do
       st%d(i, :, :, j) = real(dsum, mp)
-      call block_inverse(full(:, :, s0, i, j), inv)
+      call block_inverse(full(:, :, s0, i), inv)
       st%ainv(:, :, i, j) = real(inv, mp)
     end do
   end subroutine stencil_row_from_full
