@@ -1131,10 +1131,13 @@ contains
     PetscCall(DMDAVecGetArrayF90(red%da6, du, y, ierr))
     do j = red%lat%ys, red%lat%ye
       do i = 0, red%lat%nx - 1
-        y(3:5, i, j) = dv(0:2, i, j)
         if (red%fixedg(i, j)) then
-          y(0:2, i, j) = ainv * bl(0:2, i, j)
+          ! J = a I on a constrained node, whose rows and columns of S
+          ! couple nothing: du = b / a exactly, whatever the inner solve's
+          ! tolerance and the precision of its product left in dv there
+          y(:, i, j) = ainv * bl(:, i, j)
         else
+          y(3:5, i, j) = dv(0:2, i, j)
           y(0:2, i, j) = ainv * (dv(0:2, i, j) + bl(0:2, i, j))
         end if
       end do

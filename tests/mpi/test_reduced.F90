@@ -7,7 +7,9 @@
 !>  2. the 6-dof MATSHELL against finite differences of the 6-dof residual;
 !>  3. the elimination (PCSHELL with an exact inner LU) inverts the MATSHELL:
 !>     J (P b) = b, for a general b and for the b = F(u) of a Newton step
-!>     (whose products are formed during the assembly).
+!>     (whose products are formed during the assembly);
+!>  4. with an inexact inner solve (dv = its right-hand side) the constrained
+!>     nodes' rows still hold exactly (du = b / a there).
 !> Every error is a global maximum, so every rank checks the same numbers.
 program test_reduced
 #include "petsc/finclude/petscsnes.h"
@@ -326,6 +328,47 @@ contains
     call check_inverse(outer, red%jac, b, du, jdu, label//': elimination inverts J, b = F(u)')
     PetscCallA(VecScale(b, -1.0_rp, ierr))
     call check_inverse(outer, red%jac, b, du, jdu, label//': elimination inverts J, b = -F(u)')
+
+    ! 4. Constrained nodes exact whatever the inner solve: with dv = rhs
+    ! inside (preonly, no preconditioner), J (P b) = b holds on the
+    ! constrained nodes' rows to round-off (du = b / a there), not on the
+    ! free ones, for a b that is not zero on the constrained nodes.
+    block
+      type(tPC) :: ipc
+      PetscScalar, pointer :: ra(:, :, :)
+      real(rp) :: efix, efree, bmax
+      PetscCallA(KSPGetPC(red%ksp, ipc, ierr))
+      PetscCallA(PCSetType(ipc, PCNONE, ierr))
+      PetscCallA(DMDAVecGetArrayF90(da6, b, ba, ierr))
+      do j = lat%ys, lat%ye
+        do i = 0, lat%nx - 1
+          ba(:, i, j) = [sin(real(i * j, rp)), 0.3_rp * i, -0.2_rp * j, cos(real(i - j, rp)), 0.1_rp, sin(real(i, rp))]
+        end do
+      end do
+      PetscCallA(DMDAVecRestoreArrayF90(da6, b, ba, ierr))
+      PetscCallA(KSPSolve(outer, b, du, ierr))
+      PetscCallA(MatMult(red%jac, du, jdu, ierr))
+      PetscCallA(VecAXPY(jdu, -1.0_rp, b, ierr))
+      PetscCallA(VecNorm(b, NORM_INFINITY, bmax, ierr))
+      efix = 0.0_rp
+      efree = 0.0_rp
+      PetscCallA(DMDAVecGetArrayReadF90(da6, jdu, ra, ierr))
+      do j = lat%ys, lat%ye
+        do i = 0, lat%nx - 1
+          if (fixed(i, j)) then
+            efix = max(efix, maxval(abs(ra(:, i, j))))
+          else
+            efree = max(efree, maxval(abs(ra(:, i, j))))
+          end if
+        end do
+      end do
+      PetscCallA(DMDAVecRestoreArrayReadF90(da6, jdu, ra, ierr))
+      efix = gmax(efix)
+      efree = gmax(efree)
+      call check_true(efix <= 1.0e-13_rp * bmax, label//': constrained nodes exact with an inexact inner solve')
+      call check_true(efree > 1.0e-6_rp * bmax, label//': (that inner solve is inexact on the free nodes)')
+      if (efix > 1.0e-13_rp * bmax) write(*, '(a,es10.3,a,es10.3)') label//': constrained |J P b - b| = ', efix, ' of ', bmax
+    end block
 
     PetscCallA(SNESDestroy(snes, ierr))
     PetscCallA(VecDestroy(jdu, ierr))
