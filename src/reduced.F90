@@ -259,7 +259,9 @@ contains
     if (red%use_mg) then
       ! S by stencil offset (reduced_assemble), its product a MATSHELL:
       ! nuno's multigrid needs no PETSc matrix, and no column indices are
-      ! stored (1.2 KB a node with bending against 2.6 in AIJ).
+      ! stored (1.2 KB a node with bending against 2.6 in AIJ, and with the
+      ! mixed product only a ring of rows: 648 B a node in the multigrid's
+      ! finest level instead).
       PetscCall(DMSetUp(red%da3, ierr))
       PetscCall(DMDAGetCorners(da6, xs, ys, zs, m, n, zm, ierr))
       ! the whole strip for the product in double precision; with the mixed
