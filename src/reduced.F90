@@ -269,11 +269,11 @@ contains
       ! the triples reach two rows back; module reduced_assembly)
       if (red%mixed_product) then
         allocate(red%st(3, 3, offset_count(w), 0:nx - 1, 0:2 * w - 2))
+        allocate(red%pxs(-w:nx - 1 + w, 3, 0:2 * w), red%pacc(0:nx - 1, 4))
       else
         allocate(red%st(3, 3, offset_count(w), 0:nx - 1, 0:n - 1))
       end if
       red%st = 0.0_rp
-      allocate(red%pxs(-w:nx - 1 + w, 3, 0:2 * w), red%pacc(0:nx - 1, 4))
       m = 3 * nx * n
       mg = 3 * nx * ny
       PetscCall(MatCreateShell(comm, m, m, mg, mg, PETSC_NULL_INTEGER, red%s, ierr))

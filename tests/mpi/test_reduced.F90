@@ -303,13 +303,7 @@ contains
     PetscCallA(reduced_attach(red, snes, ierr))
     PetscCallA(SNESGetKSP(snes, outer, ierr))
     PetscCallA(KSPSetOperators(outer, red%jac, red%jac, ierr))
-    PetscCallA(DMDAVecGetArrayF90(da6, b, ba, ierr))
-    do j = lat%ys, lat%ye
-      do i = 0, lat%nx - 1
-        ba(:, i, j) = [sin(real(i * j, rp)), 0.3_rp * i, -0.2_rp * j, cos(real(i - j, rp)), 0.1_rp, sin(real(i, rp))]
-      end do
-    end do
-    PetscCallA(DMDAVecRestoreArrayF90(da6, b, ba, ierr))
+    call general_b(da6, lat, b)
     call check_inverse(outer, red%jac, b, du, jdu, label//': elimination inverts J, general b')
     ! ... and b = F(u) as in a Newton step: F_x = xdot - v everywhere,
     ! F_v = vdot on constrained nodes (free F_v arbitrary).
@@ -339,13 +333,7 @@ contains
       real(rp) :: efix, efree, bmax
       PetscCallA(KSPGetPC(red%ksp, ipc, ierr))
       PetscCallA(PCSetType(ipc, PCNONE, ierr))
-      PetscCallA(DMDAVecGetArrayF90(da6, b, ba, ierr))
-      do j = lat%ys, lat%ye
-        do i = 0, lat%nx - 1
-          ba(:, i, j) = [sin(real(i * j, rp)), 0.3_rp * i, -0.2_rp * j, cos(real(i - j, rp)), 0.1_rp, sin(real(i, rp))]
-        end do
-      end do
-      PetscCallA(DMDAVecRestoreArrayF90(da6, b, ba, ierr))
+      call general_b(da6, lat, b)
       PetscCallA(KSPSolve(outer, b, du, ierr))
       PetscCallA(MatMult(red%jac, du, jdu, ierr))
       PetscCallA(VecAXPY(jdu, -1.0_rp, b, ierr))
@@ -385,6 +373,23 @@ contains
     PetscCallA(DMDestroy(da6, ierr))
 
   end subroutine run_case
+
+  !> A right-hand side with no structure: nonzero in every row, the
+  !> constrained nodes' included.
+  subroutine general_b(da6, lat, b)
+    type(tDM), intent(in) :: da6
+    type(lattice_t), intent(in) :: lat
+    type(tVec), intent(in) :: b
+    PetscScalar, pointer :: ba(:, :, :)
+    integer :: i, j
+    PetscCallA(DMDAVecGetArrayF90(da6, b, ba, ierr))
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
+        ba(:, i, j) = [sin(real(i * j, rp)), 0.3_rp * i, -0.2_rp * j, cos(real(i - j, rp)), 0.1_rp, sin(real(i, rp))]
+      end do
+    end do
+    PetscCallA(DMDAVecRestoreArrayF90(da6, b, ba, ierr))
+  end subroutine general_b
 
   !> ||J (P b) - b|| <= 1e-10 ||b|| with P the outer KSP (preonly + elimination).
   subroutine check_inverse(outer, jac, b, du, jdu, what)
