@@ -435,11 +435,16 @@ contains
 
   !> The point-by-point part of a sweep over one row, in the sweep's order:
   !> x_i = A_ii^-1 (t_i - sum_k br(:, :, k, i) x_{i + dik(k)}), the points
-  !> already visited at their new values. Explicit shapes and scalar
-  !> temporaries: each point waits on the one before it, so the work per
-  !> point is the chain's length (written over the derived type's
-  !> components, the loop reloaded their descriptors and offsets at every
-  !> point and took a third of a multigrid cycle).
+  !> already visited at their new values. Each point waits on the one
+  !> before it, so the work per point is the chain's length: the rows of
+  !> reach 1 and 2 (the finest level, dik = -1, 1 or -2, -1, 1, 2) go to
+  !> routines with their offsets fixed, which keep the points just visited
+  !> in registers and add their couplings last (the chain is then one block
+  !> product and the inverse, not every block of the row); other reaches
+  !> (the wide coarse levels) take the general loop. Explicit shapes and
+  !> scalar temporaries: written over the derived type's components, the
+  !> loop reloaded their descriptors and offsets at every point and took a
+  !> third of a multigrid cycle.
   pure subroutine point_row(nx, h, nr, dik, br, ainv, t, x, forward)
     integer, intent(in) :: nx, h, nr
     integer, intent(in) :: dik(nr)
@@ -450,6 +455,25 @@ contains
     logical, intent(in) :: forward
     integer :: ii, i, k, q
     real(mp) :: s1, s2, s3, y1, y2, y3
+    if (nr == 2) then
+      if (all(dik == [-1, 1])) then
+        if (forward) then
+          call point_row_reach1(nx, h, br, ainv, t, x, 1, 2, 0, nx - 1, 1)
+        else
+          call point_row_reach1(nx, h, br, ainv, t, x, 2, 1, nx - 1, 0, -1)
+        end if
+        return
+      end if
+    else if (nr == 4) then
+      if (all(dik == [-2, -1, 1, 2])) then
+        if (forward) then
+          call point_row_reach2(nx, h, br, ainv, t, x, 1, 2, 3, 4, 0, nx - 1, 1)
+        else
+          call point_row_reach2(nx, h, br, ainv, t, x, 4, 3, 2, 1, nx - 1, 0, -1)
+        end if
+        return
+      end if
+    end if
     do ii = 0, nx - 1
       i = ii
       if (.not. forward) i = nx - 1 - ii
@@ -470,6 +494,83 @@ contains
       x(i, 3) = ainv(3, 1, i) * s1 + ainv(3, 2, i) * s2 + ainv(3, 3, i) * s3
     end do
   end subroutine point_row
+
+  !> point_row for dik = -1, 1, points i0, i0 + step, .., i1: kn is the k
+  !> of the offset -step (the point just visited, new), ko of +step (old).
+  pure subroutine point_row_reach1(nx, h, br, ainv, t, x, kn, ko, i0, i1, step)
+    integer, intent(in) :: nx, h, kn, ko, i0, i1, step
+    real(mp), intent(in) :: br(3, 3, 2, 0:nx - 1), ainv(3, 3, 0:nx - 1), t(0:nx - 1, 3)
+    real(mp), intent(inout) :: x(-h:nx - 1 + h, 3)
+    integer :: i
+    real(mp) :: s1, s2, s3, p1, p2, p3, y1, y2, y3
+    ! p: x at i - step, new (the padding before the first point)
+    p1 = x(i0 - step, 1)
+    p2 = x(i0 - step, 2)
+    p3 = x(i0 - step, 3)
+    do i = i0, i1, step
+      y1 = x(i + step, 1)
+      y2 = x(i + step, 2)
+      y3 = x(i + step, 3)
+      s1 = t(i, 1) - (br(1, 1, ko, i) * y1 + br(1, 2, ko, i) * y2 + br(1, 3, ko, i) * y3)
+      s2 = t(i, 2) - (br(2, 1, ko, i) * y1 + br(2, 2, ko, i) * y2 + br(2, 3, ko, i) * y3)
+      s3 = t(i, 3) - (br(3, 1, ko, i) * y1 + br(3, 2, ko, i) * y2 + br(3, 3, ko, i) * y3)
+      s1 = s1 - (br(1, 1, kn, i) * p1 + br(1, 2, kn, i) * p2 + br(1, 3, kn, i) * p3)
+      s2 = s2 - (br(2, 1, kn, i) * p1 + br(2, 2, kn, i) * p2 + br(2, 3, kn, i) * p3)
+      s3 = s3 - (br(3, 1, kn, i) * p1 + br(3, 2, kn, i) * p2 + br(3, 3, kn, i) * p3)
+      p1 = ainv(1, 1, i) * s1 + ainv(1, 2, i) * s2 + ainv(1, 3, i) * s3
+      p2 = ainv(2, 1, i) * s1 + ainv(2, 2, i) * s2 + ainv(2, 3, i) * s3
+      p3 = ainv(3, 1, i) * s1 + ainv(3, 2, i) * s2 + ainv(3, 3, i) * s3
+      x(i, 1) = p1
+      x(i, 2) = p2
+      x(i, 3) = p3
+    end do
+  end subroutine point_row_reach1
+
+  !> point_row for dik = -2, -1, 1, 2, as point_row_reach1: kn1, kn2 the k of
+  !> the offsets -step, -2 step (new), ko1, ko2 of +step, +2 step (old).
+  pure subroutine point_row_reach2(nx, h, br, ainv, t, x, kn2, kn1, ko1, ko2, i0, i1, step)
+    integer, intent(in) :: nx, h, kn2, kn1, ko1, ko2, i0, i1, step
+    real(mp), intent(in) :: br(3, 3, 4, 0:nx - 1), ainv(3, 3, 0:nx - 1), t(0:nx - 1, 3)
+    real(mp), intent(inout) :: x(-h:nx - 1 + h, 3)
+    integer :: i
+    real(mp) :: s1, s2, s3, p1, p2, p3, q1, q2, q3, y1, y2, y3, z1, z2, z3
+    ! p: x at i - step, q: at i - 2 step, both new
+    p1 = x(i0 - step, 1)
+    p2 = x(i0 - step, 2)
+    p3 = x(i0 - step, 3)
+    q1 = x(i0 - 2 * step, 1)
+    q2 = x(i0 - 2 * step, 2)
+    q3 = x(i0 - 2 * step, 3)
+    do i = i0, i1, step
+      y1 = x(i + step, 1)
+      y2 = x(i + step, 2)
+      y3 = x(i + step, 3)
+      z1 = x(i + 2 * step, 1)
+      z2 = x(i + 2 * step, 2)
+      z3 = x(i + 2 * step, 3)
+      s1 = t(i, 1) - (br(1, 1, ko1, i) * y1 + br(1, 2, ko1, i) * y2 + br(1, 3, ko1, i) * y3) &
+                   - (br(1, 1, ko2, i) * z1 + br(1, 2, ko2, i) * z2 + br(1, 3, ko2, i) * z3) &
+                   - (br(1, 1, kn2, i) * q1 + br(1, 2, kn2, i) * q2 + br(1, 3, kn2, i) * q3)
+      s2 = t(i, 2) - (br(2, 1, ko1, i) * y1 + br(2, 2, ko1, i) * y2 + br(2, 3, ko1, i) * y3) &
+                   - (br(2, 1, ko2, i) * z1 + br(2, 2, ko2, i) * z2 + br(2, 3, ko2, i) * z3) &
+                   - (br(2, 1, kn2, i) * q1 + br(2, 2, kn2, i) * q2 + br(2, 3, kn2, i) * q3)
+      s3 = t(i, 3) - (br(3, 1, ko1, i) * y1 + br(3, 2, ko1, i) * y2 + br(3, 3, ko1, i) * y3) &
+                   - (br(3, 1, ko2, i) * z1 + br(3, 2, ko2, i) * z2 + br(3, 3, ko2, i) * z3) &
+                   - (br(3, 1, kn2, i) * q1 + br(3, 2, kn2, i) * q2 + br(3, 3, kn2, i) * q3)
+      q1 = p1
+      q2 = p2
+      q3 = p3
+      s1 = s1 - (br(1, 1, kn1, i) * p1 + br(1, 2, kn1, i) * p2 + br(1, 3, kn1, i) * p3)
+      s2 = s2 - (br(2, 1, kn1, i) * p1 + br(2, 2, kn1, i) * p2 + br(2, 3, kn1, i) * p3)
+      s3 = s3 - (br(3, 1, kn1, i) * p1 + br(3, 2, kn1, i) * p2 + br(3, 3, kn1, i) * p3)
+      p1 = ainv(1, 1, i) * s1 + ainv(1, 2, i) * s2 + ainv(1, 3, i) * s3
+      p2 = ainv(2, 1, i) * s1 + ainv(2, 2, i) * s2 + ainv(2, 3, i) * s3
+      p3 = ainv(3, 1, i) * s1 + ainv(3, 2, i) * s2 + ainv(3, 3, i) * s3
+      x(i, 1) = p1
+      x(i, 2) = p2
+      x(i, 3) = p3
+    end do
+  end subroutine point_row_reach2
 
   !> res = rhs - A x on rows ys..ye, in difference form (ghost rows of x filled).
   subroutine residual(st, h, x, rhs, res)

@@ -29,7 +29,9 @@ program test_mg_kernels
   call test_galerkin(2, .false.)
   call test_galerkin(2, .true.)
   call test_galerkin(2, .false., lines=.true.)
-  call test_smoother()
+  call test_smoother(1)
+  call test_smoother(2)
+  call test_smoother(3)
   call test_row_sums()
   call test_product_mixed(1, 0, 8)
   call test_product_mixed(2, 0, 8)
@@ -261,15 +263,19 @@ contains
     call check_true(all(sc%ainv == sc%ainv), 'coarse diagonal blocks inverted')
   end subroutine test_galerkin
 
-  subroutine test_smoother()
-    integer, parameter :: nx = 9, ny = 7, r = 2
+  subroutine test_smoother(r)
+    integer, intent(in) :: r    !< reach: 1 and 2 take point_row's fixed-offset routines, 3 its general loop
+    integer, parameter :: nx = 9, ny = 7
     type(stencil_t) :: st
     real(rp), allocatable :: dense(:, :), v(:), xref(:), ad(:, :), xd(:), bd(:)
     real(mp) :: x(-r:nx - 1 + r, 3, -r:ny - 1 + r), rhs(0:nx - 1, 3, 0:ny - 1), res(0:nx - 1, 3, 0:ny - 1), t(0:nx - 1, 3)
     real(mp) :: x0(-r:nx - 1 + r, 3, -r:ny - 1 + r), x1(-r:nx - 1 + r, 3, -r:ny - 1 + r), low(0:nx - 1, 3, 0:ny - 1)
     integer :: k, n, i, j, c, ipiv(3 * nx * ny), info
-    ! Diagonally dominant: mass 30 against 24 neighbours of stiffness <= 1.5.
-    call random_operator(nx, ny, r, 30.0_rp, 1.0_rp, st, dense)
+    character(len=12) :: tag
+    write(tag, '(a, i0, a)') ' (reach ', r, ')'
+    ! Diagonally dominant: mass 30 against up to 24 neighbours of stiffness
+    ! <= 1.5 (90 against the 48 of reach 3).
+    call random_operator(nx, ny, r, merge(30.0_rp, 90.0_rp, r <= 2), 1.0_rp, st, dense)
     n = 3 * nx * ny
     allocate(v(n))
     call random_number(v)
@@ -289,9 +295,9 @@ contains
       call gs_sweep(st, r, x, rhs, .true., t)
       call gs_sweep(st, r, x, rhs, .false., t)
     end do
-    call check_close(error_to_ref(nx, ny, r, x, xref), 0.0_rp, 0.0_rp, 1.0e-5_rp * maxval(abs(xref)), 'symmetric Gauss-Seidel converges to A^-1 b')
+    call check_close(error_to_ref(nx, ny, r, x, xref), 0.0_rp, 0.0_rp, 1.0e-5_rp * maxval(abs(xref)), 'symmetric Gauss-Seidel converges to A^-1 b' // trim(tag))
     call residual(st, r, x, rhs, res)
-    call check_true(maxval(abs(res)) < 1.0e-4 * maxval(abs(rhs)), 'its residual is small')
+    call check_true(maxval(abs(res)) < 1.0e-4 * maxval(abs(rhs)), 'its residual is small' // trim(tag))
     ! The same with the sums over the rows below kept by the forward sweep
     ! for the backward one: one symmetric sweep from a random start equals
     ! the one without (to single-precision rounding), and 30 converge.
@@ -307,13 +313,13 @@ contains
     call gs_sweep(st, r, x1, rhs, .true., t, low)
     call gs_sweep(st, r, x1, rhs, .false., t, low)
     call check_close(real(maxval(abs(x1 - x)), rp), 0.0_rp, 0.0_rp, 1.0e-5_rp * real(maxval(abs(x)), rp), &
-                     'symmetric sweep with the kept sums over the rows below')
+                     'symmetric sweep with the kept sums over the rows below' // trim(tag))
     x1 = 0.0_mp
     do k = 1, 30
       call gs_sweep(st, r, x1, rhs, .true., t, low)
       call gs_sweep(st, r, x1, rhs, .false., t, low)
     end do
-    call check_close(error_to_ref(nx, ny, r, x1, xref), 0.0_rp, 0.0_rp, 1.0e-5_rp * maxval(abs(xref)), 'it converges to A^-1 b too')
+    call check_close(error_to_ref(nx, ny, r, x1, xref), 0.0_rp, 0.0_rp, 1.0e-5_rp * maxval(abs(xref)), 'it converges to A^-1 b too' // trim(tag))
     ! One forward and one backward sweep from a random start against block
     ! Gauss-Seidel on the dense matrix, node by node in the sweep's order
     ! (rows, then the points of a row): the order matters, converging alone
@@ -331,11 +337,11 @@ contains
     call gs_sweep(st, r, x, rhs, .true., t)
     call dense_gs_sweep(nx, ny, ad, bd, xd, .true.)
     call check_close(error_to_ref(nx, ny, r, x, xd), 0.0_rp, 0.0_rp, 1.0e-5_rp * maxval(abs(xd)), &
-                     'a forward sweep is block Gauss-Seidel in lexicographic order')
+                     'a forward sweep is block Gauss-Seidel in lexicographic order' // trim(tag))
     call gs_sweep(st, r, x, rhs, .false., t)
     call dense_gs_sweep(nx, ny, ad, bd, xd, .false.)
     call check_close(error_to_ref(nx, ny, r, x, xd), 0.0_rp, 0.0_rp, 1.0e-5_rp * maxval(abs(xd)), &
-                     'a backward sweep is block Gauss-Seidel in reverse order')
+                     'a backward sweep is block Gauss-Seidel in reverse order' // trim(tag))
   end subroutine test_smoother
 
   !> The product in double precision from the single-precision difference
