@@ -233,53 +233,68 @@ contains
   !> Row j of the operator from that row of full, as stencil_from_full
   !> (the assembly calls it for each row as soon as the row is complete,
   !> while its blocks are still in the cache: module reduced_assembly).
+  !> In tiles of TILE nodes: the tile's blocks transposed once to lanes
+  !> fastest (full keeps them node by node), then the blocks to other rows,
+  !> the row sums and the inverted diagonal blocks formed for the whole
+  !> tile at once (vector loops over the lanes: node by node, the sums and
+  !> the inverse were scalar and most of this routine's time).
   subroutine stencil_row_from_full(st, full, j)
     type(stencil_t), intent(inout) :: st
     real(rp), intent(in) :: full(:, :, :, 0:)   !< (3, 3, slot, 0:nx-1) row j of full in stencil_from_full
     integer, intent(in) :: j
     integer, parameter :: TILE = 16                ! 64 bytes of kind mp
-    real(rp) :: dsum(3, 3), inv(3, 3)
-    integer :: i, k, c1, c2, s0, sv(st%nb), sr(st%nb), i0, i1
+    real(rp) :: ft(TILE, 3, 3, 0:st%nb)            ! the tile's blocks: 0 the diagonal, k = 1..nb st's offsets
+    real(rp) :: dsum(TILE, 3, 3), inv(TILE, 3, 3)
+    integer :: i, k, kk, c1, c2, sk(0:st%nb), i0, n, l
     ! the slot in full of every offset this level stores (the level stores
     ! the offsets the elements couple: stencil_init with lines)
-    s0 = offset_slot(st%r, 0, 0)
-    do k = 1, st%nv
-      sv(k) = offset_slot(st%r, st%odi(st%kv(k)), st%odj(st%kv(k)))
-    end do
-    do k = 1, st%nr
-      sr(k) = offset_slot(st%r, st%odi(st%kr(k)), 0)
+    sk(0) = offset_slot(st%r, 0, 0)
+    do k = 1, st%nb
+      sk(k) = offset_slot(st%r, st%odi(k), st%odj(k))
     end do
     ! (an internal invariant: only the finest level, made with lines, comes here)
-    if (any(sv(1:st%nv) == 0) .or. any(sr(1:st%nr) == 0)) error stop 'stencil_from_full: the level stores offsets S does not'
-    ! the blocks to other rows, a transpose in tiles of TILE nodes: the
-    ! tile's blocks stay in the first-level cache while each entry's
-    ! TILE values are written as one cache line (a whole row at a time
-    ! read one entry a node from 257 cache lines per pass; node by node
-    ! the stores were 72 streams at once)
+    if (any(sk == 0)) error stop 'stencil_from_full: the level stores offsets S does not'
     do i0 = 0, st%nx - 1, TILE
-      i1 = min(i0 + TILE, st%nx) - 1
-      do k = 1, st%nv
+      n = min(TILE, st%nx - i0)
+      do k = 0, st%nb
         do c2 = 1, 3
           do c1 = 1, 3
-            do i = i0, i1
-              st%b(i, c1, c2, k, j) = real(full(c1, c2, sv(k), i), mp)
+            do l = 1, n
+              ft(l, c1, c2, k) = full(c1, c2, sk(k), i0 + l - 1)
             end do
           end do
         end do
       end do
-    end do
-    do i = 0, st%nx - 1
-      dsum = full(:, :, s0, i)
-      do k = 1, st%nr
-        st%br(:, :, k, i, j) = real(full(:, :, sr(k), i), mp)
-        dsum = dsum + full(:, :, sr(k), i)
+      ! the blocks to other rows, along x (each entry's TILE values one
+      ! cache line of kind mp)
+      do kk = 1, st%nv
+        do c2 = 1, 3
+          do c1 = 1, 3
+            st%b(i0:i0 + n - 1, c1, c2, kk, j) = real(ft(1:n, c1, c2, st%kv(kk)), mp)
+          end do
+        end do
       end do
-      do k = 1, st%nv
-        dsum = dsum + full(:, :, sv(k), i)
+      do l = 1, n
+        i = i0 + l - 1
+        do kk = 1, st%nr
+          st%br(:, :, kk, i, j) = real(ft(l, :, :, st%kr(kk)), mp)
+        end do
       end do
-      st%d(i, :, :, j) = real(dsum, mp)
-      call block_inverse(full(:, :, s0, i), inv)
-      st%ainv(:, :, i, j) = real(inv, mp)
+      ! the row sums, in double precision before rounding (the small mass
+      ! term is what is left of the large stiffness blocks)
+      dsum(1:n, :, :) = ft(1:n, :, :, 0)
+      do k = 1, st%nb
+        dsum(1:n, :, :) = dsum(1:n, :, :) + ft(1:n, :, :, k)
+      end do
+      do c2 = 1, 3
+        do c1 = 1, 3
+          st%d(i0:i0 + n - 1, c1, c2, j) = real(dsum(1:n, c1, c2), mp)
+        end do
+      end do
+      call block_inverse_lanes(n, TILE, ft(:, :, :, 0), inv)
+      do l = 1, n
+        st%ainv(:, :, i0 + l - 1, j) = real(inv(l, :, :), mp)
+      end do
     end do
   end subroutine stencil_row_from_full
 
@@ -308,6 +323,37 @@ contains
       inv = inv / det
     end if
   end subroutine block_inverse
+
+  !> block_inverse for n blocks at once, a(l, :, :), l = 1..n (lanes fastest,
+  !> leading dimension ld): the same cofactors, the identity for a singular
+  !> block.
+  pure subroutine block_inverse_lanes(n, ld, a, inv)
+    integer, intent(in) :: n, ld
+    real(rp), intent(in) :: a(ld, 3, 3)
+    real(rp), intent(out) :: inv(ld, 3, 3)
+    real(rp) :: det
+    logical :: sing
+    integer :: l, c1, c2
+    do l = 1, n
+      inv(l, 1, 1) = a(l, 2, 2) * a(l, 3, 3) - a(l, 2, 3) * a(l, 3, 2)
+      inv(l, 1, 2) = a(l, 1, 3) * a(l, 3, 2) - a(l, 1, 2) * a(l, 3, 3)
+      inv(l, 1, 3) = a(l, 1, 2) * a(l, 2, 3) - a(l, 1, 3) * a(l, 2, 2)
+      inv(l, 2, 1) = a(l, 2, 3) * a(l, 3, 1) - a(l, 2, 1) * a(l, 3, 3)
+      inv(l, 2, 2) = a(l, 1, 1) * a(l, 3, 3) - a(l, 1, 3) * a(l, 3, 1)
+      inv(l, 2, 3) = a(l, 1, 3) * a(l, 2, 1) - a(l, 1, 1) * a(l, 2, 3)
+      inv(l, 3, 1) = a(l, 2, 1) * a(l, 3, 2) - a(l, 2, 2) * a(l, 3, 1)
+      inv(l, 3, 2) = a(l, 1, 2) * a(l, 3, 1) - a(l, 1, 1) * a(l, 3, 2)
+      inv(l, 3, 3) = a(l, 1, 1) * a(l, 2, 2) - a(l, 1, 2) * a(l, 2, 1)
+      det = a(l, 1, 1) * inv(l, 1, 1) + a(l, 1, 2) * inv(l, 2, 1) + a(l, 1, 3) * inv(l, 3, 1)
+      sing = det == 0.0_rp
+      det = merge(1.0_rp, det, sing)
+      do c2 = 1, 3
+        do c1 = 1, 3
+          inv(l, c1, c2) = merge(merge(1.0_rp, 0.0_rp, c1 == c2), inv(l, c1, c2) / det, sing)
+        end do
+      end do
+    end do
+  end subroutine block_inverse_lanes
 
   !> 1-D weights from nc = (nf - 1)/2 + 1 coarse points to nf fine ones:
   !> bilinear, or cubic (module interpolation).
@@ -787,19 +833,19 @@ contains
     type(stencil_t), intent(in) :: st
     type(transfer_t), intent(in) :: tx, ty
     integer, intent(in) :: rc, jc0
-    real(rp), intent(inout) :: ac(:, :, -rc:, -rc:, 0:, jc0:)
-    real(rp), intent(inout) :: bx(:, :, -rc:, -st%r:, 0:)  !< (3, 3, -rc:rc, -r:r, 0:nxc-1) work
-    real(rp) :: blk(3, 3), wy, wx
+    real(rp), intent(inout), contiguous :: ac(:, :, -rc:, -rc:, 0:, jc0:)
+    real(rp), intent(inout), contiguous :: bx(:, :, -rc:, -st%r:, 0:)  !< (3, 3, -rc:rc, -r:r, 0:nxc-1) work
     real(rp) :: dg(3, 3, 0:st%nx - 1)              ! the row's diagonal blocks D_p - sum_o B_{p,o}
-    integer :: i, j, k, di, dj, i2, j2, a1, a2, b1, b2, ci, cj, cdi, cdj
+    real(rp) :: blk(3, 3, 0:st%nx - 1)             ! the row's blocks of one offset
+    integer :: i, j, k, di, dj, j2, b1, b2, cj, cdj, c1, c2, ilo, ihi
     do j = st%ys, st%ye
       bx = 0.0_rp
-      do i = 0, st%nx - 1
-        dg(:, :, i) = real(st%d(i, :, :, j), rp)
+      do c2 = 1, 3
+        do c1 = 1, 3
+          dg(c1, c2, :) = real(st%d(:, c1, c2, j), rp)
+        end do
       end do
-      ! offset by offset along the row (the blocks to other rows are stored
-      ! along x fastest: node by node they were nine strided reads a block),
-      ! the diagonal blocks last
+      ! offset by offset along the row, the diagonal blocks last
       do k = 1, st%nb + 1
         if (k <= st%nb) then
           di = st%odi(k)
@@ -810,24 +856,23 @@ contains
         end if
         j2 = j + dj
         if (j2 < 0 .or. j2 >= st%ny) cycle
-        do i = max(0, -di), min(st%nx - 1, st%nx - 1 - di)
-          if (k <= st%nb) then
-            blk = stencil_block(st, i, j, k)
-            dg(:, :, i) = dg(:, :, i) - blk
-            if (all(blk == 0.0_rp)) cycle
-          else
-            blk = dg(:, :, i)
-          end if
-          i2 = i + di
-          do a1 = 1, tx%n(i)
-            ci = tx%c(a1, i)
-            wx = tx%w(a1, i)
-            do a2 = 1, tx%n(i2)
-              cdi = tx%c(a2, i2) - ci
-              bx(:, :, cdi, dj, ci) = bx(:, :, cdi, dj, ci) + (wx * tx%w(a2, i2)) * blk
+        ilo = max(0, -di)
+        ihi = min(st%nx - 1, st%nx - 1 - di)
+        if (k > st%nb) then
+          blk = dg
+        else if (dj == 0) then
+          do i = ilo, ihi
+            blk(:, :, i) = real(st%br(:, :, st%slot(k), i, j), rp)
+          end do
+        else
+          do c2 = 1, 3
+            do c1 = 1, 3
+              blk(c1, c2, ilo:ihi) = real(st%b(ilo:ihi, c1, c2, st%slot(k), j), rp)
             end do
           end do
-        end do
+        end if
+        if (k <= st%nb) dg(:, :, ilo:ihi) = dg(:, :, ilo:ihi) - blk(:, :, ilo:ihi)
+        call galerkin_x(st%nx, tx%nc, rc, st%r, size(tx%c, 1), ilo, ihi, di, dj, tx%n, tx%c, tx%w, blk, bx)
       end do
       do dj = -st%r, st%r
         j2 = j + dj
@@ -836,14 +881,52 @@ contains
           cj = ty%c(b1, j)
           do b2 = 1, ty%n(j2)
             cdj = ty%c(b2, j2) - cj
-            wy = ty%w(b1, j) * ty%w(b2, j2)
-            do ci = 0, tx%nc - 1
-              ac(:, :, :, cdj, ci, cj) = ac(:, :, :, cdj, ci, cj) + wy * bx(:, :, :, dj, ci)
-            end do
+            call galerkin_y(tx%nc, rc, st%r, dj, cdj, ty%w(b1, j) * ty%w(b2, j2), bx, ac(:, :, :, :, :, cj))
           end do
         end do
       end do
     end do
   end subroutine galerkin_add
+
+  !> galerkin_add's sum along x of one offset (di, dj) of a fine row:
+  !> bx(:, cdi, dj, ci) += P_x(i, ci) P_x(i + di, ci + cdi) blk(:, i) for
+  !> i = ilo..ihi and their parents (n(i) of them, c(:, i), weights w(:, i)).
+  !> Explicit shapes (over the derived types' components, every update
+  !> reloaded their descriptors: most of the coarse operators' set-up).
+  pure subroutine galerkin_x(nx, nxc, rc, r, nmax, ilo, ihi, di, dj, n, c, w, blk, bx)
+    integer, intent(in) :: nx, nxc, rc, r, nmax, ilo, ihi, di, dj
+    integer, intent(in) :: n(0:nx - 1), c(nmax, 0:nx - 1)
+    real(rp), intent(in) :: w(nmax, 0:nx - 1)
+    real(rp), intent(in) :: blk(9, 0:nx - 1)
+    real(rp), intent(inout) :: bx(9, -rc:rc, -r:r, 0:nxc - 1)
+    integer :: i, i2, a1, a2, ci, cdi
+    real(rp) :: wx, ww
+    do i = ilo, ihi
+      if (all(blk(:, i) == 0.0_rp)) cycle
+      i2 = i + di
+      do a1 = 1, n(i)
+        ci = c(a1, i)
+        wx = w(a1, i)
+        do a2 = 1, n(i2)
+          cdi = c(a2, i2) - ci
+          ww = wx * w(a2, i2)
+          bx(:, cdi, dj, ci) = bx(:, cdi, dj, ci) + ww * blk(:, i)
+        end do
+      end do
+    end do
+  end subroutine galerkin_x
+
+  !> galerkin_add's sum along y: coarse row cj's sums at offset cdj take
+  !> wy times the fine row's sums along x at offset dj, every coarse node.
+  pure subroutine galerkin_y(nxc, rc, r, dj, cdj, wy, bx, acj)
+    integer, intent(in) :: nxc, rc, r, dj, cdj
+    real(rp), intent(in) :: wy
+    real(rp), intent(in) :: bx(9 * (2 * rc + 1), -r:r, 0:nxc - 1)
+    real(rp), intent(inout) :: acj(9 * (2 * rc + 1), -rc:rc, 0:nxc - 1)
+    integer :: ci
+    do ci = 0, nxc - 1
+      acj(:, cdj, ci) = acj(:, cdj, ci) + wy * bx(:, dj, ci)
+    end do
+  end subroutine galerkin_y
 
 end module mg_kernels

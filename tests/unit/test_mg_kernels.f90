@@ -33,6 +33,8 @@ program test_mg_kernels
   call test_smoother(2)
   call test_smoother(3)
   call test_row_sums()
+  call test_from_full(1)
+  call test_from_full(2)
   call test_product_mixed(1, 0, 8)
   call test_product_mixed(2, 0, 8)
   call test_product_mixed(2, 3, 5)
@@ -442,6 +444,60 @@ contains
       end do
     end do
   end function error_to_ref
+
+  !> The finest level from S by stencil offset (stencil_from_full: tiles of
+  !> 16 nodes, the row sums and inverses formed for a tile at once) against
+  !> the same operator stored node by node (stencil_put_row): the blocks
+  !> equal, the row sums and inverted diagonal blocks to single rounding;
+  !> 37 nodes a row (two whole tiles and a part), one node with a singular
+  !> diagonal block (its inverse the identity in both).
+  subroutine test_from_full(r)
+    integer, intent(in) :: r
+    integer, parameter :: nx = 37, ny = 5, isg = 20, jsg = 2
+    type(stencil_t) :: st, sf
+    real(rp), allocatable :: dense(:, :), full(:, :, :, :, :)
+    real(rp) :: blk(3, 3, -r:r, -r:r)
+    integer :: i, j, di, dj, c1, c2, k
+    character(len=16) :: tag
+    write(tag, '(a, i0, a)') ' (reach ', r, ')'
+    call random_operator(nx, ny, r, 30.0_rp, 1.0_rp, st, dense, lines=.true.)
+    allocate(full(3, 3, offset_count(r), 0:nx - 1, 0:ny - 1))
+    full = 0.0_rp
+    do j = 0, ny - 1
+      do i = 0, nx - 1
+        blk = 0.0_rp
+        do dj = -r, r
+          do di = -r, r
+            k = offset_slot(r, di, dj)
+            if (k == 0) cycle
+            if (i + di < 0 .or. i + di >= nx .or. j + dj < 0 .or. j + dj >= ny) cycle
+            do c2 = 1, 3
+              do c1 = 1, 3
+                blk(c1, c2, di, dj) = dense(gidx(nx, i, j, c1), gidx(nx, i + di, j + dj, c2))
+              end do
+            end do
+            full(:, :, k, i, j) = blk(:, :, di, dj)
+          end do
+        end do
+        if (i == isg .and. j == jsg) then
+          blk(:, :, 0, 0) = 0.0_rp
+          full(:, :, offset_slot(r, 0, 0), i, j) = 0.0_rp
+          call stencil_put_row(st, i, j, blk)
+        end if
+      end do
+    end do
+    call stencil_init(sf, nx, ny, 0, ny - 1, r, lines=.true.)
+    call stencil_from_full(sf, full)
+    call check_true(all(sf%b == st%b) .and. all(sf%br == st%br), 'from full: the blocks' // trim(tag))
+    ! (the same formulas in double precision, rounded once; the compiler may
+    ! contract them differently in the vector loop: single rounding apart)
+    call check_close(real(maxval(abs(sf%ainv - st%ainv)), rp), 0.0_rp, 0.0_rp, 1.0e-6_rp * real(maxval(abs(st%ainv)), rp), &
+                     'from full: the inverted diagonal blocks' // trim(tag))
+    call check_close(real(maxval(abs(sf%d - st%d)), rp), 0.0_rp, 0.0_rp, 1.0e-6_rp * real(maxval(abs(st%d)), rp), &
+                     'from full: the row sums' // trim(tag))
+    call check_true(all(sf%ainv(:, :, isg, jsg) == reshape([1, 0, 0, 0, 1, 0, 0, 0, 1], [3, 3])), &
+                    'from full: a singular diagonal block gives the identity' // trim(tag))
+  end subroutine test_from_full
 
   subroutine test_row_sums()
     integer, parameter :: nx = 9, ny = 9, r = 2
