@@ -199,11 +199,76 @@ contains
         end do
       end do
       if (own_p) then
-        do i = 0, lat%nx - 1
-          call put_row(i, j0)
-        end do
+        if (present(st)) then
+          call put_rows_st(j0)
+        else
+          do i = 0, lat%nx - 1
+            call put_row(i, j0)
+          end do
+        end if
       end if
     end subroutine link_row
+
+    !> Write the whole block rows of owned row j0 into S by stencil offset,
+    !> offset by offset along the row: every slot of a node's row written
+    !> once (it was zeroed whole first, 3 % of a bw step without bending):
+    !> the link blocks (zero outside the lattice and to or from a
+    !> constrained node), zero at the bending triples' far ends, which the
+    !> triples then add to, and the diagonal a m I minus the blocks of the
+    !> node's links (a m I alone on a constrained node). Node by node, the
+    !> link's lookup for each of the eight neighbours was most of the
+    !> assembly without bending.
+    subroutine put_rows_st(j0)
+      integer, intent(in) :: j0
+      integer :: di, dj, i, k, ilo, ihi, s0, sl, dil, jl, r
+      real(rp) :: dsum(3, 3, 0:lat%nx - 1)
+      s0 = srow(j0)
+      dsum = 0.0_rp
+      do dj = -1, 1
+        do di = -1, 1
+          if (di == 0 .and. dj == 0) cycle
+          sl = kof(di, dj)
+          if (j0 + dj < 0 .or. j0 + dj >= lat%ny) then
+            st(:, :, sl, :, s0) = 0.0_rp
+            cycle
+          end if
+          ilo = max(0, -di)
+          ihi = min(lat%nx - 1, lat%nx - 1 - di)
+          if (ilo > 0) st(:, :, sl, 0, s0) = 0.0_rp
+          if (ihi < lat%nx - 1) st(:, :, sl, lat%nx - 1, s0) = 0.0_rp
+          ! a link is kept at its lower end (link_block)
+          if (dj > 0 .or. (dj == 0 .and. di > 0)) then
+            k = link_index(di, dj)
+            dil = 0
+            jl = modulo(j0, 2)
+          else
+            k = link_index(-di, -dj)
+            dil = di
+            jl = modulo(j0 + dj, 2)
+          end if
+          call put_link_blocks(lat%nx, size(st, 3), ilo, ihi, di, dil, k, lb(:, :, :, :, jl), fixedg(:, j0), &
+                               fixedg(:, j0 + dj), sl, st(:, :, :, :, s0), dsum)
+        end do
+      end do
+      if (lat%halo == 2) then
+        do dj = -2, 2, 2
+          do di = -2, 2, 2
+            if (di /= 0 .or. dj /= 0) st(:, :, kof(di, dj), :, s0) = 0.0_rp
+          end do
+        end do
+      end if
+      sl = kof(0, 0)
+      do i = 0, lat%nx - 1
+        if (fixedg(i, j0)) then
+          st(:, :, sl, i, s0) = 0.0_rp
+        else
+          st(:, :, sl, i, s0) = -dsum(:, :, i)
+        end if
+        do r = 1, 3
+          st(r, r, sl, i, s0) = st(r, r, sl, i, s0) + a * lat%mass(i, j0)
+        end do
+      end do
+    end subroutine put_rows_st
 
     !> The bending triples anchored at row j0 (their lowest row), added to
     !> the block rows of their owned nodes. Energy bending: the triples of
@@ -332,54 +397,17 @@ contains
       end do
     end subroutine add_triple_lanes
 
-    !> Write the whole block row of owned node (i0, j0): a m I minus the
-    !> blocks of its links on the diagonal, the link blocks at the link
-    !> neighbours, zero elsewhere in the stencil (constraints as above).
+    !> Write the whole block row of owned node (i0, j0) into the AIJ S: a m I
+    !> minus the blocks of its links on the diagonal, the link blocks at the
+    !> link neighbours, zero elsewhere in the stencil (constraints as above).
     subroutine put_row(i0, j0)
       integer, intent(in) :: i0, j0
-      integer :: di, dj, nc, kk, r, pa, pb, m, hw, s0
+      integer :: di, dj, nc, kk, r, pa, pb, m, hw
       logical :: fixed_row, owned_blk(25)
       real(rp) :: dsum(3, 3), blk(3, 3)
       hw = lat%halo
       fixed_row = fixedg(i0, j0)
       dsum = 0.0_rp
-      if (present(st)) then
-        s0 = srow(j0)
-        ! By stencil offset: every slot of the node's row written once (it
-        ! was zeroed whole first, 3 % of a bw step without bending): the link
-        ! blocks (zero outside the lattice and to or from a constrained
-        ! node), the diagonal, zero at the bending triples' far ends, which
-        ! the triples then add to.
-        do dj = -1, 1
-          do di = -1, 1
-            if (di == 0 .and. dj == 0) cycle
-            if (i0 + di < 0 .or. i0 + di >= lat%nx .or. j0 + dj < 0 .or. j0 + dj >= lat%ny) then
-              st(:, :, kof(di, dj), i0, s0) = 0.0_rp
-              cycle
-            end if
-            blk = link_block(i0, j0, di, dj)
-            dsum = dsum + blk
-            if (fixed_row .or. fixedg(i0 + di, j0 + dj)) then
-              st(:, :, kof(di, dj), i0, s0) = 0.0_rp
-            else
-              st(:, :, kof(di, dj), i0, s0) = blk
-            end if
-          end do
-        end do
-        if (hw == 2) then
-          do dj = -2, 2, 2
-            do di = -2, 2, 2
-              if (di /= 0 .or. dj /= 0) st(:, :, kof(di, dj), i0, s0) = 0.0_rp
-            end do
-          end do
-        end if
-        if (fixed_row) dsum = 0.0_rp
-        st(:, :, kof(0, 0), i0, s0) = -dsum
-        do r = 1, 3
-          st(r, r, kof(0, 0), i0, s0) = st(r, r, kof(0, 0), i0, s0) + a * lat%mass(i0, j0)
-        end do
-        return
-      end if
       nc = 0
       do dj = -hw, hw
         if (j0 + dj < 0 .or. j0 + dj >= lat%ny) cycle
@@ -569,6 +597,28 @@ contains
       end do
     end do
   end subroutine csr_row_blocks
+
+  !> put_rows_st's work for one offset (di, dj) of a row, i = ilo..ihi:
+  !> dsum(:, i) += the link's block src(:, k, i + dil); S's slot sl of node i
+  !> the same, or zero to or from a constrained node (fixed_p(i), fixed_q(i +
+  !> di)). Explicit shapes: over the assumed-shape arrays, each nine-entry
+  !> copy went through the compiler's general strided loop.
+  pure subroutine put_link_blocks(nx, nslot, ilo, ihi, di, dil, k, src, fixed_p, fixed_q, sl, dst, dsum)
+    integer, intent(in) :: nx, nslot, ilo, ihi, di, dil, k, sl
+    real(rp), intent(in) :: src(9, 4, 0:nx - 1)      !< the link blocks kept at their lower ends
+    logical, intent(in) :: fixed_p(0:nx - 1), fixed_q(0:nx - 1)
+    real(rp), intent(inout) :: dst(9, nslot, 0:nx - 1)
+    real(rp), intent(inout) :: dsum(9, 0:nx - 1)
+    integer :: i
+    do i = ilo, ihi
+      dsum(:, i) = dsum(:, i) + src(:, k, i + dil)
+      if (fixed_p(i) .or. fixed_q(i + di)) then
+        dst(:, sl, i) = 0.0_rp
+      else
+        dst(:, sl, i) = src(:, k, i + dil)
+      end if
+    end do
+  end subroutine put_link_blocks
 
   !> Index k of link_dir for the direction (di, dj) of a link from its anchor.
   pure integer function link_index(di, dj) result(k)
