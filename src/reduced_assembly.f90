@@ -363,15 +363,7 @@ contains
         jp = j0 + (pp - 1) * dy
         if (jp < lat%ys .or. jp > lat%ye) cycle
         sp = srow(jp)
-        do l = 1, nl
-          g(:, ip0 + l - 1, jp) = g(:, ip0 + l - 1, jp) - (t(1, pp) * h(l, 1:3) + t(2, pp) * h(l, 4:6))
-        end do
-        do c1 = 1, 3
-          do l = 1, nl
-            kd(c1, ip0 + l - 1, jp) = kd(c1, ip0 + l - 1, jp) - (t(1, pp)**2 * ke(l, c1, c1) &
-              + t(1, pp) * t(2, pp) * (ke(l, c1, 3 + c1) + ke(l, 3 + c1, c1)) + t(2, pp)**2 * ke(l, 3 + c1, 3 + c1))
-          end do
-        end do
+        call sub_lane_forces(nl, ld, t(1, pp), t(2, pp), h, ke, g(:, ip0:ip0 + nl - 1, jp), kd(:, ip0:ip0 + nl - 1, jp))
         do qq = 1, 3
           iq0 = i0 + (qq - 1) * dx
           jq2 = j0 + (qq - 1) * dy
@@ -390,9 +382,7 @@ contains
               end do
             end do
           end do
-          do l = 1, nl
-            st(:, :, sl, ip0 + l - 1, sp) = st(:, :, sl, ip0 + l - 1, sp) + bq(l, :, :)
-          end do
+          call add_lane_blocks(nl, ld, size(st, 3), sl, bq, st(:, :, :, ip0:ip0 + nl - 1, sp))
         end do
       end do
     end subroutine add_triple_lanes
@@ -597,6 +587,38 @@ contains
       end do
     end do
   end subroutine csr_row_blocks
+
+  !> add_triple_lanes' adds to S by stencil offset: slot sl of nl
+  !> consecutive nodes takes bq(l, :) (a block's nine entries, lanes
+  !> fastest). Explicit shapes, as put_link_blocks.
+  pure subroutine add_lane_blocks(nl, ld, nslot, sl, bq, dst)
+    integer, intent(in) :: nl, ld, nslot, sl
+    real(rp), intent(in) :: bq(ld, 9)
+    real(rp), intent(inout) :: dst(9, nslot, nl)
+    integer :: l, e
+    do l = 1, nl
+      do e = 1, 9
+        dst(e, sl, l) = dst(e, sl, l) + bq(l, e)
+      end do
+    end do
+  end subroutine add_lane_blocks
+
+  !> add_triple_lanes' products and diagonals for node P of nl triples
+  !> (t1, t2: its factors in the two edges): g -= t1 h(1:3) + t2 h(4:6) and
+  !> kd -= the diagonal of the block (P, P) of T^T ke T.
+  pure subroutine sub_lane_forces(nl, ld, t1, t2, h, ke, g, kd)
+    integer, intent(in) :: nl, ld
+    real(rp), intent(in) :: t1, t2, h(ld, 6), ke(ld, 6, 6)
+    real(rp), intent(inout) :: g(3, nl), kd(3, nl)
+    integer :: l, c1
+    do l = 1, nl
+      do c1 = 1, 3
+        g(c1, l) = g(c1, l) - (t1 * h(l, c1) + t2 * h(l, 3 + c1))
+        kd(c1, l) = kd(c1, l) - (t1**2 * ke(l, c1, c1) + t1 * t2 * (ke(l, c1, 3 + c1) + ke(l, 3 + c1, c1)) &
+                                 + t2**2 * ke(l, 3 + c1, 3 + c1))
+      end do
+    end do
+  end subroutine sub_lane_forces
 
   !> put_rows_st's work for one offset (di, dj) of a row, i = ilo..ihi:
   !> dsum(:, i) += the link's block src(:, k, i + dil); S's slot sl of node i
