@@ -1,0 +1,78 @@
+!> Microbenchmark of the multigrid's finest-level kernels alone (module
+!> mg_kernels): one symmetric Gauss-Seidel sweep (forward and backward,
+!> with the kept sums over the rows below, as the cycle does) and the
+!> mixed-precision product, on an N x N lattice with reach R (2: the
+!> stencil of energy bending, 1: links only), random blocks; only the
+!> offsets the cloth's elements couple (the finest level), or with a third
+!> argument "square" the whole square of reach R (a coarse level: 65 x 65
+!> at reach 4, 33 x 33 at reach 5 on hang 257 with bending). Prints the
+!> best of 40 runs of each, its bytes a node as mg_describe counts them
+!> and the rate they were read at. Run: bash bench/mg_micro.sh [N] [R] [square].
+program mg_micro
+  use kinds, only: rp
+  use mg_kernels, only: mp, stencil_t, stencil_init, gs_sweep, stencil_product_mixed
+  implicit none
+  type(stencil_t) :: st
+  integer :: n, r, rep
+  integer, parameter :: nrep = 40
+  real(mp), allocatable :: x(:, :, :), rhs(:, :, :), t(:, :), low(:, :, :)
+  real(rp), allocatable :: xd(:, :, :), yd(:, :, :), xs(:, :, :), acc(:, :)
+  integer(8) :: c0, c1, cr
+  real(rp) :: tg, tp, bytes_sweep, bytes_prod
+  character(len=32) :: arg
+  logical :: lines
+  n = 257
+  r = 2
+  if (command_argument_count() > 0) then
+    call get_command_argument(1, arg)
+    read(arg, *) n
+  end if
+  if (command_argument_count() > 1) then
+    call get_command_argument(2, arg)
+    read(arg, *) r
+  end if
+  lines = .true.
+  if (command_argument_count() > 2) then
+    call get_command_argument(3, arg)
+    lines = trim(arg) /= 'square'
+  end if
+  call stencil_init(st, n, n, 0, n - 1, r, lines=lines)
+  call random_number(st%b)
+  call random_number(st%br)
+  call random_number(st%d)
+  call random_number(st%ainv)
+  st%b = 0.01_mp * st%b
+  st%br = 0.01_mp * st%br
+  st%ainv = 0.1_mp * st%ainv
+  allocate(x(-r:n - 1 + r, 3, -r:n - 1 + r), rhs(0:n - 1, 3, 0:n - 1), t(0:n - 1, 3), low(0:n - 1, 3, 0:n - 1))
+  allocate(xd(3, 0:n - 1, 0:n - 1), yd(3, 0:n - 1, 0:n - 1), xs(-r:n - 1 + r, 3, 0:2 * r), acc(0:n - 1, 4))
+  x = 0.0_mp
+  call random_number(rhs)
+  call random_number(xd)
+  call system_clock(count_rate=cr)
+  tg = huge(1.0_rp)
+  tp = huge(1.0_rp)
+  do rep = 1, nrep
+    call system_clock(c0)
+    call gs_sweep(st, r, x, rhs, .true., t, low)
+    call gs_sweep(st, r, x, rhs, .false., t, low)
+    call system_clock(c1)
+    tg = min(tg, real(c1 - c0, rp) / real(cr, rp))
+    call system_clock(c0)
+    call stencil_product_mixed(st, 0, n - 1, xd, yd, xs, acc)
+    call system_clock(c1)
+    tp = min(tp, real(c1 - c0, rp) / real(cr, rp))
+  end do
+  ! as mg_describe: each sweep the blocks, the inverse, rhs and x; the
+  ! backward one not the blocks to the rows below but the kept sums
+  bytes_sweep = 2.0_rp * (36.0_rp * (st%nb + 1) + 36.0_rp) - 36.0_rp * count(st%odj < 0) + 24.0_rp
+  ! the blocks, the row sums, x and y in double precision
+  bytes_prod = 36.0_rp * (st%nb + 1) + 48.0_rp
+  print '(a, i0, a, i0, a, i0, a, i0, a)', 'lattice ', n, ' x ', n, ', reach ', r, ', ', st%nb, ' blocks a node'
+  print '(a, f8.3, a, f6.0, a, f6.2, a)', 'symmetric sweep ', 1.0e3_rp * tg, ' ms, ', bytes_sweep, ' B a node, ', &
+    bytes_sweep * n * n / tg / 1.0e9_rp, ' GB/s'
+  print '(a, f8.3, a, f6.0, a, f6.2, a)', 'mixed product   ', 1.0e3_rp * tp, ' ms, ', bytes_prod, ' B a node, ', &
+    bytes_prod * n * n / tp / 1.0e9_rp, ' GB/s'
+  ! (keeps the results live)
+  if (.not. (sum(x) + sum(yd) < huge(1.0_rp))) print '(a)', 'overflow'
+end program mg_micro
