@@ -578,17 +578,26 @@ contains
       s1 = t(i, 1) - (br(1, 1, ko, i) * y1 + br(1, 2, ko, i) * y2 + br(1, 3, ko, i) * y3)
       s2 = t(i, 2) - (br(2, 1, ko, i) * y1 + br(2, 2, ko, i) * y2 + br(2, 3, ko, i) * y3)
       s3 = t(i, 3) - (br(3, 1, ko, i) * y1 + br(3, 2, ko, i) * y2 + br(3, 3, ko, i) * y3)
-      s1 = s1 - (br(1, 1, kn, i) * p1 + br(1, 2, kn, i) * p2 + br(1, 3, kn, i) * p3)
-      s2 = s2 - (br(2, 1, kn, i) * p1 + br(2, 2, kn, i) * p2 + br(2, 3, kn, i) * p3)
-      s3 = s3 - (br(3, 1, kn, i) * p1 + br(3, 2, kn, i) * p2 + br(3, 3, kn, i) * p3)
-      p1 = ainv(1, 1, i) * s1 + ainv(1, 2, i) * s2 + ainv(1, 3, i) * s3
-      p2 = ainv(2, 1, i) * s1 + ainv(2, 2, i) * s2 + ainv(2, 3, i) * s3
-      p3 = ainv(3, 1, i) * s1 + ainv(3, 2, i) * s2 + ainv(3, 3, i) * s3
+      call point_finish(br(:, :, kn, i), ainv(:, :, i), s1, s2, s3, p1, p2, p3)
       x(i, 1) = p1
       x(i, 2) = p2
       x(i, 3) = p3
     end do
   end subroutine point_row_reach1
+
+  !> The end of a point in point_row_reach1 and 2: s -= B p, the coupling to
+  !> the point just visited (p, its new value), then p = A_ii^-1 s, this
+  !> point's new value (the chain from one point to the next).
+  pure subroutine point_finish(b, ainv, s1, s2, s3, p1, p2, p3)
+    real(mp), intent(in) :: b(3, 3), ainv(3, 3)
+    real(mp), intent(inout) :: s1, s2, s3, p1, p2, p3
+    s1 = s1 - (b(1, 1) * p1 + b(1, 2) * p2 + b(1, 3) * p3)
+    s2 = s2 - (b(2, 1) * p1 + b(2, 2) * p2 + b(2, 3) * p3)
+    s3 = s3 - (b(3, 1) * p1 + b(3, 2) * p2 + b(3, 3) * p3)
+    p1 = ainv(1, 1) * s1 + ainv(1, 2) * s2 + ainv(1, 3) * s3
+    p2 = ainv(2, 1) * s1 + ainv(2, 2) * s2 + ainv(2, 3) * s3
+    p3 = ainv(3, 1) * s1 + ainv(3, 2) * s2 + ainv(3, 3) * s3
+  end subroutine point_finish
 
   !> point_row for dik = -2, -1, 1, 2, as point_row_reach1: kn1, kn2 the k of
   !> the offsets -step, -2 step (new), ko1, ko2 of +step, +2 step (old).
@@ -624,12 +633,7 @@ contains
       q1 = p1
       q2 = p2
       q3 = p3
-      s1 = s1 - (br(1, 1, kn1, i) * p1 + br(1, 2, kn1, i) * p2 + br(1, 3, kn1, i) * p3)
-      s2 = s2 - (br(2, 1, kn1, i) * p1 + br(2, 2, kn1, i) * p2 + br(2, 3, kn1, i) * p3)
-      s3 = s3 - (br(3, 1, kn1, i) * p1 + br(3, 2, kn1, i) * p2 + br(3, 3, kn1, i) * p3)
-      p1 = ainv(1, 1, i) * s1 + ainv(1, 2, i) * s2 + ainv(1, 3, i) * s3
-      p2 = ainv(2, 1, i) * s1 + ainv(2, 2, i) * s2 + ainv(2, 3, i) * s3
-      p3 = ainv(3, 1, i) * s1 + ainv(3, 2, i) * s2 + ainv(3, 3, i) * s3
+      call point_finish(br(:, :, kn1, i), ainv(:, :, i), s1, s2, s3, p1, p2, p3)
       x(i, 1) = p1
       x(i, 2) = p2
       x(i, 3) = p3
