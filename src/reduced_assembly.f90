@@ -220,10 +220,11 @@ contains
     !> assembly without bending.
     subroutine put_rows_st(j0)
       integer, intent(in) :: j0
-      integer :: di, dj, i, k, ilo, ihi, s0, sl, dil, jl, r
-      real(rp) :: dsum(3, 3, 0:lat%nx - 1)
+      integer :: di, dj, i, k, ilo, ihi, s0, sl, sd, dil, jl, r
       s0 = srow(j0)
-      dsum = 0.0_rp
+      ! the diagonal slot takes minus the sum of the node's link blocks
+      sd = kof(0, 0)
+      st(:, :, sd, :, s0) = 0.0_rp
       do dj = -1, 1
         do di = -1, 1
           if (di == 0 .and. dj == 0) cycle
@@ -247,7 +248,7 @@ contains
             jl = modulo(j0 + dj, 2)
           end if
           call put_link_blocks(lat%nx, size(st, 3), ilo, ihi, di, dil, k, lb(:, :, :, :, jl), fixedg(:, j0), &
-                               fixedg(:, j0 + dj), sl, st(:, :, :, :, s0), dsum)
+                               fixedg(:, j0 + dj), sl, sd, st(:, :, :, :, s0))
         end do
       end do
       if (lat%halo == 2) then
@@ -257,15 +258,10 @@ contains
           end do
         end do
       end if
-      sl = kof(0, 0)
       do i = 0, lat%nx - 1
-        if (fixedg(i, j0)) then
-          st(:, :, sl, i, s0) = 0.0_rp
-        else
-          st(:, :, sl, i, s0) = -dsum(:, :, i)
-        end if
+        if (fixedg(i, j0)) st(:, :, sd, i, s0) = 0.0_rp
         do r = 1, 3
-          st(r, r, sl, i, s0) = st(r, r, sl, i, s0) + a * lat%mass(i, j0)
+          st(r, r, sd, i, s0) = st(r, r, sd, i, s0) + a * lat%mass(i, j0)
         end do
       end do
     end subroutine put_rows_st
@@ -620,20 +616,20 @@ contains
     end do
   end subroutine sub_lane_forces
 
-  !> put_rows_st's work for one offset (di, dj) of a row, i = ilo..ihi:
-  !> dsum(:, i) += the link's block src(:, k, i + dil); S's slot sl of node i
-  !> the same, or zero to or from a constrained node (fixed_p(i), fixed_q(i +
-  !> di)). Explicit shapes: over the assumed-shape arrays, each nine-entry
-  !> copy went through the compiler's general strided loop.
-  pure subroutine put_link_blocks(nx, nslot, ilo, ihi, di, dil, k, src, fixed_p, fixed_q, sl, dst, dsum)
-    integer, intent(in) :: nx, nslot, ilo, ihi, di, dil, k, sl
+  !> put_rows_st's work for one offset (di, dj) of a row, i = ilo..ihi: the
+  !> link's block src(:, k, i + dil) into S's slot sl of node i, or zero to or
+  !> from a constrained node (fixed_p(i), fixed_q(i + di)), and subtracted
+  !> from the diagonal slot sd. Explicit shapes: over the assumed-shape
+  !> arrays, each nine-entry copy went through the compiler's general
+  !> strided loop.
+  pure subroutine put_link_blocks(nx, nslot, ilo, ihi, di, dil, k, src, fixed_p, fixed_q, sl, sd, dst)
+    integer, intent(in) :: nx, nslot, ilo, ihi, di, dil, k, sl, sd
     real(rp), intent(in) :: src(9, 4, 0:nx - 1)      !< the link blocks kept at their lower ends
     logical, intent(in) :: fixed_p(0:nx - 1), fixed_q(0:nx - 1)
     real(rp), intent(inout) :: dst(9, nslot, 0:nx - 1)
-    real(rp), intent(inout) :: dsum(9, 0:nx - 1)
     integer :: i
     do i = ilo, ihi
-      dsum(:, i) = dsum(:, i) + src(:, k, i + dil)
+      dst(:, sd, i) = dst(:, sd, i) - src(:, k, i + dil)
       if (fixed_p(i) .or. fixed_q(i + di)) then
         dst(:, sl, i) = 0.0_rp
       else

@@ -243,9 +243,12 @@ contains
     real(rp), intent(in) :: full(:, :, :, 0:)   !< (3, 3, slot, 0:nx-1) row j of full in stencil_from_full
     integer, intent(in) :: j
     integer, parameter :: TILE = 16                ! 64 bytes of kind mp
-    real(rp) :: ft(TILE, 3, 3, 0:st%nb)            ! the tile's blocks: 0 the diagonal, k = 1..nb st's offsets
+    integer, parameter :: MAXNB = 24               ! offsets of a reach-2 square (no allocation per row)
+    real(rp) :: ft(TILE, 3, 3, 0:MAXNB)            ! the tile's blocks: 0 the diagonal, k = 1..nb st's offsets
     real(rp) :: dsum(TILE, 3, 3), inv(TILE, 3, 3)
-    integer :: i, k, kk, c1, c2, sk(0:st%nb), i0, n, l
+    integer :: i, k, kk, c1, c2, sk(0:MAXNB), i0, n, l
+    ! (an internal invariant: only the finest level, reach 1 or 2, comes here)
+    if (st%nb > MAXNB) error stop 'stencil_from_full: more offsets than a reach-2 level'
     ! the slot in full of every offset this level stores (the level stores
     ! the offsets the elements couple: stencil_init with lines)
     sk(0) = offset_slot(st%r, 0, 0)
@@ -253,7 +256,7 @@ contains
       sk(k) = offset_slot(st%r, st%odi(k), st%odj(k))
     end do
     ! (an internal invariant: only the finest level, made with lines, comes here)
-    if (any(sk == 0)) error stop 'stencil_from_full: the level stores offsets S does not'
+    if (any(sk(0:st%nb) == 0)) error stop 'stencil_from_full: the level stores offsets S does not'
     do i0 = 0, st%nx - 1, TILE
       n = min(TILE, st%nx - i0)
       do k = 0, st%nb
