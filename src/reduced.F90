@@ -33,7 +33,7 @@ module reduced
   use reduced_assembly, only: csr_assemble
   use offset_product, only: stencil_product, offset_count
   use interpolation, only: cubic_weights
-  use mg_kernels, only: stencil_product_mixed
+  use mg_kernels, only: stencil_product_mixed, mp
   use stencil_mg, only: stencil_mg_t, mg_create, mg_destroy, mg_build_coarse, mg_apply, mg_describe, &
                         MG_MULTIPLICATIVE, MG_KASKADE
   implicit none
@@ -79,6 +79,7 @@ module reduced
     logical :: mixed_product = .false.
     real(rp), allocatable :: pxs(:, :, :)  !< (-w:nx-1+w, 3, 0:2w) work: rows of x along x fastest
     real(rp), allocatable :: pacc(:, :)    !< (0:nx-1, 4) work: one row of y
+    real(mp), allocatable :: pds(:, :)     !< (0:nx-1, 3) work: one offset's differences in single precision
     integer :: interp = 1                  !< multigrid interpolation: INTERP_LINEAR, _CUBIC, _COARSE_CUBIC
     logical :: forward_ew = .true.         !< pass the outer KSP's rtol (Eisenstat-Walker) to the inner one
     integer :: pc_lag = 1                  !< rebuild the inner preconditioner every pc_lag assemblies
@@ -269,7 +270,7 @@ contains
       ! the triples reach two rows back; module reduced_assembly)
       if (red%mixed_product) then
         allocate(red%st(3, 3, offset_count(w), 0:nx - 1, 0:2 * w - 2))
-        allocate(red%pxs(-w:nx - 1 + w, 3, 0:2 * w), red%pacc(0:nx - 1, 4))
+        allocate(red%pxs(-w:nx - 1 + w, 3, 0:2 * w), red%pacc(0:nx - 1, 4), red%pds(0:nx - 1, 3))
       else
         allocate(red%st(3, 3, offset_count(w), 0:nx - 1, 0:n - 1))
       end if
@@ -729,7 +730,7 @@ contains
     associate (lat => red%lat)
       if (red%mixed_product) then
         ! the finest level is made from S at every assembly (reduced_assemble)
-        call stencil_product_mixed(red%mg%lev(1)%a, lat%gys, lat%gye, xl, ya, red%pxs, red%pacc)
+        call stencil_product_mixed(red%mg%lev(1)%a, lat%gys, lat%gye, xl, ya, red%pxs, red%pacc, red%pds)
       else
         call stencil_product(lat%nx, lat%ny, lat%ys, lat%ye, lat%gys, lat%gye, lat%halo, red%st, xl, ya)
       end if

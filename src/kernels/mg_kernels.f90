@@ -678,24 +678,29 @@ contains
   end subroutine residual
 
   !> y = A x in double precision from this level's single-precision
-  !> operator, in difference form: y_p = D_p x_p + sum_o B_{p,o} (x_{p+o} - x_p),
-  !> each block widened to double before it multiplies a difference formed
-  !> in double. The Krylov method's product with S on the finest level
-  !> (module reduced, -nuno_mg_product mixed): half the bytes of S in double
-  !> precision, and every block is off by at most a relative 6e-8 (single
-  !> rounding) of itself, the mass term D included; the large stiffness
-  !> blocks act only on differences, so no cancellation of K x magnifies
-  !> that (docs/design.md). x(3, 0:nx-1, gys:gye) and y(3, 0:nx-1, ys:ye)
-  !> in the layout of a 3-dof DMDA vector, x with the rows ys - r .. ye + r
-  !> that lie in the lattice. xs(-r:nx-1+r, 3, 0:2r): work, 2 r + 1 rows of
-  !> x along x fastest (row jr in slot modulo(jr, 2 r + 1)); acc(0:nx-1, 4): work.
-  subroutine stencil_product_mixed(st, gys, gye, x, y, xs, acc)
+  !> operator, in difference form: y_p = D_p x_p + sum_o B_{p,o} (x_{p+o} - x_p).
+  !> The differences are formed in double; to the other rows, each offset's
+  !> block times its difference (3 products and their sum) is formed in
+  !> single precision and added to the node's sum in double; within the row
+  !> and the mass term D in double. The Krylov method's product with S on the
+  !> finest level (module reduced, -nuno_mg_product mixed): half the bytes
+  !> of S in double precision, and every block's contribution is off by at
+  !> most a few single roundings (a relative 2.4e-7) of itself, the mass term
+  !> D by one (6e-8); the large stiffness blocks act only on differences and
+  !> their contributions are summed in double, so no cancellation of K x
+  !> magnifies that (docs/design.md). x(3, 0:nx-1, gys:gye) and
+  !> y(3, 0:nx-1, ys:ye) in the layout of a 3-dof DMDA vector, x with the
+  !> rows ys - r .. ye + r that lie in the lattice. xs(-r:nx-1+r, 3, 0:2r):
+  !> work, 2 r + 1 rows of x along x fastest (row jr in slot
+  !> modulo(jr, 2 r + 1)); acc(0:nx-1, 4) and ds(0:nx-1, 3): work.
+  subroutine stencil_product_mixed(st, gys, gye, x, y, xs, acc, ds)
     type(stencil_t), intent(in) :: st
     integer, intent(in) :: gys, gye
     real(rp), intent(in) :: x(3, 0:st%nx - 1, gys:gye)
     real(rp), intent(out) :: y(3, 0:st%nx - 1, st%ys:st%ye)
     real(rp), intent(inout) :: xs(-st%r:, :, 0:)
     real(rp), intent(inout) :: acc(0:, :)
+    real(mp), intent(inout) :: ds(0:, :)
     integer :: j, jr
     ! the padding columns stay zero (the blocks that point there are zero too)
     xs = 0.0_rp
@@ -704,7 +709,7 @@ contains
     end do
     do j = st%ys, st%ye
       call load_row(j + st%r)
-      call product_row(st, j, xs, acc, y)
+      call product_row(st, j, xs, acc, ds, y)
     end do
   contains
     !> Row jr of x into its slot of xs (zero outside the lattice).
@@ -726,11 +731,12 @@ contains
 
   !> Row j of y = A x, as stencil_product_mixed, from the rows j - r .. j + r
   !> of x in their slots of xs.
-  subroutine product_row(st, j, xs, acc, y)
+  subroutine product_row(st, j, xs, acc, ds, y)
     type(stencil_t), intent(in) :: st
     integer, intent(in) :: j
     real(rp), intent(in) :: xs(-st%r:, :, 0:)
     real(rp), intent(inout) :: acc(0:, :)
+    real(mp), intent(inout) :: ds(0:, :)
     real(rp), intent(inout) :: y(:, 0:, st%ys:)
     integer :: nx, r, k, di, dj, c1, c2, i, q, sj, sq
     integer :: dik(st%nr)
@@ -745,16 +751,19 @@ contains
       acc(0:nx - 1, c1) = st%d(:, c1, 1, j) * xs(0:nx - 1, 1, sj) + st%d(:, c1, 2, j) * xs(0:nx - 1, 2, sj) &
                         + st%d(:, c1, 3, j) * xs(0:nx - 1, 3, sj)
     end do
-    ! the other rows, along the row (acc(:, 4): the difference)
+    ! the other rows, along the row: the difference rounded to single, the
+    ! block times it in single (as wide a vector as the single blocks'
+    ! loads; in double it ran at 6 GB/s against 10), the sum in double
     do k = 1, st%nv
       di = st%odi(st%kv(k))
       dj = st%odj(st%kv(k))
       sq = modulo(j + dj, 2 * r + 1)
       do c2 = 1, 3
-        acc(0:nx - 1, 4) = xs(di:nx - 1 + di, c2, sq) - xs(0:nx - 1, c2, sj)
-        do c1 = 1, 3
-          acc(0:nx - 1, c1) = acc(0:nx - 1, c1) + st%b(:, c1, c2, k, j) * acc(0:nx - 1, 4)
-        end do
+        ds(0:nx - 1, c2) = real(xs(di:nx - 1 + di, c2, sq) - xs(0:nx - 1, c2, sj), mp)
+      end do
+      do c1 = 1, 3
+        acc(0:nx - 1, c1) = acc(0:nx - 1, c1) + real(st%b(:, c1, 1, k, j) * ds(0:nx - 1, 1) &
+          + st%b(:, c1, 2, k, j) * ds(0:nx - 1, 2) + st%b(:, c1, 3, k, j) * ds(0:nx - 1, 3), rp)
       end do
     end do
     ! within the row, node by node (as the smoother keeps these blocks)

@@ -359,13 +359,14 @@ contains
     integer, parameter :: nx = 11, ny = 9
     type(stencil_t) :: st
     real(rp), allocatable :: full(:, :, :, :, :), x(:, :, :), y(:, :, :), yd(:, :, :), xs(:, :, :), acc(:, :)
+    real(mp), allocatable :: ds(:, :)
     real(rp) :: rnd(3, 3), mass, stiff, scale
     integer :: i, j, di, dj, c, gys, gye, pass, k0
     character(len=96) :: label
     gys = max(0, ys - r)
     gye = min(ny - 1, ye + r)
     allocate(full(3, 3, offset_count(r), 0:nx - 1, 0:ny - 1), x(3, 0:nx - 1, gys:gye), y(3, 0:nx - 1, ys:ye), yd(3, 0:nx - 1, ys:ye))
-    allocate(xs(-r:nx - 1 + r, 3, 0:2 * r), acc(0:nx - 1, 4))
+    allocate(xs(-r:nx - 1 + r, 3, 0:2 * r), acc(0:nx - 1, 4), ds(0:nx - 1, 3))
     do pass = 1, 2
       mass = merge(30.0_rp, 1.0e-3_rp, pass == 1)
       stiff = merge(1.0_rp, 1.0e3_rp, pass == 1)
@@ -395,7 +396,7 @@ contains
       else
         x = 1.0_rp
       end if
-      call stencil_product_mixed(st, gys, gye, x, y, xs, acc)
+      call stencil_product_mixed(st, gys, gye, x, y, xs, acc, ds)
       call stencil_product(nx, ny, ys, ye, gys, gye, r, full(:, :, :, :, ys:ye), x, yd)
       if (pass == 1) then
         scale = 2.0_rp * stiff * offset_count(r) * maxval(abs(x))
