@@ -25,6 +25,10 @@ program test_mg_kernels
   call test_apply(1)
   call test_transpose(.false.)
   call test_transpose(.true.)
+  call test_transfer_reference(33, 17, .false.)
+  call test_transfer_reference(33, 17, .true.)
+  call test_transfer_reference(7, 5, .true.)
+  call test_transfer_reference(5, 3, .true.)
   call test_galerkin(1, .false.)
   call test_galerkin(2, .false.)
   call test_galerkin(2, .true.)
@@ -197,6 +201,56 @@ contains
     call check_close(real(maxval(abs(xf(0:nxf - 1, :, 0:nyf - 1) - 2.5_mp)), rp), 0.0_rp, 0.0_rp, 1.0e-6_rp, &
                      'interpolation keeps constants')
   end subroutine test_transpose
+
+  !> interpolate and restrict_add (the regular interior in vector loops,
+  !> the rest point by point) against the sums over the transfers' index
+  !> arrays, in double precision, on an nxf x nyf lattice: lattices whose
+  !> transfers have a regular interior and the small ones whose cubic
+  !> weights are all one-sided.
+  subroutine test_transfer_reference(nxf, nyf, cubic)
+    integer, intent(in) :: nxf, nyf
+    logical, intent(in) :: cubic
+    integer, parameter :: h = 3
+    type(transfer_t) :: tx, ty
+    real(mp), allocatable :: xc(:, :, :), xf(:, :, :), rf(:, :, :), rc(:, :, :), t(:, :)
+    real(rp), allocatable :: ref(:, :, :), refc(:, :, :)
+    integer :: nxc, nyc, i, j, a, b
+    character(len=96) :: label
+    call transfer_init(tx, nxf, cubic)
+    call transfer_init(ty, nyf, cubic)
+    nxc = tx%nc
+    nyc = ty%nc
+    if (nxf >= 33) call check_true(tx%khi - tx%klo >= 8 .and. tx%inject, 'the transfer along x has a regular interior')
+    allocate(xc(-h:nxc - 1 + h, 3, -h:nyc - 1 + h), xf(-h:nxf - 1 + h, 3, -h:nyf - 1 + h), rf(0:nxf - 1, 3, 0:nyf - 1))
+    allocate(rc(-h:nxc - 1 + h, 3, -h:nyc - 1 + h), t(0:nxc - 1, 3), ref(0:nxf - 1, 3, 0:nyf - 1), refc(0:nxc - 1, 3, 0:nyc - 1))
+    xc = 0.0_mp
+    call random_number(xc(0:nxc - 1, :, 0:nyc - 1))
+    xc = xc - 0.5_mp
+    call random_number(rf)
+    rf = rf - 0.5_mp
+    xf = 0.0_mp
+    call random_number(xf(0:nxf - 1, :, 0:nyf - 1))
+    ref = real(xf(0:nxf - 1, :, 0:nyf - 1), rp)
+    ! xf = xf + P xc, and P^T rf, from the index arrays
+    refc = 0.0_rp
+    do j = 0, nyf - 1
+      do i = 0, nxf - 1
+        do b = 1, ty%n(j)
+          do a = 1, tx%n(i)
+            ref(i, :, j) = ref(i, :, j) + tx%w(a, i) * ty%w(b, j) * real(xc(tx%c(a, i), :, ty%c(b, j)), rp)
+            refc(tx%c(a, i), :, ty%c(b, j)) = refc(tx%c(a, i), :, ty%c(b, j)) + tx%w(a, i) * ty%w(b, j) * real(rf(i, :, j), rp)
+          end do
+        end do
+      end do
+    end do
+    call interpolate(tx, ty, 0, nyf - 1, h, 0, xc, h, xf, .true., t)
+    rc = 0.0_mp
+    call restrict_add(tx, ty, 0, nyf - 1, rf, h, 0, rc, t)
+    write(label, '(a, i0, a, i0, a, a)') 'interpolation, ', nxf, ' x ', nyf, ', ', merge('cubic ', 'linear', cubic)
+    call check_close(maxval(abs(real(xf(0:nxf - 1, :, 0:nyf - 1), rp) - ref)), 0.0_rp, 0.0_rp, 1.0e-6_rp, trim(label))
+    write(label, '(a, i0, a, i0, a, a)') 'restriction, ', nxf, ' x ', nyf, ', ', merge('cubic ', 'linear', cubic)
+    call check_close(maxval(abs(real(rc(0:nxc - 1, :, 0:nyc - 1), rp) - refc)), 0.0_rp, 0.0_rp, 1.0e-5_rp, trim(label))
+  end subroutine test_transfer_reference
 
   subroutine test_galerkin(r, cubic, lines)
     integer, intent(in) :: r
