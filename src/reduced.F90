@@ -73,7 +73,7 @@ module reduced
     PetscLogEvent :: ev_assemble = 0       !< S assembled (and the multigrid's finest level from it)
     PetscLogEvent :: ev_galerkin = 0       !< the multigrid's coarse levels and coarsest factorisation
     PetscLogEvent :: ev_cycle = 0          !< one multigrid cycle
-    real(rp), allocatable :: st(:, :, :, :, :) !< (3, 3, offset_count(w), 0:nx-1, 0:nrow-1) S by stencil offset, node by node (with use_mg; module offset_product): rows ys..ye, or with the mixed product a ring of 2w - 1 rows (module reduced_assembly)
+    real(rp), allocatable :: st(:, :, :, :, :) !< (0:nx-1, 3, 3, offset_count(w), 0:nrow-1) S by stencil offset, nodes fastest (with use_mg; module offset_product): rows ys..ye, or with the mixed product a ring of 2w - 1 rows (module reduced_assembly)
     ! The product with S from the multigrid's finest level (single-precision
     ! blocks in difference form, double-precision vectors; -nuno_mg_product)
     logical :: mixed_product = .false.
@@ -95,7 +95,7 @@ module reduced
     real(rp), allocatable :: wpred(:, :, :) !< (0:5, 0:nx-1, gys:gye) w of b = F(u)
     real(rp), allocatable :: gpred(:, :, :) !< (3, 0:nx-1, ys:ye) its products
     real(rp), allocatable :: kd(:, :, :)    !< (3, 0:nx-1, ys:ye) diagonal of -df/dx at the assembly (round-off floor)
-    real(rp), allocatable :: lb(:, :, :, :, :) !< (3, 3, 4, 0:nx-1, 0:1) link blocks of two rows (direct assembly)
+    real(rp), allocatable :: lb(:, :, :, :, :) !< (0:nx-1, 3, 3, 4, 0:1) link blocks of two rows (direct assembly)
     logical :: have_pred = .false.
     real(rp), allocatable :: vals(:, :, :) !< (3, 3, ncol) one block row
     integer, allocatable :: cols(:)        !< (ncol)
@@ -269,10 +269,10 @@ contains
       ! product only the rows the assembly is writing (a ring: with bending
       ! the triples reach two rows back; module reduced_assembly)
       if (red%mixed_product) then
-        allocate(red%st(3, 3, offset_count(w), 0:nx - 1, 0:2 * w - 2))
+        allocate(red%st(0:nx - 1, 3, 3, offset_count(w), 0:2 * w - 2))
         allocate(red%pxs(-w:nx - 1 + w, 3, 0:2 * w), red%pacc(0:nx - 1, 4), red%pds(0:nx - 1, 3))
       else
-        allocate(red%st(3, 3, offset_count(w), 0:nx - 1, 0:n - 1))
+        allocate(red%st(0:nx - 1, 3, 3, offset_count(w), 0:n - 1))
       end if
       red%st = 0.0_rp
       m = 3 * nx * n
@@ -339,7 +339,7 @@ contains
     allocate(red%ujac(0:5, 0:lat%nx - 1, lat%gys:lat%gye), red%w(0:5, 0:lat%nx - 1, lat%gys:lat%gye))
     allocate(red%g(3, 0:lat%nx - 1, lat%ys:lat%ye), red%gpred(3, 0:lat%nx - 1, lat%ys:lat%ye))
     allocate(red%wpred(0:5, 0:lat%nx - 1, lat%gys:lat%gye), red%kd(3, 0:lat%nx - 1, lat%ys:lat%ye))
-    allocate(red%lb(3, 3, 4, 0:lat%nx - 1, 0:1))
+    allocate(red%lb(0:lat%nx - 1, 3, 3, 4, 0:1))
     allocate(red%vals(3, 3, (2 * lat%halo + 1)**2), red%cols((2 * lat%halo + 1)**2))
     allocate(red%owned((2 * lat%halo + 1)**2), red%lcol((2 * lat%halo + 1)**2))
     red%fixedg = .false.

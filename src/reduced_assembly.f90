@@ -85,20 +85,21 @@ contains
     real(rp), intent(in) :: a                      !< TS shift [1/time]
     logical, intent(in) :: with_damping, clamp, gauss_newton
     real(rp), intent(in) :: w(0:, 0:, lat%gys:)    !< (0:5, 0:nx-1, gys:gye) vector of the products
-    real(rp), intent(inout) :: lb(:, :, :, 0:, 0:) !< (3, 3, 4, 0:nx-1, 0:1) work: link blocks c + k/a
+    real(rp), intent(inout) :: lb(0:, :, :, :, 0:) !< (0:nx-1, 3, 3, 4, 0:1) work: link blocks c + k/a
     real(rp), intent(inout) :: vals(:, :, :)       !< (3, 3, (2 halo + 1)^2) work: one block row
     real(rp), intent(out) :: g(:, 0:, lat%ys:)     !< (3, 0:nx-1, ys:ye) [force]
     real(rp), intent(out) :: kd(:, 0:, lat%ys:)    !< (3, 0:nx-1, ys:ye) [force/length]
     integer, intent(in), optional :: ia(0:), ib(0:) !< row starts (0-based offsets into av, bv)
     real(rp), intent(inout), optional :: av(0:), bv(0:)
     !> or S by stencil offset, node by node (3, 3, offset_count(halo),
-    !> 0:nx-1, 0:nrow-1): S(p, p + (di, dj)) = st(:, :, kof(di, dj), i, srow(j))
+    !> 0:nx-1, 0:nrow-1) transposed: st(0:nx-1, 3, 3, offset_count(halo),
+    !> 0:nrow-1), S(p, p + (di, dj)) = st(i, :, :, kof(di, dj), srow(j))
     !> (module offset_product), zero outside the lattice; row j in slot
     !> modulo(j - ys, nrow): nrow = ye - ys + 1 keeps the whole strip, and
     !> with fine, nrow = lag + 1 (3 with bending, 1 without) is enough, a
     !> ring of the rows the assembly is writing (each row is converted for
     !> the multigrid as soon as it is complete, then overwritten)
-    real(rp), intent(inout), optional, contiguous :: st(:, :, :, 0:, 0:)
+    real(rp), intent(inout), optional, contiguous :: st(0:, :, :, :, 0:)
     !> and, when given, the multigrid's finest level made from st row by row
     !> (stencil_row_from_full)
     type(stencil_t), intent(inout), optional :: fine
@@ -188,7 +189,7 @@ contains
           do l = 1, nl1
             i = i0 + l - 1
             iq = i + dx
-            lb(:, :, k, i, sj) = cll(l, :, :) + rinv * kl(l, :, :)
+            lb(i, :, :, k, sj) = cll(l, :, :) + rinv * kl(l, :, :)
             do r = 1, 3
               if (own_p) kd(r, i, j0) = kd(r, i, j0) - kl(l, r, r)
               if (own_q) kd(r, iq, jq) = kd(r, iq, jq) - kl(l, r, r)
@@ -224,19 +225,19 @@ contains
       s0 = srow(j0)
       ! the diagonal slot takes minus the sum of the node's link blocks
       sd = kof(0, 0)
-      st(:, :, sd, :, s0) = 0.0_rp
+      st(:, :, :, sd, s0) = 0.0_rp
       do dj = -1, 1
         do di = -1, 1
           if (di == 0 .and. dj == 0) cycle
           sl = kof(di, dj)
           if (j0 + dj < 0 .or. j0 + dj >= lat%ny) then
-            st(:, :, sl, :, s0) = 0.0_rp
+            st(:, :, :, sl, s0) = 0.0_rp
             cycle
           end if
           ilo = max(0, -di)
           ihi = min(lat%nx - 1, lat%nx - 1 - di)
-          if (ilo > 0) st(:, :, sl, 0, s0) = 0.0_rp
-          if (ihi < lat%nx - 1) st(:, :, sl, lat%nx - 1, s0) = 0.0_rp
+          if (ilo > 0) st(0, :, :, sl, s0) = 0.0_rp
+          if (ihi < lat%nx - 1) st(lat%nx - 1, :, :, sl, s0) = 0.0_rp
           ! a link is kept at its lower end (link_block)
           if (dj > 0 .or. (dj == 0 .and. di > 0)) then
             k = link_index(di, dj)
@@ -247,21 +248,21 @@ contains
             dil = di
             jl = modulo(j0 + dj, 2)
           end if
-          call put_link_blocks(lat%nx, size(st, 3), ilo, ihi, di, dil, k, lb(:, :, :, :, jl), fixedg(:, j0), &
+          call put_link_blocks(lat%nx, size(st, 4), ilo, ihi, di, dil, k, lb(:, :, :, :, jl), fixedg(:, j0), &
                                fixedg(:, j0 + dj), sl, sd, st(:, :, :, :, s0))
         end do
       end do
       if (lat%halo == 2) then
         do dj = -2, 2, 2
           do di = -2, 2, 2
-            if (di /= 0 .or. dj /= 0) st(:, :, kof(di, dj), :, s0) = 0.0_rp
+            if (di /= 0 .or. dj /= 0) st(:, :, :, kof(di, dj), s0) = 0.0_rp
           end do
         end do
       end if
       do i = 0, lat%nx - 1
-        if (fixedg(i, j0)) st(:, :, sd, i, s0) = 0.0_rp
+        if (fixedg(i, j0)) st(i, :, :, sd, s0) = 0.0_rp
         do r = 1, 3
-          st(r, r, sd, i, s0) = st(r, r, sd, i, s0) + a * lat%mass(i, j0)
+          st(i, r, r, sd, s0) = st(i, r, r, sd, s0) + a * lat%mass(i, j0)
         end do
       end do
     end subroutine put_rows_st
@@ -378,7 +379,7 @@ contains
               end do
             end do
           end do
-          call add_lane_blocks(nl, ld, size(st, 3), sl, bq, st(:, :, :, ip0:ip0 + nl - 1, sp))
+          call add_lane_blocks(nl, ld, lat%nx, size(st, 4), sl, ip0, bq, st(:, :, :, :, sp))
         end do
       end do
     end subroutine add_triple_lanes
@@ -470,9 +471,9 @@ contains
       integer, intent(in) :: i0, j0, di, dj
       real(rp) :: blk(3, 3)
       if (dj > 0 .or. (dj == 0 .and. di > 0)) then
-        blk = lb(:, :, link_index(di, dj), i0, modulo(j0, 2))
+        blk = lb(i0, :, :, link_index(di, dj), modulo(j0, 2))
       else
-        blk = lb(:, :, link_index(-di, -dj), i0 + di, modulo(j0 + dj, 2))
+        blk = lb(i0 + di, :, :, link_index(-di, -dj), modulo(j0 + dj, 2))
       end if
     end function link_block
 
@@ -526,7 +527,7 @@ contains
           if (present(st)) then
             ! (add_block's path for S by offset, written here: nine calls a
             ! triple were 5 % of a Baraff-Witkin step with bending)
-            st(:, :, kof(iq2 - ip, jq2 - jp), ip, srow(jp)) = st(:, :, kof(iq2 - ip, jq2 - jp), ip, srow(jp)) + blk
+            st(ip, :, :, kof(iq2 - ip, jq2 - jp), srow(jp)) = st(ip, :, :, kof(iq2 - ip, jq2 - jp), srow(jp)) + blk
           else
             call add_block(ip, jp, iq2 - ip, jq2 - jp, blk)
           end if
@@ -541,7 +542,7 @@ contains
       integer :: pos(0:2), r
       logical :: diag
       if (present(st)) then
-        st(:, :, kof(di, dj), ip, srow(jp)) = st(:, :, kof(di, dj), ip, srow(jp)) + blk
+        st(ip, :, :, kof(di, dj), srow(jp)) = st(ip, :, :, kof(di, dj), srow(jp)) + blk
         return
       end if
       call csr_block_pos(lat, ia, ib, ip, jp, di, dj, pos, diag)
@@ -584,17 +585,19 @@ contains
     end do
   end subroutine csr_row_blocks
 
-  !> add_triple_lanes' adds to S by stencil offset: slot sl of nl
-  !> consecutive nodes takes bq(l, :) (a block's nine entries, lanes
-  !> fastest). Explicit shapes, as put_link_blocks.
-  pure subroutine add_lane_blocks(nl, ld, nslot, sl, bq, dst)
-    integer, intent(in) :: nl, ld, nslot, sl
+  !> add_triple_lanes' adds to S by stencil offset: slot sl of the nl
+  !> consecutive nodes ip0.. takes bq(l, :) (a block's nine entries, lanes
+  !> fastest, as S keeps them: one vector loop for each entry; with S node
+  !> by node these adds were scalar, 3 % of a bw step with bending).
+  !> Explicit shapes, as put_link_blocks.
+  pure subroutine add_lane_blocks(nl, ld, nx, nslot, sl, ip0, bq, dst)
+    integer, intent(in) :: nl, ld, nx, nslot, sl, ip0
     real(rp), intent(in) :: bq(ld, 9)
-    real(rp), intent(inout) :: dst(9, nslot, nl)
+    real(rp), intent(inout) :: dst(0:nx - 1, 9, nslot)
     integer :: l, e
-    do l = 1, nl
-      do e = 1, 9
-        dst(e, sl, l) = dst(e, sl, l) + bq(l, e)
+    do e = 1, 9
+      do l = 1, nl
+        dst(ip0 + l - 1, e, sl) = dst(ip0 + l - 1, e, sl) + bq(l, e)
       end do
     end do
   end subroutine add_lane_blocks
@@ -617,24 +620,26 @@ contains
   end subroutine sub_lane_forces
 
   !> put_rows_st's work for one offset (di, dj) of a row, i = ilo..ihi: the
-  !> link's block src(:, k, i + dil) into S's slot sl of node i, or zero to or
+  !> link's block src(i + dil, :, k) into S's slot sl of node i, or zero to or
   !> from a constrained node (fixed_p(i), fixed_q(i + di)), and subtracted
   !> from the diagonal slot sd. Explicit shapes: over the assumed-shape
   !> arrays, each nine-entry copy went through the compiler's general
   !> strided loop.
   pure subroutine put_link_blocks(nx, nslot, ilo, ihi, di, dil, k, src, fixed_p, fixed_q, sl, sd, dst)
     integer, intent(in) :: nx, nslot, ilo, ihi, di, dil, k, sl, sd
-    real(rp), intent(in) :: src(9, 4, 0:nx - 1)      !< the link blocks kept at their lower ends
+    real(rp), intent(in) :: src(0:nx - 1, 9, 4)      !< the link blocks kept at their lower ends
     logical, intent(in) :: fixed_p(0:nx - 1), fixed_q(0:nx - 1)
-    real(rp), intent(inout) :: dst(9, nslot, 0:nx - 1)
-    integer :: i
-    do i = ilo, ihi
-      dst(:, sd, i) = dst(:, sd, i) - src(:, k, i + dil)
-      if (fixed_p(i) .or. fixed_q(i + di)) then
-        dst(:, sl, i) = 0.0_rp
-      else
-        dst(:, sl, i) = src(:, k, i + dil)
-      end if
+    real(rp), intent(inout) :: dst(0:nx - 1, 9, nslot)
+    integer :: i, e
+    do e = 1, 9
+      do i = ilo, ihi
+        dst(i, e, sd) = dst(i, e, sd) - src(i + dil, e, k)
+        if (fixed_p(i) .or. fixed_q(i + di)) then
+          dst(i, e, sl) = 0.0_rp
+        else
+          dst(i, e, sl) = src(i + dil, e, k)
+        end if
+      end do
     end do
   end subroutine put_link_blocks
 

@@ -182,8 +182,8 @@ contains
     call stencil_put_row(mg%lev(1)%a, i, j, blk)
   end subroutine mg_set_fine_row
 
-  !> The finest level from S by stencil offset, node by node,
-  !> full(3, 3, offset_slot(r, di, dj), 0:nx-1, ys:ye) = S(p, p + (di, dj))
+  !> The finest level from S by stencil offset, nodes fastest,
+  !> full(0:nx-1, 3, 3, offset_slot(r, di, dj), ys:ye) = S(p, p + (di, dj))
   !> (module offset_product; double precision, zero outside the lattice).
   subroutine mg_set_fine(mg, full)
     type(stencil_mg_t), intent(inout) :: mg

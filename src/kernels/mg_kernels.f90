@@ -225,14 +225,14 @@ contains
   end subroutine stencil_finish
 
   !> The whole operator (a level that stores the offsets the elements
-  !> couple) from its blocks in double precision, node by node, as module
-  !> offset_product keeps S: B, the row sums D and the inverted diagonal
-  !> blocks.
+  !> couple) from its blocks in double precision, by offset along the row,
+  !> as module offset_product keeps S: B, the row sums D and the inverted
+  !> diagonal blocks.
   subroutine stencil_from_full(st, full)
     type(stencil_t), intent(inout) :: st
-    !> (3, 3, slot, 0:nx-1, ys:ye) A(p, p + (di, dj)) in slot
+    !> (0:nx-1, 3, 3, slot, ys:ye) A(p, p + (di, dj)) in slot
     !> offset_slot(r, di, dj), zero outside the lattice
-    real(rp), intent(in) :: full(:, :, :, 0:, st%ys:)
+    real(rp), intent(in) :: full(0:, :, :, :, st%ys:)
     integer :: j
     do j = st%ys, st%ye
       call stencil_row_from_full(st, full(:, :, :, :, j), j)
@@ -242,18 +242,18 @@ contains
   !> Row j of the operator from that row of full, as stencil_from_full
   !> (the assembly calls it for each row as soon as the row is complete,
   !> while its blocks are still in the cache: module reduced_assembly).
-  !> In tiles of TILE nodes: the tile's blocks transposed once to lanes
-  !> fastest (full keeps them node by node), then the blocks to other rows,
-  !> the row sums and the inverted diagonal blocks formed for the whole
-  !> tile at once (vector loops over the lanes: node by node, the sums and
-  !> the inverse were scalar and most of this routine's time).
+  !> full keeps the nodes fastest, as this level's blocks to other rows,
+  !> the row sums and the inverted diagonal blocks: those are formed in
+  !> vector loops along the row (in tiles of TILE nodes for the inverses);
+  !> only the blocks within the row go node by node (the smoother's point
+  !> loop keeps them so).
   subroutine stencil_row_from_full(st, full, j)
     type(stencil_t), intent(inout) :: st
-    real(rp), intent(in) :: full(:, :, :, 0:)   !< (3, 3, slot, 0:nx-1) row j of full in stencil_from_full
+    real(rp), intent(in) :: full(0:, :, :, :)   !< (0:nx-1, 3, 3, slot) row j of full in stencil_from_full
     integer, intent(in) :: j
     integer, parameter :: TILE = 16                ! 64 bytes of kind mp
     integer, parameter :: MAXNB = 24               ! offsets of a reach-2 square (no allocation per row)
-    real(rp) :: ft(TILE, 3, 3, 0:MAXNB)            ! the tile's blocks: 0 the diagonal, k = 1..nb st's offsets
+    real(rp) :: a0(TILE, 3, 3)                     ! the tile's diagonal blocks
     real(rp) :: dsum(TILE, 3, 3), inv(TILE, 3, 3)
     integer :: i, k, kk, c1, c2, sk(0:MAXNB), i0, n, l
     ! (an internal invariant: only the finest level, reach 1 or 2, comes here)
@@ -266,44 +266,37 @@ contains
     end do
     ! (an internal invariant: only the finest level, made with lines, comes here)
     if (any(sk(0:st%nb) == 0)) error stop 'stencil_from_full: the level stores offsets S does not'
-    do i0 = 0, st%nx - 1, TILE
-      n = min(TILE, st%nx - i0)
-      do k = 0, st%nb
-        do c2 = 1, 3
-          do c1 = 1, 3
-            do l = 1, n
-              ft(l, c1, c2, k) = full(c1, c2, sk(k), i0 + l - 1)
-            end do
-          end do
-        end do
-      end do
-      ! the blocks to other rows, along x (each entry's TILE values one
-      ! cache line of kind mp)
-      do kk = 1, st%nv
-        do c2 = 1, 3
-          do c1 = 1, 3
-            st%b(i0:i0 + n - 1, c1, c2, kk, j) = real(ft(1:n, c1, c2, st%kv(kk)), mp)
-          end do
-        end do
-      end do
-      do l = 1, n
-        i = i0 + l - 1
-        do kk = 1, st%nr
-          st%br(:, :, kk, i, j) = real(ft(l, :, :, st%kr(kk)), mp)
-        end do
-      end do
-      ! the row sums, in double precision before rounding (the small mass
-      ! term is what is left of the large stiffness blocks)
-      dsum(1:n, :, :) = ft(1:n, :, :, 0)
-      do k = 1, st%nb
-        dsum(1:n, :, :) = dsum(1:n, :, :) + ft(1:n, :, :, k)
-      end do
+    ! the blocks to other rows, along x
+    do kk = 1, st%nv
       do c2 = 1, 3
         do c1 = 1, 3
+          st%b(:, c1, c2, kk, j) = real(full(0:st%nx - 1, c1, c2, sk(st%kv(kk))), mp)
+        end do
+      end do
+    end do
+    ! the blocks within the row, node by node
+    do i = 0, st%nx - 1
+      do kk = 1, st%nr
+        st%br(:, :, kk, i, j) = real(full(i, :, :, sk(st%kr(kk))), mp)
+      end do
+    end do
+    do i0 = 0, st%nx - 1, TILE
+      n = min(TILE, st%nx - i0)
+      ! the row sums, in double precision before rounding (the small mass
+      ! term is what is left of the large stiffness blocks)
+      do c2 = 1, 3
+        do c1 = 1, 3
+          do l = 1, n
+            a0(l, c1, c2) = full(i0 + l - 1, c1, c2, sk(0))
+          end do
+          dsum(1:n, c1, c2) = a0(1:n, c1, c2)
+          do k = 1, st%nb
+            dsum(1:n, c1, c2) = dsum(1:n, c1, c2) + full(i0:i0 + n - 1, c1, c2, sk(k))
+          end do
           st%d(i0:i0 + n - 1, c1, c2, j) = real(dsum(1:n, c1, c2), mp)
         end do
       end do
-      call block_inverse_lanes(n, TILE, ft(:, :, :, 0), inv)
+      call block_inverse_lanes(n, TILE, a0, inv)
       do l = 1, n
         st%ainv(:, :, i0 + l - 1, j) = real(inv(l, :, :), mp)
       end do

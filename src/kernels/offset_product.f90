@@ -1,4 +1,4 @@
-!> S stored by stencil offset, node by node, in double precision: the
+!> S stored by stencil offset, nodes fastest, in double precision: the
 !> layout the assembly writes (module reduced_assembly), the product
 !> y = S x the Krylov method uses (module reduced), and what the
 !> multigrid's finest level is made from (module mg_kernels). Plain arrays;
@@ -10,14 +10,18 @@
 !> 9 blocks a node at w = 1, 17 at w = 2 (the eight
 !> like (1, 2) of the 5 x 5 square are always zero and are not stored,
 !> 576 bytes a node less to read in every product). Slot k of
-!> st(3, 3, k, i, j) = S(p, p + (di, dj)) counts the stored offsets in
+!> st(i, :, :, k, j) = S(p, p + (di, dj)) counts the stored offsets in
 !> lexicographic order, dj slowest (offset_slot); blocks pointing outside
-!> the lattice are zero and never read.
+!> the lattice are zero and never read. The nodes of a row are fastest
+!> (3 Dec 2026, tenth round; was node by node, st(3, 3, k, i, j)): the
+!> assembly's element kernels form their blocks for many nodes at once
+!> (lanes), and the multigrid's finest level keeps its blocks so too, so
+!> both write and read S in vector loops, without transposing.
 !>
 !> Why a product of its own: written over the PETSc arrays (pointers of
 !> unknown stride) with the stencil bounds tested at every node, it ran at a
-!> third of the memory bandwidth. Here the arrays are contiguous and every
-!> node away from the lattice's edges takes the same fixed list of offsets.
+!> third of the memory bandwidth. Here the arrays are contiguous, and each
+!> offset is one vector loop over the nodes of a row it reaches.
 module offset_product
   use kinds, only: rp
   implicit none
@@ -73,65 +77,21 @@ contains
     end do
   end subroutine offset_table
 
-  !> y(:, i, j) = sum over the stored offsets of st(:, :, k, i, j) x(:, i + di, j + dj)
+  !> y(:, i, j) = sum over the stored offsets of st(i, :, :, k, j) x(:, i + di, j + dj)
   !> on the owned rows ys..ye of an nx x ny lattice; x holds rows gys..gye,
-  !> gys <= max(0, ys - w), gye >= min(ny - 1, ye + w). w = 1 or 2.
+  !> gys <= max(0, ys - w), gye >= min(ny - 1, ye + w). w = 1 or 2. The
+  !> offsets in slot order, each over the nodes whose neighbour along it
+  !> lies in the lattice (the same sums in the same order, node by node, as
+  !> when each node summed its offsets in turn).
   pure subroutine stencil_product(nx, ny, ys, ye, gys, gye, w, st, x, y)
     integer, intent(in) :: nx, ny, ys, ye, gys, gye, w
-    real(rp), intent(in) :: st(3, 3, 8 * w + 1, 0:nx - 1, ys:ye)   !< offset_count(w) slots
+    real(rp), intent(in) :: st(0:nx - 1, 3, 3, 8 * w + 1, ys:ye)   !< offset_count(w) slots
     real(rp), intent(in) :: x(3, 0:nx - 1, gys:gye)
     real(rp), intent(out) :: y(3, 0:nx - 1, ys:ye)
-    integer :: i, j
-    logical :: inner_row
+    integer :: i, j, k, di, dj
+    real(rp) :: x1, x2, x3
     do j = ys, ye
-      inner_row = j - w >= 0 .and. j + w <= ny - 1
-      if (.not. inner_row .or. nx <= 2 * w) then
-        do i = 0, nx - 1
-          y(:, i, j) = edge_node(i, j)
-        end do
-        cycle
-      end if
-      do i = 0, w - 1
-        y(:, i, j) = edge_node(i, j)
-      end do
-      if (w == 1) then
-        do i = 1, nx - 2
-          y(:, i, j) = inner_node(i, j, ODI1, ODJ1)
-        end do
-      else
-        do i = 2, nx - 3
-          y(:, i, j) = inner_node(i, j, ODI2, ODJ2)
-        end do
-      end if
-      do i = nx - w, nx - 1
-        y(:, i, j) = edge_node(i, j)
-      end do
-    end do
-
-  contains
-
-    !> A node whose whole stencil lies inside the lattice: a fixed list.
-    pure function inner_node(i, j, odi, odj) result(acc)
-      integer, intent(in) :: i, j, odi(:), odj(:)
-      real(rp) :: acc(3), x1, x2, x3
-      integer :: k
-      acc = 0.0_rp
-      do k = 1, size(odi)
-        x1 = x(1, i + odi(k), j + odj(k))
-        x2 = x(2, i + odi(k), j + odj(k))
-        x3 = x(3, i + odi(k), j + odj(k))
-        acc(1) = acc(1) + st(1, 1, k, i, j) * x1 + st(1, 2, k, i, j) * x2 + st(1, 3, k, i, j) * x3
-        acc(2) = acc(2) + st(2, 1, k, i, j) * x1 + st(2, 2, k, i, j) * x2 + st(2, 3, k, i, j) * x3
-        acc(3) = acc(3) + st(3, 1, k, i, j) * x1 + st(3, 2, k, i, j) * x2 + st(3, 3, k, i, j) * x3
-      end do
-    end function inner_node
-
-    !> A node near the lattice's edge: the stored offsets inside the lattice.
-    pure function edge_node(i, j) result(acc)
-      integer, intent(in) :: i, j
-      real(rp) :: acc(3)
-      integer :: k, di, dj
-      acc = 0.0_rp
+      y(:, :, j) = 0.0_rp
       do k = 1, offset_count(w)
         if (w == 1) then
           di = ODI1(k)
@@ -140,12 +100,17 @@ contains
           di = ODI2(k)
           dj = ODJ2(k)
         end if
-        if (i + di < 0 .or. i + di >= nx .or. j + dj < 0 .or. j + dj >= ny) cycle
-        acc = acc + st(:, 1, k, i, j) * x(1, i + di, j + dj) + st(:, 2, k, i, j) * x(2, i + di, j + dj) &
-                  + st(:, 3, k, i, j) * x(3, i + di, j + dj)
+        if (j + dj < 0 .or. j + dj >= ny) cycle
+        do i = max(0, -di), min(nx - 1, nx - 1 - di)
+          x1 = x(1, i + di, j + dj)
+          x2 = x(2, i + di, j + dj)
+          x3 = x(3, i + di, j + dj)
+          y(1, i, j) = y(1, i, j) + st(i, 1, 1, k, j) * x1 + st(i, 1, 2, k, j) * x2 + st(i, 1, 3, k, j) * x3
+          y(2, i, j) = y(2, i, j) + st(i, 2, 1, k, j) * x1 + st(i, 2, 2, k, j) * x2 + st(i, 2, 3, k, j) * x3
+          y(3, i, j) = y(3, i, j) + st(i, 3, 1, k, j) * x1 + st(i, 3, 2, k, j) * x2 + st(i, 3, 3, k, j) * x3
+        end do
       end do
-    end function edge_node
-
+    end do
   end subroutine stencil_product
 
 end module offset_product

@@ -102,7 +102,7 @@ contains
   !> The model operator in the storage of module offset_product: only the
   !> offsets the elements couple (the model has no others: checked).
   subroutine fill(full, y0, y1)
-    real(rp), intent(out) :: full(:, :, :, 0:, y0:)
+    real(rp), intent(out) :: full(0:, :, :, :, y0:)
     integer, intent(in) :: y0, y1
     real(rp) :: blk(3, 3, -r:r, -r:r)
     integer :: i, j, di, dj, k
@@ -115,7 +115,7 @@ contains
           do di = -r, r
             k = offset_slot(r, di, dj)
             if (k > 0) then
-              full(:, :, k, i, j) = blk(:, :, di, dj)
+              full(i, :, :, k, j) = blk(:, :, di, dj)
             else
               others_zero = others_zero .and. all(blk(:, :, di, dj) == 0.0_rp)
             end if
@@ -194,7 +194,7 @@ contains
 
     flags = cubic
     flags(1) = .false.              ! the finest transfer bilinear, as nuno's default with bending
-    allocate(full(3, 3, offset_count(r), 0:n - 1, ys:ye), full1(3, 3, offset_count(r), 0:n - 1, 0:n - 1))
+    allocate(full(0:n - 1, 3, 3, offset_count(r), ys:ye), full1(0:n - 1, 3, 3, offset_count(r), 0:n - 1))
     call fill(full, ys, ye)
     call fill(full1, 0, n - 1)
     call mg_create(mg, MPI_COMM_WORLD, n, n, ys, ye, r, flags, 10, cycle_type, 1)

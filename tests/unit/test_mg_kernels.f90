@@ -419,7 +419,7 @@ contains
     character(len=96) :: label
     gys = max(0, ys - r)
     gye = min(ny - 1, ye + r)
-    allocate(full(3, 3, offset_count(r), 0:nx - 1, 0:ny - 1), x(3, 0:nx - 1, gys:gye), y(3, 0:nx - 1, ys:ye), yd(3, 0:nx - 1, ys:ye))
+    allocate(full(0:nx - 1, 3, 3, offset_count(r), 0:ny - 1), x(3, 0:nx - 1, gys:gye), y(3, 0:nx - 1, ys:ye), yd(3, 0:nx - 1, ys:ye))
     allocate(xs(-r:nx - 1 + r, 3, 0:2 * r), acc(0:nx - 1, 4), ds(0:nx - 1, 3))
     do pass = 1, 2
       mass = merge(30.0_rp, 1.0e-3_rp, pass == 1)
@@ -429,15 +429,15 @@ contains
       do j = 0, ny - 1
         do i = 0, nx - 1
           do c = 1, 3
-            full(c, c, k0, i, j) = mass
+            full(i, c, c, k0, j) = mass
           end do
           do dj = -r, r
             do di = -r, r
               if (offset_slot(r, di, dj) == 0 .or. (di == 0 .and. dj == 0)) cycle
               if (i + di < 0 .or. i + di >= nx .or. j + dj < 0 .or. j + dj >= ny) cycle
               call random_number(rnd)
-              full(:, :, offset_slot(r, di, dj), i, j) = -stiff * (0.5_rp + rnd)
-              full(:, :, k0, i, j) = full(:, :, k0, i, j) + stiff * (0.5_rp + rnd)
+              full(i, :, :, offset_slot(r, di, dj), j) = -stiff * (0.5_rp + rnd)
+              full(i, :, :, k0, j) = full(i, :, :, k0, j) + stiff * (0.5_rp + rnd)
             end do
           end do
         end do
@@ -516,7 +516,7 @@ contains
     character(len=16) :: tag
     write(tag, '(a, i0, a)') ' (reach ', r, ')'
     call random_operator(nx, ny, r, 30.0_rp, 1.0_rp, st, dense, lines=.true.)
-    allocate(full(3, 3, offset_count(r), 0:nx - 1, 0:ny - 1))
+    allocate(full(0:nx - 1, 3, 3, offset_count(r), 0:ny - 1))
     full = 0.0_rp
     do j = 0, ny - 1
       do i = 0, nx - 1
@@ -531,12 +531,12 @@ contains
                 blk(c1, c2, di, dj) = dense(gidx(nx, i, j, c1), gidx(nx, i + di, j + dj, c2))
               end do
             end do
-            full(:, :, k, i, j) = blk(:, :, di, dj)
+            full(i, :, :, k, j) = blk(:, :, di, dj)
           end do
         end do
         if (i == isg .and. j == jsg) then
           blk(:, :, 0, 0) = 0.0_rp
-          full(:, :, offset_slot(r, 0, 0), i, j) = 0.0_rp
+          full(i, :, :, offset_slot(r, 0, 0), j) = 0.0_rp
           call stencil_put_row(st, i, j, blk)
         end if
       end do

@@ -31,7 +31,7 @@ contains
     gys = max(0, ys - w)
     gye = min(ny - 1, ye + w)
     n = 3 * nx * ny
-    allocate(st(3, 3, offset_count(w), 0:nx - 1, ys:ye), x(3, 0:nx - 1, gys:gye), y(3, 0:nx - 1, ys:ye))
+    allocate(st(0:nx - 1, 3, 3, offset_count(w), ys:ye), x(3, 0:nx - 1, gys:gye), y(3, 0:nx - 1, ys:ye))
     allocate(dense(n, n), xd(n), yd(n))
     call random_number(st)
     call random_number(x)
@@ -58,12 +58,12 @@ contains
             k = offset_slot(w, di, dj)
             if (k == 0) cycle
             if (i + di < 0 .or. i + di >= nx .or. j + dj < 0 .or. j + dj >= ny) then
-              st(:, :, k, i, j) = 1.0e30_rp      ! never to be read
+              st(i, :, :, k, j) = 1.0e30_rp      ! never to be read
               cycle
             end if
             do c = 1, 3
               do r = 1, 3
-                dense(gidx(nx, i, j, r), gidx(nx, i + di, j + dj, c)) = st(r, c, k, i, j)
+                dense(gidx(nx, i, j, r), gidx(nx, i + di, j + dj, c)) = st(i, r, c, k, j)
               end do
             end do
           end do
