@@ -7,7 +7,7 @@ module forces
   use kinds, only: rp
   use config, only: BEND_NONE, BEND_PAPER, BEND_ENERGY
   use lattice, only: lattice_t, link_dir, line_dir, link_constants, triple_constants
-  use springs, only: link_force, link_jacobian, link_energy, link_power
+  use springs, only: link_force_lanes, link_jacobian, link_energy, link_power
   use bending_paper, only: paper_force, paper_jacobian, paper_energy
   use bending_energy, only: energy_force_lanes, energy_jacobian, energy_bend_energy, energy_power_lanes
   implicit none
@@ -129,9 +129,8 @@ contains
     real(rp), intent(in) :: u(0:5, 0:lat%nx - 1, lat%gys:lat%gye)
     real(rp), intent(out) :: f(3, 0:lat%nx - 1, lat%gys:lat%gye)
     integer, intent(out) :: nbad, bad(2)
-    integer :: i, j, k, iq, jq, ir, jr
-    real(rp) :: d0(3, 4), len0(4), e, eta, fl(3), x9(9), f9(9), kb, etab, theta
-    logical :: ok, inl
+    integer :: i, j, k
+    real(rp) :: d0(3, 4), len0(4), kb, etab
 
     f = 0.0_rp
     nbad = 0
@@ -140,42 +139,75 @@ contains
       call rest_link(lat, link_dir(:, k), d0(:, k), len0(k))
     end do
     do j = first_anchor_row(lat), lat%ye
-      do i = 0, lat%nx - 1
-        do k = 1, 4
-          call link_end(lat, i, j, k, iq, jq, inl)
-          if (.not. inl) cycle
-          if (jq < lat%ys) cycle
-          call link_constants(lat, i, j, k, e, eta)
-          call link_force(lat%spring_model, e, eta, d0(:, k), len0(k), u(0:2, i, j), u(0:2, iq, jq), &
-                          u(3:5, i, j), u(3:5, iq, jq), fl, ok)
-          if (.not. ok) then
-            nbad = nbad + 1
-            bad = [i, j]
-          end if
-          f(:, i, j) = f(:, i, j) + fl
-          f(:, iq, jq) = f(:, iq, jq) - fl
+      call link_row(j)
+      if (lat%bending_model == BEND_PAPER) then
+        do i = 0, lat%nx - 1
+          call paper_triples(i, j)
         end do
-        if (lat%bending_model /= BEND_PAPER) cycle
-        do k = 1, 4
-          call triple_ends(lat, i, j, k, iq, jq, ir, jr, inl)
-          if (.not. inl) cycle
-          if (jr < lat%ys) cycle
-          call triple_constants(lat, k, kb, etab)
-          x9 = [u(0:2, i, j), u(0:2, iq, jq), u(0:2, ir, jr)]
-          call paper_force(kb, x9, f9, theta, ok)
-          if (.not. ok) then
-            nbad = nbad + 1
-            bad = [i, j]
-          end if
-          f(:, i, j) = f(:, i, j) + f9(1:3)
-          f(:, iq, jq) = f(:, iq, jq) + f9(4:6)
-          f(:, ir, jr) = f(:, ir, jr) + f9(7:9)
-        end do
-      end do
+      end if
       if (lat%bending_model == BEND_ENERGY) call energy_triples_row(j)
     end do
 
   contains
+
+    !> The links anchored at row j0 (to the rows this rank holds), one
+    !> direction NL at a time through the vectorised kernel (link_force_lanes).
+    subroutine link_row(j0)
+      integer, intent(in) :: j0
+      integer, parameter :: NL = 32
+      real(rp) :: el(NL), etal(NL), dd(NL, 3), vr(NL, 3), fl3(NL, 3)
+      logical :: okl(NL)
+      integer :: k, dx, jq0, ilo, ihi, i0, nl1, l, ii
+      do k = 1, 4
+        dx = link_dir(1, k)
+        jq0 = j0 + link_dir(2, k)
+        if (jq0 >= lat%ny .or. jq0 < lat%ys) cycle
+        ilo = max(0, -dx)
+        ihi = min(lat%nx - 1, lat%nx - 1 - dx)
+        do i0 = ilo, ihi, NL
+          nl1 = min(NL, ihi - i0 + 1)
+          do l = 1, nl1
+            ii = i0 + l - 1
+            call link_constants(lat, ii, j0, k, el(l), etal(l))
+            dd(l, :) = u(0:2, ii, j0) - u(0:2, ii + dx, jq0)
+            vr(l, :) = u(3:5, ii, j0) - u(3:5, ii + dx, jq0)
+          end do
+          call link_force_lanes(nl1, NL, lat%spring_model, el, etal, d0(:, k), len0(k), dd, vr, fl3, okl)
+          do l = 1, nl1
+            ii = i0 + l - 1
+            if (.not. okl(l)) then
+              nbad = nbad + 1
+              bad = [ii, j0]
+            end if
+            f(:, ii, j0) = f(:, ii, j0) + fl3(l, :)
+            f(:, ii + dx, jq0) = f(:, ii + dx, jq0) - fl3(l, :)
+          end do
+        end do
+      end do
+    end subroutine link_row
+
+    !> Paper bending: the triples anchored at node (i, j), one at a time.
+    subroutine paper_triples(i, j)
+      integer, intent(in) :: i, j
+      integer :: k, iq, jq, ir, jr
+      real(rp) :: x9(9), f9(9), theta
+      logical :: ok, inl
+      do k = 1, 4
+        call triple_ends(lat, i, j, k, iq, jq, ir, jr, inl)
+        if (.not. inl) cycle
+        if (jr < lat%ys) cycle
+        call triple_constants(lat, k, kb, etab)
+        x9 = [u(0:2, i, j), u(0:2, iq, jq), u(0:2, ir, jr)]
+        call paper_force(kb, x9, f9, theta, ok)
+        if (.not. ok) then
+          nbad = nbad + 1
+          bad = [i, j]
+        end if
+        f(:, i, j) = f(:, i, j) + f9(1:3)
+        f(:, iq, jq) = f(:, iq, jq) + f9(4:6)
+        f(:, ir, jr) = f(:, ir, jr) + f9(7:9)
+      end do
+    end subroutine paper_triples
 
     !> Energy bending: the triples anchored at row j0, TRIPLE_LANES of one
     !> direction at a time through the vectorised kernel (energy_force_lanes).

@@ -9,7 +9,7 @@ module springs
   use kinds, only: rp
   implicit none
   private
-  public :: link_force, link_jacobian, link_jacobian_lanes, link_energy, link_power
+  public :: link_force, link_force_lanes, link_jacobian, link_jacobian_lanes, link_energy, link_power
 
   ! Same values as config's SPRING_AXIAL / SPRING_LINEAR; kept private here.
   integer, parameter :: MODEL_AXIAL = 1
@@ -114,6 +114,54 @@ contains
       C = 0.0_rp
     end select
   end subroutine link_jacobian
+
+  !> link_force for n links at once (the same model, rest vector d0 and
+  !> length L), lane i from d(i, :) = x_p - x_q, vr(i, :) = v_p - v_q and
+  !> its constants e(i), eta(i): f(i, :), ok(i) as link_force gives them, up
+  !> to round-off. As link_jacobian_lanes, one loop without a branch (a too
+  !> short axial link computed on a unit length and zeroed); the residual
+  !> takes a row of links of one direction at a time (link by link, the
+  !> links were a third of a residual evaluation).
+  pure subroutine link_force_lanes(n, ld, model, e, eta, d0, L, d, vr, f, ok)
+    integer, intent(in) :: n                  ! lanes 1..n of arrays of leading dimension ld >= n
+    integer, intent(in) :: ld
+    integer, intent(in) :: model              ! 1 axial, 2 linear
+    real(rp), intent(in) :: e(ld), eta(ld)    ! stiffness, damping
+    real(rp), intent(in) :: d0(3)             ! rest vector X_p - X_q [length]
+    real(rp), intent(in) :: L                 ! rest length |d0| [length]
+    real(rp), intent(in) :: d(ld, 3), vr(ld, 3)
+    real(rp), intent(inout) :: f(ld, 3)       ! force on p [force] (lanes 1..n set)
+    logical, intent(inout) :: ok(ld)
+    real(rp) :: ln, il, ldot, keep, s
+    integer :: i, a
+
+    if (model == MODEL_LINEAR) then
+      do a = 1, 3
+        f(1:n, a) = -(e(1:n)*(d(1:n, a) - d0(a)) + eta(1:n)*vr(1:n, a))
+      end do
+      ok(1:n) = .true.
+      return
+    end if
+    if (model /= MODEL_AXIAL) then
+      f(1:n, :) = 0.0_rp
+      ok(1:n) = .false.
+      return
+    end if
+    do i = 1, n
+      ln = sqrt(d(i, 1)*d(i, 1) + d(i, 2)*d(i, 2) + d(i, 3)*d(i, 3))
+      keep = merge(1.0_rp, 0.0_rp, ln > max(SHORT_REL*L, SHORT_ABS))
+      ln = merge(ln, 1.0_rp, keep > 0.0_rp)
+      il = 1.0_rp/ln
+      ldot = (d(i, 1)*il)*vr(i, 1) + (d(i, 2)*il)*vr(i, 2) + (d(i, 3)*il)*vr(i, 3)
+      s = keep*(-(e(i)*(ln - L) + eta(i)*ldot))
+      f(i, 1) = s*(d(i, 1)*il)
+      f(i, 2) = s*(d(i, 2)*il)
+      f(i, 3) = s*(d(i, 3)*il)
+    end do
+    do i = 1, n
+      ok(i) = sqrt(d(i, 1)*d(i, 1) + d(i, 2)*d(i, 2) + d(i, 3)*d(i, 3)) > max(SHORT_REL*L, SHORT_ABS)
+    end do
+  end subroutine link_force_lanes
 
   !> link_jacobian for n links at once (the same model, rest length L and
   !> clamp), lane i from d(i, :) = x_p - x_q, vr(i, :) = v_p - v_q and its

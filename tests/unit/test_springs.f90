@@ -1,11 +1,11 @@
 !> Unit tests of the Voigt link kernels (module springs): hand-computed
 !> forces, action = reaction, Jacobians against central finite differences of
 !> the force, energy against the force, power against the damping force;
-!> the row-of-links kernel (link_jacobian_lanes) against link_jacobian
-!> lane by lane.
+!> the row-of-links kernels (link_jacobian_lanes, link_force_lanes) against
+!> link_jacobian and link_force lane by lane.
 program test_springs
   use kinds, only: rp
-  use springs, only: link_force, link_jacobian, link_jacobian_lanes, link_energy, link_power
+  use springs, only: link_force, link_force_lanes, link_jacobian, link_jacobian_lanes, link_energy, link_power
   use check, only: check_true, check_close, check_close_array, check_report
   implicit none
   integer, parameter :: AXIAL = 1, LINEAR = 2
@@ -107,6 +107,7 @@ program test_springs
   call check_true(.not. ok, 'unknown model: not ok')
 
   call lanes_checks()
+  call force_lanes_checks()
 
   call check_report()
 
@@ -147,6 +148,41 @@ contains
       if (m == AXIAL) call check_true(.not. okl(5) .and. count(okl(1:N)) == N - 1, 'lanes: the zero-length axial link found')
     end do
   end subroutine lanes_checks
+
+  ! link_force_lanes on 9 links in arrays with room for 12 (lanes beyond n
+  ! untouched): stretched, compressed, a zero-length one, each model, with a
+  ! rest vector d0 (the linear model's); every lane equal to link_force up
+  ! to round-off, the zero-length axial link reported with no force.
+  subroutine force_lanes_checks()
+    integer, parameter :: LD = 12, N = 9
+    real(rp) :: dl(LD, 3), vl(LD, 3), el(LD), etal(LD), fl(LD, 3), fs(3), zero(3), d0(3)
+    logical :: okl(LD), oks
+    integer :: l, m, c, pass
+    character(len=48) :: tag
+    zero = 0.0_rp
+    d0 = [0.9_rp, -0.6_rp, 0.9_rp]
+    do l = 1, N
+      dl(l, :) = [(cos(0.7_rp*real(l*c, rp)) * (0.3_rp + 0.25_rp*l), c = 1, 3)]
+      vl(l, :) = [(sin(0.37_rp*real(l + c, rp)), c = 1, 3)]
+      el(l) = 3.0_rp + l
+      etal(l) = 0.1_rp*l
+    end do
+    dl(5, :) = 0.0_rp
+    do pass = 1, 2
+      m = merge(AXIAL, LINEAR, pass == 1)
+      fl = -7.0_rp
+      call link_force_lanes(N, LD, m, el, etal, d0, 1.5_rp, dl, vl, fl, okl)
+      do l = 1, N
+        write(tag, '(a,i0,a,i0,a)') ' (force lanes: pass ', pass, ', lane ', l, ')'
+        call link_force(m, el(l), etal(l), d0, 1.5_rp, dl(l, :), zero, vl(l, :), zero, fs, oks)
+        call check_true(okl(l) .eqv. oks, 'ok'//trim(tag))
+        call check_close_array(fl(l, :), fs, 1.0e-13_rp, 1.0e-300_rp, 'f'//trim(tag))
+      end do
+      call check_true(all(fl(N + 1:, :) == -7.0_rp), 'force lanes beyond n untouched')
+      if (m == AXIAL) call check_true(.not. okl(5) .and. count(okl(1:N)) == N - 1 .and. all(fl(5, :) == 0.0_rp), &
+                                      'force lanes: the zero-length axial link found, no force')
+    end do
+  end subroutine force_lanes_checks
 
   ! Compare K = df_p/dx_p, -K = df_p/dx_q, C = df_p/dv_p, -C = df_p/dv_q with
   ! central differences of link_force, for d = xp - xq and vr = vp - vq.
