@@ -93,7 +93,7 @@ PetscErrorCode nuno_mg_options_read(MPI_Fint fcomm, int *impl, int *cycle, int *
   if (s1) cy += 1;
   PetscCall(PetscOptionsInt("-nuno_mg_sweeps", "symmetric Gauss-Seidel sweeps of nuno's multigrid per smoothing", "nuno", sw, &sw, &s2));
   PetscCall(PetscOptionsInt("-nuno_mg_levels", "levels of nuno's multigrid (0: as many as fit, down to 5 nodes a side)", "nuno", lv, &lv, &s3));
-  PetscCall(PetscOptionsEList("-nuno_mg_product", "the Krylov method's product with S where nuno's multigrid is used: mixed (from the multigrid's single-precision copy of S in difference form, double-precision vectors and sums; half the bytes) or double (S in double precision)",
+  PetscCall(PetscOptionsEList("-nuno_mg_product", "the Krylov method's product with S where nuno's multigrid is used: mixed (from the multigrid's single-precision copy of S in difference form, double-precision vectors, each offset's products in single and their sum in double; half the bytes) or double (S in double precision)",
                               "nuno", products, 2, products[pr], &pr, &s4));
   PetscOptionsEnd();
   PetscCheck(sw >= 1, comm, PETSC_ERR_ARG_OUTOFRANGE, "-nuno_mg_sweeps %" PetscInt_FMT " must be >= 1", sw);

@@ -708,11 +708,14 @@ contains
     end if
   end subroutine mg_coarse_levels
 
-  !> MATSHELL mult of S: y = S x, one halo exchange of x, then by default
+  !> MATSHELL mult of S: y = S x, one halo exchange of x (none on a rank
+  !> that owns every row), then by default
   !> from the multigrid's finest level (single-precision blocks in
-  !> difference form, double-precision vectors and sums: kernel
+  !> difference form, double-precision vectors, each offset's products in
+  !> single precision and their sum in double: kernel
   !> stencil_product_mixed, half the bytes), or with -nuno_mg_product double
-  !> node by node over S in double precision (kernel offset_product).
+  !> over S in double precision, one vector loop per offset (kernel
+  !> offset_product).
   !> Collective.
   subroutine stencil_mult(mat, x, y, ierr)
     type(tMat) :: mat
