@@ -15,6 +15,7 @@ module forces
   public :: internal_forces, element_energies, dissipated_power
   public :: jac_buffer_t, jac_buffer_init, jac_buffer_row, slot_of
   public :: first_anchor_row, link_stretch_extremes, triple_lane_range, triple_lane_edges, TRIPLE_LANES
+  public :: link_lane_range, link_lane_diffs
 
   !> Jacobian blocks of the v-rows of three consecutive node rows (a rolling
   !> buffer indexed by slot_of(j)): k(:,:,di,dj,i,s) = dF_v(i,j)/dx(i+di,j+dj)
@@ -43,6 +44,38 @@ contains
     ihi = min(lat%nx - 1, lat%nx - 1 - 2 * line_dir(1, k))
     if (jr >= lat%ny .or. jr < lat%ys) ihi = ilo - 1
   end subroutine triple_lane_range
+
+  !> The links anchored at row j0 along link_dir(:, k) whose far end lies in
+  !> the lattice and in a row this rank holds (jq >= ys): anchors
+  !> ilo..ihi (none when ihi < ilo), far ends in row jq.
+  pure subroutine link_lane_range(lat, j0, k, ilo, ihi, jq)
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: j0, k
+    integer, intent(out) :: ilo, ihi, jq
+    jq = j0 + link_dir(2, k)
+    ilo = max(0, -link_dir(1, k))
+    ihi = min(lat%nx - 1, lat%nx - 1 - link_dir(1, k))
+    if (jq >= lat%ny .or. jq < lat%ys) ihi = ilo - 1
+  end subroutine link_lane_range
+
+  !> For the nl links anchored at (i0 + l - 1, j0), l = 1..nl, along
+  !> link_dir(:, k): a_p - a_q of the first and last three components of a
+  !> (positions and velocities of the state, or of any vector in its
+  !> layout), by lanes (leading dimension ld), as the lane kernels take them.
+  pure subroutine link_lane_diffs(lat, a, j0, k, i0, nl, ld, d, dv)
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: a(0:, 0:, lat%gys:)    !< (0:5, 0:nx-1, gys:gye)
+    integer, intent(in) :: j0, k, i0, nl, ld
+    real(rp), intent(out) :: d(ld, 3), dv(ld, 3)
+    integer :: l, i, dx, jq
+    dx = link_dir(1, k)
+    jq = j0 + link_dir(2, k)
+    do l = 1, nl
+      i = i0 + l - 1
+      d(l, :) = a(0:2, i, j0) - a(0:2, i + dx, jq)
+      dv(l, :) = a(3:5, i, j0) - a(3:5, i + dx, jq)
+    end do
+  end subroutine link_lane_diffs
 
   !> Edges e1 = x_q - x_p, e2 = x_r - x_q and their rates de of the nl
   !> triples anchored at (i0 + l - 1, j0), l = 1..nl, along line_dir(:, k),
@@ -160,18 +193,13 @@ contains
       integer :: k, dx, jq0, ilo, ihi, i0, nl1, l, ii
       do k = 1, 4
         dx = link_dir(1, k)
-        jq0 = j0 + link_dir(2, k)
-        if (jq0 >= lat%ny .or. jq0 < lat%ys) cycle
-        ilo = max(0, -dx)
-        ihi = min(lat%nx - 1, lat%nx - 1 - dx)
+        call link_lane_range(lat, j0, k, ilo, ihi, jq0)
         do i0 = ilo, ihi, NL
           nl1 = min(NL, ihi - i0 + 1)
           do l = 1, nl1
-            ii = i0 + l - 1
-            call link_constants(lat, ii, j0, k, el(l), etal(l))
-            dd(l, :) = u(0:2, ii, j0) - u(0:2, ii + dx, jq0)
-            vr(l, :) = u(3:5, ii, j0) - u(3:5, ii + dx, jq0)
+            call link_constants(lat, i0 + l - 1, j0, k, el(l), etal(l))
           end do
+          call link_lane_diffs(lat, u, j0, k, i0, nl1, NL, dd, vr)
           call link_force_lanes(nl1, NL, lat%spring_model, el, etal, d0(:, k), len0(k), dd, vr, fl3, okl)
           do l = 1, nl1
             ii = i0 + l - 1

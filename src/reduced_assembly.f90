@@ -27,7 +27,7 @@ module reduced_assembly
   use bending_paper, only: paper_jacobian
   use bending_energy, only: energy_jacobian_lanes
   use offset_product, only: offset_table
-  use forces, only: triple_lane_range, triple_lane_edges, TRIPLE_LANES
+  use forces, only: triple_lane_range, triple_lane_edges, TRIPLE_LANES, link_lane_range, link_lane_diffs
   use mg_kernels, only: stencil_t, stencil_row_from_full
   implicit none
   private
@@ -160,21 +160,15 @@ contains
       sj = modulo(j0, 2)
       do k = 1, 4
         dx = link_dir(1, k)
-        jq = j0 + link_dir(2, k)
-        if (jq >= lat%ny .or. jq < lat%ys) cycle
+        call link_lane_range(lat, j0, k, ilo, ihi, jq)
         own_q = jq <= lat%ye
-        ilo = max(0, -dx)
-        ihi = min(lat%nx - 1, lat%nx - 1 - dx)
         do i0 = ilo, ihi, NL
           nl1 = min(NL, ihi - i0 + 1)
           do l = 1, nl1
-            i = i0 + l - 1
-            call link_constants(lat, i, j0, k, e(l), eta(l))
-            dd(l, :) = u(0:2, i, j0) - u(0:2, i + dx, jq)
-            vr(l, :) = u(3:5, i, j0) - u(3:5, i + dx, jq)
-            wx(l, :) = w(0:2, i, j0) - w(0:2, i + dx, jq)
-            wv(l, :) = w(3:5, i, j0) - w(3:5, i + dx, jq)
+            call link_constants(lat, i0 + l - 1, j0, k, e(l), eta(l))
           end do
+          call link_lane_diffs(lat, u, j0, k, i0, nl1, NL, dd, vr)
+          call link_lane_diffs(lat, w, j0, k, i0, nl1, NL, wx, wv)
           call link_jacobian_lanes(nl1, NL, lat%spring_model, e, eta, len0(k), dd, vr, clamp, kl, cll, okl)
           ! f_p = -f_q: dF_p/dx_p = dF_q/dx_q = kl, dF_p/dx_q = dF_q/dx_p = -kl (same for cl).
           if (.not. with_damping) cll(1:nl1, :, :) = 0.0_rp

@@ -121,16 +121,10 @@ contains
     real(rp) :: dl(LD, 3), vl(LD, 3), el(LD), etal(LD), kl(LD, 3, 3), cl(LD, 3, 3), ks(3, 3), cs(3, 3)
     real(rp) :: zero(3)
     logical :: okl(LD), oks, cl_on
-    integer :: l, m, c, pass
+    integer :: l, m, pass
     character(len=48) :: tag
     zero = 0.0_rp
-    do l = 1, N
-      dl(l, :) = [(cos(0.7_rp*real(l*c, rp)) * (0.3_rp + 0.25_rp*l), c = 1, 3)]
-      vl(l, :) = [(sin(0.37_rp*real(l + c, rp)), c = 1, 3)]
-      el(l) = 3.0_rp + l
-      etal(l) = 0.1_rp*l
-    end do
-    dl(5, :) = 0.0_rp
+    call lane_data(N, dl, vl, el, etal)
     do pass = 1, 4
       m = merge(AXIAL, LINEAR, pass <= 2)
       cl_on = mod(pass, 2) == 0
@@ -149,6 +143,21 @@ contains
     end do
   end subroutine lanes_checks
 
+  ! The links of the lane tests: n of them, stretched and compressed, lane 5
+  ! of zero length.
+  subroutine lane_data(n, dl, vl, el, etal)
+    integer, intent(in) :: n
+    real(rp), intent(out) :: dl(:, :), vl(:, :), el(:), etal(:)
+    integer :: l, c
+    do l = 1, n
+      dl(l, :) = [(cos(0.7_rp*real(l*c, rp)) * (0.3_rp + 0.25_rp*l), c = 1, 3)]
+      vl(l, :) = [(sin(0.37_rp*real(l + c, rp)), c = 1, 3)]
+      el(l) = 3.0_rp + l
+      etal(l) = 0.1_rp*l
+    end do
+    dl(5, :) = 0.0_rp
+  end subroutine lane_data
+
   ! link_force_lanes on 9 links in arrays with room for 12 (lanes beyond n
   ! untouched): stretched, compressed, a zero-length one, each model, with a
   ! rest vector d0 (the linear model's); every lane equal to link_force up
@@ -157,17 +166,11 @@ contains
     integer, parameter :: LD = 12, N = 9
     real(rp) :: dl(LD, 3), vl(LD, 3), el(LD), etal(LD), fl(LD, 3), fs(3), zero(3), d0(3)
     logical :: okl(LD), oks
-    integer :: l, m, c, pass
+    integer :: l, m, pass
     character(len=48) :: tag
     zero = 0.0_rp
     d0 = [0.9_rp, -0.6_rp, 0.9_rp]
-    do l = 1, N
-      dl(l, :) = [(cos(0.7_rp*real(l*c, rp)) * (0.3_rp + 0.25_rp*l), c = 1, 3)]
-      vl(l, :) = [(sin(0.37_rp*real(l + c, rp)), c = 1, 3)]
-      el(l) = 3.0_rp + l
-      etal(l) = 0.1_rp*l
-    end do
-    dl(5, :) = 0.0_rp
+    call lane_data(N, dl, vl, el, etal)
     do pass = 1, 2
       m = merge(AXIAL, LINEAR, pass == 1)
       fl = -7.0_rp
