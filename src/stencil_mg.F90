@@ -47,6 +47,7 @@ module stencil_mg
     type(transfer_t) :: tx, ty                   !< from the next coarser level to this one
     real(rp), allocatable :: ac(:, :, :, :, :, :) !< (3, 3, -r:r, -r:r, 0:nx-1, ys-h:ye+h) Galerkin sums of this level
     real(rp), allocatable :: bx(:, :, :, :, :)    !< (3, 3, -r:r, -rf:rf, 0:nx-1) work of galerkin_add (rf: the finer level's reach)
+    real(rp), allocatable :: rw(:, :, :, :)      !< (3, 3, 0:nx-1, 2) work of galerkin_add on this level's rows (all but the coarsest)
   end type mg_level_t
 
   !> The hierarchy: lev(1) is the lattice itself.
@@ -137,6 +138,7 @@ contains
     do l = 2, mg%nlev
       associate (c => mg%lev(l)%a)
         allocate(mg%lev(l)%bx(3, 3, -c%r:c%r, -mg%lev(l - 1)%a%r:mg%lev(l - 1)%a%r, 0:c%nx - 1))
+        allocate(mg%lev(l - 1)%rw(3, 3, 0:mg%lev(l - 1)%a%nx - 1, 2))
       end associate
     end do
     ! The coarsest level's band: node-major unknowns 3 (i + nx j) + c.
@@ -202,7 +204,7 @@ contains
     do l = 2, mg%nlev
       associate (f => mg%lev(l - 1), c => mg%lev(l))
         c%ac = 0.0_rp
-        call galerkin_add(f%a, f%tx, f%ty, c%a%r, c%a%ys - c%h, c%ac, c%bx)
+        call galerkin_add(f%a, f%tx, f%ty, c%a%r, c%a%ys - c%h, c%ac, c%bx, f%rw)
         call finish_sums_ac(mg, c)
         call stencil_finish(c%a, c%ac(:, :, :, :, :, c%a%ys:c%a%ye))
       end associate

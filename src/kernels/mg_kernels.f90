@@ -992,15 +992,19 @@ contains
   !> (bilinear), 256 against 16 + 16 (cubic), at worst. Block by block,
   !> node by node: a block's nine entries and its neighbours along the
   !> offsets lie together.
-  subroutine galerkin_add(st, tx, ty, rc, jc0, ac, bx)
+  subroutine galerkin_add(st, tx, ty, rc, jc0, ac, bx, rw)
     type(stencil_t), intent(in) :: st
     type(transfer_t), intent(in) :: tx, ty
     integer, intent(in) :: rc, jc0
     real(rp), intent(inout), contiguous :: ac(:, :, -rc:, -rc:, 0:, jc0:)
     real(rp), intent(inout), contiguous :: bx(:, :, -rc:, -st%r:, 0:)  !< (3, 3, -rc:rc, -r:r, 0:nxc-1) work
-    real(rp) :: dg(3, 3, 0:st%nx - 1)              ! the row's diagonal blocks D_p - sum_o B_{p,o}
-    real(rp) :: blk(3, 3, 0:st%nx - 1)             ! the row's blocks of one offset
+    !> (3, 3, 0:nx-1, 2) work: a fine row's diagonal blocks D_p - sum_o B_{p,o}
+    !> (dg) and its blocks of one offset (blk), in double precision
+    real(rp), intent(inout), contiguous, target :: rw(:, :, 0:, :)
+    real(rp), pointer, contiguous :: dg(:, :, :), blk(:, :, :)
     integer :: i, j, k, di, dj, j2, b1, b2, cj, cdj, c1, c2, ilo, ihi
+    dg(1:3, 1:3, 0:st%nx - 1) => rw(:, :, 0:st%nx - 1, 1)
+    blk(1:3, 1:3, 0:st%nx - 1) => rw(:, :, 0:st%nx - 1, 2)
     do j = st%ys, st%ye
       bx = 0.0_rp
       do c2 = 1, 3

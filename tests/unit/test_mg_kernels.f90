@@ -259,7 +259,7 @@ contains
     integer, parameter :: nx = 17, ny = 9
     type(stencil_t) :: st, sc
     type(transfer_t) :: tx, ty
-    real(rp), allocatable :: dense(:, :), p(:, :), ac_dense(:, :), ac(:, :, :, :, :, :), bx(:, :, :, :, :)
+    real(rp), allocatable :: dense(:, :), p(:, :), ac_dense(:, :), ac(:, :, :, :, :, :), bx(:, :, :, :, :), rw(:, :, :, :)
     integer :: rc, nxc, nyc, i, j, a, b, c, ic, jc, di, dj, c1, c2
     real(rp) :: err, scale, v
     character(len=64) :: label
@@ -287,8 +287,8 @@ contains
     call stencil_init(sc, nxc, nyc, 0, nyc - 1, rc)
     allocate(ac(3, 3, -rc:rc, -rc:rc, 0:nxc - 1, 0:nyc - 1))
     ac = 0.0_rp
-    allocate(bx(3, 3, -rc:rc, -r:r, 0:nxc - 1))
-    call galerkin_add(st, tx, ty, rc, 0, ac, bx)
+    allocate(bx(3, 3, -rc:rc, -r:r, 0:nxc - 1), rw(3, 3, 0:nx - 1, 2))
+    call galerkin_add(st, tx, ty, rc, 0, ac, bx, rw)
     ! Every non-zero of the dense product lies within the predicted reach,
     ! and every block equals it.
     err = 0.0_rp
