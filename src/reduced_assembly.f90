@@ -518,13 +518,7 @@ contains
           case default
             blk = tm(:, 4:6, pp)
           end select
-          if (present(st)) then
-            ! (add_block's path for S by offset, written here: nine calls a
-            ! triple were 5 % of a Baraff-Witkin step with bending)
-            st(ip, :, :, kof(iq2 - ip, jq2 - jp), srow(jp)) = st(ip, :, :, kof(iq2 - ip, jq2 - jp), srow(jp)) + blk
-          else
-            call add_block(ip, jp, iq2 - ip, jq2 - jp, blk)
-          end if
+          call add_block(ip, jp, iq2 - ip, jq2 - jp, blk)
         end do
       end do
     end subroutine add_triple_edges

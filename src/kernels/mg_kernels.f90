@@ -74,12 +74,14 @@ module mg_kernels
     !> The regular interior (found by transfer_init, used by interpolate and
     !> restrict_add along x in vector loops): every even fine point 2k is
     !> coarse point k (inject), and the odd fine points 2k + 1, k = klo..khi,
-    !> take the same nodd weights wodd of coarse points k + sodd ..
-    !> k + sodd + nodd - 1. Point by point, through the index arrays, these
-    !> loops were 5 % of a step.
+    !> take the same nodd (2 or 4) weights wodd of coarse points k + sodd ..
+    !> k + sodd + nodd - 1; the other fine points, ends(:), point by point
+    !> through the index arrays (every point when not inject). Point by
+    !> point everywhere, these loops were 5 % of a step.
     logical :: inject = .false.
     integer :: klo = 0, khi = -1, nodd = 0, sodd = 0
     real(mp) :: wodd(4) = 0.0_mp
+    integer, allocatable :: ends(:)
   end type transfer_t
 
 contains
@@ -370,7 +372,7 @@ contains
     real(rp) :: w(4)
     tr%nf = nf
     tr%nc = (nf - 1) / 2 + 1
-    if (allocated(tr%n)) deallocate(tr%n, tr%c, tr%w)
+    if (allocated(tr%n)) deallocate(tr%n, tr%c, tr%w, tr%ends)
     allocate(tr%n(0:nf - 1), tr%c(4, 0:nf - 1), tr%w(4, 0:nf - 1))
     tr%c = 0
     tr%w = 0.0_rp
@@ -394,32 +396,42 @@ contains
   end subroutine transfer_init
 
   !> The regular interior of a transfer (transfer_t): the odd fine points
-  !> around the middle one with its weights, as far as they reach.
+  !> around the middle one with its weights, as far as they reach; the
+  !> rest, in increasing order, its ends.
   subroutine find_regular(tr)
     type(transfer_t), intent(inout) :: tr
-    integer :: f, km
+    integer :: f, k, km
     tr%inject = .true.
     do f = 0, tr%nf - 1, 2
       if (tr%n(f) /= 1 .or. tr%c(1, f) /= f / 2 .or. tr%w(1, f) /= 1.0_rp) tr%inject = .false.
     end do
     tr%klo = 0
     tr%khi = -1
-    if (.not. tr%inject .or. tr%nf < 3) return
+    if (.not. tr%inject) then
+      tr%ends = [(f, f = 0, tr%nf - 1)]
+      return
+    end if
     km = (tr%nf - 1) / 4                 ! the middle odd point, 2 km + 1
-    tr%nodd = tr%n(2 * km + 1)
-    tr%sodd = tr%c(1, 2 * km + 1) - km
-    tr%wodd = 0.0_mp
-    tr%wodd(1:tr%nodd) = real(tr%w(1:tr%nodd, 2 * km + 1), mp)
-    tr%klo = km
-    tr%khi = km
-    do while (tr%klo > 0)
-      if (.not. regular(tr%klo - 1)) exit
-      tr%klo = tr%klo - 1
-    end do
-    do while (2 * (tr%khi + 1) + 1 <= tr%nf - 1)
-      if (.not. regular(tr%khi + 1)) exit
-      tr%khi = tr%khi + 1
-    end do
+    if (tr%nf >= 3) then
+      tr%nodd = tr%n(2 * km + 1)
+      tr%sodd = tr%c(1, 2 * km + 1) - km
+      tr%wodd = 0.0_mp
+      tr%wodd(1:tr%nodd) = real(tr%w(1:tr%nodd, 2 * km + 1), mp)
+    end if
+    ! (interpolate_x's vector loops take 2 or 4 parents)
+    if (tr%nf >= 3 .and. (tr%nodd == 2 .or. tr%nodd == 4)) then
+      tr%klo = km
+      tr%khi = km
+      do while (tr%klo > 0)
+        if (.not. regular(tr%klo - 1)) exit
+        tr%klo = tr%klo - 1
+      end do
+      do while (2 * (tr%khi + 1) + 1 <= tr%nf - 1)
+        if (.not. regular(tr%khi + 1)) exit
+        tr%khi = tr%khi + 1
+      end do
+    end if
+    tr%ends = [(2 * k + 1, k = 0, tr%klo - 1), (2 * k + 1, k = tr%khi + 1, (tr%nf - 2) / 2)]
   contains
     logical function regular(k)
       integer, intent(in) :: k
@@ -872,22 +884,14 @@ contains
     integer, intent(in) :: nf, nc
     real(mp), intent(in) :: t(0:nc - 1)
     real(mp), intent(inout) :: xf(0:nf - 1)
-    integer :: i, k, s
+    integer :: m, k, s
     real(mp) :: w1, w2, w3, w4
-    if (.not. tr%inject) then
-      do i = 0, nf - 1
-        call point(i)
-      end do
-      return
-    end if
+    do m = 1, size(tr%ends)
+      call point(tr%ends(m))
+    end do
+    if (.not. tr%inject) return
     do k = 0, (nf - 1) / 2
       xf(2 * k) = xf(2 * k) + t(k)
-    end do
-    do k = 0, tr%klo - 1
-      call point(2 * k + 1)
-    end do
-    do k = tr%khi + 1, (nf - 2) / 2
-      call point(2 * k + 1)
     end do
     s = tr%sodd
     w1 = tr%wodd(1)
@@ -902,10 +906,6 @@ contains
     case (4)
       do k = tr%klo, tr%khi
         xf(2 * k + 1) = xf(2 * k + 1) + w1 * t(k + s) + w2 * t(k + s + 1) + w3 * t(k + s + 2) + w4 * t(k + s + 3)
-      end do
-    case default
-      do k = tr%klo, tr%khi
-        call point(2 * k + 1)
       end do
     end select
   contains
@@ -924,21 +924,13 @@ contains
     integer, intent(in) :: nf, nc
     real(mp), intent(in) :: rf(0:nf - 1)
     real(mp), intent(out) :: t(0:nc - 1)
-    integer :: i, k, a, s
+    integer :: m, k, a, s
     real(mp) :: wa
     t = 0.0_mp
-    if (.not. tr%inject) then
-      do i = 0, nf - 1
-        call point(i)
-      end do
-      return
-    end if
-    do k = 0, tr%klo - 1
-      call point(2 * k + 1)
+    do m = 1, size(tr%ends)
+      call point(tr%ends(m))
     end do
-    do k = tr%khi + 1, (nf - 2) / 2
-      call point(2 * k + 1)
-    end do
+    if (.not. tr%inject) return
     do k = 0, (nf - 1) / 2
       t(k) = t(k) + rf(2 * k)
     end do
