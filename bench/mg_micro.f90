@@ -7,12 +7,18 @@
 !> argument "square" the whole square of reach R (a coarse level: 65 x 65
 !> at reach 4, 33 x 33 at reach 5 on hang 257 with bending). Prints the
 !> best of 40 runs of each, its bytes a node as mg_describe counts them
-!> and the rate they were read at. Run: bash bench/mg_micro.sh [N] [R] [square].
+!> and the rate they were read at, and the interpolation of a coarse
+!> correction to the N x N level (bilinear and cubic: module stencil_mg's
+!> interpolate, not added). Run: bash bench/mg_micro.sh [N] [R] [square].
 program mg_micro
   use kinds, only: rp
-  use mg_kernels, only: mp, stencil_t, stencil_init, gs_sweep, stencil_product_mixed
+  use mg_kernels, only: mp, stencil_t, transfer_t, stencil_init, gs_sweep, stencil_product_mixed, transfer_init, interpolate
   implicit none
   type(stencil_t) :: st
+  type(transfer_t) :: tl, tc
+  real(mp), allocatable :: xc(:, :, :), tw(:, :)
+  real(rp) :: til, tic
+  integer :: nc
   integer :: n, r, rep
   integer, parameter :: nrep = 40
   real(mp), allocatable :: x(:, :, :), rhs(:, :, :), t(:, :), low(:, :, :), ds(:, :)
@@ -63,6 +69,25 @@ program mg_micro
     call system_clock(c1)
     tp = min(tp, real(c1 - c0, rp) / real(cr, rp))
   end do
+  ! the coarse correction interpolated (padding 3 rows and columns, as
+  ! level 2 with cubic parents)
+  nc = (n - 1) / 2 + 1
+  call transfer_init(tl, n, .false.)
+  call transfer_init(tc, n, .true.)
+  allocate(xc(-3:nc + 2, 3, -3:nc + 2), tw(0:nc - 1, 3))
+  call random_number(xc)
+  til = huge(1.0_rp)
+  tic = huge(1.0_rp)
+  do rep = 1, nrep
+    call system_clock(c0)
+    call interpolate(tl, tl, 0, n - 1, 3, 0, xc, r, x, .false., tw)
+    call system_clock(c1)
+    til = min(til, real(c1 - c0, rp) / real(cr, rp))
+    call system_clock(c0)
+    call interpolate(tc, tc, 0, n - 1, 3, 0, xc, r, x, .false., tw)
+    call system_clock(c1)
+    tic = min(tic, real(c1 - c0, rp) / real(cr, rp))
+  end do
   ! as mg_describe: each sweep the blocks, the inverse, rhs and x; the
   ! backward one not the blocks to the rows below but the kept sums
   bytes_sweep = 2.0_rp * (36.0_rp * (st%nb + 1) + 36.0_rp) - 36.0_rp * count(st%odj < 0) + 24.0_rp
@@ -73,6 +98,7 @@ program mg_micro
     bytes_sweep * n * n / tg / 1.0e9_rp, ' GB/s'
   print '(a, f8.3, a, f6.0, a, f6.2, a)', 'mixed product   ', 1.0e3_rp * tp, ' ms, ', bytes_prod, ' B a node, ', &
     bytes_prod * n * n / tp / 1.0e9_rp, ' GB/s'
+  print '(a, f8.3, a, f8.3, a)', 'interpolation   ', 1.0e3_rp * til, ' ms bilinear, ', 1.0e3_rp * tic, ' ms cubic'
   ! (keeps the results live)
   if (.not. (sum(x) + sum(yd) < huge(1.0_rp))) print '(a)', 'overflow'
 end program mg_micro

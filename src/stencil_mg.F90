@@ -44,7 +44,9 @@ module stencil_mg
     real(mp), allocatable :: res(:, :, :)        !< (0:nx-1, 3, ys:ye) residual
     real(mp), allocatable :: t(:, :)             !< (0:nx-1, 3) row work
     real(mp), allocatable :: low(:, :, :)        !< (0:nx-1, 3, ys:ye) a forward sweep's rhs minus the sums over the rows below (gs_sweep)
-    type(transfer_t) :: tx, ty                   !< from the next coarser level to this one
+    type(transfer_t) :: tx, ty                   !< from the next coarser level to this one: restriction, Galerkin product
+    type(transfer_t) :: ux, uy                   !< the same, for the interpolation of the coarse correction (tx, ty unless cubic_correction)
+    logical :: cubic = .false., cubic_up = .false. !< tx, ty cubic; ux, uy cubic
     real(rp), allocatable :: ac(:, :, :, :, :, :) !< (3, 3, -r:r, -r:r, 0:nx-1, ys-h:ye+h) Galerkin sums of this level
     real(rp), allocatable :: bx(:, :, :, :, :)    !< (3, 3, -r:r, -rf:rf, 0:nx-1) work of galerkin_add (rf: the finer level's reach)
     real(rp), allocatable :: rw(:, :, :, :)      !< (3, 3, 0:nx-1, 2) work of galerkin_add on this level's rows (all but the coarsest)
@@ -69,15 +71,22 @@ contains
   !> Build the levels of an nx x ny lattice whose rows ys..ye this rank
   !> owns (strips of 1 x P ranks, in rank order), with stencil reach r on
   !> the lattice. cubic(l) (l = 1, 2, ...): cubic transfer between level
-  !> l + 1 and level l, else bilinear. At most max_levels levels; coarsening
-  !> stops at 5 points a side. Collective.
-  subroutine mg_create(mg, comm, nx, ny, ys, ye, r, cubic, max_levels, cycle_type, nu)
+  !> l + 1 and level l, else bilinear. cubic_correction(l) (default
+  !> cubic(l)): the coarse correction interpolated cubic from level l + 1
+  !> even where cubic(l) is false, the restriction and the Galerkin product
+  !> staying bilinear: on the finest level with bending, 9-10 % fewer
+  !> Krylov iterations on hang 129..513 for a bilinear level 2 (a cubic
+  !> Galerkin product widens it to reach 3 and costs as many as it saves;
+  !> docs/performance.md, "Eleventh round"). At most max_levels levels;
+  !> coarsening stops at 5 points a side. Collective.
+  subroutine mg_create(mg, comm, nx, ny, ys, ye, r, cubic, max_levels, cycle_type, nu, cubic_correction)
     type(stencil_mg_t), intent(inout) :: mg
     integer, intent(in) :: comm, nx, ny, ys, ye, r, max_levels, cycle_type, nu
     logical, intent(in) :: cubic(:)
+    logical, intent(in), optional :: cubic_correction(:)
     type(mg_level_t), allocatable :: tmp(:)
     integer :: ierr, l, nxc, nyc, ysc, yec, rc, hc, need, fewest, k
-    logical :: last
+    logical :: last, up
 
     mg%comm = comm
     call MPI_Comm_rank(comm, mg%rank, ierr)
@@ -101,6 +110,12 @@ contains
         if (min(nxc, nyc) < 5) exit
         call transfer_init(f%tx, f%a%nx, cubic(min(l, size(cubic))))
         call transfer_init(f%ty, f%a%ny, cubic(min(l, size(cubic))))
+        up = cubic(min(l, size(cubic)))
+        if (present(cubic_correction)) up = up .or. cubic_correction(min(l, size(cubic_correction)))
+        call transfer_init(f%ux, f%a%nx, up)
+        f%cubic = cubic(min(l, size(cubic)))
+        f%cubic_up = up
+        call transfer_init(f%uy, f%a%ny, up)
         rc = max(coarse_reach(f%tx, f%a%r), coarse_reach(f%ty, f%a%r))
         ! Coarse rows of this rank, and how far its fine rows' parents
         ! reach beyond them (restriction and interpolation cross that far).
@@ -108,7 +123,8 @@ contains
         yec = f%a%ye / 2
         hc = rc
         do k = f%a%ys, f%a%ye
-          hc = max(hc, ysc - minval(f%ty%c(1:f%ty%n(k), k)), maxval(f%ty%c(1:f%ty%n(k), k)) - yec)
+          hc = max(hc, ysc - minval(f%ty%c(1:f%ty%n(k), k)), maxval(f%ty%c(1:f%ty%n(k), k)) - yec, &
+                   ysc - minval(f%uy%c(1:f%uy%n(k), k)), maxval(f%uy%c(1:f%uy%n(k), k)) - yec)
         end do
         call MPI_Allreduce(MPI_IN_PLACE, hc, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
         ! Distributed only if every rank owns at least hc rows of it.
@@ -402,7 +418,7 @@ contains
       call restrict_level(mg, l, .false.)
       call vcycle(mg, l + 1)
       call exchange(mg, c)
-      call interpolate(f%tx, f%ty, f%a%ys, f%a%ye, c%h, c%a%ys, c%x, f%h, f%x, .true., c%t)
+      call interpolate(f%ux, f%uy, f%a%ys, f%a%ye, c%h, c%a%ys, c%x, f%h, f%x, .true., c%t)
       do k = 1, mg%nu
         call smooth(mg, f)
       end do
@@ -421,7 +437,7 @@ contains
     do l = mg%nlev - 1, 1, -1
       associate (f => mg%lev(l), c => mg%lev(l + 1))
         call exchange(mg, c)
-        call interpolate(f%tx, f%ty, f%a%ys, f%a%ye, c%h, c%a%ys, c%x, f%h, f%x, .false., c%t)
+        call interpolate(f%ux, f%uy, f%a%ys, f%a%ye, c%h, c%a%ys, c%x, f%h, f%x, .false., c%t)
         do k = 1, mg%nu
           call smooth(mg, f)
         end do
@@ -498,13 +514,29 @@ contains
           end if
         end if
         n = n + 1
-        write(text(n), '(a, i0, a, i0, a, i0, a, i0, a, i0, a, f0.0, a, a)') 'level ', l, ': ', a%nx, ' x ', a%ny, &
+        write(text(n), '(a, i0, a, i0, a, i0, a, i0, a, i0, a, f0.0, a, a, a)') 'level ', l, ': ', a%nx, ' x ', a%ny, &
           ', reach ', a%r, ', ', a%nb, ' blocks a node, ', per_node, ' B a node', &
-          trim(merge(' (coarsest: banded LU on every rank)', '                                    ', l == mg%nlev))
+          trim(merge(' (coarsest: banded LU on every rank)', '                                    ', l == mg%nlev)), &
+          trim(transfers(mg%lev(l)))
       end associate
     end do
     n = n + 1
     write(text(n), '(a, f0.1, a)') 'one cycle reads about ', cycle_bytes / 1.0e6_rp, ' MB over all ranks (levels above the coarsest)'
+  contains
+    !> The transfers from the next coarser level, for the level's line.
+    function transfers(lv) result(t)
+      type(mg_level_t), intent(in) :: lv
+      character(len=64) :: t
+      t = ''
+      if (lv%tx%nf == 0) return
+      if (lv%cubic) then
+        t = '; transfers from below cubic'
+      else if (lv%cubic_up) then
+        t = '; transfers from below bilinear, the correction cubic'
+      else
+        t = '; transfers from below bilinear'
+      end if
+    end function transfers
   end subroutine mg_describe
 
 end module stencil_mg

@@ -46,9 +46,13 @@ program test_stencil_mg
   rows = base + merge(1, 0, rank < extra)
   ye = ys + rows - 1
 
-  call run_case(.false., MG_MULTIPLICATIVE, 'bilinear, V')
-  call run_case(.true., MG_MULTIPLICATIVE, 'cubic, V')
-  call run_case(.true., MG_KASKADE, 'cubic, kaskade')
+  call run_case(.false., MG_MULTIPLICATIVE, 'bilinear, V', .false.)
+  call run_case(.true., MG_MULTIPLICATIVE, 'cubic, V', .false.)
+  call run_case(.true., MG_KASKADE, 'cubic, kaskade', .false.)
+  ! nuno's default with bending: the finest level's correction cubic too
+  ! (its restriction and Galerkin product bilinear)
+  call run_case(.true., MG_KASKADE, 'cubic, kaskade, cubic correction', .true.)
+  call run_case(.true., MG_MULTIPLICATIVE, 'cubic, V, cubic correction', .true.)
   call check_report()
   call MPI_Finalize(ierr)
 
@@ -180,25 +184,28 @@ contains
     gdot = s
   end function gdot
 
-  subroutine run_case(cubic, cycle_type, label)
+  subroutine run_case(cubic, cycle_type, label, up)
     logical, intent(in) :: cubic
     integer, intent(in) :: cycle_type
     character(len=*), intent(in) :: label
+    logical, intent(in) :: up                 ! the finest level's coarse correction interpolated cubic
     type(stencil_mg_t) :: mg, mg1
     real(rp), allocatable :: full(:, :, :, :, :), full1(:, :, :, :, :)
     real(rp), allocatable :: x(:, :, :), b(:, :, :), res(:, :, :), e(:, :, :), ae(:, :, :), xs(:, :, :), x1(:, :, :)
-    logical :: flags(10)
+    logical :: flags(10), flags_up(10)
     real(rp) :: err, scale, r0, rk, alpha
     integer :: l, i, j, it, nit, c
     character(len=96) :: what
 
     flags = cubic
     flags(1) = .false.              ! the finest transfer bilinear, as nuno's default with bending
+    flags_up = flags
+    flags_up(1) = up
     allocate(full(0:n - 1, 3, 3, offset_count(r), ys:ye), full1(0:n - 1, 3, 3, offset_count(r), 0:n - 1))
     call fill(full, ys, ye)
     call fill(full1, 0, n - 1)
-    call mg_create(mg, MPI_COMM_WORLD, n, n, ys, ye, r, flags, 10, cycle_type, 1)
-    call mg_create(mg1, MPI_COMM_SELF, n, n, 0, n - 1, r, flags, 10, cycle_type, 1)
+    call mg_create(mg, MPI_COMM_WORLD, n, n, ys, ye, r, flags, 10, cycle_type, 1, flags_up)
+    call mg_create(mg1, MPI_COMM_SELF, n, n, 0, n - 1, r, flags, 10, cycle_type, 1, flags_up)
     call mg_set_fine(mg, full)
     call mg_set_fine(mg1, full1)
     call mg_build_coarse(mg, ierr)
