@@ -33,16 +33,22 @@ program test_mg_kernels
   call test_galerkin(2, .false.)
   call test_galerkin(2, .true.)
   call test_galerkin(2, .false., lines=.true.)
-  call test_smoother(1)
-  call test_smoother(2)
-  call test_smoother(3)
+  call test_smoother(1, 9)
+  call test_smoother(2, 9)
+  call test_smoother(3, 9)
+  ! rows longer than a 512-bit vector of kind mp (16), with a remainder
+  call test_smoother(1, 37)
+  call test_smoother(2, 37)
+  call test_smoother(3, 37)
   call test_row_sums()
   call test_from_full(1)
   call test_from_full(2)
-  call test_product_mixed(1, 0, 8)
-  call test_product_mixed(2, 0, 8)
-  call test_product_mixed(2, 3, 5)
-  call test_product_mixed(1, 2, 6)
+  call test_product_mixed(1, 0, 8, 11)
+  call test_product_mixed(2, 0, 8, 11)
+  call test_product_mixed(2, 3, 5, 11)
+  call test_product_mixed(1, 2, 6, 11)
+  call test_product_mixed(2, 0, 8, 37)
+  call test_product_mixed(1, 2, 6, 32)
   call check_report()
 
 contains
@@ -319,16 +325,17 @@ contains
     call check_true(all(sc%ainv == sc%ainv), 'coarse diagonal blocks inverted')
   end subroutine test_galerkin
 
-  subroutine test_smoother(r)
+  subroutine test_smoother(r, nx)
     integer, intent(in) :: r    !< reach: 1 and 2 take point_row's fixed-offset routines, 3 its general loop
-    integer, parameter :: nx = 9, ny = 7
+    integer, intent(in) :: nx   !< nodes a row
+    integer, parameter :: ny = 7
     type(stencil_t) :: st
     real(rp), allocatable :: dense(:, :), v(:), xref(:), ad(:, :), xd(:), bd(:)
     real(mp) :: x(-r:nx - 1 + r, 3, -r:ny - 1 + r), rhs(0:nx - 1, 3, 0:ny - 1), res(0:nx - 1, 3, 0:ny - 1), t(0:nx - 1, 3)
     real(mp) :: x0(-r:nx - 1 + r, 3, -r:ny - 1 + r), x1(-r:nx - 1 + r, 3, -r:ny - 1 + r), low(0:nx - 1, 3, 0:ny - 1)
     integer :: k, n, i, j, c, ipiv(3 * nx * ny), info
-    character(len=12) :: tag
-    write(tag, '(a, i0, a)') ' (reach ', r, ')'
+    character(len=24) :: tag
+    write(tag, '(a, i0, a, i0, a)') ' (reach ', r, ', nx ', nx, ')'
     ! Diagonally dominant: mass 30 against up to 24 neighbours of stiffness
     ! <= 1.5 (90 against the 48 of reach 3).
     call random_operator(nx, ny, r, merge(30.0_rp, 90.0_rp, r <= 2), 1.0_rp, st, dense)
@@ -408,9 +415,10 @@ contains
   !> is the small mass term alone: there the difference form keeps the
   !> relative error at single rounding (blocks stored whole in single
   !> precision would be off by 100 %).
-  subroutine test_product_mixed(r, ys, ye)
+  subroutine test_product_mixed(r, ys, ye, nx)
     integer, intent(in) :: r, ys, ye
-    integer, parameter :: nx = 11, ny = 9
+    integer, intent(in) :: nx   !< nodes a row
+    integer, parameter :: ny = 9
     type(stencil_t) :: st
     real(rp), allocatable :: full(:, :, :, :, :), x(:, :, :), y(:, :, :), yd(:, :, :), xs(:, :, :), acc(:, :)
     real(mp), allocatable :: ds(:, :)
@@ -454,11 +462,11 @@ contains
       call stencil_product(nx, ny, ys, ye, gys, gye, r, full(:, :, :, :, ys:ye), x, yd)
       if (pass == 1) then
         scale = 2.0_rp * stiff * offset_count(r) * maxval(abs(x))
-        write(label, '(a, i0, a, i0, a, i0)') 'mixed product, random x, reach ', r, ', rows ', ys, '..', ye
+        write(label, '(a, i0, a, i0, a, i0, a, i0)') 'mixed product, random x, reach ', r, ', rows ', ys, '..', ye, ', nx ', nx
       else
         scale = maxval(abs(yd))
         call check_close(scale, mass, 1.0e-7_rp, 0.0_rp, 'S times a constant is its mass term')
-        write(label, '(a, i0, a, i0, a, i0)') 'mixed product, stiff S, constant x, reach ', r, ', rows ', ys, '..', ye
+        write(label, '(a, i0, a, i0, a, i0, a, i0)') 'mixed product, stiff S, constant x, reach ', r, ', rows ', ys, '..', ye, ', nx ', nx
       end if
       call check_close(maxval(abs(y - yd)), 0.0_rp, 0.0_rp, 1.0e-6_rp * scale, trim(label))
     end do
