@@ -299,8 +299,9 @@ contains
       ! docs/performance.md "Fourth round": as fast as cubic everywhere,
       ! and the parallel Galerkin product of the finest level with a cubic
       ! P doubled the peak memory at 1025 x 1025 on 2 ranks; "Eleventh
-      ! round": still as fast, 30 % fewer iterations for cycles 1.6 times
-      ! as long), the finest correction cubic in nuno's multigrid.
+      ! round": cubic everywhere still as fast, 30 % fewer iterations for
+      ! cycles 1.6 times as long), the finest level's correction cubic in
+      ! nuno's multigrid (10 % fewer iterations for the same cycle).
       red%interp = INTERP_LINEAR
       if (lat%bending_model /= BEND_NONE) red%interp = INTERP_COARSE_CUBIC
       if (present(mg_interpolation)) then

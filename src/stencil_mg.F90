@@ -113,9 +113,9 @@ contains
         up = cubic(min(l, size(cubic)))
         if (present(cubic_correction)) up = up .or. cubic_correction(min(l, size(cubic_correction)))
         call transfer_init(f%ux, f%a%nx, up)
+        call transfer_init(f%uy, f%a%ny, up)
         f%cubic = cubic(min(l, size(cubic)))
         f%cubic_up = up
-        call transfer_init(f%uy, f%a%ny, up)
         rc = max(coarse_reach(f%tx, f%a%r), coarse_reach(f%ty, f%a%r))
         ! Coarse rows of this rank, and how far its fine rows' parents
         ! reach beyond them (restriction and interpolation cross that far).
