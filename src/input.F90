@@ -1718,7 +1718,8 @@ contains
       '  -nuno_mg_interpolation auto|linear|cubic|coarse_cubic  interpolation of the inner multigrid', &
       '                                               (auto: with bending, whose fourth-order modes', &
       '                                               bilinear transfer does not carry, cubic on every', &
-      '                                               level but the finest; linear without)', &
+      '                                               level but the finest, whose coarse correction is', &
+      '                                               interpolated cubic too; linear without)', &
       '  -nuno_newton_forcing [true|false]            Newton solves each inner system only as far as the', &
       '                                               step needs: its Newton remainder, or half the residual', &
       '                                               at which Newton stops (default true)', &
