@@ -86,7 +86,7 @@ contains
     logical, intent(in), optional :: cubic_correction(:)
     type(mg_level_t), allocatable :: tmp(:)
     integer :: ierr, l, nxc, nyc, ysc, yec, rc, hc, need, fewest, k
-    logical :: last, up
+    logical :: last
 
     mg%comm = comm
     call MPI_Comm_rank(comm, mg%rank, ierr)
@@ -108,14 +108,13 @@ contains
         nxc = (f%a%nx - 1) / 2 + 1
         nyc = (f%a%ny - 1) / 2 + 1
         if (min(nxc, nyc) < 5) exit
-        call transfer_init(f%tx, f%a%nx, cubic(min(l, size(cubic))))
-        call transfer_init(f%ty, f%a%ny, cubic(min(l, size(cubic))))
-        up = cubic(min(l, size(cubic)))
-        if (present(cubic_correction)) up = up .or. cubic_correction(min(l, size(cubic_correction)))
-        call transfer_init(f%ux, f%a%nx, up)
-        call transfer_init(f%uy, f%a%ny, up)
         f%cubic = cubic(min(l, size(cubic)))
-        f%cubic_up = up
+        f%cubic_up = f%cubic
+        if (present(cubic_correction)) f%cubic_up = f%cubic_up .or. cubic_correction(min(l, size(cubic_correction)))
+        call transfer_init(f%tx, f%a%nx, f%cubic)
+        call transfer_init(f%ty, f%a%ny, f%cubic)
+        call transfer_init(f%ux, f%a%nx, f%cubic_up)
+        call transfer_init(f%uy, f%a%ny, f%cubic_up)
         rc = max(coarse_reach(f%tx, f%a%r), coarse_reach(f%ty, f%a%r))
         ! Coarse rows of this rank, and how far its fine rows' parents
         ! reach beyond them (restriction and interpolation cross that far).
