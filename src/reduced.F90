@@ -1147,8 +1147,13 @@ contains
         red%its = red%its + its
       end if
     end if
+    ! PETSc keeps a PC's failure until its next set-up, which this shell
+    ! PC (its matrix unchanged) never gets: set it each time, or one
+    ! failed inner solve would fail every retry of the step after it
     if (reason < 0) then
       PetscCall(PCSetFailedReason(pc, PC_SUBPC_ERROR, ierr))
+    else
+      PetscCall(PCSetFailedReason(pc, PC_NOERROR, ierr))
     end if
 
     ainv = 1.0_rp / red%a

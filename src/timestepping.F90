@@ -1432,7 +1432,8 @@ contains
         glob(1), ', ', glob(2), ')'
     else if (reason == TS_DIVERGED_NONLINEAR_SOLVE) then
       write(msg, '(a,es12.5,a)') 'time step from t = ', t, ' failed: nonlinear solve diverged '// &
-        '(TS_DIVERGED_NONLINEAR_SOLVE) after its retries with smaller steps; '//trim(failure_hints(ctx))
+        '(TS_DIVERGED_NONLINEAR_SOLVE): the run''s failed Newton solves reached -ts_max_snes_failures '// &
+        '(each retried with a smaller step); '//trim(failure_hints(ctx))
     else if (reason < 0) then
       write(msg, '(a,es12.5,a,i0,a)') 'time step from t = ', t, ' failed (TSConvergedReason ', reason, &
         ', e.g. -2 = step rejected too often by the error controller)'
