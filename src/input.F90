@@ -1723,6 +1723,10 @@ contains
       '  -nuno_newton_forcing [true|false]            Newton solves each inner system only as far as the', &
       '                                               step needs: its Newton remainder, or half the residual', &
       '                                               at which Newton stops (default true)', &
+      '  -nuno_inner_guess auto|none|previous|extrapolate  the inner solve''s initial guess at a step''s', &
+      '                                               first Newton iteration: the last two steps'' first', &
+      '                                               corrections extrapolated (auto: with bending), the', &
+      '                                               last one, or zero (auto: without bending)', &
       '  -snes_lag_jacobian N                         S assembled every N Newton iterations (default 2: the', &
       '                                               second iteration of a step reuses the first one''s S)', &
       '  -ts_theta_initial_guess_extrapolate          beuler starts Newton from x + dt xdot (default true,', &

@@ -16,14 +16,18 @@
  * mg_interp: in/out 0 = auto, 1 = linear, 2 = cubic, 3 = coarse_cubic (module reduced's INTERP_*);
  * snes_floor: in/out >= 0; gauss_newton, clamp: in/out 0/1;
  * mattype: in/out NUL-terminated, mattype_len bytes; fail_newton: in/out >= 0;
- * forcing: in/out 0/1. Returns a PETSc error code (0 on success). */
+ * forcing: in/out 0/1; guess: in/out 0 = auto, 1 = none, 2 = previous, 3 = extrapolate
+ * (module inner_guess's GUESS_*), *guess_given 1 when set. Returns a PETSc error code (0 on success). */
 PetscErrorCode nuno_options_read(MPI_Fint fcomm, int *jacobian, int *pc_lag, int *mg_interp, double *snes_floor,
-                                 int *gauss_newton, int *clamp, char *mattype, int mattype_len, int *fail_newton, int *forcing)
+                                 int *gauss_newton, int *clamp, char *mattype, int mattype_len, int *fail_newton, int *forcing,
+                                 int *guess, int *guess_given)
 {
   static const char *const jacobians[] = {"reduced", "full"};
   static const char *const interps[]   = {"auto", "linear", "cubic", "coarse_cubic"};
+  static const char *const guesses[]   = {"auto", "none", "previous", "extrapolate"};
   MPI_Comm  comm = MPI_Comm_f2c(fcomm);
-  PetscInt  jac = *jacobian, lag = *pc_lag, nfail = *fail_newton, interp = *mg_interp;
+  PetscInt  jac = *jacobian, lag = *pc_lag, nfail = *fail_newton, interp = *mg_interp, gs = *guess;
+  PetscBool gset = PETSC_FALSE;
   PetscReal floor = *snes_floor;
   PetscBool gn = *gauss_newton ? PETSC_TRUE : PETSC_FALSE, cl = *clamp ? PETSC_TRUE : PETSC_FALSE;
   PetscBool fc = *forcing ? PETSC_TRUE : PETSC_FALSE;
@@ -41,6 +45,8 @@ PetscErrorCode nuno_options_read(MPI_Fint fcomm, int *jacobian, int *pc_lag, int
                              "nuno", floor, &floor, NULL));
   PetscCall(PetscOptionsBool("-nuno_newton_forcing", "reduced Newton: solve each inner system only as far as the step needs (its Newton remainder, or half the residual at which Newton stops); off: always -reduced_ksp_rtol",
                              "nuno", fc, &fc, NULL));
+  PetscCall(PetscOptionsEList("-nuno_inner_guess", "reduced, one-stage methods (beuler, theta, cn): the inner solve's initial guess at a step's first Newton iteration: auto (extrapolate with bending, none without), none (zero), previous (the last step's velocity change, rescaled to this step), extrapolate (the acceleration of the last two steps extrapolated linearly)",
+                              "nuno", guesses, 4, guesses[gs], &gs, &gset));
   PetscCall(PetscOptionsBool("-nuno_gauss_newton", "energy bending: assemble only the Gauss-Newton part -k_b J^T J", "nuno", gn, &gn, NULL));
   PetscCall(PetscOptionsBool("-nuno_clamp_compression", "drop the indefinite compression term of the springs from the assembled matrix",
                              "nuno", cl, &cl, NULL));
@@ -62,6 +68,8 @@ PetscErrorCode nuno_options_read(MPI_Fint fcomm, int *jacobian, int *pc_lag, int
   *clamp = cl ? 1 : 0;
   *fail_newton = (int)nfail;
   *forcing = fc ? 1 : 0;
+  *guess = (int)gs;
+  *guess_given = gset ? 1 : 0;
   PetscCall(PetscStrncpy(mattype, mt, (size_t)mattype_len));
   PetscFunctionReturn(0);
 }

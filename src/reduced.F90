@@ -33,13 +33,14 @@ module reduced
   use reduced_assembly, only: csr_assemble
   use offset_product, only: stencil_product, offset_count
   use interpolation, only: cubic_weights
+  use inner_guess, only: GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, guess_weights
   use mg_kernels, only: stencil_product_mixed, mp
   use stencil_mg, only: stencil_mg_t, mg_create, mg_destroy, mg_build_coarse, mg_apply, mg_describe, &
                         MG_MULTIPLICATIVE, MG_KASKADE
   implicit none
   private
   public :: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach, reduced_describe
-  public :: set_block_row
+  public :: set_block_row, reduced_set_guess
   public :: INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
 
   !> Interpolation between multigrid levels (-nuno_mg_interpolation; the
@@ -110,6 +111,15 @@ module reduced
     real(rp) :: rtol0 = 1.0e-6_rp          !< the inner rtol of the options (-reduced_ksp_rtol, default 1e-6)
     real(rp) :: eta = 0                    !< inner rtol of the next Newton solve; 0: rtol0
     real(rp) :: lin_rel = 0                !< relative residual the last inner solve left
+    ! The inner solve's initial guess at a step's first Newton iteration
+    ! (module inner_guess, -nuno_inner_guess): the first corrections of the
+    ! last two steps of this time window and their shifts
+    integer :: guess = GUESS_NONE          !< GUESS_NONE, _PREVIOUS or _EXTRAPOLATE (set by reduced_set_guess)
+    type(tVec) :: dvh(2)                   !< 3-dof: dvh(1) the last step's, dvh(2) the one before
+    real(rp) :: ah(2) = 0                  !< their shifts a [1/time]
+    integer :: nh = 0                      !< how many are stored (0 at every window start)
+    integer :: guess_power = 2             !< dv ~ 1/a^p: 2 with the extrapolated start of beuler, 1 without
+    logical :: window_start = .true.       !< the next step is its window's first (TS restarts it unextrapolated)
   end type reduced_t
 
   !> The parts of an assembled AIJ S as plain arrays: diagonal part (ia, ja,
@@ -512,6 +522,11 @@ contains
     else
       line = trim(line)//' + '//trim(ptype)
     end if
+    if (red%guess == GUESS_EXTRAPOLATE) then
+      line = trim(line)//'; initial guess extrapolated (-nuno_inner_guess)'
+    else if (red%guess == GUESS_PREVIOUS) then
+      line = trim(line)//'; initial guess the previous step''s (-nuno_inner_guess)'
+    end if
   end subroutine reduced_describe
 
   !> Make the SNES's KSP preonly with the eliminating PCSHELL. Call before
@@ -539,6 +554,10 @@ contains
     PetscCall(MatDestroy(red%jac, ierr))
     PetscCall(VecDestroy(red%coords, ierr))
     PetscCall(VecDestroy(red%dv, ierr))
+    if (red%guess /= GUESS_NONE) then
+      PetscCall(VecDestroy(red%dvh(1), ierr))
+      PetscCall(VecDestroy(red%dvh(2), ierr))
+    end if
     PetscCall(VecDestroy(red%rhs, ierr))
     PetscCall(MatDestroy(red%s, ierr))
     PetscCall(DMDestroy(red%da3, ierr))
@@ -572,6 +591,9 @@ contains
     ! that a run restarted at a window's start (a checkpoint) takes the same
     ! iterations as the run that went through it.
     red%since_pc = red%pc_lag
+    ! and the inner guesses too start afresh (module inner_guess)
+    red%nh = 0
+    red%window_start = .true.
   end subroutine reduced_set_fixed
 
   !> Assemble S at the ghosted state u(0:5, 0:nx-1, gys:gye) (with its time
@@ -1095,6 +1117,46 @@ contains
     same = dmax <= 1.0e-13_rp * ymax
   end function same
 
+  !> The inner initial guess of this solve: at a step's first Newton
+  !> iteration (first) the combination of the stored first corrections
+  !> (module inner_guess), else zero. Collective.
+  subroutine set_guess(red, first, ierr)
+    type(reduced_t), intent(inout) :: red
+    logical, intent(in) :: first
+    PetscErrorCode, intent(out) :: ierr
+    real(rp) :: c(2)
+    c = 0.0_rp
+    if (first) c = guess_weights(red%guess, red%nh, red%a, red%ah(1), red%ah(2), red%guess_power)
+    if (c(1) == 0.0_rp .and. c(2) == 0.0_rp) then
+      PetscCall(KSPSetInitialGuessNonzero(red%ksp, PETSC_FALSE, ierr))
+      return
+    end if
+    if (c(2) == 0.0_rp) then
+      PetscCall(VecAXPBY(red%dv, c(1), 0.0_rp, red%dvh(1), ierr))
+    else
+      PetscCall(VecAXPBYPCZ(red%dv, c(1), c(2), 0.0_rp, red%dvh(1), red%dvh(2), ierr))
+    end if
+    PetscCall(KSPSetInitialGuessNonzero(red%ksp, PETSC_TRUE, ierr))
+  end subroutine set_guess
+
+  !> Use the inner initial guess mode (GUESS_NONE, _PREVIOUS, _EXTRAPOLATE;
+  !> timestepping decides, from -nuno_inner_guess and the TS type). Its two
+  !> stored corrections are two 3-dof vectors, made here when needed. Collective.
+  subroutine reduced_set_guess(red, mode, extrapolated_start, ierr)
+    type(reduced_t), intent(inout) :: red
+    integer, intent(in) :: mode
+    logical, intent(in) :: extrapolated_start      !< the TS starts Newton from x + dt xdot (but at a window's first step)
+    PetscErrorCode, intent(out) :: ierr
+    ierr = 0
+    if (mode /= GUESS_NONE .and. red%guess == GUESS_NONE) then
+      PetscCall(VecDuplicate(red%rhs, red%dvh(1), ierr))
+      PetscCall(VecDuplicate(red%rhs, red%dvh(2), ierr))
+    end if
+    red%guess = mode
+    red%guess_power = merge(2, 1, extrapolated_start)
+    red%nh = 0
+  end subroutine reduced_set_guess
+
   !> PCSHELL apply: du = J^{-1} b by elimination, up to the inner solve's
   !> tolerance. A failed inner solve is retried once with a freshly built
   !> preconditioner when it was a reused one; if it still fails, the PC
@@ -1109,7 +1171,7 @@ contains
     real(rp) :: ainv, rtol, atol, dtol, rnorm, bnorm
     PetscInt :: maxit
     KSPConvergedReason :: reason
-    PetscInt :: its
+    PetscInt :: its, nit
     PetscBool :: ew, reused
 
     PetscCall(PCShellGetContext(pc, red, ierr))
@@ -1124,10 +1186,26 @@ contains
     end if
     red%eta = 0.0_rp
     PetscCall(reduced_rhs(red, b, red%rhs, ierr))
+    PetscCall(SNESGetIterationNumber(red%snes, nit, ierr))
+    if (red%guess /= GUESS_NONE) then
+      PetscCall(set_guess(red, nit == 0, ierr))
+    end if
     PetscCall(KSPSolve(red%ksp, red%rhs, red%dv, ierr))
     PetscCall(KSPGetConvergedReason(red%ksp, reason, ierr))
     PetscCall(KSPGetIterationNumber(red%ksp, its, ierr))
     red%its = red%its + its
+    if (red%guess /= GUESS_NONE .and. nit == 0 .and. reason > 0 .and. red%window_start .and. red%guess_power == 2) then
+      ! a window's first step starts from the last state, not extrapolated:
+      ! its correction is another quantity than the next ones', not kept
+      red%window_start = .false.
+    else if (red%guess /= GUESS_NONE .and. nit == 0 .and. reason > 0) then
+      ! keep this step's first correction (a failed solve's is no guess)
+      PetscCall(VecCopy(red%dvh(1), red%dvh(2), ierr))
+      PetscCall(VecCopy(red%dv, red%dvh(1), ierr))
+      red%ah(2) = red%ah(1)
+      red%ah(1) = red%a
+      red%nh = min(red%nh + 1, 2)
+    end if
     PetscCall(KSPGetResidualNorm(red%ksp, rnorm, ierr))
     PetscCall(VecNorm(red%rhs, NORM_2, bnorm, ierr))
     red%lin_rel = 0.0_rp
@@ -1140,6 +1218,9 @@ contains
         PetscCall(KSPSetOperators(red%ksp, red%s, red%s, ierr))
         if (red%use_mg) then
           PetscCall(mg_coarse_levels(red, ierr))
+        end if
+        if (red%guess /= GUESS_NONE) then
+          PetscCall(KSPSetInitialGuessNonzero(red%ksp, PETSC_FALSE, ierr))
         end if
         PetscCall(KSPSolve(red%ksp, red%rhs, red%dv, ierr))
         PetscCall(KSPGetConvergedReason(red%ksp, reason, ierr))

@@ -31,7 +31,8 @@ module timestepping
   use output, only: output_file, output_record, output_write_step, run_info, output_write_run_info, &
                     output_write_wall_time, output_config_key, checkpoint_t, output_write_checkpoint
   use newton_forcing, only: forcing_term, quadratic_constant
-  use reduced, only: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach, &
+  use inner_guess, only: GUESS_AUTO, GUESS_NONE, GUESS_EXTRAPOLATE
+  use reduced, only: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach, reduced_set_guess, &
                      reduced_describe, &
                      set_block_row
   implicit none
@@ -86,10 +87,12 @@ module timestepping
     end function nuno_ts_stop
     !> src/nuno_options.c: nuno's options in a PETSc options block.
     integer(c_int) function nuno_options_read(fcomm, jacobian, pc_lag, mg_interp, snes_floor, gauss_newton, clamp, &
-                                              mattype, mattype_len, fail_newton, forcing) bind(C, name='nuno_options_read')
+                                              mattype, mattype_len, fail_newton, forcing, guess, guess_given) &
+                                              bind(C, name='nuno_options_read')
       import :: c_int, c_double, c_char
       integer(c_int), value :: fcomm
-      integer(c_int), intent(inout) :: jacobian, pc_lag, mg_interp, gauss_newton, clamp, fail_newton, forcing
+      integer(c_int), intent(inout) :: jacobian, pc_lag, mg_interp, gauss_newton, clamp, fail_newton, forcing, guess
+      integer(c_int), intent(out) :: guess_given
       real(c_double), intent(inout) :: snes_floor
       character(kind=c_char), intent(inout) :: mattype(*)
       integer(c_int), value :: mattype_len
@@ -160,6 +163,8 @@ module timestepping
     real(rp) :: snorm_prev = 0                  !< ||update|| of the previous Newton iteration
     ! inexact Newton (module newton_forcing, -nuno_newton_forcing)
     logical :: newton_forcing = .true.          !< inner tolerance from the step's needs (reduced path)
+    integer(c_int) :: guess = GUESS_AUTO        !< -nuno_inner_guess (module inner_guess)
+    integer(c_int) :: guess_given = 0           !< 1: set on the command line
     real(rp) :: cquad = 0                       !< estimate of C in ||F_k+1|| ~ C ||F_k||^2; 0 at every window start
     ! singular element seen by the last residual evaluation
     integer :: nbad = 0, bad(2) = -1
@@ -267,7 +272,9 @@ contains
     nfail = 0
     cmattype = MATBAIJ//c_null_char
     forcing = 1
-    ierr = nuno_options_read(ctx%comm, jac_full, pc_lag, mg_interp, ctx%snes_floor, gn, cl, cmattype, len(cmattype), nfail, forcing)
+    ctx%guess = GUESS_AUTO
+    ierr = nuno_options_read(ctx%comm, jac_full, pc_lag, mg_interp, ctx%snes_floor, gn, cl, cmattype, len(cmattype), nfail, forcing, &
+                             ctx%guess, ctx%guess_given)
     if (ierr /= 0) return
     ctx%newton_forcing = forcing /= 0
     ctx%use_reduced = jac_full == 0
@@ -436,6 +443,7 @@ contains
     ! an interpolant: trapezoid.
     PetscCall(TSGetType(ctx%ts, tstype, ierr))
     ctx%gauss = trim(tstype) == 'bdf'
+    PetscCall(set_inner_guess(ctx, tstype, ierr))
     PetscCall(VecDuplicate(ctx%u, ctx%uq, ierr))
     PetscCall(set_tolerances(ctx, srcx, srcv, ierr))
 
@@ -473,6 +481,58 @@ contains
       flush(output_unit)
     end if
   end subroutine effective_time_integration
+
+  !> The inner initial guess (-nuno_inner_guess, module inner_guess): the
+  !> first Newton correction of a step is about the velocity change over
+  !> it only for one-stage methods (beuler, theta, cn), whose shift is
+  !> proportional to 1/dt; the stages of rosw, arkimex and bdf's history
+  !> are other quantities. auto: extrapolate with bending (30 % fewer
+  !> inner iterations in bw mode at 257 x 257, docs/performance.md), none
+  !> without (there the extra product the guess costs ate the gain), and
+  !> none in identification and control runs. An explicit choice the run cannot use is refused. Collective.
+  subroutine set_inner_guess(ctx, tstype, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    character(len=*), intent(in) :: tstype
+    PetscErrorCode, intent(out) :: ierr
+    logical :: one_stage, direct
+    integer :: mode
+    PetscBool :: extrap, set
+    character(len=64) :: ktype
+    ierr = 0
+    extrap = PETSC_FALSE
+    one_stage = tstype == TSBEULER .or. tstype == TSTHETA .or. tstype == TSCN
+    ! a direct inner solve (preonly) takes no initial guess
+    direct = .false.
+    if (ctx%use_reduced) then
+      PetscCall(KSPGetType(ctx%red%ksp, ktype, ierr))
+      direct = ktype == KSPPREONLY
+    end if
+    if (ctx%guess_given /= 0 .and. ctx%guess /= GUESS_NONE .and. ctx%guess /= GUESS_AUTO) then
+      if (.not. ctx%use_reduced) then
+        ierr = PETSC_ERR_ARG_INCOMP
+        SETERRQ(ctx%comm, ierr, 'nuno: -nuno_inner_guess is for the reduced solve, not -nuno_jacobian full')
+      end if
+      if (.not. one_stage) then
+        ierr = PETSC_ERR_ARG_INCOMP
+        SETERRQ(ctx%comm, ierr, 'nuno: -nuno_inner_guess previous or extrapolate needs a one-stage method (-ts_type beuler, theta or cn), not -ts_type '//trim(tstype))
+      end if
+      if (direct) then
+        ierr = PETSC_ERR_ARG_INCOMP
+        SETERRQ(ctx%comm, ierr, 'nuno: -nuno_inner_guess previous or extrapolate needs an iterative inner solver, not -reduced_ksp_type preonly')
+      end if
+    end if
+    if (.not. ctx%use_reduced) return
+    mode = ctx%guess
+    ! (auto leaves the fits alone: their finite-difference checks compare
+    ! runs whose inexact solves would otherwise start from other guesses)
+    if (mode == GUESS_AUTO) mode = merge(GUESS_EXTRAPOLATE, GUESS_NONE, one_stage .and. &
+                                         ctx%cfg%bending_code /= BEND_NONE .and. .not. (ctx%cfg%identify .or. ctx%cfg%control))
+    if (.not. one_stage .or. direct) mode = GUESS_NONE
+    ctx%guess = mode
+    ! (nuno_step_defaults put the extrapolated start of beuler in the options)
+    PetscCall(PetscOptionsGetBool(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-ts_theta_initial_guess_extrapolate', extrap, set, ierr))
+    PetscCall(reduced_set_guess(ctx%red, mode, logical(set .and. extrap), ierr))
+  end subroutine set_inner_guess
 
   !> The error tolerances of adaptive steps, as vectors for TS: positions
   !> atol_x alone [length], velocities atol_v + rtol |v| [length/time]

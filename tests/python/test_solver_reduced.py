@@ -204,6 +204,67 @@ def test_default_inner_solver_gives_the_exact_newton_trajectory(tmp_path, scene,
     assert err < 1e-8, f"{scene} on {nranks} ranks: default differs from full by {err:.3e} of the displacement"
 
 
+def run_window(tmp_path, name, nranks, options, n, dt, **keys):
+    """hang with one output window of n steps (the inner guesses start
+    afresh at every window: a window of one or two steps would leave them
+    unused)."""
+    text = (ROOT / "input" / "hang.nml").read_text()
+    for key, value in dict(t_end=n * dt, dt=dt, output_interval=n * dt, **keys).items():
+        text = set_key(text, key, value)
+    text = set_key(text, "output_file", f"'{name}.h5'")
+    nml = Path(tmp_path) / f"{name}.nml"
+    nml.write_text(text)
+    cmd = [mpiexec(), "-n", str(nranks), "--oversubscribe", exe(), str(nml), *options]
+    proc = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, f"{name} failed:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
+    return proc, read_run(str(Path(tmp_path) / f"{name}.h5"))
+
+
+def test_inner_guess_changes_iterations_not_the_trajectory(tmp_path):
+    """-nuno_inner_guess (module inner_guess): the inner solve of a step's
+    first Newton iteration starts from the last steps' velocity changes
+    extrapolated. Solved tightly, the trajectory is the zero guess's; solved
+    to 1e-3 (the Baraff-Witkin mode) the falling cloth, whose acceleration
+    changes smoothly, needs fewer inner iterations with it. Default with
+    bending (auto), said in the start-up summary."""
+    bw = ("-snes_type", "ksponly")
+    n, dt = 20, 1.0 / 600.0
+    runs, its = {}, {}
+    for guess in ("none", "extrapolate"):
+        _, runs[guess] = run_window(tmp_path, f"tight_{guess}", 2, bw + ("-reduced_ksp_rtol", "1e-11",
+                                    "-nuno_inner_guess", guess), n, dt, nx=33, ny=33)
+        _, loose = run_window(tmp_path, f"loose_{guess}", 2, bw + ("-reduced_ksp_rtol", "1e-3",
+                              "-nuno_inner_guess", guess), n, dt, nx=33, ny=33)
+        its[guess] = int(loose.diagnostics["linear_iterations"][-1])
+    ref = runs["none"].position
+    moved = np.abs(ref[-1] - ref[0]).max()
+    assert moved > 1e-3
+    err = np.abs(runs["extrapolate"].position - ref).max() / moved
+    assert err < 1e-8, f"the guess changed the tight trajectory by {err:.3e} of the displacement"
+    assert its["extrapolate"] < its["none"], f"inner iterations with the guess {its['extrapolate']}, without {its['none']}"
+    proc, _ = run_window(tmp_path, "default", 1, bw, 2, dt, nx=33, ny=33)
+    assert "initial guess extrapolated" in proc.stdout
+
+
+@pytest.mark.parametrize("options, words", [
+    (("-nuno_inner_guess", "extrapolate", "-ts_type", "rosw"), "needs a one-stage method"),
+    (("-nuno_inner_guess", "previous", "-nuno_jacobian", "full"), "-nuno_inner_guess is for the reduced solve"),
+    (("-nuno_inner_guess", "quadratic"), "Unknown option quadratic for -nuno_inner_guess"),
+    (("-nuno_inner_guess", "extrapolate", "-reduced_ksp_type", "preonly", "-reduced_pc_type", "lu"),
+     "needs an iterative inner solver"),
+])
+def test_an_inner_guess_the_run_cannot_use_is_refused(tmp_path, options, words):
+    text = set_key((ROOT / "input" / "hang.nml").read_text(), "output_file", "'bad.h5'")
+    text = set_key(set_key(text, "nx", 11), "ny", 11)
+    nml = Path(tmp_path) / "bad.nml"
+    nml.write_text(text)
+    cmd = [mpiexec(), "-n", "2", "--oversubscribe", exe(), str(nml), *options]
+    proc = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert proc.returncode != 0
+    assert words in proc.stdout + proc.stderr
+    assert not (Path(tmp_path) / "bad.h5").exists() or not read_run(str(Path(tmp_path) / "bad.h5")).complete
+
+
 def test_constant_jacobian_of_linear_springs(tmp_path):
     """Linear springs without bending: K and C are constant, S is assembled
     once per shift and constraint window, not per Newton iteration; the

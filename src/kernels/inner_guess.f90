@@ -1,0 +1,53 @@
+!> The inner solve's initial guess at the first Newton iteration of a step
+!> (-nuno_inner_guess; docs/design.md, "The inner initial guess"). Plain
+!> numbers in and out: unit-tested alone (tests/unit/test_inner_guess.f90).
+!>
+!> The first Newton correction of the velocities of a one-stage implicit
+!> step is smooth from step to step: without an extrapolated start it is
+!> the velocity change over the step, dt times the mean acceleration; with
+!> the extrapolated start beuler uses (x + dt xdot, nuno's default,
+!> -ts_theta_initial_guess_extrapolate) it is what that start misses, dt^2
+!> times the change of acceleration. So dv_k = r_k / a_k^p, with a_k the
+!> shift (1/dt for backward Euler, 1/(theta dt) for theta methods), p = 1
+!> or 2 and r_k a rate that varies smoothly in time. From the first
+!> corrections of the last steps, dv1 (shift a1) and dv2 (shift a2):
+!>   previous:     r = r1
+!>   extrapolate:  r = r1 + (r1 - r2) (dt / dt1) = r1 + (r1 - r2) a1 / a
+!> with r_k = a_k^p dv_k, so guess = r / a^p = c1 dv1 + c2 dv2. The
+!> extrapolation is exact when the rate is linear in time, whatever the
+!> steps; with equal steps it is 2 dv1 - dv2.
+module inner_guess
+  use kinds, only: rp
+  implicit none
+  private
+  public :: GUESS_AUTO, GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, guess_weights
+
+  integer, parameter :: GUESS_AUTO = 0, GUESS_NONE = 1, GUESS_PREVIOUS = 2, GUESS_EXTRAPOLATE = 3
+
+contains
+
+  !> Weights c(1:2) of dv1, dv2 in the guess at shift a (> 0), given the
+  !> shifts a1, a2 (> 0) of the stored corrections, how many are stored
+  !> (nh = 0, 1, 2) and the power p (1 or 2) of the shift in dv = r / a^p.
+  !> With fewer than the mode needs: the previous one, or nothing (c = 0:
+  !> a zero guess).
+  pure function guess_weights(mode, nh, a, a1, a2, p) result(c)
+    integer, intent(in) :: mode, nh, p
+    real(rp), intent(in) :: a, a1, a2
+    real(rp) :: c(2)
+    c = 0.0_rp
+    if (nh < 1 .or. .not. (a > 0.0_rp)) return
+    select case (mode)
+    case (GUESS_PREVIOUS)
+      c(1) = (a1 / a)**p
+    case (GUESS_EXTRAPOLATE)
+      if (nh >= 2) then
+        c(1) = (a1 / a)**p * (1.0_rp + a1 / a)
+        c(2) = -(a2 / a)**p * (a1 / a)
+      else
+        c(1) = (a1 / a)**p
+      end if
+    end select
+  end function guess_weights
+
+end module inner_guess

@@ -1,0 +1,52 @@
+!> Unit test of the inner initial guess (module inner_guess): for a rate
+!> linear in time, r(t) = r0 + q t, and steps of changing size whose first
+!> corrections are dv_n = r(t_n) dt_n^p (p = 1: the velocity change of a
+!> start from the last state; p = 2: what an extrapolated start misses;
+!> shift a_n = 1/dt_n), the extrapolated guess reproduces the next
+!> correction exactly, the previous one is off by q dt^(p+1), and with too
+!> few stored corrections the guess falls back as documented.
+program test_inner_guess
+  use kinds, only: rp
+  use inner_guess, only: GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, guess_weights
+  use check, only: check_close, check_report
+  implicit none
+  real(rp), parameter :: r0 = -9.81_rp, q = 3.7_rp
+  real(rp) :: t(0:3), dt(3), dv(3), c(2), g
+  integer :: n, p
+  character(len=8) :: tag
+
+  ! three steps of sizes 1e-3, 2.5e-3, 0.7e-3 from t = 0.2
+  dt = [1.0e-3_rp, 2.5e-3_rp, 0.7e-3_rp]
+  t(0) = 0.2_rp
+  do n = 1, 3
+    t(n) = t(n - 1) + dt(n)
+  end do
+  do p = 1, 2
+    write(tag, '(a,i0,a)') '(p = ', p, ') '
+    dv = (r0 + q * t(1:3)) * dt**p
+    ! guess for step 3 from steps 2 (dv1) and 1 (dv2)
+    c = guess_weights(GUESS_EXTRAPOLATE, 2, 1.0_rp / dt(3), 1.0_rp / dt(2), 1.0_rp / dt(1), p)
+    g = c(1) * dv(2) + c(2) * dv(1)
+    call check_close(g, dv(3), 1.0e-13_rp, 0.0_rp, tag//'extrapolate: exact for a linear rate, steps of any size')
+    ! previous: the last step's rate, scaled to this step
+    c = guess_weights(GUESS_PREVIOUS, 2, 1.0_rp / dt(3), 1.0_rp / dt(2), 1.0_rp / dt(1), p)
+    g = c(1) * dv(2) + c(2) * dv(1)
+    call check_close(g, (r0 + q * t(2)) * dt(3)**p, 1.0e-13_rp, 0.0_rp, tag//'previous: the last rate times this step')
+    call check_close(dv(3) - g, q * dt(3)**(p + 1), 1.0e-8_rp, 0.0_rp, tag//'previous: off by q dt^(p+1) (a difference)')
+    ! fallbacks
+    c = guess_weights(GUESS_EXTRAPOLATE, 1, 1.0_rp / dt(3), 1.0_rp / dt(2), 0.0_rp, p)
+    call check_close(c(1), (dt(3) / dt(2))**p, 1.0e-15_rp, 0.0_rp, tag//'extrapolate with one stored: previous')
+    call check_close(c(2), 0.0_rp, 0.0_rp, 0.0_rp, tag//'extrapolate with one stored: no second weight')
+  end do
+  ! equal steps: 2 dv1 - dv2 whatever p
+  do p = 1, 2
+    c = guess_weights(GUESS_EXTRAPOLATE, 2, 500.0_rp, 500.0_rp, 500.0_rp, p)
+    call check_close(c(1), 2.0_rp, 1.0e-15_rp, 0.0_rp, 'extrapolate, equal steps: c1 = 2')
+    call check_close(c(2), -1.0_rp, 1.0e-15_rp, 0.0_rp, 'extrapolate, equal steps: c2 = -1')
+  end do
+  c = guess_weights(GUESS_EXTRAPOLATE, 0, 1.0_rp / dt(3), 0.0_rp, 0.0_rp, 2)
+  call check_close(abs(c(1)) + abs(c(2)), 0.0_rp, 0.0_rp, 0.0_rp, 'nothing stored: zero guess')
+  c = guess_weights(GUESS_NONE, 2, 1.0_rp / dt(3), 1.0_rp / dt(2), 1.0_rp / dt(1), 2)
+  call check_close(abs(c(1)) + abs(c(2)), 0.0_rp, 0.0_rp, 0.0_rp, 'none: zero guess')
+  call check_report()
+end program test_inner_guess
