@@ -108,17 +108,7 @@ def test_a_step_retried_after_a_failed_inner_solve_goes_on(tmp_path):
     about 50 for 2.5e-3 s: with at most 100, every 1e-2 step fails once and
     its retry succeeds (before the fix every retry failed as well and the
     run stopped at t = 0)."""
-    text = (ROOT / "input" / "hang.nml").read_text()
-    for key, value in (("t_end", 0.02), ("dt", 0.01), ("output_interval", 0.02)):
-        text = set_key(text, key, value)
-    text = set_key(text, "output_file", "'retry.h5'")
-    nml = Path(tmp_path) / "retry.nml"
-    nml.write_text(text)
-    cmd = [mpiexec(), "-n", "2", "--oversubscribe", exe(), str(nml), "-reduced_pc_type", "jacobi",
-           "-reduced_ksp_max_it", "100"]
-    proc = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=120)
-    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
-    r = read_run(str(Path(tmp_path) / "retry.h5"))
+    _, r = run_window(tmp_path, "retry", 2, ("-reduced_pc_type", "jacobi", "-reduced_ksp_max_it", "100"), 2, 0.01)
     assert r.complete
     rejected = int(r.diagnostics["rejected_steps"][-1])
     assert rejected >= 1, "no step failed: the test did not exercise a retry"
