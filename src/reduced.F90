@@ -40,7 +40,7 @@ module reduced
   implicit none
   private
   public :: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach, reduced_describe
-  public :: set_block_row, reduced_set_guess
+  public :: set_block_row, reduced_set_guess, reduced_step_accepted
   public :: INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
 
   !> Interpolation between multigrid levels (-nuno_mg_interpolation; the
@@ -120,6 +120,9 @@ module reduced
     integer :: nh = 0                      !< how many are stored (0 at every window start)
     integer :: guess_power = 2             !< dv ~ 1/a^p: 2 with the extrapolated start of beuler, 1 without
     logical :: window_start = .true.       !< the next step is its window's first (TS restarts it unextrapolated)
+    type(tVec) :: dvp                      !< 3-dof: the first correction of the step under way (kept if it is accepted)
+    real(rp) :: ap = 0                     !< its shift
+    logical :: pending = .false.           !< dvp holds one
   end type reduced_t
 
   !> The parts of an assembled AIJ S as plain arrays: diagonal part (ia, ja,
@@ -557,6 +560,7 @@ contains
     if (red%guess /= GUESS_NONE) then
       PetscCall(VecDestroy(red%dvh(1), ierr))
       PetscCall(VecDestroy(red%dvh(2), ierr))
+      PetscCall(VecDestroy(red%dvp, ierr))
     end if
     PetscCall(VecDestroy(red%rhs, ierr))
     PetscCall(MatDestroy(red%s, ierr))
@@ -594,6 +598,7 @@ contains
     ! and the inner guesses too start afresh (module inner_guess)
     red%nh = 0
     red%window_start = .true.
+    red%pending = .false.
   end subroutine reduced_set_fixed
 
   !> Assemble S at the ghosted state u(0:5, 0:nx-1, gys:gye) (with its time
@@ -1151,11 +1156,38 @@ contains
     if (mode /= GUESS_NONE .and. red%guess == GUESS_NONE) then
       PetscCall(VecDuplicate(red%rhs, red%dvh(1), ierr))
       PetscCall(VecDuplicate(red%rhs, red%dvh(2), ierr))
+      PetscCall(VecDuplicate(red%rhs, red%dvp, ierr))
     end if
     red%guess = mode
     red%guess_power = merge(2, 1, extrapolated_start)
     red%nh = 0
+    red%pending = .false.
   end subroutine reduced_set_guess
+
+  !> A step was accepted (timestepping's monitor): its first correction
+  !> joins the two kept for the next guesses. Only accepted steps count: a
+  !> rejected attempt's correction starts at the same time as its retry's,
+  !> so extrapolating through it would be nonsense. A window's first step,
+  !> which TS starts from the last state rather than extrapolated, gives
+  !> another quantity: not kept.
+  subroutine reduced_step_accepted(red)
+    type(reduced_t), intent(inout) :: red
+    type(tVec) :: spare
+    if (red%guess == GUESS_NONE .or. .not. red%pending) return
+    red%pending = .false.
+    if (red%window_start) then
+      red%window_start = .false.
+      if (red%guess_power == 2) return
+    end if
+    ! the vectors change places, no copies
+    spare = red%dvh(2)
+    red%dvh(2) = red%dvh(1)
+    red%dvh(1) = red%dvp
+    red%dvp = spare
+    red%ah(2) = red%ah(1)
+    red%ah(1) = red%ap
+    red%nh = min(red%nh + 1, 2)
+  end subroutine reduced_step_accepted
 
   !> PCSHELL apply: du = J^{-1} b by elimination, up to the inner solve's
   !> tolerance. A failed inner solve is retried once with a freshly built
@@ -1194,17 +1226,12 @@ contains
     PetscCall(KSPGetConvergedReason(red%ksp, reason, ierr))
     PetscCall(KSPGetIterationNumber(red%ksp, its, ierr))
     red%its = red%its + its
-    if (red%guess /= GUESS_NONE .and. nit == 0 .and. reason > 0 .and. red%window_start .and. red%guess_power == 2) then
-      ! a window's first step starts from the last state, not extrapolated:
-      ! its correction is another quantity than the next ones', not kept
-      red%window_start = .false.
-    else if (red%guess /= GUESS_NONE .and. nit == 0 .and. reason > 0) then
-      ! keep this step's first correction (a failed solve's is no guess)
-      PetscCall(VecCopy(red%dvh(1), red%dvh(2), ierr))
-      PetscCall(VecCopy(red%dv, red%dvh(1), ierr))
-      red%ah(2) = red%ah(1)
-      red%ah(1) = red%a
-      red%nh = min(red%nh + 1, 2)
+    if (red%guess /= GUESS_NONE .and. nit == 0 .and. reason > 0) then
+      ! this step's first correction, kept if the step is accepted
+      ! (reduced_step_accepted; a failed solve's is no guess)
+      PetscCall(VecCopy(red%dv, red%dvp, ierr))
+      red%ap = red%a
+      red%pending = .true.
     end if
     PetscCall(KSPGetResidualNorm(red%ksp, rnorm, ierr))
     PetscCall(VecNorm(red%rhs, NORM_2, bnorm, ierr))

@@ -32,7 +32,8 @@ module timestepping
                     output_write_wall_time, output_config_key, checkpoint_t, output_write_checkpoint
   use newton_forcing, only: forcing_term, quadratic_constant
   use inner_guess, only: GUESS_AUTO, GUESS_NONE, GUESS_EXTRAPOLATE
-  use reduced, only: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach, reduced_set_guess, &
+  use reduced, only: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach, &
+                     reduced_set_guess, reduced_step_accepted, &
                      reduced_describe, &
                      set_block_row
   implicit none
@@ -897,9 +898,10 @@ contains
     if (glob(2) > 0.0_rp) wnorm = sqrt(glob(1) / glob(2))
   end subroutine update_wrms
 
-  !> After every accepted step (and at the start of each TSSolve): advance
-  !> the integrals of dissipated power and constraint power, and
-  !> after a retried step go back to the fixed step.
+  !> After every accepted step (and at the start of each TSSolve): keep its
+  !> first Newton correction for the inner guesses, advance the integrals
+  !> of dissipated power and constraint power, and after a retried step go
+  !> back to the fixed step.
   subroutine ts_monitor(ts, step, t, uvec, ctx, ierr)
     type(tTS) :: ts
     PetscInt :: step
@@ -915,6 +917,8 @@ contains
     ! -ts_adapt_type none it keeps that step: a fixed step would silently
     ! stay 4 times smaller. Once the retried step is accepted, return to dt,
     ! clipped to the window end as PETSc's matchstep does (no sliver step).
+    ! the accepted step's first Newton correction, for the next inner guesses
+    if (ctx%use_reduced) call reduced_step_accepted(ctx%red)
     PetscCall(TSGetStepRejections(ts, rejects, ierr))
     if (rejects > ctx%rejects_seen) then
       ctx%rejects_seen = rejects
