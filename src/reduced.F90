@@ -1125,11 +1125,13 @@ contains
   !> The inner initial guess of this solve: at a step's first Newton
   !> iteration (first) the combination of the stored first corrections
   !> (module inner_guess), else zero. Collective.
-  subroutine set_guess(red, first, ierr)
+  subroutine set_guess(red, first, guessed, ierr)
     type(reduced_t), intent(inout) :: red
     logical, intent(in) :: first
+    logical, intent(out) :: guessed               !< a nonzero guess was set
     PetscErrorCode, intent(out) :: ierr
     real(rp) :: c(2)
+    guessed = .false.
     c = 0.0_rp
     if (first) c = guess_weights(red%guess, red%nh, red%a, red%ah(1), red%ah(2), red%guess_power)
     if (c(1) == 0.0_rp .and. c(2) == 0.0_rp) then
@@ -1142,6 +1144,7 @@ contains
       PetscCall(VecAXPBYPCZ(red%dv, c(1), c(2), 0.0_rp, red%dvh(1), red%dvh(2), ierr))
     end if
     PetscCall(KSPSetInitialGuessNonzero(red%ksp, PETSC_TRUE, ierr))
+    guessed = .true.
   end subroutine set_guess
 
   !> Use the inner initial guess mode (GUESS_NONE, _PREVIOUS, _EXTRAPOLATE;
@@ -1205,6 +1208,7 @@ contains
     KSPConvergedReason :: reason
     PetscInt :: its, nit
     PetscBool :: ew, reused
+    logical :: guessed
 
     PetscCall(PCShellGetContext(pc, red, ierr))
     ! Eisenstat-Walker sets the outer KSP's rtol: that is the forcing term;
@@ -1219,13 +1223,22 @@ contains
     red%eta = 0.0_rp
     PetscCall(reduced_rhs(red, b, red%rhs, ierr))
     PetscCall(SNESGetIterationNumber(red%snes, nit, ierr))
+    guessed = .false.
     if (red%guess /= GUESS_NONE) then
-      PetscCall(set_guess(red, nit == 0, ierr))
+      PetscCall(set_guess(red, nit == 0, guessed, ierr))
     end if
     PetscCall(KSPSolve(red%ksp, red%rhs, red%dv, ierr))
     PetscCall(KSPGetConvergedReason(red%ksp, reason, ierr))
     PetscCall(KSPGetIterationNumber(red%ksp, its, ierr))
     red%its = red%its + its
+    if (reason < 0 .and. guessed) then
+      ! a guess must never fail a step: from zero once more
+      PetscCall(KSPSetInitialGuessNonzero(red%ksp, PETSC_FALSE, ierr))
+      PetscCall(KSPSolve(red%ksp, red%rhs, red%dv, ierr))
+      PetscCall(KSPGetConvergedReason(red%ksp, reason, ierr))
+      PetscCall(KSPGetIterationNumber(red%ksp, its, ierr))
+      red%its = red%its + its
+    end if
     if (red%guess /= GUESS_NONE .and. nit == 0 .and. reason > 0) then
       ! this step's first correction, kept if the step is accepted
       ! (reduced_step_accepted; a failed solve's is no guess)

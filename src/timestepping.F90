@@ -176,6 +176,9 @@ module timestepping
     logical :: gauss = .false.
     type(tVec) :: uq                            !< interpolated state (Gauss points)
     real(rp) :: t_prev = 0, pdiss_prev = 0, pcon_prev = 0
+    logical :: monitor_seen = .false.           !< ts_monitor has run (its stall check)
+    PetscInt :: monitor_step = 0                !< the step number it saw last
+    integer :: stalled_steps = 0                !< accepted steps in a row that did not advance t
     real(rp) :: dissipated = 0                  !< dissipated energy [energy]
     real(rp) :: work_constraints = 0            !< work of the constraint reactions [energy]
     real(rp) :: mgx0 = 0                        !< sum m g . x at t = 0
@@ -917,6 +920,24 @@ contains
     ! -ts_adapt_type none it keeps that step: a fixed step would silently
     ! stay 4 times smaller. Once the retried step is accepted, return to dt,
     ! clipped to the window end as PETSc's matchstep does (no sliver step).
+    ! Accepted steps that do not advance t (retries shrank them below t's
+    ! resolution next to a stop time) could repeat forever: after ten in a
+    ! row, stop and say so (one alone, after many retries, is harmless).
+    if (ctx%monitor_seen .and. step > ctx%monitor_step) then
+      if (t > ctx%t_prev) then
+        ctx%stalled_steps = 0
+      else
+        ctx%stalled_steps = ctx%stalled_steps + 1
+      end if
+      if (ctx%stalled_steps >= 10) then
+        if (len_trim(ctx%io_error) == 0) ctx%io_error = 'the time step at t = '//num(t)// &
+          ' fell below the resolution of t after failed solves and retries: the run cannot advance; '//trim(failure_hints(ctx))
+        ierr = nuno_ts_stop(ts%v)
+        return
+      end if
+    end if
+    ctx%monitor_seen = .true.
+    ctx%monitor_step = step
     ! the accepted step's first Newton correction, for the next inner guesses
     if (ctx%use_reduced) call reduced_step_accepted(ctx%red)
     PetscCall(TSGetStepRejections(ts, rejects, ierr))

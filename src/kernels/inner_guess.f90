@@ -23,6 +23,8 @@ module inner_guess
   public :: GUESS_AUTO, GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, guess_weights
 
   integer, parameter :: GUESS_AUTO = 0, GUESS_NONE = 1, GUESS_PREVIOUS = 2, GUESS_EXTRAPOLATE = 3
+  !> the largest ratio of neighbouring steps a guess reaches across
+  real(rp), parameter :: RATIO = 2.0_rp
 
 contains
 
@@ -30,24 +32,33 @@ contains
   !> shifts a1, a2 (> 0) of the stored corrections, how many are stored
   !> (nh = 0, 1, 2) and the power p (1 or 2) of the shift in dv = r / a^p.
   !> With fewer than the mode needs: the previous one, or nothing (c = 0:
-  !> a zero guess).
+  !> a zero guess); the same where neighbouring steps differ by more than
+  !> a factor RATIO.
   pure function guess_weights(mode, nh, a, a1, a2, p) result(c)
     integer, intent(in) :: mode, nh, p
     real(rp), intent(in) :: a, a1, a2
     real(rp) :: c(2)
     c = 0.0_rp
     if (nh < 1 .or. .not. (a > 0.0_rp)) return
+    ! across a step that changed by more than RATIO (a retry, a sliver
+    ! before a stop time) the rate is not smooth: no guess from there
+    if (.not. near(a1, a)) return
     select case (mode)
     case (GUESS_PREVIOUS)
       c(1) = (a1 / a)**p
     case (GUESS_EXTRAPOLATE)
-      if (nh >= 2) then
+      if (nh >= 2 .and. near(a2, a1)) then
         c(1) = (a1 / a)**p * (1.0_rp + a1 / a)
         c(2) = -(a2 / a)**p * (a1 / a)
       else
         c(1) = (a1 / a)**p
       end if
     end select
+  contains
+    pure logical function near(x, y)
+      real(rp), intent(in) :: x, y
+      near = x <= RATIO * y .and. y <= RATIO * x
+    end function near
   end function guess_weights
 
 end module inner_guess

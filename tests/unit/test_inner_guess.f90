@@ -4,7 +4,8 @@
 !> start from the last state; p = 2: what an extrapolated start misses;
 !> shift a_n = 1/dt_n), the extrapolated guess reproduces the next
 !> correction exactly, the previous one is off by q dt^(p+1), and with too
-!> few stored corrections the guess falls back as documented.
+!> few stored corrections or steps that changed by more than a factor 2
+!> the guess falls back as documented.
 program test_inner_guess
   use kinds, only: rp
   use inner_guess, only: GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, guess_weights
@@ -15,8 +16,8 @@ program test_inner_guess
   integer :: n, p
   character(len=8) :: tag
 
-  ! three steps of sizes 1e-3, 2.5e-3, 0.7e-3 from t = 0.2
-  dt = [1.0e-3_rp, 2.5e-3_rp, 0.7e-3_rp]
+  ! three steps of sizes 1e-3, 1.6e-3, 0.9e-3 from t = 0.2 (neighbours within a factor 2)
+  dt = [1.0e-3_rp, 1.6e-3_rp, 0.9e-3_rp]
   t(0) = 0.2_rp
   do n = 1, 3
     t(n) = t(n - 1) + dt(n)
@@ -44,6 +45,14 @@ program test_inner_guess
     call check_close(c(1), 2.0_rp, 1.0e-15_rp, 0.0_rp, 'extrapolate, equal steps: c1 = 2')
     call check_close(c(2), -1.0_rp, 1.0e-15_rp, 0.0_rp, 'extrapolate, equal steps: c2 = -1')
   end do
+  ! steps that changed by more than a factor 2: no reach across them
+  c = guess_weights(GUESS_EXTRAPOLATE, 2, 1000.0_rp, 800.0_rp, 2000.0_rp, 2)
+  call check_close(c(2), 0.0_rp, 0.0_rp, 0.0_rp, 'dt1 / dt2 = 2.5: only the previous correction')
+  call check_close(c(1), 0.8_rp**2, 1.0e-15_rp, 0.0_rp, 'dt1 / dt2 = 2.5: the previous one, scaled')
+  c = guess_weights(GUESS_EXTRAPOLATE, 2, 4.0_rp * 500.0_rp, 500.0_rp, 500.0_rp, 2)
+  call check_close(abs(c(1)) + abs(c(2)), 0.0_rp, 0.0_rp, 0.0_rp, 'a retry at dt / 4: zero guess')
+  c = guess_weights(GUESS_PREVIOUS, 1, 500.0_rp, 4.0_rp * 500.0_rp, 0.0_rp, 1)
+  call check_close(abs(c(1)) + abs(c(2)), 0.0_rp, 0.0_rp, 0.0_rp, 'back to dt after a retry: zero guess')
   c = guess_weights(GUESS_EXTRAPOLATE, 0, 1.0_rp / dt(3), 0.0_rp, 0.0_rp, 2)
   call check_close(abs(c(1)) + abs(c(2)), 0.0_rp, 0.0_rp, 0.0_rp, 'nothing stored: zero guess')
   c = guess_weights(GUESS_NONE, 2, 1.0_rp / dt(3), 1.0_rp / dt(2), 1.0_rp / dt(1), 2)
