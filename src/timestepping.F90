@@ -487,13 +487,14 @@ contains
   end subroutine effective_time_integration
 
   !> The inner initial guess (-nuno_inner_guess, module inner_guess): the
-  !> first Newton correction of a step is about the velocity change over
-  !> it only for one-stage methods (beuler, theta, cn), whose shift is
+  !> first Newton corrections of successive steps form a smooth sequence
+  !> only for one-stage methods (beuler, theta, cn), whose shift is
   !> proportional to 1/dt; the stages of rosw, arkimex and bdf's history
   !> are other quantities. auto: extrapolate with bending (30 % fewer
   !> inner iterations in bw mode at 257 x 257, docs/performance.md), none
   !> without (there the extra product the guess costs ate the gain), and
-  !> none in identification and control runs. An explicit choice the run cannot use is refused. Collective.
+  !> none in identification and control runs. An explicit choice the run
+  !> cannot use is refused. Collective.
   subroutine set_inner_guess(ctx, tstype, ierr)
     type(app_ctx), intent(inout) :: ctx
     character(len=*), intent(in) :: tstype
