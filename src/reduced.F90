@@ -1149,7 +1149,8 @@ contains
 
   !> Use the inner initial guess mode (GUESS_NONE, _PREVIOUS, _EXTRAPOLATE;
   !> timestepping decides, from -nuno_inner_guess and the TS type). Its two
-  !> stored corrections are two 3-dof vectors, made here when needed. Collective.
+  !> kept corrections and the step under way's are three 3-dof vectors,
+  !> made here when needed. Collective.
   subroutine reduced_set_guess(red, mode, extrapolated_start, ierr)
     type(reduced_t), intent(inout) :: red
     integer, intent(in) :: mode

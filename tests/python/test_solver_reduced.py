@@ -129,14 +129,21 @@ def test_a_step_retried_after_a_failed_inner_solve_goes_on(tmp_path):
     ("-nuno_mg_interpolation", "quintic", "Unknown option quintic for -nuno_mg_interpolation"),
 ])
 def test_bad_solver_option_is_refused_on_every_rank(tmp_path, option, value, words):
+    proc = run_refused(tmp_path, (option, value))
+    assert words in proc.stdout + proc.stderr
+
+
+def run_refused(tmp_path, options):
+    """hang 11 x 11 on 2 ranks with options it must refuse: a non-zero exit
+    (every rank: mpiexec returns only when all have ended)."""
     text = set_key((ROOT / "input" / "hang.nml").read_text(), "output_file", "'bad.h5'")
     text = set_key(set_key(text, "nx", 11), "ny", 11)
     nml = Path(tmp_path) / "bad.nml"
     nml.write_text(text)
-    cmd = [mpiexec(), "-n", "2", "--oversubscribe", exe(), str(nml), option, value]
+    cmd = [mpiexec(), "-n", "2", "--oversubscribe", exe(), str(nml), *options]
     proc = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=60)
     assert proc.returncode != 0
-    assert words in proc.stdout + proc.stderr
+    return proc
 
 
 @pytest.mark.parametrize("impl, interpolation, cycle", [
@@ -196,23 +203,14 @@ def test_default_inner_solver_gives_the_exact_newton_trajectory(tmp_path, scene,
 
 def run_window(tmp_path, name, nranks, options, n, dt, **keys):
     """hang with one output window of n steps (the inner guesses start
-    afresh at every window: a window of one or two steps would leave them
-    unused)."""
-    text = (ROOT / "input" / "hang.nml").read_text()
-    for key, value in dict(t_end=n * dt, dt=dt, output_interval=n * dt, **keys).items():
-        text = set_key(text, key, value)
-    text = set_key(text, "output_file", f"'{name}.h5'")
-    nml = Path(tmp_path) / f"{name}.nml"
-    nml.write_text(text)
-    cmd = [mpiexec(), "-n", str(nranks), "--oversubscribe", exe(), str(nml), *options]
-    proc = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, f"{name} failed:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
-    return proc, read_run(str(Path(tmp_path) / f"{name}.h5"))
+    afresh at every window: run_input's four windows would leave few steps
+    guessed)."""
+    return run_input(tmp_path, "hang", name, nranks, options, n * dt, dt, output_interval=n * dt, **keys)
 
 
 def test_inner_guess_changes_iterations_not_the_trajectory(tmp_path):
     """-nuno_inner_guess (module inner_guess): the inner solve of a step's
-    first Newton iteration starts from the last steps' velocity changes
+    first Newton iteration starts from the last steps' first corrections
     extrapolated. Solved tightly, the trajectory is the zero guess's; solved
     to 1e-3 (the Baraff-Witkin mode) the falling cloth, whose acceleration
     changes smoothly, needs fewer inner iterations with it. Default with
@@ -244,14 +242,9 @@ def test_inner_guess_changes_iterations_not_the_trajectory(tmp_path):
      "needs an iterative inner solver"),
 ])
 def test_an_inner_guess_the_run_cannot_use_is_refused(tmp_path, options, words):
-    text = set_key((ROOT / "input" / "hang.nml").read_text(), "output_file", "'bad.h5'")
-    text = set_key(set_key(text, "nx", 11), "ny", 11)
-    nml = Path(tmp_path) / "bad.nml"
-    nml.write_text(text)
-    cmd = [mpiexec(), "-n", "2", "--oversubscribe", exe(), str(nml), *options]
-    proc = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=60)
-    assert proc.returncode != 0
+    proc = run_refused(tmp_path, options)
     assert words in proc.stdout + proc.stderr
+    assert not (Path(tmp_path) / "bad.h5").exists() or not read_run(str(Path(tmp_path) / "bad.h5")).complete
     assert not (Path(tmp_path) / "bad.h5").exists() or not read_run(str(Path(tmp_path) / "bad.h5")).complete
 
 
