@@ -9,15 +9,20 @@
 !> best of 40 runs of each, its bytes a node as mg_describe counts them
 !> and the rate they were read at, and the interpolation of a coarse
 !> correction to the N x N level (bilinear and cubic: module stencil_mg's
-!> interpolate, not added). Run: bash bench/mg_micro.sh [N] [R] [square].
+!> interpolate, not added), and the Galerkin sums of the next coarser
+!> level (galerkin_add, bilinear; its sums zeroed first, as
+!> mg_build_coarse does). Run: bash bench/mg_micro.sh [N] [R] [square].
 program mg_micro
   use kinds, only: rp
-  use mg_kernels, only: mp, stencil_t, transfer_t, stencil_init, gs_sweep, stencil_product_mixed, transfer_init, interpolate
+  use mg_kernels, only: mp, stencil_t, transfer_t, stencil_init, gs_sweep, stencil_product_mixed, transfer_init, interpolate, &
+                        galerkin_add, coarse_reach
   implicit none
   type(stencil_t) :: st
   type(transfer_t) :: tl, tc
   real(mp), allocatable :: xc(:, :, :), tw(:, :)
-  real(rp) :: til, tic
+  real(rp) :: til, tic, tga
+  real(rp), allocatable :: ac(:, :, :, :, :, :), bx(:, :, :, :, :), rw(:, :, :, :)
+  integer :: rc
   integer :: nc
   integer :: n, r, rep
   integer, parameter :: nrep = 40
@@ -88,6 +93,18 @@ program mg_micro
     call system_clock(c1)
     tic = min(tic, real(c1 - c0, rp) / real(cr, rp))
   end do
+  ! the Galerkin sums of the coarse level (its rows padded by 3, as
+  ! mg_build_coarse's)
+  rc = coarse_reach(tl, r)
+  allocate(ac(0:nc - 1, 3, 3, -rc:rc, -rc:rc, -3:nc + 2), bx(0:nc - 1, 3, 3, -rc:rc, -r:r), rw(0:n - 1, 3, 3, 2))
+  tga = huge(1.0_rp)
+  do rep = 1, nrep / 4
+    call system_clock(c0)
+    ac = 0.0_rp
+    call galerkin_add(st, tl, tl, rc, -3, ac, bx, rw)
+    call system_clock(c1)
+    tga = min(tga, real(c1 - c0, rp) / real(cr, rp))
+  end do
   ! as mg_describe: each sweep the blocks, the inverse, rhs and x; the
   ! backward one not the blocks to the rows below but the kept sums
   bytes_sweep = 2.0_rp * (36.0_rp * (st%nb + 1) + 36.0_rp) - 36.0_rp * count(st%odj < 0) + 24.0_rp
@@ -99,6 +116,7 @@ program mg_micro
   print '(a, f8.3, a, f6.0, a, f6.2, a)', 'mixed product   ', 1.0e3_rp * tp, ' ms, ', bytes_prod, ' B a node, ', &
     bytes_prod * n * n / tp / 1.0e9_rp, ' GB/s'
   print '(a, f8.3, a, f8.3, a)', 'interpolation   ', 1.0e3_rp * til, ' ms bilinear, ', 1.0e3_rp * tic, ' ms cubic'
+  print '(a, f8.3, a, i0, a)', 'Galerkin sums   ', 1.0e3_rp * tga, ' ms (bilinear, coarse reach ', rc, ')'
   ! (keeps the results live)
-  if (.not. (sum(x) + sum(yd) < huge(1.0_rp))) print '(a)', 'overflow'
+  if (.not. (sum(x) + sum(yd) + sum(ac) < huge(1.0_rp))) print '(a)', 'overflow'
 end program mg_micro

@@ -47,9 +47,9 @@ module stencil_mg
     type(transfer_t) :: tx, ty                   !< from the next coarser level to this one: restriction, Galerkin product
     type(transfer_t) :: ux, uy                   !< the same, for the interpolation of the coarse correction (tx, ty unless cubic_correction)
     logical :: cubic = .false., cubic_up = .false. !< tx, ty cubic; ux, uy cubic
-    real(rp), allocatable :: ac(:, :, :, :, :, :) !< (3, 3, -r:r, -r:r, 0:nx-1, ys-h:ye+h) Galerkin sums of this level
-    real(rp), allocatable :: bx(:, :, :, :, :)    !< (3, 3, -r:r, -rf:rf, 0:nx-1) work of galerkin_add (rf: the finer level's reach)
-    real(rp), allocatable :: rw(:, :, :, :)      !< (3, 3, 0:nx-1, 2) work of galerkin_add on this level's rows (all but the coarsest)
+    real(rp), allocatable :: ac(:, :, :, :, :, :) !< (0:nx-1, 3, 3, -r:r, -r:r, ys-h:ye+h) Galerkin sums of this level
+    real(rp), allocatable :: bx(:, :, :, :, :)    !< (0:nx-1, 3, 3, -r:r, -rf:rf) work of galerkin_add (rf: the finer level's reach)
+    real(rp), allocatable :: rw(:, :, :, :)      !< (0:nx-1, 3, 3, 2) work of galerkin_add on this level's rows (all but the coarsest)
   end type mg_level_t
 
   !> The hierarchy: lev(1) is the lattice itself.
@@ -152,8 +152,8 @@ contains
     end do
     do l = 2, mg%nlev
       associate (c => mg%lev(l)%a)
-        allocate(mg%lev(l)%bx(3, 3, -c%r:c%r, -mg%lev(l - 1)%a%r:mg%lev(l - 1)%a%r, 0:c%nx - 1))
-        allocate(mg%lev(l - 1)%rw(3, 3, 0:mg%lev(l - 1)%a%nx - 1, 2))
+        allocate(mg%lev(l)%bx(0:c%nx - 1, 3, 3, -c%r:c%r, -mg%lev(l - 1)%a%r:mg%lev(l - 1)%a%r))
+        allocate(mg%lev(l - 1)%rw(0:mg%lev(l - 1)%a%nx - 1, 3, 3, 2))
       end associate
     end do
     ! The coarsest level's band: node-major unknowns 3 (i + nx j) + c.
@@ -179,7 +179,7 @@ contains
     lv%rhs = 0.0_mp
     lv%res = 0.0_mp
     lv%low = 0.0_mp
-    allocate(lv%ac(3, 3, -r:r, -r:r, 0:nx - 1, ys - h:ye + h))
+    allocate(lv%ac(0:nx - 1, 3, 3, -r:r, -r:r, ys - h:ye + h))
     lv%ac = 0.0_rp
   end subroutine level_arrays
 
@@ -281,7 +281,7 @@ contains
     if (c%replicated) then
       if (mg%nranks > 1) then
         cnt = size(c%ac(:, :, :, :, :, c%a%ys:c%a%ye))
-        call MPI_Allreduce(MPI_IN_PLACE, c%ac(1, 1, -c%a%r, -c%a%r, 0, c%a%ys), cnt, MPI_DOUBLE_PRECISION, MPI_SUM, mg%comm, ierr)
+        call MPI_Allreduce(MPI_IN_PLACE, c%ac(0, 1, 1, -c%a%r, -c%a%r, c%a%ys), cnt, MPI_DOUBLE_PRECISION, MPI_SUM, mg%comm, ierr)
       end if
       return
     end if
@@ -289,14 +289,14 @@ contains
     ys = c%a%ys
     ye = c%a%ye
     cnt = size(c%ac(:, :, :, :, :, ys:ys + h - 1))
-    allocate(buf(3, 3, -c%a%r:c%a%r, -c%a%r:c%a%r, 0:c%a%nx - 1, h))
+    allocate(buf(0:c%a%nx - 1, 3, 3, -c%a%r:c%a%r, -c%a%r:c%a%r, h))
     ! rows below my strip go to the rank below; the rank above sends me its rows below its strip
     buf = 0.0_rp
-    call MPI_Sendrecv(c%ac(1, 1, -c%a%r, -c%a%r, 0, ys - h), cnt, MPI_DOUBLE_PRECISION, mg%below, 11, &
+    call MPI_Sendrecv(c%ac(0, 1, 1, -c%a%r, -c%a%r, ys - h), cnt, MPI_DOUBLE_PRECISION, mg%below, 11, &
                       buf, cnt, MPI_DOUBLE_PRECISION, mg%above, 11, mg%comm, MPI_STATUS_IGNORE, ierr)
     if (mg%above /= MPI_PROC_NULL) c%ac(:, :, :, :, :, ye - h + 1:ye) = c%ac(:, :, :, :, :, ye - h + 1:ye) + buf
     buf = 0.0_rp
-    call MPI_Sendrecv(c%ac(1, 1, -c%a%r, -c%a%r, 0, ye + 1), cnt, MPI_DOUBLE_PRECISION, mg%above, 12, &
+    call MPI_Sendrecv(c%ac(0, 1, 1, -c%a%r, -c%a%r, ye + 1), cnt, MPI_DOUBLE_PRECISION, mg%above, 12, &
                       buf, cnt, MPI_DOUBLE_PRECISION, mg%below, 12, mg%comm, MPI_STATUS_IGNORE, ierr)
     if (mg%below /= MPI_PROC_NULL) c%ac(:, :, :, :, :, ys:ys + h - 1) = c%ac(:, :, :, :, :, ys:ys + h - 1) + buf
   end subroutine finish_sums_ac

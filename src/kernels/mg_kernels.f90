@@ -213,18 +213,71 @@ contains
     st%ainv(:, :, i, j) = real(inv, mp)
   end subroutine stencil_put_row
 
-  !> The coarse operator from its Galerkin sums ac(3, 3, -r:r, -r:r,
-  !> 0:nx-1, ys:ye) (full blocks, double precision; see galerkin_add).
+  !> The coarse operator from its Galerkin sums ac(0:nx-1, 3, 3, -r:r, -r:r,
+  !> ys:ye) (full blocks, double precision, nodes fastest; see
+  !> galerkin_add), row by row in vector loops: the blocks to other rows,
+  !> those within the row node by node, the row sums formed in double
+  !> precision, the diagonal blocks inverted TILE at a time.
   subroutine stencil_finish(st, ac)
     type(stencil_t), intent(inout) :: st
-    real(rp), intent(in) :: ac(:, :, -st%r:, -st%r:, 0:, st%ys:)
-    integer :: i, j
+    real(rp), intent(in), contiguous :: ac(0:, :, :, -st%r:, -st%r:, st%ys:)
+    integer, parameter :: TILE = 16
+    real(rp) :: a0(TILE, 3, 3), inv(TILE, 3, 3), ds(TILE)
+    integer :: j, k, kk, c1, c2, i0, n, l, di, dj
     do j = st%ys, st%ye
-      do i = 0, st%nx - 1
-        call stencil_put_row(st, i, j, ac(:, :, :, :, i, j))
+      do kk = 1, st%nv
+        k = st%kv(kk)
+        call to_single(st%nx * 9, ac(:, :, :, st%odi(k), st%odj(k), j), st%b(:, :, :, kk, j))
+      end do
+      do kk = 1, st%nr
+        k = st%kr(kk)
+        call put_within_row(st%nx, st%nr, kk, ac(:, :, :, st%odi(k), 0, j), st%br(:, :, :, :, j))
+      end do
+      do i0 = 0, st%nx - 1, TILE
+        n = min(TILE, st%nx - i0)
+        do c2 = 1, 3
+          do c1 = 1, 3
+            a0(1:n, c1, c2) = ac(i0:i0 + n - 1, c1, c2, 0, 0, j)
+            ds(1:n) = 0.0_rp
+            do dj = -st%r, st%r
+              do di = -st%r, st%r
+                ds(1:n) = ds(1:n) + ac(i0:i0 + n - 1, c1, c2, di, dj, j)
+              end do
+            end do
+            st%d(i0:i0 + n - 1, c1, c2, j) = real(ds(1:n), mp)
+          end do
+        end do
+        call block_inverse_lanes(n, TILE, a0, inv)
+        do l = 1, n
+          st%ainv(:, :, i0 + l - 1, j) = real(inv(l, :, :), mp)
+        end do
       end do
     end do
   end subroutine stencil_finish
+
+  !> stencil_finish's blocks of one offset within the row, a(i, :) (nodes
+  !> fastest, double precision), into slot kk of br (node by node).
+  !> Explicit shapes: over the derived type's component, the copy reloaded
+  !> its descriptor at every node and took 40 % of stencil_finish.
+  pure subroutine put_within_row(nx, nr, kk, a, br)
+    integer, intent(in) :: nx, nr, kk
+    real(rp), intent(in) :: a(0:nx - 1, 9)
+    real(mp), intent(inout) :: br(9, nr, 0:nx - 1)
+    integer :: i, e
+    do i = 0, nx - 1
+      do e = 1, 9
+        br(e, kk, i) = real(a(i, e), mp)
+      end do
+    end do
+  end subroutine put_within_row
+
+  !> y = x rounded to kind mp, n values.
+  pure subroutine to_single(n, x, y)
+    integer, intent(in) :: n
+    real(rp), intent(in) :: x(n)
+    real(mp), intent(out) :: y(n)
+    y = real(x, mp)
+  end subroutine to_single
 
   !> The whole operator (a level that stores the offsets the elements
   !> couple) from its blocks in double precision, by offset along the row,
@@ -973,37 +1026,45 @@ contains
   end subroutine restrict_add
 
   !> ac = ac + P^T A P restricted to the contributions of the fine rows
-  !> ys..ye of A (full 3 x 3 blocks, double precision): ac(3, 3, -rc:rc,
-  !> -rc:rc, 0:nxc-1, jc0:) with rows for every coarse row these fine rows
-  !> touch (the caller adds other ranks' rows where they belong).
+  !> ys..ye of A (full 3 x 3 blocks, double precision): ac(0:nxc-1, 3, 3,
+  !> -rc:rc, -rc:rc, jc0:), coarse nodes fastest, with rows for every
+  !> coarse row these fine rows touch (the caller adds other ranks' rows
+  !> where they belong).
   !> Factored, P = P_y (x) P_x: each fine row j's blocks are first summed
-  !> along x into bx(3, 3, cdi, dj, ci) = sum_{i, i'} P_x(i, ci) A(ij, i'j')
+  !> along x into bx(ci, 3, 3, cdi, dj) = sum_{i, i'} P_x(i, ci) A(ij, i'j')
   !> P_x(i', ci + cdi) (dj = j' - j), then bx along y into ac. Each fine
   !> block then takes (parents in x)^2 updates and each bx block (parents
   !> in y)^2, where the direct sum took their product: 16 against 4 + 4
-  !> (bilinear), 256 against 16 + 16 (cubic), at worst. Block by block,
-  !> node by node: a block's nine entries and its neighbours along the
-  !> offsets lie together.
+  !> (bilinear), 256 against 16 + 16 (cubic), at worst. Nodes fastest
+  !> everywhere, as the levels keep their blocks: the fine blocks are
+  !> converted in vector loops, with bilinear transfers the sums along x
+  !> are vector loops over the coarse nodes (galerkin_x_bilinear), the sums
+  !> along y one vector loop over a coarse row, and stencil_finish makes
+  !> the level from its sums in vector loops (node by node, with a block's
+  !> nine entries together, these took 4-5 times as long: hang 257 x 257).
   subroutine galerkin_add(st, tx, ty, rc, jc0, ac, bx, rw)
     type(stencil_t), intent(in) :: st
     type(transfer_t), intent(in) :: tx, ty
     integer, intent(in) :: rc, jc0
-    real(rp), intent(inout), contiguous :: ac(:, :, -rc:, -rc:, 0:, jc0:)
-    real(rp), intent(inout), contiguous :: bx(:, :, -rc:, -st%r:, 0:)  !< (3, 3, -rc:rc, -r:r, 0:nxc-1) work
-    !> (3, 3, 0:nx-1, 2) work: a fine row's diagonal blocks D_p - sum_o B_{p,o}
+    real(rp), intent(inout), contiguous :: ac(0:, :, :, -rc:, -rc:, jc0:)
+    real(rp), intent(inout), contiguous :: bx(0:, :, :, -rc:, -st%r:)  !< (0:nxc-1, 3, 3, -rc:rc, -r:r) work
+    !> (0:nx-1, 3, 3, 2) work: a fine row's diagonal blocks D_p - sum_o B_{p,o}
     !> (dg) and its blocks of one offset (blk), in double precision
-    real(rp), intent(inout), contiguous, target :: rw(:, :, 0:, :)
-    real(rp), pointer, contiguous :: dg(:, :, :), blk(:, :, :)
-    integer :: i, j, k, di, dj, j2, b1, b2, cj, cdj, c1, c2, ilo, ihi
-    dg(1:3, 1:3, 0:st%nx - 1) => rw(:, :, 0:st%nx - 1, 1)
-    blk(1:3, 1:3, 0:st%nx - 1) => rw(:, :, 0:st%nx - 1, 2)
+    real(rp), intent(inout), contiguous, target :: rw(0:, :, :, :)
+    real(rp), pointer, contiguous :: dg(:, :), blk(:, :)
+    integer :: j, k, di, dj, j2, b1, b2, cj, cdj, ilo, ihi, cilo, cihi, m
+    logical :: bilinear
+    dg(0:st%nx - 1, 1:9) => rw(:, :, :, 1)
+    blk(0:st%nx - 1, 1:9) => rw(:, :, :, 2)
+    ! bilinear along x: every odd fine point 2k + 1 takes 1/2 of coarse
+    ! points k and k + 1 (transfer_init without cubic; find_regular found
+    ! its interior regular), so coarse point ci has exactly the fine
+    ! children 2 ci - 1, 2 ci and 2 ci + 1
+    bilinear = tx%inject .and. tx%nodd == 2 .and. tx%sodd == 0 .and. size(tx%ends) == 0
+    if (bilinear) bilinear = all(tx%wodd(1:2) == 0.5_mp)
     do j = st%ys, st%ye
       bx = 0.0_rp
-      do c2 = 1, 3
-        do c1 = 1, 3
-          dg(c1, c2, :) = real(st%d(:, c1, c2, j), rp)
-        end do
-      end do
+      call row_sums_double(st%nx, st%d(:, :, :, j), dg)
       ! offset by offset along the row, the diagonal blocks last
       do k = 1, st%nb + 1
         if (k <= st%nb) then
@@ -1020,18 +1081,31 @@ contains
         if (k > st%nb) then
           blk = dg
         else if (dj == 0) then
-          do i = ilo, ihi
-            blk(:, :, i) = real(st%br(:, :, st%slot(k), i, j), rp)
-          end do
+          call blocks_within_row(st%nx, st%nr, ilo, ihi, st%slot(k), st%br(:, :, :, :, j), blk, dg)
         else
-          do c2 = 1, 3
-            do c1 = 1, 3
-              blk(c1, c2, ilo:ihi) = real(st%b(ilo:ihi, c1, c2, st%slot(k), j), rp)
-            end do
-          end do
+          call blocks_to_row(st%nx, ilo, ihi, st%b(:, :, :, st%slot(k), j), blk, dg)
         end if
-        if (k <= st%nb) dg(:, :, ilo:ihi) = dg(:, :, ilo:ihi) - blk(:, :, ilo:ihi)
-        call galerkin_x(st%nx, tx%nc, rc, st%r, size(tx%c, 1), ilo, ihi, di, dj, tx%n, tx%c, tx%w, blk, bx)
+        ! the coarse nodes cilo..cihi whose fine children (2 ci - 1, 2 ci,
+        ! 2 ci + 1 with weights 1/2, 1, 1/2) and their neighbours at di
+        ! lie inside the row and the regular interior (bilinear
+        ! transfers); the others through the general transfer
+        cilo = 1
+        cihi = 0
+        if (bilinear) then
+          m = min(ihi, 2 * tx%nc - 2, 2 * tx%nc - 2 - di)
+          cilo = (ilo + 2) / 2
+          cihi = cilo - 1
+          if (m >= 1) cihi = (m - 1) / 2
+        end if
+        if (cilo <= cihi) then
+          call galerkin_x_bilinear(st%nx, tx%nc, rc, st%r, cilo, cihi, di, dj, blk, bx)
+          call galerkin_x(st%nx, tx%nc, rc, st%r, size(tx%c, 1), ilo, min(ihi, 2 * cilo - 1), di, dj, &
+                          tx%n, tx%c, tx%w, blk, bx, cilo, cihi)
+          call galerkin_x(st%nx, tx%nc, rc, st%r, size(tx%c, 1), max(ilo, 2 * cihi + 1), ihi, di, dj, &
+                          tx%n, tx%c, tx%w, blk, bx, cilo, cihi)
+        else
+          call galerkin_x(st%nx, tx%nc, rc, st%r, size(tx%c, 1), ilo, ihi, di, dj, tx%n, tx%c, tx%w, blk, bx, 1, 0)
+        end if
       end do
       do dj = -st%r, st%r
         j2 = j + dj
@@ -1040,7 +1114,8 @@ contains
           cj = ty%c(b1, j)
           do b2 = 1, ty%n(j2)
             cdj = ty%c(b2, j2) - cj
-            call galerkin_y(tx%nc, rc, st%r, dj, cdj, ty%w(b1, j) * ty%w(b2, j2), bx, ac(:, :, :, :, :, cj))
+            call galerkin_y(9 * (2 * rc + 1) * tx%nc, rc, st%r, dj, cdj, ty%w(b1, j) * ty%w(b2, j2), bx, &
+                            ac(:, :, :, :, :, cj))
           end do
         end do
       end do
@@ -1048,44 +1123,117 @@ contains
   end subroutine galerkin_add
 
   !> galerkin_add's sum along x of one offset (di, dj) of a fine row:
-  !> bx(:, cdi, dj, ci) += P_x(i, ci) P_x(i + di, ci + cdi) blk(:, i) for
-  !> i = ilo..ihi and their parents (n(i) of them, c(:, i), weights w(:, i)).
+  !> bx(ci, :, cdi, dj) += P_x(i, ci) P_x(i + di, ci + cdi) blk(i, :) for
+  !> i = ilo..ihi and their parents (n(i) of them, c(:, i), weights w(:, i)),
+  !> but not for the coarse points xlo..xhi (galerkin_x_bilinear's).
   !> Explicit shapes (over the derived types' components, every update
   !> reloaded their descriptors: most of the coarse operators' set-up).
-  pure subroutine galerkin_x(nx, nxc, rc, r, nmax, ilo, ihi, di, dj, n, c, w, blk, bx)
-    integer, intent(in) :: nx, nxc, rc, r, nmax, ilo, ihi, di, dj
+  pure subroutine galerkin_x(nx, nxc, rc, r, nmax, ilo, ihi, di, dj, n, c, w, blk, bx, xlo, xhi)
+    integer, intent(in) :: nx, nxc, rc, r, nmax, ilo, ihi, di, dj, xlo, xhi
     integer, intent(in) :: n(0:nx - 1), c(nmax, 0:nx - 1)
     real(rp), intent(in) :: w(nmax, 0:nx - 1)
-    real(rp), intent(in) :: blk(9, 0:nx - 1)
-    real(rp), intent(inout) :: bx(9, -rc:rc, -r:r, 0:nxc - 1)
+    real(rp), intent(in) :: blk(0:nx - 1, 9)
+    real(rp), intent(inout) :: bx(0:nxc - 1, 9, -rc:rc, -r:r)
     integer :: i, i2, a1, a2, ci, cdi
     real(rp) :: wx, ww
     do i = ilo, ihi
-      if (all(blk(:, i) == 0.0_rp)) cycle
+      if (all(blk(i, :) == 0.0_rp)) cycle
       i2 = i + di
       do a1 = 1, n(i)
         ci = c(a1, i)
+        if (ci >= xlo .and. ci <= xhi) cycle
         wx = w(a1, i)
         do a2 = 1, n(i2)
           cdi = c(a2, i2) - ci
           ww = wx * w(a2, i2)
-          bx(:, cdi, dj, ci) = bx(:, cdi, dj, ci) + ww * blk(:, i)
+          bx(ci, :, cdi, dj) = bx(ci, :, cdi, dj) + ww * blk(i, :)
         end do
       end do
     end do
   end subroutine galerkin_x
 
-  !> galerkin_add's sum along y: coarse row cj's sums at offset cdj take
-  !> wy times the fine row's sums along x at offset dj, every coarse node.
-  pure subroutine galerkin_y(nxc, rc, r, dj, cdj, wy, bx, acj)
-    integer, intent(in) :: nxc, rc, r, dj, cdj
-    real(rp), intent(in) :: wy
-    real(rp), intent(in) :: bx(9 * (2 * rc + 1), -r:r, 0:nxc - 1)
-    real(rp), intent(inout) :: acj(9 * (2 * rc + 1), -rc:rc, 0:nxc - 1)
-    integer :: ci
-    do ci = 0, nxc - 1
-      acj(:, cdj, ci) = acj(:, cdj, ci) + wy * bx(:, dj, ci)
+  !> galerkin_x for bilinear transfers, coarse points cilo..cihi, summed by
+  !> coarse point in vector loops: bx(ci, :, cdi, dj) += sum_s wt(cdi, s)
+  !> blk(2 ci + s, :), s = -1, 0, 1 (the children of ci, weights 1/2, 1,
+  !> 1/2, each times the weight of coarse point ci + cdi in fine point
+  !> 2 ci + s + di).
+  pure subroutine galerkin_x_bilinear(nx, nxc, rc, r, cilo, cihi, di, dj, blk, bx)
+    integer, intent(in) :: nx, nxc, rc, r, cilo, cihi, di, dj
+    real(rp), intent(in) :: blk(0:nx - 1, 9)
+    real(rp), intent(inout) :: bx(0:nxc - 1, 9, -rc:rc, -r:r)
+    real(rp) :: wt(-rc:rc, -1:1), wa, w1, w0, w2
+    integer :: s, t, ci, cdi, e
+    wt = 0.0_rp
+    do s = -1, 1
+      wa = merge(1.0_rp, 0.5_rp, s == 0)
+      t = s + di                                ! fine point 2 ci + t
+      if (modulo(t, 2) == 0) then
+        wt(t / 2, s) = wt(t / 2, s) + wa
+      else
+        wt((t - 1) / 2, s) = wt((t - 1) / 2, s) + 0.5_rp * wa
+        wt((t + 1) / 2, s) = wt((t + 1) / 2, s) + 0.5_rp * wa
+      end if
     end do
+    do cdi = -rc, rc
+      w1 = wt(cdi, -1)
+      w0 = wt(cdi, 0)
+      w2 = wt(cdi, 1)
+      if (w1 == 0.0_rp .and. w0 == 0.0_rp .and. w2 == 0.0_rp) cycle
+      do e = 1, 9
+        do ci = cilo, cihi
+          bx(ci, e, cdi, dj) = bx(ci, e, cdi, dj) + (w1 * blk(2 * ci - 1, e) + w0 * blk(2 * ci, e) + w2 * blk(2 * ci + 1, e))
+        end do
+      end do
+    end do
+  end subroutine galerkin_x_bilinear
+
+  !> galerkin_add's diagonal blocks of a fine row start as its row sums
+  !> d (single precision) in double precision.
+  pure subroutine row_sums_double(nx, d, dg)
+    integer, intent(in) :: nx
+    real(mp), intent(in) :: d(0:nx - 1, 9)
+    real(rp), intent(out) :: dg(0:nx - 1, 9)
+    dg = real(d, rp)
+  end subroutine row_sums_double
+
+  !> galerkin_add's blocks of one offset to another row (b of row j,
+  !> single precision) into blk(i, :), i = ilo..ihi, in double precision,
+  !> and subtracted from the diagonal blocks dg.
+  pure subroutine blocks_to_row(nx, ilo, ihi, b, blk, dg)
+    integer, intent(in) :: nx, ilo, ihi
+    real(mp), intent(in) :: b(0:nx - 1, 9)
+    real(rp), intent(inout) :: blk(0:nx - 1, 9), dg(0:nx - 1, 9)
+    integer :: e
+    do e = 1, 9
+      blk(ilo:ihi, e) = real(b(ilo:ihi, e), rp)
+      dg(ilo:ihi, e) = dg(ilo:ihi, e) - blk(ilo:ihi, e)
+    end do
+  end subroutine blocks_to_row
+
+  !> As blocks_to_row for the blocks of offset sl within the row (br of
+  !> row j, node by node).
+  pure subroutine blocks_within_row(nx, nr, ilo, ihi, sl, br, blk, dg)
+    integer, intent(in) :: nx, nr, ilo, ihi, sl
+    real(mp), intent(in) :: br(9, nr, 0:nx - 1)
+    real(rp), intent(inout) :: blk(0:nx - 1, 9), dg(0:nx - 1, 9)
+    integer :: i, e
+    do e = 1, 9
+      do i = ilo, ihi
+        blk(i, e) = real(br(e, sl, i), rp)
+        dg(i, e) = dg(i, e) - blk(i, e)
+      end do
+    end do
+  end subroutine blocks_within_row
+
+  !> galerkin_add's sum along y: coarse row cj's sums at offset cdj take
+  !> wy times the fine row's sums along x at offset dj (n values: every
+  !> coarse node's blocks of every cdi), one vector loop.
+  pure subroutine galerkin_y(n, rc, r, dj, cdj, wy, bx, acj)
+    integer, intent(in) :: n, rc, r, dj, cdj
+    real(rp), intent(in) :: wy
+    real(rp), intent(in) :: bx(n, -r:r)
+    real(rp), intent(inout) :: acj(n, -rc:rc)
+    acj(:, cdj) = acj(:, cdj) + wy * bx(:, dj)
   end subroutine galerkin_y
 
 end module mg_kernels

@@ -291,9 +291,9 @@ contains
     ac_dense = matmul(transpose(p), matmul(dense, p))
     rc = max(coarse_reach(tx, r), coarse_reach(ty, r))
     call stencil_init(sc, nxc, nyc, 0, nyc - 1, rc)
-    allocate(ac(3, 3, -rc:rc, -rc:rc, 0:nxc - 1, 0:nyc - 1))
+    allocate(ac(0:nxc - 1, 3, 3, -rc:rc, -rc:rc, 0:nyc - 1))
     ac = 0.0_rp
-    allocate(bx(3, 3, -rc:rc, -r:r, 0:nxc - 1), rw(3, 3, 0:nx - 1, 2))
+    allocate(bx(0:nxc - 1, 3, 3, -rc:rc, -r:r), rw(0:nx - 1, 3, 3, 2))
     call galerkin_add(st, tx, ty, rc, 0, ac, bx, rw)
     ! Every non-zero of the dense product lies within the predicted reach,
     ! and every block equals it.
@@ -311,7 +311,7 @@ contains
                 if (abs(di) > rc .or. abs(dj) > rc) then
                   err = max(err, abs(v))
                 else
-                  err = max(err, abs(v - ac(c1, c2, di, dj, ic, jc)))
+                  err = max(err, abs(v - ac(ic, c1, c2, di, dj, jc)))
                 end if
               end do
             end do
