@@ -222,9 +222,16 @@ contains
     type(stencil_t), intent(inout) :: st
     real(rp), intent(in), contiguous :: ac(0:, :, :, -st%r:, -st%r:, st%ys:)
     integer, parameter :: TILE = 16
-    real(rp) :: a0(TILE, 3, 3), inv(TILE, 3, 3), ds(TILE)
-    integer :: j, k, kk, c1, c2, i0, n, l, di, dj
+    real(rp) :: a0(TILE, 3, 3), inv(TILE, 3, 3)
+    integer :: j, k, kk, c1, c2, i0, n
+    integer :: sk(0:(2 * st%r + 1)**2 - 1)
+    ! every offset of the square (its slots in ac(:, :, :, :, :, j) taken
+    ! as (0:nx-1, 9, slot)) into the row sums
+    do k = 0, size(sk) - 1
+      sk(k) = k + 1
+    end do
     do j = st%ys, st%ye
+      call row_sums(st%nx, size(sk), size(sk) - 1, sk, ac(:, :, :, :, :, j), st%d(:, :, :, j))
       do kk = 1, st%nv
         k = st%kv(kk)
         call to_single(st%nx * 9, ac(:, :, :, st%odi(k), st%odj(k), j), st%b(:, :, :, kk, j))
@@ -238,19 +245,10 @@ contains
         do c2 = 1, 3
           do c1 = 1, 3
             a0(1:n, c1, c2) = ac(i0:i0 + n - 1, c1, c2, 0, 0, j)
-            ds(1:n) = 0.0_rp
-            do dj = -st%r, st%r
-              do di = -st%r, st%r
-                ds(1:n) = ds(1:n) + ac(i0:i0 + n - 1, c1, c2, di, dj, j)
-              end do
-            end do
-            st%d(i0:i0 + n - 1, c1, c2, j) = real(ds(1:n), mp)
           end do
         end do
         call block_inverse_lanes(n, TILE, a0, inv)
-        do l = 1, n
-          st%ainv(:, :, i0 + l - 1, j) = real(inv(l, :, :), mp)
-        end do
+        call put_inverses(n, TILE, inv, st%ainv(:, :, i0:i0 + n - 1, j))
       end do
     end do
   end subroutine stencil_finish
@@ -270,6 +268,40 @@ contains
       end do
     end do
   end subroutine put_within_row
+
+  !> stencil_row_from_full's row sums: d(:, e) = sum over the slots sk(0:nb)
+  !> of full(:, e, slot), in double precision, rounded to kind mp. Along
+  !> the whole row (in tiles of 16 nodes, its 81 short loops a tile were
+  !> half of stencil_row_from_full).
+  pure subroutine row_sums(nx, nslot, nb, sk, full, d)
+    integer, intent(in) :: nx, nslot, nb
+    integer, intent(in) :: sk(0:nb)
+    real(rp), intent(in) :: full(0:nx - 1, 9, nslot)
+    real(mp), intent(out) :: d(0:nx - 1, 9)
+    real(rp) :: acc(0:nx - 1)
+    integer :: e, k
+    do e = 1, 9
+      acc = full(:, e, sk(0))
+      do k = 1, nb
+        acc = acc + full(:, e, sk(k))
+      end do
+      d(:, e) = real(acc, mp)
+    end do
+  end subroutine row_sums
+
+  !> n inverted diagonal blocks inv(l, :, :) (lanes fastest) into ainv(:, :, l)
+  !> (node by node) in kind mp. Explicit shapes, as put_within_row.
+  pure subroutine put_inverses(n, ld, inv, ainv)
+    integer, intent(in) :: n, ld
+    real(rp), intent(in) :: inv(ld, 9)
+    real(mp), intent(out) :: ainv(9, n)
+    integer :: l, e
+    do l = 1, n
+      do e = 1, 9
+        ainv(e, l) = real(inv(l, e), mp)
+      end do
+    end do
+  end subroutine put_inverses
 
   !> y = x rounded to kind mp, n values.
   pure subroutine to_single(n, x, y)
@@ -309,8 +341,8 @@ contains
     integer, parameter :: TILE = 16                ! 64 bytes of kind mp
     integer, parameter :: MAXNB = 24               ! offsets of a reach-2 square (no allocation per row)
     real(rp) :: a0(TILE, 3, 3)                     ! the tile's diagonal blocks
-    real(rp) :: dsum(TILE, 3, 3), inv(TILE, 3, 3)
-    integer :: i, k, kk, c1, c2, sk(0:MAXNB), i0, n, l
+    real(rp) :: inv(TILE, 3, 3)
+    integer :: k, kk, c1, c2, sk(0:MAXNB), i0, n, l
     ! (an internal invariant: only the finest level, reach 1 or 2, comes here)
     if (st%nb > MAXNB) error stop 'stencil_from_full: more offsets than a reach-2 level'
     ! the slot in full of every offset this level stores (the level stores
@@ -330,31 +362,23 @@ contains
       end do
     end do
     ! the blocks within the row, node by node
-    do i = 0, st%nx - 1
-      do kk = 1, st%nr
-        st%br(:, :, kk, i, j) = real(full(i, :, :, sk(st%kr(kk))), mp)
-      end do
+    do kk = 1, st%nr
+      call put_within_row(st%nx, st%nr, kk, full(:, :, :, sk(st%kr(kk))), st%br(:, :, :, :, j))
     end do
+    ! the row sums, in double precision before rounding (the small mass
+    ! term is what is left of the large stiffness blocks)
+    call row_sums(st%nx, size(full, 4), st%nb, sk(0:st%nb), full, st%d(:, :, :, j))
     do i0 = 0, st%nx - 1, TILE
       n = min(TILE, st%nx - i0)
-      ! the row sums, in double precision before rounding (the small mass
-      ! term is what is left of the large stiffness blocks)
       do c2 = 1, 3
         do c1 = 1, 3
           do l = 1, n
             a0(l, c1, c2) = full(i0 + l - 1, c1, c2, sk(0))
           end do
-          dsum(1:n, c1, c2) = a0(1:n, c1, c2)
-          do k = 1, st%nb
-            dsum(1:n, c1, c2) = dsum(1:n, c1, c2) + full(i0:i0 + n - 1, c1, c2, sk(k))
-          end do
-          st%d(i0:i0 + n - 1, c1, c2, j) = real(dsum(1:n, c1, c2), mp)
         end do
       end do
       call block_inverse_lanes(n, TILE, a0, inv)
-      do l = 1, n
-        st%ainv(:, :, i0 + l - 1, j) = real(inv(l, :, :), mp)
-      end do
+      call put_inverses(n, TILE, inv, st%ainv(:, :, i0:i0 + n - 1, j))
     end do
   end subroutine stencil_row_from_full
 
