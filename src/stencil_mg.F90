@@ -50,6 +50,9 @@ module stencil_mg
     real(rp), allocatable :: ac(:, :, :, :, :, :) !< (0:nx-1, 3, 3, -r:r, -r:r, ys-h:ye+h) Galerkin sums of this level
     real(rp), allocatable :: bx(:, :, :, :, :)    !< (0:nx-1, 3, 3, -r:r, -rf:rf) work of galerkin_add (rf: the finer level's reach)
     real(rp), allocatable :: rw(:, :, :, :)      !< (0:nx-1, 3, 3, 2) work of galerkin_add on this level's rows (all but the coarsest)
+    !> (0:nx-1, 3, 3, -r:r, -r:r, h) the neighbour rank's Galerkin sums of
+    !> this rank's rows, received (finish_sums_ac; a level split over ranks)
+    real(rp), allocatable :: acbuf(:, :, :, :, :, :)
   end type mg_level_t
 
   !> The hierarchy: lev(1) is the lattice itself.
@@ -151,6 +154,7 @@ contains
       call level_arrays(mg%lev(l))
     end do
     do l = 2, mg%nlev
+      call level_sums(mg%lev(l))
       associate (c => mg%lev(l)%a)
         allocate(mg%lev(l)%bx(0:c%nx - 1, 3, 3, -c%r:c%r, -mg%lev(l - 1)%a%r:mg%lev(l - 1)%a%r))
         allocate(mg%lev(l - 1)%rw(0:mg%lev(l - 1)%a%nx - 1, 3, 3, 2))
@@ -166,12 +170,11 @@ contains
 
   subroutine level_arrays(lv)
     type(mg_level_t), intent(inout) :: lv
-    integer :: nx, ys, ye, h, r
+    integer :: nx, ys, ye, h
     nx = lv%a%nx
     ys = lv%a%ys
     ye = lv%a%ye
     h = lv%h
-    r = lv%a%r
     allocate(lv%x(-h:nx - 1 + h, 3, ys - h:ye + h), lv%w(-h:nx - 1 + h, 3, ys - h:ye + h))
     allocate(lv%rhs(0:nx - 1, 3, ys:ye), lv%res(0:nx - 1, 3, ys:ye), lv%t(0:nx - 1, 3), lv%low(0:nx - 1, 3, ys:ye))
     lv%x = 0.0_mp
@@ -179,9 +182,23 @@ contains
     lv%rhs = 0.0_mp
     lv%res = 0.0_mp
     lv%low = 0.0_mp
+  end subroutine level_arrays
+
+  !> The Galerkin sums of a coarse level (none on the finest: its operator
+  !> is S itself; allocated there too, they were 648 B a node without
+  !> bending and 1.8 KB with, never used).
+  subroutine level_sums(lv)
+    type(mg_level_t), intent(inout) :: lv
+    integer :: nx, ys, ye, h, r
+    nx = lv%a%nx
+    ys = lv%a%ys
+    ye = lv%a%ye
+    h = lv%h
+    r = lv%a%r
     allocate(lv%ac(0:nx - 1, 3, 3, -r:r, -r:r, ys - h:ye + h))
     lv%ac = 0.0_rp
-  end subroutine level_arrays
+    if (.not. lv%replicated) allocate(lv%acbuf(0:nx - 1, 3, 3, -r:r, -r:r, h))
+  end subroutine level_sums
 
   subroutine mg_destroy(mg)
     type(stencil_mg_t), intent(inout) :: mg
@@ -277,7 +294,6 @@ contains
     type(stencil_mg_t), intent(inout) :: mg
     type(mg_level_t), intent(inout) :: c
     integer :: ierr, cnt, h, ys, ye
-    real(rp), allocatable :: buf(:, :, :, :, :, :)
     if (c%replicated) then
       if (mg%nranks > 1) then
         cnt = size(c%ac(:, :, :, :, :, c%a%ys:c%a%ye))
@@ -289,16 +305,13 @@ contains
     ys = c%a%ys
     ye = c%a%ye
     cnt = size(c%ac(:, :, :, :, :, ys:ys + h - 1))
-    allocate(buf(0:c%a%nx - 1, 3, 3, -c%a%r:c%a%r, -c%a%r:c%a%r, h))
     ! rows below my strip go to the rank below; the rank above sends me its rows below its strip
-    buf = 0.0_rp
     call MPI_Sendrecv(c%ac(0, 1, 1, -c%a%r, -c%a%r, ys - h), cnt, MPI_DOUBLE_PRECISION, mg%below, 11, &
-                      buf, cnt, MPI_DOUBLE_PRECISION, mg%above, 11, mg%comm, MPI_STATUS_IGNORE, ierr)
-    if (mg%above /= MPI_PROC_NULL) c%ac(:, :, :, :, :, ye - h + 1:ye) = c%ac(:, :, :, :, :, ye - h + 1:ye) + buf
-    buf = 0.0_rp
+                      c%acbuf, cnt, MPI_DOUBLE_PRECISION, mg%above, 11, mg%comm, MPI_STATUS_IGNORE, ierr)
+    if (mg%above /= MPI_PROC_NULL) c%ac(:, :, :, :, :, ye - h + 1:ye) = c%ac(:, :, :, :, :, ye - h + 1:ye) + c%acbuf
     call MPI_Sendrecv(c%ac(0, 1, 1, -c%a%r, -c%a%r, ye + 1), cnt, MPI_DOUBLE_PRECISION, mg%above, 12, &
-                      buf, cnt, MPI_DOUBLE_PRECISION, mg%below, 12, mg%comm, MPI_STATUS_IGNORE, ierr)
-    if (mg%below /= MPI_PROC_NULL) c%ac(:, :, :, :, :, ys:ys + h - 1) = c%ac(:, :, :, :, :, ys:ys + h - 1) + buf
+                      c%acbuf, cnt, MPI_DOUBLE_PRECISION, mg%below, 12, mg%comm, MPI_STATUS_IGNORE, ierr)
+    if (mg%below /= MPI_PROC_NULL) c%ac(:, :, :, :, :, ys:ys + h - 1) = c%ac(:, :, :, :, :, ys:ys + h - 1) + c%acbuf
   end subroutine finish_sums_ac
 
   !> The restriction sums of level c (in c%w) completed as in finish_sums_ac,
