@@ -7,7 +7,7 @@ module forces
   use kinds, only: rp
   use config, only: BEND_NONE, BEND_PAPER, BEND_ENERGY
   use lattice, only: lattice_t, link_dir, line_dir, link_constants, triple_constants
-  use springs, only: link_force_lanes, link_jacobian, link_energy, link_power
+  use springs, only: link_force_lanes, link_jacobian, link_energy, link_power_lanes
   use bending_paper, only: paper_force, paper_jacobian, paper_energy
   use bending_energy, only: energy_force_lanes, energy_jacobian, energy_bend_energy, energy_power_lanes
   implicit none
@@ -314,26 +314,38 @@ contains
     type(lattice_t), intent(in) :: lat
     real(rp), intent(in) :: u(0:5, 0:lat%nx - 1, lat%gys:lat%gye)
     real(rp), intent(out) :: power
-    integer :: i, j, k, iq, jq
-    real(rp) :: e, eta, kb, etab
-    logical :: inl
+    real(rp) :: kb, etab
+    integer :: j
 
     power = 0.0_rp
     do j = lat%ys, lat%ye
-      do i = 0, lat%nx - 1
-        do k = 1, 4
-          call link_end(lat, i, j, k, iq, jq, inl)
-          if (.not. inl) cycle
-          call link_constants(lat, i, j, k, e, eta)
-          if (eta == 0.0_rp) cycle
-          power = power + link_power(lat%spring_model, eta, u(0:2, i, j), u(0:2, iq, jq), &
-                                     u(3:5, i, j), u(3:5, iq, jq))
-        end do
-      end do
+      call link_power_row(j)
       if (lat%bending_model == BEND_ENERGY) call energy_power_row(j)
     end do
 
   contains
+
+    !> The links anchored at row j0, NL of one direction at a time
+    !> (link_power_lanes).
+    subroutine link_power_row(j0)
+      integer, intent(in) :: j0
+      integer, parameter :: NL = 32
+      real(rp) :: el(NL), etal(NL), dd(NL, 3), vr(NL, 3), pl(NL)
+      integer :: k, jq0, ilo, ihi, i0, nl1, l
+      do k = 1, 4
+        call link_lane_range(lat, j0, k, ilo, ihi, jq0)
+        do i0 = ilo, ihi, NL
+          nl1 = min(NL, ihi - i0 + 1)
+          do l = 1, nl1
+            call link_constants(lat, i0 + l - 1, j0, k, el(l), etal(l))
+          end do
+          if (all(etal(1:nl1) == 0.0_rp)) cycle
+          call link_lane_diffs(lat, u, j0, k, i0, nl1, NL, dd, vr)
+          call link_power_lanes(nl1, NL, lat%spring_model, etal, dd, vr, pl)
+          power = power + sum(pl(1:nl1))
+        end do
+      end do
+    end subroutine link_power_row
 
     !> The energy-bending triples anchored at row j0, TRIPLE_LANES of one
     !> direction at a time (energy_power_lanes).

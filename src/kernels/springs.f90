@@ -9,7 +9,7 @@ module springs
   use kinds, only: rp
   implicit none
   private
-  public :: link_force, link_force_lanes, link_jacobian, link_jacobian_lanes, link_energy, link_power
+  public :: link_force, link_force_lanes, link_jacobian, link_jacobian_lanes, link_energy, link_power, link_power_lanes
 
   ! Same values as config's SPRING_AXIAL / SPRING_LINEAR; kept private here.
   integer, parameter :: MODEL_AXIAL = 1
@@ -273,5 +273,39 @@ contains
       pw = 0.0_rp
     end select
   end function link_power
+
+  !> link_power for n links at once (the same model), lane i from
+  !> d(i, :) = x_p - x_q, vr(i, :) = v_p - v_q and its eta(i): pw(i) as
+  !> link_power gives it, up to round-off. One loop without a branch (a
+  !> zero-length axial link is computed on a unit length and zeroed), as
+  !> link_force_lanes: link by link, the diagnostics' dissipated power
+  !> took 3-4 % of a Baraff-Witkin step without bending.
+  pure subroutine link_power_lanes(n, ld, model, eta, d, vr, pw)
+    integer, intent(in) :: n                  ! lanes 1..n of arrays of leading dimension ld >= n
+    integer, intent(in) :: ld
+    integer, intent(in) :: model              ! 1 axial, 2 linear
+    real(rp), intent(in) :: eta(ld)           ! [force*time/length]
+    real(rp), intent(in) :: d(ld, 3), vr(ld, 3)
+    real(rp), intent(inout) :: pw(ld)         ! [energy/time] (lanes 1..n set)
+    real(rp) :: ln, keep, s
+    integer :: i
+
+    select case (model)
+    case (MODEL_LINEAR)
+      do i = 1, n
+        pw(i) = eta(i)*(vr(i, 1)**2 + vr(i, 2)**2 + vr(i, 3)**2)
+      end do
+    case (MODEL_AXIAL)
+      do i = 1, n
+        ln = sqrt(d(i, 1)*d(i, 1) + d(i, 2)*d(i, 2) + d(i, 3)*d(i, 3))
+        keep = merge(1.0_rp, 0.0_rp, ln > SHORT_ABS)
+        ln = merge(ln, 1.0_rp, keep > 0.0_rp)
+        s = (d(i, 1)*vr(i, 1) + d(i, 2)*vr(i, 2) + d(i, 3)*vr(i, 3))/ln
+        pw(i) = keep*eta(i)*s**2
+      end do
+    case default
+      pw(1:n) = 0.0_rp
+    end select
+  end subroutine link_power_lanes
 
 end module springs

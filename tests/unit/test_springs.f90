@@ -1,11 +1,13 @@
 !> Unit tests of the Voigt link kernels (module springs): hand-computed
 !> forces, action = reaction, Jacobians against central finite differences of
 !> the force, energy against the force, power against the damping force;
-!> the row-of-links kernels (link_jacobian_lanes, link_force_lanes) against
-!> link_jacobian and link_force lane by lane.
+!> the row-of-links kernels (link_jacobian_lanes, link_force_lanes,
+!> link_power_lanes) against link_jacobian, link_force and link_power lane
+!> by lane.
 program test_springs
   use kinds, only: rp
-  use springs, only: link_force, link_force_lanes, link_jacobian, link_jacobian_lanes, link_energy, link_power
+  use springs, only: link_force, link_force_lanes, link_jacobian, link_jacobian_lanes, link_energy, link_power, &
+                     link_power_lanes
   use check, only: check_true, check_close, check_close_array, check_report
   implicit none
   integer, parameter :: AXIAL = 1, LINEAR = 2
@@ -108,6 +110,7 @@ program test_springs
 
   call lanes_checks()
   call force_lanes_checks()
+  call power_lanes_checks()
 
   call check_report()
 
@@ -186,6 +189,31 @@ contains
                                       'force lanes: the zero-length axial link found, no force')
     end do
   end subroutine force_lanes_checks
+
+  ! link_power_lanes on 9 links in arrays with room for 12 (lanes beyond n
+  ! untouched), each model: every lane equal to link_power up to round-off,
+  ! the zero-length axial link with no power.
+  subroutine power_lanes_checks()
+    integer, parameter :: LD = 12, N = 9
+    real(rp) :: dl(LD, 3), vl(LD, 3), el(LD), etal(LD), pl(LD), zero(3)
+    integer :: l, m, pass
+    character(len=48) :: tag
+    zero = 0.0_rp
+    call lane_data(N, dl, vl, el, etal)
+    do pass = 1, 2
+      m = merge(AXIAL, LINEAR, pass == 1)
+      pl = -7.0_rp
+      call link_power_lanes(N, LD, m, etal, dl, vl, pl)
+      do l = 1, N
+        write(tag, '(a,i0,a,i0,a)') ' (power lanes: pass ', pass, ', lane ', l, ')'
+        call check_close(pl(l), link_power(m, etal(l), dl(l, :), zero, vl(l, :), zero), 1.0e-13_rp, 1.0e-300_rp, &
+                         'power'//trim(tag))
+      end do
+      call check_true(all(pl(N + 1:) == -7.0_rp), 'power lanes beyond n untouched')
+      if (m == AXIAL) call check_true(pl(5) == 0.0_rp, 'power lanes: the zero-length axial link dissipates nothing')
+      if (m == LINEAR) call check_true(pl(5) > 0.0_rp, 'power lanes: the zero-length linear link dissipates')
+    end do
+  end subroutine power_lanes_checks
 
   ! Compare K = df_p/dx_p, -K = df_p/dx_q, C = df_p/dv_p, -C = df_p/dv_q with
   ! central differences of link_force, for d = xp - xq and vr = vp - vq.
