@@ -15,7 +15,7 @@ module forces
   public :: internal_forces, element_energies, dissipated_power
   public :: jac_buffer_t, jac_buffer_init, jac_buffer_row, slot_of
   public :: first_anchor_row, link_stretch_extremes, triple_lane_range, triple_lane_edges, TRIPLE_LANES
-  public :: link_lane_range, link_lane_diffs
+  public :: link_lane_range, link_lane_diffs, link_lane_state
 
   !> Jacobian blocks of the v-rows of three consecutive node rows (a rolling
   !> buffer indexed by slot_of(j)): k(:,:,di,dj,i,s) = dF_v(i,j)/dx(i+di,j+dj)
@@ -76,6 +76,21 @@ contains
       dv(l, :) = a(3:5, i, j0) - a(3:5, i + dx, jq)
     end do
   end subroutine link_lane_diffs
+
+  !> The lane kernels' inputs for the nl links anchored at (i0 + l - 1, j0)
+  !> along link_dir(:, k): their constants e, eta (link_constants) and
+  !> the differences d, dv of the state a (link_lane_diffs).
+  pure subroutine link_lane_state(lat, a, j0, k, i0, nl, ld, e, eta, d, dv)
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: a(0:, 0:, lat%gys:)    !< (0:5, 0:nx-1, gys:gye)
+    integer, intent(in) :: j0, k, i0, nl, ld
+    real(rp), intent(out) :: e(ld), eta(ld), d(ld, 3), dv(ld, 3)
+    integer :: l
+    do l = 1, nl
+      call link_constants(lat, i0 + l - 1, j0, k, e(l), eta(l))
+    end do
+    call link_lane_diffs(lat, a, j0, k, i0, nl, ld, d, dv)
+  end subroutine link_lane_state
 
   !> Edges e1 = x_q - x_p, e2 = x_r - x_q and their rates de of the nl
   !> triples anchored at (i0 + l - 1, j0), l = 1..nl, along line_dir(:, k),
@@ -196,10 +211,7 @@ contains
         call link_lane_range(lat, j0, k, ilo, ihi, jq0)
         do i0 = ilo, ihi, NL
           nl1 = min(NL, ihi - i0 + 1)
-          do l = 1, nl1
-            call link_constants(lat, i0 + l - 1, j0, k, el(l), etal(l))
-          end do
-          call link_lane_diffs(lat, u, j0, k, i0, nl1, NL, dd, vr)
+          call link_lane_state(lat, u, j0, k, i0, nl1, NL, el, etal, dd, vr)
           call link_force_lanes(nl1, NL, lat%spring_model, el, etal, d0(:, k), len0(k), dd, vr, fl3, okl)
           do l = 1, nl1
             ii = i0 + l - 1
@@ -331,16 +343,12 @@ contains
       integer, intent(in) :: j0
       integer, parameter :: NL = 32
       real(rp) :: el(NL), etal(NL), dd(NL, 3), vr(NL, 3), pl(NL)
-      integer :: k, jq0, ilo, ihi, i0, nl1, l
+      integer :: k, jq0, ilo, ihi, i0, nl1
       do k = 1, 4
         call link_lane_range(lat, j0, k, ilo, ihi, jq0)
         do i0 = ilo, ihi, NL
           nl1 = min(NL, ihi - i0 + 1)
-          do l = 1, nl1
-            call link_constants(lat, i0 + l - 1, j0, k, el(l), etal(l))
-          end do
-          if (all(etal(1:nl1) == 0.0_rp)) cycle
-          call link_lane_diffs(lat, u, j0, k, i0, nl1, NL, dd, vr)
+          call link_lane_state(lat, u, j0, k, i0, nl1, NL, el, etal, dd, vr)
           call link_power_lanes(nl1, NL, lat%spring_model, etal, dd, vr, pl)
           power = power + sum(pl(1:nl1))
         end do

@@ -22,12 +22,12 @@
 module reduced_assembly
   use kinds, only: rp
   use config, only: BEND_NONE, BEND_PAPER, BEND_ENERGY
-  use lattice, only: lattice_t, link_dir, line_dir, link_constants, triple_constants
+  use lattice, only: lattice_t, link_dir, line_dir, triple_constants
   use springs, only: link_jacobian_lanes
   use bending_paper, only: paper_jacobian
   use bending_energy, only: energy_jacobian_lanes
   use offset_product, only: offset_table
-  use forces, only: triple_lane_range, triple_lane_edges, TRIPLE_LANES, link_lane_range, link_lane_diffs
+  use forces, only: triple_lane_range, triple_lane_edges, TRIPLE_LANES, link_lane_range, link_lane_diffs, link_lane_state
   use mg_kernels, only: stencil_t, stencil_row_from_full
   implicit none
   private
@@ -164,10 +164,7 @@ contains
         own_q = jq <= lat%ye
         do i0 = ilo, ihi, NL
           nl1 = min(NL, ihi - i0 + 1)
-          do l = 1, nl1
-            call link_constants(lat, i0 + l - 1, j0, k, e(l), eta(l))
-          end do
-          call link_lane_diffs(lat, u, j0, k, i0, nl1, NL, dd, vr)
+          call link_lane_state(lat, u, j0, k, i0, nl1, NL, e, eta, dd, vr)
           call link_lane_diffs(lat, w, j0, k, i0, nl1, NL, wx, wv)
           call link_jacobian_lanes(nl1, NL, lat%spring_model, e, eta, len0(k), dd, vr, clamp, kl, cll, okl)
           ! f_p = -f_q: dF_p/dx_p = dF_q/dx_q = kl, dF_p/dx_q = dF_q/dx_p = -kl (same for cl).

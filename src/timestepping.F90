@@ -1296,6 +1296,7 @@ contains
     PetscErrorCode, intent(out) :: ierr
     PetscInt :: steps, rejects, fails
     real(rp) :: t, c(5)
+    integer :: kw
 
     call run_counts(ctx, c, ierr)
     if (ierr /= 0) return
@@ -1303,9 +1304,13 @@ contains
     rejects = int(c(2), kind(rejects))
     fails = int(c(5), kind(fails))
     PetscCall(TSGetTime(ctx%ts, t, ierr))
+    ! the status's first word: complete, failed or interrupted (its
+    ! reason, after the colon, is on stderr already)
+    kw = index(status, ':') - 1
+    if (kw < 1) kw = len_trim(status)
     if (ctx%rank == 0) then
       write(output_unit, '(a,es13.5e2,a,i0,a,i0,a,i0,a,es11.3e2,a)') 'nuno: '// &
-        trim(merge('complete   ', status(1:11), status == 'complete'))//' at t =', t, ': ', steps, ' steps, ', rejects, ' rejected (', fails, &
+        status(1:kw)//' at t =', t, ': ', steps, ' steps, ', rejects, ' rejected (', fails, &
         ' retried after a failed Newton solve), wall time', wall, ' s'
       flush(output_unit)
     end if

@@ -269,7 +269,7 @@ contains
     end do
   end subroutine put_within_row
 
-  !> stencil_row_from_full's row sums: d(:, e) = sum over the slots sk(0:nb)
+  !> The row sums of stencil_row_from_full and stencil_finish: d(:, e) = sum over the slots sk(0:nb)
   !> of full(:, e, slot), in double precision, rounded to kind mp. Along
   !> the whole row (in tiles of 16 nodes, its 81 short loops a tile were
   !> half of stencil_row_from_full).

@@ -1,6 +1,7 @@
 """The output file has every dataset and attribute of docs/model.md section 9 with
 the right shapes, the XDMF sidecar parses and points at existing datasets,
 and a failed run leaves a file marked as failed with the steps so far."""
+import re
 import xml.etree.ElementTree as ET
 
 import h5py
@@ -77,6 +78,8 @@ def test_failed_run_keeps_output_and_is_marked(tmp_path):
                    options=("-snes_max_it", "1", "-ts_max_snes_failures", "1"), **GROUPS)
     assert proc.returncode != 0
     assert "nuno: error: time step from t =" in proc.stdout + proc.stderr
+    # the closing line names the outcome by its word, not a cut-off reason
+    assert re.search(r"^nuno: failed at t = ", proc.stdout, re.M), proc.stdout[-400:]
     with h5py.File(h5, "r") as f:
         assert text(f.attrs["status"]).startswith("failed: time step")
         assert int(f.attrs["n_output_steps"]) == 1
