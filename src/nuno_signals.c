@@ -32,6 +32,12 @@ static void on_signal(int sig)
 static double interval = 0.0, deadline = 0.0;
 static int    due = 0; /* every rank agreed that a checkpoint is due after this step */
 
+/* A stop asked for by the monitor (nuno_ts_stop), applied after the next
+ * step: TSStep sets the TS's reason back to "iterating" before it steps,
+ * so a reason set in the monitor, which TSSolve calls before TSStep, is
+ * lost, and TSSolve went on. */
+static int stop_pending = 0;
+
 static PetscErrorCode poststep(TS ts)
 {
   int      mine[2], all[2] = {0, 0};
@@ -42,6 +48,11 @@ static PetscErrorCode poststep(TS ts)
   mine[1] = interval > 0.0 && MPI_Wtime() >= deadline;
   PetscCall(PetscObjectGetComm((PetscObject)ts, &comm));
   PetscCallMPI(MPI_Allreduce(mine, all, 2, MPI_INT, MPI_MAX, comm));
+  if (stop_pending) {
+    /* the monitor's ranks all asked (it decides on global values) */
+    stop_pending = 0;
+    PetscCall(TSSetConvergedReason(ts, TS_CONVERGED_USER));
+  }
   if (all[0]) {
     agreed = all[0];
     PetscCall(TSSetConvergedReason(ts, TS_CONVERGED_USER));
@@ -99,11 +110,15 @@ int nuno_signal_agreed(void)
   return agreed;
 }
 
-/* Stop TSSolve after this step (TS_CONVERGED_USER, which the Fortran
- * interface of PETSc 3.18 does not define). Returns a PETSc error code. */
+/* Stop TSSolve (TS_CONVERGED_USER, which the Fortran interface of PETSc
+ * 3.18 does not define), called from the TS monitor on every rank: at once
+ * when the monitor is TSSolve's last call, else after the step TSSolve
+ * takes next (the post-step applies it; see stop_pending). Returns a PETSc
+ * error code. */
 PetscErrorCode nuno_ts_stop(TS *ts)
 {
   PetscFunctionBeginUser;
+  stop_pending = 1;
   PetscCall(TSSetConvergedReason(*ts, TS_CONVERGED_USER));
   PetscFunctionReturn(0);
 }

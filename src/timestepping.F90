@@ -931,8 +931,13 @@ contains
         ctx%stalled_steps = ctx%stalled_steps + 1
       end if
       if (ctx%stalled_steps >= 10) then
-        if (len_trim(ctx%io_error) == 0) ctx%io_error = 'the time step at t = '//num(t)// &
-          ' fell below the resolution of t after failed solves and retries: the run cannot advance; '//trim(failure_hints(ctx))
+        if (len_trim(ctx%io_error) == 0) then
+          PetscCall(TSGetTimeStep(ts, h, ierr))
+          ctx%io_error = 'ten accepted steps at t = '//num(t)//' did not advance t: the step, '//num(h)// &
+            ', is below the resolution of t there ('//num(spacing(t))//'); the run cannot advance (a larger -ts_dt;'// &
+            ' after failed solves, adaptive steps: -ts_adapt_type basic)'
+          if (ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//trim(ctx%io_error)
+        end if
         ierr = nuno_ts_stop(ts%v)
         return
       end if

@@ -4,7 +4,10 @@ fixed-step backward Euler on the same ranks, to solver tolerance for
 adaptive methods and other rank counts; SIGTERM leaves a file that can be
 continued; the wall-clock trigger changes nothing in the result; a
 half-written (invalid) checkpoint slot is never used; a restart that cannot
-be done says why in one line and leaves the file as it was.
+be done says why in one line and leaves the file as it was. A step too
+small to advance t (continued at t = 1e6 with dt below t's resolution
+there) ends the run with a one-line error on every rank's exit instead of
+repeating forever.
 
 The expectation is always another run (the continuous one), never the
 program's own numbers pasted in."""
@@ -190,3 +193,27 @@ def test_a_restart_that_cannot_be_done_says_why_and_changes_nothing(tmp_path, ca
     errors = [ln for ln in proc.stderr.splitlines() if ln.startswith("nuno: error")]
     assert len(errors) == 1 and expect in errors[0], proc.stderr
     assert md5(h5) == before
+
+
+def test_steps_that_do_not_advance_t_end_the_run(tmp_path):
+    """A flat sheet at rest (no forces: every step converges at once) run to
+    t = 1e6, then continued with dt = 1e-11, below the spacing of doubles
+    at 1e6 (1.16e-10): t + dt == t, every step is accepted and t never
+    moves. Without the stall guard TSSolve repeated that step until killed
+    (a guard asked for in the TS monitor was undone by TSStep); now ten
+    such steps end the run: a non-zero exit, one error line naming t and
+    the step, the file marked failed with its output so far intact."""
+    groups = dict(scene="scene='flat'", time="t_end=1.0e6 dt=1.0e5", output="output_interval=1.0e6")
+    _, h5 = run(tmp_path, "far", nranks=2, **groups)
+    proc, _ = restart(tmp_path, "far", h5, nranks=2, check=False, timeout=120,
+                      options=["-nuno_set", "t_end=2.0e6,dt=1.0e-11", "-nuno_allow_long"], **groups)
+    assert proc.returncode != 0
+    errors = [line for line in proc.stderr.splitlines() if line.startswith("nuno: error:")]
+    assert len(errors) == 1, proc.stderr[-2000:]
+    assert "ten accepted steps at t = 1.00000E+06 did not advance t" in errors[0]
+    assert "1.00000E-11" in errors[0]
+    assert "nuno: failed at t =  1.00000E+06" in proc.stdout
+    with h5py.File(h5, "r") as f:
+        assert f.attrs["status"].decode().startswith("failed: ten accepted steps")
+        assert int(f.attrs["n_output_steps"]) == 2
+        assert list(f["time"][:2]) == [0.0, 1.0e6]
