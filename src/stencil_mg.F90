@@ -47,7 +47,10 @@ module stencil_mg
     type(transfer_t) :: tx, ty                   !< from the next coarser level to this one: restriction, Galerkin product
     type(transfer_t) :: ux, uy                   !< the same, for the interpolation of the coarse correction (tx, ty unless cubic_correction)
     logical :: cubic = .false., cubic_up = .false. !< tx, ty cubic; ux, uy cubic
-    real(rp), allocatable :: ac(:, :, :, :, :, :) !< (0:nx-1, 3, 3, -r:r, -r:r, ys-h:ye+h) Galerkin sums of this level
+    !> (0:nx-1, 3, 3, -r:r, -r:r, ys-h:ye+h) Galerkin sums of this level:
+    !> during mg_build_coarse only, over the hierarchy's work array acw
+    real(rp), pointer, contiguous :: ac(:, :, :, :, :, :) => null()
+    integer(kind=8) :: nac = 0                   !< the size of ac
     real(rp), allocatable :: bx(:, :, :, :, :)    !< (0:nx-1, 3, 3, -r:r, -rf:rf) work of galerkin_add (rf: the finer level's reach)
     real(rp), allocatable :: rw(:, :, :, :)      !< (0:nx-1, 3, 3, 2) work of galerkin_add on this level's rows (all but the coarsest)
     !> (0:nx-1, 3, 3, -r:r, -r:r, h) the neighbour rank's Galerkin sums of
@@ -67,6 +70,9 @@ module stencil_mg
     real(rp), allocatable :: ab(:, :)            !< (3 kl + 1, n)
     real(rp), allocatable :: xc(:)               !< (n)
     integer, allocatable :: ipiv(:)              !< (n)
+    !> the Galerkin sums of one coarse level at a time (the largest's size):
+    !> they are needed only while that level is built from them
+    real(rp), pointer, contiguous :: acw(:) => null()
   end type stencil_mg_t
 
 contains
@@ -160,6 +166,8 @@ contains
         allocate(mg%lev(l - 1)%rw(0:mg%lev(l - 1)%a%nx - 1, 3, 3, 2))
       end associate
     end do
+    if (associated(mg%acw)) deallocate(mg%acw)
+    allocate(mg%acw(max(1_8, maxval([(mg%lev(l)%nac, l = 1, mg%nlev)]))))
     ! The coarsest level's band: node-major unknowns 3 (i + nx j) + c.
     associate (c => mg%lev(mg%nlev))
       mg%n = 3 * c%a%nx * c%a%ny
@@ -184,9 +192,12 @@ contains
     lv%low = 0.0_mp
   end subroutine level_arrays
 
-  !> The Galerkin sums of a coarse level (none on the finest: its operator
-  !> is S itself; allocated there too, they were 648 B a node without
-  !> bending and 1.8 KB with, never used).
+  !> The size of a coarse level's Galerkin sums and its buffer for the
+  !> neighbour's (none on the finest: its operator is S itself; allocated
+  !> there too, they were 648 B a node without bending and 1.8 KB with,
+  !> never used). The sums themselves go into the hierarchy's work array,
+  !> one level at a time (mg_build_coarse): kept for every level between
+  !> rebuilds, they were about 1 KB a node with bending.
   subroutine level_sums(lv)
     type(mg_level_t), intent(inout) :: lv
     integer :: nx, ys, ye, h, r
@@ -195,8 +206,7 @@ contains
     ye = lv%a%ye
     h = lv%h
     r = lv%a%r
-    allocate(lv%ac(0:nx - 1, 3, 3, -r:r, -r:r, ys - h:ye + h))
-    lv%ac = 0.0_rp
+    lv%nac = int(nx, 8) * 9 * int(2 * r + 1, 8)**2 * int(ye - ys + 1 + 2 * h, 8)
     if (.not. lv%replicated) allocate(lv%acbuf(0:nx - 1, 3, 3, -r:r, -r:r, h))
   end subroutine level_sums
 
@@ -204,6 +214,7 @@ contains
     type(stencil_mg_t), intent(inout) :: mg
     if (allocated(mg%lev)) deallocate(mg%lev)
     if (allocated(mg%ab)) deallocate(mg%ab, mg%xc, mg%ipiv)
+    if (associated(mg%acw)) deallocate(mg%acw)
     mg%nlev = 0
   end subroutine mg_destroy
 
@@ -235,10 +246,12 @@ contains
     ierr = 0
     do l = 2, mg%nlev
       associate (f => mg%lev(l - 1), c => mg%lev(l))
+        c%ac(0:c%a%nx - 1, 1:3, 1:3, -c%a%r:c%a%r, -c%a%r:c%a%r, c%a%ys - c%h:c%a%ye + c%h) => mg%acw(1:c%nac)
         c%ac = 0.0_rp
         call galerkin_add(f%a, f%tx, f%ty, c%a%r, c%a%ys - c%h, c%ac, c%bx, f%rw)
         call finish_sums_ac(mg, c)
         call stencil_finish(c%a, c%ac(:, :, :, :, :, c%a%ys:c%a%ye))
+        nullify(c%ac)
       end associate
     end do
     ! Banded LU of the coarsest level (full blocks from its Galerkin sums,
