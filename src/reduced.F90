@@ -1193,6 +1193,24 @@ contains
     red%nh = min(red%nh + 1, 2)
   end subroutine reduced_step_accepted
 
+  !> One inner solve S dv = rhs, its iterations added to red%its; from_zero:
+  !> from zero even when an inner guess was set (a retry). Collective.
+  subroutine inner_solve(red, from_zero, reason, ierr)
+    type(reduced_t), intent(inout) :: red
+    logical, intent(in) :: from_zero
+    KSPConvergedReason, intent(out) :: reason
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt :: its
+    ierr = 0
+    if (from_zero .and. red%guess /= GUESS_NONE) then
+      PetscCall(KSPSetInitialGuessNonzero(red%ksp, PETSC_FALSE, ierr))
+    end if
+    PetscCall(KSPSolve(red%ksp, red%rhs, red%dv, ierr))
+    PetscCall(KSPGetConvergedReason(red%ksp, reason, ierr))
+    PetscCall(KSPGetIterationNumber(red%ksp, its, ierr))
+    red%its = red%its + its
+  end subroutine inner_solve
+
   !> PCSHELL apply: du = J^{-1} b by elimination, up to the inner solve's
   !> tolerance. A failed inner solve is retried once with a freshly built
   !> preconditioner when it was a reused one; if it still fails, the PC
@@ -1207,7 +1225,7 @@ contains
     real(rp) :: ainv, rtol, atol, dtol, rnorm, bnorm
     PetscInt :: maxit
     KSPConvergedReason :: reason
-    PetscInt :: its, nit
+    PetscInt :: nit
     PetscBool :: ew, reused
     logical :: guessed
 
@@ -1228,17 +1246,10 @@ contains
     if (red%guess /= GUESS_NONE) then
       PetscCall(set_guess(red, nit == 0, guessed, ierr))
     end if
-    PetscCall(KSPSolve(red%ksp, red%rhs, red%dv, ierr))
-    PetscCall(KSPGetConvergedReason(red%ksp, reason, ierr))
-    PetscCall(KSPGetIterationNumber(red%ksp, its, ierr))
-    red%its = red%its + its
+    PetscCall(inner_solve(red, .false., reason, ierr))
     if (reason < 0 .and. guessed) then
       ! a guess must never fail a step: from zero once more
-      PetscCall(KSPSetInitialGuessNonzero(red%ksp, PETSC_FALSE, ierr))
-      PetscCall(KSPSolve(red%ksp, red%rhs, red%dv, ierr))
-      PetscCall(KSPGetConvergedReason(red%ksp, reason, ierr))
-      PetscCall(KSPGetIterationNumber(red%ksp, its, ierr))
-      red%its = red%its + its
+      PetscCall(inner_solve(red, .true., reason, ierr))
     end if
     if (red%guess /= GUESS_NONE .and. nit == 0 .and. reason > 0) then
       ! this step's first correction, kept if the step is accepted
@@ -1260,13 +1271,7 @@ contains
         if (red%use_mg) then
           PetscCall(mg_coarse_levels(red, ierr))
         end if
-        if (red%guess /= GUESS_NONE) then
-          PetscCall(KSPSetInitialGuessNonzero(red%ksp, PETSC_FALSE, ierr))
-        end if
-        PetscCall(KSPSolve(red%ksp, red%rhs, red%dv, ierr))
-        PetscCall(KSPGetConvergedReason(red%ksp, reason, ierr))
-        PetscCall(KSPGetIterationNumber(red%ksp, its, ierr))
-        red%its = red%its + its
+        PetscCall(inner_solve(red, .true., reason, ierr))
       end if
     end if
     ! PETSc keeps a PC's failure until its next set-up, which this shell

@@ -217,13 +217,11 @@ contains
   !> ys:ye) (full blocks, double precision, nodes fastest; see
   !> galerkin_add), row by row in vector loops: the blocks to other rows,
   !> those within the row node by node, the row sums formed in double
-  !> precision, the diagonal blocks inverted TILE at a time.
+  !> precision, the diagonal blocks inverted (row_inverses).
   subroutine stencil_finish(st, ac)
     type(stencil_t), intent(inout) :: st
     real(rp), intent(in), contiguous :: ac(0:, :, :, -st%r:, -st%r:, st%ys:)
-    integer, parameter :: TILE = 16
-    real(rp) :: a0(TILE, 3, 3), inv(TILE, 3, 3)
-    integer :: j, k, kk, c1, c2, i0, n
+    integer :: j, k, kk
     integer :: sk(0:(2 * st%r + 1)**2 - 1)
     ! every offset of the square (its slots in ac(:, :, :, :, :, j) taken
     ! as (0:nx-1, 9, slot)) into the row sums
@@ -240,16 +238,7 @@ contains
         k = st%kr(kk)
         call put_within_row(st%nx, st%nr, kk, ac(:, :, :, st%odi(k), 0, j), st%br(:, :, :, :, j))
       end do
-      do i0 = 0, st%nx - 1, TILE
-        n = min(TILE, st%nx - i0)
-        do c2 = 1, 3
-          do c1 = 1, 3
-            a0(1:n, c1, c2) = ac(i0:i0 + n - 1, c1, c2, 0, 0, j)
-          end do
-        end do
-        call block_inverse_lanes(n, TILE, a0, inv)
-        call put_inverses(n, TILE, inv, st%ainv(:, :, i0:i0 + n - 1, j))
-      end do
+      call row_inverses(st%nx, ac(:, :, :, 0, 0, j), st%ainv(:, :, :, j))
     end do
   end subroutine stencil_finish
 
@@ -289,19 +278,31 @@ contains
     end do
   end subroutine row_sums
 
-  !> n inverted diagonal blocks inv(l, :, :) (lanes fastest) into ainv(:, :, l)
-  !> (node by node) in kind mp. Explicit shapes, as put_within_row.
-  pure subroutine put_inverses(n, ld, inv, ainv)
-    integer, intent(in) :: n, ld
-    real(rp), intent(in) :: inv(ld, 9)
-    real(mp), intent(out) :: ainv(9, n)
-    integer :: l, e
-    do l = 1, n
+  !> The inverted diagonal blocks of a row, ainv(:, :, i) (node by node,
+  !> kind mp), from the blocks dg(i, :) (nodes fastest, double precision):
+  !> TILE nodes at a time through block_inverse_lanes. Explicit shapes, as
+  !> put_within_row (written node by node over the derived type's
+  !> component, the descriptor was reloaded at every node).
+  pure subroutine row_inverses(nx, dg, ainv)
+    integer, intent(in) :: nx
+    real(rp), intent(in) :: dg(0:nx - 1, 9)
+    real(mp), intent(out) :: ainv(9, 0:nx - 1)
+    integer, parameter :: TILE = 16
+    real(rp) :: a0(TILE, 9), inv(TILE, 9)
+    integer :: i0, n, l, e
+    do i0 = 0, nx - 1, TILE
+      n = min(TILE, nx - i0)
       do e = 1, 9
-        ainv(e, l) = real(inv(l, e), mp)
+        a0(1:n, e) = dg(i0:i0 + n - 1, e)
+      end do
+      call block_inverse_lanes(n, TILE, a0, inv)
+      do l = 1, n
+        do e = 1, 9
+          ainv(e, i0 + l - 1) = real(inv(l, e), mp)
+        end do
       end do
     end do
-  end subroutine put_inverses
+  end subroutine row_inverses
 
   !> y = x rounded to kind mp, n values.
   pure subroutine to_single(n, x, y)
@@ -331,18 +332,15 @@ contains
   !> while its blocks are still in the cache: module reduced_assembly).
   !> full keeps the nodes fastest, as this level's blocks to other rows,
   !> the row sums and the inverted diagonal blocks: those are formed in
-  !> vector loops along the row (in tiles of TILE nodes for the inverses);
+  !> vector loops along the row (the inverses in tiles: row_inverses);
   !> only the blocks within the row go node by node (the smoother's point
   !> loop keeps them so).
   subroutine stencil_row_from_full(st, full, j)
     type(stencil_t), intent(inout) :: st
     real(rp), intent(in) :: full(0:, :, :, :)   !< (0:nx-1, 3, 3, slot) row j of full in stencil_from_full
     integer, intent(in) :: j
-    integer, parameter :: TILE = 16                ! 64 bytes of kind mp
     integer, parameter :: MAXNB = 24               ! offsets of a reach-2 square (no allocation per row)
-    real(rp) :: a0(TILE, 3, 3)                     ! the tile's diagonal blocks
-    real(rp) :: inv(TILE, 3, 3)
-    integer :: k, kk, c1, c2, sk(0:MAXNB), i0, n, l
+    integer :: k, kk, c1, c2, sk(0:MAXNB)
     ! (an internal invariant: only the finest level, reach 1 or 2, comes here)
     if (st%nb > MAXNB) error stop 'stencil_from_full: more offsets than a reach-2 level'
     ! the slot in full of every offset this level stores (the level stores
@@ -368,18 +366,7 @@ contains
     ! the row sums, in double precision before rounding (the small mass
     ! term is what is left of the large stiffness blocks)
     call row_sums(st%nx, size(full, 4), st%nb, sk(0:st%nb), full, st%d(:, :, :, j))
-    do i0 = 0, st%nx - 1, TILE
-      n = min(TILE, st%nx - i0)
-      do c2 = 1, 3
-        do c1 = 1, 3
-          do l = 1, n
-            a0(l, c1, c2) = full(i0 + l - 1, c1, c2, sk(0))
-          end do
-        end do
-      end do
-      call block_inverse_lanes(n, TILE, a0, inv)
-      call put_inverses(n, TILE, inv, st%ainv(:, :, i0:i0 + n - 1, j))
-    end do
+    call row_inverses(st%nx, full(:, :, :, sk(0)), st%ainv(:, :, :, j))
   end subroutine stencil_row_from_full
 
   !> Inverse of a 3 x 3 block by cofactors (identity for a singular block:
