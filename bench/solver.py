@@ -103,11 +103,16 @@ def run(exe, mpiexec, n, nranks, mode, bending, timeout):
     # (17 with bending, 9 without) and the two vectors; with the mixed
     # product (the default since 3 Dec 2026, -nuno_mg_product) the
     # multigrid's single-precision blocks (16 or 8, and the row sums D)
-    if "product with S mixed" in out:
+    if "product with S mixed" in out or "product with S fused" in out:
         s_bytes = n * n * (((16 if bending else 8) + 1) * 36 + 48)
     else:
         s_bytes = n * n * ((17 if bending else 9) * 72 + 48)
     mm_gbs = (n_mm * s_bytes / t_mm / 1e9) if (n_cyc and t_mm > 0) else 6e-3 * mf_mm
+    if "product with S fused" in out:
+        # the products of the cycles' outputs are formed in the cycles
+        # (-nuno_mg_product fused, the default since 4 Dec 2026): MatMult
+        # times copies, its bandwidth is not that of a product
+        mm_gbs = float("nan")
     cyc_gbs = (n_cyc * float(reads.group(1)) * 1e6 / t_cyc / 1e9) if (n_cyc and reads and t_cyc > 0) else float("nan")
     _, t_jac, _ = event(out, "SNESJacobianEval")
     _, t_ksp, _ = event(out, "KSPSolve")

@@ -81,13 +81,13 @@ PetscErrorCode nuno_options_read(MPI_Fint fcomm, int *jacobian, int *pc_lag, int
  * Gauss-Seidel sweeps per smoothing; levels in/out >= 0 (0: as many as
  * fit); *given: 1 when -nuno_mg_cycle, -nuno_mg_sweeps or -nuno_mg_levels
  * is set (they are refused where nuno's multigrid is not used); product
- * in/out 0 = mixed, 1 = double: the Krylov method's product with S (module
- * reduced), *given too when -nuno_mg_product is set. Collective. */
+ * in/out 0 = mixed, 1 = double, 2 = fused: the Krylov method's product with S
+ * (module reduced), *given too when -nuno_mg_product is set. Collective. */
 PetscErrorCode nuno_mg_options_read(MPI_Fint fcomm, int *impl, int *cycle, int *sweeps, int *levels, int *product, int *given)
 {
   static const char *const impls[]    = {"stencil", "petsc"};
   static const char *const cycles[]   = {"none", "v", "kaskade"};
-  static const char *const products[] = {"mixed", "double"};
+  static const char *const products[] = {"mixed", "double", "fused"};
   MPI_Comm  comm = MPI_Comm_f2c(fcomm);
   PetscInt  im = *impl, cy = *cycle, sw = *sweeps, lv = *levels, pr = *product;
   PetscBool s1 = PETSC_FALSE, s2 = PETSC_FALSE, s3 = PETSC_FALSE, s4 = PETSC_FALSE;
@@ -101,8 +101,8 @@ PetscErrorCode nuno_mg_options_read(MPI_Fint fcomm, int *impl, int *cycle, int *
   if (s1) cy += 1;
   PetscCall(PetscOptionsInt("-nuno_mg_sweeps", "symmetric Gauss-Seidel sweeps of nuno's multigrid per smoothing", "nuno", sw, &sw, &s2));
   PetscCall(PetscOptionsInt("-nuno_mg_levels", "levels of nuno's multigrid (0: as many as fit, down to 5 nodes a side)", "nuno", lv, &lv, &s3));
-  PetscCall(PetscOptionsEList("-nuno_mg_product", "the Krylov method's product with S where nuno's multigrid is used: mixed (from the multigrid's single-precision copy of S in difference form, double-precision vectors, each offset's products in single and their sum in double; half the bytes) or double (S in double precision)",
-                              "nuno", products, 2, products[pr], &pr, &s4));
+  PetscCall(PetscOptionsEList("-nuno_mg_product", "the Krylov method's product with S where nuno's multigrid is used: mixed (from the multigrid's single-precision copy of S in difference form, double-precision vectors, each offset's products in single and their sum in double; half the bytes), fused (mixed, and the product of each cycle's output formed in the cycle's last sweep, from the rows it has just finished: the Krylov method's product of that output is a copy; right preconditioning only, else mixed) or double (S in double precision)",
+                              "nuno", products, 3, products[pr], &pr, &s4));
   PetscOptionsEnd();
   PetscCheck(sw >= 1, comm, PETSC_ERR_ARG_OUTOFRANGE, "-nuno_mg_sweeps %" PetscInt_FMT " must be >= 1", sw);
   PetscCheck(lv >= 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-nuno_mg_levels %" PetscInt_FMT " must be >= 1 (or 0: as many as fit)", lv);

@@ -24,7 +24,7 @@ module reduced
   use petscsnes
   use petscdmda
   use mpi
-  use, intrinsic :: iso_c_binding, only: c_int
+  use, intrinsic :: iso_c_binding, only: c_int, c_intptr_t, c_int64_t
   use kinds, only: rp
   use lattice, only: lattice_t
   use config, only: BEND_NONE
@@ -81,6 +81,18 @@ module reduced
     real(rp), allocatable :: pxs(:, :, :)  !< (-w:nx-1+w, 3, 0:2w) work: rows of x along x fastest
     real(rp), allocatable :: pacc(:, :)    !< (0:nx-1, 4) work: one row of y
     real(mp), allocatable :: pds(:, :)     !< (0:nx-1, 3) work: one offset's differences in single precision
+    ! The fused product (-nuno_mg_product fused): each multigrid cycle forms
+    ! the product of its output z with S in its last sweep (pax); the
+    ! Krylov method's next product is of z (FGMRES: w = S M^{-1} v), and
+    ! stencil_mult returns pax while z is that same vector, unchanged
+    ! (its PETSc object state).
+    logical :: fused_product = .false.
+    type(tVec) :: pax                      !< 3-dof: S z of the last cycle's output z
+    type(tVec) :: pax_of                   !< z (the handle, not a reference)
+    integer(c_int64_t) :: pax_state = -1   !< z's object state when pax was formed
+    logical :: pax_valid = .false.         !< pax is S z for the current S
+    logical :: pax_checked = .false.       !< the Krylov method's side checked (at the first cycle), pax made
+    integer :: pax_used = 0                !< products returned from pax (-reduced_ksp_view)
     integer :: interp = 1                  !< multigrid interpolation: INTERP_LINEAR, _CUBIC, _COARSE_CUBIC
     logical :: forward_ew = .true.         !< pass the outer KSP's rtol (Eisenstat-Walker) to the inner one
     integer :: pc_lag = 1                  !< rebuild the inner preconditioner every pc_lag assemblies
@@ -137,6 +149,12 @@ module reduced
   end type aij_view_t
 
   interface
+    !> src/nuno_vec_state.c: PetscObjectStateGet (no Fortran stub in 3.18).
+    integer(c_int) function nuno_object_state(obj, state) bind(C, name='nuno_object_state')
+      import :: c_int, c_intptr_t, c_int64_t
+      integer(c_intptr_t) :: obj            !< the handle (tVec%v, ...), passed as PetscObject*
+      integer(c_int64_t), intent(out) :: state
+    end function nuno_object_state
     !> src/nuno_options.c: the options of nuno's multigrid (-nuno_mg ...).
     integer(c_int) function nuno_mg_options_read(fcomm, impl, cycle, sweeps, levels, product, given) bind(C, name='nuno_mg_options_read')
       import :: c_int
@@ -240,7 +258,7 @@ contains
     mg_cycle = MG_KASKADE
     mg_sweeps = 1
     mg_levels = 0
-    mg_product = 0
+    mg_product = 2
     ierr = nuno_mg_options_read(comm, mg_impl, mg_cycle, mg_sweeps, mg_levels, mg_product, mg_given)
     if (ierr /= 0) return
     PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_pc_type', found, ierr))
@@ -249,7 +267,11 @@ contains
       ierr = PETSC_ERR_ARG_INCOMP
       SETERRQ(comm, ierr, 'nuno: -nuno_mg_cycle, -nuno_mg_sweeps, -nuno_mg_levels and -nuno_mg_product are for nuno''s multigrid (-nuno_mg stencil, the default from 3 levels on, no -reduced_pc_type)')
     end if
-    red%mixed_product = red%use_mg .and. mg_product == 0
+    ! 0 mixed, 1 double, 2 fused (mixed, each cycle's output multiplied in
+    ! its last sweep; where the Krylov method multiplies that output:
+    ! checked at the first cycle, mg_pc_apply)
+    red%mixed_product = red%use_mg .and. mg_product /= 1
+    red%fused_product = red%use_mg .and. mg_product == 2
     if (red%use_mg) then
       ! FGMRES even where S is symmetric: the kaskade cycle is not, and
       ! FGMRES + kaskade beat CG + V-cycles by 1.4x on a symmetric hang
@@ -520,8 +542,12 @@ contains
       call mg_describe(red%mg, text, n)
       line = trim(line)//' + nuno multigrid: '//trim(text(1)(1:index(text(1), ', single') - 1))// &
              ', '//trim(adjustl(text(n)(index(text(n), 'reads'):index(text(n), ' over') - 1)))
-      line = trim(line)//'; product with S '//trim(merge('mixed (the finest level''s single-precision blocks)', &
-                                                           'double                                            ', red%mixed_product))
+      if (red%fused_product) then
+        line = trim(line)//'; product with S fused (the finest level''s single-precision blocks; of each cycle''s output in its last sweep)'
+      else
+        line = trim(line)//'; product with S '//trim(merge('mixed (the finest level''s single-precision blocks)', &
+                                                             'double                                            ', red%mixed_product))
+      end if
     else
       line = trim(line)//' + '//trim(ptype)
     end if
@@ -561,6 +587,9 @@ contains
       PetscCall(VecDestroy(red%dvh(1), ierr))
       PetscCall(VecDestroy(red%dvh(2), ierr))
       PetscCall(VecDestroy(red%dvp, ierr))
+    end if
+    if (red%fused_product .and. red%pax_checked) then
+      PetscCall(VecDestroy(red%pax, ierr))
     end if
     PetscCall(VecDestroy(red%rhs, ierr))
     PetscCall(MatDestroy(red%s, ierr))
@@ -642,6 +671,7 @@ contains
       ! whose finest level is made from it row by row on the way (every
       ! assembly: its smoother and residual use the current S, as PETSc's
       ! PCMG does with a reused hierarchy).
+      red%pax_valid = .false.
       call csr_assemble(red%lat, u, red%fixedg, a, red%damping, red%clamp, red%gauss_newton, red%wpred, &
                         red%lb, red%vals, red%gpred, red%kd, st=red%st, fine=red%mg%lev(1)%a)
     else if (red%direct) then
@@ -760,7 +790,20 @@ contains
     type(tVec) :: xloc
     PetscScalar, pointer :: xl(:), ya(:)
     logical :: whole
+    integer(c_int64_t) :: state
     PetscCall(MatShellGetContext(mat, red, ierr))
+    if (red%pax_valid) then
+      ! x the last cycle's output, unchanged: its product is formed
+      if (x%v == red%pax_of%v) then
+        ierr = nuno_object_state(x%v, state)
+        if (ierr /= 0) return
+        if (state == red%pax_state) then
+          PetscCall(VecCopy(red%pax, y, ierr))
+          red%pax_used = red%pax_used + 1
+          return
+        end if
+      end if
+    end if
     ! a rank that owns every row (one rank) has no halo: x is read in place
     ! (the copy to a local vector was 2 % of a bw step on one rank)
     whole = red%lat%gys == red%lat%ys .and. red%lat%gye == red%lat%ye
@@ -803,6 +846,10 @@ contains
     do k = 1, n
       PetscCall(PetscViewerASCIIPrintf(viewer, '  '//trim(text(k))//new_line('a'), ierr))
     end do
+    if (red%fused_product) then
+      write(text(1), '(a, i0, a)') 'fused product: ', red%pax_used, ' products with S so far formed in the cycles'' last sweeps'
+      PetscCall(PetscViewerASCIIPrintf(viewer, '  '//trim(text(1))//new_line('a'), ierr))
+    end if
   end subroutine mg_pc_view
 
   !> PCSHELL apply of the inner KSP: one cycle of nuno's multigrid.
@@ -811,15 +858,43 @@ contains
     type(tVec) :: x, y
     PetscErrorCode :: ierr
     type(reduced_t), pointer :: red
-    PetscScalar, pointer :: xa(:, :, :), ya(:, :, :)
+    PetscScalar, pointer :: xa(:, :, :), ya(:, :, :), pa(:, :, :)
+    PCSide :: side
+    logical :: formed
     PetscCall(PCShellGetContext(pc, red, ierr))
+    if (red%fused_product .and. .not. red%pax_checked) then
+      ! the first cycle: only a Krylov method that multiplies the
+      ! preconditioner's output (right preconditioning: FGMRES, GCR,
+      ! GMRES with -reduced_ksp_pc_side right) uses the fused product
+      PetscCall(KSPGetPCSide(red%ksp, side, ierr))
+      if (side /= PC_RIGHT) then
+        red%fused_product = .false.
+      else
+        PetscCall(VecDuplicate(red%rhs, red%pax, ierr))
+      end if
+      red%pax_checked = .true.
+    end if
+    red%pax_valid = .false.
     PetscCall(DMDAVecGetArrayReadF90(red%da3, x, xa, ierr))
     PetscCall(DMDAVecGetArrayF90(red%da3, y, ya, ierr))
     PetscCall(PetscLogEventBegin(red%ev_cycle, ierr))
-    call mg_apply(red%mg, xa, ya)
+    if (red%fused_product) then
+      PetscCall(DMDAVecGetArrayF90(red%da3, red%pax, pa, ierr))
+      call mg_apply(red%mg, xa, ya, pa, formed)
+      PetscCall(DMDAVecRestoreArrayF90(red%da3, red%pax, pa, ierr))
+    else
+      call mg_apply(red%mg, xa, ya)
+    end if
     PetscCall(PetscLogEventEnd(red%ev_cycle, ierr))
     PetscCall(DMDAVecRestoreArrayF90(red%da3, y, ya, ierr))
     PetscCall(DMDAVecRestoreArrayReadF90(red%da3, x, xa, ierr))
+    if (red%fused_product .and. formed) then
+      ! y as it is now (after its array was restored) is what pax is S times
+      red%pax_of = y
+      ierr = nuno_object_state(y%v, red%pax_state)
+      if (ierr /= 0) return
+      red%pax_valid = .true.
+    end if
   end subroutine mg_pc_apply
 
   !> Open the value and row arrays of an AIJ S (see aij_view_t).

@@ -26,7 +26,7 @@ module stencil_mg
   use kinds, only: rp
   use mg_kernels, only: mp, stencil_t, transfer_t, stencil_init, stencil_put_row, stencil_finish, stencil_from_full, transfer_init, offset_index, &
                         stencil_block, diagonal_block, &
-                        coarse_reach, gs_sweep, residual, interpolate, restrict_add, galerkin_add
+                        coarse_reach, gs_sweep, residual, interpolate, restrict_add, galerkin_add, level_product_rows
   implicit none
   private
   public :: stencil_mg_t, mg_create, mg_destroy, mg_set_fine_row, mg_set_fine, mg_build_coarse, mg_apply, mg_describe
@@ -73,6 +73,12 @@ module stencil_mg
     !> the Galerkin sums of one coarse level at a time (the largest's size):
     !> they are needed only while that level is built from them
     real(rp), pointer, contiguous :: acw(:) => null()
+    !> work of the product formed in the finest level's last sweep
+    !> (mg_apply's ax): 2 r + 1 rows of x, one row of the product, one
+    !> offset's differences
+    real(rp), allocatable :: pxs(:, :, :)        !< (-r:nx-1+r, 3, 0:2r)
+    real(rp), allocatable :: pacc(:, :)          !< (0:nx-1, 4)
+    real(mp), allocatable :: pds(:, :)           !< (0:nx-1, 3)
   end type stencil_mg_t
 
 contains
@@ -109,6 +115,7 @@ contains
     call stencil_init(mg%lev(1)%a, nx, ny, ys, ye, r, lines=.true.)
     mg%lev(1)%h = r
     mg%lev(1)%replicated = mg%nranks == 1
+    allocate(mg%pxs(-r:nx - 1 + r, 3, 0:2 * r), mg%pacc(0:nx - 1, 4), mg%pds(0:nx - 1, 3))
     l = 1
     last = max_levels <= 1
     do while (.not. last)
@@ -215,6 +222,7 @@ contains
     if (allocated(mg%lev)) deallocate(mg%lev)
     if (allocated(mg%ab)) deallocate(mg%ab, mg%xc, mg%ipiv)
     if (associated(mg%acw)) deallocate(mg%acw)
+    if (allocated(mg%pxs)) deallocate(mg%pxs, mg%pacc, mg%pds)
     mg%nlev = 0
   end subroutine mg_destroy
 
@@ -375,13 +383,31 @@ contains
   !> between strips block Jacobi, as PETSc's SOR. (Rows coloured by j mod
   !> (r + 1), the same smoother on any number of ranks, took 7 % more
   !> iterations on hang 257 x 257: docs/performance.md.)
-  subroutine smooth(mg, lv)
+  !>
+  !> ax (the finest level's last smoothing of a cycle): also ax = A x of
+  !> the result, in the arithmetic of the Krylov method's mixed product
+  !> (kernel stencil_product_mixed); the backward sweep forms the rows
+  !> whose neighbours it has finished on this strip, the first and last r
+  !> rows follow after one more exchange. ax(3, 0:nx-1, ys:ye).
+  subroutine smooth(mg, lv, ax)
     type(stencil_mg_t), intent(inout) :: mg
     type(mg_level_t), intent(inout) :: lv
+    real(rp), intent(inout), optional :: ax(:, 0:, lv%a%ys:)
+    integer :: ys, ye, r
     call exchange(mg, lv)
     call gs_sweep(lv%a, lv%h, lv%x, lv%rhs, .true., lv%t, lv%low)
     call exchange(mg, lv)
-    call gs_sweep(lv%a, lv%h, lv%x, lv%rhs, .false., lv%t, lv%low)
+    if (.not. present(ax)) then
+      call gs_sweep(lv%a, lv%h, lv%x, lv%rhs, .false., lv%t, lv%low)
+      return
+    end if
+    call gs_sweep(lv%a, lv%h, lv%x, lv%rhs, .false., lv%t, lv%low, mg%pxs, mg%pacc, mg%pds, ax)
+    call exchange(mg, lv)
+    ys = lv%a%ys
+    ye = lv%a%ye
+    r = lv%a%r
+    call level_product_rows(lv%a, lv%h, lv%x, ys, min(ys + r - 1, ye), mg%pxs, mg%pacc, mg%pds, ax)
+    call level_product_rows(lv%a, lv%h, lv%x, max(ye - r + 1, ys + r), ye, mg%pxs, mg%pacc, mg%pds, ax)
   end subroutine smooth
 
   !> Restrict level l's residual (or, with from_rhs, its right-hand side)
@@ -425,9 +451,10 @@ contains
   end subroutine coarse_solve
 
   !> One V-cycle on level l and below, x from zero.
-  recursive subroutine vcycle(mg, l)
+  recursive subroutine vcycle(mg, l, ax)
     type(stencil_mg_t), intent(inout) :: mg
     integer, intent(in) :: l
+    real(rp), intent(inout), optional :: ax(:, 0:, mg%lev(1)%a%ys:)   !< (3, 0:nx-1, ys:ye) A x of the result (smooth)
     integer :: k
     if (l == mg%nlev) then
       call coarse_solve(mg)
@@ -444,16 +471,22 @@ contains
       call vcycle(mg, l + 1)
       call exchange(mg, c)
       call interpolate(f%ux, f%uy, f%a%ys, f%a%ye, c%h, c%a%ys, c%x, f%h, f%x, .true., c%t)
-      do k = 1, mg%nu
+      do k = 1, mg%nu - 1
         call smooth(mg, f)
       end do
+      if (l == 1 .and. present(ax)) then
+        call smooth(mg, f, ax)
+      else
+        call smooth(mg, f)
+      end if
     end associate
   end subroutine vcycle
 
   !> Kaskade: rhs restricted to the coarsest level, solved, then up level by
   !> level: interpolated, smoothed, never back down.
-  subroutine kcycle(mg)
+  subroutine kcycle(mg, ax)
     type(stencil_mg_t), intent(inout) :: mg
+    real(rp), intent(inout), optional :: ax(:, 0:, mg%lev(1)%a%ys:)   !< (3, 0:nx-1, ys:ye) A x of the result (smooth)
     integer :: l, k
     do l = 1, mg%nlev - 1
       call restrict_level(mg, l, .true.)
@@ -463,19 +496,30 @@ contains
       associate (f => mg%lev(l), c => mg%lev(l + 1))
         call exchange(mg, c)
         call interpolate(f%ux, f%uy, f%a%ys, f%a%ye, c%h, c%a%ys, c%x, f%h, f%x, .false., c%t)
-        do k = 1, mg%nu
+        do k = 1, mg%nu - 1
           call smooth(mg, f)
         end do
+        if (l == 1 .and. present(ax)) then
+          call smooth(mg, f, ax)
+        else
+          call smooth(mg, f)
+        end if
       end associate
     end do
   end subroutine kcycle
 
   !> x = M^{-1} b, one cycle: b(3, 0:nx-1, ys:ye), x likewise (the layout
-  !> of a 3-dof DMDA vector). Collective.
-  subroutine mg_apply(mg, b, x)
+  !> of a 3-dof DMDA vector). With ax: also ax = A x, formed in the
+  !> finest level's last sweep (smooth), exactly as stencil_product_mixed
+  !> forms it from x (the Krylov method's next product is of x: module
+  !> reduced keeps this one for it); formed = .false. where there is no
+  !> sweep on the finest level (a hierarchy of one level). Collective.
+  subroutine mg_apply(mg, b, x, ax, formed)
     type(stencil_mg_t), intent(inout) :: mg
     real(rp), intent(in) :: b(:, 0:, mg%lev(1)%a%ys:)
     real(rp), intent(out) :: x(:, 0:, mg%lev(1)%a%ys:)
+    real(rp), intent(inout), optional :: ax(:, 0:, mg%lev(1)%a%ys:)
+    logical, intent(out), optional :: formed
     integer :: i, j, c
     associate (f => mg%lev(1))
       do j = f%a%ys, f%a%ye
@@ -485,12 +529,13 @@ contains
           end do
         end do
       end do
+      if (present(formed)) formed = present(ax) .and. mg%nlev > 1
       if (mg%nlev == 1) then
         call coarse_solve(mg)
       else if (mg%cycle_type == MG_KASKADE) then
-        call kcycle(mg)
+        call kcycle(mg, ax)
       else
-        call vcycle(mg, 1)
+        call vcycle(mg, 1, ax)
       end if
       do j = f%a%ys, f%a%ye
         do i = 0, f%a%nx - 1

@@ -37,7 +37,7 @@ module mg_kernels
             coarse_reach, &
             coupled_by_elements, offset_index, stencil_block, diagonal_block
   public :: gs_sweep, residual, stencil_apply, interpolate, restrict_add, galerkin_add, block_inverse
-  public :: stencil_product_mixed
+  public :: stencil_product_mixed, level_product_rows
 
   !> Kind of the multigrid's matrices and vectors (single precision: half
   !> the bytes of every pass; the smoother and the coarse correction only
@@ -536,6 +536,17 @@ contains
   !> hold the neighbour ranks' values (block Jacobi between strips, as
   !> PETSc's SOR). t(0:nx-1, 3): work.
   !>
+  !> xs, acc, ds, y (backward sweeps only; all or none): the product
+  !> y = A x of the sweep's result, formed as the sweep goes, as
+  !> stencil_product_mixed forms it from x widened to double: row q's
+  !> product needs rows q - r .. q + r final, which they are (on this
+  !> strip) once the backward sweep has finished row q - r, so row j + r is
+  !> formed right after row j, from blocks the sweep read r rows before (in
+  !> the cache). Rows ys + r .. ye - r only: the others need the
+  !> neighbours' final rows (level_product_rows, after an exchange).
+  !> xs(-r:nx-1+r, 3, 0:2r), acc(0:nx-1, 4), ds(0:nx-1, 3): work;
+  !> y(3, 0:nx-1, ys:ye).
+  !>
   !> low(0:nx-1, 3, ys:ye), for a symmetric sweep (forward, then backward
   !> with the same rhs): the forward sweep keeps in it each row's rhs minus
   !> the sums over the blocks to the rows below, and the backward sweep
@@ -544,7 +555,7 @@ contains
   !> coarse levels): the rows below a row are not changed between its two
   !> visits. Not for the first r rows of a strip, whose rows below are the
   !> neighbour rank's, refreshed between the sweeps.
-  subroutine gs_sweep(st, h, x, rhs, forward, t, low)
+  subroutine gs_sweep(st, h, x, rhs, forward, t, low, xs, acc, ds, y)
     type(stencil_t), intent(in) :: st
     integer, intent(in) :: h
     real(mp), intent(inout), contiguous :: x(-h:, :, st%ys - h:)
@@ -552,6 +563,10 @@ contains
     logical, intent(in) :: forward
     real(mp), intent(inout), contiguous :: t(0:, :)
     real(mp), intent(inout), optional :: low(0:, :, st%ys:)
+    real(rp), intent(inout), optional :: xs(-st%r:, :, 0:)
+    real(rp), intent(inout), optional :: acc(0:, :)
+    real(mp), intent(inout), optional :: ds(0:, :)
+    real(rp), intent(inout), optional :: y(:, 0:, st%ys:)
     integer :: j, jj, k, nx, nlow, kbeg
     integer :: dik(st%nr)                         ! the offsets along the row, by k
 
@@ -562,6 +577,8 @@ contains
     ! the offsets to other rows are in lexicographic order: those to the
     ! rows below first
     nlow = count(st%odj(st%kv(1:st%nv)) < 0)
+    ! the padding columns of the product's rows stay zero
+    if (present(y)) xs = 0.0_rp
     do jj = 0, st%ye - st%ys
       j = merge(st%ys + jj, st%ye - jj, forward)
       kbeg = 1
@@ -581,6 +598,10 @@ contains
       call subtract_rows(kbeg, st%nv, j, t)
       ! along the row, point by point: the points on one side visited already
       call point_row(nx, h, st%nr, dik, st%br(:, :, :, :, j), st%ainv(:, :, :, j), t, x(:, :, j), forward)
+      if (present(y) .and. .not. forward) then
+        call ring_row(st, h, x, j, xs)
+        if (j + 2 * st%r <= st%ye) call product_row(st, j + st%r, xs, acc, ds, y)
+      end if
     end do
   contains
     !> acc = acc - sum over the offsets kv(k0:k1) to other rows of row j's
@@ -847,6 +868,50 @@ contains
       end do
     end subroutine load_row
   end subroutine stencil_product_mixed
+
+  !> Row jr of a level's iterate x (single precision, padded, ghost rows
+  !> ys - h .. ye + h) widened into its slot modulo(jr, 2 r + 1) of xs, as
+  !> stencil_product_mixed keeps the rows of a double-precision x (zero
+  !> outside the lattice).
+  subroutine ring_row(st, h, x, jr, xs)
+    type(stencil_t), intent(in) :: st
+    integer, intent(in) :: h, jr
+    real(mp), intent(in) :: x(-h:, :, st%ys - h:)
+    real(rp), intent(inout) :: xs(-st%r:, :, 0:)
+    integer :: s, c
+    s = modulo(jr, 2 * st%r + 1)
+    if (jr < 0 .or. jr > st%ny - 1) then
+      xs(:, :, s) = 0.0_rp
+      return
+    end if
+    do c = 1, 3
+      xs(0:st%nx - 1, c, s) = real(x(0:st%nx - 1, c, jr), rp)
+    end do
+  end subroutine ring_row
+
+  !> Rows j0..j1 (within ys..ye) of y = A x, x a level's iterate with its
+  !> ghost rows exchanged, in the arithmetic of stencil_product_mixed (x
+  !> widened to double): the rows of the product that gs_sweep cannot form
+  !> as it goes. xs, acc, ds: work as there; y(3, 0:nx-1, ys:ye).
+  subroutine level_product_rows(st, h, x, j0, j1, xs, acc, ds, y)
+    type(stencil_t), intent(in) :: st
+    integer, intent(in) :: h, j0, j1
+    real(mp), intent(in) :: x(-h:, :, st%ys - h:)
+    real(rp), intent(inout) :: xs(-st%r:, :, 0:)
+    real(rp), intent(inout) :: acc(0:, :)
+    real(mp), intent(inout) :: ds(0:, :)
+    real(rp), intent(inout) :: y(:, 0:, st%ys:)
+    integer :: j, jr
+    if (j1 < j0) return
+    xs = 0.0_rp
+    do jr = j0 - st%r, j0 + st%r - 1
+      call ring_row(st, h, x, jr, xs)
+    end do
+    do j = j0, j1
+      call ring_row(st, h, x, j + st%r, xs)
+      call product_row(st, j, xs, acc, ds, y)
+    end do
+  end subroutine level_product_rows
 
   !> Row j of y = A x, as stencil_product_mixed, from the rows j - r .. j + r
   !> of x in their slots of xs.

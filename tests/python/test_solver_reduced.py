@@ -4,6 +4,7 @@ tight Newton tolerances both must give the same trajectory on every scene of
 input/, on 1 and 3 ranks. And the default solver on a large lattice: hang
 129 x 129 takes 20 steps without a failure and falls as a free cloth does."""
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -176,7 +177,7 @@ def test_parallel_multigrid_gives_the_one_rank_answer(tmp_path, impl, interpolat
 
 
 @pytest.mark.parametrize("scene, nranks, product", [("hang", 1, None), ("hang", 3, None), ("hang", 3, "double"),
-                                                     ("wave_point_energy", 2, None)])
+                                                     ("hang", 3, "mixed"), ("wave_point_energy", 2, None)])
 def test_default_inner_solver_gives_the_exact_newton_trajectory(tmp_path, scene, nranks, product):
     """The default inner solve (FGMRES with nuno's single-precision
     multigrid, its product with S from the multigrid's single-precision
@@ -185,7 +186,8 @@ def test_default_inner_solver_gives_the_exact_newton_trajectory(tmp_path, scene,
     product's precision cost iterations, not accuracy): hang, and
     wave_point with its keyframed corner on a 33 x 33 lattice (where 4
     levels fit), constrained nodes exact; and with the product over S in
-    double precision (-nuno_mg_product double)."""
+    double precision (-nuno_mg_product double) or in a pass of its own
+    (mixed; the default, fused, forms it in the cycles)."""
     tight = ("-snes_rtol", "1e-12", "-reduced_ksp_rtol", "1e-11", "-reduced_ksp_view")
     if product:
         tight += ("-nuno_mg_product", product)
@@ -199,6 +201,32 @@ def test_default_inner_solver_gives_the_exact_newton_trajectory(tmp_path, scene,
     assert moved > 1e-6
     err = np.abs(red.position - ref).max() / moved
     assert err < 1e-8, f"{scene} on {nranks} ranks: default differs from full by {err:.3e} of the displacement"
+
+
+@pytest.mark.parametrize("bending", ["energy", "none"])
+def test_fused_product_is_the_separate_product(tmp_path, bending):
+    """-nuno_mg_product fused (the default): each multigrid cycle forms
+    the product of its output with S in its last sweep, and the Krylov
+    method's product of that output is a copy. It must be the separate pass
+    (mixed) bit for bit, rows at the strips' edges included: hang 65 x 65
+    with and without bending, solved loosely (the bw mode, where every
+    rounding difference would change the iterates), on 1 and 3 ranks and
+    with V-cycles of two sweeps; and the cycles' products must be used."""
+    bw = ("-snes_type", "ksponly", "-reduced_ksp_rtol", "1e-3", "-reduced_ksp_view")
+    keys = dict(nx=65, ny=65, bending_model=f"'{bending}'")
+    for nranks, extra in ((1, ()), (3, ()), (3, ("-nuno_mg_cycle", "v", "-nuno_mg_sweeps", "2"))):
+        runs, procs = {}, {}
+        for product in ("mixed", "fused"):
+            name = f"{product}_{bending}_{nranks}_{len(extra)}"
+            procs[product], runs[product] = run_window(tmp_path, name, nranks,
+                                                       bw + extra + ("-nuno_mg_product", product), 12, 1.0 / 600.0, **keys)
+        used = [int(w) for w in re.findall(r"fused product: (\d+) products", procs["fused"].stdout)]
+        assert used and max(used) >= 12, f"the cycles' products were not used ({used})"
+        assert "fused product" not in procs["mixed"].stdout
+        assert np.array_equal(runs["fused"].position, runs["mixed"].position), \
+            f"fused and separate products differ on {nranks} ranks {extra}"
+        its = [int(r.diagnostics["linear_iterations"][-1]) for r in runs.values()]
+        assert its[0] == its[1]
 
 
 def run_window(tmp_path, name, nranks, options, n, dt, **keys):

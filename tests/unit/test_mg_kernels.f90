@@ -16,7 +16,7 @@ program test_mg_kernels
   use kinds, only: rp
   use mg_kernels, only: mp, stencil_t, transfer_t, stencil_init, stencil_put_row, stencil_finish, transfer_init, &
                         coarse_reach, coupled_by_elements, stencil_block, offset_index, gs_sweep, residual, stencil_apply, interpolate, restrict_add, galerkin_add, &
-                        stencil_from_full, stencil_product_mixed
+                        stencil_from_full, stencil_product_mixed, level_product_rows
   use offset_product, only: stencil_product, offset_count, offset_slot
   use check, only: check_true, check_close, check_report
   implicit none
@@ -49,6 +49,12 @@ program test_mg_kernels
   call test_product_mixed(1, 2, 6, 11)
   call test_product_mixed(2, 0, 8, 37)
   call test_product_mixed(1, 2, 6, 32)
+  call test_fused_product(1, 0, 8, 11)
+  call test_fused_product(2, 0, 8, 11)
+  call test_fused_product(2, 2, 8, 37)
+  call test_fused_product(1, 3, 6, 11)
+  call test_fused_product(2, 3, 5, 11)
+  call test_fused_product(2, 0, 3, 11)
   call check_report()
 
 contains
@@ -471,6 +477,71 @@ contains
       call check_close(maxval(abs(y - yd)), 0.0_rp, 0.0_rp, 1.0e-6_rp * scale, trim(label))
     end do
   end subroutine test_product_mixed
+
+  !> The product formed during a backward sweep (gs_sweep's xs, acc, ds,
+  !> y) and the rows it leaves to level_product_rows, on rows ys..ye of an
+  !> nx x 9 lattice (a strip: the ghost rows are a neighbour's, not
+  !> changed by the sweep), against stencil_product_mixed of the swept x
+  !> widened to double: the same arithmetic, so equal bit for bit. A
+  !> product formed from a row before the sweep had finished it, or from
+  !> the wrong rows, would differ by the sweep's change.
+  subroutine test_fused_product(r, ys, ye, nx)
+    integer, intent(in) :: r, ys, ye, nx
+    integer, parameter :: ny = 9
+    type(stencil_t) :: st
+    real(rp), allocatable :: full(:, :, :, :, :), xw(:, :, :), y(:, :, :), yref(:, :, :), xs(:, :, :), acc(:, :)
+    real(mp), allocatable :: ds(:, :), x(:, :, :), rhs(:, :, :), t(:, :), low(:, :, :)
+    real(rp) :: rnd(3, 3)
+    integer :: i, j, di, dj, c, gys, gye, k0
+    character(len=96) :: label
+    gys = max(0, ys - r)
+    gye = min(ny - 1, ye + r)
+    allocate(full(0:nx - 1, 3, 3, offset_count(r), 0:ny - 1))
+    allocate(xw(3, 0:nx - 1, gys:gye), y(3, 0:nx - 1, ys:ye), yref(3, 0:nx - 1, ys:ye))
+    allocate(xs(-r:nx - 1 + r, 3, 0:2 * r), acc(0:nx - 1, 4), ds(0:nx - 1, 3))
+    allocate(x(-r:nx - 1 + r, 3, ys - r:ye + r), rhs(0:nx - 1, 3, ys:ye), t(0:nx - 1, 3), low(0:nx - 1, 3, ys:ye))
+    full = 0.0_rp
+    k0 = offset_slot(r, 0, 0)
+    do j = 0, ny - 1
+      do i = 0, nx - 1
+        do c = 1, 3
+          full(i, c, c, k0, j) = 30.0_rp
+        end do
+        do dj = -r, r
+          do di = -r, r
+            if (offset_slot(r, di, dj) == 0 .or. (di == 0 .and. dj == 0)) cycle
+            if (i + di < 0 .or. i + di >= nx .or. j + dj < 0 .or. j + dj >= ny) cycle
+            call random_number(rnd)
+            full(i, :, :, offset_slot(r, di, dj), j) = -(0.5_rp + rnd)
+            full(i, :, :, k0, j) = full(i, :, :, k0, j) + 0.5_rp + rnd
+          end do
+        end do
+      end do
+    end do
+    call stencil_init(st, nx, ny, ys, ye, r, lines=.true.)
+    call stencil_from_full(st, full(:, :, :, :, ys:ye))
+    call random_number(x)
+    x = x - 0.5_mp
+    x(-r:-1, :, :) = 0.0_mp
+    x(nx:, :, :) = 0.0_mp
+    call random_number(rhs)
+    y = -1.0_rp
+    call gs_sweep(st, r, x, rhs, .true., t, low)
+    call gs_sweep(st, r, x, rhs, .false., t, low, xs, acc, ds, y)
+    call level_product_rows(st, r, x, ys, min(ys + r - 1, ye), xs, acc, ds, y)
+    call level_product_rows(st, r, x, max(ye - r + 1, ys + r), ye, xs, acc, ds, y)
+    do j = gys, gye
+      do i = 0, nx - 1
+        do c = 1, 3
+          xw(c, i, j) = real(x(i, c, j), rp)
+        end do
+      end do
+    end do
+    call stencil_product_mixed(st, gys, gye, xw, yref, xs, acc, ds)
+    write(label, '(a, i0, a, i0, a, i0, a, i0)') 'product formed in the backward sweep, reach ', r, ', rows ', ys, '..', ye, &
+      ', nx ', nx
+    call check_close(maxval(abs(y - yref)), 0.0_rp, 0.0_rp, 0.0_rp, trim(label))
+  end subroutine test_fused_product
 
   !> One block Gauss-Seidel sweep on the dense matrix a (node order of
   !> gidx): x_p = A_pp^-1 (b_p - sum_{q /= p} A_pq x_q), nodes in
