@@ -377,6 +377,7 @@ contains
     character(64) :: name
     logical :: in_group, in_comment, at_word_start
     integer :: i, k, n, nc, g, nlines, maxlen, line_start, cur, group_start_line, line_no
+    integer :: first                         ! the first character of the text (after a byte-order mark)
 
     ierr = 0
     msg = ''
@@ -394,10 +395,12 @@ contains
     line_no = 1
     group_start_line = 0
     i = 1
-    ! A UTF-8 byte-order mark (some editors write one) is not text.
+    ! A UTF-8 byte-order mark (some editors write one) is not text (the
+    ! bytes by value: achar of them is outside ASCII).
     if (n >= 3) then
-      if (text(1:3) == achar(239)//achar(187)//achar(191)) i = 4
+      if (ichar(text(1:1)) == 239 .and. ichar(text(2:2)) == 187 .and. ichar(text(3:3)) == 191) i = 4
     end if
+    first = i
     do while (i <= n)
       c = text(i:i)
       if (c == achar(13) .or. c == achar(9)) c = ' '
@@ -428,8 +431,8 @@ contains
       end if
       if (.not. in_group) then
         ! A group starts with &name (or $name) at the start of a line or after a blank.
-        at_word_start = i == 1
-        if (i > 1) at_word_start = index(' /'//achar(9)//achar(10)//achar(13), text(i - 1:i - 1)) > 0
+        at_word_start = i == first
+        if (i > first) at_word_start = index(' /'//achar(9)//achar(10)//achar(13), text(i - 1:i - 1)) > 0
         if ((c == '&' .or. c == '$') .and. at_word_start) then
           call get_name(text, i + 1, name, k)
           if (len_trim(name) > 0 .and. .not. (name(1:1) >= '0' .and. name(1:1) <= '9')) then

@@ -84,6 +84,21 @@ def test_binary_garbage_is_refused_in_printable_text(tmp_path):
     assert not list(tmp_path.glob("*.h5*"))
 
 
+def test_byte_order_mark_is_not_text(tmp_path):
+    """A UTF-8 byte-order mark (some Windows editors write one) before the
+    first group: the file runs as without it (the mark was skipped, and the
+    group after it then refused as text outside a group); the same bytes
+    anywhere else are still text."""
+    body = SMALL + "&output output_file='bom.h5' /\n"
+    (tmp_path / "bom.nml").write_bytes(b"\xef\xbb\xbf" + body.encode())
+    proc = launch(tmp_path, ["bom.nml"])
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "bom.h5").exists()
+    (tmp_path / "late.nml").write_bytes(b"\n\xef\xbb\xbf" + body.encode())
+    line = one_error_line(launch(tmp_path, ["late.nml"]))
+    assert "line 2" in line and "outside a namelist group" in line
+
+
 def test_allow_long_lifts_only_the_step_bound(tmp_path):
     """-nuno_allow_long passes the step bound; the next check (the index
     space) then stops the run, so the option is seen and nothing runs long."""
