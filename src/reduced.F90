@@ -34,8 +34,7 @@ module reduced
   use offset_product, only: stencil_product, offset_count
   use interpolation, only: cubic_weights
   use inner_guess, only: GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, guess_weights
-  use mg_kernels, only: stencil_product_mixed, mp
-  use stencil_mg, only: stencil_mg_t, mg_create, mg_destroy, mg_build_coarse, mg_apply, mg_describe, &
+  use stencil_mg, only: stencil_mg_t, mg_create, mg_destroy, mg_build_coarse, mg_apply, mg_describe, mg_product, &
                         MG_MULTIPLICATIVE, MG_KASKADE
   implicit none
   private
@@ -78,9 +77,6 @@ module reduced
     ! The product with S from the multigrid's finest level (single-precision
     ! blocks in difference form, double-precision vectors; -nuno_mg_product)
     logical :: mixed_product = .false.
-    real(rp), allocatable :: pxs(:, :, :)  !< (-w:nx-1+w, 3, 0:2w) work: rows of x along x fastest
-    real(rp), allocatable :: pacc(:, :)    !< (0:nx-1, 4) work: one row of y
-    real(mp), allocatable :: pds(:, :)     !< (0:nx-1, 3) work: one offset's differences in single precision
     ! The fused product (-nuno_mg_product fused): each multigrid cycle forms
     ! the product of its output z with S in its last sweep (pax); the
     ! Krylov method's next product is of z (FGMRES: w = S M^{-1} v), and
@@ -305,7 +301,6 @@ contains
       ! the triples reach two rows back; module reduced_assembly)
       if (red%mixed_product) then
         allocate(red%st(0:nx - 1, 3, 3, offset_count(w), 0:2 * w - 2))
-        allocate(red%pxs(-w:nx - 1 + w, 3, 0:2 * w), red%pacc(0:nx - 1, 4), red%pds(0:nx - 1, 3))
       else
         allocate(red%st(0:nx - 1, 3, 3, offset_count(w), 0:n - 1))
       end if
@@ -819,7 +814,7 @@ contains
     associate (lat => red%lat)
       if (red%mixed_product) then
         ! the finest level is made from S at every assembly (reduced_assemble)
-        call stencil_product_mixed(red%mg%lev(1)%a, lat%gys, lat%gye, xl, ya, red%pxs, red%pacc, red%pds)
+        call mg_product(red%mg, lat%gys, lat%gye, xl, ya)
       else
         call stencil_product(lat%nx, lat%ny, lat%ys, lat%ye, lat%gys, lat%gye, lat%halo, red%st, xl, ya)
       end if

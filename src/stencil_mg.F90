@@ -26,10 +26,12 @@ module stencil_mg
   use kinds, only: rp
   use mg_kernels, only: mp, stencil_t, transfer_t, stencil_init, stencil_put_row, stencil_finish, stencil_from_full, transfer_init, offset_index, &
                         stencil_block, diagonal_block, &
-                        coarse_reach, gs_sweep, residual, interpolate, restrict_add, galerkin_add, level_product_rows
+                        coarse_reach, gs_sweep, residual, interpolate, restrict_add, galerkin_add, level_product_rows, &
+                        stencil_product_mixed
   implicit none
   private
-  public :: stencil_mg_t, mg_create, mg_destroy, mg_set_fine_row, mg_set_fine, mg_build_coarse, mg_apply, mg_describe
+  public :: stencil_mg_t, mg_create, mg_destroy, mg_set_fine_row, mg_set_fine, mg_build_coarse, mg_apply, mg_describe, &
+            mg_product
   public :: MG_MULTIPLICATIVE, MG_KASKADE
 
   integer, parameter :: MG_MULTIPLICATIVE = 1, MG_KASKADE = 2
@@ -73,9 +75,9 @@ module stencil_mg
     !> the Galerkin sums of one coarse level at a time (the largest's size):
     !> they are needed only while that level is built from them
     real(rp), pointer, contiguous :: acw(:) => null()
-    !> work of the product formed in the finest level's last sweep
-    !> (mg_apply's ax): 2 r + 1 rows of x, one row of the product, one
-    !> offset's differences
+    !> work of the products with the finest level (mg_product, and the one
+    !> formed in its last sweep: mg_apply's ax): 2 r + 1 rows of x, one row
+    !> of the product, one offset's differences
     real(rp), allocatable :: pxs(:, :, :)        !< (-r:nx-1+r, 3, 0:2r)
     real(rp), allocatable :: pacc(:, :)          !< (0:nx-1, 4)
     real(mp), allocatable :: pds(:, :)           !< (0:nx-1, 3)
@@ -546,6 +548,18 @@ contains
       end do
     end associate
   end subroutine mg_apply
+
+  !> y = A x with the finest level's operator (kernel stencil_product_mixed:
+  !> double-precision vectors, single-precision blocks in difference form).
+  !> x(3, 0:nx-1, gys:gye), the rows ys - r .. ye + r that lie in the
+  !> lattice, exchanged by the caller; y(3, 0:nx-1, ys:ye).
+  subroutine mg_product(mg, gys, gye, x, y)
+    type(stencil_mg_t), intent(inout) :: mg
+    integer, intent(in) :: gys, gye
+    real(rp), intent(in), contiguous :: x(:)
+    real(rp), intent(out), contiguous :: y(:)
+    call stencil_product_mixed(mg%lev(1)%a, gys, gye, x, y, mg%pxs, mg%pacc, mg%pds)
+  end subroutine mg_product
 
   !> Lines that describe the hierarchy (for -reduced_ksp_view): per level
   !> its lattice, reach, stored blocks a node, bytes a node, and the bytes
