@@ -63,7 +63,6 @@ contains
     logical, intent(inout) :: ok(ld)
     real(rp) :: a(3), b(3), dl(6), l1, l2, ipsi, il1, il2, kb(3), gpsi(6), je(3, 6), lam(3), ge(6), keep
     real(rp) :: psi, z(3)                 ! (work of lane_geometry.inc)
-    logical :: good
     integer :: i, q, c
 
     !GCC$ ivdep
@@ -197,7 +196,6 @@ contains
     real(rp) :: kbdot(3), lam(3), e1h(3), e2h(3), hpd(6), dpsi, ae(3, 6), gs(6), sv, hs(6, 6), full, keep, jtj
     real(rp) :: a1, a2, ejae
     real(rp) :: psi, z(3)                 ! (work of lane_geometry.inc)
-    logical :: good
     integer :: i, p, q, c
 
     full = merge(0.0_rp, 1.0_rp, gauss_newton)
@@ -325,7 +323,7 @@ contains
     real(rp), intent(inout) :: pw(ld)     ! [energy/time] (lanes 1..n set)
     real(rp) :: a(3), b(3), dl(6), l1, l2, ipsi, il1, il2, kb(3), gpsi(6), je(3, 6), kbdot(3), keep
     real(rp) :: psi, z(3)                 ! (work of lane_geometry.inc)
-    logical :: good, ok(ld)
+    logical :: ok(ld)
     integer :: i, q, c
 
     !GCC$ ivdep
