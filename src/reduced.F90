@@ -1091,19 +1091,17 @@ contains
   end subroutine set_block_row
 
   !> g = -(K w_x + C w_v) on the owned rows, at the state of the last
-  !> assembly, from the element blocks (one pass over the elements).
+  !> assembly, from the element blocks: one pass over the elements with
+  !> the assembly's vector kernels, S not written (csr_assemble's products
+  !> only; kd comes out as the assembly left it). Through the element
+  !> buffer one block at a time, a product with the 6-dof Jacobian took 3
+  !> assemblies' time, and every iteration of a backtracking line search
+  !> one (its slope): -snes_linesearch_type bt ran 2.4x slower.
   subroutine element_products(red, w)
     type(reduced_t), intent(inout) :: red
     real(rp), intent(in) :: w(0:, 0:, red%lat%gys:)
-    integer :: ja
-    red%jbuf%k = 0.0_rp
-    red%jbuf%c = 0.0_rp
-    do ja = first_anchor_row(red%lat), red%lat%ye
-      call jac_buffer_row(red%jbuf, red%lat, red%ujac, ja, red%clamp, red%gauss_newton)
-      if (ja >= red%lat%ys) call buffer_row_apply(red%jbuf, red%lat, w, ja, red%damping, red%g(:, :, ja))
-      red%jbuf%k(:, :, :, :, :, slot_of(ja)) = 0.0_rp
-      red%jbuf%c(:, :, :, :, :, slot_of(ja)) = 0.0_rp
-    end do
+    call csr_assemble(red%lat, red%ujac, red%fixedg, red%a, red%damping, red%clamp, red%gauss_newton, w, &
+                      red%lb, red%vals, red%g, red%kd)
   end subroutine element_products
 
   !> The right-hand side of S dv = rhs for the 6-dof right-hand side b

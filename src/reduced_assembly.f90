@@ -74,6 +74,10 @@ contains
   !> Constrained rows get a m I and constrained columns nothing, as in
   !> module reduced_blocks. u, w(0:5, 0:nx-1, gys:gye), ghost rows filled.
   !>
+  !> Given neither st nor ia/av (products only), S is not written: g and kd
+  !> alone, one pass over the elements with the assembly's vector kernels
+  !> (the 6-dof Jacobian's product, module reduced's element_products).
+  !>
   !> Links are gathered: the blocks of the links of two anchor rows are kept
   !> (lb), and each node row is then written whole, in the CSR order, with
   !> no zeroing and no read-modify-write. Bending triples (9 blocks each,
@@ -105,8 +109,10 @@ contains
     type(stencil_t), intent(inout), optional :: fine
     integer :: j, k, jt, lag
     real(rp) :: d0(3, 4), len0(4), c9(9, 9), rinv
+    logical :: write_s                             ! false: the products g, kd only
     integer :: kof(-2:2, -2:2)                     ! slot of each offset in st
 
+    write_s = present(st) .or. present(ia)
     kof = 0
     call offset_table(lat%halo, kof(-lat%halo:lat%halo, -lat%halo:lat%halo))
     g = 0.0_rp
@@ -190,7 +196,7 @@ contains
           end do
         end do
       end do
-      if (own_p) then
+      if (own_p .and. write_s) then
         if (present(st)) then
           call put_rows_st(j0)
         else
@@ -281,7 +287,7 @@ contains
             call triple_lane_edges(lat, u, j0, k, i0, nl1, NL, e1, e2, de)
             call energy_jacobian_lanes(nl1, NL, kb, etab, e1, e2, de, gauss_newton, ke, ce, okl)
             if (.not. with_damping) ce = 0.0_rp
-            if (present(st)) then
+            if (present(st) .or. .not. write_s) then
               call add_triple_lanes(j0, i0, nl1, NL, dx, dy, ke, ce)
               cycle
             end if
@@ -352,6 +358,7 @@ contains
         if (jp < lat%ys .or. jp > lat%ye) cycle
         sp = srow(jp)
         call sub_lane_forces(nl, ld, t(1, pp), t(2, pp), h, ke, g(:, ip0:ip0 + nl - 1, jp), kd(:, ip0:ip0 + nl - 1, jp))
+        if (.not. write_s) cycle
         do qq = 1, 3
           iq0 = i0 + (qq - 1) * dx
           jq2 = j0 + (qq - 1) * dy
@@ -526,6 +533,7 @@ contains
       real(rp), intent(in) :: blk(3, 3)
       integer :: pos(0:2), r
       logical :: diag
+      if (.not. write_s) return
       if (present(st)) then
         st(ip, :, :, kof(di, dj), srow(jp)) = st(ip, :, :, kof(di, dj), srow(jp)) + blk
         return
