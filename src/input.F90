@@ -1743,6 +1743,8 @@ contains
       '                                               applied matrix-free, Gauss-Newton preconditioner)', &
       '  -nuno_clamp_compression                      drop the indefinite compression term of the springs', &
       '                                               from the assembled matrix (preconditioner use)', &
+      '  -nuno_linesearch_fallback bt|l2|none         after a failed Newton solve, the rest of the run takes', &
+      '                                               this line search instead of full steps (default bt)', &
       'With -nuno_jacobian full:', &
       '  -ksp_type gmres|bcgs|preonly, -pc_type ilu|lu|bjacobi|fieldsplit|gamg', &
       '  -dm_mat_type baij|aij                        Jacobian storage (default baij 6x6; aij for fieldsplit)'

@@ -74,6 +74,30 @@ PetscErrorCode nuno_options_read(MPI_Fint fcomm, int *jacobian, int *pc_lag, int
   PetscFunctionReturn(0);
 }
 
+/* The Newton step's line search after a failed Newton solve (reduced path,
+ * whose default is full steps; module timestepping): fallback in/out 0 =
+ * none, 1 = bt, 2 = l2 (-nuno_linesearch_fallback); *given 1 when it is
+ * set, *ls_given 1 when -snes_linesearch_type is (the user's line search
+ * then holds for the whole run). Collective. */
+PetscErrorCode nuno_linesearch_options_read(MPI_Fint fcomm, int *fallback, int *given, int *ls_given)
+{
+  static const char *const fallbacks[] = {"none", "bt", "l2"};
+  MPI_Comm  comm = MPI_Comm_f2c(fcomm);
+  PetscInt  fb   = *fallback;
+  PetscBool set = PETSC_FALSE, lset = PETSC_FALSE;
+
+  PetscFunctionBeginUser;
+  PetscOptionsBegin(comm, NULL, "nuno: the Newton step's line search (input/README.md)", "nuno");
+  PetscCall(PetscOptionsEList("-nuno_linesearch_fallback", "reduced path: once a Newton solve has failed (its step retried smaller), the rest of the run takes this line search instead of full steps: bt (backtracking), l2 or none",
+                              "nuno", fallbacks, 3, fallbacks[fb], &fb, &set));
+  PetscOptionsEnd();
+  PetscCall(PetscOptionsHasName(NULL, NULL, "-snes_linesearch_type", &lset));
+  *fallback = (int)fb;
+  *given    = set ? 1 : 0;
+  *ls_given = lset ? 1 : 0;
+  PetscFunctionReturn(0);
+}
+
 /* nuno's structured multigrid, the default inner preconditioner (module
  * stencil_mg): impl in/out 0 = stencil (nuno's), 1 = petsc (PETSc's PCMG
  * with Galerkin operators and SOR, the earlier default); cycle in/out 1 =

@@ -98,6 +98,14 @@ module timestepping
       character(kind=c_char), intent(inout) :: mattype(*)
       integer(c_int), value :: mattype_len
     end function nuno_options_read
+    !> src/nuno_options.c: -nuno_linesearch_fallback, and whether -snes_linesearch_type is given.
+    integer(c_int) function nuno_linesearch_options_read(fcomm, fallback, given, ls_given) &
+        bind(C, name='nuno_linesearch_options_read')
+      import :: c_int
+      integer(c_int), value :: fcomm
+      integer(c_int), intent(inout) :: fallback
+      integer(c_int), intent(out) :: given, ls_given
+    end function nuno_linesearch_options_read
     !> src/nuno_options.c: -nuno_atol_position, -nuno_atol_velocity (after TSSetFromOptions).
     integer(c_int) function nuno_tolerance_options_read(fcomm, atol_x, atol_v, given_x, given_v) &
         bind(C, name='nuno_tolerance_options_read')
@@ -195,6 +203,10 @@ module timestepping
     real(rp) :: tstop = 0                       !< end of the current time window [time]
     PetscInt :: rejects_seen = 0                !< step rejections already answered by the monitor
     integer :: fail_newton = 0                  !< -nuno_fail_newton: Newton solves still to be declared failed
+    !> -nuno_linesearch_fallback: 0 none, 1 bt, 2 l2 (the line search once a
+    !> Newton solve has failed); ls_switched once it has been put in place
+    integer :: ls_fallback = 0
+    logical :: ls_switched = .false.
     ! progress
     real(rp) :: wall0 = 0                       !< MPI_Wtime at the start of solver_run [s]
     real(rp) :: t_written = -1                  !< time of the last output step [time]
@@ -250,7 +262,7 @@ contains
     PetscScalar, pointer :: ua(:, :, :)
     character(len=64) :: mattype
     character(len=64, kind=c_char) :: cmattype
-    integer(c_int) :: jac_full, pc_lag, gn, cl, nfail, mg_interp, applied, forcing
+    integer(c_int) :: jac_full, pc_lag, gn, cl, nfail, mg_interp, applied, forcing, ls_fallback, ls_given, ls_type_given
     logical :: symmetric, constant, damping
 
     ctx%cfg = cfg
@@ -289,6 +301,19 @@ contains
     ctx%gauss_newton = gn /= 0
     ctx%clamp = cl /= 0
     ctx%fail_newton = nfail
+    ls_fallback = 1
+    ierr = nuno_linesearch_options_read(ctx%comm, ls_fallback, ls_given, ls_type_given)
+    if (ierr /= 0) return
+    if (ls_given /= 0 .and. .not. ctx%use_reduced) then
+      ierr = PETSC_ERR_ARG_INCOMP
+      SETERRQ(ctx%comm, ierr, 'nuno: -nuno_linesearch_fallback is for the reduced path; with -nuno_jacobian full Newton backtracks (bt) from the start')
+    end if
+    if (ls_given /= 0 .and. ls_type_given /= 0) then
+      ierr = PETSC_ERR_ARG_INCOMP
+      SETERRQ(ctx%comm, ierr, 'nuno: -nuno_linesearch_fallback and -snes_linesearch_type: give one (the first changes the line search after a failed Newton solve, the second sets it for the whole run)')
+    end if
+    ctx%ls_fallback = 0
+    if (ctx%use_reduced .and. ls_type_given == 0) ctx%ls_fallback = ls_fallback
     mattype = cmattype(1:index(cmattype, c_null_char) - 1)
     PetscCall(DMSetMatType(ctx%da, mattype, ierr))
     PetscCall(DMSetUp(ctx%da, ierr))
@@ -914,7 +939,7 @@ contains
     type(app_ctx) :: ctx
     PetscErrorCode :: ierr
     real(rp) :: p(2), h, hmax, tq, pq(2)
-    PetscInt :: rejects
+    PetscInt :: rejects, nfails
     integer :: q
 
     ! A failed Newton solve makes the TS retry the step with dt/4, and with
@@ -944,6 +969,19 @@ contains
     end if
     ctx%monitor_seen = .true.
     ctx%monitor_step = step
+    ! After a failed Newton solve (its step retried smaller and now
+    ! accepted) the run's remaining steps take -nuno_linesearch_fallback
+    ! instead of full steps: a membrane without bending that buckles at the
+    ! lattice's scale can make full Newton steps overshoot again and again
+    ! (hang 257 x 257, dt = 1 ms: eight failures and the run stopped at
+    ! t = 0.21 s). It costs nothing until then (bt: a product with the
+    ! 6-dof Jacobian an iteration, for its slope).
+    if (ctx%ls_fallback > 0 .and. .not. ctx%ls_switched) then
+      PetscCall(TSGetSNESFailures(ts, nfails, ierr))
+      if (nfails > 0) then
+        PetscCall(linesearch_fallback(ts, ctx, t, ierr))
+      end if
+    end if
     ! the accepted step's first Newton correction, for the next inner guesses
     if (ctx%use_reduced) call reduced_step_accepted(ctx%red)
     PetscCall(TSGetStepRejections(ts, rejects, ierr))
@@ -1016,6 +1054,27 @@ contains
       end if
     end if
   end subroutine ts_monitor
+
+  !> Put -nuno_linesearch_fallback's line search in place of full steps
+  !> (the user's other -snes_linesearch_* options apply to it) and say so
+  !> once, on rank 0.
+  subroutine linesearch_fallback(ts, ctx, t, ierr)
+    type(tTS) :: ts
+    type(app_ctx) :: ctx
+    real(rp), intent(in) :: t
+    PetscErrorCode, intent(out) :: ierr
+    type(tSNES) :: snes
+    SNESLineSearch :: linesearch
+    character(len=2) :: kind
+    kind = merge('bt', 'l2', ctx%ls_fallback == 1)
+    PetscCall(TSGetSNES(ts, snes, ierr))
+    PetscCall(SNESGetLineSearch(snes, linesearch, ierr))
+    PetscCall(SNESLineSearchSetType(linesearch, kind, ierr))
+    PetscCall(SNESLineSearchSetFromOptions(linesearch, ierr))
+    ctx%ls_switched = .true.
+    if (ctx%rank == 0) write(output_unit, '(a)') 'nuno: after a failed Newton solve (its step retried smaller), line search '// &
+      kind//' from t = '//num(t)//' on (-nuno_linesearch_fallback)'
+  end subroutine linesearch_fallback
 
   !> Global dissipated power p(1) and power of the constraint reactions p(2)
   !> = -sum over moving constrained nodes of (f_internal + m g) . vbar.

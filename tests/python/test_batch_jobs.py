@@ -126,6 +126,27 @@ def test_fixed_step_returns_to_dt_after_a_retry(tmp_path):
     assert list(r2.diagnostics["steps"]) == [0, 6, 11]
 
 
+def test_line_search_falls_back_after_a_failed_newton_solve(tmp_path):
+    """After the failed Newton solve of -nuno_fail_newton 1 (its step retried
+    smaller) the run's remaining steps backtrack (bt) instead of taking full
+    steps: PETSc's line search monitor, which full steps never print to,
+    reports one line per Newton iteration of the 10 steps after the retry,
+    and the run says so once. With -nuno_linesearch_fallback none no line
+    search runs. bt accepts the full Newton steps of this smooth scene, so
+    both runs end in the same state up to Newton's tolerance."""
+    opts = ("-nuno_fail_newton", "1", "-snes_linesearch_monitor")
+    proc, r = run_and_read(tmp_path, "fb", nranks=2, options=opts, **lift(10 * DT, 10 * DT))
+    assert proc.stdout.count("line search bt from t = ") == 1
+    searches = proc.stdout.count("Line search:")
+    newton = fields(progress_lines(proc.stdout)[-1])["newton"]
+    assert 10 <= searches <= newton, (searches, newton)
+    proc0, r0 = run_and_read(tmp_path, "nofb", nranks=2, options=opts + ("-nuno_linesearch_fallback", "none"),
+                             **lift(10 * DT, 10 * DT))
+    assert "Line search:" not in proc0.stdout and "from t = " not in proc0.stdout
+    assert r.complete and r0.complete
+    np.testing.assert_allclose(r.position[-1], r0.position[-1], rtol=0, atol=1e-9)
+
+
 # ------------------------------------------------------------- progress line
 
 def test_progress_line_parses_and_matches_the_file(tmp_path):

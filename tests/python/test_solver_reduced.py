@@ -128,9 +128,19 @@ def test_a_step_retried_after_a_failed_inner_solve_goes_on(tmp_path):
     ("-nuno_mg_product", "single", "Unknown option single for -nuno_mg_product"),
     ("-nuno_mg_sweeps", "0", "-nuno_mg_sweeps 0 must be >= 1"),
     ("-nuno_mg_interpolation", "quintic", "Unknown option quintic for -nuno_mg_interpolation"),
+    ("-nuno_linesearch_fallback", "cp", "Unknown option cp for -nuno_linesearch_fallback"),
 ])
 def test_bad_solver_option_is_refused_on_every_rank(tmp_path, option, value, words):
     proc = run_refused(tmp_path, (option, value))
+    assert words in proc.stdout + proc.stderr
+
+
+@pytest.mark.parametrize("options, words", [
+    (("-nuno_linesearch_fallback", "l2", "-snes_linesearch_type", "bt"), "-nuno_linesearch_fallback and -snes_linesearch_type: give one"),
+    (("-nuno_linesearch_fallback", "bt", "-nuno_jacobian", "full"), "-nuno_linesearch_fallback is for the reduced path"),
+])
+def test_a_line_search_fallback_the_run_cannot_use_is_refused(tmp_path, options, words):
+    proc = run_refused(tmp_path, options)
     assert words in proc.stdout + proc.stderr
 
 
