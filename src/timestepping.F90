@@ -975,10 +975,12 @@ contains
     ! lattice's scale can make full Newton steps overshoot again and again
     ! (hang 257 x 257, dt = 1 ms: eight failures and the run stopped at
     ! t = 0.21 s). It costs nothing until then (bt: a product with the
-    ! 6-dof Jacobian an iteration, for its slope).
+    ! 6-dof Jacobian an iteration, for its slope). A run restarted from a
+    ! checkpoint after such a failure (counts_before) backtracks from its
+    ! first step, as the run it continues did.
     if (ctx%ls_fallback > 0 .and. .not. ctx%ls_switched) then
       PetscCall(TSGetSNESFailures(ts, nfails, ierr))
-      if (nfails > 0) then
+      if (nfails + nint(ctx%counts_before(5)) > 0) then
         PetscCall(linesearch_fallback(ts, ctx, t, ierr))
       end if
     end if

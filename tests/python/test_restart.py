@@ -65,6 +65,27 @@ def test_restart_equals_the_continuous_run_bitwise(tmp_path):
         assert np.all(np.diff(w) >= 0)
 
 
+def test_a_restart_after_a_failed_newton_solve_backtracks_from_its_first_step(tmp_path):
+    """The run's first Newton solve is failed on purpose (-nuno_fail_newton 1):
+    from the retried step on it backtracks (-nuno_linesearch_fallback bt),
+    and so does its continuation from the checkpoint at t = 0.1, from its
+    first step (PETSc's line search monitor prints a line per Newton
+    iteration only where a line search runs); it ends where the continuous
+    run ends."""
+    mon = ["-snes_linesearch_monitor"]
+    proc_full, full = run(tmp_path, "full", nranks=2, options=["-nuno_fail_newton", "1", *mon], **HANG)
+    assert "line search bt from t = " in proc_full.stdout
+    half_groups = dict(HANG, time="t_end=0.1 dt=0.005")
+    run(tmp_path, "half", nranks=2, options=["-nuno_fail_newton", "1"], **half_groups)
+    proc, half = restart(tmp_path, "half", tmp_path / "half.h5", nranks=2, options=mon, **HANG)
+    assert "line search bt from t = 1.00000E-01" in proc.stdout
+    a, _ = series(full)
+    b, _ = series(half)
+    newton_after = int(b["diagnostics/newton_iterations"][-1] - b["diagnostics/newton_iterations"][2])
+    assert proc.stdout.count("Line search:") == newton_after > 0
+    np.testing.assert_array_equal(a["position"], b["position"])
+
+
 def test_restart_on_other_ranks_and_adaptive_bdf_agrees_to_tolerance(tmp_path):
     adaptive = ["-ts_type", "bdf", "-ts_adapt_type", "basic", "-ts_rtol", "1e-7", "-ts_atol", "1e-7"]
     _, full = run(tmp_path, "full", nranks=1, options=adaptive, **HANG)
