@@ -9,6 +9,7 @@
 #
 #   source tools/env.sh
 #   bash bench/ab.sh OLD/build/nuno build/nuno [N] [REPEAT] > bench/results/DATE-ab.txt
+#   CASES="bw_yes" bash bench/ab.sh OLD/build/nuno build/nuno 257 5   # one case, five pairs
 set -euo pipefail
 old=$(realpath "$1") new=$(realpath "$2") n=${3:-257} repeat=${4:-2}
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -30,7 +31,8 @@ write bw_no no "1.0/600" 30
 write newton_yes yes 0.001 10
 write newton_no no 0.001 10
 echo "triad [GB/s, one core]: $(./triad)"
-for case in bw_yes bw_no newton_yes newton_no; do
+for case in ${CASES:-bw_yes bw_no newton_yes newton_no}; do
+  [ -f "$case.nml" ] || { echo "bench/ab.sh: unknown case '$case' (bw_yes bw_no newton_yes newton_no)" >&2; exit 2; }
   opts=()
   [[ $case == bw_* ]] && opts=(-snes_type ksponly -reduced_ksp_rtol 1e-3)
   echo "== $case (hang $n x $n, 1 rank ${opts[*]})"
