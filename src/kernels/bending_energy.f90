@@ -242,42 +242,46 @@ contains
       do q = 1, 6
         gs(q) = lam(1)*je(1, q) + lam(2)*je(2, q) + lam(3)*je(3, q)
       end do
+      ! Hs is symmetric: its upper triangle only, each entry used for both
       !GCC$ unroll 3
       do q = 1, 3
         !GCC$ unroll 3
-        do p = 1, 3
+        do p = 1, q
           hs(p, q) = -r12*e1h(p)*e1h(q)
           hs(p + 3, q + 3) = -r21*e2h(p)*e2h(q)
+        end do
+        !GCC$ unroll 3
+        do p = 1, 3
           hs(p, q + 3) = e1h(p)*e2h(q)
-          hs(p + 3, q) = e2h(p)*e1h(q)
         end do
         hs(q, q) = hs(q, q) + r12
         hs(q + 3, q + 3) = hs(q + 3, q + 3) + r21
         hs(q, q + 3) = hs(q, q + 3) + 1.0_rp
-        hs(q + 3, q) = hs(q + 3, q) + 1.0_rp
       end do
       !GCC$ unroll 6
       do q = 1, 6
         !GCC$ unroll 6
-        do p = 1, 6
+        do p = 1, q
           hs(p, q) = -sv*hs(p, q) - gs(p)*gpsi(q) - gpsi(p)*gs(q)
         end do
       end do
-      ! Hess(lambda.z): blocks (1,2) = -2 [lambda]x, (2,1) = 2 [lambda]x
+      ! Hess(lambda.z): block (1,2) = -2 [lambda]x (its mirror (2,1) the same by symmetry)
       hs(1, 5) = hs(1, 5) + 2.0_rp*lam(3);  hs(1, 6) = hs(1, 6) - 2.0_rp*lam(2)
       hs(2, 4) = hs(2, 4) - 2.0_rp*lam(3);  hs(2, 6) = hs(2, 6) + 2.0_rp*lam(1)
       hs(3, 4) = hs(3, 4) + 2.0_rp*lam(2);  hs(3, 5) = hs(3, 5) - 2.0_rp*lam(1)
-      hs(4, 2) = hs(4, 2) - 2.0_rp*lam(3);  hs(4, 3) = hs(4, 3) + 2.0_rp*lam(2)
-      hs(5, 1) = hs(5, 1) + 2.0_rp*lam(3);  hs(5, 3) = hs(5, 3) - 2.0_rp*lam(1)
-      hs(6, 1) = hs(6, 1) - 2.0_rp*lam(2);  hs(6, 2) = hs(6, 2) + 2.0_rp*lam(1)
       !GCC$ unroll 6
       do q = 1, 6
         !GCC$ unroll 6
-        do p = 1, 6
+        do p = 1, q
           jtj = je(1, p)*je(1, q) + je(2, p)*je(2, q) + je(3, p)*je(3, q)
           ejae = je(1, p)*ae(1, q) + je(2, p)*ae(2, q) + je(3, p)*ae(3, q)
           ke(i, p, q) = keep*(-k_b*jtj - full*(eta_b*ejae + hs(p, q)*ipsi))
           ce(i, p, q) = keep*(-eta_b*jtj)
+          if (p /= q) then
+            ejae = je(1, q)*ae(1, p) + je(2, q)*ae(2, p) + je(3, q)*ae(3, p)
+            ke(i, q, p) = keep*(-k_b*jtj - full*(eta_b*ejae + hs(p, q)*ipsi))
+            ce(i, q, p) = keep*(-eta_b*jtj)
+          end if
         end do
       end do
     end do
