@@ -328,14 +328,19 @@ contains
     !> l = 1..nl, from their Jacobians in the edge variables ke(l, :, :),
     !> ce(l, :, :), into S by stencil offset: each sum formed for all the
     !> triples at once (vector loops over l), then added to nl consecutive
-    !> nodes of a row (no two the same).
+    !> nodes of a row (no two the same). Block (P, Q) of T^T m T is formed
+    !> in two halves, node P's rows r = t_1P m(1:3, :) + t_2P m(4:6, :)
+    !> once for its three blocks, then t_1Q r(:, 1:3) + t_2Q r(:, 4:6) added
+    !> to S as it is formed (each block's four products with T's entries,
+    !> kept, then added, were two fifths of this routine).
     subroutine add_triple_lanes(j0, i0, nl, ld, dx, dy, ke, ce)
       integer, intent(in) :: j0, i0, nl, ld, dx, dy
       real(rp), intent(in) :: ke(ld, 6, 6), ce(ld, 6, 6)
       ! T = [[-I, I, 0], [0, -I, I]]: t(a, P) the factor of node P in edge a
       real(rp), parameter :: t(2, 3) = reshape([-1.0_rp, 0.0_rp, 1.0_rp, -1.0_rp, 0.0_rp, 1.0_rp], [2, 3])
-      real(rp) :: m(ld, 6, 6), ewx(ld, 6), ewv(ld, 6), h(ld, 6), free(ld), bq(ld, 3, 3)
+      real(rp) :: m(ld, 6, 6), ewx(ld, 6), ewv(ld, 6), h(ld, 6), free(ld), r(ld, 3, 6)
       integer :: l, pp, qq, ip0, jp, iq0, jq2, c1, c2, sl, i, sp
+      logical :: masked
       do l = 1, nl
         i = i0 + l - 1
         ewx(l, 1:3) = w(0:2, i + dx, j0 + dy) - w(0:2, i, j0)
@@ -359,25 +364,25 @@ contains
         sp = srow(jp)
         call sub_lane_forces(nl, ld, t(1, pp), t(2, pp), h, ke, g(:, ip0:ip0 + nl - 1, jp), kd(:, ip0:ip0 + nl - 1, jp))
         if (.not. write_s) cycle
+        do c2 = 1, 6
+          do c1 = 1, 3
+            do l = 1, nl
+              r(l, c1, c2) = t(1, pp) * m(l, c1, c2) + t(2, pp) * m(l, 3 + c1, c2)
+            end do
+          end do
+        end do
         do qq = 1, 3
           iq0 = i0 + (qq - 1) * dx
           jq2 = j0 + (qq - 1) * dy
           sl = kof((qq - pp) * dx, (qq - pp) * dy)
           ! constrained rows and columns get nothing (as add_triple_edges)
-          do l = 1, nl
-            free(l) = merge(0.0_rp, 1.0_rp, fixedg(ip0 + l - 1, jp) .or. fixedg(iq0 + l - 1, jq2))
-          end do
-          ! block (P, Q) = sum_ab t(a, P) t(b, Q) m_ab, formed for all lanes,
-          ! then added block by block (a block's nine entries together)
-          do c2 = 1, 3
-            do c1 = 1, 3
-              do l = 1, nl
-                bq(l, c1, c2) = free(l) * (t(1, pp) * (t(1, qq) * m(l, c1, c2) + t(2, qq) * m(l, c1, 3 + c2)) &
-                    + t(2, pp) * (t(1, qq) * m(l, 3 + c1, c2) + t(2, qq) * m(l, 3 + c1, 3 + c2)))
-              end do
+          masked = any(fixedg(ip0:ip0 + nl - 1, jp)) .or. any(fixedg(iq0:iq0 + nl - 1, jq2))
+          if (masked) then
+            do l = 1, nl
+              free(l) = merge(0.0_rp, 1.0_rp, fixedg(ip0 + l - 1, jp) .or. fixedg(iq0 + l - 1, jq2))
             end do
-          end do
-          call add_lane_blocks(nl, ld, lat%nx, size(st, 4), sl, ip0, bq, st(:, :, :, :, sp))
+          end if
+          call add_lane_blocks(nl, ld, lat%nx, size(st, 4), sl, ip0, t(1, qq), t(2, qq), r, masked, free, st(:, :, :, :, sp))
         end do
       end do
     end subroutine add_triple_lanes
@@ -578,19 +583,29 @@ contains
     end do
   end subroutine csr_row_blocks
 
-  !> add_triple_lanes' adds to S by stencil offset: slot sl of the nl
-  !> consecutive nodes ip0.. takes bq(l, :) (a block's nine entries, lanes
+  !> Add t1 r(:, :, 1:3) + t2 r(:, :, 4:6) (times free where masked) to
+  !> slot sl of nl consecutive nodes ip0.. of a row of S by stencil offset
+  !> (node blocks of nl bending triples; their rows r by lanes), nodes
   !> fastest, as S keeps them: one vector loop for each entry; with S node
-  !> by node these adds were scalar, 3 % of a bw step with bending).
+  !> by node these adds were scalar, 3 % of a bw step with bending.
   !> Explicit shapes, as put_link_blocks.
-  pure subroutine add_lane_blocks(nl, ld, nx, nslot, sl, ip0, bq, dst)
+  pure subroutine add_lane_blocks(nl, ld, nx, nslot, sl, ip0, t1, t2, r, masked, free, dst)
     integer, intent(in) :: nl, ld, nx, nslot, sl, ip0
-    real(rp), intent(in) :: bq(ld, 9)
-    real(rp), intent(inout) :: dst(0:nx - 1, 9, nslot)
-    integer :: l, e
-    do e = 1, 9
-      do l = 1, nl
-        dst(ip0 + l - 1, e, sl) = dst(ip0 + l - 1, e, sl) + bq(l, e)
+    real(rp), intent(in) :: t1, t2, r(ld, 3, 6), free(ld)
+    logical, intent(in) :: masked
+    real(rp), intent(inout) :: dst(0:nx - 1, 3, 3, nslot)
+    integer :: l, c1, c2
+    do c2 = 1, 3
+      do c1 = 1, 3
+        if (masked) then
+          do l = 1, nl
+            dst(ip0 + l - 1, c1, c2, sl) = dst(ip0 + l - 1, c1, c2, sl) + free(l) * (t1 * r(l, c1, c2) + t2 * r(l, c1, 3 + c2))
+          end do
+        else
+          do l = 1, nl
+            dst(ip0 + l - 1, c1, c2, sl) = dst(ip0 + l - 1, c1, c2, sl) + (t1 * r(l, c1, c2) + t2 * r(l, c1, 3 + c2))
+          end do
+        end if
       end do
     end do
   end subroutine add_lane_blocks
