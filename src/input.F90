@@ -1712,9 +1712,6 @@ contains
       '                                               right-hand side, then only upwards) or V-cycles', &
       '  -nuno_mg_sweeps N, -nuno_mg_levels N         symmetric Gauss-Seidel sweeps a smoothing (1), levels', &
       '                                               (0: as many as fit, down to 5 nodes a side)', &
-      '  -nuno_mg_coarse_sweeps N                     the same on the levels below the second (0: auto, one', &
-      '                                               more than -nuno_mg_sweeps in the kaskade cycle with', &
-      '                                               bending, else -nuno_mg_sweeps)', &
       '  -reduced_dm_mat_type aij|baij|sbaij          storage of S with -reduced_pc_type (default: aij for', &
       '                                               multigrid, baij else); nuno''s multigrid needs none', &
       '  -nuno_pc_lag N                               rebuild the inner preconditioner every N assemblies', &

@@ -102,21 +102,19 @@ PetscErrorCode nuno_linesearch_options_read(MPI_Fint fcomm, int *fallback, int *
  * stencil_mg): impl in/out 0 = stencil (nuno's), 1 = petsc (PETSc's PCMG
  * with Galerkin operators and SOR, the earlier default); cycle in/out 1 =
  * v (multiplicative), 2 = kaskade; sweeps in/out >= 1 symmetric
- * Gauss-Seidel sweeps per smoothing; coarse in/out >= 0 those on the
- * levels below the second (0: auto, decided by the caller); levels in/out
- * >= 0 (0: as many as fit); *given: 1 when -nuno_mg_cycle,
- * -nuno_mg_sweeps, -nuno_mg_coarse_sweeps or -nuno_mg_levels is set (they
- * are refused where nuno's multigrid is not used); product
+ * Gauss-Seidel sweeps per smoothing; levels in/out >= 0 (0: as many as
+ * fit); *given: 1 when -nuno_mg_cycle, -nuno_mg_sweeps or -nuno_mg_levels
+ * is set (they are refused where nuno's multigrid is not used); product
  * in/out 0 = mixed, 1 = double, 2 = fused: the Krylov method's product with S
  * (module reduced), *given too when -nuno_mg_product is set. Collective. */
-PetscErrorCode nuno_mg_options_read(MPI_Fint fcomm, int *impl, int *cycle, int *sweeps, int *coarse, int *levels, int *product, int *given)
+PetscErrorCode nuno_mg_options_read(MPI_Fint fcomm, int *impl, int *cycle, int *sweeps, int *levels, int *product, int *given)
 {
   static const char *const impls[]    = {"stencil", "petsc"};
   static const char *const cycles[]   = {"none", "v", "kaskade"};
   static const char *const products[] = {"mixed", "double", "fused"};
   MPI_Comm  comm = MPI_Comm_f2c(fcomm);
-  PetscInt  im = *impl, cy = *cycle, sw = *sweeps, cs = *coarse, lv = *levels, pr = *product;
-  PetscBool s1 = PETSC_FALSE, s2 = PETSC_FALSE, s3 = PETSC_FALSE, s4 = PETSC_FALSE, s5 = PETSC_FALSE;
+  PetscInt  im = *impl, cy = *cycle, sw = *sweeps, lv = *levels, pr = *product;
+  PetscBool s1 = PETSC_FALSE, s2 = PETSC_FALSE, s3 = PETSC_FALSE, s4 = PETSC_FALSE;
 
   PetscFunctionBeginUser;
   PetscOptionsBegin(comm, NULL, "nuno: the inner multigrid (docs/design.md, docs/performance.md)", "nuno");
@@ -126,22 +124,18 @@ PetscErrorCode nuno_mg_options_read(MPI_Fint fcomm, int *impl, int *cycle, int *
                               "nuno", cycles + 1, 2, cycles[cy], &cy, &s1));
   if (s1) cy += 1;
   PetscCall(PetscOptionsInt("-nuno_mg_sweeps", "symmetric Gauss-Seidel sweeps of nuno's multigrid per smoothing", "nuno", sw, &sw, &s2));
-  PetscCall(PetscOptionsInt("-nuno_mg_coarse_sweeps", "symmetric Gauss-Seidel sweeps of nuno's multigrid per smoothing on the levels below the second (0: auto, one more than -nuno_mg_sweeps in the kaskade cycle with cubic coarse transfers, i.e. with bending; else -nuno_mg_sweeps)",
-                            "nuno", cs, &cs, &s5));
   PetscCall(PetscOptionsInt("-nuno_mg_levels", "levels of nuno's multigrid (0: as many as fit, down to 5 nodes a side)", "nuno", lv, &lv, &s3));
   PetscCall(PetscOptionsEList("-nuno_mg_product", "the Krylov method's product with S where nuno's multigrid is used: mixed (from the multigrid's single-precision copy of S in difference form, double-precision vectors, each offset's products in single and their sum in double; half the bytes), fused (mixed, and the product of each cycle's output formed in the cycle's last sweep, from the rows it has just finished: the Krylov method's product of that output is a copy; right preconditioning only, else mixed) or double (S in double precision)",
                               "nuno", products, 3, products[pr], &pr, &s4));
   PetscOptionsEnd();
   PetscCheck(sw >= 1, comm, PETSC_ERR_ARG_OUTOFRANGE, "-nuno_mg_sweeps %" PetscInt_FMT " must be >= 1", sw);
-  PetscCheck(cs >= 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-nuno_mg_coarse_sweeps %" PetscInt_FMT " must be >= 1 (or 0: auto)", cs);
   PetscCheck(lv >= 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-nuno_mg_levels %" PetscInt_FMT " must be >= 1 (or 0: as many as fit)", lv);
   *impl = (int)im;
   *cycle = (int)cy;
   *sweeps = (int)sw;
-  *coarse = (int)cs;
   *levels = (int)lv;
   *product = (int)pr;
-  *given = (s1 || s2 || s3 || s4 || s5) ? 1 : 0;
+  *given = (s1 || s2 || s3 || s4) ? 1 : 0;
   PetscFunctionReturn(0);
 }
 

@@ -152,11 +152,10 @@ module reduced
       integer(c_int64_t), intent(out) :: state
     end function nuno_object_state
     !> src/nuno_options.c: the options of nuno's multigrid (-nuno_mg ...).
-    integer(c_int) function nuno_mg_options_read(fcomm, impl, cycle, sweeps, coarse, levels, product, given) &
-        bind(C, name='nuno_mg_options_read')
+    integer(c_int) function nuno_mg_options_read(fcomm, impl, cycle, sweeps, levels, product, given) bind(C, name='nuno_mg_options_read')
       import :: c_int
       integer(c_int), value :: fcomm
-      integer(c_int), intent(inout) :: impl, cycle, sweeps, coarse, levels, product
+      integer(c_int), intent(inout) :: impl, cycle, sweeps, levels, product
       integer(c_int), intent(out) :: given
     end function nuno_mg_options_read
     subroutine PCShellSetContext(pc, ctx, ierr)
@@ -203,7 +202,7 @@ contains
     PetscReal :: atol0, dtol0
     integer :: levels, l
     PetscClassId :: classid
-    integer(c_int) :: mg_impl, mg_cycle, mg_sweeps, mg_coarse_sweeps, mg_levels, mg_product, mg_given
+    integer(c_int) :: mg_impl, mg_cycle, mg_sweeps, mg_levels, mg_product, mg_given
     logical, allocatable :: cubic(:), cubic_up(:)
     PetscInt, allocatable :: ly(:)
     PetscInt, parameter :: one = 1, three = 3, izero = 0, ione = 1
@@ -254,16 +253,15 @@ contains
     mg_impl = 0
     mg_cycle = MG_KASKADE
     mg_sweeps = 1
-    mg_coarse_sweeps = 0
     mg_levels = 0
     mg_product = 2
-    ierr = nuno_mg_options_read(comm, mg_impl, mg_cycle, mg_sweeps, mg_coarse_sweeps, mg_levels, mg_product, mg_given)
+    ierr = nuno_mg_options_read(comm, mg_impl, mg_cycle, mg_sweeps, mg_levels, mg_product, mg_given)
     if (ierr /= 0) return
     PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_pc_type', found, ierr))
     red%use_mg = red%use_mg .and. .not. found .and. mg_impl == 0
     if (mg_given /= 0 .and. .not. red%use_mg) then
       ierr = PETSC_ERR_ARG_INCOMP
-      SETERRQ(comm, ierr, 'nuno: -nuno_mg_cycle, -nuno_mg_sweeps, -nuno_mg_coarse_sweeps, -nuno_mg_levels and -nuno_mg_product are for nuno''s multigrid (-nuno_mg stencil, the default from 3 levels on, no -reduced_pc_type)')
+      SETERRQ(comm, ierr, 'nuno: -nuno_mg_cycle, -nuno_mg_sweeps, -nuno_mg_levels and -nuno_mg_product are for nuno''s multigrid (-nuno_mg stencil, the default from 3 levels on, no -reduced_pc_type)')
     end if
     ! 0 mixed, 1 double, 2 fused (mixed, each cycle's output multiplied in
     ! its last sweep; where the Krylov method multiplies that output:
@@ -349,20 +347,9 @@ contains
           cubic(l) = red%interp == INTERP_CUBIC .or. (red%interp == INTERP_COARSE_CUBIC .and. l > 1)
           cubic_up(l) = red%interp == INTERP_CUBIC .or. red%interp == INTERP_COARSE_CUBIC
         end do
-        ! The levels below the second: with cubic transfers between them
-        ! (bending) their stencils are wide (reach 4-5) and the kaskade
-        ! cycle, which never returns to a level, leaves their errors to
-        ! the finer levels: one more sweep there took 17-22 % fewer
-        ! cycles on hang 129..513 for 8 % more time a cycle
-        ! (docs/performance.md, "Sixteenth round"); without bending it
-        ! saved nothing.
-        if (mg_coarse_sweeps == 0) then
-          mg_coarse_sweeps = mg_sweeps
-          if (mg_cycle == MG_KASKADE .and. red%interp /= INTERP_LINEAR) mg_coarse_sweeps = mg_sweeps + 1
-        end if
         PetscCall(DMDAGetCorners(da6, xs, ys, zs, m, n, zm, ierr))
         call mg_create(red%mg, comm, nx, ny, ys, ys + n - 1, w, cubic, merge(int(mg_levels), 10, mg_levels > 0), mg_cycle, mg_sweeps, &
-                       cubic_up, int(mg_coarse_sweeps))
+                       cubic_up)
         PetscCall(PCShellSetContext(pc, red, ierr))
         PetscCall(PCShellSetApply(pc, mg_pc_apply, ierr))
         PetscCall(PCShellSetView(pc, mg_pc_view, ierr))

@@ -66,7 +66,6 @@ module stencil_mg
     integer :: nlev = 0
     integer :: cycle_type = MG_MULTIPLICATIVE
     integer :: nu = 1                            !< symmetric Gauss-Seidel sweeps per smoothing
-    integer :: nu_coarse = 1                     !< the same on the levels below the second
     type(mg_level_t), allocatable :: lev(:)
     ! the coarsest level's banded LU (LAPACK dgbtrf), same on every rank
     integer :: n = 0, kl = 0
@@ -96,14 +95,12 @@ contains
   !> Krylov iterations on hang 129..513 for a bilinear level 2 (a cubic
   !> Galerkin product widens it to reach 3 and costs as many as it saves;
   !> docs/performance.md, "Eleventh round"). At most max_levels levels;
-  !> coarsening stops at 5 points a side. nu symmetric sweeps a smoothing,
-  !> nu_coarse (default nu) on the levels below the second. Collective.
-  subroutine mg_create(mg, comm, nx, ny, ys, ye, r, cubic, max_levels, cycle_type, nu, cubic_correction, nu_coarse)
+  !> coarsening stops at 5 points a side. Collective.
+  subroutine mg_create(mg, comm, nx, ny, ys, ye, r, cubic, max_levels, cycle_type, nu, cubic_correction)
     type(stencil_mg_t), intent(inout) :: mg
     integer, intent(in) :: comm, nx, ny, ys, ye, r, max_levels, cycle_type, nu
     logical, intent(in) :: cubic(:)
     logical, intent(in), optional :: cubic_correction(:)
-    integer, intent(in), optional :: nu_coarse
     type(mg_level_t), allocatable :: tmp(:)
     integer :: ierr, l, nxc, nyc, ysc, yec, rc, hc, need, fewest, k
     logical :: last
@@ -115,8 +112,6 @@ contains
     mg%above = merge(mg%rank + 1, MPI_PROC_NULL, mg%rank < mg%nranks - 1)
     mg%cycle_type = cycle_type
     mg%nu = max(nu, 1)
-    mg%nu_coarse = mg%nu
-    if (present(nu_coarse)) mg%nu_coarse = max(nu_coarse, 1)
 
     allocate(mg%lev(max(max_levels, 1)))
     call stencil_init(mg%lev(1)%a, nx, ny, ys, ye, r, lines=.true.)
@@ -469,7 +464,7 @@ contains
     end if
     associate (f => mg%lev(l), c => mg%lev(l + 1))
       f%x = 0.0_mp
-      do k = 1, sweeps(mg, l)
+      do k = 1, mg%nu
         call smooth(mg, f)
       end do
       call exchange(mg, f)
@@ -478,7 +473,7 @@ contains
       call vcycle(mg, l + 1)
       call exchange(mg, c)
       call interpolate(f%ux, f%uy, f%a%ys, f%a%ye, c%h, c%a%ys, c%x, f%h, f%x, .true., c%t)
-      do k = 1, sweeps(mg, l) - 1
+      do k = 1, mg%nu - 1
         call smooth(mg, f)
       end do
       if (l == 1 .and. present(ax)) then
@@ -488,14 +483,6 @@ contains
       end if
     end associate
   end subroutine vcycle
-
-  !> Symmetric sweeps a smoothing on level l: nu on the two finest levels,
-  !> nu_coarse below them (mg_create).
-  pure integer function sweeps(mg, l)
-    type(stencil_mg_t), intent(in) :: mg
-    integer, intent(in) :: l
-    sweeps = merge(mg%nu, mg%nu_coarse, l <= 2)
-  end function sweeps
 
   !> Kaskade: rhs restricted to the coarsest level, solved, then up level by
   !> level: interpolated, smoothed, never back down.
@@ -511,7 +498,7 @@ contains
       associate (f => mg%lev(l), c => mg%lev(l + 1))
         call exchange(mg, c)
         call interpolate(f%ux, f%uy, f%a%ys, f%a%ye, c%h, c%a%ys, c%x, f%h, f%x, .false., c%t)
-        do k = 1, sweeps(mg, l) - 1
+        do k = 1, mg%nu - 1
           call smooth(mg, f)
         end do
         if (l == 1 .and. present(ax)) then
@@ -587,9 +574,8 @@ contains
     real(rp) :: per_node, sweep, cycle_bytes, mp_bytes
     mp_bytes = real(storage_size(1.0_mp) / 8, rp)
     n = 1
-    write(text(1), '(a, i0, a, a, a, i0, a, i0, a)') 'levels ', mg%nlev, ', ', trim(merge('kaskade cycle', 'V-cycle      ', &
-      mg%cycle_type == MG_KASKADE)), ', ', mg%nu, ' symmetric Gauss-Seidel sweep(s) a smoothing (', sweeps(mg, 3), &
-      ' below level 2), single precision'
+    write(text(1), '(a, i0, a, a, a, i0, a)') 'levels ', mg%nlev, ', ', trim(merge('kaskade cycle', 'V-cycle      ', &
+      mg%cycle_type == MG_KASKADE)), ', ', mg%nu, ' symmetric Gauss-Seidel sweep(s) a smoothing, single precision'
     cycle_bytes = 0.0_rp
     do l = 1, mg%nlev
       associate (a => mg%lev(l)%a)
@@ -605,10 +591,10 @@ contains
                 - 9.0_rp * mp_bytes * real(count(a%odj < 0), rp) + 6.0_rp * mp_bytes
         if (l < mg%nlev) then
           if (mg%cycle_type == MG_KASKADE) then
-            cycle_bytes = cycle_bytes + real(nodes8, rp) * sweeps(mg, l) * sweep
+            cycle_bytes = cycle_bytes + real(nodes8, rp) * mg%nu * sweep
           else
             ! 2 nu smoothings and a residual (operator, row sums, x, rhs, res)
-            cycle_bytes = cycle_bytes + real(nodes8, rp) * (2.0_rp * sweeps(mg, l) * sweep + per_node + 9.0_rp * mp_bytes)
+            cycle_bytes = cycle_bytes + real(nodes8, rp) * (2.0_rp * mg%nu * sweep + per_node + 9.0_rp * mp_bytes)
           end if
         end if
         n = n + 1

@@ -123,9 +123,7 @@ def test_a_step_retried_after_a_failed_inner_solve_goes_on(tmp_path):
     # on 11 x 11 fewer than 3 levels fit: no multigrid
     ("-nuno_mg_interpolation", "cubic", "-nuno_mg_interpolation needs an inner multigrid"),
     ("-nuno_mg_cycle", "w", "Unknown option w for -nuno_mg_cycle"),
-    ("-nuno_mg_cycle", "v", "-nuno_mg_cycle, -nuno_mg_sweeps, -nuno_mg_coarse_sweeps, -nuno_mg_levels and -nuno_mg_product are for nuno's multigrid"),
-    ("-nuno_mg_coarse_sweeps", "2", "-nuno_mg_coarse_sweeps, -nuno_mg_levels and -nuno_mg_product are for nuno's multigrid"),
-    ("-nuno_mg_coarse_sweeps", "-1", "-nuno_mg_coarse_sweeps -1 must be >= 1 (or 0: auto)"),
+    ("-nuno_mg_cycle", "v", "-nuno_mg_cycle, -nuno_mg_sweeps, -nuno_mg_levels and -nuno_mg_product are for nuno's multigrid"),
     ("-nuno_mg_product", "double", "-nuno_mg_product are for nuno's multigrid"),
     ("-nuno_mg_product", "single", "Unknown option single for -nuno_mg_product"),
     ("-nuno_mg_sweeps", "0", "-nuno_mg_sweeps 0 must be >= 1"),
