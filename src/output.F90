@@ -460,11 +460,8 @@ contains
     type(run_info), intent(in) :: info
     integer, intent(out) :: ierr
     character(*), intent(out) :: errmsg
-#ifdef NUNO_GIT_COMMIT
-    character(len=*), parameter :: git_commit = NUNO_GIT_COMMIT
-#else
-    character(len=*), parameter :: git_commit = 'unknown'
-#endif
+    ! git_commit: the build's commit (cmake/git_commit.cmake, rewritten at every build)
+    include 'nuno_git_commit.inc'
     integer(hid_t) :: grp
     integer :: h, major, minor, release
     character(len=32) :: hdf5_version
