@@ -33,7 +33,7 @@ module reduced
   use reduced_assembly, only: csr_assemble
   use offset_product, only: stencil_product, offset_count
   use interpolation, only: cubic_weights
-  use inner_guess, only: GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, guess_weights
+  use inner_guess, only: GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, guess_weights, second_weight
   use stencil_mg, only: stencil_mg_t, mg_create, mg_destroy, mg_build_coarse, mg_apply, mg_describe, mg_product, &
                         MG_MULTIPLICATIVE, MG_KASKADE
   implicit none
@@ -131,6 +131,16 @@ module reduced
     type(tVec) :: dvp                      !< 3-dof: the first correction of the step under way (kept if it is accepted)
     real(rp) :: ap = 0                     !< its shift
     logical :: pending = .false.           !< dvp holds one
+    ! and at its second Newton iteration: the last accepted step's second
+    ! correction (the previous step's, as the guess module's previous mode)
+    type(tVec) :: dvh2                     !< 3-dof: the last step's second correction
+    real(rp) :: ah2 = 0                    !< its shift
+    real(rp) :: bh2 = 0                    !< the norm of its right-hand side
+    logical :: has2 = .false.              !< dvh2 holds one (false at every window start)
+    type(tVec) :: dvp2                     !< 3-dof: the second correction of the step under way
+    real(rp) :: ap2 = 0                    !< its shift
+    real(rp) :: bp2 = 0                    !< the norm of its right-hand side
+    logical :: pending2 = .false.          !< dvp2 holds one
   end type reduced_t
 
   !> The parts of an assembled AIJ S as plain arrays: diagonal part (ia, ja,
@@ -547,9 +557,9 @@ contains
       line = trim(line)//' + '//trim(ptype)
     end if
     if (red%guess == GUESS_EXTRAPOLATE) then
-      line = trim(line)//'; initial guess extrapolated (-nuno_inner_guess)'
+      line = trim(line)//'; initial guess extrapolated, at the second Newton iteration the previous step''s (-nuno_inner_guess)'
     else if (red%guess == GUESS_PREVIOUS) then
-      line = trim(line)//'; initial guess the previous step''s (-nuno_inner_guess)'
+      line = trim(line)//'; initial guess the previous step''s, at the second Newton iteration too (-nuno_inner_guess)'
     end if
   end subroutine reduced_describe
 
@@ -582,6 +592,8 @@ contains
       PetscCall(VecDestroy(red%dvh(1), ierr))
       PetscCall(VecDestroy(red%dvh(2), ierr))
       PetscCall(VecDestroy(red%dvp, ierr))
+      PetscCall(VecDestroy(red%dvh2, ierr))
+      PetscCall(VecDestroy(red%dvp2, ierr))
     end if
     if (red%fused_product .and. red%pax_checked) then
       PetscCall(VecDestroy(red%pax, ierr))
@@ -623,6 +635,8 @@ contains
     red%nh = 0
     red%window_start = .true.
     red%pending = .false.
+    red%has2 = .false.
+    red%pending2 = .false.
   end subroutine reduced_set_fixed
 
   !> Assemble S at the ghosted state u(0:5, 0:nx-1, gys:gye) (with its time
@@ -1191,17 +1205,30 @@ contains
   end function same
 
   !> The inner initial guess of this solve: at a step's first Newton
-  !> iteration (first) the combination of the stored first corrections
-  !> (module inner_guess), else zero. Collective.
-  subroutine set_guess(red, first, guessed, ierr)
+  !> iteration (nit = 0) the combination of the stored first corrections
+  !> (module inner_guess), at its second (nit = 1) the last step's second
+  !> correction scaled by the ratio of their right-hand sides
+  !> (second_weight), else zero. Collective.
+  subroutine set_guess(red, nit, guessed, ierr)
     type(reduced_t), intent(inout) :: red
-    logical, intent(in) :: first
+    integer, intent(in) :: nit
     logical, intent(out) :: guessed               !< a nonzero guess was set
     PetscErrorCode, intent(out) :: ierr
-    real(rp) :: c(2)
+    real(rp) :: c(2), bnorm
     guessed = .false.
     c = 0.0_rp
-    if (first) c = guess_weights(red%guess, red%nh, red%a, red%ah(1), red%ah(2), red%guess_power)
+    if (nit == 0) then
+      c = guess_weights(red%guess, red%nh, red%a, red%ah(1), red%ah(2), red%guess_power)
+    else if (nit == 1 .and. red%has2) then
+      PetscCall(VecNorm(red%rhs, NORM_2, bnorm, ierr))
+      c(1) = second_weight(red%a, red%ah2, bnorm, red%bh2)
+      if (c(1) /= 0.0_rp) then
+        PetscCall(VecAXPBY(red%dv, c(1), 0.0_rp, red%dvh2, ierr))
+        PetscCall(KSPSetInitialGuessNonzero(red%ksp, PETSC_TRUE, ierr))
+        guessed = .true.
+        return
+      end if
+    end if
     if (c(1) == 0.0_rp .and. c(2) == 0.0_rp) then
       PetscCall(KSPSetInitialGuessNonzero(red%ksp, PETSC_FALSE, ierr))
       return
@@ -1229,11 +1256,15 @@ contains
       PetscCall(VecDuplicate(red%rhs, red%dvh(1), ierr))
       PetscCall(VecDuplicate(red%rhs, red%dvh(2), ierr))
       PetscCall(VecDuplicate(red%rhs, red%dvp, ierr))
+      PetscCall(VecDuplicate(red%rhs, red%dvh2, ierr))
+      PetscCall(VecDuplicate(red%rhs, red%dvp2, ierr))
     end if
     red%guess = mode
     red%guess_power = merge(2, 1, extrapolated_start)
     red%nh = 0
     red%pending = .false.
+    red%has2 = .false.
+    red%pending2 = .false.
   end subroutine reduced_set_guess
 
   !> A step was accepted (timestepping's monitor): its first correction
@@ -1245,11 +1276,22 @@ contains
   subroutine reduced_step_accepted(red)
     type(reduced_t), intent(inout) :: red
     type(tVec) :: spare
+    logical :: second
     if (red%guess == GUESS_NONE .or. .not. red%pending) return
     red%pending = .false.
+    second = red%pending2
+    red%pending2 = .false.
     if (red%window_start) then
       red%window_start = .false.
       if (red%guess_power == 2) return
+    end if
+    if (second) then
+      spare = red%dvh2
+      red%dvh2 = red%dvp2
+      red%dvp2 = spare
+      red%ah2 = red%ap2
+      red%bh2 = red%bp2
+      red%has2 = .true.
     end if
     ! the vectors change places, no copies
     spare = red%dvh(2)
@@ -1312,7 +1354,7 @@ contains
     PetscCall(SNESGetIterationNumber(red%snes, nit, ierr))
     guessed = .false.
     if (red%guess /= GUESS_NONE) then
-      PetscCall(set_guess(red, nit == 0, guessed, ierr))
+      PetscCall(set_guess(red, int(nit), guessed, ierr))
     end if
     PetscCall(inner_solve(red, .false., reason, ierr))
     if (reason < 0 .and. guessed) then
@@ -1325,6 +1367,13 @@ contains
       PetscCall(VecCopy(red%dv, red%dvp, ierr))
       red%ap = red%a
       red%pending = .true.
+      red%pending2 = .false.
+    else if (red%guess /= GUESS_NONE .and. nit == 1 .and. reason > 0) then
+      ! and its second, for the next step's second iteration
+      PetscCall(VecCopy(red%dv, red%dvp2, ierr))
+      PetscCall(VecNorm(red%rhs, NORM_2, red%bp2, ierr))
+      red%ap2 = red%a
+      red%pending2 = .true.
     end if
     PetscCall(KSPGetResidualNorm(red%ksp, rnorm, ierr))
     PetscCall(VecNorm(red%rhs, NORM_2, bnorm, ierr))

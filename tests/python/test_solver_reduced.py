@@ -272,6 +272,37 @@ def test_inner_guess_changes_iterations_not_the_trajectory(tmp_path):
     assert "initial guess extrapolated" in proc.stdout
 
 
+def test_second_newton_iteration_starts_from_the_last_steps(tmp_path):
+    """The inner solve of a step's second Newton iteration starts from the
+    last step's second correction (scaled by the right-hand sides, module
+    inner_guess second_weight): full Newton on hang 33 x 33 with bending,
+    2 ranks. Nearly every second solve after the first steps starts from a
+    nonzero guess (-reduced_ksp_view says so), and, solved tightly, the
+    trajectory is the zero guess's."""
+    n, dt = 20, 1.0e-3
+    proc, _ = run_window(tmp_path, "second", 2, ("-snes_monitor", "-reduced_ksp_view"), n, dt, nx=33, ny=33)
+    starts = {0: [], 1: []}
+    k = None
+    for line in proc.stdout.splitlines():
+        m = re.match(r"\s*(\d+) SNES Function norm", line)
+        if m:
+            k = int(m.group(1))
+        elif "initial guess" in line and k in starts:
+            starts[k].append("nonzero" in line)
+            k = None
+    assert len(starts[1]) >= n, f"fewer second Newton iterations than steps: {len(starts[1])}"
+    assert sum(starts[1][3:]) >= len(starts[1][3:]) - 2, f"second solves from a guess: {starts[1]}"
+    runs = {}
+    for guess in ("none", "auto"):
+        _, runs[guess] = run_window(tmp_path, f"tight2_{guess}", 2, ("-reduced_ksp_rtol", "1e-11",
+                                    "-nuno_inner_guess", guess), n, dt, nx=33, ny=33)
+    ref = runs["none"].position
+    moved = np.abs(ref[-1] - ref[0]).max()
+    assert moved > 1e-4
+    err = np.abs(runs["auto"].position - ref).max() / moved
+    assert err < 1e-8, f"the guesses changed the tight trajectory by {err:.3e} of the displacement"
+
+
 @pytest.mark.parametrize("options, words", [
     (("-nuno_inner_guess", "extrapolate", "-ts_type", "rosw"), "needs a one-stage method"),
     (("-nuno_inner_guess", "previous", "-nuno_jacobian", "full"), "-nuno_inner_guess is for the reduced solve"),

@@ -5,10 +5,13 @@
 !> shift a_n = 1/dt_n), the extrapolated guess reproduces the next
 !> correction exactly, the previous one is off by q dt^(p+1), and with too
 !> few stored corrections or steps that changed by more than a factor 2
-!> the guess falls back as documented.
+!> the guess falls back as documented. The second Newton iteration's
+!> weight (second_weight) scales the last correction by the ratio of the
+!> right-hand sides, and gives no guess across a step or a right-hand side
+!> that changed too much.
 program test_inner_guess
   use kinds, only: rp
-  use inner_guess, only: GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, guess_weights
+  use inner_guess, only: GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, guess_weights, second_weight
   use check, only: check_close, check_report
   implicit none
   real(rp), parameter :: r0 = -9.81_rp, q = 3.7_rp
@@ -57,5 +60,19 @@ program test_inner_guess
   call check_close(abs(c(1)) + abs(c(2)), 0.0_rp, 0.0_rp, 0.0_rp, 'nothing stored: zero guess')
   c = guess_weights(GUESS_NONE, 2, 1.0_rp / dt(3), 1.0_rp / dt(2), 1.0_rp / dt(1), 2)
   call check_close(abs(c(1)) + abs(c(2)), 0.0_rp, 0.0_rp, 0.0_rp, 'none: zero guess')
+  ! the second iteration: a linear response, so the correction of a right-hand
+  ! side 1.5 times as large is 1.5 times as large
+  call check_close(second_weight(1000.0_rp, 1000.0_rp, 3.0e-8_rp, 2.0e-8_rp), 1.5_rp, 1.0e-15_rp, 0.0_rp, &
+                   'second: scaled by the right-hand sides')
+  call check_close(second_weight(1000.0_rp, 1600.0_rp, 2.0e-8_rp, 2.0e-8_rp), 1.0_rp, 1.0e-15_rp, 0.0_rp, &
+                   'second: steps within a factor 2')
+  call check_close(second_weight(1000.0_rp, 2500.0_rp, 2.0e-8_rp, 2.0e-8_rp), 0.0_rp, 0.0_rp, 0.0_rp, &
+                   'second: no guess across a step changed 2.5-fold')
+  call check_close(second_weight(1000.0_rp, 1000.0_rp, 2.56e-8_rp, 2.57e-5_rp), 0.0_rp, 0.0_rp, 0.0_rp, &
+                   'second: no guess across a right-hand side 1000 times smaller')
+  call check_close(second_weight(1000.0_rp, 1000.0_rp, 9.0e-8_rp, 2.0e-8_rp), 0.0_rp, 0.0_rp, 0.0_rp, &
+                   'second: nor across one 4.5 times larger')
+  call check_close(second_weight(1000.0_rp, 1000.0_rp, 2.0e-8_rp, 0.0_rp), 0.0_rp, 0.0_rp, 0.0_rp, &
+                   'second: none stored')
   call check_report()
 end program test_inner_guess
