@@ -132,7 +132,7 @@ module reduced
     real(rp) :: ap = 0                     !< its shift
     logical :: pending = .false.           !< dvp holds one
     ! and at its second Newton iteration: the last accepted step's second
-    ! correction (the previous step's, as the guess module's previous mode)
+    ! correction, scaled by the ratio of the right-hand sides (second_weight)
     type(tVec) :: dvh2                     !< 3-dof: the last step's second correction
     real(rp) :: ah2 = 0                    !< its shift
     real(rp) :: bh2 = 0                    !< the norm of its right-hand side
@@ -1268,7 +1268,8 @@ contains
   end subroutine reduced_set_guess
 
   !> A step was accepted (timestepping's monitor): its first correction
-  !> joins the two kept for the next guesses. Only accepted steps count: a
+  !> joins the two kept for the next guesses, and its second, where it
+  !> took a second Newton iteration, replaces the one kept. Only accepted steps count: a
   !> rejected attempt's correction starts at the same time as its retry's,
   !> so extrapolating through it would be nonsense. A window's first step,
   !> which TS starts from the last state rather than extrapolated, gives
