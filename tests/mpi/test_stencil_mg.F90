@@ -213,7 +213,14 @@ contains
     call mg_build_coarse(mg1, ierr)
 
     ! 1. Coarse operators: the distributed levels against the one-rank ones.
-    call check_true(mg%nlev >= 4, label//': at least 4 levels')
+    ! (on more than 3 strips of this 65 x 65 lattice the cubic transfers'
+    ! halo makes the third level too thin to distribute: it is then the
+    ! coarsest, replicated, and the hierarchy has 3 levels)
+    if (nranks <= 3) then
+      call check_true(mg%nlev >= 4, label//': at least 4 levels')
+    else
+      call check_true(mg%nlev >= 3, label//': at least 3 levels')
+    end if
     do l = 2, mg%nlev
       associate (a => mg%lev(l)%a, a1 => mg1%lev(l)%a)
         err = 0.0_rp
