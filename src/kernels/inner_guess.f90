@@ -68,7 +68,7 @@ contains
   !> inner right-hand side's norm b1) in the guess of this step's (shift
   !> a, right-hand side's norm b). The second correction is what the
   !> first Newton iteration's remainder (and its inexact solve) left: its
-  !> direction changes slowly from step to step (hang 257 x 257: 13-15 %
+  !> direction changes slowly from step to step (hang 257 x 257: 13-17 %
   !> fewer inner iterations over a run), its size with the remainder's, so
   !> the last one scaled by b / b1. No guess (0) across a step that
   !> changed by more than RATIO, nor where the right-hand sides differ by
