@@ -1208,32 +1208,28 @@ contains
   !> iteration (nit = 0) the combination of the stored first corrections
   !> (module inner_guess), at its second (nit = 1) the last step's second
   !> correction scaled by the ratio of their right-hand sides
-  !> (second_weight), else zero. Collective.
-  subroutine set_guess(red, nit, guessed, ierr)
+  !> (second_weight), else zero. bnorm: the norm of red%rhs. Collective.
+  subroutine set_guess(red, nit, bnorm, guessed, ierr)
     type(reduced_t), intent(inout) :: red
     integer, intent(in) :: nit
+    real(rp), intent(in) :: bnorm
     logical, intent(out) :: guessed               !< a nonzero guess was set
     PetscErrorCode, intent(out) :: ierr
-    real(rp) :: c(2), bnorm
+    real(rp) :: c(2)
     guessed = .false.
     c = 0.0_rp
     if (nit == 0) then
       c = guess_weights(red%guess, red%nh, red%a, red%ah(1), red%ah(2), red%guess_power)
     else if (nit == 1 .and. red%has2) then
-      PetscCall(VecNorm(red%rhs, NORM_2, bnorm, ierr))
       c(1) = second_weight(red%a, red%ah2, bnorm, red%bh2)
-      if (c(1) /= 0.0_rp) then
-        PetscCall(VecAXPBY(red%dv, c(1), 0.0_rp, red%dvh2, ierr))
-        PetscCall(KSPSetInitialGuessNonzero(red%ksp, PETSC_TRUE, ierr))
-        guessed = .true.
-        return
-      end if
     end if
     if (c(1) == 0.0_rp .and. c(2) == 0.0_rp) then
       PetscCall(KSPSetInitialGuessNonzero(red%ksp, PETSC_FALSE, ierr))
       return
     end if
-    if (c(2) == 0.0_rp) then
+    if (nit == 1) then
+      PetscCall(VecAXPBY(red%dv, c(1), 0.0_rp, red%dvh2, ierr))
+    else if (c(2) == 0.0_rp) then
       PetscCall(VecAXPBY(red%dv, c(1), 0.0_rp, red%dvh(1), ierr))
     else
       PetscCall(VecAXPBYPCZ(red%dv, c(1), c(2), 0.0_rp, red%dvh(1), red%dvh(2), ierr))
@@ -1244,8 +1240,9 @@ contains
 
   !> Use the inner initial guess mode (GUESS_NONE, _PREVIOUS, _EXTRAPOLATE;
   !> timestepping decides, from -nuno_inner_guess and the TS type). Its two
-  !> kept corrections and the step under way's are three 3-dof vectors,
-  !> made here when needed. Collective.
+  !> kept first corrections and the step under way's, and the kept second
+  !> correction and the step under way's, are five 3-dof vectors, made here
+  !> when needed. Collective.
   subroutine reduced_set_guess(red, mode, extrapolated_start, ierr)
     type(reduced_t), intent(inout) :: red
     integer, intent(in) :: mode
@@ -1352,10 +1349,13 @@ contains
     end if
     red%eta = 0.0_rp
     PetscCall(reduced_rhs(red, b, red%rhs, ierr))
+    ! (the inner solves leave rhs as it is: its norm serves the guess, the
+    ! second correction kept and the relative residual below)
+    PetscCall(VecNorm(red%rhs, NORM_2, bnorm, ierr))
     PetscCall(SNESGetIterationNumber(red%snes, nit, ierr))
     guessed = .false.
     if (red%guess /= GUESS_NONE) then
-      PetscCall(set_guess(red, int(nit), guessed, ierr))
+      PetscCall(set_guess(red, int(nit), bnorm, guessed, ierr))
     end if
     PetscCall(inner_solve(red, .false., reason, ierr))
     if (reason < 0 .and. guessed) then
@@ -1372,12 +1372,11 @@ contains
     else if (red%guess /= GUESS_NONE .and. nit == 1 .and. reason > 0) then
       ! and its second, for the next step's second iteration
       PetscCall(VecCopy(red%dv, red%dvp2, ierr))
-      PetscCall(VecNorm(red%rhs, NORM_2, red%bp2, ierr))
+      red%bp2 = bnorm
       red%ap2 = red%a
       red%pending2 = .true.
     end if
     PetscCall(KSPGetResidualNorm(red%ksp, rnorm, ierr))
-    PetscCall(VecNorm(red%rhs, NORM_2, bnorm, ierr))
     red%lin_rel = 0.0_rp
     if (bnorm > 0.0_rp) red%lin_rel = rnorm / bnorm
     if (reason < 0) then
