@@ -1726,10 +1726,12 @@ contains
       '  -nuno_newton_forcing [true|false]            Newton solves each inner system only as far as the', &
       '                                               step needs: its Newton remainder, or half the residual', &
       '                                               at which Newton stops (default true)', &
-      '  -nuno_inner_guess auto|none|previous|extrapolate  the inner solve''s initial guess at a step''s', &
-      '                                               first Newton iteration: the last two steps'' first', &
-      '                                               corrections extrapolated (auto: with bending), the', &
-      '                                               last one, or zero (auto: without bending)', &
+      '  -nuno_inner_guess auto|none|previous|extrapolate|project  the inner solve''s initial guess:', &
+      '                                               the least-squares combination of the last 8 inner', &
+      '                                               solves (project; auto: with bending), at a step''s', &
+      '                                               first Newton iteration the last two steps'' first', &
+      '                                               corrections extrapolated, the last one, or zero', &
+      '                                               (auto: without bending)', &
       '  -snes_lag_jacobian N                         S assembled every N Newton iterations (default 2: the', &
       '                                               second iteration of a step reuses the first one''s S)', &
       '  -ts_theta_initial_guess_extrapolate          beuler starts Newton from x + dt xdot (default true,', &

@@ -16,7 +16,7 @@
  * mg_interp: in/out 0 = auto, 1 = linear, 2 = cubic, 3 = coarse_cubic (module reduced's INTERP_*);
  * snes_floor: in/out >= 0; gauss_newton, clamp: in/out 0/1;
  * mattype: in/out NUL-terminated, mattype_len bytes; fail_newton: in/out >= 0;
- * forcing: in/out 0/1; guess: in/out 0 = auto, 1 = none, 2 = previous, 3 = extrapolate
+ * forcing: in/out 0/1; guess: in/out 0 = auto, 1 = none, 2 = previous, 3 = extrapolate, 4 = project
  * (module inner_guess's GUESS_*), *guess_given 1 when set. Returns a PETSc error code (0 on success). */
 PetscErrorCode nuno_options_read(MPI_Fint fcomm, int *jacobian, int *pc_lag, int *mg_interp, double *snes_floor,
                                  int *gauss_newton, int *clamp, char *mattype, int mattype_len, int *fail_newton, int *forcing,
@@ -24,7 +24,7 @@ PetscErrorCode nuno_options_read(MPI_Fint fcomm, int *jacobian, int *pc_lag, int
 {
   static const char *const jacobians[] = {"reduced", "full"};
   static const char *const interps[]   = {"auto", "linear", "cubic", "coarse_cubic"};
-  static const char *const guesses[]   = {"auto", "none", "previous", "extrapolate"};
+  static const char *const guesses[]   = {"auto", "none", "previous", "extrapolate", "project"};
   MPI_Comm  comm = MPI_Comm_f2c(fcomm);
   PetscInt  jac = *jacobian, lag = *pc_lag, nfail = *fail_newton, interp = *mg_interp, gs = *guess;
   PetscBool gset = PETSC_FALSE;
@@ -45,8 +45,8 @@ PetscErrorCode nuno_options_read(MPI_Fint fcomm, int *jacobian, int *pc_lag, int
                              "nuno", floor, &floor, NULL));
   PetscCall(PetscOptionsBool("-nuno_newton_forcing", "reduced Newton: solve each inner system only as far as the step needs (its Newton remainder, or half the residual at which Newton stops); off: always -reduced_ksp_rtol",
                              "nuno", fc, &fc, NULL));
-  PetscCall(PetscOptionsEList("-nuno_inner_guess", "reduced, one-stage methods (beuler, theta, cn): the inner solve's initial guess at a step's first Newton iteration: auto (extrapolate with bending, none without), none (zero), previous (the last step's first correction, rescaled to this step), extrapolate (the last two steps' first corrections extrapolated linearly in time)",
-                              "nuno", guesses, 4, guesses[gs], &gs, &gset));
+  PetscCall(PetscOptionsEList("-nuno_inner_guess", "reduced, one-stage methods (beuler, theta, cn): the inner solve's initial guess: auto (project with bending, none without), none (zero), previous (at a step's first Newton iteration the last step's first correction, rescaled to this step), extrapolate (the last two steps' first corrections extrapolated linearly in time), project (at every Newton iteration the least-squares combination of the last 8 inner solves)",
+                              "nuno", guesses, 5, guesses[gs], &gs, &gset));
   PetscCall(PetscOptionsBool("-nuno_gauss_newton", "energy bending: assemble only the Gauss-Newton part -k_b J^T J", "nuno", gn, &gn, NULL));
   PetscCall(PetscOptionsBool("-nuno_clamp_compression", "drop the indefinite compression term of the springs from the assembled matrix",
                              "nuno", cl, &cl, NULL));

@@ -33,7 +33,8 @@ module reduced
   use reduced_assembly, only: csr_assemble
   use offset_product, only: stencil_product, offset_count
   use interpolation, only: cubic_weights
-  use inner_guess, only: GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, guess_weights, second_weight
+  use inner_guess, only: GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, GUESS_PROJECT, PROJECT_PAIRS, &
+                         guess_weights, second_weight, projection_weights
   use stencil_mg, only: stencil_mg_t, mg_create, mg_destroy, mg_build_coarse, mg_apply, mg_describe, mg_product, &
                         MG_MULTIPLICATIVE, MG_KASKADE
   implicit none
@@ -141,6 +142,16 @@ module reduced
     real(rp) :: ap2 = 0                    !< its shift
     real(rp) :: bp2 = 0                    !< the norm of its right-hand side
     logical :: pending2 = .false.          !< dvp2 holds one
+    ! -nuno_inner_guess project: the last np inner solves at shift pa, their
+    ! right-hand sides pb(k) and solutions px(k) (oldest first), the Gram
+    ! matrix of the pb and their products pd with this solve's right-hand
+    ! side (pd_now: formed for it by set_guess)
+    integer :: np = 0
+    type(tVec) :: pb(PROJECT_PAIRS), px(PROJECT_PAIRS)   !< 3-dof
+    real(rp) :: pg(PROJECT_PAIRS, PROJECT_PAIRS) = 0
+    real(rp) :: pd(PROJECT_PAIRS) = 0
+    real(rp) :: pa = 0                     !< [1/time]
+    logical :: pd_now = .false.
   end type reduced_t
 
   !> The parts of an assembled AIJ S as plain arrays: diagonal part (ia, ja,
@@ -556,7 +567,10 @@ contains
     else
       line = trim(line)//' + '//trim(ptype)
     end if
-    if (red%guess == GUESS_EXTRAPOLATE) then
+    if (red%guess == GUESS_PROJECT) then
+      write(line, '(a, i0, a)') trim(line)//'; initial guess projected on the last ', PROJECT_PAIRS, &
+        ' inner solves (-nuno_inner_guess)'
+    else if (red%guess == GUESS_EXTRAPOLATE) then
       line = trim(line)//'; initial guess extrapolated, at the second Newton iteration the previous step''s (-nuno_inner_guess)'
     else if (red%guess == GUESS_PREVIOUS) then
       line = trim(line)//'; initial guess the previous step''s, at the second Newton iteration too (-nuno_inner_guess)'
@@ -588,7 +602,10 @@ contains
     PetscCall(MatDestroy(red%jac, ierr))
     PetscCall(VecDestroy(red%coords, ierr))
     PetscCall(VecDestroy(red%dv, ierr))
-    if (red%guess /= GUESS_NONE) then
+    if (red%guess == GUESS_PROJECT) then
+      PetscCall(VecDestroyVecs(PROJECT_PAIRS, red%pb, ierr))
+      PetscCall(VecDestroyVecs(PROJECT_PAIRS, red%px, ierr))
+    else if (red%guess /= GUESS_NONE) then
       PetscCall(VecDestroy(red%dvh(1), ierr))
       PetscCall(VecDestroy(red%dvh(2), ierr))
       PetscCall(VecDestroy(red%dvp, ierr))
@@ -633,6 +650,7 @@ contains
     red%since_pc = red%pc_lag
     ! and the inner guesses too start afresh (module inner_guess)
     red%nh = 0
+    red%np = 0
     red%window_start = .true.
     red%pending = .false.
     red%has2 = .false.
@@ -1218,6 +1236,11 @@ contains
     real(rp) :: c(2)
     guessed = .false.
     c = 0.0_rp
+    if (red%guess == GUESS_PROJECT) then
+      PetscCall(project_guess(red, guessed, ierr))
+      PetscCall(KSPSetInitialGuessNonzero(red%ksp, merge(PETSC_TRUE, PETSC_FALSE, guessed), ierr))
+      return
+    end if
     if (nit == 0) then
       c = guess_weights(red%guess, red%nh, red%a, red%ah(1), red%ah(2), red%guess_power)
     else if (nit == 1 .and. red%has2) then
@@ -1238,6 +1261,69 @@ contains
     guessed = .true.
   end subroutine set_guess
 
+  !> -nuno_inner_guess project: dv = sum_k y_k px(k), y the least-squares
+  !> weights of the kept right-hand sides for this one (projection_weights),
+  !> at any Newton iteration; nothing kept at this shift: no guess. The
+  !> products pd are kept for project_push. Collective.
+  subroutine project_guess(red, guessed, ierr)
+    type(reduced_t), intent(inout) :: red
+    logical, intent(out) :: guessed
+    PetscErrorCode, intent(out) :: ierr
+    real(rp) :: y(PROJECT_PAIRS)
+    ierr = 0
+    guessed = .false.
+    red%pd_now = .false.
+    if (red%np == 0 .or. red%a /= red%pa) return
+    PetscCall(VecMDot(red%rhs, red%np, red%pb, red%pd, ierr))
+    red%pd_now = .true.
+    call projection_weights(red%np, red%pg, red%pd, y)
+    if (all(y(1:red%np) == 0.0_rp)) return
+    PetscCall(VecSet(red%dv, 0.0_rp, ierr))
+    PetscCall(VecMAXPY(red%dv, red%np, y, red%px, ierr))
+    guessed = .true.
+  end subroutine project_guess
+
+  !> -nuno_inner_guess project: a converged inner solve (rhs, its norm
+  !> bnorm, and dv) joins the kept ones, the oldest leaving when PROJECT_PAIRS
+  !> are kept (the vectors change places, no copies but the new pair's). A
+  !> changed shift (another dt: S differs by more than a step's change)
+  !> empties them first. Collective.
+  subroutine project_push(red, bnorm, ierr)
+    type(reduced_t), intent(inout) :: red
+    real(rp), intent(in) :: bnorm
+    PetscErrorCode, intent(out) :: ierr
+    type(tVec) :: sb, sx
+    integer :: k, n
+    ierr = 0
+    if (red%a /= red%pa) red%np = 0
+    red%pa = red%a
+    if (red%np > 0 .and. .not. red%pd_now) then
+      PetscCall(VecMDot(red%rhs, red%np, red%pb, red%pd, ierr))
+    end if
+    red%pd_now = .false.
+    n = red%np
+    if (n == PROJECT_PAIRS) then
+      sb = red%pb(1)
+      sx = red%px(1)
+      do k = 1, n - 1
+        red%pb(k) = red%pb(k + 1)
+        red%px(k) = red%px(k + 1)
+      end do
+      red%pb(n) = sb
+      red%px(n) = sx
+      red%pg(1:n - 1, 1:n - 1) = red%pg(2:n, 2:n)
+      red%pd(1:n - 1) = red%pd(2:n)
+      n = n - 1
+    end if
+    n = n + 1
+    PetscCall(VecCopy(red%rhs, red%pb(n), ierr))
+    PetscCall(VecCopy(red%dv, red%px(n), ierr))
+    red%pg(n, 1:n - 1) = red%pd(1:n - 1)
+    red%pg(1:n - 1, n) = red%pd(1:n - 1)
+    red%pg(n, n) = bnorm**2
+    red%np = n
+  end subroutine project_push
+
   !> Use the inner initial guess mode (GUESS_NONE, _PREVIOUS, _EXTRAPOLATE;
   !> timestepping decides, from -nuno_inner_guess and the TS type). Its two
   !> kept first corrections and the step under way's, and the kept second
@@ -1249,7 +1335,10 @@ contains
     logical, intent(in) :: extrapolated_start      !< the TS starts Newton from x + dt xdot (but at a window's first step)
     PetscErrorCode, intent(out) :: ierr
     ierr = 0
-    if (mode /= GUESS_NONE .and. red%guess == GUESS_NONE) then
+    if (mode == GUESS_PROJECT .and. red%guess == GUESS_NONE) then
+      PetscCall(VecDuplicateVecs(red%rhs, PROJECT_PAIRS, red%pb, ierr))
+      PetscCall(VecDuplicateVecs(red%rhs, PROJECT_PAIRS, red%px, ierr))
+    else if (mode /= GUESS_NONE .and. red%guess == GUESS_NONE) then
       PetscCall(VecDuplicate(red%rhs, red%dvh(1), ierr))
       PetscCall(VecDuplicate(red%rhs, red%dvh(2), ierr))
       PetscCall(VecDuplicate(red%rhs, red%dvp, ierr))
@@ -1259,6 +1348,7 @@ contains
     red%guess = mode
     red%guess_power = merge(2, 1, extrapolated_start)
     red%nh = 0
+    red%np = 0
     red%pending = .false.
     red%has2 = .false.
     red%pending2 = .false.
@@ -1362,7 +1452,9 @@ contains
       ! a guess must never fail a step: from zero once more
       PetscCall(inner_solve(red, .true., reason, ierr))
     end if
-    if (red%guess /= GUESS_NONE .and. nit == 0 .and. reason > 0) then
+    if (red%guess == GUESS_PROJECT) then
+      continue
+    else if (red%guess /= GUESS_NONE .and. nit == 0 .and. reason > 0) then
       ! this step's first correction, kept if the step is accepted
       ! (reduced_step_accepted; a failed solve's is no guess)
       PetscCall(VecCopy(red%dv, red%dvp, ierr))
@@ -1390,6 +1482,10 @@ contains
         end if
         PetscCall(inner_solve(red, .true., reason, ierr))
       end if
+    end if
+    ! (a pair of any converged solve, whichever Newton iteration and start)
+    if (red%guess == GUESS_PROJECT .and. reason > 0) then
+      PetscCall(project_push(red, bnorm, ierr))
     end if
     ! PETSc keeps a PC's failure until its next set-up, which this shell
     ! PC (its matrix unchanged) never gets: set it each time, or one

@@ -31,7 +31,7 @@ module timestepping
   use output, only: output_file, output_record, output_write_step, run_info, output_write_run_info, &
                     output_write_wall_time, output_config_key, checkpoint_t, output_write_checkpoint
   use newton_forcing, only: forcing_term, quadratic_constant
-  use inner_guess, only: GUESS_AUTO, GUESS_NONE, GUESS_EXTRAPOLATE
+  use inner_guess, only: GUESS_AUTO, GUESS_NONE, GUESS_PROJECT
   use reduced, only: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach, &
                      reduced_set_guess, reduced_step_accepted, &
                      reduced_describe, &
@@ -515,11 +515,12 @@ contains
   !> first Newton corrections of successive steps form a smooth sequence
   !> only for one-stage methods (beuler, theta, cn), whose shift is
   !> proportional to 1/dt; the stages of rosw, arkimex and bdf's history
-  !> are other quantities. auto: extrapolate with bending (30 % fewer
-  !> inner iterations in bw mode at 257 x 257, docs/performance.md), none
-  !> without (there the extra product the guess costs ate the gain), and
-  !> none in identification and control runs. An explicit choice the run
-  !> cannot use is refused. Collective.
+  !> are other quantities. auto: project with bending (the extrapolation
+  !> took 30 % fewer inner iterations in bw mode at 257 x 257, the
+  !> projection 16 % fewer again, docs/performance.md), none without
+  !> (there what the guesses cost ate the gain), and none in
+  !> identification and control runs. An explicit choice the run cannot
+  !> use is refused. Collective.
   subroutine set_inner_guess(ctx, tstype, ierr)
     type(app_ctx), intent(inout) :: ctx
     character(len=*), intent(in) :: tstype
@@ -544,18 +545,18 @@ contains
       end if
       if (.not. one_stage) then
         ierr = PETSC_ERR_ARG_INCOMP
-        SETERRQ(ctx%comm, ierr, 'nuno: -nuno_inner_guess previous or extrapolate needs a one-stage method (-ts_type beuler, theta or cn), not -ts_type '//trim(tstype))
+        SETERRQ(ctx%comm, ierr, 'nuno: -nuno_inner_guess previous, extrapolate or project needs a one-stage method (-ts_type beuler, theta or cn), not -ts_type '//trim(tstype))
       end if
       if (direct) then
         ierr = PETSC_ERR_ARG_INCOMP
-        SETERRQ(ctx%comm, ierr, 'nuno: -nuno_inner_guess previous or extrapolate needs an iterative inner solver, not -reduced_ksp_type preonly')
+        SETERRQ(ctx%comm, ierr, 'nuno: -nuno_inner_guess previous, extrapolate or project needs an iterative inner solver, not -reduced_ksp_type preonly')
       end if
     end if
     if (.not. ctx%use_reduced) return
     mode = ctx%guess
     ! (auto leaves the fits alone: their finite-difference checks compare
     ! runs whose inexact solves would otherwise start from other guesses)
-    if (mode == GUESS_AUTO) mode = merge(GUESS_EXTRAPOLATE, GUESS_NONE, one_stage .and. &
+    if (mode == GUESS_AUTO) mode = merge(GUESS_PROJECT, GUESS_NONE, one_stage .and. &
                                          ctx%cfg%bending_code /= BEND_NONE .and. .not. (ctx%cfg%identify .or. ctx%cfg%control))
     if (.not. one_stage .or. direct) mode = GUESS_NONE
     ctx%guess = mode

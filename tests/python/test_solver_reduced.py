@@ -246,17 +246,21 @@ def run_window(tmp_path, name, nranks, options, n, dt, **keys):
     return run_input(tmp_path, "hang", name, nranks, options, n * dt, dt, output_interval=n * dt, **keys)
 
 
-def test_inner_guess_changes_iterations_not_the_trajectory(tmp_path):
+@pytest.mark.parametrize("guess", ["extrapolate", "project"])
+def test_inner_guess_changes_iterations_not_the_trajectory(tmp_path, guess):
     """-nuno_inner_guess (module inner_guess): the inner solve of a step's
     first Newton iteration starts from the last steps' first corrections
-    extrapolated. Solved tightly, the trajectory is the zero guess's; solved
-    to 1e-3 (the Baraff-Witkin mode) the falling cloth, whose acceleration
-    changes smoothly, needs fewer inner iterations with it. Default with
-    bending (auto), said in the start-up summary."""
+    extrapolated, or from the least-squares combination of the last inner
+    solves (project). Solved tightly, the trajectory is the zero guess's;
+    solved to 1e-3 (the Baraff-Witkin mode) the falling cloth, whose
+    acceleration changes smoothly, needs fewer inner iterations with it.
+    project is the default with bending (auto), said in the start-up
+    summary."""
     bw = ("-snes_type", "ksponly")
     n, dt = 20, 1.0 / 600.0
     runs, its = {}, {}
-    for guess in ("none", "extrapolate"):
+    tried = guess
+    for guess in ("none", tried):
         _, runs[guess] = run_window(tmp_path, f"tight_{guess}", 2, bw + ("-reduced_ksp_rtol", "1e-11",
                                     "-nuno_inner_guess", guess), n, dt, nx=33, ny=33)
         _, loose = run_window(tmp_path, f"loose_{guess}", 2, bw + ("-reduced_ksp_rtol", "1e-3",
@@ -265,22 +269,27 @@ def test_inner_guess_changes_iterations_not_the_trajectory(tmp_path):
     ref = runs["none"].position
     moved = np.abs(ref[-1] - ref[0]).max()
     assert moved > 1e-3
-    err = np.abs(runs["extrapolate"].position - ref).max() / moved
+    err = np.abs(runs[tried].position - ref).max() / moved
     assert err < 1e-8, f"the guess changed the tight trajectory by {err:.3e} of the displacement"
-    assert its["extrapolate"] < its["none"], f"inner iterations with the guess {its['extrapolate']}, without {its['none']}"
-    proc, _ = run_window(tmp_path, "default", 1, bw, 2, dt, nx=33, ny=33)
-    assert "initial guess extrapolated" in proc.stdout
+    assert its[tried] < its["none"], f"inner iterations with the guess {its[tried]}, without {its['none']}"
+    if tried == "project":
+        proc, _ = run_window(tmp_path, "default", 1, bw, 2, dt, nx=33, ny=33)
+        assert "initial guess projected on the last 8 inner solves" in proc.stdout
 
 
-def test_second_newton_iteration_starts_from_the_last_steps(tmp_path):
-    """The inner solve of a step's second Newton iteration starts from the
-    last step's second correction (scaled by the right-hand sides, module
-    inner_guess second_weight): full Newton on hang 33 x 33 with bending,
-    2 ranks. Nearly every second solve after the first steps starts from a
+@pytest.mark.parametrize("guess", ["extrapolate", "auto"])
+def test_second_newton_iteration_starts_from_the_last_steps(tmp_path, guess):
+    """The inner solve of a step's second Newton iteration starts from a
+    guess: with extrapolate the last step's second correction (scaled by
+    the right-hand sides, module inner_guess second_weight), with auto
+    (project, with bending) the projection on the last inner solves, the
+    step's first among them: full Newton on hang 33 x 33 with bending, 2
+    ranks. Nearly every second solve after the first steps starts from a
     nonzero guess (-reduced_ksp_view says so), and, solved tightly, the
     trajectory is the zero guess's."""
     n, dt = 20, 1.0e-3
-    proc, _ = run_window(tmp_path, "second", 2, ("-snes_monitor", "-reduced_ksp_view"), n, dt, nx=33, ny=33)
+    proc, _ = run_window(tmp_path, "second", 2, ("-snes_monitor", "-reduced_ksp_view", "-nuno_inner_guess", guess),
+                         n, dt, nx=33, ny=33)
     starts = {0: [], 1: []}
     k = None
     for line in proc.stdout.splitlines():
@@ -293,13 +302,14 @@ def test_second_newton_iteration_starts_from_the_last_steps(tmp_path):
     assert len(starts[1]) >= n, f"fewer second Newton iterations than steps: {len(starts[1])}"
     assert sum(starts[1][3:]) >= len(starts[1][3:]) - 2, f"second solves from a guess: {starts[1]}"
     runs = {}
-    for guess in ("none", "auto"):
+    tried = guess
+    for guess in ("none", tried):
         _, runs[guess] = run_window(tmp_path, f"tight2_{guess}", 2, ("-reduced_ksp_rtol", "1e-11",
                                     "-nuno_inner_guess", guess), n, dt, nx=33, ny=33)
     ref = runs["none"].position
     moved = np.abs(ref[-1] - ref[0]).max()
     assert moved > 1e-4
-    err = np.abs(runs["auto"].position - ref).max() / moved
+    err = np.abs(runs[tried].position - ref).max() / moved
     assert err < 1e-8, f"the guesses changed the tight trajectory by {err:.3e} of the displacement"
 
 
