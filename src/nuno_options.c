@@ -45,7 +45,7 @@ PetscErrorCode nuno_options_read(MPI_Fint fcomm, int *jacobian, int *pc_lag, int
                              "nuno", floor, &floor, NULL));
   PetscCall(PetscOptionsBool("-nuno_newton_forcing", "reduced Newton: solve each inner system only as far as the step needs (its Newton remainder, or half the residual at which Newton stops); off: always -reduced_ksp_rtol",
                              "nuno", fc, &fc, NULL));
-  PetscCall(PetscOptionsEList("-nuno_inner_guess", "reduced, one-stage methods (beuler, theta, cn): the inner solve's initial guess: auto (project with bending, none without), none (zero), previous (at a step's first Newton iteration the last step's first correction, rescaled to this step), extrapolate (the last two steps' first corrections extrapolated linearly in time), project (at every Newton iteration the least-squares combination of the last 8 inner solves)",
+  PetscCall(PetscOptionsEList("-nuno_inner_guess", "reduced, one-stage methods (beuler, theta, cn): the inner solve's initial guess: auto (project with bending at fixed steps, extrapolate at adaptive ones, none without bending), none (zero), previous (at a step's first Newton iteration the last step's first correction, rescaled to this step), extrapolate (the last two steps' first corrections extrapolated linearly in time), project (at every Newton iteration the least-squares combination of the last 8 inner solves)",
                               "nuno", guesses, 5, guesses[gs], &gs, &gset));
   PetscCall(PetscOptionsBool("-nuno_gauss_newton", "energy bending: assemble only the Gauss-Newton part -k_b J^T J", "nuno", gn, &gn, NULL));
   PetscCall(PetscOptionsBool("-nuno_clamp_compression", "drop the indefinite compression term of the springs from the assembled matrix",

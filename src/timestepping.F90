@@ -31,7 +31,7 @@ module timestepping
   use output, only: output_file, output_record, output_write_step, run_info, output_write_run_info, &
                     output_write_wall_time, output_config_key, checkpoint_t, output_write_checkpoint
   use newton_forcing, only: forcing_term, quadratic_constant
-  use inner_guess, only: GUESS_AUTO, GUESS_NONE, GUESS_PROJECT
+  use inner_guess, only: GUESS_AUTO, GUESS_NONE, GUESS_EXTRAPOLATE, GUESS_PROJECT
   use reduced, only: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach, &
                      reduced_set_guess, reduced_step_accepted, &
                      reduced_describe, &
@@ -517,7 +517,8 @@ contains
   !> proportional to 1/dt; the stages of rosw, arkimex and bdf's history
   !> are other quantities. auto: project with bending (the extrapolation
   !> took 30 % fewer inner iterations in bw mode at 257 x 257, the
-  !> projection 16 % fewer again, docs/performance.md), none without
+  !> projection 16 % fewer again, docs/performance.md; extrapolate with
+  !> adaptive steps, whose changes of dt empty the projection), none without
   !> (there what the guesses cost ate the gain), and none in
   !> identification and control runs. An explicit choice the run cannot
   !> use is refused. Collective.
@@ -558,6 +559,10 @@ contains
     ! runs whose inexact solves would otherwise start from other guesses)
     if (mode == GUESS_AUTO) mode = merge(GUESS_PROJECT, GUESS_NONE, one_stage .and. &
                                          ctx%cfg%bending_code /= BEND_NONE .and. .not. (ctx%cfg%identify .or. ctx%cfg%control))
+    ! the projection drops its kept solves whenever dt changes, so with
+    ! adaptive steps it would rarely have any: the extrapolation, which
+    ! scales across steps of other sizes, there
+    if (ctx%guess == GUESS_AUTO .and. mode == GUESS_PROJECT .and. .not. ctx%fixed_step) mode = GUESS_EXTRAPOLATE
     if (.not. one_stage .or. direct) mode = GUESS_NONE
     ctx%guess = mode
     ! (nuno_step_defaults put the extrapolated start of beuler in the options)

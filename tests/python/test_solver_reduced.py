@@ -275,6 +275,10 @@ def test_inner_guess_changes_iterations_not_the_trajectory(tmp_path, guess):
     if tried == "project":
         proc, _ = run_window(tmp_path, "default", 1, bw, 2, dt, nx=33, ny=33)
         assert "initial guess projected on the last 8 inner solves" in proc.stdout
+        # adaptive steps change dt, which empties the projection: auto extrapolates there
+        proc, _ = run_window(tmp_path, "adaptive", 1, ("-ts_type", "beuler", "-ts_adapt_type", "basic"), 2, dt,
+                             nx=33, ny=33)
+        assert "initial guess extrapolated" in proc.stdout
 
 
 @pytest.mark.parametrize("guess", ["extrapolate", "auto"])
