@@ -145,13 +145,12 @@ module reduced
     ! -nuno_inner_guess project: the last np inner solves at shift pa, their
     ! right-hand sides pb(k) and solutions px(k) (oldest first), the Gram
     ! matrix of the pb and their products pd with this solve's right-hand
-    ! side (pd_now: formed for it by set_guess)
+    ! side (formed by project_guess, which every solve calls first)
     integer :: np = 0
     type(tVec) :: pb(PROJECT_PAIRS), px(PROJECT_PAIRS)   !< 3-dof
     real(rp) :: pg(PROJECT_PAIRS, PROJECT_PAIRS) = 0
     real(rp) :: pd(PROJECT_PAIRS) = 0
     real(rp) :: pa = 0                     !< [1/time]
-    logical :: pd_now = .false.
   end type reduced_t
 
   !> The parts of an assembled AIJ S as plain arrays: diagonal part (ia, ja,
@@ -1272,10 +1271,8 @@ contains
     real(rp) :: y(PROJECT_PAIRS)
     ierr = 0
     guessed = .false.
-    red%pd_now = .false.
     if (red%np == 0 .or. red%a /= red%pa) return
     PetscCall(VecMDot(red%rhs, red%np, red%pb, red%pd, ierr))
-    red%pd_now = .true.
     call projection_weights(red%np, red%pg, red%pd, y)
     if (all(y(1:red%np) == 0.0_rp)) return
     PetscCall(VecSet(red%dv, 0.0_rp, ierr))
@@ -1285,7 +1282,8 @@ contains
 
   !> -nuno_inner_guess project: a converged inner solve (rhs, its norm
   !> bnorm, and dv) joins the kept ones, the oldest leaving when PROJECT_PAIRS
-  !> are kept (the vectors change places, no copies but the new pair's). A
+  !> are kept (the vectors change places, no copies but the new pair's);
+  !> its products with them, pd, are project_guess's for this solve. A
   !> changed shift (another dt: S differs by more than a step's change)
   !> empties them first. Collective.
   subroutine project_push(red, bnorm, ierr)
@@ -1297,10 +1295,6 @@ contains
     ierr = 0
     if (red%a /= red%pa) red%np = 0
     red%pa = red%a
-    if (red%np > 0 .and. .not. red%pd_now) then
-      PetscCall(VecMDot(red%rhs, red%np, red%pb, red%pd, ierr))
-    end if
-    red%pd_now = .false.
     n = red%np
     if (n == PROJECT_PAIRS) then
       sb = red%pb(1)
@@ -1452,21 +1446,21 @@ contains
       ! a guess must never fail a step: from zero once more
       PetscCall(inner_solve(red, .true., reason, ierr))
     end if
-    if (red%guess == GUESS_PROJECT) then
-      continue
-    else if (red%guess /= GUESS_NONE .and. nit == 0 .and. reason > 0) then
-      ! this step's first correction, kept if the step is accepted
-      ! (reduced_step_accepted; a failed solve's is no guess)
-      PetscCall(VecCopy(red%dv, red%dvp, ierr))
-      red%ap = red%a
-      red%pending = .true.
-      red%pending2 = .false.
-    else if (red%guess /= GUESS_NONE .and. nit == 1 .and. reason > 0) then
-      ! and its second, for the next step's second iteration
-      PetscCall(VecCopy(red%dv, red%dvp2, ierr))
-      red%bp2 = bnorm
-      red%ap2 = red%a
-      red%pending2 = .true.
+    if ((red%guess == GUESS_PREVIOUS .or. red%guess == GUESS_EXTRAPOLATE) .and. reason > 0) then
+      if (nit == 0) then
+        ! this step's first correction, kept if the step is accepted
+        ! (reduced_step_accepted; a failed solve's is no guess)
+        PetscCall(VecCopy(red%dv, red%dvp, ierr))
+        red%ap = red%a
+        red%pending = .true.
+        red%pending2 = .false.
+      else if (nit == 1) then
+        ! and its second, for the next step's second iteration
+        PetscCall(VecCopy(red%dv, red%dvp2, ierr))
+        red%bp2 = bnorm
+        red%ap2 = red%a
+        red%pending2 = .true.
+      end if
     end if
     PetscCall(KSPGetResidualNorm(red%ksp, rnorm, ierr))
     red%lin_rel = 0.0_rp

@@ -557,12 +557,11 @@ contains
     mode = ctx%guess
     ! (auto leaves the fits alone: their finite-difference checks compare
     ! runs whose inexact solves would otherwise start from other guesses)
-    if (mode == GUESS_AUTO) mode = merge(GUESS_PROJECT, GUESS_NONE, one_stage .and. &
-                                         ctx%cfg%bending_code /= BEND_NONE .and. .not. (ctx%cfg%identify .or. ctx%cfg%control))
-    ! the projection drops its kept solves whenever dt changes, so with
+    ! The projection drops its kept solves whenever dt changes, so with
     ! adaptive steps it would rarely have any: the extrapolation, which
-    ! scales across steps of other sizes, there
-    if (ctx%guess == GUESS_AUTO .and. mode == GUESS_PROJECT .and. .not. ctx%fixed_step) mode = GUESS_EXTRAPOLATE
+    ! scales across steps of other sizes, there.
+    if (mode == GUESS_AUTO) mode = merge(merge(GUESS_PROJECT, GUESS_EXTRAPOLATE, ctx%fixed_step), GUESS_NONE, one_stage .and. &
+                                         ctx%cfg%bending_code /= BEND_NONE .and. .not. (ctx%cfg%identify .or. ctx%cfg%control))
     if (.not. one_stage .or. direct) mode = GUESS_NONE
     ctx%guess = mode
     ! (nuno_step_defaults put the extrapolated start of beuler in the options)
