@@ -11,7 +11,9 @@
 !> correction to the N x N level (bilinear and cubic: module stencil_mg's
 !> interpolate, not added), and the Galerkin sums of the next coarser
 !> level (galerkin_add, bilinear; its sums zeroed first, as
-!> mg_build_coarse does). Run: bash bench/mg_micro.sh [N] [R] [square].
+!> mg_build_coarse does). With a fourth argument "paired", the kernels take
+!> the blocks to the rows below from the rows below (stencil_t's paired:
+!> S without bending). Run: bash bench/mg_micro.sh [N] [R] [lines|square] [paired].
 program mg_micro
   use kinds, only: rp
   use mg_kernels, only: mp, stencil_t, transfer_t, stencil_init, gs_sweep, stencil_product_mixed, transfer_init, interpolate, &
@@ -48,6 +50,10 @@ program mg_micro
     lines = trim(arg) /= 'square'
   end if
   call stencil_init(st, n, n, 0, n - 1, r, lines=lines)
+  if (command_argument_count() > 3) then
+    call get_command_argument(4, arg)
+    st%paired = trim(arg) == 'paired'
+  end if
   call random_number(st%b)
   call random_number(st%br)
   call random_number(st%d)

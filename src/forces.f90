@@ -6,7 +6,7 @@
 module forces
   use kinds, only: rp
   use config, only: BEND_NONE, BEND_PAPER, BEND_ENERGY
-  use lattice, only: lattice_t, link_dir, line_dir, link_constants, triple_constants
+  use lattice, only: lattice_t, link_dir, line_dir, link_constants, link_lane_constants, triple_constants
   use springs, only: link_force_lanes, link_jacobian, link_energy, link_power_lanes
   use bending_paper, only: paper_force, paper_jacobian, paper_energy
   use bending_energy, only: energy_force_lanes, energy_jacobian, energy_bend_energy, energy_power_lanes
@@ -14,8 +14,9 @@ module forces
   private
   public :: internal_forces, element_energies, dissipated_power
   public :: jac_buffer_t, jac_buffer_init, jac_buffer_row, slot_of
-  public :: first_anchor_row, link_stretch_extremes, triple_lane_range, triple_lane_edges, TRIPLE_LANES
-  public :: link_lane_range, link_lane_diffs, link_lane_state
+  public :: first_anchor_row, link_stretch_extremes, triple_lane_range, TRIPLE_LANES
+  public :: link_lane_range
+  public :: RING_ROWS, ring_load, ring_link_diffs, ring_triple_edges
 
   !> Jacobian blocks of the v-rows of three consecutive node rows (a rolling
   !> buffer indexed by slot_of(j)): k(:,:,di,dj,i,s) = dF_v(i,j)/dx(i+di,j+dj)
@@ -29,6 +30,17 @@ module forces
   !> Triples of one direction taken at once by the vectorised bending
   !> kernels (energy_force_lanes, energy_jacobian_lanes).
   integer, parameter :: TRIPLE_LANES = 32
+
+  !> Rows of an array in the state's layout (0:5, 0:nx-1, rows) kept along
+  !> x fastest in a ring s(0:nx-1, 0:5, 0:RING_ROWS-1), row j in slot
+  !> modulo(j, RING_ROWS): the element loops take their lanes' differences
+  !> from it in vector loops (ring_link_diffs, ring_triple_edges), where
+  !> from the state itself each was a gather of stride 6 (4 % of a
+  !> Baraff-Witkin step without bending); each row is transposed
+  !> once for the 4 to 12 lanes that read it. 4 rows: the links anchored at
+  !> row j and the triples anchored up to two rows below reach j - 2 .. j + 1
+  !> (module reduced_assembly), those anchored at j reach j .. j + 2.
+  integer, parameter :: RING_ROWS = 4
 
 contains
 
@@ -58,60 +70,74 @@ contains
     if (jq >= lat%ny .or. jq < lat%ys) ihi = ilo - 1
   end subroutine link_lane_range
 
-  !> For the nl links anchored at (i0 + l - 1, j0), l = 1..nl, along
-  !> link_dir(:, k): a_p - a_q of the first and last three components of a
-  !> (positions and velocities of the state, or of any vector in its
-  !> layout), by lanes (leading dimension ld), as the lane kernels take them.
-  pure subroutine link_lane_diffs(lat, a, j0, k, i0, nl, ld, d, dv)
-    type(lattice_t), intent(in) :: lat
-    real(rp), intent(in) :: a(0:, 0:, lat%gys:)    !< (0:5, 0:nx-1, gys:gye)
-    integer, intent(in) :: j0, k, i0, nl, ld
-    real(rp), intent(out) :: d(ld, 3), dv(ld, 3)
-    integer :: l, i, dx, jq
-    dx = link_dir(1, k)
-    jq = j0 + link_dir(2, k)
-    do l = 1, nl
-      i = i0 + l - 1
-      d(l, :) = a(0:2, i, j0) - a(0:2, i + dx, jq)
-      dv(l, :) = a(3:5, i, j0) - a(3:5, i + dx, jq)
-    end do
-  end subroutine link_lane_diffs
 
-  !> The lane kernels' inputs for the nl links anchored at (i0 + l - 1, j0)
-  !> along link_dir(:, k): their constants e, eta (link_constants) and
-  !> the differences d, dv of the state a (link_lane_diffs).
-  pure subroutine link_lane_state(lat, a, j0, k, i0, nl, ld, e, eta, d, dv)
+
+  !> Row j of a (0:5, 0:nx-1, gys:gye) into its slot of the ring s unless
+  !> tag says it is there already (tag(slot) = row held; -huge(1) for none).
+  pure subroutine ring_load(lat, a, j, s, tag)
     type(lattice_t), intent(in) :: lat
     real(rp), intent(in) :: a(0:, 0:, lat%gys:)    !< (0:5, 0:nx-1, gys:gye)
-    integer, intent(in) :: j0, k, i0, nl, ld
-    real(rp), intent(out) :: e(ld), eta(ld), d(ld, 3), dv(ld, 3)
-    integer :: l
-    do l = 1, nl
-      call link_constants(lat, i0 + l - 1, j0, k, e(l), eta(l))
+    integer, intent(in) :: j
+    real(rp), intent(inout) :: s(0:, 0:, 0:)       !< (0:nx-1, 0:5, 0:RING_ROWS-1)
+    integer, intent(inout) :: tag(0:RING_ROWS - 1)
+    integer :: sl, i, c
+    if (j < lat%gys .or. j > lat%gye) return
+    sl = modulo(j, RING_ROWS)
+    if (tag(sl) == j) return
+    do i = 0, lat%nx - 1
+      do c = 0, 5
+        s(i, c, sl) = a(c, i, j)
+      end do
     end do
-    call link_lane_diffs(lat, a, j0, k, i0, nl, ld, d, dv)
-  end subroutine link_lane_state
+    tag(sl) = j
+  end subroutine ring_load
+
+  !> The differences of the nl links anchored at (i0 + l - 1, j0) along
+  !> link_dir(:, k), from the ring s (rows j0 and j0 + link_dir(2, k)
+  !> loaded): d = a_p - a_q of positions, dv of velocities, by lanes
+  !> (leading dimension ld), as the lane kernels take them.
+  pure subroutine ring_link_diffs(nx, s, j0, k, i0, nl, ld, d, dv)
+    integer, intent(in) :: nx, j0, k, i0, nl, ld
+    real(rp), intent(in) :: s(0:nx - 1, 0:5, 0:RING_ROWS - 1)
+    real(rp), intent(out) :: d(ld, 3), dv(ld, 3)
+    integer :: l, c, dx, sp, sq
+    dx = link_dir(1, k)
+    sp = modulo(j0, RING_ROWS)
+    sq = modulo(j0 + link_dir(2, k), RING_ROWS)
+    do c = 1, 3
+      do l = 1, nl
+        d(l, c) = s(i0 + l - 1, c - 1, sp) - s(i0 + l - 1 + dx, c - 1, sq)
+        dv(l, c) = s(i0 + l - 1, c + 2, sp) - s(i0 + l - 1 + dx, c + 2, sq)
+      end do
+    end do
+  end subroutine ring_link_diffs
 
   !> Edges e1 = x_q - x_p, e2 = x_r - x_q and their rates de of the nl
-  !> triples anchored at (i0 + l - 1, j0), l = 1..nl, along line_dir(:, k),
-  !> by lanes (leading dimension ld), as the lane kernels take them.
-  pure subroutine triple_lane_edges(lat, u, j0, k, i0, nl, ld, e1, e2, de)
-    type(lattice_t), intent(in) :: lat
-    real(rp), intent(in) :: u(0:, 0:, lat%gys:)    !< (0:5, 0:nx-1, gys:gye)
-    integer, intent(in) :: j0, k, i0, nl, ld
-    real(rp), intent(out) :: e1(ld, 3), e2(ld, 3) !< [length]
-    real(rp), intent(out) :: de(ld, 6)             !< [length/time]
-    integer :: l, i, dx, dy
+  !> triples anchored at (i0 + l - 1, j0) along line_dir(:, k), from the
+  !> ring s (rows j0 .. j0 + 2 line_dir(2, k) loaded), by lanes (leading
+  !> dimension ld), as the lane kernels take them.
+  pure subroutine ring_triple_edges(nx, s, j0, k, i0, nl, ld, e1, e2, de)
+    integer, intent(in) :: nx, j0, k, i0, nl, ld
+    real(rp), intent(in) :: s(0:nx - 1, 0:5, 0:RING_ROWS - 1)
+    real(rp), intent(out) :: e1(ld, 3), e2(ld, 3), de(ld, 6)
+    integer :: l, c, dx, sp, sq, sr, ip, iq, ir
     dx = line_dir(1, k)
-    dy = line_dir(2, k)
-    do l = 1, nl
-      i = i0 + l - 1
-      e1(l, :) = u(0:2, i + dx, j0 + dy) - u(0:2, i, j0)
-      e2(l, :) = u(0:2, i + 2 * dx, j0 + 2 * dy) - u(0:2, i + dx, j0 + dy)
-      de(l, 1:3) = u(3:5, i + dx, j0 + dy) - u(3:5, i, j0)
-      de(l, 4:6) = u(3:5, i + 2 * dx, j0 + 2 * dy) - u(3:5, i + dx, j0 + dy)
+    sp = modulo(j0, RING_ROWS)
+    sq = modulo(j0 + line_dir(2, k), RING_ROWS)
+    sr = modulo(j0 + 2 * line_dir(2, k), RING_ROWS)
+    do c = 1, 3
+      do l = 1, nl
+        ip = i0 + l - 1
+        iq = ip + dx
+        ir = iq + dx
+        e1(l, c) = s(iq, c - 1, sq) - s(ip, c - 1, sp)
+        e2(l, c) = s(ir, c - 1, sr) - s(iq, c - 1, sq)
+        de(l, c) = s(iq, c + 2, sq) - s(ip, c + 2, sp)
+        de(l, c + 3) = s(ir, c + 2, sr) - s(iq, c + 2, sq)
+      end do
     end do
-  end subroutine triple_lane_edges
+  end subroutine ring_triple_edges
+
 
   !> Lowest anchor row whose elements touch row ys.
   pure integer function first_anchor_row(lat)
@@ -177,16 +203,22 @@ contains
     real(rp), intent(in) :: u(0:5, 0:lat%nx - 1, lat%gys:lat%gye)
     real(rp), intent(out) :: f(3, 0:lat%nx - 1, lat%gys:lat%gye)
     integer, intent(out) :: nbad, bad(2)
-    integer :: i, j, k
+    integer :: i, j, k, jr
     real(rp) :: d0(3, 4), len0(4), kb, etab
+    real(rp) :: us(0:lat%nx - 1, 0:5, 0:RING_ROWS - 1)   ! rows of u, x fastest (ring_load)
+    integer :: tag(0:RING_ROWS - 1)
 
     f = 0.0_rp
     nbad = 0
     bad = -1
+    tag = -huge(1)
     do k = 1, 4
       call rest_link(lat, link_dir(:, k), d0(:, k), len0(k))
     end do
     do j = first_anchor_row(lat), lat%ye
+      do jr = j, j + 2
+        call ring_load(lat, u, jr, us, tag)
+      end do
       call link_row(j)
       if (lat%bending_model == BEND_PAPER) then
         do i = 0, lat%nx - 1
@@ -211,7 +243,8 @@ contains
         call link_lane_range(lat, j0, k, ilo, ihi, jq0)
         do i0 = ilo, ihi, NL
           nl1 = min(NL, ihi - i0 + 1)
-          call link_lane_state(lat, u, j0, k, i0, nl1, NL, el, etal, dd, vr)
+          call link_lane_constants(lat, j0, k, i0, nl1, NL, el, etal)
+          call ring_link_diffs(lat%nx, us, j0, k, i0, nl1, NL, dd, vr)
           call link_force_lanes(nl1, NL, lat%spring_model, el, etal, d0(:, k), len0(k), dd, vr, fl3, okl)
           do l = 1, nl1
             ii = i0 + l - 1
@@ -264,7 +297,7 @@ contains
         call triple_constants(lat, k, kb, etab)
         do i0 = ilo, ihi, NL
           nl1 = min(NL, ihi - i0 + 1)
-          call triple_lane_edges(lat, u, j0, k, i0, nl1, NL, e1, e2, de)
+          call ring_triple_edges(lat%nx, us, j0, k, i0, nl1, NL, e1, e2, de)
           call energy_force_lanes(nl1, NL, kb, etab, e1, e2, de, fl9, okl)
           do l = 1, nl1
             i = i0 + l - 1
@@ -327,10 +360,16 @@ contains
     real(rp), intent(in) :: u(0:5, 0:lat%nx - 1, lat%gys:lat%gye)
     real(rp), intent(out) :: power
     real(rp) :: kb, etab
-    integer :: j
+    integer :: j, jr
+    real(rp) :: us(0:lat%nx - 1, 0:5, 0:RING_ROWS - 1)   ! rows of u, x fastest (ring_load)
+    integer :: tag(0:RING_ROWS - 1)
 
     power = 0.0_rp
+    tag = -huge(1)
     do j = lat%ys, lat%ye
+      do jr = j, j + 2
+        call ring_load(lat, u, jr, us, tag)
+      end do
       call link_power_row(j)
       if (lat%bending_model == BEND_ENERGY) call energy_power_row(j)
     end do
@@ -343,12 +382,13 @@ contains
       integer, intent(in) :: j0
       integer, parameter :: NL = 32
       real(rp) :: el(NL), etal(NL), dd(NL, 3), vr(NL, 3), pl(NL)
-      integer :: k, jq0, ilo, ihi, i0, nl1
+      integer :: k, jq0, ilo, ihi, i0, nl1, l
       do k = 1, 4
         call link_lane_range(lat, j0, k, ilo, ihi, jq0)
         do i0 = ilo, ihi, NL
           nl1 = min(NL, ihi - i0 + 1)
-          call link_lane_state(lat, u, j0, k, i0, nl1, NL, el, etal, dd, vr)
+          call link_lane_constants(lat, j0, k, i0, nl1, NL, el, etal)
+          call ring_link_diffs(lat%nx, us, j0, k, i0, nl1, NL, dd, vr)
           call link_power_lanes(nl1, NL, lat%spring_model, etal, dd, vr, pl)
           power = power + sum(pl(1:nl1))
         end do
@@ -368,7 +408,7 @@ contains
         call triple_lane_range(lat, j0, k, ilo, ihi)
         do i0 = ilo, ihi, NL
           nl1 = min(NL, ihi - i0 + 1)
-          call triple_lane_edges(lat, u, j0, k, i0, nl1, NL, e1, e2, de)
+          call ring_triple_edges(lat%nx, us, j0, k, i0, nl1, NL, e1, e2, de)
           call energy_power_lanes(nl1, NL, etab, e1, e2, de, pw)
           power = power + sum(pw(1:nl1))
         end do

@@ -18,7 +18,7 @@ module lattice
   use config, only: nuno_config, SCALING_CONTINUUM, MASS_AREA, BEND_NONE, BEND_ENERGY
   implicit none
   private
-  public :: lattice_t, lattice_init, link_dir, line_dir, link_constants, triple_constants
+  public :: lattice_t, lattice_init, link_dir, line_dir, link_constants, link_lane_constants, triple_constants
   public :: rest_position, node_mass, rest_strip, halo_width
 
   !> Link directions from the anchor: +x, +y, +x+y, -x+y (each link once).
@@ -149,6 +149,26 @@ contains
     e = e * s
     eta = eta * s
   end subroutine link_constants
+
+  !> link_constants of the nl links anchored at (i0 + l - 1, j) along
+  !> link_dir(:, k), by lanes: one value for the whole row but for the
+  !> boundary columns of links along y (continuum scaling), so the element
+  !> loops need no call per link (2 % of a Baraff-Witkin step without
+  !> bending went to those calls).
+  pure subroutine link_lane_constants(lat, j, k, i0, nl, ld, e, eta)
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: j, k, i0, nl, ld
+    real(rp), intent(out) :: e(ld), eta(ld)
+    real(rp) :: e0, eta0
+    ! column 1 is an interior one (nx >= 3, lattice_init)
+    call link_constants(lat, 1, j, k, e0, eta0)
+    e(1:nl) = e0
+    eta(1:nl) = eta0
+    if (lat%continuum .and. k == 2) then
+      if (i0 == 0) call link_constants(lat, 0, j, k, e(1), eta(1))
+      if (i0 + nl - 1 == lat%nx - 1) call link_constants(lat, lat%nx - 1, j, k, e(nl), eta(nl))
+    end if
+  end subroutine link_lane_constants
 
   !> Bending stiffness and damping of a triple along line_dir(:, k).
   !> Continuum (energy model): rigidity x (across / along) for x and y lines,

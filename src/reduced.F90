@@ -368,8 +368,11 @@ contains
           cubic_up(l) = red%interp == INTERP_CUBIC .or. red%interp == INTERP_COARSE_CUBIC
         end do
         PetscCall(DMDAGetCorners(da6, xs, ys, zs, m, n, zm, ierr))
+        ! without bending every element of S is a link, so S(p, q) = S(q, p)
+        ! block for block (mg_kernels' stencil_t, paired): the sweeps and
+        ! products read the blocks to the row below from that row
         call mg_create(red%mg, comm, nx, ny, ys, ys + n - 1, w, cubic, merge(int(mg_levels), 10, mg_levels > 0), mg_cycle, mg_sweeps, &
-                       cubic_up)
+                       cubic_up, paired=lat%bending_model == BEND_NONE)
         PetscCall(PCShellSetContext(pc, red, ierr))
         PetscCall(PCShellSetApply(pc, mg_pc_apply, ierr))
         PetscCall(PCShellSetView(pc, mg_pc_view, ierr))

@@ -22,12 +22,12 @@
 module reduced_assembly
   use kinds, only: rp
   use config, only: BEND_NONE, BEND_PAPER, BEND_ENERGY
-  use lattice, only: lattice_t, link_dir, line_dir, triple_constants
+  use lattice, only: lattice_t, link_dir, line_dir, triple_constants, link_lane_constants
   use springs, only: link_jacobian_lanes
   use bending_paper, only: paper_jacobian
   use bending_energy, only: energy_jacobian_lanes
   use offset_product, only: offset_table
-  use forces, only: triple_lane_range, triple_lane_edges, TRIPLE_LANES, link_lane_range, link_lane_diffs, link_lane_state
+  use forces, only: triple_lane_range, TRIPLE_LANES, link_lane_range, RING_ROWS, ring_load, ring_link_diffs, ring_triple_edges
   use mg_kernels, only: stencil_t, stencil_row_from_full
   implicit none
   private
@@ -107,8 +107,11 @@ contains
     !> and, when given, the multigrid's finest level made from st row by row
     !> (stencil_row_from_full)
     type(stencil_t), intent(inout), optional :: fine
-    integer :: j, k, jt, lag
+    integer :: j, k, jt, lag, jr
     real(rp) :: d0(3, 4), len0(4), c9(9, 9), rinv
+    ! rows j - 2 .. j + 1 of u and w, x fastest (forces' ring_load)
+    real(rp) :: us(0:lat%nx - 1, 0:5, 0:RING_ROWS - 1), ws(0:lat%nx - 1, 0:5, 0:RING_ROWS - 1)
+    integer :: utag(0:RING_ROWS - 1), wtag(0:RING_ROWS - 1)
     logical :: write_s                             ! false: the products g, kd only
     integer :: kof(-2:2, -2:2)                     ! slot of each offset in st
 
@@ -136,7 +139,13 @@ contains
       if (size(st, 5) < lat%ye - lat%ys + 1 .and. (size(st, 5) < lag + 1 .or. .not. present(fine))) &
         error stop 'csr_assemble: st holds too few rows'
     end if
+    utag = -huge(1)
+    wtag = -huge(1)
     do j = max(0, lat%ys - 1), lat%ye + lag
+      do jr = j - 2, j + 1
+        call ring_load(lat, u, jr, us, utag)
+        call ring_load(lat, w, jr, ws, wtag)
+      end do
       if (j <= lat%ye) call link_row(j)
       jt = j - lag
       if (lag > 0 .and. jt >= max(0, lat%ys - lat%halo) .and. jt <= lat%ye) call triple_row(jt)
@@ -170,8 +179,9 @@ contains
         own_q = jq <= lat%ye
         do i0 = ilo, ihi, NL
           nl1 = min(NL, ihi - i0 + 1)
-          call link_lane_state(lat, u, j0, k, i0, nl1, NL, e, eta, dd, vr)
-          call link_lane_diffs(lat, w, j0, k, i0, nl1, NL, wx, wv)
+          call link_lane_constants(lat, j0, k, i0, nl1, NL, e, eta)
+          call ring_link_diffs(lat%nx, us, j0, k, i0, nl1, NL, dd, vr)
+          call ring_link_diffs(lat%nx, ws, j0, k, i0, nl1, NL, wx, wv)
           call link_jacobian_lanes(nl1, NL, lat%spring_model, e, eta, len0(k), dd, vr, clamp, kl, cll, okl)
           ! f_p = -f_q: dF_p/dx_p = dF_q/dx_q = kl, dF_p/dx_q = dF_q/dx_p = -kl (same for cl).
           if (.not. with_damping) cll(1:nl1, :, :) = 0.0_rp
@@ -284,11 +294,11 @@ contains
           call triple_constants(lat, k, kb, etab)
           do i0 = ilo, ihi, NL
             nl1 = min(NL, ihi - i0 + 1)
-            call triple_lane_edges(lat, u, j0, k, i0, nl1, NL, e1, e2, de)
+            call ring_triple_edges(lat%nx, us, j0, k, i0, nl1, NL, e1, e2, de)
             call energy_jacobian_lanes(nl1, NL, kb, etab, e1, e2, de, gauss_newton, ke, ce, okl)
             if (.not. with_damping) ce = 0.0_rp
             if (present(st) .or. .not. write_s) then
-              call add_triple_lanes(j0, i0, nl1, NL, dx, dy, ke, ce)
+              call add_triple_lanes(j0, k, i0, nl1, NL, dx, dy, ke, ce)
               cycle
             end if
             do l = 1, nl1
@@ -333,21 +343,16 @@ contains
     !> once for its three blocks, then t_1Q r(:, 1:3) + t_2Q r(:, 4:6) added
     !> to S as it is formed (each block's four products with T's entries,
     !> kept, then added, were two fifths of this routine).
-    subroutine add_triple_lanes(j0, i0, nl, ld, dx, dy, ke, ce)
-      integer, intent(in) :: j0, i0, nl, ld, dx, dy
+    subroutine add_triple_lanes(j0, kdir, i0, nl, ld, dx, dy, ke, ce)
+      integer, intent(in) :: j0, kdir, i0, nl, ld, dx, dy   ! kdir: the line direction (line_dir(:, kdir) = (dx, dy))
       real(rp), intent(in) :: ke(ld, 6, 6), ce(ld, 6, 6)
       ! T = [[-I, I, 0], [0, -I, I]]: t(a, P) the factor of node P in edge a
       real(rp), parameter :: t(2, 3) = reshape([-1.0_rp, 0.0_rp, 1.0_rp, -1.0_rp, 0.0_rp, 1.0_rp], [2, 3])
       real(rp) :: m(ld, 6, 6), ewx(ld, 6), ewv(ld, 6), h(ld, 6), free(ld), r(ld, 3, 6)
       integer :: l, pp, qq, ip0, jp, iq0, jq2, c1, c2, sl, i, sp
       logical :: masked
-      do l = 1, nl
-        i = i0 + l - 1
-        ewx(l, 1:3) = w(0:2, i + dx, j0 + dy) - w(0:2, i, j0)
-        ewx(l, 4:6) = w(0:2, i + 2 * dx, j0 + 2 * dy) - w(0:2, i + dx, j0 + dy)
-        ewv(l, 1:3) = w(3:5, i + dx, j0 + dy) - w(3:5, i, j0)
-        ewv(l, 4:6) = w(3:5, i + 2 * dx, j0 + 2 * dy) - w(3:5, i + dx, j0 + dy)
-      end do
+      ! the edges' differences of w, as ring_triple_edges forms them of u
+      call ring_triple_edges(lat%nx, ws, j0, kdir, i0, nl, ld, ewx(:, 1:3), ewx(:, 4:6), ewv)
       h(1:nl, :) = 0.0_rp
       do c2 = 1, 6
         do c1 = 1, 6

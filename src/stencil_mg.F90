@@ -96,11 +96,14 @@ contains
   !> Galerkin product widens it to reach 3 and costs as many as it saves;
   !> docs/performance.md, "Eleventh round"). At most max_levels levels;
   !> coarsening stops at 5 points a side. Collective.
-  subroutine mg_create(mg, comm, nx, ny, ys, ye, r, cubic, max_levels, cycle_type, nu, cubic_correction)
+  subroutine mg_create(mg, comm, nx, ny, ys, ye, r, cubic, max_levels, cycle_type, nu, cubic_correction, paired)
     type(stencil_mg_t), intent(inout) :: mg
     integer, intent(in) :: comm, nx, ny, ys, ye, r, max_levels, cycle_type, nu
     logical, intent(in) :: cubic(:)
     logical, intent(in), optional :: cubic_correction(:)
+    !> the operators the caller will set are paired (stencil_t; S without
+    !> bending): every level's, as a Galerkin product keeps it so
+    logical, intent(in), optional :: paired
     type(mg_level_t), allocatable :: tmp(:)
     integer :: ierr, l, nxc, nyc, ysc, yec, rc, hc, need, fewest, k
     logical :: last
@@ -167,6 +170,7 @@ contains
     end if
     do l = 1, mg%nlev
       call level_arrays(mg%lev(l))
+      if (present(paired)) mg%lev(l)%a%paired = paired
     end do
     do l = 2, mg%nlev
       call level_sums(mg%lev(l))

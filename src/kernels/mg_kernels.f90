@@ -59,6 +59,16 @@ module mg_kernels
     integer, allocatable :: slot(:)              !< (nb) index of offset k in b (dj /= 0) or br (dj == 0)
     integer :: nv = 0, nr = 0                    !< offsets to other rows, within the row
     integer, allocatable :: kv(:), kr(:)         !< (nv), (nr) their k
+    !> A(p, p + o) = A(p + o, p) for every offset o (block for block, not
+    !> transposed): S without bending, whose every element is a link with
+    !> f_q = -f_p a function of x_q - x_p and v_q - v_p, and the Galerkin
+    !> operators P^T A P of such an A (P scalar weights times I). Then a
+    !> block to a row below is the block back from that row, which a sweep
+    !> or product along the rows read a row before: the kernels take it
+    !> from there (kmir), in the cache, instead of from memory. Set by the
+    !> caller; the blocks are stored either way.
+    logical :: paired = .false.
+    integer, allocatable :: kmir(:)              !< (nv) slot in b of the offset -o of slot kk's o
     real(mp), allocatable :: b(:, :, :, :, :)    !< (0:nx-1, 3, 3, nv, ys:ye) A(p, p+o), o to another row
     real(mp), allocatable :: br(:, :, :, :, :)   !< (3, 3, nr, 0:nx-1, ys:ye) A(p, p+o), o within the row
     real(mp), allocatable :: d(:, :, :, :)       !< (0:nx-1, 3, 3, ys:ye) row sums D_p
@@ -96,13 +106,14 @@ contains
     type(stencil_t), intent(inout) :: st
     integer, intent(in) :: nx, ny, ys, ye, r
     logical, intent(in), optional :: lines
-    integer :: di, dj, k, pass
+    integer :: di, dj, k, kk, pass
     st%nx = nx
     st%ny = ny
     st%ys = ys
     st%ye = ye
     st%r = r
-    if (allocated(st%odi)) deallocate(st%odi, st%odj, st%slot, st%kv, st%kr, st%b, st%br, st%d, st%ainv)
+    if (allocated(st%odi)) deallocate(st%odi, st%odj, st%slot, st%kv, st%kr, st%kmir, st%b, st%br, st%d, st%ainv)
+    st%paired = .false.
     do pass = 1, 2
       k = 0
       do dj = -r, r
@@ -138,6 +149,11 @@ contains
         st%kv(st%nv) = k
         st%slot(k) = st%nv
       end if
+    end do
+    ! the stored offsets are symmetric about 0 (the square, or the lines)
+    allocate(st%kmir(st%nv))
+    do kk = 1, st%nv
+      st%kmir(kk) = st%slot(offset_index(st, -st%odi(st%kv(kk)), -st%odj(st%kv(kk))))
     end do
     allocate(st%b(0:nx - 1, 3, 3, st%nv, ys:ye), st%br(3, 3, st%nr, 0:nx - 1, ys:ye))
     allocate(st%d(0:nx - 1, 3, 3, ys:ye), st%ainv(3, 3, 0:nx - 1, ys:ye))
@@ -613,7 +629,11 @@ contains
       do k = k0, k1
         di = st%odi(st%kv(k))
         dj = st%odj(st%kv(k))
-        call subtract_offset(nx, h, st%b(:, :, :, k, j), x(:, :, j + dj), di, acc)
+        if (st%paired .and. dj < 0 .and. j + dj >= st%ys) then
+          call subtract_offset_mirror(nx, h, st%b(:, :, :, st%kmir(k), j + dj), x(:, :, j + dj), di, acc)
+        else
+          call subtract_offset(nx, h, st%b(:, :, :, k, j), x(:, :, j + dj), di, acc)
+        end if
       end do
     end subroutine subtract_rows
   end subroutine gs_sweep
@@ -639,6 +659,27 @@ contains
       acc(i, 3) = acc(i, 3) - b(i, 3, 1) * y1 - b(i, 3, 2) * y2 - b(i, 3, 3) * y3
     end do
   end subroutine subtract_offset
+
+  !> subtract_offset for a paired operator, from the blocks bm(0:nx-1, 3, 3)
+  !> of the other row's offset -(di, dj): A(p, p + o) = A(p + o, p), so
+  !> acc(i) -= bm(i + di) x(i + di) where i + di lies in the row (the
+  !> padding of x is zero, and so are the blocks that point there).
+  pure subroutine subtract_offset_mirror(nx, h, bm, xr, di, acc)
+    integer, intent(in) :: nx, h, di
+    real(mp), intent(in) :: bm(0:nx - 1, 3, 3)         !< the other row's blocks of offset -o
+    real(mp), intent(in) :: xr(-h:nx - 1 + h, 3)       !< the other row of the iterate
+    real(mp), intent(inout) :: acc(0:nx - 1, 3)
+    integer :: i
+    real(mp) :: y1, y2, y3
+    do i = max(0, -di), min(nx - 1, nx - 1 - di)
+      y1 = xr(i + di, 1)
+      y2 = xr(i + di, 2)
+      y3 = xr(i + di, 3)
+      acc(i, 1) = acc(i, 1) - bm(i + di, 1, 1) * y1 - bm(i + di, 1, 2) * y2 - bm(i + di, 1, 3) * y3
+      acc(i, 2) = acc(i, 2) - bm(i + di, 2, 1) * y1 - bm(i + di, 2, 2) * y2 - bm(i + di, 2, 3) * y3
+      acc(i, 3) = acc(i, 3) - bm(i + di, 3, 1) * y1 - bm(i + di, 3, 2) * y2 - bm(i + di, 3, 3) * y3
+    end do
+  end subroutine subtract_offset_mirror
 
   !> The point-by-point part of a sweep over one row, in the sweep's order:
   !> x_i = A_ii^-1 (t_i - sum_k br(:, :, k, i) x_{i + dik(k)}), the points
@@ -944,6 +985,11 @@ contains
       do c2 = 1, 3
         ds(0:nx - 1, c2) = real(xs(di:nx - 1 + di, c2, sq) - xs(0:nx - 1, c2, sj), mp)
       end do
+      if (st%paired .and. dj < 0 .and. j + dj >= st%ys) then
+        ! the blocks back from the row below, read with it (paired)
+        call add_offset_mirror(nx, di, st%b(:, :, :, st%kmir(k), j + dj), ds, acc)
+        cycle
+      end if
       do c1 = 1, 3
         acc(0:nx - 1, c1) = acc(0:nx - 1, c1) + real(st%b(:, c1, 1, k, j) * ds(0:nx - 1, 1) &
           + st%b(:, c1, 2, k, j) * ds(0:nx - 1, 2) + st%b(:, c1, 3, k, j) * ds(0:nx - 1, 3), rp)
@@ -953,6 +999,23 @@ contains
     ! and the row of y
     call product_within_row(nx, r, st%nr, dik, st%br(:, :, :, :, j), xs(:, :, sj), acc, y(:, :, j))
   end subroutine product_row
+
+  !> product_row's sum for one offset o = (di, dj) to another row of a
+  !> paired operator: acc(i) += bm(i + di) ds(i), bm the other row's blocks
+  !> of offset -o, where i + di lies in the row (elsewhere the block is 0).
+  pure subroutine add_offset_mirror(nx, di, bm, ds, acc)
+    integer, intent(in) :: nx, di
+    real(mp), intent(in) :: bm(0:nx - 1, 3, 3)
+    real(mp), intent(in) :: ds(0:nx - 1, 3)
+    real(rp), intent(inout) :: acc(0:nx - 1, 3)
+    integer :: i, c1
+    do c1 = 1, 3
+      do i = max(0, -di), min(nx - 1, nx - 1 - di)
+        acc(i, c1) = acc(i, c1) + real(bm(i + di, c1, 1) * ds(i, 1) + bm(i + di, c1, 2) * ds(i, 2) &
+                                       + bm(i + di, c1, 3) * ds(i, 3), rp)
+      end do
+    end do
+  end subroutine add_offset_mirror
 
   !> The end of product_row: y_i = acc_i + sum_k br(:, :, k, i) (x_{i + dik(k)}
   !> - x_i) in double precision, node by node. Explicit shapes and the

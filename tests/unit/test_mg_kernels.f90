@@ -11,7 +11,12 @@
 !>  - the row sums survive single precision: for a stiff operator
 !>    (stiffness 1e6 times the mass) applied to a constant vector the stored
 !>    operator gives the mass term to single-precision accuracy, where
-!>    rounding the full blocks would not.
+!>    rounding the full blocks would not;
+!>  - a paired operator (A(p, p + o) = A(p + o, p): S without bending)
+!>    gives the same sweeps and products, bit for bit, with the kernels
+!>    taking the blocks to the rows below from those rows (stencil_t's
+!>    paired) as from its own rows, on strips; an unpaired one does not
+!>    (so the paired path is the one taken).
 program test_mg_kernels
   use kinds, only: rp
   use mg_kernels, only: mp, stencil_t, transfer_t, stencil_init, stencil_put_row, stencil_finish, transfer_init, &
@@ -55,6 +60,10 @@ program test_mg_kernels
   call test_fused_product(1, 3, 6, 11)
   call test_fused_product(2, 3, 5, 11)
   call test_fused_product(2, 0, 3, 11)
+  call test_paired(1, 0, 8, 11)
+  call test_paired(1, 3, 6, 37)
+  call test_paired(2, 2, 8, 11)
+  call test_paired(2, 0, 5, 37)
   call check_report()
 
 contains
@@ -542,6 +551,97 @@ contains
       ', nx ', nx
     call check_close(maxval(abs(y - yref)), 0.0_rp, 0.0_rp, 0.0_rp, trim(label))
   end subroutine test_fused_product
+
+  !> A paired operator on rows ys..ye of an nx x 9 lattice (every block
+  !> B(p, o) drawn once for the pair p, p + o and stored in both rows, as
+  !> the assembly writes a link's block), made into two stencils, one with
+  !> paired set: a forward and a backward sweep with the product formed in
+  !> it (and level_product_rows for the strip's ends), and the product
+  !> stencil_product_mixed, must agree bit for bit. Control: with B(p, o)
+  !> and B(p + o, -o) drawn apart, the paired stencil's sweep differs.
+  subroutine test_paired(r, ys, ye, nx)
+    integer, intent(in) :: r, ys, ye, nx
+    integer, parameter :: ny = 9
+    type(stencil_t) :: st(2)
+    real(rp), allocatable :: full(:, :, :, :, :), xw(:, :, :), y(:, :, :, :), yp(:, :, :, :), xs(:, :, :), acc(:, :)
+    real(mp), allocatable :: ds(:, :), x0(:, :, :), x(:, :, :, :), rhs(:, :, :), t(:, :), low(:, :, :)
+    real(rp) :: rnd(3, 3)
+    integer :: i, j, di, dj, c, gys, gye, k0, m, pass
+    character(len=96) :: label
+    gys = max(0, ys - r)
+    gye = min(ny - 1, ye + r)
+    allocate(full(0:nx - 1, 3, 3, offset_count(r), 0:ny - 1))
+    allocate(xw(3, 0:nx - 1, gys:gye), y(3, 0:nx - 1, ys:ye, 2), yp(3, 0:nx - 1, ys:ye, 2))
+    allocate(xs(-r:nx - 1 + r, 3, 0:2 * r), acc(0:nx - 1, 4), ds(0:nx - 1, 3))
+    allocate(x0(-r:nx - 1 + r, 3, ys - r:ye + r), x(-r:nx - 1 + r, 3, ys - r:ye + r, 2))
+    allocate(rhs(0:nx - 1, 3, ys:ye), t(0:nx - 1, 3), low(0:nx - 1, 3, ys:ye))
+    call random_number(x0)
+    x0 = x0 - 0.5_mp
+    x0(-r:-1, :, :) = 0.0_mp
+    x0(nx:, :, :) = 0.0_mp
+    call random_number(rhs)
+    k0 = offset_slot(r, 0, 0)
+    do pass = 1, 2
+      ! pass 1 paired, pass 2 (the control) not
+      full = 0.0_rp
+      do j = 0, ny - 1
+        do i = 0, nx - 1
+          do c = 1, 3
+            full(i, c, c, k0, j) = full(i, c, c, k0, j) + 30.0_rp
+          end do
+          do dj = 0, r
+            do di = -r, r
+              if (dj == 0 .and. di <= 0) cycle
+              if (offset_slot(r, di, dj) == 0) cycle
+              if (i + di < 0 .or. i + di >= nx .or. j + dj >= ny) cycle
+              call random_number(rnd)
+              full(i, :, :, offset_slot(r, di, dj), j) = -(0.5_rp + rnd)
+              if (pass == 2) call random_number(rnd)
+              full(i + di, :, :, offset_slot(r, -di, -dj), j + dj) = -(0.5_rp + rnd)
+            end do
+          end do
+        end do
+      end do
+      do j = 0, ny - 1
+        do i = 0, nx - 1
+          do dj = -r, r
+            do di = -r, r
+              if (offset_slot(r, di, dj) == 0 .or. (di == 0 .and. dj == 0)) cycle
+              full(i, :, :, k0, j) = full(i, :, :, k0, j) - full(i, :, :, offset_slot(r, di, dj), j)
+            end do
+          end do
+        end do
+      end do
+      do m = 1, 2
+        call stencil_init(st(m), nx, ny, ys, ye, r, lines=.true.)
+        call stencil_from_full(st(m), full(:, :, :, :, ys:ye))
+        st(m)%paired = m == 2
+        x(:, :, :, m) = x0
+        y(:, :, :, m) = -1.0_rp
+        call gs_sweep(st(m), r, x(:, :, :, m), rhs, .true., t, low)
+        call gs_sweep(st(m), r, x(:, :, :, m), rhs, .false., t, low, xs, acc, ds, y(:, :, :, m))
+        call level_product_rows(st(m), r, x(:, :, :, m), ys, min(ys + r - 1, ye), xs, acc, ds, y(:, :, :, m))
+        call level_product_rows(st(m), r, x(:, :, :, m), max(ye - r + 1, ys + r), ye, xs, acc, ds, y(:, :, :, m))
+        do j = gys, gye
+          do i = 0, nx - 1
+            do c = 1, 3
+              xw(c, i, j) = real(x0(i, c, j), rp)
+            end do
+          end do
+        end do
+        call stencil_product_mixed(st(m), gys, gye, xw, yp(:, :, :, m), xs, acc, ds)
+      end do
+      write(label, '(a, i0, a, i0, a, i0, a, i0)') 'reach ', r, ', rows ', ys, '..', ye, ', nx ', nx
+      if (pass == 1) then
+        call check_true(all(x(:, :, :, 1) == x(:, :, :, 2)), 'paired: the sweeps, ' // trim(label))
+        call check_true(all(y(:, :, :, 1) == y(:, :, :, 2)), 'paired: the product in the sweep, ' // trim(label))
+        call check_true(all(yp(:, :, :, 1) == yp(:, :, :, 2)), 'paired: the product, ' // trim(label))
+      else
+        call check_true(any(x(:, :, :, 1) /= x(:, :, :, 2)) .and. any(yp(:, :, :, 1) /= yp(:, :, :, 2)), &
+                        'an unpaired operator taken as paired differs (control), ' // trim(label))
+      end if
+    end do
+  end subroutine test_paired
 
   !> One block Gauss-Seidel sweep on the dense matrix a (node order of
   !> gidx): x_p = A_pp^-1 (b_p - sum_{q /= p} A_pq x_q), nodes in
