@@ -684,9 +684,11 @@ contains
   !> The point-by-point part of a sweep over one row, in the sweep's order:
   !> x_i = A_ii^-1 (t_i - sum_k br(:, :, k, i) x_{i + dik(k)}), the points
   !> already visited at their new values. Each point waits on the one
-  !> before it, so the work per point is the chain's length: the rows of
-  !> reach 1 and 2 (the finest level, dik = -1, 1 or -2, -1, 1, 2) go to
-  !> routines with their offsets fixed, which keep the points just visited
+  !> before it, so the work per point is the chain's length. The rows of
+  !> reach 1 (dik = -1, 1) take their points in two colours instead
+  !> (point_row_colour: odd, then even; backward the reverse); those of
+  !> reach 2 (the finest level with bending, dik = -2, -1, 1, 2) go to a
+  !> routine with its offsets fixed, which keeps the points just visited
   !> in registers and add their couplings last (the chain is then one block
   !> product and the inverse, not every block of the row); other reaches
   !> (the wide coarse levels) take the general loop. Explicit shapes and
@@ -705,10 +707,13 @@ contains
     real(mp) :: s1, s2, s3, y1, y2, y3
     if (nr == 2) then
       if (all(dik == [-1, 1])) then
+        ! the odd points, then the even ones; backward the reverse
         if (forward) then
-          call point_row_reach1(nx, h, br, ainv, t, x, 1, 2, 0, nx - 1, 1)
+          call point_row_colour(nx, h, br, ainv, t, x, 1)
+          call point_row_colour(nx, h, br, ainv, t, x, 0)
         else
-          call point_row_reach1(nx, h, br, ainv, t, x, 2, 1, nx - 1, 0, -1)
+          call point_row_colour(nx, h, br, ainv, t, x, 0)
+          call point_row_colour(nx, h, br, ainv, t, x, 1)
         end if
         return
       end if
@@ -743,33 +748,45 @@ contains
     end do
   end subroutine point_row
 
-  !> point_row for dik = -1, 1, points i0, i0 + step, .., i1: kn is the k
-  !> of the offset -step (the point just visited, new), ko of +step (old).
-  pure subroutine point_row_reach1(nx, h, br, ainv, t, x, kn, ko, i0, i1, step)
-    integer, intent(in) :: nx, h, kn, ko, i0, i1, step
+  !> point_row for dik = -1, 1 (the rows of reach 1: S without bending and
+  !> its coarse levels): the points c, c + 2, .. of one colour (c = 0, 1),
+  !> each from its two neighbours of the other colour, so no point waits on
+  !> another. A sweep takes the odd points, then the even ones (backward
+  !> the reverse, which keeps the symmetric sweep symmetric). Against the
+  !> points in order (each waiting on the one before) it took fewer cycles
+  !> (hang without bending, bw: 121 -> 116 at 257 x 257, 105 -> 102 at 129
+  !> x 129, 61 -> 56 at 1025 x 1025 on 2 ranks, 162 both at 513 x 513;
+  !> the even points first: 123 at 257 x 257) for the same time a point:
+  !> that chain's latency was hidden by the loads of the blocks, so the
+  !> points of a colour in vector loops (blocks along x) were no faster
+  !> either (docs/performance.md, eighteenth round).
+  pure subroutine point_row_colour(nx, h, br, ainv, t, x, c)
+    integer, intent(in) :: nx, h, c
     real(mp), intent(in) :: br(3, 3, 2, 0:nx - 1), ainv(3, 3, 0:nx - 1), t(0:nx - 1, 3)
     real(mp), intent(inout) :: x(-h:nx - 1 + h, 3)
     integer :: i
-    real(mp) :: s1, s2, s3, p1, p2, p3, y1, y2, y3
-    ! p: x at i - step, new (the padding before the first point)
-    p1 = x(i0 - step, 1)
-    p2 = x(i0 - step, 2)
-    p3 = x(i0 - step, 3)
-    do i = i0, i1, step
-      y1 = x(i + step, 1)
-      y2 = x(i + step, 2)
-      y3 = x(i + step, 3)
-      s1 = t(i, 1) - (br(1, 1, ko, i) * y1 + br(1, 2, ko, i) * y2 + br(1, 3, ko, i) * y3)
-      s2 = t(i, 2) - (br(2, 1, ko, i) * y1 + br(2, 2, ko, i) * y2 + br(2, 3, ko, i) * y3)
-      s3 = t(i, 3) - (br(3, 1, ko, i) * y1 + br(3, 2, ko, i) * y2 + br(3, 3, ko, i) * y3)
-      call point_finish(br(:, :, kn, i), ainv(:, :, i), s1, s2, s3, p1, p2, p3)
-      x(i, 1) = p1
-      x(i, 2) = p2
-      x(i, 3) = p3
+    real(mp) :: s1, s2, s3, y1, y2, y3, z1, z2, z3
+    do i = c, nx - 1, 2
+      ! y: the point after (block 2, offset +1), z: the one before (block 1)
+      y1 = x(i + 1, 1)
+      y2 = x(i + 1, 2)
+      y3 = x(i + 1, 3)
+      z1 = x(i - 1, 1)
+      z2 = x(i - 1, 2)
+      z3 = x(i - 1, 3)
+      s1 = t(i, 1) - (br(1, 1, 2, i) * y1 + br(1, 2, 2, i) * y2 + br(1, 3, 2, i) * y3) &
+                   - (br(1, 1, 1, i) * z1 + br(1, 2, 1, i) * z2 + br(1, 3, 1, i) * z3)
+      s2 = t(i, 2) - (br(2, 1, 2, i) * y1 + br(2, 2, 2, i) * y2 + br(2, 3, 2, i) * y3) &
+                   - (br(2, 1, 1, i) * z1 + br(2, 2, 1, i) * z2 + br(2, 3, 1, i) * z3)
+      s3 = t(i, 3) - (br(3, 1, 2, i) * y1 + br(3, 2, 2, i) * y2 + br(3, 3, 2, i) * y3) &
+                   - (br(3, 1, 1, i) * z1 + br(3, 2, 1, i) * z2 + br(3, 3, 1, i) * z3)
+      x(i, 1) = ainv(1, 1, i) * s1 + ainv(1, 2, i) * s2 + ainv(1, 3, i) * s3
+      x(i, 2) = ainv(2, 1, i) * s1 + ainv(2, 2, i) * s2 + ainv(2, 3, i) * s3
+      x(i, 3) = ainv(3, 1, i) * s1 + ainv(3, 2, i) * s2 + ainv(3, 3, i) * s3
     end do
-  end subroutine point_row_reach1
+  end subroutine point_row_colour
 
-  !> The end of a point in point_row_reach1 and 2: s -= B p, the coupling to
+  !> The end of a point in point_row_reach2: s -= B p, the coupling to
   !> the point just visited (p, its new value), then p = A_ii^-1 s, this
   !> point's new value (the chain from one point to the next).
   pure subroutine point_finish(b, ainv, s1, s2, s3, p1, p2, p3)
@@ -783,7 +800,7 @@ contains
     p3 = ainv(3, 1) * s1 + ainv(3, 2) * s2 + ainv(3, 3) * s3
   end subroutine point_finish
 
-  !> point_row for dik = -2, -1, 1, 2, as point_row_reach1: kn1, kn2 the k of
+  !> point_row for dik = -2, -1, 1, 2, points i0, i0 + step, .., i1: kn1, kn2 the k of
   !> the offsets -step, -2 step (new), ko1, ko2 of +step, +2 step (old).
   pure subroutine point_row_reach2(nx, h, br, ainv, t, x, kn2, kn1, ko1, ko2, i0, i1, step)
     integer, intent(in) :: nx, h, kn2, kn1, ko1, ko2, i0, i1, step

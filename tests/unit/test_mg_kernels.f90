@@ -413,11 +413,11 @@ contains
     end do
     x = x0
     call gs_sweep(st, r, x, rhs, .true., t)
-    call dense_gs_sweep(nx, ny, ad, bd, xd, .true.)
+    call dense_gs_sweep(nx, ny, ad, bd, xd, .true., r == 1)
     call check_close(error_to_ref(nx, ny, r, x, xd), 0.0_rp, 0.0_rp, 1.0e-5_rp * maxval(abs(xd)), &
-                     'a forward sweep is block Gauss-Seidel in lexicographic order' // trim(tag))
+                     'a forward sweep is block Gauss-Seidel in its order (rows; reach 1: odd points, even)' // trim(tag))
     call gs_sweep(st, r, x, rhs, .false., t)
-    call dense_gs_sweep(nx, ny, ad, bd, xd, .false.)
+    call dense_gs_sweep(nx, ny, ad, bd, xd, .false., r == 1)
     call check_close(error_to_ref(nx, ny, r, x, xd), 0.0_rp, 0.0_rp, 1.0e-5_rp * maxval(abs(xd)), &
                      'a backward sweep is block Gauss-Seidel in reverse order' // trim(tag))
   end subroutine test_smoother
@@ -646,15 +646,37 @@ contains
   !> One block Gauss-Seidel sweep on the dense matrix a (node order of
   !> gidx): x_p = A_pp^-1 (b_p - sum_{q /= p} A_pq x_q), nodes in
   !> lexicographic order (rows slowest) or its reverse.
-  subroutine dense_gs_sweep(nx, ny, a, b, x, forward)
+  subroutine dense_gs_sweep(nx, ny, a, b, x, forward, colours)
     integer, intent(in) :: nx, ny
     real(rp), intent(in) :: a(:, :), b(:)
     real(rp), intent(inout) :: x(:)
     logical, intent(in) :: forward
+    !> the points of a row in two colours (rows of reach 1: the odd
+    !> points, then the even ones; backward the reverse)
+    logical, intent(in) :: colours
     real(rp) :: app(3, 3), s(3)
-    integer :: m, p, c, ip(3), info, ipiv(3)
-    do m = 0, nx * ny - 1
-      p = merge(m, nx * ny - 1 - m, forward)
+    integer :: m, mm, p, c, ip(3), info, ipiv(3), order(0:nx * ny - 1), j, i, n
+    n = 0
+    do j = 0, ny - 1
+      if (colours) then
+        do i = 1, nx - 1, 2
+          order(n) = i + nx * j
+          n = n + 1
+        end do
+        do i = 0, nx - 1, 2
+          order(n) = i + nx * j
+          n = n + 1
+        end do
+      else
+        do i = 0, nx - 1
+          order(n) = i + nx * j
+          n = n + 1
+        end do
+      end if
+    end do
+    do mm = 0, nx * ny - 1
+      m = merge(mm, nx * ny - 1 - mm, forward)
+      p = order(m)
       ip = [(3 * p + c, c = 1, 3)]
       s = b(ip) - matmul(a(ip, :), x) + matmul(a(ip, ip), x(ip))
       app = a(ip, ip)
