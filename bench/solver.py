@@ -39,7 +39,7 @@ sys.path.insert(0, str(ROOT))
 from postprocess import namelist  # noqa: E402
 
 # steps per run: enough to average, few enough for 1025 x 1025
-STEPS = {65: 30, 129: 20, 257: 10, 513: 4, 1025: 2}
+STEPS = {65: 30, 129: 20, 257: 10, 513: 10, 1025: 10}
 MODES = {
     "bw": (1.0 / 600.0, ["-snes_type", "ksponly", "-reduced_ksp_rtol", "1e-3"]),
     "newton": (1.0e-3, []),

@@ -593,6 +593,9 @@ contains
         ! kept (written and read: 3 values a node each)
         sweep = 2.0_rp * (9.0_rp * mp_bytes * real(a%nb + 1, rp) + 9.0_rp * mp_bytes) &
                 - 9.0_rp * mp_bytes * real(count(a%odj < 0), rp) + 6.0_rp * mp_bytes
+        ! paired (no bending): nor does the forward sweep, which takes them
+        ! from the row below's blocks back up, read a row before
+        if (a%paired) sweep = sweep - 9.0_rp * mp_bytes * real(count(a%odj < 0), rp)
         if (l < mg%nlev) then
           if (mg%cycle_type == MG_KASKADE) then
             cycle_bytes = cycle_bytes + real(nodes8, rp) * mg%nu * sweep
