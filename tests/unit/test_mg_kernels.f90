@@ -535,17 +535,8 @@ contains
     x(nx:, :, :) = 0.0_mp
     call random_number(rhs)
     y = -1.0_rp
-    call gs_sweep(st, r, x, rhs, .true., t, low)
-    call gs_sweep(st, r, x, rhs, .false., t, low, xs, acc, ds, y)
-    call level_product_rows(st, r, x, ys, min(ys + r - 1, ye), xs, acc, ds, y)
-    call level_product_rows(st, r, x, max(ye - r + 1, ys + r), ye, xs, acc, ds, y)
-    do j = gys, gye
-      do i = 0, nx - 1
-        do c = 1, 3
-          xw(c, i, j) = real(x(i, c, j), rp)
-        end do
-      end do
-    end do
+    call sweep_with_product(st, r, ys, ye, x, rhs, t, low, xs, acc, ds, y)
+    call widened(nx, r, ys - r, gys, gye, x, xw)
     call stencil_product_mixed(st, gys, gye, xw, yref, xs, acc, ds)
     write(label, '(a, i0, a, i0, a, i0, a, i0)') 'product formed in the backward sweep, reach ', r, ', rows ', ys, '..', ye, &
       ', nx ', nx
@@ -618,17 +609,8 @@ contains
         st(m)%paired = m == 2
         x(:, :, :, m) = x0
         y(:, :, :, m) = -1.0_rp
-        call gs_sweep(st(m), r, x(:, :, :, m), rhs, .true., t, low)
-        call gs_sweep(st(m), r, x(:, :, :, m), rhs, .false., t, low, xs, acc, ds, y(:, :, :, m))
-        call level_product_rows(st(m), r, x(:, :, :, m), ys, min(ys + r - 1, ye), xs, acc, ds, y(:, :, :, m))
-        call level_product_rows(st(m), r, x(:, :, :, m), max(ye - r + 1, ys + r), ye, xs, acc, ds, y(:, :, :, m))
-        do j = gys, gye
-          do i = 0, nx - 1
-            do c = 1, 3
-              xw(c, i, j) = real(x0(i, c, j), rp)
-            end do
-          end do
-        end do
+        call sweep_with_product(st(m), r, ys, ye, x(:, :, :, m), rhs, t, low, xs, acc, ds, y(:, :, :, m))
+        call widened(nx, r, ys - r, gys, gye, x0, xw)
         call stencil_product_mixed(st(m), gys, gye, xw, yp(:, :, :, m), xs, acc, ds)
       end do
       write(label, '(a, i0, a, i0, a, i0, a, i0)') 'reach ', r, ', rows ', ys, '..', ye, ', nx ', nx
@@ -642,6 +624,40 @@ contains
       end if
     end do
   end subroutine test_paired
+
+  !> One symmetric sweep of x (rows ys..ye of st, ghost rows r) with
+  !> y = A x of the result formed in its backward sweep, and the strip's
+  !> first and last r rows after it (level_product_rows), as module
+  !> stencil_mg's smooth does on the finest level.
+  subroutine sweep_with_product(st, r, ys, ye, x, rhs, t, low, xs, acc, ds, y)
+    type(stencil_t), intent(in) :: st
+    integer, intent(in) :: r, ys, ye
+    real(mp), intent(inout), contiguous :: x(:, :, :)
+    real(mp), intent(in) :: rhs(:, :, :)
+    real(mp), intent(inout) :: t(:, :), low(:, :, :), ds(:, :)
+    real(rp), intent(inout) :: xs(:, :, :), acc(:, :), y(:, :, :)
+    call gs_sweep(st, r, x, rhs, .true., t, low)
+    call gs_sweep(st, r, x, rhs, .false., t, low, xs, acc, ds, y)
+    call level_product_rows(st, r, x, ys, min(ys + r - 1, ye), xs, acc, ds, y)
+    call level_product_rows(st, r, x, max(ye - r + 1, ys + r), ye, xs, acc, ds, y)
+  end subroutine sweep_with_product
+
+  !> xw(3, 0:nx-1, gys:gye) = the rows gys..gye of the padded
+  !> single-precision x(-r:nx-1+r, 3, jlo:), widened to double precision
+  !> in the layout of a 3-dof DMDA vector.
+  subroutine widened(nx, r, jlo, gys, gye, x, xw)
+    integer, intent(in) :: nx, r, jlo, gys, gye
+    real(mp), intent(in) :: x(-r:, :, jlo:)
+    real(rp), intent(out) :: xw(:, 0:, gys:)
+    integer :: i, j, c
+    do j = gys, gye
+      do i = 0, nx - 1
+        do c = 1, 3
+          xw(c, i, j) = real(x(i, c, j), rp)
+        end do
+      end do
+    end do
+  end subroutine widened
 
   !> One block Gauss-Seidel sweep on the dense matrix a (node order of
   !> gidx): x_p = A_pp^-1 (b_p - sum_{q /= p} A_pq x_q), nodes in
