@@ -70,8 +70,6 @@ contains
     if (jq >= lat%ny .or. jq < lat%ys) ihi = ilo - 1
   end subroutine link_lane_range
 
-
-
   !> Row j of a (0:5, 0:nx-1, gys:gye) into its slot of the ring s unless
   !> tag says it is there already (tag(slot) = row held; -huge(1) for none).
   pure subroutine ring_load(lat, a, j, s, tag)
