@@ -298,7 +298,7 @@ contains
             call energy_jacobian_lanes(nl1, NL, kb, etab, e1, e2, de, gauss_newton, ke, ce, okl)
             if (.not. with_damping) ce = 0.0_rp
             if (present(st) .or. .not. write_s) then
-              call add_triple_lanes(j0, k, i0, nl1, NL, dx, dy, ke, ce)
+              call add_triple_lanes(j0, k, i0, nl1, NL, ke, ce)
               cycle
             end if
             do l = 1, nl1
@@ -343,14 +343,16 @@ contains
     !> once for its three blocks, then t_1Q r(:, 1:3) + t_2Q r(:, 4:6) added
     !> to S as it is formed (each block's four products with T's entries,
     !> kept, then added, were two fifths of this routine).
-    subroutine add_triple_lanes(j0, kdir, i0, nl, ld, dx, dy, ke, ce)
-      integer, intent(in) :: j0, kdir, i0, nl, ld, dx, dy   ! kdir: the line direction (line_dir(:, kdir) = (dx, dy))
+    subroutine add_triple_lanes(j0, kdir, i0, nl, ld, ke, ce)
+      integer, intent(in) :: j0, kdir, i0, nl, ld   ! kdir: the line direction, line_dir(:, kdir)
       real(rp), intent(in) :: ke(ld, 6, 6), ce(ld, 6, 6)
       ! T = [[-I, I, 0], [0, -I, I]]: t(a, P) the factor of node P in edge a
       real(rp), parameter :: t(2, 3) = reshape([-1.0_rp, 0.0_rp, 1.0_rp, -1.0_rp, 0.0_rp, 1.0_rp], [2, 3])
       real(rp) :: m(ld, 6, 6), ewx(ld, 6), ewv(ld, 6), h(ld, 6), free(ld), r(ld, 3, 6)
-      integer :: l, pp, qq, ip0, jp, iq0, jq2, c1, c2, sl, i, sp
+      integer :: l, pp, qq, ip0, jp, iq0, jq2, c1, c2, sl, sp, dx, dy
       logical :: masked
+      dx = line_dir(1, kdir)
+      dy = line_dir(2, kdir)
       ! the edges' differences of w, as ring_triple_edges forms them of u
       call ring_triple_edges(lat%nx, ws, j0, kdir, i0, nl, ld, ewx(:, 1:3), ewx(:, 4:6), ewv)
       h(1:nl, :) = 0.0_rp
