@@ -69,6 +69,22 @@ module timestepping
       import :: c_int, c_intptr_t
       integer(c_intptr_t) :: ts             !< the TS handle (tTS%v), passed as TS*
     end function nuno_signals_install
+    !> src/nuno_newton_start.c: -nuno_newton_start, the cubic start of beuler's Newton solve.
+    integer(c_int) function nuno_newton_start_setup(ts, auto_cubic, order) bind(C, name='nuno_newton_start_setup')
+      import :: c_int, c_intptr_t
+      integer(c_intptr_t) :: ts             !< the TS handle (tTS%v), passed as TS*
+      integer(c_int) :: auto_cubic          !< 1: auto means cubic for this run
+      integer(c_int) :: order               !< out: 1 (linear) or 3 (cubic)
+    end function nuno_newton_start_setup
+    integer(c_int) function nuno_newton_start_push(ts, u, t) bind(C, name='nuno_newton_start_push')
+      import :: c_int, c_intptr_t, c_double
+      integer(c_intptr_t) :: ts, u          !< TS*, Vec*
+      real(c_double) :: t
+    end function nuno_newton_start_push
+    integer(c_int) function nuno_newton_start_reset(ts) bind(C, name='nuno_newton_start_reset')
+      import :: c_int, c_intptr_t
+      integer(c_intptr_t) :: ts
+    end function nuno_newton_start_reset
     integer(c_int) function nuno_signal_agreed() bind(C, name='nuno_signal_agreed')
       import :: c_int
     end function nuno_signal_agreed
@@ -194,6 +210,7 @@ module timestepping
     real(rp) :: dt = 0                          !< fixed (or initial) step [time]: -ts_dt, else the namelist's
     real(rp) :: t_end = 0                       !< end time [time]: -ts_max_time, else the namelist's
     logical :: fixed_step = .true.              !< -ts_adapt_type none: every step is dt unless retried
+    integer :: start_order = 1                  !< Newton start of beuler: 1 linear, 3 cubic (-nuno_newton_start)
     logical :: adaptive_default = .false.       !< the TS type is -nuno_adaptive_ts_type's (no -ts_type given)
     PetscInt :: max_steps = 0                   !< -ts_max_steps: a clean end after this many steps
     ! error tolerances of adaptive steps (TSSetTolerances: scalar rtol, vector atol)
@@ -473,6 +490,7 @@ contains
     PetscCall(TSGetType(ctx%ts, tstype, ierr))
     ctx%gauss = trim(tstype) == 'bdf'
     PetscCall(set_inner_guess(ctx, tstype, ierr))
+    PetscCall(set_newton_start(ctx, ierr))
     PetscCall(VecDuplicate(ctx%u, ctx%uq, ierr))
     PetscCall(set_tolerances(ctx, srcx, srcv, ierr))
 
@@ -505,11 +523,35 @@ contains
       if (.not. ctx%fixed_step) line = trim(line)//', rtol '//num(ctx%rtol)//', atol position '// &
         num(ctx%atol_x)//' ('//trim(srcx)//'), velocity '//num(ctx%atol_v)//' ('//trim(srcv)//')'
       line = trim(line)//', Newton step '//trim(merge('reduced', 'full   ', ctx%use_reduced))
+      if (ctx%start_order == 3) line = trim(line)//', started cubic (-nuno_newton_start)'
       write(output_unit, '(a)') trim(line)
       if (ctx%use_reduced) write(output_unit, '(a)') 'inner     : '//trim(inner)
       flush(output_unit)
     end if
   end subroutine effective_time_integration
+
+  !> Newton's start (-nuno_newton_start, src/nuno_newton_start.c): auto
+  !> is the cubic start for Newton with beuler at fixed steps (hang 257 x
+  !> 257: one Newton iteration a step instead of two, docs/performance.md,
+  !> "Nineteenth round"), the linear one of PETSc (x_n + dt xdot_n)
+  !> elsewhere: in the Baraff-Witkin mode (-snes_type ksponly) the start
+  !> is the point of the one linearisation and its residual the scale of
+  !> the solve's tolerance (163 -> 189 inner iterations over 30 steps
+  !> there), adaptive steps change dt, and identification and control
+  !> runs keep their trajectories as they were.
+  subroutine set_newton_start(ctx, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    PetscErrorCode, intent(out) :: ierr
+    type(tSNES) :: snes
+    character(len=64) :: sntype
+    integer(c_int) :: auto_cubic, order
+    PetscCall(TSGetSNES(ctx%ts, snes, ierr))
+    PetscCall(SNESGetType(snes, sntype, ierr))
+    auto_cubic = merge(1_c_int, 0_c_int, ctx%fixed_step .and. trim(sntype) /= SNESKSPONLY .and. &
+                       .not. (ctx%cfg%identify .or. ctx%cfg%control))
+    ierr = nuno_newton_start_setup(ctx%ts%v, auto_cubic, order)
+    ctx%start_order = order
+  end subroutine set_newton_start
 
   !> The inner initial guess (-nuno_inner_guess, module inner_guess): the
   !> first Newton corrections of successive steps form a smooth sequence
@@ -946,6 +988,7 @@ contains
     real(rp) :: p(2), h, hmax, tq, pq(2)
     PetscInt :: rejects, nfails
     integer :: q
+    real(c_double) :: tc
 
     ! A failed Newton solve makes the TS retry the step with dt/4, and with
     ! -ts_adapt_type none it keeps that step: a fixed step would silently
@@ -991,6 +1034,10 @@ contains
     end if
     ! the accepted step's first Newton correction, for the next inner guesses
     if (ctx%use_reduced) call reduced_step_accepted(ctx%red)
+    ! and its state, for the next Newton start
+    tc = t
+    ierr = nuno_newton_start_push(ts%v, uvec%v, tc)
+    if (ierr /= 0) return
     PetscCall(TSGetStepRejections(ts, rejects, ierr))
     if (rejects > ctx%rejects_seen) then
       ctx%rejects_seen = rejects
@@ -1159,6 +1206,9 @@ contains
     if (ctx%use_reduced) then
       PetscCall(reduced_set_fixed(ctx%red, ctx%fixed, ierr))
     end if
+    ! the Newton start's kept states end here (the state may have jumped)
+    ierr = nuno_newton_start_reset(ctx%ts%v)
+    if (ierr /= 0) return
     dke = loc(1)
     ctx%moving_constraints = loc(2) > 0.0_rp
   end subroutine enter_window

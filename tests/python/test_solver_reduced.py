@@ -129,6 +129,7 @@ def test_a_step_retried_after_a_failed_inner_solve_goes_on(tmp_path):
     ("-nuno_mg_sweeps", "0", "-nuno_mg_sweeps 0 must be >= 1"),
     ("-nuno_mg_interpolation", "quintic", "Unknown option quintic for -nuno_mg_interpolation"),
     ("-nuno_linesearch_fallback", "cp", "Unknown option cp for -nuno_linesearch_fallback"),
+    ("-nuno_newton_start", "quartic", "Unknown option quartic for -nuno_newton_start"),
 ])
 def test_bad_solver_option_is_refused_on_every_rank(tmp_path, option, value, words):
     proc = run_refused(tmp_path, (option, value))
@@ -138,6 +139,7 @@ def test_bad_solver_option_is_refused_on_every_rank(tmp_path, option, value, wor
 @pytest.mark.parametrize("options, words", [
     (("-nuno_linesearch_fallback", "l2", "-snes_linesearch_type", "bt"), "-nuno_linesearch_fallback and -snes_linesearch_type: give one"),
     (("-nuno_linesearch_fallback", "bt", "-nuno_jacobian", "full"), "-nuno_linesearch_fallback is for the reduced path"),
+    (("-nuno_newton_start", "cubic", "-ts_type", "cn"), "-nuno_newton_start cubic needs -ts_type beuler"),
 ])
 def test_a_line_search_fallback_the_run_cannot_use_is_refused(tmp_path, options, words):
     proc = run_refused(tmp_path, options)
@@ -295,9 +297,11 @@ def test_second_newton_iteration_starts_from_the_last_steps(tmp_path, guess):
     step's first among them: full Newton on hang 33 x 33 with bending, 2
     ranks. Nearly every second solve after the first steps starts from a
     nonzero guess (-reduced_ksp_view says so), and, solved tightly, the
-    trajectory is the zero guess's."""
+    trajectory is the zero guess's. From the linear start: the default
+    cubic one (-nuno_newton_start) takes most steps in one iteration."""
     n, dt = 20, 1.0e-3
-    proc, _ = run_window(tmp_path, "second", 2, ("-snes_monitor", "-reduced_ksp_view", "-nuno_inner_guess", guess),
+    lin = ("-nuno_newton_start", "linear")
+    proc, _ = run_window(tmp_path, "second", 2, ("-snes_monitor", "-reduced_ksp_view", "-nuno_inner_guess", guess) + lin,
                          n, dt, nx=33, ny=33)
     starts = {0: [], 1: []}
     k = None
@@ -314,7 +318,7 @@ def test_second_newton_iteration_starts_from_the_last_steps(tmp_path, guess):
     tried = guess
     for guess in ("none", tried):
         _, runs[guess] = run_window(tmp_path, f"tight2_{guess}", 2, ("-reduced_ksp_rtol", "1e-11",
-                                    "-nuno_inner_guess", guess), n, dt, nx=33, ny=33)
+                                    "-nuno_inner_guess", guess) + lin, n, dt, nx=33, ny=33)
     ref = runs["none"].position
     moved = np.abs(ref[-1] - ref[0]).max()
     assert moved > 1e-4

@@ -1,0 +1,178 @@
+/* The Newton start of backward Euler from the last accepted states
+ * (-nuno_newton_start; docs/design.md, "The Newton start").
+ *
+ * PETSc's beuler starts Newton from x_n + dt xdot_n, the last two states
+ * extrapolated linearly (-ts_theta_initial_guess_extrapolate). With the
+ * cubic start Newton starts from the polynomial through the last four
+ * accepted states at t_n, t_n - dt, t_n - 2 dt, t_n - 3 dt, evaluated at
+ * t_n + dt: 4 x_n - 6 x_{n-1} + 4 x_{n-2} - x_{n-3} (quadratic,
+ * 3 x_n - 3 x_{n-1} + x_{n-2}, and linear, 2 x_n - x_{n-1}, while fewer
+ * equally spaced states are at hand). On hang 257 x 257 (dt = 1 ms) the
+ * first residual of a step is then 100-150 times smaller than from the
+ * linear start, and Newton takes one iteration a step instead of two
+ * (docs/performance.md, "Nineteenth round").
+ *
+ * In C because PETSc 3.18's Fortran interface has no
+ * SNESSetComputeInitialGuess (a function pointer). The history lives in a
+ * PetscContainer composed on the TS, destroyed with it (no globals).
+ * module timestepping pushes every accepted state (its TSMonitor), and
+ * empties the history at each output window's start (the state may jump
+ * there: keyframes, releases; and a run restarted at a window's start
+ * then repeats the one it continues). A step whose dt is not the spacing
+ * of the kept states (a retry at dt/4, a sliver before a stop time, an
+ * adaptive step) keeps the start TS gave it. */
+#include <petscts.h>
+
+#define NUNO_START_KEPT 4
+
+typedef struct {
+  TS        ts;                     /* not referenced: the container lives on it */
+  PetscInt  order;                  /* highest order used: 3 (cubic) */
+  PetscInt  n;                      /* states kept, newest first */
+  Vec       h[NUNO_START_KEPT];     /* 6-dof states x_n, x_{n-1}, ... */
+  PetscReal t[NUNO_START_KEPT];     /* their times */
+  PetscInt  used;                   /* steps started from a polynomial of order >= 2 */
+} NunoStart;
+
+static PetscErrorCode start_destroy(void *ctx)
+{
+  NunoStart *s = (NunoStart *)ctx;
+  PetscFunctionBeginUser;
+  for (PetscInt k = 0; k < NUNO_START_KEPT; k++) PetscCall(VecDestroy(&s->h[k]));
+  PetscCall(PetscFree(s));
+  PetscFunctionReturn(0);
+}
+
+static PetscErrorCode start_get(TS ts, NunoStart **s)
+{
+  PetscContainer c;
+  PetscFunctionBeginUser;
+  *s = NULL;
+  PetscCall(PetscObjectQuery((PetscObject)ts, "nuno_newton_start", (PetscObject *)&c));
+  if (c) PetscCall(PetscContainerGetPointer(c, (void **)s));
+  PetscFunctionReturn(0);
+}
+
+/* SNESSetComputeInitialGuess callback: x is the start TS set (x_n, or
+ * x_n + dt xdot_n); replaced by the polynomial through the kept states
+ * when they are the last ones before this step, equally spaced by its dt. */
+static PetscErrorCode start_guess(SNES snes, Vec x, void *ctx)
+{
+  NunoStart *s = (NunoStart *)ctx;
+  PetscReal  t, dt, tol;
+  PetscInt   m;
+
+  PetscFunctionBeginUser;
+  (void)snes;
+  PetscCall(TSGetTime(s->ts, &t));
+  PetscCall(TSGetTimeStep(s->ts, &dt));
+  tol = 1e-9 * PetscAbsReal(dt);
+  if (s->n < 2 || PetscAbsReal(s->t[0] - t) > tol) PetscFunctionReturn(0);
+  /* the number of states equally spaced by dt, newest first */
+  for (m = 1; m < PetscMin(s->n, s->order + 1); m++)
+    if (PetscAbsReal(s->t[m - 1] - s->t[m] - dt) > tol) break;
+  switch (m) {
+  case 2: /* 2 x_n - x_{n-1} */
+    PetscCall(VecAXPBYPCZ(x, 2.0, -1.0, 0.0, s->h[0], s->h[1]));
+    break;
+  case 3: /* 3 x_n - 3 x_{n-1} + x_{n-2} */
+    PetscCall(VecAXPBYPCZ(x, 3.0, -3.0, 0.0, s->h[0], s->h[1]));
+    PetscCall(VecAXPY(x, 1.0, s->h[2]));
+    s->used++;
+    break;
+  case 4: /* 4 x_n - 6 x_{n-1} + 4 x_{n-2} - x_{n-3} */
+    PetscCall(VecAXPBYPCZ(x, 4.0, -6.0, 0.0, s->h[0], s->h[1]));
+    PetscCall(VecAXPBYPCZ(x, 4.0, -1.0, 1.0, s->h[2], s->h[3]));
+    s->used++;
+    break;
+  default: /* no two states a dt apart: TS's start */
+    break;
+  }
+  PetscFunctionReturn(0);
+}
+
+/* Read -nuno_newton_start (auto, linear, cubic) in an options block and,
+ * for cubic, attach the history and the callback to the TS's SNES.
+ * auto_cubic: what auto means for this run (module timestepping: cubic
+ * for Newton with beuler at fixed steps). *order out: 1 (linear) or 3.
+ * Refuses cubic with a TS other than beuler, whose stage solved by Newton
+ * is then not the state at t_n + dt. Collective. */
+PetscErrorCode nuno_newton_start_setup(TS *ts, int *auto_cubic, int *order)
+{
+  static const char *const starts[] = {"auto", "linear", "cubic"};
+  PetscInt       st = 0;
+  PetscBool      beuler;
+  MPI_Comm       comm;
+  SNES           snes;
+  PetscContainer c;
+  NunoStart     *s;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscObjectGetComm((PetscObject)*ts, &comm));
+  PetscOptionsBegin(comm, NULL, "nuno: the Newton start (docs/design.md)", "nuno");
+  PetscCall(PetscOptionsEList("-nuno_newton_start",
+                              "beuler: Newton's start, auto (cubic for Newton at fixed steps, linear in the Baraff-Witkin mode -snes_type ksponly, in adaptive, identification and control runs), linear (x_n + dt xdot_n: -ts_theta_initial_guess_extrapolate), cubic (the polynomial through the last four accepted states)",
+                              "nuno", starts, 3, starts[st], &st, NULL));
+  PetscOptionsEnd();
+  PetscCall(PetscObjectTypeCompare((PetscObject)*ts, TSBEULER, &beuler));
+  PetscCheck(st != 2 || beuler, comm, PETSC_ERR_ARG_INCOMP, "-nuno_newton_start cubic needs -ts_type beuler (its Newton solve is for the state at t + dt)");
+  *order = 1;
+  if (st == 1 || (st == 0 && !(*auto_cubic && beuler))) PetscFunctionReturn(0);
+  PetscCall(PetscNew(&s));
+  s->ts    = *ts;
+  s->order = 3;
+  PetscCall(PetscContainerCreate(comm, &c));
+  PetscCall(PetscContainerSetPointer(c, s));
+  PetscCall(PetscContainerSetUserDestroy(c, start_destroy));
+  PetscCall(PetscObjectCompose((PetscObject)*ts, "nuno_newton_start", (PetscObject)c));
+  PetscCall(PetscContainerDestroy(&c));
+  PetscCall(TSGetSNES(*ts, &snes));
+  PetscCall(SNESSetComputeInitialGuess(snes, start_guess, s));
+  *order = 3;
+  PetscFunctionReturn(0);
+}
+
+/* Keep the accepted state u at time t (module timestepping's TSMonitor;
+ * nothing without the cubic start). Collective. */
+PetscErrorCode nuno_newton_start_push(TS *ts, Vec *u, double *t)
+{
+  NunoStart *s;
+  Vec        oldest;
+  PetscFunctionBeginUser;
+  PetscCall(start_get(*ts, &s));
+  if (!s) PetscFunctionReturn(0);
+  if (s->n > 0 && *t == s->t[0]) PetscFunctionReturn(0); /* the same state again */
+  if (!s->h[0])
+    for (PetscInt k = 0; k < NUNO_START_KEPT; k++) PetscCall(VecDuplicate(*u, &s->h[k]));
+  /* the vectors change places, the oldest is overwritten */
+  oldest = s->h[NUNO_START_KEPT - 1];
+  for (PetscInt k = NUNO_START_KEPT - 1; k > 0; k--) {
+    s->h[k] = s->h[k - 1];
+    s->t[k] = s->t[k - 1];
+  }
+  s->h[0] = oldest;
+  s->t[0] = (PetscReal)*t;
+  PetscCall(VecCopy(*u, s->h[0]));
+  s->n = PetscMin(s->n + 1, NUNO_START_KEPT);
+  PetscFunctionReturn(0);
+}
+
+/* Forget the kept states (an output window's start). */
+PetscErrorCode nuno_newton_start_reset(TS *ts)
+{
+  NunoStart *s;
+  PetscFunctionBeginUser;
+  PetscCall(start_get(*ts, &s));
+  if (s) s->n = 0;
+  PetscFunctionReturn(0);
+}
+
+/* Steps started from a quadratic or cubic polynomial so far (0 without). */
+PetscErrorCode nuno_newton_start_used(TS *ts, int *used)
+{
+  NunoStart *s;
+  PetscFunctionBeginUser;
+  PetscCall(start_get(*ts, &s));
+  *used = s ? (int)s->used : 0;
+  PetscFunctionReturn(0);
+}

@@ -1,0 +1,81 @@
+"""The Newton start of backward Euler (-nuno_newton_start,
+src/nuno_newton_start.c; issue 7, the nineteenth round): auto starts
+Newton at fixed steps from the polynomial through the last accepted states
+(cubic once four are at hand), linear is PETSc's x_n + dt xdot_n.
+
+The expectations are independent of the program: a free sheet falling
+under gravity has, under backward Euler, velocities linear and positions
+quadratic in the step number, so the linear start misses x_{n+1} by
+g dt^2 at every node (the residual's x-rows, xdot - v, by g dt: ||F_0|| =
+g dt sqrt(number of nodes)), while the quadratic and cubic starts are
+exact (||F_0|| at round-off); and a start changes where Newton begins,
+never where it ends (the same trajectory when solved tightly)."""
+import re
+
+import numpy as np
+import pytest
+
+from nunorun import run, run_and_read
+
+G, DT, NODES = 9.81, 1.0e-3, 11 * 11          # the flat scene: 11 x 11 nodes
+FALL = dict(scene="scene='flat' gravity=0,0,-9.81", time=f"t_end=0.01 dt={DT}", output="output_interval=0.005")
+
+
+def first_residuals(text):
+    """||F_0|| of every Newton solve in order (-snes_monitor's iteration 0)."""
+    return np.array([float(m) for m in re.findall(r"^\s*0 SNES Function norm ([0-9.eE+-]+)", text, re.M)])
+
+
+def test_a_falling_sheet_starts_exactly_from_the_third_step_of_a_window(tmp_path):
+    """Two windows of five steps on 3 ranks. linear: every step but a
+    window's first starts g dt sqrt(N) away. auto (cubic here: Newton at
+    fixed steps): the second step of a window starts as linear does (two
+    states kept), the later ones at round-off; a window's first step starts
+    from its state alone in both, also in the second window (the kept states
+    end at a window's start: without that reset the second window's first
+    step would start extrapolated)."""
+    lin, _ = run(tmp_path, "linear", nranks=3, options=["-snes_monitor", "-nuno_newton_start", "linear"], **FALL)
+    cub, _ = run(tmp_path, "auto", nranks=3, options=["-snes_monitor"], **FALL)
+    assert "started cubic (-nuno_newton_start)" in cub.stdout
+    assert "started cubic" not in lin.stdout
+    f_lin, f_cub = first_residuals(lin.stdout), first_residuals(cub.stdout)
+    assert f_lin.shape == f_cub.shape == (10,)
+    miss = G * DT * np.sqrt(NODES)
+    for w in (0, 5):
+        assert f_cub[w] == pytest.approx(f_lin[w], rel=1e-12)     # a window's first step: its state
+        assert f_cub[w] > 100 * miss
+        np.testing.assert_allclose(f_lin[w + 1:w + 5], miss, rtol=1e-6)
+        assert f_cub[w + 1] == pytest.approx(miss, rel=1e-6)      # two states: linear
+        assert np.all(f_cub[w + 2:w + 5] < 1e-5 * miss), f_cub
+
+
+def test_the_start_changes_the_iterations_not_the_trajectory(tmp_path):
+    """hang 33 x 33 with bending, 2 ranks, 30 steps of 1 ms in one window:
+    with the inner solves to 1e-11 (Newton to its round-off floor) the
+    cubic start's trajectory is the linear start's to 1e-8 of the
+    displacement; with the default tolerances it takes fewer Newton
+    iterations (the point of it: about one a step instead of two)."""
+    keys = dict(scene="scene='hang'", lattice="nx=33 ny=33", time="t_end=0.03 dt=0.001",
+                output="output_interval=0.03")
+    tight = ["-reduced_ksp_rtol", "1e-11"]
+    runs, newton = {}, {}
+    for start in ("linear", "cubic"):
+        _, runs[start] = run_and_read(tmp_path, f"tight_{start}", nranks=2,
+                                      options=[*tight, "-nuno_newton_start", start], **keys)
+        _, r = run_and_read(tmp_path, f"default_{start}", nranks=2, options=["-nuno_newton_start", start], **keys)
+        newton[start] = int(r.diagnostics["newton_iterations"][-1])
+    ref = runs["linear"].position
+    moved = np.abs(ref[-1] - ref[0]).max()
+    assert moved > 1e-3
+    err = np.abs(runs["cubic"].position - ref).max() / moved
+    assert err < 1e-8, f"the start changed the tight trajectory by {err:.3e} of the displacement"
+    assert newton["cubic"] < 0.8 * newton["linear"], newton
+
+
+def test_the_baraff_witkin_mode_keeps_the_linear_start(tmp_path):
+    """-snes_type ksponly: the start is the point of the one linearisation
+    (and its residual the scale of the solve's tolerance): auto keeps
+    PETSc's linear start there."""
+    proc, _ = run(tmp_path, "bw", nranks=1, options=["-snes_type", "ksponly"], **FALL)
+    assert "Newton step reduced" in proc.stdout
+    assert "started cubic" not in proc.stdout
