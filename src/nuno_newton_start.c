@@ -1,5 +1,5 @@
 /* The Newton start of backward Euler from the last accepted states
- * (-nuno_newton_start; docs/design.md, "The Newton start").
+ * (-nuno_newton_start; docs/design.md, "the cubic start").
  *
  * PETSc's beuler starts Newton from x_n + dt xdot_n, the last two states
  * extrapolated linearly (-ts_theta_initial_guess_extrapolate). With the
@@ -18,9 +18,10 @@
  * module timestepping pushes every accepted state (its TSMonitor), and
  * empties the history at each output window's start (the state may jump
  * there: keyframes, releases; and a run restarted at a window's start
- * then repeats the one it continues). A step whose dt is not the spacing
- * of the kept states (a retry at dt/4, a sliver before a stop time, an
- * adaptive step) keeps the start TS gave it. */
+ * then repeats the one it continues). Where the linear start's residual
+ * is the smaller the step takes that one (start_guess). A step whose dt is
+ * not the spacing of the kept states (a retry at dt/4, a sliver before a
+ * stop time) starts from the last two accepted states extrapolated to it. */
 #include <petscts.h>
 
 #define NUNO_START_KEPT 4
@@ -34,7 +35,6 @@ typedef struct {
   Vec       xl, fl, fc;             /* the linear start, its residual; the other start's residual */
   PetscBool compare;                /* evaluate the linear start too (below) */
   PetscReal nc_prev;                /* the residual of the last polynomial start */
-  PetscInt  used;                   /* steps started from a polynomial of order >= 2 */
 } NunoStart;
 
 static PetscErrorCode start_destroy(void *ctx)
@@ -151,11 +151,9 @@ static PetscErrorCode start_guess(SNES snes, Vec x, void *ctx)
        * over the elements more: +30 ms a step at 257 x 257): SNES
        * evaluates this one again */
       if (2.0 * nc < nl) s->compare = PETSC_FALSE;
-      s->used++;
     }
   } else {
     PetscCall(SNESSetInitialFunction(snes, s->fc));
-    s->used++;
   }
   s->nc_prev = nc;
   PetscFunctionReturn(0);
@@ -238,15 +236,5 @@ PetscErrorCode nuno_newton_start_reset(TS *ts)
     s->n       = 0;
     s->compare = PETSC_TRUE;
   }
-  PetscFunctionReturn(0);
-}
-
-/* Steps started from a quadratic or cubic polynomial so far (0 without). */
-PetscErrorCode nuno_newton_start_used(TS *ts, int *used)
-{
-  NunoStart *s;
-  PetscFunctionBeginUser;
-  PetscCall(start_get(*ts, &s));
-  *used = s ? (int)s->used : 0;
   PetscFunctionReturn(0);
 }
