@@ -27,7 +27,7 @@
 #define NUNO_START_KEPT 4
 
 typedef struct {
-  TS        ts;                     /* not referenced: the container lives on it */
+  TS        ts;                     /* no reference taken: the container lives on it */
   PetscInt  order;                  /* highest order used: 3 (cubic) */
   PetscInt  n;                      /* states kept, newest first */
   Vec       h[NUNO_START_KEPT];     /* 6-dof states x_n, x_{n-1}, ... */
@@ -179,7 +179,7 @@ PetscErrorCode nuno_newton_start_setup(TS *ts, int *auto_cubic, int *order)
   PetscCall(PetscObjectGetComm((PetscObject)*ts, &comm));
   PetscOptionsBegin(comm, NULL, "nuno: the Newton start (docs/design.md)", "nuno");
   PetscCall(PetscOptionsEList("-nuno_newton_start",
-                              "beuler: Newton's start, auto (cubic for Newton at fixed steps, linear in the Baraff-Witkin mode -snes_type ksponly, in adaptive, identification and control runs), linear (x_n + dt xdot_n: -ts_theta_initial_guess_extrapolate), cubic (the polynomial through the last four accepted states)",
+                              "beuler: Newton's start, auto (cubic for Newton at fixed steps, linear in the Baraff-Witkin mode -snes_type ksponly, in adaptive, identification and control runs), linear (x_n + dt xdot_n: -ts_theta_initial_guess_extrapolate), cubic (the polynomial through the last four accepted states, or the linear start where its residual is the smaller)",
                               "nuno", starts, 3, starts[st], &st, NULL));
   PetscOptionsEnd();
   PetscCall(PetscObjectTypeCompare((PetscObject)*ts, TSBEULER, &beuler));
@@ -187,7 +187,7 @@ PetscErrorCode nuno_newton_start_setup(TS *ts, int *auto_cubic, int *order)
   *order = 1;
   if (st == 1 || (st == 0 && !(*auto_cubic && beuler))) PetscFunctionReturn(0);
   PetscCall(PetscNew(&s));
-  s->ts    = *ts;
+  s->ts      = *ts;
   s->order   = 3;
   s->compare = PETSC_TRUE;
   PetscCall(PetscContainerCreate(comm, &c));
