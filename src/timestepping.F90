@@ -533,7 +533,8 @@ contains
   !> Newton's start (-nuno_newton_start, src/nuno_newton_start.c): auto
   !> is the cubic start for Newton with beuler at fixed steps (hang 257 x
   !> 257: one Newton iteration a step instead of two, docs/performance.md,
-  !> "Nineteenth round"), the linear one of PETSc (x_n + dt xdot_n)
+  !> "Nineteenth round"; the linear start where its residual is the
+  !> smaller, as in a membrane's transient), the linear one of PETSc (x_n + dt xdot_n)
   !> elsewhere: in the Baraff-Witkin mode (-snes_type ksponly) the start
   !> is the point of the one linearisation and its residual the scale of
   !> the solve's tolerance (163 -> 189 inner iterations over 30 steps
