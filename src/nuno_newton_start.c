@@ -28,7 +28,6 @@
 
 typedef struct {
   TS        ts;                     /* no reference taken: the container lives on it */
-  PetscInt  order;                  /* highest order used: 3 (cubic) */
   PetscInt  n;                      /* states kept, newest first */
   Vec       h[NUNO_START_KEPT];     /* 6-dof states x_n, x_{n-1}, ... */
   PetscReal t[NUNO_START_KEPT];     /* their times */
@@ -96,7 +95,7 @@ static PetscErrorCode start_predict(const NunoStart *s, PetscInt p, Vec x)
  * spaced by its dt, x becomes the polynomial through them (cubic when
  * four are kept), whose residual is handed to SNES (SNESSetInitialFunction:
  * no evaluation more). Where the motion is smooth that residual is
- * 100-150 times the linear start's smaller (hang 257 x 257); but in the
+ * 100-150 times smaller than the linear start's (hang 257 x 257); but in the
  * fast transients of a membrane without bending just after a release from
  * rest the polynomial's larger weights (4, 6, 4, 1 against 2, 1) amplify
  * the steps' wiggles (hang 1025 x 1025 without bending: the cubic started
@@ -123,7 +122,7 @@ static PetscErrorCode start_guess(SNES snes, Vec x, void *ctx)
     PetscCall(VecAXPBYPCZ(x, 1.0 + dt / (s->t[0] - s->t[1]), -dt / (s->t[0] - s->t[1]), 0.0, s->h[0], s->h[1]));
     PetscFunctionReturn(0);
   }
-  p = PetscMin(m - 1, s->order);
+  p = m - 1; /* at most 3: four states are kept */
   if (p == 1) {
     PetscCall(start_predict(s, 1, x));
     PetscFunctionReturn(0);
@@ -188,7 +187,6 @@ PetscErrorCode nuno_newton_start_setup(TS *ts, int *auto_cubic, int *order)
   if (st == 1 || (st == 0 && !(*auto_cubic && beuler))) PetscFunctionReturn(0);
   PetscCall(PetscNew(&s));
   s->ts      = *ts;
-  s->order   = 3;
   s->compare = PETSC_TRUE;
   PetscCall(PetscContainerCreate(comm, &c));
   PetscCall(PetscContainerSetPointer(c, s));
