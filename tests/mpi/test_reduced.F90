@@ -4,6 +4,9 @@
 !>  1. S y against central finite differences of the forces along
 !>     (x, v) + eps (y/a, y): S y = a M y - d/deps f (free rows, y = 0 on
 !>     constrained nodes), and S's constrained rows and columns exact;
+!>     S by stencil offset (the multigrid's path, whose bending triples go
+!>     through the lanes' kernels) against that S, and its element products
+!>     against the AIJ path's;
 !>  2. the 6-dof MATSHELL against finite differences of the 6-dof residual;
 !>  3. the elimination (PCSHELL with an exact inner LU) inverts the MATSHELL:
 !>     J (P b) = b, for a general b and for the b = F(u) of a Newton step
@@ -24,6 +27,8 @@ program test_reduced
   use reduced, only: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, &
                      reduced_attach
   use check, only: check_true, check_report
+  use reduced_assembly, only: csr_assemble
+  use offset_product, only: stencil_product, offset_count
   implicit none
   PetscErrorCode :: ierr
 
@@ -229,6 +234,7 @@ contains
     scale = gmax(scale)
     call check_true(scale > 0.0_rp .and. err <= 1.0e-7_rp * scale, label//': S y against finite differences')
     if (err > 1.0e-7_rp * scale) write(*, '(a,es10.3,a,es10.3)') label//': |S y - fd| = ', err, ' of ', scale
+    call check_stencil_s(red, lat, u, y3, sy3, a, label)
 
     ! Constrained columns and rows: changing y on constrained nodes changes
     ! S y only there, by a m dy.
@@ -373,6 +379,57 @@ contains
     PetscCallA(DMDestroy(da6, ierr))
 
   end subroutine run_case
+
+  !> S written by stencil offset (csr_assemble with st, the default
+  !> multigrid path: bending triples through add_triple_lanes, links row by
+  !> row) at the state of red's last assembly: S y by stencil_product
+  !> against sy = S y of the AIJ S (checked against finite differences
+  !> above, written element by element), and the element products g and
+  !> diagonals kd against the AIJ assembly's (gpred, kd).
+  subroutine check_stencil_s(red, lat, u, y3, sy, a, label)
+    type(reduced_t), intent(inout) :: red
+    type(lattice_t), intent(in) :: lat
+    type(tVec), intent(in) :: u, y3, sy
+    real(rp), intent(in) :: a
+    character(*), intent(in) :: label
+    real(rp), allocatable :: st(:, :, :, :, :), g(:, :, :), kd(:, :, :), ys(:, :, :), yg(:, :, :)
+    type(tVec) :: uloc, yloc
+    PetscScalar, pointer :: ul(:, :, :), yl(:, :, :), sa(:, :, :)
+    PetscInt :: gxs, gys, gzs, gxm, gym, gzm
+    real(rp) :: err, scale, errg, scaleg
+    PetscErrorCode :: ierr
+
+    allocate(st(0:lat%nx - 1, 3, 3, offset_count(lat%halo), 0:lat%ye - lat%ys))
+    allocate(g(3, 0:lat%nx - 1, lat%ys:lat%ye), kd(3, 0:lat%nx - 1, lat%ys:lat%ye))
+    allocate(ys(3, 0:lat%nx - 1, lat%ys:lat%ye), yg(3, 0:lat%nx - 1, lat%gys:lat%gye))
+    PetscCallA(DMGetLocalVector(red%da6, uloc, ierr))
+    PetscCallA(DMGlobalToLocalBegin(red%da6, u, INSERT_VALUES, uloc, ierr))
+    PetscCallA(DMGlobalToLocalEnd(red%da6, u, INSERT_VALUES, uloc, ierr))
+    PetscCallA(DMDAVecGetArrayReadF90(red%da6, uloc, ul, ierr))
+    call csr_assemble(lat, ul, red%fixedg, a, red%damping, red%clamp, red%gauss_newton, red%wpred, &
+                      red%lb, red%vals, g, kd, st=st)
+    PetscCallA(DMDAVecRestoreArrayReadF90(red%da6, uloc, ul, ierr))
+    PetscCallA(DMRestoreLocalVector(red%da6, uloc, ierr))
+    PetscCallA(DMGetLocalVector(red%da3, yloc, ierr))
+    PetscCallA(DMGlobalToLocalBegin(red%da3, y3, INSERT_VALUES, yloc, ierr))
+    PetscCallA(DMGlobalToLocalEnd(red%da3, y3, INSERT_VALUES, yloc, ierr))
+    PetscCallA(DMDAGetGhostCorners(red%da3, gxs, gys, gzs, gxm, gym, gzm, ierr))
+    call check_true(gys <= lat%gys .and. gys + gym - 1 >= lat%gye, label//': the 3-dof ghost rows hold the lattice''s')
+    PetscCallA(DMDAVecGetArrayReadF90(red%da3, yloc, yl, ierr))
+    yg = yl(0:2, :, lat%gys:lat%gye)
+    PetscCallA(DMDAVecRestoreArrayReadF90(red%da3, yloc, yl, ierr))
+    PetscCallA(DMRestoreLocalVector(red%da3, yloc, ierr))
+    call stencil_product(lat%nx, lat%ny, lat%ys, lat%ye, lat%gys, lat%gye, lat%halo, st, yg, ys)
+    PetscCallA(DMDAVecGetArrayReadF90(red%da3, sy, sa, ierr))
+    err = gmax(maxval(abs(ys - sa(0:2, :, lat%ys:lat%ye))))
+    scale = gmax(maxval(abs(sa(0:2, :, lat%ys:lat%ye))))
+    PetscCallA(DMDAVecRestoreArrayReadF90(red%da3, sy, sa, ierr))
+    call check_true(scale > 0.0_rp .and. err <= 1.0e-12_rp * scale, label//': S by stencil offset equals the AIJ S')
+    if (.not. err <= 1.0e-12_rp * scale) write(*, '(a,es10.3,a,es10.3)') label//': |S_st y - S y| = ', err, ' of ', scale
+    errg = gmax(max(maxval(abs(g - red%gpred)), maxval(abs(kd - red%kd))))
+    scaleg = gmax(max(maxval(abs(red%gpred)), maxval(abs(red%kd))))
+    call check_true(scaleg > 0.0_rp .and. errg <= 1.0e-12_rp * scaleg, label//': the stencil assembly''s products equal the AIJ''s')
+  end subroutine check_stencil_s
 
   !> A right-hand side with no structure: nonzero in every row, the
   !> constrained nodes' included.
