@@ -338,17 +338,17 @@ contains
     !> l = 1..nl, from their Jacobians in the edge variables ke(l, :, :),
     !> ce(l, :, :), into S by stencil offset: each sum formed for all the
     !> triples at once (vector loops over l), then added to nl consecutive
-    !> nodes of a row (no two the same). Block (P, Q) of T^T m T is formed
-    !> in two halves, node P's rows r = t_1P m(1:3, :) + t_2P m(4:6, :)
-    !> once for its three blocks, then t_1Q r(:, 1:3) + t_2Q r(:, 4:6) added
-    !> to S as it is formed (each block's four products with T's entries,
-    !> kept, then added, were two fifths of this routine).
+    !> nodes of a row (no two the same). With T = [[-I, I, 0], [0, -I, I]]
+    !> the nine node blocks of T^T m T are sums of m's 3 x 3 quarters m_ab
+    !> (edges a, b) with weights -1, 0, 1, spelled out (triple_node_blocks):
+    !> formed as products with T's entries, 2 multiplications and an add for
+    !> each block entry, they were most of this routine.
     subroutine add_triple_lanes(j0, kdir, i0, nl, ld, ke, ce)
       integer, intent(in) :: j0, kdir, i0, nl, ld   ! kdir: the line direction, line_dir(:, kdir)
       real(rp), intent(in) :: ke(ld, 6, 6), ce(ld, 6, 6)
-      ! T = [[-I, I, 0], [0, -I, I]]: t(a, P) the factor of node P in edge a
+      ! t(a, P): the factor of node P in edge a (T above)
       real(rp), parameter :: t(2, 3) = reshape([-1.0_rp, 0.0_rp, 1.0_rp, -1.0_rp, 0.0_rp, 1.0_rp], [2, 3])
-      real(rp) :: m(ld, 6, 6), ewx(ld, 6), ewv(ld, 6), h(ld, 6), free(ld), r(ld, 3, 6)
+      real(rp) :: blk(ld, 3, 3, 9), ewx(ld, 6), ewv(ld, 6), h(ld, 6), free(ld)
       integer :: l, pp, qq, ip0, jp, iq0, jq2, c1, c2, sl, sp, dx, dy
       logical :: masked
       dx = line_dir(1, kdir)
@@ -360,10 +360,10 @@ contains
         do c1 = 1, 6
           do l = 1, nl
             h(l, c1) = h(l, c1) + ke(l, c1, c2) * ewx(l, c2) + ce(l, c1, c2) * ewv(l, c2)
-            m(l, c1, c2) = -(ce(l, c1, c2) + rinv * ke(l, c1, c2))
           end do
         end do
       end do
+      if (write_s) call triple_node_blocks(nl, ld, rinv, ke, ce, blk)
       do pp = 1, 3
         ip0 = i0 + (pp - 1) * dx
         jp = j0 + (pp - 1) * dy
@@ -371,13 +371,6 @@ contains
         sp = srow(jp)
         call sub_lane_forces(nl, ld, t(1, pp), t(2, pp), h, ke, g(:, ip0:ip0 + nl - 1, jp), kd(:, ip0:ip0 + nl - 1, jp))
         if (.not. write_s) cycle
-        do c2 = 1, 6
-          do c1 = 1, 3
-            do l = 1, nl
-              r(l, c1, c2) = t(1, pp) * m(l, c1, c2) + t(2, pp) * m(l, 3 + c1, c2)
-            end do
-          end do
-        end do
         do qq = 1, 3
           iq0 = i0 + (qq - 1) * dx
           jq2 = j0 + (qq - 1) * dy
@@ -389,7 +382,8 @@ contains
               free(l) = merge(0.0_rp, 1.0_rp, fixedg(ip0 + l - 1, jp) .or. fixedg(iq0 + l - 1, jq2))
             end do
           end if
-          call add_lane_blocks(nl, ld, lat%nx, size(st, 4), sl, ip0, t(1, qq), t(2, qq), r, masked, free, st(:, :, :, :, sp))
+          call add_lane_blocks(nl, ld, lat%nx, size(st, 4), sl, ip0, blk(:, :, :, 3 * (pp - 1) + qq), masked, free, &
+                               st(:, :, :, :, sp))
         end do
       end do
     end subroutine add_triple_lanes
@@ -590,15 +584,50 @@ contains
     end do
   end subroutine csr_row_blocks
 
-  !> Add t1 r(:, :, 1:3) + t2 r(:, :, 4:6) (times free where masked) to
-  !> slot sl of nl consecutive nodes ip0.. of a row of S by stencil offset
-  !> (node blocks of nl bending triples; their rows r by lanes), nodes
-  !> fastest, as S keeps them: one vector loop for each entry; with S node
-  !> by node these adds were scalar, 3 % of a bw step with bending.
-  !> Explicit shapes, as put_link_blocks.
-  pure subroutine add_lane_blocks(nl, ld, nx, nslot, sl, ip0, t1, t2, r, masked, free, dst)
+  !> The nine node blocks B(P, Q) = sum_ab t(a, P) t(b, Q) m_ab of nl
+  !> bending triples (T = [[-I, I, 0], [0, -I, I]], m = -(ce + ke/a), m_ab
+  !> its 3 x 3 quarter of edges a, b), by lanes: blk(:, :, :, 3 (P - 1) + Q).
+  !> T's entries are -1, 0 and 1, so each block is a sum of one to four
+  !> quarters: B11 = m11, B12 = m12 - m11, B13 = -m12, B21 = m21 - m11,
+  !> B22 = m11 - m12 - m21 + m22, B23 = m12 - m22, B31 = -m21,
+  !> B32 = m21 - m22, B33 = m22.
+  pure subroutine triple_node_blocks(nl, ld, rinv, ke, ce, blk)
+    integer, intent(in) :: nl, ld
+    real(rp), intent(in) :: rinv                   ! 1/a [time]
+    real(rp), intent(in) :: ke(ld, 6, 6), ce(ld, 6, 6)
+    real(rp), intent(out) :: blk(ld, 3, 3, 9)
+    integer :: l, c1, c2
+    real(rp) :: m11, m12, m21, m22
+    do c2 = 1, 3
+      do c1 = 1, 3
+        do l = 1, nl
+          m11 = -(ce(l, c1, c2) + rinv * ke(l, c1, c2))
+          m12 = -(ce(l, c1, 3 + c2) + rinv * ke(l, c1, 3 + c2))
+          m21 = -(ce(l, 3 + c1, c2) + rinv * ke(l, 3 + c1, c2))
+          m22 = -(ce(l, 3 + c1, 3 + c2) + rinv * ke(l, 3 + c1, 3 + c2))
+          blk(l, c1, c2, 1) = m11
+          blk(l, c1, c2, 2) = m12 - m11
+          blk(l, c1, c2, 3) = -m12
+          blk(l, c1, c2, 4) = m21 - m11
+          blk(l, c1, c2, 5) = (m11 - m12) + (m22 - m21)
+          blk(l, c1, c2, 6) = m12 - m22
+          blk(l, c1, c2, 7) = -m21
+          blk(l, c1, c2, 8) = m21 - m22
+          blk(l, c1, c2, 9) = m22
+        end do
+      end do
+    end do
+  end subroutine triple_node_blocks
+
+  !> Add the blocks b(l, :, :) (times free(l) where masked) to slot sl of
+  !> nl consecutive nodes ip0.. of a row of S by stencil offset (node
+  !> blocks of nl bending triples), nodes fastest, as S keeps them: one
+  !> vector loop for each entry; with S node by node these adds were
+  !> scalar, 3 % of a bw step with bending. Explicit shapes, as
+  !> put_link_blocks.
+  pure subroutine add_lane_blocks(nl, ld, nx, nslot, sl, ip0, b, masked, free, dst)
     integer, intent(in) :: nl, ld, nx, nslot, sl, ip0
-    real(rp), intent(in) :: t1, t2, r(ld, 3, 6), free(ld)
+    real(rp), intent(in) :: b(ld, 3, 3), free(ld)
     logical, intent(in) :: masked
     real(rp), intent(inout) :: dst(0:nx - 1, 3, 3, nslot)
     integer :: l, c1, c2
@@ -606,11 +635,11 @@ contains
       do c1 = 1, 3
         if (masked) then
           do l = 1, nl
-            dst(ip0 + l - 1, c1, c2, sl) = dst(ip0 + l - 1, c1, c2, sl) + free(l) * (t1 * r(l, c1, c2) + t2 * r(l, c1, 3 + c2))
+            dst(ip0 + l - 1, c1, c2, sl) = dst(ip0 + l - 1, c1, c2, sl) + free(l) * b(l, c1, c2)
           end do
         else
           do l = 1, nl
-            dst(ip0 + l - 1, c1, c2, sl) = dst(ip0 + l - 1, c1, c2, sl) + (t1 * r(l, c1, c2) + t2 * r(l, c1, 3 + c2))
+            dst(ip0 + l - 1, c1, c2, sl) = dst(ip0 + l - 1, c1, c2, sl) + b(l, c1, c2)
           end do
         end if
       end do
