@@ -38,7 +38,7 @@ PetscErrorCode nuno_options_read(MPI_Fint fcomm, int *jacobian, int *pc_lag, int
   PetscOptionsBegin(comm, NULL, "nuno: the Newton step (docs/design.md, input/README.md)", "nuno");
   PetscCall(PetscOptionsEList("-nuno_jacobian", "reduced: assemble only the 3-dof velocity system and eliminate around it; full: the 6-dof Jacobian",
                               "nuno", jacobians, 2, jacobians[jac], &jac, NULL));
-  PetscCall(PetscOptionsInt("-nuno_pc_lag", "rebuild the inner (reduced_) preconditioner every N assemblies (0: with the default multigrid 3, or 10 with cubic interpolation; 1 otherwise)", "nuno", lag, &lag, NULL));
+  PetscCall(PetscOptionsInt("-nuno_pc_lag", "rebuild the inner (reduced_) preconditioner every N assemblies (0: with the default multigrid 3, or 20 with cubic interpolation; 1 otherwise)", "nuno", lag, &lag, NULL));
   PetscCall(PetscOptionsEList("-nuno_mg_interpolation", "interpolation of the inner multigrid: auto (coarse_cubic with bending, linear without), linear, cubic (every level), coarse_cubic (every level but the finest; nuno's multigrid interpolates the finest level's correction cubic too)",
                               "nuno", interps, 4, interps[interp], &interp, NULL));
   PetscCall(PetscOptionsReal("-nuno_snes_floor", "Newton: converged when a residual below this fraction of its start stops decreasing, or (reduced) is at the round-off floor estimated from S (0: off)",

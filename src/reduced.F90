@@ -412,16 +412,18 @@ contains
     ! An explicit -reduced_ksp_rtol wins over the outer forcing term.
     PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_ksp_rtol', found, ierr))
     red%forward_ew = .not. found
-    ! 0: the default, measured (docs/performance.md, "Third round" and
-    ! "Fourth round"): the multigrid's Galerkin coarse operators kept for 3
-    ! assemblies, 10 with the cubic interpolation, whose products cost
-    ! about five times more (its fine-level smoother and residual always
-    ! use the current S, so only the coarse correction ages), any other
-    ! preconditioner rebuilt each time.
+    ! 0: the default, measured (docs/performance.md, "Third round",
+    ! "Fourth round" and "Twentieth round"): the multigrid's Galerkin
+    ! coarse operators kept for 3 assemblies, 20 with the cubic
+    ! interpolation, whose products cost about five times more (its
+    ! fine-level smoother and residual always use the current S, so only
+    ! the coarse correction ages; 20 against 10: the same inner iterations
+    ! on hang's 1 s, 1-4 % more on the release scenes, half the rebuilds),
+    ! any other preconditioner rebuilt each time.
     if (pc_lag > 0) then
       red%pc_lag = pc_lag
     else if ((pctype == PCMG .or. red%use_mg) .and. red%interp /= INTERP_LINEAR) then
-      red%pc_lag = 10
+      red%pc_lag = 20
     else if (pctype == PCMG .or. red%use_mg) then
       red%pc_lag = 3
     else
