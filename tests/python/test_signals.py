@@ -14,11 +14,11 @@ import pytest
 from nunorun import read_run, start_running
 
 
-def start(tmp_path, name):
+def start(tmp_path, name, interval=0.005):
     # Long enough that it is still running when the signal comes; two
     # progress lines after t = 0: the time loop is running.
     return start_running(tmp_path, name, scene="scene='hang'", lattice="nx=33 ny=33",
-                         time="t_end=50 dt=1e-3", output="output_interval=0.005")
+                         time="t_end=50 dt=1e-3", output=f"output_interval={interval}")
 
 
 def finish(proc, h5, signame, t_sent):
@@ -38,6 +38,18 @@ def finish(proc, h5, signame, t_sent):
 
 def test_sigterm_to_mpiexec_gives_an_interrupted_file(tmp_path):
     proc, h5 = start(tmp_path, "term")
+    t0 = time.time()
+    proc.send_signal(signal.SIGTERM)
+    finish(proc, h5, "SIGTERM", t0)
+
+
+def test_sigterm_to_mpiexec_with_a_line_every_step(tmp_path):
+    # mpirun stops reading the ranks' stdout when it gets SIGTERM and
+    # forwards it 1 s later: a line every step (1e-3 s, some hundred steps
+    # a second) fills rank 0's pty (about 16 kB) in that second, and its
+    # write blocks. The forwarded signal must still end the run with its
+    # state and checkpoint written, not leave it to mpirun's SIGKILL.
+    proc, h5 = start(tmp_path, "chatty", interval=1e-3)
     t0 = time.time()
     proc.send_signal(signal.SIGTERM)
     finish(proc, h5, "SIGTERM", t0)
