@@ -93,6 +93,17 @@ module output
     character(len=64) :: reason = ''      !< why it was written: interval, end, SIGTERM, SIGINT, wall time
     character(len=64) :: ts_type = ''     !< the integrator that wrote it
     integer :: sequence = 0               !< 1, 2, ... in the order written (set by output_write_checkpoint)
+    !> The Newton start's kept states before this one (-nuno_newton_start
+    !> cubic, src/nuno_newton_start.c), newest first, so that a restart
+    !> starts the next steps as the run that went through did: their
+    !> number (0..3; 0 in files written before 4 Dec 2026), positions and
+    !> velocities (3, nx, ym, start_count) [length], [length/time], times,
+    !> and the start's comparison state (1: compare with the linear start)
+    integer :: start_count = 0
+    real(rp), allocatable :: start_x(:, :, :, :), start_v(:, :, :, :)
+    real(rp) :: start_t(3) = 0
+    integer :: start_compare = 1
+    real(rp) :: start_nc_prev = 0
   end type checkpoint_t
 
   ! Time-dependent datasets, in the order they are extended and written.
@@ -1665,7 +1676,7 @@ contains
     if (ierr /= 0) return
 
     ck%n_output_steps = out%nt
-    call check_space(out, 48.0_rp * out%nx * out%ny + 65536.0_rp, 'a checkpoint', ierr, errmsg)
+    call check_space(out, 48.0_rp * (1 + ck%start_count) * out%nx * out%ny + 65536.0_rp, 'a checkpoint', ierr, errmsg)
     if (ierr /= 0) then
       errmsg = 'checkpoint not written: '//trim(errmsg)
       return
@@ -1691,6 +1702,13 @@ contains
       end if
       call close_dset(dset, where//'/'//trim(fields(k)), ierr, errmsg)
     end do
+    ! The Newton start's earlier states (start_position_1.., start_velocity_1..)
+    do k = 1, ck%start_count
+      if (.not. all_ok()) exit
+      call write_state(where//'/start_position_'//str(k), 'start_position_'//str(k), ck%start_x(:, :, :, k))
+      if (.not. all_ok()) exit
+      call write_state(where//'/start_velocity_'//str(k), 'start_velocity_'//str(k), ck%start_v(:, :, :, k))
+    end do
     ! Attributes: metadata, written at the flush (which is agreed on).
     if (all_ok()) then
       call set_attr_reals(grp, 'time', [ck%time], where, ierr, errmsg)
@@ -1705,6 +1723,10 @@ contains
       if (ierr == 0) call set_attr_int(grp, 'stretch_warned', ck%stretch_warned, where, ierr, errmsg)
       if (ierr == 0) call set_attr_str(grp, 'reason', trim(ck%reason), where, ierr, errmsg)
       if (ierr == 0) call set_attr_str(grp, 'ts_type', trim(ck%ts_type), where, ierr, errmsg)
+      if (ierr == 0) call set_attr_int(grp, 'start_count', ck%start_count, where, ierr, errmsg)
+      if (ierr == 0) call set_attr_reals(grp, 'start_times', ck%start_t, where, ierr, errmsg)
+      if (ierr == 0) call set_attr_int(grp, 'start_compare', ck%start_compare, where, ierr, errmsg)
+      if (ierr == 0) call set_attr_reals(grp, 'start_nc_prev', [ck%start_nc_prev], where, ierr, errmsg)
     end if
     if (all_ok()) call flush_file(out, ierr, errmsg)
     ! Valid from here on.
@@ -1725,6 +1747,14 @@ contains
       call agree(out%comm, 'output_write_checkpoint', ierr, errmsg)
       all_ok = ierr == 0
     end function all_ok
+    subroutine write_state(path, name, a)
+      character(*), intent(in) :: path, name
+      real(rp), intent(in) :: a(:, :, :)
+      call open_or_create_state(out, grp, path, name, dset, ierr, errmsg)
+      if (ierr /= 0) return
+      call write_rows3(out, dset, path, [0_hsize_t, 0_hsize_t, ys], [3_hsize_t, nx, ym], a, ierr, errmsg)
+      call close_dset(dset, path, ierr, errmsg)
+    end subroutine write_state
   end subroutine output_write_checkpoint
 
   !> Open an earlier run's file to continue it from its last valid
@@ -1930,8 +1960,9 @@ contains
     integer, intent(inout) :: ierr
     character(*), intent(inout) :: errmsg
     integer(hid_t) :: grp
-    integer :: h
+    integer :: h, k
     real(rp) :: r(1)
+    logical :: exists
 
     call h5gopen_f(out%file, where, grp, h)
     if (h < 0) then
@@ -1949,10 +1980,30 @@ contains
     call get_attr_int(grp, 'stretch_warned', where, ck%stretch_warned, ierr, errmsg)
     call get_attr_str(grp, 'reason', where, ck%reason, ierr, errmsg)
     call get_attr_str(grp, 'ts_type', where, ck%ts_type, ierr, errmsg)
+    ! the Newton start's earlier states: not in files written before 4 Dec 2026
+    call h5aexists_f(grp, 'start_count', exists, h)
+    if (h < 0) call fail('h5aexists_f', where//' start_count', ierr, errmsg)
+    ck%start_count = 0
+    if (ierr == 0 .and. exists) then
+      call get_attr_int(grp, 'start_count', where, ck%start_count, ierr, errmsg)
+      call get_attr_reals(grp, 'start_times', where, ck%start_t, ierr, errmsg)
+      call get_attr_int(grp, 'start_compare', where, ck%start_compare, ierr, errmsg)
+      call get_attr_reals(grp, 'start_nc_prev', where, r, ierr, errmsg); ck%start_nc_prev = r(1)
+      if (ck%start_count < 0 .or. ck%start_count > 3) then
+        ierr = 1
+        errmsg = where//': start_count '//str(ck%start_count)//' is not 0..3'
+      end if
+    end if
     call close_group(grp, where, ierr, errmsg)
     if (ierr /= 0) return
     call read_rows3(out, where//'/position', x, ierr, errmsg)
     call read_rows3(out, where//'/velocity', v, ierr, errmsg)
+    allocate(ck%start_x(size(x, 1), size(x, 2), size(x, 3), ck%start_count), &
+             ck%start_v(size(x, 1), size(x, 2), size(x, 3), ck%start_count))
+    do k = 1, ck%start_count
+      call read_rows3(out, where//'/start_position_'//str(k), ck%start_x(:, :, :, k), ierr, errmsg)
+      call read_rows3(out, where//'/start_velocity_'//str(k), ck%start_v(:, :, :, k), ierr, errmsg)
+    end do
   end subroutine read_checkpoint
 
   !> Open the time series of an existing file and cut them to nt steps;

@@ -85,6 +85,24 @@ module timestepping
       import :: c_int, c_intptr_t
       integer(c_intptr_t) :: ts
     end function nuno_newton_start_reset
+    integer(c_int) function nuno_newton_start_count(ts, n, compare, nc_prev) bind(C, name='nuno_newton_start_count')
+      import :: c_int, c_intptr_t, c_double
+      integer(c_intptr_t) :: ts
+      integer(c_int) :: n, compare
+      real(c_double) :: nc_prev
+    end function nuno_newton_start_count
+    integer(c_int) function nuno_newton_start_get(ts, k, v, t) bind(C, name='nuno_newton_start_get')
+      import :: c_int, c_intptr_t, c_double
+      integer(c_intptr_t) :: ts, v          !< TS*, Vec*
+      integer(c_int) :: k
+      real(c_double) :: t
+    end function nuno_newton_start_get
+    integer(c_int) function nuno_newton_start_put(ts, k, v, t, n, compare, nc_prev) bind(C, name='nuno_newton_start_put')
+      import :: c_int, c_intptr_t, c_double
+      integer(c_intptr_t) :: ts, v          !< TS*, Vec*
+      integer(c_int) :: k, n, compare
+      real(c_double) :: t, nc_prev
+    end function nuno_newton_start_put
     integer(c_int) function nuno_signal_agreed() bind(C, name='nuno_signal_agreed')
       import :: c_int
     end function nuno_signal_agreed
@@ -1178,7 +1196,7 @@ contains
     real(rp), intent(out) :: dke
     PetscErrorCode, intent(out) :: ierr
     PetscScalar, pointer :: ua(:, :, :)
-    real(rp) :: xb(3), vb(3), loc(2), m
+    real(rp) :: xb(3), vb(3), loc(3), m
     integer :: k, i, j
 
     call constraints_set_window(ctx%cs, ta, tb)
@@ -1197,19 +1215,27 @@ contains
         m = ctx%lat%mass(i, j)
         loc(1) = loc(1) + 0.5_rp * m * (dot_product(vb, vb) - dot_product(ua(3:5, i, j), ua(3:5, i, j)))
         if (any(vb /= 0.0_rp)) loc(2) = 1.0_rp
+        if (any(ua(0:2, i, j) /= xb) .or. any(ua(3:5, i, j) /= vb)) loc(3) = 1.0_rp
         ua(0:2, i, j) = xb
         ua(3:5, i, j) = vb
         ctx%fixed(i, j) = .true.
       end do
     end if
     PetscCall(DMDAVecRestoreArrayF90(ctx%da, ctx%u, ua, ierr))
-    call MPI_Allreduce(MPI_IN_PLACE, loc, 2, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, ierr)
+    call MPI_Allreduce(MPI_IN_PLACE, loc, 3, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, ierr)
     if (ctx%use_reduced) then
       PetscCall(reduced_set_fixed(ctx%red, ctx%fixed, ierr))
     end if
-    ! the Newton start's kept states end here (the state may have jumped)
-    ierr = nuno_newton_start_reset(ctx%ts%v)
-    if (ierr /= 0) return
+    ! The Newton start's kept states end here where the state jumps (a
+    ! keyframe's start, a constraint's target moved); elsewhere they go on
+    ! across the window's start (a checkpoint keeps them for a restart:
+    ! take_checkpoint, solver_restore). Forgetting them at every window
+    ! cost 12 % of hang's 1 s at 257 x 257 (docs/performance.md, twentieth
+    ! round).
+    if (loc(3) > 0.0_rp) then
+      ierr = nuno_newton_start_reset(ctx%ts%v)
+      if (ierr /= 0) return
+    end if
     dke = loc(1)
     ctx%moving_constraints = loc(2) > 0.0_rp
   end subroutine enter_window
@@ -1708,6 +1734,35 @@ contains
     ctx%mgx0 = ck%mgx0
     ctx%t_written = ck%t_written
     ctx%stretch_warned = ck%stretch_warned /= 0
+    ! The Newton start's states: the checkpoint's, then the ones before it
+    if (ck%start_count > 0) then
+      block
+        type(tVec) :: w
+        integer(c_int) :: kk, nk, cmp
+        real(c_double) :: tk, ncp
+        nk = int(ck%start_count + 1, c_int)
+        cmp = int(ck%start_compare, c_int)
+        ncp = real(ck%start_nc_prev, c_double)
+        tk = real(ck%time, c_double)
+        kk = 0
+        ierr = nuno_newton_start_put(ctx%ts%v, kk, ctx%u%v, tk, nk, cmp, ncp)
+        if (ierr /= 0) return
+        PetscCall(DMGetGlobalVector(ctx%da, w, ierr))
+        do kk = 1, nk - 1
+          PetscCall(DMDAVecGetArrayF90(ctx%da, w, ua, ierr))
+          do j = ctx%lat%ys, ctx%lat%ye
+            k = j - ctx%lat%ys + 1
+            ua(0:2, :, j) = ck%start_x(:, :, k, kk)
+            ua(3:5, :, j) = ck%start_v(:, :, k, kk)
+          end do
+          PetscCall(DMDAVecRestoreArrayF90(ctx%da, w, ua, ierr))
+          tk = real(ck%start_t(kk), c_double)
+          ierr = nuno_newton_start_put(ctx%ts%v, kk, w%v, tk, nk, cmp, ncp)
+          if (ierr /= 0) exit
+        end do
+        PetscCall(DMRestoreGlobalVector(ctx%da, w, ierr))
+      end block
+    end if
   end subroutine solver_restore
 
   !> Write a checkpoint of the state at t, h being the step the run takes
@@ -1744,6 +1799,7 @@ contains
     ck%stretch_warned = merge(1, 0, ctx%stretch_warned)
     ck%reason = reason
     PetscCall(TSGetType(ctx%ts, ck%ts_type, ierr))
+    PetscCall(checkpoint_start_states(ctx, t, ck, ierr))
     call output_write_checkpoint(out, ck, ctx%xout, ctx%vout, ierr, errmsg)
     if (ierr /= 0) then
       call report_io_error(ctx, errmsg)
@@ -1758,6 +1814,46 @@ contains
     end if
   end subroutine take_checkpoint
 
+
+  !> The Newton start's kept states before t (at most three, newest first)
+  !> into ck, for a restart to start its next steps as this run does
+  !> (src/nuno_newton_start.c). Collective.
+  subroutine checkpoint_start_states(ctx, t, ck, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    real(rp), intent(in) :: t
+    type(checkpoint_t), intent(inout) :: ck
+    PetscErrorCode, intent(out) :: ierr
+    type(tVec) :: w
+    PetscScalar, pointer :: wa(:, :, :)
+    integer(c_int) :: n, compare, k
+    real(c_double) :: nc_prev, tk
+    integer :: j, m
+
+    ierr = nuno_newton_start_count(ctx%ts%v, n, compare, nc_prev)
+    if (ierr /= 0) return
+    ck%start_count = 0
+    ck%start_compare = int(compare)
+    ck%start_nc_prev = real(nc_prev, rp)
+    allocate(ck%start_x(3, ctx%lat%nx, ctx%lat%ye - ctx%lat%ys + 1, 3), ck%start_v(3, ctx%lat%nx, ctx%lat%ye - ctx%lat%ys + 1, 3))
+    if (n == 0) return
+    PetscCall(DMGetGlobalVector(ctx%da, w, ierr))
+    do k = 0, n - 1
+      ierr = nuno_newton_start_get(ctx%ts%v, k, w%v, tk)
+      if (ierr /= 0) exit
+      ! (the step's own state, if pushed already, is the checkpoint's state)
+      if (real(tk, rp) >= t .or. ck%start_count == 3) cycle
+      m = ck%start_count + 1
+      ck%start_count = m
+      ck%start_t(m) = real(tk, rp)
+      PetscCall(DMDAVecGetArrayReadF90(ctx%da, w, wa, ierr))
+      do j = ctx%lat%ys, ctx%lat%ye
+        ck%start_x(:, :, j - ctx%lat%ys + 1, m) = wa(0:2, :, j)
+        ck%start_v(:, :, j - ctx%lat%ys + 1, m) = wa(3:5, :, j)
+      end do
+      PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, w, wa, ierr))
+    end do
+    PetscCall(DMRestoreGlobalVector(ctx%da, w, ierr))
+  end subroutine checkpoint_start_states
 
   !> An output write failed (agreed by every rank): its one line on stderr
   !> (rank 0), and the reason kept, so that solver_run ends the run as failed.

@@ -11,11 +11,13 @@ g dt sqrt(number of nodes)), while the quadratic and cubic starts are
 exact (||F_0|| at round-off); and a start changes where Newton begins,
 never where it ends (the same trajectory when solved tightly)."""
 import re
+import subprocess
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from nunorun import run, run_and_read
+from nunorun import exe, mpiexec, run, run_and_read
 
 G, DT, NODES = 9.81, 1.0e-3, 11 * 11          # the flat scene: 11 x 11 nodes
 FALL = dict(scene="scene='flat' gravity=0,0,-9.81", time=f"t_end=0.01 dt={DT}", output="output_interval=0.005")
@@ -26,14 +28,15 @@ def first_residuals(text):
     return np.array([float(m) for m in re.findall(r"^\s*0 SNES Function norm ([0-9.eE+-]+)", text, re.M)])
 
 
-def test_a_falling_sheet_starts_exactly_from_the_third_step_of_a_window(tmp_path):
+def test_a_falling_sheet_starts_exactly_from_the_third_step_on(tmp_path):
     """Two windows of five steps on 3 ranks. linear: every step but a
-    window's first starts g dt sqrt(N) away. auto (cubic here: Newton at
-    fixed steps): the second step of a window starts as linear does (two
-    states kept), the later ones at round-off; a window's first step starts
-    from its state alone in both, also in the second window (the kept states
-    end at a window's start: without that reset the second window's first
-    step would start extrapolated)."""
+    window's first starts g dt sqrt(N) away (TS starts a window's first
+    step from its state). auto (cubic here: Newton at fixed steps): the
+    run's first step starts from its state, the second as linear does (two
+    states kept), every later one at round-off, the second window's first
+    step included: nothing jumps at that window's start, so the kept states
+    go on across it (with the reset at every window, as before the
+    twentieth round, that step would start from its state alone)."""
     lin, _ = run(tmp_path, "linear", nranks=3, options=["-snes_monitor", "-nuno_newton_start", "linear"], **FALL)
     cub, _ = run(tmp_path, "auto", nranks=3, options=["-snes_monitor"], **FALL)
     assert "started cubic (-nuno_newton_start)" in cub.stdout
@@ -42,11 +45,37 @@ def test_a_falling_sheet_starts_exactly_from_the_third_step_of_a_window(tmp_path
     assert f_lin.shape == f_cub.shape == (10,)
     miss = G * DT * np.sqrt(NODES)
     for w in (0, 5):
-        assert f_cub[w] == pytest.approx(f_lin[w], rel=1e-12)     # a window's first step: its state
-        assert f_cub[w] > 100 * miss
+        assert f_lin[w] > 100 * miss                                # a window's first step: its state
         np.testing.assert_allclose(f_lin[w + 1:w + 5], miss, rtol=1e-6)
-        assert f_cub[w + 1] == pytest.approx(miss, rel=1e-6)      # two states: linear
-        assert np.all(f_cub[w + 2:w + 5] < 1e-5 * miss), f_cub
+    assert f_cub[0] == pytest.approx(f_lin[0], rel=1e-12)
+    assert f_cub[1] == pytest.approx(miss, rel=1e-6)                # two states: linear
+    assert np.all(f_cub[2:] < 1e-5 * miss), f_cub
+
+
+def test_the_kept_states_end_where_a_keyframe_starts(tmp_path):
+    """wave_point_energy: its corner follows keyframes at 0, 0.5 and 1 s, so
+    its velocity jumps at t = 0.5. A polynomial through the states before
+    would start the step after it at the old velocity: the kept states end
+    there, and that step starts from its state alone as with the linear
+    start (the same ||F_0|| to 1e-6: the two runs differ only at Newton's
+    round-off before it), while the steps of the window before it started
+    closer than the linear start."""
+    text = (Path(__file__).resolve().parents[2] / "input" / "wave_point_energy.nml").read_text()
+    for key, value in (("t_end", "0.51"), ("output_interval", "0.01"), ("output_file", "'kf.h5'")):
+        text, n = re.subn(rf"^(\s*{key}\s*=\s*)[^!\n]*", rf"\g<1>{value} ", text, flags=re.M)
+        assert n == 1, key
+    nml = Path(tmp_path) / "kf.nml"
+    nml.write_text(text)
+    f = {}
+    for start in ("linear", "cubic"):
+        proc = subprocess.run([mpiexec(), "-n", "2", "--oversubscribe", exe(), str(nml), "-snes_monitor",
+                               "-nuno_newton_start", start], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+        assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+        f[start] = first_residuals(proc.stdout)
+    f_lin, f_cub = f["linear"], f["cubic"]
+    assert f_lin.shape == f_cub.shape == (510,)
+    assert f_cub[500] == pytest.approx(f_lin[500], rel=1e-6), (f_cub[495:505], f_lin[495:505])
+    assert np.all(f_cub[492:500] < 0.1 * f_lin[492:500]), (f_cub[492:500], f_lin[492:500])
 
 
 def test_the_start_changes_the_iterations_not_the_trajectory(tmp_path):
