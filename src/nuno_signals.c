@@ -9,6 +9,7 @@
  * C because the Fortran interface has no sigaction, and TSSetPostStep's
  * Fortran stub takes no context. */
 #include <petscts.h>
+#include <errno.h>
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
@@ -45,9 +46,12 @@ static void on_signal(int sig)
     raise(sig);
     return;
   }
+  int saved = errno; /* the interrupted code may read it */
+
   caught = sig;
   unblock(STDOUT_FILENO);
   unblock(STDERR_FILENO);
+  errno = saved;
 }
 
 /* -nuno_checkpoint_walltime: a checkpoint after each `interval` seconds of
