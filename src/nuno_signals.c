@@ -12,6 +12,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <poll.h>
+#include <stdio.h>
 #include <signal.h>
 #include <string.h>
 #include <unistd.h>
@@ -22,15 +23,24 @@ static int devnull = -1;                 /* /dev/null, opened at install */
 
 /* Open MPI's mpirun, sent SIGTERM or SIGINT, stops reading the ranks'
  * stdout at once and forwards the signal 1 s later (then SIGKILL 1 s after
- * that). A rank that writes more than its pty holds (about 16 kB) in that
- * second blocks in write(), and the forwarded signal only restarts the
- * write: the rank never reaches the end of its step, and SIGKILL leaves no
- * checkpoint (measured, hang 33 x 33 on 2 ranks with an output line every
- * 5 steps). So a stream that cannot take a byte when the signal comes is
- * pointed at /dev/null: the write in progress then ends, and the rest of the
- * run's lines on it, which nobody reads, are dropped. A stream that is
- * being read (the signal sent to the ranks, as Slurm does) keeps them.
+ * that; strace of mpirun). A rank's stdout there is a pty that holds about
+ * 16 kB: a rank that writes more in that second blocks in write(), and the
+ * forwarded signal only restarts the write, so the rank never ends its step
+ * and SIGKILL leaves no checkpoint (hang 33 x 33 on 2 ranks, a line every 5
+ * steps: about 17 kB a second, lost about one try in four). So:
+ *  - a signal from the launcher that started this rank (Open MPI's mpirun
+ *    or orted, found by name at install) points stdout at /dev/null at
+ *    once: nobody reads it any more, and a rank short of a full pty would
+ *    block on the lines it writes while it ends its step;
+ *  - any other signal does so to stdout and stderr only where the stream
+ *    cannot take a byte now (a stream that is being read, the signal sent
+ *    to the ranks as Slurm does, keeps every line).
+ * The write in progress then ends, and what is written on the stream
+ * after it is dropped. The status line on stderr (a pipe, which mpirun
+ * empties at the end) and the file's status say the run was interrupted.
  * poll and dup2 are async-signal-safe. */
+static pid_t launcher = 0; /* the parent, if it is Open MPI's mpirun or orted (0 if not) */
+
 static void unblock(int fd)
 {
   struct pollfd p = {fd, POLLOUT, 0};
@@ -39,19 +49,41 @@ static void unblock(int fd)
   if (poll(&p, 1, 0) != 1 || !(p.revents & POLLOUT) || (p.revents & (POLLERR | POLLHUP))) dup2(devnull, fd);
 }
 
-static void on_signal(int sig)
+static void on_signal(int sig, siginfo_t *info, void *uctx)
 {
+  int saved;
+
+  (void)uctx;
   if (caught) {
     signal(sig, SIG_DFL);
     raise(sig);
     return;
   }
-  int saved = errno; /* the interrupted code may read it */
-
+  saved  = errno; /* the interrupted code may read it */
   caught = sig;
-  unblock(STDOUT_FILENO);
+  if (launcher > 0 && devnull >= 0 && info && info->si_pid == launcher) dup2(devnull, STDOUT_FILENO);
+  else unblock(STDOUT_FILENO);
   unblock(STDERR_FILENO);
   errno = saved;
+}
+
+/* The parent's pid if its name is one of Open MPI's launchers (see above). */
+static pid_t open_mpi_launcher(void)
+{
+  static const char *names[] = {"mpirun", "mpiexec", "orterun", "orted", "prted", "prterun"};
+  char  path[64], comm[64] = "";
+  pid_t parent = getppid();
+  FILE *f;
+
+  snprintf(path, sizeof(path), "/proc/%d/comm", (int)parent);
+  f = fopen(path, "r");
+  if (!f) return 0;
+  if (!fgets(comm, sizeof(comm), f)) comm[0] = 0;
+  fclose(f);
+  comm[strcspn(comm, "\n")] = 0;
+  for (size_t i = 0; i < sizeof(names) / sizeof(names[0]); i++)
+    if (!strcmp(comm, names[i])) return parent;
+  return 0;
 }
 
 /* -nuno_checkpoint_walltime: a checkpoint after each `interval` seconds of
@@ -116,10 +148,11 @@ PetscErrorCode nuno_signals_install(TS *ts)
 
   PetscFunctionBeginUser;
   if (devnull < 0) devnull = open("/dev/null", O_WRONLY | O_CLOEXEC);
+  launcher = open_mpi_launcher();
   memset(&sa, 0, sizeof(sa));
-  sa.sa_handler = on_signal;
+  sa.sa_sigaction = on_signal;
   sigemptyset(&sa.sa_mask);
-  sa.sa_flags = SA_RESTART;
+  sa.sa_flags = SA_RESTART | SA_SIGINFO;
   sigaction(SIGTERM, &sa, NULL);
   sigaction(SIGINT, &sa, NULL);
   PetscCall(TSSetPostStep(*ts, poststep));
