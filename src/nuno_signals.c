@@ -22,12 +22,13 @@ static int agreed = 0;                   /* the signal every rank has agreed on 
 static int devnull = -1;                 /* /dev/null, opened at install */
 
 /* Open MPI's mpirun, sent SIGTERM or SIGINT, stops reading the ranks'
- * stdout at once and forwards the signal 1 s later (then SIGKILL 1 s after
- * that; strace of mpirun). A rank's stdout there is a pty that holds about
- * 16 kB: a rank that writes more in that second blocks in write(), and the
- * forwarded signal only restarts the write, so the rank never ends its step
- * and SIGKILL leaves no checkpoint (hang 33 x 33 on 2 ranks, a line every 5
- * steps: about 17 kB a second, lost about one try in four). So:
+ * stdout at once, forwards the signal after odls_base_sigkill_timeout
+ * (1 s by default) and sends SIGKILL as long after that (strace of
+ * mpirun). A rank's stdout there is a pty that holds about 16 kB: a rank
+ * that writes more before the signal comes blocks in write(), and the
+ * forwarded signal only restarts the write, so the rank never ends its
+ * step and SIGKILL leaves no checkpoint (hang 33 x 33 on 2 ranks, a line
+ * every 5 steps: about 17 kB a second, lost about one try in four). So:
  *  - a signal from the launcher that started this rank (Open MPI's mpirun
  *    or orted, found by name at install) points stdout at /dev/null at
  *    once: nobody reads it any more, and a rank short of a full pty would
