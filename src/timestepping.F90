@@ -1709,17 +1709,9 @@ contains
     type(checkpoint_t), intent(in) :: ck
     real(rp), intent(in) :: x(:, :, :), v(:, :, :)
     PetscErrorCode, intent(out) :: ierr
-    PetscScalar, pointer :: ua(:, :, :)
     PetscInt :: step
-    integer :: j, k
 
-    PetscCall(DMDAVecGetArrayF90(ctx%da, ctx%u, ua, ierr))
-    do j = ctx%lat%ys, ctx%lat%ye
-      k = j - ctx%lat%ys + 1
-      ua(0:2, :, j) = x(:, :, k)
-      ua(3:5, :, j) = v(:, :, k)
-    end do
-    PetscCall(DMDAVecRestoreArrayF90(ctx%da, ctx%u, ua, ierr))
+    PetscCall(strips_to_state(ctx, x, v, ctx%u, ierr))
     step = int(ck%counters(1), kind(step))
     PetscCall(TSSetStepNumber(ctx%ts, step, ierr))
     PetscCall(TSSetTime(ctx%ts, ck%time, ierr))
@@ -1740,6 +1732,7 @@ contains
         type(tVec) :: w
         integer(c_int) :: kk, nk, cmp
         real(c_double) :: tk, ncp
+        PetscErrorCode :: err
         nk = int(ck%start_count + 1, c_int)
         cmp = int(ck%start_compare, c_int)
         ncp = real(ck%start_nc_prev, c_double)
@@ -1749,18 +1742,14 @@ contains
         if (ierr /= 0) return
         PetscCall(DMGetGlobalVector(ctx%da, w, ierr))
         do kk = 1, nk - 1
-          PetscCall(DMDAVecGetArrayF90(ctx%da, w, ua, ierr))
-          do j = ctx%lat%ys, ctx%lat%ye
-            k = j - ctx%lat%ys + 1
-            ua(0:2, :, j) = ck%start_x(:, :, k, kk)
-            ua(3:5, :, j) = ck%start_v(:, :, k, kk)
-          end do
-          PetscCall(DMDAVecRestoreArrayF90(ctx%da, w, ua, ierr))
+          PetscCall(strips_to_state(ctx, ck%start_x(:, :, :, kk), ck%start_v(:, :, :, kk), w, ierr))
           tk = real(ck%start_t(kk), c_double)
           ierr = nuno_newton_start_put(ctx%ts%v, kk, w%v, tk, nk, cmp, ncp)
           if (ierr /= 0) exit
         end do
-        PetscCall(DMRestoreGlobalVector(ctx%da, w, ierr))
+        ! (a failed put's error code, not the restore's, is the answer)
+        call DMRestoreGlobalVector(ctx%da, w, err)
+        if (ierr == 0) ierr = err
       end block
     end if
   end subroutine solver_restore
@@ -1775,16 +1764,9 @@ contains
     character(*), intent(in) :: reason
     PetscErrorCode, intent(out) :: ierr
     type(checkpoint_t) :: ck
-    PetscScalar, pointer :: ua(:, :, :)
     character(len=512) :: errmsg
-    integer :: j
 
-    PetscCall(DMDAVecGetArrayReadF90(ctx%da, ctx%u, ua, ierr))
-    do j = ctx%lat%ys, ctx%lat%ye
-      ctx%xout(:, :, j) = ua(0:2, :, j)
-      ctx%vout(:, :, j) = ua(3:5, :, j)
-    end do
-    PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, ctx%u, ua, ierr))
+    PetscCall(state_to_strips(ctx, ctx%u, ctx%xout, ctx%vout, ierr))
     ck%time = t
     ck%dt_next = h
     ! Attributes must be equal on all ranks: the slowest rank's clock.
@@ -1824,10 +1806,10 @@ contains
     type(checkpoint_t), intent(inout) :: ck
     PetscErrorCode, intent(out) :: ierr
     type(tVec) :: w
-    PetscScalar, pointer :: wa(:, :, :)
     integer(c_int) :: n, compare, k
     real(c_double) :: nc_prev, tk
-    integer :: j, m
+    PetscErrorCode :: err
+    integer :: m
 
     ierr = nuno_newton_start_count(ctx%ts%v, n, compare, nc_prev)
     if (ierr /= 0) return
@@ -1838,22 +1820,56 @@ contains
     if (n == 0) return
     PetscCall(DMGetGlobalVector(ctx%da, w, ierr))
     do k = 0, n - 1
+      if (ck%start_count == 3) exit
       ierr = nuno_newton_start_get(ctx%ts%v, k, w%v, tk)
       if (ierr /= 0) exit
       ! (the step's own state, if pushed already, is the checkpoint's state)
-      if (real(tk, rp) >= t .or. ck%start_count == 3) cycle
+      if (real(tk, rp) >= t) cycle
       m = ck%start_count + 1
       ck%start_count = m
       ck%start_t(m) = real(tk, rp)
-      PetscCall(DMDAVecGetArrayReadF90(ctx%da, w, wa, ierr))
-      do j = ctx%lat%ys, ctx%lat%ye
-        ck%start_x(:, :, j - ctx%lat%ys + 1, m) = wa(0:2, :, j)
-        ck%start_v(:, :, j - ctx%lat%ys + 1, m) = wa(3:5, :, j)
-      end do
-      PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, w, wa, ierr))
+      PetscCall(state_to_strips(ctx, w, ck%start_x(:, :, :, m), ck%start_v(:, :, :, m), ierr))
     end do
-    PetscCall(DMRestoreGlobalVector(ctx%da, w, ierr))
+    ! (a failed get's error code, not the restore's, is the answer)
+    call DMRestoreGlobalVector(ctx%da, w, err)
+    if (ierr == 0) ierr = err
   end subroutine checkpoint_start_states
+
+  !> The owned rows of a global state vector (ctx%da) into strips
+  !> x, v (3, nx, ym) [length], [length/time], as module output writes them.
+  subroutine state_to_strips(ctx, u, x, v, ierr)
+    type(app_ctx), intent(in) :: ctx
+    type(tVec), intent(in) :: u
+    real(rp), intent(out) :: x(:, :, :), v(:, :, :)
+    PetscErrorCode, intent(out) :: ierr
+    PetscScalar, pointer :: ua(:, :, :)
+    integer :: j
+
+    PetscCall(DMDAVecGetArrayReadF90(ctx%da, u, ua, ierr))
+    do j = ctx%lat%ys, ctx%lat%ye
+      x(:, :, j - ctx%lat%ys + 1) = ua(0:2, :, j)
+      v(:, :, j - ctx%lat%ys + 1) = ua(3:5, :, j)
+    end do
+    PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, u, ua, ierr))
+  end subroutine state_to_strips
+
+  !> The reverse of state_to_strips: strips x, v (3, nx, ym) into the owned
+  !> rows of the global state vector u.
+  subroutine strips_to_state(ctx, x, v, u, ierr)
+    type(app_ctx), intent(in) :: ctx
+    real(rp), intent(in) :: x(:, :, :), v(:, :, :)
+    type(tVec), intent(inout) :: u
+    PetscErrorCode, intent(out) :: ierr
+    PetscScalar, pointer :: ua(:, :, :)
+    integer :: j
+
+    PetscCall(DMDAVecGetArrayF90(ctx%da, u, ua, ierr))
+    do j = ctx%lat%ys, ctx%lat%ye
+      ua(0:2, :, j) = x(:, :, j - ctx%lat%ys + 1)
+      ua(3:5, :, j) = v(:, :, j - ctx%lat%ys + 1)
+    end do
+    PetscCall(DMDAVecRestoreArrayF90(ctx%da, u, ua, ierr))
+  end subroutine strips_to_state
 
   !> An output write failed (agreed by every rank): its one line on stderr
   !> (rank 0), and the reason kept, so that solver_run ends the run as failed.
