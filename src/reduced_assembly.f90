@@ -351,7 +351,7 @@ contains
       real(rp), parameter :: t(2, 3) = reshape([-1.0_rp, 0.0_rp, 1.0_rp, -1.0_rp, 0.0_rp, 1.0_rp], [2, 3])
       real(rp) :: blk(ld, 3, 3, 9), ewx(ld, 6), ewv(ld, 6), h(ld, 6), free(ld)
       integer :: l, pp, qq, ip0, jp, iq0, jq2, c1, c2, sl, sp, dx, dy
-      logical :: masked
+      logical :: masked, fixed_run(3)
       dx = line_dir(1, kdir)
       dy = line_dir(2, kdir)
       ! the edges' differences of w, as ring_triple_edges forms them of u
@@ -364,7 +364,14 @@ contains
           end do
         end do
       end do
-      if (write_s) call triple_node_blocks(nl, ld, rinv, ke, ce, blk)
+      if (write_s) then
+        call triple_node_blocks(nl, ld, rinv, ke, ce, blk)
+        ! whether node P's run of nl nodes holds a constrained one, once
+        ! for the nine blocks (scanned for each, 9 % of triple_row)
+        do pp = 1, 3
+          fixed_run(pp) = any(fixedg(i0 + (pp - 1) * dx:i0 + (pp - 1) * dx + nl - 1, j0 + (pp - 1) * dy))
+        end do
+      end if
       do pp = 1, 3
         ip0 = i0 + (pp - 1) * dx
         jp = j0 + (pp - 1) * dy
@@ -377,7 +384,7 @@ contains
           jq2 = j0 + (qq - 1) * dy
           sl = kof((qq - pp) * dx, (qq - pp) * dy)
           ! constrained rows and columns get nothing (as add_triple_edges)
-          masked = any(fixedg(ip0:ip0 + nl - 1, jp)) .or. any(fixedg(iq0:iq0 + nl - 1, jq2))
+          masked = fixed_run(pp) .or. fixed_run(qq)
           if (masked) then
             do l = 1, nl
               free(l) = merge(0.0_rp, 1.0_rp, fixedg(ip0 + l - 1, jp) .or. fixedg(iq0 + l - 1, jq2))
