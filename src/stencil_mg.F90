@@ -94,7 +94,7 @@ contains
   !> staying bilinear: on the finest level with bending, 9-10 % fewer
   !> Krylov iterations on hang 129..513 for a bilinear level 2 (a cubic
   !> Galerkin product widens it to reach 3 and costs as many as it saves;
-  !> docs/performance.md, "Eleventh round"). At most max_levels levels;
+  !> measured with commit e284754). At most max_levels levels;
   !> coarsening stops at 5 points a side. Collective.
   subroutine mg_create(mg, comm, nx, ny, ys, ye, r, cubic, max_levels, cycle_type, nu, cubic_correction, paired)
     type(stencil_mg_t), intent(inout) :: mg

@@ -37,7 +37,7 @@ module inner_guess
   integer, parameter :: GUESS_AUTO = 0, GUESS_NONE = 1, GUESS_PREVIOUS = 2, GUESS_EXTRAPOLATE = 3, GUESS_PROJECT = 4
   !> the inner solves the projection keeps (two 3-dof vectors each); 8 took
   !> 16 % fewer cycles than the extrapolation over 120 bw steps at 257 x
-  !> 257, 16 another 5 % (docs/performance.md, seventeenth round)
+  !> 257, 16 another 5 % (measured with commit 0a41017)
   integer, parameter :: PROJECT_PAIRS = 8
   !> a kept right-hand side whose part outside the others' span is below
   !> this fraction of the largest (squared norms) adds nothing: its weight

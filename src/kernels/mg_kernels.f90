@@ -763,7 +763,7 @@ contains
   !> the even points first: 123 at 257 x 257) for the same time a point:
   !> that chain's latency was hidden by the loads of the blocks, so the
   !> points of a colour in vector loops (blocks along x) were no faster
-  !> either (docs/performance.md, eighteenth round).
+  !> either (measured with commit bf6e404).
   pure subroutine point_row_colour(nx, h, br, ainv, t, x, c)
     integer, intent(in) :: nx, h, c
     real(mp), intent(in) :: br(3, 3, 2, 0:nx - 1), ainv(3, 3, 0:nx - 1), t(0:nx - 1, 3)

@@ -13,7 +13,7 @@
 !> st(i, :, :, k, j) = S(p, p + (di, dj)) counts the stored offsets in
 !> lexicographic order, dj slowest (offset_slot); blocks pointing outside
 !> the lattice are zero and never read. The nodes of a row are fastest
-!> (3 Dec 2026, tenth round; was node by node, st(3, 3, k, i, j)): the
+!> (not node by node, st(3, 3, k, i, j), as first written): the
 !> assembly's element kernels form their blocks for many nodes at once
 !> (lanes), and the multigrid's finest level keeps its blocks so too, so
 !> both write and read S in vector loops, without transposing.
