@@ -20,9 +20,15 @@ wanders by 20-30 %).
 Writes a JSON file of the raw numbers, a markdown table, and a plot.
 
     source tools/env.sh
-    python3 bench/solver.py --output docs/performance-data.json --plot docs/figures/performance.png
-    python3 bench/solver.py --modes bw --bending no --output docs/performance-nobend.json
+    bash bench/performance.sh          # the benchmark behind docs/performance.md (~35 min)
     python3 bench/solver.py --sizes 65 129 --modes bw      # a quick look
+    python3 bench/solver.py --replot LOG... --donewhen LOG \
+        --output docs/performance-data.json --plot docs/figures/performance.png --doc docs/performance.md
+
+--replot reads the tables printed by earlier runs (later logs win for the
+same case), --donewhen the log of the done-when run (hang 257 x 257, 1 s,
+2 ranks, no options, under /usr/bin/time -v), and writes the JSON, the
+figure and the table between docs/performance.md's markers from them.
 """
 import argparse
 import json
@@ -172,7 +178,9 @@ def plot(rows, path):
     ax.set_ylabel("node-steps / s (TSStep)")
     ax.axhline(1.2e6, color="k", lw=0.8, ls="--")
     ax.text(70, 1.32e6, "target (a) without bending: 1.2 M per core", fontsize=8)
-    ax.set_title("nuno reduced solve, hang scene, this 2-core machine", fontsize=10)
+    builds = sorted({m.group(1) for r in rows for m in [re.search(r"-([0-9a-f]{7,})", r.get("log", ""))] if m})
+    ax.set_title("nuno reduced solve, hang scene, this 2-core machine"
+                 + (f" (builds {', '.join(builds)})" if builds else ""), fontsize=10)
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
@@ -180,7 +188,8 @@ def plot(rows, path):
 
 
 def rows_from_table(path):
-    """Rows back from the markdown lines this script prints (to replot)."""
+    """Rows back from the markdown lines this script prints (to replot), each
+    with the name of its log. Lines starting with '#' are the log's notes."""
     rows = []
     for line in Path(path).read_text().splitlines():
         f = [c.strip() for c in line.strip().strip("|").split("|")]
@@ -188,8 +197,73 @@ def rows_from_table(path):
             continue
         rows.append(dict(ok=True, mode=f[0], bending=f[1] == "yes", n=int(f[2]), nranks=int(f[3]),
                          steps=int(f[4]), node_steps_per_s=float(f[5]), newton_per_step=float(f[6]),
-                         krylov_per_step=float(f[7]), setup_s=float(f[8]), bytes_per_node=1024 * float(f[9])))
+                         krylov_per_step=float(f[7]), setup_s=float(f[8]), bytes_per_node=1024 * float(f[9]),
+                         log=Path(path).name))
     return rows
+
+
+def log_source(path):
+    """A log's notes ('#' lines) and triad line: where its numbers come from."""
+    lines = Path(path).read_text().splitlines()
+    notes = [l.lstrip("# ").strip() for l in lines if l.startswith("#")]
+    triad_line = next((l for l in lines if l.startswith("triad:")), "")
+    return dict(log=Path(path).name, notes=notes, triad=triad_line)
+
+
+def donewhen_from_log(path):
+    """The done-when run (hang 257 x 257, 1 s, 2 ranks, no options) from its
+    log: nuno's summary lines, -log_view's TSStep and /usr/bin/time -v."""
+    text = Path(path).read_text()
+    last = [l for l in text.splitlines() if l.startswith("t =")][-1]
+    steps, rejected, newton, linear = map(int, re.findall(
+        r"steps\s+(\d+)\s+rejected\s+(\d+)\s+newton\s+(\d+)\s+linear\s+(\d+)", last)[0])
+    wall = re.search(r"wall time\s+([0-9.E+-]+) s", text)
+    elapsed = re.search(r"^real\s+(\d+)m([0-9.]+)s", text, re.M)
+    rss = re.search(r"Maximum resident set size \(kbytes\):\s+(\d+)", text)
+    _, t_step, _ = event(text, "TSStep")
+    return dict(log=Path(path).name, steps=steps, rejected=rejected, newton=newton, linear=linear,
+                wall_time_s=float(wall.group(1)) if wall else None,
+                elapsed_s=(60 * int(elapsed.group(1)) + float(elapsed.group(2))) if elapsed else None,
+                tsstep_s=t_step, max_rss_mb=int(rss.group(1)) / 1024 if rss else None)
+
+
+def doc_table(data):
+    """The markdown of docs/performance.md's table (between its markers):
+    one row a (bending, mode, N), the two rank counts side by side."""
+    runs = {(r["mode"], r["bending"], r["n"], r["nranks"]): r for r in data["runs"]}
+
+    def cell(r, key, fmt):
+        return fmt.format(r[key]) if r else "-"
+
+    out = ["| bending | mode | N | node-steps/s, 1 rank | node-steps/s, 2 ranks | Newton / step (2 ranks) "
+           "| Krylov / step (2 ranks) | KB / node, 1 rank | KB / node, 2 ranks | log |",
+           "|---|---|---|---|---|---|---|---|---|---|"]
+    keys = sorted({(b, m, n) for m, b, n, _ in runs}, key=lambda k: (not k[0], k[1], k[2]))
+    for bending, mode, n in keys:
+        one, two = runs.get((mode, bending, n, 1)), runs.get((mode, bending, n, 2))
+        ref = two or one
+        kb1 = dict(kb=one["bytes_per_node"] / 1024) if one else None
+        kb2 = dict(kb=two["bytes_per_node"] / 1024) if two else None
+        out.append(f"| {'yes' if bending else 'no'} | {mode} | {n} "
+                   f"| {cell(one, 'node_steps_per_s', '{:.3g}')} | {cell(two, 'node_steps_per_s', '{:.3g}')} "
+                   f"| {ref['newton_per_step']:.2f} | {ref['krylov_per_step']:.1f} "
+                   f"| {cell(kb1, 'kb', '{:.2f}')} | {cell(kb2, 'kb', '{:.2f}')} | {ref.get('log', '')} |")
+    d = data.get("donewhen")
+    if d:
+        out += ["", f"Done-when run (hang 257 x 257, 1 s, 2 ranks, no options; {d['log']}): "
+                f"{d['elapsed_s']:.1f} s elapsed, TSStep {d['tsstep_s']:.1f} s, {d['steps']} steps, "
+                f"{d['rejected']} rejected, {d['newton']} Newton and {d['linear']} Krylov iterations, "
+                + (f"{d['max_rss_mb']:.0f} MB resident at most (the largest process)."
+                   if d["max_rss_mb"] is not None else "resident memory not recorded.")]
+    return out
+
+
+def replace_between(path, lines, begin="<!-- table begin (bench/solver.py) -->",
+                    end="<!-- table end -->"):
+    """Put lines between the markers of a markdown file (the rest untouched)."""
+    text = Path(path).read_text()
+    a, b = text.index(begin) + len(begin), text.index(end)
+    Path(path).write_text(text[:a] + "\n" + "\n".join(lines) + "\n" + text[b:])
 
 
 def main(argv=None):
@@ -206,15 +280,25 @@ def main(argv=None):
     ap.add_argument("--output", help="JSON file of the raw numbers")
     ap.add_argument("--plot", help="PNG of node-steps/s against N")
     ap.add_argument("--replot", nargs="+", metavar="LOG",
-                    help="no runs: read the tables printed by earlier runs and write --output and --plot")
+                    help="no runs: read the tables printed by earlier runs (a later log wins for the "
+                         "same case) and write --output, --plot and --doc")
+    ap.add_argument("--donewhen", metavar="LOG", help="with --replot: the done-when run's log")
+    ap.add_argument("--doc", help="with --replot: markdown file whose table markers get the table")
     a = ap.parse_args(argv)
     if a.replot:
         rows = [r for log in a.replot for r in rows_from_table(log)]
         rows = list({(r["mode"], r["bending"], r["n"], r["nranks"]): r for r in rows}.values())
+        data = dict(sources=[log_source(log) for log in a.replot], runs=rows)
+        if a.donewhen:
+            data["donewhen"] = donewhen_from_log(a.donewhen)
         if a.output:
-            Path(a.output).write_text(json.dumps(dict(runs=rows), indent=1))
+            Path(a.output).write_text(json.dumps(data, indent=1) + "\n")
         if a.plot:
             plot(rows, a.plot)
+        if a.doc:
+            replace_between(a.doc, doc_table(data))
+        else:
+            print("\n".join(doc_table(data)))
         return 0
     bw1, bw2 = triad(1), triad(2)
     print(f"triad: {bw1:.1f} GB/s on 1 core, {bw2:.1f} GB/s on 2", flush=True)
