@@ -5,7 +5,7 @@
   newton  full Newton at the default tolerances, dt = 1 ms (the defaults:
           nuno's structured multigrid, Newton forcing, lagged S);
   pcmg    the same with PETSc's PCMG as the inner preconditioner
-          (-nuno_mg petsc, the default before the fifth round);
+          (-nuno_mg petsc, the default before nuno's multigrid);
   full6   the old 6-dof assembled path (-nuno_jacobian full, GMRES + ILU),
           dt = 1 ms, where it runs (65 x 65);
 and, with --bending no|both, the same cloth without bending (3 x 3 stencil).
@@ -107,7 +107,7 @@ def run(exe, mpiexec, n, nranks, mode, bending, timeout):
     reads = re.search(r"reads about ([0-9.]+) MB", out)
     # S by stencil offset, node by node: the blocks the elements couple
     # (17 with bending, 9 without) and the two vectors; with the mixed
-    # product (the default since 3 Dec 2026, -nuno_mg_product) the
+    # product (-nuno_mg_product mixed) the
     # multigrid's single-precision blocks (16 or 8, and the row sums D)
     if "product with S mixed" in out or "product with S fused" in out:
         s_bytes = n * n * (((16 if bending else 8) + 1) * 36 + 48)
@@ -116,7 +116,7 @@ def run(exe, mpiexec, n, nranks, mode, bending, timeout):
     mm_gbs = (n_mm * s_bytes / t_mm / 1e9) if (n_cyc and t_mm > 0) else 6e-3 * mf_mm
     if "product with S fused" in out:
         # the products of the cycles' outputs are formed in the cycles
-        # (-nuno_mg_product fused, the default since 4 Dec 2026): MatMult
+        # (-nuno_mg_product fused, the default): MatMult
         # times copies, its bandwidth is not that of a product
         mm_gbs = float("nan")
     cyc_gbs = (n_cyc * float(reads.group(1)) * 1e6 / t_cyc / 1e9) if (n_cyc and reads and t_cyc > 0) else float("nan")
