@@ -8,7 +8,7 @@
 # one-core triad before and after.
 #
 #   source tools/env.sh
-#   bash bench/ab.sh OLD/build/nuno build/nuno [N] [REPEAT] > bench/results/DATE-ab.txt
+#   bash bench/ab.sh OLD/build/nuno build/nuno [N] [REPEAT] > ab.txt   # quote it in the commit message
 #   CASES="bw_yes" bash bench/ab.sh OLD/build/nuno build/nuno 257 5   # one case, five pairs
 set -euo pipefail
 old=$(realpath "$1") new=$(realpath "$2") n=${3:-257} repeat=${4:-2}

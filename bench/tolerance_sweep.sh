@@ -2,7 +2,7 @@
 # Adaptive bdf at -ts_rtol = -ts_atol = 1e-2 .. 1e-10 on every scene of
 # input/ (t = 0.5 s, 2 ranks): each run must complete. One line per run on
 # stdout (scene_rtol, exit code, the program's closing line).
-#   bash bench/tolerance_sweep.sh > bench/results/DATE-tolerance-sweep.txt
+#   bash bench/tolerance_sweep.sh > bench/results/tolerance-sweep.txt   # cited by docs/design.md
 set -uo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 source "$root/tools/env.sh"
