@@ -6,7 +6,10 @@
 !> Exits use `stop 1, quiet=.true.` (Fortran 2018): gfortran's `error stop 1`
 !> prints 'ERROR STOP 1' and a backtrace on every rank, and plain `stop 1`
 !> prints 'STOP 1', which made one clear line read as a crash. The banner
-!> mpirun adds on a non-zero exit is Open MPI's own (mpirun -q hides it).
+!> mpirun adds on a non-zero exit is Open MPI's own (mpirun -q hides it):
+!> Open MPI 4.1 prints it for any rank's non-zero exit, after MPI_Finalize
+!> too, so no exit of ours avoids it; MPI_Abort adds a banner of its own and
+!> is kept for errors that some ranks may not have seen (input/README.md).
 module errors
 #include "petsc/finclude/petscsys.h"
   use petscsys
