@@ -251,11 +251,13 @@ contains
   !> Whether option `name` with `value` is a PETSc viewer that writes a
   !> file: a viewing or monitoring option (its name has view or monitor, or
   !> it is a -log_ option) whose value has the viewer form TYPE:FILE[:...]
-  !> with a file name (PETSc 3.18's PetscOptionsGetViewer).
+  !> with a file name (PETSc 3.18's PetscOptionsGetViewer), or
+  !> -ts_monitor_solution_vtk, whose value is a file name template.
   logical function viewer_file(name, value)
     character(len=*), intent(in) :: name, value
     integer :: c1, c2
-    viewer_file = .false.
+    viewer_file = name == '-ts_monitor_solution_vtk'
+    if (viewer_file) return
     if (index(name, 'view') == 0 .and. index(name, 'monitor') == 0 .and. index(name, '-log_') /= 1) return
     c1 = index(value, ':')
     if (c1 == 0) return
