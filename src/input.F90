@@ -1567,6 +1567,9 @@ contains
       '       nuno --help', &
       '       nuno --version                          the version and the git commit of the build', &
       '', &
+      'An error is one line on stderr, and every rank exits with status 1; the banner', &
+      'that follows is Open MPI''s, for any non-zero exit (mpirun -q hides it).', &
+      '', &
       'nuno integrates an implicit mass-spring cloth: an nx x ny lattice of mass points', &
       'joined by Voigt elements (spring + dashpot) to their 8 neighbours, with bending', &
       '(the report''s "paper" model or the energy-based "energy" model), gravity and', &
