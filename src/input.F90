@@ -801,7 +801,8 @@ contains
     type(nuno_config), intent(inout) :: cfg
     integer, intent(out) :: ios
     character(*), intent(inout) :: iomsg
-    ! Namelist objects must be variables: locals named after the keys.
+    ! Namelist objects must be variables: locals named after the keys. A key
+    ! added here goes into module input_text's table too (its group and type).
     integer :: nx, ny
     real(rp) :: lx, ly, total_mass
     character(label_len) :: mass_distribution, lattice_scaling
