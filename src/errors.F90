@@ -6,7 +6,10 @@
 !> Exits use `stop 1, quiet=.true.` (Fortran 2018): gfortran's `error stop 1`
 !> prints 'ERROR STOP 1' and a backtrace on every rank, and plain `stop 1`
 !> prints 'STOP 1', which made one clear line read as a crash. The banner
-!> mpirun adds on a non-zero exit is Open MPI's own (mpirun -q hides it).
+!> mpirun adds on a non-zero exit is Open MPI's own (mpirun -q hides it):
+!> Open MPI 4.1 prints it for any rank's non-zero exit, after MPI_Finalize
+!> too, so no exit of ours avoids it; MPI_Abort adds a banner of its own and
+!> is kept for errors that some ranks may not have seen (input/README.md).
 module errors
 #include "petsc/finclude/petscsys.h"
   use petscsys
@@ -15,7 +18,7 @@ module errors
   use kinds, only: rp
   implicit none
   private
-  public :: help_requested, input_path_argument, fatal_collective, fatal_local, apply_namelist_options
+  public :: help_requested, version_requested, input_path_argument, fatal_collective, fatal_local, apply_namelist_options
   public :: petsc_options_text, quiet_exit, read_input_options, quiet_petsc_errors
 
   interface
@@ -63,6 +66,17 @@ contains
       if (arg == '--help' .or. arg == '-h') help_requested = .true.
     end do
   end function help_requested
+
+  !> True when an argument is --version.
+  logical function version_requested()
+    integer :: k
+    character(len=64) :: arg
+    version_requested = .false.
+    do k = 1, command_argument_count()
+      call get_command_argument(k, arg)
+      if (arg == '--version') version_requested = .true.
+    end do
+  end function version_requested
 
   !> The input file: the first argument, which must not be an option.
   logical function input_path_argument(path)
@@ -171,7 +185,16 @@ contains
   end subroutine read_input_options
 
   !> Insert the namelist's petsc_options string, except options that the
-  !> command line already set (the command line wins).
+  !> command line already set (the command line wins). These come after
+  !> PetscInitialize, so two kinds are handled here:
+  !> - a viewer that names a file (`-log_view :FILE`, `-ksp_view ascii:FILE`,
+  !>   `-snes_monitor :FILE`, ...) is refused: PETSc would create or
+  !>   truncate FILE, an existing file of the user's too, and nuno creates
+  !>   or overwrites only its own files; on the command line it is the
+  !>   user's explicit PETSc option and works as PETSc documents it;
+  !> - `-log_view` to the screen is honoured: PETSc starts its log only
+  !>   when -log_view is given at PetscInitialize, and PetscFinalize failed
+  !>   on a log never started (exit 56), so it is started here.
   subroutine apply_namelist_options(opts, ierr, errmsg)
     character(len=*), intent(in) :: opts
     PetscErrorCode, intent(out) :: ierr
@@ -181,9 +204,11 @@ contains
     PetscBool :: set
     real :: r
     integer :: ios
+    logical :: has_value, start_log
 
     ierr = 0
     errmsg = ''
+    start_log = .false.
     call split_words(opts, tok, n)
     k = 1
     do while (k <= n)
@@ -197,16 +222,53 @@ contains
       ! A value follows unless the next word is another option (a negative number is a value).
       ios = 1
       if (k < n) read(tok(k + 1), *, iostat=ios) r
-      if (k < n .and. (tok(k + 1)(1:1) /= '-' .or. ios == 0)) then
+      has_value = k < n
+      if (has_value) has_value = tok(k + 1)(1:1) /= '-' .or. ios == 0
+      if (has_value) then
+        if (viewer_file(tok(k), tok(k + 1))) then
+          ierr = 1
+          errmsg = "input: &output: petsc_options: '"//trim(tok(k))//' '//trim(tok(k + 1))// &
+                   "' would have PETSc write the file it names, over any file of that name: give it on the "// &
+                   'command line instead (nuno creates only its own files)'
+          return
+        end if
         if (.not. set) call PetscOptionsSetValue(PETSC_NULL_OPTIONS, trim(tok(k)), trim(tok(k + 1)), ierr)
-        k = k + 2
       else
         if (.not. set) call PetscOptionsSetValue(PETSC_NULL_OPTIONS, trim(tok(k)), PETSC_NULL_CHARACTER, ierr)
-        k = k + 1
       end if
       if (ierr /= 0) return
+      if (.not. set .and. tok(k) == '-log_view') start_log = .true.
+      k = k + merge(2, 1, has_value)
     end do
+    if (start_log) then
+      call PetscLogDefaultBegin(ierr)
+      if (ierr /= 0) return
+      ! Read by PetscFinalize, after the report of unused options: marked used here.
+      call PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-log_view', set, ierr)
+    end if
   end subroutine apply_namelist_options
+
+  !> Whether option `name` with `value` is a PETSc viewer that writes a
+  !> file: a viewing or monitoring option (its name has view or monitor, or
+  !> it is a -log_ option) whose value has the viewer form TYPE:FILE[:...]
+  !> with a file name (PETSc 3.18's PetscOptionsGetViewer), or
+  !> -ts_monitor_solution_vtk, whose value is a file name template.
+  logical function viewer_file(name, value)
+    character(len=*), intent(in) :: name, value
+    integer :: c1, c2
+    viewer_file = name == '-ts_monitor_solution_vtk'
+    if (viewer_file) return
+    if (index(name, 'view') == 0 .and. index(name, 'monitor') == 0 .and. index(name, '-log_') /= 1) return
+    c1 = index(value, ':')
+    if (c1 == 0) return
+    c2 = index(value(c1 + 1:), ':')
+    if (c2 == 0) then
+      c2 = len_trim(value) + 1
+    else
+      c2 = c1 + c2
+    end if
+    viewer_file = c2 > c1 + 1
+  end function viewer_file
 
   !> Blank-separated words of s.
   subroutine split_words(s, words, n)

@@ -13,6 +13,8 @@ module input
                     SCALING_ELEMENT, SCALING_CONTINUUM, MASS_UNIFORM, MASS_AREA, &
                     SCENE_LIFT_RELEASE, SCENE_BEND_RELEASE, SCENE_WAVE_POINT, SCENE_HANG, SCENE_FLAT, &
                     n_fit_kinds, fit_kind_names
+  use input_text, only: assignment_t, lex_overrides, value_error, next_assignment, is_name_char, lower, &
+                        strip_commas, overrides_record
   implicit none
   private
   public :: input_read, input_usage, input_summary, input_parse, input_check_run
@@ -337,7 +339,7 @@ contains
       ! Command-line keys win over the file's; they are recorded with it.
       call apply_overrides(overrides, cfg, .false., ierr, msg)
       if (ierr /= 0) goto 900
-      if (len_trim(overrides) > 0) cfg%namelist_text = text//new_line('a')//'! -nuno_set '//trim(overrides)
+      cfg%namelist_text = text//new_line('a')//'! '//overrides_record(trim(overrides))
     end if
     cfg%scene = lower(adjustl(cfg%scene))
     cfg%scene_code = code
@@ -608,12 +610,6 @@ contains
     if (k > i) name = lower(text(i:min(k - 1, i + len(name) - 1)))
   end subroutine get_name
 
-  pure logical function is_name_char(c)
-    character(1), intent(in) :: c
-    is_name_char = (c >= 'a' .and. c <= 'z') .or. (c >= 'A' .and. c <= 'Z') .or. &
-                   (c >= '0' .and. c <= '9') .or. c == '_'
-  end function is_name_char
-
   integer function group_index(name)
     character(*), intent(in) :: name
     integer :: g
@@ -637,21 +633,24 @@ contains
     character(*), intent(out) :: msg
     character(msg_len) :: iomsg, iomsg1
     type(nuno_config) :: scratch
-    integer :: ios, ios1, p, q, nb
-    character(:), allocatable :: body
+    integer :: ios, ios1, p, q, nb, e
+    character(:), allocatable :: body, a, why
 
     ierr = 0
     msg = ''
     if (pt%count(g) == 0) return
+    body = trim(pt%body(g))
+    nb = len(body)
     iomsg = ''
     call read_nml(g, pt%lines, cfg, ios, iomsg)
-    if (ios == 0) return
+    if (ios == 0) then
+      call check_repeated_keys(g, body, ierr, msg)
+      return
+    end if
     ierr = 1
     msg = 'input: &'//trim(group_names(g))//': '//trim(iomsg)
     if (g == G_SCENE) call unrename_scene(msg)
     ! Which assignment? Split the body before each "name =" and try each alone.
-    body = trim(pt%body(g))
-    nb = len(body)
     p = next_assignment(body, 1)
     do while (p <= nb)
       q = next_assignment(body, p + 1)
@@ -663,8 +662,18 @@ contains
         call read_nml(g, one, scratch, ios1, iomsg1)
       end block
       if (ios1 /= 0) then
-        msg = 'input: &'//trim(group_names(g))//': '//trim(iomsg1)//' (in: '// &
-              trim(strip_commas(body(p:q - 1)))//')'
+        ! The key and the type it expects, where the value is not of it
+        ! (the reader's own message, e.g. "Cannot match namelist object
+        ! name .5" for nx = 33.5, names neither).
+        a = strip_commas(body(p:q - 1))
+        e = index(a, '=')
+        why = value_error(assignment_key(a), a(e + 1:))
+        if (len(why) > 0) then
+          msg = 'input: &'//trim(group_names(g))//': '//trim(adjustl(a(1:e - 1)))//' = '// &
+                strip_commas(a(e + 1:))//': '//why
+        else
+          msg = 'input: &'//trim(group_names(g))//': '//trim(iomsg1)//' (in: '//a//')'
+        end if
         if (g == G_SCENE) call unrename_scene(msg)
         return
       end if
@@ -672,11 +681,71 @@ contains
     end do
   end subroutine read_group
 
-  !> -nuno_set: comma-separated assignments key=value (namelist syntax:
-  !> strings quoted, arrays listed, elements by subscript), each key by its
-  !> name alone (names are unique across groups) or as group%key, read over
-  !> cfg as if written in its group. scene_only: apply the key `scene` only
-  !> (the scene picks the defaults before the groups are read).
+  !> A key given twice in group g's body (the namelist reader would keep the
+  !> last value silently) is refused by name; an array's element and the
+  !> whole array count as the same key.
+  subroutine check_repeated_keys(g, body, ierr, msg)
+    integer, intent(in) :: g
+    character(*), intent(in) :: body
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    character(64) :: keys(4*keyframe_max + 64)
+    integer :: starts(size(keys)), ends(size(keys))
+    integer :: n, p, q, k, b1, b2
+    character(:), allocatable :: key
+
+    ierr = 0
+    msg = ''
+    n = 0
+    p = next_assignment(body, 1)
+    do while (p <= len(body) .and. n < size(keys))
+      q = next_assignment(body, p + 1)
+      key = assignment_key(body(p:q - 1))
+      b1 = index(key//'(', '(')
+      do k = 1, n
+        b2 = index(trim(keys(k))//'(', '(')
+        if (key(1:b1 - 1) /= keys(k)(1:b2 - 1)) cycle
+        if (key == keys(k) .or. b1 > len(key) .or. b2 > len_trim(keys(k))) then
+          ierr = 1
+          msg = 'input: &'//trim(group_names(g))//': '//key//' is given twice ('// &
+                strip_commas(body(starts(k):ends(k)))//' and '//strip_commas(body(p:q - 1))//'): give each key once'
+          if (g == G_SCENE) call unrename_scene(msg)
+          return
+        end if
+      end do
+      n = n + 1
+      keys(n) = key
+      starts(n) = p
+      ends(n) = q - 1
+      p = q
+    end do
+  end subroutine check_repeated_keys
+
+  !> The key of an assignment "key = value" of a group's body: lower case,
+  !> without blanks, the renamed `scene_name` back to `scene`.
+  function assignment_key(a) result(key)
+    character(*), intent(in) :: a
+    character(:), allocatable :: key
+    integer :: k, e
+    key = ''
+    e = index(a, '=')
+    do k = 1, e - 1
+      if (a(k:k) /= ' ') key = key//lower(a(k:k))
+    end do
+    if (len(key) >= 10) then
+      if (key(1:10) == 'scene_name') key = 'scene'//key(11:)
+    end if
+  end function assignment_key
+
+  !> -nuno_set: assignments key=value separated by commas or blanks
+  !> (namelist syntax: strings quoted, arrays listed, elements by subscript),
+  !> each key by its name alone (names are unique across groups) or as
+  !> group%key, read over cfg as if written in its group; several -nuno_set
+  !> options (joined by line feeds) in order. The text is checked as a whole
+  !> first (module input_text: an empty value, a key given twice, a value
+  !> not of its key's type are refused by name), so no key is dropped
+  !> silently. scene_only: apply the key `scene` only (the scene picks the
+  !> defaults before the groups are read).
   subroutine apply_overrides(ov, cfg, scene_only, ierr, msg)
     character(*), intent(in) :: ov
     type(nuno_config), intent(inout) :: cfg
@@ -684,86 +753,35 @@ contains
     integer, intent(out) :: ierr
     character(*), intent(out) :: msg
     character(msg_len) :: iomsg
-    character(:), allocatable :: a, key, base, rhs
-    integer :: n, p, q, e, pc, g, ios
+    type(assignment_t), allocatable :: items(:)
+    character(:), allocatable :: key, lexmsg
+    integer :: k, g, ios
 
-    ierr = 0
     msg = ''
-    n = len_trim(ov)
-    if (n == 0) return
-    p = next_assignment(ov(1:n), 1)
-    if (p > n .or. verify(ov(1:p - 1), ' ,') /= 0) then
-      ierr = 1
-      msg = "input: -nuno_set '"//ov(1:n)//"': expected key=value[,key=value...]"
+    call lex_overrides(ov, items, ierr, lexmsg)
+    if (ierr /= 0) then
+      msg = lexmsg
       return
     end if
-    do while (p <= n)
-      q = next_assignment(ov(1:n), p + 1)
-      a = trim(ov(p:q - 1))
-      do while (len(a) > 0)
-        if (a(len(a):len(a)) /= ',') exit
-        a = trim(a(1:len(a) - 1))
-      end do
-      p = q
-      e = index(a, '=')
-      key = lower(trim(adjustl(a(1:e - 1))))
-      rhs = a(e + 1:)
-      pc = index(key, '%')
-      if (pc > 0) then
-        g = group_index(key(1:pc - 1))
-        key = key(pc + 1:)
-      else
-        g = 0
-      end if
-      base = key
-      if (index(base, '(') > 0) base = base(1:index(base, '(') - 1)
-      if (g == 0) g = key_group(base)
-      if (g == 0) then
-        ierr = 1
-        msg = "input: -nuno_set: unknown key '"//trim(key)//"' (in: "//a//')'
-        return
-      end if
-      if (scene_only .and. base /= 'scene') cycle
-      if (base == 'scene') key = 'scene_name'//key(6:)
+    do k = 1, size(items)
+      if (scene_only .and. items(k)%base /= 'scene') cycle
+      g = group_index(items(k)%group)
+      key = items(k)%key
+      if (items(k)%base == 'scene') key = 'scene_name'//key(6:)
       block
-        character(len(a) + 32) :: line(1)
-        line(1) = '&'//trim(group_names(g))//' '//key//' = '//rhs//' /'
+        character(len(key) + len(items(k)%value) + 32) :: line(1)
+        line(1) = '&'//trim(group_names(g))//' '//key//' = '//items(k)%value//' /'
         iomsg = ''
         call read_nml(g, line, cfg, ios, iomsg)
       end block
       if (ios /= 0) then
         ierr = 1
-        msg = 'input: -nuno_set: &'//trim(group_names(g))//': '//trim(iomsg)//' (in: '//a//')'
+        msg = 'input: -nuno_set: &'//trim(group_names(g))//': '//trim(iomsg)//' (in: '//items(k)%text//')'
         call unrename_scene(msg)
         return
       end if
     end do
   end subroutine apply_overrides
-
-  !> The group of a key (0: no such key). Every key name is unique.
-  integer function key_group(name) result(g)
-    character(*), intent(in) :: name
-    select case (name)
-    case ('nx', 'ny', 'lx', 'ly', 'total_mass', 'mass_distribution', 'lattice_scaling')
-      g = G_LATTICE
-    case ('spring_model', 'e_s', 'eta_s', 'e_d', 'eta_d', 'bending_model', 'k_b', 'eta_b')
-      g = G_MATERIAL
-    case ('scene', 'gravity', 'lift_length', 'lift_height', 'bend_angle', 'n_keyframes', &
-          'keyframe_time', 'keyframe_dx', 'keyframe_dy', 'keyframe_dz', 'wave_nodes', 'release_time', &
-          'initial_omega')
-      g = G_SCENE
-    case ('t_end', 'dt')
-      g = G_TIME
-    case ('output_interval', 'write_velocity', 'output_file', 'petsc_options', 'stretch_limit', 'checkpoint_interval')
-      g = G_OUTPUT
-    case ('observed_file', 'fit', 'fit_lower', 'fit_upper', 'tikhonov')
-      g = G_IDENTIFY
-    case ('target_file', 'components', 'max_speed', 'velocity_weight', 'keyframe_tikhonov')
-      g = G_CONTROL
-    case default
-      g = 0
-    end select
-  end function key_group
 
   !> Undo the rename of the key `scene` in a message.
   subroutine unrename_scene(msg)
@@ -776,76 +794,6 @@ contains
     end do
   end subroutine unrename_scene
 
-  !> Position of the next "name =" (or "name(...) =") at or after `from`,
-  !> outside strings; len(body)+1 when none.
-  integer function next_assignment(body, from) result(p)
-    character(*), intent(in) :: body
-    integer, intent(in) :: from
-    character(1) :: quote
-    integer :: i, k, depth
-    quote = ' '
-    p = len(body) + 1
-    do i = 1, len(body)
-      if (quote /= ' ') then
-        if (body(i:i) == quote) quote = ' '
-        cycle
-      end if
-      if (body(i:i) == "'" .or. body(i:i) == '"') then
-        quote = body(i:i)
-        cycle
-      end if
-      if (i < from) cycle
-      if (.not. is_name_char(body(i:i))) cycle
-      if (i > 1) then
-        if (is_name_char(body(i - 1:i - 1)) .or. body(i - 1:i - 1) == '%' .or. &
-            body(i - 1:i - 1) == '.') cycle
-      end if
-      ! Name, optional subscripts and components, blanks, then '=' (not '==').
-      k = i
-      depth = 0
-      do while (k <= len(body))
-        if (depth > 0) then
-          if (body(k:k) == '(') depth = depth + 1
-          if (body(k:k) == ')') depth = depth - 1
-        else if (body(k:k) == '(') then
-          depth = 1
-        else if (.not. (is_name_char(body(k:k)) .or. body(k:k) == '%')) then
-          exit
-        end if
-        k = k + 1
-      end do
-      do while (k <= len(body))
-        if (body(k:k) /= ' ') exit
-        k = k + 1
-      end do
-      if (k <= len(body)) then
-        if (body(k:k) == '=') then
-          if (k == len(body)) then
-            p = i
-            return
-          else if (body(k + 1:k + 1) /= '=') then
-            p = i
-            return
-          end if
-        end if
-      end if
-    end do
-  end function next_assignment
-
-  !> An assignment without blanks and commas at its ends.
-  function strip_commas(s) result(r)
-    character(*), intent(in) :: s
-    character(:), allocatable :: r
-    integer :: e
-    r = trim(adjustl(s))
-    e = len(r)
-    do while (e > 0)
-      if (r(e:e) /= ',' .and. r(e:e) /= ' ') exit
-      e = e - 1
-    end do
-    r = r(1:e)
-  end function strip_commas
-
   !> One namelist READ of group g from the records `lines`, over cfg.
   subroutine read_nml(g, lines, cfg, ios, iomsg)
     integer, intent(in) :: g
@@ -853,7 +801,8 @@ contains
     type(nuno_config), intent(inout) :: cfg
     integer, intent(out) :: ios
     character(*), intent(inout) :: iomsg
-    ! Namelist objects must be variables: locals named after the keys.
+    ! Namelist objects must be variables: locals named after the keys. A key
+    ! added here goes into module input_text's table too (its group and type).
     integer :: nx, ny
     real(rp) :: lx, ly, total_mass
     character(label_len) :: mass_distribution, lattice_scaling
@@ -1617,6 +1566,10 @@ contains
     integer, intent(in) :: unit
     write(unit, '(a)') 'usage: mpirun -n P nuno INPUT.nml [PETSc options]', &
       '       nuno --help', &
+      '       nuno --version                          the version and the git commit of the build', &
+      '', &
+      'An error is one line on stderr, and every rank exits with status 1; the banner', &
+      'that follows is Open MPI''s, for any non-zero exit (mpirun -q hides it).', &
       '', &
       'nuno integrates an implicit mass-spring cloth: an nx x ny lattice of mass points', &
       'joined by Voigt elements (spring + dashpot) to their 8 neighbours, with bending', &
@@ -1663,7 +1616,10 @@ contains
       '  -nuno_set key=value[,key=value...]           over the file''s values, same checks; a key by its', &
       '                                               name or as group%key; strings quoted, e.g.', &
       '                                               -nuno_set "nx=257,ny=257,output_file=''h257.h5''"', &
-      '                                               (recorded in the output''s namelist attribute)', &
+      '                                               (recorded in the output''s namelist attribute);', &
+      '                                               commas or blanks between keys; several -nuno_set', &
+      '                                               are read in order; a key given twice, an empty', &
+      '                                               value or one not of the key''s type is refused', &
       '', &
       'PETSc options (petsc_options in &output; the command line overrides them):', &
       '  -ts_type beuler|theta|cn|bdf|arkimex|rosw   integrator (default: backward Euler, the report''s, with', &
@@ -1679,7 +1635,9 @@ contains
       '  -ts_monitor, -snes_monitor, -ksp_monitor     progress of steps, Newton, Krylov', &
       '  -snes_rtol R, -snes_max_it N                 Newton tolerance and iterations', &
       '  -snes_type ksponly                           Baraff-Witkin mode: one linearised solve a step', &
-      '  -log_view                                    timings at the end', &
+      '  -log_view                                    timings at the end (in petsc_options too, but', &
+      '                                               -log_view :FILE, like every viewer that writes a', &
+      '                                               file, only on the command line)', &
       '', &
       'Which integrator for which goal (docs/workprecision.md, docs/convergence.md):', &
       '  fast, moderate accuracy                      -ts_adapt_type basic [-ts_rtol R]: rosw ra34pw2, final', &
@@ -1861,15 +1819,5 @@ contains
       if (s(1:2) == '-.') s = '-0'//s(2:)
     end if
   end function fmt_real
-
-  pure function lower(s) result(r)
-    character(*), intent(in) :: s
-    character(len(s)) :: r
-    integer :: i
-    r = s
-    do i = 1, len(s)
-      if (s(i:i) >= 'A' .and. s(i:i) <= 'Z') r(i:i) = achar(iachar(s(i:i)) + 32)
-    end do
-  end function lower
 
 end module input

@@ -18,7 +18,9 @@ program nuno
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_positive_inf
   use safe_files, only: same_file
   use kinds, only: rp
-  use errors, only: help_requested, fatal_collective, fatal_local, input_path_argument, apply_namelist_options, &
+  use input_text, only: command_line_overrides
+  use build_info, only: nuno_version, nuno_commit
+  use errors, only: help_requested, version_requested, fatal_collective, fatal_local, input_path_argument, apply_namelist_options, &
                     petsc_options_text, quiet_exit, &
                     read_input_options, quiet_petsc_errors
   implicit none
@@ -39,7 +41,9 @@ program nuno
   character(len=1024) :: status
   character(len=:), allocatable :: petsc_opts
   logical :: allow_long, ts_dt_set
-  character(len=4096) :: overrides
+  character(len=4096) :: petsc_set
+  character(len=:), allocatable :: overrides
+  integer :: n_set
   character(len=1024) :: restart_file
   character(len=512) :: bad_option
   real(rp) :: walltime
@@ -48,11 +52,17 @@ program nuno
   PetscInt :: pint
   PetscReal :: ts_dt
 
-  ! 1. --help needs no input and no PETSc.
-  if (help_requested()) then
+  ! 1. --help and --version need no input and no PETSc.
+  if (help_requested() .or. version_requested()) then
     call MPI_Init(ierr)
     call MPI_Comm_rank(MPI_COMM_WORLD, rank, ierr)
-    if (rank == 0) call input_usage(6)
+    if (rank == 0) then
+      if (help_requested()) then
+        call input_usage(6)
+      else
+        write(*, '(a)') 'nuno '//nuno_version//' (git '//nuno_commit//')'
+      end if
+    end if
     call MPI_Finalize(ierr)
     stop
   end if
@@ -66,11 +76,21 @@ program nuno
   call MPI_Comm_size(PETSC_COMM_WORLD, nranks, ierr)
   if (.not. input_path_argument(path)) &
     call fatal_collective('usage: mpirun -n P nuno INPUT.nml [PETSc options]  (nuno --help for more)')
-  ! -nuno_set key=value,...: namelist keys from the command line, over the file's.
-  call PetscOptionsGetString(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-nuno_set', overrides, have_set, ierr)
-  if (ierr /= 0) call fatal_local('could not read the -nuno_set option')
-  if (have_set) then
-    call input_read(trim(path), PETSC_COMM_WORLD, cfg, ierr, errmsg, trim(overrides))
+  ! -nuno_set key=value,...: namelist keys from the command line, over the
+  ! file's; every -nuno_set of the command line, in order (module
+  ! input_text). One given only in PETSC_OPTIONS or an options file comes
+  ! from PETSc's database, which keeps its value up to the first blank.
+  call command_line_overrides(overrides, n_set)
+  if (n_set == 0) then
+    call PetscOptionsGetString(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-nuno_set', petsc_set, have_set, ierr)
+    if (ierr /= 0) call fatal_local('could not read the -nuno_set option')
+    if (have_set) then
+      overrides = trim(petsc_set)
+      n_set = 1
+    end if
+  end if
+  if (n_set > 0) then
+    call input_read(trim(path), PETSC_COMM_WORLD, cfg, ierr, errmsg, overrides)
   else
     call input_read(trim(path), PETSC_COMM_WORLD, cfg, ierr, errmsg)
   end if
@@ -92,7 +112,7 @@ program nuno
   end if
   if (ierr /= 0) call fatal_collective(errmsg)
   if (rank == 0) then
-    write(*, '(a,i0,a)') 'nuno 0.1.0 on ', nranks, ' rank(s): '//trim(path)
+    write(*, '(a,i0,a)') 'nuno '//nuno_version//' on ', nranks, ' rank(s): '//trim(path)
     call PetscOptionsGetReal(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-ts_max_time', ts_max_time, have_max_time, ierr)
     if (ts_dt_set .and. have_max_time) then
       call input_summary(cfg, 6, ts_dt=ts_dt, ts_max_time=ts_max_time)

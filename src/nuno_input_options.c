@@ -58,11 +58,12 @@ PetscErrorCode nuno_input_options_read(MPI_Fint fcomm, int *allow_long, double *
   PetscCall(PetscOptionsBool("-nuno_allow_long", "run even when t_end/dt exceeds 1e8 steps or t_end/output_interval exceeds 1e5 output steps",
                              "nuno", al, &al, NULL));
   {
-    /* Read by main before the namelist (PetscOptionsGetString); declared
-     * here so that it appears in -help. */
+    /* Read by main before the namelist, from the command line itself
+     * (module input_text: this database keeps one -nuno_set only, cut at
+     * its first blank); declared here so that it appears in -help. */
     char      buf[4096] = "";
     PetscBool given;
-    PetscCall(PetscOptionsString("-nuno_set", "namelist keys over the input file's: key=value[,key=value...] (group%key where needed; strings quoted)",
+    PetscCall(PetscOptionsString("-nuno_set", "namelist keys over the input file's: key=value[,key=value...] (commas or blanks between keys; group%key where needed; strings quoted; several -nuno_set read in order; a key at most once)",
                                  "nuno", buf, buf, sizeof(buf), &given));
   }
   restart[0] = '\0';
