@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from postprocess.reader import Run, read_run
+from .reader import Run, read_run
 
 
 class UsageError(ValueError):
@@ -37,8 +37,13 @@ def load_run(path, min_steps: int = 1) -> Run:
 
 
 def parser(description: str, prog: str) -> argparse.ArgumentParser:
-    return argparse.ArgumentParser(prog=f"python3 -m postprocess.{prog}",
-                                   description=description)
+    """The parser of a script, its usage naming the console script (nuno-<prog>)."""
+    return argparse.ArgumentParser(prog=script_name(prog), description=description)
+
+
+def script_name(prog: str) -> str:
+    """The console script of module prog (pyproject.toml): nuno-report-figures for report_figures."""
+    return "nuno-" + prog.replace("_", "-")
 
 
 def add_output(p: argparse.ArgumentParser, what: str) -> None:

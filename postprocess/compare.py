@@ -1,6 +1,6 @@
 """Compare runs: snapshots at a common time and the difference over time.
 
-    python3 -m postprocess.compare ref.h5 other.h5 --time 1.0 -o compare.png
+    nuno-compare ref.h5 other.h5 --time 1.0 -o compare.png
 
 Prints ``max_difference <value>``: the largest node distance from the first
 run over the common output times (the other runs are interpolated linearly to
@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from postprocess import cli, plotting
+from . import cli, plotting
 
 
 def _axes(run):

@@ -1,13 +1,13 @@
 """Lattice wireframes at chosen times (in the manner of the report's Figs. 3-5).
 
-    python3 -m postprocess.snapshots run.h5 --times 0 0.5 1.0 --view side -o fig3.png
+    nuno-snapshots run.h5 --times 0 0.5 1.0 --view side -o fig3.png
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from postprocess import cli, plotting
+from . import cli, plotting
 
 
 def choose_steps(run, times=None, count: int = 4) -> list[int]:

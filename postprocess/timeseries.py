@@ -1,13 +1,13 @@
 """Energies, energy-balance drift, momenta, length, flatness and solver counts against time.
 
-    python3 -m postprocess.timeseries run.h5 -o run_timeseries.png
+    nuno-timeseries run.h5 -o run_timeseries.png
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from postprocess import cli, plotting
+from . import cli, plotting
 
 N_PANELS = 8
 

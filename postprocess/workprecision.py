@@ -1,11 +1,11 @@
 """Work-precision plot: run time against error (log-log, fitted slope).
 
-    python3 -m postprocess.workprecision study.csv --group-column ts_type -o wp.png
+    nuno-workprecision study.csv --group-column ts_type -o wp.png
 """
 
 from __future__ import annotations
 
-from postprocess import cli, loglog
+from . import cli, loglog
 
 
 def main(argv=None) -> int:
