@@ -76,13 +76,15 @@ def srun_args(logs):
 
 def test_first_job_checkpoints_by_wall_clock_and_is_not_requeued_when_done(stubs):
     env, work, logs = stubs
-    proc = submit(env, work, "-ts_type", "cn")
+    proc = submit(env, work, "-ts_type", "cn", "-nuno_set", "e_s=2.0,t_end=0.5")
     out, err = proc.communicate(timeout=60)
     assert proc.returncode == 0, err
     args = srun_args(logs)
     assert args[0] == env["NUNO_EXE"] and args[1] == "case.nml"
     assert args[args.index("-nuno_checkpoint_walltime") + 1] == "1h"
-    assert args[args.index("-nuno_set") + 1] == "output_file='out.h5'"
+    # one -nuno_set (PETSc keeps the last of two): the output file and the user's keys
+    assert args.count("-nuno_set") == 1
+    assert args[args.index("-nuno_set") + 1] == "output_file='out.h5',e_s=2.0,t_end=0.5"
     assert "-nuno_restart" not in args and args[-2:] == ["-ts_type", "cn"]
     assert not (logs / "scontrol.calls").exists()
     assert "run complete" in out
