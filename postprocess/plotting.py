@@ -183,9 +183,14 @@ def side_axes(ax, lo, hi, units, plane: str = "xz", title=None, labels: bool = T
     """2-D side-view axes over the box [lo, hi]: equal scales, nothing clipped."""
     u, v = _AXIS[plane[0]], _AXIS[plane[1]]
     pad = 0.04 * max(hi[u] - lo[u], hi[v] - lo[v], 1e-12)
-    ax.set_xlim(lo[u] - pad, hi[u] + pad)
-    ax.set_ylim(lo[v] - pad, hi[v] + pad)
-    ax.set_aspect("equal")
+    # Equal scales by widening the limits to the panel, not by shrinking the
+    # box: a near-flat sheet seen edge-on would leave a sliver of axes with
+    # its tick labels piled up and the canvas empty. (Autoscaled limits, not
+    # set ones, which the aspect would override with a warning.)
+    ax.update_datalim([(lo[u] - pad, lo[v] - pad), (hi[u] + pad, hi[v] + pad)])
+    ax.margins(0.0)
+    ax.autoscale_view()
+    ax.set_aspect("equal", adjustable="datalim")
     # Few ticks: side-by-side panels of a narrow plane pile long labels.
     ax.xaxis.set_major_locator(MaxNLocator(nbins=4))
     ax.yaxis.set_major_locator(MaxNLocator(nbins=4))
