@@ -90,7 +90,9 @@ def build_figure(run, steps, layout: str = "panels", view: str = "iso", plane: s
         plotting.side_axes(ax, lo, hi, units, plane)
     else:
         plotting.setup_3d(ax, lo, hi, units, view)
-    fig.colorbar(mappable, ax=ax, label="t [s]", shrink=0.7)
+        plotting.shrink_3d_box(ax, 0.85)    # the x and z labels inside the canvas
+    # clear of the 3-D box's z label
+    fig.colorbar(mappable, ax=ax, label="t [s]", shrink=0.7, pad=0.02 if side else 0.1)
     return fig
 
 

@@ -19,7 +19,8 @@ SCRIPT = ROOT / "tools" / "slurm" / "nuno.sbatch"
 
 # srun: records its arguments one a line; STUB_SRUN=sleep waits for a signal
 # (SIGTERM: exit 1, as an interrupted run does), STUB_SRUN=fail exits 3,
-# STUB_SRUN=mpi runs the real program under mpiexec on 2 ranks.
+# STUB_SRUN=mpi runs the real program under mpiexec on 2 ranks, passing
+# SIGTERM to the ranks as srun does.
 SRUN = """#!/usr/bin/env bash
 printf '%s\\n' "$@" > "$STUB_LOG/srun.args"
 case "${STUB_SRUN:-ok}" in
@@ -28,7 +29,14 @@ case "${STUB_SRUN:-ok}" in
   sleep) trap 'echo TERM >> "$STUB_LOG/srun.signals"; exit 1' TERM
          echo started > "$STUB_LOG/srun.started"
          for i in $(seq 600); do sleep 0.1; done; exit 0 ;;
-  mpi) exec $STUB_MPIEXEC -n 2 --oversubscribe "$@" ;;
+  mpi) # srun passes a signal to the tasks at once (mpiexec would wait
+       # odls_base_sigkill_timeout first): so does this stub, to the ranks.
+       $STUB_MPIEXEC -n 2 --oversubscribe "$@" &
+       m=$!
+       trap 'pkill -TERM -P "$m"' TERM
+       wait "$m"; rc=$?
+       while kill -0 "$m" 2>/dev/null; do wait "$m"; rc=$?; done
+       exit $rc ;;
 esac
 """
 # scontrol: records its arguments. sbatch: runs the job script at once in the
@@ -127,13 +135,13 @@ def test_failed_run_is_not_requeued(stubs):
 
 NAMELIST = """&scene scene='hang' /
 &lattice nx=9 ny=9 /
-&time t_end=3.0 dt=2e-3 /
-&output output_interval=0.05 /
+&time t_end=0.6 dt=2e-3 /
+&output output_interval=0.02 /
 """
 
 
 def test_real_run_interrupted_requeued_and_continued(stubs):
-    """hang 9 x 9 on 2 ranks through the script: SIGTERM to the job script
+    """hang 9 x 9 on 2 ranks (300 steps, seconds) through the script: SIGTERM to the job script
     mid-run gives an interrupted file with a checkpoint and a requeue; the
     requeued job continues it to t_end: one series, complete, one restart."""
     env, work, logs = stubs
@@ -146,15 +154,15 @@ def test_real_run_interrupted_requeued_and_continued(stubs):
         assert line, proc.stderr.read()
         seen += line.startswith("t =")
     proc.send_signal(signal.SIGTERM)
-    out, err = proc.communicate(timeout=60)
+    out, err = proc.communicate(timeout=120)
     assert proc.returncode == 0, err
     assert "requeueing job 4242" in out
     assert (logs / "scontrol.calls").read_text().split() == ["requeue", "4242"]
     first = read_run(str(work / "out.h5"))
-    assert first.status.startswith("interrupted: SIGTERM") and first.time[-1] < 3.0
+    assert first.status.startswith("interrupted: SIGTERM") and first.time[-1] < 0.6
     first.close()
     proc = submit(env, work, restart=1, mode="mpi")
-    out, err = proc.communicate(timeout=120)
+    out, err = proc.communicate(timeout=300)
     assert proc.returncode == 0, out + err
     assert (logs / "scontrol.calls").read_text().split() == ["requeue", "4242"]  # not again
     run = read_run(str(work / "out.h5"))
@@ -162,7 +170,7 @@ def test_real_run_interrupted_requeued_and_continued(stubs):
     # one series: every output time of the grid once (plus the state the
     # interrupted job stopped at), increasing, to t_end
     t = np.asarray(run.time)
-    assert np.all(np.diff(t) > 0) and t[-1] == pytest.approx(3.0)
-    grid = 0.05 * np.arange(61)
+    assert np.all(np.diff(t) > 0) and t[-1] == pytest.approx(0.6)
+    grid = 0.02 * np.arange(31)
     assert np.min(np.abs(t[:, None] - grid[None, :]), axis=0).max() < 1e-9
     assert len(t) <= len(grid) + 1
