@@ -78,10 +78,11 @@ def run_value(run, key: str):
                 return nml[g][name]
     except Exception:  # an unreadable echoed namelist: no value from it
         pass
-    raise KeyError(f"{run.path}: no key {key!r} in /config or the namelist (--label)")
+    raise KeyError(f"{run.path}: no key {key!r} in /config or the namelist")
 
 
-def _text_value(value) -> str:
+def text_value(value) -> str:
+    """A namelist value as a label: numbers in %g (1000.0 -> 1000), text stripped."""
     value = value.item() if hasattr(value, "item") else value
     if isinstance(value, bytes):
         value = value.decode()
@@ -97,7 +98,7 @@ def run_labels(runs, label_key: str | None = None, labels=None) -> list[str]:
             raise UsageError(f"--labels: {len(labels)} labels for {len(runs)} runs")
         return list(labels)
     if label_key:
-        return [f"{label_key} = {_text_value(run_value(r, label_key))}" for r in runs]
+        return [f"{label_key} = {text_value(run_value(r, label_key))}" for r in runs]
     names = [Path(r.path).stem for r in runs]
     if len(set(names)) < len(names):
         names = [f"{k + 1}: {n}" for k, n in enumerate(names)]

@@ -42,7 +42,7 @@ def run_wall_time(run) -> float:
 def run_group(run, key: str | None) -> str:
     """A run's series: the integrator (ts_type, adaptive or fixed) or a key's value."""
     if key:
-        return f"{key} = {cli._text_value(cli.run_value(run, key))}"
+        return f"{key} = {cli.text_value(cli.run_value(run, key))}"
     ts = str(run.run_info.get("ts_type", "")).strip() or "?"
     adapt = str(run.run_info.get("ts_adapt_type", "none")).strip()
     return f"{ts}, {'adaptive' if adapt not in ('', 'none') else 'fixed steps'}"
