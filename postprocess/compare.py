@@ -166,7 +166,7 @@ def build_figure(runs, t: float, series, view: str = "iso", names=None,
     if side:
         pw, ph = plotting.side_panel_size(lo, hi, plane, width=5.5 if overlay else 3.8)
     else:
-        pw, ph = (5.5, 4.6) if overlay else (4.2, 3.6)
+        pw, ph = plotting.iso_panel_size(lo, hi, width=5.5 if overlay else 4.2)
     width = max(8.0, pw * ntop + (2.5 if overlay else 0.0))
     fig = plotting.blank_figure((width, ph + 3.2))
     grid = fig.add_gridspec(2, ntop, height_ratios=(ph, 3.0))
@@ -189,7 +189,7 @@ def build_figure(runs, t: float, series, view: str = "iso", names=None,
                 ax.set_ylabel("")      # one vertical axis label for the row
         else:
             plotting.setup_3d(ax, lo, hi, units, view, title=title)
-            plotting.shrink_3d_box(ax, 0.85)
+            plotting.shrink_3d_box(ax, plotting.iso_zoom(lo, hi) - 0.05)
     if overlay:
         top[0].legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.02, 1.0))
     ax = fig.add_subplot(grid[1, :])

@@ -95,6 +95,8 @@ def setup_3d(ax, lo, hi, units: str, view: str = "iso", title: str | None = None
     frac = (hi[2] - lo[2]) / max((hi - lo).max(), 1e-300)
     if frac < 0.2:
         ax.set_zticks([_one_tick(lo[2], hi[2])])
+        # seen flat, the x and y tick labels sit lower: the axis labels below them
+        ax.xaxis.labelpad = ax.yaxis.labelpad = 10
     elif frac < 0.45:
         ax.zaxis.set_major_locator(MaxNLocator(nbins=1))
     ax.tick_params(labelsize="small", pad=1)
@@ -118,6 +120,21 @@ def _one_tick(lo: float, hi: float) -> float:
         return 0.0
     ticks = [t for t in MaxNLocator(nbins=2).tick_values(lo, hi) if lo <= t <= hi]
     return float(ticks[len(ticks) // 2]) if ticks else 0.5 * (lo + hi)
+
+
+def iso_panel_size(lo, hi, width: float = 4.2) -> tuple[float, float]:
+    """(width, height) of a 3-D panel: a flat box needs less height than a cube."""
+    span = np.asarray(hi, float) - np.asarray(lo, float)
+    frac = span[2] / max(span.max(), 1e-300)      # how tall the box is
+    return width, width * (0.55 + 0.3 * min(1.0, frac))
+
+
+def iso_zoom(lo, hi) -> float:
+    """The 3-D box's zoom in a panel: a flat box may fill more of its width
+    (its labels need less height), a cube keeps room for them."""
+    span = np.asarray(hi, float) - np.asarray(lo, float)
+    frac = span[2] / max(span.max(), 1e-300)
+    return 0.9 + 0.35 * max(0.0, 1.0 - frac / 0.4)
 
 
 def shrink_3d_box(ax, zoom: float = 0.9) -> None:

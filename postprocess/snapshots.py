@@ -28,21 +28,6 @@ def grid_columns(n: int) -> int:
     return 4
 
 
-def iso_panel_size(lo, hi, width: float = 4.2) -> tuple[float, float]:
-    """(width, height) of a 3-D panel: a flat box needs less height than a cube."""
-    span = np.asarray(hi, float) - np.asarray(lo, float)
-    frac = span[2] / max(span.max(), 1e-300)      # how tall the box is
-    return width, width * (0.55 + 0.3 * min(1.0, frac))
-
-
-def iso_zoom(lo, hi) -> float:
-    """The 3-D box's zoom in a panel: a flat box may fill more of its width
-    (its labels need less height), a cube keeps room for them."""
-    span = np.asarray(hi, float) - np.asarray(lo, float)
-    frac = span[2] / max(span.max(), 1e-300)
-    return 0.9 + 0.35 * max(0.0, 1.0 - frac / 0.4)
-
-
 def build_figure(run, steps, layout: str = "panels", view: str = "iso", plane: str | None = None):
     """The figure: one panel per step, or all steps in one coloured by time.
 
@@ -61,7 +46,7 @@ def build_figure(run, steps, layout: str = "panels", view: str = "iso", plane: s
     if layout == "panels":
         n = len(steps)
         ncols = grid_columns(n)
-        size = plotting.side_panel_size(lo, hi, plane) if side else iso_panel_size(lo, hi)
+        size = plotting.side_panel_size(lo, hi, plane) if side else plotting.iso_panel_size(lo, hi)
         fig, axes = plotting.new_figure(n, ncols=ncols, projection=projection, panel_size=size)
         for k, (ax, step) in enumerate(zip(axes, steps)):
             title = f"t = {run.time[step]:g} s"
@@ -73,7 +58,7 @@ def build_figure(run, steps, layout: str = "panels", view: str = "iso", plane: s
             else:
                 plotting.draw_lattice(ax, shown[step])
                 plotting.setup_3d(ax, lo, hi, units, view, title=title)
-                plotting.shrink_3d_box(ax, iso_zoom(lo, hi))
+                plotting.shrink_3d_box(ax, plotting.iso_zoom(lo, hi))
         if not side:
             plotting.room_for_3d_labels(fig)
         return fig
