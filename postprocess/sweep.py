@@ -28,6 +28,7 @@ each is printed, to redo it with other options.
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import re
@@ -221,6 +222,9 @@ def plots(study: dict, dpi: int) -> list[str]:
 
 def _parser():
     p = cli.parser(__doc__.splitlines()[0], "sweep")
+    p.formatter_class = argparse.RawDescriptionHelpFormatter
+    p.epilog = "examples:\n" + "\n".join(
+        line for line in __doc__.splitlines()[2:7]) + "\n\nsee postprocess/README.md"
     p.add_argument("namelist", help="the case's namelist file")
     g = p.add_argument_group("what varies (one of)")
     g.add_argument("--set", default=None, metavar="KEY=V1,V2,...",
@@ -232,7 +236,8 @@ def _parser():
     p.add_argument("--fixed", default=None, metavar="KEY=VALUE,...",
                    help="namelist keys set in every run (e.g. t_end=0.5,lattice_scaling='continuum')")
     p.add_argument("--options", default="", metavar="'-OPT VALUE ...'",
-                   help="program options for every run (e.g. '-ts_type cn')")
+                   help="program options for every run (e.g. '-ts_type cn'; one word: "
+                        "--options=-snes_monitor)")
     p.add_argument("-n", "--ranks", type=int, default=1, help="MPI ranks a run (default 1)")
     p.add_argument("--exe", default=None,
                    help="the nuno executable (default: $NUNO_EXE, nuno on PATH, build/nuno)")
