@@ -290,18 +290,14 @@ def figure_lattice(studies, path: Path):
     plt, fig, axes = _axes(len(studies))
     for ax, (key, st) in zip(axes, studies.items()):
         u = st["units"]
+        # The figure of nuno-convergence (one implementation): errors and
+        # differences with their orders, slope guides from the coarsest error.
         for norm, c in (("max", "C0"), ("rms", "C1")):
             s = st[norm]
-            ax.loglog(s["h"], s["error"], "o-", color=c,
-                      label=f"{norm} node distance from the finest lattice (fit {s['order']:.2f})")
-            od = s["observed_differences"]
-            ax.loglog(s["h_all"][:-1], s["differences"], "s--", color=c, mfc="none",
-                      label=f"{norm} difference of successive lattices"
-                            + (f" (fit {od:.2f})" if od is not None else ""))
+            convergence.draw_study(ax, s["h"], s["error"], s["h_all"][:-1], s["differences"],
+                                   norm, "finest", color=c, order=s["order"])
         h = np.array(st["max"]["h_all"])
-        e0 = st["max"]["error"][0]
-        for p, ls in ((1, (0, (1, 3))), (2, (0, (5, 3)))):
-            ax.loglog(h, e0 * (h / h[0]) ** p, color="0.5", ls=ls, lw=1, label=f"slope {p}")
+        convergence.slope_guides(ax, h, st["max"]["error"][0])
         ns = [r["n"] for r in st["runs"]]
         ax.set_title(f"{key}, continuum scaling, N = {ns[0]} .. {ns[-1]}, t = {st['t_end']:g} s")
         ax.xaxis.set_minor_formatter(plt.NullFormatter())

@@ -1,6 +1,6 @@
 """Animation of a run: GIF (Pillow), or MP4 when ffmpeg is on PATH.
 
-    python3 -m postprocess.animate run.h5 --stride 2 -o run.gif
+    nuno-animate run.h5 --stride 2 -o run.gif
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import sys
 import numpy as np
 from matplotlib.animation import FFMpegWriter, PillowWriter
 
-from postprocess import cli, plotting
+from . import cli, plotting
 
 
 def frame_steps(run, stride: int = 1) -> list[int]:

@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from postprocess.reader import Run, read_run
+from .reader import Run, read_run
 
 
 class UsageError(ValueError):
@@ -37,8 +37,13 @@ def load_run(path, min_steps: int = 1) -> Run:
 
 
 def parser(description: str, prog: str) -> argparse.ArgumentParser:
-    return argparse.ArgumentParser(prog=f"python3 -m postprocess.{prog}",
-                                   description=description)
+    """The parser of a script, its usage naming the console script (nuno-<prog>)."""
+    return argparse.ArgumentParser(prog=script_name(prog), description=description)
+
+
+def script_name(prog: str) -> str:
+    """The console script of module prog (pyproject.toml): nuno-report-figures for report_figures."""
+    return "nuno-" + prog.replace("_", "-")
 
 
 def add_output(p: argparse.ArgumentParser, what: str) -> None:
@@ -50,3 +55,59 @@ def add_output(p: argparse.ArgumentParser, what: str) -> None:
 
 def default_output(input_path, what: str, ext: str = ".png") -> str:
     return f"{Path(input_path).stem}_{what}{ext}"
+
+
+def run_value(run, key: str):
+    """The value of namelist key in a run: the resolved /config (which holds
+    -nuno_set overrides), else the echoed namelist; nx, ny and dt from the
+    run's own record. KeyError naming the key and the file otherwise."""
+    name = key.lower().rpartition("%")[2]
+    group = key.lower().rpartition("%")[0]
+    if name in ("nx", "ny"):
+        return getattr(run, name)
+    if name == "dt" and run.run_info.get("dt") is not None:
+        return float(run.run_info["dt"])
+    for g, values in run.config.items():
+        if (not group or g == group) and name in values:
+            return values[name]
+    try:
+        import f90nml  # only for files without /config (older or synthetic)
+        nml = f90nml.reads(run.namelist)
+        for g in nml:
+            if (not group or g == group) and name in nml[g]:
+                return nml[g][name]
+    except Exception:  # an unreadable echoed namelist: no value from it
+        pass
+    raise KeyError(f"{run.path}: no key {key!r} in /config or the namelist")
+
+
+def text_value(value) -> str:
+    """A namelist value as a label: numbers in %g (1000.0 -> 1000), text stripped."""
+    value = value.item() if hasattr(value, "item") else value
+    if isinstance(value, bytes):
+        value = value.decode()
+    if isinstance(value, float):
+        return f"{value:g}"
+    return str(value).strip()
+
+
+def run_labels(runs, label_key: str | None = None, labels=None) -> list[str]:
+    """Legend labels: given ones, 'key = value' of a swept key, else file stems."""
+    if labels:
+        if len(labels) != len(runs):
+            raise UsageError(f"--labels: {len(labels)} labels for {len(runs)} runs")
+        return list(labels)
+    if label_key:
+        return [f"{label_key} = {text_value(run_value(r, label_key))}" for r in runs]
+    names = [Path(r.path).stem for r in runs]
+    if len(set(names)) < len(names):
+        names = [f"{k + 1}: {n}" for k, n in enumerate(names)]
+    return names
+
+
+def add_label_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--label", default=None, metavar="KEY",
+                   help="label each run by the value of this namelist key (a swept one: "
+                        "e_s, nx, dt, ...); default: the file names")
+    p.add_argument("--labels", nargs="+", default=None, metavar="TEXT",
+                   help="the legend's labels, one per run")

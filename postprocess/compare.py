@@ -1,6 +1,6 @@
 """Compare runs: snapshots at a common time and the difference over time.
 
-    python3 -m postprocess.compare ref.h5 other.h5 --time 1.0 -o compare.png
+    nuno-compare ref.h5 other.h5 --time 1.0 -o compare.png
 
 Prints ``max_difference <value>``: the largest node distance from the first
 run over the common output times (the other runs are interpolated linearly to
@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from postprocess import cli, plotting
+from . import cli, plotting
 
 
 def _axes(run):
@@ -133,32 +133,74 @@ def difference(ref, other, interval) -> tuple[np.ndarray, np.ndarray]:
 
 
 def labels(runs) -> list[str]:
-    names = [Path(r.path).stem for r in runs]
-    if len(set(names)) < len(names):
-        names = [f"{k + 1}: {n}" for k, n in enumerate(names)]
-    return names
+    return cli.run_labels(runs)
 
 
-def build_figure(runs, t: float, series, view: str = "iso"):
-    """Snapshots of each run at time t (top row) and the differences (bottom)."""
+def run_colors(n: int, overlay: bool) -> list:
+    """One colour a run: the default cycle, or viridis in sweep order for an
+    overlay (neighbouring values in neighbouring colours)."""
+    if not overlay or n < 2:
+        return [f"C{k}" for k in range(n)]
+    from matplotlib import colormaps
+    cmap = colormaps[plotting.CMAP]
+    return [cmap(0.9 * k / (n - 1)) for k in range(n)]
+
+
+def build_figure(runs, t: float, series, view: str = "iso", names=None,
+                 layout: str = "auto", plane: str | None = None):
+    """Snapshots of each run at time t (top: a panel each, or all in one for
+    layout 'overlay', the default for more than 3 runs) and the differences
+    from the first run over time (bottom). The side view is 2-D on the
+    plane of largest motion (or plane)."""
     n = len(runs)
     units = runs[0].units()
-    fig = plotting.blank_figure((4.2 * n, 7.0))
-    grid = fig.add_gridspec(2, n, height_ratios=(1.3, 1.0))
+    names = names or labels(runs)
+    overlay = layout == "overlay" or (layout == "auto" and n > 3)
+    colors = run_colors(n, overlay)
     snaps = [r.position_at(t) for r in runs]
     lo, hi = plotting.bounds(*snaps)
-    names = labels(runs)
+    side = view == "side"
+    if side and plane is None:
+        plane = plotting.side_plane(snaps, runs[0].rest_position)
+    ntop = 1 if overlay else n
+    if side:
+        pw, ph = plotting.side_panel_size(lo, hi, plane, width=5.5 if overlay else 3.8)
+    else:
+        pw, ph = plotting.iso_panel_size(lo, hi, width=5.5 if overlay else 4.2)
+    width = max(8.0, pw * ntop + (2.5 if overlay else 0.0))
+    fig = plotting.blank_figure((width, ph + 3.2))
+    grid = fig.add_gridspec(2, ntop, height_ratios=(ph, 3.0))
+    top = []
+    for k in range(ntop):
+        ax = fig.add_subplot(grid[0, k], projection=None if side else "3d")
+        top.append(ax)
     for k, (pos, name) in enumerate(zip(snaps, names)):
-        ax = fig.add_subplot(grid[0, k], projection="3d")
-        plotting.draw_lattice(ax, pos, color=f"C{k}")
-        plotting.setup_3d(ax, lo, hi, units, view, title=f"{name}, t = {t:g} s")
+        ax = top[0] if overlay else top[k]
+        label = name if overlay else None
+        if side:
+            plotting.draw_lattice_side(ax, pos, color=colors[k], plane=plane, label=label)
+        else:
+            plotting.draw_lattice(ax, pos, color=colors[k], label=label)
+    for k, ax in enumerate(top):
+        title = f"t = {t:g} s" if overlay else f"{names[k]}, t = {t:g} s"
+        if side:
+            plotting.side_axes(ax, lo, hi, units, plane, title)
+            if k:
+                ax.set_ylabel("")      # one vertical axis label for the row
+        else:
+            plotting.setup_3d(ax, lo, hi, units, view, title=title)
+            plotting.shrink_3d_box(ax, plotting.iso_zoom(lo, hi) - 0.05)
+    if overlay:
+        top[0].legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.02, 1.0))
     ax = fig.add_subplot(grid[1, :])
     for k, (times, dist) in enumerate(series, start=1):
-        ax.plot(times, dist, color=f"C{k}", label=f"{names[k]} vs {names[0]}")
+        ax.plot(times, dist, color=colors[k], label=f"{names[k]} vs {names[0]}")
     ax.set_xlabel("t [s]")
     ax.set_ylabel(plotting.length_label("max node distance", units))
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize="small")
+    ax.legend(fontsize="small", ncols=2 if n > 5 else 1)
+    if not side:
+        plotting.room_for_3d_labels(fig)
     return fig
 
 
@@ -167,7 +209,14 @@ def _parser():
     p.add_argument("runs", nargs="+", help="two or more nuno output files; the first is the reference")
     p.add_argument("--time", type=float, default=None,
                    help="time of the snapshots (default: the last common time)")
-    p.add_argument("--view", choices=tuple(plotting.VIEWS), default="iso")
+    p.add_argument("--view", choices=tuple(plotting.VIEWS), default="iso",
+                   help="iso: oblique 3-D; side: 2-D on the vertical plane of the largest motion")
+    p.add_argument("--plane", choices=plotting.PLANES, default=None,
+                   help="the side view's plane (default: that of the largest motion)")
+    p.add_argument("--layout", choices=("auto", "panels", "overlay"), default="auto",
+                   help="snapshots one panel a run, or all in one coloured in order "
+                        "(auto: overlay for more than 3 runs)")
+    cli.add_label_options(p)
     p.add_argument("--tol", type=float, default=None,
                    help="exit 1 (after writing the figure) when max_difference exceeds this")
     p.add_argument("-o", "--output", default="compare.png", help="output file (default compare.png)")
@@ -179,6 +228,7 @@ def _body(args):
     if len(args.runs) < 2:
         raise cli.UsageError("compare needs at least two runs")
     runs = [cli.load_run(path) for path in args.runs]
+    names = cli.run_labels(runs, args.label, args.labels)   # a bad --label before any work
     for run in runs[1:]:
         pair_samplers(runs[0], run)  # 'lattices differ: ...' before any work
     interval = common_interval(runs)
@@ -189,7 +239,10 @@ def _body(args):
     series = [difference(runs[0], run, interval) for run in runs[1:]]
     worst = max(float(dist.max()) for _, dist in series)
     print(f"max_difference {worst:.17g}")
-    plotting.save(build_figure(runs, t, series, args.view), args.output, args.dpi)
+    if args.plane and args.view != "side":
+        raise cli.UsageError("--plane goes with --view side")
+    plotting.save(build_figure(runs, t, series, args.view, names, args.layout, args.plane),
+                  args.output, args.dpi)
     if args.tol is not None:
         if not worst <= args.tol:
             raise ValueError(f"max_difference {worst:g} exceeds --tol {args.tol:g}")

@@ -1,6 +1,6 @@
 """Deformation control: initial guess, optimised motion, target and the objective per iteration.
 
-    python3 -m postprocess.control_plot OPT.h5 --target TARGET.h5 [--initial INIT.h5] [-o FILE.png]
+    nuno-control-plot OPT.h5 --target TARGET.h5 [--initial INIT.h5] [-o FILE.png]
 
 OPT.h5 is the output file of a &control run (its /control group: keyframes
 before and after, the objective and the keyframes per TAO iteration, and the
@@ -17,8 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from postprocess import cli, plotting
-from postprocess.reader import read_states
+from . import cli, plotting
+from .reader import read_states
 
 COMPONENTS = "xyz"
 

@@ -1,25 +1,38 @@
-"""Convergence study: error against lattice spacing or time step, log-log, fitted order.
+"""Convergence study: error against lattice spacing or time step, log-log, observed order.
 
-    python3 -m postprocess.convergence run11.h5 run21.h5 run41.h5 --time 0.1 -o conv.png
-    python3 -m postprocess.convergence study.csv --x-column dt -o convergence.png
+    nuno-convergence run17.h5 run33.h5 run65.h5 --time 0.05 -o conv.png
+    nuno-convergence cn_dt1.h5 cn_dt2.h5 cn_dt3.h5 --reference-run tight.h5
+    nuno-convergence study.csv --x-column dt -o convergence.png
 
 From runs: the runs differ in the lattice (nx, ny; spacing h from the rest
 lattice) or in the fixed time step (dt: the run's own record of the step it
 took, /run, else /config/time, else the echoed namelist), not both; which one
 is detected. Positions at --time (default: the last common output time) are
 compared on the nodes of the coarsest lattice (the common nodes of nested
-lattices N, 2N-1, 4N-3, else bilinear interpolation, as in compare). The
-error of a run is the distance of its nodes from the reference, the largest
-(--norm max, default) or the root mean square over the nodes (--norm rms):
-the reference is the finest run (--reference finest; the finest run itself is
-then left out), a Richardson estimate from the two finest runs and the order
-observed in the differences of successive runs (--reference richardson, needs
-3 runs), or another run given with --reference-run (a tighter one: every
-study run is then kept). Prints one ``error <h> <value>`` line per run,
-``orders <p1> <p2> ...`` (the order between each pair of successive runs,
-log(e1/e2)/log(h1/h2)), ``observed_order_differences <value>`` (the slope of
-the differences of successive runs, which needs no reference; 3 runs or
-more) and ``order <value>`` (least-squares slope of log error against log h).
+lattices N, 2N-1, 4N-3, else bilinear interpolation, as in compare); the
+distance of two runs is the largest node distance (--norm max, default) or
+the root mean square over the nodes (--norm rms).
+
+The order needs no exact solution: the differences of successive runs
+d_k = |u_k - u_k+1| fall as h^p, so log(d_k / d_k+1) / log(h_k / h_k+1) is
+the observed order (3 runs or more). The error of each run is measured
+against a reference: by default (--reference richardson, 3 runs or more) the
+Richardson estimate u_f + (u_f - u_f-1) / (r^p - 1) from the two finest runs
+and the order p of the differences; --reference finest measures against the
+finest run (left out itself; its errors shrink towards the finest run, which
+biases their order upwards); --reference-run FILE against another run (a
+tighter tolerance or a finer lattice; every study run is kept, 2 runs
+suffice). Two runs and no reference run give no order: refused.
+
+Prints one ``error <h> <value>`` line per run, ``orders <p1> ...`` (the
+order between successive errors), ``difference <h_k> <d_k>`` per pair of
+successive runs, ``difference_orders ...``, ``observed_order_differences
+<value>`` (least-squares slope of the differences: their one ratio for 3
+runs), ``order <value>`` (least-squares slope of the errors, only through 3
+points or more: two points are one ratio, not a fit) and one ``using ...``
+line that says which reference the errors are against. The figure shows the
+errors and the differences with their orders, slope guides and the scene,
+the norm and the time in the title.
 From one CSV: the former mode, prints ``slope <value>``.
 """
 
@@ -29,7 +42,7 @@ import re
 
 import numpy as np
 
-from postprocess import cli, compare, loglog, plotting
+from . import cli, compare, loglog, plotting
 
 
 def namelist_dt(run) -> float | None:
@@ -108,19 +121,27 @@ def successive_orders(h, e) -> np.ndarray:
     return np.log(e[:-1] / e[1:]) / np.log(h[:-1] / h[1:])
 
 
-def study(runs, t=None, reference: str = "finest", norm: str = "max", reference_run=None) -> dict:
-    """h, errors and fitted order of a study; see the module docstring.
+MIN_FIT_POINTS = 3   # a least-squares order through 2 points is one ratio, not a fit
+
+
+def study(runs, t=None, reference: str = "richardson", norm: str = "max", reference_run=None) -> dict:
+    """h, errors, differences and orders of a study; see the module docstring.
 
     reference_run: a Run to measure every run against (reference 'run');
     it may be of another time step or a finer lattice of the same sheet.
     """
     if reference_run is not None:
         reference = "run"
-    need = {"finest": 2, "richardson": 3, "run": 2}[reference]
+    if reference not in ("finest", "richardson", "run"):
+        raise ValueError(f"unknown reference {reference!r} (finest, richardson or a run)")
+    need = {"finest": 3, "richardson": 3, "run": 2}[reference]
+    kind = detect(runs) if len(runs) >= 2 else None   # what varies, before counting
     if len(runs) < need:
-        raise ValueError(f"a study against the {reference} reference needs at least {need} runs")
+        hint = ("; or give --reference-run FILE (a tighter or finer run)"
+                if reference != "run" else "")
+        raise ValueError(f"{len(runs)} runs: a study against the {reference} reference needs "
+                         f"at least {need} runs (two runs give one difference, no order){hint}")
     distance(np.zeros(3), np.zeros(3), norm)  # 'unknown norm' before any work
-    kind = detect(runs)
     h = np.array([spacing(r) if kind == "nx" else run_dt(r) for r in runs])
     order_idx = np.argsort(-h)             # coarse first
     runs, h = [runs[k] for k in order_idx], h[order_idx]
@@ -141,8 +162,8 @@ def study(runs, t=None, reference: str = "finest", norm: str = "max", reference_
     if len(runs) >= 3 and np.all(diffs > 0):
         observed, _ = loglog.fit_slope(h[:-1], diffs)
     if reference == "finest":
-        ref = u[-1]
-        hs, errors = h[:-1], np.array([dist(v, ref) for v in u[:-1]])
+        ref = u[len(runs) - 1]
+        hs, errors = h[:-1], np.array([dist(v, ref) for v in u[:len(runs) - 1]])
     elif reference == "run":
         ref = u[-1]
         hs, errors = h, np.array([dist(v, ref) for v in u[:-1]])
@@ -154,32 +175,104 @@ def study(runs, t=None, reference: str = "finest", norm: str = "max", reference_
         hs, errors = h, np.array([dist(v, ref) for v in u])
     if np.any(errors <= 0):
         raise ValueError("a run equals the reference exactly: no order to fit")
-    order, icpt = loglog.fit_slope(hs, errors)
+    order = icpt = None
+    if len(hs) >= MIN_FIT_POINTS:
+        order, icpt = loglog.fit_slope(hs, errors)
     return {"kind": kind, "h": hs, "errors": errors, "order": order, "intercept": icpt,
-            "orders": successive_orders(hs, errors), "differences": diffs,
-            "time": t, "reference": reference, "observed": observed, "norm": norm,
-            "units": runs[0].units()}
+            "orders": successive_orders(hs, errors), "differences": diffs, "h_differences": h[:-1],
+            "difference_orders": successive_orders(h[:-1], diffs) if len(diffs) >= 2 else np.array([]),
+            "h_all": h, "time": t, "reference": reference, "observed": observed, "norm": norm,
+            "units": runs[0].units(), "scene": runs[0].scene(),
+            "lattices": [(r.nx, r.ny) for r in runs]}
+
+
+REFERENCE_NAMES = {"finest": "the finest run", "richardson": "the Richardson estimate",
+                   "run": "the reference run"}
+
+
+def _orders_text(ps) -> str:
+    return ", ".join(f"{p:.2f}" for p in ps)
+
+
+def slope_guides(ax, h, anchor: float, orders=(1, 2), color="0.5") -> None:
+    """Dotted / dashed lines of slope p through (h[0], anchor) for each p:
+    the eye reads an order off the data against them."""
+    h = np.asarray(h, float)
+    styles = [(0, (1, 3)), (0, (5, 3)), (0, (3, 2, 1, 2)), (0, (8, 2)), (0, (1, 1))]
+    for k, p in enumerate(orders):
+        ax.loglog(h, anchor * (h / h[0]) ** p, color=color, ls=styles[k % len(styles)], lw=1,
+                  label=f"slope {p:g}")
+
+
+def guide_orders(observed) -> tuple:
+    """Slopes 1 and 2, plus the integer nearest an observed order above 2."""
+    out = [1, 2]
+    if observed is not None and np.isfinite(observed) and round(observed) > 2:
+        out.append(int(round(observed)))
+    return tuple(out)
+
+
+def draw_study(ax, h, errors, h_diff, diffs, norm: str, reference: str, color="C0",
+               order=None, show_label_norm: bool = True) -> None:
+    """Errors (filled, solid) and differences of successive runs (open, dashed)
+    on log-log axes, each labelled with its successive orders and, through 3
+    points or more, its least-squares order. Shared with bench/convergence.py."""
+    tag = f"{norm} " if show_label_norm else ""
+    err_orders = successive_orders(h, errors) if len(h) >= 2 else []
+    label = f"{tag}distance from {REFERENCE_NAMES.get(reference, reference)}"
+    if len(err_orders):
+        label += f": orders {_orders_text(err_orders)}"
+    if order is not None:
+        label += f", fit {order:.2f}"
+    ax.loglog(h, errors, "o-", color=color, label=label)
+    if len(diffs):
+        d_orders = successive_orders(h_diff, diffs) if len(diffs) >= 2 else []
+        label = f"{tag}difference of successive runs"
+        if len(d_orders):
+            label += f": orders {_orders_text(d_orders)}"
+        ax.loglog(h_diff, diffs, "s--", color=color, mfc="none", label=label)
+
+
+def title(res) -> str:
+    """Scene, what varies, norm and time: the figure says what it shows."""
+    scene = res.get("scene") or "nuno"
+    if res["kind"] == "nx":
+        lat = res["lattices"]
+        what = (f"N = {lat[0][0]} .. {lat[-1][0]}" if all(a == b for a, b in lat)
+                else f"{lat[0][0]} x {lat[0][1]} .. {lat[-1][0]} x {lat[-1][1]}")
+    else:
+        hs = res["h_all"]
+        what = f"dt = {hs[0]:g} .. {hs[-1]:g} s"
+    return f"{scene}: {what}, {res['norm']} norm, t = {res['time']:g} s"
 
 
 def build_figure(res):
-    fig, (ax,) = plotting.new_figure(1, ncols=1, panel_size=(6.0, 4.5))
-    h, e = res["h"], res["errors"]
+    fig, (ax,) = plotting.new_figure(1, ncols=1, panel_size=(6.5, 5.0))
     units = res["units"]
-    ax.loglog(h, e, "o", color="C0", label="runs")
-    ax.loglog(h, np.exp(res["intercept"]) * h ** res["order"], "--", color="C1",
-              label=f"fit, order {res['order']:.3f}")
+    draw_study(ax, res["h"], res["errors"], res["h_differences"], res["differences"],
+               res["norm"], res["reference"], order=res["order"])
+    slope_guides(ax, res["h_all"], float(res["errors"][0]), guide_orders(res["observed"]))
     if res["kind"] == "nx":
         ax.set_xlabel(plotting.length_label("lattice spacing h", units))
     else:
         ax.set_xlabel("time step dt [s]")
-    ref = {"finest": "finest run", "richardson": "Richardson estimate",
-           "run": "reference run"}[res["reference"]]
-    what = "max" if res.get("norm", "max") == "max" else "rms"
-    ax.set_ylabel(plotting.length_label(f"{what} node distance from {ref}", units))
-    ax.set_title(f"t = {res['time']:g} s", fontsize="medium")
+    ax.set_ylabel(plotting.length_label(f"{res['norm']} node distance", units))
+    ax.set_title(title(res), fontsize="medium")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize="small")
     return fig
+
+
+def using_line(res) -> str:
+    """The one line that says which reference and which order the study reports."""
+    obs = res["observed"]
+    if res["reference"] == "richardson":
+        return (f"using richardson: errors against the Richardson estimate of the two finest "
+                f"runs with the order of the differences of successive runs, {obs:.4g}")
+    if res["reference"] == "finest":
+        return ("using finest: errors against the finest run (biased towards higher orders: "
+                "compare observed_order_differences)")
+    return "using reference-run: errors against the reference run"
 
 
 def _parser():
@@ -188,8 +281,9 @@ def _parser():
                    help="two or more nuno output files (.h5), or one CSV with a header row")
     p.add_argument("--time", type=float, default=None,
                    help="runs: time compared (default: the last common output time)")
-    p.add_argument("--reference", choices=("finest", "richardson"), default="finest",
-                   help="runs: error against the finest run or a Richardson estimate")
+    p.add_argument("--reference", choices=("richardson", "finest"), default="richardson",
+                   help="runs: errors against a Richardson estimate (default; the order of "
+                        "the differences of successive runs) or against the finest run")
     p.add_argument("--reference-run", default=None, metavar="FILE",
                    help="runs: error against this run instead (e.g. a tighter tolerance); "
                         "every study run is kept")
@@ -221,9 +315,18 @@ def _body(args):
         print(f"error {h:.10g} {e:.10g}")
     if len(res["orders"]):
         print("orders " + " ".join(f"{p:.10g}" for p in res["orders"]))
+    for h, d in zip(res["h_differences"], res["differences"]):
+        print(f"difference {h:.10g} {d:.10g}")
+    if len(res["difference_orders"]):
+        print("difference_orders " + " ".join(f"{p:.10g}" for p in res["difference_orders"]))
     if res["observed"] is not None:
         print(f"observed_order_differences {res['observed']:.10g}")
-    print(f"order {res['order']:.10g}")
+    if res["order"] is not None:
+        print(f"order {res['order']:.10g}")
+    else:
+        print(f"no fitted order: {len(res['h'])} errors give one ratio (orders above); "
+              f"a fit needs {MIN_FIT_POINTS}")
+    print(using_line(res))
 
 
 def main(argv=None) -> int:

@@ -1,6 +1,6 @@
 """Identification: observed against identified motion, the fitted values and the objective per iteration.
 
-    python3 -m postprocess.identify_plot FIT.h5 --observed OBS.h5 [--initial INIT.h5]
+    nuno-identify-plot FIT.h5 --observed OBS.h5 [--initial INIT.h5]
                                          [--true e_s=1,k_b=10] [-o FILE.png]
 
 FIT.h5 is the output file of an &identify run (its /identify group: names,
@@ -20,8 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from postprocess import cli, plotting
-from postprocess.reader import read_states
+from . import cli, plotting
+from .reader import read_states
 
 
 def parse_true(text):

@@ -6,7 +6,7 @@ import csv
 
 import numpy as np
 
-from postprocess import cli, plotting
+from . import cli, plotting
 
 
 def _is_number(text: str) -> bool:

@@ -1,6 +1,6 @@
 """Namelist editing with f90nml (a real Fortran namelist parser, not regexes).
 
-    from postprocess.namelist import edit
+    from nuno.namelist import edit
     text = edit(path.read_text(), {"nx": "21", "output_file": "'h21.h5'"}, drop=("k_b",))
 
 Keys are found by name in whichever group holds them (unique across groups,

@@ -90,6 +90,15 @@ def setup_3d(ax, lo, hi, units: str, view: str = "iso", title: str | None = None
     for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
         axis.set_major_locator(MaxNLocator(nbins=3))
         axis.labelpad = 6
+    # A short z axis (a near-flat cloth) has room for fewer labels: three
+    # ticks on a box a tenth as tall as wide pile their labels on each other.
+    frac = (hi[2] - lo[2]) / max((hi - lo).max(), 1e-300)
+    if frac < 0.2:
+        ax.set_zticks([_one_tick(lo[2], hi[2])])
+        # seen flat, the x and y tick labels sit lower: the axis labels below them
+        ax.xaxis.labelpad = ax.yaxis.labelpad = 10
+    elif frac < 0.45:
+        ax.zaxis.set_major_locator(MaxNLocator(nbins=1))
     ax.tick_params(labelsize="small", pad=1)
     ax.set_xlabel(length_label("x", units))
     ax.set_ylabel(length_label("y", units))
@@ -103,6 +112,29 @@ def setup_3d(ax, lo, hi, units: str, view: str = "iso", title: str | None = None
         ax.xaxis.labelpad = 12  # clear of the tick labels when seen edge-on
     if title:
         ax.set_title(title)
+
+
+def _one_tick(lo: float, hi: float) -> float:
+    """A round value inside [lo, hi] (0 when it is inside)."""
+    if lo <= 0.0 <= hi:
+        return 0.0
+    ticks = [t for t in MaxNLocator(nbins=2).tick_values(lo, hi) if lo <= t <= hi]
+    return float(ticks[len(ticks) // 2]) if ticks else 0.5 * (lo + hi)
+
+
+def iso_panel_size(lo, hi, width: float = 4.2) -> tuple[float, float]:
+    """(width, height) of a 3-D panel: a flat box needs less height than a cube."""
+    span = np.asarray(hi, float) - np.asarray(lo, float)
+    frac = span[2] / max(span.max(), 1e-300)      # how tall the box is
+    return width, width * (0.55 + 0.3 * min(1.0, frac))
+
+
+def iso_zoom(lo, hi) -> float:
+    """The 3-D box's zoom in a panel: a flat box may fill more of its width
+    (its labels need less height), a cube keeps room for them."""
+    span = np.asarray(hi, float) - np.asarray(lo, float)
+    frac = span[2] / max(span.max(), 1e-300)
+    return 0.9 + 0.35 * max(0.0, 1.0 - frac / 0.4)
 
 
 def shrink_3d_box(ax, zoom: float = 0.9) -> None:
@@ -130,17 +162,69 @@ def time_colormap(t0: float, t1: float):
     return (lambda t: cmap(norm(t))), ScalarMappable(norm=norm, cmap=cmap)
 
 
-def draw_lattice_side(ax, pos, color="C0", linewidth=0.8):
-    """The lattice lines of [ny][nx][3] projected onto the x-z plane, on 2-D axes.
+PLANES = ("xz", "yz")
+_AXIS = {"x": 0, "y": 1, "z": 2}
 
-    A side view along y without a 3-D box: rows and columns of the lattice as
-    x-z polylines. The caller sets the limits and ax.set_aspect("equal").
+
+def side_plane(positions, reference=None) -> str:
+    """'xz' or 'yz': the vertical plane of largest horizontal motion.
+
+    positions: arrays [ny][nx][3] (the states shown); the motion of a node
+    is its displacement from `reference` (e.g. the rest lattice), or from the
+    first state; the plane is x-z when the nodes move further along x than
+    along y, else y-z (hang swings in y-z: its x-z projection shows little).
+    """
+    pts = [np.asarray(p, float) for p in positions]
+    ref = np.asarray(reference, float) if reference is not None else pts[0]
+    d = np.stack([p - ref for p in pts])
+    spread = np.ptp(d[..., 0]) + np.abs(d[..., 0]).max(), np.ptp(d[..., 1]) + np.abs(d[..., 1]).max()
+    return "xz" if spread[0] >= spread[1] else "yz"
+
+
+def draw_lattice_side(ax, pos, color="C0", linewidth=0.8, plane: str = "xz", label=None):
+    """The lattice lines of [ny][nx][3] projected onto the x-z or y-z plane, on 2-D axes.
+
+    A side view without a 3-D box: rows and columns of the lattice as
+    polylines. The caller sets the limits and equal aspect (side_axes).
     """
     from matplotlib.collections import LineCollection  # only this view needs it
 
-    xz = np.asarray(pos)[..., ::2]  # [ny][nx][(x, z)]
-    lines = list(xz) + list(xz.transpose(1, 0, 2))
-    return ax.add_collection(LineCollection(lines, colors=[color], linewidths=linewidth))
+    cols = [_AXIS[plane[0]], _AXIS[plane[1]]]
+    uv = np.asarray(pos)[..., cols]  # [ny][nx][(u, z)]
+    lines = list(uv) + list(uv.transpose(1, 0, 2))
+    return ax.add_collection(LineCollection(lines, colors=[color], linewidths=linewidth,
+                                            label=label))
+
+
+def side_axes(ax, lo, hi, units, plane: str = "xz", title=None, labels: bool = True):
+    """2-D side-view axes over the box [lo, hi]: equal scales, nothing clipped."""
+    u, v = _AXIS[plane[0]], _AXIS[plane[1]]
+    pad = 0.04 * max(hi[u] - lo[u], hi[v] - lo[v], 1e-12)
+    # Equal scales by widening the limits to the panel, not by shrinking the
+    # box: a near-flat sheet seen edge-on would leave a sliver of axes with
+    # its tick labels piled up and the canvas empty. (Autoscaled limits, not
+    # set ones, which the aspect would override with a warning.)
+    ax.update_datalim([(lo[u] - pad, lo[v] - pad), (hi[u] + pad, hi[v] + pad)])
+    ax.margins(0.0)
+    ax.autoscale_view()
+    ax.set_aspect("equal", adjustable="datalim")
+    # Few ticks: side-by-side panels of a narrow plane pile long labels.
+    ax.xaxis.set_major_locator(MaxNLocator(nbins=4))
+    ax.yaxis.set_major_locator(MaxNLocator(nbins=4))
+    if labels:
+        ax.set_xlabel(length_label(plane[0], units))
+        ax.set_ylabel(length_label(plane[1], units))
+    ax.grid(True, alpha=0.3)
+    if title:
+        ax.set_title(title)
+
+
+def side_panel_size(lo, hi, plane: str, width: float = 3.6) -> tuple[float, float]:
+    """(width, height) in inches of a side-view panel whose plot fills it:
+    the data's aspect plus room for the title and the tick and axis labels."""
+    u, v = _AXIS[plane[0]], _AXIS[plane[1]]
+    aspect = (hi[v] - lo[v] + 1e-12) / (hi[u] - lo[u] + 1e-12)
+    return width, max(1.7, min(1.6 * width, (width - 0.8) * aspect + 1.1))
 
 
 def objective_panel(ax, history, units: str, title: str, color: str = "C0") -> None:

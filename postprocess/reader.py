@@ -1,6 +1,6 @@
 """The one reader of nuno output files (HDF5 layout of docs/model.md section 9).
 
-    from postprocess.reader import read_run
+    from nuno.reader import read_run
     run = read_run("run.h5")
     run.position        # [nt][ny][nx][3], float64, read lazily (Steps)
     run.position[k]     # one step [ny][nx][3]: reads only that step

@@ -1,8 +1,8 @@
 """Run the report's three scenes and draw its Figs. 3-5 (paper and energy models side by side).
 
-    python3 -m postprocess.report_figures                 # run all scenes, then plot
-    python3 -m postprocess.report_figures --skip-run      # re-plot runs/report/*.h5
-    python3 -m postprocess.report_figures --quick --outdir /tmp/f --rundir /tmp/r
+    nuno-report-figures                 # run all scenes, then plot
+    nuno-report-figures --skip-run      # re-plot runs/report/*.h5
+    nuno-report-figures --quick --outdir /tmp/f --rundir /tmp/r
 
 Each scene runs from its namelist in input/ (the paper model, our reading of
 the report, and the `_energy` variant with the corrected bending model); a
@@ -26,8 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from postprocess import cli, namelist, plotting
-from postprocess.snapshots import choose_steps
+from . import cli, namelist, plotting
+from .snapshots import choose_steps
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -295,7 +295,11 @@ BUILDERS = {"fig3_lift_release": build_fig3, "fig4_bend_release": build_fig4,
 
 def _parser():
     p = cli.parser(__doc__.splitlines()[0], "report_figures")
-    p.add_argument("--outdir", default="docs/figures", help="where the PNGs go (default docs/figures)")
+    # Under runs/ (ignored): a tool run never overwrites the tracked docs/figures
+    # unless told to (--outdir docs/figures).
+    p.add_argument("--outdir", default="runs/figures",
+                   help="where the PNGs go (default runs/figures; --outdir docs/figures "
+                        "updates the documentation's)")
     p.add_argument("--rundir", default="runs/report",
                    help="where the runs' namelists, .h5 and logs go (default runs/report)")
     p.add_argument("--nranks", type=int, default=2, help="MPI ranks per run (default 2)")

@@ -1,13 +1,21 @@
 """Energies, energy-balance drift, momenta, length, flatness and solver counts against time.
 
-    python3 -m postprocess.timeseries run.h5 -o run_timeseries.png
+    nuno-timeseries run.h5 -o run_timeseries.png
+    nuno-timeseries sweep/*.h5 --label e_s -o sweep_timeseries.png
+
+One run: its energies, balance, momentum and angular momentum components,
+length, flatness, step and iteration counts. Several runs (a sweep): the
+same quantities overlaid, one line a run coloured in order and labelled by
+the file name, by --labels, or by the value of a swept namelist key
+(--label e_s): kinetic and elastic energy, balance drift, |p|, |L|,
+length, flatness and the cumulative linear iterations (the cost).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from postprocess import cli, plotting
+from . import cli, plotting
 
 N_PANELS = 8
 
@@ -95,17 +103,88 @@ def build_figure(run):
     return fig
 
 
+OVERLAY = (  # (panel, y label kind, function run -> [nt] or None)
+    ("kinetic energy", "energy", lambda r: r.energy.get("kinetic")),
+    ("elastic energy (stretch + bend)", "energy",
+     lambda r: r.energy["stretch"] + r.energy["bend"]
+     if "stretch" in r.energy and "bend" in r.energy else None),
+    ("balance drift / max energy", None, lambda r: _drift_or_none(r)),
+    ("|momentum|", "momentum", lambda r: _norm(r.diagnostics.get("momentum"))),
+    ("|angular momentum|", "angular momentum",
+     lambda r: _norm(r.diagnostics.get("angular_momentum"))),
+    ("centre-line length", "length", lambda r: r.diagnostics.get("length")),
+    ("flatness", "length", lambda r: r.diagnostics.get("flatness")),
+    ("linear iterations (cumulative)", None, lambda r: r.diagnostics.get("linear_iterations")),
+)
+
+
+def _norm(v):
+    return None if v is None else np.linalg.norm(np.asarray(v), axis=-1)
+
+
+def _drift_or_none(run):
+    try:
+        return balance_drift(run)
+    except ValueError:
+        return None
+
+
+def build_overlay(runs, names):
+    """8 panels, each a quantity of every run against time, one colour a run."""
+    from .compare import run_colors  # the same colours as nuno-compare's overlay
+
+    units = runs[0].units()
+    colors = run_colors(len(runs), overlay=True)
+    fig, axes = plotting.new_figure(N_PANELS, ncols=2, panel_size=(5.5, 2.8))
+    for ax, (title, kind, fn) in zip(axes, OVERLAY):
+        drawn = False
+        for run, name, c in zip(runs, names, colors):
+            y = fn(run)
+            if y is not None:
+                ax.plot(run.time, y, color=c, label=name)
+                drawn = True
+        if not drawn:
+            _absent(ax, title)
+        if kind == "length":
+            ax.set_ylabel(plotting.length_label(title, units))
+        elif kind:
+            ax.set_ylabel(plotting.quantity_label(kind, units).replace(kind, title, 1))
+        else:
+            ax.set_ylabel(title)
+        ax.set_xlabel("t [s]")
+        ax.grid(True, alpha=0.3)
+    if any(r.diagnostics.get("linear_iterations") is not None for r in runs):
+        axes[-1].set_yscale("symlog", linthresh=10)
+    handles, texts = axes[0].get_legend_handles_labels()
+    fig.legend(handles, texts, loc="outside lower center", ncols=min(len(runs), 6),
+               fontsize="small")
+    scenes = {r.scene() for r in runs} - {None}
+    fig.suptitle(f"{', '.join(sorted(scenes)) or 'nuno'}: {len(runs)} runs")
+    return fig
+
+
 def _parser():
     p = cli.parser(__doc__.splitlines()[0], "timeseries")
-    p.add_argument("run", help="nuno output file (.h5)")
+    p.add_argument("runs", nargs="+", metavar="run",
+                   help="nuno output file(s) (.h5); several are overlaid")
+    cli.add_label_options(p)
     cli.add_output(p, "timeseries")
     return p
 
 
 def _body(args):
-    run = cli.load_run(args.run)
-    plotting.save(build_figure(run), args.output or cli.default_output(args.run, "timeseries"),
-                  args.dpi)
+    runs = [cli.load_run(path) for path in args.runs]
+    names = cli.run_labels(runs, args.label, args.labels)
+    if args.label and not args.labels:
+        # colours in the order of the swept value, whatever the shell's glob order
+        try:
+            keys = [float(cli.run_value(r, args.label)) for r in runs]
+        except (TypeError, ValueError):
+            keys = list(range(len(runs)))
+        order = sorted(range(len(runs)), key=lambda k: keys[k])
+        runs, names = [runs[k] for k in order], [names[k] for k in order]
+    fig = build_figure(runs[0]) if len(runs) == 1 else build_overlay(runs, names)
+    plotting.save(fig, args.output or cli.default_output(args.runs[0], "timeseries"), args.dpi)
 
 
 def main(argv=None) -> int:

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The report's Figs. 3-5: build nuno if needed, run the three scenes with the
-# paper and the energy bending models, write docs/figures/fig{3,4,5}_*.png.
-# Arguments go to postprocess.report_figures (e.g. --skip-run, --quick, --help).
+# paper and the energy bending models into runs/report/, write
+# runs/figures/fig{3,4,5}_*.png (--outdir docs/figures to update the tracked
+# figures of the documentation). Arguments go to postprocess.report_figures
+# (nuno-report-figures: e.g. --skip-run, --quick, --help).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 source "$here/env.sh"
