@@ -15,30 +15,16 @@ module input
                     n_fit_kinds, fit_kind_names
   use input_text, only: assignment_t, lex_overrides, value_error, next_assignment, is_name_char, lower, &
                         strip_commas, overrides_record
+  use input_keys, only: keys, key_index, n_groups, group_names
+  use input_limits, only: max_steps, max_outputs, bytes_per_node_bending, bytes_per_node_plain
   implicit none
   private
-  public :: input_read, input_usage, input_summary, input_parse, input_check_run
-  public :: max_steps, max_outputs, bytes_per_node_bending, bytes_per_node_plain
+  public :: input_read, input_summary, input_parse, input_check_run, input_namelist_dump
 
-  integer, parameter :: n_groups = 7
-  character(8), parameter :: group_names(n_groups) = &
-    [character(8) :: 'lattice', 'material', 'scene', 'time', 'output', 'identify', 'control']
+  ! Group codes: positions in input_keys' group_names.
   integer, parameter :: G_LATTICE = 1, G_MATERIAL = 2, G_SCENE = 3, G_TIME = 4, G_OUTPUT = 5, G_IDENTIFY = 6, &
                         G_CONTROL = 7
   integer, parameter :: msg_len = 1024
-
-  character(*), parameter :: scene_list = 'lift_release, bend_release, wave_point, hang, flat'
-
-  !> Sane bounds of a run: more steps (t_end/dt) or output steps
-  !> (t_end/output_interval) than this need -nuno_allow_long, so that a typo
-  !> in dt (1e-12) does not start a job that cannot end.
-  real(rp), parameter :: max_steps = 1.0e8_rp, max_outputs = 1.0e5_rp
-  !> Memory a lattice node needs on the leanest solver path (reduced
-  !> Jacobian, multigrid), measured peak on one rank (docs/performance.md,
-  !> "Memory: bytes per node"): 5.7 KB with bending, ~3 KB without. More ranks
-  !> and -nuno_jacobian full need more: the check is a lower bound, so it
-  !> never refuses a run that could fit.
-  real(rp), parameter :: bytes_per_node_bending = 5700.0_rp, bytes_per_node_plain = 3000.0_rp
 
   !> The input text made ready for the namelist reader: comments and text
   !> outside groups blanked, one record per line; each group's body kept
@@ -315,7 +301,7 @@ contains
       if (ierr /= 0) goto 900
     end if
     first%scene = lower(adjustl(first%scene))
-    call check_choice('scene', 'scene', first%scene, scene_list, code, ierr, msg)
+    call check_choice('scene', 'scene', first%scene, choices('scene'), code, ierr, msg)
     if (ierr /= 0) goto 900
 
     ! 2. That scene's defaults; keys whose default depends on other keys start unset.
@@ -794,15 +780,19 @@ contains
     end do
   end subroutine unrename_scene
 
-  !> One namelist READ of group g from the records `lines`, over cfg.
-  subroutine read_nml(g, lines, cfg, ios, iomsg)
+  !> One namelist READ of group g from the records `lines`, over cfg; with
+  !> `dump`, a namelist WRITE of cfg's values of group g into dump instead.
+  subroutine read_nml(g, lines, cfg, ios, iomsg, dump)
     integer, intent(in) :: g
     character(*), intent(in) :: lines(:)
     type(nuno_config), intent(inout) :: cfg
     integer, intent(out) :: ios
     character(*), intent(inout) :: iomsg
+    character(*), intent(out), optional :: dump(:)
     ! Namelist objects must be variables: locals named after the keys. A key
-    ! added here goes into module input_text's table too (its group and type).
+    ! added here goes into module input_keys' table too (name, group, type,
+    ! unit, default, meaning): tests/mpi/test_input_keys.F90 fails until the
+    ! two agree.
     integer :: nx, ny
     real(rp) :: lx, ly, total_mass
     character(label_len) :: mass_distribution, lattice_scaling
@@ -841,7 +831,11 @@ contains
     case (G_LATTICE)
       nx = cfg%nx; ny = cfg%ny; lx = cfg%lx; ly = cfg%ly; total_mass = cfg%total_mass
       mass_distribution = cfg%mass_distribution; lattice_scaling = cfg%lattice_scaling
-      read(lines, nml=lattice, iostat=ios, iomsg=iomsg)
+      if (present(dump)) then
+        write(dump, nml=lattice, delim='apostrophe', iostat=ios, iomsg=iomsg)
+      else
+        read(lines, nml=lattice, iostat=ios, iomsg=iomsg)
+      end if
       if (ios == 0) then
       cfg%nx = nx; cfg%ny = ny; cfg%lx = lx; cfg%ly = ly; cfg%total_mass = total_mass
       cfg%mass_distribution = mass_distribution; cfg%lattice_scaling = lattice_scaling
@@ -849,7 +843,11 @@ contains
     case (G_MATERIAL)
       spring_model = cfg%spring_model; e_s = cfg%e_s; eta_s = cfg%eta_s; e_d = cfg%e_d
       eta_d = cfg%eta_d; bending_model = cfg%bending_model; k_b = cfg%k_b; eta_b = cfg%eta_b
-      read(lines, nml=material, iostat=ios, iomsg=iomsg)
+      if (present(dump)) then
+        write(dump, nml=material, delim='apostrophe', iostat=ios, iomsg=iomsg)
+      else
+        read(lines, nml=material, iostat=ios, iomsg=iomsg)
+      end if
       if (ios == 0) then
       cfg%spring_model = spring_model; cfg%e_s = e_s; cfg%eta_s = eta_s; cfg%e_d = e_d
       cfg%eta_d = eta_d; cfg%bending_model = bending_model; cfg%k_b = k_b; cfg%eta_b = eta_b
@@ -860,7 +858,11 @@ contains
       keyframe_time = cfg%keyframe_time; keyframe_dz = cfg%keyframe_dz; wave_nodes = cfg%wave_nodes
       keyframe_dx = cfg%keyframe_dx; keyframe_dy = cfg%keyframe_dy
       release_time = cfg%release_time; initial_omega = cfg%initial_omega
-      read(lines, nml=scene, iostat=ios, iomsg=iomsg)
+      if (present(dump)) then
+        write(dump, nml=scene, delim='apostrophe', iostat=ios, iomsg=iomsg)
+      else
+        read(lines, nml=scene, iostat=ios, iomsg=iomsg)
+      end if
       if (ios == 0) then
       cfg%scene = scene_name; cfg%gravity = gravity; cfg%lift_length = lift_length
       cfg%lift_height = lift_height; cfg%bend_angle = bend_angle; cfg%n_keyframes = n_keyframes
@@ -870,7 +872,11 @@ contains
       end if
     case (G_TIME)
       t_end = cfg%t_end; dt = cfg%dt
-      read(lines, nml=time, iostat=ios, iomsg=iomsg)
+      if (present(dump)) then
+        write(dump, nml=time, delim='apostrophe', iostat=ios, iomsg=iomsg)
+      else
+        read(lines, nml=time, iostat=ios, iomsg=iomsg)
+      end if
       if (ios == 0) then
         cfg%t_end = t_end; cfg%dt = dt
       end if
@@ -878,7 +884,11 @@ contains
       output_interval = cfg%output_interval; write_velocity = cfg%write_velocity
       output_file = cfg%output_file; petsc_options = cfg%petsc_options
       stretch_limit = cfg%stretch_limit; checkpoint_interval = cfg%checkpoint_interval
-      read(lines, nml=output, iostat=ios, iomsg=iomsg)
+      if (present(dump)) then
+        write(dump, nml=output, delim='apostrophe', iostat=ios, iomsg=iomsg)
+      else
+        read(lines, nml=output, iostat=ios, iomsg=iomsg)
+      end if
       if (ios == 0) then
       cfg%output_interval = output_interval; cfg%write_velocity = write_velocity
       cfg%output_file = output_file; cfg%petsc_options = petsc_options
@@ -887,7 +897,11 @@ contains
     case (G_IDENTIFY)
       observed_file = cfg%observed_file; fit = cfg%fit; fit_lower = cfg%fit_lower
       fit_upper = cfg%fit_upper; tikhonov = cfg%tikhonov
-      read(lines, nml=identify, iostat=ios, iomsg=iomsg)
+      if (present(dump)) then
+        write(dump, nml=identify, delim='apostrophe', iostat=ios, iomsg=iomsg)
+      else
+        read(lines, nml=identify, iostat=ios, iomsg=iomsg)
+      end if
       if (ios == 0) then
         cfg%observed_file = observed_file; cfg%fit = fit; cfg%fit_lower = fit_lower
         cfg%fit_upper = fit_upper; cfg%tikhonov = tikhonov
@@ -895,7 +909,11 @@ contains
     case (G_CONTROL)
       target_file = cfg%target_file; components = cfg%components; max_speed = cfg%max_speed
       velocity_weight = cfg%velocity_weight; keyframe_tikhonov = cfg%keyframe_tikhonov
-      read(lines, nml=control, iostat=ios, iomsg=iomsg)
+      if (present(dump)) then
+        write(dump, nml=control, delim='apostrophe', iostat=ios, iomsg=iomsg)
+      else
+        read(lines, nml=control, iostat=ios, iomsg=iomsg)
+      end if
       if (ios == 0) then
         cfg%target_file = target_file; cfg%components = components; cfg%max_speed = max_speed
         cfg%velocity_weight = velocity_weight; cfg%keyframe_tikhonov = keyframe_tikhonov
@@ -908,6 +926,33 @@ contains
       call reset_list_state()
     end if
   end subroutine read_nml
+
+  !> The namelist text of group `group` ('lattice', ...) with cfg's values,
+  !> as the reader's own namelist WRITE gives it (gfortran: upper-case
+  !> names, records joined by line feeds; the key `scene` as SCENE_NAME).
+  !> It names exactly the keys the reader reads, with their sizes and types:
+  !> tests/mpi/test_input_keys.F90 checks the key table against it.
+  subroutine input_namelist_dump(cfg, group, text, ios)
+    type(nuno_config), intent(in) :: cfg
+    character(*), intent(in) :: group
+    character(:), allocatable, intent(out) :: text
+    integer, intent(out) :: ios
+    character(:), allocatable :: lines(:)
+    character(msg_len) :: iomsg
+    type(nuno_config) :: c
+    integer :: k
+    text = ''
+    ios = 1
+    if (group_index(group) == 0) return
+    allocate(character(2048) :: lines(200))
+    lines = ''
+    c = cfg
+    call read_nml(group_index(group), lines(1:1), c, ios, iomsg, dump=lines)
+    if (ios /= 0) return
+    do k = 1, size(lines)
+      if (len_trim(lines(k)) > 0) text = text//trim(lines(k))//new_line('a')
+    end do
+  end subroutine input_namelist_dump
 
   !> libgfortran 12 keeps state after a failed namelist read (e.g. a bad
   !> logical: 'Bad repeat count'), and the next namelist read then succeeds
@@ -998,7 +1043,7 @@ contains
     cfg%spring_model = lower(adjustl(cfg%spring_model))
     cfg%bending_model = lower(adjustl(cfg%bending_model))
     cfg%wave_nodes = lower(adjustl(cfg%wave_nodes))
-    call check_choice('lattice', 'lattice_scaling', cfg%lattice_scaling, 'element, continuum', &
+    call check_choice('lattice', 'lattice_scaling', cfg%lattice_scaling, choices('lattice_scaling'), &
                       cfg%scaling_code, ierr, msg)
     if (ierr /= 0) return
     if (len_trim(cfg%mass_distribution) == 0) then
@@ -1009,13 +1054,13 @@ contains
         cfg%mass_distribution = 'uniform'
       end if
     end if
-    call check_choice('lattice', 'mass_distribution', cfg%mass_distribution, 'uniform, area', &
+    call check_choice('lattice', 'mass_distribution', cfg%mass_distribution, choices('mass_distribution'), &
                       cfg%mass_code, ierr, msg)
     if (ierr /= 0) return
-    call check_choice('material', 'spring_model', cfg%spring_model, 'axial, linear', &
+    call check_choice('material', 'spring_model', cfg%spring_model, choices('spring_model'), &
                       cfg%spring_code, ierr, msg)
     if (ierr /= 0) return
-    call check_choice('material', 'bending_model', cfg%bending_model, 'none, paper, energy', &
+    call check_choice('material', 'bending_model', cfg%bending_model, choices('bending_model'), &
                       cfg%bending_code, ierr, msg)
     if (ierr /= 0) return
     cfg%bending_code = cfg%bending_code - 1   ! list order none, paper, energy = 0, 1, 2
@@ -1318,6 +1363,14 @@ contains
     end do
   end function printable
 
+  !> The allowed values of choice key `key` (the key table's list; its order
+  !> is the order of the codes in module config).
+  function choices(key) result(s)
+    character(*), intent(in) :: key
+    character(:), allocatable :: s
+    s = trim(keys(key_index(key))%allowed)
+  end function choices
+
   !> value (lower case) must be one of the comma-separated `allowed`; code = its position.
   subroutine check_choice(group, key, value, allowed, code, ierr, msg)
     character(*), intent(in) :: group, key, value, allowed
@@ -1479,7 +1532,7 @@ contains
     integer, intent(out) :: ierr
     character(*), intent(out) :: msg
     integer :: code
-    call check_choice('scene', 'wave_nodes', cfg%wave_nodes, 'corner, edge', code, ierr, msg)
+    call check_choice('scene', 'wave_nodes', cfg%wave_nodes, choices('wave_nodes'), code, ierr, msg)
   end subroutine check_wave_nodes
 
   subroutine check_time(cfg, ierr, msg)
@@ -1560,159 +1613,6 @@ contains
   ! ==========================================================================
   ! Help and summary
   ! ==========================================================================
-
-  !> Write the `nuno --help` text.
-  subroutine input_usage(unit)
-    integer, intent(in) :: unit
-    write(unit, '(a)') 'usage: mpirun -n P nuno INPUT.nml [PETSc options]', &
-      '       nuno --help', &
-      '       nuno --version                          the version and the git commit of the build', &
-      '', &
-      'An error is one line on stderr, and every rank exits with status 1; the banner', &
-      'that follows is Open MPI''s, for any non-zero exit (mpirun -q hides it).', &
-      '', &
-      'nuno integrates an implicit mass-spring cloth: an nx x ny lattice of mass points', &
-      'joined by Voigt elements (spring + dashpot) to their 8 neighbours, with bending', &
-      '(the report''s "paper" model or the energy-based "energy" model), gravity and', &
-      'pinned or prescribed nodes, in time with PETSc TS on a DMDA split in strips of', &
-      'rows over P ranks. Results go to one HDF5 file with an XDMF file beside it.', &
-      'The run writes OUTPUT.partial, locked against a second writer (OUTPUT.lock), and', &
-      'renames it onto OUTPUT after its first successful step: a run that fails at', &
-      'start-up leaves an earlier OUTPUT as it was. OUTPUT may not be the input file.', &
-      '', &
-      'INPUT.nml holds Fortran namelist groups, each optional, each at most once, and', &
-      'nothing else but blanks and ! comments (an empty file or stray text is an error):', &
-      '  &scene     scene name (lift_release, bend_release, wave_point, hang, flat),', &
-      '             gravity, scene geometry, keyframes, release time, initial spin', &
-      '  &lattice   nx, ny, lx, ly, total_mass, mass_distribution, lattice_scaling', &
-      '  &material  spring_model, e_s, eta_s, e_d, eta_d, bending_model, k_b, eta_b', &
-      '  &time      t_end, dt', &
-      '  &output    output_interval, write_velocity, output_file, petsc_options, stretch_limit,', &
-      '             checkpoint_interval', &
-      '  &identify  observed_file, fit, fit_lower, fit_upper, tikhonov: fit parameters to an', &
-      '             observed motion (docs/identification.md); -identify_check_gradient', &
-      '             prints the adjoint gradient against central differences and stops', &
-      '  &control   target_file, components, max_speed, velocity_weight, keyframe_tikhonov:', &
-      '             optimise the keyframes of the driven nodes so that the cloth reaches the', &
-      '             target (docs/identification.md); -control_check_gradient as above', &
-      'The scene sets the defaults of every other key. Every key, its unit and its', &
-      'default: input/README.md; ready-made inputs: input/*.nml. Real keys must be', &
-      'finite (no NaN, Inf); a lattice beyond the index range or the memory of the', &
-      'ranks'' hosts (5.7 KB a node with bending, 3 KB without) is refused.', &
-      '', &
-      'Input checks:', &
-      '  -nuno_allow_long                             run even with more than 1e8 steps (t_end/dt) or', &
-      '                                               1e5 output steps (t_end/output_interval)', &
-      '', &
-      'Checkpoints and restart (input/README.md, "Checkpoints and restart"):', &
-      '  -nuno_restart FILE                           continue the run in FILE from its last checkpoint,', &
-      '                                               appending to its series (t_end may be later)', &
-      '  -nuno_checkpoint_walltime D                  a checkpoint after each D of wall-clock time', &
-      '                                               (seconds, 90m, 23h, 1d or H:MM:SS); one is always', &
-      '                                               written at the end, on SIGTERM/SIGINT and every', &
-      '                                               checkpoint_interval (&output)', &
-      '', &
-      'Namelist keys from the command line (sweeps without copying files):', &
-      '  -nuno_set key=value[,key=value...]           over the file''s values, same checks; a key by its', &
-      '                                               name or as group%key; strings quoted, e.g.', &
-      '                                               -nuno_set "nx=257,ny=257,output_file=''h257.h5''"', &
-      '                                               (recorded in the output''s namelist attribute);', &
-      '                                               commas or blanks between keys; several -nuno_set', &
-      '                                               are read in order; a key given twice, an empty', &
-      '                                               value or one not of the key''s type is refused', &
-      '', &
-      'PETSc options (petsc_options in &output; the command line overrides them):', &
-      '  -ts_type beuler|theta|cn|bdf|arkimex|rosw   integrator (default: backward Euler, the report''s, with', &
-      '                                               the namelist''s fixed dt)', &
-      '  -ts_adapt_type basic -ts_rtol R -ts_atol A  adaptive steps with error control; without -ts_type they', &
-      '                                               use rosw (Rosenbrock-W ra34pw2, the fastest at moderate', &
-      '                                               tolerance in docs/workprecision.md)', &
-      '  -nuno_adaptive_ts_type T                     that default TS type of adaptive runs (default rosw)', &
-      '  -nuno_atol_position A                        absolute tolerance of positions [length] (default', &
-      '                                               -ts_atol, else R times the cloth size max(lx, ly))', &
-      '  -nuno_atol_velocity B                        absolute tolerance of velocities [length/time] (default', &
-      '                                               the position one per time unit); velocities also get R |v|', &
-      '  -ts_monitor, -snes_monitor, -ksp_monitor     progress of steps, Newton, Krylov', &
-      '  -snes_rtol R, -snes_max_it N                 Newton tolerance and iterations', &
-      '  -snes_type ksponly                           Baraff-Witkin mode: one linearised solve a step', &
-      '  -log_view                                    timings at the end (in petsc_options too, but', &
-      '                                               -log_view :FILE, like every viewer that writes a', &
-      '                                               file, only on the command line)', &
-      '', &
-      'Which integrator for which goal (docs/workprecision.md, docs/convergence.md):', &
-      '  fast, moderate accuracy                      -ts_adapt_type basic [-ts_rtol R]: rosw ra34pw2, final', &
-      '    (errors 1e-3 .. 1e-5 of the cloth size)    error 0.3-12 R measured (default 2-norm)', &
-      '  tight accuracy, a final position error E     -ts_type arkimex -ts_arkimex_type 5', &
-      '    (relative to the cloth size)               -ts_arkimex_fully_implicit -ts_adapt_type basic', &
-      '                                               -ts_adapt_wnormtype infinity -ts_rtol E  (at most 10 E', &
-      '                                               measured; -ts_type bdf -ts_bdf_order 4 or 5 is often', &
-      '                                               faster, but its error is not tied to R: check it)', &
-      '  speed on large lattices                      -snes_type ksponly -reduced_ksp_rtol 1e-3 with fixed', &
-      '                                               steps: the Baraff-Witkin mode, one linear solve a step,', &
-      '                                               first order', &
-      '  reproducible runs                            fixed steps (no -ts_adapt_type) with -ts_dt DT: the same', &
-      '                                               steps whatever the solution; beuler (default) is order 1,', &
-      '                                               -ts_type cn order 2, -ts_type rosw order 3 at about the', &
-      '                                               cost of cn (fixed-step bdf 3-5: order 2, see docs)', &
-      '', &
-      'The Newton step (docs/design.md):', &
-      '  -nuno_jacobian reduced|full                  reduced (default): only the 3-dof velocity system', &
-      '                                               S = a M - C - K/a is assembled and the 6-dof step is', &
-      '                                               solved exactly around it; full: the 6-dof Jacobian', &
-      '  -reduced_ksp_type, -reduced_pc_type, ...     the inner solver of S (default FGMRES, rtol 1e-6, with', &
-      '                                               nuno''s structured multigrid where 3 levels fit, else', &
-      '                                               block Jacobi/ILU; CG when S is symmetric and another', &
-      '                                               preconditioner is given); -reduced_ksp_view', &
-      '  -nuno_mg stencil|petsc                       the inner multigrid: nuno''s (default; single precision,', &
-      '                                               stored by stencil offset, no PETSc matrix) or PETSc''s', &
-      '                                               PCMG with Galerkin operators and SOR', &
-      '  -nuno_mg_cycle kaskade|v                     nuno''s multigrid: kaskade (default: restrict the', &
-      '                                               right-hand side, then only upwards) or V-cycles', &
-      '  -nuno_mg_sweeps N, -nuno_mg_levels N         symmetric Gauss-Seidel sweeps a smoothing (1), levels', &
-      '                                               (0: as many as fit, down to 5 nodes a side)', &
-      '  -reduced_dm_mat_type aij|baij|sbaij          storage of S with -reduced_pc_type (default: aij for', &
-      '                                               multigrid, baij else); nuno''s multigrid needs none', &
-      '  -nuno_pc_lag N                               rebuild the inner preconditioner every N assemblies', &
-      '                                               (default 3 with the multigrid, 10 with its cubic', &
-      '                                               interpolation, 1 otherwise; and at every output step;', &
-      '                                               a failed solve rebuilds it and retries)', &
-      '  -nuno_mg_interpolation auto|linear|cubic|coarse_cubic  interpolation of the inner multigrid', &
-      '                                               (auto: with bending, whose fourth-order modes', &
-      '                                               bilinear transfer does not carry, cubic on every', &
-      '                                               level but the finest, whose coarse correction is', &
-      '                                               interpolated cubic too; linear without)', &
-      '  -nuno_newton_forcing [true|false]            Newton solves each inner system only as far as the', &
-      '                                               step needs: its Newton remainder, or half the residual', &
-      '                                               at which Newton stops (default true)', &
-      '  -nuno_inner_guess auto|none|previous|extrapolate|project  the inner solve''s initial guess:', &
-      '                                               the least-squares combination of the last 8 inner', &
-      '                                               solves (project; auto: with bending), at a step''s', &
-      '                                               first Newton iteration the last two steps'' first', &
-      '                                               corrections extrapolated, the last one, or zero', &
-      '                                               (auto: without bending)', &
-      '  -nuno_newton_start auto|linear|cubic         beuler: Newton starts a step from the last two states', &
-      '                                               extrapolated (linear, PETSc''s) or from the polynomial', &
-      '                                               through the last four (cubic; auto: for Newton at', &
-      '                                               fixed steps, linear with -snes_type ksponly)', &
-      '  -snes_lag_jacobian N                         S assembled every N Newton iterations (default 2: the', &
-      '                                               second iteration of a step reuses the first one''s S)', &
-      '  -ts_theta_initial_guess_extrapolate          beuler starts Newton from x + dt xdot (default true,', &
-      '                                               reduced path)', &
-      '  -nuno_snes_floor F                           a residual below F times its start that stops', &
-      '                                               decreasing is converged (default 1e-6; 0: off)', &
-      '  -snes_ksp_ew                                 Eisenstat-Walker: its forcing term is the inner rtol', &
-      '  -nuno_gauss_newton                           energy bending: Gauss-Newton blocks -k_b J^T J in the', &
-      '                                               assembled matrix, S or the 6-dof Jacobian (an inexact', &
-      '                                               Newton; with full and -snes_mf_operator: exact operator', &
-      '                                               applied matrix-free, Gauss-Newton preconditioner)', &
-      '  -nuno_clamp_compression                      drop the indefinite compression term of the springs', &
-      '                                               from the assembled matrix (preconditioner use)', &
-      '  -nuno_linesearch_fallback bt|l2|none         after a failed Newton solve, the rest of the run takes', &
-      '                                               this line search instead of full steps (default bt)', &
-      'With -nuno_jacobian full:', &
-      '  -ksp_type gmres|bcgs|preonly, -pc_type ilu|lu|bjacobi|fieldsplit|gamg', &
-      '  -dm_mat_type baij|aij                        Jacobian storage (default baij 6x6; aij for fieldsplit)'
-  end subroutine input_usage
 
   !> Write a few lines that describe the run (call on one rank).
   subroutine input_summary(cfg, unit, ts_dt, ts_max_time)

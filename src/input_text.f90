@@ -1,7 +1,7 @@
 !> The input's text below the namelist reader, without MPI or PETSc
 !> (unit-tested alone: tests/unit/test_input_text.f90):
-!> - the table of keys: the group and the type of each (names are unique
-!>   across groups);
+!> - the lookup of a key in the table of keys (module input_keys: names are
+!>   unique across groups);
 !> - the check of a value against its key's type, so that `nx = 33.5` is
 !>   refused as "expected an integer" instead of the reader's "Cannot match
 !>   namelist object name .5", and an unquoted string gets the hint to quote it;
@@ -13,13 +13,13 @@
 !>   themselves: PETSc's options database keeps only the last of a repeated
 !>   option, and from Fortran it keeps a value only up to its first blank.
 module input_text
+  use input_keys, only: keys, key_index, KEY_INTEGER, KEY_REAL, KEY_LOGICAL, KEY_STRING
   implicit none
   private
   public :: assignment_t, lex_overrides, key_lookup, value_error, command_line_overrides
   public :: next_assignment, is_name_char, lower, strip_commas, overrides_record
   public :: KEY_INTEGER, KEY_REAL, KEY_LOGICAL, KEY_STRING
 
-  integer, parameter :: KEY_INTEGER = 1, KEY_REAL = 2, KEY_LOGICAL = 3, KEY_STRING = 4
   !> The separator of the -nuno_set options joined into one text
   !> (command_line_overrides): a line feed, a hard boundary for lex_overrides.
   character(1), parameter :: option_sep = achar(10)
@@ -33,45 +33,6 @@ module input_text
     character(:), allocatable :: text    !< the assignment as written, for messages
   end type assignment_t
 
-  type :: key_entry
-    character(20) :: name
-    character(8) :: group
-    integer :: kind         ! KEY_*
-    logical :: array
-  end type key_entry
-
-  integer, parameter :: n_keys = 46
-  type(key_entry), parameter :: keys(n_keys) = [ &
-    key_entry('nx', 'lattice', KEY_INTEGER, .false.), key_entry('ny', 'lattice', KEY_INTEGER, .false.), &
-    key_entry('lx', 'lattice', KEY_REAL, .false.), key_entry('ly', 'lattice', KEY_REAL, .false.), &
-    key_entry('total_mass', 'lattice', KEY_REAL, .false.), &
-    key_entry('mass_distribution', 'lattice', KEY_STRING, .false.), &
-    key_entry('lattice_scaling', 'lattice', KEY_STRING, .false.), &
-    key_entry('spring_model', 'material', KEY_STRING, .false.), key_entry('e_s', 'material', KEY_REAL, .false.), &
-    key_entry('eta_s', 'material', KEY_REAL, .false.), key_entry('e_d', 'material', KEY_REAL, .false.), &
-    key_entry('eta_d', 'material', KEY_REAL, .false.), &
-    key_entry('bending_model', 'material', KEY_STRING, .false.), key_entry('k_b', 'material', KEY_REAL, .false.), &
-    key_entry('eta_b', 'material', KEY_REAL, .false.), &
-    key_entry('scene', 'scene', KEY_STRING, .false.), key_entry('gravity', 'scene', KEY_REAL, .true.), &
-    key_entry('lift_length', 'scene', KEY_REAL, .false.), key_entry('lift_height', 'scene', KEY_REAL, .false.), &
-    key_entry('bend_angle', 'scene', KEY_REAL, .false.), key_entry('n_keyframes', 'scene', KEY_INTEGER, .false.), &
-    key_entry('keyframe_time', 'scene', KEY_REAL, .true.), key_entry('keyframe_dx', 'scene', KEY_REAL, .true.), &
-    key_entry('keyframe_dy', 'scene', KEY_REAL, .true.), key_entry('keyframe_dz', 'scene', KEY_REAL, .true.), &
-    key_entry('wave_nodes', 'scene', KEY_STRING, .false.), key_entry('release_time', 'scene', KEY_REAL, .false.), &
-    key_entry('initial_omega', 'scene', KEY_REAL, .true.), &
-    key_entry('t_end', 'time', KEY_REAL, .false.), key_entry('dt', 'time', KEY_REAL, .false.), &
-    key_entry('output_interval', 'output', KEY_REAL, .false.), &
-    key_entry('write_velocity', 'output', KEY_LOGICAL, .false.), &
-    key_entry('output_file', 'output', KEY_STRING, .false.), key_entry('petsc_options', 'output', KEY_STRING, .false.), &
-    key_entry('stretch_limit', 'output', KEY_REAL, .false.), &
-    key_entry('checkpoint_interval', 'output', KEY_REAL, .false.), &
-    key_entry('observed_file', 'identify', KEY_STRING, .false.), key_entry('fit', 'identify', KEY_STRING, .false.), &
-    key_entry('fit_lower', 'identify', KEY_REAL, .true.), key_entry('fit_upper', 'identify', KEY_REAL, .true.), &
-    key_entry('tikhonov', 'identify', KEY_REAL, .false.), &
-    key_entry('target_file', 'control', KEY_STRING, .false.), key_entry('components', 'control', KEY_STRING, .false.), &
-    key_entry('max_speed', 'control', KEY_REAL, .false.), key_entry('velocity_weight', 'control', KEY_REAL, .false.), &
-    key_entry('keyframe_tikhonov', 'control', KEY_REAL, .false.)]
-
 contains
 
   !> The group, type (KEY_*) and array-ness of key `name` (lower case, no
@@ -81,19 +42,15 @@ contains
     character(*), intent(out) :: group
     integer, intent(out) :: kind
     logical, intent(out) :: array
-    integer :: i
+    integer :: k
     group = ''
     kind = 0
     array = .false.
-    if (len_trim(name) == 0) return
-    do i = 1, n_keys
-      if (trim(keys(i)%name) == trim(name)) then
-        group = keys(i)%group
-        kind = keys(i)%kind
-        array = keys(i)%array
-        return
-      end if
-    end do
+    k = key_index(name)
+    if (k == 0) return
+    group = keys(k)%group
+    kind = keys(k)%kind
+    array = keys(k)%size > 1
   end subroutine key_lookup
 
   !> Why `value` cannot be the value of key `key` ('gravity', 'nx', ...; a
