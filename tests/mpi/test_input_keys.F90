@@ -6,7 +6,7 @@
 !> - each default of the table that is a value, in every scene, is the
 !>   reader's: setting the key to it changes nothing;
 !> - each simple range (> X, >= X) and choice list of the table is what the
-!>   checks refuse and accept.
+!>   checks refuse and accept; every real key is refused as NaN.
 !> Run on 1 and 3 ranks (the parsing itself uses no MPI).
 program test_input_keys
   use mpi
@@ -63,6 +63,18 @@ program test_input_keys
   ! ---- 3. ranges and choices --------------------------------------------------
   do k = 1, n_keys
     call check_range(k)
+  end do
+
+  ! ---- 4. every real key of the table is refused as NaN, by name ------------
+  do k = 1, n_keys
+    if (keys(k)%kind /= KEY_REAL) cycle
+    v = trim(keys(k)%name)
+    if (trim(keys(k)%group) == 'control') then
+      call input_parse(input_with(k, 'wave_point', v//' = NaN'), cfg1, ierr, msg)
+    else
+      call input_parse(input_with(k, 'lift_release', v//' = NaN'), cfg1, ierr, msg)
+    end if
+    call check_true(ierr /= 0 .and. index(msg, v) > 0, v//' = NaN is refused by name: '//trim(msg))
   end do
 
   call check_report()

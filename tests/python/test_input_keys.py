@@ -11,7 +11,9 @@ import re
 import subprocess
 from pathlib import Path
 
-from nunorun import exe
+import h5py
+
+from nunorun import exe, run
 
 REPO = Path(__file__).resolve().parents[2]
 README = REPO / "input" / "README.md"
@@ -101,3 +103,17 @@ def test_help_lists_every_key_in_its_group():
     listed = {g: set(re.findall(r"[a-z_0-9]+", v)) for g, v in groups.items()}
     for name, k in program_keys().items():
         assert name in listed.get(k["group"], set()), f"--help does not list {name} in &{k['group']}"
+
+
+def test_config_in_the_output_holds_the_table_keys(tmp_path):
+    """The output's /config (written key by key in src/timestepping.F90,
+    write_config) records every key of the table's always-present groups,
+    and no other: a key added to the table and not to the writer fails."""
+    _, h5 = run(tmp_path, "cfg", options=["-ts_max_steps", "1"],
+                scene="scene='flat'", lattice="nx=5 ny=5")
+    prog = program_keys()
+    with h5py.File(h5, "r") as f:
+        for group in ("lattice", "material", "scene", "time", "output"):
+            table = {k for k, v in prog.items() if v["group"] == group}
+            written = set(f["config"][group].attrs)
+            assert written == table, (group, sorted(written ^ table))
