@@ -117,3 +117,62 @@ def test_config_in_the_output_holds_the_table_keys(tmp_path):
             table = {k for k, v in prog.items() if v["group"] == group}
             written = set(f["config"][group].attrs)
             assert written == table, (group, sorted(written ^ table))
+
+
+SCENES = ["lift_release", "bend_release", "wave_point", "hang", "flat"]
+
+
+def table_default(default, scene):
+    """The table's default text for one scene: the plain value, or the one
+    after '; SCENE '."""
+    parts = default.split("; ")
+    value = parts[0]
+    for p in parts[1:]:
+        name, _, rest = p.partition(" ")
+        if name == scene:
+            value = rest
+    return value.replace("<scene>", scene)
+
+
+def as_values(text):
+    """Numbers of a default ('(0, 0, -9.81)' -> [0, 0, -9.81]) or a bare
+    string ("'area'" -> ['area'])."""
+    text = re.sub(r"\s*\((paper|energy)\)\s*$", "", text.strip()).strip("()")
+    out = []
+    for item in re.split(r"\s*,\s*", text):
+        item = item.strip().strip("'\"`")
+        try:
+            out.append(float(item))
+        except ValueError:
+            out.append(item)
+    return out
+
+
+def test_readme_scene_defaults_agree_with_the_program():
+    """input/README.md's 'Scene defaults' table (key by scene) against the
+    table's per-scene defaults."""
+    prog = program_keys()
+    lines = README.read_text().splitlines()
+    start = lines.index("| key | lift_release | bend_release | wave_point | hang | flat |")
+    rows, checked = [], 0
+    for ln in lines[start + 2:]:
+        if not ln.startswith("|"):
+            break
+        rows.append(cells(ln))
+    for row in rows:
+        label, values = row[0], row[1:]
+        if label.startswith("k_b"):
+            continue                      # derived from the model (see the text above the table)
+        names = re.split(r" x | = ", label)
+        for name in names:
+            assert name in prog, f"Scene defaults row {label!r}: {name} is not a key"
+        for scene, cell in zip(SCENES, values):
+            pieces = cell.split(" x ") if len(names) > 1 and " x " in label else [cell] * len(names)
+            for name, piece in zip(names, pieces):
+                want = as_values(table_default(prog[name]["default"], scene))
+                got = as_values(piece)
+                if len(got) == 1 and len(want) > 1 and all(w == got[0] for w in want):
+                    got = want                # '0' for a zero vector
+                assert got == want, f"Scene defaults: {name} in {scene}: README {piece!r}, program {want}"
+                checked += 1
+    assert checked > 60
