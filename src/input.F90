@@ -14,9 +14,9 @@ module input
                     BEND_NONE, BEND_PAPER, BEND_ENERGY, SCENE_WAVE_POINT, SCENE_HANG, SCENE_LIFT_RELEASE, &
                     n_fit_kinds
   use input_text, only: assignment_t, lex_overrides, value_error, next_assignment, is_name_char, lower, &
-                        strip_commas, overrides_record, fmt_real
-  use input_keys, only: n_groups, group_names
-  use input_checks, only: scene_defaults, derive_codes, resolve_unset, validate, check_finite_keys, check_choice, &
+                        strip_commas, overrides_record, fmt_real, key_default
+  use input_keys, only: keys, n_keys, n_groups, group_names
+  use input_checks, only: derive_codes, resolve_unset, validate, check_finite_keys, check_choice, &
                           choices, check_lattice_size, check_lattice_extent
   use input_resources, only: input_check_run
   implicit none
@@ -134,7 +134,8 @@ contains
     if (ierr /= 0) goto 900
 
     ! 2. That scene's defaults; keys whose default depends on other keys start unset.
-    call scene_defaults(code, cfg)
+    call table_defaults(trim(first%scene), code, cfg, ierr, msg)
+    if (ierr /= 0) goto 900
     cfg%k_b = unset_real
     cfg%eta_b = unset_real
     cfg%mass_distribution = ''
@@ -755,6 +756,48 @@ contains
       call reset_list_state()
     end if
   end subroutine read_nml
+
+  !> The defaults of scene `scene` (code: its position in the key table's
+  !> list of scenes): the configuration's initial values (module config),
+  !> then every default of the key table (module input_keys) that is a value
+  !> in that scene, read through the namelist reader itself, so that the
+  !> table is the one place of the defaults. Report scenes: mm, g, s; E =
+  !> eta = 1 per link; paper bending k_b = 1 (docs/model.md section 7).
+  subroutine table_defaults(scene, code, cfg, ierr, msg)
+    character(*), intent(in) :: scene
+    integer, intent(in) :: code
+    type(nuno_config), intent(out) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    character(:), allocatable :: body, v
+    character(msg_len) :: iomsg
+    integer :: g, k, ios
+    ierr = 0
+    msg = ''
+    do g = 1, n_groups
+      body = ''
+      do k = 1, n_keys
+        if (trim(keys(k)%group) /= trim(group_names(g)) .or. trim(keys(k)%name) == 'scene') cycle
+        v = key_default(k, scene)
+        if (len(v) > 0) body = body//' '//trim(keys(k)%name)//' = '//v//','
+      end do
+      if (len(body) == 0) cycle
+      block
+        character(len(body) + 32) :: line(1)
+        line(1) = '&'//trim(group_names(g))//body//' /'
+        iomsg = ''
+        call read_nml(g, line, cfg, ios, iomsg)
+      end block
+      if (ios /= 0) then
+        ierr = 1
+        msg = 'input: the key table''s defaults of &'//trim(group_names(g))//' for scene '//scene// &
+              ' cannot be read: '//trim(iomsg)
+        return
+      end if
+    end do
+    cfg%scene = scene
+    cfg%scene_code = code
+  end subroutine table_defaults
 
   !> The namelist text of group `group` ('lattice', ...) with cfg's values,
   !> as the reader's own namelist WRITE gives it (gfortran: upper-case

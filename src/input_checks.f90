@@ -1,5 +1,5 @@
 !> The configuration completed and checked after the namelist groups are
-!> read (module input): each scene's defaults, the string choices as codes,
+!> read (module input): the string choices as codes,
 !> the keys whose default depends on others, and the checks, one small
 !> routine per concern whose message names the group, the key and the
 !> value. The choice lists come from the key table (module input_keys).
@@ -14,7 +14,7 @@ module input_checks
   use input_text, only: lower, fmt_real
   implicit none
   private
-  public :: scene_defaults, derive_codes, resolve_unset, validate, check_finite_keys, check_choice, choices
+  public :: derive_codes, resolve_unset, validate, check_finite_keys, check_choice, choices
   public :: check_lattice_size, check_lattice_extent
 
 contains
@@ -22,71 +22,6 @@ contains
   ! ==========================================================================
   ! Scene defaults and derived values
   ! ==========================================================================
-
-  !> Defaults of scene `code` (docs/model.md section 7) over the plain defaults.
-  !> Report scenes: mm, g, s; E = eta = 1 per link; paper bending k_b = 1.
-  subroutine scene_defaults(code, cfg)
-    integer, intent(in) :: code
-    type(nuno_config), intent(inout) :: cfg
-    type(nuno_config) :: plain
-
-    cfg = plain
-    ! Common to the report scenes (and flat).
-    cfg%nx = 11; cfg%ny = 11
-    cfg%lx = 100.0_rp; cfg%ly = 100.0_rp
-    cfg%total_mass = 1.0_rp
-    cfg%mass_distribution = 'uniform'
-    cfg%lattice_scaling = 'element'
-    cfg%spring_model = 'axial'
-    cfg%e_s = 1.0_rp; cfg%eta_s = 1.0_rp; cfg%e_d = 1.0_rp; cfg%eta_d = 1.0_rp
-    cfg%bending_model = 'paper'
-    cfg%gravity = 0.0_rp
-    cfg%lift_length = 30.0_rp; cfg%lift_height = 15.0_rp
-    cfg%bend_angle = 30.0_rp
-    cfg%n_keyframes = 3
-    cfg%keyframe_time = 0.0_rp; cfg%keyframe_dx = 0.0_rp; cfg%keyframe_dy = 0.0_rp; cfg%keyframe_dz = 0.0_rp
-    cfg%keyframe_time(1:3) = [0.0_rp, 0.5_rp, 1.0_rp]
-    cfg%keyframe_dz(1:3) = [0.0_rp, -10.0_rp, 15.0_rp]
-    cfg%release_time = huge(1.0_rp)
-    cfg%initial_omega = 0.0_rp
-    cfg%t_end = 5.0_rp; cfg%dt = 1.0e-3_rp
-    cfg%output_interval = 0.02_rp
-    cfg%write_velocity = .false.
-    cfg%petsc_options = ''
-    select case (code)
-    case (SCENE_LIFT_RELEASE)
-      cfg%scene = 'lift_release'
-      cfg%output_file = 'lift_release.h5'
-    case (SCENE_BEND_RELEASE)
-      cfg%scene = 'bend_release'
-      cfg%lx = 50.0_rp; cfg%ly = 50.0_rp
-      cfg%total_mass = 0.25_rp
-      cfg%output_file = 'bend_release.h5'
-    case (SCENE_WAVE_POINT)
-      cfg%scene = 'wave_point'
-      cfg%bending_model = 'none'
-      cfg%t_end = 3.0_rp
-      cfg%output_file = 'wave_point.h5'
-    case (SCENE_HANG)
-      cfg%scene = 'hang'
-      cfg%nx = 21; cfg%ny = 21
-      cfg%lx = 1.0_rp; cfg%ly = 1.0_rp
-      cfg%total_mass = 0.1_rp
-      cfg%mass_distribution = 'area'
-      cfg%e_s = 100.0_rp; cfg%eta_s = 0.1_rp; cfg%e_d = 100.0_rp; cfg%eta_d = 0.1_rp
-      cfg%bending_model = 'energy'
-      cfg%gravity = [0.0_rp, 0.0_rp, -9.81_rp]
-      cfg%t_end = 2.0_rp; cfg%dt = 1.0e-3_rp
-      cfg%output_interval = 0.05_rp
-      cfg%output_file = 'hang.h5'
-    case (SCENE_FLAT)
-      cfg%scene = 'flat'
-      cfg%t_end = 1.0_rp
-      cfg%output_interval = 0.1_rp
-      cfg%output_file = 'flat.h5'
-    end select
-    cfg%scene_code = code
-  end subroutine scene_defaults
 
   !> String choices to integer codes.
   subroutine derive_codes(cfg, ierr, msg)

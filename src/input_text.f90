@@ -17,7 +17,7 @@ module input_text
   use input_keys, only: keys, key_index, KEY_INTEGER, KEY_REAL, KEY_LOGICAL, KEY_STRING
   implicit none
   private
-  public :: assignment_t, lex_overrides, key_lookup, value_error, command_line_overrides
+  public :: assignment_t, lex_overrides, key_lookup, value_error, command_line_overrides, key_default
   public :: next_assignment, is_name_char, lower, strip_commas, overrides_record, fmt_real
   public :: KEY_INTEGER, KEY_REAL, KEY_LOGICAL, KEY_STRING
 
@@ -53,6 +53,43 @@ contains
     kind = keys(k)%kind
     array = keys(k)%size > 1
   end subroutine key_lookup
+
+  !> The key table's default of key k (an index into input_keys' keys) in
+  !> scene `scene`, in namelist syntax: the plain default or the one after
+  !> "; SCENE ", `<scene>` replaced by the scene's name, an array's
+  !> parentheses dropped; '' when the default is a description ("(required)",
+  !> "from the scene (see above)"), which leaves the configuration's own
+  !> initial value (module config).
+  function key_default(k, scene) result(v)
+    integer, intent(in) :: k
+    character(*), intent(in) :: scene
+    character(:), allocatable :: v, d, part
+    integer :: p, q, b
+    d = trim(keys(k)%default)
+    p = index(d, '; ')
+    if (p == 0) p = len(d) + 1
+    v = d(1:p - 1)
+    do while (p <= len(d))
+      q = index(d(p + 2:), '; ')
+      if (q == 0) then
+        q = len(d) + 1
+      else
+        q = p + 1 + q
+      end if
+      part = d(p + 2:q - 1)
+      b = index(part, ' ')
+      if (b > 0) then
+        if (part(1:b - 1) == scene) v = part(b + 1:)
+      end if
+      p = q
+    end do
+    b = index(v, '<scene>')
+    if (b > 0) v = v(1:b - 1)//scene//v(b + 7:)
+    if (len(v) >= 2) then
+      if (v(1:1) == '(' .and. v(len(v):len(v)) == ')') v = v(2:len(v) - 1)
+    end if
+    if (len(value_error(trim(keys(k)%name), v)) > 0) v = ''
+  end function key_default
 
   !> Why `value` cannot be the value of key `key` ('gravity', 'nx', ...; a
   !> subscript is allowed), or '' when it can. The value is namelist syntax:
