@@ -5,7 +5,7 @@
 module input_usage
   use kinds, only: rp
   use input_keys, only: keys, n_keys, n_groups, key_index, key_type_text, key_group_list
-  use input_limits, only: bytes_per_node_bending, bytes_per_node_plain
+  use input_limits, only: bytes_per_node_bending, bytes_per_node_plain, max_steps, max_outputs
   implicit none
   private
   public :: usage_text, list_keys
@@ -36,8 +36,9 @@ contains
     call usage_keys(unit)
     write(unit, '(a)') '', &
       'Input checks:', &
-      '  -nuno_allow_long                             run even with more than 1e8 steps (t_end/dt) or', &
-      '                                               1e5 output steps (t_end/output_interval)', &
+      '  -nuno_allow_long                             run even with more than '//pow10(max_steps)// &
+      ' steps (t_end/dt) or', &
+      '                                               '//pow10(max_outputs)//' output steps (t_end/output_interval)', &
       '', &
       'Checkpoints and restart (input/README.md, "Checkpoints and restart"):', &
       '  -nuno_restart FILE                           continue the run in FILE from its last checkpoint,', &
@@ -211,6 +212,15 @@ contains
         trim(keys(k)%unit)//tab//trim(keys(k)%default)//tab//trim(keys(k)%allowed)//tab//trim(keys(k)%meaning)
     end do
   end subroutine list_keys
+
+  !> A power of ten as 1e8.
+  function pow10(x) result(s)
+    real(rp), intent(in) :: x
+    character(:), allocatable :: s
+    character(16) :: buf
+    write(buf, '(a,i0)') '1e', nint(log10(x))
+    s = trim(buf)
+  end function pow10
 
   !> Bytes as KB with one decimal.
   function kb(bytes) result(s)
