@@ -20,6 +20,7 @@ module input_keys
   private
   public :: key_info, keys, n_keys, key_index, key_type_text, group_names, n_groups, key_group_list
   public :: KEY_INTEGER, KEY_REAL, KEY_LOGICAL, KEY_STRING
+  public :: G_LATTICE, G_MATERIAL, G_SCENE, G_TIME, G_OUTPUT, G_IDENTIFY, G_CONTROL
 
   integer, parameter :: KEY_INTEGER = 1, KEY_REAL = 2, KEY_LOGICAL = 3, KEY_STRING = 4
 
@@ -27,6 +28,9 @@ module input_keys
   integer, parameter :: n_groups = 7
   character(8), parameter :: group_names(n_groups) = &
     [character(8) :: 'lattice', 'material', 'scene', 'time', 'output', 'identify', 'control']
+  !> Group codes: positions in group_names.
+  integer, parameter :: G_LATTICE = 1, G_MATERIAL = 2, G_SCENE = 3, G_TIME = 4, G_OUTPUT = 5, G_IDENTIFY = 6, &
+                        G_CONTROL = 7
 
   type :: key_info
     character(20) :: name      !< the key, lower case (unique across groups)
