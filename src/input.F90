@@ -15,11 +15,11 @@ module input
                     BEND_NONE, BEND_PAPER, BEND_ENERGY, SCENE_WAVE_POINT, SCENE_HANG, SCENE_LIFT_RELEASE, &
                     n_fit_kinds
   use input_text, only: assignment_t, lex_overrides, value_error, next_assignment, is_name_char, lower, &
-                        strip_commas, overrides_record, fmt_real, key_default
-  use input_keys, only: keys, n_keys, n_groups, group_names, G_LATTICE, G_MATERIAL, G_SCENE, G_TIME, G_OUTPUT, &
+                        strip_commas, overrides_record, fmt_real, key_default, namelist_value
+  use input_keys, only: keys, n_keys, n_groups, group_names, KEY_REAL, G_LATTICE, G_MATERIAL, G_SCENE, G_TIME, G_OUTPUT, &
                         G_IDENTIFY, G_CONTROL
   use input_scan, only: parsed_text, scan_text, group_index
-  use input_checks, only: derive_codes, resolve_unset, validate, check_finite_keys, check_choice, &
+  use input_checks, only: derive_codes, resolve_unset, validate, check_choice, &
                           choices, check_lattice_size, check_lattice_extent
   use input_resources, only: input_check_run
   implicit none
@@ -530,6 +530,48 @@ contains
     cfg%scene = scene
     cfg%scene_code = code
   end subroutine table_defaults
+
+  !> Every real key of the key table finite: NaN or Inf would pass some
+  !> range checks (a NaN compares false both ways) and run, writing NaN into
+  !> the output. The values are read back from the reader's own namelist
+  !> WRITE of each group, so that no key is left out; an array is named with
+  !> the subscript of its first bad element.
+  subroutine check_finite_keys(cfg, ierr, msg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    character(:), allocatable :: dump, v
+    real(rp), allocatable :: values(:)
+    character(16) :: sub
+    integer :: g, k, i, ios
+    ierr = 0
+    msg = ''
+    do g = 1, n_groups
+      call input_namelist_dump(cfg, trim(group_names(g)), dump, ios)
+      do k = 1, n_keys
+        if (trim(keys(k)%group) /= trim(group_names(g)) .or. keys(k)%kind /= KEY_REAL) cycle
+        v = namelist_value(dump, trim(keys(k)%name))
+        if (allocated(values)) deallocate(values)
+        allocate(values(keys(k)%size))
+        if (ios == 0) read(v, *, iostat=ios) values
+        if (ios /= 0 .or. len(v) == 0) then
+          ierr = 1
+          msg = 'input: internal error: the value of &'//trim(group_names(g))//' '//trim(keys(k)%name)// &
+                ' cannot be read back'
+          return
+        end if
+        do i = 1, keys(k)%size
+          if (abs(values(i)) <= huge(values(i))) cycle
+          ierr = 1
+          sub = ''
+          if (keys(k)%size > 1) write(sub, '(a,i0,a)') '(', i, ')'
+          msg = 'input: &'//trim(group_names(g))//': '//trim(keys(k)%name)//trim(sub)//' = '// &
+                fmt_real(values(i))//' must be a finite number'
+          return
+        end do
+      end do
+    end do
+  end subroutine check_finite_keys
 
   !> The namelist text of group `group` ('lattice', ...) with cfg's values,
   !> as the reader's own namelist WRITE gives it (gfortran: upper-case

@@ -14,7 +14,7 @@ module input_checks
   use input_text, only: lower, fmt_real
   implicit none
   private
-  public :: derive_codes, resolve_unset, validate, check_finite_keys, check_choice, choices
+  public :: derive_codes, resolve_unset, validate, check_choice, choices
   public :: check_lattice_size, check_lattice_extent
 
 contains
@@ -284,61 +284,6 @@ contains
     case default; fit_initial = cfg%total_mass
     end select
   end function fit_initial
-
-  !> Every real key finite: NaN or Inf would pass some range checks (a NaN
-  !> compares false both ways) and run, writing NaN into the output.
-  subroutine check_finite_keys(cfg, ierr, msg)
-    type(nuno_config), intent(in) :: cfg
-    integer, intent(out) :: ierr
-    character(*), intent(out) :: msg
-    ierr = 0
-    msg = ''
-    call fin('lattice', 'lx', [cfg%lx]);                if (ierr /= 0) return
-    call fin('lattice', 'ly', [cfg%ly]);                if (ierr /= 0) return
-    call fin('lattice', 'total_mass', [cfg%total_mass]); if (ierr /= 0) return
-    call fin('material', 'e_s', [cfg%e_s]);             if (ierr /= 0) return
-    call fin('material', 'eta_s', [cfg%eta_s]);         if (ierr /= 0) return
-    call fin('material', 'e_d', [cfg%e_d]);             if (ierr /= 0) return
-    call fin('material', 'eta_d', [cfg%eta_d]);         if (ierr /= 0) return
-    call fin('material', 'k_b', [cfg%k_b]);             if (ierr /= 0) return
-    call fin('material', 'eta_b', [cfg%eta_b]);         if (ierr /= 0) return
-    call fin('scene', 'gravity', cfg%gravity);          if (ierr /= 0) return
-    call fin('scene', 'lift_length', [cfg%lift_length]); if (ierr /= 0) return
-    call fin('scene', 'lift_height', [cfg%lift_height]); if (ierr /= 0) return
-    call fin('scene', 'bend_angle', [cfg%bend_angle]);  if (ierr /= 0) return
-    call fin('scene', 'keyframe_time', cfg%keyframe_time); if (ierr /= 0) return
-    call fin('scene', 'keyframe_dx', cfg%keyframe_dx);  if (ierr /= 0) return
-    call fin('scene', 'keyframe_dy', cfg%keyframe_dy);  if (ierr /= 0) return
-    call fin('scene', 'keyframe_dz', cfg%keyframe_dz);  if (ierr /= 0) return
-    call fin('scene', 'release_time', [cfg%release_time]); if (ierr /= 0) return
-    call fin('scene', 'initial_omega', cfg%initial_omega); if (ierr /= 0) return
-    call fin('time', 't_end', [cfg%t_end]);             if (ierr /= 0) return
-    call fin('time', 'dt', [cfg%dt]);                   if (ierr /= 0) return
-    call fin('output', 'output_interval', [cfg%output_interval]); if (ierr /= 0) return
-    call fin('output', 'stretch_limit', [cfg%stretch_limit]); if (ierr /= 0) return
-    call fin('output', 'checkpoint_interval', [cfg%checkpoint_interval]); if (ierr /= 0) return
-    call fin('control', 'max_speed', [cfg%max_speed]);  if (ierr /= 0) return
-    call fin('control', 'velocity_weight', [cfg%velocity_weight]); if (ierr /= 0) return
-    call fin('control', 'keyframe_tikhonov', [cfg%keyframe_tikhonov])
-  contains
-    !> Arrays are named with the subscript of the first bad element.
-    subroutine fin(group, key, values)
-      character(*), intent(in) :: group, key
-      real(rp), intent(in) :: values(:)
-      character(16) :: sub
-      integer :: k
-      do k = 1, size(values)
-        if (.not. (abs(values(k)) <= huge(values(k)))) then
-          ierr = 1
-          sub = ''
-          if (size(values) > 1) write(sub, '(a,i0,a)') '(', k, ')'
-          msg = 'input: &'//group//': '//key//trim(sub)//' = '//fmt_real(values(k))// &
-                ' must be a finite number'
-          return
-        end if
-      end do
-    end subroutine fin
-  end subroutine check_finite_keys
 
   !> The allowed values of choice key `key` (the key table's list; its order
   !> is the order of the codes in module config).

@@ -18,6 +18,7 @@ module input_text
   implicit none
   private
   public :: assignment_t, lex_overrides, key_lookup, value_error, command_line_overrides, key_default
+  public :: namelist_value
   public :: next_assignment, is_name_char, lower, strip_commas, overrides_record, fmt_real
   public :: KEY_INTEGER, KEY_REAL, KEY_LOGICAL, KEY_STRING
 
@@ -90,6 +91,45 @@ contains
     end if
     if (len(value_error(trim(keys(k)%name), v)) > 0) v = ''
   end function key_default
+
+  !> The value text of key `name` (lower case) in a namelist WRITE of its
+  !> group (NAME=value records, an array's values possibly continued on the
+  !> next records, as module input's input_namelist_dump gives them, joined
+  !> by line feeds); '' when the key is not there.
+  function namelist_value(dump, name) result(v)
+    character(*), intent(in) :: dump, name
+    character(:), allocatable :: v, rec
+    integer :: p, q, e
+    logical :: inside
+    v = ''
+    inside = .false.
+    p = 1
+    do while (p <= len(dump))
+      q = index(dump(p:), achar(10))
+      if (q == 0) then
+        q = len(dump) + 1
+      else
+        q = p + q - 1
+      end if
+      rec = trim(adjustl(dump(p:q - 1)))
+      p = q + 1
+      e = index(rec, '=')
+      if (e > 1) then
+        if (verify(rec(1:e - 1), 'ABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_') == 0) then
+          if (inside) return
+          inside = lower(rec(1:e - 1)) == name
+          if (inside) v = rec(e + 1:)
+          cycle
+        end if
+      end if
+      if (len(rec) == 0) cycle
+      if (rec(1:1) == '/' .or. rec(1:1) == '&') then
+        if (inside) return
+        cycle
+      end if
+      if (inside) v = v//' '//rec
+    end do
+  end function namelist_value
 
   !> Why `value` cannot be the value of key `key` ('gravity', 'nx', ...; a
   !> subscript is allowed), or '' when it can. The value is namelist syntax:
