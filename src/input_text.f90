@@ -118,7 +118,7 @@ contains
         if (verify(rec(1:e - 1), 'ABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_') == 0) then
           if (inside) return
           inside = lower(rec(1:e - 1)) == name
-          if (inside) v = rec(e + 1:)
+          if (inside) v = trim(adjustl(rec(e + 1:)))
           cycle
         end if
       end if
