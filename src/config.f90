@@ -1,6 +1,9 @@
-!> The run configuration: every namelist key, its default, and the values
-!> derived from them. Filled by module input (read, validate, derive); read by
-!> every other module. Plain data: no PETSc, no MPI.
+!> The run configuration: every namelist key and the values derived from
+!> them. Filled by module input (read, validate, derive); read by every other
+!> module. Plain data: no PETSc, no MPI. A run's defaults are the key table's
+!> (module input_keys), read over the initial values below; these matter
+!> only where the table's default is a description (k_b, release_time, the
+!> files and bounds of &identify and &control).
 module config
   use kinds, only: rp
   implicit none

@@ -18,7 +18,7 @@ module errors
   use kinds, only: rp
   implicit none
   private
-  public :: help_requested, version_requested, input_path_argument, fatal_collective, fatal_local, apply_namelist_options
+  public :: help_requested, version_requested, list_keys_requested, input_path_argument, fatal_collective, fatal_local, apply_namelist_options
   public :: petsc_options_text, quiet_exit, read_input_options, quiet_petsc_errors
 
   interface
@@ -77,6 +77,17 @@ contains
       if (arg == '--version') version_requested = .true.
     end do
   end function version_requested
+
+  !> True when an argument is --list-keys.
+  logical function list_keys_requested()
+    integer :: k
+    character(len=64) :: arg
+    list_keys_requested = .false.
+    do k = 1, command_argument_count()
+      call get_command_argument(k, arg)
+      if (arg == '--list-keys') list_keys_requested = .true.
+    end do
+  end function list_keys_requested
 
   !> The input file: the first argument, which must not be an option.
   logical function input_path_argument(path)

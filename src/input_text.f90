@@ -1,7 +1,7 @@
 !> The input's text below the namelist reader, without MPI or PETSc
 !> (unit-tested alone: tests/unit/test_input_text.f90):
-!> - the table of keys: the group and the type of each (names are unique
-!>   across groups);
+!> - the lookup of a key in the table of keys (module input_keys: names are
+!>   unique across groups);
 !> - the check of a value against its key's type, so that `nx = 33.5` is
 !>   refused as "expected an integer" instead of the reader's "Cannot match
 !>   namelist object name .5", and an unquoted string gets the hint to quote it;
@@ -13,13 +13,15 @@
 !>   themselves: PETSc's options database keeps only the last of a repeated
 !>   option, and from Fortran it keeps a value only up to its first blank.
 module input_text
+  use kinds, only: rp
+  use input_keys, only: keys, key_index, KEY_INTEGER, KEY_REAL, KEY_LOGICAL, KEY_STRING
   implicit none
   private
-  public :: assignment_t, lex_overrides, key_lookup, value_error, command_line_overrides
-  public :: next_assignment, is_name_char, lower, strip_commas, overrides_record
+  public :: assignment_t, lex_overrides, key_lookup, value_error, command_line_overrides, key_default
+  public :: namelist_value
+  public :: next_assignment, is_name_char, lower, strip_commas, overrides_record, fmt_real
   public :: KEY_INTEGER, KEY_REAL, KEY_LOGICAL, KEY_STRING
 
-  integer, parameter :: KEY_INTEGER = 1, KEY_REAL = 2, KEY_LOGICAL = 3, KEY_STRING = 4
   !> The separator of the -nuno_set options joined into one text
   !> (command_line_overrides): a line feed, a hard boundary for lex_overrides.
   character(1), parameter :: option_sep = achar(10)
@@ -33,45 +35,6 @@ module input_text
     character(:), allocatable :: text    !< the assignment as written, for messages
   end type assignment_t
 
-  type :: key_entry
-    character(20) :: name
-    character(8) :: group
-    integer :: kind         ! KEY_*
-    logical :: array
-  end type key_entry
-
-  integer, parameter :: n_keys = 46
-  type(key_entry), parameter :: keys(n_keys) = [ &
-    key_entry('nx', 'lattice', KEY_INTEGER, .false.), key_entry('ny', 'lattice', KEY_INTEGER, .false.), &
-    key_entry('lx', 'lattice', KEY_REAL, .false.), key_entry('ly', 'lattice', KEY_REAL, .false.), &
-    key_entry('total_mass', 'lattice', KEY_REAL, .false.), &
-    key_entry('mass_distribution', 'lattice', KEY_STRING, .false.), &
-    key_entry('lattice_scaling', 'lattice', KEY_STRING, .false.), &
-    key_entry('spring_model', 'material', KEY_STRING, .false.), key_entry('e_s', 'material', KEY_REAL, .false.), &
-    key_entry('eta_s', 'material', KEY_REAL, .false.), key_entry('e_d', 'material', KEY_REAL, .false.), &
-    key_entry('eta_d', 'material', KEY_REAL, .false.), &
-    key_entry('bending_model', 'material', KEY_STRING, .false.), key_entry('k_b', 'material', KEY_REAL, .false.), &
-    key_entry('eta_b', 'material', KEY_REAL, .false.), &
-    key_entry('scene', 'scene', KEY_STRING, .false.), key_entry('gravity', 'scene', KEY_REAL, .true.), &
-    key_entry('lift_length', 'scene', KEY_REAL, .false.), key_entry('lift_height', 'scene', KEY_REAL, .false.), &
-    key_entry('bend_angle', 'scene', KEY_REAL, .false.), key_entry('n_keyframes', 'scene', KEY_INTEGER, .false.), &
-    key_entry('keyframe_time', 'scene', KEY_REAL, .true.), key_entry('keyframe_dx', 'scene', KEY_REAL, .true.), &
-    key_entry('keyframe_dy', 'scene', KEY_REAL, .true.), key_entry('keyframe_dz', 'scene', KEY_REAL, .true.), &
-    key_entry('wave_nodes', 'scene', KEY_STRING, .false.), key_entry('release_time', 'scene', KEY_REAL, .false.), &
-    key_entry('initial_omega', 'scene', KEY_REAL, .true.), &
-    key_entry('t_end', 'time', KEY_REAL, .false.), key_entry('dt', 'time', KEY_REAL, .false.), &
-    key_entry('output_interval', 'output', KEY_REAL, .false.), &
-    key_entry('write_velocity', 'output', KEY_LOGICAL, .false.), &
-    key_entry('output_file', 'output', KEY_STRING, .false.), key_entry('petsc_options', 'output', KEY_STRING, .false.), &
-    key_entry('stretch_limit', 'output', KEY_REAL, .false.), &
-    key_entry('checkpoint_interval', 'output', KEY_REAL, .false.), &
-    key_entry('observed_file', 'identify', KEY_STRING, .false.), key_entry('fit', 'identify', KEY_STRING, .false.), &
-    key_entry('fit_lower', 'identify', KEY_REAL, .true.), key_entry('fit_upper', 'identify', KEY_REAL, .true.), &
-    key_entry('tikhonov', 'identify', KEY_REAL, .false.), &
-    key_entry('target_file', 'control', KEY_STRING, .false.), key_entry('components', 'control', KEY_STRING, .false.), &
-    key_entry('max_speed', 'control', KEY_REAL, .false.), key_entry('velocity_weight', 'control', KEY_REAL, .false.), &
-    key_entry('keyframe_tikhonov', 'control', KEY_REAL, .false.)]
-
 contains
 
   !> The group, type (KEY_*) and array-ness of key `name` (lower case, no
@@ -81,20 +44,92 @@ contains
     character(*), intent(out) :: group
     integer, intent(out) :: kind
     logical, intent(out) :: array
-    integer :: i
+    integer :: k
     group = ''
     kind = 0
     array = .false.
-    if (len_trim(name) == 0) return
-    do i = 1, n_keys
-      if (trim(keys(i)%name) == trim(name)) then
-        group = keys(i)%group
-        kind = keys(i)%kind
-        array = keys(i)%array
-        return
-      end if
-    end do
+    k = key_index(name)
+    if (k == 0) return
+    group = keys(k)%group
+    kind = keys(k)%kind
+    array = keys(k)%size > 1
   end subroutine key_lookup
+
+  !> The key table's default of key k (an index into input_keys' keys) in
+  !> scene `scene`, in namelist syntax: the plain default or the one after
+  !> "; SCENE ", `<scene>` replaced by the scene's name, an array's
+  !> parentheses dropped; '' when the default is a description ("(required)",
+  !> "from the scene (see above)"), which leaves the configuration's own
+  !> initial value (module config).
+  function key_default(k, scene) result(v)
+    integer, intent(in) :: k
+    character(*), intent(in) :: scene
+    character(:), allocatable :: v, d, part
+    integer :: p, q, b
+    d = trim(keys(k)%default)
+    p = index(d, '; ')
+    if (p == 0) p = len(d) + 1
+    v = d(1:p - 1)
+    do while (p <= len(d))
+      q = index(d(p + 2:), '; ')
+      if (q == 0) then
+        q = len(d) + 1
+      else
+        q = p + 1 + q
+      end if
+      part = d(p + 2:q - 1)
+      b = index(part, ' ')
+      if (b > 0) then
+        if (part(1:b - 1) == scene) v = part(b + 1:)
+      end if
+      p = q
+    end do
+    b = index(v, '<scene>')
+    if (b > 0) v = v(1:b - 1)//scene//v(b + 7:)
+    if (len(v) >= 2) then
+      if (v(1:1) == '(' .and. v(len(v):len(v)) == ')') v = v(2:len(v) - 1)
+    end if
+    if (len(value_error(trim(keys(k)%name), v)) > 0) v = ''
+  end function key_default
+
+  !> The value text of key `name` (lower case) in a namelist WRITE of its
+  !> group (NAME=value records, an array's values possibly continued on the
+  !> next records, as module input's input_namelist_dump gives them, joined
+  !> by line feeds); '' when the key is not there.
+  function namelist_value(dump, name) result(v)
+    character(*), intent(in) :: dump, name
+    character(:), allocatable :: v, rec
+    integer :: p, q, e
+    logical :: inside
+    v = ''
+    inside = .false.
+    p = 1
+    do while (p <= len(dump))
+      q = index(dump(p:), achar(10))
+      if (q == 0) then
+        q = len(dump) + 1
+      else
+        q = p + q - 1
+      end if
+      rec = trim(adjustl(dump(p:q - 1)))
+      p = q + 1
+      e = index(rec, '=')
+      if (e > 1) then
+        if (verify(rec(1:e - 1), 'ABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_') == 0) then
+          if (inside) return
+          inside = lower(rec(1:e - 1)) == name
+          if (inside) v = trim(adjustl(rec(e + 1:)))
+          cycle
+        end if
+      end if
+      if (len(rec) == 0) cycle
+      if (rec(1:1) == '/' .or. rec(1:1) == '&') then
+        if (inside) return
+        cycle
+      end if
+      if (inside) v = v//' '//rec
+    end do
+  end function namelist_value
 
   !> Why `value` cannot be the value of key `key` ('gravity', 'nx', ...; a
   !> subscript is allowed), or '' when it can. The value is namelist syntax:
@@ -571,5 +606,44 @@ contains
     write(buf, '(i0)') i
     s = trim(buf)
   end function itoa
+
+
+  !> Shortest decimal that reads back as x (fixed notation for moderate values).
+  function fmt_real(x) result(s)
+    real(rp), intent(in) :: x
+    character(:), allocatable :: s
+    character(40) :: buf, fmt
+    real(rp) :: y
+    integer :: d, ios
+    if (x /= x) then
+      s = 'NaN'
+      return
+    else if (abs(x) > huge(x)) then
+      s = merge('+Infinity', '-Infinity', x > 0.0_rp)
+      return
+    else if (x == 0.0_rp) then
+      s = '0.0'
+      return
+    end if
+    do d = 1, 17
+      if (abs(x) >= 1.0e-3_rp .and. abs(x) < 1.0e7_rp) then
+        write(fmt, '(a,i0,a)') '(f0.', d, ')'
+      else
+        if (abs(x) >= 1.0e100_rp .or. abs(x) < 1.0e-99_rp) then
+          write(fmt, '(a,i0,a)') '(es30.', d, 'e3)'
+        else
+          write(fmt, '(a,i0,a)') '(es30.', d, ')'
+        end if
+      end if
+      write(buf, fmt) x
+      read(buf, *, iostat=ios) y
+      if (ios == 0 .and. y == x) exit
+    end do
+    s = trim(adjustl(buf))
+    if (s(1:1) == '.') s = '0'//s
+    if (len(s) >= 2) then
+      if (s(1:2) == '-.') s = '-0'//s(2:)
+    end if
+  end function fmt_real
 
 end module input_text

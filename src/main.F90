@@ -9,7 +9,8 @@ program nuno
   use config, only: nuno_config
   use lattice, only: rest_strip
   use, intrinsic :: iso_fortran_env, only: int64
-  use input, only: input_read, input_usage, input_summary, input_check_run
+  use input, only: input_read, input_summary, input_check_run
+  use input_usage, only: usage_text, list_keys
   use timestepping, only: app_ctx, solver_create, solver_destroy, solver_run, check_decomposition, solver_restore
   use output, only: output_file, output_open, output_close, output_reopen, checkpoint_t, output_write_identify, &
                     output_write_control
@@ -20,7 +21,7 @@ program nuno
   use kinds, only: rp
   use input_text, only: command_line_overrides
   use build_info, only: nuno_version, nuno_commit
-  use errors, only: help_requested, version_requested, fatal_collective, fatal_local, input_path_argument, apply_namelist_options, &
+  use errors, only: help_requested, version_requested, list_keys_requested, fatal_collective, fatal_local, input_path_argument, apply_namelist_options, &
                     petsc_options_text, quiet_exit, &
                     read_input_options, quiet_petsc_errors
   implicit none
@@ -52,13 +53,15 @@ program nuno
   PetscInt :: pint
   PetscReal :: ts_dt
 
-  ! 1. --help and --version need no input and no PETSc.
-  if (help_requested() .or. version_requested()) then
+  ! 1. --help, --version and --list-keys need no input and no PETSc.
+  if (help_requested() .or. version_requested() .or. list_keys_requested()) then
     call MPI_Init(ierr)
     call MPI_Comm_rank(MPI_COMM_WORLD, rank, ierr)
     if (rank == 0) then
       if (help_requested()) then
-        call input_usage(6)
+        call usage_text(6)
+      else if (list_keys_requested()) then
+        call list_keys(6)
       else
         write(*, '(a)') 'nuno '//nuno_version//' (git '//nuno_commit//')'
       end if

@@ -6,7 +6,8 @@ program test_input
   use, intrinsic :: iso_fortran_env, only: output_unit
   use kinds, only: rp
   use config
-  use input, only: input_read, input_usage, input_summary
+  use input, only: input_read, input_summary
+  use input_usage, only: usage_text
   use check, only: check_true, check_close, check_close_array, check_report
   implicit none
   integer :: rank, mpierr, u
@@ -200,14 +201,14 @@ program test_input
   ! ---- help and summary write without trouble --------------------------------
   ! (read_text is collective: the reads stay outside the rank-0 block)
   open(newunit=u, status='scratch', action='readwrite')
-  call input_usage(u)
+  call usage_text(u)
   call read_text("&scene scene = 'wave_point' /", cfg, ierr, msg)
   call input_summary(cfg, u)
   call read_text("&scene scene = 'hang' / &output write_velocity = .true. /", cfg, ierr, msg)
   call input_summary(cfg, u)
   call check_true(count_lines(u) > 20, 'usage and summaries written')
   if (rank == 0) then
-    call input_usage(output_unit)
+    call usage_text(output_unit)
     call input_summary(cfg, output_unit)
   end if
   close(u)

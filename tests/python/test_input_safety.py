@@ -137,13 +137,13 @@ def _mem_available():
 def test_lattice_beyond_memory_is_refused_before_allocation(tmp_path):
     avail = _mem_available()
     nodes = 15000 * 15000                      # 6 nodes < 2^31: the index check passes
-    if avail is None or nodes * 5700 < 2 * avail:
+    if avail is None or nodes * 3500 < 2 * avail:      # src/input_limits.f90
         pytest.skip("this host has memory for the test lattice")
     (tmp_path / "in.nml").write_bytes(b"&lattice nx = 15000 ny = 15000 /\n")
     t0 = time.monotonic()
     line = one_error_line(launch(tmp_path, ["in.nml"]))
     assert time.monotonic() - t0 < 60
-    for w in ("nx = 15000", "ny = 15000", "1.3 TB", "5.7 KB a node", "available"):
+    for w in ("nx = 15000", "ny = 15000", "787.5 GB", "3.5 KB a node", "available"):
         assert w in line, line
 
 

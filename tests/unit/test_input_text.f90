@@ -1,10 +1,12 @@
 !> Unit tests of module input_text without MPI or PETSc: the -nuno_set lexer
 !> (commas or blanks between keys, several options in order, empty values,
 !> '/', unknown keys, keys given twice), the check of a value against its
-!> key's type, the key table and the record of the options.
+!> key's type, the key table and the record of the options, a key's default
+!> in a scene, a value read back from a namelist WRITE.
 program test_input_text
   use input_text, only: assignment_t, lex_overrides, value_error, key_lookup, overrides_record, &
-                        KEY_INTEGER, KEY_REAL, KEY_LOGICAL, KEY_STRING
+                        KEY_INTEGER, KEY_REAL, KEY_LOGICAL, KEY_STRING, key_default, namelist_value
+  use input_keys, only: key_index
   use check, only: check_true, check_report
   implicit none
   character(1), parameter :: lf = achar(10)
@@ -104,6 +106,29 @@ program test_input_text
   ! ---- the record in the output's namelist text --------------------------
   call check_true(overrides_record('nx=7,ny=6') == '-nuno_set nx=7,ny=6', 'one option recorded as given')
   call check_true(overrides_record('nx=7'//lf//'ny=9') == '-nuno_set nx=7 -nuno_set ny=9', 'two options recorded')
+
+  ! ---- the table's default of a key in a scene, in namelist syntax -----
+  call check_true(key_default(key_index('lx'), 'lift_release') == '100', 'lx default')
+  call check_true(key_default(key_index('lx'), 'bend_release') == '50', 'lx in bend_release')
+  call check_true(key_default(key_index('lx'), 'hang') == '1', 'lx in hang')
+  call check_true(key_default(key_index('gravity'), 'hang') == '0, 0, -9.81', 'gravity in hang: no parentheses')
+  call check_true(key_default(key_index('gravity'), 'flat') == '0, 0, 0', 'gravity in flat')
+  call check_true(key_default(key_index('output_file'), 'flat') == "'flat.h5'", 'output_file: <scene>')
+  call check_true(key_default(key_index('bending_model'), 'wave_point') == "'none'", 'bending_model in wave_point')
+  call check_true(key_default(key_index('k_b'), 'hang') == '', 'k_b: a description, no value')
+  call check_true(key_default(key_index('release_time'), 'flat') == '', 'release_time: never, no value')
+  call check_true(key_default(key_index('observed_file'), 'flat') == '', 'observed_file: required, no value')
+
+  ! ---- a value read back from a namelist WRITE ---------------------------
+  block
+    character(*), parameter :: dump = '&SCENE'//lf//' SCENE_NAME=''hang'','//lf// &
+      ' GRAVITY= 2*0.0000000000000000 ,'//lf//' -9.8100000000000005 ,'//lf//' LIFT_LENGTH=  30.0 ,'//lf//' /'//lf
+    call check_true(namelist_value(dump, 'gravity') == '2*0.0000000000000000 , -9.8100000000000005 ,', &
+                    'an array over two records')
+    call check_true(namelist_value(dump, 'lift_length') == '30.0 ,', 'the last key before /')
+    call check_true(namelist_value(dump, 'scene_name') == "'hang',", 'a string')
+    call check_true(namelist_value(dump, 'lift') == '', 'no such key')
+  end block
 
   call check_report()
 

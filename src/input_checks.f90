@@ -1,0 +1,535 @@
+!> The configuration completed and checked after the namelist groups are
+!> read (module input): the string choices as codes,
+!> the keys whose default depends on others, and the checks, one small
+!> routine per concern whose message names the group, the key and the
+!> value. The choice lists come from the key table (module input_keys).
+!> No MPI, no PETSc: every rank reaches the same result alone.
+module input_checks
+  use kinds, only: rp
+  use config, only: nuno_config, keyframe_max, unset_real, &
+                    BEND_NONE, BEND_PAPER, BEND_ENERGY, SCALING_CONTINUUM, MASS_AREA, &
+                    SCENE_LIFT_RELEASE, SCENE_BEND_RELEASE, SCENE_WAVE_POINT, SCENE_HANG, SCENE_FLAT, &
+                    n_fit_kinds, fit_kind_names
+  use input_keys, only: keys, key_index
+  use input_text, only: lower, fmt_real
+  implicit none
+  private
+  public :: derive_codes, resolve_unset, validate, check_choice, choices
+  public :: check_lattice_size, check_lattice_extent
+
+contains
+
+  ! ==========================================================================
+  ! Scene defaults and derived values
+  ! ==========================================================================
+
+  !> String choices to integer codes.
+  subroutine derive_codes(cfg, ierr, msg)
+    type(nuno_config), intent(inout) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    cfg%lattice_scaling = lower(adjustl(cfg%lattice_scaling))
+    cfg%mass_distribution = lower(adjustl(cfg%mass_distribution))
+    cfg%spring_model = lower(adjustl(cfg%spring_model))
+    cfg%bending_model = lower(adjustl(cfg%bending_model))
+    cfg%wave_nodes = lower(adjustl(cfg%wave_nodes))
+    call check_choice('lattice', 'lattice_scaling', cfg%lattice_scaling, choices('lattice_scaling'), &
+                      cfg%scaling_code, ierr, msg)
+    if (ierr /= 0) return
+    if (len_trim(cfg%mass_distribution) == 0) then
+      ! Unset: the continuum mode needs area masses; else the scene's default.
+      if (cfg%scaling_code == SCALING_CONTINUUM .or. cfg%scene_code == SCENE_HANG) then
+        cfg%mass_distribution = 'area'
+      else
+        cfg%mass_distribution = 'uniform'
+      end if
+    end if
+    call check_choice('lattice', 'mass_distribution', cfg%mass_distribution, choices('mass_distribution'), &
+                      cfg%mass_code, ierr, msg)
+    if (ierr /= 0) return
+    call check_choice('material', 'spring_model', cfg%spring_model, choices('spring_model'), &
+                      cfg%spring_code, ierr, msg)
+    if (ierr /= 0) return
+    call check_choice('material', 'bending_model', cfg%bending_model, choices('bending_model'), &
+                      cfg%bending_code, ierr, msg)
+    if (ierr /= 0) return
+    cfg%bending_code = cfg%bending_code - 1   ! list order none, paper, energy = 0, 1, 2
+  end subroutine derive_codes
+
+  !> Keys left unset take defaults that depend on other keys:
+  !> k_b: the scene's value in the chosen model, converted between a force per
+  !> radian (paper) and an energy (energy) by the link length ax (docs/model.md 3);
+  !> eta_b: 1e-4 for hang with energy bending, else 0.
+  subroutine resolve_unset(cfg, ierr, msg)
+    type(nuno_config), intent(inout) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    real(rp) :: kb_paper, kb_energy
+    ierr = 0
+    msg = ''
+    if (cfg%scene_code == SCENE_HANG) then
+      kb_energy = 0.1_rp
+      kb_paper = kb_energy/cfg%ax
+    else
+      kb_paper = 1.0_rp
+      kb_energy = kb_paper*cfg%ax
+    end if
+    if (cfg%k_b == unset_real) then
+      select case (cfg%bending_code)
+      case (BEND_PAPER);  cfg%k_b = kb_paper
+      case (BEND_ENERGY); cfg%k_b = kb_energy
+      case default;       cfg%k_b = 0.0_rp
+      end select
+    end if
+    if (cfg%eta_b == unset_real) then
+      cfg%eta_b = 0.0_rp
+      if (cfg%scene_code == SCENE_HANG .and. cfg%bending_code == BEND_ENERGY) cfg%eta_b = 1.0e-4_rp
+    end if
+  end subroutine resolve_unset
+
+  ! ==========================================================================
+  ! Checks: one routine per concern; the first error wins
+  ! ==========================================================================
+
+  subroutine validate(cfg, ierr, msg)
+    type(nuno_config), intent(inout) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    call check_mass(cfg, ierr, msg);           if (ierr /= 0) return
+    call check_material(cfg, ierr, msg);       if (ierr /= 0) return
+    call check_scaling_bending(cfg, ierr, msg); if (ierr /= 0) return
+    call check_scene_geometry(cfg, ierr, msg); if (ierr /= 0) return
+    call check_keyframes(cfg, ierr, msg);      if (ierr /= 0) return
+    call check_wave_nodes(cfg, ierr, msg);     if (ierr /= 0) return
+    call check_time(cfg, ierr, msg);           if (ierr /= 0) return
+    call check_output(cfg, ierr, msg);         if (ierr /= 0) return
+    call check_identify(cfg, ierr, msg);       if (ierr /= 0) return
+    call check_control(cfg, ierr, msg)
+  end subroutine validate
+
+  !> &identify: known, distinct parameter names, each with an initial guess
+  !> > 0 (fitted in log space) inside its bounds; a model that has the
+  !> parameter; an observed file named. The names go to cfg%fit_code.
+  subroutine check_identify(cfg, ierr, msg)
+    type(nuno_config), intent(inout) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    character(:), allocatable :: rest, name
+    integer :: p, k, code
+    real(rp) :: p0
+
+    ierr = 0
+    msg = ''
+    cfg%n_fit = 0
+    if (.not. cfg%identify) return
+    ierr = 1
+    if (len_trim(cfg%observed_file) == 0) then
+      msg = "input: &identify: observed_file is required (an HDF5 file with /time and /position [nt][ny][nx][3])"
+      return
+    end if
+    rest = lower(trim(adjustl(cfg%fit)))
+    if (len(rest) == 0) then
+      msg = 'input: &identify: fit is required: a comma-separated list of '//kinds_list()
+      return
+    end if
+    do while (len(rest) > 0)
+      p = index(rest, ',')
+      if (p == 0) p = len(rest) + 1
+      name = trim(adjustl(rest(1:p - 1)))
+      rest = trim(adjustl(rest(min(p + 1, len(rest) + 1):)))
+      code = 0
+      do k = 1, n_fit_kinds
+        if (name == trim(fit_kind_names(k))) code = k
+      end do
+      if (code == 0) then
+        msg = "input: &identify: fit: unknown parameter '"//name//"' (known: "//kinds_list()//')'
+        return
+      end if
+      if (any(cfg%fit_code(1:cfg%n_fit) == code)) then
+        msg = "input: &identify: fit: '"//name//"' is named twice"
+        return
+      end if
+      cfg%n_fit = cfg%n_fit + 1
+      cfg%fit_code(cfg%n_fit) = code
+      if ((code == 5 .or. code == 6) .and. cfg%bending_code == BEND_NONE) then
+        msg = "input: &identify: fit: '"//name//"' needs bending (&material bending_model = 'none')"
+        return
+      end if
+      if (code == 6 .and. cfg%bending_code /= BEND_ENERGY) then
+        msg = "input: &identify: fit: 'eta_b' exists only with bending_model = 'energy'"
+        return
+      end if
+      p0 = fit_initial(cfg, code)
+      if (.not. (p0 > 0.0_rp)) then
+        msg = "input: &identify: fit: '"//name//"' = "//fmt_real(p0)//' cannot be fitted: parameters are '// &
+              'fitted in log space, so the initial guess (the namelist value) must be > 0'
+        return
+      end if
+      k = cfg%n_fit
+      if (cfg%fit_lower(k) == unset_real) cfg%fit_lower(k) = p0 / 1000.0_rp
+      if (cfg%fit_upper(k) == unset_real) cfg%fit_upper(k) = p0 * 1000.0_rp
+      if (.not. (cfg%fit_lower(k) > 0.0_rp .and. cfg%fit_lower(k) <= p0 .and. p0 <= cfg%fit_upper(k))) then
+        msg = "input: &identify: the bounds of '"//name//"' must satisfy 0 < fit_lower <= initial guess <= "// &
+              'fit_upper (got '//fmt_real(cfg%fit_lower(k))//' <= '//fmt_real(p0)//' <= '//fmt_real(cfg%fit_upper(k))//')'
+        return
+      end if
+    end do
+    if (.not. (cfg%tikhonov >= 0.0_rp)) then
+      msg = 'input: &identify: tikhonov must be >= 0 (got '//fmt_real(cfg%tikhonov)//')'
+      return
+    end if
+    ierr = 0
+  contains
+    function kinds_list() result(s)
+      character(:), allocatable :: s
+      integer :: m
+      s = trim(fit_kind_names(1))
+      do m = 2, n_fit_kinds
+        s = s//', '//trim(fit_kind_names(m))
+      end do
+    end function kinds_list
+  end subroutine check_identify
+
+  !> &control: not with &identify; a target file; a scene with keyframed
+  !> nodes and at least two keyframes (the steps between them are what is
+  !> optimised); components letters of xyz, each once; max_speed > 0 when
+  !> set, and the initial keyframes within it; weights >= 0. The letters go
+  !> to cfg%control_comp.
+  subroutine check_control(cfg, ierr, msg)
+    type(nuno_config), intent(inout) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    character(*), parameter :: xyz = 'xyz'
+    character(len=:), allocatable :: comps
+    real(rp) :: off(3, keyframe_max), dt, speed
+    integer :: k, c, m
+    character(16) :: a, b
+
+    ierr = 0
+    msg = ''
+    cfg%control_comp = .false.
+    if (.not. cfg%control) return
+    ierr = 1
+    if (cfg%identify) then
+      msg = 'input: &control and &identify cannot be in one input: a run either fits the model to an '// &
+            'observation or optimises the keyframes for a target'
+      return
+    end if
+    if (len_trim(cfg%target_file) == 0) then
+      msg = 'input: &control: target_file is required (an HDF5 file with /time and /position [nt][ny][nx][3])'
+      return
+    end if
+    if (cfg%scene_code /= SCENE_WAVE_POINT) then
+      msg = "input: &control: scene = '"//trim(cfg%scene)//"' has no nodes on a keyframe path to control "// &
+            "(wave_point drives its corner or, with wave_nodes = 'edge', its edge i = 0)"
+      return
+    end if
+    if (cfg%n_keyframes < 2) then
+      write(a, '(i0)') cfg%n_keyframes
+      msg = 'input: &control: &scene n_keyframes = '//trim(a)//' leaves nothing to optimise: the steps '// &
+            'between consecutive keyframes are the controls, so at least 2 keyframes are needed'
+      return
+    end if
+    comps = lower(trim(adjustl(cfg%components)))
+    if (len(comps) == 0 .or. verify(comps, xyz) /= 0) then
+      msg = "input: &control: components = '"//trim(cfg%components)//"' must be letters among x, y, z (e.g. 'z' or 'xyz')"
+      return
+    end if
+    do k = 1, len(comps)
+      c = index(xyz, comps(k:k))
+      if (cfg%control_comp(c)) then
+        msg = "input: &control: components = '"//trim(cfg%components)//"' names "//comps(k:k)//' twice'
+        return
+      end if
+      cfg%control_comp(c) = .true.
+    end do
+    if (cfg%max_speed /= unset_real) then
+      call need_positive('control', 'max_speed', cfg%max_speed, ierr, msg)
+      if (ierr /= 0) return
+      ierr = 1
+      off(1, :) = cfg%keyframe_dx
+      off(2, :) = cfg%keyframe_dy
+      off(3, :) = cfg%keyframe_dz
+      do m = 2, cfg%n_keyframes
+        dt = cfg%keyframe_time(m) - cfg%keyframe_time(m - 1)
+        do c = 1, 3
+          if (.not. cfg%control_comp(c)) cycle
+          speed = abs(off(c, m) - off(c, m - 1)) / dt
+          if (speed > cfg%max_speed * (1.0_rp + 1.0e-12_rp)) then
+            write(a, '(i0)') m
+            write(b, '(i0)') m - 1
+            msg = 'input: &control: the initial keyframes exceed max_speed = '//fmt_real(cfg%max_speed)// &
+                  ': keyframe_d'//xyz(c:c)//'('//trim(a)//') - keyframe_d'//xyz(c:c)//'('//trim(b)//') = '// &
+                  fmt_real(off(c, m) - off(c, m - 1))//' in '//fmt_real(dt)//' is a speed of '//fmt_real(speed)
+            return
+          end if
+        end do
+      end do
+    end if
+    call need_nonnegative('control', 'velocity_weight', cfg%velocity_weight, ierr, msg); if (ierr /= 0) return
+    call need_nonnegative('control', 'keyframe_tikhonov', cfg%keyframe_tikhonov, ierr, msg)
+  end subroutine check_control
+
+  !> The namelist value of fit parameter `code` (the initial guess).
+  pure real(rp) function fit_initial(cfg, code)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(in) :: code
+    select case (code)
+    case (1); fit_initial = cfg%e_s
+    case (2); fit_initial = cfg%e_d
+    case (3); fit_initial = cfg%eta_s
+    case (4); fit_initial = cfg%eta_d
+    case (5); fit_initial = cfg%k_b
+    case (6); fit_initial = cfg%eta_b
+    case default; fit_initial = cfg%total_mass
+    end select
+  end function fit_initial
+
+  !> The allowed values of choice key `key` (the key table's list; its order
+  !> is the order of the codes in module config).
+  function choices(key) result(s)
+    character(*), intent(in) :: key
+    character(:), allocatable :: s
+    s = trim(keys(key_index(key))%allowed)
+  end function choices
+
+  !> value (lower case) must be one of the comma-separated `allowed`; code = its position.
+  subroutine check_choice(group, key, value, allowed, code, ierr, msg)
+    character(*), intent(in) :: group, key, value, allowed
+    integer, intent(out) :: code, ierr
+    character(*), intent(out) :: msg
+    integer :: p, q, n
+    ierr = 0
+    msg = ''
+    code = 0
+    n = 0
+    p = 1
+    do while (p <= len(allowed))
+      q = index(allowed(p:), ',')
+      if (q == 0) then
+        q = len(allowed) + 1
+      else
+        q = p + q - 1
+      end if
+      n = n + 1
+      if (trim(adjustl(allowed(p:q - 1))) == trim(value)) then
+        code = n
+        return
+      end if
+      p = q + 1
+    end do
+    ierr = 1
+    msg = 'input: &'//group//': '//key//" = '"//trim(value)//"' is not one of "//allowed
+  end subroutine check_choice
+
+  subroutine check_lattice_size(cfg, ierr, msg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    call need_int_ge('lattice', 'nx', cfg%nx, 3, ierr, msg); if (ierr /= 0) return
+    call need_int_ge('lattice', 'ny', cfg%ny, 3, ierr, msg)
+  end subroutine check_lattice_size
+
+  subroutine check_lattice_extent(cfg, ierr, msg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    call need_positive('lattice', 'lx', cfg%lx, ierr, msg); if (ierr /= 0) return
+    call need_positive('lattice', 'ly', cfg%ly, ierr, msg)
+  end subroutine check_lattice_extent
+
+  subroutine check_mass(cfg, ierr, msg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    call need_positive('lattice', 'total_mass', cfg%total_mass, ierr, msg)
+  end subroutine check_mass
+
+  subroutine check_material(cfg, ierr, msg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    call need_nonnegative('material', 'e_s', cfg%e_s, ierr, msg);     if (ierr /= 0) return
+    call need_nonnegative('material', 'eta_s', cfg%eta_s, ierr, msg); if (ierr /= 0) return
+    call need_nonnegative('material', 'e_d', cfg%e_d, ierr, msg);     if (ierr /= 0) return
+    call need_nonnegative('material', 'eta_d', cfg%eta_d, ierr, msg); if (ierr /= 0) return
+    call need_nonnegative('material', 'k_b', cfg%k_b, ierr, msg);     if (ierr /= 0) return
+    call need_nonnegative('material', 'eta_b', cfg%eta_b, ierr, msg)
+  end subroutine check_material
+
+  !> The paper bending force does not scale with the spacing: no continuum limit.
+  subroutine check_scaling_bending(cfg, ierr, msg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    ierr = 0
+    msg = ''
+    if (cfg%scaling_code == SCALING_CONTINUUM .and. cfg%bending_code == BEND_PAPER) then
+      ierr = 1
+      msg = "input: &material: bending_model = 'paper' has no continuum limit: " // &
+            "not allowed with &lattice lattice_scaling = 'continuum' (use 'energy' or 'none')"
+    else if (cfg%scaling_code == SCALING_CONTINUUM .and. cfg%mass_code /= MASS_AREA) then
+      ierr = 1
+      msg = "input: &lattice: mass_distribution = '"//trim(cfg%mass_distribution)// &
+            "' not allowed with lattice_scaling = 'continuum' (needs 'area')"
+    end if
+  end subroutine check_scaling_bending
+
+  !> Geometry keys of the scene in use; the others are not used and not checked.
+  subroutine check_scene_geometry(cfg, ierr, msg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    integer :: i_fold
+    real(rp) :: flap
+    ierr = 0
+    msg = ''
+    if (.not. (cfg%release_time >= 0.0_rp)) then
+      ierr = 1
+      msg = 'input: &scene: release_time = '//fmt_real(cfg%release_time)//' must be >= 0'
+      return
+    end if
+    select case (cfg%scene_code)
+    case (SCENE_LIFT_RELEASE)
+      call need_positive('scene', 'lift_length', cfg%lift_length, ierr, msg); if (ierr /= 0) return
+      call need_nonnegative('scene', 'lift_height', cfg%lift_height, ierr, msg); if (ierr /= 0) return
+      ! The fold line is the node column nearest to x = lx - lift_length.
+      i_fold = nint((cfg%lx - cfg%lift_length)/cfg%ax)
+      if (i_fold < 0 .or. i_fold >= cfg%nx - 1) then
+        ierr = 1
+        msg = 'input: &scene: lift_length = '//fmt_real(cfg%lift_length)// &
+              ' leaves no part to lift (must lie between ax/2 and lx)'
+        return
+      end if
+      flap = cfg%lx - real(i_fold, rp)*cfg%ax
+      if (cfg%lift_height > flap*(1.0_rp + 1.0e-12_rp)) then
+        ierr = 1
+        msg = 'input: &scene: lift_height = '//fmt_real(cfg%lift_height)// &
+              ' must be <= the length of the lifted part ('//fmt_real(flap)//')'
+      end if
+    case (SCENE_BEND_RELEASE)
+      if (.not. (cfg%bend_angle >= 0.0_rp .and. cfg%bend_angle < 360.0_rp)) then
+        ierr = 1
+        msg = 'input: &scene: bend_angle = '//fmt_real(cfg%bend_angle)//' must be in [0, 360) degrees'
+      end if
+    end select
+  end subroutine check_scene_geometry
+
+  subroutine check_keyframes(cfg, ierr, msg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    character(16) :: a, b
+    integer :: k
+    ierr = 0
+    msg = ''
+    if (cfg%n_keyframes < 1 .or. cfg%n_keyframes > keyframe_max) then
+      ierr = 1
+      write(a, '(i0)') cfg%n_keyframes
+      write(b, '(i0)') keyframe_max
+      msg = 'input: &scene: n_keyframes = '//trim(a)//' must be in 1..'//trim(b)
+      return
+    end if
+    if (.not. (cfg%keyframe_time(1) >= 0.0_rp)) then
+      ierr = 1
+      msg = 'input: &scene: keyframe_time(1) = '//fmt_real(cfg%keyframe_time(1))//' must be >= 0'
+      return
+    end if
+    do k = 2, cfg%n_keyframes
+      if (.not. (cfg%keyframe_time(k) > cfg%keyframe_time(k - 1))) then
+        ierr = 1
+        write(a, '(i0)') k
+        write(b, '(i0)') k - 1
+        msg = 'input: &scene: keyframe_time('//trim(a)//') = '//fmt_real(cfg%keyframe_time(k))// &
+              ' must be > keyframe_time('//trim(b)//') = '//fmt_real(cfg%keyframe_time(k - 1))// &
+              ' (strictly increasing)'
+        return
+      end if
+    end do
+  end subroutine check_keyframes
+
+  !> wave_point's driven nodes: the corner (0,0) or the whole edge i = 0.
+  subroutine check_wave_nodes(cfg, ierr, msg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    integer :: code
+    call check_choice('scene', 'wave_nodes', cfg%wave_nodes, choices('wave_nodes'), code, ierr, msg)
+  end subroutine check_wave_nodes
+
+  subroutine check_time(cfg, ierr, msg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    call need_positive('time', 't_end', cfg%t_end, ierr, msg); if (ierr /= 0) return
+    call need_positive('time', 'dt', cfg%dt, ierr, msg)
+  end subroutine check_time
+
+  subroutine check_output(cfg, ierr, msg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    call need_positive('output', 'output_interval', cfg%output_interval, ierr, msg)
+    if (ierr /= 0) return
+    if (cfg%stretch_limit /= 0.0_rp .and. .not. cfg%stretch_limit > 1.0_rp) then
+      ierr = 1
+      msg = 'input: &output: stretch_limit = '//fmt_real(cfg%stretch_limit)//' must be > 1 (or 0: no warning)'
+      return
+    end if
+    if (cfg%checkpoint_interval < 0.0_rp) then
+      ierr = 1
+      msg = 'input: &output: checkpoint_interval = '//fmt_real(cfg%checkpoint_interval)// &
+            ' must be >= 0 (0: a checkpoint at the end of the run only)'
+      return
+    end if
+    if (len_trim(cfg%output_file) == 0) then
+      ierr = 1
+      msg = "input: &output: output_file = '' must not be empty"
+    end if
+  end subroutine check_output
+
+  subroutine need_int_ge(group, key, value, lo, ierr, msg)
+    character(*), intent(in) :: group, key
+    integer, intent(in) :: value, lo
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    character(16) :: a, b
+    ierr = 0
+    msg = ''
+    if (value < lo) then
+      ierr = 1
+      write(a, '(i0)') value
+      write(b, '(i0)') lo
+      msg = 'input: &'//group//': '//key//' = '//trim(a)//' must be >= '//trim(b)
+    end if
+  end subroutine need_int_ge
+
+  !> value > 0 (NaN fails too).
+  subroutine need_positive(group, key, value, ierr, msg)
+    character(*), intent(in) :: group, key
+    real(rp), intent(in) :: value
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    ierr = 0
+    msg = ''
+    if (.not. (value > 0.0_rp .and. value <= huge(value))) then
+      ierr = 1
+      msg = 'input: &'//group//': '//key//' = '//fmt_real(value)//' must be > 0'
+    end if
+  end subroutine need_positive
+
+  !> value >= 0 (NaN fails too).
+  subroutine need_nonnegative(group, key, value, ierr, msg)
+    character(*), intent(in) :: group, key
+    real(rp), intent(in) :: value
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    ierr = 0
+    msg = ''
+    if (.not. (value >= 0.0_rp .and. value <= huge(value))) then
+      ierr = 1
+      msg = 'input: &'//group//': '//key//' = '//fmt_real(value)//' must be >= 0'
+    end if
+  end subroutine need_nonnegative
+
+end module input_checks
