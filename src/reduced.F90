@@ -30,7 +30,7 @@ module reduced
   use config, only: BEND_NONE
   use forces, only: jac_buffer_t, jac_buffer_init, jac_buffer_row, slot_of, first_anchor_row
   use reduced_blocks, only: reduced_row_blocks, buffer_row_apply, csr_fits_block_row
-  use reduced_assembly, only: csr_assemble
+  use reduced_assembly, only: assemble_csr, assemble_stencil, kc_products
   use offset_product, only: stencil_product, offset_count
   use interpolation, only: cubic_weights
   use inner_guess, only: GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, GUESS_PROJECT, PROJECT_PAIRS, &
@@ -703,13 +703,13 @@ contains
       ! assembly: its smoother and residual use the current S, as PETSc's
       ! PCMG does with a reused hierarchy).
       red%pax_valid = .false.
-      call csr_assemble(red%lat, u, red%fixedg, a, red%damping, red%clamp, red%gauss_newton, red%wpred, &
-                        red%lb, red%vals, red%gpred, red%kd, st=red%st, fine=red%mg%lev(1)%a)
+      call assemble_stencil(red%lat, u, red%fixedg, a, red%damping, red%clamp, red%gauss_newton, red%wpred, &
+                            red%lb, red%gpred, red%kd, red%st, red%mg%lev(1)%a)
     else if (red%direct) then
       ! AIJ: element blocks straight into the CSR values (module reduced_assembly).
       PetscCall(aij_open(red, view, ierr))
-      call csr_assemble(red%lat, u, red%fixedg, a, red%damping, red%clamp, red%gauss_newton, red%wpred, &
-                        red%lb, red%vals, red%gpred, red%kd, view%ia, view%av, view%ib, view%bv)
+      call assemble_csr(red%lat, u, red%fixedg, a, red%damping, red%clamp, red%gauss_newton, red%wpred, &
+                        red%lb, red%gpred, red%kd, view%ia, view%av, view%ib, view%bv)
       PetscCall(aij_close(red, view, ierr))
     else
       red%jbuf%k = 0.0_rp
@@ -1133,16 +1133,15 @@ contains
 
   !> g = -(K w_x + C w_v) on the owned rows, at the state of the last
   !> assembly, from the element blocks: one pass over the elements with
-  !> the assembly's vector kernels, S not written (csr_assemble's products
-  !> only; kd comes out as the assembly left it). Through the element
+  !> the assembly's vector kernels, S not written (reduced_assembly's
+  !> kc_products; kd comes out as the assembly left it). Through the element
   !> buffer one block at a time, a product with the 6-dof Jacobian took 3
   !> assemblies' time, and every iteration of a backtracking line search
   !> one (its slope): -snes_linesearch_type bt ran 2.4x slower.
   subroutine element_products(red, w)
     type(reduced_t), intent(inout) :: red
     real(rp), intent(in) :: w(0:, 0:, red%lat%gys:)
-    call csr_assemble(red%lat, red%ujac, red%fixedg, red%a, red%damping, red%clamp, red%gauss_newton, w, &
-                      red%lb, red%vals, red%g, red%kd)
+    call kc_products(red%lat, red%ujac, red%fixedg, red%damping, red%clamp, red%gauss_newton, w, red%g, red%kd)
   end subroutine element_products
 
   !> The right-hand side of S dv = rhs for the 6-dof right-hand side b

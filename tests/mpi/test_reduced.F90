@@ -27,7 +27,7 @@ program test_reduced
   use reduced, only: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, &
                      reduced_attach
   use check, only: check_true, check_report
-  use reduced_assembly, only: csr_assemble
+  use reduced_assembly, only: assemble_stencil
   use offset_product, only: stencil_product, offset_count
   implicit none
   PetscErrorCode :: ierr
@@ -380,7 +380,7 @@ contains
 
   end subroutine run_case
 
-  !> S written by stencil offset (csr_assemble with st, the default
+  !> S written by stencil offset (assemble_stencil, the default
   !> multigrid path: bending triples through add_triple_lanes, links row by
   !> row) at the state of red's last assembly: S y by stencil_product
   !> against sy = S y of the AIJ S (checked against finite differences
@@ -406,8 +406,8 @@ contains
     PetscCallA(DMGlobalToLocalBegin(red%da6, u, INSERT_VALUES, uloc, ierr))
     PetscCallA(DMGlobalToLocalEnd(red%da6, u, INSERT_VALUES, uloc, ierr))
     PetscCallA(DMDAVecGetArrayReadF90(red%da6, uloc, ul, ierr))
-    call csr_assemble(lat, ul, red%fixedg, a, red%damping, red%clamp, red%gauss_newton, red%wpred, &
-                      red%lb, red%vals, g, kd, st=st)
+    call assemble_stencil(lat, ul, red%fixedg, a, red%damping, red%clamp, red%gauss_newton, red%wpred, &
+                          red%lb, g, kd, st)
     PetscCallA(DMDAVecRestoreArrayReadF90(red%da6, uloc, ul, ierr))
     PetscCallA(DMRestoreLocalVector(red%da6, uloc, ierr))
     PetscCallA(DMGetLocalVector(red%da3, yloc, ierr))

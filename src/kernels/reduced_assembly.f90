@@ -1,5 +1,9 @@
-!> Direct assembly of the reduced matrix S = a M - C - K/a into the CSR
-!> arrays of an AIJ matrix, element by element (no PETSc, no MPI).
+!> Direct assembly of the reduced matrix S = a M - C - K/a, element by
+!> element (no PETSc, no MPI), through three entry points over one element
+!> loop (assemble_rows): assemble_csr into the CSR arrays of an AIJ matrix,
+!> assemble_stencil by stencil offset (and the multigrid's finest level
+!> from it), kc_products S not written, only the element products
+!> g = -(K w_x + C w_v) and the diagonal kd that the other two also give.
 !>
 !> Each link's 3 x 3 block B = (c + k/a) belongs to four places of S (two
 !> diagonal blocks with one sign, the two coupling blocks with the other):
@@ -11,7 +15,8 @@
 !> row and copied once more before the CSR write (the Jacobian over 30 bw
 !> steps at 257 x 257 without bending 1.75 -> 1.22 s when this path
 !> replaced it); that buffer path stays for the other storage formats
-!> and for the matrix-free products.
+!> (module reduced_blocks, against which tests/unit/test_reduced_assembly
+!> checks all three entry points).
 !>
 !> Layout (as made by the DMDA for 1 x P strips, natural ordering): the owned
 !> node (i, j) has the scalar rows 3 lp + 0..2, lp = i + (j - ys) nx. Its
@@ -32,7 +37,7 @@ module reduced_assembly
   use mg_kernels, only: stencil_t, stencil_row_from_full
   implicit none
   private
-  public :: csr_assemble, csr_block_pos, csr_row_blocks
+  public :: assemble_csr, assemble_stencil, kc_products, csr_block_pos, csr_row_blocks
 
 contains
 
@@ -69,21 +74,12 @@ contains
     end if
   end subroutine csr_block_pos
 
-  !> S on the owned rows, written over the values of av and bv (every
-  !> stored entry is set), g = -(K w_x + C w_v) on the owned rows, and
-  !> kd(:, i, j) the diagonal of -df/dx of node (i, j) (round-off floor).
-  !> Constrained rows get a m I and constrained columns nothing, as in
-  !> module reduced_blocks. u, w(0:5, 0:nx-1, gys:gye), ghost rows filled.
-  !>
-  !> Given neither st nor ia/av (products only), S is not written: g and kd
-  !> alone, one pass over the elements with the assembly's vector kernels
-  !> (the 6-dof Jacobian's product, module reduced's element_products).
-  !>
-  !> Links are gathered: the blocks of the links of two anchor rows are kept
-  !> (lb), and each node row is then written whole, in the CSR order, with
-  !> no zeroing and no read-modify-write. Bending triples (9 blocks each,
-  !> reaching two rows) are added to the written rows two rows later.
-  subroutine csr_assemble(lat, u, fixedg, a, with_damping, clamp, gauss_newton, w, lb, vals, g, kd, ia, av, ib, bv, st, fine)
+  !> S on the owned rows into the CSR arrays of an AIJ matrix, written over
+  !> the values of av and bv (every stored entry is set), with g and kd as
+  !> kc_products. Constrained rows get a m I and constrained columns
+  !> nothing, as in module reduced_blocks. u, w(0:5, 0:nx-1, gys:gye),
+  !> ghost rows filled.
+  subroutine assemble_csr(lat, u, fixedg, a, with_damping, clamp, gauss_newton, w, lb, g, kd, ia, av, ib, bv)
     type(lattice_t), intent(in) :: lat
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)    !< (0:5, 0:nx-1, gys:gye) state
     logical, intent(in) :: fixedg(0:, lat%gys:)    !< (0:nx-1, gys:gye) constrained nodes
@@ -91,22 +87,83 @@ contains
     logical, intent(in) :: with_damping, clamp, gauss_newton
     real(rp), intent(in) :: w(0:, 0:, lat%gys:)    !< (0:5, 0:nx-1, gys:gye) vector of the products
     real(rp), intent(inout) :: lb(0:, :, :, :, 0:) !< (0:nx-1, 3, 3, 4, 0:1) work: link blocks c + k/a
-    real(rp), intent(inout) :: vals(:, :, :)       !< (3, 3, (2 halo + 1)^2) work: one block row
     real(rp), intent(out) :: g(:, 0:, lat%ys:)     !< (3, 0:nx-1, ys:ye) [force]
     real(rp), intent(out) :: kd(:, 0:, lat%ys:)    !< (3, 0:nx-1, ys:ye) [force/length]
-    integer, intent(in), optional :: ia(0:), ib(0:) !< row starts (0-based offsets into av, bv)
-    real(rp), intent(inout), optional :: av(0:), bv(0:)
-    !> or S by stencil offset, node by node (3, 3, offset_count(halo),
-    !> 0:nx-1, 0:nrow-1) transposed: st(0:nx-1, 3, 3, offset_count(halo),
-    !> 0:nrow-1), S(p, p + (di, dj)) = st(i, :, :, kof(di, dj), srow(j))
-    !> (module offset_product), zero outside the lattice; row j in slot
+    integer, intent(in) :: ia(0:), ib(0:)          !< row starts (0-based offsets into av, bv)
+    real(rp), intent(inout) :: av(0:), bv(0:)      !< the diagonal and off-diagonal parts' values
+    call assemble_rows(lat, u, fixedg, a, with_damping, clamp, gauss_newton, w, g, kd, lb, ia=ia, av=av, ib=ib, bv=bv)
+  end subroutine assemble_csr
+
+  !> S on the owned rows by stencil offset, with g and kd as kc_products
+  !> (constraints as assemble_csr), and, when fine is given, the
+  !> multigrid's finest level made from it row by row
+  !> (stencil_row_from_full) while each row is still in the cache.
+  subroutine assemble_stencil(lat, u, fixedg, a, with_damping, clamp, gauss_newton, w, lb, g, kd, st, fine)
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)    !< (0:5, 0:nx-1, gys:gye) state
+    logical, intent(in) :: fixedg(0:, lat%gys:)    !< (0:nx-1, gys:gye) constrained nodes
+    real(rp), intent(in) :: a                      !< TS shift [1/time]
+    logical, intent(in) :: with_damping, clamp, gauss_newton
+    real(rp), intent(in) :: w(0:, 0:, lat%gys:)    !< (0:5, 0:nx-1, gys:gye) vector of the products
+    real(rp), intent(inout) :: lb(0:, :, :, :, 0:) !< (0:nx-1, 3, 3, 4, 0:1) work: link blocks c + k/a
+    real(rp), intent(out) :: g(:, 0:, lat%ys:)     !< (3, 0:nx-1, ys:ye) [force]
+    real(rp), intent(out) :: kd(:, 0:, lat%ys:)    !< (3, 0:nx-1, ys:ye) [force/length]
+    !> S node by node (3, 3, offset_count(halo), 0:nx-1, 0:nrow-1)
+    !> transposed: st(0:nx-1, 3, 3, offset_count(halo), 0:nrow-1),
+    !> S(p, p + (di, dj)) = st(i, :, :, kof(di, dj), srow(j)) (module
+    !> offset_product), zero outside the lattice; row j in slot
     !> modulo(j - ys, nrow): nrow = ye - ys + 1 keeps the whole strip, and
     !> with fine, nrow = lag + 1 (3 with bending, 1 without) is enough, a
     !> ring of the rows the assembly is writing (each row is converted for
     !> the multigrid as soon as it is complete, then overwritten)
+    real(rp), intent(inout), contiguous :: st(0:, :, :, :, 0:)
+    type(stencil_t), intent(inout), optional :: fine
+    call assemble_rows(lat, u, fixedg, a, with_damping, clamp, gauss_newton, w, g, kd, lb, st=st, fine=fine)
+  end subroutine assemble_stencil
+
+  !> g = -(K w_x + C w_v) on the owned rows and kd(:, i, j) the diagonal
+  !> of -df/dx of node (i, j) (round-off floor), S not written: one pass
+  !> over the elements with the assembly's vector kernels (the 6-dof
+  !> Jacobian's product, module reduced's element_products). No TS shift:
+  !> neither depends on it.
+  subroutine kc_products(lat, u, fixedg, with_damping, clamp, gauss_newton, w, g, kd)
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)    !< (0:5, 0:nx-1, gys:gye) state
+    logical, intent(in) :: fixedg(0:, lat%gys:)    !< (0:nx-1, gys:gye) constrained nodes
+    logical, intent(in) :: with_damping, clamp, gauss_newton
+    real(rp), intent(in) :: w(0:, 0:, lat%gys:)    !< (0:5, 0:nx-1, gys:gye) vector of the products
+    real(rp), intent(out) :: g(:, 0:, lat%ys:)     !< (3, 0:nx-1, ys:ye) [force]
+    real(rp), intent(out) :: kd(:, 0:, lat%ys:)    !< (3, 0:nx-1, ys:ye) [force/length]
+    ! the link blocks are formed and kept by the loop whether S is written
+    ! or not (a test for it in the lane loop cost the assembly 0.4 % of its
+    ! instructions): a work array of its own, 0.6 KB a lattice column
+    real(rp), allocatable :: lb(:, :, :, :, :)
+    allocate(lb(0:lat%nx - 1, 3, 3, 4, 0:1))
+    call assemble_rows(lat, u, fixedg, 1.0_rp, with_damping, clamp, gauss_newton, w, g, kd, lb)
+  end subroutine kc_products
+
+  !> The one element loop of the three entry points: S into the CSR arrays
+  !> (ia, av, ib, bv), or by stencil offset (st, fine), or not at all
+  !> (neither: the products g and kd alone); lb the link blocks' work
+  !> array (0:nx-1, 3, 3, 4, 0:1).
+  !>
+  !> Links are gathered: the blocks of the links of two anchor rows are kept
+  !> (lb), and each node row is then written whole, in the CSR order, with
+  !> no zeroing and no read-modify-write. Bending triples (9 blocks each,
+  !> reaching two rows) are added to the written rows two rows later.
+  subroutine assemble_rows(lat, u, fixedg, a, with_damping, clamp, gauss_newton, w, g, kd, lb, ia, av, ib, bv, st, fine)
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    logical, intent(in) :: fixedg(0:, lat%gys:)
+    real(rp), intent(in) :: a
+    logical, intent(in) :: with_damping, clamp, gauss_newton
+    real(rp), intent(in) :: w(0:, 0:, lat%gys:)
+    real(rp), intent(out) :: g(:, 0:, lat%ys:)
+    real(rp), intent(out) :: kd(:, 0:, lat%ys:)
+    real(rp), intent(inout) :: lb(0:, :, :, :, 0:)
+    integer, intent(in), optional :: ia(0:), ib(0:)
+    real(rp), intent(inout), optional :: av(0:), bv(0:)
     real(rp), intent(inout), optional, contiguous :: st(0:, :, :, :, 0:)
-    !> and, when given, the multigrid's finest level made from st row by row
-    !> (stencil_row_from_full)
     type(stencil_t), intent(inout), optional :: fine
     integer :: j, k, jt, lag, jr
     real(rp) :: d0(3, 4), len0(4), c9(9, 9), rinv
@@ -138,7 +195,7 @@ contains
     if (present(st)) then
       ! (an internal invariant: a ring of rows only where each row is converted when complete)
       if (size(st, 5) < lat%ye - lat%ys + 1 .and. (size(st, 5) < lag + 1 .or. .not. present(fine))) &
-        error stop 'csr_assemble: st holds too few rows'
+        error stop 'assemble_stencil: st holds too few rows'
     end if
     utag = -huge(1)
     wtag = -huge(1)
@@ -377,9 +434,9 @@ contains
         ip0 = i0 + (pp - 1) * dx
         jp = j0 + (pp - 1) * dy
         if (jp < lat%ys .or. jp > lat%ye) cycle
-        sp = srow(jp)
         call sub_lane_forces(nl, ld, t(1, pp), t(2, pp), h, ke, g(:, ip0:ip0 + nl - 1, jp), kd(:, ip0:ip0 + nl - 1, jp))
         if (.not. write_s) cycle
+        sp = srow(jp)                 ! (st is absent for the products alone)
         do qq = 1, 3
           iq0 = i0 + (qq - 1) * dx
           jq2 = j0 + (qq - 1) * dy
@@ -404,7 +461,7 @@ contains
       integer, intent(in) :: i0, j0
       integer :: di, dj, nc, kk, r, pa, pb, m, hw
       logical :: fixed_row, owned_blk(25)
-      real(rp) :: dsum(3, 3), blk(3, 3)
+      real(rp) :: dsum(3, 3), blk(3, 3), vals(3, 3, 25)   ! the blocks of a halo-2 stencil at most
       hw = lat%halo
       fixed_row = fixedg(i0, j0)
       dsum = 0.0_rp
@@ -565,7 +622,7 @@ contains
       end if
     end subroutine add_block
 
-  end subroutine csr_assemble
+  end subroutine assemble_rows
 
   !> The block row of owned node (i, j) of an AIJ S in this layout, as full
   !> blocks blk(3, 3, -w:w, -w:w) = S(p, p + (di, dj)), zero outside the
