@@ -1624,8 +1624,9 @@ contains
       'pinned or prescribed nodes, in time with PETSc TS on a DMDA split in strips of', &
       'rows over P ranks. Results go to one HDF5 file with an XDMF file beside it.', &
       'The run writes OUTPUT.partial, locked against a second writer (OUTPUT.lock), and', &
-      'renames it onto OUTPUT after its first successful step: a run that fails at', &
-      'start-up leaves an earlier OUTPUT as it was. OUTPUT may not be the input file.', &
+      'renames it onto OUTPUT after its first successful step, or, when an earlier', &
+      'OUTPUT exists, once it completes. nuno replaces only its own files, never through', &
+      'a symbolic link; OUTPUT may not be an input file (input/README.md, Output files).', &
       '', &
       'INPUT.nml holds Fortran namelist groups, each optional, each at most once, and', &
       'nothing else but blanks and ! comments (an empty file or stray text is an error):', &
@@ -1650,6 +1651,10 @@ contains
       'Input checks:', &
       '  -nuno_allow_long                             run even with more than 1e8 steps (t_end/dt) or', &
       '                                               1e5 output steps (t_end/output_interval)', &
+      '', &
+      'Output files (input/README.md, "Output files"):', &
+      '  -nuno_overwrite                              replace an earlier output file at the first output', &
+      '                                               step (default: only once the new run completes)', &
       '', &
       'Checkpoints and restart (input/README.md, "Checkpoints and restart"):', &
       '  -nuno_restart FILE                           continue the run in FILE from its last checkpoint,', &
