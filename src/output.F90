@@ -194,6 +194,8 @@ contains
     character(*), intent(in), optional :: protect   ! a file that must not be written (the input)
     logical, intent(in), optional :: overwrite      ! -nuno_overwrite (default .false.)
     integer :: mpierr, rows
+    logical :: made
+    character(len=256) :: detail
 
     ierr = 0
     errmsg = ''
@@ -261,20 +263,19 @@ contains
     end if
     call open_local(out, out%work_path, rest, mass, attrs_namelist, attrs_petsc_options, ierr, errmsg, version)
     call agree(comm, 'output_open', ierr, errmsg)
-    ! Made by this run: an error exit before it holds a result removes it (errors: cleanup_run).
-    if (out%rank == 0 .and. out%is_open) call cleanup_add(out%work_path, cleanup_file)
+    ! Made by this run (created: the file is open here): an error exit
+    ! before it holds a result removes it (errors: cleanup_run), and so
+    ! does a failure here; a name this run did not create is left alone.
+    made = out%is_open
+    if (out%rank == 0 .and. made) call cleanup_add(out%work_path, cleanup_file)
     if (ierr /= 0) then
       call close_ids(out, ierr, errmsg)   ! best effort; ierr/errmsg keep the first error
       out%is_open = .false.
-      if (out%rank == 0) then
-        block
-          logical :: gone
-          character(len=256) :: why
-          if (file_exists(out%work_path)) call remove_file(out%work_path, gone, why)
-        end block
+      if (out%rank == 0 .and. made) then
+        call remove_file(out%work_path, made, detail)
         call cleanup_drop(out%work_path)
-        call lock_release(out%lock_path, out%lock_fd)
       end if
+      if (out%rank == 0) call lock_release(out%lock_path, out%lock_fd)
     end if
   end subroutine output_open
 
@@ -332,10 +333,15 @@ contains
       end if
     end if
     if (ierr == 0 .and. out%reopened) then
+      ! Opened for writing only when it is nuno's (an HDF5 file of another
+      ! program could be changed by the mere open and close).
       if (path_kind(out%work_path, detail) /= kind_file) then
         ierr = 1
         errmsg = '-nuno_restart '//out%work_path//': not a regular file (a symbolic link, a directory or '// &
                  'another kind of file): nuno continues only its own output files'
+      else if (.not. is_nuno_output(out%work_path)) then
+        ierr = 1
+        errmsg = '-nuno_restart '//out%work_path//': not a nuno output file: nuno continues only its own output files'
       end if
     end if
     if (ierr == 0) call own_or_free(out%xmf_path, 'XDMF sidecar', stale, sidecar=.true.)
