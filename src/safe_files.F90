@@ -22,13 +22,13 @@ module safe_files
   !> What cleanup_run does with a registered name: remove a file, a scratch directory, a lock.
   integer, parameter :: cleanup_file = 1, cleanup_dir = 2, cleanup_lock = 3
   !> The longest output file name nuno accepts [characters, as written].
-  !> Open MPI 4.1's MPI-IO (ompio, sharedfp) builds names of the name it is
-  !> given plus up to ~40 characters (`.partial`, `-JOBID-PID.lock`,
-  !> `_cid-N-M.sm`) in 256-byte buffers and names of at most 255 bytes: a
-  !> name of 245 characters aborted every rank (SIGABRT, "buffer overflow
-  !> detected"), 243 made MPI_File_open fail (measured with Open MPI 4.1.4,
-  !> HDF5 1.10.8). 200 leaves room for the suffixes; a longer path works
-  !> from its directory (cd there, or a symbolic link to the directory).
+  !> The run opens OUTPUT.partial, and Open MPI 4.1's MPI-IO (ompio and its
+  !> shared file pointer components) builds names of the name it is given
+  !> plus suffixes of its own (`_cid-N-M.sm`) in 256-byte buffers: an
+  !> output_file of 237 characters aborted every rank (SIGABRT, "buffer
+  !> overflow detected"), one of 233 made MPI_File_open fail (measured with
+  !> Open MPI 4.1.4, HDF5 1.10.8). 200 leaves room; a longer path works from
+  !> its directory (cd there, or a symbolic link to the directory).
   integer, parameter :: output_name_max = 200
 
   integer, parameter :: cmsg_len = 256
