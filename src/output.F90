@@ -2425,10 +2425,11 @@ contains
     type(output_file), intent(in) :: out
     integer, intent(inout) :: ierr
     character(*), intent(inout) :: errmsg
-    integer :: u, k
+    integer :: u, k, nbuf
     logical :: good
     character(len=256) :: iom
     character(len=:), allocatable :: plane, surf, f8, h5, tmp
+    character(len=65536) :: buf                   ! lines gathered for one write(2)
 
     if (ierr /= 0) return
     h5 = xml_escape(out%h5_base)                  ! the file's name in XML text
@@ -2443,6 +2444,7 @@ contains
       errmsg = 'output: cannot write '//out%xmf_path//': '//trim(iom)
       return
     end if
+    nbuf = 0
     call put('<?xml version="1.0" ?>')
     call put('<Xdmf Version="3.0">')
     call put(' <Domain>')
@@ -2476,6 +2478,7 @@ contains
     call put('  </Grid>')
     call put(' </Domain>')
     call put('</Xdmf>')
+    call flush_buf()
     if (.not. good) then
       ierr = 1
       errmsg = 'output: write error on '//out%xmf_path
@@ -2488,8 +2491,19 @@ contains
   contains
     subroutine put(line)
       character(*), intent(in) :: line
-      call tmp_write(u, line, good)
+      if (nbuf + len(line) + 1 > len(buf)) call flush_buf()
+      if (len(line) + 1 > len(buf)) then
+        call tmp_write(u, line//achar(10), good)
+      else
+        buf(nbuf + 1:nbuf + len(line) + 1) = line//achar(10)
+        nbuf = nbuf + len(line) + 1
+      end if
     end subroutine put
+
+    subroutine flush_buf()
+      if (nbuf > 0) call tmp_write(u, buf(1:nbuf), good)
+      nbuf = 0
+    end subroutine flush_buf
 
     !> A plain float64 HDF DataItem of the dataset path (C-order dims).
     subroutine item(indent, dims, path)

@@ -269,13 +269,14 @@ contains
     detail = c_text(buf)
   end subroutine tmp_open
 
-  !> Append a line (and a newline) to the file of tmp_open; ok stays .false. after a failed write.
-  subroutine tmp_write(fd, line, ok)
+  !> Append text (as it is: newlines included by the caller) to the file of
+  !> tmp_open; ok stays .false. after a failed write.
+  subroutine tmp_write(fd, text, ok)
     integer, intent(in) :: fd
-    character(*), intent(in) :: line
+    character(*), intent(in) :: text
     logical, intent(inout) :: ok
     if (.not. ok) return
-    ok = c_tmp_write(int(fd, c_int), line//achar(10), int(len(line) + 1, c_int)) == 0
+    ok = c_tmp_write(int(fd, c_int), text, int(len(text), c_int)) == 0
   end subroutine tmp_write
 
   !> Close the file of tmp_open and rename it onto path (ok on entry), or remove it.
