@@ -192,6 +192,23 @@ def test_restart_file_equal_to_the_namelist_is_refused(tmp_path):
     assert snapshot(tmp_path) == before
 
 
+@pytest.mark.parametrize("what", ["link", "foreign_hdf5"])
+def test_restart_continues_only_a_regular_nuno_file(tmp_path, what):
+    """-nuno_restart through a symbolic link (to a nuno file with a
+    checkpoint), or of an HDF5 file of another program: refused with one
+    line, every byte as it was."""
+    h5 = complete_run(tmp_path)
+    if what == "link":
+        (tmp_path / "cont.h5").symlink_to(h5.name)
+    else:
+        with h5py.File(tmp_path / "cont.h5", "w") as f:
+            f["time"] = np.arange(3.0)
+    before = snapshot(tmp_path)
+    line = one_error_line(launch(tmp_path, ["out.nml", "-nuno_restart", "cont.h5", "-nuno_set", "t_end=0.04"]))
+    assert "cont.h5" in line and ("not a regular file" in line or "not a nuno output file" in line), line
+    assert snapshot(tmp_path) == before
+
+
 # --------------------------------------------------------------------------
 # Item 10: the restart of a run that never gave its file the output's name
 
