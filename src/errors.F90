@@ -16,6 +16,7 @@ module errors
   use mpi
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_char, c_null_char
   use kinds, only: rp
+  use safe_files, only: cleanup_run
   implicit none
   private
   public :: help_requested, version_requested, list_keys_requested, input_path_argument, fatal_collective, fatal_local, apply_namelist_options
@@ -115,6 +116,10 @@ contains
       write(0, '(a)') 'nuno: error: '//trim(msg)
       flush(0)
     end if
+    ! What this run made and that holds no result yet (a .partial before
+    ! its first step, the lock, a scratch directory) goes: a failed start
+    ! leaves nothing behind that it did not find.
+    call cleanup_run()
     call PetscInitialized(initialized, ierr)
     if (initialized) call PetscFinalize(ierr)
     call quiet_exit(1)
@@ -151,6 +156,7 @@ contains
     if (rank /= 0) call nuno_pause_ms(2000_c_int)
     write(0, '(a,i0,a)') 'nuno: error (rank ', rank, '): '//trim(msg)//petsc
     flush(0)
+    call cleanup_run()   ! as fatal_collective; only the rank that made them has any
     call MPI_Abort(MPI_COMM_WORLD, 1, ierr)
     call quiet_exit(1)   ! not reached: MPI_Abort does not return
   end subroutine fatal_local

@@ -65,9 +65,10 @@ module identify
   use scenes, only: scene_setup
   use constraints, only: constraint_events, constraint_step_sensitivity, PATH_KEYFRAMES
   use timestepping, only: app_ctx, enter_window
+  use safe_files, only: make_scratch_dir, remove_scratch
   implicit none
   private
-  public :: ident_t, identify_prepare_options, identify_run, identify_result, control_result
+  public :: ident_t, identify_prepare_options, identify_run, identify_result, control_result, identify_scratch_remove
 
   integer, parameter :: MODE_IDENTIFY = 1, MODE_CONTROL = 2
   !> Step of the central differences (the Gauss-Newton Hessian of the
@@ -129,6 +130,7 @@ module identify
     logical :: failed = .false.                   !< a forward run failed (a step did not converge)
     character(len=512) :: fail_msg = ''           !< why, when not a failed step
     character(len=600) :: traj_dir = ''           !< directory of the basic trajectory's files
+    character(len=600) :: scratch = ''            !< its private parent, made by this run (rank 0)
   end type ident_t
 
   interface
@@ -254,7 +256,14 @@ contains
     end if
     if (ierr /= 0) return
     id%theta = id%theta0
-    id%traj_dir = trim(app%cfg%output_file)//'.adjoint'
+    ! The trajectory's files go into a directory of this run's own, made
+    ! anew (mkdtemp: OUTPUT.adjoint.XXXXXX, mode 0700) beside the output,
+    ! and only it is removed at the end: a user's OUTPUT.adjoint (or a
+    ! link of that name) is never touched. PETSc's basic trajectory makes
+    ! and removes the subdirectory `trajectory` itself.
+    call make_scratch(id, trim(app%cfg%output_file), ierr, errmsg)
+    if (ierr /= 0) return
+    id%traj_dir = trim(id%scratch)//'/trajectory'
 
     ! Windows: every observed time, keyframe and release time up to the last observation.
     tmax = id%tobs(id%nt)
@@ -412,7 +421,7 @@ contains
     character(*), intent(out) :: errmsg
     integer(hid_t) :: file, dset, space, mspace
     integer(hsize_t) :: dims(4), maxdims(4), start(4), cnt(4)
-    integer :: h, ndims, nx, ny, ys, nyl, ntall, k, n, e, mpierr
+    integer :: h, hopen, ndims, nx, ny, ys, nyl, ntall, k, n, e, mpierr
     real(rp), allocatable :: tall(:), wall(:), pall(:, :, :, :), vall(:, :, :, :), m2(:, :)
     logical :: exists, have_mask, have_weight
     character(len=:), allocatable :: where
@@ -422,6 +431,7 @@ contains
     ys = id%app%lat%ys
     nyl = id%app%lat%ye - ys + 1
     where = '&'//group//': '//key//" '"//path//"'"
+    hopen = 0
     e = 0
     ntall = 0          ! sizes the /weight buffer even when /time was never read
     errmsg = ''
@@ -433,9 +443,12 @@ contains
       errmsg = 'input: '//where//': no such file'
     end if
     if (e == 0) then
+      ! HDF5's own error printing stays off: the line below says it (a
+      ! file that is not HDF5 made a 33-line stack before it). The open's
+      ! code is kept apart from the other calls' (h).
       call h5eset_auto_f(0, h)
-      call h5fopen_f(path, H5F_ACC_RDONLY_F, file, h)
-      call h5eset_auto_f(1, h)
+      call h5fopen_f(path, H5F_ACC_RDONLY_F, file, hopen)
+      h = hopen
       if (h < 0) then
         e = 1
         errmsg = 'input: '//where//': not an HDF5 file (or not readable)'
@@ -732,6 +745,38 @@ contains
     app%t_written = -1
   end subroutine reset_state
 
+  !> id%scratch: a new private directory beside the output file (rank 0
+  !> makes it, every rank gets its name). ierr = 1 with errmsg when it
+  !> cannot be made. Collective.
+  subroutine make_scratch(id, output, ierr, errmsg)
+    type(ident_t), intent(inout) :: id
+    character(*), intent(in) :: output
+    PetscErrorCode, intent(out) :: ierr
+    character(*), intent(out) :: errmsg
+    character(len=:), allocatable :: dir
+    character(len=256) :: why
+    logical :: ok
+    integer :: rank, mpierr, e
+    ierr = 0
+    e = 0
+    errmsg = ''
+    call MPI_Comm_rank(id%app%comm, rank, mpierr)
+    if (rank == 0) then
+      call make_scratch_dir(trim(output)//'.adjoint', dir, ok, why)
+      if (ok) then
+        id%scratch = dir
+      else
+        e = 1
+        errmsg = 'output: cannot make the scratch directory '//trim(output)//'.adjoint.XXXXXX of the '// &
+                 'identification or control: '//trim(why)
+      end if
+    end if
+    call MPI_Bcast(e, 1, MPI_INTEGER, 0, id%app%comm, mpierr)
+    call MPI_Bcast(id%scratch, len(id%scratch), MPI_CHARACTER, 0, id%app%comm, mpierr)
+    call MPI_Bcast(errmsg, len(errmsg), MPI_CHARACTER, 0, id%app%comm, mpierr)
+    ierr = e
+  end subroutine make_scratch
+
   ! ------------------------------------------------------ forward, adjoint
 
   !> One forward run at theta over all windows, saving the trajectory; the
@@ -875,6 +920,16 @@ contains
     id%n_adjoint = id%n_adjoint + 1
     id%t_adjoint = id%t_adjoint + (MPI_Wtime() - wall0)
   end subroutine objective_gradient
+
+  !> Remove the run's scratch directory (rank 0; after solver_destroy, which
+  !> ends the trajectory). Collective in effect: every rank calls it.
+  subroutine identify_scratch_remove(id)
+    type(ident_t), intent(inout) :: id
+    integer :: rank, mpierr
+    call MPI_Comm_rank(MPI_COMM_WORLD, rank, mpierr)
+    if (rank == 0 .and. len_trim(id%scratch) > 0) call remove_scratch(trim(id%scratch))
+    id%scratch = ''
+  end subroutine identify_scratch_remove
 
   !> Control: the adjoint of enter_window at the start ta of a window whose
   !> TSAdjointSolve has just run (lambda = dJ/dU there, the window's

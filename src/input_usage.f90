@@ -30,8 +30,9 @@ contains
       'pinned or prescribed nodes, in time with PETSc TS on a DMDA split in strips of', &
       'rows over P ranks. Results go to one HDF5 file with an XDMF file beside it.', &
       'The run writes OUTPUT.partial, locked against a second writer (OUTPUT.lock), and', &
-      'renames it onto OUTPUT after its first successful step: a run that fails at', &
-      'start-up leaves an earlier OUTPUT as it was. OUTPUT may not be the input file.', &
+      'renames it onto OUTPUT after its first successful step, or, when an earlier', &
+      'OUTPUT exists, once it completes. nuno replaces only its own files, never through', &
+      'a symbolic link; OUTPUT may not be an input file (input/README.md, Output files).', &
       ''
     call usage_keys(unit)
     write(unit, '(a)') '', &
@@ -39,6 +40,10 @@ contains
       '  -nuno_allow_long                             run even with more than '//pow10(max_steps)// &
       ' steps (t_end/dt) or', &
       '                                               '//pow10(max_outputs)//' output steps (t_end/output_interval)', &
+      '', &
+      'Output files (input/README.md, "Output files"):', &
+      '  -nuno_overwrite                              replace an earlier output file at the first output', &
+      '                                               step (default: only once the new run completes)', &
       '', &
       'Checkpoints and restart (input/README.md, "Checkpoints and restart"):', &
       '  -nuno_restart FILE                           continue the run in FILE from its last checkpoint,', &

@@ -9,15 +9,17 @@ program nuno
   use config, only: nuno_config
   use lattice, only: rest_strip
   use, intrinsic :: iso_fortran_env, only: int64
+  use, intrinsic :: iso_c_binding, only: c_int
   use input, only: input_read, input_summary, input_check_run
   use input_usage, only: usage_text, list_keys
   use timestepping, only: app_ctx, solver_create, solver_destroy, solver_run, check_decomposition, solver_restore
   use output, only: output_file, output_open, output_close, output_reopen, checkpoint_t, output_write_identify, &
                     output_write_control
-  use identify, only: ident_t, identify_prepare_options, identify_run, identify_result, control_result
+  use identify, only: ident_t, identify_prepare_options, identify_run, identify_result, control_result, &
+                      identify_scratch_remove
   use config, only: unset_real
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_positive_inf
-  use safe_files, only: same_file
+  use safe_files, only: same_file, check_output_name, sidecar_path
   use kinds, only: rp
   use input_text, only: command_line_overrides
   use build_info, only: nuno_version, nuno_commit
@@ -52,6 +54,18 @@ program nuno
   PetscReal :: ts_max_time
   PetscInt :: pint
   PetscReal :: ts_dt
+  integer(c_int) :: overwrite
+  character(len=:), allocatable :: wname
+  character(len=1024) :: inputs(3)       ! the input files: namelist, observed, target
+  character(len=1100) :: derived(3)      ! the side files of the name written
+  interface
+    !> src/nuno_file_options.c: -nuno_overwrite (in -help).
+    integer(c_int) function nuno_file_options_read(fcomm, overwrite) bind(C, name='nuno_file_options_read')
+      import :: c_int
+      integer(c_int), value :: fcomm
+      integer(c_int), intent(out) :: overwrite
+    end function nuno_file_options_read
+  end interface
 
   ! 1. --help, --version and --list-keys need no input and no PETSc.
   if (help_requested() .or. version_requested() .or. list_keys_requested()) then
@@ -114,6 +128,30 @@ program nuno
                          ierr, errmsg)
   end if
   if (ierr /= 0) call fatal_collective(errmsg)
+  ierr = nuno_file_options_read(int(PETSC_COMM_WORLD, c_int), overwrite)
+  if (ierr /= 0) call fatal_local('could not read the -nuno_overwrite option')
+  ! The name the run writes (the output file, or the file it continues):
+  ! no control character, not too long for MPI-IO, no input file by any
+  ! of the names written with it (input/README.md, Output files).
+  inputs(1) = path
+  inputs(2) = cfg%observed_file
+  inputs(3) = cfg%target_file
+  if (len_trim(restart_file) > 0) then
+    wname = trim(restart_file)
+  else
+    wname = trim(cfg%output_file)
+  end if
+  derived(1) = wname//'.partial'
+  derived(2) = wname//'.lock'
+  derived(3) = sidecar_path(wname)
+  if (len_trim(restart_file) > 0) then
+    call check_output_name(PETSC_COMM_WORLD, '-nuno_restart', wname, len_trim(restart_file) >= len(restart_file) - 1, &
+                           inputs, derived, ierr, errmsg)
+  else
+    call check_output_name(PETSC_COMM_WORLD, '&output: output_file', wname, &
+                           len_trim(cfg%output_file) >= len(cfg%output_file), inputs, derived, ierr, errmsg)
+  end if
+  if (ierr /= 0) call fatal_collective(errmsg)
   if (rank == 0) then
     write(*, '(a,i0,a)') 'nuno '//nuno_version//' on ', nranks, ' rank(s): '//trim(path)
     call PetscOptionsGetReal(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-ts_max_time', ts_max_time, have_max_time, ierr)
@@ -150,6 +188,7 @@ program nuno
     if (ierr /= 0) call fatal_local('PETSc error during the identification or control')
     if (id_done) then
       call solver_destroy(ctx, ierr)
+      call identify_scratch_remove(id)
       PetscCallA(PetscFinalize(ierr))
       stop
     end if
@@ -171,9 +210,11 @@ program nuno
                             ' characters')
     call output_reopen(out, trim(restart_file), PETSC_COMM_WORLD, cfg%nx, cfg%ny, ctx%lat%ys, &
                        ctx%lat%ye - ctx%lat%ys + 1, cfg%write_velocity, ctx%t_end, cfg%namelist_text, petsc_opts, &
-                       ck, ctx%xout, ctx%vout, ierr, errmsg, protect=trim(path))
+                       ck, ctx%xout, ctx%vout, ierr, errmsg, protect=trim(path), overwrite=overwrite /= 0)
     if (ierr /= 0) call fatal_collective(errmsg)
-    if (rank == 0 .and. .not. same_file(trim(restart_file), trim(cfg%output_file))) &
+    if (rank == 0 .and. trim(restart_file) /= trim(cfg%output_file) .and. &
+        trim(restart_file) /= trim(cfg%output_file)//'.partial' .and. &
+        .not. same_file(trim(restart_file), trim(cfg%output_file))) &
       write(*, '(a)') 'nuno: -nuno_restart: the run goes on in '//trim(restart_file)//"; the input's output_file = '"// &
                       trim(cfg%output_file)//"' is not used"
     ctx%cfg%output_file = restart_file(1:len(ctx%cfg%output_file))
@@ -184,7 +225,8 @@ program nuno
   else
     call output_open(out, trim(cfg%output_file), PETSC_COMM_WORLD, cfg%nx, cfg%ny, ctx%lat%ys, &
                      ctx%lat%ye - ctx%lat%ys + 1, rest_strip(ctx%lat), ctx%lat%mass(:, ctx%lat%ys:ctx%lat%ye), &
-                     cfg%write_velocity, cfg%namelist_text, petsc_opts, ierr, errmsg, protect=trim(path))
+                     cfg%write_velocity, cfg%namelist_text, petsc_opts, ierr, errmsg, protect=trim(path), &
+                     overwrite=overwrite /= 0)
     if (ierr /= 0) call fatal_collective(errmsg)
   end if
   ! A failed step ends the run collectively (status 'failed: ...', ierr = 0);
@@ -210,6 +252,7 @@ program nuno
 
   ! 5. Clean up; a failed run exits non-zero on every rank.
   call solver_destroy(ctx, ierr)
+  if (cfg%identify .or. cfg%control) call identify_scratch_remove(id)
   PetscCallA(PetscFinalize(ierr))
   ! Quiet: the failure was reported in one line already (no ERROR STOP, no backtrace).
   if (status /= 'complete') call quiet_exit(1)

@@ -39,7 +39,7 @@ void nuno_ts_set_ijacobianp_(TS *ts, Mat *A, nuno_ijacp_f func, void *ctx, Petsc
  * is still marked converged from the window before, the checkpoint is
  * skipped, and the adjoint of that window pops the wrong one: a crash), so
  * the default is `basic`, one file a step in the directory `dirname`
- * (removed at the end), and -ts_trajectory_type memory is refused when
+ * (removed at the end; inside a private directory of this run), and -ts_trajectory_type memory is refused when
  * there is more than one window. Its set-up sizes it for the whole run,
  * `horizon` [time] at step `dt`. Fortran: call
  * nuno_ts_trajectory_fresh(ts, horizon, dt, nwindows, dirname, ierr), dirname
@@ -69,9 +69,10 @@ void nuno_ts_trajectory_fresh_(TS *ts, PetscReal *horizon, PetscReal *dt, PetscI
     if (*ierr) return;
   }
   {
-    /* A run that stopped with an error leaves its files behind, and the
-     * basic trajectory refuses a directory that is not empty: the
-     * directory is this output file's own (OUTPUT.adjoint), so clear it. */
+    /* The basic trajectory refuses a directory that exists: one left by
+     * an earlier forward run of this process goes. dirname is inside the
+     * private directory this run made with mkdtemp (module identify,
+     * make_scratch), so nothing here is anyone else's. */
     PetscMPIInt rank;
     PetscBool   exists;
     MPI_Comm    comm;

@@ -34,7 +34,10 @@ module output
   use hdf5
   use mpi
   use kinds, only: rp
-  use safe_files, only: lock_acquire, lock_release, same_file, file_exists, rename_file, free_bytes
+  use safe_files, only: lock_acquire, lock_release, same_file, file_exists, rename_file, free_bytes, &
+                        path_kind, kind_none, kind_file, kind_link, kind_dir, kind_unknown, remove_file, &
+                        is_nuno_output, is_nuno_sidecar, tmp_open, tmp_write, tmp_commit, cleanup_add, &
+                        cleanup_drop, cleanup_file
   implicit none
   private
 
@@ -160,6 +163,9 @@ module output
     character(len=:), allocatable :: lock_path   ! <final>.lock: flock'd by rank 0
     integer :: lock_fd = -1                      ! rank 0's lock file descriptor
     logical :: committed = .false.               ! work_path renamed onto final_path
+    logical :: had_earlier = .false.             ! final_path was an earlier nuno output when the run began
+    logical :: overwrite = .false.               ! -nuno_overwrite: replace it at the first step, not at the end
+    logical :: stepped = .false.                 ! an output step after a successful time step is written
     real(rp), allocatable :: times(:)           ! output times, for the XDMF file
     logical :: reopened = .false.               ! continued by output_reopen (-nuno_restart)
     integer :: restarts = 0                     ! restarts of the series, this one included
@@ -173,7 +179,7 @@ contains
   !> Lock the file, create `<filename>.partial` (an earlier `filename` is left
   !> alone), write root attributes and the lattice, create the time series. Collective.
   subroutine output_open(out, filename, comm, nx, ny, ys, ym, rest, mass, write_velocity, &
-                         attrs_namelist, attrs_petsc_options, ierr, errmsg, version, protect)
+                         attrs_namelist, attrs_petsc_options, ierr, errmsg, version, protect, overwrite)
     type(output_file), intent(inout) :: out
     character(*), intent(in) :: filename
     integer, intent(in) :: comm                 ! MPI communicator of the run
@@ -186,7 +192,10 @@ contains
     character(*), intent(out) :: errmsg
     character(*), intent(in), optional :: version   ! default: the CMake project version
     character(*), intent(in), optional :: protect   ! a file that must not be written (the input)
+    logical, intent(in), optional :: overwrite      ! -nuno_overwrite (default .false.)
     integer :: mpierr, rows
+    logical :: made
+    character(len=256) :: detail
 
     ierr = 0
     errmsg = ''
@@ -230,14 +239,20 @@ contains
     out%work_path = filename//'.partial'
     out%lock_path = filename//'.lock'
     out%committed = .false.
+    out%reopened = .false.
+    out%stepped = .false.
+    out%overwrite = .false.
+    if (present(overwrite)) out%overwrite = overwrite
 
-    ! Before anything is written: not the input file, and no other writer.
+    ! Before anything is written: not the input file, no other writer, and
+    ! only nuno's own files under the names this run writes.
     if (out%rank == 0) call claim_files(out, ierr, errmsg, protect)
     call agree(comm, 'output_open', ierr, errmsg)
     if (ierr /= 0) then
       if (out%rank == 0) call lock_release(out%lock_path, out%lock_fd)
       return
     end if
+    call MPI_Bcast(out%had_earlier, 1, MPI_LOGICAL, 0, comm, mpierr)
 
     ! The file, the lattice and a first step must fit (check_space).
     call check_space(out, 32.0_rp * nx * ny + step_bytes(out) + 2.0_rp * (len(attrs_namelist) + len(attrs_petsc_options)), &
@@ -248,9 +263,18 @@ contains
     end if
     call open_local(out, out%work_path, rest, mass, attrs_namelist, attrs_petsc_options, ierr, errmsg, version)
     call agree(comm, 'output_open', ierr, errmsg)
+    ! Made by this run (created: the file is open here): an error exit
+    ! before it holds a result removes it (errors: cleanup_run), and so
+    ! does a failure here; a name this run did not create is left alone.
+    made = out%is_open
+    if (out%rank == 0 .and. made) call cleanup_add(out%work_path, cleanup_file)
     if (ierr /= 0) then
       call close_ids(out, ierr, errmsg)   ! best effort; ierr/errmsg keep the first error
       out%is_open = .false.
+      if (out%rank == 0 .and. made) then
+        call remove_file(out%work_path, made, detail)
+        call cleanup_drop(out%work_path)
+      end if
       if (out%rank == 0) call lock_release(out%lock_path, out%lock_fd)
     end if
   end subroutine output_open
@@ -265,6 +289,7 @@ contains
     character(*), intent(in), optional :: protect
     character(len=256) :: detail
     integer :: code
+    logical :: stale, ok
 
     if (present(protect)) then
       if (same_file(protect, out%final_path) .or. same_file(protect, out%work_path) .or. &
@@ -280,10 +305,79 @@ contains
       ierr = 1
       errmsg = 'output: '//out%final_path//' is being written by another run ('//trim(detail)// &
                ', lock '//out%lock_path//'): wait for it to end or choose another output_file'
+    else if (code == 3) then
+      ierr = 1
+      errmsg = 'output: nuno''s lock file '//out%lock_path//' cannot be made: '//trim(detail)// &
+               '; nuno never writes through or over what it did not make: move it away or choose another output_file'
     else if (code /= 0) then
       ierr = 1
       errmsg = 'output: cannot create '//out%lock_path//' beside the output file: '//trim(detail)
     end if
+    if (ierr /= 0) return
+    ! Under the lock, the names this run writes: each must be free or a
+    ! regular file that nuno wrote (an earlier result, a killed run's
+    ! attempt, a sidecar), never a link, a directory or a user's file.
+    out%had_earlier = .false.
+    if (out%work_path /= out%final_path) then
+      call own_or_free(out%final_path, 'output file', out%had_earlier)
+      if (ierr == 0 .and. .not. out%reopened) then
+        call own_or_free(out%work_path, 'working file', stale)
+        ! A killed run's attempt (nuno's, under this lock): replaced.
+        if (ierr == 0 .and. stale) then
+          call remove_file(out%work_path, ok, detail)
+          if (.not. ok) then
+            ierr = 1
+            errmsg = 'output: cannot remove the earlier attempt '//out%work_path//': '//trim(detail)
+          end if
+        end if
+      end if
+    end if
+    if (ierr == 0 .and. out%reopened) then
+      ! Opened for writing only when it is nuno's (an HDF5 file of another
+      ! program could be changed by the mere open and close).
+      if (path_kind(out%work_path, detail) /= kind_file) then
+        ierr = 1
+        errmsg = '-nuno_restart '//out%work_path//': not a regular file (a symbolic link, a directory or '// &
+                 'another kind of file): nuno continues only its own output files'
+      else if (.not. is_nuno_output(out%work_path)) then
+        ierr = 1
+        errmsg = '-nuno_restart '//out%work_path//': not a nuno output file: nuno continues only its own output files'
+      end if
+    end if
+    if (ierr == 0) call own_or_free(out%xmf_path, 'XDMF sidecar', stale, sidecar=.true.)
+  contains
+    !> ierr = 1 unless path is free or a regular file of nuno's (exists: it is).
+    subroutine own_or_free(path, what, exists, sidecar)
+      character(*), intent(in) :: path, what
+      logical, intent(out) :: exists
+      logical, intent(in), optional :: sidecar
+      character(len=256) :: why
+      integer :: k
+      logical :: own
+      exists = .false.
+      k = path_kind(path, why)
+      if (k == kind_none) return
+      exists = k == kind_file
+      if (k == kind_file) then
+        if (present(sidecar)) then
+          own = is_nuno_sidecar(path)
+        else
+          own = is_nuno_output(path)
+        end if
+        if (own) return
+        why = 'it exists and is not '//merge('an XDMF sidecar written by nuno', 'an output file of nuno         ', &
+                                           present(sidecar))
+      else if (k == kind_link) then
+        why = 'it is a symbolic link'
+      else if (k == kind_dir) then
+        why = 'it is a directory'
+      else if (k /= kind_unknown) then
+        why = 'it is not a regular file'
+      end if
+      ierr = 1
+      errmsg = 'output: '//path//' (this run''s '//what//'): '//trim(why)// &
+               '; nuno replaces only its own files, never through a link: move it away or choose another output_file'
+    end subroutine own_or_free
   end subroutine claim_files
 
   !> Rename `<file>.partial` onto `<file>` (rank 0), then write the XDMF
@@ -302,6 +396,8 @@ contains
       if (.not. ok) then
         ierr = 1
         errmsg = 'output: cannot rename '//out%work_path//' to '//out%final_path//': '//trim(detail)
+      else
+        call cleanup_drop(out%work_path)
       end if
     end if
     call agree(out%comm, 'output: rename', ierr, errmsg)
@@ -350,8 +446,15 @@ contains
     end if
     call agree(out%comm, 'output_write_step', ierr, errmsg)
     if (ierr /= 0) call add_cause(out, errmsg)
-    ! rec%steps > 0: a time step succeeded and its result is on disk.
-    if (ierr == 0 .and. rec%steps > 0) call commit(out, ierr, errmsg)
+    ! rec%steps > 0: a time step succeeded and its result is on disk: the
+    ! file is a result now (an error exit keeps it), and takes the output's
+    ! name unless that would replace an earlier result before this run
+    ! completes (output_close; -nuno_overwrite: now).
+    if (ierr == 0 .and. rec%steps > 0) then
+      if (.not. out%stepped .and. out%rank == 0) call cleanup_drop(out%work_path)
+      out%stepped = .true.
+      if (.not. out%had_earlier .or. out%overwrite) call commit(out, ierr, errmsg)
+    end if
   end subroutine output_write_step
 
   !> Bytes of one output step in the file (the strips and a margin for the
@@ -442,7 +545,9 @@ contains
       call MPI_Bcast(keep, 1, MPI_LOGICAL, 0, out%comm, mpierr)
       if (keep) then
         if (out%rank == 0) write(*, '(a)') 'output: the earlier '//out%final_path// &
-          ' is kept as it was; this run''s file is '//out%work_path
+          ' is kept as it was; this run''s file is '//out%work_path//' (-nuno_restart '//out%final_path// &
+          ' continues it from its checkpoint, if it has one)'
+        if (out%rank == 0) call cleanup_drop(out%work_path)   ! the record of the failure
       else
         call commit(out, ierr, errmsg)   ! writes the XDMF sidecar
       end if
@@ -819,7 +924,9 @@ contains
       if (h < 0) call fail('h5pset_libver_bounds_f', filename, ierr, errmsg)
     end if
     if (ierr == 0) then
-      call h5fcreate_f(filename, H5F_ACC_TRUNC_F, out%file, h, access_prp=fapl)
+      ! EXCL: a new file (O_EXCL), never one that took the name meanwhile
+      ! nor the target of a symbolic link (claim_files cleared the name).
+      call h5fcreate_f(filename, H5F_ACC_EXCL_F, out%file, h, access_prp=fapl)
       if (h < 0) call fail('h5fcreate_f', filename, ierr, errmsg)
     end if
     call h5pclose_f(fapl, h)
@@ -1763,7 +1870,7 @@ contains
   !> checkpoint's output steps, mark it running. Nothing is changed in the
   !> file when a check fails. Collective.
   subroutine output_reopen(out, filename, comm, nx, ny, ys, ym, write_velocity, t_end, attrs_namelist, &
-                                  attrs_petsc_options, ck, x, v, ierr, errmsg, protect)
+                                  attrs_petsc_options, ck, x, v, ierr, errmsg, protect, overwrite)
     type(output_file), intent(inout) :: out
     character(*), intent(in) :: filename
     integer, intent(in) :: comm, nx, ny, ys, ym
@@ -1775,10 +1882,12 @@ contains
     integer, intent(out) :: ierr
     character(*), intent(out) :: errmsg
     character(*), intent(in), optional :: protect
+    logical, intent(in), optional :: overwrite      ! -nuno_overwrite (default .false.)
     integer(hid_t) :: fapl, grp
-    integer :: h, mpierr, fnx, fny, slot, seq(0:1), k, restarts, extent
-    logical :: exists, has_velocity
+    integer :: h, mpierr, fnx, fny, slot, seq(0:1), k, restarts, extent, n
+    logical :: exists, has_velocity, attempt
     character(len=:), allocatable :: where
+    character(len=256) :: why
 
     ierr = 0
     errmsg = ''
@@ -1795,22 +1904,43 @@ contains
     out%ys = ys
     out%ym = ym
     out%write_velocity = write_velocity
-    call sidecar_names(filename, out%xmf_path, out%h5_base)
-    out%final_path = filename
-    out%work_path = filename
-    out%lock_path = filename//'.lock'
-    ! Written in place from the start: the checkpoint is in it already.
-    out%committed = .true.
+    ! A run that has not yet given its file the output's name (killed
+    ! before its first output step, or one that keeps an earlier result
+    ! until it completes) left OUTPUT.partial: the restart continues that,
+    ! named either way, and gives it the name OUTPUT as a run would.
+    n = len(filename)
+    attempt = .false.
+    if (n > 8) attempt = filename(n - 7:n) == '.partial'
+    if (attempt) then
+      out%final_path = filename(1:n - 8)
+      out%work_path = filename
+    else
+      if (out%rank == 0) attempt = path_kind(filename//'.partial', why) == kind_file
+      call MPI_Bcast(attempt, 1, MPI_LOGICAL, 0, comm, mpierr)
+      out%final_path = filename
+      out%work_path = filename
+      if (attempt) out%work_path = filename//'.partial'
+    end if
+    call sidecar_names(out%final_path, out%xmf_path, out%h5_base)
+    out%lock_path = out%final_path//'.lock'
+    ! In place: the checkpoint is in it already.
+    out%committed = out%work_path == out%final_path
     out%reopened = .true.
+    out%stepped = .true.          ! a result already: never removed
+    out%overwrite = .false.
+    if (present(overwrite)) out%overwrite = overwrite
 
     if (out%rank == 0) then
-      if (.not. file_exists(filename)) then
+      if (.not. file_exists(out%work_path)) then
         ierr = 1
         errmsg = '-nuno_restart '//filename//': no such file'
       else
         call claim_files(out, ierr, errmsg, protect)
+        if (ierr == 0 .and. .not. out%committed) write(*, '(a)') 'nuno: -nuno_restart: continuing '// &
+          out%work_path//', the last run''s file; it becomes '//out%final_path//' as a run''s file does'
       end if
     end if
+    call MPI_Bcast(out%had_earlier, 1, MPI_LOGICAL, 0, comm, mpierr)
     call agree(comm, '-nuno_restart', ierr, errmsg)
     if (ierr /= 0) then
       if (out%rank == 0) call lock_release(out%lock_path, out%lock_fd)
@@ -1826,10 +1956,10 @@ contains
       if (h < 0) call fail('h5pset_fapl_mpio_f', filename, ierr, errmsg)
     end if
     if (ierr == 0) then
-      call h5fopen_f(filename, H5F_ACC_RDWR_F, out%file, h, access_prp=fapl)
+      call h5fopen_f(out%work_path, H5F_ACC_RDWR_F, out%file, h, access_prp=fapl)
       if (h < 0) then
         ierr = 1
-        errmsg = '-nuno_restart '//filename//': not an HDF5 file that can be opened for writing'
+        errmsg = '-nuno_restart '//out%work_path//': not an HDF5 file that can be opened for writing'
       end if
       call h5pclose_f(fapl, h)
     end if
@@ -2295,23 +2425,26 @@ contains
     type(output_file), intent(in) :: out
     integer, intent(inout) :: ierr
     character(*), intent(inout) :: errmsg
-    integer :: u, ios, k
-    logical :: bad
+    integer :: u, k, nbuf
+    logical :: good
     character(len=256) :: iom
-    character(len=:), allocatable :: plane, surf, f8, h5
+    character(len=:), allocatable :: plane, surf, f8, h5, tmp
+    character(len=65536) :: buf                   ! lines gathered for one write(2)
 
     if (ierr /= 0) return
     h5 = xml_escape(out%h5_base)                  ! the file's name in XML text
     plane = str(out%ny)//' '//str(out%nx)        ! /lattice/mass [ny][nx]
     surf = '1 '//plane                            ! the topology, one layer of points; the views
     f8 = 'NumberType="Float" Precision="8"'
-    open(newunit=u, file=out%xmf_path, status='replace', action='write', iostat=ios, iomsg=iom)
-    if (ios /= 0) then
+    ! Written whole into a new file made exclusively beside it, then renamed
+    ! onto the name: never through a symbolic link, never half-written.
+    call tmp_open(out%xmf_path, tmp, u, good, iom)
+    if (.not. good) then
       ierr = 1
       errmsg = 'output: cannot write '//out%xmf_path//': '//trim(iom)
       return
     end if
-    bad = .false.
+    nbuf = 0
     call put('<?xml version="1.0" ?>')
     call put('<Xdmf Version="3.0">')
     call put(' <Domain>')
@@ -2345,22 +2478,32 @@ contains
     call put('  </Grid>')
     call put(' </Domain>')
     call put('</Xdmf>')
-    if (bad) then
+    call flush_buf()
+    if (.not. good) then
       ierr = 1
       errmsg = 'output: write error on '//out%xmf_path
     end if
-    close(u, iostat=ios)
-    if (ios /= 0 .and. ierr == 0) then
+    call tmp_commit(u, tmp, out%xmf_path, good, iom)
+    if (.not. good .and. ierr == 0) then
       ierr = 1
-      errmsg = 'output: close error on '//out%xmf_path
+      errmsg = 'output: cannot put '//out%xmf_path//' in place: '//trim(iom)
     end if
   contains
     subroutine put(line)
       character(*), intent(in) :: line
-      if (bad) return
-      write(u, '(a)', iostat=ios) line
-      if (ios /= 0) bad = .true.
+      if (nbuf + len(line) + 1 > len(buf)) call flush_buf()
+      if (len(line) + 1 > len(buf)) then
+        call tmp_write(u, line//achar(10), good)
+      else
+        buf(nbuf + 1:nbuf + len(line) + 1) = line//achar(10)
+        nbuf = nbuf + len(line) + 1
+      end if
     end subroutine put
+
+    subroutine flush_buf()
+      if (nbuf > 0) call tmp_write(u, buf(1:nbuf), good)
+      nbuf = 0
+    end subroutine flush_buf
 
     !> A plain float64 HDF DataItem of the dataset path (C-order dims).
     subroutine item(indent, dims, path)
