@@ -1740,8 +1740,9 @@ contains
       '                                               second iteration of a step reuses the first one''s S)', &
       '  -ts_theta_initial_guess_extrapolate          beuler starts Newton from x + dt xdot (default true,', &
       '                                               reduced path)', &
-      '  -nuno_snes_floor F                           a residual below F times its start that stops', &
-      '                                               decreasing is converged (default 1e-6; 0: off)', &
+      '  -nuno_snes_floor F                           a residual below F times its start or the round-off', &
+      '                                               floor that stops decreasing is converged, on both paths', &
+      '                                               (default 1e-6; 0: off)', &
       '  -snes_ksp_ew                                 Eisenstat-Walker: its forcing term is the inner rtol', &
       '  -nuno_gauss_newton                           energy bending: Gauss-Newton blocks -k_b J^T J in the', &
       '                                               assembled matrix, S or the 6-dof Jacobian (an inexact', &
