@@ -130,6 +130,13 @@ module timestepping
       character(kind=c_char), intent(inout) :: mattype(*)
       integer(c_int), value :: mattype_len
     end function nuno_options_read
+    !> src/nuno_petsc_habits.c: PETSc's -ksp_*/-pc_* options on the path in use.
+    integer(c_int) function nuno_petsc_habits(fcomm, reduced, mattype, mattype_len) bind(C, name='nuno_petsc_habits')
+      import :: c_int, c_char
+      integer(c_int), value :: fcomm, reduced
+      character(kind=c_char), intent(inout) :: mattype(*)
+      integer(c_int), value :: mattype_len
+    end function nuno_petsc_habits
     !> src/nuno_options.c: -nuno_linesearch_fallback, and whether -snes_linesearch_type is given.
     integer(c_int) function nuno_linesearch_options_read(fcomm, fallback, given, ls_given) &
         bind(C, name='nuno_linesearch_options_read')
@@ -328,6 +335,9 @@ contains
     if (ierr /= 0) return
     ctx%newton_forcing = forcing /= 0
     ctx%use_reduced = jac_full == 0
+    ! -pc_type lu and friends on the path in use (before anything reads them)
+    ierr = nuno_petsc_habits(ctx%comm, merge(1_c_int, 0_c_int, ctx%use_reduced), cmattype, len(cmattype))
+    if (ierr /= 0) return
     if (.not. ctx%use_reduced .and. mg_interp > 0) then
       ierr = PETSC_ERR_ARG_INCOMP
       SETERRQ(ctx%comm, ierr, 'nuno: -nuno_mg_interpolation is for the reduced solve, not -nuno_jacobian full')
