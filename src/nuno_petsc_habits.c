@@ -46,7 +46,7 @@ PetscErrorCode nuno_petsc_habits(MPI_Fint fcomm, int reduced, char *mattype, int
 {
   MPI_Comm    comm = MPI_Comm_f2c(fcomm);
   char        pctype[64] = "", ksptype[64] = "", mt[64] = "";
-  PetscBool   pcset = PETSC_FALSE, kspset = PETSC_FALSE, mtset = PETSC_FALSE;
+  PetscBool   pcset = PETSC_FALSE, mtset = PETSC_FALSE;
 
   PetscFunctionBeginUser;
   PetscOptionsBegin(comm, NULL,
@@ -61,7 +61,7 @@ PetscErrorCode nuno_petsc_habits(MPI_Fint fcomm, int reduced, char *mattype, int
   PetscCall(PetscOptionsString("-ksp_type",
                                "default path: the inner 3-dof solve's Krylov method, as -reduced_ksp_type (preonly with -pc_type lu: a direct solve); "
                                "-nuno_jacobian full: the 6-dof solve's, as in PETSc",
-                               "KSPSetType", ksptype, ksptype, sizeof(ksptype), &kspset));
+                               "KSPSetType", ksptype, ksptype, sizeof(ksptype), NULL));
   PetscOptionsEnd();
   PetscCall(PetscOptionsGetString(NULL, NULL, "-dm_mat_type", mt, sizeof(mt), &mtset));
 
