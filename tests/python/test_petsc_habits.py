@@ -9,9 +9,10 @@ locate a solver type for factorization type LU and matrix type shell"),
 -ksp_rtol was ignored, -pc_type fieldsplit failed every Newton solve with a
 misleading hint, and -dm_mat_type nonsense passed silently.
 
-Expectations: a habit gives bit for bit the run of the option it stands for
-(-pc_type lu = -reduced_pc_type lu: the same options reach PETSc, so the same
-numbers), the start-up line names the inner solver; a refusal is one line
+Expectations: a habit gives the run of the option it stands for (-pc_type
+lu = -reduced_pc_type lu: the same options reach PETSc, so the same numbers
+but for MUMPS's run-to-run round-off) and the same start-up line naming
+the inner solver; a refusal is one line
 naming the option and the one to use, from a non-zero exit, before any
 output file exists."""
 import subprocess
@@ -65,8 +66,11 @@ def test_outer_option_acts_on_the_inner_solve(tmp_path, habit, meant, inner):
     ref_proc, ref = completes(tmp_path, "meant", meant)
     assert inner in inner_line(proc), inner_line(proc)
     assert inner_line(proc) == inner_line(ref_proc)
-    # the same options reached PETSc: the same numbers, bit for bit
-    assert np.array_equal(np.asarray(r.position[:]), np.asarray(ref.position[:]))
+    # the same options reached PETSc: the same numbers, up to the parallel
+    # direct solver (MUMPS on 2 ranks), which is not bitwise reproducible
+    # from run to run (1e-23 m measured on this 1 m cloth)
+    x, xref = np.asarray(r.position[:]), np.asarray(ref.position[:])
+    assert np.abs(x - xref).max() <= 1e-13 * np.abs(xref).max()
     # the run says what it made of the options
     said = [ln for ln in proc.stdout.splitlines() if "read as" in ln]
     assert len(said) == 1, proc.stdout
