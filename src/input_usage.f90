@@ -139,8 +139,9 @@ contains
       '                                               second iteration of a step reuses the first one''s S)', &
       '  -ts_theta_initial_guess_extrapolate          beuler starts Newton from x + dt xdot (default true,', &
       '                                               reduced path)', &
-      '  -nuno_snes_floor F                           a residual below F times its start that stops', &
-      '                                               decreasing is converged (default 1e-6; 0: off)', &
+      '  -nuno_snes_floor F                           a residual below F times its start or the round-off', &
+      '                                               floor that stops decreasing is converged, on both paths', &
+      '                                               (default 1e-6; 0: off)', &
       '  -snes_ksp_ew                                 Eisenstat-Walker: its forcing term is the inner rtol', &
       '  -nuno_gauss_newton                           energy bending: Gauss-Newton blocks -k_b J^T J in the', &
       '                                               assembled matrix, S or the 6-dof Jacobian (an inexact', &
@@ -150,7 +151,12 @@ contains
       '                                               from the assembled matrix (preconditioner use)', &
       '  -nuno_linesearch_fallback bt|l2|none         after a failed Newton solve, the rest of the run takes', &
       '                                               this line search instead of full steps (default bt)', &
-      'With -nuno_jacobian full:', &
+      'PETSc''s linear-solver options on the default (reduced) path act on the inner solve of S:', &
+      '  -ksp_*, -pc_*, -sub_*, -mg_levels_*, -mg_coarse_*  read as -reduced_ksp_*, -reduced_pc_*, ...:', &
+      '                                               -pc_type lu is -reduced_pc_type lu (an exact inner solve),', &
+      '                                               -ksp_type preonly -pc_type lu a direct one; -pc_type', &
+      '                                               fieldsplit, shell and -dm_mat_type are refused there', &
+      'With -nuno_jacobian full (PETSc''s options act on the 6-dof solve as usual):', &
       '  -ksp_type gmres|bcgs|preonly, -pc_type ilu|lu|bjacobi|fieldsplit|gamg', &
       '  -dm_mat_type baij|aij                        Jacobian storage (default baij 6x6; aij for fieldsplit)'
   end subroutine usage_text

@@ -41,7 +41,7 @@ PetscErrorCode nuno_options_read(MPI_Fint fcomm, int *jacobian, int *pc_lag, int
   PetscCall(PetscOptionsInt("-nuno_pc_lag", "rebuild the inner (reduced_) preconditioner every N assemblies (0: with the default multigrid 3, or 20 with cubic interpolation; 1 otherwise)", "nuno", lag, &lag, NULL));
   PetscCall(PetscOptionsEList("-nuno_mg_interpolation", "interpolation of the inner multigrid: auto (coarse_cubic with bending, linear without), linear, cubic (every level), coarse_cubic (every level but the finest; nuno's multigrid interpolates the finest level's correction cubic too)",
                               "nuno", interps, 4, interps[interp], &interp, NULL));
-  PetscCall(PetscOptionsReal("-nuno_snes_floor", "Newton: converged when a residual below this fraction of its start stops decreasing, or (reduced) is at the round-off floor estimated from S (0: off)",
+  PetscCall(PetscOptionsReal("-nuno_snes_floor", "Newton: converged when a residual below this fraction of its start or below the round-off floor estimated from the assembled matrix (S or the 6-dof Jacobian) stops decreasing or finds no decrease in the line search, or is below half that floor (0: off)",
                              "nuno", floor, &floor, NULL));
   PetscCall(PetscOptionsBool("-nuno_newton_forcing", "reduced Newton: solve each inner system only as far as the step needs (its Newton remainder, or half the residual at which Newton stops); off: always -reduced_ksp_rtol",
                              "nuno", fc, &fc, NULL));

@@ -33,6 +33,7 @@ module reduced
   use reduced_assembly, only: assemble_csr, assemble_stencil, kc_products
   use offset_product, only: stencil_product, offset_count
   use interpolation, only: cubic_weights
+  use newton_control, only: floor_node_add, floor_estimate
   use inner_guess, only: GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, GUESS_PROJECT, PROJECT_PAIRS, &
                          guess_weights, second_weight, projection_weights
   use stencil_mg, only: stencil_mg_t, mg_create, mg_destroy, mg_build_coarse, mg_apply, mg_describe, mg_product, &
@@ -738,8 +739,7 @@ contains
     do ja = red%lat%ys, red%lat%ye
       do i = 0, red%lat%nx - 1
         if (red%fixedg(i, ja)) cycle
-        loc(1) = loc(1) + sum((red%kd(:, i, ja) / red%lat%mass(i, ja))**2) + 3.0_rp * a**2
-        loc(2) = max(loc(2), maxval(abs(u(0:2, i, ja))))
+        call floor_node_add(red%kd(:, i, ja), red%lat%mass(i, ja), u(0:2, i, ja), a, loc)
       end do
     end do
     ! Round-off floor of the residual: a position is known to eps |x|, and
@@ -754,7 +754,7 @@ contains
     PetscCall(PetscObjectGetComm(red%da3, comm, ierr))
     call MPI_Allreduce(loc(1), glob(1), 1, MPI_DOUBLE_PRECISION, MPI_SUM, comm, ierr)
     call MPI_Allreduce(loc(2), glob(2), 1, MPI_DOUBLE_PRECISION, MPI_MAX, comm, ierr)
-    red%floor_est = epsilon(1.0_rp) * glob(2) * sqrt(glob(1))
+    red%floor_est = floor_estimate(glob)
     red%a = a
     red%assembled = .true.
     red%dirty = .false.

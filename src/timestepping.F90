@@ -31,6 +31,7 @@ module timestepping
   use output, only: output_file, output_record, output_write_step, run_info, output_write_run_info, &
                     output_write_wall_time, output_config_key, checkpoint_t, output_write_checkpoint
   use newton_forcing, only: forcing_term, quadratic_constant
+  use newton_control, only: FLOOR_FACTOR, NEWTON_CONVERGED, NEWTON_DIVERGED, floor_node_add, floor_estimate, floor_verdict
   use inner_guess, only: GUESS_AUTO, GUESS_NONE, GUESS_EXTRAPOLATE, GUESS_PROJECT
   use reduced, only: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach, &
                      reduced_set_guess, reduced_step_accepted, &
@@ -41,16 +42,13 @@ module timestepping
   public :: app_ctx, solver_create, solver_destroy, solver_run, check_decomposition, solver_restore
   public :: enter_window            ! module identify: the constraint state of a time window
 
-  !> Fraction of the estimated round-off floor of ||F|| below which Newton
-  !> has converged. The estimate was 14 times the floor actually met early
-  !> in a run (hang 129..513), 3 times once the cloth swings (hang 257 x 257
-  !> at t = 0.45 s): with a quarter, every step there took a third Newton
-  !> iteration only to see the residual stall (docs/performance.md).
-  real(rp), parameter :: FLOOR_FACTOR = 0.5_rp
   !> Adaptive steps: Newton has converged when its estimated remaining error
   !> is below this fraction of the time integrator's tolerance (the
   !> weighted RMS norm of TSAdapt, in which a step is accepted at <= 1).
   real(rp), parameter :: NEWTON_TS_FRACTION = 0.01_rp
+  !> SNESLineSearchReason's SNES_LINESEARCH_SUCCEEDED and _FAILED_REDUCT
+  !> (no decrease found; petscsnes.h: PETSc 3.18 gives Fortran no names)
+  integer, parameter :: LS_SUCCEEDED = 0, LS_FAILED_REDUCT = 3
   !> Wall seconds without a line on stdout after which the monitor prints one.
   real(rp), parameter :: HEARTBEAT_S = 10.0_rp
   !> The default velocity tolerance is the position tolerance over this
@@ -132,6 +130,13 @@ module timestepping
       character(kind=c_char), intent(inout) :: mattype(*)
       integer(c_int), value :: mattype_len
     end function nuno_options_read
+    !> src/nuno_petsc_habits.c: PETSc's -ksp_*/-pc_* options on the path in use.
+    integer(c_int) function nuno_petsc_habits(fcomm, reduced, mattype, mattype_len) bind(C, name='nuno_petsc_habits')
+      import :: c_int, c_char
+      integer(c_int), value :: fcomm, reduced
+      character(kind=c_char), intent(inout) :: mattype(*)
+      integer(c_int), value :: mattype_len
+    end function nuno_petsc_habits
     !> src/nuno_options.c: -nuno_linesearch_fallback, and whether -snes_linesearch_type is given.
     integer(c_int) function nuno_linesearch_options_read(fcomm, fallback, given, ls_given) &
         bind(C, name='nuno_linesearch_options_read')
@@ -203,6 +208,7 @@ module timestepping
     ! Newton's round-off floor (snes_converged)
     real(rp) :: snes_floor = 1.0e-6_rp          !< -nuno_snes_floor: stagnation below this relative residual is convergence
     real(rp) :: fnorm0 = 0, fnorm_prev = 0
+    real(rp) :: floor_est = 0                   !< round-off floor of ||F||_2 at the last 6-dof assembly (module newton_control)
     real(rp) :: snorm_prev = 0                  !< ||update|| of the previous Newton iteration
     ! inexact Newton (module newton_forcing, -nuno_newton_forcing)
     logical :: newton_forcing = .true.          !< inner tolerance from the step's needs (reduced path)
@@ -290,7 +296,7 @@ contains
     type(nuno_config), intent(in) :: cfg
     PetscErrorCode, intent(out) :: ierr
     PetscInt :: xs, ys, zs, xm, ym, zm, gxs, gys, gzs, gxm, gym, gzm, w, nc, nxp, nyp
-    PetscInt, parameter :: one = 1, six = 6, eight = 8
+    PetscInt, parameter :: one = 1, two = 2, six = 6, eight = 8
     type(tSNES) :: snes
     type(tTSAdapt) :: adapt
     SNESLineSearch :: linesearch
@@ -329,6 +335,9 @@ contains
     if (ierr /= 0) return
     ctx%newton_forcing = forcing /= 0
     ctx%use_reduced = jac_full == 0
+    ! -pc_type lu and friends on the path in use (before anything reads them)
+    ierr = nuno_petsc_habits(ctx%comm, merge(1_c_int, 0_c_int, ctx%use_reduced), cmattype, len(cmattype))
+    if (ierr /= 0) return
     if (.not. ctx%use_reduced .and. mg_interp > 0) then
       ierr = PETSC_ERR_ARG_INCOMP
       SETERRQ(ctx%comm, ierr, 'nuno: -nuno_mg_interpolation is for the reduced solve, not -nuno_jacobian full')
@@ -428,6 +437,11 @@ contains
     PetscCall(TSGetSNES(ctx%ts, snes, ierr))
     PetscCall(SNESSetTolerances(snes, PETSC_DEFAULT_REAL, PETSC_DEFAULT_REAL, 0.0_rp, PETSC_DEFAULT_INTEGER, PETSC_DEFAULT_INTEGER, ierr))
     PetscCall(SNESSetConvergenceTest(snes, snes_converged, ctx, PETSC_NULL_FUNCTION, ierr))
+    ! A line search that finds no decrease goes to snes_converged, which
+    ! accepts it at the round-off floor and fails it elsewhere (PETSc's
+    ! default, 1, fails the solve before the test: the 6-dof path's bt
+    ! failed the shipped hang scene so).
+    PetscCall(SNESSetMaxNonlinearStepFailures(snes, two, ierr))
     if (ctx%use_reduced) then
       PetscCall(reduced_attach(ctx%red, snes, ierr))
       ! The full step is exact in x and Newton-exact in v: no backtracking by
@@ -776,7 +790,8 @@ contains
     PetscErrorCode :: ierr
     type(tVec) :: uloc, udloc
     PetscScalar, pointer :: u(:, :, :), ud(:, :, :)
-    integer :: ja
+    integer :: ja, i, q
+    real(rp) :: kd(3), sums(2), gsums(2)
 
     PetscCall(DMGetLocalVector(ctx%da, uloc, ierr))
     PetscCall(DMGlobalToLocalBegin(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
@@ -798,16 +813,29 @@ contains
     end if
     ctx%jbuf%k = 0.0_rp
     ctx%jbuf%c = 0.0_rp
+    sums = 0.0_rp
     do ja = first_anchor_row(ctx%lat), ctx%lat%ye
       call jac_buffer_row(ctx%jbuf, ctx%lat, u, ja, ctx%clamp, ctx%gauss_newton)
       if (ja >= ctx%lat%ys) then
         PetscCall(insert_row(ctx, pmat, ja, a, ierr))
+        ! the round-off floor of F from this assembly, as the reduced path
+        ! takes it from S (module newton_control)
+        do i = 0, ctx%lat%nx - 1
+          if (ctx%fixed(i, ja)) cycle
+          do q = 1, 3
+            kd(q) = ctx%jbuf%k(q, q, 0, 0, i, slot_of(ja))
+          end do
+          call floor_node_add(kd, ctx%lat%mass(i, ja), u(0:2, i, ja), a, sums)
+        end do
       end if
       ctx%jbuf%k(:, :, :, :, :, slot_of(ja)) = 0.0_rp
       ctx%jbuf%c(:, :, :, :, :, slot_of(ja)) = 0.0_rp
     end do
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, uloc, u, ierr))
     PetscCall(DMRestoreLocalVector(ctx%da, uloc, ierr))
+    call MPI_Allreduce(sums(1), gsums(1), 1, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, ierr)
+    call MPI_Allreduce(sums(2), gsums(2), 1, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
+    ctx%floor_est = floor_estimate(gsums)
     PetscCall(MatAssemblyBegin(pmat, MAT_FINAL_ASSEMBLY, ierr))
     PetscCall(MatAssemblyEnd(pmat, MAT_FINAL_ASSEMBLY, ierr))
     if (jmat%v /= pmat%v) then
@@ -869,12 +897,16 @@ contains
   !> grows with stiffness over mass (like N^5 for hang refined: 1.3e-5 at
   !> 129 x 129, 1.2e-2 at 513 x 513 against initial residuals of 1e3):
   !> Newton cannot go below it, and snes_rtol = 1e-8 would fail good steps.
-  !> Converged is (a) a residual below snes_floor times its initial value
-  !> (on the reduced path: or below the floor estimated at the last assembly)
-  !> that an iteration no longer reduces by 10 %, or (b) on the reduced path,
-  !> a residual below FLOOR_FACTOR times the floor estimated at the last
-  !> assembly (module reduced: eps max|x| ||diag(K)/m||_2, measured 14 times
-  !> the actual floor at 129..513), which saves the iteration that (a) needs.
+  !> The same rule on both paths (module newton_control's floor_verdict),
+  !> with the floor estimated at the last assembly of S (reduced; measured
+  !> 14 times the actual floor at 129..513) or of the 6-dof Jacobian (full):
+  !> converged is (a) a residual below snes_floor times its initial value
+  !> or below the floor estimate that an iteration no longer reduces by
+  !> 10 %, (b) a residual below FLOOR_FACTOR times the floor estimate, which
+  !> saves the iteration that (a) needs, or (a') a line search that found
+  !> no decrease (bt, the 6-dof path's default, or the reduced path's
+  !> fallback) from a residual where (a) would stop: at the floor no step
+  !> decreases ||F||. Any other failed line search diverges, as in PETSc.
   !> With adaptive steps also (c): the Newton error estimated from the
   !> update and the convergence rate, |du_k| rate/(1 - rate) in the time
   !> integrator's weighted norm (atol + rtol |u|), is below
@@ -891,7 +923,9 @@ contains
     SNESConvergedReason :: reason
     type(app_ctx) :: ctx
     PetscErrorCode :: ierr
-    real(rp) :: rate, wnorm, stagnant_below
+    real(rp) :: rate, wnorm, floor_est
+    integer :: verdict
+    SNESLineSearchReason :: lsreason
     call SNESConvergedDefault(snes, it, xnorm, snorm, fnorm, reason, PETSC_NULL_INTEGER, ierr)
     if (ierr /= 0) return
     if (it == 0 .and. ctx%fail_newton > 0) then
@@ -900,19 +934,19 @@ contains
       reason = SNES_DIVERGED_FUNCTION_DOMAIN
     else if (it == 0) then
       ctx%fnorm0 = fnorm
-    else if (reason == SNES_CONVERGED_ITERATING .and. ctx%snes_floor > 0.0_rp) then
-      stagnant_below = ctx%snes_floor * ctx%fnorm0
-      ! (on this path also the floor estimated from S: with a good start,
-      ! e.g. the extrapolated one of beuler, ||F_0|| is small and snes_floor
-      ! ||F_0|| fell below the floor itself: hang 257 x 257 stalled at
-      ! 1.3e-3 > 1e-6 ||F_0|| = 8.6e-4 for 50 iterations and failed at t = 0.48)
-      if (ctx%use_reduced) stagnant_below = max(stagnant_below, ctx%red%floor_est)
-      if (fnorm <= stagnant_below .and. fnorm > 0.9_rp * ctx%fnorm_prev) then
-        reason = SNES_CONVERGED_FNORM_ABS
-      else if (ctx%use_reduced .and. fnorm <= FLOOR_FACTOR * ctx%red%floor_est) then
-        ! At the round-off floor estimated from the assembled S: converged,
-        ! without one more iteration to see it stagnate.
-        reason = SNES_CONVERGED_FNORM_ABS
+    else if (reason == SNES_CONVERGED_ITERATING) then
+      PetscCall(line_search_reason(snes, lsreason, ierr))
+      if (lsreason /= LS_SUCCEEDED .and. lsreason /= LS_FAILED_REDUCT) then
+        reason = SNES_DIVERGED_LINE_SEARCH        ! NaN, domain error: PETSc's own verdict
+      else
+        floor_est = merge(ctx%red%floor_est, ctx%floor_est, ctx%use_reduced)
+        verdict = floor_verdict(fnorm, ctx%fnorm_prev, ctx%fnorm0, ctx%snes_floor, floor_est, &
+                                lsreason == LS_FAILED_REDUCT)
+        if (verdict == NEWTON_CONVERGED) then
+          reason = SNES_CONVERGED_FNORM_ABS
+        else if (verdict == NEWTON_DIVERGED) then
+          reason = SNES_DIVERGED_LINE_SEARCH
+        end if
       end if
     end if
     if (it >= 2 .and. reason == SNES_CONVERGED_ITERATING .and. .not. ctx%fixed_step .and. ctx%snorm_prev > 0.0_rp) then
@@ -929,6 +963,24 @@ contains
     ctx%fnorm_prev = fnorm
     ctx%snorm_prev = snorm
   end subroutine snes_converged
+
+  !> The reason of this Newton iteration's line search (LS_SUCCEEDED for a
+  !> SNES without one). PETSc's Newton hands the convergence test an
+  !> iteration whose search failed only while fewer than -snes_max_fail
+  !> searches have failed (solver_create sets 2), with the residual from
+  !> before the search.
+  subroutine line_search_reason(snes, lsreason, ierr)
+    type(tSNES) :: snes
+    SNESLineSearchReason, intent(out) :: lsreason
+    PetscErrorCode, intent(out) :: ierr
+    SNESLineSearch :: ls
+    character(len=64) :: sntype
+    lsreason = LS_SUCCEEDED
+    PetscCall(SNESGetType(snes, sntype, ierr))
+    if (sntype /= SNESNEWTONLS) return
+    PetscCall(SNESGetLineSearch(snes, ls, ierr))
+    PetscCall(SNESLineSearchGetReason(ls, lsreason, ierr))
+  end subroutine line_search_reason
 
   !> The inner tolerance of the coming Newton iteration's solve (module
   !> newton_forcing): no tighter than the Newton remainder C ||F||^2 that
@@ -1605,6 +1657,8 @@ contains
     character(len=32) :: dtq
     character(len=64) :: pctype
     type(tPC) :: pc
+    type(tKSP) :: ksp
+    type(tSNES) :: snes
     PetscErrorCode :: ierr
     h = 'try'
     if (ctx%fixed_step) then
@@ -1613,20 +1667,30 @@ contains
     else if (.not. given('-ts_max_snes_failures')) then
       h = trim(h)//' more retries (-ts_max_snes_failures -1),'
     end if
+    ! Each path names its own linear solve: the inner 3-dof one (reduced_
+    ! prefix) or the 6-dof Krylov solve (no prefix).
     if (ctx%use_reduced) then
       ! (-reduced_pc_type is always in the options: nuno sets its default.)
       call KSPGetPC(ctx%red%ksp, pc, ierr)
       if (ierr == 0) call PCGetType(pc, pctype, ierr)
       if (ierr == 0 .and. pctype /= PCLU .and. pctype /= PCCHOLESKY) &
         h = trim(h)//' a stronger inner preconditioner (-reduced_pc_type lu on small lattices),'
-    end if
-    if (ctx%use_reduced) then
       h = trim(h)//' the assembled 6-dof Jacobian (-nuno_jacobian full),'
+    else
+      call TSGetSNES(ctx%ts, snes, ierr)
+      if (ierr == 0) call SNESGetKSP(snes, ksp, ierr)
+      if (ierr == 0) call KSPGetPC(ksp, pc, ierr)
+      if (ierr == 0) call PCGetType(pc, pctype, ierr)
+      if (ierr == 0 .and. pctype /= PCLU .and. pctype /= PCCHOLESKY) &
+        h = trim(h)//' an exact linear solve (-ksp_type preonly -pc_type lu on small lattices),'
+      h = trim(h)//' the default reduced Newton step (without -nuno_jacobian full),'
     end if
-    if (.not. given('-snes_monitor')) then
+    if (given('-snes_monitor')) then
+      h = trim(h)//' and the monitor output above'
+    else if (ctx%use_reduced) then
       h = trim(h)//' and -snes_monitor -reduced_ksp_converged_reason to see where it stalls'
     else
-      h = trim(h)//' and the monitor output above'
+      h = trim(h)//' and -snes_monitor -ksp_converged_reason -snes_linesearch_monitor to see where it stalls'
     end if
   contains
     logical function given(name)

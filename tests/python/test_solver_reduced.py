@@ -19,8 +19,8 @@ from postprocess import namelist
 LU = ("-pc_factor_mat_solver_type", "mumps")
 REDUCED = ("-snes_rtol", "1e-12", "-reduced_ksp_type", "preonly", "-reduced_pc_type", "lu",
            "-reduced_pc_factor_mat_solver_type", "mumps")
-# The same Newton for both: full steps (the reduced default; bt cannot
-# reduce a residual at its round-off floor and fails the step there).
+# The same Newton for both: full steps (the reduced default; the 6-dof
+# default bt takes other steps near the round-off floor).
 FULL = ("-snes_rtol", "1e-12", "-snes_linesearch_type", "basic", "-nuno_jacobian", "full",
         "-ksp_type", "preonly", "-pc_type", "lu") + LU
 
