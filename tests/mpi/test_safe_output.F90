@@ -61,7 +61,9 @@ program test_safe_output
     call check_true(.not. exists, 'lock file removed at close')
   end if
 
-  ! A run whose first step succeeds replaces the file at that record.
+  ! A run keeps an earlier result until it completes (input/README.md,
+  ! Output files): after a successful step the earlier file is unchanged,
+  ! the run's record is in the .partial, and the close as complete renames it.
   call output_open(out, trim(name), MPI_COMM_WORLD, nx, ny, ys, ym, rest, mass, .false., '', '', ierr, errmsg)
   call check_true(ierr == 0, 'open after the close (lock free again): '//trim(errmsg))
   rec%steps = 0
@@ -72,12 +74,39 @@ program test_safe_output
   call check_true(ierr == 0, 'record after a step: '//trim(errmsg))
   call MPI_Barrier(MPI_COMM_WORLD, mpierr)
   if (rank == 0) then
-    call check_true(file_bytes(trim(name)) /= old_bytes, 'file replaced after the first successful step')
+    call check_true(file_bytes(trim(name)) == old_bytes, 'earlier file kept until the run completes')
     inquire(file=trim(name)//'.partial', exist=exists)
-    call check_true(.not. exists, 'no .partial once replaced')
+    call check_true(exists, 'the running result is the .partial')
   end if
   call output_close(out, 'complete', ierr, errmsg)
   call check_true(ierr == 0, 'close: '//trim(errmsg))
+  call MPI_Barrier(MPI_COMM_WORLD, mpierr)
+  if (rank == 0) then
+    call check_true(file_bytes(trim(name)) /= old_bytes, 'file replaced once the run completes')
+    inquire(file=trim(name)//'.partial', exist=exists)
+    call check_true(.not. exists, 'no .partial after a complete close')
+    old_bytes = file_bytes(trim(name))
+  end if
+
+  ! -nuno_overwrite: the earlier file is replaced at the first successful step.
+  call output_open(out, trim(name), MPI_COMM_WORLD, nx, ny, ys, ym, rest, mass, .false., '', '', ierr, errmsg, &
+                   overwrite=.true.)
+  call check_true(ierr == 0, 'open with overwrite: '//trim(errmsg))
+  rec%steps = 0
+  rec%time = 0
+  call output_write_step(out, rec, rest, ierr, errmsg)
+  rec%steps = 5
+  rec%time = 2
+  call output_write_step(out, rec, rest, ierr, errmsg)
+  call check_true(ierr == 0, 'record after a step (overwrite): '//trim(errmsg))
+  call MPI_Barrier(MPI_COMM_WORLD, mpierr)
+  if (rank == 0) then
+    call check_true(file_bytes(trim(name)) /= old_bytes, 'overwrite: file replaced after the first successful step')
+    inquire(file=trim(name)//'.partial', exist=exists)
+    call check_true(.not. exists, 'overwrite: no .partial once replaced')
+  end if
+  call output_close(out, 'complete', ierr, errmsg)
+  call check_true(ierr == 0, 'close (overwrite): '//trim(errmsg))
 
   ! The protected (input) file is refused under any name this run writes.
   call output_open(out, trim(name), MPI_COMM_WORLD, nx, ny, ys, ym, rest, mass, .false., '', '', ierr, errmsg, &
