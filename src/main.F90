@@ -148,7 +148,7 @@ program nuno
                             ' characters')
     call output_reopen(out, trim(restart_file), PETSC_COMM_WORLD, cfg%nx, cfg%ny, ctx%lat%ys, &
                        ctx%lat%ye - ctx%lat%ys + 1, cfg%write_velocity, ctx%t_end, cfg%namelist_text, petsc_opts, &
-                       ck, ctx%xout, ctx%vout, ierr, errmsg, protect=trim(path))
+                       ck, ctx%xout, ctx%vout, ierr, errmsg, protect=trim(path), cfg=ctx%cfg)
     if (ierr /= 0) call fatal_collective(errmsg)
     if (rank == 0 .and. .not. same_file(trim(restart_file), trim(cfg%output_file))) &
       write(*, '(a)') 'nuno: -nuno_restart: the run goes on in '//trim(restart_file)//"; the input's output_file = '"// &

@@ -34,13 +34,15 @@ module output
   use hdf5
   use mpi
   use kinds, only: rp
+  use config, only: nuno_config
+  use checkpoint_check, only: checkpoint_t, checkpoint_refusal, scene_refusal
   use safe_files, only: lock_acquire, lock_release, same_file, file_exists, rename_file, free_bytes
   implicit none
   private
 
   public :: output_open, output_write_step, output_close, output_write_run_info, output_write_wall_time
   public :: output_config_key
-  public :: output_write_checkpoint, output_reopen
+  public :: output_write_checkpoint, output_reopen, output_steps
   public :: output_write_identify, output_write_control
 
   !> One key of the resolved configuration, as an attribute of /config/<group>.
@@ -74,37 +76,8 @@ module output
     character(len=256) :: host = ''              !< host of rank 0
   end type run_info
 
-  !> Everything a run needs, besides its state (positions and velocities),
-  !> to continue from a checkpoint (docs/design.md, "Checkpoints"). The
-  !> same values on every rank (they become attributes).
-  type, public :: checkpoint_t
-    real(rp) :: time = 0                  !< [time]
-    real(rp) :: dt_next = 0               !< the step the run takes next [time]
-    real(rp) :: wall_time = 0             !< wall-clock seconds of the run up to here, restarts included [s]
-    real(rp) :: dissipated = 0            !< dissipated energy so far [energy]
-    real(rp) :: work_constraints = 0      !< work of the constraint reactions so far [energy]
-    real(rp) :: mgx0 = 0                  !< sum m g . x at t = 0 [energy]
-    real(rp) :: t_written = -1            !< time of the last output step [time]
-    !> accepted steps, rejected steps, Newton iterations, linear iterations,
-    !> retried Newton solves, all since t = 0 (float64: exact to 2^53)
-    real(rp) :: counters(5) = 0
-    integer :: n_output_steps = 0         !< output steps in the file at this checkpoint
-    integer :: stretch_warned = 0         !< 1: the stretch_limit warning was given
-    character(len=64) :: reason = ''      !< why it was written: interval, end, SIGTERM, SIGINT, wall time
-    character(len=64) :: ts_type = ''     !< the integrator that wrote it
-    integer :: sequence = 0               !< 1, 2, ... in the order written (set by output_write_checkpoint)
-    !> The Newton start's kept states before this one (-nuno_newton_start
-    !> cubic, src/nuno_newton_start.c), newest first, so that a restart
-    !> starts the next steps as the run that went through did: their
-    !> number (0..3; 0 in files written before 4 Dec 2026), positions and
-    !> velocities (3, nx, ym, start_count) [length], [length/time], times,
-    !> and the start's comparison state (1: compare with the linear start)
-    integer :: start_count = 0
-    real(rp), allocatable :: start_x(:, :, :, :), start_v(:, :, :, :)
-    real(rp) :: start_t(3) = 0
-    integer :: start_compare = 1
-    real(rp) :: start_nc_prev = 0
-  end type checkpoint_t
+  ! checkpoint_t (what a checkpoint holds) is module checkpoint_check's.
+  public :: checkpoint_t
 
   ! Time-dependent datasets, in the order they are extended and written.
   integer, parameter :: d_time = 1, d_position = 2, d_velocity = 3, d_kinetic = 4, &
@@ -1675,7 +1648,8 @@ contains
     call agree(out%comm, 'output_write_checkpoint', ierr, errmsg)
     if (ierr /= 0) return
 
-    ck%n_output_steps = out%nt
+    ! (a restart point, kept at an earlier output step, holds its own count)
+    if (ck%n_output_steps <= 0) ck%n_output_steps = out%nt
     call check_space(out, 48.0_rp * (1 + ck%start_count) * out%nx * out%ny + 65536.0_rp, 'a checkpoint', ierr, errmsg)
     if (ierr /= 0) then
       errmsg = 'checkpoint not written: '//trim(errmsg)
@@ -1727,6 +1701,7 @@ contains
       if (ierr == 0) call set_attr_reals(grp, 'start_times', ck%start_t, where, ierr, errmsg)
       if (ierr == 0) call set_attr_int(grp, 'start_compare', ck%start_compare, where, ierr, errmsg)
       if (ierr == 0) call set_attr_reals(grp, 'start_nc_prev', [ck%start_nc_prev], where, ierr, errmsg)
+      if (ierr == 0) call set_attr_reals(grp, 'newton_floor', [ck%newton_floor], where, ierr, errmsg)
     end if
     if (all_ok()) call flush_file(out, ierr, errmsg)
     ! Valid from here on.
@@ -1757,13 +1732,19 @@ contains
     end subroutine write_state
   end subroutine output_write_checkpoint
 
+  !> The output steps completely written so far.
+  integer function output_steps(out)
+    type(output_file), intent(in) :: out
+    output_steps = out%nt
+  end function output_steps
+
   !> Open an earlier run's file to continue it from its last valid
   !> checkpoint: lock it, check the lattice and that the checkpoint is
   !> before t_end, read ck and the state strips, cut the series back to the
   !> checkpoint's output steps, mark it running. Nothing is changed in the
   !> file when a check fails. Collective.
   subroutine output_reopen(out, filename, comm, nx, ny, ys, ym, write_velocity, t_end, attrs_namelist, &
-                                  attrs_petsc_options, ck, x, v, ierr, errmsg, protect)
+                                  attrs_petsc_options, ck, x, v, ierr, errmsg, protect, cfg)
     type(output_file), intent(inout) :: out
     character(*), intent(in) :: filename
     integer, intent(in) :: comm, nx, ny, ys, ym
@@ -1775,6 +1756,7 @@ contains
     integer, intent(out) :: ierr
     character(*), intent(out) :: errmsg
     character(*), intent(in), optional :: protect
+    type(nuno_config), intent(in), optional :: cfg   !< the input's: its scene and model must be the file's
     integer(hid_t) :: fapl, grp
     integer :: h, mpierr, fnx, fny, slot, seq(0:1), k, restarts, extent
     logical :: exists, has_velocity
@@ -1868,6 +1850,8 @@ contains
                  trim(merge('.true. ', '.false.', has_velocity))//': the series must go on as it began'
       end if
     end if
+    ! the same scene and model constants (module checkpoint_check)
+    if (ierr == 0 .and. present(cfg)) call scene_refusal(out%file, filename, cfg, ierr, errmsg)
     seq = 0
     do k = 0, 1
       if (ierr /= 0) exit
@@ -1887,6 +1871,7 @@ contains
         end if
       end if
     end do
+    call agree(comm, '-nuno_restart', ierr, errmsg)
     if (ierr == 0 .and. maxval(seq) <= 0) then
       ierr = 1
       errmsg = '-nuno_restart '//filename//': no valid checkpoint in it (one is written at the end of a run, '// &
@@ -1899,6 +1884,9 @@ contains
       ck%sequence = seq(slot)
       out%ck_seq = seq(slot)
       out%ck_slot = slot
+      ! a sound checkpoint, checked before anything in the file changes
+      call agree(comm, '-nuno_restart', ierr, errmsg)
+      if (ierr == 0) call checkpoint_refusal(out%file, filename, where, ck, x, v, comm, ierr, errmsg)
       if (ierr == 0 .and. ck%time >= t_end - 1.0e-12_rp * max(1.0_rp, t_end)) then
         ierr = 1
         write(errmsg, '(a,es12.5e2,a,es12.5e2,a)') '-nuno_restart '//filename//': its last checkpoint is at t =', &
@@ -1993,6 +1981,13 @@ contains
         ierr = 1
         errmsg = where//': start_count '//str(ck%start_count)//' is not 0..3'
       end if
+    end if
+    ! the Newton floor: not in files written before 5 Dec 2026
+    call h5aexists_f(grp, 'newton_floor', exists, h)
+    if (h < 0) call fail('h5aexists_f', where//' newton_floor', ierr, errmsg)
+    ck%newton_floor = 0
+    if (ierr == 0 .and. exists) then
+      call get_attr_reals(grp, 'newton_floor', where, r, ierr, errmsg); ck%newton_floor = r(1)
     end if
     call close_group(grp, where, ierr, errmsg)
     if (ierr /= 0) return
