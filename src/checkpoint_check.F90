@@ -422,19 +422,26 @@ contains
     s = trim(b)
   end function istr
 
-  !> A double as the shortest text that reads back the same (g0), NaN and
-  !> Inf spelled so.
+  !> A double as the shortest text that reads back the same, NaN and Inf
+  !> spelled so.
   function rstr(x) result(s)
     real(rp), intent(in) :: x
     character(len=:), allocatable :: s
     character(len=40) :: b
+    character(len=16) :: fmt
+    real(rp) :: y
+    integer :: d, e
     if (x /= x) then
       s = 'NaN'
     else if (.not. ieee_is_finite(x)) then
-      s = merge('Inf ', '-Inf', x > 0.0_rp)
-      s = trim(s)
+      s = trim(merge('Inf ', '-Inf', x > 0.0_rp))
     else
-      write(b, '(g0)') x
+      do d = 1, 17
+        write(fmt, '(a,i0,a)') '(g0.', d, ')'
+        write(b, fmt) x
+        read(b, *, iostat=e) y
+        if (e == 0 .and. y == x) exit
+      end do
       s = trim(adjustl(b))
     end if
   end function rstr
