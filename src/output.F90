@@ -114,6 +114,10 @@ module output
   ! Output steps per chunk of the small datasets (one step per chunk would make
   ! thousands of tiny chunks; a crash still leaves complete steps readable).
   integer(hsize_t), parameter :: scalar_chunk = 256
+  !> Output steps between two refreshes of the HDF5 library (refresh_library):
+  !> at most 64 steps' views (2.5 MB a rank) held, for one reopening of the
+  !> file (a few ms) in 64 steps.
+  integer, parameter :: REFRESH_STEPS = 64
 
   !> Opaque handle of an open output file.
   type, public :: output_file
@@ -325,6 +329,11 @@ contains
     if (ierr /= 0) call add_cause(out, errmsg)
     ! rec%steps > 0: a time step succeeded and its result is on disk.
     if (ierr == 0 .and. rec%steps > 0) call commit(out, ierr, errmsg)
+    ! The memory parallel HDF5 keeps for the objects made so far (the views)
+    if (ierr == 0 .and. mod(out%nt, REFRESH_STEPS) == 0) then
+      call refresh_library(out, ierr, errmsg)
+      call agree(out%comm, 'output_write_step', ierr, errmsg)
+    end if
   end subroutine output_write_step
 
   !> Bytes of one output step in the file (the strips and a margin for the
@@ -1731,6 +1740,81 @@ contains
       call close_dset(dset, path, ierr, errmsg)
     end subroutine write_state
   end subroutine output_write_checkpoint
+
+  !> Close the file and the HDF5 library and open both again, with the
+  !> series as they were (every REFRESH_STEPS output steps, from
+  !> output_write_step). Parallel HDF5 1.10.8 keeps memory for every object
+  !> created in a file opened with the MPI-IO driver until the library
+  !> closes (about 20 kB a rank for each /xdmf view, 6 kB for a plain
+  !> dataset; closing the file alone does not release it): without this a
+  !> run grew by 10-25 kB a rank for each output step (docs/stability.md,
+  !> "Memory over a long run"). Nothing else in nuno holds an HDF5 object
+  !> while a run writes its output. Collective.
+  subroutine refresh_library(out, ierr, errmsg)
+    type(output_file), intent(inout) :: out
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    character(len=:), allocatable :: path
+    integer(hid_t) :: fapl
+    integer :: h, i
+    logical :: exists_
+
+    if (ierr /= 0) return
+    path = out%work_path
+    if (out%committed) path = out%final_path
+    call close_ids(out, ierr, errmsg)
+    call h5close_f(h)
+    if (h < 0) call fail('h5close_f', path, ierr, errmsg)
+    call h5open_f(h)
+    if (h < 0) call fail('h5open_f', path, ierr, errmsg)
+    call h5eset_auto_f(0, h)
+    fapl = -1
+    if (ierr == 0) then
+      call h5pcreate_f(H5P_FILE_ACCESS_F, fapl, h)
+      if (h < 0) call fail('h5pcreate_f(file access)', path, ierr, errmsg)
+    end if
+    if (ierr == 0) then
+      call h5pset_fapl_mpio_f(fapl, out%comm, MPI_INFO_NULL, h)
+      if (h < 0) call fail('h5pset_fapl_mpio_f', path, ierr, errmsg)
+    end if
+    if (ierr == 0) then
+      ! (the bounds of open_local: the views need the 1.10 format)
+      call h5pset_libver_bounds_f(fapl, H5F_LIBVER_V18_F, H5F_LIBVER_V110_F, h)
+      if (h < 0) call fail('h5pset_libver_bounds_f', path, ierr, errmsg)
+    end if
+    if (ierr == 0) then
+      call h5fopen_f(path, H5F_ACC_RDWR_F, out%file, h, access_prp=fapl)
+      if (h < 0) then
+        out%file = -1
+        call fail('h5fopen_f (reopening)', path, ierr, errmsg)
+      end if
+    end if
+    if (fapl >= 0) call h5pclose_f(fapl, h)
+    if (ierr == 0) then
+      call h5pcreate_f(H5P_DATASET_XFER_F, out%dxpl, h)
+      if (h < 0) then
+        out%dxpl = -1
+        call fail('h5pcreate_f(dataset transfer)', path, ierr, errmsg)
+      end if
+    end if
+    if (ierr == 0) then
+      call h5pset_dxpl_mpio_f(out%dxpl, H5FD_MPIO_COLLECTIVE_F, h)
+      if (h < 0) call fail('h5pset_dxpl_mpio_f', path, ierr, errmsg)
+    end if
+    do i = 1, n_dsets
+      if (ierr /= 0) exit
+      if (i == d_velocity .and. .not. out%write_velocity) cycle
+      call h5lexists_f(out%file, trim(dset_names(i)), exists_, h)
+      if (h < 0) call fail('h5lexists_f', trim(dset_names(i)), ierr, errmsg)
+      if (ierr /= 0 .or. .not. exists_) cycle
+      call h5dopen_f(out%file, trim(dset_names(i)), out%dset(i), h)
+      if (h < 0) then
+        out%dset(i) = -1
+        call fail('h5dopen_f', trim(dset_names(i)), ierr, errmsg)
+      end if
+    end do
+    if (ierr /= 0) out%is_open = out%file >= 0
+  end subroutine refresh_library
 
   !> The output steps completely written so far.
   integer function output_steps(out)
