@@ -1124,9 +1124,11 @@ contains
       end if
     end if
     ! -nuno_checkpoint_walltime: due after this step (agreed by the
-    ! post-step, which runs before the monitor); written here, with the
-    ! step's energy integrals, without stopping TSSolve, so that the run
-    ! goes on exactly as without it. A failed write stops the run.
+    ! post-step, which runs before the monitor); written here without
+    ! stopping TSSolve, so that the run goes on exactly as without it: the
+    ! restart point of the last output step (keep_restart_point; this
+    ! step's state, with its energy integrals, before the first one). A
+    ! failed write stops the run.
     if (nuno_checkpoint_due() /= 0) then
       PetscCall(TSGetTimeStep(ts, h, ierr))
       call take_checkpoint(ctx, ctx%out, t, h, 'wall time', ierr, restart_point=.true.)
@@ -1344,7 +1346,8 @@ contains
       PetscCall(VecNorm(ctx%u, NORM_INFINITY, unorm, ierr))
       if (reason >= 0 .and. nuno_signal_agreed() /= 0) then
         ! SIGTERM/SIGINT: every rank finished the same step; keep its state
-        ! and a checkpoint to continue from.
+        ! and a checkpoint to continue from (the restart point of the last
+        ! output step: keep_restart_point).
         if (t > ctx%t_written) then
           call write_output(ctx, out, t, ierr)
           if (io_failed()) return
