@@ -210,7 +210,7 @@ program nuno
                             ' characters')
     call output_reopen(out, trim(restart_file), PETSC_COMM_WORLD, cfg%nx, cfg%ny, ctx%lat%ys, &
                        ctx%lat%ye - ctx%lat%ys + 1, cfg%write_velocity, ctx%t_end, cfg%namelist_text, petsc_opts, &
-                       ck, ctx%xout, ctx%vout, ierr, errmsg, protect=trim(path), overwrite=overwrite /= 0)
+                       ck, ctx%xout, ctx%vout, ierr, errmsg, protect=trim(path), overwrite=overwrite /= 0, cfg=ctx%cfg)
     if (ierr /= 0) call fatal_collective(errmsg)
     if (rank == 0 .and. trim(restart_file) /= trim(cfg%output_file) .and. &
         trim(restart_file) /= trim(cfg%output_file)//'.partial' .and. &

@@ -34,6 +34,8 @@ module output
   use hdf5
   use mpi
   use kinds, only: rp
+  use config, only: nuno_config
+  use checkpoint_check, only: checkpoint_t, checkpoint_refusal, scene_refusal
   use safe_files, only: lock_acquire, lock_release, same_file, file_exists, rename_file, free_bytes, &
                         path_kind, kind_none, kind_file, kind_link, kind_dir, kind_unknown, remove_file, &
                         is_nuno_output, is_nuno_sidecar, tmp_open, tmp_write, tmp_commit, cleanup_add, &
@@ -43,7 +45,7 @@ module output
 
   public :: output_open, output_write_step, output_close, output_write_run_info, output_write_wall_time
   public :: output_config_key
-  public :: output_write_checkpoint, output_reopen
+  public :: output_write_checkpoint, output_reopen, output_steps
   public :: output_write_identify, output_write_control
 
   !> One key of the resolved configuration, as an attribute of /config/<group>.
@@ -77,37 +79,8 @@ module output
     character(len=256) :: host = ''              !< host of rank 0
   end type run_info
 
-  !> Everything a run needs, besides its state (positions and velocities),
-  !> to continue from a checkpoint (docs/design.md, "Checkpoints"). The
-  !> same values on every rank (they become attributes).
-  type, public :: checkpoint_t
-    real(rp) :: time = 0                  !< [time]
-    real(rp) :: dt_next = 0               !< the step the run takes next [time]
-    real(rp) :: wall_time = 0             !< wall-clock seconds of the run up to here, restarts included [s]
-    real(rp) :: dissipated = 0            !< dissipated energy so far [energy]
-    real(rp) :: work_constraints = 0      !< work of the constraint reactions so far [energy]
-    real(rp) :: mgx0 = 0                  !< sum m g . x at t = 0 [energy]
-    real(rp) :: t_written = -1            !< time of the last output step [time]
-    !> accepted steps, rejected steps, Newton iterations, linear iterations,
-    !> retried Newton solves, all since t = 0 (float64: exact to 2^53)
-    real(rp) :: counters(5) = 0
-    integer :: n_output_steps = 0         !< output steps in the file at this checkpoint
-    integer :: stretch_warned = 0         !< 1: the stretch_limit warning was given
-    character(len=64) :: reason = ''      !< why it was written: interval, end, SIGTERM, SIGINT, wall time
-    character(len=64) :: ts_type = ''     !< the integrator that wrote it
-    integer :: sequence = 0               !< 1, 2, ... in the order written (set by output_write_checkpoint)
-    !> The Newton start's kept states before this one (-nuno_newton_start
-    !> cubic, src/nuno_newton_start.c), newest first, so that a restart
-    !> starts the next steps as the run that went through did: their
-    !> number (0..3; 0 in files written before 4 Dec 2026), positions and
-    !> velocities (3, nx, ym, start_count) [length], [length/time], times,
-    !> and the start's comparison state (1: compare with the linear start)
-    integer :: start_count = 0
-    real(rp), allocatable :: start_x(:, :, :, :), start_v(:, :, :, :)
-    real(rp) :: start_t(3) = 0
-    integer :: start_compare = 1
-    real(rp) :: start_nc_prev = 0
-  end type checkpoint_t
+  ! checkpoint_t (what a checkpoint holds) is module checkpoint_check's.
+  public :: checkpoint_t
 
   ! Time-dependent datasets, in the order they are extended and written.
   integer, parameter :: d_time = 1, d_position = 2, d_velocity = 3, d_kinetic = 4, &
@@ -144,6 +117,10 @@ module output
   ! Output steps per chunk of the small datasets (one step per chunk would make
   ! thousands of tiny chunks; a crash still leaves complete steps readable).
   integer(hsize_t), parameter :: scalar_chunk = 256
+  !> Output steps between two refreshes of the HDF5 library (refresh_library):
+  !> at most 64 steps' views (2.5 MB a rank) held, for one reopening of the
+  !> file (8-10 ms on 2 ranks) in 64 steps.
+  integer, parameter :: REFRESH_STEPS = 64
 
   !> Opaque handle of an open output file.
   type, public :: output_file
@@ -454,6 +431,11 @@ contains
       if (.not. out%stepped .and. out%rank == 0) call cleanup_drop(out%work_path)
       out%stepped = .true.
       if (.not. out%had_earlier .or. out%overwrite) call commit(out, ierr, errmsg)
+    end if
+    ! The memory parallel HDF5 keeps for the objects made so far (the views)
+    if (ierr == 0 .and. mod(out%nt, REFRESH_STEPS) == 0) then
+      call refresh_library(out, ierr, errmsg)
+      call agree(out%comm, 'output_write_step', ierr, errmsg)
     end if
   end subroutine output_write_step
 
@@ -1782,7 +1764,8 @@ contains
     call agree(out%comm, 'output_write_checkpoint', ierr, errmsg)
     if (ierr /= 0) return
 
-    ck%n_output_steps = out%nt
+    ! (a restart point, kept at an earlier output step, holds its own count)
+    if (ck%n_output_steps <= 0) ck%n_output_steps = out%nt
     call check_space(out, 48.0_rp * (1 + ck%start_count) * out%nx * out%ny + 65536.0_rp, 'a checkpoint', ierr, errmsg)
     if (ierr /= 0) then
       errmsg = 'checkpoint not written: '//trim(errmsg)
@@ -1834,6 +1817,7 @@ contains
       if (ierr == 0) call set_attr_reals(grp, 'start_times', ck%start_t, where, ierr, errmsg)
       if (ierr == 0) call set_attr_int(grp, 'start_compare', ck%start_compare, where, ierr, errmsg)
       if (ierr == 0) call set_attr_reals(grp, 'start_nc_prev', [ck%start_nc_prev], where, ierr, errmsg)
+      if (ierr == 0) call set_attr_reals(grp, 'newton_floor', [ck%newton_floor], where, ierr, errmsg)
     end if
     if (all_ok()) call flush_file(out, ierr, errmsg)
     ! Valid from here on.
@@ -1864,13 +1848,94 @@ contains
     end subroutine write_state
   end subroutine output_write_checkpoint
 
+  !> Close the file and the HDF5 library and open both again, with the
+  !> series as they were (every REFRESH_STEPS output steps, from
+  !> output_write_step). Parallel HDF5 1.10.8 keeps memory for every object
+  !> created in a file opened with the MPI-IO driver until the library
+  !> closes (about 20 kB a rank for each /xdmf view, 6 kB for a plain
+  !> dataset; closing the file alone does not release it): without this a
+  !> run grew by 10-25 kB a rank for each output step (docs/stability.md,
+  !> "Memory over a long run"). Nothing else in nuno holds an HDF5 object
+  !> while a run writes its output. Collective.
+  subroutine refresh_library(out, ierr, errmsg)
+    type(output_file), intent(inout) :: out
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    character(len=:), allocatable :: path
+    integer(hid_t) :: fapl
+    integer :: h, i
+    logical :: exists_
+
+    if (ierr /= 0) return
+    path = out%work_path
+    if (out%committed) path = out%final_path
+    call close_ids(out, ierr, errmsg)
+    call h5close_f(h)
+    if (h < 0) call fail('h5close_f', path, ierr, errmsg)
+    call h5open_f(h)
+    if (h < 0) call fail('h5open_f', path, ierr, errmsg)
+    call h5eset_auto_f(0, h)
+    fapl = -1
+    if (ierr == 0) then
+      call h5pcreate_f(H5P_FILE_ACCESS_F, fapl, h)
+      if (h < 0) call fail('h5pcreate_f(file access)', path, ierr, errmsg)
+    end if
+    if (ierr == 0) then
+      call h5pset_fapl_mpio_f(fapl, out%comm, MPI_INFO_NULL, h)
+      if (h < 0) call fail('h5pset_fapl_mpio_f', path, ierr, errmsg)
+    end if
+    if (ierr == 0) then
+      ! (the bounds of open_local: the views need the 1.10 format)
+      call h5pset_libver_bounds_f(fapl, H5F_LIBVER_V18_F, H5F_LIBVER_V110_F, h)
+      if (h < 0) call fail('h5pset_libver_bounds_f', path, ierr, errmsg)
+    end if
+    if (ierr == 0) then
+      call h5fopen_f(path, H5F_ACC_RDWR_F, out%file, h, access_prp=fapl)
+      if (h < 0) then
+        out%file = -1
+        call fail('h5fopen_f (reopening)', path, ierr, errmsg)
+      end if
+    end if
+    if (fapl >= 0) call h5pclose_f(fapl, h)
+    if (ierr == 0) then
+      call h5pcreate_f(H5P_DATASET_XFER_F, out%dxpl, h)
+      if (h < 0) then
+        out%dxpl = -1
+        call fail('h5pcreate_f(dataset transfer)', path, ierr, errmsg)
+      end if
+    end if
+    if (ierr == 0) then
+      call h5pset_dxpl_mpio_f(out%dxpl, H5FD_MPIO_COLLECTIVE_F, h)
+      if (h < 0) call fail('h5pset_dxpl_mpio_f', path, ierr, errmsg)
+    end if
+    do i = 1, n_dsets
+      if (ierr /= 0) exit
+      if (i == d_velocity .and. .not. out%write_velocity) cycle
+      call h5lexists_f(out%file, trim(dset_names(i)), exists_, h)
+      if (h < 0) call fail('h5lexists_f', trim(dset_names(i)), ierr, errmsg)
+      if (ierr /= 0 .or. .not. exists_) cycle
+      call h5dopen_f(out%file, trim(dset_names(i)), out%dset(i), h)
+      if (h < 0) then
+        out%dset(i) = -1
+        call fail('h5dopen_f', trim(dset_names(i)), ierr, errmsg)
+      end if
+    end do
+    if (ierr /= 0) out%is_open = out%file >= 0
+  end subroutine refresh_library
+
+  !> The output steps completely written so far.
+  integer function output_steps(out)
+    type(output_file), intent(in) :: out
+    output_steps = out%nt
+  end function output_steps
+
   !> Open an earlier run's file to continue it from its last valid
   !> checkpoint: lock it, check the lattice and that the checkpoint is
   !> before t_end, read ck and the state strips, cut the series back to the
   !> checkpoint's output steps, mark it running. Nothing is changed in the
   !> file when a check fails. Collective.
   subroutine output_reopen(out, filename, comm, nx, ny, ys, ym, write_velocity, t_end, attrs_namelist, &
-                                  attrs_petsc_options, ck, x, v, ierr, errmsg, protect, overwrite)
+                                  attrs_petsc_options, ck, x, v, ierr, errmsg, protect, overwrite, cfg)
     type(output_file), intent(inout) :: out
     character(*), intent(in) :: filename
     integer, intent(in) :: comm, nx, ny, ys, ym
@@ -1883,6 +1948,7 @@ contains
     character(*), intent(out) :: errmsg
     character(*), intent(in), optional :: protect
     logical, intent(in), optional :: overwrite      ! -nuno_overwrite (default .false.)
+    type(nuno_config), intent(in), optional :: cfg   !< the input's: its scene and model must be the file's
     integer(hid_t) :: fapl, grp
     integer :: h, mpierr, fnx, fny, slot, seq(0:1), k, restarts, extent, n
     logical :: exists, has_velocity, attempt
@@ -1998,6 +2064,8 @@ contains
                  trim(merge('.true. ', '.false.', has_velocity))//': the series must go on as it began'
       end if
     end if
+    ! the same scene and model constants (module checkpoint_check)
+    if (ierr == 0 .and. present(cfg)) call scene_refusal(out%file, filename, cfg, ierr, errmsg)
     seq = 0
     do k = 0, 1
       if (ierr /= 0) exit
@@ -2017,6 +2085,7 @@ contains
         end if
       end if
     end do
+    call agree(comm, '-nuno_restart', ierr, errmsg)
     if (ierr == 0 .and. maxval(seq) <= 0) then
       ierr = 1
       errmsg = '-nuno_restart '//filename//': no valid checkpoint in it (one is written at the end of a run, '// &
@@ -2029,6 +2098,9 @@ contains
       ck%sequence = seq(slot)
       out%ck_seq = seq(slot)
       out%ck_slot = slot
+      ! a sound checkpoint, checked before anything in the file changes
+      call agree(comm, '-nuno_restart', ierr, errmsg)
+      if (ierr == 0) call checkpoint_refusal(out%file, filename, where, ck, x, v, comm, ierr, errmsg)
       if (ierr == 0 .and. ck%time >= t_end - 1.0e-12_rp * max(1.0_rp, t_end)) then
         ierr = 1
         write(errmsg, '(a,es12.5e2,a,es12.5e2,a)') '-nuno_restart '//filename//': its last checkpoint is at t =', &
@@ -2123,6 +2195,13 @@ contains
         ierr = 1
         errmsg = where//': start_count '//str(ck%start_count)//' is not 0..3'
       end if
+    end if
+    ! the Newton floor: not in files written before 5 Dec 2026
+    call h5aexists_f(grp, 'newton_floor', exists, h)
+    if (h < 0) call fail('h5aexists_f', where//' newton_floor', ierr, errmsg)
+    ck%newton_floor = 0
+    if (ierr == 0 .and. exists) then
+      call get_attr_reals(grp, 'newton_floor', where, r, ierr, errmsg); ck%newton_floor = r(1)
     end if
     call close_group(grp, where, ierr, errmsg)
     if (ierr /= 0) return

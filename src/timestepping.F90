@@ -29,7 +29,7 @@ module timestepping
   use scenes, only: scene_setup
   use diagnostics, only: state_diagnostics_t, state_diagnostics
   use output, only: output_file, output_record, output_write_step, run_info, output_write_run_info, &
-                    output_write_wall_time, output_config_key, checkpoint_t, output_write_checkpoint
+                    output_write_wall_time, output_config_key, checkpoint_t, output_write_checkpoint, output_steps
   use newton_forcing, only: forcing_term, quadratic_constant
   use newton_control, only: FLOOR_FACTOR, NEWTON_CONVERGED, NEWTON_DIVERGED, floor_node_add, floor_estimate, floor_verdict
   use inner_guess, only: GUESS_AUTO, GUESS_NONE, GUESS_EXTRAPOLATE, GUESS_PROJECT
@@ -255,11 +255,21 @@ module timestepping
     logical :: stretch_warned = .false.         !< the stretch_limit warning was given
     ! checkpoints and restarts (docs/design.md, "Checkpoints")
     real(rp) :: checkpoint_walltime = 0         !< -nuno_checkpoint_walltime: a checkpoint after each [s]; 0: none
-    real(rp) :: t_checkpoint = -1               !< time of the last checkpoint written or restarted from [time]
+    !> time of the last checkpoint written or restarted from [time]; the
+    !> run's start at first, so that the first checkpoint_interval
+    !> checkpoint comes one interval after it
+    real(rp) :: t_checkpoint = 0
     logical :: restarted = .false.              !< continues a checkpoint (solver_restore)
     logical :: checkpoint_current = .false.     !< the last checkpoint was written after the last output step
     real(rp) :: t_restart = 0, h_restart = 0    !< its time and next step [time]
     real(rp) :: wall_before = 0                 !< wall-clock seconds of the runs before this one [s]
+    !> The restart point: the state at the last output step and what a
+    !> checkpoint of it holds (keep_restart_point), written by the
+    !> checkpoints that come between output steps (SIGTERM, SIGINT, the wall
+    !> clock), so that their restarts repeat the run bit for bit.
+    logical :: rp_valid = .false.
+    type(checkpoint_t) :: rp_ck
+    real(rp), allocatable :: rp_x(:, :, :), rp_v(:, :, :)  !< (3, 0:nx-1, ys:ye) [length], [length/time]
     !> rejected steps, Newton and linear iterations and retries of the runs
     !> before this one (the step count goes on in the TS itself)
     real(rp) :: counts_before(5) = 0
@@ -1166,12 +1176,14 @@ contains
       end if
     end if
     ! -nuno_checkpoint_walltime: due after this step (agreed by the
-    ! post-step, which runs before the monitor); written here, with the
-    ! step's energy integrals, without stopping TSSolve, so that the run
-    ! goes on exactly as without it. A failed write stops the run.
+    ! post-step, which runs before the monitor); written here without
+    ! stopping TSSolve, so that the run goes on exactly as without it: the
+    ! restart point of the last output step (keep_restart_point; this
+    ! step's state, with its energy integrals, before the first one). A
+    ! failed write stops the run.
     if (nuno_checkpoint_due() /= 0) then
       PetscCall(TSGetTimeStep(ts, h, ierr))
-      call take_checkpoint(ctx, ctx%out, t, h, 'wall time', ierr)
+      call take_checkpoint(ctx, ctx%out, t, h, 'wall time', ierr, restart_point=.true.)
       if (ierr /= 0) then
         ierr = 0
         if (len_trim(ctx%io_error) == 0) ctx%io_error = 'the wall-clock checkpoint at t = '//num(t)//' failed'
@@ -1386,13 +1398,14 @@ contains
       PetscCall(VecNorm(ctx%u, NORM_INFINITY, unorm, ierr))
       if (reason >= 0 .and. nuno_signal_agreed() /= 0) then
         ! SIGTERM/SIGINT: every rank finished the same step; keep its state
-        ! and a checkpoint to continue from.
+        ! and a checkpoint to continue from (the restart point of the last
+        ! output step: keep_restart_point).
         if (t > ctx%t_written) then
           call write_output(ctx, out, t, ierr)
           if (io_failed()) return
         end if
         PetscCall(TSGetTimeStep(ctx%ts, h, ierr))
-        call take_checkpoint(ctx, out, t, h, trim(signal_name(nuno_signal_agreed())), ierr)
+        call take_checkpoint(ctx, out, t, h, trim(signal_name(nuno_signal_agreed())), ierr, restart_point=.true.)
         if (io_failed()) return
         write(msg, '(a,es12.5,a)') trim(signal_name(nuno_signal_agreed()))//' at t = ', t, &
           ': the run stopped after that step, with its state and a checkpoint written (continue it with'// &
@@ -1425,6 +1438,10 @@ contains
         call write_output(ctx, out, t, ierr)
         if (io_failed()) return
         iout = iout + 1
+        if (t < ctx%t_end - eps) then
+          call keep_restart_point(ctx, out, t, h, ierr)
+          if (ierr /= 0) return
+        end if
         if (ctx%cfg%checkpoint_interval > 0.0_rp .and. t < ctx%t_end - eps .and. &
             t >= ctx%t_checkpoint + ctx%cfg%checkpoint_interval - eps) then
           call take_checkpoint(ctx, out, t, h, 'checkpoint_interval', ierr)
@@ -1790,6 +1807,18 @@ contains
     ctx%mgx0 = ck%mgx0
     ctx%t_written = ck%t_written
     ctx%stretch_warned = ck%stretch_warned /= 0
+    ! The first Newton iteration's inner tolerance takes the round-off floor
+    ! of the last step's assembly (set_newton_forcing): without it the
+    ! restart's first step solved to another tolerance and the run
+    ! differed from the one it continues by 1e-13 m (hang 65 x 65).
+    if (ctx%use_reduced) ctx%red%floor_est = ck%newton_floor
+    ! A checkpoint at an output step is the restart point until the next one.
+    if (ck%time == ck%t_written) then
+      ctx%rp_ck = ck
+      ctx%rp_x = x
+      ctx%rp_v = v
+      ctx%rp_valid = .true.
+    end if
     ! The Newton start's states: the checkpoint's, then the ones before it
     if (ck%start_count > 0) then
       block
@@ -1819,23 +1848,63 @@ contains
   end subroutine solver_restore
 
   !> Write a checkpoint of the state at t, h being the step the run takes
-  !> next (module output, submodule output_checkpoint), and say so on
-  !> stdout. Collective.
-  subroutine take_checkpoint(ctx, out, t, h, reason, ierr)
+  !> next (module output, output_write_checkpoint), and say so on stdout.
+  !> restart_point: the checkpoint of the last output step instead
+  !> (keep_restart_point; the state at t where there is none yet). Collective.
+  subroutine take_checkpoint(ctx, out, t, h, reason, ierr, restart_point)
     type(app_ctx), intent(inout) :: ctx
     type(output_file), intent(inout) :: out
     real(rp), intent(in) :: t, h
     character(*), intent(in) :: reason
     PetscErrorCode, intent(out) :: ierr
+    logical, intent(in), optional :: restart_point
     type(checkpoint_t) :: ck
     character(len=512) :: errmsg
+    logical :: point
 
-    PetscCall(state_to_strips(ctx, ctx%u, ctx%xout, ctx%vout, ierr))
-    ck%time = t
-    ck%dt_next = h
+    point = .false.
+    if (present(restart_point)) point = restart_point .and. ctx%rp_valid
+    if (point) then
+      ck = ctx%rp_ck
+    else
+      PetscCall(state_to_strips(ctx, ctx%u, ctx%xout, ctx%vout, ierr))
+      call fill_checkpoint(ctx, t, h, ck, ierr)
+      if (ierr /= 0) return
+    end if
     ! Attributes must be equal on all ranks: the slowest rank's clock.
     ck%wall_time = MPI_Wtime() - ctx%wall0
     call MPI_Allreduce(MPI_IN_PLACE, ck%wall_time, 1, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
+    ck%reason = reason
+    if (point) then
+      call output_write_checkpoint(out, ck, ctx%rp_x, ctx%rp_v, ierr, errmsg)
+    else
+      call output_write_checkpoint(out, ck, ctx%xout, ctx%vout, ierr, errmsg)
+    end if
+    if (ierr /= 0) then
+      call report_io_error(ctx, errmsg)
+      return
+    end if
+    ctx%t_checkpoint = ck%time
+    ! (a restart point is older than the output steps written since)
+    ctx%checkpoint_current = .not. point .or. ck%time >= ctx%t_written
+    if (ctx%rank == 0) then
+      write(output_unit, '(a,i0,a,es12.5e2,a)') 'nuno: checkpoint ', ck%sequence, ' at t =', ck%time, &
+        ' ('//trim(reason)//'), '//inum(int(ck%n_output_steps, kind(ctx%max_steps)))//' output steps'
+      flush(output_unit)
+    end if
+  end subroutine take_checkpoint
+
+  !> ck of the state at t (in ctx%u), h being the next step: everything
+  !> but the wall time, the reason and (unless set: the output file's count
+  !> at the write) the output steps. Collective.
+  subroutine fill_checkpoint(ctx, t, h, ck, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    real(rp), intent(in) :: t, h
+    type(checkpoint_t), intent(inout) :: ck
+    PetscErrorCode, intent(out) :: ierr
+
+    ck%time = t
+    ck%dt_next = h
     ck%dissipated = ctx%dissipated
     ck%work_constraints = ctx%work_constraints
     ck%mgx0 = ctx%mgx0
@@ -1843,22 +1912,36 @@ contains
     call run_counts(ctx, ck%counters, ierr)
     if (ierr /= 0) return
     ck%stretch_warned = merge(1, 0, ctx%stretch_warned)
-    ck%reason = reason
+    ! the next step's first inner tolerance depends on it (set_newton_forcing)
+    if (ctx%use_reduced) ck%newton_floor = ctx%red%floor_est
     PetscCall(TSGetType(ctx%ts, ck%ts_type, ierr))
     PetscCall(checkpoint_start_states(ctx, t, ck, ierr))
-    call output_write_checkpoint(out, ck, ctx%xout, ctx%vout, ierr, errmsg)
-    if (ierr /= 0) then
-      call report_io_error(ctx, errmsg)
-      return
-    end if
-    ctx%t_checkpoint = t
-    ctx%checkpoint_current = .true.
-    if (ctx%rank == 0) then
-      write(output_unit, '(a,i0,a,es12.5e2,a)') 'nuno: checkpoint ', ck%sequence, ' at t =', t, &
-        ' ('//trim(reason)//'), '//inum(int(ck%n_output_steps, kind(ctx%max_steps)))//' output steps'
-      flush(output_unit)
-    end if
-  end subroutine take_checkpoint
+  end subroutine fill_checkpoint
+
+  !> Keep the restart point: the state at the output step just written
+  !> (t, h the next step) and its checkpoint, for the checkpoints written
+  !> between output steps. Between output steps the reduced solve carries
+  !> state a checkpoint cannot hold (a preconditioner kept for pc_lag
+  !> assemblies, the inner guesses' last solves); at an output step the
+  !> next window starts them afresh (enter_window), in the run and in its
+  !> restart alike, so a restart from this point repeats the run bit for
+  !> bit. Costs a copy of the state and the Newton start's kept states an
+  !> output step. Collective.
+  subroutine keep_restart_point(ctx, out, t, h, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    type(output_file), intent(in) :: out
+    real(rp), intent(in) :: t, h
+    PetscErrorCode, intent(out) :: ierr
+
+    ctx%rp_valid = .false.
+    if (.not. allocated(ctx%rp_x)) allocate(ctx%rp_x, mold=ctx%xout)
+    if (.not. allocated(ctx%rp_v)) allocate(ctx%rp_v, mold=ctx%vout)
+    PetscCall(state_to_strips(ctx, ctx%u, ctx%rp_x, ctx%rp_v, ierr))
+    call fill_checkpoint(ctx, t, h, ctx%rp_ck, ierr)
+    if (ierr /= 0) return
+    ctx%rp_ck%n_output_steps = output_steps(out)
+    ctx%rp_valid = .true.
+  end subroutine keep_restart_point
 
 
   !> The Newton start's kept states before t (at most three, newest first)
@@ -1880,6 +1963,8 @@ contains
     ck%start_count = 0
     ck%start_compare = int(compare)
     ck%start_nc_prev = real(nc_prev, rp)
+    if (allocated(ck%start_x)) deallocate(ck%start_x)
+    if (allocated(ck%start_v)) deallocate(ck%start_v)
     allocate(ck%start_x(3, ctx%lat%nx, ctx%lat%ye - ctx%lat%ys + 1, 3), ck%start_v(3, ctx%lat%nx, ctx%lat%ye - ctx%lat%ys + 1, 3))
     if (n == 0) return
     PetscCall(DMGetGlobalVector(ctx%da, w, ierr))

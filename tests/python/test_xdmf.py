@@ -91,13 +91,13 @@ def h5_content(h5):
 
 
 def restart_run(work, name, drop_xdmf):
-    """7 x 5 on 2 ranks to t_end = 0.06, checkpoints at t = 0.01, 0.04 and
+    """7 x 5 on 2 ranks to t_end = 0.06, checkpoints at t = 0.02, 0.04 and
     the end; the end one made invalid (and /xdmf deleted, as in a file of an
     earlier version, when drop_xdmf); continued from t = 0.04 to t_end = 0.05:
     6 of the 7 output steps remain. Returns the file and the names in /xdmf
     before the restart."""
     groups = dict(SCENE, time="t_end=0.06 dt=0.01",
-                  output="output_interval=0.01 write_velocity=.true. checkpoint_interval=0.03")
+                  output="output_interval=0.01 write_velocity=.true. checkpoint_interval=0.02")
     _, h5 = run(work, name, nranks=2, **groups)
     with h5py.File(h5, "r+") as f:
         assert int(f.attrs["n_output_steps"]) == 7
