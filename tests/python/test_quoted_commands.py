@@ -260,3 +260,27 @@ def test_readme_run_line_needs_what_the_readme_sources(tmp_path):
     assert failed(run_line(line, tmp_path, env, setup=[]))
     r = run_line(line, tmp_path, env)
     assert not failed(r), r.stdout + r.stderr
+
+
+def test_skipped_script_lines_use_options_the_script_has(tmp_path):
+    """The post-processing lines that are not run (example file names) name
+    only options their script's --help lists: a misspelt option fails here."""
+    env = _workdir(tmp_path, nuno_exe())
+    for _, _, cmd in quoted():
+        if cmd not in SKIP:
+            continue
+        words = shlex.split(cmd)
+        if words[0].startswith("nuno-"):
+            module, args = words[0][len("nuno-"):], words[1:]
+        elif words[:2] == ["python3", "-m"] and "<" not in words[2]:
+            module, args = words[2].split(".", 1)[1], words[3:]
+        else:
+            continue
+        r = subprocess.run(["bash", "-c", f"nuno-{module} --help"], cwd=tmp_path, env=env,
+                           capture_output=True, text=True, timeout=60)
+        assert r.returncode == 0, r.stderr
+        for w in args:
+            opt = w.strip("[]").split("=", 1)[0]
+            if opt.startswith("-") and not re.fullmatch(r"-?[0-9.eE+-]+", opt):
+                assert re.search(rf"(?<![\w-]){re.escape(opt)}(?![\w-])", r.stdout), \
+                    f"{cmd}: {opt} is not in nuno-{module} --help"
