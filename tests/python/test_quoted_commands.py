@@ -17,17 +17,18 @@ package) and also holds copies of input/*.nml (the lines that say
 Open MPI variables of the caller's environment removed and what the
 README's run section says to source first (tools/env.sh) sourced. The line itself is
 not edited, except that it is made short (substitution rules):
-  - a nuno run gets `-nuno_set nx=17,ny=17,t_end=0.1` appended, without
-    the keys the line sets itself; a `-nuno_restart` line gets t_end=0.2
-    (the first job's run, at t_end=0.1, has finished and must be continued);
-  - inside a line's own -nuno_set, nx/ny values become 17 and a t_end 0.3
+  - a nuno run gets `-nuno_set nx=9,ny=17,t_end=0.05` appended, without
+    the keys the line sets itself; a `-nuno_restart` line gets t_end=0.1
+    (the first job's run, at t_end=0.05, has finished and must be continued);
+  - inside a line's own -nuno_set, nx becomes 9, ny 17 and a t_end 0.15
     (17 rows leave 2 for each of 8 ranks, the most a quoted line uses);
-  - nuno-sweep gets `--fixed nx=17,ny=17,t_end=0.1`.
+  - nuno-sweep gets `--fixed nx=9,ny=17,t_end=0.05`.
 """
 import os
 import re
 import shlex
 import subprocess
+import time
 from pathlib import Path
 
 import pytest
@@ -39,7 +40,7 @@ ROOT = Path(__file__).resolve().parents[2]
 CMD = re.compile(r"^(?:(?:mpirun|mpiexec)\s.*\bnuno\b|(?:\./)?build/nuno(?:\s|$)"
                  r"|nuno\s|nuno-[a-z_]+\s|python3 -m (?:postprocess|nuno)\.)")
 
-SMALL = {"nx": "17", "ny": "17", "t_end": "0.1"}
+SMALL = {"nx": "9", "ny": "17", "t_end": "0.05"}
 
 PLACEHOLDER = "a synopsis with placeholders (P, INPUT.nml, <name>), not a command"
 NOFILE = ("operates on example file names (run.h5, np1.h5, h17.h5, ...) that no "
@@ -48,6 +49,8 @@ SKIP = {
     "mpirun -n P nuno INPUT.nml [PETSc options]": PLACEHOLDER,
     "build/nuno INPUT.nml": PLACEHOLDER,
     "python3 -m postprocess.<name>": PLACEHOLDER,
+    "python3 -m nuno.<name>": PLACEHOLDER,
+    "python3 -m postprocess.snapshots RUN.h5": PLACEHOLDER,
     "mpiexec -n P nuno identify.nml": PLACEHOLDER,
     "mpiexec -n P nuno control.nml": PLACEHOLDER,
     "nuno-snapshots RUN.h5": PLACEHOLDER,
@@ -106,11 +109,18 @@ def quoted(root=ROOT):
                 s = _strip_comment(s)
                 if CMD.match(s):
                     out.append((f, n, s))
-            else:
-                for m in re.finditer(r"`([^`]+)`", line):
-                    s = m.group(1).strip()
+            elif line.strip():
+                # a paragraph: an inline code span may go over a line break
+                n, para = i, [line]
+                while (i < len(lines) and lines[i].strip()
+                       and not lines[i].strip().startswith("```")):
+                    para.append(lines[i])
+                    i += 1
+                text = "\n".join(para)
+                for m in re.finditer(r"`([^`]+)`", text):
+                    s = " ".join(m.group(1).split())
                     if CMD.match(s):
-                        out.append((f, i, s))
+                        out.append((f, n + text.count("\n", 0, m.start()), s))
     for p in sorted(root.glob("input/*.nml")):
         for n, line in enumerate(p.read_text().splitlines(), 1):
             m = re.match(r"!\s*Run:\s*(.*?)(?:\s{2,}\(.*)?$", line)
@@ -129,15 +139,15 @@ def shrunk(cmd):
         return cmd
     small = dict(SMALL)
     if "-nuno_restart" in words:
-        small["t_end"] = "0.2"
+        small["t_end"] = "0.1"
 
     def own(m):
         body = m.group(2)
         for key in list(small):
             if re.search(rf"\b{key}\s*=", body):
                 small.pop(key)
-        body = re.sub(r"\b(nx|ny)\s*=\s*\d+", lambda k: f"{k.group(1)}=17", body)
-        body = re.sub(r"\bt_end\s*=\s*[0-9.eE+-]+", "t_end=0.3", body)
+        body = re.sub(r"\b(nx|ny)\s*=\s*\d+", lambda k: f"{k.group(1)}={SMALL[k.group(1)]}", body)
+        body = re.sub(r"\bt_end\s*=\s*[0-9.eE+-]+", "t_end=0.15", body)
         return m.group(1) + body
     cmd = re.sub(r"(-nuno_set\s+)(\"[^\"]*\"|'[^']*'|\S+)", own, cmd)
     if small:
@@ -205,12 +215,12 @@ def test_skip_list_has_no_stale_entries():
 
 
 def test_shrunk_rules():
-    assert shrunk("mpirun -n 2 nuno a.nml") == "mpirun -n 2 nuno a.nml -nuno_set nx=17,ny=17,t_end=0.1"
+    assert shrunk("mpirun -n 2 nuno a.nml") == "mpirun -n 2 nuno a.nml -nuno_set nx=9,ny=17,t_end=0.05"
     assert shrunk("nuno --help") == "nuno --help"
     assert (shrunk("mpirun -n 8 nuno h.nml -nuno_restart h.h5 -nuno_set t_end=5")
-            == "mpirun -n 8 nuno h.nml -nuno_restart h.h5 -nuno_set t_end=0.3 -nuno_set nx=17,ny=17")
+            == "mpirun -n 8 nuno h.nml -nuno_restart h.h5 -nuno_set t_end=0.15 -nuno_set nx=9,ny=17")
     assert (shrunk("build/nuno i.nml -nuno_set \"nx=257,ny=257,output_file='a.h5'\"")
-            == "build/nuno i.nml -nuno_set \"nx=17,ny=17,output_file='a.h5'\" -nuno_set t_end=0.1")
+            == "build/nuno i.nml -nuno_set \"nx=9,ny=17,output_file='a.h5'\" -nuno_set t_end=0.05")
 
 
 def test_every_quoted_command_runs(tmp_path):
@@ -219,7 +229,9 @@ def test_every_quoted_command_runs(tmp_path):
     for f, n, cmd in quoted():
         if cmd in SKIP:
             continue
+        t0 = time.monotonic()
         r = run_line(cmd, tmp_path, env)
+        print(f"{time.monotonic() - t0:6.1f} s  {f}:{n}: {cmd}")
         if failed(r):
             tail = "\n".join((r.stdout + r.stderr).strip().splitlines()[-6:])
             failures.append(f"{f}:{n}: {cmd}\n  ran: {shrunk(cmd)}\n  exit {r.returncode}:\n{tail}")
