@@ -4,8 +4,8 @@ The quoted lines are read from README.md, input/README.md,
 postprocess/README.md, docs/*.md (fenced code blocks and inline code spans)
 and the "! Run:" comments of input/*.nml: a line is a command when it starts
 with mpirun/mpiexec running nuno, build/nuno, nuno, a nuno-* console script
-or python3 -m postprocess./nuno. (a bare name such as `nuno-animate` is a
-name, not a command line). Each is either run, in the order of the docs, or
+or python3 -m postprocess./nuno. (a bare name such as `nuno-animate` or
+`build/nuno`, without arguments, is a name, not a command line). Each is either run, in the order of the docs, or
 listed in SKIP with a reason; a quoted line that is neither fails the test,
 so new docs cannot add untested lines.
 
@@ -37,7 +37,7 @@ from nunorun import exe as nuno_exe
 
 ROOT = Path(__file__).resolve().parents[2]
 
-CMD = re.compile(r"^(?:(?:mpirun|mpiexec)\s.*\bnuno\b|(?:\./)?build/nuno(?:\s|$)"
+CMD = re.compile(r"^(?:(?:mpirun|mpiexec)\s.*\bnuno\b|(?:\./)?build/nuno\s"
                  r"|nuno\s|nuno-[a-z_]+\s|python3 -m (?:postprocess|nuno)\.)")
 
 SMALL = {"nx": "9", "ny": "17", "t_end": "0.05"}
