@@ -44,7 +44,8 @@ SMALL = {"nx": "9", "ny": "17", "t_end": "0.05"}
 
 PLACEHOLDER = "a synopsis with placeholders (P, INPUT.nml, <name>), not a command"
 NOFILE = ("operates on example file names (run.h5, np1.h5, h17.h5, ...) that no "
-          "quoted run command produces; the scripts are tested in test_postprocess")
+          "quoted run command produces; the scripts are tested in test_postprocess and "
+          "test_studies, and their options checked against --help below")
 SKIP = {
     "mpirun -n P nuno INPUT.nml [PETSc options]": PLACEHOLDER,
     "build/nuno INPUT.nml": PLACEHOLDER,
@@ -74,11 +75,11 @@ SKIP = {
         "a lattice study up to 65 x 65 (the lattice is what it varies); test_studies runs --lattice",
     "python3 -m postprocess.control_plot runs/identification/control.h5 --target "
     "runs/identification/control_target.h5 --initial runs/identification/control_initial.h5 "
-    "-o control.png": "needs bench/identification_figures.py's runs (about 6 minutes)",
+    "-o control.png": "needs bench/identification_figures.py's runs (about 6 minutes); test_identification_plots",
     "python3 -m postprocess.identify_plot runs/identification/identify.h5 --observed "
     "runs/identification/identify_observed.h5 --initial runs/identification/identify_initial.h5 "
     "--true e_s=1,e_d=1,eta_s=1,eta_d=1,k_b=10 -o identify.png":
-        "needs bench/identification_figures.py's runs (about 6 minutes)",
+        "needs bench/identification_figures.py's runs (about 6 minutes); test_identification_plots",
 }
 
 
