@@ -41,6 +41,7 @@ module output
                         is_nuno_output, is_nuno_sidecar, tmp_open, tmp_write, tmp_commit, cleanup_add, &
                         cleanup_drop, cleanup_file
   use output_h5
+  use strings, only: itoa, real_es
   implicit none
   private
 
@@ -475,20 +476,10 @@ module output
       character(*), intent(inout) :: errmsg
     end subroutine write_xdmf
 
-    pure module function str(i) result(s)
-      integer, intent(in) :: i
-      character(len=:), allocatable :: s
-    end function str
-
     pure module function xml_escape(s) result(r)
       character(*), intent(in) :: s
       character(len=:), allocatable :: r
     end function xml_escape
-
-    pure module function real_str(x) result(s)
-      real(rp), intent(in) :: x
-      character(len=:), allocatable :: s
-    end function real_str
 
   end interface
 

@@ -84,9 +84,9 @@ contains
     ! The Newton start's earlier states (start_position_1.., start_velocity_1..)
     do k = 1, ck%start_count
       if (.not. all_ok()) exit
-      call write_state(where//'/start_position_'//str(k), 'start_position_'//str(k), ck%start_x(:, :, :, k))
+      call write_state(where//'/start_position_'//itoa(k), 'start_position_'//itoa(k), ck%start_x(:, :, :, k))
       if (.not. all_ok()) exit
-      call write_state(where//'/start_velocity_'//str(k), 'start_velocity_'//str(k), ck%start_v(:, :, :, k))
+      call write_state(where//'/start_velocity_'//itoa(k), 'start_velocity_'//itoa(k), ck%start_v(:, :, :, k))
     end do
     ! Attributes: metadata, written at the flush (which is agreed on).
     if (all_ok()) then
@@ -340,8 +340,8 @@ contains
       errmsg = '-nuno_restart '//filename//': not a nuno output file ('//trim(errmsg)//')'
     else if (fnx /= nx .or. fny /= ny) then
       ierr = 1
-      errmsg = '-nuno_restart '//filename//': its lattice is nx = '//str(fnx)//', ny = '//str(fny)// &
-               ', the input''s nx = '//str(nx)//', ny = '//str(ny)
+      errmsg = '-nuno_restart '//filename//': its lattice is nx = '//itoa(fnx)//', ny = '//itoa(fny)// &
+               ', the input''s nx = '//itoa(nx)//', ny = '//itoa(ny)
     end if
     if (ierr == 0) then
       call h5lexists_f(out%file, 'velocity', has_velocity, h)
@@ -421,7 +421,7 @@ contains
       call open_or_create_group(out%file, '/run', grp, ierr, errmsg)
       if (ierr == 0) call set_attr_int(grp, 'restarts', out%restarts, '/run', ierr, errmsg)
       if (grp >= 0) call close_group(grp, '/run', ierr, errmsg)
-      where = '/run/restart_'//str(out%restarts)
+      where = '/run/restart_'//itoa(out%restarts)
       if (ierr == 0) call open_or_create_group(out%file, where, grp, ierr, errmsg)
       if (ierr == 0) call set_attr_reals(grp, 'from_time', [ck%time], where, ierr, errmsg)
       if (ierr == 0) call set_attr_int(grp, 'from_checkpoint', ck%sequence, where, ierr, errmsg)
@@ -482,7 +482,7 @@ contains
       call get_attr_reals(grp, 'start_nc_prev', where, r, ierr, errmsg); ck%start_nc_prev = r(1)
       if (ck%start_count < 0 .or. ck%start_count > 3) then
         ierr = 1
-        errmsg = where//': start_count '//str(ck%start_count)//' is not 0..3'
+        errmsg = where//': start_count '//itoa(ck%start_count)//' is not 0..3'
       end if
     end if
     ! the Newton floor: not in files written before 5 Dec 2026
@@ -499,8 +499,8 @@ contains
     allocate(ck%start_x(size(x, 1), size(x, 2), size(x, 3), ck%start_count), &
              ck%start_v(size(x, 1), size(x, 2), size(x, 3), ck%start_count))
     do k = 1, ck%start_count
-      call read_rows3(out, where//'/start_position_'//str(k), ck%start_x(:, :, :, k), ierr, errmsg)
-      call read_rows3(out, where//'/start_velocity_'//str(k), ck%start_v(:, :, :, k), ierr, errmsg)
+      call read_rows3(out, where//'/start_position_'//itoa(k), ck%start_x(:, :, :, k), ierr, errmsg)
+      call read_rows3(out, where//'/start_velocity_'//itoa(k), ck%start_v(:, :, :, k), ierr, errmsg)
     end do
   end subroutine read_checkpoint
 

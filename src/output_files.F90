@@ -268,7 +268,7 @@ contains
         ierr = 1
         errmsg = 'output: no space left for '//what//' in '//path//' ('//trim(adjustl(fb))//' bytes free, '// &
                  trim(adjustl(nb))//' needed)'
-        if (out%is_open) errmsg = trim(errmsg)//': the file holds the '//str(out%nt)//' output steps before it'
+        if (out%is_open) errmsg = trim(errmsg)//': the file holds the '//itoa(out%nt)//' output steps before it'
       end if
     end if
     call agree(out%comm, 'output', ierr, errmsg)

@@ -40,7 +40,7 @@ contains
     ! A continued run (output_reopen) keeps the first run's /run and
     ! describes itself in /run/restart_<k>.
     if (out%reopened) then
-      where = '/run/restart_'//str(out%restarts)
+      where = '/run/restart_'//itoa(out%restarts)
     else
       where = '/run'
     end if

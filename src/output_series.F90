@@ -35,7 +35,7 @@ contains
     end if
     call agree(out%comm, 'output_write_step', ierr, errmsg)
     if (ierr /= 0) return
-    call check_space(out, step_bytes(out), 'output step '//str(out%nt), ierr, errmsg)
+    call check_space(out, step_bytes(out), 'output step '//itoa(out%nt), ierr, errmsg)
     if (ierr /= 0) return
 
     if (out%write_velocity) then
@@ -241,7 +241,7 @@ contains
   module function step_view(idx, k) result(name)
     integer, intent(in) :: idx, k
     character(len=:), allocatable :: name
-    name = trim(dset_names(idx)(2:))//'_'//str(k)
+    name = trim(dset_names(idx)(2:))//'_'//itoa(k)
   end function step_view
 
   !> An extendable dataset: Fortran dims (fixed..., 0), unlimited along t, chunked.
@@ -454,7 +454,7 @@ contains
     if (ierr /= 0) return
     if (nt > have .or. nt < 1) then
       ierr = 1
-      errmsg = '-nuno_restart: the checkpoint counts '//str(nt)//' output steps, the file holds '//str(have)
+      errmsg = '-nuno_restart: the checkpoint counts '//itoa(nt)//' output steps, the file holds '//itoa(have)
       return
     end if
     do i = 1, n_dsets

@@ -39,7 +39,7 @@ contains
 
     if (ierr /= 0) return
     h5 = xml_escape(out%h5_base)                  ! the file's name in XML text
-    plane = str(out%ny)//' '//str(out%nx)        ! /lattice/mass [ny][nx]
+    plane = itoa(out%ny)//' '//itoa(out%nx)        ! /lattice/mass [ny][nx]
     surf = '1 '//plane                            ! the topology, one layer of points; the views
     f8 = 'NumberType="Float" Precision="8"'
     ! Written whole into a new file made exclusively beside it, then renamed
@@ -56,8 +56,8 @@ contains
     call put(' <Domain>')
     call put('  <Grid Name="cloth" GridType="Collection" CollectionType="Temporal">')
     do k = 1, out%nt
-      call put('   <Grid Name="step_'//str(k - 1)//'" GridType="Uniform">')
-      call put('    <Time Value="'//real_str(out%times(k))//'"/>')
+      call put('   <Grid Name="step_'//itoa(k - 1)//'" GridType="Uniform">')
+      call put('    <Time Value="'//real_es(out%times(k))//'"/>')
       call put('    <Topology TopologyType="3DSMesh" Dimensions="'//surf//'"/>')
       call put('    <Geometry GeometryType="XYZ">')
       call item('     ', surf//' 3', '/xdmf/'//step_view(d_position, k - 1))
@@ -118,13 +118,6 @@ contains
     end subroutine item
   end subroutine write_xdmf
 
-  pure module function str(i) result(s)
-    integer, intent(in) :: i
-    character(len=:), allocatable :: s
-    character(len=24) :: buf
-    write(buf, '(i0)') i
-    s = trim(buf)
-  end function str
 
   !> s with the characters that XML text and attribute values cannot hold escaped.
   pure module function xml_escape(s) result(r)
@@ -143,12 +136,5 @@ contains
     end do
   end function xml_escape
 
-  pure module function real_str(x) result(s)
-    real(rp), intent(in) :: x
-    character(len=:), allocatable :: s
-    character(len=32) :: buf
-    write(buf, '(es24.16e3)') x
-    s = trim(adjustl(buf))
-  end function real_str
 
 end submodule output_xdmf
