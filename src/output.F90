@@ -152,7 +152,6 @@ module output
     integer :: ck_slot = -1                     ! its slot, /checkpoint/slot_0 or slot_1 (-1: none)
   end type output_file
 
-
   ! The procedures, by concern, in submodules: output_files (lifecycle and the
   ! safety rules), output_series (lattice, time series and views),
   ! output_results (run info, config, identify, control), output_checkpoint
@@ -246,22 +245,6 @@ module output
       character(*), intent(out) :: errmsg
     end subroutine output_write_control
 
-    module subroutine close_and_flush(out, grp, gpath, ierr, errmsg)
-      type(output_file), intent(inout) :: out
-      integer(hid_t), intent(in) :: grp
-      character(*), intent(in) :: gpath
-      integer, intent(inout) :: ierr
-      character(*), intent(inout) :: errmsg
-    end subroutine close_and_flush
-
-    module subroutine config_group(out, group, grp, ierr, errmsg)
-      type(output_file), intent(in) :: out
-      character(*), intent(in) :: group
-      integer(hid_t), intent(out) :: grp
-      integer, intent(inout) :: ierr
-      character(*), intent(inout) :: errmsg
-    end subroutine config_group
-
     module subroutine config_key_str(out, group, key, value, ierr, errmsg)
       type(output_file), intent(in) :: out
       character(*), intent(in) :: group, key, value
@@ -309,15 +292,6 @@ module output
       character(*), intent(inout) :: errmsg
     end subroutine write_lattice
 
-    module subroutine create_fixed(out, name, dims, description, dset, ierr, errmsg)
-      type(output_file), intent(in) :: out
-      character(*), intent(in) :: name, description
-      integer(hsize_t), intent(in) :: dims(:)
-      integer(hid_t), intent(out) :: dset
-      integer, intent(inout) :: ierr
-      character(*), intent(inout) :: errmsg
-    end subroutine create_fixed
-
     module subroutine lattice_views(out, ierr, errmsg)
       type(output_file), intent(in) :: out
       integer, intent(inout) :: ierr
@@ -332,13 +306,6 @@ module output
       character(*), intent(inout) :: errmsg
     end subroutine make_view
 
-    module subroutine drop_view(out, name, ierr, errmsg)
-      type(output_file), intent(in) :: out
-      character(*), intent(in) :: name
-      integer, intent(inout) :: ierr
-      character(*), intent(inout) :: errmsg
-    end subroutine drop_view
-
     module function step_view(idx, k) result(name)
       integer, intent(in) :: idx, k
       character(len=:), allocatable :: name
@@ -352,30 +319,6 @@ module output
       integer, intent(inout) :: ierr
       character(*), intent(inout) :: errmsg
     end subroutine create_series
-
-    module subroutine write_step_local(out, rec, x, ierr, errmsg, v)
-      type(output_file), intent(inout) :: out
-      type(output_record), intent(in) :: rec
-      real(rp), intent(in) :: x(:, :, :)
-      integer, intent(inout) :: ierr
-      character(*), intent(inout) :: errmsg
-      real(rp), intent(in), optional :: v(:, :, :)
-    end subroutine write_step_local
-
-    module subroutine write_reals(out, idx, vals, ierr, errmsg)
-      type(output_file), intent(in) :: out
-      integer, intent(in) :: idx
-      real(rp), intent(in) :: vals(:)
-      integer, intent(inout) :: ierr
-      character(*), intent(inout) :: errmsg
-    end subroutine write_reals
-
-    module subroutine write_int(out, idx, val, ierr, errmsg)
-      type(output_file), intent(in) :: out
-      integer, intent(in) :: idx, val
-      integer, intent(inout) :: ierr
-      character(*), intent(inout) :: errmsg
-    end subroutine write_int
 
     module subroutine close_ids(out, ierr, errmsg)
       type(output_file), intent(inout) :: out
@@ -423,15 +366,6 @@ module output
       type(nuno_config), intent(in), optional :: cfg   !< the input's: its scene and model must be the file's
     end subroutine output_reopen
 
-    module subroutine read_checkpoint(out, where, ck, x, v, ierr, errmsg)
-      type(output_file), intent(inout) :: out
-      character(*), intent(in) :: where
-      type(checkpoint_t), intent(out) :: ck
-      real(rp), intent(out) :: x(:, :, :), v(:, :, :)
-      integer, intent(inout) :: ierr
-      character(*), intent(inout) :: errmsg
-    end subroutine read_checkpoint
-
     module subroutine open_series(out, nt, extent, ierr, errmsg)
       type(output_file), intent(inout) :: out
       integer, intent(in) :: nt
@@ -447,23 +381,6 @@ module output
       character(*), intent(inout) :: errmsg
     end subroutine sync_views
 
-    module subroutine open_or_create_state(out, grp, path, name, dset, ierr, errmsg)
-      type(output_file), intent(in) :: out
-      integer(hid_t), intent(in) :: grp
-      character(*), intent(in) :: path, name
-      integer(hid_t), intent(out) :: dset
-      integer, intent(inout) :: ierr
-      character(*), intent(inout) :: errmsg
-    end subroutine open_or_create_state
-
-    module subroutine read_rows3(out, path, a, ierr, errmsg)
-      type(output_file), intent(in) :: out
-      character(*), intent(in) :: path
-      real(rp), intent(out) :: a(:, :, :)
-      integer, intent(inout) :: ierr
-      character(*), intent(inout) :: errmsg
-    end subroutine read_rows3
-
     module subroutine flush_file(out, ierr, errmsg)
       type(output_file), intent(in) :: out
       integer, intent(inout) :: ierr
@@ -475,12 +392,6 @@ module output
       integer, intent(inout) :: ierr
       character(*), intent(inout) :: errmsg
     end subroutine write_xdmf
-
-    pure module function xml_escape(s) result(r)
-      character(*), intent(in) :: s
-      character(len=:), allocatable :: r
-    end function xml_escape
-
   end interface
 
 end module output

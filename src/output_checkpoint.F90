@@ -443,7 +443,7 @@ contains
   ! ---------------------------------------------------------------------------
 
   !> The attributes and state strips of the checkpoint slot `where`.
-  module subroutine read_checkpoint(out, where, ck, x, v, ierr, errmsg)
+  subroutine read_checkpoint(out, where, ck, x, v, ierr, errmsg)
     type(output_file), intent(inout) :: out
     character(*), intent(in) :: where
     type(checkpoint_t), intent(out) :: ck
@@ -503,5 +503,72 @@ contains
       call read_rows3(out, where//'/start_velocity_'//itoa(k), ck%start_v(:, :, :, k), ierr, errmsg)
     end do
   end subroutine read_checkpoint
+
+  !> A fixed [ny][nx][3] state dataset of a checkpoint slot, created on first use.
+  subroutine open_or_create_state(out, grp, path, name, dset, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    integer(hid_t), intent(in) :: grp
+    character(*), intent(in) :: path, name
+    integer(hid_t), intent(out) :: dset
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: space
+    logical :: exists
+    integer :: h
+
+    dset = -1
+    call h5lexists_f(grp, name, exists, h)
+    if (h < 0) then
+      call fail('h5lexists_f', path, ierr, errmsg); return
+    end if
+    if (exists) then
+      call h5dopen_f(grp, name, dset, h)
+      if (h < 0) call fail('h5dopen_f', path, ierr, errmsg)
+      return
+    end if
+    call h5screate_simple_f(3, [3_hsize_t, int(out%nx, hsize_t), int(out%ny, hsize_t)], space, h)
+    if (h < 0) then
+      call fail('h5screate_simple_f', path, ierr, errmsg); return
+    end if
+    call h5dcreate_f(grp, name, H5T_NATIVE_DOUBLE, space, dset, h)
+    if (h < 0) call fail('h5dcreate_f', path, ierr, errmsg)
+    call h5sclose_f(space, h)
+    if (ierr /= 0) dset = -1
+  end subroutine open_or_create_state
+
+  !> Collective read of this rank's rows of a [ny][nx][3] dataset into a(3, nx, ym).
+  subroutine read_rows3(out, path, a, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    character(*), intent(in) :: path
+    real(rp), intent(out) :: a(:, :, :)
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: dset, fspace, mspace
+    integer(hsize_t) :: count(3)
+    integer :: h
+    real(rp) :: empty(1)
+
+    a = 0
+    if (ierr /= 0) return
+    call h5dopen_f(out%file, path, dset, h)
+    if (h < 0) then
+      call fail('h5dopen_f', path, ierr, errmsg); return
+    end if
+    count = [3_hsize_t, int(out%nx, hsize_t), int(out%ym, hsize_t)]
+    call select_spaces(dset, path, [0_hsize_t, 0_hsize_t, int(out%ys, hsize_t)], count, product(count) == 0, &
+                       fspace, mspace, ierr, errmsg)
+    if (ierr == 0) then
+      if (product(count) == 0) then
+        call h5dread_f(dset, H5T_NATIVE_DOUBLE, empty, [1_hsize_t], h, mem_space_id=mspace, file_space_id=fspace, &
+                       xfer_prp=out%dxpl)
+      else
+        call h5dread_f(dset, H5T_NATIVE_DOUBLE, a, count, h, mem_space_id=mspace, file_space_id=fspace, &
+                       xfer_prp=out%dxpl)
+      end if
+      if (h < 0) call fail('h5dread_f', path, ierr, errmsg)
+    end if
+    call close_spaces(fspace, mspace, path, ierr, errmsg)
+    call close_dset(dset, path, ierr, errmsg)
+  end subroutine read_rows3
 
 end submodule output_checkpoint

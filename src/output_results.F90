@@ -155,7 +155,7 @@ contains
 
   !> Close the group grp (at gpath, for messages) and flush the file, so
   !> that what was written survives a later failure.
-  module subroutine close_and_flush(out, grp, gpath, ierr, errmsg)
+  subroutine close_and_flush(out, grp, gpath, ierr, errmsg)
     type(output_file), intent(inout) :: out
     integer(hid_t), intent(in) :: grp
     character(*), intent(in) :: gpath
@@ -169,7 +169,7 @@ contains
   end subroutine close_and_flush
 
   !> /config/<group>, created on first use; grp must be closed by the caller.
-  module subroutine config_group(out, group, grp, ierr, errmsg)
+  subroutine config_group(out, group, grp, ierr, errmsg)
     type(output_file), intent(in) :: out
     character(*), intent(in) :: group
     integer(hid_t), intent(out) :: grp

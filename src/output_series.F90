@@ -85,7 +85,7 @@ contains
     call close_dset(dset, '/lattice/mass', ierr, errmsg)
   end subroutine write_lattice
 
-  module subroutine create_fixed(out, name, dims, description, dset, ierr, errmsg)
+  subroutine create_fixed(out, name, dims, description, dset, ierr, errmsg)
     type(output_file), intent(in) :: out
     character(*), intent(in) :: name, description
     integer(hsize_t), intent(in) :: dims(:)
@@ -218,7 +218,7 @@ contains
 
   !> Delete /xdmf/<name> if it is there (its link; the few bytes of its
   !> header stay in the file).
-  module subroutine drop_view(out, name, ierr, errmsg)
+  subroutine drop_view(out, name, ierr, errmsg)
     type(output_file), intent(in) :: out
     character(*), intent(in) :: name
     integer, intent(inout) :: ierr
@@ -302,7 +302,7 @@ contains
   !> aggregators only) must not leave the others waiting in the next
   !> collective call. So all ranks stop at the same call, with the message of
   !> the first rank that failed.
-  module subroutine write_step_local(out, rec, x, ierr, errmsg, v)
+  subroutine write_step_local(out, rec, x, ierr, errmsg, v)
     type(output_file), intent(inout) :: out
     type(output_record), intent(in) :: rec
     real(rp), intent(in) :: x(:, :, :)
@@ -386,7 +386,7 @@ contains
   end subroutine write_step_local
 
   !> Step t of a real series ([t] or [t][k]): rank 0 writes vals, the others nothing.
-  module subroutine write_reals(out, idx, vals, ierr, errmsg)
+  subroutine write_reals(out, idx, vals, ierr, errmsg)
     type(output_file), intent(in) :: out
     integer, intent(in) :: idx
     real(rp), intent(in) :: vals(:)
@@ -413,7 +413,7 @@ contains
   end subroutine write_reals
 
   !> Step t of an integer series [t], stored as 64-bit integers.
-  module subroutine write_int(out, idx, val, ierr, errmsg)
+  subroutine write_int(out, idx, val, ierr, errmsg)
     type(output_file), intent(in) :: out
     integer, intent(in) :: idx, val
     integer, intent(inout) :: ierr
@@ -544,72 +544,5 @@ contains
       all_ok = ierr == 0
     end function all_ok
   end subroutine sync_views
-
-  !> A fixed [ny][nx][3] state dataset of a checkpoint slot, created on first use.
-  module subroutine open_or_create_state(out, grp, path, name, dset, ierr, errmsg)
-    type(output_file), intent(in) :: out
-    integer(hid_t), intent(in) :: grp
-    character(*), intent(in) :: path, name
-    integer(hid_t), intent(out) :: dset
-    integer, intent(inout) :: ierr
-    character(*), intent(inout) :: errmsg
-    integer(hid_t) :: space
-    logical :: exists
-    integer :: h
-
-    dset = -1
-    call h5lexists_f(grp, name, exists, h)
-    if (h < 0) then
-      call fail('h5lexists_f', path, ierr, errmsg); return
-    end if
-    if (exists) then
-      call h5dopen_f(grp, name, dset, h)
-      if (h < 0) call fail('h5dopen_f', path, ierr, errmsg)
-      return
-    end if
-    call h5screate_simple_f(3, [3_hsize_t, int(out%nx, hsize_t), int(out%ny, hsize_t)], space, h)
-    if (h < 0) then
-      call fail('h5screate_simple_f', path, ierr, errmsg); return
-    end if
-    call h5dcreate_f(grp, name, H5T_NATIVE_DOUBLE, space, dset, h)
-    if (h < 0) call fail('h5dcreate_f', path, ierr, errmsg)
-    call h5sclose_f(space, h)
-    if (ierr /= 0) dset = -1
-  end subroutine open_or_create_state
-
-  !> Collective read of this rank's rows of a [ny][nx][3] dataset into a(3, nx, ym).
-  module subroutine read_rows3(out, path, a, ierr, errmsg)
-    type(output_file), intent(in) :: out
-    character(*), intent(in) :: path
-    real(rp), intent(out) :: a(:, :, :)
-    integer, intent(inout) :: ierr
-    character(*), intent(inout) :: errmsg
-    integer(hid_t) :: dset, fspace, mspace
-    integer(hsize_t) :: count(3)
-    integer :: h
-    real(rp) :: empty(1)
-
-    a = 0
-    if (ierr /= 0) return
-    call h5dopen_f(out%file, path, dset, h)
-    if (h < 0) then
-      call fail('h5dopen_f', path, ierr, errmsg); return
-    end if
-    count = [3_hsize_t, int(out%nx, hsize_t), int(out%ym, hsize_t)]
-    call select_spaces(dset, path, [0_hsize_t, 0_hsize_t, int(out%ys, hsize_t)], count, product(count) == 0, &
-                       fspace, mspace, ierr, errmsg)
-    if (ierr == 0) then
-      if (product(count) == 0) then
-        call h5dread_f(dset, H5T_NATIVE_DOUBLE, empty, [1_hsize_t], h, mem_space_id=mspace, file_space_id=fspace, &
-                       xfer_prp=out%dxpl)
-      else
-        call h5dread_f(dset, H5T_NATIVE_DOUBLE, a, count, h, mem_space_id=mspace, file_space_id=fspace, &
-                       xfer_prp=out%dxpl)
-      end if
-      if (h < 0) call fail('h5dread_f', path, ierr, errmsg)
-    end if
-    call close_spaces(fspace, mspace, path, ierr, errmsg)
-    call close_dset(dset, path, ierr, errmsg)
-  end subroutine read_rows3
 
 end submodule output_series

@@ -120,7 +120,7 @@ contains
 
 
   !> s with the characters that XML text and attribute values cannot hold escaped.
-  pure module function xml_escape(s) result(r)
+  pure function xml_escape(s) result(r)
     character(*), intent(in) :: s
     character(len=:), allocatable :: r
     integer :: i
