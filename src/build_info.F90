@@ -1,7 +1,7 @@
 !> The version and git commit of this build, for `nuno --version` and the
 !> start-up line. The commit comes from the include file that
 !> cmake/git_commit.cmake rewrites at every build where it changed (the same
-!> one output.F90 records in /run).
+!> one output_results.F90 records in /run).
 module build_info
   implicit none
   private

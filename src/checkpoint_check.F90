@@ -20,6 +20,7 @@ module checkpoint_check
   use mpi
   use kinds, only: rp
   use config, only: nuno_config
+  use strings, only: itoa, real_g0, real_list
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
   implicit none
   private
@@ -89,16 +90,16 @@ contains
     why = ''
     tol = 1.0e-9_rp * max(1.0_rp, abs(ck%time))
     if (.not. ieee_is_finite(ck%time) .or. ck%time < 0.0_rp) then
-      why = 'its time is '//rstr(ck%time)
+      why = 'its time is '//real_g0(ck%time)
     else if (.not. ieee_is_finite(ck%dt_next) .or. .not. ck%dt_next > 0.0_rp) then
-      why = 'its next step dt_next is '//rstr(ck%dt_next)
+      why = 'its next step dt_next is '//real_g0(ck%dt_next)
     else if (.not. ieee_is_finite(ck%t_written) .or. ck%t_written > ck%time + tol) then
-      why = 'its last output time t_written = '//rstr(ck%t_written)//' is not at or before its time '//rstr(ck%time)
+      why = 'its last output time t_written = '//real_g0(ck%t_written)//' is not at or before its time '//real_g0(ck%time)
     else if (.not. all(ieee_is_finite(ck%counters)) .or. any(ck%counters < 0.0_rp) .or. &
              any(ck%counters /= aint(ck%counters)) .or. any(ck%counters > 2.0_rp**53)) then
-      why = 'its counters ('//rlist(ck%counters)//') are not counts'
+      why = 'its counters ('//real_list(ck%counters)//') are not counts'
     else if (ck%time > 0.0_rp .and. ck%counters(1) < 1.0_rp) then
-      why = 'it counts no step to t = '//rstr(ck%time)
+      why = 'it counts no step to t = '//real_g0(ck%time)
     else if (.not. ieee_is_finite(ck%wall_time) .or. ck%wall_time < 0.0_rp .or. &
              .not. ieee_is_finite(ck%dissipated) .or. .not. ieee_is_finite(ck%work_constraints) .or. &
              .not. ieee_is_finite(ck%mgx0)) then
@@ -109,9 +110,9 @@ contains
       why = 'its Newton start or Newton floor values are not valid'
     else if (ck%start_count > 0) then
       if (.not. all(ieee_is_finite(ck%start_t(1:ck%start_count)))) then
-        why = 'its Newton start times ('//rlist(ck%start_t(1:ck%start_count))//') are not finite'
+        why = 'its Newton start times ('//real_list(ck%start_t(1:ck%start_count))//') are not finite'
       else if (ck%start_t(1) >= ck%time .or. any(ck%start_t(2:ck%start_count) >= ck%start_t(1:ck%start_count - 1))) then
-        why = 'its Newton start times ('//rlist(ck%start_t(1:ck%start_count))//') are not before '//rstr(ck%time)// &
+        why = 'its Newton start times ('//real_list(ck%start_t(1:ck%start_count))//') are not before '//real_g0(ck%time)// &
               ' and decreasing'
       end if
     end if
@@ -121,32 +122,32 @@ contains
       call read_attr_int(file, '/', 'n_output_steps', n_file, ok)
       call series_extent(file, '/time', extent)
       if (.not. ok .or. ck%n_output_steps < 1 .or. ck%n_output_steps > n_file .or. ck%n_output_steps > extent) then
-        why = 'it counts '//istr(ck%n_output_steps)//' output steps, the file holds '//istr(n_file)
+        why = 'it counts '//itoa(ck%n_output_steps)//' output steps, the file holds '//itoa(n_file)
       else
         call read_series_value(file, '/time', ck%n_output_steps, tw, ok)
         if (.not. ok .or. .not. (tw(1) == ck%t_written)) then
-          why = 'its last output time t_written = '//rstr(ck%t_written)//' is not the time of output step '// &
-                istr(ck%n_output_steps)//' in /time, '//rstr(tw(1))
+          why = 'its last output time t_written = '//real_g0(ck%t_written)//' is not the time of output step '// &
+                itoa(ck%n_output_steps)//' in /time, '//real_g0(tw(1))
         end if
       end if
     end if
     if (len_trim(why) == 0) then
       call read_attr_reals(file, '/config/output', 'output_interval', interval, ok)
       if (ok .and. interval(1) > 0.0_rp .and. ck%time > ck%t_written + interval(1) * (1.0_rp + 1.0e-9_rp) + tol) &
-        why = 'its time '//rstr(ck%time)//' is past the output step after t_written = '//rstr(ck%t_written)// &
-              ' (output_interval '//rstr(interval(1))//')'
+        why = 'its time '//real_g0(ck%time)//' is past the output step after t_written = '//real_g0(ck%t_written)// &
+              ' (output_interval '//real_g0(interval(1))//')'
     end if
     if (len_trim(why) == 0) then
       call read_attr_reals(file, '/config/time', 't_end', t_end, ok)
       if (ok .and. ck%time > t_end(1) + tol) &
-        why = 'its time '//rstr(ck%time)//' is past the t_end '//rstr(t_end(1))//' of the run that wrote it'
+        why = 'its time '//real_g0(ck%time)//' is past the t_end '//real_g0(t_end(1))//' of the run that wrote it'
     end if
     if (len_trim(why) == 0) then
       do k = 1, 4
         call read_series_value(file, '/diagnostics/'//trim(names(k)), ck%n_output_steps, series, ok)
         if (ok .and. ck%counters(k) < series(1)) then
-          why = 'its count of '//trim(names(k))//', '//rstr(ck%counters(k))//', is below the file''s '// &
-                rstr(series(1))//' at its last output step'
+          why = 'its count of '//trim(names(k))//', '//real_g0(ck%counters(k))//', is below the file''s '// &
+                real_g0(series(1))//' at its last output step'
           exit
         end if
       end do
@@ -165,7 +166,7 @@ contains
     if (len_trim(why) == 0 .and. bad == 2) why = 'a Newton start state in it is not finite'
     if (len_trim(why) > 0) then
       ierr = 1
-      errmsg = '-nuno_restart '//filename//': checkpoint '//where//' (sequence '//istr(ck%sequence)// &
+      errmsg = '-nuno_restart '//filename//': checkpoint '//where//' (sequence '//itoa(ck%sequence)// &
                ') is not valid: '//trim(why)//'; refused, the file is unchanged'
     end if
   end subroutine checkpoint_refusal
@@ -225,9 +226,9 @@ contains
       if (.not. ok) then
         call missing(group, key)
       else if (size(theirs) /= size(mine)) then
-        call differs(group, key, rlist(mine), rlist(theirs))
+        call differs(group, key, real_list(mine), real_list(theirs))
       else if (any(theirs /= mine)) then
-        call differs(group, key, rlist(mine), rlist(theirs))
+        call differs(group, key, real_list(mine), real_list(theirs))
       end if
     end subroutine real_key
     subroutine str_key(group, key, mine)
@@ -414,46 +415,4 @@ contains
     call h5dclose_f(dset, e)
   end subroutine read_series_value
 
-  pure function istr(i) result(s)
-    integer, intent(in) :: i
-    character(len=:), allocatable :: s
-    character(len=16) :: b
-    write(b, '(i0)') i
-    s = trim(b)
-  end function istr
-
-  !> A double as the shortest text that reads back the same, NaN and Inf
-  !> spelled so.
-  function rstr(x) result(s)
-    real(rp), intent(in) :: x
-    character(len=:), allocatable :: s
-    character(len=40) :: b
-    character(len=16) :: fmt
-    real(rp) :: y
-    integer :: d, e
-    if (x /= x) then
-      s = 'NaN'
-    else if (.not. ieee_is_finite(x)) then
-      s = trim(merge('Inf ', '-Inf', x > 0.0_rp))
-    else
-      do d = 1, 17
-        write(fmt, '(a,i0,a)') '(g0.', d, ')'
-        write(b, fmt) x
-        read(b, *, iostat=e) y
-        if (e == 0 .and. y == x) exit
-      end do
-      s = trim(adjustl(b))
-    end if
-  end function rstr
-
-  function rlist(x) result(s)
-    real(rp), intent(in) :: x(:)
-    character(len=:), allocatable :: s
-    integer :: k
-    s = ''
-    do k = 1, size(x)
-      if (k > 1) s = s//', '
-      s = s//rstr(x(k))
-    end do
-  end function rlist
 end module checkpoint_check

@@ -9,6 +9,7 @@ module safe_files
   use, intrinsic :: iso_c_binding, only: c_int, c_char, c_null_char, c_double
   use hdf5
   use mpi
+  use strings, only: itoa
   implicit none
   private
   public :: lock_acquire, lock_release, same_file, file_exists, rename_file, free_bytes
@@ -417,11 +418,6 @@ contains
         end if
       end do
     end function printable
-    function itoa(i) result(t)
-      integer, intent(in) :: i
-      character(len=12) :: t
-      write(t, '(i0)') i
-    end function itoa
   end subroutine check_output_name
 
   !> The XDMF sidecar of an output file: run.h5 -> run.xmf, other -> other.xmf (module output's rule).
