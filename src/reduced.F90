@@ -34,8 +34,9 @@ module reduced
   use offset_product, only: stencil_product, offset_count
   use interpolation, only: cubic_weights
   use newton_control, only: floor_node_add, floor_estimate
-  use inner_guess, only: GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, GUESS_PROJECT, PROJECT_PAIRS, &
-                         guess_weights, second_weight, projection_weights
+  use inner_guess, only: GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, GUESS_PROJECT, PROJECT_PAIRS
+  use reduced_guess, only: guess_t, guess_use, guess_free, guess_restart, guess_set, guess_keep, guess_push, &
+                           guess_accepted, guess_mode
   use stencil_mg, only: stencil_mg_t, mg_create, mg_destroy, mg_build_coarse, mg_apply, mg_describe, mg_product, &
                         MG_MULTIPLICATIVE, MG_KASKADE
   implicit none
@@ -121,37 +122,7 @@ module reduced
     real(rp) :: rtol0 = 1.0e-6_rp          !< the inner rtol of the options (-reduced_ksp_rtol, default 1e-6)
     real(rp) :: eta = 0                    !< inner rtol of the next Newton solve; 0: rtol0
     real(rp) :: lin_rel = 0                !< relative residual the last inner solve left
-    ! The inner solve's initial guess at a step's first Newton iteration
-    ! (module inner_guess, -nuno_inner_guess): the first corrections of the
-    ! last two steps of this time window and their shifts
-    integer :: guess = GUESS_NONE          !< GUESS_NONE, _PREVIOUS or _EXTRAPOLATE (set by reduced_set_guess)
-    type(tVec) :: dvh(2)                   !< 3-dof: dvh(1) the last step's, dvh(2) the one before
-    real(rp) :: ah(2) = 0                  !< their shifts a [1/time]
-    integer :: nh = 0                      !< how many are stored (0 at every window start)
-    integer :: guess_power = 2             !< dv ~ 1/a^p: 2 with the extrapolated start of beuler, 1 without
-    logical :: window_start = .true.       !< the next step is its window's first (TS restarts it unextrapolated)
-    type(tVec) :: dvp                      !< 3-dof: the first correction of the step under way (kept if it is accepted)
-    real(rp) :: ap = 0                     !< its shift
-    logical :: pending = .false.           !< dvp holds one
-    ! and at its second Newton iteration: the last accepted step's second
-    ! correction, scaled by the ratio of the right-hand sides (second_weight)
-    type(tVec) :: dvh2                     !< 3-dof: the last step's second correction
-    real(rp) :: ah2 = 0                    !< its shift
-    real(rp) :: bh2 = 0                    !< the norm of its right-hand side
-    logical :: has2 = .false.              !< dvh2 holds one (false at every window start)
-    type(tVec) :: dvp2                     !< 3-dof: the second correction of the step under way
-    real(rp) :: ap2 = 0                    !< its shift
-    real(rp) :: bp2 = 0                    !< the norm of its right-hand side
-    logical :: pending2 = .false.          !< dvp2 holds one
-    ! -nuno_inner_guess project: the last np inner solves at shift pa, their
-    ! right-hand sides pb(k) and solutions px(k) (oldest first), the Gram
-    ! matrix of the pb and their products pd with this solve's right-hand
-    ! side (formed by project_guess, which every solve calls first)
-    integer :: np = 0
-    type(tVec) :: pb(PROJECT_PAIRS), px(PROJECT_PAIRS)   !< 3-dof
-    real(rp) :: pg(PROJECT_PAIRS, PROJECT_PAIRS) = 0
-    real(rp) :: pd(PROJECT_PAIRS) = 0
-    real(rp) :: pa = 0                     !< [1/time]
+    type(guess_t) :: gs                    !< the inner initial guesses (module reduced_guess)
   end type reduced_t
 
   !> The parts of an assembled AIJ S as plain arrays: diagonal part (ia, ja,
@@ -572,12 +543,12 @@ contains
     else
       line = trim(line)//' + '//trim(ptype)
     end if
-    if (red%guess == GUESS_PROJECT) then
+    if (guess_mode(red%gs) == GUESS_PROJECT) then
       write(line, '(a, i0, a)') trim(line)//'; initial guess projected on the last ', PROJECT_PAIRS, &
         ' inner solves (-nuno_inner_guess)'
-    else if (red%guess == GUESS_EXTRAPOLATE) then
+    else if (guess_mode(red%gs) == GUESS_EXTRAPOLATE) then
       line = trim(line)//'; initial guess extrapolated, at the second Newton iteration the previous step''s (-nuno_inner_guess)'
-    else if (red%guess == GUESS_PREVIOUS) then
+    else if (guess_mode(red%gs) == GUESS_PREVIOUS) then
       line = trim(line)//'; initial guess the previous step''s, at the second Newton iteration too (-nuno_inner_guess)'
     end if
   end subroutine reduced_describe
@@ -607,16 +578,7 @@ contains
     PetscCall(MatDestroy(red%jac, ierr))
     PetscCall(VecDestroy(red%coords, ierr))
     PetscCall(VecDestroy(red%dv, ierr))
-    if (red%guess == GUESS_PROJECT) then
-      PetscCall(VecDestroyVecs(PROJECT_PAIRS, red%pb, ierr))
-      PetscCall(VecDestroyVecs(PROJECT_PAIRS, red%px, ierr))
-    else if (red%guess /= GUESS_NONE) then
-      PetscCall(VecDestroy(red%dvh(1), ierr))
-      PetscCall(VecDestroy(red%dvh(2), ierr))
-      PetscCall(VecDestroy(red%dvp, ierr))
-      PetscCall(VecDestroy(red%dvh2, ierr))
-      PetscCall(VecDestroy(red%dvp2, ierr))
-    end if
+    PetscCall(guess_free(red%gs, ierr))
     if (red%fused_product .and. red%pax_checked) then
       PetscCall(VecDestroy(red%pax, ierr))
     end if
@@ -654,12 +616,7 @@ contains
     ! iterations as the run that went through it.
     red%since_pc = red%pc_lag
     ! and the inner guesses too start afresh (module inner_guess)
-    red%nh = 0
-    red%np = 0
-    red%window_start = .true.
-    red%pending = .false.
-    red%has2 = .false.
-    red%pending2 = .false.
+    call guess_restart(red%gs)
   end subroutine reduced_set_fixed
 
   !> Assemble S at the ghosted state u(0:5, 0:nx-1, gys:gye) (with its time
@@ -1230,103 +1187,6 @@ contains
     same = dmax <= 1.0e-13_rp * ymax
   end function same
 
-  !> The inner initial guess of this solve: at a step's first Newton
-  !> iteration (nit = 0) the combination of the stored first corrections
-  !> (module inner_guess), at its second (nit = 1) the last step's second
-  !> correction scaled by the ratio of their right-hand sides
-  !> (second_weight), else zero. bnorm: the norm of red%rhs. Collective.
-  subroutine set_guess(red, nit, bnorm, guessed, ierr)
-    type(reduced_t), intent(inout) :: red
-    integer, intent(in) :: nit
-    real(rp), intent(in) :: bnorm
-    logical, intent(out) :: guessed               !< a nonzero guess was set
-    PetscErrorCode, intent(out) :: ierr
-    real(rp) :: c(2)
-    guessed = .false.
-    c = 0.0_rp
-    if (red%guess == GUESS_PROJECT) then
-      PetscCall(project_guess(red, guessed, ierr))
-      PetscCall(KSPSetInitialGuessNonzero(red%ksp, merge(PETSC_TRUE, PETSC_FALSE, guessed), ierr))
-      return
-    end if
-    if (nit == 0) then
-      c = guess_weights(red%guess, red%nh, red%a, red%ah(1), red%ah(2), red%guess_power)
-    else if (nit == 1 .and. red%has2) then
-      c(1) = second_weight(red%a, red%ah2, bnorm, red%bh2)
-    end if
-    if (c(1) == 0.0_rp .and. c(2) == 0.0_rp) then
-      PetscCall(KSPSetInitialGuessNonzero(red%ksp, PETSC_FALSE, ierr))
-      return
-    end if
-    if (nit == 1) then
-      PetscCall(VecAXPBY(red%dv, c(1), 0.0_rp, red%dvh2, ierr))
-    else if (c(2) == 0.0_rp) then
-      PetscCall(VecAXPBY(red%dv, c(1), 0.0_rp, red%dvh(1), ierr))
-    else
-      PetscCall(VecAXPBYPCZ(red%dv, c(1), c(2), 0.0_rp, red%dvh(1), red%dvh(2), ierr))
-    end if
-    PetscCall(KSPSetInitialGuessNonzero(red%ksp, PETSC_TRUE, ierr))
-    guessed = .true.
-  end subroutine set_guess
-
-  !> -nuno_inner_guess project: dv = sum_k y_k px(k), y the least-squares
-  !> weights of the kept right-hand sides for this one (projection_weights),
-  !> at any Newton iteration; nothing kept at this shift: no guess. The
-  !> products pd are kept for project_push. Collective.
-  subroutine project_guess(red, guessed, ierr)
-    type(reduced_t), intent(inout) :: red
-    logical, intent(out) :: guessed
-    PetscErrorCode, intent(out) :: ierr
-    real(rp) :: y(PROJECT_PAIRS)
-    ierr = 0
-    guessed = .false.
-    if (red%np == 0 .or. red%a /= red%pa) return
-    PetscCall(VecMDot(red%rhs, red%np, red%pb, red%pd, ierr))
-    call projection_weights(red%np, red%pg, red%pd, y)
-    if (all(y(1:red%np) == 0.0_rp)) return
-    PetscCall(VecSet(red%dv, 0.0_rp, ierr))
-    PetscCall(VecMAXPY(red%dv, red%np, y, red%px, ierr))
-    guessed = .true.
-  end subroutine project_guess
-
-  !> -nuno_inner_guess project: a converged inner solve (rhs, its norm
-  !> bnorm, and dv) joins the kept ones, the oldest leaving when PROJECT_PAIRS
-  !> are kept (the vectors change places, no copies but the new pair's);
-  !> its products with them, pd, are project_guess's for this solve. A
-  !> changed shift (another dt: S differs by more than a step's change)
-  !> empties them first. Collective.
-  subroutine project_push(red, bnorm, ierr)
-    type(reduced_t), intent(inout) :: red
-    real(rp), intent(in) :: bnorm
-    PetscErrorCode, intent(out) :: ierr
-    type(tVec) :: sb, sx
-    integer :: k, n
-    ierr = 0
-    if (red%a /= red%pa) red%np = 0
-    red%pa = red%a
-    n = red%np
-    if (n == PROJECT_PAIRS) then
-      sb = red%pb(1)
-      sx = red%px(1)
-      do k = 1, n - 1
-        red%pb(k) = red%pb(k + 1)
-        red%px(k) = red%px(k + 1)
-      end do
-      red%pb(n) = sb
-      red%px(n) = sx
-      red%pg(1:n - 1, 1:n - 1) = red%pg(2:n, 2:n)
-      red%pd(1:n - 1) = red%pd(2:n)
-      n = n - 1
-    end if
-    n = n + 1
-    PetscCall(VecCopy(red%rhs, red%pb(n), ierr))
-    PetscCall(VecCopy(red%dv, red%px(n), ierr))
-    red%pg(n, 1:n - 1) = red%pd(1:n - 1)
-    red%pg(1:n - 1, n) = red%pd(1:n - 1)
-    red%pg(n, n) = bnorm**2
-    red%np = n
-  end subroutine project_push
-
   !> Use the inner initial guess mode (GUESS_NONE, _PREVIOUS, _EXTRAPOLATE;
   !> timestepping decides, from -nuno_inner_guess and the TS type). Its two
   !> kept first corrections and the step under way's, and the kept second
@@ -1337,24 +1197,7 @@ contains
     integer, intent(in) :: mode
     logical, intent(in) :: extrapolated_start      !< the TS starts Newton from x + dt xdot (but at a window's first step)
     PetscErrorCode, intent(out) :: ierr
-    ierr = 0
-    if (mode == GUESS_PROJECT .and. red%guess == GUESS_NONE) then
-      PetscCall(VecDuplicateVecs(red%rhs, PROJECT_PAIRS, red%pb, ierr))
-      PetscCall(VecDuplicateVecs(red%rhs, PROJECT_PAIRS, red%px, ierr))
-    else if (mode /= GUESS_NONE .and. red%guess == GUESS_NONE) then
-      PetscCall(VecDuplicate(red%rhs, red%dvh(1), ierr))
-      PetscCall(VecDuplicate(red%rhs, red%dvh(2), ierr))
-      PetscCall(VecDuplicate(red%rhs, red%dvp, ierr))
-      PetscCall(VecDuplicate(red%rhs, red%dvh2, ierr))
-      PetscCall(VecDuplicate(red%rhs, red%dvp2, ierr))
-    end if
-    red%guess = mode
-    red%guess_power = merge(2, 1, extrapolated_start)
-    red%nh = 0
-    red%np = 0
-    red%pending = .false.
-    red%has2 = .false.
-    red%pending2 = .false.
+    PetscCall(guess_use(red%gs, mode, extrapolated_start, red%rhs, ierr))
   end subroutine reduced_set_guess
 
   !> A step was accepted (timestepping's monitor): its first correction
@@ -1366,32 +1209,7 @@ contains
   !> another quantity: not kept.
   subroutine reduced_step_accepted(red)
     type(reduced_t), intent(inout) :: red
-    type(tVec) :: spare
-    logical :: second
-    if (red%guess == GUESS_NONE .or. .not. red%pending) return
-    red%pending = .false.
-    second = red%pending2
-    red%pending2 = .false.
-    if (red%window_start) then
-      red%window_start = .false.
-      if (red%guess_power == 2) return
-    end if
-    if (second) then
-      spare = red%dvh2
-      red%dvh2 = red%dvp2
-      red%dvp2 = spare
-      red%ah2 = red%ap2
-      red%bh2 = red%bp2
-      red%has2 = .true.
-    end if
-    ! the vectors change places, no copies
-    spare = red%dvh(2)
-    red%dvh(2) = red%dvh(1)
-    red%dvh(1) = red%dvp
-    red%dvp = spare
-    red%ah(2) = red%ah(1)
-    red%ah(1) = red%ap
-    red%nh = min(red%nh + 1, 2)
+    call guess_accepted(red%gs)
   end subroutine reduced_step_accepted
 
   !> One inner solve S dv = rhs, its iterations added to red%its; from_zero:
@@ -1403,7 +1221,7 @@ contains
     PetscErrorCode, intent(out) :: ierr
     PetscInt :: its
     ierr = 0
-    if (from_zero .and. red%guess /= GUESS_NONE) then
+    if (from_zero .and. guess_mode(red%gs) /= GUESS_NONE) then
       PetscCall(KSPSetInitialGuessNonzero(red%ksp, PETSC_FALSE, ierr))
     end if
     PetscCall(KSPSolve(red%ksp, red%rhs, red%dv, ierr))
@@ -1447,29 +1265,17 @@ contains
     PetscCall(VecNorm(red%rhs, NORM_2, bnorm, ierr))
     PetscCall(SNESGetIterationNumber(red%snes, nit, ierr))
     guessed = .false.
-    if (red%guess /= GUESS_NONE) then
-      PetscCall(set_guess(red, int(nit), bnorm, guessed, ierr))
+    if (guess_mode(red%gs) /= GUESS_NONE) then
+      PetscCall(guess_set(red%gs, red%ksp, red%a, int(nit), red%rhs, bnorm, red%dv, guessed, ierr))
     end if
     PetscCall(inner_solve(red, .false., reason, ierr))
     if (reason < 0 .and. guessed) then
       ! a guess must never fail a step: from zero once more
       PetscCall(inner_solve(red, .true., reason, ierr))
     end if
-    if ((red%guess == GUESS_PREVIOUS .or. red%guess == GUESS_EXTRAPOLATE) .and. reason > 0) then
-      if (nit == 0) then
-        ! this step's first correction, kept if the step is accepted
-        ! (reduced_step_accepted; a failed solve's is no guess)
-        PetscCall(VecCopy(red%dv, red%dvp, ierr))
-        red%ap = red%a
-        red%pending = .true.
-        red%pending2 = .false.
-      else if (nit == 1) then
-        ! and its second, for the next step's second iteration
-        PetscCall(VecCopy(red%dv, red%dvp2, ierr))
-        red%bp2 = bnorm
-        red%ap2 = red%a
-        red%pending2 = .true.
-      end if
+    if (reason > 0) then
+      ! (a failed solve's correction is no guess)
+      PetscCall(guess_keep(red%gs, red%a, int(nit), red%rhs, bnorm, red%dv, ierr))
     end if
     PetscCall(KSPGetResidualNorm(red%ksp, rnorm, ierr))
     red%lin_rel = 0.0_rp
@@ -1487,8 +1293,8 @@ contains
       end if
     end if
     ! (a pair of any converged solve, whichever Newton iteration and start)
-    if (red%guess == GUESS_PROJECT .and. reason > 0) then
-      PetscCall(project_push(red, bnorm, ierr))
+    if (reason > 0) then
+      PetscCall(guess_push(red%gs, red%a, red%rhs, bnorm, red%dv, ierr))
     end if
     ! PETSc keeps a PC's failure until its next set-up, which this shell
     ! PC (its matrix unchanged) never gets: set it each time, or one
