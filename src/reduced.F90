@@ -24,30 +24,26 @@ module reduced
   use petscsnes
   use petscdmda
   use mpi
-  use, intrinsic :: iso_c_binding, only: c_int, c_intptr_t, c_int64_t
+  use, intrinsic :: iso_c_binding, only: c_int
   use kinds, only: rp
   use lattice, only: lattice_t
   use config, only: BEND_NONE
   use forces, only: jac_buffer_t, jac_buffer_init, jac_buffer_row, slot_of, first_anchor_row
   use reduced_blocks, only: reduced_row_blocks, buffer_row_apply, csr_fits_block_row
-  use reduced_assembly, only: assemble_csr, assemble_stencil, kc_products
-  use offset_product, only: stencil_product, offset_count
-  use interpolation, only: cubic_weights
+  use reduced_assembly, only: assemble_csr, kc_products
   use newton_control, only: floor_node_add, floor_estimate
   use inner_guess, only: GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, GUESS_PROJECT, PROJECT_PAIRS
   use reduced_guess, only: guess_t, guess_use, guess_free, guess_restart, guess_set, guess_keep, guess_push, &
                            guess_accepted, guess_mode
-  use stencil_mg, only: stencil_mg_t, mg_create, mg_destroy, mg_build_coarse, mg_apply, mg_describe, mg_product, &
-                        MG_MULTIPLICATIVE, MG_KASKADE
+  use stencil_mg, only: MG_KASKADE
+  use reduced_mg, only: mg_glue_t, mg_glue_matrix, mg_glue_pc, mg_glue_free, mg_glue_assemble, mg_glue_built, &
+                        mg_glue_describe, mg_coarse_levels, levels_that_fit, default_preconditioner, mg_interpolations, &
+                        INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
   implicit none
   private
   public :: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach, reduced_describe
   public :: set_block_row, reduced_set_guess, reduced_step_accepted
   public :: INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
-
-  !> Interpolation between multigrid levels (-nuno_mg_interpolation; the
-  !> values of src/nuno_options.c's list, 0 being auto).
-  integer, parameter :: INTERP_LINEAR = 1, INTERP_CUBIC = 2, INTERP_COARSE_CUBIC = 3
 
   !> Context of the reduced solve (PCSHELL and MATSHELL context).
   type :: reduced_t
@@ -70,28 +66,9 @@ module reduced
     logical :: clamp = .false., gauss_newton = .false.
     logical :: use_nullspace = .false.     !< inner PC is GAMG: give it the rigid-body modes
     logical :: use_mg = .false.            !< inner PC is nuno's structured multigrid (module stencil_mg)
-    type(stencil_mg_t) :: mg
-    logical :: mg_built = .false.          !< its coarse levels exist
+    type(mg_glue_t) :: mgg                 !< nuno's multigrid and S by stencil offset (with use_mg; module reduced_mg)
     ! -log_view events of the reduced solve's own work
     PetscLogEvent :: ev_assemble = 0       !< S assembled (and the multigrid's finest level from it)
-    PetscLogEvent :: ev_galerkin = 0       !< the multigrid's coarse levels and coarsest factorisation
-    PetscLogEvent :: ev_cycle = 0          !< one multigrid cycle
-    real(rp), allocatable :: st(:, :, :, :, :) !< (0:nx-1, 3, 3, offset_count(w), 0:nrow-1) S by stencil offset, nodes fastest (with use_mg; module offset_product): rows ys..ye, or with the mixed product a ring of 2w - 1 rows (module reduced_assembly)
-    ! The product with S from the multigrid's finest level (single-precision
-    ! blocks in difference form, double-precision vectors; -nuno_mg_product)
-    logical :: mixed_product = .false.
-    ! The fused product (-nuno_mg_product fused): each multigrid cycle forms
-    ! the product of its output z with S in its last sweep (pax); the
-    ! Krylov method's next product is of z (FGMRES: w = S M^{-1} v), and
-    ! stencil_mult returns pax while z is that same vector, unchanged
-    ! (its PETSc object state).
-    logical :: fused_product = .false.
-    type(tVec) :: pax                      !< 3-dof: S z of the last cycle's output z
-    type(tVec) :: pax_of                   !< z (the handle, not a reference)
-    integer(c_int64_t) :: pax_state = -1   !< z's object state when pax was formed
-    logical :: pax_valid = .false.         !< pax is S z for the current S
-    logical :: pax_checked = .false.       !< the Krylov method's side checked (at the first cycle), pax made
-    integer :: pax_used = 0                !< products returned from pax (-reduced_ksp_view)
     integer :: interp = 1                  !< multigrid interpolation: INTERP_LINEAR, _CUBIC, _COARSE_CUBIC
     logical :: forward_ew = .true.         !< pass the outer KSP's rtol (Eisenstat-Walker) to the inner one
     integer :: pc_lag = 1                  !< rebuild the inner preconditioner every pc_lag assemblies
@@ -137,12 +114,6 @@ module reduced
   end type aij_view_t
 
   interface
-    !> src/nuno_vec_state.c: PetscObjectStateGet (no Fortran stub in 3.18).
-    integer(c_int) function nuno_object_state(obj, state) bind(C, name='nuno_object_state')
-      import :: c_int, c_intptr_t, c_int64_t
-      integer(c_intptr_t) :: obj            !< the handle (tVec%v, ...), passed as PetscObject*
-      integer(c_int64_t), intent(out) :: state
-    end function nuno_object_state
     !> src/nuno_options.c: the options of nuno's multigrid (-nuno_mg ...).
     integer(c_int) function nuno_mg_options_read(fcomm, impl, cycle, sweeps, levels, product, given) bind(C, name='nuno_mg_options_read')
       import :: c_int
@@ -192,10 +163,11 @@ contains
     integer, intent(in), optional :: mg_interpolation  !< multigrid interpolation: 0 auto, else an INTERP_ code
     PetscInt :: nx, ny, w, m, n, mg, ng, nranks, dummy(1), xs, ys, zs, zm, maxit0
     PetscReal :: atol0, dtol0
-    integer :: levels, l
+    integer :: levels
+    PetscLogEvent :: ev_galerkin, ev_cycle
+    logical :: mixed, fused
     PetscClassId :: classid
     integer(c_int) :: mg_impl, mg_cycle, mg_sweeps, mg_levels, mg_product, mg_given
-    logical, allocatable :: cubic(:), cubic_up(:)
     PetscInt, allocatable :: ly(:)
     PetscInt, parameter :: one = 1, three = 3, izero = 0, ione = 1
     type(tPC) :: pc
@@ -208,8 +180,8 @@ contains
     red%da6 = da6
     PetscCall(PetscClassIdRegister('nuno', classid, ierr))
     PetscCall(PetscLogEventRegister('nunoAssembleS', classid, red%ev_assemble, ierr))
-    PetscCall(PetscLogEventRegister('nunoMGGalerkin', classid, red%ev_galerkin, ierr))
-    PetscCall(PetscLogEventRegister('nunoMGCycle', classid, red%ev_cycle, ierr))
+    PetscCall(PetscLogEventRegister('nunoMGGalerkin', classid, ev_galerkin, ierr))
+    PetscCall(PetscLogEventRegister('nunoMGCycle', classid, ev_cycle, ierr))
     red%constant = constant
     red%damping = damping
     red%clamp = clamp
@@ -258,8 +230,8 @@ contains
     ! 0 mixed, 1 double, 2 fused (mixed, each cycle's output multiplied in
     ! its last sweep; where the Krylov method multiplies that output:
     ! checked at the first cycle, mg_pc_apply)
-    red%mixed_product = red%use_mg .and. mg_product /= 1
-    red%fused_product = red%use_mg .and. mg_product == 2
+    mixed = red%use_mg .and. mg_product /= 1
+    fused = red%use_mg .and. mg_product == 2
     if (red%use_mg) then
       ! FGMRES even where S is symmetric: the kaskade cycle is not, and
       ! FGMRES + kaskade beat CG + V-cycles by 1.4x on a symmetric hang
@@ -281,27 +253,10 @@ contains
     red%use_nullspace = pctype == PCGAMG
 
     if (red%use_mg) then
-      ! S by stencil offset (reduced_assemble), its product a MATSHELL:
-      ! nuno's multigrid needs no PETSc matrix, and no column indices are
-      ! stored (1.2 KB a node with bending against 2.6 in AIJ, and with the
-      ! mixed product only a ring of rows: 648 B a node in the multigrid's
-      ! finest level instead).
+      ! S by stencil offset, its product a MATSHELL (module reduced_mg)
       PetscCall(DMSetUp(red%da3, ierr))
       PetscCall(DMDAGetCorners(da6, xs, ys, zs, m, n, zm, ierr))
-      ! the whole strip for the product in double precision; with the mixed
-      ! product only the rows the assembly is writing (a ring: with bending
-      ! the triples reach two rows back; module reduced_assembly)
-      if (red%mixed_product) then
-        allocate(red%st(0:nx - 1, 3, 3, offset_count(w), 0:2 * w - 2))
-      else
-        allocate(red%st(0:nx - 1, 3, 3, offset_count(w), 0:n - 1))
-      end if
-      red%st = 0.0_rp
-      m = 3 * nx * n
-      mg = 3 * nx * ny
-      PetscCall(MatCreateShell(comm, m, m, mg, mg, PETSC_NULL_INTEGER, red%s, ierr))
-      PetscCall(MatShellSetContext(red%s, red, ierr))
-      PetscCall(MatShellSetOperation(red%s, MATOP_MULT, stencil_mult, ierr))
+      PetscCall(mg_glue_matrix(red%mgg, lat, red%da3, red%ksp, nx, ny, n, w, mixed, fused, ev_galerkin, ev_cycle, red%s, ierr))
     else
       PetscCall(aij_or_baij_s(ierr))
     end if
@@ -330,27 +285,13 @@ contains
         if (mg_interpolation > 0) red%interp = mg_interpolation
       end if
       if (red%use_mg) then
-        ! Transfer l joins level l + 1 to level l (1 = the lattice).
-        ! coarse_cubic: the finest level's coarse correction interpolated
-        ! cubic too, its restriction and Galerkin product bilinear (module
-        ! stencil_mg, mg_create).
-        allocate(cubic(10), cubic_up(10))
-        do l = 1, size(cubic)
-          cubic(l) = red%interp == INTERP_CUBIC .or. (red%interp == INTERP_COARSE_CUBIC .and. l > 1)
-          cubic_up(l) = red%interp == INTERP_CUBIC .or. red%interp == INTERP_COARSE_CUBIC
-        end do
         PetscCall(DMDAGetCorners(da6, xs, ys, zs, m, n, zm, ierr))
         ! without bending every element of S is a link, so S(p, q) = S(q, p)
         ! block for block (mg_kernels' stencil_t, paired): the sweeps and
         ! products read the blocks to the row below from that row
-        call mg_create(red%mg, comm, nx, ny, ys, ys + n - 1, w, cubic, merge(int(mg_levels), 10, mg_levels > 0), mg_cycle, mg_sweeps, &
-                       cubic_up, paired=lat%bending_model == BEND_NONE)
-        PetscCall(PCShellSetContext(pc, red, ierr))
-        PetscCall(PCShellSetApply(pc, mg_pc_apply, ierr))
-        PetscCall(PCShellSetView(pc, mg_pc_view, ierr))
-        PetscCall(PCShellSetName(pc, 'nuno structured multigrid (module stencil_mg)', ierr))
+        PetscCall(mg_glue_pc(red%mgg, pc, nx, ny, ys, n, w, red%interp, merge(int(mg_levels), 10, mg_levels > 0), int(mg_cycle), int(mg_sweeps), lat%bending_model == BEND_NONE, ierr))
       else
-        PetscCall(mg_interpolations(red, pc, ierr))
+        PetscCall(mg_interpolations(red%da3, red%interp, pc, ierr))
       end if
     end if
     PetscCall(DMCreateGlobalVector(red%da3, red%rhs, ierr))
@@ -437,57 +378,6 @@ contains
     end subroutine aij_or_baij_s
   end subroutine reduced_create
 
-  !> Multigrid levels of the lattice: as many as it halves into with at
-  !> least 5 nodes a side and, in every strip, the halo width of rows on
-  !> the coarsest grid (a level coarsens n -> (n-1)/2 + 1 in each direction).
-  integer function levels_that_fit(nx, ny, w, nranks) result(levels)
-    PetscInt, intent(in) :: nx, ny, w, nranks
-    integer :: mx, my
-    levels = 1
-    mx = nx
-    my = ny
-    do while (mod(mx - 1, 2) == 0 .and. mod(my - 1, 2) == 0 .and. (mx - 1) / 2 + 1 >= 5 .and. &
-              (my - 1) / 2 + 1 >= max(5, 2 * w * nranks) .and. levels < 10)
-      mx = (mx - 1) / 2 + 1
-      my = (my - 1) / 2 + 1
-      levels = levels + 1
-    end do
-  end function levels_that_fit
-
-  !> The inner preconditioner when it is not nuno's multigrid, unless
-  !> -reduced_pc_type is given: PETSc's geometric multigrid on the DMDA
-  !> (Galerkin coarse operators, one SSOR sweep as smoother) with the given
-  !> levels; block Jacobi/ILU(0) where fewer than three fit (small
-  !> lattices, for which it is the cheaper). Set in the options database,
-  !> so that -help shows them and every one can be overridden.
-  subroutine default_preconditioner(levels, ierr)
-    integer, intent(in) :: levels
-    PetscErrorCode, intent(out) :: ierr
-    PetscBool :: set
-    character(len=16) :: txt
-
-    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_pc_type', set, ierr))
-    if (set) return
-    if (levels < 3) then
-      PetscCall(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-reduced_pc_type', 'bjacobi', ierr))
-      return
-    end if
-    write(txt, '(i0)') levels
-    PetscCall(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-reduced_pc_type', 'mg', ierr))
-    PetscCall(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-reduced_pc_mg_levels', trim(txt), ierr))
-    PetscCall(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-reduced_pc_mg_galerkin', 'pmat', ierr))
-    call set_default('-reduced_mg_levels_ksp_type', 'richardson')
-    call set_default('-reduced_mg_levels_pc_type', 'sor')
-    call set_default('-reduced_mg_levels_ksp_max_it', '1')
-  contains
-    subroutine set_default(name, value)
-      character(len=*), intent(in) :: name, value
-      PetscBool :: given
-      call PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, name, given, ierr)
-      if (.not. given) call PetscOptionsSetValue(PETSC_NULL_OPTIONS, name, value, ierr)
-    end subroutine set_default
-  end subroutine default_preconditioner
-
   !> Krylov methods that can, stop on the true residual (which is the 6-dof
   !> v-row residual): right preconditioning for the GMRES family, the
   !> unpreconditioned norm for CG-like ones; unless the options say
@@ -521,9 +411,7 @@ contains
     character(len=*), intent(out) :: line
     PetscErrorCode, intent(out) :: ierr
     character(len=64) :: ktype, ptype
-    character(len=160) :: text(16)
     character(len=16) :: rt
-    integer :: n
     type(tPC) :: pc
     PetscCall(KSPGetType(red%ksp, ktype, ierr))
     PetscCall(KSPGetPC(red%ksp, pc, ierr))
@@ -531,15 +419,7 @@ contains
     write(rt, '(es8.1)') red%rtol0
     line = trim(ktype)//', rtol '//trim(adjustl(rt))
     if (red%use_mg) then
-      call mg_describe(red%mg, text, n)
-      line = trim(line)//' + nuno multigrid: '//trim(text(1)(1:index(text(1), ', single') - 1))// &
-             ', '//trim(adjustl(text(n)(index(text(n), 'reads'):index(text(n), ' over') - 1)))
-      if (red%fused_product) then
-        line = trim(line)//'; product with S fused (the finest level''s single-precision blocks; of each cycle''s output in its last sweep)'
-      else
-        line = trim(line)//'; product with S '//trim(merge('mixed (the finest level''s single-precision blocks)', &
-                                                             'double                                            ', red%mixed_product))
-      end if
+      call mg_glue_describe(red%mgg, line)
     else
       line = trim(line)//' + '//trim(ptype)
     end if
@@ -574,14 +454,13 @@ contains
     type(reduced_t), intent(inout) :: red
     PetscErrorCode, intent(out) :: ierr
     PetscCall(KSPDestroy(red%ksp, ierr))
-    if (red%use_mg) call mg_destroy(red%mg)
+    if (red%use_mg) then
+      PetscCall(mg_glue_free(red%mgg, ierr))
+    end if
     PetscCall(MatDestroy(red%jac, ierr))
     PetscCall(VecDestroy(red%coords, ierr))
     PetscCall(VecDestroy(red%dv, ierr))
     PetscCall(guess_free(red%gs, ierr))
-    if (red%fused_product .and. red%pax_checked) then
-      PetscCall(VecDestroy(red%pax, ierr))
-    end if
     PetscCall(VecDestroy(red%rhs, ierr))
     PetscCall(MatDestroy(red%s, ierr))
     PetscCall(DMDestroy(red%da3, ierr))
@@ -660,9 +539,8 @@ contains
       ! whose finest level is made from it row by row on the way (every
       ! assembly: its smoother and residual use the current S, as PETSc's
       ! PCMG does with a reused hierarchy).
-      red%pax_valid = .false.
-      call assemble_stencil(red%lat, u, red%fixedg, a, red%damping, red%clamp, red%gauss_newton, red%wpred, &
-                            red%lb, red%gpred, red%kd, red%st, red%mg%lev(1)%a)
+      call mg_glue_assemble(red%mgg, u, red%fixedg, a, red%damping, red%clamp, red%gauss_newton, red%wpred, &
+                            red%lb, red%gpred, red%kd)
     else if (red%direct) then
       ! AIJ: element blocks straight into the CSR values (module reduced_assembly).
       PetscCall(aij_open(red, view, ierr))
@@ -722,15 +600,15 @@ contains
       red%since_pc = 0
       PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_FALSE, ierr))
       if (red%use_mg) then
-        PetscCall(mg_coarse_levels(red, ierr))
+        PetscCall(mg_coarse_levels(red%mgg, ierr))
       end if
       if (red%use_nullspace) then
         PetscCall(set_rigid_body_modes(red, u, ierr))
       end if
     else
       PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_TRUE, ierr))
-      if (red%use_mg .and. .not. red%mg_built) then
-        PetscCall(mg_coarse_levels(red, ierr))
+      if (red%use_mg .and. .not. mg_glue_built(red%mgg)) then
+        PetscCall(mg_coarse_levels(red%mgg, ierr))
       end if
     end if
   end subroutine reduced_assemble
@@ -747,148 +625,6 @@ contains
       red%lcol(n) = red%cols(n) - (red%lat%ys - red%lat%gys) * red%lat%nx
     end do
   end subroutine mark_owned
-
-  !> The multigrid's coarse operators (Galerkin) and coarsest factorisation.
-  subroutine mg_coarse_levels(red, ierr)
-    type(reduced_t), intent(inout) :: red
-    PetscErrorCode, intent(out) :: ierr
-    integer :: info
-    MPI_Comm :: comm
-    PetscCall(PetscLogEventBegin(red%ev_galerkin, ierr))
-    call mg_build_coarse(red%mg, info)
-    PetscCall(PetscLogEventEnd(red%ev_galerkin, ierr))
-    red%mg_built = .true.
-    ierr = 0
-    if (info /= 0) then
-      PetscCall(PetscObjectGetComm(red%da3, comm, ierr))
-      ierr = PETSC_ERR_MAT_LU_ZRPVT
-      SETERRQ(comm, ierr, 'nuno: the coarsest multigrid matrix is singular')
-    end if
-  end subroutine mg_coarse_levels
-
-  !> MATSHELL mult of S: y = S x, one halo exchange of x (none on a rank
-  !> that owns every row), then by default
-  !> from the multigrid's finest level (single-precision blocks in
-  !> difference form, double-precision vectors, each offset's products in
-  !> single precision and their sum in double: kernel
-  !> stencil_product_mixed, half the bytes), or with -nuno_mg_product double
-  !> over S in double precision, one vector loop per offset (kernel
-  !> offset_product).
-  !> Collective.
-  subroutine stencil_mult(mat, x, y, ierr)
-    type(tMat) :: mat
-    type(tVec) :: x, y
-    PetscErrorCode :: ierr
-    type(reduced_t), pointer :: red
-    type(tVec) :: xloc
-    PetscScalar, pointer :: xl(:), ya(:)
-    logical :: whole
-    integer(c_int64_t) :: state
-    PetscCall(MatShellGetContext(mat, red, ierr))
-    if (red%pax_valid) then
-      ! x the last cycle's output, unchanged: its product is formed
-      if (x%v == red%pax_of%v) then
-        ierr = nuno_object_state(x%v, state)
-        if (ierr /= 0) return
-        if (state == red%pax_state) then
-          PetscCall(VecCopy(red%pax, y, ierr))
-          red%pax_used = red%pax_used + 1
-          return
-        end if
-      end if
-    end if
-    ! a rank that owns every row (one rank) has no halo: x is read in place
-    ! (the copy to a local vector was 2 % of a bw step on one rank)
-    whole = red%lat%gys == red%lat%ys .and. red%lat%gye == red%lat%ye
-    if (whole) then
-      PetscCall(VecGetArrayReadF90(x, xl, ierr))
-    else
-      PetscCall(DMGetLocalVector(red%da3, xloc, ierr))
-      PetscCall(DMGlobalToLocalBegin(red%da3, x, INSERT_VALUES, xloc, ierr))
-      PetscCall(DMGlobalToLocalEnd(red%da3, x, INSERT_VALUES, xloc, ierr))
-      PetscCall(VecGetArrayReadF90(xloc, xl, ierr))
-    end if
-    PetscCall(VecGetArrayF90(y, ya, ierr))
-    associate (lat => red%lat)
-      if (red%mixed_product) then
-        ! the finest level is made from S at every assembly (reduced_assemble)
-        call mg_product(red%mg, lat%gys, lat%gye, xl, ya)
-      else
-        call stencil_product(lat%nx, lat%ny, lat%ys, lat%ye, lat%gys, lat%gye, lat%halo, red%st, xl, ya)
-      end if
-    end associate
-    PetscCall(VecRestoreArrayF90(y, ya, ierr))
-    if (whole) then
-      PetscCall(VecRestoreArrayReadF90(x, xl, ierr))
-    else
-      PetscCall(VecRestoreArrayReadF90(xloc, xl, ierr))
-      PetscCall(DMRestoreLocalVector(red%da3, xloc, ierr))
-    end if
-  end subroutine stencil_mult
-
-  !> PCSHELL view (-reduced_ksp_view): the hierarchy of nuno's multigrid.
-  subroutine mg_pc_view(pc, viewer, ierr)
-    type(tPC) :: pc
-    type(tPetscViewer) :: viewer
-    PetscErrorCode :: ierr
-    type(reduced_t), pointer :: red
-    character(len=160) :: text(16)
-    integer :: n, k
-    PetscCall(PCShellGetContext(pc, red, ierr))
-    call mg_describe(red%mg, text, n)
-    do k = 1, n
-      PetscCall(PetscViewerASCIIPrintf(viewer, '  '//trim(text(k))//new_line('a'), ierr))
-    end do
-    if (red%fused_product) then
-      write(text(1), '(a, i0, a)') 'fused product: ', red%pax_used, ' products with S so far formed in the cycles'' last sweeps'
-      PetscCall(PetscViewerASCIIPrintf(viewer, '  '//trim(text(1))//new_line('a'), ierr))
-    end if
-  end subroutine mg_pc_view
-
-  !> PCSHELL apply of the inner KSP: one cycle of nuno's multigrid.
-  subroutine mg_pc_apply(pc, x, y, ierr)
-    type(tPC) :: pc
-    type(tVec) :: x, y
-    PetscErrorCode :: ierr
-    type(reduced_t), pointer :: red
-    PetscScalar, pointer :: xa(:, :, :), ya(:, :, :), pa(:, :, :)
-    PCSide :: side
-    logical :: formed
-    PetscCall(PCShellGetContext(pc, red, ierr))
-    if (red%fused_product .and. .not. red%pax_checked) then
-      ! the first cycle: only a Krylov method that multiplies the
-      ! preconditioner's output (right preconditioning: FGMRES, GCR,
-      ! GMRES with -reduced_ksp_pc_side right) uses the fused product
-      PetscCall(KSPGetPCSide(red%ksp, side, ierr))
-      if (side /= PC_RIGHT) then
-        red%fused_product = .false.
-      else
-        PetscCall(VecDuplicate(red%rhs, red%pax, ierr))
-      end if
-      red%pax_checked = .true.
-    end if
-    red%pax_valid = .false.
-    PetscCall(DMDAVecGetArrayReadF90(red%da3, x, xa, ierr))
-    PetscCall(DMDAVecGetArrayF90(red%da3, y, ya, ierr))
-    PetscCall(PetscLogEventBegin(red%ev_cycle, ierr))
-    if (red%fused_product) then
-      PetscCall(DMDAVecGetArrayF90(red%da3, red%pax, pa, ierr))
-      call mg_apply(red%mg, xa, ya, pa, formed)
-      PetscCall(DMDAVecRestoreArrayF90(red%da3, red%pax, pa, ierr))
-    else
-      call mg_apply(red%mg, xa, ya)
-    end if
-    PetscCall(PetscLogEventEnd(red%ev_cycle, ierr))
-    PetscCall(DMDAVecRestoreArrayF90(red%da3, y, ya, ierr))
-    PetscCall(DMDAVecRestoreArrayReadF90(red%da3, x, xa, ierr))
-    if (red%fused_product .and. formed) then
-      ! y as it is now (after its array was restored) is what pax is S times
-      red%pax_of = y
-      ierr = nuno_object_state(y%v, red%pax_state)
-      if (ierr /= 0) return
-      red%pax_valid = .true.
-    end if
-  end subroutine mg_pc_apply
 
   !> Open the value and row arrays of an AIJ S (see aij_view_t).
   subroutine aij_open(red, view, ierr)
@@ -973,92 +709,6 @@ contains
     call MPI_Allreduce(ok, all_ok, 1, MPI_LOGICAL, MPI_LAND, comm, mpierr)
     red%direct = all_ok
   end subroutine check_direct
-
-  !> The multigrid's interpolations from the DMDA hierarchy, given to PCMG
-  !> as plain AIJ. The DMDA makes them MAIJ (one scalar operator for the 3
-  !> dof), and 3.18's Galerkin product of a sequential AIJ with a MAIJ
-  !> (MatPtAPNumeric_SeqAIJ_SeqMAIJ, "first draft only") sorts every row of
-  !> A P and scans every row of the product: converted once, the AIJ x AIJ
-  !> product is used at every set-up. (In parallel PETSc converts anyway.)
-  subroutine mg_interpolations(red, pc, ierr)
-    type(reduced_t), intent(inout) :: red
-    type(tPC), intent(inout) :: pc
-    PetscErrorCode, intent(out) :: ierr
-    PetscInt :: nlev, l
-    type(tDM), allocatable :: dms(:)
-    type(tMat) :: p
-
-    PetscCall(PCMGGetLevels(pc, nlev, ierr))
-    if (nlev < 2) return
-    allocate(dms(nlev))
-    dms(nlev) = red%da3
-    do l = nlev - 1, 1, -1
-      PetscCall(DMCoarsen(dms(l + 1), MPI_COMM_NULL, dms(l), ierr))
-    end do
-    ! PCMG level l (0 = coarsest) is dms(l + 1); its interpolation maps
-    ! level l - 1 to level l.
-    do l = nlev - 1, 1, -1
-      if (red%interp == INTERP_CUBIC .or. (red%interp == INTERP_COARSE_CUBIC .and. l < nlev - 1)) then
-        PetscCall(cubic_interpolation(dms(l), dms(l + 1), p, ierr))
-      else
-        PetscCall(DMCreateInterpolation(dms(l), dms(l + 1), p, PETSC_NULL_VEC, ierr))
-        PetscCall(MatConvert(p, MATAIJ, MAT_INPLACE_MATRIX, p, ierr))
-      end if
-      PetscCall(PCMGSetInterpolation(pc, l, p, ierr))
-      PetscCall(MatDestroy(p, ierr))
-    end do
-    do l = 1, nlev - 1
-      PetscCall(DMDestroy(dms(l), ierr))
-    end do
-  end subroutine mg_interpolations
-
-  !> Tensor-product cubic interpolation (module interpolation: 4-point
-  !> Lagrange, one-sided at the ends, exact for cubics) from the coarse DMDA
-  !> dc to the fine df (2:1, vertex-centred), the same for each of the 3
-  !> dof, as AIJ (at most 16 non-zeros a row; rows and columns in the
-  !> natural order, which is PETSc's for 1 x P strips). With bending the
-  !> bilinear interpolation's coarse correction weakens as the lattice is
-  !> refined (iterations grew 4 -> 26 from 65 to 1025); cubic keeps it.
-  subroutine cubic_interpolation(dc, df, p, ierr)
-    type(tDM), intent(in) :: dc, df
-    type(tMat), intent(out) :: p
-    PetscErrorCode, intent(out) :: ierr
-    PetscInt :: mxc, myc, mxf, myf, xs, ys, zs, xm, ym, zm, cxs, cys, cxm, cym
-    PetscInt :: row(1), cols(16), nz, i, j, d, a, b, idum
-    PetscInt, parameter :: one = 1
-    PetscScalar :: v(16)
-    integer :: ncx, ncy, ix(4), iy(4)
-    real(rp) :: wx(4), wy(4)
-    MPI_Comm :: comm
-
-    PetscCall(PetscObjectGetComm(df, comm, ierr))
-    PetscCall(DMDAGetInfo(dc, PETSC_NULL_INTEGER, mxc, myc, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, idum, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, ierr))
-    PetscCall(DMDAGetInfo(df, PETSC_NULL_INTEGER, mxf, myf, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, idum, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, ierr))
-    PetscCall(DMDAGetCorners(df, xs, ys, zs, xm, ym, zm, ierr))
-    PetscCall(DMDAGetCorners(dc, cxs, cys, zs, cxm, cym, zm, ierr))
-    PetscCall(MatCreateAIJ(comm, 3 * xm * ym, 3 * cxm * cym, PETSC_DETERMINE, PETSC_DETERMINE, 16, PETSC_NULL_INTEGER, 16, PETSC_NULL_INTEGER, p, ierr))
-    PetscCall(MatSetBlockSizes(p, 3, 3, ierr))
-    do j = ys, ys + ym - 1
-      call cubic_weights(j, myc, iy, wy, ncy)
-      do i = xs, xs + xm - 1
-        call cubic_weights(i, mxc, ix, wx, ncx)
-        do d = 0, 2
-          row(1) = 3 * (i + j * mxf) + d
-          nz = 0
-          do b = 1, ncy
-            do a = 1, ncx
-              nz = nz + 1
-              cols(nz) = 3 * (ix(a) + iy(b) * mxc) + d
-              v(nz) = wx(a) * wy(b)
-            end do
-          end do
-          PetscCall(MatSetValues(p, one, row, nz, cols, v, INSERT_VALUES, ierr))
-        end do
-      end do
-    end do
-    PetscCall(MatAssemblyBegin(p, MAT_FINAL_ASSEMBLY, ierr))
-    PetscCall(MatAssemblyEnd(p, MAT_FINAL_ASSEMBLY, ierr))
-  end subroutine cubic_interpolation
 
   !> GAMG's near-null space: the six rigid-body modes of the current shape.
   subroutine set_rigid_body_modes(red, u, ierr)
@@ -1287,7 +937,7 @@ contains
         PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_FALSE, ierr))
         PetscCall(KSPSetOperators(red%ksp, red%s, red%s, ierr))
         if (red%use_mg) then
-          PetscCall(mg_coarse_levels(red, ierr))
+          PetscCall(mg_coarse_levels(red%mgg, ierr))
         end if
         PetscCall(inner_solve(red, .true., reason, ierr))
       end if
