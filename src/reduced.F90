@@ -28,9 +28,8 @@ module reduced
   use kinds, only: rp
   use lattice, only: lattice_t
   use config, only: BEND_NONE
-  use forces, only: jac_buffer_t, jac_buffer_init, jac_buffer_row, slot_of, first_anchor_row
-  use reduced_blocks, only: reduced_row_blocks, buffer_row_apply, csr_fits_block_row
-  use reduced_assembly, only: assemble_csr, kc_products
+  use reduced_assembly, only: kc_products
+  use reduced_storage, only: s_store_t, store_init, store_matrix, store_assemble, check_direct, set_block_row
   use newton_control, only: floor_node_add, floor_estimate
   use inner_guess, only: GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, GUESS_PROJECT, PROJECT_PAIRS
   use reduced_guess, only: guess_t, guess_use, guess_free, guess_restart, guess_set, guess_keep, guess_push, &
@@ -57,7 +56,7 @@ module reduced
     type(tSNES) :: snes                    !< the TS's SNES
     type(tVec) :: rhs, dv                  !< 3-dof global work vectors
     type(tVec) :: coords                   !< 3-dof node positions (GAMG near-null space)
-    type(jac_buffer_t) :: jbuf
+    type(s_store_t) :: sto                 !< S in a PETSc matrix (without use_mg; module reduced_storage)
     real(rp) :: a = 0                      !< shift of the assembled S [1/time]
     logical :: assembled = .false.
     logical :: dirty = .true.              !< constraints changed since the last assembly
@@ -86,13 +85,6 @@ module reduced
     real(rp), allocatable :: kd(:, :, :)    !< (3, 0:nx-1, ys:ye) diagonal of -df/dx at the assembly (round-off floor)
     real(rp), allocatable :: lb(:, :, :, :, :) !< (0:nx-1, 3, 3, 4, 0:1) link blocks of two rows (direct assembly)
     logical :: have_pred = .false.
-    real(rp), allocatable :: vals(:, :, :) !< (3, 3, ncol) one block row
-    integer, allocatable :: cols(:)        !< (ncol)
-    ! An AIJ S is filled by writing its value arrays directly (its structure,
-    ! the stencil, never changes; checked once by check_direct).
-    logical :: direct = .false.
-    logical, allocatable :: owned(:)       !< (ncol) column node owned by this rank
-    integer, allocatable :: lcol(:)        !< (ncol) its local node index
     real(rp) :: floor_est = 0              !< round-off floor of ||F||_2 at the last assembly (see reduced_assemble)
     integer :: its = 0                     !< inner Krylov iterations, cumulative
     ! Inexact Newton (module newton_forcing; set by the SNES convergence test)
@@ -101,17 +93,6 @@ module reduced
     real(rp) :: lin_rel = 0                !< relative residual the last inner solve left
     type(guess_t) :: gs                    !< the inner initial guesses (module reduced_guess)
   end type reduced_t
-
-  !> The parts of an assembled AIJ S as plain arrays: diagonal part (ia, ja,
-  !> av) and off-diagonal part (ib, jb, bv; empty on one rank), 1-based
-  !> pointers into PETSc's own arrays (no copies).
-  type :: aij_view_t
-    type(tMat) :: ad, ao
-    logical :: parallel = .false.
-    PetscInt :: na = 0, nb = 0
-    PetscInt, pointer :: ia(:) => null(), ja(:) => null(), ib(:) => null(), jb(:) => null()
-    PetscScalar, pointer :: av(:) => null(), bv(:) => null()
-  end type aij_view_t
 
   interface
     !> src/nuno_options.c: the options of nuno's multigrid (-nuno_mg ...).
@@ -258,7 +239,7 @@ contains
       PetscCall(DMDAGetCorners(da6, xs, ys, zs, m, n, zm, ierr))
       PetscCall(mg_glue_matrix(red%mgg, lat, red%da3, red%ksp, nx, ny, n, w, mixed, fused, ev_galerkin, ev_cycle, red%s, ierr))
     else
-      PetscCall(aij_or_baij_s(ierr))
+      PetscCall(store_matrix(red%da3, pctype, symmetric, red%s, ierr))
     end if
     PetscCall(KSPSetOperators(red%ksp, red%s, red%s, ierr))
     PetscCall(KSPSetOperators(red%ksp, red%s, red%s, ierr))
@@ -308,18 +289,16 @@ contains
     PetscCall(MatShellSetContext(red%jac, red, ierr))
     PetscCall(MatShellSetOperation(red%jac, MATOP_MULT, reduced_jac_mult, ierr))
 
-    call jac_buffer_init(red%jbuf, lat)
+    call store_init(red%sto, lat)
     allocate(red%fixedg(0:lat%nx - 1, lat%gys:lat%gye))
     allocate(red%ujac(0:5, 0:lat%nx - 1, lat%gys:lat%gye), red%w(0:5, 0:lat%nx - 1, lat%gys:lat%gye))
     allocate(red%g(3, 0:lat%nx - 1, lat%ys:lat%ye), red%gpred(3, 0:lat%nx - 1, lat%ys:lat%ye))
     allocate(red%wpred(0:5, 0:lat%nx - 1, lat%gys:lat%gye), red%kd(3, 0:lat%nx - 1, lat%ys:lat%ye))
     allocate(red%lb(0:lat%nx - 1, 3, 3, 4, 0:1))
-    allocate(red%vals(3, 3, (2 * lat%halo + 1)**2), red%cols((2 * lat%halo + 1)**2))
-    allocate(red%owned((2 * lat%halo + 1)**2), red%lcol((2 * lat%halo + 1)**2))
     red%fixedg = .false.
     red%ujac = 0.0_rp
     if (.not. red%use_mg) then
-      PetscCall(check_direct(red, ierr))
+      PetscCall(check_direct(red%sto, red%s, red%da3, red%fixedg, red%damping, ierr))
     end if
 
     ! An explicit -reduced_ksp_rtol wins over the outer forcing term.
@@ -342,40 +321,6 @@ contains
     else
       red%pc_lag = 1
     end if
-  contains
-
-    !> S assembled in a PETSc matrix: BAIJ (3 x 3 blocks) for the point-wise
-    !> and block-local preconditioners, whose kernels are blocked; AIJ (with
-    !> block size 3) for the algebraic multigrids, which need it.
-    !> -reduced_dm_mat_type wins.
-    subroutine aij_or_baij_s(ierr)
-      PetscErrorCode, intent(out) :: ierr
-      character(len=64) :: mattype
-      select case (trim(pctype))
-    case (PCJACOBI, PCPBJACOBI, PCBJACOBI, PCASM, PCSOR, PCILU, PCICC, PCNONE)
-        PetscCall(DMSetMatType(red%da3, MATBAIJ, ierr))
-      case default
-        PetscCall(DMSetMatType(red%da3, MATAIJ, ierr))
-      end select
-      PetscCall(DMSetFromOptions(red%da3, ierr))
-      PetscCall(DMSetUp(red%da3, ierr))
-      PetscCall(DMCreateMatrix(red%da3, red%s, ierr))
-      PetscCall(MatSetOption(red%s, MAT_ROW_ORIENTED, PETSC_FALSE, ierr))
-      PetscCall(MatSetOption(red%s, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE, ierr))
-      PetscCall(MatGetType(red%s, mattype, ierr))
-      if (index(mattype, 'sbaij') > 0) then
-        ! Symmetric storage keeps the upper triangle: S must be symmetric.
-        if (.not. symmetric) then
-          ierr = PETSC_ERR_ARG_INCOMP
-          SETERRQ(comm, ierr, 'nuno: -reduced_dm_mat_type sbaij needs a symmetric S (no moving dampers, no paper bending, eta_b = 0)')
-        end if
-        PetscCall(MatSetOption(red%s, MAT_IGNORE_LOWER_TRIANGULAR, PETSC_TRUE, ierr))
-      end if
-      if (symmetric) then
-        PetscCall(MatSetOption(red%s, MAT_SYMMETRIC, PETSC_TRUE, ierr))
-        PetscCall(MatSetOption(red%s, MAT_SYMMETRY_ETERNAL, PETSC_TRUE, ierr))
-      end if
-    end subroutine aij_or_baij_s
   end subroutine reduced_create
 
   !> Krylov methods that can, stop on the true residual (which is the 6-dof
@@ -508,11 +453,9 @@ contains
     real(rp), intent(in) :: ud(0:, 0:, red%lat%gys:)
     real(rp), intent(in) :: a
     PetscErrorCode, intent(out) :: ierr
-    integer :: ja, i, j, nc, q
-    PetscInt :: row(1), ncol
+    integer :: ja, i, j
     real(rp) :: loc(2), glob(2)
     MPI_Comm :: comm
-    type(aij_view_t) :: view
 
     ierr = 0
     red%ujac = u
@@ -541,32 +484,9 @@ contains
       ! PCMG does with a reused hierarchy).
       call mg_glue_assemble(red%mgg, u, red%fixedg, a, red%damping, red%clamp, red%gauss_newton, red%wpred, &
                             red%lb, red%gpred, red%kd)
-    else if (red%direct) then
-      ! AIJ: element blocks straight into the CSR values (module reduced_assembly).
-      PetscCall(aij_open(red, view, ierr))
-      call assemble_csr(red%lat, u, red%fixedg, a, red%damping, red%clamp, red%gauss_newton, red%wpred, &
-                        red%lb, red%gpred, red%kd, view%ia, view%av, view%ib, view%bv)
-      PetscCall(aij_close(red, view, ierr))
     else
-      red%jbuf%k = 0.0_rp
-      red%jbuf%c = 0.0_rp
-      do ja = first_anchor_row(red%lat), red%lat%ye
-        call jac_buffer_row(red%jbuf, red%lat, u, ja, red%clamp, red%gauss_newton)
-        if (ja >= red%lat%ys) then
-          call buffer_row_apply(red%jbuf, red%lat, red%wpred, ja, red%damping, red%gpred(:, :, ja))
-          do i = 0, red%lat%nx - 1
-            do q = 1, 3
-              red%kd(q, i, ja) = red%jbuf%k(q, q, 0, 0, i, slot_of(ja))
-            end do
-            call reduced_row_blocks(red%jbuf, red%lat, red%fixedg, i, ja, a, red%damping, red%vals, red%cols, nc)
-            row(1) = i + (ja - red%lat%gys) * red%lat%nx
-            ncol = nc
-            PetscCall(set_block_row(red%s, row, ncol, red%cols, red%vals, 9 * nc, ierr))
-          end do
-        end if
-        red%jbuf%k(:, :, :, :, :, slot_of(ja)) = 0.0_rp
-        red%jbuf%c(:, :, :, :, :, slot_of(ja)) = 0.0_rp
-      end do
+      ! S in a PETSc matrix (module reduced_storage)
+      PetscCall(store_assemble(red%sto, red%s, u, red%fixedg, a, red%damping, red%clamp, red%gauss_newton, red%wpred, red%lb, red%gpred, red%kd, ierr))
     end if
     PetscCall(MatAssemblyBegin(red%s, MAT_FINAL_ASSEMBLY, ierr))
     PetscCall(MatAssemblyEnd(red%s, MAT_FINAL_ASSEMBLY, ierr))
@@ -613,103 +533,6 @@ contains
     end if
   end subroutine reduced_assemble
 
-  !> Column ownership of the block row in red%cols(1:nc): owned(n) when its
-  !> node lies in this rank's rows, lcol(n) its local node index there.
-  subroutine mark_owned(red, nc)
-    type(reduced_t), intent(inout) :: red
-    integer, intent(in) :: nc
-    integer :: n, jn
-    do n = 1, nc
-      jn = red%cols(n) / red%lat%nx + red%lat%gys
-      red%owned(n) = jn >= red%lat%ys .and. jn <= red%lat%ye
-      red%lcol(n) = red%cols(n) - (red%lat%ys - red%lat%gys) * red%lat%nx
-    end do
-  end subroutine mark_owned
-
-  !> Open the value and row arrays of an AIJ S (see aij_view_t).
-  subroutine aij_open(red, view, ierr)
-    type(reduced_t), intent(inout) :: red
-    type(aij_view_t), intent(inout) :: view
-    PetscErrorCode, intent(out) :: ierr
-    character(len=64) :: mattype
-    PetscInt :: ic(1)
-    PetscOffset :: iic
-    PetscBool :: done
-    PetscInt, parameter :: shift = 0
-    PetscInt, pointer, save :: none_i(:) => null()
-    PetscScalar, pointer, save :: none_s(:) => null()
-
-    if (.not. associated(none_i)) allocate(none_i(0), none_s(0))
-    PetscCall(MatGetType(red%s, mattype, ierr))
-    view%parallel = mattype == MATMPIAIJ
-    if (view%parallel) then
-      PetscCall(MatMPIAIJGetSeqAIJ(red%s, view%ad, view%ao, ic, iic, ierr))
-    else
-      view%ad = red%s
-    end if
-    PetscCall(MatGetRowIJF90(view%ad, shift, PETSC_FALSE, PETSC_FALSE, view%na, view%ia, view%ja, done, ierr))
-    PetscCall(MatSeqAIJGetArrayF90(view%ad, view%av, ierr))
-    if (view%parallel) then
-      PetscCall(MatGetRowIJF90(view%ao, shift, PETSC_FALSE, PETSC_FALSE, view%nb, view%ib, view%jb, done, ierr))
-      PetscCall(MatSeqAIJGetArrayF90(view%ao, view%bv, ierr))
-    else
-      view%ib => none_i
-      view%jb => none_i
-      view%bv => none_s
-    end if
-  end subroutine aij_open
-
-  !> Give the arrays back and assemble S (which also drops its cached
-  !> diagonal inverses, so that SOR sees the new values).
-  subroutine aij_close(red, view, ierr)
-    type(reduced_t), intent(inout) :: red
-    type(aij_view_t), intent(inout) :: view
-    PetscErrorCode, intent(out) :: ierr
-    PetscBool :: done
-    PetscInt, parameter :: shift = 0
-    PetscCall(MatSeqAIJRestoreArrayF90(view%ad, view%av, ierr))
-    PetscCall(MatRestoreRowIJF90(view%ad, shift, PETSC_FALSE, PETSC_FALSE, view%na, view%ia, view%ja, done, ierr))
-    if (view%parallel) then
-      PetscCall(MatSeqAIJRestoreArrayF90(view%ao, view%bv, ierr))
-      PetscCall(MatRestoreRowIJF90(view%ao, shift, PETSC_FALSE, PETSC_FALSE, view%nb, view%ib, view%jb, done, ierr))
-    end if
-  end subroutine aij_close
-
-  !> Write S's values directly when S is AIJ and its structure (from the
-  !> DMDA's preallocation) is the stencil of reduced_row_blocks, row by row
-  !> and in the same order, on every rank; otherwise keep MatSetValues.
-  !> Collective, once.
-  subroutine check_direct(red, ierr)
-    type(reduced_t), intent(inout) :: red
-    PetscErrorCode, intent(out) :: ierr
-    character(len=64) :: mattype
-    type(aij_view_t) :: view
-    integer :: i, j, nc, mpierr
-    logical :: ok, all_ok
-    MPI_Comm :: comm
-
-    red%direct = .false.
-    PetscCall(MatGetType(red%s, mattype, ierr))
-    ok = mattype == MATSEQAIJ .or. mattype == MATMPIAIJ
-    if (ok) then
-      PetscCall(aij_open(red, view, ierr))
-      red%jbuf%k = 0.0_rp
-      red%jbuf%c = 0.0_rp
-      do j = red%lat%ys, red%lat%ye
-        do i = 0, red%lat%nx - 1
-          call reduced_row_blocks(red%jbuf, red%lat, red%fixedg, i, j, 1.0_rp, red%damping, red%vals, red%cols, nc)
-          call mark_owned(red, nc)
-          ok = ok .and. csr_fits_block_row(nc, red%owned, red%lcol, 3 * (i + (j - red%lat%ys) * red%lat%nx), &
-                                           view%ia, view%ja, view%ib, view%jb)
-        end do
-      end do
-      PetscCall(aij_close(red, view, ierr))
-    end if
-    PetscCall(PetscObjectGetComm(red%da3, comm, ierr))
-    call MPI_Allreduce(ok, all_ok, 1, MPI_LOGICAL, MPI_LAND, comm, mpierr)
-    red%direct = all_ok
-  end subroutine check_direct
-
   !> GAMG's near-null space: the six rigid-body modes of the current shape.
   subroutine set_rigid_body_modes(red, u, ierr)
     type(reduced_t), intent(inout) :: red
@@ -724,19 +547,6 @@ contains
     PetscCall(MatSetNearNullSpace(red%s, nsp, ierr))
     PetscCall(MatNullSpaceDestroy(nsp, ierr))
   end subroutine set_rigid_body_modes
-
-  !> One block row into the matrix: vals as the flat array PETSc takes.
-  !> (Also used by the 6-dof path in module timestepping.)
-  subroutine set_block_row(mat, row, ncol, cols, vals, n, ierr)
-    type(tMat) :: mat
-    PetscInt, intent(in) :: row(1), ncol
-    PetscInt, intent(in) :: cols(ncol)
-    integer, intent(in) :: n
-    PetscScalar, intent(in) :: vals(n)
-    PetscErrorCode, intent(out) :: ierr
-    PetscInt, parameter :: one = 1
-    call MatSetValuesBlockedLocal(mat, one, row, ncol, cols, vals, INSERT_VALUES, ierr)
-  end subroutine set_block_row
 
   !> g = -(K w_x + C w_v) on the owned rows, at the state of the last
   !> assembly, from the element blocks: one pass over the elements with

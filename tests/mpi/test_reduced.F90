@@ -26,6 +26,7 @@ program test_reduced
   use forces, only: internal_forces
   use reduced, only: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, &
                      reduced_attach
+  use reduced_storage, only: store_use_buffer
   use check, only: check_true, check_report
   use reduced_assembly, only: assemble_stencil
   use offset_product, only: stencil_product, offset_count
@@ -166,9 +167,9 @@ contains
     ! element by element (module reduced_assembly). The S of the block
     ! buffer through MatSetValues sums the same terms in another order: the
     ! two must agree to round-off, on every rank count.
-    call check_true(red%direct, label//': AIJ S is written directly')
+    call check_true(red%sto%direct, label//': AIJ S is written directly')
     PetscCallA(reduced_create(red2, da6, lat, .false., .false., .true., .false., .false., 1, ierr))
-    red2%direct = .false.
+    call store_use_buffer(red2%sto)
     PetscCallA(reduced_set_fixed(red2, fixed, ierr))
     PetscCallA(reduced_assemble(red2, ul, udl, a, ierr))
     PetscCallA(MatNorm(red2%s, NORM_FROBENIUS, snorm, ierr))
