@@ -44,8 +44,42 @@ module reduced
   public :: set_block_row, reduced_set_guess, reduced_step_accepted
   public :: INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
 
+  !> The element model's flags and the element products of the reduced
+  !> solve: the state of the last assembly, the constrained nodes and the
+  !> products K w_x + C w_v (module reduced_assembly). Newton solves
+  !> J du = F(u) at the state of the assembly: the products for that
+  !> right-hand side are formed during the assembly, in the same pass over
+  !> the elements (wpred, gpred); any other right-hand side is recognised
+  !> and gets its own pass.
+  type :: elements_t
+    logical :: constant = .false.          !< K and C do not depend on the state (linear springs, no bending)
+    logical :: damping = .true.            !< some element has a damper (C /= 0)
+    logical :: clamp = .false., gauss_newton = .false.
+    logical, allocatable :: fixedg(:, :)   !< (0:nx-1, gys:gye) constrained nodes, with ghosts
+    real(rp), allocatable :: ujac(:, :, :) !< (0:5, 0:nx-1, gys:gye) state at the last assembly
+    real(rp), allocatable :: w(:, :, :)    !< (0:5, 0:nx-1, gys:gye) work
+    real(rp), allocatable :: g(:, :, :)    !< (3, 0:nx-1, ys:ye) element products
+    real(rp), allocatable :: wpred(:, :, :) !< (0:5, 0:nx-1, gys:gye) w of b = F(u)
+    real(rp), allocatable :: gpred(:, :, :) !< (3, 0:nx-1, ys:ye) its products
+    real(rp), allocatable :: kd(:, :, :)    !< (3, 0:nx-1, ys:ye) diagonal of -df/dx at the assembly (round-off floor)
+    real(rp), allocatable :: lb(:, :, :, :, :) !< (0:nx-1, 3, 3, 4, 0:1) link blocks of two rows (direct assembly)
+    logical :: have_pred = .false.
+  end type elements_t
+
+  !> The inner preconditioner in use and its reuse.
+  type :: inner_pc_t
+    type(tVec) :: coords                   !< 3-dof node positions (GAMG near-null space)
+    logical :: use_nullspace = .false.     !< inner PC is GAMG: give it the rigid-body modes
+    logical :: use_mg = .false.            !< inner PC is nuno's structured multigrid (module stencil_mg)
+    integer :: interp = 1                  !< multigrid interpolation: INTERP_LINEAR, _CUBIC, _COARSE_CUBIC
+    integer :: pc_lag = 1                  !< rebuild the inner preconditioner every pc_lag assemblies
+    integer :: since_pc = 0                !< assemblies since the last rebuild
+  end type inner_pc_t
+
   !> Context of the reduced solve (PCSHELL and MATSHELL context).
   type :: reduced_t
+    type(elements_t) :: el                 !< the element model and its products (this module)
+    type(inner_pc_t) :: pcc                !< the inner preconditioner in use and its reuse (this module)
     type(lattice_t), pointer :: lat => null()
     type(tDM) :: da6                       !< the state's DMDA (dof 6; not owned)
     type(tDM) :: da3                       !< dof 3, same strips and halo
@@ -55,36 +89,14 @@ module reduced
     type(tKSP) :: outer                    !< the SNES's KSP (for Eisenstat-Walker forcing)
     type(tSNES) :: snes                    !< the TS's SNES
     type(tVec) :: rhs, dv                  !< 3-dof global work vectors
-    type(tVec) :: coords                   !< 3-dof node positions (GAMG near-null space)
     type(s_store_t) :: sto                 !< S in a PETSc matrix (without use_mg; module reduced_storage)
     real(rp) :: a = 0                      !< shift of the assembled S [1/time]
     logical :: assembled = .false.
     logical :: dirty = .true.              !< constraints changed since the last assembly
-    logical :: constant = .false.          !< K and C do not depend on the state (linear springs, no bending)
-    logical :: damping = .true.            !< some element has a damper (C /= 0)
-    logical :: clamp = .false., gauss_newton = .false.
-    logical :: use_nullspace = .false.     !< inner PC is GAMG: give it the rigid-body modes
-    logical :: use_mg = .false.            !< inner PC is nuno's structured multigrid (module stencil_mg)
     type(mg_glue_t) :: mgg                 !< nuno's multigrid and S by stencil offset (with use_mg; module reduced_mg)
     ! -log_view events of the reduced solve's own work
     PetscLogEvent :: ev_assemble = 0       !< S assembled (and the multigrid's finest level from it)
-    integer :: interp = 1                  !< multigrid interpolation: INTERP_LINEAR, _CUBIC, _COARSE_CUBIC
     logical :: forward_ew = .true.         !< pass the outer KSP's rtol (Eisenstat-Walker) to the inner one
-    integer :: pc_lag = 1                  !< rebuild the inner preconditioner every pc_lag assemblies
-    integer :: since_pc = 0                !< assemblies since the last rebuild
-    logical, allocatable :: fixedg(:, :)   !< (0:nx-1, gys:gye) constrained nodes, with ghosts
-    real(rp), allocatable :: ujac(:, :, :) !< (0:5, 0:nx-1, gys:gye) state at the last assembly
-    real(rp), allocatable :: w(:, :, :)    !< (0:5, 0:nx-1, gys:gye) work
-    real(rp), allocatable :: g(:, :, :)    !< (3, 0:nx-1, ys:ye) element products
-    ! Newton solves J du = F(u) at the state of the assembly: the products
-    ! for that right-hand side are formed during the assembly, in the same
-    ! pass over the elements (wpred, gpred); any other right-hand side is
-    ! recognised and gets its own pass.
-    real(rp), allocatable :: wpred(:, :, :) !< (0:5, 0:nx-1, gys:gye) w of b = F(u)
-    real(rp), allocatable :: gpred(:, :, :) !< (3, 0:nx-1, ys:ye) its products
-    real(rp), allocatable :: kd(:, :, :)    !< (3, 0:nx-1, ys:ye) diagonal of -df/dx at the assembly (round-off floor)
-    real(rp), allocatable :: lb(:, :, :, :, :) !< (0:nx-1, 3, 3, 4, 0:1) link blocks of two rows (direct assembly)
-    logical :: have_pred = .false.
     real(rp) :: floor_est = 0              !< round-off floor of ||F||_2 at the last assembly (see reduced_assemble)
     integer :: its = 0                     !< inner Krylov iterations, cumulative
     ! Inexact Newton (module newton_forcing; set by the SNES convergence test)
@@ -163,10 +175,10 @@ contains
     PetscCall(PetscLogEventRegister('nunoAssembleS', classid, red%ev_assemble, ierr))
     PetscCall(PetscLogEventRegister('nunoMGGalerkin', classid, ev_galerkin, ierr))
     PetscCall(PetscLogEventRegister('nunoMGCycle', classid, ev_cycle, ierr))
-    red%constant = constant
-    red%damping = damping
-    red%clamp = clamp
-    red%gauss_newton = gauss_newton
+    red%el%constant = constant
+    red%el%damping = damping
+    red%el%clamp = clamp
+    red%el%gauss_newton = gauss_newton
     PetscCall(PetscObjectGetComm(da6, comm, ierr))
     call MPI_Comm_size(comm, nranks, mpierr)
     allocate(ly(nranks))
@@ -193,7 +205,7 @@ contains
     ! nuno's multigrid replicates its coarsest level where strips get too
     ! thin, so only the lattice's size limits its levels; PETSc's needs
     ! the halo's rows in every coarse strip.
-    red%use_mg = levels_that_fit(nx, ny, izero, ione) >= 3
+    red%pcc%use_mg = levels_that_fit(nx, ny, izero, ione) >= 3
     levels = levels_that_fit(nx, ny, w, nranks)
     mg_impl = 0
     mg_cycle = MG_KASKADE
@@ -203,17 +215,17 @@ contains
     ierr = nuno_mg_options_read(comm, mg_impl, mg_cycle, mg_sweeps, mg_levels, mg_product, mg_given)
     if (ierr /= 0) return
     PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_pc_type', found, ierr))
-    red%use_mg = red%use_mg .and. .not. found .and. mg_impl == 0
-    if (mg_given /= 0 .and. .not. red%use_mg) then
+    red%pcc%use_mg = red%pcc%use_mg .and. .not. found .and. mg_impl == 0
+    if (mg_given /= 0 .and. .not. red%pcc%use_mg) then
       ierr = PETSC_ERR_ARG_INCOMP
       SETERRQ(comm, ierr, 'nuno: -nuno_mg_cycle, -nuno_mg_sweeps, -nuno_mg_levels and -nuno_mg_product are for nuno''s multigrid (-nuno_mg stencil, the default from 3 levels on, no -reduced_pc_type)')
     end if
     ! 0 mixed, 1 double, 2 fused (mixed, each cycle's output multiplied in
     ! its last sweep; where the Krylov method multiplies that output:
     ! checked at the first cycle, mg_pc_apply)
-    mixed = red%use_mg .and. mg_product /= 1
-    fused = red%use_mg .and. mg_product == 2
-    if (red%use_mg) then
+    mixed = red%pcc%use_mg .and. mg_product /= 1
+    fused = red%pcc%use_mg .and. mg_product == 2
+    if (red%pcc%use_mg) then
       ! FGMRES even where S is symmetric: the kaskade cycle is not, and
       ! FGMRES + kaskade beat CG + V-cycles by 1.4x on a symmetric hang
       ! (measured with commit cdb1ad4).
@@ -231,9 +243,9 @@ contains
     PetscCall(KSPGetTolerances(red%ksp, red%rtol0, atol0, dtol0, maxit0, ierr))
     PetscCall(KSPGetPC(red%ksp, pc, ierr))
     PetscCall(PCGetType(pc, pctype, ierr))
-    red%use_nullspace = pctype == PCGAMG
+    red%pcc%use_nullspace = pctype == PCGAMG
 
-    if (red%use_mg) then
+    if (red%pcc%use_mg) then
       ! S by stencil offset, its product a MATSHELL (module reduced_mg)
       PetscCall(DMSetUp(red%da3, ierr))
       PetscCall(DMDAGetCorners(da6, xs, ys, zs, m, n, zm, ierr))
@@ -247,12 +259,12 @@ contains
     PetscCall(KSPSetDM(red%ksp, red%da3, ierr))
     PetscCall(KSPSetDMActive(red%ksp, PETSC_FALSE, ierr))
     if (present(mg_interpolation)) then
-      if (mg_interpolation > 0 .and. pctype /= PCMG .and. .not. red%use_mg) then
+      if (mg_interpolation > 0 .and. pctype /= PCMG .and. .not. red%pcc%use_mg) then
         ierr = PETSC_ERR_ARG_INCOMP
         SETERRQ(comm, ierr, 'nuno: -nuno_mg_interpolation needs an inner multigrid: nuno''s (the default from 3 levels on) or -reduced_pc_type mg')
       end if
     end if
-    if (pctype == PCMG .or. red%use_mg) then
+    if (pctype == PCMG .or. red%pcc%use_mg) then
       ! auto: with bending, cubic on every level but the finest (measured
       ! with commit 458d4d3: as fast as cubic everywhere, and the parallel
       ! Galerkin product of the finest level with a cubic P doubled the
@@ -260,24 +272,24 @@ contains
       ! everywhere still as fast, 30 % fewer iterations for
       ! cycles 1.6 times as long), the finest level's correction cubic in
       ! nuno's multigrid (10 % fewer iterations for the same cycle).
-      red%interp = INTERP_LINEAR
-      if (lat%bending_model /= BEND_NONE) red%interp = INTERP_COARSE_CUBIC
+      red%pcc%interp = INTERP_LINEAR
+      if (lat%bending_model /= BEND_NONE) red%pcc%interp = INTERP_COARSE_CUBIC
       if (present(mg_interpolation)) then
-        if (mg_interpolation > 0) red%interp = mg_interpolation
+        if (mg_interpolation > 0) red%pcc%interp = mg_interpolation
       end if
-      if (red%use_mg) then
+      if (red%pcc%use_mg) then
         PetscCall(DMDAGetCorners(da6, xs, ys, zs, m, n, zm, ierr))
         ! without bending every element of S is a link, so S(p, q) = S(q, p)
         ! block for block (mg_kernels' stencil_t, paired): the sweeps and
         ! products read the blocks to the row below from that row
-        PetscCall(mg_glue_pc(red%mgg, pc, nx, ny, ys, n, w, red%interp, merge(int(mg_levels), 10, mg_levels > 0), int(mg_cycle), int(mg_sweeps), lat%bending_model == BEND_NONE, ierr))
+        PetscCall(mg_glue_pc(red%mgg, pc, nx, ny, ys, n, w, red%pcc%interp, merge(int(mg_levels), 10, mg_levels > 0), int(mg_cycle), int(mg_sweeps), lat%bending_model == BEND_NONE, ierr))
       else
-        PetscCall(mg_interpolations(red%da3, red%interp, pc, ierr))
+        PetscCall(mg_interpolations(red%da3, red%pcc%interp, pc, ierr))
       end if
     end if
     PetscCall(DMCreateGlobalVector(red%da3, red%rhs, ierr))
     PetscCall(VecDuplicate(red%rhs, red%dv, ierr))
-    PetscCall(VecDuplicate(red%rhs, red%coords, ierr))
+    PetscCall(VecDuplicate(red%rhs, red%pcc%coords, ierr))
 
     ! The 6-dof Jacobian: only its action, from the element blocks.
     PetscCall(DMDAGetCorners(da6, xs, ys, zs, m, n, zm, ierr))
@@ -290,15 +302,15 @@ contains
     PetscCall(MatShellSetOperation(red%jac, MATOP_MULT, reduced_jac_mult, ierr))
 
     call store_init(red%sto, lat)
-    allocate(red%fixedg(0:lat%nx - 1, lat%gys:lat%gye))
-    allocate(red%ujac(0:5, 0:lat%nx - 1, lat%gys:lat%gye), red%w(0:5, 0:lat%nx - 1, lat%gys:lat%gye))
-    allocate(red%g(3, 0:lat%nx - 1, lat%ys:lat%ye), red%gpred(3, 0:lat%nx - 1, lat%ys:lat%ye))
-    allocate(red%wpred(0:5, 0:lat%nx - 1, lat%gys:lat%gye), red%kd(3, 0:lat%nx - 1, lat%ys:lat%ye))
-    allocate(red%lb(0:lat%nx - 1, 3, 3, 4, 0:1))
-    red%fixedg = .false.
-    red%ujac = 0.0_rp
-    if (.not. red%use_mg) then
-      PetscCall(check_direct(red%sto, red%s, red%da3, red%fixedg, red%damping, ierr))
+    allocate(red%el%fixedg(0:lat%nx - 1, lat%gys:lat%gye))
+    allocate(red%el%ujac(0:5, 0:lat%nx - 1, lat%gys:lat%gye), red%el%w(0:5, 0:lat%nx - 1, lat%gys:lat%gye))
+    allocate(red%el%g(3, 0:lat%nx - 1, lat%ys:lat%ye), red%el%gpred(3, 0:lat%nx - 1, lat%ys:lat%ye))
+    allocate(red%el%wpred(0:5, 0:lat%nx - 1, lat%gys:lat%gye), red%el%kd(3, 0:lat%nx - 1, lat%ys:lat%ye))
+    allocate(red%el%lb(0:lat%nx - 1, 3, 3, 4, 0:1))
+    red%el%fixedg = .false.
+    red%el%ujac = 0.0_rp
+    if (.not. red%pcc%use_mg) then
+      PetscCall(check_direct(red%sto, red%s, red%da3, red%el%fixedg, red%el%damping, ierr))
     end if
 
     ! An explicit -reduced_ksp_rtol wins over the outer forcing term.
@@ -313,13 +325,13 @@ contains
     ! on hang's 1 s, 1-4 % more on the release scenes, half the rebuilds),
     ! any other preconditioner rebuilt each time.
     if (pc_lag > 0) then
-      red%pc_lag = pc_lag
-    else if ((pctype == PCMG .or. red%use_mg) .and. red%interp /= INTERP_LINEAR) then
-      red%pc_lag = 20
-    else if (pctype == PCMG .or. red%use_mg) then
-      red%pc_lag = 3
+      red%pcc%pc_lag = pc_lag
+    else if ((pctype == PCMG .or. red%pcc%use_mg) .and. red%pcc%interp /= INTERP_LINEAR) then
+      red%pcc%pc_lag = 20
+    else if (pctype == PCMG .or. red%pcc%use_mg) then
+      red%pcc%pc_lag = 3
     else
-      red%pc_lag = 1
+      red%pcc%pc_lag = 1
     end if
   end subroutine reduced_create
 
@@ -363,7 +375,7 @@ contains
     PetscCall(PCGetType(pc, ptype, ierr))
     write(rt, '(es8.1)') red%rtol0
     line = trim(ktype)//', rtol '//trim(adjustl(rt))
-    if (red%use_mg) then
+    if (red%pcc%use_mg) then
       call mg_glue_describe(red%mgg, line)
     else
       line = trim(line)//' + '//trim(ptype)
@@ -399,11 +411,11 @@ contains
     type(reduced_t), intent(inout) :: red
     PetscErrorCode, intent(out) :: ierr
     PetscCall(KSPDestroy(red%ksp, ierr))
-    if (red%use_mg) then
+    if (red%pcc%use_mg) then
       PetscCall(mg_glue_free(red%mgg, ierr))
     end if
     PetscCall(MatDestroy(red%jac, ierr))
-    PetscCall(VecDestroy(red%coords, ierr))
+    PetscCall(VecDestroy(red%pcc%coords, ierr))
     PetscCall(VecDestroy(red%dv, ierr))
     PetscCall(guess_free(red%gs, ierr))
     PetscCall(VecDestroy(red%rhs, ierr))
@@ -431,14 +443,14 @@ contains
     PetscCall(DMGlobalToLocalBegin(red%da3, red%dv, INSERT_VALUES, loc, ierr))
     PetscCall(DMGlobalToLocalEnd(red%da3, red%dv, INSERT_VALUES, loc, ierr))
     PetscCall(DMDAVecGetArrayReadF90(red%da3, loc, fl, ierr))
-    red%fixedg = fl(0, :, :) > 0.5_rp
+    red%el%fixedg = fl(0, :, :) > 0.5_rp
     PetscCall(DMDAVecRestoreArrayReadF90(red%da3, loc, fl, ierr))
     PetscCall(DMRestoreLocalVector(red%da3, loc, ierr))
     red%dirty = .true.
     ! The preconditioner is built afresh at the window's first assembly, so
     ! that a run restarted at a window's start (a checkpoint) takes the same
     ! iterations as the run that went through it.
-    red%since_pc = red%pc_lag
+    red%pcc%since_pc = red%pcc%pc_lag
     ! and the inner guesses too start afresh (module inner_guess)
     call guess_restart(red%gs)
   end subroutine reduced_set_fixed
@@ -458,43 +470,43 @@ contains
     MPI_Comm :: comm
 
     ierr = 0
-    red%ujac = u
+    red%el%ujac = u
     ! A constant S is kept; the PC apply then forms the products itself
     ! (one pass over the elements, none when they vanish).
-    red%have_pred = .not. (red%constant .and. red%assembled .and. .not. red%dirty .and. a == red%a)
-    if (.not. red%have_pred) return
+    red%el%have_pred = .not. (red%el%constant .and. red%assembled .and. .not. red%dirty .and. a == red%a)
+    if (.not. red%el%have_pred) return
     ! w of the right-hand side b = F(u): F_x = xdot - v, F_v = vdot on
     ! constrained nodes (whose v is their prescribed velocity).
     do j = red%lat%gys, red%lat%gye
       do i = 0, red%lat%nx - 1
-        red%wpred(0:2, i, j) = (ud(0:2, i, j) - u(3:5, i, j)) / a
-        if (red%fixedg(i, j)) then
-          red%wpred(3:5, i, j) = ud(3:5, i, j) / a
+        red%el%wpred(0:2, i, j) = (ud(0:2, i, j) - u(3:5, i, j)) / a
+        if (red%el%fixedg(i, j)) then
+          red%el%wpred(3:5, i, j) = ud(3:5, i, j) / a
         else
-          red%wpred(3:5, i, j) = 0.0_rp
+          red%el%wpred(3:5, i, j) = 0.0_rp
         end if
       end do
     end do
     loc = 0.0_rp
     PetscCall(PetscLogEventBegin(red%ev_assemble, ierr))
-    if (red%use_mg) then
+    if (red%pcc%use_mg) then
       ! By stencil offset (module reduced_assembly), for nuno's multigrid,
       ! whose finest level is made from it row by row on the way (every
       ! assembly: its smoother and residual use the current S, as PETSc's
       ! PCMG does with a reused hierarchy).
-      call mg_glue_assemble(red%mgg, u, red%fixedg, a, red%damping, red%clamp, red%gauss_newton, red%wpred, &
-                            red%lb, red%gpred, red%kd)
+      call mg_glue_assemble(red%mgg, u, red%el%fixedg, a, red%el%damping, red%el%clamp, red%el%gauss_newton, red%el%wpred, &
+                            red%el%lb, red%el%gpred, red%el%kd)
     else
       ! S in a PETSc matrix (module reduced_storage)
-      PetscCall(store_assemble(red%sto, red%s, u, red%fixedg, a, red%damping, red%clamp, red%gauss_newton, red%wpred, red%lb, red%gpred, red%kd, ierr))
+      PetscCall(store_assemble(red%sto, red%s, u, red%el%fixedg, a, red%el%damping, red%el%clamp, red%el%gauss_newton, red%el%wpred, red%el%lb, red%el%gpred, red%el%kd, ierr))
     end if
     PetscCall(MatAssemblyBegin(red%s, MAT_FINAL_ASSEMBLY, ierr))
     PetscCall(MatAssemblyEnd(red%s, MAT_FINAL_ASSEMBLY, ierr))
     PetscCall(PetscLogEventEnd(red%ev_assemble, ierr))
     do ja = red%lat%ys, red%lat%ye
       do i = 0, red%lat%nx - 1
-        if (red%fixedg(i, ja)) cycle
-        call floor_node_add(red%kd(:, i, ja), red%lat%mass(i, ja), u(0:2, i, ja), a, loc)
+        if (red%el%fixedg(i, ja)) cycle
+        call floor_node_add(red%el%kd(:, i, ja), red%lat%mass(i, ja), u(0:2, i, ja), a, loc)
       end do
     end do
     ! Round-off floor of the residual: a position is known to eps |x|, and
@@ -515,19 +527,19 @@ contains
     red%dirty = .false.
     ! Preconditioner reuse: rebuild every pc_lag assemblies (and after a
     ! failed inner solve, see reduced_pc_apply).
-    red%since_pc = red%since_pc + 1
-    if (red%since_pc >= red%pc_lag) then
-      red%since_pc = 0
+    red%pcc%since_pc = red%pcc%since_pc + 1
+    if (red%pcc%since_pc >= red%pcc%pc_lag) then
+      red%pcc%since_pc = 0
       PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_FALSE, ierr))
-      if (red%use_mg) then
+      if (red%pcc%use_mg) then
         PetscCall(mg_coarse_levels(red%mgg, ierr))
       end if
-      if (red%use_nullspace) then
+      if (red%pcc%use_nullspace) then
         PetscCall(set_rigid_body_modes(red, u, ierr))
       end if
     else
       PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_TRUE, ierr))
-      if (red%use_mg .and. .not. mg_glue_built(red%mgg)) then
+      if (red%pcc%use_mg .and. .not. mg_glue_built(red%mgg)) then
         PetscCall(mg_coarse_levels(red%mgg, ierr))
       end if
     end if
@@ -540,10 +552,10 @@ contains
     PetscErrorCode, intent(out) :: ierr
     PetscScalar, pointer :: c(:, :, :)
     type(tMatNullSpace) :: nsp
-    PetscCall(DMDAVecGetArrayF90(red%da3, red%coords, c, ierr))
+    PetscCall(DMDAVecGetArrayF90(red%da3, red%pcc%coords, c, ierr))
     c(0:2, :, red%lat%ys:red%lat%ye) = u(0:2, :, red%lat%ys:red%lat%ye)
-    PetscCall(DMDAVecRestoreArrayF90(red%da3, red%coords, c, ierr))
-    PetscCall(MatNullSpaceCreateRigidBody(red%coords, nsp, ierr))
+    PetscCall(DMDAVecRestoreArrayF90(red%da3, red%pcc%coords, c, ierr))
+    PetscCall(MatNullSpaceCreateRigidBody(red%pcc%coords, nsp, ierr))
     PetscCall(MatSetNearNullSpace(red%s, nsp, ierr))
     PetscCall(MatNullSpaceDestroy(nsp, ierr))
   end subroutine set_rigid_body_modes
@@ -558,7 +570,7 @@ contains
   subroutine element_products(red, w)
     type(reduced_t), intent(inout) :: red
     real(rp), intent(in) :: w(0:, 0:, red%lat%gys:)
-    call kc_products(red%lat, red%ujac, red%fixedg, red%damping, red%clamp, red%gauss_newton, w, red%g, red%kd)
+    call kc_products(red%lat, red%el%ujac, red%el%fixedg, red%el%damping, red%el%clamp, red%el%gauss_newton, w, red%el%g, red%el%kd)
   end subroutine element_products
 
   !> The right-hand side of S dv = rhs for the 6-dof right-hand side b
@@ -587,38 +599,38 @@ contains
         ! its products, of that size too, would cost a pass over the elements
         ! (a lagged S: -snes_lag_jacobian).
         if (all(abs(bl(0:2, i, j)) <= 8.0_rp * epsilon(1.0_rp) * &
-                (red%a * maxval(abs(red%ujac(0:2, i, j))) + maxval(abs(red%ujac(3:5, i, j)))))) then
-          red%w(0:2, i, j) = 0.0_rp
+                (red%a * maxval(abs(red%el%ujac(0:2, i, j))) + maxval(abs(red%el%ujac(3:5, i, j)))))) then
+          red%el%w(0:2, i, j) = 0.0_rp
         else
-          red%w(0:2, i, j) = ainv * bl(0:2, i, j)
+          red%el%w(0:2, i, j) = ainv * bl(0:2, i, j)
         end if
-        if (red%fixedg(i, j)) then
-          red%w(3:5, i, j) = ainv * bl(3:5, i, j)
+        if (red%el%fixedg(i, j)) then
+          red%el%w(3:5, i, j) = ainv * bl(3:5, i, j)
         else
-          red%w(3:5, i, j) = 0.0_rp
+          red%el%w(3:5, i, j) = 0.0_rp
         end if
-        any_w = any_w .or. any(red%w(:, i, j) /= 0.0_rp)
+        any_w = any_w .or. any(red%el%w(:, i, j) /= 0.0_rp)
       end do
     end do
     ! b_x = 0 and no constrained dv: the products vanish. b = +-F(u) at the
     ! assembled state (a Newton step): formed during the assembly.
     ! Anything else: one pass over the elements.
     if (.not. any_w) then
-      red%g = 0.0_rp
-    else if (red%have_pred .and. same(red%w, red%wpred, 1.0_rp)) then
-      red%g = red%gpred
-    else if (red%have_pred .and. same(red%w, red%wpred, -1.0_rp)) then
-      red%g = -red%gpred
+      red%el%g = 0.0_rp
+    else if (red%el%have_pred .and. same(red%el%w, red%el%wpred, 1.0_rp)) then
+      red%el%g = red%el%gpred
+    else if (red%el%have_pred .and. same(red%el%w, red%el%wpred, -1.0_rp)) then
+      red%el%g = -red%el%gpred
     else
-      call element_products(red, red%w)
+      call element_products(red, red%el%w)
     end if
     PetscCall(DMDAVecGetArrayF90(red%da3, rhs, r, ierr))
     do j = red%lat%ys, red%lat%ye
       do i = 0, red%lat%nx - 1
-        if (red%fixedg(i, j)) then
+        if (red%el%fixedg(i, j)) then
           r(0:2, i, j) = red%lat%mass(i, j) * bl(3:5, i, j)
         else
-          r(0:2, i, j) = red%lat%mass(i, j) * bl(3:5, i, j) - red%g(:, i, j)
+          r(0:2, i, j) = red%lat%mass(i, j) * bl(3:5, i, j) - red%el%g(:, i, j)
         end if
       end do
     end do
@@ -743,10 +755,10 @@ contains
     if (reason < 0) then
       PetscCall(KSPGetReusePreconditioner(red%ksp, reused, ierr))
       if (reused) then
-        red%since_pc = 0
+        red%pcc%since_pc = 0
         PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_FALSE, ierr))
         PetscCall(KSPSetOperators(red%ksp, red%s, red%s, ierr))
-        if (red%use_mg) then
+        if (red%pcc%use_mg) then
           PetscCall(mg_coarse_levels(red%mgg, ierr))
         end if
         PetscCall(inner_solve(red, .true., reason, ierr))
@@ -771,7 +783,7 @@ contains
     PetscCall(DMDAVecGetArrayF90(red%da6, du, y, ierr))
     do j = red%lat%ys, red%lat%ye
       do i = 0, red%lat%nx - 1
-        if (red%fixedg(i, j)) then
+        if (red%el%fixedg(i, j)) then
           ! J = a I on a constrained node, whose rows and columns of S
           ! couple nothing: du = b / a exactly, whatever the inner solve's
           ! tolerance and the precision of its product left in dv there
@@ -810,11 +822,11 @@ contains
     PetscCall(DMDAVecGetArrayF90(red%da6, yv, y, ierr))
     do j = red%lat%ys, red%lat%ye
       do i = 0, red%lat%nx - 1
-        if (red%fixedg(i, j)) then
+        if (red%el%fixedg(i, j)) then
           y(:, i, j) = a * d(:, i, j)
         else
           y(0:2, i, j) = a * d(0:2, i, j) - d(3:5, i, j)
-          y(3:5, i, j) = a * d(3:5, i, j) + red%g(:, i, j) / red%lat%mass(i, j)
+          y(3:5, i, j) = a * d(3:5, i, j) + red%el%g(:, i, j) / red%lat%mass(i, j)
         end if
       end do
     end do

@@ -407,8 +407,8 @@ contains
     PetscCallA(DMGlobalToLocalBegin(red%da6, u, INSERT_VALUES, uloc, ierr))
     PetscCallA(DMGlobalToLocalEnd(red%da6, u, INSERT_VALUES, uloc, ierr))
     PetscCallA(DMDAVecGetArrayReadF90(red%da6, uloc, ul, ierr))
-    call assemble_stencil(lat, ul, red%fixedg, a, red%damping, red%clamp, red%gauss_newton, red%wpred, &
-                          red%lb, g, kd, st)
+    call assemble_stencil(lat, ul, red%el%fixedg, a, red%el%damping, red%el%clamp, red%el%gauss_newton, red%el%wpred, &
+                          red%el%lb, g, kd, st)
     PetscCallA(DMDAVecRestoreArrayReadF90(red%da6, uloc, ul, ierr))
     PetscCallA(DMRestoreLocalVector(red%da6, uloc, ierr))
     PetscCallA(DMGetLocalVector(red%da3, yloc, ierr))
@@ -427,8 +427,8 @@ contains
     PetscCallA(DMDAVecRestoreArrayReadF90(red%da3, sy, sa, ierr))
     call check_true(scale > 0.0_rp .and. err <= 1.0e-12_rp * scale, label//': S by stencil offset equals the AIJ S')
     if (.not. err <= 1.0e-12_rp * scale) write(*, '(a,es10.3,a,es10.3)') label//': |S_st y - S y| = ', err, ' of ', scale
-    errg = gmax(max(maxval(abs(g - red%gpred)), maxval(abs(kd - red%kd))))
-    scaleg = gmax(max(maxval(abs(red%gpred)), maxval(abs(red%kd))))
+    errg = gmax(max(maxval(abs(g - red%el%gpred)), maxval(abs(kd - red%el%kd))))
+    scaleg = gmax(max(maxval(abs(red%el%gpred)), maxval(abs(red%el%kd))))
     call check_true(scaleg > 0.0_rp .and. errg <= 1.0e-12_rp * scaleg, label//': the stencil assembly''s products equal the AIJ''s')
   end subroutine check_stencil_s
 
