@@ -37,6 +37,7 @@ module reduced
   use stencil_mg, only: MG_KASKADE
   use reduced_mg, only: mg_glue_t, mg_glue_matrix, mg_glue_pc, mg_glue_free, mg_glue_assemble, mg_glue_built, &
                         mg_glue_describe, mg_coarse_levels, levels_that_fit, default_preconditioner, mg_interpolations, &
+                        true_residual_defaults, &
                         INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
   implicit none
   private
@@ -334,31 +335,6 @@ contains
       red%pcc%pc_lag = 1
     end if
   end subroutine reduced_create
-
-  !> Krylov methods that can, stop on the true residual (which is the 6-dof
-  !> v-row residual): right preconditioning for the GMRES family, the
-  !> unpreconditioned norm for CG-like ones; unless the options say
-  !> otherwise.
-  subroutine true_residual_defaults(ksp, ierr)
-    type(tKSP), intent(inout) :: ksp
-    PetscErrorCode, intent(out) :: ierr
-    character(len=64) :: ktype
-    PetscBool :: side_set, norm_set
-    PetscCall(KSPGetType(ksp, ktype, ierr))
-    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_ksp_pc_side', side_set, ierr))
-    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_ksp_norm_type', norm_set, ierr))
-    select case (trim(ktype))
-    case (KSPGMRES, KSPFGMRES, KSPLGMRES, KSPDGMRES, KSPPGMRES, KSPBCGS, KSPIBCGS, KSPTFQMR)
-      if (.not. side_set .and. trim(ktype) /= KSPFGMRES) then
-        PetscCall(KSPSetPCSide(ksp, PC_RIGHT, ierr))
-      end if
-    case (KSPCG, KSPPIPECG, KSPCR, KSPFCG)
-      if (.not. norm_set) then
-        PetscCall(KSPSetNormType(ksp, KSP_NORM_UNPRECONDITIONED, ierr))
-      end if
-    case default
-    end select
-  end subroutine true_residual_defaults
 
   !> One line on the inner solver for the start-up summary: Krylov method,
   !> tolerance, preconditioner; for nuno's multigrid its levels, cycle and

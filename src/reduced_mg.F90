@@ -24,7 +24,7 @@ module reduced_mg
   implicit none
   private
   public :: mg_glue_t, mg_glue_matrix, mg_glue_pc, mg_glue_free, mg_glue_assemble, mg_glue_built, mg_glue_describe
-  public :: mg_coarse_levels, levels_that_fit, default_preconditioner, mg_interpolations
+  public :: mg_coarse_levels, levels_that_fit, default_preconditioner, mg_interpolations, true_residual_defaults
   public :: INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
 
   !> Interpolation between multigrid levels (-nuno_mg_interpolation; the
@@ -499,5 +499,30 @@ contains
     PetscCall(MatAssemblyBegin(p, MAT_FINAL_ASSEMBLY, ierr))
     PetscCall(MatAssemblyEnd(p, MAT_FINAL_ASSEMBLY, ierr))
   end subroutine cubic_interpolation
+
+  !> Krylov methods that can, stop on the true residual (which is the 6-dof
+  !> v-row residual): right preconditioning for the GMRES family, the
+  !> unpreconditioned norm for CG-like ones; unless the options say
+  !> otherwise.
+  subroutine true_residual_defaults(ksp, ierr)
+    type(tKSP), intent(inout) :: ksp
+    PetscErrorCode, intent(out) :: ierr
+    character(len=64) :: ktype
+    PetscBool :: side_set, norm_set
+    PetscCall(KSPGetType(ksp, ktype, ierr))
+    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_ksp_pc_side', side_set, ierr))
+    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_ksp_norm_type', norm_set, ierr))
+    select case (trim(ktype))
+    case (KSPGMRES, KSPFGMRES, KSPLGMRES, KSPDGMRES, KSPPGMRES, KSPBCGS, KSPIBCGS, KSPTFQMR)
+      if (.not. side_set .and. trim(ktype) /= KSPFGMRES) then
+        PetscCall(KSPSetPCSide(ksp, PC_RIGHT, ierr))
+      end if
+    case (KSPCG, KSPPIPECG, KSPCR, KSPFCG)
+      if (.not. norm_set) then
+        PetscCall(KSPSetNormType(ksp, KSP_NORM_UNPRECONDITIONED, ierr))
+      end if
+    case default
+    end select
+  end subroutine true_residual_defaults
 
 end module reduced_mg
