@@ -24,32 +24,63 @@ module reduced
   use petscsnes
   use petscdmda
   use mpi
-  use, intrinsic :: iso_c_binding, only: c_int, c_intptr_t, c_int64_t
+  use, intrinsic :: iso_c_binding, only: c_int
   use kinds, only: rp
   use lattice, only: lattice_t
   use config, only: BEND_NONE
-  use forces, only: jac_buffer_t, jac_buffer_init, jac_buffer_row, slot_of, first_anchor_row
-  use reduced_blocks, only: reduced_row_blocks, buffer_row_apply, csr_fits_block_row
-  use reduced_assembly, only: assemble_csr, assemble_stencil, kc_products
-  use offset_product, only: stencil_product, offset_count
-  use interpolation, only: cubic_weights
+  use reduced_assembly, only: kc_products
+  use reduced_storage, only: s_store_t, store_init, store_matrix, store_assemble, check_direct, set_block_row
   use newton_control, only: floor_node_add, floor_estimate
-  use inner_guess, only: GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, GUESS_PROJECT, PROJECT_PAIRS, &
-                         guess_weights, second_weight, projection_weights
-  use stencil_mg, only: stencil_mg_t, mg_create, mg_destroy, mg_build_coarse, mg_apply, mg_describe, mg_product, &
-                        MG_MULTIPLICATIVE, MG_KASKADE
+  use inner_guess, only: GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, GUESS_PROJECT, PROJECT_PAIRS
+  use reduced_guess, only: guess_t, guess_use, guess_free, guess_restart, guess_set, guess_keep, guess_push, &
+                           guess_accepted, guess_mode
+  use stencil_mg, only: MG_KASKADE
+  use reduced_mg, only: mg_glue_t, mg_glue_matrix, mg_glue_pc, mg_glue_free, mg_glue_assemble, mg_glue_built, &
+                        mg_glue_describe, mg_coarse_levels, levels_that_fit, default_preconditioner, mg_interpolations, &
+                        true_residual_defaults, &
+                        INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
   implicit none
   private
   public :: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach, reduced_describe
   public :: set_block_row, reduced_set_guess, reduced_step_accepted
   public :: INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
 
-  !> Interpolation between multigrid levels (-nuno_mg_interpolation; the
-  !> values of src/nuno_options.c's list, 0 being auto).
-  integer, parameter :: INTERP_LINEAR = 1, INTERP_CUBIC = 2, INTERP_COARSE_CUBIC = 3
+  !> The element model's flags and the element products of the reduced
+  !> solve: the state of the last assembly, the constrained nodes and the
+  !> products K w_x + C w_v (module reduced_assembly). Newton solves
+  !> J du = F(u) at the state of the assembly: the products for that
+  !> right-hand side are formed during the assembly, in the same pass over
+  !> the elements (wpred, gpred); any other right-hand side is recognised
+  !> and gets its own pass.
+  type :: elements_t
+    logical :: constant = .false.          !< K and C do not depend on the state (linear springs, no bending)
+    logical :: damping = .true.            !< some element has a damper (C /= 0)
+    logical :: clamp = .false., gauss_newton = .false.
+    logical, allocatable :: fixedg(:, :)   !< (0:nx-1, gys:gye) constrained nodes, with ghosts
+    real(rp), allocatable :: ujac(:, :, :) !< (0:5, 0:nx-1, gys:gye) state at the last assembly
+    real(rp), allocatable :: w(:, :, :)    !< (0:5, 0:nx-1, gys:gye) work
+    real(rp), allocatable :: g(:, :, :)    !< (3, 0:nx-1, ys:ye) element products
+    real(rp), allocatable :: wpred(:, :, :) !< (0:5, 0:nx-1, gys:gye) w of b = F(u)
+    real(rp), allocatable :: gpred(:, :, :) !< (3, 0:nx-1, ys:ye) its products
+    real(rp), allocatable :: kd(:, :, :)    !< (3, 0:nx-1, ys:ye) diagonal of -df/dx at the assembly (round-off floor)
+    real(rp), allocatable :: lb(:, :, :, :, :) !< (0:nx-1, 3, 3, 4, 0:1) link blocks of two rows (direct assembly)
+    logical :: have_pred = .false.
+  end type elements_t
+
+  !> The inner preconditioner in use and its reuse.
+  type :: inner_pc_t
+    type(tVec) :: coords                   !< 3-dof node positions (GAMG near-null space)
+    logical :: use_nullspace = .false.     !< inner PC is GAMG: give it the rigid-body modes
+    logical :: use_mg = .false.            !< inner PC is nuno's structured multigrid (module stencil_mg)
+    integer :: interp = 1                  !< multigrid interpolation: INTERP_LINEAR, _CUBIC, _COARSE_CUBIC
+    integer :: pc_lag = 1                  !< rebuild the inner preconditioner every pc_lag assemblies
+    integer :: since_pc = 0                !< assemblies since the last rebuild
+  end type inner_pc_t
 
   !> Context of the reduced solve (PCSHELL and MATSHELL context).
   type :: reduced_t
+    type(elements_t) :: el                 !< the element model and its products (this module)
+    type(inner_pc_t) :: pcc                !< the inner preconditioner in use and its reuse (this module)
     type(lattice_t), pointer :: lat => null()
     type(tDM) :: da6                       !< the state's DMDA (dof 6; not owned)
     type(tDM) :: da3                       !< dof 3, same strips and halo
@@ -59,119 +90,24 @@ module reduced
     type(tKSP) :: outer                    !< the SNES's KSP (for Eisenstat-Walker forcing)
     type(tSNES) :: snes                    !< the TS's SNES
     type(tVec) :: rhs, dv                  !< 3-dof global work vectors
-    type(tVec) :: coords                   !< 3-dof node positions (GAMG near-null space)
-    type(jac_buffer_t) :: jbuf
+    type(s_store_t) :: sto                 !< S in a PETSc matrix (without use_mg; module reduced_storage)
     real(rp) :: a = 0                      !< shift of the assembled S [1/time]
     logical :: assembled = .false.
     logical :: dirty = .true.              !< constraints changed since the last assembly
-    logical :: constant = .false.          !< K and C do not depend on the state (linear springs, no bending)
-    logical :: damping = .true.            !< some element has a damper (C /= 0)
-    logical :: clamp = .false., gauss_newton = .false.
-    logical :: use_nullspace = .false.     !< inner PC is GAMG: give it the rigid-body modes
-    logical :: use_mg = .false.            !< inner PC is nuno's structured multigrid (module stencil_mg)
-    type(stencil_mg_t) :: mg
-    logical :: mg_built = .false.          !< its coarse levels exist
+    type(mg_glue_t) :: mgg                 !< nuno's multigrid and S by stencil offset (with use_mg; module reduced_mg)
     ! -log_view events of the reduced solve's own work
     PetscLogEvent :: ev_assemble = 0       !< S assembled (and the multigrid's finest level from it)
-    PetscLogEvent :: ev_galerkin = 0       !< the multigrid's coarse levels and coarsest factorisation
-    PetscLogEvent :: ev_cycle = 0          !< one multigrid cycle
-    real(rp), allocatable :: st(:, :, :, :, :) !< (0:nx-1, 3, 3, offset_count(w), 0:nrow-1) S by stencil offset, nodes fastest (with use_mg; module offset_product): rows ys..ye, or with the mixed product a ring of 2w - 1 rows (module reduced_assembly)
-    ! The product with S from the multigrid's finest level (single-precision
-    ! blocks in difference form, double-precision vectors; -nuno_mg_product)
-    logical :: mixed_product = .false.
-    ! The fused product (-nuno_mg_product fused): each multigrid cycle forms
-    ! the product of its output z with S in its last sweep (pax); the
-    ! Krylov method's next product is of z (FGMRES: w = S M^{-1} v), and
-    ! stencil_mult returns pax while z is that same vector, unchanged
-    ! (its PETSc object state).
-    logical :: fused_product = .false.
-    type(tVec) :: pax                      !< 3-dof: S z of the last cycle's output z
-    type(tVec) :: pax_of                   !< z (the handle, not a reference)
-    integer(c_int64_t) :: pax_state = -1   !< z's object state when pax was formed
-    logical :: pax_valid = .false.         !< pax is S z for the current S
-    logical :: pax_checked = .false.       !< the Krylov method's side checked (at the first cycle), pax made
-    integer :: pax_used = 0                !< products returned from pax (-reduced_ksp_view)
-    integer :: interp = 1                  !< multigrid interpolation: INTERP_LINEAR, _CUBIC, _COARSE_CUBIC
     logical :: forward_ew = .true.         !< pass the outer KSP's rtol (Eisenstat-Walker) to the inner one
-    integer :: pc_lag = 1                  !< rebuild the inner preconditioner every pc_lag assemblies
-    integer :: since_pc = 0                !< assemblies since the last rebuild
-    logical, allocatable :: fixedg(:, :)   !< (0:nx-1, gys:gye) constrained nodes, with ghosts
-    real(rp), allocatable :: ujac(:, :, :) !< (0:5, 0:nx-1, gys:gye) state at the last assembly
-    real(rp), allocatable :: w(:, :, :)    !< (0:5, 0:nx-1, gys:gye) work
-    real(rp), allocatable :: g(:, :, :)    !< (3, 0:nx-1, ys:ye) element products
-    ! Newton solves J du = F(u) at the state of the assembly: the products
-    ! for that right-hand side are formed during the assembly, in the same
-    ! pass over the elements (wpred, gpred); any other right-hand side is
-    ! recognised and gets its own pass.
-    real(rp), allocatable :: wpred(:, :, :) !< (0:5, 0:nx-1, gys:gye) w of b = F(u)
-    real(rp), allocatable :: gpred(:, :, :) !< (3, 0:nx-1, ys:ye) its products
-    real(rp), allocatable :: kd(:, :, :)    !< (3, 0:nx-1, ys:ye) diagonal of -df/dx at the assembly (round-off floor)
-    real(rp), allocatable :: lb(:, :, :, :, :) !< (0:nx-1, 3, 3, 4, 0:1) link blocks of two rows (direct assembly)
-    logical :: have_pred = .false.
-    real(rp), allocatable :: vals(:, :, :) !< (3, 3, ncol) one block row
-    integer, allocatable :: cols(:)        !< (ncol)
-    ! An AIJ S is filled by writing its value arrays directly (its structure,
-    ! the stencil, never changes; checked once by check_direct).
-    logical :: direct = .false.
-    logical, allocatable :: owned(:)       !< (ncol) column node owned by this rank
-    integer, allocatable :: lcol(:)        !< (ncol) its local node index
     real(rp) :: floor_est = 0              !< round-off floor of ||F||_2 at the last assembly (see reduced_assemble)
     integer :: its = 0                     !< inner Krylov iterations, cumulative
     ! Inexact Newton (module newton_forcing; set by the SNES convergence test)
     real(rp) :: rtol0 = 1.0e-6_rp          !< the inner rtol of the options (-reduced_ksp_rtol, default 1e-6)
     real(rp) :: eta = 0                    !< inner rtol of the next Newton solve; 0: rtol0
     real(rp) :: lin_rel = 0                !< relative residual the last inner solve left
-    ! The inner solve's initial guess at a step's first Newton iteration
-    ! (module inner_guess, -nuno_inner_guess): the first corrections of the
-    ! last two steps of this time window and their shifts
-    integer :: guess = GUESS_NONE          !< GUESS_NONE, _PREVIOUS or _EXTRAPOLATE (set by reduced_set_guess)
-    type(tVec) :: dvh(2)                   !< 3-dof: dvh(1) the last step's, dvh(2) the one before
-    real(rp) :: ah(2) = 0                  !< their shifts a [1/time]
-    integer :: nh = 0                      !< how many are stored (0 at every window start)
-    integer :: guess_power = 2             !< dv ~ 1/a^p: 2 with the extrapolated start of beuler, 1 without
-    logical :: window_start = .true.       !< the next step is its window's first (TS restarts it unextrapolated)
-    type(tVec) :: dvp                      !< 3-dof: the first correction of the step under way (kept if it is accepted)
-    real(rp) :: ap = 0                     !< its shift
-    logical :: pending = .false.           !< dvp holds one
-    ! and at its second Newton iteration: the last accepted step's second
-    ! correction, scaled by the ratio of the right-hand sides (second_weight)
-    type(tVec) :: dvh2                     !< 3-dof: the last step's second correction
-    real(rp) :: ah2 = 0                    !< its shift
-    real(rp) :: bh2 = 0                    !< the norm of its right-hand side
-    logical :: has2 = .false.              !< dvh2 holds one (false at every window start)
-    type(tVec) :: dvp2                     !< 3-dof: the second correction of the step under way
-    real(rp) :: ap2 = 0                    !< its shift
-    real(rp) :: bp2 = 0                    !< the norm of its right-hand side
-    logical :: pending2 = .false.          !< dvp2 holds one
-    ! -nuno_inner_guess project: the last np inner solves at shift pa, their
-    ! right-hand sides pb(k) and solutions px(k) (oldest first), the Gram
-    ! matrix of the pb and their products pd with this solve's right-hand
-    ! side (formed by project_guess, which every solve calls first)
-    integer :: np = 0
-    type(tVec) :: pb(PROJECT_PAIRS), px(PROJECT_PAIRS)   !< 3-dof
-    real(rp) :: pg(PROJECT_PAIRS, PROJECT_PAIRS) = 0
-    real(rp) :: pd(PROJECT_PAIRS) = 0
-    real(rp) :: pa = 0                     !< [1/time]
+    type(guess_t) :: gs                    !< the inner initial guesses (module reduced_guess)
   end type reduced_t
 
-  !> The parts of an assembled AIJ S as plain arrays: diagonal part (ia, ja,
-  !> av) and off-diagonal part (ib, jb, bv; empty on one rank), 1-based
-  !> pointers into PETSc's own arrays (no copies).
-  type :: aij_view_t
-    type(tMat) :: ad, ao
-    logical :: parallel = .false.
-    PetscInt :: na = 0, nb = 0
-    PetscInt, pointer :: ia(:) => null(), ja(:) => null(), ib(:) => null(), jb(:) => null()
-    PetscScalar, pointer :: av(:) => null(), bv(:) => null()
-  end type aij_view_t
-
   interface
-    !> src/nuno_vec_state.c: PetscObjectStateGet (no Fortran stub in 3.18).
-    integer(c_int) function nuno_object_state(obj, state) bind(C, name='nuno_object_state')
-      import :: c_int, c_intptr_t, c_int64_t
-      integer(c_intptr_t) :: obj            !< the handle (tVec%v, ...), passed as PetscObject*
-      integer(c_int64_t), intent(out) :: state
-    end function nuno_object_state
     !> src/nuno_options.c: the options of nuno's multigrid (-nuno_mg ...).
     integer(c_int) function nuno_mg_options_read(fcomm, impl, cycle, sweeps, levels, product, given) bind(C, name='nuno_mg_options_read')
       import :: c_int
@@ -221,10 +157,11 @@ contains
     integer, intent(in), optional :: mg_interpolation  !< multigrid interpolation: 0 auto, else an INTERP_ code
     PetscInt :: nx, ny, w, m, n, mg, ng, nranks, dummy(1), xs, ys, zs, zm, maxit0
     PetscReal :: atol0, dtol0
-    integer :: levels, l
+    integer :: levels
+    PetscLogEvent :: ev_galerkin, ev_cycle
+    logical :: mixed, fused
     PetscClassId :: classid
     integer(c_int) :: mg_impl, mg_cycle, mg_sweeps, mg_levels, mg_product, mg_given
-    logical, allocatable :: cubic(:), cubic_up(:)
     PetscInt, allocatable :: ly(:)
     PetscInt, parameter :: one = 1, three = 3, izero = 0, ione = 1
     type(tPC) :: pc
@@ -237,12 +174,12 @@ contains
     red%da6 = da6
     PetscCall(PetscClassIdRegister('nuno', classid, ierr))
     PetscCall(PetscLogEventRegister('nunoAssembleS', classid, red%ev_assemble, ierr))
-    PetscCall(PetscLogEventRegister('nunoMGGalerkin', classid, red%ev_galerkin, ierr))
-    PetscCall(PetscLogEventRegister('nunoMGCycle', classid, red%ev_cycle, ierr))
-    red%constant = constant
-    red%damping = damping
-    red%clamp = clamp
-    red%gauss_newton = gauss_newton
+    PetscCall(PetscLogEventRegister('nunoMGGalerkin', classid, ev_galerkin, ierr))
+    PetscCall(PetscLogEventRegister('nunoMGCycle', classid, ev_cycle, ierr))
+    red%el%constant = constant
+    red%el%damping = damping
+    red%el%clamp = clamp
+    red%el%gauss_newton = gauss_newton
     PetscCall(PetscObjectGetComm(da6, comm, ierr))
     call MPI_Comm_size(comm, nranks, mpierr)
     allocate(ly(nranks))
@@ -269,7 +206,7 @@ contains
     ! nuno's multigrid replicates its coarsest level where strips get too
     ! thin, so only the lattice's size limits its levels; PETSc's needs
     ! the halo's rows in every coarse strip.
-    red%use_mg = levels_that_fit(nx, ny, izero, ione) >= 3
+    red%pcc%use_mg = levels_that_fit(nx, ny, izero, ione) >= 3
     levels = levels_that_fit(nx, ny, w, nranks)
     mg_impl = 0
     mg_cycle = MG_KASKADE
@@ -279,17 +216,17 @@ contains
     ierr = nuno_mg_options_read(comm, mg_impl, mg_cycle, mg_sweeps, mg_levels, mg_product, mg_given)
     if (ierr /= 0) return
     PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_pc_type', found, ierr))
-    red%use_mg = red%use_mg .and. .not. found .and. mg_impl == 0
-    if (mg_given /= 0 .and. .not. red%use_mg) then
+    red%pcc%use_mg = red%pcc%use_mg .and. .not. found .and. mg_impl == 0
+    if (mg_given /= 0 .and. .not. red%pcc%use_mg) then
       ierr = PETSC_ERR_ARG_INCOMP
       SETERRQ(comm, ierr, 'nuno: -nuno_mg_cycle, -nuno_mg_sweeps, -nuno_mg_levels and -nuno_mg_product are for nuno''s multigrid (-nuno_mg stencil, the default from 3 levels on, no -reduced_pc_type)')
     end if
     ! 0 mixed, 1 double, 2 fused (mixed, each cycle's output multiplied in
     ! its last sweep; where the Krylov method multiplies that output:
     ! checked at the first cycle, mg_pc_apply)
-    red%mixed_product = red%use_mg .and. mg_product /= 1
-    red%fused_product = red%use_mg .and. mg_product == 2
-    if (red%use_mg) then
+    mixed = red%pcc%use_mg .and. mg_product /= 1
+    fused = red%pcc%use_mg .and. mg_product == 2
+    if (red%pcc%use_mg) then
       ! FGMRES even where S is symmetric: the kaskade cycle is not, and
       ! FGMRES + kaskade beat CG + V-cycles by 1.4x on a symmetric hang
       ! (measured with commit cdb1ad4).
@@ -307,32 +244,15 @@ contains
     PetscCall(KSPGetTolerances(red%ksp, red%rtol0, atol0, dtol0, maxit0, ierr))
     PetscCall(KSPGetPC(red%ksp, pc, ierr))
     PetscCall(PCGetType(pc, pctype, ierr))
-    red%use_nullspace = pctype == PCGAMG
+    red%pcc%use_nullspace = pctype == PCGAMG
 
-    if (red%use_mg) then
-      ! S by stencil offset (reduced_assemble), its product a MATSHELL:
-      ! nuno's multigrid needs no PETSc matrix, and no column indices are
-      ! stored (1.2 KB a node with bending against 2.6 in AIJ, and with the
-      ! mixed product only a ring of rows: 648 B a node in the multigrid's
-      ! finest level instead).
+    if (red%pcc%use_mg) then
+      ! S by stencil offset, its product a MATSHELL (module reduced_mg)
       PetscCall(DMSetUp(red%da3, ierr))
       PetscCall(DMDAGetCorners(da6, xs, ys, zs, m, n, zm, ierr))
-      ! the whole strip for the product in double precision; with the mixed
-      ! product only the rows the assembly is writing (a ring: with bending
-      ! the triples reach two rows back; module reduced_assembly)
-      if (red%mixed_product) then
-        allocate(red%st(0:nx - 1, 3, 3, offset_count(w), 0:2 * w - 2))
-      else
-        allocate(red%st(0:nx - 1, 3, 3, offset_count(w), 0:n - 1))
-      end if
-      red%st = 0.0_rp
-      m = 3 * nx * n
-      mg = 3 * nx * ny
-      PetscCall(MatCreateShell(comm, m, m, mg, mg, PETSC_NULL_INTEGER, red%s, ierr))
-      PetscCall(MatShellSetContext(red%s, red, ierr))
-      PetscCall(MatShellSetOperation(red%s, MATOP_MULT, stencil_mult, ierr))
+      PetscCall(mg_glue_matrix(red%mgg, lat, red%da3, red%ksp, nx, ny, n, w, mixed, fused, ev_galerkin, ev_cycle, red%s, ierr))
     else
-      PetscCall(aij_or_baij_s(ierr))
+      PetscCall(store_matrix(red%da3, pctype, symmetric, red%s, ierr))
     end if
     PetscCall(KSPSetOperators(red%ksp, red%s, red%s, ierr))
     PetscCall(KSPSetOperators(red%ksp, red%s, red%s, ierr))
@@ -340,12 +260,12 @@ contains
     PetscCall(KSPSetDM(red%ksp, red%da3, ierr))
     PetscCall(KSPSetDMActive(red%ksp, PETSC_FALSE, ierr))
     if (present(mg_interpolation)) then
-      if (mg_interpolation > 0 .and. pctype /= PCMG .and. .not. red%use_mg) then
+      if (mg_interpolation > 0 .and. pctype /= PCMG .and. .not. red%pcc%use_mg) then
         ierr = PETSC_ERR_ARG_INCOMP
         SETERRQ(comm, ierr, 'nuno: -nuno_mg_interpolation needs an inner multigrid: nuno''s (the default from 3 levels on) or -reduced_pc_type mg')
       end if
     end if
-    if (pctype == PCMG .or. red%use_mg) then
+    if (pctype == PCMG .or. red%pcc%use_mg) then
       ! auto: with bending, cubic on every level but the finest (measured
       ! with commit 458d4d3: as fast as cubic everywhere, and the parallel
       ! Galerkin product of the finest level with a cubic P doubled the
@@ -353,38 +273,24 @@ contains
       ! everywhere still as fast, 30 % fewer iterations for
       ! cycles 1.6 times as long), the finest level's correction cubic in
       ! nuno's multigrid (10 % fewer iterations for the same cycle).
-      red%interp = INTERP_LINEAR
-      if (lat%bending_model /= BEND_NONE) red%interp = INTERP_COARSE_CUBIC
+      red%pcc%interp = INTERP_LINEAR
+      if (lat%bending_model /= BEND_NONE) red%pcc%interp = INTERP_COARSE_CUBIC
       if (present(mg_interpolation)) then
-        if (mg_interpolation > 0) red%interp = mg_interpolation
+        if (mg_interpolation > 0) red%pcc%interp = mg_interpolation
       end if
-      if (red%use_mg) then
-        ! Transfer l joins level l + 1 to level l (1 = the lattice).
-        ! coarse_cubic: the finest level's coarse correction interpolated
-        ! cubic too, its restriction and Galerkin product bilinear (module
-        ! stencil_mg, mg_create).
-        allocate(cubic(10), cubic_up(10))
-        do l = 1, size(cubic)
-          cubic(l) = red%interp == INTERP_CUBIC .or. (red%interp == INTERP_COARSE_CUBIC .and. l > 1)
-          cubic_up(l) = red%interp == INTERP_CUBIC .or. red%interp == INTERP_COARSE_CUBIC
-        end do
+      if (red%pcc%use_mg) then
         PetscCall(DMDAGetCorners(da6, xs, ys, zs, m, n, zm, ierr))
         ! without bending every element of S is a link, so S(p, q) = S(q, p)
         ! block for block (mg_kernels' stencil_t, paired): the sweeps and
         ! products read the blocks to the row below from that row
-        call mg_create(red%mg, comm, nx, ny, ys, ys + n - 1, w, cubic, merge(int(mg_levels), 10, mg_levels > 0), mg_cycle, mg_sweeps, &
-                       cubic_up, paired=lat%bending_model == BEND_NONE)
-        PetscCall(PCShellSetContext(pc, red, ierr))
-        PetscCall(PCShellSetApply(pc, mg_pc_apply, ierr))
-        PetscCall(PCShellSetView(pc, mg_pc_view, ierr))
-        PetscCall(PCShellSetName(pc, 'nuno structured multigrid (module stencil_mg)', ierr))
+        PetscCall(mg_glue_pc(red%mgg, pc, nx, ny, ys, n, w, red%pcc%interp, merge(int(mg_levels), 10, mg_levels > 0), int(mg_cycle), int(mg_sweeps), lat%bending_model == BEND_NONE, ierr))
       else
-        PetscCall(mg_interpolations(red, pc, ierr))
+        PetscCall(mg_interpolations(red%da3, red%pcc%interp, pc, ierr))
       end if
     end if
     PetscCall(DMCreateGlobalVector(red%da3, red%rhs, ierr))
     PetscCall(VecDuplicate(red%rhs, red%dv, ierr))
-    PetscCall(VecDuplicate(red%rhs, red%coords, ierr))
+    PetscCall(VecDuplicate(red%rhs, red%pcc%coords, ierr))
 
     ! The 6-dof Jacobian: only its action, from the element blocks.
     PetscCall(DMDAGetCorners(da6, xs, ys, zs, m, n, zm, ierr))
@@ -396,18 +302,16 @@ contains
     PetscCall(MatShellSetContext(red%jac, red, ierr))
     PetscCall(MatShellSetOperation(red%jac, MATOP_MULT, reduced_jac_mult, ierr))
 
-    call jac_buffer_init(red%jbuf, lat)
-    allocate(red%fixedg(0:lat%nx - 1, lat%gys:lat%gye))
-    allocate(red%ujac(0:5, 0:lat%nx - 1, lat%gys:lat%gye), red%w(0:5, 0:lat%nx - 1, lat%gys:lat%gye))
-    allocate(red%g(3, 0:lat%nx - 1, lat%ys:lat%ye), red%gpred(3, 0:lat%nx - 1, lat%ys:lat%ye))
-    allocate(red%wpred(0:5, 0:lat%nx - 1, lat%gys:lat%gye), red%kd(3, 0:lat%nx - 1, lat%ys:lat%ye))
-    allocate(red%lb(0:lat%nx - 1, 3, 3, 4, 0:1))
-    allocate(red%vals(3, 3, (2 * lat%halo + 1)**2), red%cols((2 * lat%halo + 1)**2))
-    allocate(red%owned((2 * lat%halo + 1)**2), red%lcol((2 * lat%halo + 1)**2))
-    red%fixedg = .false.
-    red%ujac = 0.0_rp
-    if (.not. red%use_mg) then
-      PetscCall(check_direct(red, ierr))
+    call store_init(red%sto, lat)
+    allocate(red%el%fixedg(0:lat%nx - 1, lat%gys:lat%gye))
+    allocate(red%el%ujac(0:5, 0:lat%nx - 1, lat%gys:lat%gye), red%el%w(0:5, 0:lat%nx - 1, lat%gys:lat%gye))
+    allocate(red%el%g(3, 0:lat%nx - 1, lat%ys:lat%ye), red%el%gpred(3, 0:lat%nx - 1, lat%ys:lat%ye))
+    allocate(red%el%wpred(0:5, 0:lat%nx - 1, lat%gys:lat%gye), red%el%kd(3, 0:lat%nx - 1, lat%ys:lat%ye))
+    allocate(red%el%lb(0:lat%nx - 1, 3, 3, 4, 0:1))
+    red%el%fixedg = .false.
+    red%el%ujac = 0.0_rp
+    if (.not. red%pcc%use_mg) then
+      PetscCall(check_direct(red%sto, red%s, red%da3, red%el%fixedg, red%el%damping, ierr))
     end if
 
     ! An explicit -reduced_ksp_rtol wins over the outer forcing term.
@@ -422,125 +326,15 @@ contains
     ! on hang's 1 s, 1-4 % more on the release scenes, half the rebuilds),
     ! any other preconditioner rebuilt each time.
     if (pc_lag > 0) then
-      red%pc_lag = pc_lag
-    else if ((pctype == PCMG .or. red%use_mg) .and. red%interp /= INTERP_LINEAR) then
-      red%pc_lag = 20
-    else if (pctype == PCMG .or. red%use_mg) then
-      red%pc_lag = 3
+      red%pcc%pc_lag = pc_lag
+    else if ((pctype == PCMG .or. red%pcc%use_mg) .and. red%pcc%interp /= INTERP_LINEAR) then
+      red%pcc%pc_lag = 20
+    else if (pctype == PCMG .or. red%pcc%use_mg) then
+      red%pcc%pc_lag = 3
     else
-      red%pc_lag = 1
+      red%pcc%pc_lag = 1
     end if
-  contains
-
-    !> S assembled in a PETSc matrix: BAIJ (3 x 3 blocks) for the point-wise
-    !> and block-local preconditioners, whose kernels are blocked; AIJ (with
-    !> block size 3) for the algebraic multigrids, which need it.
-    !> -reduced_dm_mat_type wins.
-    subroutine aij_or_baij_s(ierr)
-      PetscErrorCode, intent(out) :: ierr
-      character(len=64) :: mattype
-      select case (trim(pctype))
-    case (PCJACOBI, PCPBJACOBI, PCBJACOBI, PCASM, PCSOR, PCILU, PCICC, PCNONE)
-        PetscCall(DMSetMatType(red%da3, MATBAIJ, ierr))
-      case default
-        PetscCall(DMSetMatType(red%da3, MATAIJ, ierr))
-      end select
-      PetscCall(DMSetFromOptions(red%da3, ierr))
-      PetscCall(DMSetUp(red%da3, ierr))
-      PetscCall(DMCreateMatrix(red%da3, red%s, ierr))
-      PetscCall(MatSetOption(red%s, MAT_ROW_ORIENTED, PETSC_FALSE, ierr))
-      PetscCall(MatSetOption(red%s, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE, ierr))
-      PetscCall(MatGetType(red%s, mattype, ierr))
-      if (index(mattype, 'sbaij') > 0) then
-        ! Symmetric storage keeps the upper triangle: S must be symmetric.
-        if (.not. symmetric) then
-          ierr = PETSC_ERR_ARG_INCOMP
-          SETERRQ(comm, ierr, 'nuno: -reduced_dm_mat_type sbaij needs a symmetric S (no moving dampers, no paper bending, eta_b = 0)')
-        end if
-        PetscCall(MatSetOption(red%s, MAT_IGNORE_LOWER_TRIANGULAR, PETSC_TRUE, ierr))
-      end if
-      if (symmetric) then
-        PetscCall(MatSetOption(red%s, MAT_SYMMETRIC, PETSC_TRUE, ierr))
-        PetscCall(MatSetOption(red%s, MAT_SYMMETRY_ETERNAL, PETSC_TRUE, ierr))
-      end if
-    end subroutine aij_or_baij_s
   end subroutine reduced_create
-
-  !> Multigrid levels of the lattice: as many as it halves into with at
-  !> least 5 nodes a side and, in every strip, the halo width of rows on
-  !> the coarsest grid (a level coarsens n -> (n-1)/2 + 1 in each direction).
-  integer function levels_that_fit(nx, ny, w, nranks) result(levels)
-    PetscInt, intent(in) :: nx, ny, w, nranks
-    integer :: mx, my
-    levels = 1
-    mx = nx
-    my = ny
-    do while (mod(mx - 1, 2) == 0 .and. mod(my - 1, 2) == 0 .and. (mx - 1) / 2 + 1 >= 5 .and. &
-              (my - 1) / 2 + 1 >= max(5, 2 * w * nranks) .and. levels < 10)
-      mx = (mx - 1) / 2 + 1
-      my = (my - 1) / 2 + 1
-      levels = levels + 1
-    end do
-  end function levels_that_fit
-
-  !> The inner preconditioner when it is not nuno's multigrid, unless
-  !> -reduced_pc_type is given: PETSc's geometric multigrid on the DMDA
-  !> (Galerkin coarse operators, one SSOR sweep as smoother) with the given
-  !> levels; block Jacobi/ILU(0) where fewer than three fit (small
-  !> lattices, for which it is the cheaper). Set in the options database,
-  !> so that -help shows them and every one can be overridden.
-  subroutine default_preconditioner(levels, ierr)
-    integer, intent(in) :: levels
-    PetscErrorCode, intent(out) :: ierr
-    PetscBool :: set
-    character(len=16) :: txt
-
-    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_pc_type', set, ierr))
-    if (set) return
-    if (levels < 3) then
-      PetscCall(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-reduced_pc_type', 'bjacobi', ierr))
-      return
-    end if
-    write(txt, '(i0)') levels
-    PetscCall(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-reduced_pc_type', 'mg', ierr))
-    PetscCall(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-reduced_pc_mg_levels', trim(txt), ierr))
-    PetscCall(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-reduced_pc_mg_galerkin', 'pmat', ierr))
-    call set_default('-reduced_mg_levels_ksp_type', 'richardson')
-    call set_default('-reduced_mg_levels_pc_type', 'sor')
-    call set_default('-reduced_mg_levels_ksp_max_it', '1')
-  contains
-    subroutine set_default(name, value)
-      character(len=*), intent(in) :: name, value
-      PetscBool :: given
-      call PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, name, given, ierr)
-      if (.not. given) call PetscOptionsSetValue(PETSC_NULL_OPTIONS, name, value, ierr)
-    end subroutine set_default
-  end subroutine default_preconditioner
-
-  !> Krylov methods that can, stop on the true residual (which is the 6-dof
-  !> v-row residual): right preconditioning for the GMRES family, the
-  !> unpreconditioned norm for CG-like ones; unless the options say
-  !> otherwise.
-  subroutine true_residual_defaults(ksp, ierr)
-    type(tKSP), intent(inout) :: ksp
-    PetscErrorCode, intent(out) :: ierr
-    character(len=64) :: ktype
-    PetscBool :: side_set, norm_set
-    PetscCall(KSPGetType(ksp, ktype, ierr))
-    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_ksp_pc_side', side_set, ierr))
-    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_ksp_norm_type', norm_set, ierr))
-    select case (trim(ktype))
-    case (KSPGMRES, KSPFGMRES, KSPLGMRES, KSPDGMRES, KSPPGMRES, KSPBCGS, KSPIBCGS, KSPTFQMR)
-      if (.not. side_set .and. trim(ktype) /= KSPFGMRES) then
-        PetscCall(KSPSetPCSide(ksp, PC_RIGHT, ierr))
-      end if
-    case (KSPCG, KSPPIPECG, KSPCR, KSPFCG)
-      if (.not. norm_set) then
-        PetscCall(KSPSetNormType(ksp, KSP_NORM_UNPRECONDITIONED, ierr))
-      end if
-    case default
-    end select
-  end subroutine true_residual_defaults
 
   !> One line on the inner solver for the start-up summary: Krylov method,
   !> tolerance, preconditioner; for nuno's multigrid its levels, cycle and
@@ -550,34 +344,24 @@ contains
     character(len=*), intent(out) :: line
     PetscErrorCode, intent(out) :: ierr
     character(len=64) :: ktype, ptype
-    character(len=160) :: text(16)
     character(len=16) :: rt
-    integer :: n
     type(tPC) :: pc
     PetscCall(KSPGetType(red%ksp, ktype, ierr))
     PetscCall(KSPGetPC(red%ksp, pc, ierr))
     PetscCall(PCGetType(pc, ptype, ierr))
     write(rt, '(es8.1)') red%rtol0
     line = trim(ktype)//', rtol '//trim(adjustl(rt))
-    if (red%use_mg) then
-      call mg_describe(red%mg, text, n)
-      line = trim(line)//' + nuno multigrid: '//trim(text(1)(1:index(text(1), ', single') - 1))// &
-             ', '//trim(adjustl(text(n)(index(text(n), 'reads'):index(text(n), ' over') - 1)))
-      if (red%fused_product) then
-        line = trim(line)//'; product with S fused (the finest level''s single-precision blocks; of each cycle''s output in its last sweep)'
-      else
-        line = trim(line)//'; product with S '//trim(merge('mixed (the finest level''s single-precision blocks)', &
-                                                             'double                                            ', red%mixed_product))
-      end if
+    if (red%pcc%use_mg) then
+      call mg_glue_describe(red%mgg, line)
     else
       line = trim(line)//' + '//trim(ptype)
     end if
-    if (red%guess == GUESS_PROJECT) then
+    if (guess_mode(red%gs) == GUESS_PROJECT) then
       write(line, '(a, i0, a)') trim(line)//'; initial guess projected on the last ', PROJECT_PAIRS, &
         ' inner solves (-nuno_inner_guess)'
-    else if (red%guess == GUESS_EXTRAPOLATE) then
+    else if (guess_mode(red%gs) == GUESS_EXTRAPOLATE) then
       line = trim(line)//'; initial guess extrapolated, at the second Newton iteration the previous step''s (-nuno_inner_guess)'
-    else if (red%guess == GUESS_PREVIOUS) then
+    else if (guess_mode(red%gs) == GUESS_PREVIOUS) then
       line = trim(line)//'; initial guess the previous step''s, at the second Newton iteration too (-nuno_inner_guess)'
     end if
   end subroutine reduced_describe
@@ -603,23 +387,13 @@ contains
     type(reduced_t), intent(inout) :: red
     PetscErrorCode, intent(out) :: ierr
     PetscCall(KSPDestroy(red%ksp, ierr))
-    if (red%use_mg) call mg_destroy(red%mg)
+    if (red%pcc%use_mg) then
+      PetscCall(mg_glue_free(red%mgg, ierr))
+    end if
     PetscCall(MatDestroy(red%jac, ierr))
-    PetscCall(VecDestroy(red%coords, ierr))
+    PetscCall(VecDestroy(red%pcc%coords, ierr))
     PetscCall(VecDestroy(red%dv, ierr))
-    if (red%guess == GUESS_PROJECT) then
-      PetscCall(VecDestroyVecs(PROJECT_PAIRS, red%pb, ierr))
-      PetscCall(VecDestroyVecs(PROJECT_PAIRS, red%px, ierr))
-    else if (red%guess /= GUESS_NONE) then
-      PetscCall(VecDestroy(red%dvh(1), ierr))
-      PetscCall(VecDestroy(red%dvh(2), ierr))
-      PetscCall(VecDestroy(red%dvp, ierr))
-      PetscCall(VecDestroy(red%dvh2, ierr))
-      PetscCall(VecDestroy(red%dvp2, ierr))
-    end if
-    if (red%fused_product .and. red%pax_checked) then
-      PetscCall(VecDestroy(red%pax, ierr))
-    end if
+    PetscCall(guess_free(red%gs, ierr))
     PetscCall(VecDestroy(red%rhs, ierr))
     PetscCall(MatDestroy(red%s, ierr))
     PetscCall(DMDestroy(red%da3, ierr))
@@ -645,21 +419,16 @@ contains
     PetscCall(DMGlobalToLocalBegin(red%da3, red%dv, INSERT_VALUES, loc, ierr))
     PetscCall(DMGlobalToLocalEnd(red%da3, red%dv, INSERT_VALUES, loc, ierr))
     PetscCall(DMDAVecGetArrayReadF90(red%da3, loc, fl, ierr))
-    red%fixedg = fl(0, :, :) > 0.5_rp
+    red%el%fixedg = fl(0, :, :) > 0.5_rp
     PetscCall(DMDAVecRestoreArrayReadF90(red%da3, loc, fl, ierr))
     PetscCall(DMRestoreLocalVector(red%da3, loc, ierr))
     red%dirty = .true.
     ! The preconditioner is built afresh at the window's first assembly, so
     ! that a run restarted at a window's start (a checkpoint) takes the same
     ! iterations as the run that went through it.
-    red%since_pc = red%pc_lag
+    red%pcc%since_pc = red%pcc%pc_lag
     ! and the inner guesses too start afresh (module inner_guess)
-    red%nh = 0
-    red%np = 0
-    red%window_start = .true.
-    red%pending = .false.
-    red%has2 = .false.
-    red%pending2 = .false.
+    call guess_restart(red%gs)
   end subroutine reduced_set_fixed
 
   !> Assemble S at the ghosted state u(0:5, 0:nx-1, gys:gye) (with its time
@@ -672,74 +441,48 @@ contains
     real(rp), intent(in) :: ud(0:, 0:, red%lat%gys:)
     real(rp), intent(in) :: a
     PetscErrorCode, intent(out) :: ierr
-    integer :: ja, i, j, nc, q
-    PetscInt :: row(1), ncol
+    integer :: ja, i, j
     real(rp) :: loc(2), glob(2)
     MPI_Comm :: comm
-    type(aij_view_t) :: view
 
     ierr = 0
-    red%ujac = u
+    red%el%ujac = u
     ! A constant S is kept; the PC apply then forms the products itself
     ! (one pass over the elements, none when they vanish).
-    red%have_pred = .not. (red%constant .and. red%assembled .and. .not. red%dirty .and. a == red%a)
-    if (.not. red%have_pred) return
+    red%el%have_pred = .not. (red%el%constant .and. red%assembled .and. .not. red%dirty .and. a == red%a)
+    if (.not. red%el%have_pred) return
     ! w of the right-hand side b = F(u): F_x = xdot - v, F_v = vdot on
     ! constrained nodes (whose v is their prescribed velocity).
     do j = red%lat%gys, red%lat%gye
       do i = 0, red%lat%nx - 1
-        red%wpred(0:2, i, j) = (ud(0:2, i, j) - u(3:5, i, j)) / a
-        if (red%fixedg(i, j)) then
-          red%wpred(3:5, i, j) = ud(3:5, i, j) / a
+        red%el%wpred(0:2, i, j) = (ud(0:2, i, j) - u(3:5, i, j)) / a
+        if (red%el%fixedg(i, j)) then
+          red%el%wpred(3:5, i, j) = ud(3:5, i, j) / a
         else
-          red%wpred(3:5, i, j) = 0.0_rp
+          red%el%wpred(3:5, i, j) = 0.0_rp
         end if
       end do
     end do
     loc = 0.0_rp
     PetscCall(PetscLogEventBegin(red%ev_assemble, ierr))
-    if (red%use_mg) then
+    if (red%pcc%use_mg) then
       ! By stencil offset (module reduced_assembly), for nuno's multigrid,
       ! whose finest level is made from it row by row on the way (every
       ! assembly: its smoother and residual use the current S, as PETSc's
       ! PCMG does with a reused hierarchy).
-      red%pax_valid = .false.
-      call assemble_stencil(red%lat, u, red%fixedg, a, red%damping, red%clamp, red%gauss_newton, red%wpred, &
-                            red%lb, red%gpred, red%kd, red%st, red%mg%lev(1)%a)
-    else if (red%direct) then
-      ! AIJ: element blocks straight into the CSR values (module reduced_assembly).
-      PetscCall(aij_open(red, view, ierr))
-      call assemble_csr(red%lat, u, red%fixedg, a, red%damping, red%clamp, red%gauss_newton, red%wpred, &
-                        red%lb, red%gpred, red%kd, view%ia, view%av, view%ib, view%bv)
-      PetscCall(aij_close(red, view, ierr))
+      call mg_glue_assemble(red%mgg, u, red%el%fixedg, a, red%el%damping, red%el%clamp, red%el%gauss_newton, red%el%wpred, &
+                            red%el%lb, red%el%gpred, red%el%kd)
     else
-      red%jbuf%k = 0.0_rp
-      red%jbuf%c = 0.0_rp
-      do ja = first_anchor_row(red%lat), red%lat%ye
-        call jac_buffer_row(red%jbuf, red%lat, u, ja, red%clamp, red%gauss_newton)
-        if (ja >= red%lat%ys) then
-          call buffer_row_apply(red%jbuf, red%lat, red%wpred, ja, red%damping, red%gpred(:, :, ja))
-          do i = 0, red%lat%nx - 1
-            do q = 1, 3
-              red%kd(q, i, ja) = red%jbuf%k(q, q, 0, 0, i, slot_of(ja))
-            end do
-            call reduced_row_blocks(red%jbuf, red%lat, red%fixedg, i, ja, a, red%damping, red%vals, red%cols, nc)
-            row(1) = i + (ja - red%lat%gys) * red%lat%nx
-            ncol = nc
-            PetscCall(set_block_row(red%s, row, ncol, red%cols, red%vals, 9 * nc, ierr))
-          end do
-        end if
-        red%jbuf%k(:, :, :, :, :, slot_of(ja)) = 0.0_rp
-        red%jbuf%c(:, :, :, :, :, slot_of(ja)) = 0.0_rp
-      end do
+      ! S in a PETSc matrix (module reduced_storage)
+      PetscCall(store_assemble(red%sto, red%s, u, red%el%fixedg, a, red%el%damping, red%el%clamp, red%el%gauss_newton, red%el%wpred, red%el%lb, red%el%gpred, red%el%kd, ierr))
     end if
     PetscCall(MatAssemblyBegin(red%s, MAT_FINAL_ASSEMBLY, ierr))
     PetscCall(MatAssemblyEnd(red%s, MAT_FINAL_ASSEMBLY, ierr))
     PetscCall(PetscLogEventEnd(red%ev_assemble, ierr))
     do ja = red%lat%ys, red%lat%ye
       do i = 0, red%lat%nx - 1
-        if (red%fixedg(i, ja)) cycle
-        call floor_node_add(red%kd(:, i, ja), red%lat%mass(i, ja), u(0:2, i, ja), a, loc)
+        if (red%el%fixedg(i, ja)) cycle
+        call floor_node_add(red%el%kd(:, i, ja), red%lat%mass(i, ja), u(0:2, i, ja), a, loc)
       end do
     end do
     ! Round-off floor of the residual: a position is known to eps |x|, and
@@ -760,348 +503,23 @@ contains
     red%dirty = .false.
     ! Preconditioner reuse: rebuild every pc_lag assemblies (and after a
     ! failed inner solve, see reduced_pc_apply).
-    red%since_pc = red%since_pc + 1
-    if (red%since_pc >= red%pc_lag) then
-      red%since_pc = 0
+    red%pcc%since_pc = red%pcc%since_pc + 1
+    if (red%pcc%since_pc >= red%pcc%pc_lag) then
+      red%pcc%since_pc = 0
       PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_FALSE, ierr))
-      if (red%use_mg) then
-        PetscCall(mg_coarse_levels(red, ierr))
+      if (red%pcc%use_mg) then
+        PetscCall(mg_coarse_levels(red%mgg, ierr))
       end if
-      if (red%use_nullspace) then
+      if (red%pcc%use_nullspace) then
         PetscCall(set_rigid_body_modes(red, u, ierr))
       end if
     else
       PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_TRUE, ierr))
-      if (red%use_mg .and. .not. red%mg_built) then
-        PetscCall(mg_coarse_levels(red, ierr))
+      if (red%pcc%use_mg .and. .not. mg_glue_built(red%mgg)) then
+        PetscCall(mg_coarse_levels(red%mgg, ierr))
       end if
     end if
   end subroutine reduced_assemble
-
-  !> Column ownership of the block row in red%cols(1:nc): owned(n) when its
-  !> node lies in this rank's rows, lcol(n) its local node index there.
-  subroutine mark_owned(red, nc)
-    type(reduced_t), intent(inout) :: red
-    integer, intent(in) :: nc
-    integer :: n, jn
-    do n = 1, nc
-      jn = red%cols(n) / red%lat%nx + red%lat%gys
-      red%owned(n) = jn >= red%lat%ys .and. jn <= red%lat%ye
-      red%lcol(n) = red%cols(n) - (red%lat%ys - red%lat%gys) * red%lat%nx
-    end do
-  end subroutine mark_owned
-
-  !> The multigrid's coarse operators (Galerkin) and coarsest factorisation.
-  subroutine mg_coarse_levels(red, ierr)
-    type(reduced_t), intent(inout) :: red
-    PetscErrorCode, intent(out) :: ierr
-    integer :: info
-    MPI_Comm :: comm
-    PetscCall(PetscLogEventBegin(red%ev_galerkin, ierr))
-    call mg_build_coarse(red%mg, info)
-    PetscCall(PetscLogEventEnd(red%ev_galerkin, ierr))
-    red%mg_built = .true.
-    ierr = 0
-    if (info /= 0) then
-      PetscCall(PetscObjectGetComm(red%da3, comm, ierr))
-      ierr = PETSC_ERR_MAT_LU_ZRPVT
-      SETERRQ(comm, ierr, 'nuno: the coarsest multigrid matrix is singular')
-    end if
-  end subroutine mg_coarse_levels
-
-  !> MATSHELL mult of S: y = S x, one halo exchange of x (none on a rank
-  !> that owns every row), then by default
-  !> from the multigrid's finest level (single-precision blocks in
-  !> difference form, double-precision vectors, each offset's products in
-  !> single precision and their sum in double: kernel
-  !> stencil_product_mixed, half the bytes), or with -nuno_mg_product double
-  !> over S in double precision, one vector loop per offset (kernel
-  !> offset_product).
-  !> Collective.
-  subroutine stencil_mult(mat, x, y, ierr)
-    type(tMat) :: mat
-    type(tVec) :: x, y
-    PetscErrorCode :: ierr
-    type(reduced_t), pointer :: red
-    type(tVec) :: xloc
-    PetscScalar, pointer :: xl(:), ya(:)
-    logical :: whole
-    integer(c_int64_t) :: state
-    PetscCall(MatShellGetContext(mat, red, ierr))
-    if (red%pax_valid) then
-      ! x the last cycle's output, unchanged: its product is formed
-      if (x%v == red%pax_of%v) then
-        ierr = nuno_object_state(x%v, state)
-        if (ierr /= 0) return
-        if (state == red%pax_state) then
-          PetscCall(VecCopy(red%pax, y, ierr))
-          red%pax_used = red%pax_used + 1
-          return
-        end if
-      end if
-    end if
-    ! a rank that owns every row (one rank) has no halo: x is read in place
-    ! (the copy to a local vector was 2 % of a bw step on one rank)
-    whole = red%lat%gys == red%lat%ys .and. red%lat%gye == red%lat%ye
-    if (whole) then
-      PetscCall(VecGetArrayReadF90(x, xl, ierr))
-    else
-      PetscCall(DMGetLocalVector(red%da3, xloc, ierr))
-      PetscCall(DMGlobalToLocalBegin(red%da3, x, INSERT_VALUES, xloc, ierr))
-      PetscCall(DMGlobalToLocalEnd(red%da3, x, INSERT_VALUES, xloc, ierr))
-      PetscCall(VecGetArrayReadF90(xloc, xl, ierr))
-    end if
-    PetscCall(VecGetArrayF90(y, ya, ierr))
-    associate (lat => red%lat)
-      if (red%mixed_product) then
-        ! the finest level is made from S at every assembly (reduced_assemble)
-        call mg_product(red%mg, lat%gys, lat%gye, xl, ya)
-      else
-        call stencil_product(lat%nx, lat%ny, lat%ys, lat%ye, lat%gys, lat%gye, lat%halo, red%st, xl, ya)
-      end if
-    end associate
-    PetscCall(VecRestoreArrayF90(y, ya, ierr))
-    if (whole) then
-      PetscCall(VecRestoreArrayReadF90(x, xl, ierr))
-    else
-      PetscCall(VecRestoreArrayReadF90(xloc, xl, ierr))
-      PetscCall(DMRestoreLocalVector(red%da3, xloc, ierr))
-    end if
-  end subroutine stencil_mult
-
-  !> PCSHELL view (-reduced_ksp_view): the hierarchy of nuno's multigrid.
-  subroutine mg_pc_view(pc, viewer, ierr)
-    type(tPC) :: pc
-    type(tPetscViewer) :: viewer
-    PetscErrorCode :: ierr
-    type(reduced_t), pointer :: red
-    character(len=160) :: text(16)
-    integer :: n, k
-    PetscCall(PCShellGetContext(pc, red, ierr))
-    call mg_describe(red%mg, text, n)
-    do k = 1, n
-      PetscCall(PetscViewerASCIIPrintf(viewer, '  '//trim(text(k))//new_line('a'), ierr))
-    end do
-    if (red%fused_product) then
-      write(text(1), '(a, i0, a)') 'fused product: ', red%pax_used, ' products with S so far formed in the cycles'' last sweeps'
-      PetscCall(PetscViewerASCIIPrintf(viewer, '  '//trim(text(1))//new_line('a'), ierr))
-    end if
-  end subroutine mg_pc_view
-
-  !> PCSHELL apply of the inner KSP: one cycle of nuno's multigrid.
-  subroutine mg_pc_apply(pc, x, y, ierr)
-    type(tPC) :: pc
-    type(tVec) :: x, y
-    PetscErrorCode :: ierr
-    type(reduced_t), pointer :: red
-    PetscScalar, pointer :: xa(:, :, :), ya(:, :, :), pa(:, :, :)
-    PCSide :: side
-    logical :: formed
-    PetscCall(PCShellGetContext(pc, red, ierr))
-    if (red%fused_product .and. .not. red%pax_checked) then
-      ! the first cycle: only a Krylov method that multiplies the
-      ! preconditioner's output (right preconditioning: FGMRES, GCR,
-      ! GMRES with -reduced_ksp_pc_side right) uses the fused product
-      PetscCall(KSPGetPCSide(red%ksp, side, ierr))
-      if (side /= PC_RIGHT) then
-        red%fused_product = .false.
-      else
-        PetscCall(VecDuplicate(red%rhs, red%pax, ierr))
-      end if
-      red%pax_checked = .true.
-    end if
-    red%pax_valid = .false.
-    PetscCall(DMDAVecGetArrayReadF90(red%da3, x, xa, ierr))
-    PetscCall(DMDAVecGetArrayF90(red%da3, y, ya, ierr))
-    PetscCall(PetscLogEventBegin(red%ev_cycle, ierr))
-    if (red%fused_product) then
-      PetscCall(DMDAVecGetArrayF90(red%da3, red%pax, pa, ierr))
-      call mg_apply(red%mg, xa, ya, pa, formed)
-      PetscCall(DMDAVecRestoreArrayF90(red%da3, red%pax, pa, ierr))
-    else
-      call mg_apply(red%mg, xa, ya)
-    end if
-    PetscCall(PetscLogEventEnd(red%ev_cycle, ierr))
-    PetscCall(DMDAVecRestoreArrayF90(red%da3, y, ya, ierr))
-    PetscCall(DMDAVecRestoreArrayReadF90(red%da3, x, xa, ierr))
-    if (red%fused_product .and. formed) then
-      ! y as it is now (after its array was restored) is what pax is S times
-      red%pax_of = y
-      ierr = nuno_object_state(y%v, red%pax_state)
-      if (ierr /= 0) return
-      red%pax_valid = .true.
-    end if
-  end subroutine mg_pc_apply
-
-  !> Open the value and row arrays of an AIJ S (see aij_view_t).
-  subroutine aij_open(red, view, ierr)
-    type(reduced_t), intent(inout) :: red
-    type(aij_view_t), intent(inout) :: view
-    PetscErrorCode, intent(out) :: ierr
-    character(len=64) :: mattype
-    PetscInt :: ic(1)
-    PetscOffset :: iic
-    PetscBool :: done
-    PetscInt, parameter :: shift = 0
-    PetscInt, pointer, save :: none_i(:) => null()
-    PetscScalar, pointer, save :: none_s(:) => null()
-
-    if (.not. associated(none_i)) allocate(none_i(0), none_s(0))
-    PetscCall(MatGetType(red%s, mattype, ierr))
-    view%parallel = mattype == MATMPIAIJ
-    if (view%parallel) then
-      PetscCall(MatMPIAIJGetSeqAIJ(red%s, view%ad, view%ao, ic, iic, ierr))
-    else
-      view%ad = red%s
-    end if
-    PetscCall(MatGetRowIJF90(view%ad, shift, PETSC_FALSE, PETSC_FALSE, view%na, view%ia, view%ja, done, ierr))
-    PetscCall(MatSeqAIJGetArrayF90(view%ad, view%av, ierr))
-    if (view%parallel) then
-      PetscCall(MatGetRowIJF90(view%ao, shift, PETSC_FALSE, PETSC_FALSE, view%nb, view%ib, view%jb, done, ierr))
-      PetscCall(MatSeqAIJGetArrayF90(view%ao, view%bv, ierr))
-    else
-      view%ib => none_i
-      view%jb => none_i
-      view%bv => none_s
-    end if
-  end subroutine aij_open
-
-  !> Give the arrays back and assemble S (which also drops its cached
-  !> diagonal inverses, so that SOR sees the new values).
-  subroutine aij_close(red, view, ierr)
-    type(reduced_t), intent(inout) :: red
-    type(aij_view_t), intent(inout) :: view
-    PetscErrorCode, intent(out) :: ierr
-    PetscBool :: done
-    PetscInt, parameter :: shift = 0
-    PetscCall(MatSeqAIJRestoreArrayF90(view%ad, view%av, ierr))
-    PetscCall(MatRestoreRowIJF90(view%ad, shift, PETSC_FALSE, PETSC_FALSE, view%na, view%ia, view%ja, done, ierr))
-    if (view%parallel) then
-      PetscCall(MatSeqAIJRestoreArrayF90(view%ao, view%bv, ierr))
-      PetscCall(MatRestoreRowIJF90(view%ao, shift, PETSC_FALSE, PETSC_FALSE, view%nb, view%ib, view%jb, done, ierr))
-    end if
-  end subroutine aij_close
-
-  !> Write S's values directly when S is AIJ and its structure (from the
-  !> DMDA's preallocation) is the stencil of reduced_row_blocks, row by row
-  !> and in the same order, on every rank; otherwise keep MatSetValues.
-  !> Collective, once.
-  subroutine check_direct(red, ierr)
-    type(reduced_t), intent(inout) :: red
-    PetscErrorCode, intent(out) :: ierr
-    character(len=64) :: mattype
-    type(aij_view_t) :: view
-    integer :: i, j, nc, mpierr
-    logical :: ok, all_ok
-    MPI_Comm :: comm
-
-    red%direct = .false.
-    PetscCall(MatGetType(red%s, mattype, ierr))
-    ok = mattype == MATSEQAIJ .or. mattype == MATMPIAIJ
-    if (ok) then
-      PetscCall(aij_open(red, view, ierr))
-      red%jbuf%k = 0.0_rp
-      red%jbuf%c = 0.0_rp
-      do j = red%lat%ys, red%lat%ye
-        do i = 0, red%lat%nx - 1
-          call reduced_row_blocks(red%jbuf, red%lat, red%fixedg, i, j, 1.0_rp, red%damping, red%vals, red%cols, nc)
-          call mark_owned(red, nc)
-          ok = ok .and. csr_fits_block_row(nc, red%owned, red%lcol, 3 * (i + (j - red%lat%ys) * red%lat%nx), &
-                                           view%ia, view%ja, view%ib, view%jb)
-        end do
-      end do
-      PetscCall(aij_close(red, view, ierr))
-    end if
-    PetscCall(PetscObjectGetComm(red%da3, comm, ierr))
-    call MPI_Allreduce(ok, all_ok, 1, MPI_LOGICAL, MPI_LAND, comm, mpierr)
-    red%direct = all_ok
-  end subroutine check_direct
-
-  !> The multigrid's interpolations from the DMDA hierarchy, given to PCMG
-  !> as plain AIJ. The DMDA makes them MAIJ (one scalar operator for the 3
-  !> dof), and 3.18's Galerkin product of a sequential AIJ with a MAIJ
-  !> (MatPtAPNumeric_SeqAIJ_SeqMAIJ, "first draft only") sorts every row of
-  !> A P and scans every row of the product: converted once, the AIJ x AIJ
-  !> product is used at every set-up. (In parallel PETSc converts anyway.)
-  subroutine mg_interpolations(red, pc, ierr)
-    type(reduced_t), intent(inout) :: red
-    type(tPC), intent(inout) :: pc
-    PetscErrorCode, intent(out) :: ierr
-    PetscInt :: nlev, l
-    type(tDM), allocatable :: dms(:)
-    type(tMat) :: p
-
-    PetscCall(PCMGGetLevels(pc, nlev, ierr))
-    if (nlev < 2) return
-    allocate(dms(nlev))
-    dms(nlev) = red%da3
-    do l = nlev - 1, 1, -1
-      PetscCall(DMCoarsen(dms(l + 1), MPI_COMM_NULL, dms(l), ierr))
-    end do
-    ! PCMG level l (0 = coarsest) is dms(l + 1); its interpolation maps
-    ! level l - 1 to level l.
-    do l = nlev - 1, 1, -1
-      if (red%interp == INTERP_CUBIC .or. (red%interp == INTERP_COARSE_CUBIC .and. l < nlev - 1)) then
-        PetscCall(cubic_interpolation(dms(l), dms(l + 1), p, ierr))
-      else
-        PetscCall(DMCreateInterpolation(dms(l), dms(l + 1), p, PETSC_NULL_VEC, ierr))
-        PetscCall(MatConvert(p, MATAIJ, MAT_INPLACE_MATRIX, p, ierr))
-      end if
-      PetscCall(PCMGSetInterpolation(pc, l, p, ierr))
-      PetscCall(MatDestroy(p, ierr))
-    end do
-    do l = 1, nlev - 1
-      PetscCall(DMDestroy(dms(l), ierr))
-    end do
-  end subroutine mg_interpolations
-
-  !> Tensor-product cubic interpolation (module interpolation: 4-point
-  !> Lagrange, one-sided at the ends, exact for cubics) from the coarse DMDA
-  !> dc to the fine df (2:1, vertex-centred), the same for each of the 3
-  !> dof, as AIJ (at most 16 non-zeros a row; rows and columns in the
-  !> natural order, which is PETSc's for 1 x P strips). With bending the
-  !> bilinear interpolation's coarse correction weakens as the lattice is
-  !> refined (iterations grew 4 -> 26 from 65 to 1025); cubic keeps it.
-  subroutine cubic_interpolation(dc, df, p, ierr)
-    type(tDM), intent(in) :: dc, df
-    type(tMat), intent(out) :: p
-    PetscErrorCode, intent(out) :: ierr
-    PetscInt :: mxc, myc, mxf, myf, xs, ys, zs, xm, ym, zm, cxs, cys, cxm, cym
-    PetscInt :: row(1), cols(16), nz, i, j, d, a, b, idum
-    PetscInt, parameter :: one = 1
-    PetscScalar :: v(16)
-    integer :: ncx, ncy, ix(4), iy(4)
-    real(rp) :: wx(4), wy(4)
-    MPI_Comm :: comm
-
-    PetscCall(PetscObjectGetComm(df, comm, ierr))
-    PetscCall(DMDAGetInfo(dc, PETSC_NULL_INTEGER, mxc, myc, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, idum, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, ierr))
-    PetscCall(DMDAGetInfo(df, PETSC_NULL_INTEGER, mxf, myf, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, idum, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, ierr))
-    PetscCall(DMDAGetCorners(df, xs, ys, zs, xm, ym, zm, ierr))
-    PetscCall(DMDAGetCorners(dc, cxs, cys, zs, cxm, cym, zm, ierr))
-    PetscCall(MatCreateAIJ(comm, 3 * xm * ym, 3 * cxm * cym, PETSC_DETERMINE, PETSC_DETERMINE, 16, PETSC_NULL_INTEGER, 16, PETSC_NULL_INTEGER, p, ierr))
-    PetscCall(MatSetBlockSizes(p, 3, 3, ierr))
-    do j = ys, ys + ym - 1
-      call cubic_weights(j, myc, iy, wy, ncy)
-      do i = xs, xs + xm - 1
-        call cubic_weights(i, mxc, ix, wx, ncx)
-        do d = 0, 2
-          row(1) = 3 * (i + j * mxf) + d
-          nz = 0
-          do b = 1, ncy
-            do a = 1, ncx
-              nz = nz + 1
-              cols(nz) = 3 * (ix(a) + iy(b) * mxc) + d
-              v(nz) = wx(a) * wy(b)
-            end do
-          end do
-          PetscCall(MatSetValues(p, one, row, nz, cols, v, INSERT_VALUES, ierr))
-        end do
-      end do
-    end do
-    PetscCall(MatAssemblyBegin(p, MAT_FINAL_ASSEMBLY, ierr))
-    PetscCall(MatAssemblyEnd(p, MAT_FINAL_ASSEMBLY, ierr))
-  end subroutine cubic_interpolation
 
   !> GAMG's near-null space: the six rigid-body modes of the current shape.
   subroutine set_rigid_body_modes(red, u, ierr)
@@ -1110,26 +528,13 @@ contains
     PetscErrorCode, intent(out) :: ierr
     PetscScalar, pointer :: c(:, :, :)
     type(tMatNullSpace) :: nsp
-    PetscCall(DMDAVecGetArrayF90(red%da3, red%coords, c, ierr))
+    PetscCall(DMDAVecGetArrayF90(red%da3, red%pcc%coords, c, ierr))
     c(0:2, :, red%lat%ys:red%lat%ye) = u(0:2, :, red%lat%ys:red%lat%ye)
-    PetscCall(DMDAVecRestoreArrayF90(red%da3, red%coords, c, ierr))
-    PetscCall(MatNullSpaceCreateRigidBody(red%coords, nsp, ierr))
+    PetscCall(DMDAVecRestoreArrayF90(red%da3, red%pcc%coords, c, ierr))
+    PetscCall(MatNullSpaceCreateRigidBody(red%pcc%coords, nsp, ierr))
     PetscCall(MatSetNearNullSpace(red%s, nsp, ierr))
     PetscCall(MatNullSpaceDestroy(nsp, ierr))
   end subroutine set_rigid_body_modes
-
-  !> One block row into the matrix: vals as the flat array PETSc takes.
-  !> (Also used by the 6-dof path in module timestepping.)
-  subroutine set_block_row(mat, row, ncol, cols, vals, n, ierr)
-    type(tMat) :: mat
-    PetscInt, intent(in) :: row(1), ncol
-    PetscInt, intent(in) :: cols(ncol)
-    integer, intent(in) :: n
-    PetscScalar, intent(in) :: vals(n)
-    PetscErrorCode, intent(out) :: ierr
-    PetscInt, parameter :: one = 1
-    call MatSetValuesBlockedLocal(mat, one, row, ncol, cols, vals, INSERT_VALUES, ierr)
-  end subroutine set_block_row
 
   !> g = -(K w_x + C w_v) on the owned rows, at the state of the last
   !> assembly, from the element blocks: one pass over the elements with
@@ -1141,7 +546,7 @@ contains
   subroutine element_products(red, w)
     type(reduced_t), intent(inout) :: red
     real(rp), intent(in) :: w(0:, 0:, red%lat%gys:)
-    call kc_products(red%lat, red%ujac, red%fixedg, red%damping, red%clamp, red%gauss_newton, w, red%g, red%kd)
+    call kc_products(red%lat, red%el%ujac, red%el%fixedg, red%el%damping, red%el%clamp, red%el%gauss_newton, w, red%el%g, red%el%kd)
   end subroutine element_products
 
   !> The right-hand side of S dv = rhs for the 6-dof right-hand side b
@@ -1170,38 +575,38 @@ contains
         ! its products, of that size too, would cost a pass over the elements
         ! (a lagged S: -snes_lag_jacobian).
         if (all(abs(bl(0:2, i, j)) <= 8.0_rp * epsilon(1.0_rp) * &
-                (red%a * maxval(abs(red%ujac(0:2, i, j))) + maxval(abs(red%ujac(3:5, i, j)))))) then
-          red%w(0:2, i, j) = 0.0_rp
+                (red%a * maxval(abs(red%el%ujac(0:2, i, j))) + maxval(abs(red%el%ujac(3:5, i, j)))))) then
+          red%el%w(0:2, i, j) = 0.0_rp
         else
-          red%w(0:2, i, j) = ainv * bl(0:2, i, j)
+          red%el%w(0:2, i, j) = ainv * bl(0:2, i, j)
         end if
-        if (red%fixedg(i, j)) then
-          red%w(3:5, i, j) = ainv * bl(3:5, i, j)
+        if (red%el%fixedg(i, j)) then
+          red%el%w(3:5, i, j) = ainv * bl(3:5, i, j)
         else
-          red%w(3:5, i, j) = 0.0_rp
+          red%el%w(3:5, i, j) = 0.0_rp
         end if
-        any_w = any_w .or. any(red%w(:, i, j) /= 0.0_rp)
+        any_w = any_w .or. any(red%el%w(:, i, j) /= 0.0_rp)
       end do
     end do
     ! b_x = 0 and no constrained dv: the products vanish. b = +-F(u) at the
     ! assembled state (a Newton step): formed during the assembly.
     ! Anything else: one pass over the elements.
     if (.not. any_w) then
-      red%g = 0.0_rp
-    else if (red%have_pred .and. same(red%w, red%wpred, 1.0_rp)) then
-      red%g = red%gpred
-    else if (red%have_pred .and. same(red%w, red%wpred, -1.0_rp)) then
-      red%g = -red%gpred
+      red%el%g = 0.0_rp
+    else if (red%el%have_pred .and. same(red%el%w, red%el%wpred, 1.0_rp)) then
+      red%el%g = red%el%gpred
+    else if (red%el%have_pred .and. same(red%el%w, red%el%wpred, -1.0_rp)) then
+      red%el%g = -red%el%gpred
     else
-      call element_products(red, red%w)
+      call element_products(red, red%el%w)
     end if
     PetscCall(DMDAVecGetArrayF90(red%da3, rhs, r, ierr))
     do j = red%lat%ys, red%lat%ye
       do i = 0, red%lat%nx - 1
-        if (red%fixedg(i, j)) then
+        if (red%el%fixedg(i, j)) then
           r(0:2, i, j) = red%lat%mass(i, j) * bl(3:5, i, j)
         else
-          r(0:2, i, j) = red%lat%mass(i, j) * bl(3:5, i, j) - red%g(:, i, j)
+          r(0:2, i, j) = red%lat%mass(i, j) * bl(3:5, i, j) - red%el%g(:, i, j)
         end if
       end do
     end do
@@ -1230,103 +635,6 @@ contains
     same = dmax <= 1.0e-13_rp * ymax
   end function same
 
-  !> The inner initial guess of this solve: at a step's first Newton
-  !> iteration (nit = 0) the combination of the stored first corrections
-  !> (module inner_guess), at its second (nit = 1) the last step's second
-  !> correction scaled by the ratio of their right-hand sides
-  !> (second_weight), else zero. bnorm: the norm of red%rhs. Collective.
-  subroutine set_guess(red, nit, bnorm, guessed, ierr)
-    type(reduced_t), intent(inout) :: red
-    integer, intent(in) :: nit
-    real(rp), intent(in) :: bnorm
-    logical, intent(out) :: guessed               !< a nonzero guess was set
-    PetscErrorCode, intent(out) :: ierr
-    real(rp) :: c(2)
-    guessed = .false.
-    c = 0.0_rp
-    if (red%guess == GUESS_PROJECT) then
-      PetscCall(project_guess(red, guessed, ierr))
-      PetscCall(KSPSetInitialGuessNonzero(red%ksp, merge(PETSC_TRUE, PETSC_FALSE, guessed), ierr))
-      return
-    end if
-    if (nit == 0) then
-      c = guess_weights(red%guess, red%nh, red%a, red%ah(1), red%ah(2), red%guess_power)
-    else if (nit == 1 .and. red%has2) then
-      c(1) = second_weight(red%a, red%ah2, bnorm, red%bh2)
-    end if
-    if (c(1) == 0.0_rp .and. c(2) == 0.0_rp) then
-      PetscCall(KSPSetInitialGuessNonzero(red%ksp, PETSC_FALSE, ierr))
-      return
-    end if
-    if (nit == 1) then
-      PetscCall(VecAXPBY(red%dv, c(1), 0.0_rp, red%dvh2, ierr))
-    else if (c(2) == 0.0_rp) then
-      PetscCall(VecAXPBY(red%dv, c(1), 0.0_rp, red%dvh(1), ierr))
-    else
-      PetscCall(VecAXPBYPCZ(red%dv, c(1), c(2), 0.0_rp, red%dvh(1), red%dvh(2), ierr))
-    end if
-    PetscCall(KSPSetInitialGuessNonzero(red%ksp, PETSC_TRUE, ierr))
-    guessed = .true.
-  end subroutine set_guess
-
-  !> -nuno_inner_guess project: dv = sum_k y_k px(k), y the least-squares
-  !> weights of the kept right-hand sides for this one (projection_weights),
-  !> at any Newton iteration; nothing kept at this shift: no guess. The
-  !> products pd are kept for project_push. Collective.
-  subroutine project_guess(red, guessed, ierr)
-    type(reduced_t), intent(inout) :: red
-    logical, intent(out) :: guessed
-    PetscErrorCode, intent(out) :: ierr
-    real(rp) :: y(PROJECT_PAIRS)
-    ierr = 0
-    guessed = .false.
-    if (red%np == 0 .or. red%a /= red%pa) return
-    PetscCall(VecMDot(red%rhs, red%np, red%pb, red%pd, ierr))
-    call projection_weights(red%np, red%pg, red%pd, y)
-    if (all(y(1:red%np) == 0.0_rp)) return
-    PetscCall(VecSet(red%dv, 0.0_rp, ierr))
-    PetscCall(VecMAXPY(red%dv, red%np, y, red%px, ierr))
-    guessed = .true.
-  end subroutine project_guess
-
-  !> -nuno_inner_guess project: a converged inner solve (rhs, its norm
-  !> bnorm, and dv) joins the kept ones, the oldest leaving when PROJECT_PAIRS
-  !> are kept (the vectors change places, no copies but the new pair's);
-  !> its products with them, pd, are project_guess's for this solve. A
-  !> changed shift (another dt: S differs by more than a step's change)
-  !> empties them first. Collective.
-  subroutine project_push(red, bnorm, ierr)
-    type(reduced_t), intent(inout) :: red
-    real(rp), intent(in) :: bnorm
-    PetscErrorCode, intent(out) :: ierr
-    type(tVec) :: sb, sx
-    integer :: k, n
-    ierr = 0
-    if (red%a /= red%pa) red%np = 0
-    red%pa = red%a
-    n = red%np
-    if (n == PROJECT_PAIRS) then
-      sb = red%pb(1)
-      sx = red%px(1)
-      do k = 1, n - 1
-        red%pb(k) = red%pb(k + 1)
-        red%px(k) = red%px(k + 1)
-      end do
-      red%pb(n) = sb
-      red%px(n) = sx
-      red%pg(1:n - 1, 1:n - 1) = red%pg(2:n, 2:n)
-      red%pd(1:n - 1) = red%pd(2:n)
-      n = n - 1
-    end if
-    n = n + 1
-    PetscCall(VecCopy(red%rhs, red%pb(n), ierr))
-    PetscCall(VecCopy(red%dv, red%px(n), ierr))
-    red%pg(n, 1:n - 1) = red%pd(1:n - 1)
-    red%pg(1:n - 1, n) = red%pd(1:n - 1)
-    red%pg(n, n) = bnorm**2
-    red%np = n
-  end subroutine project_push
-
   !> Use the inner initial guess mode (GUESS_NONE, _PREVIOUS, _EXTRAPOLATE;
   !> timestepping decides, from -nuno_inner_guess and the TS type). Its two
   !> kept first corrections and the step under way's, and the kept second
@@ -1337,24 +645,7 @@ contains
     integer, intent(in) :: mode
     logical, intent(in) :: extrapolated_start      !< the TS starts Newton from x + dt xdot (but at a window's first step)
     PetscErrorCode, intent(out) :: ierr
-    ierr = 0
-    if (mode == GUESS_PROJECT .and. red%guess == GUESS_NONE) then
-      PetscCall(VecDuplicateVecs(red%rhs, PROJECT_PAIRS, red%pb, ierr))
-      PetscCall(VecDuplicateVecs(red%rhs, PROJECT_PAIRS, red%px, ierr))
-    else if (mode /= GUESS_NONE .and. red%guess == GUESS_NONE) then
-      PetscCall(VecDuplicate(red%rhs, red%dvh(1), ierr))
-      PetscCall(VecDuplicate(red%rhs, red%dvh(2), ierr))
-      PetscCall(VecDuplicate(red%rhs, red%dvp, ierr))
-      PetscCall(VecDuplicate(red%rhs, red%dvh2, ierr))
-      PetscCall(VecDuplicate(red%rhs, red%dvp2, ierr))
-    end if
-    red%guess = mode
-    red%guess_power = merge(2, 1, extrapolated_start)
-    red%nh = 0
-    red%np = 0
-    red%pending = .false.
-    red%has2 = .false.
-    red%pending2 = .false.
+    PetscCall(guess_use(red%gs, mode, extrapolated_start, red%rhs, ierr))
   end subroutine reduced_set_guess
 
   !> A step was accepted (timestepping's monitor): its first correction
@@ -1366,32 +657,7 @@ contains
   !> another quantity: not kept.
   subroutine reduced_step_accepted(red)
     type(reduced_t), intent(inout) :: red
-    type(tVec) :: spare
-    logical :: second
-    if (red%guess == GUESS_NONE .or. .not. red%pending) return
-    red%pending = .false.
-    second = red%pending2
-    red%pending2 = .false.
-    if (red%window_start) then
-      red%window_start = .false.
-      if (red%guess_power == 2) return
-    end if
-    if (second) then
-      spare = red%dvh2
-      red%dvh2 = red%dvp2
-      red%dvp2 = spare
-      red%ah2 = red%ap2
-      red%bh2 = red%bp2
-      red%has2 = .true.
-    end if
-    ! the vectors change places, no copies
-    spare = red%dvh(2)
-    red%dvh(2) = red%dvh(1)
-    red%dvh(1) = red%dvp
-    red%dvp = spare
-    red%ah(2) = red%ah(1)
-    red%ah(1) = red%ap
-    red%nh = min(red%nh + 1, 2)
+    call guess_accepted(red%gs)
   end subroutine reduced_step_accepted
 
   !> One inner solve S dv = rhs, its iterations added to red%its; from_zero:
@@ -1403,7 +669,7 @@ contains
     PetscErrorCode, intent(out) :: ierr
     PetscInt :: its
     ierr = 0
-    if (from_zero .and. red%guess /= GUESS_NONE) then
+    if (from_zero .and. guess_mode(red%gs) /= GUESS_NONE) then
       PetscCall(KSPSetInitialGuessNonzero(red%ksp, PETSC_FALSE, ierr))
     end if
     PetscCall(KSPSolve(red%ksp, red%rhs, red%dv, ierr))
@@ -1447,29 +713,17 @@ contains
     PetscCall(VecNorm(red%rhs, NORM_2, bnorm, ierr))
     PetscCall(SNESGetIterationNumber(red%snes, nit, ierr))
     guessed = .false.
-    if (red%guess /= GUESS_NONE) then
-      PetscCall(set_guess(red, int(nit), bnorm, guessed, ierr))
+    if (guess_mode(red%gs) /= GUESS_NONE) then
+      PetscCall(guess_set(red%gs, red%ksp, red%a, int(nit), red%rhs, bnorm, red%dv, guessed, ierr))
     end if
     PetscCall(inner_solve(red, .false., reason, ierr))
     if (reason < 0 .and. guessed) then
       ! a guess must never fail a step: from zero once more
       PetscCall(inner_solve(red, .true., reason, ierr))
     end if
-    if ((red%guess == GUESS_PREVIOUS .or. red%guess == GUESS_EXTRAPOLATE) .and. reason > 0) then
-      if (nit == 0) then
-        ! this step's first correction, kept if the step is accepted
-        ! (reduced_step_accepted; a failed solve's is no guess)
-        PetscCall(VecCopy(red%dv, red%dvp, ierr))
-        red%ap = red%a
-        red%pending = .true.
-        red%pending2 = .false.
-      else if (nit == 1) then
-        ! and its second, for the next step's second iteration
-        PetscCall(VecCopy(red%dv, red%dvp2, ierr))
-        red%bp2 = bnorm
-        red%ap2 = red%a
-        red%pending2 = .true.
-      end if
+    if (reason > 0) then
+      ! (a failed solve's correction is no guess)
+      PetscCall(guess_keep(red%gs, red%a, int(nit), red%rhs, bnorm, red%dv, ierr))
     end if
     PetscCall(KSPGetResidualNorm(red%ksp, rnorm, ierr))
     red%lin_rel = 0.0_rp
@@ -1477,18 +731,18 @@ contains
     if (reason < 0) then
       PetscCall(KSPGetReusePreconditioner(red%ksp, reused, ierr))
       if (reused) then
-        red%since_pc = 0
+        red%pcc%since_pc = 0
         PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_FALSE, ierr))
         PetscCall(KSPSetOperators(red%ksp, red%s, red%s, ierr))
-        if (red%use_mg) then
-          PetscCall(mg_coarse_levels(red, ierr))
+        if (red%pcc%use_mg) then
+          PetscCall(mg_coarse_levels(red%mgg, ierr))
         end if
         PetscCall(inner_solve(red, .true., reason, ierr))
       end if
     end if
     ! (a pair of any converged solve, whichever Newton iteration and start)
-    if (red%guess == GUESS_PROJECT .and. reason > 0) then
-      PetscCall(project_push(red, bnorm, ierr))
+    if (reason > 0) then
+      PetscCall(guess_push(red%gs, red%a, red%rhs, bnorm, red%dv, ierr))
     end if
     ! PETSc keeps a PC's failure until its next set-up, which this shell
     ! PC (its matrix unchanged) never gets: set it each time, or one
@@ -1505,7 +759,7 @@ contains
     PetscCall(DMDAVecGetArrayF90(red%da6, du, y, ierr))
     do j = red%lat%ys, red%lat%ye
       do i = 0, red%lat%nx - 1
-        if (red%fixedg(i, j)) then
+        if (red%el%fixedg(i, j)) then
           ! J = a I on a constrained node, whose rows and columns of S
           ! couple nothing: du = b / a exactly, whatever the inner solve's
           ! tolerance and the precision of its product left in dv there
@@ -1544,11 +798,11 @@ contains
     PetscCall(DMDAVecGetArrayF90(red%da6, yv, y, ierr))
     do j = red%lat%ys, red%lat%ye
       do i = 0, red%lat%nx - 1
-        if (red%fixedg(i, j)) then
+        if (red%el%fixedg(i, j)) then
           y(:, i, j) = a * d(:, i, j)
         else
           y(0:2, i, j) = a * d(0:2, i, j) - d(3:5, i, j)
-          y(3:5, i, j) = a * d(3:5, i, j) + red%g(:, i, j) / red%lat%mass(i, j)
+          y(3:5, i, j) = a * d(3:5, i, j) + red%el%g(:, i, j) / red%lat%mass(i, j)
         end if
       end do
     end do

@@ -30,7 +30,7 @@ module stencil_mg
                         stencil_product_mixed
   implicit none
   private
-  public :: stencil_mg_t, mg_create, mg_destroy, mg_set_fine_row, mg_set_fine, mg_build_coarse, mg_apply, mg_describe, &
+  public :: stencil_mg_t, mg_create, mg_destroy, mg_set_fine_row, mg_set_fine, mg_fine_level, mg_build_coarse, mg_apply, mg_describe, &
             mg_product
   public :: MG_MULTIPLICATIVE, MG_KASKADE
 
@@ -249,6 +249,17 @@ contains
     real(rp), intent(in) :: full(:, :, :, :, :)
     call stencil_from_full(mg%lev(1)%a, full)
   end subroutine mg_set_fine
+
+  !> The finest level's operator, for an assembly that writes it row by
+  !> row as it goes (module reduced_assembly's assemble_stencil converts
+  !> each row of S as soon as it is complete): the one way into the
+  !> hierarchy's level storage from outside, valid while mg lives and
+  !> until mg_build_coarse, which reads it.
+  function mg_fine_level(mg) result(fine)
+    type(stencil_mg_t), intent(inout), target :: mg
+    type(stencil_t), pointer :: fine
+    fine => mg%lev(1)%a
+  end function mg_fine_level
 
   !> The coarse operators from the finest one (Galerkin, level by level)
   !> and the coarsest level's factorisation. ierr /= 0: the coarsest

@@ -26,6 +26,7 @@ program test_reduced
   use forces, only: internal_forces
   use reduced, only: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, &
                      reduced_attach
+  use reduced_storage, only: store_use_buffer
   use check, only: check_true, check_report
   use reduced_assembly, only: assemble_stencil
   use offset_product, only: stencil_product, offset_count
@@ -166,9 +167,9 @@ contains
     ! element by element (module reduced_assembly). The S of the block
     ! buffer through MatSetValues sums the same terms in another order: the
     ! two must agree to round-off, on every rank count.
-    call check_true(red%direct, label//': AIJ S is written directly')
+    call check_true(red%sto%direct, label//': AIJ S is written directly')
     PetscCallA(reduced_create(red2, da6, lat, .false., .false., .true., .false., .false., 1, ierr))
-    red2%direct = .false.
+    call store_use_buffer(red2%sto)
     PetscCallA(reduced_set_fixed(red2, fixed, ierr))
     PetscCallA(reduced_assemble(red2, ul, udl, a, ierr))
     PetscCallA(MatNorm(red2%s, NORM_FROBENIUS, snorm, ierr))
@@ -406,8 +407,8 @@ contains
     PetscCallA(DMGlobalToLocalBegin(red%da6, u, INSERT_VALUES, uloc, ierr))
     PetscCallA(DMGlobalToLocalEnd(red%da6, u, INSERT_VALUES, uloc, ierr))
     PetscCallA(DMDAVecGetArrayReadF90(red%da6, uloc, ul, ierr))
-    call assemble_stencil(lat, ul, red%fixedg, a, red%damping, red%clamp, red%gauss_newton, red%wpred, &
-                          red%lb, g, kd, st)
+    call assemble_stencil(lat, ul, red%el%fixedg, a, red%el%damping, red%el%clamp, red%el%gauss_newton, red%el%wpred, &
+                          red%el%lb, g, kd, st)
     PetscCallA(DMDAVecRestoreArrayReadF90(red%da6, uloc, ul, ierr))
     PetscCallA(DMRestoreLocalVector(red%da6, uloc, ierr))
     PetscCallA(DMGetLocalVector(red%da3, yloc, ierr))
@@ -426,8 +427,8 @@ contains
     PetscCallA(DMDAVecRestoreArrayReadF90(red%da3, sy, sa, ierr))
     call check_true(scale > 0.0_rp .and. err <= 1.0e-12_rp * scale, label//': S by stencil offset equals the AIJ S')
     if (.not. err <= 1.0e-12_rp * scale) write(*, '(a,es10.3,a,es10.3)') label//': |S_st y - S y| = ', err, ' of ', scale
-    errg = gmax(max(maxval(abs(g - red%gpred)), maxval(abs(kd - red%kd))))
-    scaleg = gmax(max(maxval(abs(red%gpred)), maxval(abs(red%kd))))
+    errg = gmax(max(maxval(abs(g - red%el%gpred)), maxval(abs(kd - red%el%kd))))
+    scaleg = gmax(max(maxval(abs(red%el%gpred)), maxval(abs(red%el%kd))))
     call check_true(scaleg > 0.0_rp .and. errg <= 1.0e-12_rp * scaleg, label//': the stencil assembly''s products equal the AIJ''s')
   end subroutine check_stencil_s
 

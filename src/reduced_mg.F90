@@ -1,0 +1,528 @@
+!> The inner preconditioner's choice and nuno's multigrid glue for the
+!> reduced solve (module reduced): PETSc's defaults when it is not nuno's
+!> multigrid (default_preconditioner, the DMDA interpolations for PCMG),
+!> and with nuno's multigrid (module stencil_mg) S stored by stencil offset,
+!> its product a MATSHELL (stencil_mult), one cycle a PCSHELL (mg_pc_apply),
+!> the coarse levels (mg_coarse_levels) and the fused product of a cycle's
+!> output with S. Only this module writes its record (mg_glue_t), which is
+!> the MATSHELL's and the PCSHELL's context.
+module reduced_mg
+#include "petsc/finclude/petscksp.h"
+#include "petsc/finclude/petscdmda.h"
+  use petscksp
+  use petscdmda
+  use mpi
+  use, intrinsic :: iso_c_binding, only: c_int, c_intptr_t, c_int64_t
+  use kinds, only: rp
+  use lattice, only: lattice_t
+  use reduced_assembly, only: assemble_stencil
+  use offset_product, only: stencil_product, offset_count
+  use interpolation, only: cubic_weights
+  use mg_kernels, only: stencil_t
+  use stencil_mg, only: stencil_mg_t, mg_create, mg_destroy, mg_build_coarse, mg_apply, mg_describe, mg_product, &
+                        mg_fine_level
+  implicit none
+  private
+  public :: mg_glue_t, mg_glue_matrix, mg_glue_pc, mg_glue_free, mg_glue_assemble, mg_glue_built, mg_glue_describe
+  public :: mg_coarse_levels, levels_that_fit, default_preconditioner, mg_interpolations, true_residual_defaults
+  public :: INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
+
+  !> Interpolation between multigrid levels (-nuno_mg_interpolation; the
+  !> values of src/nuno_options.c's list, 0 being auto).
+  integer, parameter :: INTERP_LINEAR = 1, INTERP_CUBIC = 2, INTERP_COARSE_CUBIC = 3
+
+  !> nuno's multigrid and S by stencil offset.
+  type :: mg_glue_t
+    type(lattice_t), pointer :: lat => null()
+    type(tDM) :: da3                       !< dof 3 (not owned)
+    type(tKSP) :: ksp                      !< the inner solver (not owned)
+    type(stencil_mg_t) :: mg
+    logical :: built = .false.             !< its coarse levels exist
+    PetscLogEvent :: ev_galerkin = 0       !< the multigrid's coarse levels and coarsest factorisation
+    PetscLogEvent :: ev_cycle = 0          !< one multigrid cycle
+    real(rp), allocatable :: st(:, :, :, :, :) !< (0:nx-1, 3, 3, offset_count(w), 0:nrow-1) S by stencil offset, nodes fastest (module offset_product): rows ys..ye, or with the mixed product a ring of 2w - 1 rows (module reduced_assembly)
+    ! The product with S from the multigrid's finest level (single-precision
+    ! blocks in difference form, double-precision vectors; -nuno_mg_product)
+    logical :: mixed_product = .false.
+    ! The fused product (-nuno_mg_product fused): each multigrid cycle forms
+    ! the product of its output z with S in its last sweep (pax); the
+    ! Krylov method's next product is of z (FGMRES: w = S M^{-1} v), and
+    ! stencil_mult returns pax while z is that same vector, unchanged
+    ! (its PETSc object state).
+    logical :: fused_product = .false.
+    type(tVec) :: pax                      !< 3-dof: S z of the last cycle's output z
+    type(tVec) :: pax_of                   !< z (the handle, not a reference)
+    integer(c_int64_t) :: pax_state = -1   !< z's object state when pax was formed
+    logical :: pax_valid = .false.         !< pax is S z for the current S
+    logical :: pax_checked = .false.       !< the Krylov method's side checked (at the first cycle), pax made
+    integer :: pax_used = 0                !< products returned from pax (-reduced_ksp_view)
+  end type mg_glue_t
+
+  interface
+    !> src/nuno_vec_state.c: PetscObjectStateGet (no Fortran stub in 3.18).
+    integer(c_int) function nuno_object_state(obj, state) bind(C, name='nuno_object_state')
+      import :: c_int, c_intptr_t, c_int64_t
+      integer(c_intptr_t) :: obj            !< the handle (tVec%v, ...), passed as PetscObject*
+      integer(c_int64_t), intent(out) :: state
+    end function nuno_object_state
+    subroutine PCShellSetContext(pc, ctx, ierr)
+      import :: tPC, mg_glue_t
+      type(tPC) :: pc
+      type(mg_glue_t) :: ctx
+      PetscErrorCode :: ierr
+    end subroutine PCShellSetContext
+    subroutine PCShellGetContext(pc, ctx, ierr)
+      import :: tPC, mg_glue_t
+      type(tPC) :: pc
+      type(mg_glue_t), pointer :: ctx
+      PetscErrorCode :: ierr
+    end subroutine PCShellGetContext
+    subroutine MatShellSetContext(mat, ctx, ierr)
+      import :: tMat, mg_glue_t
+      type(tMat) :: mat
+      type(mg_glue_t) :: ctx
+      PetscErrorCode :: ierr
+    end subroutine MatShellSetContext
+    subroutine MatShellGetContext(mat, ctx, ierr)
+      import :: tMat, mg_glue_t
+      type(tMat) :: mat
+      type(mg_glue_t), pointer :: ctx
+      PetscErrorCode :: ierr
+    end subroutine MatShellGetContext
+  end interface
+
+contains
+
+  !> S by stencil offset (mg_glue_assemble), its product the MATSHELL s:
+  !> nuno's multigrid needs no PETSc matrix, and no column indices are
+  !> stored (1.2 KB a node with bending against 2.6 in AIJ, and with the
+  !> mixed product only a ring of rows: 648 B a node in the multigrid's
+  !> finest level instead). nx x ny lattice, n owned rows, halo w.
+  !> Collective.
+  subroutine mg_glue_matrix(gl, lat, da3, ksp, nx, ny, n, w, mixed, fused, ev_galerkin, ev_cycle, s, ierr)
+    type(mg_glue_t), intent(inout), target :: gl
+    type(lattice_t), intent(in), target :: lat
+    type(tDM), intent(in) :: da3
+    type(tKSP), intent(in) :: ksp
+    PetscInt, intent(in) :: nx, ny, n, w
+    logical, intent(in) :: mixed, fused            !< the product with S mixed; fused too (-nuno_mg_product)
+    PetscLogEvent, intent(in) :: ev_galerkin, ev_cycle
+    type(tMat), intent(out) :: s
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt :: m, mg
+    MPI_Comm :: comm
+    gl%lat => lat
+    gl%da3 = da3
+    gl%ksp = ksp
+    gl%mixed_product = mixed
+    gl%fused_product = fused
+    gl%ev_galerkin = ev_galerkin
+    gl%ev_cycle = ev_cycle
+    PetscCall(PetscObjectGetComm(da3, comm, ierr))
+    ! the whole strip for the product in double precision; with the mixed
+    ! product only the rows the assembly is writing (a ring: with bending
+    ! the triples reach two rows back; module reduced_assembly)
+    if (gl%mixed_product) then
+      allocate(gl%st(0:nx - 1, 3, 3, offset_count(w), 0:2 * w - 2))
+    else
+      allocate(gl%st(0:nx - 1, 3, 3, offset_count(w), 0:n - 1))
+    end if
+    gl%st = 0.0_rp
+    m = 3 * nx * n
+    mg = 3 * nx * ny
+    PetscCall(MatCreateShell(comm, m, m, mg, mg, PETSC_NULL_INTEGER, s, ierr))
+    PetscCall(MatShellSetContext(s, gl, ierr))
+    PetscCall(MatShellSetOperation(s, MATOP_MULT, stencil_mult, ierr))
+  end subroutine mg_glue_matrix
+
+  !> nuno's multigrid as the inner KSP's PCSHELL pc: levels up to
+  !> max_levels, interpolation interp (INTERP_*), cycle and sweeps of
+  !> module stencil_mg; rows ys..ys+n-1 of the nx x ny lattice, halo w;
+  !> paired: S(p, q) = S(q, p) block for block. Collective.
+  subroutine mg_glue_pc(gl, pc, nx, ny, ys, n, w, interp, max_levels, cycle, sweeps, paired, ierr)
+    type(mg_glue_t), intent(inout), target :: gl
+    type(tPC), intent(inout) :: pc
+    PetscInt, intent(in) :: nx, ny, ys, n, w
+    integer, intent(in) :: interp, max_levels, cycle, sweeps
+    logical, intent(in) :: paired
+    PetscErrorCode, intent(out) :: ierr
+    logical :: cubic(10), cubic_up(10)
+    integer :: l
+    MPI_Comm :: comm
+    ! Transfer l joins level l + 1 to level l (1 = the lattice).
+    ! coarse_cubic: the finest level's coarse correction interpolated
+    ! cubic too, its restriction and Galerkin product bilinear (module
+    ! stencil_mg, mg_create).
+    do l = 1, size(cubic)
+      cubic(l) = interp == INTERP_CUBIC .or. (interp == INTERP_COARSE_CUBIC .and. l > 1)
+      cubic_up(l) = interp == INTERP_CUBIC .or. interp == INTERP_COARSE_CUBIC
+    end do
+    PetscCall(PetscObjectGetComm(gl%da3, comm, ierr))
+    call mg_create(gl%mg, comm, nx, ny, ys, ys + n - 1, w, cubic, max_levels, cycle, sweeps, cubic_up, paired=paired)
+    PetscCall(PCShellSetContext(pc, gl, ierr))
+    PetscCall(PCShellSetApply(pc, mg_pc_apply, ierr))
+    PetscCall(PCShellSetView(pc, mg_pc_view, ierr))
+    PetscCall(PCShellSetName(pc, 'nuno structured multigrid (module stencil_mg)', ierr))
+  end subroutine mg_glue_pc
+
+  subroutine mg_glue_free(gl, ierr)
+    type(mg_glue_t), intent(inout) :: gl
+    PetscErrorCode, intent(out) :: ierr
+    ierr = 0
+    call mg_destroy(gl%mg)
+    if (gl%fused_product .and. gl%pax_checked) then
+      PetscCall(VecDestroy(gl%pax, ierr))
+    end if
+  end subroutine mg_glue_free
+
+  !> S by stencil offset at the ghosted state u (module reduced_assembly's
+  !> assemble_stencil, which takes the products g of w and the diagonal kd
+  !> on the way), and the multigrid's finest level made from it row by row
+  !> (every assembly: its smoother and residual use the current S, as
+  !> PETSc's PCMG does with a reused hierarchy).
+  subroutine mg_glue_assemble(gl, u, fixedg, a, damping, clamp, gauss_newton, w, lb, g, kd)
+    type(mg_glue_t), intent(inout), target :: gl
+    real(rp), intent(in) :: u(0:, 0:, gl%lat%gys:)
+    logical, intent(in) :: fixedg(0:, gl%lat%gys:)
+    real(rp), intent(in) :: a
+    logical, intent(in) :: damping, clamp, gauss_newton
+    real(rp), intent(in) :: w(0:, 0:, gl%lat%gys:)
+    real(rp), intent(inout) :: lb(0:, :, :, :, 0:)
+    real(rp), intent(out) :: g(:, 0:, gl%lat%ys:)
+    real(rp), intent(out) :: kd(:, 0:, gl%lat%ys:)
+    type(stencil_t), pointer :: fine
+    gl%pax_valid = .false.
+    fine => mg_fine_level(gl%mg)
+    call assemble_stencil(gl%lat, u, fixedg, a, damping, clamp, gauss_newton, w, lb, g, kd, gl%st, fine)
+  end subroutine mg_glue_assemble
+
+  !> The coarse levels exist (mg_coarse_levels ran).
+  pure logical function mg_glue_built(gl)
+    type(mg_glue_t), intent(in) :: gl
+    mg_glue_built = gl%built
+  end function mg_glue_built
+
+  !> The multigrid and the product with S, appended to line (the inner
+  !> solver's description).
+  subroutine mg_glue_describe(gl, line)
+    type(mg_glue_t), intent(in) :: gl
+    character(len=*), intent(inout) :: line
+    character(len=160) :: text(16)
+    integer :: n
+    call mg_describe(gl%mg, text, n)
+    line = trim(line)//' + nuno multigrid: '//trim(text(1)(1:index(text(1), ', single') - 1))// &
+           ', '//trim(adjustl(text(n)(index(text(n), 'reads'):index(text(n), ' over') - 1)))
+    if (gl%fused_product) then
+      line = trim(line)//'; product with S fused (the finest level''s single-precision blocks; of each cycle''s output in its last sweep)'
+    else
+      line = trim(line)//'; product with S '//trim(merge('mixed (the finest level''s single-precision blocks)', &
+                                                           'double                                            ', gl%mixed_product))
+    end if
+  end subroutine mg_glue_describe
+
+  !> Multigrid levels of the lattice: as many as it halves into with at
+  !> least 5 nodes a side and, in every strip, the halo width of rows on
+  !> the coarsest grid (a level coarsens n -> (n-1)/2 + 1 in each direction).
+  integer function levels_that_fit(nx, ny, w, nranks) result(levels)
+    PetscInt, intent(in) :: nx, ny, w, nranks
+    integer :: mx, my
+    levels = 1
+    mx = nx
+    my = ny
+    do while (mod(mx - 1, 2) == 0 .and. mod(my - 1, 2) == 0 .and. (mx - 1) / 2 + 1 >= 5 .and. &
+              (my - 1) / 2 + 1 >= max(5, 2 * w * nranks) .and. levels < 10)
+      mx = (mx - 1) / 2 + 1
+      my = (my - 1) / 2 + 1
+      levels = levels + 1
+    end do
+  end function levels_that_fit
+
+  !> The inner preconditioner when it is not nuno's multigrid, unless
+  !> -reduced_pc_type is given: PETSc's geometric multigrid on the DMDA
+  !> (Galerkin coarse operators, one SSOR sweep as smoother) with the given
+  !> levels; block Jacobi/ILU(0) where fewer than three fit (small
+  !> lattices, for which it is the cheaper). Set in the options database,
+  !> so that -help shows them and every one can be overridden.
+  subroutine default_preconditioner(levels, ierr)
+    integer, intent(in) :: levels
+    PetscErrorCode, intent(out) :: ierr
+    PetscBool :: set
+    character(len=16) :: txt
+
+    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_pc_type', set, ierr))
+    if (set) return
+    if (levels < 3) then
+      PetscCall(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-reduced_pc_type', 'bjacobi', ierr))
+      return
+    end if
+    write(txt, '(i0)') levels
+    PetscCall(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-reduced_pc_type', 'mg', ierr))
+    PetscCall(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-reduced_pc_mg_levels', trim(txt), ierr))
+    PetscCall(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-reduced_pc_mg_galerkin', 'pmat', ierr))
+    call set_default('-reduced_mg_levels_ksp_type', 'richardson')
+    call set_default('-reduced_mg_levels_pc_type', 'sor')
+    call set_default('-reduced_mg_levels_ksp_max_it', '1')
+  contains
+    subroutine set_default(name, value)
+      character(len=*), intent(in) :: name, value
+      PetscBool :: given
+      call PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, name, given, ierr)
+      if (.not. given) call PetscOptionsSetValue(PETSC_NULL_OPTIONS, name, value, ierr)
+    end subroutine set_default
+  end subroutine default_preconditioner
+
+  !> The multigrid's coarse operators (Galerkin) and coarsest factorisation.
+  subroutine mg_coarse_levels(gl, ierr)
+    type(mg_glue_t), intent(inout) :: gl
+    PetscErrorCode, intent(out) :: ierr
+    integer :: info
+    MPI_Comm :: comm
+    PetscCall(PetscLogEventBegin(gl%ev_galerkin, ierr))
+    call mg_build_coarse(gl%mg, info)
+    PetscCall(PetscLogEventEnd(gl%ev_galerkin, ierr))
+    gl%built = .true.
+    ierr = 0
+    if (info /= 0) then
+      PetscCall(PetscObjectGetComm(gl%da3, comm, ierr))
+      ierr = PETSC_ERR_MAT_LU_ZRPVT
+      SETERRQ(comm, ierr, 'nuno: the coarsest multigrid matrix is singular')
+    end if
+  end subroutine mg_coarse_levels
+
+  !> MATSHELL mult of S: y = S x, one halo exchange of x (none on a rank
+  !> that owns every row), then by default
+  !> from the multigrid's finest level (single-precision blocks in
+  !> difference form, double-precision vectors, each offset's products in
+  !> single precision and their sum in double: kernel
+  !> stencil_product_mixed, half the bytes), or with -nuno_mg_product double
+  !> over S in double precision, one vector loop per offset (kernel
+  !> offset_product).
+  !> Collective.
+  subroutine stencil_mult(mat, x, y, ierr)
+    type(tMat) :: mat
+    type(tVec) :: x, y
+    PetscErrorCode :: ierr
+    type(mg_glue_t), pointer :: gl
+    type(tVec) :: xloc
+    PetscScalar, pointer :: xl(:), ya(:)
+    logical :: whole
+    integer(c_int64_t) :: state
+    PetscCall(MatShellGetContext(mat, gl, ierr))
+    if (gl%pax_valid) then
+      ! x the last cycle's output, unchanged: its product is formed
+      if (x%v == gl%pax_of%v) then
+        ierr = nuno_object_state(x%v, state)
+        if (ierr /= 0) return
+        if (state == gl%pax_state) then
+          PetscCall(VecCopy(gl%pax, y, ierr))
+          gl%pax_used = gl%pax_used + 1
+          return
+        end if
+      end if
+    end if
+    ! a rank that owns every row (one rank) has no halo: x is read in place
+    ! (the copy to a local vector was 2 % of a bw step on one rank)
+    whole = gl%lat%gys == gl%lat%ys .and. gl%lat%gye == gl%lat%ye
+    if (whole) then
+      PetscCall(VecGetArrayReadF90(x, xl, ierr))
+    else
+      PetscCall(DMGetLocalVector(gl%da3, xloc, ierr))
+      PetscCall(DMGlobalToLocalBegin(gl%da3, x, INSERT_VALUES, xloc, ierr))
+      PetscCall(DMGlobalToLocalEnd(gl%da3, x, INSERT_VALUES, xloc, ierr))
+      PetscCall(VecGetArrayReadF90(xloc, xl, ierr))
+    end if
+    PetscCall(VecGetArrayF90(y, ya, ierr))
+    associate (lat => gl%lat)
+      if (gl%mixed_product) then
+        ! the finest level is made from S at every assembly (mg_glue_assemble)
+        call mg_product(gl%mg, lat%gys, lat%gye, xl, ya)
+      else
+        call stencil_product(lat%nx, lat%ny, lat%ys, lat%ye, lat%gys, lat%gye, lat%halo, gl%st, xl, ya)
+      end if
+    end associate
+    PetscCall(VecRestoreArrayF90(y, ya, ierr))
+    if (whole) then
+      PetscCall(VecRestoreArrayReadF90(x, xl, ierr))
+    else
+      PetscCall(VecRestoreArrayReadF90(xloc, xl, ierr))
+      PetscCall(DMRestoreLocalVector(gl%da3, xloc, ierr))
+    end if
+  end subroutine stencil_mult
+
+  !> PCSHELL view (-reduced_ksp_view): the hierarchy of nuno's multigrid.
+  subroutine mg_pc_view(pc, viewer, ierr)
+    type(tPC) :: pc
+    type(tPetscViewer) :: viewer
+    PetscErrorCode :: ierr
+    type(mg_glue_t), pointer :: gl
+    character(len=160) :: text(16)
+    integer :: n, k
+    PetscCall(PCShellGetContext(pc, gl, ierr))
+    call mg_describe(gl%mg, text, n)
+    do k = 1, n
+      PetscCall(PetscViewerASCIIPrintf(viewer, '  '//trim(text(k))//new_line('a'), ierr))
+    end do
+    if (gl%fused_product) then
+      write(text(1), '(a, i0, a)') 'fused product: ', gl%pax_used, ' products with S so far formed in the cycles'' last sweeps'
+      PetscCall(PetscViewerASCIIPrintf(viewer, '  '//trim(text(1))//new_line('a'), ierr))
+    end if
+  end subroutine mg_pc_view
+
+  !> PCSHELL apply of the inner KSP: one cycle of nuno's multigrid.
+  subroutine mg_pc_apply(pc, x, y, ierr)
+    type(tPC) :: pc
+    type(tVec) :: x, y
+    PetscErrorCode :: ierr
+    type(mg_glue_t), pointer :: gl
+    PetscScalar, pointer :: xa(:, :, :), ya(:, :, :), pa(:, :, :)
+    PCSide :: side
+    logical :: formed
+    PetscCall(PCShellGetContext(pc, gl, ierr))
+    if (gl%fused_product .and. .not. gl%pax_checked) then
+      ! the first cycle: only a Krylov method that multiplies the
+      ! preconditioner's output (right preconditioning: FGMRES, GCR,
+      ! GMRES with -reduced_ksp_pc_side right) uses the fused product
+      PetscCall(KSPGetPCSide(gl%ksp, side, ierr))
+      if (side /= PC_RIGHT) then
+        gl%fused_product = .false.
+      else
+        PetscCall(VecDuplicate(y, gl%pax, ierr))
+      end if
+      gl%pax_checked = .true.
+    end if
+    gl%pax_valid = .false.
+    PetscCall(DMDAVecGetArrayReadF90(gl%da3, x, xa, ierr))
+    PetscCall(DMDAVecGetArrayF90(gl%da3, y, ya, ierr))
+    PetscCall(PetscLogEventBegin(gl%ev_cycle, ierr))
+    if (gl%fused_product) then
+      PetscCall(DMDAVecGetArrayF90(gl%da3, gl%pax, pa, ierr))
+      call mg_apply(gl%mg, xa, ya, pa, formed)
+      PetscCall(DMDAVecRestoreArrayF90(gl%da3, gl%pax, pa, ierr))
+    else
+      call mg_apply(gl%mg, xa, ya)
+    end if
+    PetscCall(PetscLogEventEnd(gl%ev_cycle, ierr))
+    PetscCall(DMDAVecRestoreArrayF90(gl%da3, y, ya, ierr))
+    PetscCall(DMDAVecRestoreArrayReadF90(gl%da3, x, xa, ierr))
+    if (gl%fused_product .and. formed) then
+      ! y as it is now (after its array was restored) is what pax is S times
+      gl%pax_of = y
+      ierr = nuno_object_state(y%v, gl%pax_state)
+      if (ierr /= 0) return
+      gl%pax_valid = .true.
+    end if
+  end subroutine mg_pc_apply
+
+  !> The multigrid's interpolations from the DMDA hierarchy, given to PCMG
+  !> as plain AIJ. The DMDA makes them MAIJ (one scalar operator for the 3
+  !> dof), and 3.18's Galerkin product of a sequential AIJ with a MAIJ
+  !> (MatPtAPNumeric_SeqAIJ_SeqMAIJ, "first draft only") sorts every row of
+  !> A P and scans every row of the product: converted once, the AIJ x AIJ
+  !> product is used at every set-up. (In parallel PETSc converts anyway.)
+  subroutine mg_interpolations(da3, interp, pc, ierr)
+    type(tDM), intent(in) :: da3
+    integer, intent(in) :: interp          !< INTERP_LINEAR, _CUBIC or _COARSE_CUBIC
+    type(tPC), intent(inout) :: pc
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt :: nlev, l
+    type(tDM), allocatable :: dms(:)
+    type(tMat) :: p
+
+    PetscCall(PCMGGetLevels(pc, nlev, ierr))
+    if (nlev < 2) return
+    allocate(dms(nlev))
+    dms(nlev) = da3
+    do l = nlev - 1, 1, -1
+      PetscCall(DMCoarsen(dms(l + 1), MPI_COMM_NULL, dms(l), ierr))
+    end do
+    ! PCMG level l (0 = coarsest) is dms(l + 1); its interpolation maps
+    ! level l - 1 to level l.
+    do l = nlev - 1, 1, -1
+      if (interp == INTERP_CUBIC .or. (interp == INTERP_COARSE_CUBIC .and. l < nlev - 1)) then
+        PetscCall(cubic_interpolation(dms(l), dms(l + 1), p, ierr))
+      else
+        PetscCall(DMCreateInterpolation(dms(l), dms(l + 1), p, PETSC_NULL_VEC, ierr))
+        PetscCall(MatConvert(p, MATAIJ, MAT_INPLACE_MATRIX, p, ierr))
+      end if
+      PetscCall(PCMGSetInterpolation(pc, l, p, ierr))
+      PetscCall(MatDestroy(p, ierr))
+    end do
+    do l = 1, nlev - 1
+      PetscCall(DMDestroy(dms(l), ierr))
+    end do
+  end subroutine mg_interpolations
+
+  !> Tensor-product cubic interpolation (module interpolation: 4-point
+  !> Lagrange, one-sided at the ends, exact for cubics) from the coarse DMDA
+  !> dc to the fine df (2:1, vertex-centred), the same for each of the 3
+  !> dof, as AIJ (at most 16 non-zeros a row; rows and columns in the
+  !> natural order, which is PETSc's for 1 x P strips). With bending the
+  !> bilinear interpolation's coarse correction weakens as the lattice is
+  !> refined (iterations grew 4 -> 26 from 65 to 1025); cubic keeps it.
+  subroutine cubic_interpolation(dc, df, p, ierr)
+    type(tDM), intent(in) :: dc, df
+    type(tMat), intent(out) :: p
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt :: mxc, myc, mxf, myf, xs, ys, zs, xm, ym, zm, cxs, cys, cxm, cym
+    PetscInt :: row(1), cols(16), nz, i, j, d, a, b, idum
+    PetscInt, parameter :: one = 1
+    PetscScalar :: v(16)
+    integer :: ncx, ncy, ix(4), iy(4)
+    real(rp) :: wx(4), wy(4)
+    MPI_Comm :: comm
+
+    PetscCall(PetscObjectGetComm(df, comm, ierr))
+    PetscCall(DMDAGetInfo(dc, PETSC_NULL_INTEGER, mxc, myc, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, idum, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, ierr))
+    PetscCall(DMDAGetInfo(df, PETSC_NULL_INTEGER, mxf, myf, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, idum, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, ierr))
+    PetscCall(DMDAGetCorners(df, xs, ys, zs, xm, ym, zm, ierr))
+    PetscCall(DMDAGetCorners(dc, cxs, cys, zs, cxm, cym, zm, ierr))
+    PetscCall(MatCreateAIJ(comm, 3 * xm * ym, 3 * cxm * cym, PETSC_DETERMINE, PETSC_DETERMINE, 16, PETSC_NULL_INTEGER, 16, PETSC_NULL_INTEGER, p, ierr))
+    PetscCall(MatSetBlockSizes(p, 3, 3, ierr))
+    do j = ys, ys + ym - 1
+      call cubic_weights(j, myc, iy, wy, ncy)
+      do i = xs, xs + xm - 1
+        call cubic_weights(i, mxc, ix, wx, ncx)
+        do d = 0, 2
+          row(1) = 3 * (i + j * mxf) + d
+          nz = 0
+          do b = 1, ncy
+            do a = 1, ncx
+              nz = nz + 1
+              cols(nz) = 3 * (ix(a) + iy(b) * mxc) + d
+              v(nz) = wx(a) * wy(b)
+            end do
+          end do
+          PetscCall(MatSetValues(p, one, row, nz, cols, v, INSERT_VALUES, ierr))
+        end do
+      end do
+    end do
+    PetscCall(MatAssemblyBegin(p, MAT_FINAL_ASSEMBLY, ierr))
+    PetscCall(MatAssemblyEnd(p, MAT_FINAL_ASSEMBLY, ierr))
+  end subroutine cubic_interpolation
+
+  !> Krylov methods that can, stop on the true residual (which is the 6-dof
+  !> v-row residual): right preconditioning for the GMRES family, the
+  !> unpreconditioned norm for CG-like ones; unless the options say
+  !> otherwise.
+  subroutine true_residual_defaults(ksp, ierr)
+    type(tKSP), intent(inout) :: ksp
+    PetscErrorCode, intent(out) :: ierr
+    character(len=64) :: ktype
+    PetscBool :: side_set, norm_set
+    PetscCall(KSPGetType(ksp, ktype, ierr))
+    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_ksp_pc_side', side_set, ierr))
+    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_ksp_norm_type', norm_set, ierr))
+    select case (trim(ktype))
+    case (KSPGMRES, KSPFGMRES, KSPLGMRES, KSPDGMRES, KSPPGMRES, KSPBCGS, KSPIBCGS, KSPTFQMR)
+      if (.not. side_set .and. trim(ktype) /= KSPFGMRES) then
+        PetscCall(KSPSetPCSide(ksp, PC_RIGHT, ierr))
+      end if
+    case (KSPCG, KSPPIPECG, KSPCR, KSPFCG)
+      if (.not. norm_set) then
+        PetscCall(KSPSetNormType(ksp, KSP_NORM_UNPRECONDITIONED, ierr))
+      end if
+    case default
+    end select
+  end subroutine true_residual_defaults
+
+end module reduced_mg
