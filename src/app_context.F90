@@ -16,7 +16,9 @@ module app_context
   use reduced, only: reduced_t
   implicit none
   private
-  public :: app_ctx
+  public :: app_ctx, model_state_t, assembly_t, newton_state_t, step_settings_t, energy_integrals_t, progress_t, &
+            restart_state_t
+  public :: model_state_free, assembly_free, energy_integrals_free, restart_state_free
   public :: nuno_walltime_arm, nuno_adaptive_default, nuno_checkpoint_due, nuno_linesearch_options_read, nuno_newton_start_count, nuno_newton_start_get, nuno_newton_start_push, nuno_newton_start_put, nuno_newton_start_reset, nuno_newton_start_setup, nuno_options_read, nuno_options_report_unused, nuno_petsc_habits, nuno_signal_agreed, nuno_signals_install, nuno_step_defaults, nuno_tolerance_options_read, nuno_ts_scheme, nuno_ts_stop
 
   interface
@@ -141,78 +143,91 @@ module app_context
   end interface
 
 
-  !> Everything the callbacks need; passed to PETSc as the user context.
-  type :: app_ctx
-    type(nuno_config) :: cfg
-    type(lattice_t) :: lat
-    type(constraint_set_t) :: cs
-    type(jac_buffer_t) :: jbuf
-    type(tDM) :: da
-    type(tTS) :: ts
-    type(tVec) :: u                             !< global state
-    type(tMat) :: p                             !< assembled 6-dof Jacobian (-nuno_jacobian full only)
-    logical :: use_reduced = .true.             !< the reduced 3-dof solve (module reduced), the default
-    type(reduced_t) :: red                      !< its matrices and inner solver
-    integer :: comm = MPI_COMM_NULL, rank = 0, size = 1
+  !> The model's state within a time window and its work arrays (module
+  !> cloth_model, set by enter_window).
+  type :: model_state_t
     real(rp), allocatable :: f(:, :, :)         !< (3, 0:nx-1, gys:gye) force work array
     logical, allocatable :: fixed(:, :)         !< (0:nx-1, ys:ye) constrained in the current window
-    real(rp), allocatable :: xout(:, :, :)      !< (3, 0:nx-1, ys:ye) output buffer
-    real(rp), allocatable :: vout(:, :, :)      !< (3, 0:nx-1, ys:ye) output buffer
-    real(rp), allocatable :: vals(:, :, :)      !< (6, 6, ncol) one block row of the Jacobian
-    integer, allocatable :: cols(:)             !< (ncol) its local block columns
     real(rp) :: gravity(3) = 0
     logical :: clamp = .false.                  !< drop indefinite spring compression terms in P
     logical :: gauss_newton = .false.           !< Gauss-Newton energy-bending blocks in P
     logical :: moving_constraints = .false.     !< a constrained node moves in this window
-    ! Newton's round-off floor (snes_converged)
+    !> the singular element seen by the last residual evaluation: how many,
+    !> one of them (link end nodes) and the time
+    integer :: nbad = 0, bad(2) = -1
+    real(rp) :: t_bad = 0
+  end type model_state_t
+
+  !> The assembled 6-dof Jacobian and its work buffers (-nuno_jacobian full;
+  !> module cloth_model).
+  type :: assembly_t
+    type(jac_buffer_t) :: jbuf
+    type(tMat) :: p                             !< assembled 6-dof Jacobian (-nuno_jacobian full only)
+    real(rp), allocatable :: vals(:, :, :)      !< (6, 6, ncol) one block row of the Jacobian
+    integer, allocatable :: cols(:)             !< (ncol) its local block columns
+  end type assembly_t
+
+  !> Newton's policy state: the round-off floor, inexact Newton, the line-
+  !> search fallback and the Newton start (module newton_policy).
+  type :: newton_state_t
     real(rp) :: snes_floor = 1.0e-6_rp          !< -nuno_snes_floor: stagnation below this relative residual is convergence
     real(rp) :: fnorm0 = 0, fnorm_prev = 0
     real(rp) :: floor_est = 0                   !< round-off floor of ||F||_2 at the last 6-dof assembly (module newton_control)
     real(rp) :: snorm_prev = 0                  !< ||update|| of the previous Newton iteration
-    ! inexact Newton (module newton_forcing, -nuno_newton_forcing)
     logical :: newton_forcing = .true.          !< inner tolerance from the step's needs (reduced path)
     integer(c_int) :: guess = GUESS_AUTO        !< -nuno_inner_guess (module inner_guess)
     integer(c_int) :: guess_given = 0           !< 1: set on the command line
     real(rp) :: cquad = 0                       !< estimate of C in ||F_k+1|| ~ C ||F_k||^2; 0 at every window start
-    ! singular element seen by the last residual evaluation
-    integer :: nbad = 0, bad(2) = -1
-    real(rp) :: t_bad = 0
-    ! time integrals, advanced by the monitor over each accepted step so
-    ! that they close at the method's order: Gauss-Legendre on the
-    ! interpolant of bdf (order up to 6), the trapezoid rule otherwise
-    logical :: gauss = .false.
-    type(tVec) :: uq                            !< interpolated state (Gauss points)
-    real(rp) :: t_prev = 0, pdiss_prev = 0, pcon_prev = 0
-    logical :: monitor_seen = .false.           !< ts_monitor has run (its stall check)
-    PetscInt :: monitor_step = 0                !< the step number it saw last
-    integer :: stalled_steps = 0                !< accepted steps in a row that did not advance t
-    real(rp) :: dissipated = 0                  !< dissipated energy [energy]
-    real(rp) :: work_constraints = 0            !< work of the constraint reactions [energy]
-    real(rp) :: mgx0 = 0                        !< sum m g . x at t = 0
-    ! the time integration as used: the namelist's values after the PETSc options
-    real(rp) :: dt = 0                          !< fixed (or initial) step [time]: -ts_dt, else the namelist's
-    real(rp) :: t_end = 0                       !< end time [time]: -ts_max_time, else the namelist's
-    logical :: fixed_step = .true.              !< -ts_adapt_type none: every step is dt unless retried
     integer :: start_order = 1                  !< Newton start of beuler: 1 linear, 3 cubic (-nuno_newton_start)
-    logical :: adaptive_default = .false.       !< the TS type is -nuno_adaptive_ts_type's (no -ts_type given)
-    PetscInt :: max_steps = 0                   !< -ts_max_steps: a clean end after this many steps
-    ! error tolerances of adaptive steps (TSSetTolerances: scalar rtol, vector atol)
-    real(rp) :: rtol = 0                        !< -ts_rtol [1]
-    real(rp) :: atol_x = 0                      !< absolute tolerance of positions [length]
-    real(rp) :: atol_v = 0                      !< absolute tolerance of velocities [length/time]
-    real(rp) :: tstop = 0                       !< end of the current time window [time]
-    PetscInt :: rejects_seen = 0                !< step rejections already answered by the monitor
     integer :: fail_newton = 0                  !< -nuno_fail_newton: Newton solves still to be declared failed
     !> -nuno_linesearch_fallback: 0 none, 1 bt, 2 l2 (the line search once a
     !> Newton solve has failed); ls_switched once it has been put in place
     integer :: ls_fallback = 0
     logical :: ls_switched = .false.
-    ! progress
+  end type newton_state_t
+
+  !> The time integration as used: the namelist's values after the PETSc
+  !> options (module solver_setup), and the current time window.
+  type :: step_settings_t
+    real(rp) :: dt = 0                          !< fixed (or initial) step [time]: -ts_dt, else the namelist's
+    real(rp) :: t_end = 0                       !< end time [time]: -ts_max_time, else the namelist's
+    logical :: fixed_step = .true.              !< -ts_adapt_type none: every step is dt unless retried
+    logical :: adaptive_default = .false.       !< the TS type is -nuno_adaptive_ts_type's (no -ts_type given)
+    PetscInt :: max_steps = 0                   !< -ts_max_steps: a clean end after this many steps
+    !> error tolerances of adaptive steps (TSSetTolerances: scalar rtol, vector atol)
+    real(rp) :: rtol = 0                        !< -ts_rtol [1]
+    real(rp) :: atol_x = 0                      !< absolute tolerance of positions [length]
+    real(rp) :: atol_v = 0                      !< absolute tolerance of velocities [length/time]
+    real(rp) :: tstop = 0                       !< end of the current time window [time]
+    PetscInt :: rejects_seen = 0                !< step rejections already answered by the monitor
+  end type step_settings_t
+
+  !> Time integrals, advanced by the monitor over each accepted step so that
+  !> they close at the method's order: Gauss-Legendre on the interpolant of bdf
+  !> (order up to 6), the trapezoid rule otherwise (module step_monitor).
+  type :: energy_integrals_t
+    logical :: gauss = .false.
+    type(tVec) :: uq                            !< interpolated state (Gauss points)
+    real(rp) :: t_prev = 0, pdiss_prev = 0, pcon_prev = 0
+    real(rp) :: dissipated = 0                  !< dissipated energy [energy]
+    real(rp) :: work_constraints = 0            !< work of the constraint reactions [energy]
+    real(rp) :: mgx0 = 0                        !< sum m g . x at t = 0
+  end type energy_integrals_t
+
+  !> Progress of the run: wall clock, output steps, the monitor's stall check.
+  type :: progress_t
+    logical :: monitor_seen = .false.           !< ts_monitor has run (its stall check)
+    PetscInt :: monitor_step = 0                !< the step number it saw last
+    integer :: stalled_steps = 0                !< accepted steps in a row that did not advance t
     real(rp) :: wall0 = 0                       !< MPI_Wtime at the start of solver_run [s]
     real(rp) :: t_written = -1                  !< time of the last output step [time]
     real(rp) :: wall_said = 0                   !< MPI_Wtime of the last line on stdout (rank 0) [s]
     logical :: stretch_warned = .false.         !< the stretch_limit warning was given
-    ! checkpoints and restarts (docs/design.md, "Checkpoints")
+  end type progress_t
+
+  !> Checkpoints and restarts (docs/design.md, "Checkpoints"; module
+  !> run_checkpoint).
+  type :: restart_state_t
     real(rp) :: checkpoint_walltime = 0         !< -nuno_checkpoint_walltime: a checkpoint after each [s]; 0: none
     !> time of the last checkpoint written or restarted from [time]; the
     !> run's start at first, so that the first checkpoint_interval
@@ -232,9 +247,69 @@ module app_context
     !> rejected steps, Newton and linear iterations and retries of the runs
     !> before this one (the step count goes on in the TS itself)
     real(rp) :: counts_before(5) = 0
+    type(output_file), pointer :: out => null() !< the output file, for the wall-clock checkpoints (solver_run)
+  end type restart_state_t
+
+  !> Everything the callbacks need; passed to PETSc as the user context.
+  type :: app_ctx
+    type(nuno_config) :: cfg
+    type(lattice_t) :: lat
+    type(constraint_set_t) :: cs
+    type(tDM) :: da
+    type(tTS) :: ts
+    type(tVec) :: u                             !< global state
+    logical :: use_reduced = .true.             !< the reduced 3-dof solve (module reduced), the default
+    type(reduced_t) :: red                      !< its matrices and inner solver
+    integer :: comm = MPI_COMM_NULL, rank = 0, size = 1
+    real(rp), allocatable :: xout(:, :, :)      !< (3, 0:nx-1, ys:ye) output buffer
+    real(rp), allocatable :: vout(:, :, :)      !< (3, 0:nx-1, ys:ye) output buffer
     !> the (collective) output error that ended the run, '' if none
     character(len=512) :: io_error = ''
-    type(output_file), pointer :: out => null() !< the output file, for the wall-clock checkpoints (solver_run)
+    type(model_state_t) :: model
+    type(assembly_t) :: asm
+    type(newton_state_t) :: newton
+    type(step_settings_t) :: step
+    type(energy_integrals_t) :: energy
+    type(progress_t) :: progress
+    type(restart_state_t) :: restart
   end type app_ctx
+
+contains
+
+  ! Each record starts from its type's default initialisation (solver_create
+  ! fills in what the options give); these free what it allocated.
+
+  !> The model's work arrays.
+  subroutine model_state_free(m)
+    type(model_state_t), intent(inout) :: m
+    if (allocated(m%f)) deallocate(m%f)
+    if (allocated(m%fixed)) deallocate(m%fixed)
+  end subroutine model_state_free
+
+  !> The assembled 6-dof Jacobian and its buffers (-nuno_jacobian full only:
+  !> the reduced solve creates none). Collective.
+  subroutine assembly_free(a, ierr)
+    type(assembly_t), intent(inout) :: a
+    PetscErrorCode, intent(out) :: ierr
+    PetscCall(MatDestroy(a%p, ierr))
+    if (allocated(a%vals)) deallocate(a%vals)
+    if (allocated(a%cols)) deallocate(a%cols)
+  end subroutine assembly_free
+
+  !> The interpolated state of the Gauss points. Collective.
+  subroutine energy_integrals_free(e, ierr)
+    type(energy_integrals_t), intent(inout) :: e
+    PetscErrorCode, intent(out) :: ierr
+    PetscCall(VecDestroy(e%uq, ierr))
+  end subroutine energy_integrals_free
+
+  !> The restart point's state; the output file is the caller's.
+  subroutine restart_state_free(r)
+    type(restart_state_t), intent(inout) :: r
+    if (allocated(r%rp_x)) deallocate(r%rp_x)
+    if (allocated(r%rp_v)) deallocate(r%rp_v)
+    r%rp_valid = .false.
+    nullify(r%out)
+  end subroutine restart_state_free
 
 end module app_context

@@ -1,6 +1,16 @@
 !> The process model: the residual F(t, U, Udot) and its assembled
 !> Jacobian, PETSc's IFunction and IJacobian callbacks (docs/model.md
-!> sections 5 and 6; the form of F is described in module timestepping).
+!> sections 5 and 6).
+!>
+!> State: DMDA dof 6 per node, u(0:2) position, u(3:5) velocity;
+!> F = [ xdot - v ; vdot - f(x, v)/m - g ] on free nodes and
+!> F = [ xdot - vbar ; vdot ] on constrained nodes.
+!> The rows are those of docs/model.md section 5 divided by the mass, so that
+!> dF/dUdot = I: PETSc's ARKIMEX (explicit first stage) takes
+!> Udot = -F(t, U, 0) and is wrong for any other form. A constrained node is
+!> put on its path at the start of each time window (enter_window), where
+!> its prescribed velocity is constant, so xdot = vbar keeps x = xbar(t)
+!> exactly under every consistent integrator.
 module cloth_model
 #include "petsc/finclude/petscts.h"
   use petscts
@@ -11,7 +21,7 @@ module cloth_model
   use constraints, only: constraint_target
   use newton_control, only: floor_node_add, floor_estimate
   use reduced, only: reduced_assemble, set_block_row
-  use app_context
+  use app_context, only: app_ctx
   use failure_text, only: ieee_nan
   implicit none
   private
@@ -46,7 +56,7 @@ contains
 
   !> The residual on plain arrays. A singular element (zero-length link,
   !> bending triple at pi) makes the residual NaN, so that SNES fails the
-  !> step collectively; ctx%nbad says why.
+  !> step collectively; ctx%model%nbad says why.
   subroutine residual(ctx, t, u, ud, fv)
     type(app_ctx), intent(inout) :: ctx
     real(rp), intent(in) :: t
@@ -56,11 +66,11 @@ contains
     integer :: i, j, k, nbad, bad(2)
     real(rp) :: xb(3), vb(3)
 
-    call internal_forces(ctx%lat, u, ctx%f, nbad, bad)
+    call internal_forces(ctx%lat, u, ctx%model%f, nbad, bad)
     do j = ctx%lat%ys, ctx%lat%ye
       do i = 0, ctx%lat%nx - 1
         fv(0:2, i, j) = ud(0:2, i, j) - u(3:5, i, j)
-        fv(3:5, i, j) = ud(3:5, i, j) - ctx%f(:, i, j) / ctx%lat%mass(i, j) - ctx%gravity
+        fv(3:5, i, j) = ud(3:5, i, j) - ctx%model%f(:, i, j) / ctx%lat%mass(i, j) - ctx%model%gravity
       end do
     end do
     if (ctx%cs%active) then
@@ -73,9 +83,9 @@ contains
       end do
     end if
     if (nbad > 0) then
-      ctx%nbad = nbad
-      ctx%bad = bad
-      ctx%t_bad = t
+      ctx%model%nbad = nbad
+      ctx%model%bad = bad
+      ctx%model%t_bad = t
       fv(0, 0, ctx%lat%ys) = ieee_nan()
     end if
   end subroutine residual
@@ -113,31 +123,31 @@ contains
       PetscCall(MatAssemblyEnd(jmat, MAT_FINAL_ASSEMBLY, ierr))
       return
     end if
-    ctx%jbuf%k = 0.0_rp
-    ctx%jbuf%c = 0.0_rp
+    ctx%asm%jbuf%k = 0.0_rp
+    ctx%asm%jbuf%c = 0.0_rp
     sums = 0.0_rp
     do ja = first_anchor_row(ctx%lat), ctx%lat%ye
-      call jac_buffer_row(ctx%jbuf, ctx%lat, u, ja, ctx%clamp, ctx%gauss_newton)
+      call jac_buffer_row(ctx%asm%jbuf, ctx%lat, u, ja, ctx%model%clamp, ctx%model%gauss_newton)
       if (ja >= ctx%lat%ys) then
         PetscCall(insert_row(ctx, pmat, ja, a, ierr))
         ! the round-off floor of F from this assembly, as the reduced path
         ! takes it from S (module newton_control)
         do i = 0, ctx%lat%nx - 1
-          if (ctx%fixed(i, ja)) cycle
+          if (ctx%model%fixed(i, ja)) cycle
           do q = 1, 3
-            kd(q) = ctx%jbuf%k(q, q, 0, 0, i, slot_of(ja))
+            kd(q) = ctx%asm%jbuf%k(q, q, 0, 0, i, slot_of(ja))
           end do
           call floor_node_add(kd, ctx%lat%mass(i, ja), u(0:2, i, ja), a, sums)
         end do
       end if
-      ctx%jbuf%k(:, :, :, :, :, slot_of(ja)) = 0.0_rp
-      ctx%jbuf%c(:, :, :, :, :, slot_of(ja)) = 0.0_rp
+      ctx%asm%jbuf%k(:, :, :, :, :, slot_of(ja)) = 0.0_rp
+      ctx%asm%jbuf%c(:, :, :, :, :, slot_of(ja)) = 0.0_rp
     end do
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, uloc, u, ierr))
     PetscCall(DMRestoreLocalVector(ctx%da, uloc, ierr))
     call MPI_Allreduce(sums(1), gsums(1), 1, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, ierr)
     call MPI_Allreduce(sums(2), gsums(2), 1, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
-    ctx%floor_est = floor_estimate(gsums)
+    ctx%newton%floor_est = floor_estimate(gsums)
     PetscCall(MatAssemblyBegin(pmat, MAT_FINAL_ASSEMBLY, ierr))
     PetscCall(MatAssemblyEnd(pmat, MAT_FINAL_ASSEMBLY, ierr))
     if (jmat%v /= pmat%v) then
@@ -157,7 +167,7 @@ contains
     PetscInt :: row(1), ncol
     real(rp) :: minv
 
-    w = ctx%jbuf%w
+    w = ctx%asm%jbuf%w
     s = slot_of(j)
     ierr = 0
     do i = 0, ctx%lat%nx - 1
@@ -168,30 +178,30 @@ contains
         do di = -w, w
           if (i + di < 0 .or. i + di >= ctx%lat%nx) cycle
           nc = nc + 1
-          ctx%cols(nc) = (i + di) + (j + dj - ctx%lat%gys) * ctx%lat%nx
-          ctx%vals(:, :, nc) = 0.0_rp
-          if (ctx%fixed(i, j)) then
+          ctx%asm%cols(nc) = (i + di) + (j + dj - ctx%lat%gys) * ctx%lat%nx
+          ctx%asm%vals(:, :, nc) = 0.0_rp
+          if (ctx%model%fixed(i, j)) then
             if (di == 0 .and. dj == 0) then
               do q = 1, 6
-                ctx%vals(q, q, nc) = a
+                ctx%asm%vals(q, q, nc) = a
               end do
             end if
             cycle
           end if
-          ctx%vals(4:6, 1:3, nc) = ctx%jbuf%k(:, :, di, dj, i, s) * minv
-          ctx%vals(4:6, 4:6, nc) = ctx%jbuf%c(:, :, di, dj, i, s) * minv
+          ctx%asm%vals(4:6, 1:3, nc) = ctx%asm%jbuf%k(:, :, di, dj, i, s) * minv
+          ctx%asm%vals(4:6, 4:6, nc) = ctx%asm%jbuf%c(:, :, di, dj, i, s) * minv
           if (di == 0 .and. dj == 0) then
             do q = 1, 3
-              ctx%vals(q, q, nc) = a
-              ctx%vals(q, q + 3, nc) = -1.0_rp
-              ctx%vals(q + 3, q + 3, nc) = ctx%vals(q + 3, q + 3, nc) + a
+              ctx%asm%vals(q, q, nc) = a
+              ctx%asm%vals(q, q + 3, nc) = -1.0_rp
+              ctx%asm%vals(q + 3, q + 3, nc) = ctx%asm%vals(q + 3, q + 3, nc) + a
             end do
           end if
         end do
       end do
       row(1) = i + (j - ctx%lat%gys) * ctx%lat%nx
       ncol = nc
-      PetscCall(set_block_row(pmat, row, ncol, ctx%cols, ctx%vals, 36 * nc, ierr))
+      PetscCall(set_block_row(pmat, row, ncol, ctx%asm%cols, ctx%asm%vals, 36 * nc, ierr))
     end do
   end subroutine insert_row
 

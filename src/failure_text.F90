@@ -9,7 +9,7 @@ module failure_text
   use, intrinsic :: iso_c_binding, only: c_int
   use, intrinsic :: iso_fortran_env, only: error_unit
   use kinds, only: rp
-  use app_context
+  use app_context, only: app_ctx
   implicit none
   private
   public :: signal_name, failure_reason, report_io_error, num, inum, ieee_nan
@@ -29,8 +29,8 @@ contains
     type(tSNES) :: snes
     PetscErrorCode :: ierr
     h = 'try'
-    if (ctx%fixed_step) then
-      write(dtq, '(es10.3)') 0.25_rp * ctx%dt
+    if (ctx%step%fixed_step) then
+      write(dtq, '(es10.3)') 0.25_rp * ctx%step%dt
       h = trim(h)//' a smaller step (-ts_dt '//trim(adjustl(dtq))//'), adaptive steps (-ts_adapt_type basic),'
     else if (.not. given('-ts_max_snes_failures')) then
       h = trim(h)//' more retries (-ts_max_snes_failures -1),'
@@ -92,13 +92,13 @@ contains
     character(len=*), intent(out) :: msg
     integer :: nbad(1), gbad(1), ierr, loc(3), glob(3)
 
-    nbad(1) = ctx%nbad
+    nbad(1) = ctx%model%nbad
     call MPI_Allreduce(nbad, gbad, 1, MPI_INTEGER, MPI_MAX, ctx%comm, ierr)
     if (gbad(1) > 0) then
       loc = -1
-      if (ctx%nbad > 0) loc = [ctx%bad(1), ctx%bad(2), 1]
+      if (ctx%model%nbad > 0) loc = [ctx%model%bad(1), ctx%model%bad(2), 1]
       call MPI_Allreduce(loc, glob, 3, MPI_INTEGER, MPI_MAX, ctx%comm, ierr)
-      write(msg, '(a,es12.5,a,i0,a,i0,a)') 'singular element at t = ', ctx%t_bad, &
+      write(msg, '(a,es12.5,a,i0,a,i0,a)') 'singular element at t = ', ctx%model%t_bad, &
         ' (zero-length link or bending triple folded back to theta = pi) anchored at node (', &
         glob(1), ', ', glob(2), ')'
     else if (reason == TS_DIVERGED_NONLINEAR_SOLVE) then

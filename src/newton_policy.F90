@@ -12,7 +12,7 @@ module newton_policy
   use kinds, only: rp
   use newton_forcing, only: forcing_term, quadratic_constant
   use newton_control, only: FLOOR_FACTOR, NEWTON_CONVERGED, NEWTON_DIVERGED, floor_verdict
-  use app_context
+  use app_context, only: app_ctx, nuno_newton_start_setup
   use failure_text, only: num
   implicit none
   private
@@ -46,10 +46,10 @@ contains
     integer(c_int) :: auto_cubic, order
     PetscCall(TSGetSNES(ctx%ts, snes, ierr))
     PetscCall(SNESGetType(snes, sntype, ierr))
-    auto_cubic = merge(1_c_int, 0_c_int, ctx%fixed_step .and. trim(sntype) /= SNESKSPONLY .and. &
+    auto_cubic = merge(1_c_int, 0_c_int, ctx%step%fixed_step .and. trim(sntype) /= SNESKSPONLY .and. &
                        .not. (ctx%cfg%identify .or. ctx%cfg%control))
     ierr = nuno_newton_start_setup(ctx%ts%v, auto_cubic, order)
-    ctx%start_order = order
+    ctx%newton%start_order = order
   end subroutine set_newton_start
 
   !> PETSc's residual test, plus the round-off floor of the residual, which
@@ -87,19 +87,19 @@ contains
     SNESLineSearchReason :: lsreason
     call SNESConvergedDefault(snes, it, xnorm, snorm, fnorm, reason, PETSC_NULL_INTEGER, ierr)
     if (ierr /= 0) return
-    if (it == 0 .and. ctx%fail_newton > 0) then
+    if (it == 0 .and. ctx%newton%fail_newton > 0) then
       ! -nuno_fail_newton (tests): the same decision on every rank.
-      ctx%fail_newton = ctx%fail_newton - 1
+      ctx%newton%fail_newton = ctx%newton%fail_newton - 1
       reason = SNES_DIVERGED_FUNCTION_DOMAIN
     else if (it == 0) then
-      ctx%fnorm0 = fnorm
+      ctx%newton%fnorm0 = fnorm
     else if (reason == SNES_CONVERGED_ITERATING) then
       PetscCall(line_search_reason(snes, lsreason, ierr))
       if (lsreason /= LS_SUCCEEDED .and. lsreason /= LS_FAILED_REDUCT) then
         reason = SNES_DIVERGED_LINE_SEARCH        ! NaN, domain error: PETSc's own verdict
       else
-        floor_est = merge(ctx%red%floor_est, ctx%floor_est, ctx%use_reduced)
-        verdict = floor_verdict(fnorm, ctx%fnorm_prev, ctx%fnorm0, ctx%snes_floor, floor_est, &
+        floor_est = merge(ctx%red%floor_est, ctx%newton%floor_est, ctx%use_reduced)
+        verdict = floor_verdict(fnorm, ctx%newton%fnorm_prev, ctx%newton%fnorm0, ctx%newton%snes_floor, floor_est, &
                                 lsreason == LS_FAILED_REDUCT)
         if (verdict == NEWTON_CONVERGED) then
           reason = SNES_CONVERGED_FNORM_ABS
@@ -108,19 +108,19 @@ contains
         end if
       end if
     end if
-    if (it >= 2 .and. reason == SNES_CONVERGED_ITERATING .and. .not. ctx%fixed_step .and. ctx%snorm_prev > 0.0_rp) then
-      rate = snorm / ctx%snorm_prev
+    if (it >= 2 .and. reason == SNES_CONVERGED_ITERATING .and. .not. ctx%step%fixed_step .and. ctx%newton%snorm_prev > 0.0_rp) then
+      rate = snorm / ctx%newton%snorm_prev
       if (rate < 0.9_rp) then
         call update_wrms(snes, ctx, wnorm, ierr)
         if (ierr /= 0) return
         if (wnorm * rate / (1.0_rp - rate) <= NEWTON_TS_FRACTION) reason = SNES_CONVERGED_SNORM_RELATIVE
       end if
     end if
-    if (reason == SNES_CONVERGED_ITERATING .and. ctx%use_reduced .and. ctx%newton_forcing) then
+    if (reason == SNES_CONVERGED_ITERATING .and. ctx%use_reduced .and. ctx%newton%newton_forcing) then
       PetscCall(set_newton_forcing(snes, it, fnorm, ctx, ierr))
     end if
-    ctx%fnorm_prev = fnorm
-    ctx%snorm_prev = snorm
+    ctx%newton%fnorm_prev = fnorm
+    ctx%newton%snorm_prev = snorm
   end subroutine snes_converged
 
   !> The reason of this Newton iteration's line search (LS_SUCCEEDED for a
@@ -162,10 +162,10 @@ contains
     real(rp) :: target
 
     PetscCall(SNESGetTolerances(snes, atol, rtol, stol, maxit, maxf, ierr))
-    if (it >= 1) ctx%cquad = quadratic_constant(ctx%fnorm_prev, fnorm, ctx%red%lin_rel)
-    target = max(atol, rtol * ctx%fnorm0)
-    if (ctx%snes_floor > 0.0_rp) target = max(target, FLOOR_FACTOR * ctx%red%floor_est)
-    ctx%red%eta = forcing_term(fnorm, target, ctx%cquad, ctx%red%rtol0, ETA_MAX)
+    if (it >= 1) ctx%newton%cquad = quadratic_constant(ctx%newton%fnorm_prev, fnorm, ctx%red%lin_rel)
+    target = max(atol, rtol * ctx%newton%fnorm0)
+    if (ctx%newton%snes_floor > 0.0_rp) target = max(target, FLOOR_FACTOR * ctx%red%floor_est)
+    ctx%red%eta = forcing_term(fnorm, target, ctx%newton%cquad, ctx%red%rtol0, ETA_MAX)
   end subroutine set_newton_forcing
 
   !> The last Newton update in the weighted RMS norm of the time integrator:
@@ -192,9 +192,9 @@ contains
     loc(1) = 0.0_rp
     do k = 1, size(xa)
       if (mod(k - 1, 6) < 3) then
-        loc(1) = loc(1) + (ya(k) / ctx%atol_x)**2
+        loc(1) = loc(1) + (ya(k) / ctx%step%atol_x)**2
       else
-        loc(1) = loc(1) + (ya(k) / (ctx%atol_v + ctx%rtol * abs(xa(k))))**2
+        loc(1) = loc(1) + (ya(k) / (ctx%step%atol_v + ctx%step%rtol * abs(xa(k))))**2
       end if
     end do
     loc(2) = real(size(xa), rp)
@@ -215,12 +215,12 @@ contains
     type(tSNES) :: snes
     SNESLineSearch :: linesearch
     character(len=2) :: kind
-    kind = merge('bt', 'l2', ctx%ls_fallback == 1)
+    kind = merge('bt', 'l2', ctx%newton%ls_fallback == 1)
     PetscCall(TSGetSNES(ts, snes, ierr))
     PetscCall(SNESGetLineSearch(snes, linesearch, ierr))
     PetscCall(SNESLineSearchSetType(linesearch, kind, ierr))
     PetscCall(SNESLineSearchSetFromOptions(linesearch, ierr))
-    ctx%ls_switched = .true.
+    ctx%newton%ls_switched = .true.
     if (ctx%rank == 0) write(output_unit, '(a)') 'nuno: after a failed Newton solve (its step retried smaller), line search '// &
       kind//' from t = '//num(t)//' on (-nuno_linesearch_fallback)'
   end subroutine linesearch_fallback

@@ -7,7 +7,7 @@ module provenance
   use mpi
   use config, only: nuno_config, SCENE_HANG, unset_real
   use output, only: output_file, run_info, output_write_run_info, output_config_key
-  use app_context
+  use app_context, only: app_ctx
   use failure_text, only: report_io_error
   implicit none
   private
@@ -33,12 +33,12 @@ contains
     PetscCall(TSGetAdapt(ctx%ts, adapt, ierr))
     PetscCall(TSAdaptGetType(adapt, info%ts_adapt_type, ierr))
     PetscCall(PetscGetVersion(info%petsc_version, ierr))
-    info%dt = ctx%dt
-    info%t_end = ctx%t_end
-    info%max_steps = int(min(ctx%max_steps, int(huge(1), kind(ctx%max_steps))))
-    info%rtol = ctx%rtol
-    info%atol_position = ctx%atol_x
-    info%atol_velocity = ctx%atol_v
+    info%dt = ctx%step%dt
+    info%t_end = ctx%step%t_end
+    info%max_steps = int(min(ctx%step%max_steps, int(huge(1), kind(ctx%step%max_steps))))
+    info%rtol = ctx%step%rtol
+    info%atol_position = ctx%step%atol_x
+    info%atol_velocity = ctx%step%atol_v
     info%units = scene_units(ctx%cfg%scene_code)
     ! Rank 0's host and clock, broadcast: attributes must be equal on all ranks.
     if (ctx%rank == 0) then

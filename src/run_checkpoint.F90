@@ -10,7 +10,7 @@ module run_checkpoint
   use, intrinsic :: iso_fortran_env, only: output_unit
   use kinds, only: rp
   use output, only: output_file, checkpoint_t, output_write_checkpoint, output_steps
-  use app_context
+  use app_context, only: app_ctx, nuno_newton_start_count, nuno_newton_start_get, nuno_newton_start_put
   use failure_text, only: report_io_error, inum
   implicit none
   private
@@ -33,7 +33,7 @@ contains
     PetscCall(TSGetKSPIterations(ctx%ts, lits, ierr))
     PetscCall(TSGetSNESFailures(ctx%ts, fails, ierr))
     if (ctx%use_reduced) lits = ctx%red%its        ! the outer KSP is preonly: count the inner iterations
-    c = [real(steps, rp), real(rejects, rp), real(nits, rp), real(lits, rp), real(fails, rp)] + ctx%counts_before
+    c = [real(steps, rp), real(rejects, rp), real(nits, rp), real(lits, rp), real(fails, rp)] + ctx%restart%counts_before
     c(1) = real(steps, rp)                         ! the TS goes on counting from the checkpoint's step
   end subroutine run_counts
 
@@ -52,17 +52,17 @@ contains
     step = int(ck%counters(1), kind(step))
     PetscCall(TSSetStepNumber(ctx%ts, step, ierr))
     PetscCall(TSSetTime(ctx%ts, ck%time, ierr))
-    ctx%restarted = .true.
-    ctx%t_restart = ck%time
-    ctx%h_restart = ck%dt_next
-    ctx%t_checkpoint = ck%time
-    ctx%wall_before = ck%wall_time
-    ctx%counts_before = [0.0_rp, ck%counters(2:5)]
-    ctx%dissipated = ck%dissipated
-    ctx%work_constraints = ck%work_constraints
-    ctx%mgx0 = ck%mgx0
-    ctx%t_written = ck%t_written
-    ctx%stretch_warned = ck%stretch_warned /= 0
+    ctx%restart%restarted = .true.
+    ctx%restart%t_restart = ck%time
+    ctx%restart%h_restart = ck%dt_next
+    ctx%restart%t_checkpoint = ck%time
+    ctx%restart%wall_before = ck%wall_time
+    ctx%restart%counts_before = [0.0_rp, ck%counters(2:5)]
+    ctx%energy%dissipated = ck%dissipated
+    ctx%energy%work_constraints = ck%work_constraints
+    ctx%energy%mgx0 = ck%mgx0
+    ctx%progress%t_written = ck%t_written
+    ctx%progress%stretch_warned = ck%stretch_warned /= 0
     ! The first Newton iteration's inner tolerance takes the round-off floor
     ! of the last step's assembly (set_newton_forcing): without it the
     ! restart's first step solved to another tolerance and the run
@@ -70,10 +70,10 @@ contains
     if (ctx%use_reduced) ctx%red%floor_est = ck%newton_floor
     ! A checkpoint at an output step is the restart point until the next one.
     if (ck%time == ck%t_written) then
-      ctx%rp_ck = ck
-      ctx%rp_x = x
-      ctx%rp_v = v
-      ctx%rp_valid = .true.
+      ctx%restart%rp_ck = ck
+      ctx%restart%rp_x = x
+      ctx%restart%rp_v = v
+      ctx%restart%rp_valid = .true.
     end if
     ! The Newton start's states: the checkpoint's, then the ones before it
     if (ck%start_count > 0) then
@@ -119,20 +119,20 @@ contains
     logical :: point
 
     point = .false.
-    if (present(restart_point)) point = restart_point .and. ctx%rp_valid
+    if (present(restart_point)) point = restart_point .and. ctx%restart%rp_valid
     if (point) then
-      ck = ctx%rp_ck
+      ck = ctx%restart%rp_ck
     else
       PetscCall(state_to_strips(ctx, ctx%u, ctx%xout, ctx%vout, ierr))
       call fill_checkpoint(ctx, t, h, ck, ierr)
       if (ierr /= 0) return
     end if
     ! Attributes must be equal on all ranks: the slowest rank's clock.
-    ck%wall_time = MPI_Wtime() - ctx%wall0
+    ck%wall_time = MPI_Wtime() - ctx%progress%wall0
     call MPI_Allreduce(MPI_IN_PLACE, ck%wall_time, 1, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
     ck%reason = reason
     if (point) then
-      call output_write_checkpoint(out, ck, ctx%rp_x, ctx%rp_v, ierr, errmsg)
+      call output_write_checkpoint(out, ck, ctx%restart%rp_x, ctx%restart%rp_v, ierr, errmsg)
     else
       call output_write_checkpoint(out, ck, ctx%xout, ctx%vout, ierr, errmsg)
     end if
@@ -140,12 +140,12 @@ contains
       call report_io_error(ctx, errmsg)
       return
     end if
-    ctx%t_checkpoint = ck%time
+    ctx%restart%t_checkpoint = ck%time
     ! (a restart point is older than the output steps written since)
-    ctx%checkpoint_current = .not. point .or. ck%time >= ctx%t_written
+    ctx%restart%checkpoint_current = .not. point .or. ck%time >= ctx%progress%t_written
     if (ctx%rank == 0) then
       write(output_unit, '(a,i0,a,es12.5e2,a)') 'nuno: checkpoint ', ck%sequence, ' at t =', ck%time, &
-        ' ('//trim(reason)//'), '//inum(int(ck%n_output_steps, kind(ctx%max_steps)))//' output steps'
+        ' ('//trim(reason)//'), '//inum(int(ck%n_output_steps, kind(ctx%step%max_steps)))//' output steps'
       flush(output_unit)
     end if
   end subroutine take_checkpoint
@@ -161,13 +161,13 @@ contains
 
     ck%time = t
     ck%dt_next = h
-    ck%dissipated = ctx%dissipated
-    ck%work_constraints = ctx%work_constraints
-    ck%mgx0 = ctx%mgx0
-    ck%t_written = ctx%t_written
+    ck%dissipated = ctx%energy%dissipated
+    ck%work_constraints = ctx%energy%work_constraints
+    ck%mgx0 = ctx%energy%mgx0
+    ck%t_written = ctx%progress%t_written
     call run_counts(ctx, ck%counters, ierr)
     if (ierr /= 0) return
-    ck%stretch_warned = merge(1, 0, ctx%stretch_warned)
+    ck%stretch_warned = merge(1, 0, ctx%progress%stretch_warned)
     ! the next step's first inner tolerance depends on it (set_newton_forcing)
     if (ctx%use_reduced) ck%newton_floor = ctx%red%floor_est
     PetscCall(TSGetType(ctx%ts, ck%ts_type, ierr))
@@ -189,14 +189,14 @@ contains
     real(rp), intent(in) :: t, h
     PetscErrorCode, intent(out) :: ierr
 
-    ctx%rp_valid = .false.
-    if (.not. allocated(ctx%rp_x)) allocate(ctx%rp_x, mold=ctx%xout)
-    if (.not. allocated(ctx%rp_v)) allocate(ctx%rp_v, mold=ctx%vout)
-    PetscCall(state_to_strips(ctx, ctx%u, ctx%rp_x, ctx%rp_v, ierr))
-    call fill_checkpoint(ctx, t, h, ctx%rp_ck, ierr)
+    ctx%restart%rp_valid = .false.
+    if (.not. allocated(ctx%restart%rp_x)) allocate(ctx%restart%rp_x, mold=ctx%xout)
+    if (.not. allocated(ctx%restart%rp_v)) allocate(ctx%restart%rp_v, mold=ctx%vout)
+    PetscCall(state_to_strips(ctx, ctx%u, ctx%restart%rp_x, ctx%restart%rp_v, ierr))
+    call fill_checkpoint(ctx, t, h, ctx%restart%rp_ck, ierr)
     if (ierr /= 0) return
-    ctx%rp_ck%n_output_steps = output_steps(out)
-    ctx%rp_valid = .true.
+    ctx%restart%rp_ck%n_output_steps = output_steps(out)
+    ctx%restart%rp_valid = .true.
   end subroutine keep_restart_point
 
   !> The Newton start's kept states before t (at most three, newest first)

@@ -15,7 +15,10 @@ module solver_setup
   use scenes, only: scene_setup
   use inner_guess, only: GUESS_AUTO, GUESS_NONE, GUESS_EXTRAPOLATE, GUESS_PROJECT
   use reduced, only: reduced_create, reduced_destroy, reduced_attach, reduced_set_guess, reduced_describe
-  use app_context
+  use app_context, only: app_ctx, model_state_free, assembly_free, energy_integrals_free, restart_state_free, &
+                         nuno_adaptive_default, nuno_linesearch_options_read, nuno_options_read, &
+                         nuno_options_report_unused, nuno_petsc_habits, nuno_signals_install, nuno_step_defaults, &
+                         nuno_tolerance_options_read, nuno_ts_scheme
   use failure_text, only: num, inum
   use cloth_model, only: form_ifunction, form_ijacobian
   use newton_policy, only: set_newton_start, snes_converged
@@ -92,11 +95,11 @@ contains
     nfail = 0
     cmattype = MATBAIJ//c_null_char
     forcing = 1
-    ctx%guess = GUESS_AUTO
-    ierr = nuno_options_read(ctx%comm, jac_full, pc_lag, mg_interp, ctx%snes_floor, gn, cl, cmattype, len(cmattype), nfail, forcing, &
-                             ctx%guess, ctx%guess_given)
+    ctx%newton%guess = GUESS_AUTO
+    ierr = nuno_options_read(ctx%comm, jac_full, pc_lag, mg_interp, ctx%newton%snes_floor, gn, cl, cmattype, len(cmattype), nfail, forcing, &
+                             ctx%newton%guess, ctx%newton%guess_given)
     if (ierr /= 0) return
-    ctx%newton_forcing = forcing /= 0
+    ctx%newton%newton_forcing = forcing /= 0
     ctx%use_reduced = jac_full == 0
     ! -pc_type lu and friends on the path in use (before anything reads them)
     ierr = nuno_petsc_habits(ctx%comm, merge(1_c_int, 0_c_int, ctx%use_reduced), cmattype, len(cmattype))
@@ -105,9 +108,9 @@ contains
       ierr = PETSC_ERR_ARG_INCOMP
       SETERRQ(ctx%comm, ierr, 'nuno: -nuno_mg_interpolation is for the reduced solve, not -nuno_jacobian full')
     end if
-    ctx%gauss_newton = gn /= 0
-    ctx%clamp = cl /= 0
-    ctx%fail_newton = nfail
+    ctx%model%gauss_newton = gn /= 0
+    ctx%model%clamp = cl /= 0
+    ctx%newton%fail_newton = nfail
     ls_fallback = 1
     ierr = nuno_linesearch_options_read(ctx%comm, ls_fallback, ls_given, ls_type_given)
     if (ierr /= 0) return
@@ -119,8 +122,8 @@ contains
       ierr = PETSC_ERR_ARG_INCOMP
       SETERRQ(ctx%comm, ierr, 'nuno: -nuno_linesearch_fallback and -snes_linesearch_type: give one (the first changes the line search after a failed Newton solve, the second sets it for the whole run)')
     end if
-    ctx%ls_fallback = 0
-    if (ctx%use_reduced .and. ls_type_given == 0) ctx%ls_fallback = ls_fallback
+    ctx%newton%ls_fallback = 0
+    if (ctx%use_reduced .and. ls_type_given == 0) ctx%newton%ls_fallback = ls_fallback
     mattype = cmattype(1:index(cmattype, c_null_char) - 1)
     PetscCall(DMSetMatType(ctx%da, mattype, ierr))
     PetscCall(DMSetUp(ctx%da, ierr))
@@ -138,11 +141,11 @@ contains
       ierr = PETSC_ERR_PLIB
       SETERRQ(ctx%comm, ierr, 'nuno: the DMDA is not split into strips of whole rows')
     end if
-    allocate(ctx%f(3, 0:cfg%nx - 1, ctx%lat%gys:ctx%lat%gye))
-    allocate(ctx%fixed(0:cfg%nx - 1, ys:ys + ym - 1))
+    allocate(ctx%model%f(3, 0:cfg%nx - 1, ctx%lat%gys:ctx%lat%gye))
+    allocate(ctx%model%fixed(0:cfg%nx - 1, ys:ys + ym - 1))
     allocate(ctx%xout(3, 0:cfg%nx - 1, ys:ys + ym - 1), ctx%vout(3, 0:cfg%nx - 1, ys:ys + ym - 1))
-    ctx%gravity = merge(cfg%gravity, [0.0_rp, 0.0_rp, 0.0_rp], cfg%has_gravity)
-    ctx%fixed = .false.
+    ctx%model%gravity = merge(cfg%gravity, [0.0_rp, 0.0_rp, 0.0_rp], cfg%has_gravity)
+    ctx%model%fixed = .false.
 
     ! Initial state and constraints of the scene.
     PetscCall(DMCreateGlobalVector(ctx%da, ctx%u, ierr))
@@ -156,16 +159,16 @@ contains
       damping = cfg%has_damping .or. (cfg%bending_code == BEND_ENERGY .and. cfg%eta_b /= 0.0_rp)
       symmetric = (cfg%spring_code == SPRING_LINEAR .or. .not. cfg%has_damping) .and. &
                   (cfg%bending_code == BEND_NONE .or. (cfg%bending_code == BEND_ENERGY .and. &
-                   (cfg%eta_b == 0.0_rp .or. ctx%gauss_newton)))
+                   (cfg%eta_b == 0.0_rp .or. ctx%model%gauss_newton)))
       constant = cfg%spring_code == SPRING_LINEAR .and. cfg%bending_code == BEND_NONE
-      PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, symmetric, constant, damping, ctx%clamp, ctx%gauss_newton, pc_lag, ierr, mg_interpolation=mg_interp))
+      PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, symmetric, constant, damping, ctx%model%clamp, ctx%model%gauss_newton, pc_lag, ierr, mg_interpolation=mg_interp))
     else
       ! Jacobian with the DMDA's exact box-stencil preallocation.
-      PetscCall(DMCreateMatrix(ctx%da, ctx%p, ierr))
-      PetscCall(MatSetOption(ctx%p, MAT_ROW_ORIENTED, PETSC_FALSE, ierr))
-      call jac_buffer_init(ctx%jbuf, ctx%lat)
+      PetscCall(DMCreateMatrix(ctx%da, ctx%asm%p, ierr))
+      PetscCall(MatSetOption(ctx%asm%p, MAT_ROW_ORIENTED, PETSC_FALSE, ierr))
+      call jac_buffer_init(ctx%asm%jbuf, ctx%lat)
       nc = (2 * w + 1)**2
-      allocate(ctx%vals(6, 6, nc), ctx%cols(nc))
+      allocate(ctx%asm%vals(6, 6, nc), ctx%asm%cols(nc))
     end if
 
     ! The report's scheme by default: backward Euler with the namelist's
@@ -178,7 +181,7 @@ contains
     if (ctx%use_reduced) then
       PetscCall(TSSetIJacobian(ctx%ts, ctx%red%jac, ctx%red%jac, form_ijacobian, ctx, ierr))
     else
-      PetscCall(TSSetIJacobian(ctx%ts, ctx%p, ctx%p, form_ijacobian, ctx, ierr))
+      PetscCall(TSSetIJacobian(ctx%ts, ctx%asm%p, ctx%asm%p, form_ijacobian, ctx, ierr))
     end if
     PetscCall(TSSetTime(ctx%ts, 0.0_rp, ierr))
     PetscCall(TSSetTimeStep(ctx%ts, cfg%dt, ierr))
@@ -216,11 +219,11 @@ contains
     ! An adaptive run without -ts_type: the method that won the
     ! work-precision measurement at moderate tolerance (nuno_options.c). The
     ! identification and the control keep beuler: their adjoint needs a theta method.
-    ctx%adaptive_default = .false.
+    ctx%step%adaptive_default = .false.
     if (.not. (cfg%identify .or. cfg%control)) then
       ierr = nuno_adaptive_default(ctx%comm, ctx%ts%v, applied)
       if (ierr /= 0) return
-      ctx%adaptive_default = applied /= 0
+      ctx%step%adaptive_default = applied /= 0
     end if
     ierr = nuno_step_defaults(ctx%ts%v, merge(1_c_int, 0_c_int, ctx%use_reduced))
     if (ierr /= 0) return
@@ -249,33 +252,33 @@ contains
 
     dt_namelist = ctx%cfg%dt
     t_end_namelist = ctx%cfg%t_end
-    PetscCall(TSGetTimeStep(ctx%ts, ctx%dt, ierr))
-    PetscCall(TSGetMaxTime(ctx%ts, ctx%t_end, ierr))
-    PetscCall(TSGetMaxSteps(ctx%ts, ctx%max_steps, ierr))
+    PetscCall(TSGetTimeStep(ctx%ts, ctx%step%dt, ierr))
+    PetscCall(TSGetMaxTime(ctx%ts, ctx%step%t_end, ierr))
+    PetscCall(TSGetMaxSteps(ctx%ts, ctx%step%max_steps, ierr))
     PetscCall(TSGetExactFinalTime(ctx%ts, eft, ierr))
     PetscCall(TSGetAdapt(ctx%ts, adapt, ierr))
     PetscCall(PetscObjectTypeCompare(adapt, TSADAPTNONE, match, ierr))
-    ctx%fixed_step = match
+    ctx%step%fixed_step = match
     ! The time loop stops exactly at output, keyframe and release times.
     if (eft /= TS_EXACTFINALTIME_MATCHSTEP) then
       ierr = PETSC_ERR_ARG_WRONG
       SETERRQ(ctx%comm, ierr, 'nuno: -ts_exact_final_time must be matchstep: the run stops exactly at every output, keyframe and release time')
     end if
-    if (.not. (ctx%dt > 0.0_rp)) then
+    if (.not. (ctx%step%dt > 0.0_rp)) then
       ierr = PETSC_ERR_ARG_OUTOFRANGE
       SETERRQ(ctx%comm, ierr, 'nuno: -ts_dt must be > 0')
     end if
-    if (.not. (ctx%t_end > 0.0_rp) .or. ctx%t_end > huge(1.0_rp)) then
+    if (.not. (ctx%step%t_end > 0.0_rp) .or. ctx%step%t_end > huge(1.0_rp)) then
       ierr = PETSC_ERR_ARG_OUTOFRANGE
       SETERRQ(ctx%comm, ierr, 'nuno: -ts_max_time must be > 0 and finite')
     end if
-    if (ctx%max_steps < 0) then
+    if (ctx%step%max_steps < 0) then
       ierr = PETSC_ERR_ARG_OUTOFRANGE
       SETERRQ(ctx%comm, ierr, 'nuno: -ts_max_steps must be >= 0')
     end if
     ! From here on the effective values are the run's configuration.
-    ctx%cfg%dt = ctx%dt
-    ctx%cfg%t_end = ctx%t_end
+    ctx%cfg%dt = ctx%step%dt
+    ctx%cfg%t_end = ctx%step%t_end
     ! The energy integrals close at the method's order: the trapezoid rule
     ! over each step (one power pass a step) is second order, enough for
     ! beuler, theta and cn (order <= 2); bdf (up to order 6) gets three
@@ -283,10 +286,10 @@ contains
     ! its history (three passes a step). arkimex and rosw tableaus may lack
     ! an interpolant: trapezoid.
     PetscCall(TSGetType(ctx%ts, tstype, ierr))
-    ctx%gauss = trim(tstype) == 'bdf'
+    ctx%energy%gauss = trim(tstype) == 'bdf'
     PetscCall(set_inner_guess(ctx, tstype, ierr))
     PetscCall(set_newton_start(ctx, ierr))
-    PetscCall(VecDuplicate(ctx%u, ctx%uq, ierr))
+    PetscCall(VecDuplicate(ctx%u, ctx%energy%uq, ierr))
     PetscCall(set_tolerances(ctx, srcx, srcv, ierr))
 
     ierr = nuno_ts_scheme(ctx%ts%v, scheme, len(scheme))
@@ -296,29 +299,29 @@ contains
       PetscCall(reduced_describe(ctx%red, inner, ierr))
       PetscCall(TSGetSNES(ctx%ts, snes, ierr))
       PetscCall(SNESGetType(snes, sntype, ierr))
-      if (trim(sntype) == SNESNEWTONLS .and. ctx%newton_forcing .and. ctx%red%forward_ew) &
+      if (trim(sntype) == SNESNEWTONLS .and. ctx%newton%newton_forcing .and. ctx%red%forward_ew) &
         inner = trim(inner)//'; Newton: inner rtol from the step''s needs (-nuno_newton_forcing)'
     end if
     if (ctx%rank == 0) then
       PetscCall(TSAdaptGetType(adapt, adtype, ierr))
       line = 'solver    : TS '//scheme(1:index(scheme, c_null_char) - 1)
-      if (ctx%adaptive_default) line = trim(line)//' (the default of adaptive runs, -nuno_adaptive_ts_type)'
+      if (ctx%step%adaptive_default) line = trim(line)//' (the default of adaptive runs, -nuno_adaptive_ts_type)'
       line = trim(line)//', adapt '//trim(adtype)
-      if (ctx%fixed_step) then
-        line = trim(line)//', dt = '//num(ctx%dt)
+      if (ctx%step%fixed_step) then
+        line = trim(line)//', dt = '//num(ctx%step%dt)
       else
-        line = trim(line)//', initial dt = '//num(ctx%dt)
+        line = trim(line)//', initial dt = '//num(ctx%step%dt)
       end if
-      if (ctx%dt /= dt_namelist) line = trim(line)//' (-ts_dt; namelist '//num(dt_namelist)//')'
-      line = trim(line)//', t_end = '//num(ctx%t_end)
-      if (ctx%t_end /= t_end_namelist) &
+      if (ctx%step%dt /= dt_namelist) line = trim(line)//' (-ts_dt; namelist '//num(dt_namelist)//')'
+      line = trim(line)//', t_end = '//num(ctx%step%t_end)
+      if (ctx%step%t_end /= t_end_namelist) &
         line = trim(line)//' (-ts_max_time; namelist '//num(t_end_namelist)//')'
-      if (ctx%max_steps < huge(ctx%max_steps)) &
-        line = trim(line)//', at most '//inum(ctx%max_steps)//' steps (-ts_max_steps)'
-      if (.not. ctx%fixed_step) line = trim(line)//', rtol '//num(ctx%rtol)//', atol position '// &
-        num(ctx%atol_x)//' ('//trim(srcx)//'), velocity '//num(ctx%atol_v)//' ('//trim(srcv)//')'
+      if (ctx%step%max_steps < huge(ctx%step%max_steps)) &
+        line = trim(line)//', at most '//inum(ctx%step%max_steps)//' steps (-ts_max_steps)'
+      if (.not. ctx%step%fixed_step) line = trim(line)//', rtol '//num(ctx%step%rtol)//', atol position '// &
+        num(ctx%step%atol_x)//' ('//trim(srcx)//'), velocity '//num(ctx%step%atol_v)//' ('//trim(srcv)//')'
       line = trim(line)//', Newton step '//trim(merge('reduced', 'full   ', ctx%use_reduced))
-      if (ctx%start_order == 3) line = trim(line)//', started cubic (-nuno_newton_start)'
+      if (ctx%newton%start_order == 3) line = trim(line)//', started cubic (-nuno_newton_start)'
       write(output_unit, '(a)') trim(line)
       if (ctx%use_reduced) write(output_unit, '(a)') 'inner     : '//trim(inner)
       flush(output_unit)
@@ -353,7 +356,7 @@ contains
       PetscCall(KSPGetType(ctx%red%ksp, ktype, ierr))
       direct = ktype == KSPPREONLY
     end if
-    if (ctx%guess_given /= 0 .and. ctx%guess /= GUESS_NONE .and. ctx%guess /= GUESS_AUTO) then
+    if (ctx%newton%guess_given /= 0 .and. ctx%newton%guess /= GUESS_NONE .and. ctx%newton%guess /= GUESS_AUTO) then
       if (.not. ctx%use_reduced) then
         ierr = PETSC_ERR_ARG_INCOMP
         SETERRQ(ctx%comm, ierr, 'nuno: -nuno_inner_guess is for the reduced solve, not -nuno_jacobian full')
@@ -368,16 +371,16 @@ contains
       end if
     end if
     if (.not. ctx%use_reduced) return
-    mode = ctx%guess
+    mode = ctx%newton%guess
     ! (auto leaves the fits alone: their finite-difference checks compare
     ! runs whose inexact solves would otherwise start from other guesses)
     ! The projection drops its kept solves whenever dt changes, so with
     ! adaptive steps it would rarely have any: the extrapolation, which
     ! scales across steps of other sizes, there.
-    if (mode == GUESS_AUTO) mode = merge(merge(GUESS_PROJECT, GUESS_EXTRAPOLATE, ctx%fixed_step), GUESS_NONE, one_stage .and. &
+    if (mode == GUESS_AUTO) mode = merge(merge(GUESS_PROJECT, GUESS_EXTRAPOLATE, ctx%step%fixed_step), GUESS_NONE, one_stage .and. &
                                          ctx%cfg%bending_code /= BEND_NONE .and. .not. (ctx%cfg%identify .or. ctx%cfg%control))
     if (.not. one_stage .or. direct) mode = GUESS_NONE
-    ctx%guess = mode
+    ctx%newton%guess = mode
     ! (nuno_step_defaults put the extrapolated start of beuler in the options)
     PetscCall(PetscOptionsGetBool(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-ts_theta_initial_guess_extrapolate', extrap, set, ierr))
     PetscCall(reduced_set_guess(ctx%red, mode, logical(set .and. extrap), ierr))
@@ -416,9 +419,9 @@ contains
     if (gx /= 0) srcx = '-nuno_atol_position'
     srcv = 'position atol / 1 time unit'
     if (gv /= 0) srcv = '-nuno_atol_velocity'
-    ctx%rtol = rtol
-    ctx%atol_x = ax
-    ctx%atol_v = av
+    ctx%step%rtol = rtol
+    ctx%step%atol_x = ax
+    ctx%step%atol_v = av
     PetscCall(DMCreateGlobalVector(ctx%da, vatol, ierr))
     PetscCall(DMDAVecGetArrayF90(ctx%da, vatol, va, ierr))
     va(0:2, :, :) = ax
@@ -449,11 +452,13 @@ contains
     if (ctx%use_reduced) then
       PetscCall(reduced_destroy(ctx%red, ierr))
     else
-      PetscCall(MatDestroy(ctx%p, ierr))
+      PetscCall(assembly_free(ctx%asm, ierr))
     end if
     PetscCall(VecDestroy(ctx%u, ierr))
-    PetscCall(VecDestroy(ctx%uq, ierr))
+    PetscCall(energy_integrals_free(ctx%energy, ierr))
     PetscCall(DMDestroy(ctx%da, ierr))
+    call model_state_free(ctx%model)
+    call restart_state_free(ctx%restart)
   end subroutine solver_destroy
 
 end module solver_setup

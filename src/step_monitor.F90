@@ -12,7 +12,7 @@ module step_monitor
   use forces, only: internal_forces, dissipated_power
   use constraints, only: constraint_target
   use reduced, only: reduced_step_accepted
-  use app_context
+  use app_context, only: app_ctx, nuno_checkpoint_due, nuno_newton_start_push, nuno_ts_stop
   use failure_text, only: num
   use newton_policy, only: linesearch_fallback
   use run_checkpoint, only: take_checkpoint
@@ -51,13 +51,13 @@ contains
     ! Accepted steps that do not advance t (retries shrank them below t's
     ! resolution next to a stop time) could repeat forever: after ten in a
     ! row, stop and say so (one alone, after many retries, is harmless).
-    if (ctx%monitor_seen .and. step > ctx%monitor_step) then
-      if (t > ctx%t_prev) then
-        ctx%stalled_steps = 0
+    if (ctx%progress%monitor_seen .and. step > ctx%progress%monitor_step) then
+      if (t > ctx%energy%t_prev) then
+        ctx%progress%stalled_steps = 0
       else
-        ctx%stalled_steps = ctx%stalled_steps + 1
+        ctx%progress%stalled_steps = ctx%progress%stalled_steps + 1
       end if
-      if (ctx%stalled_steps >= 10) then
+      if (ctx%progress%stalled_steps >= 10) then
         if (len_trim(ctx%io_error) == 0) then
           PetscCall(TSGetTimeStep(ts, h, ierr))
           ctx%io_error = 'ten accepted steps at t = '//num(t)//' did not advance t: the step, '//num(h)// &
@@ -69,8 +69,8 @@ contains
         return
       end if
     end if
-    ctx%monitor_seen = .true.
-    ctx%monitor_step = step
+    ctx%progress%monitor_seen = .true.
+    ctx%progress%monitor_step = step
     ! After a failed Newton solve (its step retried smaller and now
     ! accepted) the run's remaining steps take -nuno_linesearch_fallback
     ! instead of full steps: a membrane without bending that buckles at the
@@ -80,9 +80,9 @@ contains
     ! 6-dof Jacobian an iteration, for its slope). A run restarted from a
     ! checkpoint after such a failure (counts_before) backtracks from its
     ! first step, as the run it continues did.
-    if (ctx%ls_fallback > 0 .and. .not. ctx%ls_switched) then
+    if (ctx%newton%ls_fallback > 0 .and. .not. ctx%newton%ls_switched) then
       PetscCall(TSGetSNESFailures(ts, nfails, ierr))
-      if (nfails + nint(ctx%counts_before(5)) > 0) then
+      if (nfails + nint(ctx%restart%counts_before(5)) > 0) then
         PetscCall(linesearch_fallback(ts, ctx, t, ierr))
       end if
     end if
@@ -93,14 +93,14 @@ contains
     ierr = nuno_newton_start_push(ts%v, uvec%v, tc)
     if (ierr /= 0) return
     PetscCall(TSGetStepRejections(ts, rejects, ierr))
-    if (rejects > ctx%rejects_seen) then
-      ctx%rejects_seen = rejects
-      if (ctx%fixed_step) then
+    if (rejects > ctx%step%rejects_seen) then
+      ctx%step%rejects_seen = rejects
+      if (ctx%step%fixed_step) then
         PetscCall(TSGetTimeStep(ts, h, ierr))
-        hmax = ctx%tstop - t
-        if (h < ctx%dt .and. hmax > 0.0_rp) then
-          h = ctx%dt
-          if (t + 1.01_rp * h >= ctx%tstop) then
+        hmax = ctx%step%tstop - t
+        if (h < ctx%step%dt .and. hmax > 0.0_rp) then
+          h = ctx%step%dt
+          if (t + 1.01_rp * h >= ctx%step%tstop) then
             h = hmax
           else if (2.0_rp * h > hmax) then
             h = 0.5_rp * hmax
@@ -110,42 +110,42 @@ contains
       end if
     end if
 
-    if (ctx%gauss) then
+    if (ctx%energy%gauss) then
       ! Three Gauss-Legendre points on [t_prev, t] (exact to degree 5): the
       ! error is that of the interpolant, the method's order. (The end
       ! point's power is not needed.)
-      if (t > ctx%t_prev .and. step > 0) then
-        h = t - ctx%t_prev
+      if (t > ctx%energy%t_prev .and. step > 0) then
+        h = t - ctx%energy%t_prev
         do q = 1, 3
-          tq = ctx%t_prev + h * GAUSS_X(q)
-          PetscCall(TSInterpolate(ts, tq, ctx%uq, ierr))
-          call powers(ctx, ctx%uq, tq, pq, ierr)
+          tq = ctx%energy%t_prev + h * GAUSS_X(q)
+          PetscCall(TSInterpolate(ts, tq, ctx%energy%uq, ierr))
+          call powers(ctx, ctx%energy%uq, tq, pq, ierr)
           if (ierr /= 0) return
-          ctx%dissipated = ctx%dissipated + h * GAUSS_W(q) * pq(1)
-          ctx%work_constraints = ctx%work_constraints + h * GAUSS_W(q) * pq(2)
+          ctx%energy%dissipated = ctx%energy%dissipated + h * GAUSS_W(q) * pq(1)
+          ctx%energy%work_constraints = ctx%energy%work_constraints + h * GAUSS_W(q) * pq(2)
         end do
       end if
     else
       call powers(ctx, uvec, t, p, ierr)
       if (ierr /= 0) return
-      if (t > ctx%t_prev) then
-        ctx%dissipated = ctx%dissipated + 0.5_rp * (ctx%pdiss_prev + p(1)) * (t - ctx%t_prev)
-        ctx%work_constraints = ctx%work_constraints + 0.5_rp * (ctx%pcon_prev + p(2)) * (t - ctx%t_prev)
+      if (t > ctx%energy%t_prev) then
+        ctx%energy%dissipated = ctx%energy%dissipated + 0.5_rp * (ctx%energy%pdiss_prev + p(1)) * (t - ctx%energy%t_prev)
+        ctx%energy%work_constraints = ctx%energy%work_constraints + 0.5_rp * (ctx%energy%pcon_prev + p(2)) * (t - ctx%energy%t_prev)
       end if
-      ctx%pdiss_prev = p(1)
-      ctx%pcon_prev = p(2)
+      ctx%energy%pdiss_prev = p(1)
+      ctx%energy%pcon_prev = p(2)
     end if
-    ctx%t_prev = t
+    ctx%energy%t_prev = t
     ! A long output interval (tiny adaptive steps on a stiff scene) must not
     ! look like a hang: rank 0 says where it is every HEARTBEAT_S of wall
     ! time (TS values only, so nothing collective).
     if (ctx%rank == 0 .and. step > 0) then
-      if (MPI_Wtime() - ctx%wall_said >= HEARTBEAT_S) then
+      if (MPI_Wtime() - ctx%progress%wall_said >= HEARTBEAT_S) then
         PetscCall(TSGetTimeStep(ts, h, ierr))
         write(output_unit, '(a,es12.5e2,a,i9,a,es10.3e2,a,es10.3e2,a)') '  ... t =', t, '  steps', step, &
-          '  dt', h, '  wall_s', MPI_Wtime() - ctx%wall0, '  (between output steps)'
+          '  dt', h, '  wall_s', MPI_Wtime() - ctx%progress%wall0, '  (between output steps)'
         flush(output_unit)
-        ctx%wall_said = MPI_Wtime()
+        ctx%progress%wall_said = MPI_Wtime()
       end if
     end if
     ! -nuno_checkpoint_walltime: due after this step (agreed by the
@@ -156,7 +156,7 @@ contains
     ! failed write stops the run.
     if (nuno_checkpoint_due() /= 0) then
       PetscCall(TSGetTimeStep(ts, h, ierr))
-      call take_checkpoint(ctx, ctx%out, t, h, 'wall time', ierr, restart_point=.true.)
+      call take_checkpoint(ctx, ctx%restart%out, t, h, 'wall time', ierr, restart_point=.true.)
       if (ierr /= 0) then
         ierr = 0
         if (len_trim(ctx%io_error) == 0) ctx%io_error = 'the wall-clock checkpoint at t = '//num(t)//' failed'
@@ -181,19 +181,19 @@ contains
     loc = 0.0_rp
     p = 0.0_rp
     ierr = 0
-    if (.not. ctx%cfg%has_damping .and. ctx%cfg%eta_b == 0.0_rp .and. .not. ctx%moving_constraints) return
+    if (.not. ctx%cfg%has_damping .and. ctx%cfg%eta_b == 0.0_rp .and. .not. ctx%model%moving_constraints) return
     PetscCall(DMGetLocalVector(ctx%da, uloc, ierr))
     PetscCall(DMGlobalToLocalBegin(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
     PetscCall(DMGlobalToLocalEnd(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
     call dissipated_power(ctx%lat, u, loc(1))
-    if (ctx%moving_constraints) then
-      call internal_forces(ctx%lat, u, ctx%f, nbad, bad)
+    if (ctx%model%moving_constraints) then
+      call internal_forces(ctx%lat, u, ctx%model%f, nbad, bad)
       do k = 1, ctx%cs%n
         call constraint_target(ctx%cs, k, t, xb, vb)
         i = ctx%cs%node(1, k)
         j = ctx%cs%node(2, k)
-        loc(2) = loc(2) - dot_product(ctx%f(:, i, j) + ctx%lat%mass(i, j) * ctx%gravity, vb)
+        loc(2) = loc(2) - dot_product(ctx%model%f(:, i, j) + ctx%lat%mass(i, j) * ctx%model%gravity, vb)
       end do
     end if
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, uloc, u, ierr))

@@ -8,17 +8,8 @@
 !> (option resolution, solver_create and solver_destroy), step_monitor
 !> (the TS monitor), run_checkpoint (checkpoints and restarts),
 !> provenance (run information and configuration in the output) and
-!> failure_text (failure messages, string helpers).
-!>
-!> State: DMDA dof 6 per node, u(0:2) position, u(3:5) velocity;
-!> F = [ xdot - v ; vdot - f(x, v)/m - g ] on free nodes and
-!> F = [ xdot - vbar ; vdot ] on constrained nodes.
-!> The rows are those of docs/model.md section 5 divided by the mass, so that
-!> dF/dUdot = I: PETSc's ARKIMEX (explicit first stage) takes
-!> Udot = -F(t, U, 0) and is wrong for any other form. A constrained node is
-!> put on its path at the start of each time window (enter_window), where
-!> its prescribed velocity is constant, so xdot = vbar keeps x = xbar(t)
-!> exactly under every consistent integrator.
+!> failure_text (failure messages, string helpers). The state and the
+!> form of F are described in module cloth_model.
 module timestepping
 #include "petsc/finclude/petscts.h"
   use petscts
@@ -33,7 +24,7 @@ module timestepping
   use diagnostics, only: state_diagnostics_t, state_diagnostics
   use output, only: output_file, output_record, output_write_step, output_write_wall_time
   use reduced, only: reduced_set_fixed
-  use app_context
+  use app_context, only: app_ctx, nuno_walltime_arm, nuno_newton_start_reset, nuno_signal_agreed
   use failure_text, only: signal_name, failure_reason, report_io_error, num, inum, ieee_nan
   use run_checkpoint, only: run_counts, take_checkpoint, keep_restart_point, solver_restore
   use provenance, only: write_run_info
@@ -63,8 +54,8 @@ contains
     ! The Newton remainder is learnt anew in each window, so that a run
     ! restarted at a window's start takes the same iterations as the run
     ! that went through it.
-    ctx%cquad = 0.0_rp
-    ctx%fixed = .false.
+    ctx%newton%cquad = 0.0_rp
+    ctx%model%fixed = .false.
     loc = 0.0_rp
     PetscCall(DMDAVecGetArrayF90(ctx%da, ctx%u, ua, ierr))
     if (ctx%cs%active) then
@@ -78,13 +69,13 @@ contains
         if (any(ua(0:2, i, j) /= xb) .or. any(ua(3:5, i, j) /= vb)) loc(3) = 1.0_rp
         ua(0:2, i, j) = xb
         ua(3:5, i, j) = vb
-        ctx%fixed(i, j) = .true.
+        ctx%model%fixed(i, j) = .true.
       end do
     end if
     PetscCall(DMDAVecRestoreArrayF90(ctx%da, ctx%u, ua, ierr))
     call MPI_Allreduce(MPI_IN_PLACE, loc, 3, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, ierr)
     if (ctx%use_reduced) then
-      PetscCall(reduced_set_fixed(ctx%red, ctx%fixed, ierr))
+      PetscCall(reduced_set_fixed(ctx%red, ctx%model%fixed, ierr))
     end if
     ! The Newton start's kept states end here where the state jumps (a
     ! keyframe's start, a constraint's target moved); elsewhere they go on
@@ -97,7 +88,7 @@ contains
       if (ierr /= 0) return
     end if
     dke = loc(1)
-    ctx%moving_constraints = loc(2) > 0.0_rp
+    ctx%model%moving_constraints = loc(2) > 0.0_rp
   end subroutine enter_window
 
   !> Integrate from t = 0 (or from the checkpoint of solver_restore) to
@@ -122,37 +113,37 @@ contains
     character(len=512) :: errmsg
 
     status = 'complete'
-    ctx%wall0 = MPI_Wtime() - ctx%wall_before
-    ctx%wall_said = MPI_Wtime()
+    ctx%progress%wall0 = MPI_Wtime() - ctx%restart%wall_before
+    ctx%progress%wall_said = MPI_Wtime()
     call write_run_info(ctx, out, ierr)
     if (io_failed()) return
-    ctx%out => out
-    call nuno_walltime_arm(real(ctx%checkpoint_walltime, c_double))
-    events = constraint_events(ctx%cs, ctx%t_end)
-    eps = 1.0e-12_rp * max(1.0_rp, ctx%t_end)
-    h = ctx%dt
+    ctx%restart%out => out
+    call nuno_walltime_arm(real(ctx%restart%checkpoint_walltime, c_double))
+    events = constraint_events(ctx%cs, ctx%step%t_end)
+    eps = 1.0e-12_rp * max(1.0_rp, ctx%step%t_end)
+    h = ctx%step%dt
     t = 0.0_rp
     ie = 1
     iout = 0
     at_max_steps = .false.
-    if (ctx%restarted) then
+    if (ctx%restart%restarted) then
       ! Go on from the checkpoint: its state, time and step number are in
       ! the TS (solver_restore); the next output step is the first after t.
-      t = ctx%t_restart
-      if (.not. ctx%fixed_step) h = ctx%h_restart
+      t = ctx%restart%t_restart
+      if (.not. ctx%step%fixed_step) h = ctx%restart%h_restart
       ! The next output step is the first after the last one written.
       iout = 1
-      do while (output_time(iout) <= ctx%t_written + eps .and. real(iout, rp) * ctx%cfg%output_interval < ctx%t_end)
+      do while (output_time(iout) <= ctx%progress%t_written + eps .and. real(iout, rp) * ctx%cfg%output_interval < ctx%step%t_end)
         iout = iout + 1
       end do
-      ctx%t_prev = t
+      ctx%energy%t_prev = t
       ! A wall-clock checkpoint after a window's last step is at the
       ! window's end, before solver_run wrote that output step: as the run
       ! did next, put t onto it and write it.
       tstop = next_stop(t - 1.0e3_rp * eps)
       if (abs(t - tstop) <= 1.0e3_rp * eps) then
         t = tstop
-        ctx%t_prev = t
+        ctx%energy%t_prev = t
         PetscCall(TSSetTime(ctx%ts, t, ierr))
         if (abs(t - output_time(iout)) <= eps) then
           call write_output(ctx, out, t, ierr)
@@ -164,23 +155,23 @@ contains
       tstop = next_stop(t)
       call enter_window(ctx, t, tstop, dke, ierr)
       if (ierr /= 0) return
-      ctx%t_prev = 0.0_rp
+      ctx%energy%t_prev = 0.0_rp
       call write_output(ctx, out, t, ierr)
       if (io_failed()) return
       iout = 1
     end if
 
-    do while (t < ctx%t_end - eps .and. .not. at_max_steps)
+    do while (t < ctx%step%t_end - eps .and. .not. at_max_steps)
       tstop = next_stop(t)
-      ctx%tstop = tstop
+      ctx%step%tstop = tstop
       if (t > 0.0_rp) then
         call enter_window(ctx, t, tstop, dke, ierr)
         if (ierr /= 0) return
-        ctx%work_constraints = ctx%work_constraints + dke
+        ctx%energy%work_constraints = ctx%energy%work_constraints + dke
         PetscCall(TSRestartStep(ctx%ts, ierr))
       end if
       PetscCall(TSSetMaxTime(ctx%ts, tstop, ierr))
-      if (ctx%fixed_step) h = ctx%dt
+      if (ctx%step%fixed_step) h = ctx%step%dt
       if (t + 1.01_rp * h >= tstop) h = tstop - t
       PetscCall(TSSetTimeStep(ctx%ts, h, ierr))
       PetscCall(TSSolve(ctx%ts, ctx%u, ierr))
@@ -196,7 +187,7 @@ contains
         ! SIGTERM/SIGINT: every rank finished the same step; keep its state
         ! and a checkpoint to continue from (the restart point of the last
         ! output step: keep_restart_point).
-        if (t > ctx%t_written) then
+        if (t > ctx%progress%t_written) then
           call write_output(ctx, out, t, ierr)
           if (io_failed()) return
         end if
@@ -234,33 +225,33 @@ contains
         call write_output(ctx, out, t, ierr)
         if (io_failed()) return
         iout = iout + 1
-        if (t < ctx%t_end - eps) then
+        if (t < ctx%step%t_end - eps) then
           call keep_restart_point(ctx, out, t, h, ierr)
           if (ierr /= 0) return
         end if
-        if (ctx%cfg%checkpoint_interval > 0.0_rp .and. t < ctx%t_end - eps .and. &
-            t >= ctx%t_checkpoint + ctx%cfg%checkpoint_interval - eps) then
+        if (ctx%cfg%checkpoint_interval > 0.0_rp .and. t < ctx%step%t_end - eps .and. &
+            t >= ctx%restart%t_checkpoint + ctx%cfg%checkpoint_interval - eps) then
           call take_checkpoint(ctx, out, t, h, 'checkpoint_interval', ierr)
           if (io_failed()) return
         end if
-      else if (at_max_steps .and. t > ctx%t_written) then
+      else if (at_max_steps .and. t > ctx%progress%t_written) then
         ! Off the output grid (inside a window, or at a keyframe): the last state.
         call write_output(ctx, out, t, ierr)
         if (io_failed()) return
       end if
-      if (at_max_steps .and. t < ctx%t_end - eps .and. ctx%rank == 0) &
-        write(output_unit, '(a,es13.5e2,a)') 'nuno: -ts_max_steps '//inum(ctx%max_steps)// &
+      if (at_max_steps .and. t < ctx%step%t_end - eps .and. ctx%rank == 0) &
+        write(output_unit, '(a,es13.5e2,a)') 'nuno: -ts_max_steps '//inum(ctx%step%max_steps)// &
           ' reached at t =', t, ': the run ends here, complete, with this state written'
     end do
     ! The end of a complete run: a checkpoint, so that it can be continued
     ! to a later t_end.
-    if (status == 'complete' .and. .not. ctx%checkpoint_current) then
+    if (status == 'complete' .and. .not. ctx%restart%checkpoint_current) then
       call take_checkpoint(ctx, out, t, h, 'end', ierr)
       if (io_failed()) return
     end if
 
     ! The run's wall time, the same value on every rank (an attribute).
-    wall = MPI_Wtime() - ctx%wall0
+    wall = MPI_Wtime() - ctx%progress%wall0
     call MPI_Allreduce(MPI_IN_PLACE, wall, 1, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
     call output_write_wall_time(out, wall, ierr, errmsg)
     if (ierr /= 0) then
@@ -285,7 +276,7 @@ contains
     !> Output times: multiples of output_interval, and t_end.
     real(rp) function output_time(k)
       integer, intent(in) :: k
-      output_time = min(real(k, rp) * ctx%cfg%output_interval, ctx%t_end)
+      output_time = min(real(k, rp) * ctx%cfg%output_interval, ctx%step%t_end)
     end function output_time
 
     !> Next time at which the integrator must stop after t.
@@ -348,15 +339,15 @@ contains
     PetscCall(DMGlobalToLocalBegin(ctx%da, ctx%u, INSERT_VALUES, uloc, ierr))
     PetscCall(DMGlobalToLocalEnd(ctx%da, ctx%u, INSERT_VALUES, uloc, ierr))
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
-    call state_diagnostics(ctx%lat, u, ctx%gravity, ctx%comm, d, ierr)
-    if (.not. ctx%stretch_warned .and. ctx%cfg%stretch_limit > 0.0_rp) call check_stretch(ctx, u, t)
+    call state_diagnostics(ctx%lat, u, ctx%model%gravity, ctx%comm, d, ierr)
+    if (.not. ctx%progress%stretch_warned .and. ctx%cfg%stretch_limit > 0.0_rp) call check_stretch(ctx, u, t)
     do j = ctx%lat%ys, ctx%lat%ye
       ctx%xout(:, :, j) = u(0:2, :, j)
       ctx%vout(:, :, j) = u(3:5, :, j)
     end do
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, uloc, u, ierr))
     PetscCall(DMRestoreLocalVector(ctx%da, uloc, ierr))
-    if (t == 0.0_rp) ctx%mgx0 = d%mgx
+    if (t == 0.0_rp) ctx%energy%mgx0 = d%mgx
 
     call run_counts(ctx, c, ierr)
     if (ierr /= 0) return
@@ -369,8 +360,8 @@ contains
     rec%kinetic = d%kinetic
     rec%stretch = d%stretch
     rec%bend = d%bend
-    rec%dissipated = ctx%dissipated
-    rec%external_work = ctx%work_constraints + (d%mgx - ctx%mgx0)
+    rec%dissipated = ctx%energy%dissipated
+    rec%external_work = ctx%energy%work_constraints + (d%mgx - ctx%energy%mgx0)
     rec%momentum = d%momentum
     rec%angular_momentum = d%angular_momentum
     rec%length = d%length
@@ -379,7 +370,7 @@ contains
     rec%rejected_steps = rejects
     rec%newton_iterations = nits
     rec%linear_iterations = lits
-    wall = MPI_Wtime() - ctx%wall0
+    wall = MPI_Wtime() - ctx%progress%wall0
     rec%wall_time = wall
     if (ctx%cfg%write_velocity) then
       call output_write_step(out, rec, ctx%xout, ierr, errmsg, v=ctx%vout)
@@ -390,8 +381,8 @@ contains
       call report_io_error(ctx, errmsg)
       return
     end if
-    ctx%t_written = t
-    ctx%checkpoint_current = .false.
+    ctx%progress%t_written = t
+    ctx%restart%checkpoint_current = .false.
     ! Progress for a person and for awk: every field has a blank before it
     ! (es13.5e2 of a negative value still starts with one; the integer
     ! widths hold 10^8 steps), rates from the start of the run. Flushed: a
@@ -399,7 +390,7 @@ contains
     ! up to 'linear' is the one bench/solver.py parses.
     if (t > 0.0_rp .and. wall > 0.0_rp) then
       rate = t / wall
-      eta = (ctx%t_end - t) / rate
+      eta = (ctx%step%t_end - t) / rate
     else
       rate = 0.0_rp
       eta = ieee_nan()
@@ -408,10 +399,10 @@ contains
       write(output_unit, '(a,es12.5e2, a,i9, a,i6, a,i9, a,i11, a,i6, 2(a,es13.5e2), 3(a,es10.3e2))') &
         't =', t, '  steps', steps, '  rejected', rejects, '  newton', nits, '  linear', lits, &
         '  retries', fails, '  E_kin', d%kinetic, &
-        '  E_total', d%kinetic + d%stretch + d%bend + ctx%dissipated - rec%external_work, &
+        '  E_total', d%kinetic + d%stretch + d%bend + ctx%energy%dissipated - rec%external_work, &
         '  wall_s', wall, '  sim_per_wall_s', rate, '  eta_s', eta
       flush(output_unit)
-      ctx%wall_said = MPI_Wtime()
+      ctx%progress%wall_said = MPI_Wtime()
     end if
   end subroutine write_output
 
@@ -432,7 +423,7 @@ contains
     call MPI_Allreduce(r, g, 2, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, mpierr)
     lim = ctx%cfg%stretch_limit
     if (g(1) <= lim .and. g(2) <= lim) return
-    ctx%stretch_warned = .true.
+    ctx%progress%stretch_warned = .true.
     loc = -1
     if (g(1) > lim) then
       if (r(1) == g(1)) loc = atmax
