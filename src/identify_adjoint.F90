@@ -190,9 +190,9 @@ contains
     PetscCall(TSSetTime(app%ts, 0.0_rp, ierr))
     PetscCall(TSSetStepNumber(app%ts, zero, ierr))
     ! Room for the whole run: its steps, one more per window, retries.
-    horizon = 2.0_rp * (id%obs%wb(id%obs%nw) + real(id%obs%nw + 1, rp) * app%dt)
+    horizon = 2.0_rp * (id%obs%wb(id%obs%nw) + real(id%obs%nw + 1, rp) * app%step%dt)
     nw = id%obs%nw
-    call nuno_ts_trajectory_fresh(app%ts, horizon, app%dt, nw, trim(id%run%traj_dir)//c_null_char, ierr)
+    call nuno_ts_trajectory_fresh(app%ts, horizon, app%step%dt, nw, trim(id%run%traj_dir)//c_null_char, ierr)
     if (ierr == -1) then
       ierr = 1
       id%run%failed = .true.
@@ -201,12 +201,12 @@ contains
       return
     end if
     if (ierr /= 0) return
-    app%dissipated = 0
-    app%work_constraints = 0
-    app%t_prev = 0
-    app%pdiss_prev = 0
-    app%pcon_prev = 0
-    app%t_written = -1
+    app%energy%dissipated = 0
+    app%energy%work_constraints = 0
+    app%energy%t_prev = 0
+    app%energy%pdiss_prev = 0
+    app%energy%pcon_prev = 0
+    app%progress%t_written = -1
   end subroutine reset_state
 
   !> id%run%scratch: a new private directory beside the output file (rank 0
@@ -272,7 +272,7 @@ contains
     do w = 1, id%obs%nw
       call enter_window(app, id%obs%wa(w), id%obs%wb(w), dke, ierr)
       if (ierr /= 0) return
-      app%tstop = id%obs%wb(w)
+      app%step%tstop = id%obs%wb(w)
       PetscCall(TSRestartStep(app%ts, ierr))
       ! The memory trajectory stores a window's first state only if the TS
       ! is not marked converged (from the previous window) when TSSolve
@@ -280,7 +280,7 @@ contains
       ! wrong checkpoint.
       PetscCall(TSSetConvergedReason(app%ts, TS_CONVERGED_ITERATING, ierr))
       PetscCall(TSSetMaxTime(app%ts, id%obs%wb(w), ierr))
-      h = app%dt
+      h = app%step%dt
       if (t + 1.01_rp * h >= id%obs%wb(w)) h = id%obs%wb(w) - t
       PetscCall(TSSetTimeStep(app%ts, h, ierr))
       PetscCall(TSSolve(app%ts, app%u, ierr))
@@ -470,12 +470,12 @@ contains
         case (6); lp%eta_b = app%lat%eta_b
         end select
       end if
-      call internal_forces(lp, u, app%f, nbad, bad)
+      call internal_forces(lp, u, app%model%f, nbad, bad)
       do j = app%lat%ys, app%lat%ye
         do i = 0, app%lat%nx - 1
-          if (app%fixed(i, j)) cycle
+          if (app%model%fixed(i, j)) cycle
           r = 6 * (i + app%lat%nx * (j - app%lat%ys))
-          a(r + 4:r + 6, k) = sgn * app%f(:, i, j) / app%lat%mass(i, j)
+          a(r + 4:r + 6, k) = sgn * app%model%f(:, i, j) / app%lat%mass(i, j)
         end do
       end do
     end do

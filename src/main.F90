@@ -203,13 +203,13 @@ program nuno
   petsc_opts = petsc_options_text()
   if (len_trim(cfg%petsc_options) > 0) &
     petsc_opts = trim(petsc_opts//' [namelist, overridden by the above: '//trim(cfg%petsc_options)//']')
-  ctx%checkpoint_walltime = walltime
+  ctx%restart%checkpoint_walltime = walltime
   if (len_trim(restart_file) > 0) then
     if (len_trim(restart_file) > len(ctx%cfg%output_file)) &
       call fatal_collective('-nuno_restart: the file name is longer than '//trim(adjustl(itoa(len(ctx%cfg%output_file))))// &
                             ' characters')
     call output_reopen(out, trim(restart_file), PETSC_COMM_WORLD, cfg%nx, cfg%ny, ctx%lat%ys, &
-                       ctx%lat%ye - ctx%lat%ys + 1, cfg%write_velocity, ctx%t_end, cfg%namelist_text, petsc_opts, &
+                       ctx%lat%ye - ctx%lat%ys + 1, cfg%write_velocity, ctx%step%t_end, cfg%namelist_text, petsc_opts, &
                        ck, ctx%xout, ctx%vout, ierr, errmsg, protect=trim(path), overwrite=overwrite /= 0, cfg=ctx%cfg)
     if (ierr /= 0) call fatal_collective(errmsg)
     if (rank == 0 .and. trim(restart_file) /= trim(cfg%output_file) .and. &

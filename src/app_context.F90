@@ -1,0 +1,315 @@
+!> The solver's context, passed to every PETSc callback as the user
+!> context, and the C functions of the solver (src/nuno_*.c).
+module app_context
+#include "petsc/finclude/petscts.h"
+  use petscts
+  use petscdmda
+  use mpi
+  use, intrinsic :: iso_c_binding, only: c_int, c_double, c_char, c_intptr_t
+  use kinds, only: rp
+  use config, only: nuno_config
+  use lattice, only: lattice_t
+  use forces, only: jac_buffer_t
+  use constraints, only: constraint_set_t
+  use output, only: output_file, checkpoint_t
+  use inner_guess, only: GUESS_AUTO
+  use reduced, only: reduced_t
+  implicit none
+  private
+  public :: app_ctx, model_state_t, assembly_t, newton_state_t, step_settings_t, energy_integrals_t, progress_t, &
+            restart_state_t
+  public :: model_state_free, assembly_free, energy_integrals_free, restart_state_free
+  public :: nuno_walltime_arm, nuno_adaptive_default, nuno_checkpoint_due, nuno_linesearch_options_read, nuno_newton_start_count, nuno_newton_start_get, nuno_newton_start_push, nuno_newton_start_put, nuno_newton_start_reset, nuno_newton_start_setup, nuno_options_read, nuno_options_report_unused, nuno_petsc_habits, nuno_signal_agreed, nuno_signals_install, nuno_step_defaults, nuno_tolerance_options_read, nuno_ts_scheme, nuno_ts_stop
+
+  interface
+    !> src/nuno_signals.c: SIGTERM/SIGINT end the run after the current step.
+    integer(c_int) function nuno_signals_install(ts) bind(C, name='nuno_signals_install')
+      import :: c_int, c_intptr_t
+      integer(c_intptr_t) :: ts             !< the TS handle (tTS%v), passed as TS*
+    end function nuno_signals_install
+    !> src/nuno_newton_start.c: -nuno_newton_start, the cubic start of beuler's Newton solve.
+    integer(c_int) function nuno_newton_start_setup(ts, auto_cubic, order) bind(C, name='nuno_newton_start_setup')
+      import :: c_int, c_intptr_t
+      integer(c_intptr_t) :: ts             !< the TS handle (tTS%v), passed as TS*
+      integer(c_int) :: auto_cubic          !< 1: auto means cubic for this run
+      integer(c_int) :: order               !< out: 1 (linear) or 3 (cubic)
+    end function nuno_newton_start_setup
+    integer(c_int) function nuno_newton_start_push(ts, u, t) bind(C, name='nuno_newton_start_push')
+      import :: c_int, c_intptr_t, c_double
+      integer(c_intptr_t) :: ts, u          !< TS*, Vec*
+      real(c_double) :: t
+    end function nuno_newton_start_push
+    integer(c_int) function nuno_newton_start_reset(ts) bind(C, name='nuno_newton_start_reset')
+      import :: c_int, c_intptr_t
+      integer(c_intptr_t) :: ts
+    end function nuno_newton_start_reset
+    integer(c_int) function nuno_newton_start_count(ts, n, compare, nc_prev) bind(C, name='nuno_newton_start_count')
+      import :: c_int, c_intptr_t, c_double
+      integer(c_intptr_t) :: ts
+      integer(c_int) :: n, compare
+      real(c_double) :: nc_prev
+    end function nuno_newton_start_count
+    integer(c_int) function nuno_newton_start_get(ts, k, v, t) bind(C, name='nuno_newton_start_get')
+      import :: c_int, c_intptr_t, c_double
+      integer(c_intptr_t) :: ts, v          !< TS*, Vec*
+      integer(c_int) :: k
+      real(c_double) :: t
+    end function nuno_newton_start_get
+    integer(c_int) function nuno_newton_start_put(ts, k, v, t, n, compare, nc_prev) bind(C, name='nuno_newton_start_put')
+      import :: c_int, c_intptr_t, c_double
+      integer(c_intptr_t) :: ts, v          !< TS*, Vec*
+      integer(c_int) :: k, n, compare
+      real(c_double) :: t, nc_prev
+    end function nuno_newton_start_put
+    integer(c_int) function nuno_signal_agreed() bind(C, name='nuno_signal_agreed')
+      import :: c_int
+    end function nuno_signal_agreed
+    !> src/nuno_signals.c: -nuno_checkpoint_walltime, agreed after each step.
+    !> Due after a step: the monitor of that step writes the checkpoint.
+    subroutine nuno_walltime_arm(seconds) bind(C, name='nuno_walltime_arm')
+      import :: c_double
+      real(c_double), value :: seconds
+    end subroutine nuno_walltime_arm
+    integer(c_int) function nuno_checkpoint_due() bind(C, name='nuno_checkpoint_due')
+      import :: c_int
+    end function nuno_checkpoint_due
+    !> Stop TSSolve after this step (TS_CONVERGED_USER).
+    integer(c_int) function nuno_ts_stop(ts) bind(C, name='nuno_ts_stop')
+      import :: c_int, c_intptr_t
+      integer(c_intptr_t) :: ts             !< the TS handle (tTS%v), passed as TS*
+    end function nuno_ts_stop
+    !> src/nuno_options.c: nuno's options in a PETSc options block.
+    integer(c_int) function nuno_options_read(fcomm, jacobian, pc_lag, mg_interp, snes_floor, gauss_newton, clamp, &
+                                              mattype, mattype_len, fail_newton, forcing, guess, guess_given) &
+                                              bind(C, name='nuno_options_read')
+      import :: c_int, c_double, c_char
+      integer(c_int), value :: fcomm
+      integer(c_int), intent(inout) :: jacobian, pc_lag, mg_interp, gauss_newton, clamp, fail_newton, forcing, guess
+      integer(c_int), intent(out) :: guess_given
+      real(c_double), intent(inout) :: snes_floor
+      character(kind=c_char), intent(inout) :: mattype(*)
+      integer(c_int), value :: mattype_len
+    end function nuno_options_read
+    !> src/nuno_petsc_habits.c: PETSc's -ksp_*/-pc_* options on the path in use.
+    integer(c_int) function nuno_petsc_habits(fcomm, reduced, mattype, mattype_len) bind(C, name='nuno_petsc_habits')
+      import :: c_int, c_char
+      integer(c_int), value :: fcomm, reduced
+      character(kind=c_char), intent(inout) :: mattype(*)
+      integer(c_int), value :: mattype_len
+    end function nuno_petsc_habits
+    !> src/nuno_options.c: -nuno_linesearch_fallback, and whether -snes_linesearch_type is given.
+    integer(c_int) function nuno_linesearch_options_read(fcomm, fallback, given, ls_given) &
+        bind(C, name='nuno_linesearch_options_read')
+      import :: c_int
+      integer(c_int), value :: fcomm
+      integer(c_int), intent(inout) :: fallback
+      integer(c_int), intent(out) :: given, ls_given
+    end function nuno_linesearch_options_read
+    !> src/nuno_options.c: -nuno_atol_position, -nuno_atol_velocity (after TSSetFromOptions).
+    integer(c_int) function nuno_tolerance_options_read(fcomm, atol_x, atol_v, given_x, given_v) &
+        bind(C, name='nuno_tolerance_options_read')
+      import :: c_int, c_double
+      integer(c_int), value :: fcomm
+      real(c_double), intent(inout) :: atol_x, atol_v
+      integer(c_int), intent(out) :: given_x, given_v
+    end function nuno_tolerance_options_read
+    !> src/nuno_options.c: -nuno_adaptive_ts_type, the integrator of an
+    !> adaptive run without -ts_type (before TSSetFromOptions).
+    integer(c_int) function nuno_adaptive_default(fcomm, ts, applied) bind(C, name='nuno_adaptive_default')
+      import :: c_int, c_intptr_t
+      integer(c_int), value :: fcomm
+      integer(c_intptr_t) :: ts             !< the TS handle (tTS%v), passed as TS*
+      integer(c_int), intent(out) :: applied
+    end function nuno_adaptive_default
+    !> src/nuno_options.c: the Newton solve's defaults (extrapolated start for beuler, lagged S).
+    integer(c_int) function nuno_step_defaults(ts, reduced) bind(C, name='nuno_step_defaults')
+      import :: c_int, c_intptr_t
+      integer(c_intptr_t) :: ts             !< the TS handle (tTS%v), passed as TS*
+      integer(c_int), value :: reduced      !< 1 on the reduced path
+    end function nuno_step_defaults
+    !> src/nuno_options.c: "rosw ra34pw2", "bdf order 4", ...: the TS type with its scheme.
+    integer(c_int) function nuno_ts_scheme(ts, buf, len) bind(C, name='nuno_ts_scheme')
+      import :: c_int, c_intptr_t, c_char
+      integer(c_intptr_t) :: ts             !< the TS handle (tTS%v), passed as TS*
+      character(kind=c_char), intent(out) :: buf(*)
+      integer(c_int), value :: len
+    end function nuno_ts_scheme
+    !> src/nuno_options.c: warn about options that nothing read.
+    integer(c_int) function nuno_options_report_unused(fcomm, nunused) bind(C, name='nuno_options_report_unused')
+      import :: c_int
+      integer(c_int), value :: fcomm
+      integer(c_int), intent(out) :: nunused
+    end function nuno_options_report_unused
+  end interface
+
+
+  !> The model's state within a time window and its work arrays (module
+  !> cloth_model, set by enter_window).
+  type :: model_state_t
+    real(rp), allocatable :: f(:, :, :)         !< (3, 0:nx-1, gys:gye) force work array
+    logical, allocatable :: fixed(:, :)         !< (0:nx-1, ys:ye) constrained in the current window
+    real(rp) :: gravity(3) = 0
+    logical :: clamp = .false.                  !< drop indefinite spring compression terms in P
+    logical :: gauss_newton = .false.           !< Gauss-Newton energy-bending blocks in P
+    logical :: moving_constraints = .false.     !< a constrained node moves in this window
+    !> the singular element seen by the last residual evaluation: how many,
+    !> one of them (link end nodes) and the time
+    integer :: nbad = 0, bad(2) = -1
+    real(rp) :: t_bad = 0
+  end type model_state_t
+
+  !> The assembled 6-dof Jacobian and its work buffers (-nuno_jacobian full;
+  !> module cloth_model).
+  type :: assembly_t
+    type(jac_buffer_t) :: jbuf
+    type(tMat) :: p                             !< assembled 6-dof Jacobian (-nuno_jacobian full only)
+    real(rp), allocatable :: vals(:, :, :)      !< (6, 6, ncol) one block row of the Jacobian
+    integer, allocatable :: cols(:)             !< (ncol) its local block columns
+  end type assembly_t
+
+  !> Newton's policy state: the round-off floor, inexact Newton, the line-
+  !> search fallback and the Newton start (module newton_policy).
+  type :: newton_state_t
+    real(rp) :: snes_floor = 1.0e-6_rp          !< -nuno_snes_floor: stagnation below this relative residual is convergence
+    real(rp) :: fnorm0 = 0, fnorm_prev = 0
+    real(rp) :: floor_est = 0                   !< round-off floor of ||F||_2 at the last 6-dof assembly (module newton_control)
+    real(rp) :: snorm_prev = 0                  !< ||update|| of the previous Newton iteration
+    logical :: newton_forcing = .true.          !< inner tolerance from the step's needs (reduced path)
+    integer(c_int) :: guess = GUESS_AUTO        !< -nuno_inner_guess (module inner_guess)
+    integer(c_int) :: guess_given = 0           !< 1: set on the command line
+    real(rp) :: cquad = 0                       !< estimate of C in ||F_k+1|| ~ C ||F_k||^2; 0 at every window start
+    integer :: start_order = 1                  !< Newton start of beuler: 1 linear, 3 cubic (-nuno_newton_start)
+    integer :: fail_newton = 0                  !< -nuno_fail_newton: Newton solves still to be declared failed
+    !> -nuno_linesearch_fallback: 0 none, 1 bt, 2 l2 (the line search once a
+    !> Newton solve has failed); ls_switched once it has been put in place
+    integer :: ls_fallback = 0
+    logical :: ls_switched = .false.
+  end type newton_state_t
+
+  !> The time integration as used: the namelist's values after the PETSc
+  !> options (module solver_setup), and the current time window.
+  type :: step_settings_t
+    real(rp) :: dt = 0                          !< fixed (or initial) step [time]: -ts_dt, else the namelist's
+    real(rp) :: t_end = 0                       !< end time [time]: -ts_max_time, else the namelist's
+    logical :: fixed_step = .true.              !< -ts_adapt_type none: every step is dt unless retried
+    logical :: adaptive_default = .false.       !< the TS type is -nuno_adaptive_ts_type's (no -ts_type given)
+    PetscInt :: max_steps = 0                   !< -ts_max_steps: a clean end after this many steps
+    !> error tolerances of adaptive steps (TSSetTolerances: scalar rtol, vector atol)
+    real(rp) :: rtol = 0                        !< -ts_rtol [1]
+    real(rp) :: atol_x = 0                      !< absolute tolerance of positions [length]
+    real(rp) :: atol_v = 0                      !< absolute tolerance of velocities [length/time]
+    real(rp) :: tstop = 0                       !< end of the current time window [time]
+    PetscInt :: rejects_seen = 0                !< step rejections already answered by the monitor
+  end type step_settings_t
+
+  !> Time integrals, advanced by the monitor over each accepted step so that
+  !> they close at the method's order: Gauss-Legendre on the interpolant of bdf
+  !> (order up to 6), the trapezoid rule otherwise (module step_monitor).
+  type :: energy_integrals_t
+    logical :: gauss = .false.
+    type(tVec) :: uq                            !< interpolated state (Gauss points)
+    real(rp) :: t_prev = 0, pdiss_prev = 0, pcon_prev = 0
+    real(rp) :: dissipated = 0                  !< dissipated energy [energy]
+    real(rp) :: work_constraints = 0            !< work of the constraint reactions [energy]
+    real(rp) :: mgx0 = 0                        !< sum m g . x at t = 0
+  end type energy_integrals_t
+
+  !> Progress of the run: wall clock, output steps, the monitor's stall check.
+  type :: progress_t
+    logical :: monitor_seen = .false.           !< ts_monitor has run (its stall check)
+    PetscInt :: monitor_step = 0                !< the step number it saw last
+    integer :: stalled_steps = 0                !< accepted steps in a row that did not advance t
+    real(rp) :: wall0 = 0                       !< MPI_Wtime at the start of solver_run [s]
+    real(rp) :: t_written = -1                  !< time of the last output step [time]
+    real(rp) :: wall_said = 0                   !< MPI_Wtime of the last line on stdout (rank 0) [s]
+    logical :: stretch_warned = .false.         !< the stretch_limit warning was given
+  end type progress_t
+
+  !> Checkpoints and restarts (docs/design.md, "Checkpoints"; module
+  !> run_checkpoint).
+  type :: restart_state_t
+    real(rp) :: checkpoint_walltime = 0         !< -nuno_checkpoint_walltime: a checkpoint after each [s]; 0: none
+    !> time of the last checkpoint written or restarted from [time]; the
+    !> run's start at first, so that the first checkpoint_interval
+    !> checkpoint comes one interval after it
+    real(rp) :: t_checkpoint = 0
+    logical :: restarted = .false.              !< continues a checkpoint (solver_restore)
+    logical :: checkpoint_current = .false.     !< the last checkpoint was written after the last output step
+    real(rp) :: t_restart = 0, h_restart = 0    !< its time and next step [time]
+    real(rp) :: wall_before = 0                 !< wall-clock seconds of the runs before this one [s]
+    !> The restart point: the state at the last output step and what a
+    !> checkpoint of it holds (keep_restart_point), written by the
+    !> checkpoints that come between output steps (SIGTERM, SIGINT, the wall
+    !> clock), so that their restarts repeat the run bit for bit.
+    logical :: rp_valid = .false.
+    type(checkpoint_t) :: rp_ck
+    real(rp), allocatable :: rp_x(:, :, :), rp_v(:, :, :)  !< (3, 0:nx-1, ys:ye) [length], [length/time]
+    !> rejected steps, Newton and linear iterations and retries of the runs
+    !> before this one (the step count goes on in the TS itself)
+    real(rp) :: counts_before(5) = 0
+    type(output_file), pointer :: out => null() !< the output file, for the wall-clock checkpoints (solver_run)
+  end type restart_state_t
+
+  !> Everything the callbacks need; passed to PETSc as the user context.
+  type :: app_ctx
+    type(nuno_config) :: cfg
+    type(lattice_t) :: lat
+    type(constraint_set_t) :: cs
+    type(tDM) :: da
+    type(tTS) :: ts
+    type(tVec) :: u                             !< global state
+    logical :: use_reduced = .true.             !< the reduced 3-dof solve (module reduced), the default
+    type(reduced_t) :: red                      !< its matrices and inner solver
+    integer :: comm = MPI_COMM_NULL, rank = 0, size = 1
+    real(rp), allocatable :: xout(:, :, :)      !< (3, 0:nx-1, ys:ye) output buffer
+    real(rp), allocatable :: vout(:, :, :)      !< (3, 0:nx-1, ys:ye) output buffer
+    !> the (collective) output error that ended the run, '' if none
+    character(len=512) :: io_error = ''
+    type(model_state_t) :: model
+    type(assembly_t) :: asm
+    type(newton_state_t) :: newton
+    type(step_settings_t) :: step
+    type(energy_integrals_t) :: energy
+    type(progress_t) :: progress
+    type(restart_state_t) :: restart
+  end type app_ctx
+
+contains
+
+  ! Each record starts from its type's default initialisation (solver_create
+  ! fills in what the options give); these free what it allocated.
+
+  !> The model's work arrays.
+  subroutine model_state_free(m)
+    type(model_state_t), intent(inout) :: m
+    if (allocated(m%f)) deallocate(m%f)
+    if (allocated(m%fixed)) deallocate(m%fixed)
+  end subroutine model_state_free
+
+  !> The assembled 6-dof Jacobian and its buffers (-nuno_jacobian full only:
+  !> the reduced solve creates none). Collective.
+  subroutine assembly_free(a, ierr)
+    type(assembly_t), intent(inout) :: a
+    PetscErrorCode, intent(out) :: ierr
+    PetscCall(MatDestroy(a%p, ierr))
+    if (allocated(a%vals)) deallocate(a%vals)
+    if (allocated(a%cols)) deallocate(a%cols)
+  end subroutine assembly_free
+
+  !> The interpolated state of the Gauss points. Collective.
+  subroutine energy_integrals_free(e, ierr)
+    type(energy_integrals_t), intent(inout) :: e
+    PetscErrorCode, intent(out) :: ierr
+    PetscCall(VecDestroy(e%uq, ierr))
+  end subroutine energy_integrals_free
+
+  !> The restart point's state; the output file is the caller's.
+  subroutine restart_state_free(r)
+    type(restart_state_t), intent(inout) :: r
+    if (allocated(r%rp_x)) deallocate(r%rp_x)
+    if (allocated(r%rp_v)) deallocate(r%rp_v)
+    r%rp_valid = .false.
+    nullify(r%out)
+  end subroutine restart_state_free
+
+end module app_context

@@ -1,0 +1,148 @@
+!> The text of a run's end: what failed and what to try (failure_reason,
+!> failure_hints), signal names, the collective output error, and the
+!> number-to-string helpers of the solver's messages.
+module failure_text
+#include "petsc/finclude/petscts.h"
+  use petscts
+  use petscdmda
+  use mpi
+  use, intrinsic :: iso_c_binding, only: c_int
+  use, intrinsic :: iso_fortran_env, only: error_unit
+  use kinds, only: rp
+  use app_context, only: app_ctx
+  implicit none
+  private
+  public :: signal_name, failure_reason, report_io_error, num, inum, ieee_nan
+
+contains
+
+  !> What is known to help a failed Newton solve, leaving out what the user
+  !> has already set: a smaller fixed step or adaptivity, more retries, a
+  !> stronger inner preconditioner or the full Jacobian, and the monitors.
+  function failure_hints(ctx) result(h)
+    type(app_ctx), intent(in) :: ctx
+    character(len=512) :: h
+    character(len=32) :: dtq
+    character(len=64) :: pctype
+    type(tPC) :: pc
+    type(tKSP) :: ksp
+    type(tSNES) :: snes
+    PetscErrorCode :: ierr
+    h = 'try'
+    if (ctx%step%fixed_step) then
+      write(dtq, '(es10.3)') 0.25_rp * ctx%step%dt
+      h = trim(h)//' a smaller step (-ts_dt '//trim(adjustl(dtq))//'), adaptive steps (-ts_adapt_type basic),'
+    else if (.not. given('-ts_max_snes_failures')) then
+      h = trim(h)//' more retries (-ts_max_snes_failures -1),'
+    end if
+    ! Each path names its own linear solve: the inner 3-dof one (reduced_
+    ! prefix) or the 6-dof Krylov solve (no prefix).
+    if (ctx%use_reduced) then
+      ! (-reduced_pc_type is always in the options: nuno sets its default.)
+      call KSPGetPC(ctx%red%ksp, pc, ierr)
+      if (ierr == 0) call PCGetType(pc, pctype, ierr)
+      if (ierr == 0 .and. pctype /= PCLU .and. pctype /= PCCHOLESKY) &
+        h = trim(h)//' a stronger inner preconditioner (-reduced_pc_type lu on small lattices),'
+      h = trim(h)//' the assembled 6-dof Jacobian (-nuno_jacobian full),'
+    else
+      call TSGetSNES(ctx%ts, snes, ierr)
+      if (ierr == 0) call SNESGetKSP(snes, ksp, ierr)
+      if (ierr == 0) call KSPGetPC(ksp, pc, ierr)
+      if (ierr == 0) call PCGetType(pc, pctype, ierr)
+      if (ierr == 0 .and. pctype /= PCLU .and. pctype /= PCCHOLESKY) &
+        h = trim(h)//' an exact linear solve (-ksp_type preonly -pc_type lu on small lattices),'
+      h = trim(h)//' the default reduced Newton step (without -nuno_jacobian full),'
+    end if
+    if (given('-snes_monitor')) then
+      h = trim(h)//' and the monitor output above'
+    else if (ctx%use_reduced) then
+      h = trim(h)//' and -snes_monitor -reduced_ksp_converged_reason to see where it stalls'
+    else
+      h = trim(h)//' and -snes_monitor -ksp_converged_reason -snes_linesearch_monitor to see where it stalls'
+    end if
+  contains
+    logical function given(name)
+      character(len=*), intent(in) :: name
+      PetscBool :: set
+      PetscErrorCode :: ierr
+      call PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, name, set, ierr)
+      given = set .and. ierr == 0
+    end function given
+  end function failure_hints
+
+  !> SIGTERM, SIGINT or the signal's number.
+  function signal_name(sig) result(name)
+    integer(c_int), intent(in) :: sig
+    character(len=16) :: name
+    select case (sig)
+    case (15)
+      name = 'SIGTERM'
+    case (2)
+      name = 'SIGINT'
+    case default
+      write(name, '(a,i0)') 'signal ', sig
+    end select
+  end function signal_name
+
+  !> One line saying why the run stopped.
+  subroutine failure_reason(ctx, reason, t, msg)
+    type(app_ctx), intent(in) :: ctx
+    TSConvergedReason, intent(in) :: reason
+    real(rp), intent(in) :: t
+    character(len=*), intent(out) :: msg
+    integer :: nbad(1), gbad(1), ierr, loc(3), glob(3)
+
+    nbad(1) = ctx%model%nbad
+    call MPI_Allreduce(nbad, gbad, 1, MPI_INTEGER, MPI_MAX, ctx%comm, ierr)
+    if (gbad(1) > 0) then
+      loc = -1
+      if (ctx%model%nbad > 0) loc = [ctx%model%bad(1), ctx%model%bad(2), 1]
+      call MPI_Allreduce(loc, glob, 3, MPI_INTEGER, MPI_MAX, ctx%comm, ierr)
+      write(msg, '(a,es12.5,a,i0,a,i0,a)') 'singular element at t = ', ctx%model%t_bad, &
+        ' (zero-length link or bending triple folded back to theta = pi) anchored at node (', &
+        glob(1), ', ', glob(2), ')'
+    else if (reason == TS_DIVERGED_NONLINEAR_SOLVE) then
+      write(msg, '(a,es12.5,a)') 'time step from t = ', t, ' failed: nonlinear solve diverged '// &
+        '(TS_DIVERGED_NONLINEAR_SOLVE): the run''s failed Newton solves reached -ts_max_snes_failures '// &
+        '(each retried with a smaller step); '//trim(failure_hints(ctx))
+    else if (reason < 0) then
+      write(msg, '(a,es12.5,a,i0,a)') 'time step from t = ', t, ' failed (TSConvergedReason ', reason, &
+        ', e.g. -2 = step rejected too often by the error controller)'
+    else
+      write(msg, '(a,es12.5)') 'state became NaN or infinite at t = ', t
+    end if
+  end subroutine failure_reason
+
+  !> An output write failed (agreed by every rank): its one line on stderr
+  !> (rank 0), and the reason kept, so that solver_run ends the run as failed.
+  subroutine report_io_error(ctx, errmsg)
+    type(app_ctx), intent(inout) :: ctx
+    character(*), intent(in) :: errmsg
+    if (ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//trim(errmsg)
+    ctx%io_error = errmsg
+  end subroutine report_io_error
+
+  !> A real for a one-line message: short, and never glued to the text before it.
+  function num(x) result(s)
+    real(rp), intent(in) :: x
+    character(len=:), allocatable :: s
+    character(len=32) :: buf
+    write(buf, '(es13.5e2)') x
+    s = trim(adjustl(buf))
+  end function num
+
+  function inum(i) result(s)
+    PetscInt, intent(in) :: i
+    character(len=:), allocatable :: s
+    character(len=24) :: buf
+    write(buf, '(i0)') i
+    s = trim(buf)
+  end function inum
+
+  !> A quiet NaN.
+  real(rp) function ieee_nan()
+    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
+    ieee_nan = ieee_value(1.0_rp, ieee_quiet_nan)
+  end function ieee_nan
+
+end module failure_text

@@ -1,0 +1,228 @@
+!> Newton's policy on the PETSc side: the convergence test (round-off
+!> floor, forcing, the integrator's error estimate), the line-search
+!> fallback and the Newton start of beuler. The PETSc-free rules are in
+!> src/kernels/newton_control.f90 and newton_forcing.f90.
+module newton_policy
+#include "petsc/finclude/petscts.h"
+  use petscts
+  use petscdmda
+  use mpi
+  use, intrinsic :: iso_c_binding, only: c_int
+  use, intrinsic :: iso_fortran_env, only: output_unit
+  use kinds, only: rp
+  use newton_forcing, only: forcing_term, quadratic_constant
+  use newton_control, only: FLOOR_FACTOR, NEWTON_CONVERGED, NEWTON_DIVERGED, floor_verdict
+  use app_context, only: app_ctx, nuno_newton_start_setup
+  use failure_text, only: num
+  implicit none
+  private
+  public :: set_newton_start, snes_converged, linesearch_fallback
+
+  !> Adaptive steps: Newton has converged when its estimated remaining error
+  !> is below this fraction of the time integrator's tolerance (the
+  !> weighted RMS norm of TSAdapt, in which a step is accepted at <= 1).
+  real(rp), parameter :: NEWTON_TS_FRACTION = 0.01_rp
+  !> SNESLineSearchReason's SNES_LINESEARCH_SUCCEEDED and _FAILED_REDUCT
+  !> (no decrease found; petscsnes.h: PETSc 3.18 gives Fortran no names)
+  integer, parameter :: LS_SUCCEEDED = 0, LS_FAILED_REDUCT = 3
+
+contains
+
+  !> Newton's start (-nuno_newton_start, src/nuno_newton_start.c): auto
+  !> is the cubic start for Newton with beuler at fixed steps (hang 257 x
+  !> 257: one Newton iteration a step instead of two, commit 9f1bf04;
+  !> the linear start where its residual is the
+  !> smaller, as in a membrane's transient), the linear one of PETSc (x_n + dt xdot_n)
+  !> elsewhere: in the Baraff-Witkin mode (-snes_type ksponly) the start
+  !> is the point of the one linearisation and its residual the scale of
+  !> the solve's tolerance (163 -> 189 inner iterations over 30 steps
+  !> there), adaptive steps change dt, and identification and control
+  !> runs keep their trajectories as they were.
+  subroutine set_newton_start(ctx, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    PetscErrorCode, intent(out) :: ierr
+    type(tSNES) :: snes
+    character(len=64) :: sntype
+    integer(c_int) :: auto_cubic, order
+    PetscCall(TSGetSNES(ctx%ts, snes, ierr))
+    PetscCall(SNESGetType(snes, sntype, ierr))
+    auto_cubic = merge(1_c_int, 0_c_int, ctx%step%fixed_step .and. trim(sntype) /= SNESKSPONLY .and. &
+                       .not. (ctx%cfg%identify .or. ctx%cfg%control))
+    ierr = nuno_newton_start_setup(ctx%ts%v, auto_cubic, order)
+    ctx%newton%start_order = order
+  end subroutine set_newton_start
+
+  !> PETSc's residual test, plus the round-off floor of the residual, which
+  !> grows with stiffness over mass (like N^5 for hang refined: 1.3e-5 at
+  !> 129 x 129, 1.2e-2 at 513 x 513 against initial residuals of 1e3):
+  !> Newton cannot go below it, and snes_rtol = 1e-8 would fail good steps.
+  !> The same rule on both paths (module newton_control's floor_verdict),
+  !> with the floor estimated at the last assembly of S (reduced; measured
+  !> 14 times the actual floor at 129..513) or of the 6-dof Jacobian (full):
+  !> converged is (a) a residual below snes_floor times its initial value
+  !> or below the floor estimate that an iteration no longer reduces by
+  !> 10 %, (b) a residual below FLOOR_FACTOR times the floor estimate, which
+  !> saves the iteration that (a) needs, or (a') a line search that found
+  !> no decrease (bt, the 6-dof path's default, or the reduced path's
+  !> fallback) from a residual where (a) would stop: at the floor no step
+  !> decreases ||F||. Any other failed line search diverges, as in PETSc.
+  !> With adaptive steps also (c): the Newton error estimated from the
+  !> update and the convergence rate, |du_k| rate/(1 - rate) in the time
+  !> integrator's weighted norm (atol + rtol |u|), is below
+  !> NEWTON_TS_FRACTION of the tolerance (the test of CVODE and IDA). Tight
+  !> -ts_rtol shrinks the step, and with it the floor of F's x-rows
+  !> (eps a |x|, a = 1/dt) grows past any residual test: (c) ties Newton to
+  !> what the integrator asks for. It needs two iterations (a rate) and a
+  !> rate below 0.9, so a stalled solve (a weak preconditioner, small but
+  !> not shrinking updates) is not mistaken for a converged one.
+  subroutine snes_converged(snes, it, xnorm, snorm, fnorm, reason, ctx, ierr)
+    type(tSNES) :: snes
+    PetscInt :: it
+    PetscReal :: xnorm, snorm, fnorm
+    SNESConvergedReason :: reason
+    type(app_ctx) :: ctx
+    PetscErrorCode :: ierr
+    real(rp) :: rate, wnorm, floor_est
+    integer :: verdict
+    SNESLineSearchReason :: lsreason
+    call SNESConvergedDefault(snes, it, xnorm, snorm, fnorm, reason, PETSC_NULL_INTEGER, ierr)
+    if (ierr /= 0) return
+    if (it == 0 .and. ctx%newton%fail_newton > 0) then
+      ! -nuno_fail_newton (tests): the same decision on every rank.
+      ctx%newton%fail_newton = ctx%newton%fail_newton - 1
+      reason = SNES_DIVERGED_FUNCTION_DOMAIN
+    else if (it == 0) then
+      ctx%newton%fnorm0 = fnorm
+    else if (reason == SNES_CONVERGED_ITERATING) then
+      PetscCall(line_search_reason(snes, lsreason, ierr))
+      if (lsreason /= LS_SUCCEEDED .and. lsreason /= LS_FAILED_REDUCT) then
+        reason = SNES_DIVERGED_LINE_SEARCH        ! NaN, domain error: PETSc's own verdict
+      else
+        floor_est = merge(ctx%red%floor_est, ctx%newton%floor_est, ctx%use_reduced)
+        verdict = floor_verdict(fnorm, ctx%newton%fnorm_prev, ctx%newton%fnorm0, ctx%newton%snes_floor, floor_est, &
+                                lsreason == LS_FAILED_REDUCT)
+        if (verdict == NEWTON_CONVERGED) then
+          reason = SNES_CONVERGED_FNORM_ABS
+        else if (verdict == NEWTON_DIVERGED) then
+          reason = SNES_DIVERGED_LINE_SEARCH
+        end if
+      end if
+    end if
+    if (it >= 2 .and. reason == SNES_CONVERGED_ITERATING .and. .not. ctx%step%fixed_step .and. ctx%newton%snorm_prev > 0.0_rp) then
+      rate = snorm / ctx%newton%snorm_prev
+      if (rate < 0.9_rp) then
+        call update_wrms(snes, ctx, wnorm, ierr)
+        if (ierr /= 0) return
+        if (wnorm * rate / (1.0_rp - rate) <= NEWTON_TS_FRACTION) reason = SNES_CONVERGED_SNORM_RELATIVE
+      end if
+    end if
+    if (reason == SNES_CONVERGED_ITERATING .and. ctx%use_reduced .and. ctx%newton%newton_forcing) then
+      PetscCall(set_newton_forcing(snes, it, fnorm, ctx, ierr))
+    end if
+    ctx%newton%fnorm_prev = fnorm
+    ctx%newton%snorm_prev = snorm
+  end subroutine snes_converged
+
+  !> The reason of this Newton iteration's line search (LS_SUCCEEDED for a
+  !> SNES without one). PETSc's Newton hands the convergence test an
+  !> iteration whose search failed only while fewer than -snes_max_fail
+  !> searches have failed (solver_create sets 2), with the residual from
+  !> before the search.
+  subroutine line_search_reason(snes, lsreason, ierr)
+    type(tSNES) :: snes
+    SNESLineSearchReason, intent(out) :: lsreason
+    PetscErrorCode, intent(out) :: ierr
+    SNESLineSearch :: ls
+    character(len=64) :: sntype
+    lsreason = LS_SUCCEEDED
+    PetscCall(SNESGetType(snes, sntype, ierr))
+    if (sntype /= SNESNEWTONLS) return
+    PetscCall(SNESGetLineSearch(snes, ls, ierr))
+    PetscCall(SNESLineSearchGetReason(ls, lsreason, ierr))
+  end subroutine line_search_reason
+
+  !> The inner tolerance of the coming Newton iteration's solve (module
+  !> newton_forcing): no tighter than the Newton remainder C ||F||^2 that
+  !> the step leaves anyway, nor than half the residual at which
+  !> snes_converged stops: max(snes_atol, snes_rtol ||F_0||, and on this
+  !> path FLOOR_FACTOR times the round-off floor of the last assembly). C
+  !> comes from the iterations before that did not converge (at the floor
+  !> ||F|| says nothing about it), in this window; the bounds are the inner
+  !> solver's own rtol (never tighter than without this) and 0.1. The
+  !> reduced solve uses it unless -snes_ksp_ew or -reduced_ksp_rtol is given.
+  subroutine set_newton_forcing(snes, it, fnorm, ctx, ierr)
+    type(tSNES) :: snes
+    PetscInt, intent(in) :: it
+    PetscReal, intent(in) :: fnorm
+    type(app_ctx), intent(inout) :: ctx
+    PetscErrorCode, intent(out) :: ierr
+    real(rp), parameter :: ETA_MAX = 0.1_rp
+    PetscReal :: atol, rtol, stol
+    PetscInt :: maxit, maxf
+    real(rp) :: target
+
+    PetscCall(SNESGetTolerances(snes, atol, rtol, stol, maxit, maxf, ierr))
+    if (it >= 1) ctx%newton%cquad = quadratic_constant(ctx%newton%fnorm_prev, fnorm, ctx%red%lin_rel)
+    target = max(atol, rtol * ctx%newton%fnorm0)
+    if (ctx%newton%snes_floor > 0.0_rp) target = max(target, FLOOR_FACTOR * ctx%red%floor_est)
+    ctx%red%eta = forcing_term(fnorm, target, ctx%newton%cquad, ctx%red%rtol0, ETA_MAX)
+  end subroutine set_newton_forcing
+
+  !> The last Newton update in the weighted RMS norm of the time integrator:
+  !> sqrt(mean((du_i / (atol_i + rtol_i |u_i|))^2)) over all unknowns: the
+  !> tolerances of set_tolerances, atol_x alone on positions, atol_v +
+  !> rtol |v| on velocities.
+  subroutine update_wrms(snes, ctx, wnorm, ierr)
+    type(tSNES) :: snes
+    type(app_ctx) :: ctx
+    real(rp), intent(out) :: wnorm
+    PetscErrorCode, intent(out) :: ierr
+    type(tVec) :: x, y
+    PetscScalar, pointer :: xa(:), ya(:)
+    real(rp) :: loc(2), glob(2)
+    integer :: mpierr, k
+
+    wnorm = huge(1.0_rp)
+    PetscCall(SNESGetSolution(snes, x, ierr))
+    PetscCall(SNESGetSolutionUpdate(snes, y, ierr))
+    PetscCall(VecGetArrayReadF90(x, xa, ierr))
+    PetscCall(VecGetArrayReadF90(y, ya, ierr))
+    ! The vector atol of set_tolerances: the 6 dofs of a node are stored
+    ! together, positions first.
+    loc(1) = 0.0_rp
+    do k = 1, size(xa)
+      if (mod(k - 1, 6) < 3) then
+        loc(1) = loc(1) + (ya(k) / ctx%step%atol_x)**2
+      else
+        loc(1) = loc(1) + (ya(k) / (ctx%step%atol_v + ctx%step%rtol * abs(xa(k))))**2
+      end if
+    end do
+    loc(2) = real(size(xa), rp)
+    PetscCall(VecRestoreArrayReadF90(y, ya, ierr))
+    PetscCall(VecRestoreArrayReadF90(x, xa, ierr))
+    call MPI_Allreduce(loc, glob, 2, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, mpierr)
+    if (glob(2) > 0.0_rp) wnorm = sqrt(glob(1) / glob(2))
+  end subroutine update_wrms
+
+  !> Put -nuno_linesearch_fallback's line search in place of full steps
+  !> (the user's other -snes_linesearch_* options apply to it) and say so
+  !> once, on rank 0.
+  subroutine linesearch_fallback(ts, ctx, t, ierr)
+    type(tTS) :: ts
+    type(app_ctx) :: ctx
+    real(rp), intent(in) :: t
+    PetscErrorCode, intent(out) :: ierr
+    type(tSNES) :: snes
+    SNESLineSearch :: linesearch
+    character(len=2) :: kind
+    kind = merge('bt', 'l2', ctx%newton%ls_fallback == 1)
+    PetscCall(TSGetSNES(ts, snes, ierr))
+    PetscCall(SNESGetLineSearch(snes, linesearch, ierr))
+    PetscCall(SNESLineSearchSetType(linesearch, kind, ierr))
+    PetscCall(SNESLineSearchSetFromOptions(linesearch, ierr))
+    ctx%newton%ls_switched = .true.
+    if (ctx%rank == 0) write(output_unit, '(a)') 'nuno: after a failed Newton solve (its step retried smaller), line search '// &
+      kind//' from t = '//num(t)//' on (-nuno_linesearch_fallback)'
+  end subroutine linesearch_fallback
+
+end module newton_policy

@@ -1,0 +1,150 @@
+!> Provenance of a run in its output file: the run information, the
+!> configuration as used, and the scene's units.
+module provenance
+#include "petsc/finclude/petscts.h"
+  use petscts
+  use petscdmda
+  use mpi
+  use config, only: nuno_config, SCENE_HANG, unset_real
+  use output, only: output_file, run_info, output_write_run_info, output_config_key
+  use app_context, only: app_ctx
+  use failure_text, only: report_io_error
+  implicit none
+  private
+  public :: write_run_info
+
+contains
+
+  !> The provenance of the run (/run in the output file): the time
+  !> integration as used after the options, versions, date and host.
+  subroutine write_run_info(ctx, out, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    type(output_file), intent(inout) :: out
+    PetscErrorCode, intent(out) :: ierr
+    type(run_info) :: info
+    type(tTSAdapt) :: adapt
+    character(len=512) :: errmsg
+    character(len=8) :: date
+    character(len=10) :: clock
+    character(len=5) :: zone
+    integer :: hlen
+
+    PetscCall(TSGetType(ctx%ts, info%ts_type, ierr))
+    PetscCall(TSGetAdapt(ctx%ts, adapt, ierr))
+    PetscCall(TSAdaptGetType(adapt, info%ts_adapt_type, ierr))
+    PetscCall(PetscGetVersion(info%petsc_version, ierr))
+    info%dt = ctx%step%dt
+    info%t_end = ctx%step%t_end
+    info%max_steps = int(min(ctx%step%max_steps, int(huge(1), kind(ctx%step%max_steps))))
+    info%rtol = ctx%step%rtol
+    info%atol_position = ctx%step%atol_x
+    info%atol_velocity = ctx%step%atol_v
+    info%units = scene_units(ctx%cfg%scene_code)
+    ! Rank 0's host and clock, broadcast: attributes must be equal on all ranks.
+    if (ctx%rank == 0) then
+      PetscCall(PetscGetHostName(info%host, ierr))
+      call date_and_time(date, clock, zone)
+      info%start_date = date(1:4)//'-'//date(5:6)//'-'//date(7:8)//'T'//clock(1:2)//':'//clock(3:4)//':'// &
+                        clock(5:6)//zone(1:3)//':'//zone(4:5)
+    end if
+    hlen = len(info%host)
+    call MPI_Bcast(info%host, hlen, MPI_CHARACTER, 0, ctx%comm, ierr)
+    hlen = len(info%start_date)
+    call MPI_Bcast(info%start_date, hlen, MPI_CHARACTER, 0, ctx%comm, ierr)
+    call output_write_run_info(out, info, ierr, errmsg)
+    if (ierr == 0) call write_config(ctx%cfg, ctx%comm, out, ierr, errmsg)
+    if (ierr /= 0) then
+      call report_io_error(ctx, errmsg)
+    end if
+  end subroutine write_run_info
+
+  !> The resolved configuration, /config/<group> with one attribute per key:
+  !> every key after scene defaults, derived defaults and overrides
+  !> (dt and t_end as in force after -ts_dt and -ts_max_time), so that a run
+  !> can be repeated without knowing the defaults of the version that made
+  !> it. Logicals are 0/1. Collective.
+  subroutine write_config(cfg, comm, out, ierr, errmsg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(in) :: comm
+    type(output_file), intent(inout) :: out
+    PetscErrorCode, intent(out) :: ierr
+    character(len=*), intent(inout) :: errmsg
+    integer :: e, nk
+
+    e = 0
+    call output_config_key(out, 'lattice', 'nx', cfg%nx, e, errmsg)
+    call output_config_key(out, 'lattice', 'ny', cfg%ny, e, errmsg)
+    call output_config_key(out, 'lattice', 'lx', [cfg%lx], e, errmsg)
+    call output_config_key(out, 'lattice', 'ly', [cfg%ly], e, errmsg)
+    call output_config_key(out, 'lattice', 'total_mass', [cfg%total_mass], e, errmsg)
+    call output_config_key(out, 'lattice', 'mass_distribution', trim(cfg%mass_distribution), e, errmsg)
+    call output_config_key(out, 'lattice', 'lattice_scaling', trim(cfg%lattice_scaling), e, errmsg)
+    call output_config_key(out, 'material', 'spring_model', trim(cfg%spring_model), e, errmsg)
+    call output_config_key(out, 'material', 'e_s', [cfg%e_s], e, errmsg)
+    call output_config_key(out, 'material', 'eta_s', [cfg%eta_s], e, errmsg)
+    call output_config_key(out, 'material', 'e_d', [cfg%e_d], e, errmsg)
+    call output_config_key(out, 'material', 'eta_d', [cfg%eta_d], e, errmsg)
+    call output_config_key(out, 'material', 'bending_model', trim(cfg%bending_model), e, errmsg)
+    call output_config_key(out, 'material', 'k_b', [cfg%k_b], e, errmsg)
+    call output_config_key(out, 'material', 'eta_b', [cfg%eta_b], e, errmsg)
+    call output_config_key(out, 'scene', 'scene', trim(cfg%scene), e, errmsg)
+    call output_config_key(out, 'scene', 'gravity', cfg%gravity, e, errmsg)
+    call output_config_key(out, 'scene', 'lift_length', [cfg%lift_length], e, errmsg)
+    call output_config_key(out, 'scene', 'lift_height', [cfg%lift_height], e, errmsg)
+    call output_config_key(out, 'scene', 'bend_angle', [cfg%bend_angle], e, errmsg)
+    call output_config_key(out, 'scene', 'n_keyframes', cfg%n_keyframes, e, errmsg)
+    ! The keyframes in use only (n_keyframes of them; none: not written).
+    nk = max(0, min(cfg%n_keyframes, size(cfg%keyframe_time)))
+    if (nk > 0) then
+      call output_config_key(out, 'scene', 'keyframe_time', cfg%keyframe_time(1:nk), e, errmsg)
+      call output_config_key(out, 'scene', 'keyframe_dx', cfg%keyframe_dx(1:nk), e, errmsg)
+      call output_config_key(out, 'scene', 'keyframe_dy', cfg%keyframe_dy(1:nk), e, errmsg)
+      call output_config_key(out, 'scene', 'keyframe_dz', cfg%keyframe_dz(1:nk), e, errmsg)
+    end if
+    call output_config_key(out, 'scene', 'wave_nodes', trim(cfg%wave_nodes), e, errmsg)
+    call output_config_key(out, 'scene', 'release_time', [cfg%release_time], e, errmsg)
+    call output_config_key(out, 'scene', 'initial_omega', cfg%initial_omega, e, errmsg)
+    call output_config_key(out, 'time', 't_end', [cfg%t_end], e, errmsg)
+    call output_config_key(out, 'time', 'dt', [cfg%dt], e, errmsg)
+    call output_config_key(out, 'output', 'output_interval', [cfg%output_interval], e, errmsg)
+    call output_config_key(out, 'output', 'write_velocity', merge(1, 0, cfg%write_velocity), e, errmsg)
+    call output_config_key(out, 'output', 'output_file', trim(cfg%output_file), e, errmsg)
+    call output_config_key(out, 'output', 'petsc_options', trim(cfg%petsc_options), e, errmsg)
+    call output_config_key(out, 'output', 'stretch_limit', [cfg%stretch_limit], e, errmsg)
+    call output_config_key(out, 'output', 'checkpoint_interval', [cfg%checkpoint_interval], e, errmsg)
+    if (cfg%identify) then
+      ! /config/material holds the fitted values (those of the run written); the initial guess is /identify/initial.
+      call output_config_key(out, 'identify', 'observed_file', trim(cfg%observed_file), e, errmsg)
+      call output_config_key(out, 'identify', 'fit', trim(cfg%fit), e, errmsg)
+      call output_config_key(out, 'identify', 'fit_lower', cfg%fit_lower(1:cfg%n_fit), e, errmsg)
+      call output_config_key(out, 'identify', 'fit_upper', cfg%fit_upper(1:cfg%n_fit), e, errmsg)
+      call output_config_key(out, 'identify', 'tikhonov', [cfg%tikhonov], e, errmsg)
+    end if
+    if (cfg%control) then
+      ! /config/scene holds the optimised keyframes (those of the run written); the initial guess is /control/initial_offset.
+      call output_config_key(out, 'control', 'target_file', trim(cfg%target_file), e, errmsg)
+      call output_config_key(out, 'control', 'components', trim(cfg%components), e, errmsg)
+      if (cfg%max_speed /= unset_real) call output_config_key(out, 'control', 'max_speed', [cfg%max_speed], e, errmsg)
+      call output_config_key(out, 'control', 'velocity_weight', [cfg%velocity_weight], e, errmsg)
+      call output_config_key(out, 'control', 'keyframe_tikhonov', [cfg%keyframe_tikhonov], e, errmsg)
+    end if
+    ! One error flag for all ranks (each call above is local HDF5 metadata).
+    call MPI_Allreduce(MPI_IN_PLACE, e, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
+    ierr = e
+    if (e /= 0 .and. len_trim(errmsg) == 0) errmsg = 'output: writing /config failed on another rank'
+  end subroutine write_config
+
+  !> The unit system of a scene's defaults (input/README.md, Scenes): the
+  !> report scenes and flat use mm, g, s; hang uses SI. The program itself
+  !> is unit-agnostic: these are the units the scene's constants are in.
+  function scene_units(scene_code) result(units)
+    integer, intent(in) :: scene_code
+    character(len=8) :: units
+    if (scene_code == SCENE_HANG) then
+      units = 'SI'
+    else
+      units = 'mm g s'
+    end if
+  end function scene_units
+
+end module provenance

@@ -1,0 +1,278 @@
+!> Checkpoints and restarts of the solver (docs/design.md, "Checkpoints"):
+!> what a checkpoint holds, the restart point kept at each output step,
+!> and the restore of a checkpoint into the solver.
+module run_checkpoint
+#include "petsc/finclude/petscts.h"
+  use petscts
+  use petscdmda
+  use mpi
+  use, intrinsic :: iso_c_binding, only: c_int, c_double
+  use, intrinsic :: iso_fortran_env, only: output_unit
+  use kinds, only: rp
+  use output, only: output_file, checkpoint_t, output_write_checkpoint, output_steps
+  use app_context, only: app_ctx, nuno_newton_start_count, nuno_newton_start_get, nuno_newton_start_put
+  use failure_text, only: report_io_error, inum
+  implicit none
+  private
+  public :: run_counts, solver_restore, take_checkpoint, keep_restart_point
+
+contains
+
+  !> Accepted steps, rejected steps, Newton iterations, linear iterations
+  !> and retried Newton solves since t = 0, a restart's earlier runs
+  !> included (the same on every rank).
+  subroutine run_counts(ctx, c, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    real(rp), intent(out) :: c(5)
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt :: steps, rejects, nits, lits, fails
+
+    PetscCall(TSGetStepNumber(ctx%ts, steps, ierr))
+    PetscCall(TSGetStepRejections(ctx%ts, rejects, ierr))
+    PetscCall(TSGetSNESIterations(ctx%ts, nits, ierr))
+    PetscCall(TSGetKSPIterations(ctx%ts, lits, ierr))
+    PetscCall(TSGetSNESFailures(ctx%ts, fails, ierr))
+    if (ctx%use_reduced) lits = ctx%red%its        ! the outer KSP is preonly: count the inner iterations
+    c = [real(steps, rp), real(rejects, rp), real(nits, rp), real(lits, rp), real(fails, rp)] + ctx%restart%counts_before
+    c(1) = real(steps, rp)                         ! the TS goes on counting from the checkpoint's step
+  end subroutine run_counts
+
+  !> Continue from a checkpoint: the state strips x, v (3, 0:nx-1, ys:ye)
+  !> into the state vector, the TS's time and step number, the integrals
+  !> and counters into the context. solver_run then goes on from ck%time.
+  !> Collective.
+  subroutine solver_restore(ctx, ck, x, v, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    type(checkpoint_t), intent(in) :: ck
+    real(rp), intent(in) :: x(:, :, :), v(:, :, :)
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt :: step
+
+    PetscCall(strips_to_state(ctx, x, v, ctx%u, ierr))
+    step = int(ck%counters(1), kind(step))
+    PetscCall(TSSetStepNumber(ctx%ts, step, ierr))
+    PetscCall(TSSetTime(ctx%ts, ck%time, ierr))
+    ctx%restart%restarted = .true.
+    ctx%restart%t_restart = ck%time
+    ctx%restart%h_restart = ck%dt_next
+    ctx%restart%t_checkpoint = ck%time
+    ctx%restart%wall_before = ck%wall_time
+    ctx%restart%counts_before = [0.0_rp, ck%counters(2:5)]
+    ctx%energy%dissipated = ck%dissipated
+    ctx%energy%work_constraints = ck%work_constraints
+    ctx%energy%mgx0 = ck%mgx0
+    ctx%progress%t_written = ck%t_written
+    ctx%progress%stretch_warned = ck%stretch_warned /= 0
+    ! The first Newton iteration's inner tolerance takes the round-off floor
+    ! of the last step's assembly (set_newton_forcing): without it the
+    ! restart's first step solved to another tolerance and the run
+    ! differed from the one it continues by 1e-13 m (hang 65 x 65).
+    if (ctx%use_reduced) ctx%red%floor_est = ck%newton_floor
+    ! A checkpoint at an output step is the restart point until the next one.
+    if (ck%time == ck%t_written) then
+      ctx%restart%rp_ck = ck
+      ctx%restart%rp_x = x
+      ctx%restart%rp_v = v
+      ctx%restart%rp_valid = .true.
+    end if
+    ! The Newton start's states: the checkpoint's, then the ones before it
+    if (ck%start_count > 0) then
+      block
+        type(tVec) :: w
+        integer(c_int) :: kk, nk, cmp
+        real(c_double) :: tk, ncp
+        PetscErrorCode :: err
+        nk = int(ck%start_count + 1, c_int)
+        cmp = int(ck%start_compare, c_int)
+        ncp = real(ck%start_nc_prev, c_double)
+        tk = real(ck%time, c_double)
+        kk = 0
+        ierr = nuno_newton_start_put(ctx%ts%v, kk, ctx%u%v, tk, nk, cmp, ncp)
+        if (ierr /= 0) return
+        PetscCall(DMGetGlobalVector(ctx%da, w, ierr))
+        do kk = 1, nk - 1
+          PetscCall(strips_to_state(ctx, ck%start_x(:, :, :, kk), ck%start_v(:, :, :, kk), w, ierr))
+          tk = real(ck%start_t(kk), c_double)
+          ierr = nuno_newton_start_put(ctx%ts%v, kk, w%v, tk, nk, cmp, ncp)
+          if (ierr /= 0) exit
+        end do
+        ! (a failed put's error code, not the restore's, is the answer)
+        call DMRestoreGlobalVector(ctx%da, w, err)
+        if (ierr == 0) ierr = err
+      end block
+    end if
+  end subroutine solver_restore
+
+  !> Write a checkpoint of the state at t, h being the step the run takes
+  !> next (module output, output_write_checkpoint), and say so on stdout.
+  !> restart_point: the checkpoint of the last output step instead
+  !> (keep_restart_point; the state at t where there is none yet). Collective.
+  subroutine take_checkpoint(ctx, out, t, h, reason, ierr, restart_point)
+    type(app_ctx), intent(inout) :: ctx
+    type(output_file), intent(inout) :: out
+    real(rp), intent(in) :: t, h
+    character(*), intent(in) :: reason
+    PetscErrorCode, intent(out) :: ierr
+    logical, intent(in), optional :: restart_point
+    type(checkpoint_t) :: ck
+    character(len=512) :: errmsg
+    logical :: point
+
+    point = .false.
+    if (present(restart_point)) point = restart_point .and. ctx%restart%rp_valid
+    if (point) then
+      ck = ctx%restart%rp_ck
+    else
+      PetscCall(state_to_strips(ctx, ctx%u, ctx%xout, ctx%vout, ierr))
+      call fill_checkpoint(ctx, t, h, ck, ierr)
+      if (ierr /= 0) return
+    end if
+    ! Attributes must be equal on all ranks: the slowest rank's clock.
+    ck%wall_time = MPI_Wtime() - ctx%progress%wall0
+    call MPI_Allreduce(MPI_IN_PLACE, ck%wall_time, 1, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
+    ck%reason = reason
+    if (point) then
+      call output_write_checkpoint(out, ck, ctx%restart%rp_x, ctx%restart%rp_v, ierr, errmsg)
+    else
+      call output_write_checkpoint(out, ck, ctx%xout, ctx%vout, ierr, errmsg)
+    end if
+    if (ierr /= 0) then
+      call report_io_error(ctx, errmsg)
+      return
+    end if
+    ctx%restart%t_checkpoint = ck%time
+    ! (a restart point is older than the output steps written since)
+    ctx%restart%checkpoint_current = .not. point .or. ck%time >= ctx%progress%t_written
+    if (ctx%rank == 0) then
+      write(output_unit, '(a,i0,a,es12.5e2,a)') 'nuno: checkpoint ', ck%sequence, ' at t =', ck%time, &
+        ' ('//trim(reason)//'), '//inum(int(ck%n_output_steps, kind(ctx%step%max_steps)))//' output steps'
+      flush(output_unit)
+    end if
+  end subroutine take_checkpoint
+
+  !> ck of the state at t (in ctx%u), h being the next step: everything
+  !> but the wall time, the reason and (unless set: the output file's count
+  !> at the write) the output steps. Collective.
+  subroutine fill_checkpoint(ctx, t, h, ck, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    real(rp), intent(in) :: t, h
+    type(checkpoint_t), intent(inout) :: ck
+    PetscErrorCode, intent(out) :: ierr
+
+    ck%time = t
+    ck%dt_next = h
+    ck%dissipated = ctx%energy%dissipated
+    ck%work_constraints = ctx%energy%work_constraints
+    ck%mgx0 = ctx%energy%mgx0
+    ck%t_written = ctx%progress%t_written
+    call run_counts(ctx, ck%counters, ierr)
+    if (ierr /= 0) return
+    ck%stretch_warned = merge(1, 0, ctx%progress%stretch_warned)
+    ! the next step's first inner tolerance depends on it (set_newton_forcing)
+    if (ctx%use_reduced) ck%newton_floor = ctx%red%floor_est
+    PetscCall(TSGetType(ctx%ts, ck%ts_type, ierr))
+    PetscCall(checkpoint_start_states(ctx, t, ck, ierr))
+  end subroutine fill_checkpoint
+
+  !> Keep the restart point: the state at the output step just written
+  !> (t, h the next step) and its checkpoint, for the checkpoints written
+  !> between output steps. Between output steps the reduced solve carries
+  !> state a checkpoint cannot hold (a preconditioner kept for pc_lag
+  !> assemblies, the inner guesses' last solves); at an output step the
+  !> next window starts them afresh (enter_window), in the run and in its
+  !> restart alike, so a restart from this point repeats the run bit for
+  !> bit. Costs a copy of the state and the Newton start's kept states an
+  !> output step. Collective.
+  subroutine keep_restart_point(ctx, out, t, h, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    type(output_file), intent(in) :: out
+    real(rp), intent(in) :: t, h
+    PetscErrorCode, intent(out) :: ierr
+
+    ctx%restart%rp_valid = .false.
+    if (.not. allocated(ctx%restart%rp_x)) allocate(ctx%restart%rp_x, mold=ctx%xout)
+    if (.not. allocated(ctx%restart%rp_v)) allocate(ctx%restart%rp_v, mold=ctx%vout)
+    PetscCall(state_to_strips(ctx, ctx%u, ctx%restart%rp_x, ctx%restart%rp_v, ierr))
+    call fill_checkpoint(ctx, t, h, ctx%restart%rp_ck, ierr)
+    if (ierr /= 0) return
+    ctx%restart%rp_ck%n_output_steps = output_steps(out)
+    ctx%restart%rp_valid = .true.
+  end subroutine keep_restart_point
+
+  !> The Newton start's kept states before t (at most three, newest first)
+  !> into ck, for a restart to start its next steps as this run does
+  !> (src/nuno_newton_start.c). Collective.
+  subroutine checkpoint_start_states(ctx, t, ck, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    real(rp), intent(in) :: t
+    type(checkpoint_t), intent(inout) :: ck
+    PetscErrorCode, intent(out) :: ierr
+    type(tVec) :: w
+    integer(c_int) :: n, compare, k
+    real(c_double) :: nc_prev, tk
+    PetscErrorCode :: err
+    integer :: m
+
+    ierr = nuno_newton_start_count(ctx%ts%v, n, compare, nc_prev)
+    if (ierr /= 0) return
+    ck%start_count = 0
+    ck%start_compare = int(compare)
+    ck%start_nc_prev = real(nc_prev, rp)
+    if (allocated(ck%start_x)) deallocate(ck%start_x)
+    if (allocated(ck%start_v)) deallocate(ck%start_v)
+    allocate(ck%start_x(3, ctx%lat%nx, ctx%lat%ye - ctx%lat%ys + 1, 3), ck%start_v(3, ctx%lat%nx, ctx%lat%ye - ctx%lat%ys + 1, 3))
+    if (n == 0) return
+    PetscCall(DMGetGlobalVector(ctx%da, w, ierr))
+    do k = 0, n - 1
+      if (ck%start_count == 3) exit
+      ierr = nuno_newton_start_get(ctx%ts%v, k, w%v, tk)
+      if (ierr /= 0) exit
+      ! (the step's own state, if pushed already, is the checkpoint's state)
+      if (real(tk, rp) >= t) cycle
+      m = ck%start_count + 1
+      ck%start_count = m
+      ck%start_t(m) = real(tk, rp)
+      PetscCall(state_to_strips(ctx, w, ck%start_x(:, :, :, m), ck%start_v(:, :, :, m), ierr))
+    end do
+    ! (a failed get's error code, not the restore's, is the answer)
+    call DMRestoreGlobalVector(ctx%da, w, err)
+    if (ierr == 0) ierr = err
+  end subroutine checkpoint_start_states
+
+  !> The owned rows of a global state vector (ctx%da) into strips
+  !> x, v (3, nx, ym) [length], [length/time], as module output writes them.
+  subroutine state_to_strips(ctx, u, x, v, ierr)
+    type(app_ctx), intent(in) :: ctx
+    type(tVec), intent(in) :: u
+    real(rp), intent(out) :: x(:, :, :), v(:, :, :)
+    PetscErrorCode, intent(out) :: ierr
+    PetscScalar, pointer :: ua(:, :, :)
+    integer :: j
+
+    PetscCall(DMDAVecGetArrayReadF90(ctx%da, u, ua, ierr))
+    do j = ctx%lat%ys, ctx%lat%ye
+      x(:, :, j - ctx%lat%ys + 1) = ua(0:2, :, j)
+      v(:, :, j - ctx%lat%ys + 1) = ua(3:5, :, j)
+    end do
+    PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, u, ua, ierr))
+  end subroutine state_to_strips
+
+  !> The reverse of state_to_strips: strips x, v (3, nx, ym) into the owned
+  !> rows of the global state vector u.
+  subroutine strips_to_state(ctx, x, v, u, ierr)
+    type(app_ctx), intent(in) :: ctx
+    real(rp), intent(in) :: x(:, :, :), v(:, :, :)
+    type(tVec), intent(inout) :: u
+    PetscErrorCode, intent(out) :: ierr
+    PetscScalar, pointer :: ua(:, :, :)
+    integer :: j
+
+    PetscCall(DMDAVecGetArrayF90(ctx%da, u, ua, ierr))
+    do j = ctx%lat%ys, ctx%lat%ye
+      ua(0:2, :, j) = x(:, :, j - ctx%lat%ys + 1)
+      ua(3:5, :, j) = v(:, :, j - ctx%lat%ys + 1)
+    end do
+    PetscCall(DMDAVecRestoreArrayF90(ctx%da, u, ua, ierr))
+  end subroutine strips_to_state
+
+end module run_checkpoint

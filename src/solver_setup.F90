@@ -1,0 +1,464 @@
+!> Solver set-up: the DMDA, TS, SNES and their options as resolved from
+!> the namelist and the PETSc options (solver_create), and their
+!> destruction (solver_destroy).
+module solver_setup
+#include "petsc/finclude/petscts.h"
+  use petscts
+  use petscdmda
+  use mpi
+  use, intrinsic :: iso_c_binding, only: c_int, c_double, c_char, c_null_char
+  use, intrinsic :: iso_fortran_env, only: output_unit
+  use kinds, only: rp
+  use config, only: nuno_config, SPRING_LINEAR, BEND_NONE, BEND_ENERGY
+  use lattice, only: lattice_init, halo_width
+  use forces, only: jac_buffer_init
+  use scenes, only: scene_setup
+  use inner_guess, only: GUESS_AUTO, GUESS_NONE, GUESS_EXTRAPOLATE, GUESS_PROJECT
+  use reduced, only: reduced_create, reduced_destroy, reduced_attach, reduced_set_guess, reduced_describe
+  use app_context, only: app_ctx, model_state_free, assembly_free, energy_integrals_free, restart_state_free, &
+                         nuno_adaptive_default, nuno_linesearch_options_read, nuno_options_read, &
+                         nuno_options_report_unused, nuno_petsc_habits, nuno_signals_install, nuno_step_defaults, &
+                         nuno_tolerance_options_read, nuno_ts_scheme
+  use failure_text, only: num, inum
+  use cloth_model, only: form_ifunction, form_ijacobian
+  use newton_policy, only: set_newton_start, snes_converged
+  use step_monitor, only: ts_monitor
+  implicit none
+  private
+  public :: check_decomposition, solver_create, solver_destroy
+
+  !> The default velocity tolerance is the position tolerance over this
+  !> [time]: one time unit (1 s in every scene), a constant, so that the
+  !> tolerances, and so the steps, do not depend on t_end (a run to 2 s
+  !> takes the steps of a run to 1 s over its first second, and a restart
+  !> to a later t_end keeps them; docs/workprecision.md, "Tolerances").
+  real(rp), parameter :: TOLERANCE_TIME = 1.0_rp
+
+contains
+
+  !> Every rank must own at least halo rows (the DMDA cannot build a halo
+  !> wider than a strip). Same answer on every rank: a collective check.
+  subroutine check_decomposition(cfg, nranks, ierr, errmsg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(in) :: nranks
+    integer, intent(out) :: ierr
+    character(len=*), intent(out) :: errmsg
+    integer :: w
+    w = halo_width(cfg)
+    ierr = 0
+    errmsg = ''
+    if (cfg%ny / nranks < w) then
+      ierr = 1
+      write(errmsg, '(a,i0,a,i0,a,i0,a,i0,a)') '&lattice: ny = ', cfg%ny, ' is too small for ', nranks, &
+        ' ranks: each rank owns whole rows and needs at least ', w, ' (the halo width) of them; use at most ', &
+        cfg%ny / w, ' ranks'
+    end if
+  end subroutine check_decomposition
+
+  !> Create the DMDA, the lattice strip, the initial state, the Jacobian
+  !> matrix and the TS. Collective.
+  subroutine solver_create(ctx, cfg, ierr)
+    type(app_ctx), intent(inout), target :: ctx
+    type(nuno_config), intent(in) :: cfg
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt :: xs, ys, zs, xm, ym, zm, gxs, gys, gzs, gxm, gym, gzm, w, nc, nxp, nyp
+    PetscInt, parameter :: one = 1, two = 2, six = 6, eight = 8
+    type(tSNES) :: snes
+    type(tTSAdapt) :: adapt
+    SNESLineSearch :: linesearch
+    PetscScalar, pointer :: ua(:, :, :)
+    character(len=64) :: mattype
+    character(len=64, kind=c_char) :: cmattype
+    integer(c_int) :: jac_full, pc_lag, gn, cl, nfail, mg_interp, applied, forcing, ls_fallback, ls_given, ls_type_given
+    logical :: symmetric, constant, damping
+
+    ctx%cfg = cfg
+    ctx%comm = PETSC_COMM_WORLD
+    call MPI_Comm_rank(ctx%comm, ctx%rank, ierr)
+    call MPI_Comm_size(ctx%comm, ctx%size, ierr)
+    w = halo_width(cfg)
+    nxp = cfg%nx
+    nyp = cfg%ny
+
+    ! 1 x P processes: each rank owns whole rows, ghost width 2 with bending.
+    PetscCall(DMDACreate2d(ctx%comm, DM_BOUNDARY_NONE, DM_BOUNDARY_NONE, DMDA_STENCIL_BOX, nxp, nyp, one, PETSC_DECIDE, six, w, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, ctx%da, ierr))
+    ! nuno's own options, in an options block (so in -help): the Newton
+    ! step, reduced 3-dof elimination (default) or the assembled 6-dof
+    ! Jacobian (the reference for -snes_test_jacobian and small scenes),
+    ! and the storage of that Jacobian: BAIJ (6 x 6 blocks) assembles and
+    ! multiplies fastest; -dm_mat_type aij for field splits.
+    jac_full = 0
+    pc_lag = 0                     ! the default: 3 with the multigrid, 1 otherwise (module reduced)
+    mg_interp = 0                  ! auto: cubic with bending, linear without (module reduced)
+    gn = 0
+    cl = 0
+    nfail = 0
+    cmattype = MATBAIJ//c_null_char
+    forcing = 1
+    ctx%newton%guess = GUESS_AUTO
+    ierr = nuno_options_read(ctx%comm, jac_full, pc_lag, mg_interp, ctx%newton%snes_floor, gn, cl, cmattype, len(cmattype), nfail, forcing, &
+                             ctx%newton%guess, ctx%newton%guess_given)
+    if (ierr /= 0) return
+    ctx%newton%newton_forcing = forcing /= 0
+    ctx%use_reduced = jac_full == 0
+    ! -pc_type lu and friends on the path in use (before anything reads them)
+    ierr = nuno_petsc_habits(ctx%comm, merge(1_c_int, 0_c_int, ctx%use_reduced), cmattype, len(cmattype))
+    if (ierr /= 0) return
+    if (.not. ctx%use_reduced .and. mg_interp > 0) then
+      ierr = PETSC_ERR_ARG_INCOMP
+      SETERRQ(ctx%comm, ierr, 'nuno: -nuno_mg_interpolation is for the reduced solve, not -nuno_jacobian full')
+    end if
+    ctx%model%gauss_newton = gn /= 0
+    ctx%model%clamp = cl /= 0
+    ctx%newton%fail_newton = nfail
+    ls_fallback = 1
+    ierr = nuno_linesearch_options_read(ctx%comm, ls_fallback, ls_given, ls_type_given)
+    if (ierr /= 0) return
+    if (ls_given /= 0 .and. .not. ctx%use_reduced) then
+      ierr = PETSC_ERR_ARG_INCOMP
+      SETERRQ(ctx%comm, ierr, 'nuno: -nuno_linesearch_fallback is for the reduced path; with -nuno_jacobian full Newton backtracks (bt) from the start')
+    end if
+    if (ls_given /= 0 .and. ls_type_given /= 0) then
+      ierr = PETSC_ERR_ARG_INCOMP
+      SETERRQ(ctx%comm, ierr, 'nuno: -nuno_linesearch_fallback and -snes_linesearch_type: give one (the first changes the line search after a failed Newton solve, the second sets it for the whole run)')
+    end if
+    ctx%newton%ls_fallback = 0
+    if (ctx%use_reduced .and. ls_type_given == 0) ctx%newton%ls_fallback = ls_fallback
+    mattype = cmattype(1:index(cmattype, c_null_char) - 1)
+    PetscCall(DMSetMatType(ctx%da, mattype, ierr))
+    PetscCall(DMSetUp(ctx%da, ierr))
+    PetscCall(DMDASetFieldName(ctx%da, 0, 'x', ierr))
+    PetscCall(DMDASetFieldName(ctx%da, 1, 'y', ierr))
+    PetscCall(DMDASetFieldName(ctx%da, 2, 'z', ierr))
+    PetscCall(DMDASetFieldName(ctx%da, 3, 'vx', ierr))
+    PetscCall(DMDASetFieldName(ctx%da, 4, 'vy', ierr))
+    PetscCall(DMDASetFieldName(ctx%da, 5, 'vz', ierr))
+    PetscCall(DMDAGetCorners(ctx%da, xs, ys, zs, xm, ym, zm, ierr))
+    PetscCall(DMDAGetGhostCorners(ctx%da, gxs, gys, gzs, gxm, gym, gzm, ierr))
+
+    call lattice_init(ctx%lat, cfg, ys, ys + ym - 1)
+    if (xs /= 0 .or. xm /= cfg%nx .or. gys /= ctx%lat%gys .or. gys + gym - 1 /= ctx%lat%gye) then
+      ierr = PETSC_ERR_PLIB
+      SETERRQ(ctx%comm, ierr, 'nuno: the DMDA is not split into strips of whole rows')
+    end if
+    allocate(ctx%model%f(3, 0:cfg%nx - 1, ctx%lat%gys:ctx%lat%gye))
+    allocate(ctx%model%fixed(0:cfg%nx - 1, ys:ys + ym - 1))
+    allocate(ctx%xout(3, 0:cfg%nx - 1, ys:ys + ym - 1), ctx%vout(3, 0:cfg%nx - 1, ys:ys + ym - 1))
+    ctx%model%gravity = merge(cfg%gravity, [0.0_rp, 0.0_rp, 0.0_rp], cfg%has_gravity)
+    ctx%model%fixed = .false.
+
+    ! Initial state and constraints of the scene.
+    PetscCall(DMCreateGlobalVector(ctx%da, ctx%u, ierr))
+    PetscCall(DMDAVecGetArrayF90(ctx%da, ctx%u, ua, ierr))
+    call scene_setup(cfg, ctx%lat, ua, ctx%cs)
+    PetscCall(DMDAVecRestoreArrayF90(ctx%da, ctx%u, ua, ierr))
+
+    if (ctx%use_reduced) then
+      ! S is symmetric when K and C are: no moving dampers (linear springs
+      ! have constant ones), no paper bending, no bending damping.
+      damping = cfg%has_damping .or. (cfg%bending_code == BEND_ENERGY .and. cfg%eta_b /= 0.0_rp)
+      symmetric = (cfg%spring_code == SPRING_LINEAR .or. .not. cfg%has_damping) .and. &
+                  (cfg%bending_code == BEND_NONE .or. (cfg%bending_code == BEND_ENERGY .and. &
+                   (cfg%eta_b == 0.0_rp .or. ctx%model%gauss_newton)))
+      constant = cfg%spring_code == SPRING_LINEAR .and. cfg%bending_code == BEND_NONE
+      PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, symmetric, constant, damping, ctx%model%clamp, ctx%model%gauss_newton, pc_lag, ierr, mg_interpolation=mg_interp))
+    else
+      ! Jacobian with the DMDA's exact box-stencil preallocation.
+      PetscCall(DMCreateMatrix(ctx%da, ctx%asm%p, ierr))
+      PetscCall(MatSetOption(ctx%asm%p, MAT_ROW_ORIENTED, PETSC_FALSE, ierr))
+      call jac_buffer_init(ctx%asm%jbuf, ctx%lat)
+      nc = (2 * w + 1)**2
+      allocate(ctx%asm%vals(6, 6, nc), ctx%asm%cols(nc))
+    end if
+
+    ! The report's scheme by default: backward Euler with the namelist's
+    ! fixed step; any implicit TS type and adaptivity through the options.
+    PetscCall(TSCreate(ctx%comm, ctx%ts, ierr))
+    PetscCall(TSSetDM(ctx%ts, ctx%da, ierr))
+    PetscCall(TSSetProblemType(ctx%ts, TS_NONLINEAR, ierr))
+    PetscCall(TSSetType(ctx%ts, TSBEULER, ierr))
+    PetscCall(TSSetIFunction(ctx%ts, PETSC_NULL_VEC, form_ifunction, ctx, ierr))
+    if (ctx%use_reduced) then
+      PetscCall(TSSetIJacobian(ctx%ts, ctx%red%jac, ctx%red%jac, form_ijacobian, ctx, ierr))
+    else
+      PetscCall(TSSetIJacobian(ctx%ts, ctx%asm%p, ctx%asm%p, form_ijacobian, ctx, ierr))
+    end if
+    PetscCall(TSSetTime(ctx%ts, 0.0_rp, ierr))
+    PetscCall(TSSetTimeStep(ctx%ts, cfg%dt, ierr))
+    PetscCall(TSSetMaxTime(ctx%ts, cfg%t_end, ierr))
+    PetscCall(TSSetExactFinalTime(ctx%ts, TS_EXACTFINALTIME_MATCHSTEP, ierr))
+    PetscCall(TSGetAdapt(ctx%ts, adapt, ierr))
+    PetscCall(TSAdaptSetType(adapt, TSADAPTNONE, ierr))
+    ! A step whose Newton solve fails is retried with a smaller step a few
+    ! times (then the run stops with the reason), never forever.
+    PetscCall(TSSetMaxSNESFailures(ctx%ts, eight, ierr))
+    ! A failed step is reported by solver_run (time, reason), not raised as an error.
+    PetscCall(TSSetErrorIfStepFails(ctx%ts, PETSC_FALSE, ierr))
+    PetscCall(TSMonitorSet(ctx%ts, ts_monitor, ctx, PETSC_NULL_FUNCTION, ierr))
+    ierr = nuno_signals_install(ctx%ts%v)
+    if (ierr /= 0) return
+    ! Converge on the residual only: PETSc's default step-size test
+    ! (stol = 1e-8) declares CONVERGED_SNORM_RELATIVE when a poor
+    ! preconditioner stalls the line search, i.e. accepts an unsolved step.
+    PetscCall(TSGetSNES(ctx%ts, snes, ierr))
+    PetscCall(SNESSetTolerances(snes, PETSC_DEFAULT_REAL, PETSC_DEFAULT_REAL, 0.0_rp, PETSC_DEFAULT_INTEGER, PETSC_DEFAULT_INTEGER, ierr))
+    PetscCall(SNESSetConvergenceTest(snes, snes_converged, ctx, PETSC_NULL_FUNCTION, ierr))
+    ! A line search that finds no decrease goes to snes_converged, which
+    ! accepts it at the round-off floor and fails it elsewhere (PETSc's
+    ! default, 1, fails the solve before the test: the 6-dof path's bt
+    ! failed the shipped hang scene so).
+    PetscCall(SNESSetMaxNonlinearStepFailures(snes, two, ierr))
+    if (ctx%use_reduced) then
+      PetscCall(reduced_attach(ctx%red, snes, ierr))
+      ! The full step is exact in x and Newton-exact in v: no backtracking by
+      ! default (bt needs a Jacobian product, an extra pass over the
+      ! elements, for every Newton iteration); -snes_linesearch_type bt works.
+      PetscCall(SNESGetLineSearch(snes, linesearch, ierr))
+      PetscCall(SNESLineSearchSetType(linesearch, SNESLINESEARCHBASIC, ierr))
+    end if
+    ! An adaptive run without -ts_type: the method that won the
+    ! work-precision measurement at moderate tolerance (nuno_options.c). The
+    ! identification and the control keep beuler: their adjoint needs a theta method.
+    ctx%step%adaptive_default = .false.
+    if (.not. (cfg%identify .or. cfg%control)) then
+      ierr = nuno_adaptive_default(ctx%comm, ctx%ts%v, applied)
+      if (ierr /= 0) return
+      ctx%step%adaptive_default = applied /= 0
+    end if
+    ierr = nuno_step_defaults(ctx%ts%v, merge(1_c_int, 0_c_int, ctx%use_reduced))
+    if (ierr /= 0) return
+    PetscCall(TSSetFromOptions(ctx%ts, ierr))
+    PetscCall(effective_time_integration(ctx, ierr))
+  end subroutine solver_create
+
+  !> Read back what the options made of the time integration, so that the
+  !> run, the start-up line and the output file use the values actually in
+  !> force: -ts_dt overrides the namelist's dt, -ts_max_time its t_end,
+  !> -ts_max_steps ends the run early (complete). Options the time loop
+  !> cannot honour are refused here. Collective.
+  subroutine effective_time_integration(ctx, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    PetscErrorCode, intent(out) :: ierr
+    type(tTSAdapt) :: adapt
+    TSExactFinalTimeOption :: eft
+    PetscBool :: match
+    character(len=64) :: tstype, adtype
+    character(len=64, kind=c_char) :: scheme
+    character(len=512) :: line, inner
+    character(len=64) :: sntype
+    type(tSNES) :: snes
+    character(len=40) :: srcx, srcv
+    real(rp) :: dt_namelist, t_end_namelist
+
+    dt_namelist = ctx%cfg%dt
+    t_end_namelist = ctx%cfg%t_end
+    PetscCall(TSGetTimeStep(ctx%ts, ctx%step%dt, ierr))
+    PetscCall(TSGetMaxTime(ctx%ts, ctx%step%t_end, ierr))
+    PetscCall(TSGetMaxSteps(ctx%ts, ctx%step%max_steps, ierr))
+    PetscCall(TSGetExactFinalTime(ctx%ts, eft, ierr))
+    PetscCall(TSGetAdapt(ctx%ts, adapt, ierr))
+    PetscCall(PetscObjectTypeCompare(adapt, TSADAPTNONE, match, ierr))
+    ctx%step%fixed_step = match
+    ! The time loop stops exactly at output, keyframe and release times.
+    if (eft /= TS_EXACTFINALTIME_MATCHSTEP) then
+      ierr = PETSC_ERR_ARG_WRONG
+      SETERRQ(ctx%comm, ierr, 'nuno: -ts_exact_final_time must be matchstep: the run stops exactly at every output, keyframe and release time')
+    end if
+    if (.not. (ctx%step%dt > 0.0_rp)) then
+      ierr = PETSC_ERR_ARG_OUTOFRANGE
+      SETERRQ(ctx%comm, ierr, 'nuno: -ts_dt must be > 0')
+    end if
+    if (.not. (ctx%step%t_end > 0.0_rp) .or. ctx%step%t_end > huge(1.0_rp)) then
+      ierr = PETSC_ERR_ARG_OUTOFRANGE
+      SETERRQ(ctx%comm, ierr, 'nuno: -ts_max_time must be > 0 and finite')
+    end if
+    if (ctx%step%max_steps < 0) then
+      ierr = PETSC_ERR_ARG_OUTOFRANGE
+      SETERRQ(ctx%comm, ierr, 'nuno: -ts_max_steps must be >= 0')
+    end if
+    ! From here on the effective values are the run's configuration.
+    ctx%cfg%dt = ctx%step%dt
+    ctx%cfg%t_end = ctx%step%t_end
+    ! The energy integrals close at the method's order: the trapezoid rule
+    ! over each step (one power pass a step) is second order, enough for
+    ! beuler, theta and cn (order <= 2); bdf (up to order 6) gets three
+    ! Gauss-Legendre points on its interpolant, the Lagrange polynomial of
+    ! its history (three passes a step). arkimex and rosw tableaus may lack
+    ! an interpolant: trapezoid.
+    PetscCall(TSGetType(ctx%ts, tstype, ierr))
+    ctx%energy%gauss = trim(tstype) == 'bdf'
+    PetscCall(set_inner_guess(ctx, tstype, ierr))
+    PetscCall(set_newton_start(ctx, ierr))
+    PetscCall(VecDuplicate(ctx%u, ctx%energy%uq, ierr))
+    PetscCall(set_tolerances(ctx, srcx, srcv, ierr))
+
+    ierr = nuno_ts_scheme(ctx%ts%v, scheme, len(scheme))
+    if (ierr /= 0) return
+    inner = ''
+    if (ctx%use_reduced) then
+      PetscCall(reduced_describe(ctx%red, inner, ierr))
+      PetscCall(TSGetSNES(ctx%ts, snes, ierr))
+      PetscCall(SNESGetType(snes, sntype, ierr))
+      if (trim(sntype) == SNESNEWTONLS .and. ctx%newton%newton_forcing .and. ctx%red%forward_ew) &
+        inner = trim(inner)//'; Newton: inner rtol from the step''s needs (-nuno_newton_forcing)'
+    end if
+    if (ctx%rank == 0) then
+      PetscCall(TSAdaptGetType(adapt, adtype, ierr))
+      line = 'solver    : TS '//scheme(1:index(scheme, c_null_char) - 1)
+      if (ctx%step%adaptive_default) line = trim(line)//' (the default of adaptive runs, -nuno_adaptive_ts_type)'
+      line = trim(line)//', adapt '//trim(adtype)
+      if (ctx%step%fixed_step) then
+        line = trim(line)//', dt = '//num(ctx%step%dt)
+      else
+        line = trim(line)//', initial dt = '//num(ctx%step%dt)
+      end if
+      if (ctx%step%dt /= dt_namelist) line = trim(line)//' (-ts_dt; namelist '//num(dt_namelist)//')'
+      line = trim(line)//', t_end = '//num(ctx%step%t_end)
+      if (ctx%step%t_end /= t_end_namelist) &
+        line = trim(line)//' (-ts_max_time; namelist '//num(t_end_namelist)//')'
+      if (ctx%step%max_steps < huge(ctx%step%max_steps)) &
+        line = trim(line)//', at most '//inum(ctx%step%max_steps)//' steps (-ts_max_steps)'
+      if (.not. ctx%step%fixed_step) line = trim(line)//', rtol '//num(ctx%step%rtol)//', atol position '// &
+        num(ctx%step%atol_x)//' ('//trim(srcx)//'), velocity '//num(ctx%step%atol_v)//' ('//trim(srcv)//')'
+      line = trim(line)//', Newton step '//trim(merge('reduced', 'full   ', ctx%use_reduced))
+      if (ctx%newton%start_order == 3) line = trim(line)//', started cubic (-nuno_newton_start)'
+      write(output_unit, '(a)') trim(line)
+      if (ctx%use_reduced) write(output_unit, '(a)') 'inner     : '//trim(inner)
+      flush(output_unit)
+    end if
+  end subroutine effective_time_integration
+
+  !> The inner initial guess (-nuno_inner_guess, module inner_guess): the
+  !> first Newton corrections of successive steps form a smooth sequence
+  !> only for one-stage methods (beuler, theta, cn), whose shift is
+  !> proportional to 1/dt; the stages of rosw, arkimex and bdf's history
+  !> are other quantities. auto: project with bending (the extrapolation
+  !> took 30 % fewer inner iterations in bw mode at 257 x 257, the
+  !> projection 16 % fewer again, docs/performance.md; extrapolate with
+  !> adaptive steps, whose changes of dt empty the projection), none without
+  !> (there what the guesses cost ate the gain), and none in
+  !> identification and control runs. An explicit choice the run cannot
+  !> use is refused. Collective.
+  subroutine set_inner_guess(ctx, tstype, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    character(len=*), intent(in) :: tstype
+    PetscErrorCode, intent(out) :: ierr
+    logical :: one_stage, direct
+    integer :: mode
+    PetscBool :: extrap, set
+    character(len=64) :: ktype
+    ierr = 0
+    extrap = PETSC_FALSE
+    one_stage = tstype == TSBEULER .or. tstype == TSTHETA .or. tstype == TSCN
+    ! a direct inner solve (preonly) takes no initial guess
+    direct = .false.
+    if (ctx%use_reduced) then
+      PetscCall(KSPGetType(ctx%red%ksp, ktype, ierr))
+      direct = ktype == KSPPREONLY
+    end if
+    if (ctx%newton%guess_given /= 0 .and. ctx%newton%guess /= GUESS_NONE .and. ctx%newton%guess /= GUESS_AUTO) then
+      if (.not. ctx%use_reduced) then
+        ierr = PETSC_ERR_ARG_INCOMP
+        SETERRQ(ctx%comm, ierr, 'nuno: -nuno_inner_guess is for the reduced solve, not -nuno_jacobian full')
+      end if
+      if (.not. one_stage) then
+        ierr = PETSC_ERR_ARG_INCOMP
+        SETERRQ(ctx%comm, ierr, 'nuno: -nuno_inner_guess previous, extrapolate or project needs a one-stage method (-ts_type beuler, theta or cn), not -ts_type '//trim(tstype))
+      end if
+      if (direct) then
+        ierr = PETSC_ERR_ARG_INCOMP
+        SETERRQ(ctx%comm, ierr, 'nuno: -nuno_inner_guess previous, extrapolate or project needs an iterative inner solver, not -reduced_ksp_type preonly')
+      end if
+    end if
+    if (.not. ctx%use_reduced) return
+    mode = ctx%newton%guess
+    ! (auto leaves the fits alone: their finite-difference checks compare
+    ! runs whose inexact solves would otherwise start from other guesses)
+    ! The projection drops its kept solves whenever dt changes, so with
+    ! adaptive steps it would rarely have any: the extrapolation, which
+    ! scales across steps of other sizes, there.
+    if (mode == GUESS_AUTO) mode = merge(merge(GUESS_PROJECT, GUESS_EXTRAPOLATE, ctx%step%fixed_step), GUESS_NONE, one_stage .and. &
+                                         ctx%cfg%bending_code /= BEND_NONE .and. .not. (ctx%cfg%identify .or. ctx%cfg%control))
+    if (.not. one_stage .or. direct) mode = GUESS_NONE
+    ctx%newton%guess = mode
+    ! (nuno_step_defaults put the extrapolated start of beuler in the options)
+    PetscCall(PetscOptionsGetBool(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-ts_theta_initial_guess_extrapolate', extrap, set, ierr))
+    PetscCall(reduced_set_guess(ctx%red, mode, logical(set .and. extrap), ierr))
+  end subroutine set_inner_guess
+
+  !> The error tolerances of adaptive steps, as vectors for TS: positions
+  !> atol_x alone [length], velocities atol_v + rtol |v| [length/time]
+  !> (input/README.md, "Error tolerances"), with atol_x from
+  !> -nuno_atol_position, else -ts_atol, else rtol times the cloth size
+  !> max(lx, ly); -nuno_atol_velocity, else the position tolerance per unit
+  !> of time (TOLERANCE_TIME). srcx, srcv say where each
+  !> came from. Also what update_wrms weighs Newton's updates with. Collective.
+  subroutine set_tolerances(ctx, srcx, srcv, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    character(len=*), intent(out) :: srcx, srcv
+    PetscErrorCode, intent(out) :: ierr
+    PetscReal :: atol, rtol
+    PetscBool :: atol_given
+    PetscScalar, pointer :: va(:, :, :)
+    type(tVec) :: vatol, vrtol
+    real(c_double) :: ax, av
+    integer(c_int) :: gx, gv
+
+    PetscCall(TSGetTolerances(ctx%ts, atol, PETSC_NULL_VEC, rtol, PETSC_NULL_VEC, ierr))
+    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-ts_atol', atol_given, ierr))
+    if (atol_given) then
+      ax = atol
+      srcx = '-ts_atol'
+    else
+      ax = rtol * max(ctx%cfg%lx, ctx%cfg%ly)
+      srcx = 'rtol x cloth size'
+    end if
+    av = ax / TOLERANCE_TIME
+    ierr = nuno_tolerance_options_read(ctx%comm, ax, av, gx, gv)
+    if (ierr /= 0) return
+    if (gx /= 0) srcx = '-nuno_atol_position'
+    srcv = 'position atol / 1 time unit'
+    if (gv /= 0) srcv = '-nuno_atol_velocity'
+    ctx%step%rtol = rtol
+    ctx%step%atol_x = ax
+    ctx%step%atol_v = av
+    PetscCall(DMCreateGlobalVector(ctx%da, vatol, ierr))
+    PetscCall(DMDAVecGetArrayF90(ctx%da, vatol, va, ierr))
+    va(0:2, :, :) = ax
+    va(3:5, :, :) = av
+    PetscCall(DMDAVecRestoreArrayF90(ctx%da, vatol, va, ierr))
+    ! No relative tolerance on positions: |x| depends on where the origin
+    ! is, the cloth size does not. Velocities: atol_v + rtol |v|.
+    PetscCall(DMCreateGlobalVector(ctx%da, vrtol, ierr))
+    PetscCall(DMDAVecGetArrayF90(ctx%da, vrtol, va, ierr))
+    va(0:2, :, :) = 0.0_rp
+    va(3:5, :, :) = rtol
+    PetscCall(DMDAVecRestoreArrayF90(ctx%da, vrtol, va, ierr))
+    PetscCall(TSSetTolerances(ctx%ts, atol, vatol, rtol, vrtol, ierr))
+    PetscCall(VecDestroy(vatol, ierr))             ! the TS keeps its references
+    PetscCall(VecDestroy(vrtol, ierr))
+  end subroutine set_tolerances
+
+  !> Report the options nothing read (after the run, when every object has
+  !> read its options), then destroy the PETSc objects, in reverse order of
+  !> creation.
+  subroutine solver_destroy(ctx, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    PetscErrorCode, intent(out) :: ierr
+    integer(c_int) :: nunused
+    ierr = nuno_options_report_unused(ctx%comm, nunused)
+    if (ierr /= 0) return
+    PetscCall(TSDestroy(ctx%ts, ierr))
+    if (ctx%use_reduced) then
+      PetscCall(reduced_destroy(ctx%red, ierr))
+    else
+      PetscCall(assembly_free(ctx%asm, ierr))
+    end if
+    PetscCall(VecDestroy(ctx%u, ierr))
+    PetscCall(energy_integrals_free(ctx%energy, ierr))
+    PetscCall(DMDestroy(ctx%da, ierr))
+    call model_state_free(ctx%model)
+    call restart_state_free(ctx%restart)
+  end subroutine solver_destroy
+
+end module solver_setup

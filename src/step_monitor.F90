@@ -1,0 +1,204 @@
+!> The TS monitor, run after every accepted step: the progress line, the
+!> energy integrals (dissipated power, constraint work), the checkpoints
+!> due and the step-stall checks.
+module step_monitor
+#include "petsc/finclude/petscts.h"
+  use petscts
+  use petscdmda
+  use mpi
+  use, intrinsic :: iso_c_binding, only: c_double
+  use, intrinsic :: iso_fortran_env, only: output_unit, error_unit
+  use kinds, only: rp
+  use forces, only: internal_forces, dissipated_power
+  use constraints, only: constraint_target
+  use reduced, only: reduced_step_accepted
+  use app_context, only: app_ctx, nuno_checkpoint_due, nuno_newton_start_push, nuno_ts_stop
+  use failure_text, only: num
+  use newton_policy, only: linesearch_fallback
+  use run_checkpoint, only: take_checkpoint
+  implicit none
+  private
+  public :: ts_monitor
+
+  !> Wall seconds without a line on stdout after which the monitor prints one.
+  real(rp), parameter :: HEARTBEAT_S = 10.0_rp
+  !> Gauss-Legendre points (on [0, 1]) and weights, 3 points.
+  real(rp), parameter :: GAUSS_X(3) = [0.5_rp - sqrt(0.15_rp), 0.5_rp, 0.5_rp + sqrt(0.15_rp)]
+  real(rp), parameter :: GAUSS_W(3) = [5.0_rp / 18.0_rp, 8.0_rp / 18.0_rp, 5.0_rp / 18.0_rp]
+
+contains
+
+  !> After every accepted step (and at the start of each TSSolve): keep its
+  !> first Newton correction for the inner guesses, advance the integrals
+  !> of dissipated power and constraint power, and after a retried step go
+  !> back to the fixed step.
+  subroutine ts_monitor(ts, step, t, uvec, ctx, ierr)
+    type(tTS) :: ts
+    PetscInt :: step
+    PetscReal :: t
+    type(tVec) :: uvec
+    type(app_ctx) :: ctx
+    PetscErrorCode :: ierr
+    real(rp) :: p(2), h, hmax, tq, pq(2)
+    PetscInt :: rejects, nfails
+    integer :: q
+    real(c_double) :: tc
+
+    ! A failed Newton solve makes the TS retry the step with dt/4, and with
+    ! -ts_adapt_type none it keeps that step: a fixed step would silently
+    ! stay 4 times smaller. Once the retried step is accepted, return to dt,
+    ! clipped to the window end as PETSc's matchstep does (no sliver step).
+    ! Accepted steps that do not advance t (retries shrank them below t's
+    ! resolution next to a stop time) could repeat forever: after ten in a
+    ! row, stop and say so (one alone, after many retries, is harmless).
+    if (ctx%progress%monitor_seen .and. step > ctx%progress%monitor_step) then
+      if (t > ctx%energy%t_prev) then
+        ctx%progress%stalled_steps = 0
+      else
+        ctx%progress%stalled_steps = ctx%progress%stalled_steps + 1
+      end if
+      if (ctx%progress%stalled_steps >= 10) then
+        if (len_trim(ctx%io_error) == 0) then
+          PetscCall(TSGetTimeStep(ts, h, ierr))
+          ctx%io_error = 'ten accepted steps at t = '//num(t)//' did not advance t: the step, '//num(h)// &
+            ', is below the resolution of t there ('//num(spacing(t))//'); the run cannot advance (a larger -ts_dt;'// &
+            ' after failed solves, adaptive steps: -ts_adapt_type basic)'
+          if (ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//trim(ctx%io_error)
+        end if
+        ierr = nuno_ts_stop(ts%v)
+        return
+      end if
+    end if
+    ctx%progress%monitor_seen = .true.
+    ctx%progress%monitor_step = step
+    ! After a failed Newton solve (its step retried smaller and now
+    ! accepted) the run's remaining steps take -nuno_linesearch_fallback
+    ! instead of full steps: a membrane without bending that buckles at the
+    ! lattice's scale can make full Newton steps overshoot again and again
+    ! (hang 257 x 257, dt = 1 ms: eight failures and the run stopped at
+    ! t = 0.21 s). It costs nothing until then (bt: a product with the
+    ! 6-dof Jacobian an iteration, for its slope). A run restarted from a
+    ! checkpoint after such a failure (counts_before) backtracks from its
+    ! first step, as the run it continues did.
+    if (ctx%newton%ls_fallback > 0 .and. .not. ctx%newton%ls_switched) then
+      PetscCall(TSGetSNESFailures(ts, nfails, ierr))
+      if (nfails + nint(ctx%restart%counts_before(5)) > 0) then
+        PetscCall(linesearch_fallback(ts, ctx, t, ierr))
+      end if
+    end if
+    ! the accepted step's first Newton correction, for the next inner guesses
+    if (ctx%use_reduced) call reduced_step_accepted(ctx%red)
+    ! and its state, for the next Newton start
+    tc = t
+    ierr = nuno_newton_start_push(ts%v, uvec%v, tc)
+    if (ierr /= 0) return
+    PetscCall(TSGetStepRejections(ts, rejects, ierr))
+    if (rejects > ctx%step%rejects_seen) then
+      ctx%step%rejects_seen = rejects
+      if (ctx%step%fixed_step) then
+        PetscCall(TSGetTimeStep(ts, h, ierr))
+        hmax = ctx%step%tstop - t
+        if (h < ctx%step%dt .and. hmax > 0.0_rp) then
+          h = ctx%step%dt
+          if (t + 1.01_rp * h >= ctx%step%tstop) then
+            h = hmax
+          else if (2.0_rp * h > hmax) then
+            h = 0.5_rp * hmax
+          end if
+          PetscCall(TSSetTimeStep(ts, h, ierr))
+        end if
+      end if
+    end if
+
+    if (ctx%energy%gauss) then
+      ! Three Gauss-Legendre points on [t_prev, t] (exact to degree 5): the
+      ! error is that of the interpolant, the method's order. (The end
+      ! point's power is not needed.)
+      if (t > ctx%energy%t_prev .and. step > 0) then
+        h = t - ctx%energy%t_prev
+        do q = 1, 3
+          tq = ctx%energy%t_prev + h * GAUSS_X(q)
+          PetscCall(TSInterpolate(ts, tq, ctx%energy%uq, ierr))
+          call powers(ctx, ctx%energy%uq, tq, pq, ierr)
+          if (ierr /= 0) return
+          ctx%energy%dissipated = ctx%energy%dissipated + h * GAUSS_W(q) * pq(1)
+          ctx%energy%work_constraints = ctx%energy%work_constraints + h * GAUSS_W(q) * pq(2)
+        end do
+      end if
+    else
+      call powers(ctx, uvec, t, p, ierr)
+      if (ierr /= 0) return
+      if (t > ctx%energy%t_prev) then
+        ctx%energy%dissipated = ctx%energy%dissipated + 0.5_rp * (ctx%energy%pdiss_prev + p(1)) * (t - ctx%energy%t_prev)
+        ctx%energy%work_constraints = ctx%energy%work_constraints + 0.5_rp * (ctx%energy%pcon_prev + p(2)) * (t - ctx%energy%t_prev)
+      end if
+      ctx%energy%pdiss_prev = p(1)
+      ctx%energy%pcon_prev = p(2)
+    end if
+    ctx%energy%t_prev = t
+    ! A long output interval (tiny adaptive steps on a stiff scene) must not
+    ! look like a hang: rank 0 says where it is every HEARTBEAT_S of wall
+    ! time (TS values only, so nothing collective).
+    if (ctx%rank == 0 .and. step > 0) then
+      if (MPI_Wtime() - ctx%progress%wall_said >= HEARTBEAT_S) then
+        PetscCall(TSGetTimeStep(ts, h, ierr))
+        write(output_unit, '(a,es12.5e2,a,i9,a,es10.3e2,a,es10.3e2,a)') '  ... t =', t, '  steps', step, &
+          '  dt', h, '  wall_s', MPI_Wtime() - ctx%progress%wall0, '  (between output steps)'
+        flush(output_unit)
+        ctx%progress%wall_said = MPI_Wtime()
+      end if
+    end if
+    ! -nuno_checkpoint_walltime: due after this step (agreed by the
+    ! post-step, which runs before the monitor); written here without
+    ! stopping TSSolve, so that the run goes on exactly as without it: the
+    ! restart point of the last output step (keep_restart_point; this
+    ! step's state, with its energy integrals, before the first one). A
+    ! failed write stops the run.
+    if (nuno_checkpoint_due() /= 0) then
+      PetscCall(TSGetTimeStep(ts, h, ierr))
+      call take_checkpoint(ctx, ctx%restart%out, t, h, 'wall time', ierr, restart_point=.true.)
+      if (ierr /= 0) then
+        ierr = 0
+        if (len_trim(ctx%io_error) == 0) ctx%io_error = 'the wall-clock checkpoint at t = '//num(t)//' failed'
+        ierr = nuno_ts_stop(ts%v)
+      end if
+    end if
+  end subroutine ts_monitor
+
+  !> Global dissipated power p(1) and power of the constraint reactions p(2)
+  !> = -sum over moving constrained nodes of (f_internal + m g) . vbar.
+  subroutine powers(ctx, uvec, t, p, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    type(tVec) :: uvec
+    real(rp), intent(in) :: t
+    real(rp), intent(out) :: p(2)
+    PetscErrorCode, intent(out) :: ierr
+    type(tVec) :: uloc
+    PetscScalar, pointer :: u(:, :, :)
+    real(rp) :: loc(2), xb(3), vb(3)
+    integer :: k, i, j, nbad, bad(2)
+
+    loc = 0.0_rp
+    p = 0.0_rp
+    ierr = 0
+    if (.not. ctx%cfg%has_damping .and. ctx%cfg%eta_b == 0.0_rp .and. .not. ctx%model%moving_constraints) return
+    PetscCall(DMGetLocalVector(ctx%da, uloc, ierr))
+    PetscCall(DMGlobalToLocalBegin(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
+    PetscCall(DMGlobalToLocalEnd(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
+    PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
+    call dissipated_power(ctx%lat, u, loc(1))
+    if (ctx%model%moving_constraints) then
+      call internal_forces(ctx%lat, u, ctx%model%f, nbad, bad)
+      do k = 1, ctx%cs%n
+        call constraint_target(ctx%cs, k, t, xb, vb)
+        i = ctx%cs%node(1, k)
+        j = ctx%cs%node(2, k)
+        loc(2) = loc(2) - dot_product(ctx%model%f(:, i, j) + ctx%lat%mass(i, j) * ctx%model%gravity, vb)
+      end do
+    end if
+    PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, uloc, u, ierr))
+    PetscCall(DMRestoreLocalVector(ctx%da, uloc, ierr))
+    call MPI_Allreduce(loc, p, 2, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, ierr)
+  end subroutine powers
+
+end module step_monitor
