@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-2-Clause
 # A/B of two nuno builds at equal conditions (this machine's speed wanders
 # by 20-30 % from hour to hour, and by 3x from day to day: only runs
 # alternated within minutes compare). hang at N x N (default 257) on one

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-2-Clause
 # Compare two nuno builds on hang, alternating runs, by the CPU time of the
 # rank (user + sys, start-up included): on a shared machine that moves far
 # less than wall time. One rank.

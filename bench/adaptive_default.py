@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """The default integrator of adaptive runs (issue 10 item 6): which method
 wins the work-precision diagram at moderate tolerance when the user asks
 only for adaptive steps.

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: BSD-2-Clause
 """What the Baraff-Witkin mode (one linearised solve a step) costs in
 accuracy: hang at N x N integrated to t_end with backward Euler at one dt,
 (1) by full Newton (the default), (2) in the Baraff-Witkin mode

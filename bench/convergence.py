@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Convergence studies of nuno (issue 10 item 5): the observed temporal order
 of its integrators and the observed spatial order under lattice refinement.
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """The figures of docs/identification.md: one deformation control and the report's Fig. 3 scene identified.
 
     source tools/env.sh && python3 bench/identification_figures.py          # both (a few minutes here)

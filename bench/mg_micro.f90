@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Microbenchmark of the multigrid's finest-level kernels alone (module
 !> mg_kernels): one symmetric Gauss-Seidel sweep (forward and backward,
 !> with the kept sums over the rows below, as the cycle does) and the

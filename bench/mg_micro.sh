@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-2-Clause
 # The multigrid kernels alone (bench/mg_micro.f90), built here with the
 # Release flags: bash bench/mg_micro.sh [N (257)] [reach (2)] [lines|square] [paired]
 set -euo pipefail

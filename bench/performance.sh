@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-2-Clause
 # The benchmark behind docs/performance.md, in one run of one build:
 #   1. bench/solver.py: hang N x N, N = 65 .. 1025, 1 and 2 ranks, modes bw
 #      and newton, with and without bending (about 30 minutes on 2 cores);

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: BSD-2-Clause
 """Behaviour pinned: two nuno builds must write the same positions, bit for bit.
 
     source tools/env.sh

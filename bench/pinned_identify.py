@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: BSD-2-Clause
 """Identification and control pinned: two nuno builds must write the same
 /identify and /control groups and positions, bit for bit.
 

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: BSD-2-Clause
 """Measure the four defects that the seed report names in its section 5, with
 the report's `paper` bending model and with the corrected `energy` model.
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """The cloth model of docs/model.md written again in NumPy/SciPy, as the
 baseline a numerical analyst would write instead of nuno: the state
 y = (x, v) of every node as one vector, the right-hand side

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: BSD-2-Clause
 """SciPy's BDF against nuno on hang 21 x 21 to t = 1 s, at equal final error
 (docs/workprecision.md, "SciPy with a careful linear solve"): SciPy's
 solve_ivp BDF with the exact sparse Jacobian of bench/scipy_cloth.py, once

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: BSD-2-Clause
 """Memory soak: run nuno for a fixed wall time with a checkpoint every few
 seconds and sample every rank's resident set size (VmRSS, /proc) at every
 checkpoint line it prints. A leak per checkpoint or output step shows as a

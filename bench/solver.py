@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: BSD-2-Clause
 """The fast-solver benchmark (issue 7): hang at N x N on 1 and 2 ranks, for
   bw      the Baraff-Witkin mode: one linearised solve a step
           (-snes_type ksponly), inner relative tolerance 1e-3, dt = 1/600 s;

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: BSD-2-Clause
 """The stress matrix of stability (issue 8 item 5): stiffness x bending x
 step size x method x deformation, each run classified by how it ended.
 

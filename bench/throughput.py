@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: BSD-2-Clause
 """Throughput of nuno's default solver: node-steps per second of TSStep
 (from -log_view) on the hang scene and a report scene, for a few lattice
 sizes and rank counts. Writes a markdown table (stdout, or --output).

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-2-Clause
 # Adaptive bdf at -ts_rtol = -ts_atol = 1e-2 .. 1e-10 on every scene of
 # input/ (t = 0.5 s, 2 ranks): each run must complete. One line per run on
 # stdout (scene_rtol, exit code, the program's closing line).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-2-Clause
 /* STREAM-like triad a = b + s c on arrays far larger than the caches:
  * the memory bandwidth that bounds a sparse matrix-vector product.
  * Prints the best of 10 repetitions in GB/s (24 bytes per element moved:

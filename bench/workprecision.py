@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Work-precision benchmark of nuno against a SciPy baseline (issue 10 item 4).
 
     source tools/env.sh && python3 bench/workprecision.py            # everything (about 25 min here)

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 # Writes OUT, a Fortran include line with the commit recorded in every
 # output file (/run git_commit): `git describe --always --dirty` of SRC, or
 # 'unknown' outside a git checkout. Run at every build (target

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Post-processing of nuno runs: one reader and small plotting scripts.
 
 Installed (``pip install .``), the package is imported as ``nuno``: read a

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Animation of a run: GIF (Pillow), or MP4 when ffmpeg is on PATH.
 
     nuno-animate run.h5 --stride 2 -o run.gif

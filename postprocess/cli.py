@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Shared command-line plumbing: error exits, run loading, common options."""
 
 from __future__ import annotations

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Compare runs: snapshots at a common time and the difference over time.
 
     nuno-compare ref.h5 other.h5 --time 1.0 -o compare.png

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Deformation control: initial guess, optimised motion, target and the objective per iteration.
 
     nuno-control-plot OPT.h5 --target TARGET.h5 [--initial INIT.h5] [-o FILE.png]

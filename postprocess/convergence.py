@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Convergence study: error against lattice spacing or time step, log-log, observed order.
 
     nuno-convergence run17.h5 run33.h5 run65.h5 --time 0.05 -o conv.png

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Identification: observed against identified motion, the fitted values and the objective per iteration.
 
     nuno-identify-plot FIT.h5 --observed OBS.h5 [--initial INIT.h5]

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Log-log plots with least-squares slopes from a CSV (convergence, work-precision)."""
 
 from __future__ import annotations

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Namelist editing with f90nml (a real Fortran namelist parser, not regexes).
 
     from nuno.namelist import edit

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Shared plotting helpers: headless figures, equal-scale 3-D axes, unit labels.
 
 Figures are plain ``matplotlib.figure.Figure`` objects on an Agg canvas: no

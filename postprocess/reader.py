@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """The one reader of nuno output files (HDF5 layout of docs/model.md section 9).
 
     from nuno.reader import read_run

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Run the report's three scenes and draw its Figs. 3-5 (paper and energy models side by side).
 
     nuno-report-figures                 # run all scenes, then plot

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Lattice wireframes at chosen times (in the manner of the report's Figs. 3-5).
 
     nuno-snapshots run.h5 --times 0 0.5 1.0 --view side -o fig3.png

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Parameter sweeps and refinement studies in one command: run, name the files, plot.
 
     nuno-sweep input/hang.nml --set e_s=1e3,2e3,4e3,8e3            # a parameter sweep

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Energies, energy-balance drift, momenta, length, flatness and solver counts against time.
 
     nuno-timeseries run.h5 -o run_timeseries.png

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Work-precision plot: wall time against error (log-log), from run files or a CSV.
 
     nuno-workprecision cn_*.h5 bdf_*.h5 --reference-run tight.h5 -o wp.png

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> The solver's context, passed to every PETSc callback as the user
 !> context, and the C functions of the solver (src/nuno_*.c).
 module app_context

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> The version and git commit of this build, for `nuno --version` and the
 !> start-up line. The commit comes from the include file that
 !> cmake/git_commit.cmake rewrites at every build where it changed (the same

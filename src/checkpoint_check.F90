@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> What a checkpoint holds (checkpoint_t), and the checks a restart
 !> (-nuno_restart) makes before it changes anything in the file it
 !> continues (module output, output_reopen):

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> The process model: the residual F(t, U, Udot) and its assembled
 !> Jacobian, PETSc's IFunction and IJacobian callbacks (docs/model.md
 !> sections 5 and 6).

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> The run configuration: every namelist key and the values derived from
 !> them. Filled by module input (read, validate, derive); read by every other
 !> module. Plain data: no PETSc, no MPI. A run's defaults are the key table's

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Pinned and prescribed (keyframed) nodes of one rank (docs/model.md section 4).
 !>
 !> A constrained node k follows xbar(t) = x0_k + offset(t), where offset is 0

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Diagnostics of one output time (docs/model.md section 8) that follow from the
 !> state alone: energies, momenta, centre-line length and flatness. Local sums
 !> over owned nodes and anchor-owned elements, then one sum-reduction and one

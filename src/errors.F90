@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Command-line helpers and the collective exit path.
 !> Every rank takes the same branch for input errors (all ranks parse the
 !> same text), so fatal_collective is called by all ranks together: rank 0

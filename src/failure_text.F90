@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> The text of a run's end: what failed and what to try (failure_reason,
 !> failure_hints), signal names, the collective output error, and the
 !> number-to-string helpers of the solver's messages.

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Loops over the elements of one strip: internal forces, element energies,
 !> dissipated power and the Jacobian blocks of one anchor row. Plain arrays
 !> in and out (no PETSc, no MPI); the per-element work is done by the kernels

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Identification and deformation control (docs/identification.md): one
 !> forward run, one objective and one exact TSAdjoint gradient serve both;
 !> this module is their TAO driver and their results.

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> The forward run and the exact TSAdjoint gradient of an identification or
 !> a control (docs/identification.md; the objective: identify_objective).
 !>

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> -identify_check_gradient, -control_check_gradient: the adjoint gradient
 !> of an identification or a control against central differences of its
 !> objective (docs/identification.md).

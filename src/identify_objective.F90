@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> The objective of an identification or a control (docs/identification.md):
 !> the observation or target it compares with, the time windows between
 !> the times it is evaluated at, and its terms in the forward run and in

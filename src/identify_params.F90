@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> The parameters of an identification or a control (docs/identification.md):
 !> which variables theta the optimisation moves, their bounds, scaling and
 !> Tikhonov weight, and how theta enters the configuration.

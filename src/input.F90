@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Reads, completes and checks the run configuration (namelist input, in the
 !> manner of CaNS). Rank 0 reads the file; every rank parses the same text, so
 !> every rank reaches the same result and the same error: a bad input stops

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> The configuration completed and checked after the namelist groups are
 !> read (module input): the string choices as codes,
 !> the keys whose default depends on others, and the checks, one small

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> The one table of namelist keys: for each key its name, group, type,
 !> unit, default, allowed values and a one-line meaning. Everything else
 !> that names keys reads it: the -nuno_set lexer and the type check of

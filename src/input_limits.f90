@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Sane bounds of a run, checked before anything is allocated (module
 !> input, input_check_run) and quoted by `nuno --help` (module
 !> input_usage). No MPI, no PETSc.

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Checks of a parsed configuration against what the run can do, before
 !> anything is allocated: step and output counts, the index space, and the
 !> memory the lattice needs (module input_limits) against the memory the

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> The input file made ready for the namelist reader (module input): comments
 !> and text outside groups blanked, unknown, repeated and unclosed groups
 !> refused by line, each group's body kept apart to name a bad assignment.

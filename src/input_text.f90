@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> The input's text below the namelist reader, without MPI or PETSc
 !> (unit-tested alone: tests/unit/test_input_text.f90):
 !> - the lookup of a key in the table of keys (module input_keys: names are

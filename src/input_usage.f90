@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> The text of `nuno --help` and `nuno --list-keys`. The key lists come
 !> from the key table (module input_keys) and the limits from module
 !> input_limits, so that the help cannot name a key or a number the input

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> The lattice of one rank: its strip of whole rows, the rest geometry, the
 !> node masses and the per-element constants (docs/model.md sections 1 and 6).
 !>

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> nuno (布, "cloth"): implicit mass-spring cloth dynamics.
 !>   mpirun -n P nuno INPUT.nml [PETSc options]
 !> Reads the namelist, builds the DMDA strips and the PETSc TS, integrates

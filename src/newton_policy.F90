@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Newton's policy on the PETSc side: the convergence test (round-off
 !> floor, forcing, the integrator's error estimate), the line-search
 !> fallback and the Newton start of beuler. The PETSc-free rules are in

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-2-Clause
 /* PETSc 3.18 gaps for the adjoint (module identify): TSSetIJacobianP has no
  * Fortran stub (the C symbol exists), and TSTrajectorySetType none either.
  * The Fortran callback is stored on the TS with PetscObjectSetFortranCallback,

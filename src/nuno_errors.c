@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-2-Clause
 /* PETSc errors as one line of ours. PETSc's default handler prints a
  * 30-line report (configure options included) on every rank that fails; a
  * usage error such as -ts_type no_such then reads as a crash. This handler

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-2-Clause
 /* nuno's option for output files, in its own PETSc options block so that it
  * appears in -help with its default (PETSc 3.18 has no Fortran
  * PetscOptionsBegin: ../shared/STYLE.md). Called once from main through

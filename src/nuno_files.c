@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-2-Clause
 /* File-system helpers for safe output files (module safe_files): an
  * exclusive lock file, "is this the same file" and rename, with the reason
  * of a failure as text (strerror), which Fortran I/O cannot give. Plain

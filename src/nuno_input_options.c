@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-2-Clause
 /* nuno's input-safety options, read in their own PETSc options block so that
  * they appear in -help with their defaults. A file of its own (not
  * nuno_options.c): these are read in main before the solver exists, and the

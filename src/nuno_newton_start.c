@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-2-Clause
 /* The Newton start of backward Euler from the last accepted states
  * (-nuno_newton_start; docs/design.md, "the cubic start").
  *

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-2-Clause
 /* nuno's own solver options, read inside a PETSc options block so that they
  * appear in -help with their defaults and current values (PETSc 3.18 has no
  * Fortran interface to PetscOptionsBegin/End: ../shared/STYLE.md). Called

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-2-Clause
 /* PETSc's linear-solver options as users type them (input/README.md,
  * "Linear solvers: PETSc options as you know them"). Called once from
  * module timestepping's solver_create, after nuno_options_read (which

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-2-Clause
 /* SIGTERM and SIGINT (what batch schedulers send before SIGKILL, and
  * Ctrl-C) end a run cleanly: the handler only records the signal; after
  * every time step a TS post-step agrees on it over the ranks (one 2-integer

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: BSD-2-Clause
 /* PETSc 3.18 has no Fortran stub for PetscObjectStateGet. Module reduced
  * uses an object's state to know that a vector is unchanged since it last
  * saw it: the multigrid's output, whose product with S the cycle has

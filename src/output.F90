@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Parallel HDF5 output of a run (docs/model.md section 9) and its XDMF sidecar.
 !>
 !> Index convention: the caller's arrays are x(3, 0:nx-1, ys:ys+ym-1) with

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Module output: checkpoint write, reopen of an earlier run's file and
 !> checkpoint read (the checks on what is read are module checkpoint_check's).
 submodule (output) output_checkpoint

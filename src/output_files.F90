@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Module output: the file lifecycle (open, claim, commit, close) and its safety
 !> rules (one writer per file, <file>.partial until committed, free space
 !> checked before a collective write).

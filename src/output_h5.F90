@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> HDF5 helpers of module output: attribute and dataset writers and readers,
 !> hyperslab selection, and the error rules (every h5*_f code checked, a
 !> one-line message naming the call and the object; agree makes the ranks'

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Module output: the result groups /run, /config, /identify and /control.
 submodule (output) output_results
   implicit none

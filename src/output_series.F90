@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Module output: the lattice, the time series of every output step and the
 !> XDMF views (virtual datasets) onto them.
 submodule (output) output_series

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Module output: the XDMF sidecar (<file>.xmf) that ParaView reads.
 submodule (output) output_xdmf
   implicit none

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Provenance of a run in its output file: the run information, the
 !> configuration as used, and the scene's units.
 module provenance

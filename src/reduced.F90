@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> The reduced (Baraff-Witkin) Newton solve: the 6-dof Newton step of the
 !> first-order system solved exactly by block elimination around a 3-dof
 !> velocity system, which is the only matrix assembled (docs/design.md).

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Plain-array pieces of the reduced (Baraff-Witkin) solve, no PETSc, no MPI:
 !> the block row of the 3-dof matrix S = a M - C - K/a of one node row, and
 !> the product of the element Jacobian blocks of one row with a state-sized

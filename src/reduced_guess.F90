@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> The inner solve's initial guesses (-nuno_inner_guess): the PETSc side of
 !> the kernel module inner_guess. It keeps the corrections of earlier inner
 !> solves and forms a guess for the next one from them; only this module

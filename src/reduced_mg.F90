@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> The inner preconditioner's choice and nuno's multigrid glue for the
 !> reduced solve (module reduced): PETSc's defaults when it is not nuno's
 !> multigrid (default_preconditioner, the DMDA interpolations for PCMG),

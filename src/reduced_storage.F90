@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> The storage of S in a PETSc matrix for the reduced solve (module
 !> reduced) when the inner preconditioner is not nuno's multigrid (whose
 !> S by stencil offset is module reduced_mg's): BAIJ or AIJ from the DMDA,

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Checkpoints and restarts of the solver (docs/design.md, "Checkpoints"):
 !> what a checkpoint holds, the restart point kept at each output step,
 !> and the restore of a checkpoint into the solver.

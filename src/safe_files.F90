@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Thin Fortran wrappers of src/nuno_files.c (POSIX: flock, stat, rename,
 !> mkstemp, mkdtemp, with strerror causes) for the safe output files of
 !> module output, and the rules for the names nuno writes (input/README.md,

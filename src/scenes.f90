@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Initial state and constraints of each scene (docs/model.md section 7).
 !> Every node's initial position is an analytic function of (i, j), so each
 !> rank sets up its own rows without communication.

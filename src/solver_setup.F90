@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Solver set-up: the DMDA, TS, SNES and their options as resolved from
 !> the namelist and the PETSc options (solver_create), and their
 !> destruction (solver_destroy).

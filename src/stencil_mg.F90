@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> nuno's structured multigrid for the reduced system S dv = rhs (the
 !> default inner preconditioner, docs/design.md): geometric levels of the
 !> lattice (vertex-centred 2:1 coarsening), Galerkin coarse operators

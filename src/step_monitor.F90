@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> The TS monitor, run after every accepted step: the progress line, the
 !> energy integrals (dissipated power, constraint work), the checkpoints
 !> due and the step-stall checks.

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Numbers as text, for messages, attributes and the XDMF sidecar. No PETSc,
 !> no MPI: every room may use it (built into the input-text library, the
 !> lowest one above the kernels).

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-2-Clause
 # Configure and build nuno and its tests in build/ (Release). Quiet on success.
 set -euo pipefail
 source "$(dirname "$0")/env.sh"

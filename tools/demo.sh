@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-2-Clause
 # The main job: install, build, run the report's Fig. 3 scene (lift_release)
 # on 2 ranks, then plot it. Output in runs/lift_release/.
 set -euo pipefail

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 # Sourced by the tools/ scripts: environment that lets Open MPI run as root
 # and with more ranks than cores (CI machines have 2 cores), and not slowly.
 export OMPI_ALLOW_RUN_AS_ROOT=1

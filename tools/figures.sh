@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-2-Clause
 # The report's Figs. 3-5: build nuno if needed, run the three scenes with the
 # paper and the energy bending models into runs/report/, write
 # runs/figures/fig{3,4,5}_*.png (--outdir docs/figures to update the tracked

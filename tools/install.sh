@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-2-Clause
 # Install what nuno needs on Debian 12: compilers, Open MPI, PETSc 3.18,
 # parallel HDF5, ParaView's Python for the XDMF test (apt) and the Python
 # packages of postprocess/ and the tests (pip). Idempotent; prints nothing on

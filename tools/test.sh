@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: BSD-2-Clause
 # The whole test suite: install (idempotent), build, then every CTest test
 # (Fortran unit tests, MPI tests on 1 and 3 ranks, pytest suites that run
 # the program on 1-4 ranks).

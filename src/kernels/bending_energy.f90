@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Energy-based bending on one triple (p, q, r) centred on q, packed as
 !> x9 = [x_p; x_q; x_r] (docs/model.md section 3 'energy'). With the edges
 !> e1 = x_q - x_p, e2 = x_r - x_q the curvature binormal is

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> The report's bending force (eqs. (2)-(3), docs/model.md section 3 'paper') on
 !> one triple (p, q, r) centred on q, packed as x9 = [x_p; x_q; x_r].
 !> With u = x_p - x_q, w = x_r - x_q, c = cos(theta) = -u_hat.w_hat and

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> The inner solve's initial guess at the first Newton iteration of a step
 !> (-nuno_inner_guess; docs/design.md, "The inner initial guess"). Plain
 !> numbers in and out: unit-tested alone (tests/unit/test_inner_guess.f90).

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> One-dimensional weights of the multigrid's cubic interpolation (module
 !> reduced builds the 2-D tensor product from them). Vertex-centred 2:1
 !> coarsening: fine point f lies on coarse point f/2 when f is even, and

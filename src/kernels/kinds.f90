@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Real kind of the whole program: double precision, the same as PETSc's
 !> PetscReal in the Debian build (checked at start-up by the solver).
 module kinds

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Kernels of nuno's structured multigrid (module stencil_mg): a level's
 !> operator on a strip of lattice rows stored by stencil offset, its
 !> smoother, residual, Galerkin coarse operator and the transfers between

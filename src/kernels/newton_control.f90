@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> When a Newton solve of a time step has converged at the round-off floor
 !> of its residual: one rule for both Newton steps, the reduced 3-dof
 !> elimination and the assembled 6-dof Jacobian (module timestepping's

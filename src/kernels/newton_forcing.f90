@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> The inner tolerance of an inexact Newton step that does no more work than
 !> the step needs (docs/design.md, "Newton"). Plain numbers in and out: the
 !> policy is unit-tested alone (tests/unit/test_newton_forcing.f90).

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> S stored by stencil offset, nodes fastest, in double precision: the
 !> layout the assembly writes (module reduced_assembly), the product
 !> y = S x the Krylov method uses (module reduced), and what the

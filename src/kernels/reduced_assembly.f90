@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Direct assembly of the reduced matrix S = a M - C - K/a, element by
 !> element (no PETSc, no MPI), through three entry points over one element
 !> loop (assemble_rows): assemble_csr into the CSR arrays of an AIJ matrix,

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Voigt element (spring + dashpot in parallel) on one link p-q: force,
 !> Jacobian blocks, energy and dissipated power (docs/model.md section 2).
 !> Only the force on p is returned: the force on q is its negative, and the

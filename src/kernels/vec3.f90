@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Small 3-vector helpers shared by the scene set-up and the diagnostics.
 module vec3
   use kinds, only: rp

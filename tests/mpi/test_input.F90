@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Tests of module input: defaults and scene defaults, overrides, the energy
 !> k_b conversion, the files in input/, and bad inputs that must fail on every
 !> rank with a message naming the key. Run on 1 and 3 ranks.

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> The key table (module input_keys) against the namelist reader (module
 !> input), so that the two cannot drift apart:
 !> - each group the reader reads names exactly the table's keys of that

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> MPI test of the parallel HDF5 output: strips of rows as a DMDA would give
 !> them, known values written collectively, read back on rank 0 with the
 !> serial HDF5 API (shapes, values, attributes, the XDMF views). Three files:

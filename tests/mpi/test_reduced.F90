@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> MPI test of the reduced solve (module reduced) on a deformed, moving
 !> lattice with constrained nodes, for springs alone, energy bending with
 !> bending damping, and paper bending:

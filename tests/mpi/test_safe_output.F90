@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> MPI test of the safe output files of module output (input/README.md,
 !> "Output files"), below the solver: an earlier file keeps its bytes while
 !> a new file has only its step-0 record, and after a close as 'failed';

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> MPI test of nuno's structured multigrid (module stencil_mg) on a stiff
 !> model of the reduced system: per component a biharmonic (bending,
 !> 1e4) plus a Laplacian (stretching, 1e2) plus a small non-symmetric

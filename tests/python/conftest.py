@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Fixtures for the post-processing tests: synthetic nuno files and a real run.
 
 make_run writes a file with exactly the layout of docs/model.md section 9 and known

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Run the real nuno program from a test: write a namelist, launch it under
 mpiexec on N ranks with a time bound, and read the result through the users'
 reader (postprocess.reader)."""

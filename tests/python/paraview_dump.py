@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Load XDMF files with one of ParaView's readers and dump what it loaded.
 
 Run by test_xdmf.py under ParaView's own Python (pvpython, or Debian's

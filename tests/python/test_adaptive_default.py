@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """The default integrator of adaptive runs (issue 10 item 6): with only
 -ts_adapt_type basic, a run uses the method that won the work-precision
 measurement at moderate tolerance (docs/workprecision.md, "The default of

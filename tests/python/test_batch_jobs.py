@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Batch jobs as users run them (issue 9): PETSc options that are honoured
 or refused, the fixed step after a retry, the progress line, and the
 provenance recorded in the output file. Each test checks against values

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """The tools leave the repository as it was (issue 38 item 8): after
 tools/figures.sh --quick, a default nuno-sweep and the plotting scripts run
 from the repository root, git status is unchanged and the tracked figures

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Deformation control (&control, docs/identification.md): the exact
 gradient with respect to the keyframe positions against central differences
 of the objective, a target made by nuno from known keyframes recovered from

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """The documents' relative links resolve: every [text](target) and
 ![alt](target) in README.md, CHANGELOG.md, docs/*.md and the READMEs of
 input/, postprocess/ and bench/ names a file of the repository, and an

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """The energy balance closes at the integrator's order (issue 10 item 2):
 the dissipated energy and the constraint work are integrated over each step
 with Gauss-Legendre points on the integrator's own interpolant (beuler,

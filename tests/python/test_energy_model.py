@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """The energy bending model (docs/model.md sections 3 and 8) on free cloths, through
 the real program: conservation laws, the order of the energy balance, the
 return to flat, and the matrix-free exact operator.

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """nuno on a shared file system (issue 37): it creates, replaces and
 removes only what it made itself, never through a symbolic link; names it
 cannot write safely are refused with one line; a failed start leaves

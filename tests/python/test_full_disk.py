@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """A disk that fills up (issue 8 item 6): at start-up or in mid-run, the run
 ends collectively within seconds with one line naming the file and the
 cause, exit 1 on every rank, and the file keeps every output step it

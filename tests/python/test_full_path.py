@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """The 6-dof Newton step (-nuno_jacobian full) converges where the reduced
 one does, with its own defaults (line search bt): both take the round-off
 floor rule of module newton_control, the floor estimated from the

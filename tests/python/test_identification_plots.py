@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """postprocess.control_plot and postprocess.identify_plot (docs/identification.md
 figures) and the reader's /control and /identify groups, on synthetic files
 (conftest.make_run) with made-up /control and /identify groups of known

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Identification (&identify, docs/identification.md): exact gradients by
 TSAdjoint against central differences of the objective, recovery of known
 parameters from an observation nuno made itself, and the input errors."""

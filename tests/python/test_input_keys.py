@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """input/README.md's key tables against the key table of the program
 (src/input_keys.f90, printed by `nuno --list-keys`): every key documented
 once, in its group's section, with the same type, unit and default, and no

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Messages of a program that reads like one (issue 38 item 6, issue 37 item
 14): a value not of its key's type names the key and the type, an unquoted
 string gets the hint to quote it, a key given twice in the file is refused,

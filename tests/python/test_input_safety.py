@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Input that cannot be mistaken and output files that cannot be lost (issue 8
 items 1 and 4, issue 9 item 5), on 3 ranks under a time bound.
 

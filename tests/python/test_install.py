@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Installation: `cmake --install` gives a working program and the scenes;
 `pip install .` gives the post-processing package and its commands, usable
 from any directory (issue 9, item 8)."""

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Memory over many output steps (issue 37 item 12): a run's resident set
 must not grow with the number of output steps written. Parallel HDF5 1.10.8
 kept about 10-20 kB a rank for every object created in the output file

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """The start-up memory check must never refuse a run that fits: its bytes a
 node (src/input_limits.f90, quoted by --help) must stay below what a real
 run takes. Measured here: the peak resident set of one-rank runs of the

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """The Newton start of backward Euler (-nuno_newton_start,
 src/nuno_newton_start.c; issue 7, the nineteenth round): auto starts
 Newton at fixed steps from the polynomial through the last accepted states

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Newton tied to the time integrator's tolerances (issue 10 item 1, issue 8
 item 6): tight adaptive runs complete, and the test that lets them complete
 does not accept unsolved steps. Independent expectations: completion where

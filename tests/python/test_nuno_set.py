@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """-nuno_set: namelist keys from the command line (issue 9 item 1). The
 override changes the run exactly as the same key in the file would, is
 validated with the file's messages, and is recorded in the output."""

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Tests of postprocess/: the reader and each script.
 
 Files come from the make_run writer (conftest.py; known analytic content) and,

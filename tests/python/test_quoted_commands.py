@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Every nuno command line quoted in the docs runs as written (issue 38).
 
 The quoted lines are read from README.md, input/README.md,

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """postprocess.report_figures on tiny runs (--quick: 7 x 7, dt 5 ms, short t_end).
 
 Runs the real program (NUNO_EXE, set by CTest; skipped without it) on all six

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Checkpoint and restart (issue 8 item 2): a run continued from a checkpoint
 with -nuno_restart must equal the run that went through, bitwise for
 fixed-step backward Euler on the same ranks, to solver tolerance for

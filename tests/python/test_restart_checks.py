@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Restarts that are what they say (issue 37 items 5, 7, 9, 14).
 
 - A restart with the default options repeats the run it continues bit for

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """bench/scipy_cloth.py --lu nopivot (SuperLU with the diagonal pivots, the
 careful SciPy baseline of docs/workprecision.md) solves the same problem as
 solve_ivp's own factorisation: the same steps and the same final state, on

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """SIGTERM and SIGINT, what batch schedulers send before SIGKILL (issue 8
 item 3): every rank finishes the step it is in, the last state is written,
 the file says 'interrupted: ...' (that word first), and the run exits

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """tools/slurm/nuno.sbatch, the example batch job (issue 38 item 4), run as
 plain bash under stub sbatch/srun/scontrol commands on PATH: the first job
 checkpoints by wall clock (-nuno_checkpoint_walltime), SIGTERM from Slurm is

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Bad input: one clear line naming the key and the value, a non-zero exit
 on every rank, no hang, and no output file that looks like a result.
 Everything runs on 3 ranks under a time bound."""

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Order of accuracy against an exact solution. With spring_model='linear'
 and no bending the cloth is a linear system M xddot + C xdot + K (x - X) = 0
 (docs/model.md section 2). The test builds K and C itself from the links of the

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """The integrator stops exactly at keyframe, release and output times,
 whatever the step size or adaptivity (docs/model.md sections 4 and 5), and the
 energy balance closes with the work of a prescribed node (wave_point)."""

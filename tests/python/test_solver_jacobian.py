@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """The assembled Jacobian against PETSc's finite-difference Jacobian
 (-snes_test_jacobian), on deformed, flat and moving states, for each force
 model. A large step makes the shift a = 1/dt small, so that the force

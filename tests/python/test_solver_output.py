@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """The output file has every dataset and attribute of docs/model.md section 9 with
 the right shapes, the XDMF sidecar parses and points at existing datasets,
 and a failed run leaves a file marked as failed with the steps so far."""

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """The same scene on 1, 2, 3 and 4 ranks gives the same positions (docs/model.md
 section 6): a strip decomposition must change nothing but reduction order.
 The linear solves are exact (MUMPS LU) so that a preconditioner that

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """The reduced 3-dof solve (the default, module reduced) against the full
 6-dof assembled Jacobian (-nuno_jacobian full): with exact linear solves and
 tight Newton tolerances both must give the same trajectory on every scene of

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """A bending triple folded back to theta = pi (docs/model.md section 3) stops the
 run with a clear message on every rank, never a NaN in the output: a
 3-node-wide arc bent by 359.9999 degrees has its middle triple at

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """A run far outside the model's regime says so (issue 8 item 6): when a
 link is stretched or compressed beyond stretch_limit (&output, default 5)
 times its rest length, one warning names the time, the link and the

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Studies in one command and paper-ready figures (issue 38 items 4, 5, 8):
 nuno-sweep (naming, -nuno_set lines, batch scripts, a real refinement),
 compare/timeseries over N runs labelled by a swept key, workprecision from

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """Tolerances that mean something (issue 10 item 3): per-field absolute
 tolerances of adaptive steps (positions in the length unit, velocities in
 length/time), as used, in the start-up line and in /run; the documented

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """wave_point with wave_nodes = 'edge': every node of edge i = 0 follows the
 keyframe path (z to -10 at t = 0.5, +15 at t = 1.0), so the wave travels
 along +x; a bad value of the key is rejected."""

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: BSD-2-Clause
 """The XDMF sidecar opens in every one of ParaView's XDMF readers: loaded with
 each, every output step has the lattice's points and the point arrays
 velocity (when written), rest_position and mass, equal to the HDF5 file's

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Minimal assertion helpers for the Fortran unit-test programs.
 !> Each check prints one line on failure and counts it; check_report prints
 !> 'N passed, N failed' and stops with a non-zero code if anything failed.

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Unit tests of the energy bending kernels (module bending_energy): forces
 !> against finite differences of the energy and of the Rayleigh function,
 !> exact K9 and C9 against finite differences of the forces (flat to large

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Unit tests of the paper bending kernels (module bending_paper): size,
 !> direction and plane of the end forces against a triple built from a known
 !> angle, straightening, the exact Jacobian against central finite

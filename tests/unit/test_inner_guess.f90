@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Unit test of the inner initial guess (module inner_guess): for a rate
 !> linear in time, r(t) = r0 + q t, and steps of changing size whose first
 !> corrections are dv_n = r(t_n) dt_n^p (p = 1: the velocity change of a

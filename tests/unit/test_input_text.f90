@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Unit tests of module input_text without MPI or PETSc: the -nuno_set lexer
 !> (commas or blanks between keys, several options in order, empty values,
 !> '/', unknown keys, keys given twice), the check of a value against its

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Unit test of the multigrid's cubic interpolation weights (module
 !> interpolation): on every coarse size, every fine point reproduces a cubic
 !> polynomial sampled on the coarse points exactly (to round-off), ends

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Unit test of the structured multigrid's kernels (module mg_kernels)
 !> against dense matrices built independently from the same blocks:
 !>  - the difference form reproduces A x (random blocks, zero row sums plus

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Unit test of the round-off floor rule (module newton_control):
 !>  - the floor estimate is eps max|x| sqrt(sum (K_ii/m)^2 + 3 a^2) over the
 !>    free nodes, worked out by hand for two nodes;

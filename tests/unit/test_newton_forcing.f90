@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Unit test of the inexact-Newton policy (module newton_forcing) on a
 !> scalar problem whose Newton remainder is known exactly:
 !> F(u) = u + q u^2 has Newton step du = F/(1 + 2 q u), and after an exact

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Unit test of the product with S stored by stencil offset (module
 !> offset_product) against a dense matrix built from the same random
 !> blocks: reach 1 and 2, a strip of owned rows in the middle of the

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Unit test of the direct assembly of S = a M - C - K/a (module
 !> reduced_assembly: assemble_csr, assemble_stencil, kc_products) against
 !> the element-buffer path of module reduced_blocks (forces' scalar

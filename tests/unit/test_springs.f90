@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Unit tests of the Voigt link kernels (module springs): hand-computed
 !> forces, action = reaction, Jacobians against central finite differences of
 !> the force, energy against the force, power against the damping force;

@@ -1,3 +1,4 @@
+! SPDX-License-Identifier: BSD-2-Clause
 !> Unit test of module strings: the texts are spelled out here (what a
 !> reader of a message, attribute or sidecar sees), and real_g0 must read
 !> back as the same double, the shortest such text.
