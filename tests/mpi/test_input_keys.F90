@@ -15,7 +15,7 @@ program test_input_keys
   use input, only: input_parse, input_namelist_dump
   use input_keys, only: keys, n_keys, key_index, group_names, n_groups, KEY_INTEGER, KEY_REAL, KEY_LOGICAL, &
                         KEY_STRING
-  use input_text, only: value_error, lower
+  use input_text, only: lower, key_default
   use check, only: check_true, check_report
   implicit none
   integer :: mpierr, k, g, s, n_checked
@@ -44,7 +44,7 @@ program test_input_keys
     do k = 1, n_keys
       if (trim(keys(k)%name) == 'scene') cycle
       if (trim(keys(k)%group) == 'control' .and. trim(scenes(s)) /= 'wave_point') cycle
-      v = scene_default(k, trim(scenes(s)))
+      v = key_default(k, trim(scenes(s)))
       if (len(v) == 0) cycle
       call input_parse(input_with(k, trim(scenes(s)), ''), cfg0, ierr, msg)
       call check_true(ierr == 0, 'base input parses: '//trim(msg))
@@ -162,39 +162,6 @@ contains
       end if
     end do
   end subroutine value_shape
-
-  !> The table's default of key k in scene `scene` when it is a value in
-  !> namelist syntax ('' when it is a description such as "(required)").
-  function scene_default(k, scene) result(v)
-    integer, intent(in) :: k
-    character(*), intent(in) :: scene
-    character(:), allocatable :: v, d, part
-    integer :: p, q, b
-    d = trim(keys(k)%default)
-    p = index(d, '; ')
-    if (p == 0) p = len(d) + 1
-    v = d(1:p - 1)
-    do while (p <= len(d))
-      q = index(d(p + 2:), '; ')
-      if (q == 0) then
-        q = len(d) + 1
-      else
-        q = p + 1 + q
-      end if
-      part = d(p + 2:q - 1)
-      b = index(part, ' ')
-      if (b > 0) then
-        if (part(1:b - 1) == scene) v = part(b + 1:)
-      end if
-      p = q
-    end do
-    b = index(v, '<scene>')
-    if (b > 0) v = v(1:b - 1)//scene//v(b + 7:)
-    if (len(v) >= 2) then
-      if (v(1:1) == '(' .and. v(len(v):len(v)) == ')') v = v(2:len(v) - 1)
-    end if
-    if (len(value_error(trim(keys(k)%name), v)) > 0) v = ''
-  end function scene_default
 
   !> An input of scene `scene` with the assignment `a` in key k's group,
   !> and what key k's group needs to be valid (&identify: an observed file

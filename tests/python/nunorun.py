@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import f90nml
+import h5py
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -91,6 +92,19 @@ def start_running(tmp_path, name, nranks=2, lines=3, **groups):
 def run_and_read(tmp_path, name, **kw):
     proc, h5 = run(tmp_path, name, **kw)
     return proc, read_run(str(h5))
+
+
+# The series a restart must continue bit for bit (restart tests).
+SERIES = ["time", "position", "velocity", "energy/kinetic", "energy/stretch", "energy/bend",
+          "energy/dissipated", "energy/external_work", "diagnostics/momentum", "diagnostics/steps",
+          "diagnostics/rejected_steps", "diagnostics/newton_iterations", "diagnostics/linear_iterations"]
+
+
+def series(h5):
+    """The stored output steps of SERIES in h5, and the file's status."""
+    with h5py.File(h5, "r") as f:
+        n = int(f.attrs["n_output_steps"])
+        return {k: f[k][:n] for k in SERIES if k in f}, f.attrs["status"].decode()
 
 
 def jacobian_ratios(text):

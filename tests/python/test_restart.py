@@ -19,21 +19,10 @@ import h5py
 import numpy as np
 import pytest
 
-from nunorun import run, start_running
+from nunorun import SERIES, run, series, start_running
 
 HANG = dict(scene="scene='hang'", lattice="nx=9 ny=7", time="t_end=0.2 dt=0.005",
             output="output_interval=0.05 write_velocity=.true.")
-SERIES = ["time", "position", "velocity", "energy/kinetic", "energy/stretch", "energy/bend",
-          "energy/dissipated", "energy/external_work", "diagnostics/momentum", "diagnostics/steps",
-          "diagnostics/rejected_steps", "diagnostics/newton_iterations", "diagnostics/linear_iterations"]
-
-
-def series(h5):
-    with h5py.File(h5, "r") as f:
-        n = int(f.attrs["n_output_steps"])
-        return {k: f[k][:n] for k in SERIES if k in f}, f.attrs["status"].decode()
-
-
 def restart(tmp_path, name, h5, nranks=2, options=(), check=True, **groups):
     """Run the input `name` again with -nuno_restart h5."""
     return run(tmp_path, name, nranks=nranks, options=["-nuno_restart", str(h5), *options], check=check, **groups)

@@ -25,18 +25,7 @@ import h5py
 import numpy as np
 import pytest
 
-from nunorun import exe, mpiexec, namelist, run
-
-SERIES = ["time", "position", "velocity", "energy/kinetic", "energy/stretch", "energy/bend",
-          "energy/dissipated", "energy/external_work", "diagnostics/momentum", "diagnostics/steps",
-          "diagnostics/rejected_steps", "diagnostics/newton_iterations", "diagnostics/linear_iterations"]
-
-
-def series(h5):
-    with h5py.File(h5, "r") as f:
-        n = int(f.attrs["n_output_steps"])
-        return {k: f[k][:n] for k in SERIES if k in f}, f.attrs["status"].decode()
-
+from nunorun import SERIES, exe, mpiexec, namelist, run, series
 
 def checkpoints(h5):
     with h5py.File(h5, "r") as f:
