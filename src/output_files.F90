@@ -464,6 +464,7 @@ contains
     do i = d_steps, d_linear_iterations
       if (ierr == 0) call create_series(out, i, [integer(hsize_t) ::], [scalar_chunk], H5T_STD_I64LE, ierr, errmsg)
     end do
+    call netcdf_dims(out, ierr, errmsg)
     if (ierr /= 0) return
 
     call h5fflush_f(out%file, H5F_SCOPE_GLOBAL_F, h)
@@ -496,22 +497,14 @@ contains
     end if
   end subroutine close_ids
 
-  !> run.h5 -> run.xmf beside it; the sidecar names the h5 file by its base name.
+  !> run.h5 -> run.xdmf beside it (safe_files' sidecar_path); the sidecar names the h5 file by its base name.
   module subroutine sidecar_names(filename, xmf_path, h5_base)
     character(*), intent(in) :: filename
     character(len=:), allocatable, intent(out) :: xmf_path, h5_base
     integer :: n, slash
 
     n = len_trim(filename)
-    if (n >= 3) then
-      if (filename(n-2:n) == '.h5') then
-        xmf_path = filename(1:n-3)//'.xmf'
-      else
-        xmf_path = filename(1:n)//'.xmf'
-      end if
-    else
-      xmf_path = filename(1:n)//'.xmf'
-    end if
+    xmf_path = sidecar_path(filename(1:n))
     slash = index(filename(1:n), '/', back=.true.)
     h5_base = filename(slash+1:n)
   end subroutine sidecar_names

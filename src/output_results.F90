@@ -6,7 +6,7 @@ submodule (output) output_results
 contains
 
   !> The group /run (provenance: versions, git commit, solver as used, date,
-  !> host), the root attribute units, and the /wall_time series. Call once,
+  !> host), the root attribute units (and each dataset's), and the /wall_time series. Call once,
   !> after output_open and before the first output_write_step. Collective.
   module subroutine output_write_run_info(out, info, ierr, errmsg)
     type(output_file), intent(inout) :: out
@@ -66,6 +66,9 @@ contains
     end if
     if (ierr == 0 .and. out%dset(d_wall_time) < 0) &
       call create_series(out, d_wall_time, [integer(hsize_t) ::], [scalar_chunk], H5T_NATIVE_DOUBLE, ierr, errmsg)
+    ! /wall_time's axis, and those of a file continued from an earlier version.
+    call netcdf_dims(out, ierr, errmsg)
+    call write_units(out, trim(info%units), ierr, errmsg)
     if (ierr == 0) then
       call h5fflush_f(out%file, H5F_SCOPE_GLOBAL_F, h)
       if (h < 0) call fail('h5fflush_f', '/', ierr, errmsg)

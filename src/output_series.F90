@@ -129,7 +129,7 @@ contains
 
     nx = out%nx; ny = out%ny
     call open_or_create_group(out%file, '/xdmf', grp, ierr, errmsg)
-    if (ierr == 0) call set_attr_str(grp, 'description', 'views for the XDMF sidecar NAME.xmf: '// &
+    if (ierr == 0) call set_attr_str(grp, 'description', 'views for the XDMF sidecar NAME.xdmf: '// &
       'HDF5 virtual datasets (no data of their own) of /lattice and of step k of /position and /velocity, '// &
       'shaped [1][ny][nx](3); only the first n_output_steps steps are complete', '/xdmf', ierr, errmsg)
     call close_group(grp, '/xdmf', ierr, errmsg)
