@@ -17,6 +17,10 @@ and 2 ranks, 5 output steps; lift_release 7 x 5 for the other unit system.
 pyvista, xarray and h5netcdf come from PyPI (tools/install.sh); a test
 is skipped, saying which, only when one is not installed.
 """
+import subprocess
+import sys
+from pathlib import Path
+
 import h5py
 import numpy as np
 import pytest
@@ -134,3 +138,24 @@ def test_xarray_names_no_phony_dimension(hang):
                              ("diagnostics/momentum", ["time", "xyz"]), ("energy/bend", ["time"])):
             got = [f[name].dims[a][0].name.lstrip("/") for a in range(f[name].ndim)]
             assert got == labels, (name, got)
+
+
+def test_the_docs_python_block_runs(hang):
+    """postprocess/README.md's "pyvista and xarray" block, as written, on a
+    run named hang.h5, in its directory."""
+    need("pyvista")
+    need("xarray")
+    need("h5netcdf")
+    text = (Path(__file__).resolve().parents[2] / "postprocess" / "README.md").read_text()
+    section = text.split("\n## pyvista and xarray\n", 1)[1].split("\n## ", 1)[0]
+    block = section.split("```python\n", 1)[1].split("```", 1)[0]
+    assert "hang.xdmf" in block and 'engine="h5netcdf"' in block
+    proc = subprocess.run([sys.executable, "-c", block], cwd=hang.parent, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    lines = proc.stdout.split("\n")
+    assert lines[0] == f"({NX * NY}, 3)"                       # velocity of the last step, a vector per point
+    with h5py.File(hang, "r") as f:
+        nt = int(f.attrs["n_output_steps"])
+        zmean = f["position"][:nt, :, :, 2].min(axis=0).mean()
+        assert lines[1] == f"{zmean} m"
+        assert lines[2] == f"{float(f['energy/kinetic'][nt - 1])} J"
