@@ -371,3 +371,28 @@ def test_overwrite_option_is_in_help(tmp_path):
     proc = launch(tmp_path, ["ok.nml", "-help"], nranks=1)
     assert proc.returncode == 0, proc.stderr
     assert "-nuno_overwrite: <FALSE" in proc.stdout
+
+
+# --------------------------------------------------------------------------
+# The sidecar's name: OUTPUT.xdmf (OUTPUT.xmf in earlier versions)
+
+def test_a_user_file_named_like_the_sidecar_is_never_replaced(tmp_path):
+    (tmp_path / "out.xdmf").write_text("<notes>a user's file named out.xdmf</notes>\n")
+    (tmp_path / "out.nml").write_text(SMALL + "&output output_file='out.h5' /\n")
+    before = snapshot(tmp_path)
+    line = one_error_line(launch(tmp_path, ["out.nml"], nranks=3))
+    assert "out.xdmf" in line and "not an XDMF sidecar written by nuno" in line, line
+    assert snapshot(tmp_path) == before
+
+
+def test_the_sidecar_of_an_earlier_version_is_left_alone(tmp_path):
+    """out.xmf (as an earlier version named the sidecar; here a link to
+    the user's file) is neither written nor removed: the run writes out.xdmf."""
+    (tmp_path / "precious.dat").write_bytes(b"the user's data\n" * 100)
+    (tmp_path / "out.xmf").symlink_to("precious.dat")
+    before = snapshot(tmp_path)
+    h5 = complete_run(tmp_path)
+    after = snapshot(tmp_path)
+    assert_untouched(before, after)
+    assert set(after) - set(before) == {"out.nml", "out.h5", "out.xdmf"}
+    assert h5.name + ":" in (tmp_path / "out.xdmf").read_text()
