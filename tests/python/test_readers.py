@@ -159,3 +159,30 @@ def test_the_docs_python_block_runs(hang):
         zmean = f["position"][:nt, :, :, 2].min(axis=0).mean()
         assert lines[1] == f"{zmean} m"
         assert lines[2] == f"{float(f['energy/kinetic'][nt - 1])} J"
+
+
+def test_a_restart_adds_the_scales_to_a_file_of_an_earlier_version(tmp_path):
+    """A file without dimension scales and units (as versions before them
+    wrote it), continued by -nuno_restart on 2 ranks, opens in xarray with
+    named dimensions, its old and new steps alike."""
+    xr = need("xarray")
+    need("h5netcdf")
+    proc, h5 = run(tmp_path, "old", nranks=2, **HANG)
+    with h5py.File(h5, "r+") as f:
+        def strip(name, obj):
+            if isinstance(obj, h5py.Dataset):
+                for a in ("DIMENSION_LIST", "REFERENCE_LIST", "CLASS", "NAME", "units"):
+                    if a in obj.attrs:
+                        del obj.attrs[a]
+        f.visititems(strip)
+        for name in ("j", "i", "xyz"):
+            del f[name]
+    with xr.open_dataset(h5, engine="h5netcdf", phony_dims="sort") as ds:
+        assert any(d.startswith("phony_dim") for d in ds.sizes)        # the old layout
+    proc, _ = run(tmp_path, "old", nranks=2, options=["-nuno_restart", str(h5), "-nuno_set", "t_end=0.06"], **HANG)
+    with xr.open_dataset(h5, engine="h5netcdf") as ds, h5py.File(h5, "r") as f:
+        nt = int(f.attrs["n_output_steps"])
+        assert nt == 7 and dict(ds.sizes) == {"time": nt, "j": NY, "i": NX, "xyz": 3}
+        np.testing.assert_array_equal(ds.time.values, f["time"][:nt])
+        np.testing.assert_array_equal(ds.position.values, f["position"][:nt])
+        assert ds.position.attrs["units"] == "m" and ds.time.attrs["units"] == "s"
