@@ -27,10 +27,7 @@ contains
   !> Scales and their attachments, made where missing (idempotent: the open,
   !> output_write_run_info's /wall_time, a restart). Collective: every rank
   !> makes the same metadata calls.
-  module subroutine netcdf_dims(out, ierr, errmsg)
-    type(output_file), intent(inout) :: out
-    integer, intent(inout) :: ierr
-    character(*), intent(inout) :: errmsg
+  module procedure netcdf_dims
     integer(hid_t) :: sj, si, sxyz, lat
     integer :: k, h
     logical :: is_scale
@@ -152,16 +149,12 @@ contains
       call h5dsattach_scale_f(dset, scale, idx, h)
       if (h < 0) call fail('h5dsattach_scale_f', name, ierr, errmsg)
     end subroutine attach
-  end subroutine netcdf_dims
+  end procedure netcdf_dims
 
   !> The attribute `units` of every series and of /lattice, in the scene's
   !> unit system ('SI' or 'mm g s'; another value: none written), as UDUNITS
   !> strings. Collective.
-  module subroutine write_units(out, system, ierr, errmsg)
-    type(output_file), intent(inout) :: out
-    character(*), intent(in) :: system
-    integer, intent(inout) :: ierr
-    character(*), intent(inout) :: errmsg
+  module procedure write_units
     character(len=16) :: length, velocity, mass, energy, momentum, angular
     integer(hid_t) :: lat
     integer :: k, h
@@ -216,6 +209,6 @@ contains
       character(*), intent(in) :: value
       call set_attr_str(dset, 'units', trim(value), trim(dset_names(k)), ierr, errmsg)
     end subroutine put
-  end subroutine write_units
+  end procedure write_units
 
 end submodule output_dims

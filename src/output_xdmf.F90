@@ -29,10 +29,7 @@ contains
   ! one line "Skipping unrecognized array type [None]" per step and load
   ! everything else; Calculator "coords - rest_position" gives it there.
   ! No view is needed by the Function's operand rest_position (read whole).
-  module subroutine write_xdmf(out, ierr, errmsg)
-    type(output_file), intent(in) :: out
-    integer, intent(inout) :: ierr
-    character(*), intent(inout) :: errmsg
+  module procedure write_xdmf
     integer :: u, k, nbuf
     logical :: good
     character(len=256) :: iom
@@ -118,7 +115,7 @@ contains
       character(*), intent(in) :: indent, dims, path
       call put(indent//'<DataItem Dimensions="'//dims//'" '//f8//' Format="HDF">'//h5//':'//path//'</DataItem>')
     end subroutine item
-  end subroutine write_xdmf
+  end procedure write_xdmf
 
 
   !> s with the characters that XML text and attribute values cannot hold escaped.
