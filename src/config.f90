@@ -76,7 +76,7 @@ module config
     real(rp) :: output_interval = 0.1_rp  !< [time]
     real(rp) :: checkpoint_interval = 0.0_rp  !< checkpoint at the first output step this long after the last; 0: at the end only [time]
     real(rp) :: stretch_limit = 5.0_rp    !< warn once when a link's l/L leaves [1/limit, limit]; 0: never [1]
-    logical :: write_velocity = .false.
+    logical :: write_velocity = .true.    !< also store /velocity: ParaView's colouring and energy checks use it
     character(path_len) :: output_file = 'nuno.h5'
     character(1024) :: petsc_options = '' !< PETSc options; the command line overrides them
     ! &identify (docs/identification.md): present = an identification run

@@ -102,7 +102,8 @@ module input_keys
     ! &output
     key_info('output_interval', 'output', KEY_REAL, 1, 'time', '0.02; hang 0.05; flat 0.1', '> 0', &
              'time between stored states'), &
-    key_info('write_velocity', 'output', KEY_LOGICAL, 1, '', '.false.', '', 'also store /velocity'), &
+    key_info('write_velocity', 'output', KEY_LOGICAL, 1, '', '.true.', '', &
+             'also store /velocity (.false. halves the output)'), &
     key_info('output_file', 'output', KEY_STRING, 1, '', "'<scene>.h5'", 'not empty', &
              'HDF5 file (an XDMF file beside it)'), &
     key_info('petsc_options', 'output', KEY_STRING, 1, '', "''", '', &

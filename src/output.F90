@@ -39,7 +39,7 @@ module output
   use checkpoint_check, only: checkpoint_t, checkpoint_refusal, scene_refusal
   use safe_files, only: lock_acquire, lock_release, same_file, file_exists, rename_file, free_bytes, &
                         path_kind, kind_none, kind_file, kind_link, kind_dir, kind_unknown, remove_file, &
-                        is_nuno_output, is_nuno_sidecar, tmp_open, tmp_write, tmp_commit, cleanup_add, &
+                        is_nuno_output, is_nuno_sidecar, sidecar_path, tmp_open, tmp_write, tmp_commit, cleanup_add, &
                         cleanup_drop, cleanup_file
   use output_h5
   use strings, only: itoa, real_es
@@ -156,7 +156,8 @@ module output
   ! The procedures, by concern, in submodules: output_files (lifecycle and the
   ! safety rules), output_series (lattice, time series and views),
   ! output_results (run info, config, identify, control), output_checkpoint
-  ! (checkpoint write, reopen, read) and output_xdmf (the sidecar).
+  ! (checkpoint write, reopen, read), output_xdmf (the sidecar) and
+  ! output_dims (dimension scales and units for netCDF-4 readers).
   interface
     module subroutine output_open(out, filename, comm, nx, ny, ys, ym, rest, mass, write_velocity, &
                            attrs_namelist, attrs_petsc_options, ierr, errmsg, version, protect, overwrite)
@@ -387,6 +388,19 @@ module output
       integer, intent(inout) :: ierr
       character(*), intent(inout) :: errmsg
     end subroutine flush_file
+
+    module subroutine netcdf_dims(out, ierr, errmsg)
+      type(output_file), intent(inout) :: out
+      integer, intent(inout) :: ierr
+      character(*), intent(inout) :: errmsg
+    end subroutine netcdf_dims
+
+    module subroutine write_units(out, system, ierr, errmsg)
+      type(output_file), intent(inout) :: out
+      character(*), intent(in) :: system
+      integer, intent(inout) :: ierr
+      character(*), intent(inout) :: errmsg
+    end subroutine write_units
 
     module subroutine write_xdmf(out, ierr, errmsg)
       type(output_file), intent(in) :: out

@@ -9,21 +9,7 @@ contains
 
   !> Lock the file, create `<filename>.partial` (an earlier `filename` is left
   !> alone), write root attributes and the lattice, create the time series. Collective.
-  module subroutine output_open(out, filename, comm, nx, ny, ys, ym, rest, mass, write_velocity, &
-                         attrs_namelist, attrs_petsc_options, ierr, errmsg, version, protect, overwrite)
-    type(output_file), intent(inout) :: out
-    character(*), intent(in) :: filename
-    integer, intent(in) :: comm                 ! MPI communicator of the run
-    integer, intent(in) :: nx, ny, ys, ym       ! lattice size, first row and row count here
-    real(rp), intent(in) :: rest(:, :, :)       ! (3, 0:nx-1, ys:ys+ym-1)
-    real(rp), intent(in) :: mass(:, :)          ! (0:nx-1, ys:ys+ym-1)
-    logical, intent(in) :: write_velocity
-    character(*), intent(in) :: attrs_namelist, attrs_petsc_options
-    integer, intent(out) :: ierr
-    character(*), intent(out) :: errmsg
-    character(*), intent(in), optional :: version   ! default: the CMake project version
-    character(*), intent(in), optional :: protect   ! a file that must not be written (the input)
-    logical, intent(in), optional :: overwrite      ! -nuno_overwrite (default .false.)
+  module procedure output_open
     integer :: mpierr, rows
     logical :: made
     character(len=256) :: detail
@@ -108,16 +94,12 @@ contains
       end if
       if (out%rank == 0) call lock_release(out%lock_path, out%lock_fd)
     end if
-  end subroutine output_open
+  end procedure output_open
 
   !> Rank 0: refuse to write over `protect` (by any of the names this run
   !> writes), then take the lock. The lock file is made beside the output,
   !> so a missing or unwritable directory is reported here, with its cause.
-  module subroutine claim_files(out, ierr, errmsg, protect)
-    type(output_file), intent(inout) :: out
-    integer, intent(inout) :: ierr
-    character(*), intent(inout) :: errmsg
-    character(*), intent(in), optional :: protect
+  module procedure claim_files
     character(len=256) :: detail
     integer :: code
     logical :: stale, ok
@@ -209,15 +191,12 @@ contains
       errmsg = 'output: '//path//' (this run''s '//what//'): '//trim(why)// &
                '; nuno replaces only its own files, never through a link: move it away or choose another output_file'
     end subroutine own_or_free
-  end subroutine claim_files
+  end procedure claim_files
 
   !> Rename `<file>.partial` onto `<file>` (rank 0), then write the XDMF
   !> sidecar, which names `<file>`. Collective; from here on an earlier
   !> `<file>` is replaced, atomically.
-  module subroutine commit(out, ierr, errmsg)
-    type(output_file), intent(inout) :: out
-    integer, intent(inout) :: ierr
-    character(*), intent(inout) :: errmsg
+  module procedure commit
     character(len=256) :: detail
     logical :: ok
 
@@ -235,26 +214,20 @@ contains
     if (ierr /= 0) return
     out%committed = .true.
     if (out%rank == 0) call write_xdmf(out, ierr, errmsg)
-  end subroutine commit
+  end procedure commit
 
   !> Bytes of one output step in the file (the strips and a margin for the
   !> scalars and metadata).
-  real(rp) module function step_bytes(out)
-    type(output_file), intent(in) :: out
+  module procedure step_bytes
     step_bytes = 24.0_rp * out%nx * out%ny * merge(2, 1, out%write_velocity) + 65536.0_rp
-  end function step_bytes
+  end procedure step_bytes
 
   !> Refuse a write of about `bytes` before any HDF5 call when the file
   !> system does not have twice that free: a full disk found inside a
   !> collective HDF5 call fails on some ranks only, and parallel HDF5 1.10
   !> then leaves the others waiting (a hang). Rank 0 asks (statvfs), every
   !> rank gets the answer. Collective.
-  module subroutine check_space(out, bytes, what, ierr, errmsg)
-    type(output_file), intent(in) :: out
-    real(rp), intent(in) :: bytes
-    character(*), intent(in) :: what
-    integer, intent(inout) :: ierr
-    character(*), intent(inout) :: errmsg
+  module procedure check_space
     real(rp) :: free
     character(len=24) :: fb, nb
     character(len=:), allocatable :: path
@@ -273,14 +246,12 @@ contains
       end if
     end if
     call agree(out%comm, 'output', ierr, errmsg)
-  end subroutine check_space
+  end procedure check_space
 
   !> A failed write says nothing of its cause through HDF5: rank 0 adds
   !> what the file system says (a full disk, or free space: then quota,
   !> permissions or an I/O error), the same text on every rank. Collective.
-  module subroutine add_cause(out, errmsg)
-    type(output_file), intent(in) :: out
-    character(*), intent(inout) :: errmsg
+  module procedure add_cause
     real(rp) :: free
     character(len=32) :: buf
     integer :: mpierr
@@ -301,14 +272,10 @@ contains
       end if
     end if
     call MPI_Bcast(errmsg, len(errmsg), MPI_CHARACTER, 0, out%comm, mpierr)
-  end subroutine add_cause
+  end procedure add_cause
 
   !> Write the XDMF file, then the root attribute status (last), then close every id and the file. Collective.
-  module subroutine output_close(out, status, ierr, errmsg)
-    type(output_file), intent(inout) :: out
-    character(*), intent(in) :: status   ! 'complete' or 'failed: <reason>'
-    integer, intent(out) :: ierr
-    character(*), intent(out) :: errmsg
+  module procedure output_close
     integer :: e2, mpierr
     character(len=len(errmsg)) :: msg2
     logical :: keep
@@ -346,19 +313,12 @@ contains
     out%is_open = .false.
     if (out%rank == 0) call lock_release(out%lock_path, out%lock_fd)
     call agree(out%comm, 'output_close', ierr, errmsg)
-  end subroutine output_close
+  end procedure output_close
 
   ! ---------------------------------------------------------------------------
   ! Open: file, root attributes, lattice, time series.
 
-  module subroutine open_local(out, filename, rest, mass, namelist, petsc_options, ierr, errmsg, version)
-    type(output_file), intent(inout) :: out
-    character(*), intent(in) :: filename
-    real(rp), intent(in) :: rest(:, :, :), mass(:, :)
-    character(*), intent(in) :: namelist, petsc_options
-    integer, intent(inout) :: ierr
-    character(*), intent(inout) :: errmsg
-    character(*), intent(in), optional :: version
+  module procedure open_local
     integer(hid_t) :: fapl, grp
     integer :: h, i
     integer(hsize_t) :: chunk_rows
@@ -464,20 +424,18 @@ contains
     do i = d_steps, d_linear_iterations
       if (ierr == 0) call create_series(out, i, [integer(hsize_t) ::], [scalar_chunk], H5T_STD_I64LE, ierr, errmsg)
     end do
+    call netcdf_dims(out, ierr, errmsg)
     if (ierr /= 0) return
 
     call h5fflush_f(out%file, H5F_SCOPE_GLOBAL_F, h)
     if (h < 0) call fail('h5fflush_f', filename, ierr, errmsg)
-  end subroutine open_local
+  end procedure open_local
 
   ! ---------------------------------------------------------------------------
   ! Closing, errors, file names.
 
   !> Close every id that is open (datasets, transfer list, file); keeps the first error.
-  module subroutine close_ids(out, ierr, errmsg)
-    type(output_file), intent(inout) :: out
-    integer, intent(inout) :: ierr
-    character(*), intent(inout) :: errmsg
+  module procedure close_ids
     integer :: i, h
 
     do i = 1, n_dsets
@@ -494,35 +452,22 @@ contains
       if (h < 0) call fail('h5fclose_f', 'the output file', ierr, errmsg)
       out%file = -1
     end if
-  end subroutine close_ids
+  end procedure close_ids
 
-  !> run.h5 -> run.xmf beside it; the sidecar names the h5 file by its base name.
-  module subroutine sidecar_names(filename, xmf_path, h5_base)
-    character(*), intent(in) :: filename
-    character(len=:), allocatable, intent(out) :: xmf_path, h5_base
+  !> run.h5 -> run.xdmf beside it (safe_files' sidecar_path); the sidecar names the h5 file by its base name.
+  module procedure sidecar_names
     integer :: n, slash
 
     n = len_trim(filename)
-    if (n >= 3) then
-      if (filename(n-2:n) == '.h5') then
-        xmf_path = filename(1:n-3)//'.xmf'
-      else
-        xmf_path = filename(1:n)//'.xmf'
-      end if
-    else
-      xmf_path = filename(1:n)//'.xmf'
-    end if
+    xmf_path = sidecar_path(filename(1:n))
     slash = index(filename(1:n), '/', back=.true.)
     h5_base = filename(slash+1:n)
-  end subroutine sidecar_names
+  end procedure sidecar_names
 
-  module subroutine flush_file(out, ierr, errmsg)
-    type(output_file), intent(in) :: out
-    integer, intent(inout) :: ierr
-    character(*), intent(inout) :: errmsg
+  module procedure flush_file
     integer :: h
     call h5fflush_f(out%file, H5F_SCOPE_GLOBAL_F, h)
     if (h < 0) call fail('h5fflush_f', out%final_path, ierr, errmsg)
-  end subroutine flush_file
+  end procedure flush_file
 
 end submodule output_files

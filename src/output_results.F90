@@ -6,13 +6,9 @@ submodule (output) output_results
 contains
 
   !> The group /run (provenance: versions, git commit, solver as used, date,
-  !> host), the root attribute units, and the /wall_time series. Call once,
+  !> host), the root attribute units (and each dataset's), and the /wall_time series. Call once,
   !> after output_open and before the first output_write_step. Collective.
-  module subroutine output_write_run_info(out, info, ierr, errmsg)
-    type(output_file), intent(inout) :: out
-    type(run_info), intent(in) :: info
-    integer, intent(out) :: ierr
-    character(*), intent(out) :: errmsg
+  module procedure output_write_run_info
     ! git_commit: the build's commit (cmake/git_commit.cmake, rewritten at every build)
     include 'nuno_git_commit.inc'
     integer(hid_t) :: grp
@@ -66,23 +62,21 @@ contains
     end if
     if (ierr == 0 .and. out%dset(d_wall_time) < 0) &
       call create_series(out, d_wall_time, [integer(hsize_t) ::], [scalar_chunk], H5T_NATIVE_DOUBLE, ierr, errmsg)
+    ! /wall_time's axis, and those of a file continued from an earlier version.
+    call netcdf_dims(out, ierr, errmsg)
+    call write_units(out, trim(info%units), ierr, errmsg)
     if (ierr == 0) then
       call h5fflush_f(out%file, H5F_SCOPE_GLOBAL_F, h)
       if (h < 0) call fail('h5fflush_f', '/', ierr, errmsg)
     end if
     call agree(out%comm, 'output_write_run_info', ierr, errmsg)
-  end subroutine output_write_run_info
+  end procedure output_write_run_info
 
   !> /identify of an identification run (docs/identification.md): names
   !> [np] (strings), values, uncertainty, initial [np], objective (scalar),
   !> history [n_iterations][np+1] (objective, then the values, per TAO
   !> iteration). Small datasets: every rank writes the same values. Collective.
-  module subroutine output_write_identify(out, names, values, unc, initial, objective, hist, ierr, errmsg)
-    type(output_file), intent(inout) :: out
-    character(len=*), intent(in) :: names(:)
-    real(rp), intent(in) :: values(:), unc(:), initial(:), objective, hist(:, :)
-    integer, intent(out) :: ierr
-    character(*), intent(out) :: errmsg
+  module procedure output_write_identify
     integer(hid_t) :: grp, strtype, space, dset
     integer :: h
 
@@ -113,7 +107,7 @@ contains
     end if
     call close_and_flush(out, grp, '/identify', ierr, errmsg)
 900 call agree(out%comm, 'output_write_identify', ierr, errmsg)
-  end subroutine output_write_identify
+  end procedure output_write_identify
 
   !> /control of a deformation-control run (docs/identification.md):
   !> keyframe_time [nk], keyframe_offset and initial_offset [nk][3] (the
@@ -122,14 +116,7 @@ contains
   !> keyframe_history [nit][nk][3] (per TAO iteration), max_speed [1] (the
   !> bound; +Infinity: none), attribute components. Small datasets: every
   !> rank writes the same values. Collective.
-  module subroutine output_write_control(out, times, offsets, initial, objective, objective_hist, offset_hist, &
-                                  max_speed, components, ierr, errmsg)
-    type(output_file), intent(inout) :: out
-    real(rp), intent(in) :: times(:), offsets(:, :), initial(:, :), objective, objective_hist(:), &
-                            offset_hist(:, :, :), max_speed
-    character(*), intent(in) :: components
-    integer, intent(out) :: ierr
-    character(*), intent(out) :: errmsg
+  module procedure output_write_control
     integer(hid_t) :: grp
     integer(hsize_t) :: nk, nit
 
@@ -152,7 +139,7 @@ contains
     if (ierr == 0) call set_attr_str(grp, 'components', trim(components), '/control', ierr, errmsg)
     call close_and_flush(out, grp, '/control', ierr, errmsg)
 900 call agree(out%comm, 'output_write_control', ierr, errmsg)
-  end subroutine output_write_control
+  end procedure output_write_control
 
   !> Close the group grp (at gpath, for messages) and flush the file, so
   !> that what was written survives a later failure.
@@ -193,50 +180,32 @@ contains
 
   !> A string key of /config/<group>. Collective (same values on all ranks);
   !> keeps the first error in ierr/errmsg, so that calls can be chained.
-  module subroutine config_key_str(out, group, key, value, ierr, errmsg)
-    type(output_file), intent(in) :: out
-    character(*), intent(in) :: group, key, value
-    integer, intent(inout) :: ierr
-    character(*), intent(inout) :: errmsg
+  module procedure config_key_str
     integer(hid_t) :: grp
     call config_group(out, group, grp, ierr, errmsg)
     if (ierr == 0) call set_attr_str(grp, key, value, '/config/'//group, ierr, errmsg)
     call close_group(grp, '/config/'//group, ierr, errmsg)
-  end subroutine config_key_str
+  end procedure config_key_str
 
-  module subroutine config_key_int(out, group, key, value, ierr, errmsg)
-    type(output_file), intent(in) :: out
-    character(*), intent(in) :: group, key
-    integer, intent(in) :: value
-    integer, intent(inout) :: ierr
-    character(*), intent(inout) :: errmsg
+  module procedure config_key_int
     integer(hid_t) :: grp
     call config_group(out, group, grp, ierr, errmsg)
     if (ierr == 0) call set_attr_int(grp, key, value, '/config/'//group, ierr, errmsg)
     call close_group(grp, '/config/'//group, ierr, errmsg)
-  end subroutine config_key_int
+  end procedure config_key_int
 
   !> A real key (one value: a scalar attribute; several: a 1-D one).
-  module subroutine config_key_reals(out, group, key, values, ierr, errmsg)
-    type(output_file), intent(in) :: out
-    character(*), intent(in) :: group, key
-    real(rp), intent(in) :: values(:)
-    integer, intent(inout) :: ierr
-    character(*), intent(inout) :: errmsg
+  module procedure config_key_reals
     integer(hid_t) :: grp
 
     call config_group(out, group, grp, ierr, errmsg)
     if (ierr == 0) call set_attr_reals(grp, key, values, '/config/'//group, ierr, errmsg)
     call close_group(grp, '/config/'//group, ierr, errmsg)
-  end subroutine config_key_reals
+  end procedure config_key_reals
 
   !> The attribute /run/wall_time [s], the wall time of the whole run; the
   !> same value on every rank (attributes are collective). Collective.
-  module subroutine output_write_wall_time(out, seconds, ierr, errmsg)
-    type(output_file), intent(inout) :: out
-    real(rp), intent(in) :: seconds
-    integer, intent(out) :: ierr
-    character(*), intent(out) :: errmsg
+  module procedure output_write_wall_time
     integer(hid_t) :: grp
     integer :: h
 
@@ -256,6 +225,6 @@ contains
       if (h < 0) call fail('h5gclose_f', '/run', ierr, errmsg)
     end if
     call agree(out%comm, 'output_write_wall_time', ierr, errmsg)
-  end subroutine output_write_wall_time
+  end procedure output_write_wall_time
 
 end submodule output_results

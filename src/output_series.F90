@@ -7,13 +7,7 @@ submodule (output) output_series
 contains
 
   !> Append one output step: extend all datasets, write this rank's strip and rank 0's scalars, flush. Collective.
-  module subroutine output_write_step(out, rec, x, ierr, errmsg, v)
-    type(output_file), intent(inout) :: out
-    type(output_record), intent(in) :: rec
-    real(rp), intent(in) :: x(:, :, :)            ! positions (3, 0:nx-1, ys:ys+ym-1)
-    integer, intent(out) :: ierr
-    character(*), intent(out) :: errmsg
-    real(rp), intent(in), optional :: v(:, :, :)  ! velocities, same shape; needed if write_velocity
+  module procedure output_write_step
 
     ierr = 0
     errmsg = ''
@@ -60,14 +54,10 @@ contains
       call refresh_library(out, ierr, errmsg)
       call agree(out%comm, 'output_write_step', ierr, errmsg)
     end if
-  end subroutine output_write_step
+  end procedure output_write_step
 
   !> /lattice/rest_position (3, nx, ny) and /lattice/mass (nx, ny), each rank its rows.
-  module subroutine write_lattice(out, rest, mass, ierr, errmsg)
-    type(output_file), intent(inout) :: out
-    real(rp), intent(in) :: rest(:, :, :), mass(:, :)
-    integer, intent(inout) :: ierr
-    character(*), intent(inout) :: errmsg
+  module procedure write_lattice
     integer(hid_t) :: dset
     integer(hsize_t) :: nx, ny, ys, ym
 
@@ -84,7 +74,7 @@ contains
     if (ierr /= 0) return
     call write_rows(out%dxpl, dset, '/lattice/mass', [0_hsize_t, ys], [nx, ym], mass, ierr, errmsg)
     call close_dset(dset, '/lattice/mass', ierr, errmsg)
-  end subroutine write_lattice
+  end procedure write_lattice
 
   subroutine create_fixed(out, name, dims, description, dset, ierr, errmsg)
     type(output_file), intent(in) :: out
@@ -118,10 +108,7 @@ contains
   ! makes the same calls.
 
   !> The group /xdmf and its views of the lattice, made when missing.
-  module subroutine lattice_views(out, ierr, errmsg)
-    type(output_file), intent(in) :: out
-    integer, intent(inout) :: ierr
-    character(*), intent(inout) :: errmsg
+  module procedure lattice_views
     integer(hid_t) :: grp
     integer(hsize_t) :: nx, ny
     logical :: exists
@@ -129,7 +116,7 @@ contains
 
     nx = out%nx; ny = out%ny
     call open_or_create_group(out%file, '/xdmf', grp, ierr, errmsg)
-    if (ierr == 0) call set_attr_str(grp, 'description', 'views for the XDMF sidecar NAME.xmf: '// &
+    if (ierr == 0) call set_attr_str(grp, 'description', 'views for the XDMF sidecar NAME.xdmf: '// &
       'HDF5 virtual datasets (no data of their own) of /lattice and of step k of /position and /velocity, '// &
       'shaped [1][ny][nx](3); only the first n_output_steps steps are complete', '/xdmf', ierr, errmsg)
     call close_group(grp, '/xdmf', ierr, errmsg)
@@ -146,17 +133,12 @@ contains
       call fail('h5lexists_f', '/xdmf/mass', ierr, errmsg); return
     end if
     if (.not. exists) call make_view(out, 'mass', '/lattice/mass', [0_hsize_t, 0_hsize_t], [nx, ny], ierr, errmsg)
-  end subroutine lattice_views
+  end procedure lattice_views
 
   !> /xdmf/<name>: a virtual dataset of Fortran dims (count..., 1) (C order
   !> [1][...]) that maps the hyperslab (start, count) of the dataset src of
   !> this file, counted the source's way (a t index stays in count as 1).
-  module subroutine make_view(out, name, src, start, count, ierr, errmsg)
-    type(output_file), intent(in) :: out
-    character(*), intent(in) :: name, src
-    integer(hsize_t), intent(in) :: start(:), count(:)
-    integer, intent(inout) :: ierr
-    character(*), intent(inout) :: errmsg
+  module procedure make_view
     integer(hid_t) :: sdset, sspace, vspace, dcpl, dset
     integer(hsize_t) :: vdims(4)
     integer :: h, r
@@ -215,7 +197,7 @@ contains
     end if
     call close_spaces(sspace, vspace, path, ierr, errmsg)
     call close_dset(sdset, src, ierr, errmsg)
-  end subroutine make_view
+  end procedure make_view
 
   !> Delete /xdmf/<name> if it is there (its link; the few bytes of its
   !> header stay in the file).
@@ -239,20 +221,12 @@ contains
   end subroutine drop_view
 
   !> The name in /xdmf of the view of step k (0-based) of /position or /velocity.
-  module function step_view(idx, k) result(name)
-    integer, intent(in) :: idx, k
-    character(len=:), allocatable :: name
+  module procedure step_view
     name = trim(dset_names(idx)(2:))//'_'//itoa(k)
-  end function step_view
+  end procedure step_view
 
   !> An extendable dataset: Fortran dims (fixed..., 0), unlimited along t, chunked.
-  module subroutine create_series(out, idx, fixed, chunk, ftype, ierr, errmsg)
-    type(output_file), intent(inout) :: out
-    integer, intent(in) :: idx
-    integer(hsize_t), intent(in) :: fixed(:), chunk(:)
-    integer(hid_t), intent(in) :: ftype
-    integer, intent(inout) :: ierr
-    character(*), intent(inout) :: errmsg
+  module procedure create_series
     integer(hsize_t) :: dims(4), maxdims(4)
     integer(hid_t) :: space, dcpl
     integer :: r, h
@@ -293,7 +267,7 @@ contains
     call h5sclose_f(space, h)
     if (h < 0) call fail('h5sclose_f', name, ierr, errmsg)
     if (ierr == 0) call set_attr_str(out%dset(idx), 'description', trim(dset_descriptions(idx)), name, ierr, errmsg)
-  end subroutine create_series
+  end procedure create_series
 
   ! ---------------------------------------------------------------------------
   ! One output step.
@@ -438,12 +412,7 @@ contains
 
   !> Open the time series of an existing file and cut them to nt steps;
   !> extent: the steps /position had before (a killed run: n_output_steps + 1).
-  module subroutine open_series(out, nt, extent, ierr, errmsg)
-    type(output_file), intent(inout) :: out
-    integer, intent(in) :: nt
-    integer, intent(out) :: extent
-    integer, intent(inout) :: ierr
-    character(*), intent(inout) :: errmsg
+  module procedure open_series
     integer(hid_t) :: space
     integer(hsize_t) :: dims(4), maxdims(4)
     integer :: i, h, r, have
@@ -501,17 +470,13 @@ contains
     end if
     call close_spaces(fspace, mspace, '/time', ierr, errmsg)
     if (ierr == 0) call set_attr_int(out%file, 'n_output_steps', nt, '/', ierr, errmsg)
-  end subroutine open_series
+  end procedure open_series
 
   !> After open_series cut the series to out%nt steps: delete the views of
   !> steps out%nt .. extent-1 (and any later ones), make those of the kept steps and of the
   !> lattice where missing. Collective; every call that changes the file is
   !> agreed on before the next.
-  module subroutine sync_views(out, extent, ierr, errmsg)
-    type(output_file), intent(in) :: out
-    integer, intent(in) :: extent
-    integer, intent(inout) :: ierr
-    character(*), intent(inout) :: errmsg
+  module procedure sync_views
     integer :: i, k, h
     logical :: exists
 
@@ -544,6 +509,6 @@ contains
       call agree(out%comm, '-nuno_restart', ierr, errmsg)
       all_ok = ierr == 0
     end function all_ok
-  end subroutine sync_views
+  end procedure sync_views
 
 end submodule output_series

@@ -1,5 +1,5 @@
 ! SPDX-License-Identifier: BSD-2-Clause
-!> Module output: the XDMF sidecar (<file>.xmf) that ParaView reads.
+!> Module output: the XDMF sidecar (<file>.xdmf) that ParaView and VTK (pyvista) read.
 submodule (output) output_xdmf
   implicit none
 
@@ -9,7 +9,8 @@ contains
   ! XDMF sidecar (rank 0, plain Fortran I/O, rewritten whole at each step).
 
   ! Layout, checked with ParaView 5.11's three XDMF readers (the legacy
-  ! "XDMF Reader" on Xdmf2, and Xdmf3ReaderS/T) by tests/python/test_xdmf.py:
+  ! "XDMF Reader" on Xdmf2, and Xdmf3ReaderS/T) by tests/python/test_xdmf.py
+  ! and with VTK 9's vtkXdmfReader (pyvista) by tests/python/test_readers.py:
   ! a temporal collection of n_output_steps uniform grids, each a 3DSMesh of
   ! Dimensions "1 ny nx" (one layer of ny x nx points: VTK dimensions
   ! (nx, ny, 1), point j*nx + i), XYZ geometry /xdmf/position_<k>, and the
@@ -28,10 +29,7 @@ contains
   ! one line "Skipping unrecognized array type [None]" per step and load
   ! everything else; Calculator "coords - rest_position" gives it there.
   ! No view is needed by the Function's operand rest_position (read whole).
-  module subroutine write_xdmf(out, ierr, errmsg)
-    type(output_file), intent(in) :: out
-    integer, intent(inout) :: ierr
-    character(*), intent(inout) :: errmsg
+  module procedure write_xdmf
     integer :: u, k, nbuf
     logical :: good
     character(len=256) :: iom
@@ -117,7 +115,7 @@ contains
       character(*), intent(in) :: indent, dims, path
       call put(indent//'<DataItem Dimensions="'//dims//'" '//f8//' Format="HDF">'//h5//':'//path//'</DataItem>')
     end subroutine item
-  end subroutine write_xdmf
+  end procedure write_xdmf
 
 
   !> s with the characters that XML text and attribute values cannot hold escaped.

@@ -421,7 +421,10 @@ contains
     end function printable
   end subroutine check_output_name
 
-  !> The XDMF sidecar of an output file: run.h5 -> run.xmf, other -> other.xmf (module output's rule).
+  !> The XDMF sidecar of an output file: run.h5 -> run.xdmf, other -> other.xdmf
+  !> (module output's rule). .xdmf, not .xmf: VTK's readers (pyvista.read,
+  !> vtkXdmfReader) pick a reader by this extension and know only .xdmf;
+  !> ParaView opens both.
   function sidecar_path(filename) result(xmf)
     character(*), intent(in) :: filename
     character(len=:), allocatable :: xmf
@@ -429,11 +432,11 @@ contains
     n = len(filename)
     if (n > 3) then
       if (filename(n - 2:n) == '.h5') then
-        xmf = filename(1:n - 3)//'.xmf'
+        xmf = filename(1:n - 3)//'.xdmf'
         return
       end if
     end if
-    xmf = filename//'.xmf'
+    xmf = filename//'.xdmf'
   end function sidecar_path
 
   !> The text of a NUL-terminated C buffer.

@@ -41,6 +41,7 @@ contains
     type(app_ctx) :: ctx
     PetscErrorCode :: ierr
     real(rp) :: p(2), h, hmax, tq, pq(2)
+    real(rp) :: wall   ! wall-clock seconds since the start of the run [s]
     PetscInt :: rejects, nfails
     integer :: q
     real(c_double) :: tc
@@ -143,8 +144,12 @@ contains
     if (ctx%rank == 0 .and. step > 0) then
       if (MPI_Wtime() - ctx%progress%wall_said >= HEARTBEAT_S) then
         PetscCall(TSGetTimeStep(ts, h, ierr))
-        write(output_unit, '(a,es12.5e2,a,i9,a,es10.3e2,a,es10.3e2,a)') '  ... t =', t, '  steps', step, &
-          '  dt', h, '  wall_s', MPI_Wtime() - ctx%progress%wall0, '  (between output steps)'
+        ! Rate and ETA as on the output step's line (simulated time per wall
+        ! second since the start; t > 0 here, since a step was taken).
+        wall = MPI_Wtime() - ctx%progress%wall0
+        write(output_unit, '(a,es12.5e2,a,i9,4(a,es10.3e2),a)') '  ... t =', t, '  steps', step, &
+          '  dt', h, '  wall_s', wall, '  sim_per_wall_s', t / wall, '  eta_s', (ctx%step%t_end - t) * wall / t, &
+          '  (between output steps)'
         flush(output_unit)
         ctx%progress%wall_said = MPI_Wtime()
       end if

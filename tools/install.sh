@@ -2,8 +2,8 @@
 # SPDX-License-Identifier: BSD-2-Clause
 # Install what nuno needs on Debian 12: compilers, Open MPI, PETSc 3.18,
 # parallel HDF5, ParaView's Python for the XDMF test (apt) and the Python
-# packages of postprocess/ and the tests (pip). Idempotent; prints nothing on
-# success, the failing log otherwise.
+# packages of postprocess/ and the tests, pyvista and xarray included (pip).
+# Idempotent; prints nothing on success, the failing log otherwise.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 log=$(mktemp)
@@ -38,7 +38,10 @@ if ! dpkg-query -W -f='${Status}' python3-paraview 2>/dev/null | grep -q "instal
   fi
 fi
 
-if ! python3 -c "import numpy, h5py, matplotlib, PIL, pytest, setuptools, wheel, f90nml, scipy" >/dev/null 2>&1; then
+# pyvista (with VTK's wheel), xarray and h5netcdf: the readers that
+# tests/python/test_readers.py opens the output with, as users do.
+if ! python3 -c "import numpy, h5py, matplotlib, PIL, pytest, setuptools, wheel, f90nml, scipy, pyvista, xarray, h5netcdf" \
+     >/dev/null 2>&1; then
   if ! python3 -m pip install --quiet --disable-pip-version-check --root-user-action=ignore \
        -r "$here/requirements.txt" >"$log" 2>&1; then
     # Debian's own python3 refuses system-wide pip installs (PEP 668).

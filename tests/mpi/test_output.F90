@@ -279,7 +279,7 @@ contains
 
     call h5fclose_f(file, h)
     call check_true(h == 0, filename//': h5fclose_f')
-    inquire(file=filename(1:len(filename)-3)//'.xmf', exist=exists)
+    inquire(file=filename(1:len(filename)-3)//'.xdmf', exist=exists)
     call check_true(exists, filename//': XDMF sidecar exists')
   end subroutine check_file
 

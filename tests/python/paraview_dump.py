@@ -4,7 +4,7 @@
 Run by test_xdmf.py under ParaView's own Python (pvpython, or Debian's
 python3 with python3-paraview), not by pytest:
 
-    pvpython paraview_dump.py READER OUT.json [--calculator NAME=EXPR] FILE.xmf [FILE.xmf ...]
+    pvpython paraview_dump.py READER OUT.json [--calculator NAME=EXPR] FILE.xdmf [FILE.xdmf ...]
 
 READER is a paraview.simple reader: XDMFReader (the legacy Xdmf2 reader,
 "XDMF Reader" in the GUI), Xdmf3ReaderS or Xdmf3ReaderT. For each file,

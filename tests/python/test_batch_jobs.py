@@ -244,7 +244,7 @@ def test_output_records_the_resolved_configuration(tmp_path):
     assert c["scene"]["lift_length"] == 30.0 and c["scene"]["lift_height"] == 15.0
     np.testing.assert_array_equal(c["scene"]["gravity"], [0.0, 0.0, 0.0])
     assert c["time"]["t_end"] == pytest.approx(0.002) and c["time"]["dt"] == pytest.approx(5e-4)
-    assert c["output"]["output_file"] == "cfg.h5" and c["output"]["write_velocity"] == 0
+    assert c["output"]["output_file"] == "cfg.h5" and c["output"]["write_velocity"] == 1
     assert c["material"]["bending_model"] in ("paper", "energy", "none")
 
 

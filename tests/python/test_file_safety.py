@@ -109,7 +109,7 @@ def test_identification_touches_no_directory_named_like_its_scratch(tmp_path):
 # --------------------------------------------------------------------------
 # Item 2: side files through symbolic links
 
-@pytest.mark.parametrize("link", ["out.h5.lock", "out.h5.partial", "out.xmf", "out.h5"])
+@pytest.mark.parametrize("link", ["out.h5.lock", "out.h5.partial", "out.xdmf", "out.h5"])
 @pytest.mark.parametrize("dangling", [False, True])
 def test_no_file_is_written_through_a_symbolic_link(tmp_path, link, dangling):
     (tmp_path / "out.nml").write_text(SMALL + "&output output_file='out.h5' output_interval=0.01 /\n")
@@ -220,7 +220,7 @@ def test_restart_of_a_partial_file_ends_under_the_output_name(tmp_path, spelling
     run in out.h5 and leaves no .partial; the result is the through run's."""
     h5 = complete_run(tmp_path, t_end=0.02)
     h5.rename(tmp_path / "out.h5.partial")
-    (tmp_path / "out.xmf").unlink()
+    (tmp_path / "out.xdmf").unlink()
     proc = launch(tmp_path, ["out.nml", "-nuno_restart", spelling, "-nuno_set", "t_end=0.04"])
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert not (tmp_path / "out.h5.partial").exists() and not (tmp_path / "out.h5.lock").exists()
@@ -229,7 +229,7 @@ def test_restart_of_a_partial_file_ends_under_the_output_name(tmp_path, spelling
         assert f.attrs["status"].decode() == "complete"
         assert list(f["time"][:]) == pytest.approx([0.0, 0.01, 0.02, 0.03, 0.04], abs=1e-15)
         np.testing.assert_allclose(f["position"][:], g["position"][:], rtol=0, atol=1e-12)
-    assert 'out.h5:' in (tmp_path / "out.xmf").read_text()
+    assert 'out.h5:' in (tmp_path / "out.xdmf").read_text()
 
 
 # --------------------------------------------------------------------------
@@ -316,7 +316,7 @@ LONG = "&scene scene='hang' /\n&lattice nx=9 ny=7 /\n&time t_end=0.02 /\n"
 @pytest.mark.parametrize("overwrite", [False, True])
 def test_earlier_result_kept_until_the_new_run_completes(tmp_path, overwrite):
     """A complete out.h5; a longer rerun stopped by SIGTERM after some
-    output steps. Without -nuno_overwrite out.h5 and out.xmf keep their
+    output steps. Without -nuno_overwrite out.h5 and out.xdmf keep their
     bytes, the rerun's file is out.h5.partial, and -nuno_restart out.h5
     finishes it and only then replaces out.h5. With -nuno_overwrite the
     rerun replaces out.h5 at its first output step (the earlier rule)."""
@@ -354,7 +354,7 @@ def test_a_killed_runs_partial_and_lock_are_reused(tmp_path):
     (tmp_path / "out.h5.lock").write_text("pid 4242 on elsewhere\n")
     proc = launch(tmp_path, ["out.nml"])
     assert proc.returncode == 0, proc.stderr[-2000:]
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.h5", "out.nml", "out.xmf"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.h5", "out.nml", "out.xdmf"]
 
 
 def test_a_user_file_named_like_the_lock_is_refused(tmp_path):
@@ -371,3 +371,28 @@ def test_overwrite_option_is_in_help(tmp_path):
     proc = launch(tmp_path, ["ok.nml", "-help"], nranks=1)
     assert proc.returncode == 0, proc.stderr
     assert "-nuno_overwrite: <FALSE" in proc.stdout
+
+
+# --------------------------------------------------------------------------
+# The sidecar's name: OUTPUT.xdmf (OUTPUT.xmf in earlier versions)
+
+def test_a_user_file_named_like_the_sidecar_is_never_replaced(tmp_path):
+    (tmp_path / "out.xdmf").write_text("<notes>a user's file named out.xdmf</notes>\n")
+    (tmp_path / "out.nml").write_text(SMALL + "&output output_file='out.h5' /\n")
+    before = snapshot(tmp_path)
+    line = one_error_line(launch(tmp_path, ["out.nml"], nranks=3))
+    assert "out.xdmf" in line and "not an XDMF sidecar written by nuno" in line, line
+    assert snapshot(tmp_path) == before
+
+
+def test_the_sidecar_of_an_earlier_version_is_left_alone(tmp_path):
+    """out.xmf (as an earlier version named the sidecar; here a link to
+    the user's file) is neither written nor removed: the run writes out.xdmf."""
+    (tmp_path / "precious.dat").write_bytes(b"the user's data\n" * 100)
+    (tmp_path / "out.xmf").symlink_to("precious.dat")
+    before = snapshot(tmp_path)
+    h5 = complete_run(tmp_path)
+    after = snapshot(tmp_path)
+    assert_untouched(before, after)
+    assert set(after) - set(before) == {"out.nml", "out.h5", "out.xdmf"}
+    assert h5.name + ":" in (tmp_path / "out.xdmf").read_text()

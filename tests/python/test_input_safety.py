@@ -171,8 +171,8 @@ def first_run(tmp_path, name="run"):
         assert f.attrs["status"].decode() == "complete"
     assert not (tmp_path / f"{name}.h5.partial").exists()
     assert not (tmp_path / f"{name}.h5.lock").exists()
-    assert (tmp_path / f"{name}.xmf").exists()
-    return h5, digest(h5), digest(tmp_path / f"{name}.xmf")
+    assert (tmp_path / f"{name}.xdmf").exists()
+    return h5, digest(h5), digest(tmp_path / f"{name}.xdmf")
 
 
 def test_output_file_may_not_be_the_input(tmp_path):
@@ -200,7 +200,7 @@ def test_first_step_failure_keeps_the_earlier_file(tmp_path):
     proc = launch(tmp_path, ["bad.nml"], nranks=2)
     assert proc.returncode != 0
     assert digest(h5) == before
-    assert digest(tmp_path / "run.xmf") == xmf_before
+    assert digest(tmp_path / "run.xdmf") == xmf_before
     with h5py.File(tmp_path / "run.h5.partial", "r") as f:   # the failed attempt, kept aside
         assert f.attrs["status"].decode().startswith("failed")
     assert not (tmp_path / "run.h5.lock").exists()

@@ -701,7 +701,7 @@ def test_solver_run_metadata(solver_run):
     assert run.complete and run.status == "complete"
     np.testing.assert_allclose(run.time, 0.01 * np.arange(6), atol=1e-9)
     assert run.scene() == "lift_release" and run.units() == "mm"
-    assert os.path.isfile(os.path.splitext(solver_run)[0] + ".xmf")
+    assert os.path.isfile(os.path.splitext(solver_run)[0] + ".xdmf")
     # lift_release: edge i = 0 is pinned for the whole run
     assert np.max(np.abs(run.position[:, :, 0] - run.rest_position[:, 0])) < 1e-12
 

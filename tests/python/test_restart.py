@@ -191,7 +191,7 @@ def test_a_restart_that_cannot_be_done_says_why_and_changes_nothing(tmp_path, ca
     elif case == "not_later":
         expect = "not before t_end = 2.00000E-01: nothing to continue"
     elif case == "velocity":
-        groups["output"] = "output_interval=0.05"
+        groups["output"] = "output_interval=0.05 write_velocity=.false."
         groups["time"] = "t_end=0.3 dt=0.005"
         expect = "write_velocity = .false. but the file was written with .true."
     else:

@@ -58,7 +58,7 @@ def test_layout_of_section_9(tmp_path):
         assert np.abs(f["position"][:, :, 0, :] - rest[:, 0, :]).max() < 1e-12
         assert f["position"][0, 0, NX - 1, 2] > 1.0
 
-    xmf = h5.with_suffix(".xmf")
+    xmf = h5.with_suffix(".xdmf")
     root = ET.parse(xmf).getroot()
     grids = [g for g in root.iter("Grid") if g.get("GridType") != "Collection"]
     assert len(grids) == nt

@@ -72,7 +72,7 @@ def dump(reader, paths, out, calculator=None):
     """What reader loads from each path: {path: {times, steps}}, and its output."""
     extra = ["--calculator", calculator] if calculator else []
     # Absolute paths: the Xdmf3 readers resolve the HDF5 file name wrongly
-    # for a bare file name without a directory ("RUN.xmfRUN.h5").
+    # for a bare file name without a directory ("RUN.xdmfRUN.h5").
     proc = subprocess.run([paraview_python(), str(DUMP), reader, str(out), *extra,
                            *(str(Path(p).resolve()) for p in paths)],
                           capture_output=True, text=True, timeout=300, env=clean_env())
@@ -117,13 +117,13 @@ def restart_run(work, name, drop_xdmf):
 def runs(tmp_path_factory):
     work = tmp_path_factory.mktemp("xdmf")
     _, vel = run(work, "vel", nranks=2, output="output_interval=0.01 write_velocity=.true.", **SCENE)
-    _, novel = run(work, "novel", nranks=2, output="output_interval=0.01", **SCENE)
+    _, novel = run(work, "novel", nranks=2, output="output_interval=0.01 write_velocity=.false.", **SCENE)
     # A killed run: the time series and the views one step longer than n_output_steps says.
     killed_dir = work / "killed"
     killed_dir.mkdir()
     killed = killed_dir / "vel.h5"
     shutil.copy(vel, killed)
-    shutil.copy(vel.with_suffix(".xmf"), killed.with_suffix(".xmf"))
+    shutil.copy(vel.with_suffix(".xdmf"), killed.with_suffix(".xdmf"))
     with h5py.File(killed, "r+") as f:
         nt = int(f.attrs["n_output_steps"])
         for name in ("position", "velocity"):
@@ -141,7 +141,7 @@ def runs(tmp_path_factory):
 
 def load_all(runs, reader, tmp_path_factory, calculator=None):
     out = tmp_path_factory.mktemp("dump") / f"{reader}.json"
-    paths = [runs[k].with_suffix(".xmf") for k in FILES]
+    paths = [runs[k].with_suffix(".xdmf") for k in FILES]
     loaded, text = dump(reader, paths, out, calculator)
     assert loaded is not None, f"ParaView's {reader} failed:\n{text[-4000:]}"
     return {k: loaded[p] for k, p in zip(FILES, paths)}, text

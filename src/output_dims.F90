@@ -1,0 +1,214 @@
+! SPDX-License-Identifier: BSD-2-Clause
+!> Module output: the file as netCDF-4 readers see it. HDF5 dimension scales
+!> (H5DS) name every axis of the time series and of /lattice, /time is the
+!> coordinate of the time axis, and each dataset carries a `units`
+!> attribute, so that xarray (engine h5netcdf) and other netCDF-4 readers
+!> open the file with the dimensions time, j, i, xyz instead of anonymous
+!> ones.
+!>
+!> Layout (C order, as readers see it): /position and /velocity
+!> (time, j, i, xyz), /lattice/rest_position (j, i, xyz), /lattice/mass
+!> (j, i), /diagnostics/momentum and angular_momentum (time, xyz), every other
+!> series (time). /time is the scale "time"; /j, /i and /xyz are scales
+!> without values, marked as netCDF-4 marks a dimension that is not a
+!> variable (its NAME attribute), so readers list them as dimensions only.
+!> All of it is metadata written once, at the open (or at a restart of a
+!> file written before it existed): nothing is added per output step.
+submodule (output) output_dims
+  use h5ds, only: h5dsset_scale_f, h5dsattach_scale_f, h5dsis_attached_f, h5dsis_scale_f
+  implicit none
+
+  !> netCDF-4's NAME of a dimension scale that is not a variable (the C
+  !> library's NOT_A_VARIABLE text; the length follows in 10 columns).
+  character(len=*), parameter :: NOT_A_VARIABLE = 'This is a netCDF dimension but not a netCDF variable.'
+
+contains
+
+  !> Scales and their attachments, made where missing (idempotent: the open,
+  !> output_write_run_info's /wall_time, a restart). Collective: every rank
+  !> makes the same metadata calls.
+  module procedure netcdf_dims
+    integer(hid_t) :: sj, si, sxyz, lat
+    integer :: k, h
+    logical :: is_scale
+
+    if (ierr /= 0 .or. out%dset(d_time) < 0) return
+    sj = -1; si = -1; sxyz = -1
+    call h5dsis_scale_f(out%dset(d_time), is_scale, h)
+    if (h < 0) call fail('h5dsis_scale_f', '/time', ierr, errmsg)
+    if (ierr == 0 .and. .not. is_scale) then
+      call h5dsset_scale_f(out%dset(d_time), h, 'time')
+      if (h < 0) call fail('h5dsset_scale_f', '/time', ierr, errmsg)
+    end if
+    call axis_scale('/j', out%ny, sj)
+    call axis_scale('/i', out%nx, si)
+    call axis_scale('/xyz', 3, sxyz)
+    do k = 1, n_dsets
+      if (ierr /= 0) exit
+      if (k == d_time .or. out%dset(k) < 0) cycle
+      call attach(out%dset(k), out%dset(d_time), 1, trim(dset_names(k)))
+      select case (k)
+      case (d_position, d_velocity)
+        call attach(out%dset(k), sj, 2, trim(dset_names(k)))
+        call attach(out%dset(k), si, 3, trim(dset_names(k)))
+        call attach(out%dset(k), sxyz, 4, trim(dset_names(k)))
+      case (d_momentum, d_angular_momentum)
+        call attach(out%dset(k), sxyz, 2, trim(dset_names(k)))
+      end select
+    end do
+    if (ierr == 0) then
+      call h5dopen_f(out%file, '/lattice/rest_position', lat, h)
+      if (h < 0) then
+        call fail('h5dopen_f', '/lattice/rest_position', ierr, errmsg)
+      else
+        call attach(lat, sj, 1, '/lattice/rest_position')
+        call attach(lat, si, 2, '/lattice/rest_position')
+        call attach(lat, sxyz, 3, '/lattice/rest_position')
+        call close_dset(lat, '/lattice/rest_position', ierr, errmsg)
+      end if
+    end if
+    if (ierr == 0) then
+      call h5dopen_f(out%file, '/lattice/mass', lat, h)
+      if (h < 0) then
+        call fail('h5dopen_f', '/lattice/mass', ierr, errmsg)
+      else
+        call attach(lat, sj, 1, '/lattice/mass')
+        call attach(lat, si, 2, '/lattice/mass')
+        call close_dset(lat, '/lattice/mass', ierr, errmsg)
+      end if
+    end if
+    if (sj >= 0) call close_dset(sj, '/j', ierr, errmsg)
+    if (si >= 0) call close_dset(si, '/i', ierr, errmsg)
+    if (sxyz >= 0) call close_dset(sxyz, '/xyz', ierr, errmsg)
+  contains
+    !> The value-less scale `name` of length n, opened (made when missing).
+    subroutine axis_scale(name, n, dset)
+      character(*), intent(in) :: name
+      integer, intent(in) :: n
+      integer(hid_t), intent(out) :: dset
+      integer(hid_t) :: space, dcpl
+      logical :: exists
+      character(len=10) :: len_text
+
+      dset = -1
+      if (ierr /= 0) return
+      call h5lexists_f(out%file, name, exists, h)
+      if (h < 0) then
+        call fail('h5lexists_f', name, ierr, errmsg); return
+      end if
+      if (exists) then
+        call h5dopen_f(out%file, name, dset, h)
+        if (h < 0) then
+          dset = -1
+          call fail('h5dopen_f', name, ierr, errmsg)
+        end if
+        return
+      end if
+      call h5screate_simple_f(1, [int(n, hsize_t)], space, h)
+      if (h < 0) then
+        call fail('h5screate_simple_f', name, ierr, errmsg); return
+      end if
+      call h5pcreate_f(H5P_DATASET_CREATE_F, dcpl, h)
+      if (h < 0) then
+        call fail('h5pcreate_f(dataset create)', name, ierr, errmsg)
+      else
+        ! Never written: no fill values either (parallel HDF5 would write them).
+        call h5pset_fill_time_f(dcpl, H5D_FILL_TIME_NEVER_F, h)
+        if (h < 0) call fail('h5pset_fill_time_f', name, ierr, errmsg)
+        if (ierr == 0) then
+          call h5dcreate_f(out%file, name, H5T_NATIVE_REAL, space, dset, h, dcpl_id=dcpl)
+          if (h < 0) then
+            dset = -1
+            call fail('h5dcreate_f', name, ierr, errmsg)
+          end if
+        end if
+        call h5pclose_f(dcpl, h)
+        if (h < 0) call fail('h5pclose_f(dataset create)', name, ierr, errmsg)
+      end if
+      call h5sclose_f(space, h)
+      if (h < 0) call fail('h5sclose_f', name, ierr, errmsg)
+      if (ierr /= 0) return
+      write(len_text, '(i10)') n
+      call h5dsset_scale_f(dset, h, NOT_A_VARIABLE//len_text)
+      if (h < 0) call fail('h5dsset_scale_f', name, ierr, errmsg)
+    end subroutine axis_scale
+
+    !> Scale `scale` on axis idx (1-based, C order: 1 is the slowest) of dset, unless there.
+    subroutine attach(dset, scale, idx, name)
+      integer(hid_t), intent(in) :: dset, scale
+      integer, intent(in) :: idx
+      character(*), intent(in) :: name
+      logical :: there
+
+      if (ierr /= 0) return
+      call h5dsis_attached_f(dset, scale, idx, there, h)
+      if (h < 0) then
+        call fail('h5dsis_attached_f', name, ierr, errmsg); return
+      end if
+      if (there) return
+      call h5dsattach_scale_f(dset, scale, idx, h)
+      if (h < 0) call fail('h5dsattach_scale_f', name, ierr, errmsg)
+    end subroutine attach
+  end procedure netcdf_dims
+
+  !> The attribute `units` of every series and of /lattice, in the scene's
+  !> unit system ('SI' or 'mm g s'; another value: none written), as UDUNITS
+  !> strings. Collective.
+  module procedure write_units
+    character(len=16) :: length, velocity, mass, energy, momentum, angular
+    integer(hid_t) :: lat
+    integer :: k, h
+
+    if (ierr /= 0) return
+    select case (system)
+    case ('SI')
+      length = 'm'; velocity = 'm/s'; mass = 'kg'; energy = 'J'; momentum = 'kg m/s'; angular = 'kg m^2/s'
+    case ('mm g s')
+      length = 'mm'; velocity = 'mm/s'; mass = 'g'; energy = 'g mm^2/s^2'; momentum = 'g mm/s'; angular = 'g mm^2/s'
+    case default
+      return
+    end select
+    do k = 1, n_dsets
+      if (out%dset(k) < 0 .or. ierr /= 0) cycle
+      select case (k)
+      case (d_time, d_wall_time)
+        call put(out%dset(k), 's')
+      case (d_position, d_length, d_flatness)
+        call put(out%dset(k), length)
+      case (d_velocity)
+        call put(out%dset(k), velocity)
+      case (d_kinetic, d_stretch, d_bend, d_dissipated, d_external_work)
+        call put(out%dset(k), energy)
+      case (d_momentum)
+        call put(out%dset(k), momentum)
+      case (d_angular_momentum)
+        call put(out%dset(k), angular)
+      case default
+        call put(out%dset(k), '1')   ! counts
+      end select
+    end do
+    if (ierr == 0) then
+      call h5dopen_f(out%file, '/lattice/rest_position', lat, h)
+      if (h < 0) then
+        call fail('h5dopen_f', '/lattice/rest_position', ierr, errmsg); return
+      end if
+      call set_attr_str(lat, 'units', trim(length), '/lattice/rest_position', ierr, errmsg)
+      call close_dset(lat, '/lattice/rest_position', ierr, errmsg)
+    end if
+    if (ierr == 0) then
+      call h5dopen_f(out%file, '/lattice/mass', lat, h)
+      if (h < 0) then
+        call fail('h5dopen_f', '/lattice/mass', ierr, errmsg); return
+      end if
+      call set_attr_str(lat, 'units', trim(mass), '/lattice/mass', ierr, errmsg)
+      call close_dset(lat, '/lattice/mass', ierr, errmsg)
+    end if
+  contains
+    subroutine put(dset, value)
+      integer(hid_t), intent(in) :: dset
+      character(*), intent(in) :: value
+      call set_attr_str(dset, 'units', trim(value), trim(dset_names(k)), ierr, errmsg)
+    end subroutine put
+  end procedure write_units
+
+end submodule output_dims
