@@ -15,7 +15,7 @@ module input
   use config, only: nuno_config, keyframe_max, label_len, path_len, unset_real, &
                     BEND_NONE, BEND_PAPER, BEND_ENERGY, SCENE_WAVE_POINT, SCENE_HANG, SCENE_LIFT_RELEASE, &
                     n_fit_kinds
-  use input_text, only: assignment_t, lex_overrides, value_error, next_assignment, is_name_char, lower, &
+  use input_text, only: assignment_t, lex_overrides, value_error, next_assignment, lower, &
                         strip_commas, overrides_record, key_default, namelist_value
   use strings, only: real_short
   use input_keys, only: keys, n_keys, n_groups, group_names, KEY_REAL, G_LATTICE, G_MATERIAL, G_SCENE, G_TIME, G_OUTPUT, &

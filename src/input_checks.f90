@@ -9,7 +9,7 @@ module input_checks
   use kinds, only: rp
   use config, only: nuno_config, keyframe_max, unset_real, &
                     BEND_NONE, BEND_PAPER, BEND_ENERGY, SCALING_CONTINUUM, MASS_AREA, &
-                    SCENE_LIFT_RELEASE, SCENE_BEND_RELEASE, SCENE_WAVE_POINT, SCENE_HANG, SCENE_FLAT, &
+                    SCENE_LIFT_RELEASE, SCENE_BEND_RELEASE, SCENE_WAVE_POINT, SCENE_HANG, &
                     n_fit_kinds, fit_kind_names
   use input_keys, only: keys, key_index
   use input_text, only: lower

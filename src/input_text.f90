@@ -14,7 +14,6 @@
 !>   themselves: PETSc's options database keeps only the last of a repeated
 !>   option, and from Fortran it keeps a value only up to its first blank.
 module input_text
-  use kinds, only: rp
   use strings, only: itoa
   use input_keys, only: keys, key_index, KEY_INTEGER, KEY_REAL, KEY_LOGICAL, KEY_STRING
   implicit none

@@ -4,7 +4,6 @@
 !> input_limits, so that the help cannot name a key or a number the input
 !> does not have. No MPI, no PETSc.
 module input_usage
-  use kinds, only: rp
   use strings, only: pow10_text, kb_text
   use input_keys, only: keys, n_keys, n_groups, key_index, key_type_text, key_group_list
   use input_limits, only: bytes_per_node_bending, bytes_per_node_plain, max_steps, max_outputs

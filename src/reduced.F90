@@ -90,7 +90,7 @@ module reduced
     logical :: forward_ew = .true.         !< pass the outer KSP's rtol (Eisenstat-Walker) to the inner one
     real(rp) :: floor_est = 0              !< round-off floor of ||F||_2 at the last assembly (see reduced_assemble)
     integer :: its = 0                     !< inner Krylov iterations, cumulative
-    ! Inexact Newton (module newton_forcing; set by the SNES convergence test)
+    ! Inexact Newton (eta set by newton_policy's convergence test, from module newton_forcing)
     real(rp) :: rtol0 = 1.0e-6_rp          !< the inner rtol of the options (-reduced_ksp_rtol, default 1e-6)
     real(rp) :: eta = 0                    !< inner rtol of the next Newton solve; 0: rtol0
     real(rp) :: lin_rel = 0                !< relative residual the last inner solve left
@@ -261,7 +261,6 @@ contains
       PetscCall(store_matrix(red%da3, pctype, symmetric, red%s, ierr))
     end if
     PetscCall(KSPSetOperators(red%ksp, red%s, red%s, ierr))
-    PetscCall(KSPSetOperators(red%ksp, red%s, red%s, ierr))
     ! The DM gives -reduced_pc_type mg its grid hierarchy; the operators stay ours.
     PetscCall(KSPSetDM(red%ksp, red%da3, ierr))
     PetscCall(KSPSetDMActive(red%ksp, PETSC_FALSE, ierr))
@@ -287,7 +286,7 @@ contains
       if (red%pcc%use_mg) then
         PetscCall(DMDAGetCorners(da6, xs, ys, zs, m, n, zm, ierr))
         ! without bending every element of S is a link, so S(p, q) = S(q, p)
-        ! block for block (mg_kernels' stencil_t, paired): the sweeps and
+        ! block for block (mg_stencil's stencil_t, paired): the sweeps and
         ! products read the blocks to the row below from that row
         PetscCall(mg_glue_pc(red%mgg, pc, nx, ny, ys, n, w, red%pcc%interp, merge(int(mg_levels), 10, mg_levels > 0), int(mg_cycle), int(mg_sweeps), lat%bending_model == BEND_NONE, ierr))
       else
@@ -544,7 +543,7 @@ contains
 
 
   !> Use the inner initial guess mode (GUESS_NONE, _PREVIOUS, _EXTRAPOLATE;
-  !> timestepping decides, from -nuno_inner_guess and the TS type). Its two
+  !> solver_setup decides, from -nuno_inner_guess and the TS type). Its two
   !> kept first corrections and the step under way's, and the kept second
   !> correction and the step under way's, are five 3-dof vectors, made here
   !> when needed. Collective.
@@ -556,7 +555,7 @@ contains
     PetscCall(guess_use(red%gs, mode, extrapolated_start, red%rhs, ierr))
   end subroutine reduced_set_guess
 
-  !> A step was accepted (timestepping's monitor): its first correction
+  !> A step was accepted (module step_monitor): its first correction
   !> joins the two kept for the next guesses, and its second, where it
   !> took a second Newton iteration, replaces the one kept. Only accepted steps count: a
   !> rejected attempt's correction starts at the same time as its retry's,
