@@ -10,6 +10,6 @@ k=$root/src/kernels
 cd "$work"
 flags=(-O3 -march=native -ffree-line-length-none)
 [ "$(uname -m)" = x86_64 ] && flags+=(-mprefer-vector-width=512)
-gfortran "${flags[@]}" -c "$k/kinds.f90" "$k/interpolation.f90" "$k/offset_product.f90" "$k/mg_kernels.f90"
+gfortran "${flags[@]}" -c "$k/kinds.f90" "$k/interpolation.f90" "$k/offset_product.f90" "$k/mg_stencil.f90" "$k/mg_transfer.f90" "$k/mg_kernels.f90"
 gfortran "${flags[@]}" "$root/bench/mg_micro.f90" ./*.o -o mg_micro
 ./mg_micro "${1:-257}" "${2:-2}" "${3:-lines}" ${4:+"$4"}

@@ -13,7 +13,7 @@ module failure_text
   use app_context, only: app_ctx
   implicit none
   private
-  public :: signal_name, failure_reason, report_io_error, num, inum, ieee_nan
+  public :: signal_name, failure_reason, report_io_error, ieee_nan
 
 contains
 
@@ -122,23 +122,6 @@ contains
     if (ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//trim(errmsg)
     ctx%io_error = errmsg
   end subroutine report_io_error
-
-  !> A real for a one-line message: short, and never glued to the text before it.
-  function num(x) result(s)
-    real(rp), intent(in) :: x
-    character(len=:), allocatable :: s
-    character(len=32) :: buf
-    write(buf, '(es13.5e2)') x
-    s = trim(adjustl(buf))
-  end function num
-
-  function inum(i) result(s)
-    PetscInt, intent(in) :: i
-    character(len=:), allocatable :: s
-    character(len=24) :: buf
-    write(buf, '(i0)') i
-    s = trim(buf)
-  end function inum
 
   !> A quiet NaN.
   real(rp) function ieee_nan()

@@ -15,8 +15,9 @@ module input
   use config, only: nuno_config, keyframe_max, label_len, path_len, unset_real, &
                     BEND_NONE, BEND_PAPER, BEND_ENERGY, SCENE_WAVE_POINT, SCENE_HANG, SCENE_LIFT_RELEASE, &
                     n_fit_kinds
-  use input_text, only: assignment_t, lex_overrides, value_error, next_assignment, is_name_char, lower, &
-                        strip_commas, overrides_record, fmt_real, key_default, namelist_value
+  use input_text, only: assignment_t, lex_overrides, value_error, next_assignment, lower, &
+                        strip_commas, overrides_record, key_default, namelist_value
+  use strings, only: real_short
   use input_keys, only: keys, n_keys, n_groups, group_names, KEY_REAL, G_LATTICE, G_MATERIAL, G_SCENE, G_TIME, G_OUTPUT, &
                         G_IDENTIFY, G_CONTROL
   use input_scan, only: parsed_text, scan_text, group_index
@@ -567,7 +568,7 @@ contains
           sub = ''
           if (keys(k)%size > 1) write(sub, '(a,i0,a)') '(', i, ')'
           msg = 'input: &'//trim(group_names(g))//': '//trim(keys(k)%name)//trim(sub)//' = '// &
-                fmt_real(values(i))//' must be a finite number'
+                real_short(values(i))//' must be a finite number'
           return
         end do
       end do
@@ -625,25 +626,25 @@ contains
     character(len=:), allocatable :: tline
     write(unit, '(a)') 'scene     : '//trim(cfg%scene)
     write(unit, '(a,i0,a,i0,a)') 'lattice   : ', cfg%nx, ' x ', cfg%ny, ' nodes, '// &
-      fmt_real(cfg%lx)//' x '//fmt_real(cfg%ly)//' (spacing '//fmt_real(cfg%ax)//' x '// &
-      fmt_real(cfg%ay)//'), mass '//fmt_real(cfg%total_mass)//' ('//trim(cfg%mass_distribution)// &
+      real_short(cfg%lx)//' x '//real_short(cfg%ly)//' (spacing '//real_short(cfg%ax)//' x '// &
+      real_short(cfg%ay)//'), mass '//real_short(cfg%total_mass)//' ('//trim(cfg%mass_distribution)// &
       '), '//trim(cfg%lattice_scaling)//' constants'
-    write(unit, '(a)') 'springs   : '//trim(cfg%spring_model)//': E_s = '//fmt_real(cfg%e_s)// &
-      ', eta_s = '//fmt_real(cfg%eta_s)//', E_d = '//fmt_real(cfg%e_d)//', eta_d = '//fmt_real(cfg%eta_d)
+    write(unit, '(a)') 'springs   : '//trim(cfg%spring_model)//': E_s = '//real_short(cfg%e_s)// &
+      ', eta_s = '//real_short(cfg%eta_s)//', E_d = '//real_short(cfg%e_d)//', eta_d = '//real_short(cfg%eta_d)
     select case (cfg%bending_code)
     case (BEND_NONE)
       write(unit, '(a)') 'bending   : none'
     case (BEND_PAPER)
-      write(unit, '(a)') 'bending   : paper (report eqs. 2-3): k_b = '//fmt_real(cfg%k_b)//' per radian'
+      write(unit, '(a)') 'bending   : paper (report eqs. 2-3): k_b = '//real_short(cfg%k_b)//' per radian'
     case (BEND_ENERGY)
-      write(unit, '(a)') 'bending   : energy: k_b = '//fmt_real(cfg%k_b)//', eta_b = '//fmt_real(cfg%eta_b)
+      write(unit, '(a)') 'bending   : energy: k_b = '//real_short(cfg%k_b)//', eta_b = '//real_short(cfg%eta_b)
     end select
     terms = ''
     if (cfg%bending_code /= BEND_NONE) terms = trim(terms)//', bending'
     if (cfg%has_damping .or. (cfg%bending_code == BEND_ENERGY .and. cfg%eta_b > 0.0_rp)) &
       terms = trim(terms)//', damping'
-    if (cfg%has_gravity) terms = trim(terms)//', gravity ('//fmt_real(cfg%gravity(1))//', '// &
-      fmt_real(cfg%gravity(2))//', '//fmt_real(cfg%gravity(3))//')'
+    if (cfg%has_gravity) terms = trim(terms)//', gravity ('//real_short(cfg%gravity(1))//', '// &
+      real_short(cfg%gravity(2))//', '//real_short(cfg%gravity(3))//')'
     if (any(cfg%initial_omega /= 0.0_rp)) terms = trim(terms)//', initial spin'
     write(unit, '(a)') 'terms     : springs'//trim(terms)
     select case (cfg%scene_code)
@@ -658,25 +659,25 @@ contains
     case default;              cons = 'none'
     end select
     if (cfg%release_time < huge(1.0_rp) .and. trim(cons) /= 'none') &
-      cons = trim(cons)//', released at t = '//fmt_real(cfg%release_time)
+      cons = trim(cons)//', released at t = '//real_short(cfg%release_time)
     write(unit, '(a)') 'constraint: '//trim(cons)
     ! The values the run uses: an option over the namelist says so.
     if (present(ts_max_time)) then
-      tline = 'time      : t_end = '//fmt_real(ts_max_time)//' (-ts_max_time; namelist '//fmt_real(cfg%t_end)//')'
+      tline = 'time      : t_end = '//real_short(ts_max_time)//' (-ts_max_time; namelist '//real_short(cfg%t_end)//')'
     else
-      tline = 'time      : t_end = '//fmt_real(cfg%t_end)
+      tline = 'time      : t_end = '//real_short(cfg%t_end)
     end if
     if (present(ts_dt)) then
-      tline = tline//', dt = '//fmt_real(ts_dt)//' (-ts_dt; namelist '//fmt_real(cfg%dt)//')'
+      tline = tline//', dt = '//real_short(ts_dt)//' (-ts_dt; namelist '//real_short(cfg%dt)//')'
     else
-      tline = tline//', dt = '//fmt_real(cfg%dt)
+      tline = tline//', dt = '//real_short(cfg%dt)
     end if
     write(unit, '(a)') tline
     if (cfg%write_velocity) then
-      write(unit, '(a)') 'output    : '//trim(cfg%output_file)//' every '//fmt_real(cfg%output_interval)// &
+      write(unit, '(a)') 'output    : '//trim(cfg%output_file)//' every '//real_short(cfg%output_interval)// &
         ' (with velocity)'
     else
-      write(unit, '(a)') 'output    : '//trim(cfg%output_file)//' every '//fmt_real(cfg%output_interval)
+      write(unit, '(a)') 'output    : '//trim(cfg%output_file)//' every '//real_short(cfg%output_interval)
     end if
   end subroutine input_summary
 

@@ -9,10 +9,11 @@ module input_checks
   use kinds, only: rp
   use config, only: nuno_config, keyframe_max, unset_real, &
                     BEND_NONE, BEND_PAPER, BEND_ENERGY, SCALING_CONTINUUM, MASS_AREA, &
-                    SCENE_LIFT_RELEASE, SCENE_BEND_RELEASE, SCENE_WAVE_POINT, SCENE_HANG, SCENE_FLAT, &
+                    SCENE_LIFT_RELEASE, SCENE_BEND_RELEASE, SCENE_WAVE_POINT, SCENE_HANG, &
                     n_fit_kinds, fit_kind_names
   use input_keys, only: keys, key_index
-  use input_text, only: lower, fmt_real
+  use input_text, only: lower
+  use strings, only: real_short
   implicit none
   private
   public :: derive_codes, resolve_unset, validate, check_choice, choices
@@ -162,7 +163,7 @@ contains
       end if
       p0 = fit_initial(cfg, code)
       if (.not. (p0 > 0.0_rp)) then
-        msg = "input: &identify: fit: '"//name//"' = "//fmt_real(p0)//' cannot be fitted: parameters are '// &
+        msg = "input: &identify: fit: '"//name//"' = "//real_short(p0)//' cannot be fitted: parameters are '// &
               'fitted in log space, so the initial guess (the namelist value) must be > 0'
         return
       end if
@@ -171,12 +172,12 @@ contains
       if (cfg%fit_upper(k) == unset_real) cfg%fit_upper(k) = p0 * 1000.0_rp
       if (.not. (cfg%fit_lower(k) > 0.0_rp .and. cfg%fit_lower(k) <= p0 .and. p0 <= cfg%fit_upper(k))) then
         msg = "input: &identify: the bounds of '"//name//"' must satisfy 0 < fit_lower <= initial guess <= "// &
-              'fit_upper (got '//fmt_real(cfg%fit_lower(k))//' <= '//fmt_real(p0)//' <= '//fmt_real(cfg%fit_upper(k))//')'
+              'fit_upper (got '//real_short(cfg%fit_lower(k))//' <= '//real_short(p0)//' <= '//real_short(cfg%fit_upper(k))//')'
         return
       end if
     end do
     if (.not. (cfg%tikhonov >= 0.0_rp)) then
-      msg = 'input: &identify: tikhonov must be >= 0 (got '//fmt_real(cfg%tikhonov)//')'
+      msg = 'input: &identify: tikhonov must be >= 0 (got '//real_short(cfg%tikhonov)//')'
       return
     end if
     ierr = 0
@@ -259,9 +260,9 @@ contains
           if (speed > cfg%max_speed * (1.0_rp + 1.0e-12_rp)) then
             write(a, '(i0)') m
             write(b, '(i0)') m - 1
-            msg = 'input: &control: the initial keyframes exceed max_speed = '//fmt_real(cfg%max_speed)// &
+            msg = 'input: &control: the initial keyframes exceed max_speed = '//real_short(cfg%max_speed)// &
                   ': keyframe_d'//xyz(c:c)//'('//trim(a)//') - keyframe_d'//xyz(c:c)//'('//trim(b)//') = '// &
-                  fmt_real(off(c, m) - off(c, m - 1))//' in '//fmt_real(dt)//' is a speed of '//fmt_real(speed)
+                  real_short(off(c, m) - off(c, m - 1))//' in '//real_short(dt)//' is a speed of '//real_short(speed)
             return
           end if
         end do
@@ -387,7 +388,7 @@ contains
     msg = ''
     if (.not. (cfg%release_time >= 0.0_rp)) then
       ierr = 1
-      msg = 'input: &scene: release_time = '//fmt_real(cfg%release_time)//' must be >= 0'
+      msg = 'input: &scene: release_time = '//real_short(cfg%release_time)//' must be >= 0'
       return
     end if
     select case (cfg%scene_code)
@@ -398,20 +399,20 @@ contains
       i_fold = nint((cfg%lx - cfg%lift_length)/cfg%ax)
       if (i_fold < 0 .or. i_fold >= cfg%nx - 1) then
         ierr = 1
-        msg = 'input: &scene: lift_length = '//fmt_real(cfg%lift_length)// &
+        msg = 'input: &scene: lift_length = '//real_short(cfg%lift_length)// &
               ' leaves no part to lift (must lie between ax/2 and lx)'
         return
       end if
       flap = cfg%lx - real(i_fold, rp)*cfg%ax
       if (cfg%lift_height > flap*(1.0_rp + 1.0e-12_rp)) then
         ierr = 1
-        msg = 'input: &scene: lift_height = '//fmt_real(cfg%lift_height)// &
-              ' must be <= the length of the lifted part ('//fmt_real(flap)//')'
+        msg = 'input: &scene: lift_height = '//real_short(cfg%lift_height)// &
+              ' must be <= the length of the lifted part ('//real_short(flap)//')'
       end if
     case (SCENE_BEND_RELEASE)
       if (.not. (cfg%bend_angle >= 0.0_rp .and. cfg%bend_angle < 360.0_rp)) then
         ierr = 1
-        msg = 'input: &scene: bend_angle = '//fmt_real(cfg%bend_angle)//' must be in [0, 360) degrees'
+        msg = 'input: &scene: bend_angle = '//real_short(cfg%bend_angle)//' must be in [0, 360) degrees'
       end if
     end select
   end subroutine check_scene_geometry
@@ -433,7 +434,7 @@ contains
     end if
     if (.not. (cfg%keyframe_time(1) >= 0.0_rp)) then
       ierr = 1
-      msg = 'input: &scene: keyframe_time(1) = '//fmt_real(cfg%keyframe_time(1))//' must be >= 0'
+      msg = 'input: &scene: keyframe_time(1) = '//real_short(cfg%keyframe_time(1))//' must be >= 0'
       return
     end if
     do k = 2, cfg%n_keyframes
@@ -441,8 +442,8 @@ contains
         ierr = 1
         write(a, '(i0)') k
         write(b, '(i0)') k - 1
-        msg = 'input: &scene: keyframe_time('//trim(a)//') = '//fmt_real(cfg%keyframe_time(k))// &
-              ' must be > keyframe_time('//trim(b)//') = '//fmt_real(cfg%keyframe_time(k - 1))// &
+        msg = 'input: &scene: keyframe_time('//trim(a)//') = '//real_short(cfg%keyframe_time(k))// &
+              ' must be > keyframe_time('//trim(b)//') = '//real_short(cfg%keyframe_time(k - 1))// &
               ' (strictly increasing)'
         return
       end if
@@ -474,12 +475,12 @@ contains
     if (ierr /= 0) return
     if (cfg%stretch_limit /= 0.0_rp .and. .not. cfg%stretch_limit > 1.0_rp) then
       ierr = 1
-      msg = 'input: &output: stretch_limit = '//fmt_real(cfg%stretch_limit)//' must be > 1 (or 0: no warning)'
+      msg = 'input: &output: stretch_limit = '//real_short(cfg%stretch_limit)//' must be > 1 (or 0: no warning)'
       return
     end if
     if (cfg%checkpoint_interval < 0.0_rp) then
       ierr = 1
-      msg = 'input: &output: checkpoint_interval = '//fmt_real(cfg%checkpoint_interval)// &
+      msg = 'input: &output: checkpoint_interval = '//real_short(cfg%checkpoint_interval)// &
             ' must be >= 0 (0: a checkpoint at the end of the run only)'
       return
     end if
@@ -515,7 +516,7 @@ contains
     msg = ''
     if (.not. (value > 0.0_rp .and. value <= huge(value))) then
       ierr = 1
-      msg = 'input: &'//group//': '//key//' = '//fmt_real(value)//' must be > 0'
+      msg = 'input: &'//group//': '//key//' = '//real_short(value)//' must be > 0'
     end if
   end subroutine need_positive
 
@@ -529,7 +530,7 @@ contains
     msg = ''
     if (.not. (value >= 0.0_rp .and. value <= huge(value))) then
       ierr = 1
-      msg = 'input: &'//group//': '//key//' = '//fmt_real(value)//' must be >= 0'
+      msg = 'input: &'//group//': '//key//' = '//real_short(value)//' must be >= 0'
     end if
   end subroutine need_nonnegative
 

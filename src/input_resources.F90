@@ -9,7 +9,7 @@ module input_resources
   use kinds, only: rp
   use config, only: nuno_config, BEND_NONE
   use input_limits, only: max_steps, max_outputs, bytes_per_node_bending, bytes_per_node_plain
-  use input_text, only: fmt_real
+  use strings, only: real_short, count_text, bytes_text
   implicit none
   private
   public :: input_check_run
@@ -39,7 +39,7 @@ contains
     if (present(ts_dt)) then
       if (.not. (ts_dt > 0.0_rp .and. ts_dt <= huge(ts_dt))) then
         ierr = 1
-        errmsg = 'input: -ts_dt '//fmt_real(ts_dt)//' must be a finite number > 0'
+        errmsg = 'input: -ts_dt '//real_short(ts_dt)//' must be a finite number > 0'
         return
       end if
     end if
@@ -47,23 +47,23 @@ contains
       if (present(ts_dt)) then
         if (cfg%t_end/ts_dt > max_steps) then
           ierr = 1
-          errmsg = 'input: -ts_dt '//fmt_real(ts_dt)//' with &time t_end = '//fmt_real(cfg%t_end)//' is '// &
-                   fmt_count(cfg%t_end/ts_dt)//' steps, more than '//fmt_count(max_steps)// &
+          errmsg = 'input: -ts_dt '//real_short(ts_dt)//' with &time t_end = '//real_short(cfg%t_end)//' is '// &
+                   count_text(cfg%t_end/ts_dt)//' steps, more than '//count_text(max_steps)// &
                    ': give -nuno_allow_long to run it anyway'
           return
         end if
       else if (cfg%t_end/cfg%dt > max_steps) then
         ierr = 1
-        errmsg = 'input: &time: t_end = '//fmt_real(cfg%t_end)//', dt = '//fmt_real(cfg%dt)//' is '// &
-                 fmt_count(cfg%t_end/cfg%dt)//' steps, more than '//fmt_count(max_steps)// &
+        errmsg = 'input: &time: t_end = '//real_short(cfg%t_end)//', dt = '//real_short(cfg%dt)//' is '// &
+                 count_text(cfg%t_end/cfg%dt)//' steps, more than '//count_text(max_steps)// &
                  ': give -nuno_allow_long to run it anyway'
         return
       end if
       if (cfg%t_end/cfg%output_interval > max_outputs) then
         ierr = 1
-        errmsg = 'input: &output: output_interval = '//fmt_real(cfg%output_interval)//' with t_end = '// &
-                 fmt_real(cfg%t_end)//' is '//fmt_count(cfg%t_end/cfg%output_interval)// &
-                 ' output steps, more than '//fmt_count(max_outputs)//': give -nuno_allow_long to run it anyway'
+        errmsg = 'input: &output: output_interval = '//real_short(cfg%output_interval)//' with t_end = '// &
+                 real_short(cfg%t_end)//' is '//count_text(cfg%t_end/cfg%output_interval)// &
+                 ' output steps, more than '//count_text(max_outputs)//': give -nuno_allow_long to run it anyway'
         return
       end if
     end if
@@ -75,7 +75,7 @@ contains
     if (6.0_rp*nodes > real(index_max, rp)) then
       ierr = 1
       errmsg = 'input: &lattice: nx = '//trim(a)//', ny = '//trim(b)//': 6 nx ny = '// &
-               fmt_count(6.0_rp*nodes)//' unknowns exceed the index limit '//trim(lim)// &
+               count_text(6.0_rp*nodes)//' unknowns exceed the index limit '//trim(lim)// &
                ' (largest PetscInt)'
       return
     end if
@@ -86,8 +86,8 @@ contains
       if (need > real(avail, rp)) then
         ierr = 1
         errmsg = 'input: &lattice: nx = '//trim(a)//', ny = '//trim(b)//': the lattice needs about '// &
-                 fmt_bytes(need)//' ('//fmt_real(per_node/1000.0_rp)//' KB a node, a lower bound) but the ranks'' '// &
-                 'hosts have '//fmt_bytes(real(avail, rp))//' available'
+                 bytes_text(need)//' ('//real_short(per_node/1000.0_rp)//' KB a node, a lower bound) but the ranks'' '// &
+                 'hosts have '//bytes_text(real(avail, rp))//' available'
       end if
     end if
   end subroutine input_check_run
@@ -157,36 +157,5 @@ contains
     close(u)
     read_int64 = ios == 0
   end function read_int64
-
-  !> A count such as 2.2E+10 (or 11 when small), for messages.
-  function fmt_count(x) result(s)
-    real(rp), intent(in) :: x
-    character(:), allocatable :: s
-    character(32) :: buf
-    if (x < 1.0e7_rp) then
-      write(buf, '(i0)') nint(x)
-    else if (x < 1.0e99_rp) then
-      write(buf, '(es10.2e2)') x
-    else
-      buf = fmt_real(x)
-    end if
-    s = trim(adjustl(buf))
-  end function fmt_count
-
-  !> Bytes as GB/MB with three digits, for messages.
-  function fmt_bytes(x) result(s)
-    real(rp), intent(in) :: x
-    character(:), allocatable :: s
-    character(32) :: buf
-    if (x >= 1.0e12_rp) then
-      buf = fmt_count(x/1.0e12_rp)//' TB'
-      if (x < 1.0e19_rp) write(buf, '(f0.1,a)') x/1.0e12_rp, ' TB'
-    else if (x >= 1.0e9_rp) then
-      write(buf, '(f0.1,a)') x/1.0e9_rp, ' GB'
-    else
-      write(buf, '(f0.1,a)') x/1.0e6_rp, ' MB'
-    end if
-    s = trim(adjustl(buf))
-  end function fmt_bytes
 
 end module input_resources

@@ -14,13 +14,13 @@
 !>   themselves: PETSc's options database keeps only the last of a repeated
 !>   option, and from Fortran it keeps a value only up to its first blank.
 module input_text
-  use kinds, only: rp
+  use strings, only: itoa
   use input_keys, only: keys, key_index, KEY_INTEGER, KEY_REAL, KEY_LOGICAL, KEY_STRING
   implicit none
   private
   public :: assignment_t, lex_overrides, key_lookup, value_error, command_line_overrides, key_default
   public :: namelist_value
-  public :: next_assignment, is_name_char, lower, strip_commas, overrides_record, fmt_real
+  public :: next_assignment, is_name_char, lower, strip_commas, overrides_record
   public :: KEY_INTEGER, KEY_REAL, KEY_LOGICAL, KEY_STRING
 
   !> The separator of the -nuno_set options joined into one text
@@ -599,52 +599,5 @@ contains
       if (s(i:i) >= 'A' .and. s(i:i) <= 'Z') r(i:i) = achar(iachar(s(i:i)) + 32)
     end do
   end function lower
-
-  function itoa(i) result(s)
-    integer, intent(in) :: i
-    character(:), allocatable :: s
-    character(12) :: buf
-    write(buf, '(i0)') i
-    s = trim(buf)
-  end function itoa
-
-
-  !> Shortest decimal that reads back as x (fixed notation for moderate values).
-  function fmt_real(x) result(s)
-    real(rp), intent(in) :: x
-    character(:), allocatable :: s
-    character(40) :: buf, fmt
-    real(rp) :: y
-    integer :: d, ios
-    if (x /= x) then
-      s = 'NaN'
-      return
-    else if (abs(x) > huge(x)) then
-      s = merge('+Infinity', '-Infinity', x > 0.0_rp)
-      return
-    else if (x == 0.0_rp) then
-      s = '0.0'
-      return
-    end if
-    do d = 1, 17
-      if (abs(x) >= 1.0e-3_rp .and. abs(x) < 1.0e7_rp) then
-        write(fmt, '(a,i0,a)') '(f0.', d, ')'
-      else
-        if (abs(x) >= 1.0e100_rp .or. abs(x) < 1.0e-99_rp) then
-          write(fmt, '(a,i0,a)') '(es30.', d, 'e3)'
-        else
-          write(fmt, '(a,i0,a)') '(es30.', d, ')'
-        end if
-      end if
-      write(buf, fmt) x
-      read(buf, *, iostat=ios) y
-      if (ios == 0 .and. y == x) exit
-    end do
-    s = trim(adjustl(buf))
-    if (s(1:1) == '.') s = '0'//s
-    if (len(s) >= 2) then
-      if (s(1:2) == '-.') s = '-0'//s(2:)
-    end if
-  end function fmt_real
 
 end module input_text

@@ -4,7 +4,7 @@
 !> input_limits, so that the help cannot name a key or a number the input
 !> does not have. No MPI, no PETSc.
 module input_usage
-  use kinds, only: rp
+  use strings, only: pow10_text, kb_text
   use input_keys, only: keys, n_keys, n_groups, key_index, key_type_text, key_group_list
   use input_limits, only: bytes_per_node_bending, bytes_per_node_plain, max_steps, max_outputs
   implicit none
@@ -38,9 +38,9 @@ contains
     call usage_keys(unit)
     write(unit, '(a)') '', &
       'Input checks:', &
-      '  -nuno_allow_long                             run even with more than '//pow10(max_steps)// &
+      '  -nuno_allow_long                             run even with more than '//pow10_text(max_steps)// &
       ' steps (t_end/dt) or', &
-      '                                               '//pow10(max_outputs)//' output steps (t_end/output_interval)', &
+      '                                               '//pow10_text(max_outputs)//' output steps (t_end/output_interval)', &
       '', &
       'Output files (input/README.md, "Output files"):', &
       '  -nuno_overwrite                              replace an earlier output file at the first output', &
@@ -207,8 +207,8 @@ contains
     write(unit, '(a)') 'The scene sets the defaults of every other key. Every key, its unit and its', &
       'default: nuno --list-keys, input/README.md; ready-made inputs: input/*.nml. Real', &
       'keys must be finite (no NaN, Inf); a lattice beyond the index range or the memory', &
-      'of the ranks'' hosts (at least '//kb(bytes_per_node_bending)//' KB a node with bending, '// &
-      kb(bytes_per_node_plain)//' KB without) is refused.'
+      'of the ranks'' hosts (at least '//kb_text(bytes_per_node_bending)//' KB a node with bending, '// &
+      kb_text(bytes_per_node_plain)//' KB without) is refused.'
   end subroutine usage_keys
 
   !> `nuno --list-keys`: one line per key, tab-separated: name, group, type,
@@ -224,23 +224,5 @@ contains
         trim(keys(k)%unit)//tab//trim(keys(k)%default)//tab//trim(keys(k)%allowed)//tab//trim(keys(k)%meaning)
     end do
   end subroutine list_keys
-
-  !> A power of ten as 1e8.
-  function pow10(x) result(s)
-    real(rp), intent(in) :: x
-    character(:), allocatable :: s
-    character(16) :: buf
-    write(buf, '(a,i0)') '1e', nint(log10(x))
-    s = trim(buf)
-  end function pow10
-
-  !> Bytes as KB with one decimal.
-  function kb(bytes) result(s)
-    real(rp), intent(in) :: bytes
-    character(:), allocatable :: s
-    character(16) :: buf
-    write(buf, '(f0.1)') bytes/1000.0_rp
-    s = trim(buf)
-  end function kb
 
 end module input_usage

@@ -9,6 +9,7 @@ program nuno
   use mpi
   use config, only: nuno_config
   use lattice, only: rest_strip
+  use strings, only: itoa
   use, intrinsic :: iso_fortran_env, only: int64
   use, intrinsic :: iso_c_binding, only: c_int
   use input, only: input_read, input_summary, input_check_run
@@ -257,10 +258,4 @@ program nuno
   PetscCallA(PetscFinalize(ierr))
   ! Quiet: the failure was reported in one line already (no ERROR STOP, no backtrace).
   if (status /= 'complete') call quiet_exit(1)
-contains
-  function itoa(i) result(s)
-    integer, intent(in) :: i
-    character(len=12) :: s
-    write(s, '(i0)') i
-  end function itoa
 end program nuno

@@ -14,7 +14,7 @@ module newton_policy
   use newton_forcing, only: forcing_term, quadratic_constant
   use newton_control, only: FLOOR_FACTOR, NEWTON_CONVERGED, NEWTON_DIVERGED, floor_verdict
   use app_context, only: app_ctx, nuno_newton_start_setup
-  use failure_text, only: num
+  use strings, only: num => real_brief
   implicit none
   private
   public :: set_newton_start, snes_converged, linesearch_fallback

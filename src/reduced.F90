@@ -1,24 +1,13 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> The reduced (Baraff-Witkin) Newton solve: the 6-dof Newton step of the
 !> first-order system solved exactly by block elimination around a 3-dof
-!> velocity system, which is the only matrix assembled (docs/design.md).
-!>
-!> With shift a, the 6-dof Jacobian (rows divided by the mass, as in module
-!> timestepping) is [[a I, -I], [-K/m, a I - C/m]] on free nodes and a I on
-!> constrained ones (K = df/dx, C = df/dv). For a right-hand side
-!> b = (b_x, b_v) the x-rows give dx = (dv + b_x)/a (free) or b_x/a
-!> (constrained), and the v-rows, multiplied by the mass, give
-!>   S dv = m b_v + K b_x / a + C z,   S = a M - C - K/a,
-!> where z holds dv = b_v / a on constrained nodes and 0 elsewhere; S has
-!> the row a m I on constrained nodes and no constrained columns. S is
-!> symmetric whenever K and C are. K b_x/a + C z is computed element by
-!> element from the same Jacobian blocks as S (no K matrix is stored).
-!>
-!> PETSc structure: the TS's Jacobian is a MATSHELL (the exact 6-dof action,
-!> matrix-free, for outer Krylov methods and Eisenstat-Walker); the outer
-!> KSP is preonly with a PCSHELL that does the elimination; the inner KSP
-!> (options prefix -reduced_) solves S dv = rhs. Its convergence is the
-!> true residual of the 6-dof system's v-rows, times the mass.
+!> velocity system, S = a M - C - K/a, which is the only matrix assembled
+!> (docs/design.md). This module sets it up and holds the glue: S's
+!> storage (module reduced_storage) or nuno's multigrid (module reduced_mg),
+!> the inner KSP (options prefix -reduced_) and its preconditioner's reuse,
+!> the assembly, the constraints and the inner guesses (module
+!> reduced_guess). The elimination itself, the PCSHELL and the 6-dof
+!> MATSHELL product, is in submodule reduced_elim.
 module reduced
 #include "petsc/finclude/petscsnes.h"
 #include "petsc/finclude/petscdmda.h"
@@ -101,7 +90,7 @@ module reduced
     logical :: forward_ew = .true.         !< pass the outer KSP's rtol (Eisenstat-Walker) to the inner one
     real(rp) :: floor_est = 0              !< round-off floor of ||F||_2 at the last assembly (see reduced_assemble)
     integer :: its = 0                     !< inner Krylov iterations, cumulative
-    ! Inexact Newton (module newton_forcing; set by the SNES convergence test)
+    ! Inexact Newton (eta set by newton_policy's convergence test, from module newton_forcing)
     real(rp) :: rtol0 = 1.0e-6_rp          !< the inner rtol of the options (-reduced_ksp_rtol, default 1e-6)
     real(rp) :: eta = 0                    !< inner rtol of the next Newton solve; 0: rtol0
     real(rp) :: lin_rel = 0                !< relative residual the last inner solve left
@@ -140,6 +129,22 @@ module reduced
       type(reduced_t), pointer :: ctx
       PetscErrorCode :: ierr
     end subroutine MatShellGetContext
+  end interface
+
+  ! The elimination (submodule reduced_elim)
+  interface
+    !> PCSHELL apply: du = J^{-1} b by elimination.
+    module subroutine reduced_pc_apply(pc, b, du, ierr)
+      type(tPC) :: pc
+      type(tVec) :: b, du
+      PetscErrorCode :: ierr
+    end subroutine reduced_pc_apply
+    !> MATSHELL mult: y = J du, the exact 6-dof Jacobian.
+    module subroutine reduced_jac_mult(mat, du, yv, ierr)
+      type(tMat) :: mat
+      type(tVec) :: du, yv
+      PetscErrorCode :: ierr
+    end subroutine reduced_jac_mult
   end interface
 
 contains
@@ -256,7 +261,6 @@ contains
       PetscCall(store_matrix(red%da3, pctype, symmetric, red%s, ierr))
     end if
     PetscCall(KSPSetOperators(red%ksp, red%s, red%s, ierr))
-    PetscCall(KSPSetOperators(red%ksp, red%s, red%s, ierr))
     ! The DM gives -reduced_pc_type mg its grid hierarchy; the operators stay ours.
     PetscCall(KSPSetDM(red%ksp, red%da3, ierr))
     PetscCall(KSPSetDMActive(red%ksp, PETSC_FALSE, ierr))
@@ -282,7 +286,7 @@ contains
       if (red%pcc%use_mg) then
         PetscCall(DMDAGetCorners(da6, xs, ys, zs, m, n, zm, ierr))
         ! without bending every element of S is a link, so S(p, q) = S(q, p)
-        ! block for block (mg_kernels' stencil_t, paired): the sweeps and
+        ! block for block (mg_stencil's stencil_t, paired): the sweeps and
         ! products read the blocks to the row below from that row
         PetscCall(mg_glue_pc(red%mgg, pc, nx, ny, ys, n, w, red%pcc%interp, merge(int(mg_levels), 10, mg_levels > 0), int(mg_cycle), int(mg_sweeps), lat%bending_model == BEND_NONE, ierr))
       else
@@ -537,107 +541,9 @@ contains
     PetscCall(MatNullSpaceDestroy(nsp, ierr))
   end subroutine set_rigid_body_modes
 
-  !> g = -(K w_x + C w_v) on the owned rows, at the state of the last
-  !> assembly, from the element blocks: one pass over the elements with
-  !> the assembly's vector kernels, S not written (reduced_assembly's
-  !> kc_products; kd comes out as the assembly left it). Through the element
-  !> buffer one block at a time, a product with the 6-dof Jacobian took 3
-  !> assemblies' time, and every iteration of a backtracking line search
-  !> one (its slope): -snes_linesearch_type bt ran 2.4x slower.
-  subroutine element_products(red, w)
-    type(reduced_t), intent(inout) :: red
-    real(rp), intent(in) :: w(0:, 0:, red%lat%gys:)
-    call kc_products(red%lat, red%el%ujac, red%el%fixedg, red%el%damping, red%el%clamp, red%el%gauss_newton, w, red%el%g, red%el%kd)
-  end subroutine element_products
-
-  !> The right-hand side of S dv = rhs for the 6-dof right-hand side b
-  !> (global, dof 6): rhs = m b_v + K b_x/a + C z (see the module header).
-  !> Collective (one halo exchange of b).
-  subroutine reduced_rhs(red, b, rhs, ierr)
-    type(reduced_t), intent(inout) :: red
-    type(tVec) :: b, rhs
-    PetscErrorCode, intent(out) :: ierr
-    type(tVec) :: bloc
-    PetscScalar, pointer :: bl(:, :, :), r(:, :, :)
-    integer :: i, j
-    real(rp) :: ainv
-    logical :: any_w
-
-    ainv = 1.0_rp / red%a
-    any_w = .false.
-    PetscCall(DMGetLocalVector(red%da6, bloc, ierr))
-    PetscCall(DMGlobalToLocalBegin(red%da6, b, INSERT_VALUES, bloc, ierr))
-    PetscCall(DMGlobalToLocalEnd(red%da6, b, INSERT_VALUES, bloc, ierr))
-    PetscCall(DMDAVecGetArrayReadF90(red%da6, bloc, bl, ierr))
-    do j = red%lat%gys, red%lat%gye
-      do i = 0, red%lat%nx - 1
-        ! After a Newton update the x-rows are solved exactly: what is left
-        ! of b_x is the round-off of xdot - v (a few eps (a |x| + |v|)), and
-        ! its products, of that size too, would cost a pass over the elements
-        ! (a lagged S: -snes_lag_jacobian).
-        if (all(abs(bl(0:2, i, j)) <= 8.0_rp * epsilon(1.0_rp) * &
-                (red%a * maxval(abs(red%el%ujac(0:2, i, j))) + maxval(abs(red%el%ujac(3:5, i, j)))))) then
-          red%el%w(0:2, i, j) = 0.0_rp
-        else
-          red%el%w(0:2, i, j) = ainv * bl(0:2, i, j)
-        end if
-        if (red%el%fixedg(i, j)) then
-          red%el%w(3:5, i, j) = ainv * bl(3:5, i, j)
-        else
-          red%el%w(3:5, i, j) = 0.0_rp
-        end if
-        any_w = any_w .or. any(red%el%w(:, i, j) /= 0.0_rp)
-      end do
-    end do
-    ! b_x = 0 and no constrained dv: the products vanish. b = +-F(u) at the
-    ! assembled state (a Newton step): formed during the assembly.
-    ! Anything else: one pass over the elements.
-    if (.not. any_w) then
-      red%el%g = 0.0_rp
-    else if (red%el%have_pred .and. same(red%el%w, red%el%wpred, 1.0_rp)) then
-      red%el%g = red%el%gpred
-    else if (red%el%have_pred .and. same(red%el%w, red%el%wpred, -1.0_rp)) then
-      red%el%g = -red%el%gpred
-    else
-      call element_products(red, red%el%w)
-    end if
-    PetscCall(DMDAVecGetArrayF90(red%da3, rhs, r, ierr))
-    do j = red%lat%ys, red%lat%ye
-      do i = 0, red%lat%nx - 1
-        if (red%el%fixedg(i, j)) then
-          r(0:2, i, j) = red%lat%mass(i, j) * bl(3:5, i, j)
-        else
-          r(0:2, i, j) = red%lat%mass(i, j) * bl(3:5, i, j) - red%el%g(:, i, j)
-        end if
-      end do
-    end do
-    PetscCall(DMDAVecRestoreArrayF90(red%da3, rhs, r, ierr))
-    PetscCall(DMDAVecRestoreArrayReadF90(red%da6, bloc, bl, ierr))
-    PetscCall(DMRestoreLocalVector(red%da6, bloc, ierr))
-  end subroutine reduced_rhs
-
-  !> x = sgn y up to round-off (both come from the same expressions); no
-  !> temporary arrays (called once per Newton iteration).
-  pure logical function same(x, y, sgn)
-    real(rp), intent(in) :: x(:, :, :), y(:, :, :)
-    real(rp), intent(in) :: sgn
-    real(rp) :: dmax, ymax
-    integer :: i, j, k
-    dmax = 0.0_rp
-    ymax = 0.0_rp
-    do k = 1, size(x, 3)
-      do j = 1, size(x, 2)
-        do i = 1, size(x, 1)
-          dmax = max(dmax, abs(x(i, j, k) - sgn * y(i, j, k)))
-          ymax = max(ymax, abs(y(i, j, k)))
-        end do
-      end do
-    end do
-    same = dmax <= 1.0e-13_rp * ymax
-  end function same
 
   !> Use the inner initial guess mode (GUESS_NONE, _PREVIOUS, _EXTRAPOLATE;
-  !> timestepping decides, from -nuno_inner_guess and the TS type). Its two
+  !> solver_setup decides, from -nuno_inner_guess and the TS type). Its two
   !> kept first corrections and the step under way's, and the kept second
   !> correction and the step under way's, are five 3-dof vectors, made here
   !> when needed. Collective.
@@ -649,7 +555,7 @@ contains
     PetscCall(guess_use(red%gs, mode, extrapolated_start, red%rhs, ierr))
   end subroutine reduced_set_guess
 
-  !> A step was accepted (timestepping's monitor): its first correction
+  !> A step was accepted (module step_monitor): its first correction
   !> joins the two kept for the next guesses, and its second, where it
   !> took a second Newton iteration, replaces the one kept. Only accepted steps count: a
   !> rejected attempt's correction starts at the same time as its retry's,
@@ -661,155 +567,5 @@ contains
     call guess_accepted(red%gs)
   end subroutine reduced_step_accepted
 
-  !> One inner solve S dv = rhs, its iterations added to red%its; from_zero:
-  !> from zero even when an inner guess was set (a retry). Collective.
-  subroutine inner_solve(red, from_zero, reason, ierr)
-    type(reduced_t), intent(inout) :: red
-    logical, intent(in) :: from_zero
-    KSPConvergedReason, intent(out) :: reason
-    PetscErrorCode, intent(out) :: ierr
-    PetscInt :: its
-    ierr = 0
-    if (from_zero .and. guess_mode(red%gs) /= GUESS_NONE) then
-      PetscCall(KSPSetInitialGuessNonzero(red%ksp, PETSC_FALSE, ierr))
-    end if
-    PetscCall(KSPSolve(red%ksp, red%rhs, red%dv, ierr))
-    PetscCall(KSPGetConvergedReason(red%ksp, reason, ierr))
-    PetscCall(KSPGetIterationNumber(red%ksp, its, ierr))
-    red%its = red%its + its
-  end subroutine inner_solve
-
-  !> PCSHELL apply: du = J^{-1} b by elimination, up to the inner solve's
-  !> tolerance. A failed inner solve is retried once with a freshly built
-  !> preconditioner when it was a reused one; if it still fails, the PC
-  !> reports failure and SNES fails the step (TS then retries it smaller).
-  subroutine reduced_pc_apply(pc, b, du, ierr)
-    type(tPC) :: pc
-    type(tVec) :: b, du
-    PetscErrorCode :: ierr
-    type(reduced_t), pointer :: red
-    PetscScalar, pointer :: bl(:, :, :), y(:, :, :), dv(:, :, :)
-    integer :: i, j
-    real(rp) :: ainv, rtol, atol, dtol, rnorm, bnorm
-    PetscInt :: maxit
-    KSPConvergedReason :: reason
-    PetscInt :: nit
-    PetscBool :: ew, reused
-    logical :: guessed
-
-    PetscCall(PCShellGetContext(pc, red, ierr))
-    ! Eisenstat-Walker sets the outer KSP's rtol: that is the forcing term;
-    ! otherwise the Newton iteration's own (timestepping: set_newton_forcing),
-    ! unless -reduced_ksp_rtol fixes it.
-    if (red%forward_ew) then
-      PetscCall(KSPGetTolerances(red%outer, rtol, atol, dtol, maxit, ierr))
-      PetscCall(SNESKSPGetUseEW(red%snes, ew, ierr))
-      if (.not. ew) rtol = merge(red%eta, red%rtol0, red%eta > 0.0_rp)
-      PetscCall(KSPSetTolerances(red%ksp, rtol, PETSC_DEFAULT_REAL, PETSC_DEFAULT_REAL, PETSC_DEFAULT_INTEGER, ierr))
-    end if
-    red%eta = 0.0_rp
-    PetscCall(reduced_rhs(red, b, red%rhs, ierr))
-    ! (the inner solves leave rhs as it is: its norm serves the guess, the
-    ! second correction kept and the relative residual below)
-    PetscCall(VecNorm(red%rhs, NORM_2, bnorm, ierr))
-    PetscCall(SNESGetIterationNumber(red%snes, nit, ierr))
-    guessed = .false.
-    if (guess_mode(red%gs) /= GUESS_NONE) then
-      PetscCall(guess_set(red%gs, red%ksp, red%a, int(nit), red%rhs, bnorm, red%dv, guessed, ierr))
-    end if
-    PetscCall(inner_solve(red, .false., reason, ierr))
-    if (reason < 0 .and. guessed) then
-      ! a guess must never fail a step: from zero once more
-      PetscCall(inner_solve(red, .true., reason, ierr))
-    end if
-    if (reason > 0) then
-      ! (a failed solve's correction is no guess)
-      PetscCall(guess_keep(red%gs, red%a, int(nit), red%rhs, bnorm, red%dv, ierr))
-    end if
-    PetscCall(KSPGetResidualNorm(red%ksp, rnorm, ierr))
-    red%lin_rel = 0.0_rp
-    if (bnorm > 0.0_rp) red%lin_rel = rnorm / bnorm
-    if (reason < 0) then
-      PetscCall(KSPGetReusePreconditioner(red%ksp, reused, ierr))
-      if (reused) then
-        red%pcc%since_pc = 0
-        PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_FALSE, ierr))
-        PetscCall(KSPSetOperators(red%ksp, red%s, red%s, ierr))
-        if (red%pcc%use_mg) then
-          PetscCall(mg_coarse_levels(red%mgg, ierr))
-        end if
-        PetscCall(inner_solve(red, .true., reason, ierr))
-      end if
-    end if
-    ! (a pair of any converged solve, whichever Newton iteration and start)
-    if (reason > 0) then
-      PetscCall(guess_push(red%gs, red%a, red%rhs, bnorm, red%dv, ierr))
-    end if
-    ! PETSc keeps a PC's failure until its next set-up, which this shell
-    ! PC (its matrix unchanged) never gets: set it each time, or one
-    ! failed inner solve would fail every retry of the step after it
-    if (reason < 0) then
-      PetscCall(PCSetFailedReason(pc, PC_SUBPC_ERROR, ierr))
-    else
-      PetscCall(PCSetFailedReason(pc, PC_NOERROR, ierr))
-    end if
-
-    ainv = 1.0_rp / red%a
-    PetscCall(DMDAVecGetArrayReadF90(red%da6, b, bl, ierr))
-    PetscCall(DMDAVecGetArrayReadF90(red%da3, red%dv, dv, ierr))
-    PetscCall(DMDAVecGetArrayF90(red%da6, du, y, ierr))
-    do j = red%lat%ys, red%lat%ye
-      do i = 0, red%lat%nx - 1
-        if (red%el%fixedg(i, j)) then
-          ! J = a I on a constrained node, whose rows and columns of S
-          ! couple nothing: du = b / a exactly, whatever the inner solve's
-          ! tolerance and the precision of its product left in dv there
-          y(:, i, j) = ainv * bl(:, i, j)
-        else
-          y(3:5, i, j) = dv(0:2, i, j)
-          y(0:2, i, j) = ainv * (dv(0:2, i, j) + bl(0:2, i, j))
-        end if
-      end do
-    end do
-    PetscCall(DMDAVecRestoreArrayF90(red%da6, du, y, ierr))
-    PetscCall(DMDAVecRestoreArrayReadF90(red%da3, red%dv, dv, ierr))
-    PetscCall(DMDAVecRestoreArrayReadF90(red%da6, b, bl, ierr))
-  end subroutine reduced_pc_apply
-
-  !> MATSHELL mult: y = J du, the exact 6-dof Jacobian at the last assembled
-  !> state (x-rows a dx - dv, v-rows a dv - (K dx + C dv)/m; a I on
-  !> constrained rows). Collective (one halo exchange of du).
-  subroutine reduced_jac_mult(mat, du, yv, ierr)
-    type(tMat) :: mat
-    type(tVec) :: du, yv
-    PetscErrorCode :: ierr
-    type(reduced_t), pointer :: red
-    type(tVec) :: dloc
-    PetscScalar, pointer :: d(:, :, :), y(:, :, :)
-    integer :: i, j
-    real(rp) :: a
-
-    PetscCall(MatShellGetContext(mat, red, ierr))
-    a = red%a
-    PetscCall(DMGetLocalVector(red%da6, dloc, ierr))
-    PetscCall(DMGlobalToLocalBegin(red%da6, du, INSERT_VALUES, dloc, ierr))
-    PetscCall(DMGlobalToLocalEnd(red%da6, du, INSERT_VALUES, dloc, ierr))
-    PetscCall(DMDAVecGetArrayReadF90(red%da6, dloc, d, ierr))
-    call element_products(red, d)
-    PetscCall(DMDAVecGetArrayF90(red%da6, yv, y, ierr))
-    do j = red%lat%ys, red%lat%ye
-      do i = 0, red%lat%nx - 1
-        if (red%el%fixedg(i, j)) then
-          y(:, i, j) = a * d(:, i, j)
-        else
-          y(0:2, i, j) = a * d(0:2, i, j) - d(3:5, i, j)
-          y(3:5, i, j) = a * d(3:5, i, j) + red%el%g(:, i, j) / red%lat%mass(i, j)
-        end if
-      end do
-    end do
-    PetscCall(DMDAVecRestoreArrayF90(red%da6, yv, y, ierr))
-    PetscCall(DMDAVecRestoreArrayReadF90(red%da6, dloc, d, ierr))
-    PetscCall(DMRestoreLocalVector(red%da6, dloc, ierr))
-  end subroutine reduced_jac_mult
 
 end module reduced

@@ -12,7 +12,8 @@ module run_checkpoint
   use kinds, only: rp
   use output, only: output_file, checkpoint_t, output_write_checkpoint, output_steps
   use app_context, only: app_ctx, nuno_newton_start_count, nuno_newton_start_get, nuno_newton_start_put
-  use failure_text, only: report_io_error, inum
+  use failure_text, only: report_io_error
+  use strings, only: inum => itoa
   implicit none
   private
   public :: run_counts, solver_restore, take_checkpoint, keep_restart_point

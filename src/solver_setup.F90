@@ -20,7 +20,7 @@ module solver_setup
                          nuno_adaptive_default, nuno_linesearch_options_read, nuno_options_read, &
                          nuno_options_report_unused, nuno_petsc_habits, nuno_signals_install, nuno_step_defaults, &
                          nuno_tolerance_options_read, nuno_ts_scheme
-  use failure_text, only: num, inum
+  use strings, only: num => real_brief, inum => itoa
   use cloth_model, only: form_ifunction, form_ijacobian
   use newton_policy, only: set_newton_start, snes_converged
   use step_monitor, only: ts_monitor

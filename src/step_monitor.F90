@@ -14,7 +14,7 @@ module step_monitor
   use constraints, only: constraint_target
   use reduced, only: reduced_step_accepted
   use app_context, only: app_ctx, nuno_checkpoint_due, nuno_newton_start_push, nuno_ts_stop
-  use failure_text, only: num
+  use strings, only: num => real_brief
   use newton_policy, only: linesearch_fallback
   use run_checkpoint, only: take_checkpoint
   implicit none

@@ -26,7 +26,8 @@ module timestepping
   use output, only: output_file, output_record, output_write_step, output_write_wall_time
   use reduced, only: reduced_set_fixed
   use app_context, only: app_ctx, nuno_walltime_arm, nuno_newton_start_reset, nuno_signal_agreed
-  use failure_text, only: signal_name, failure_reason, report_io_error, num, inum, ieee_nan
+  use failure_text, only: signal_name, failure_reason, report_io_error, ieee_nan
+  use strings, only: num => real_brief, inum => itoa
   use run_checkpoint, only: run_counts, take_checkpoint, keep_restart_point, solver_restore
   use provenance, only: write_run_info
   use solver_setup, only: check_decomposition, solver_create, solver_destroy
