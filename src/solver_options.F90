@@ -11,11 +11,11 @@ module solver_options
   use petscts
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_char, c_null_char
   use strings, only: itoa, real_g0
+  use input_text, only: lower
   implicit none
   private
-  public :: nuno_options_read, nuno_petsc_habits, nuno_linesearch_options_read, nuno_tolerance_options_read, &
-            nuno_options_report_unused
-  public :: adaptive_default, step_defaults, ts_scheme
+  public :: nuno_options_read, nuno_linesearch_options_read, nuno_tolerance_options_read, nuno_options_report_unused
+  public :: adaptive_default, step_defaults, ts_scheme, petsc_habits
 
   !> The integrator of adaptive runs when -ts_type is not given: the method
   !> that won the work-precision measurement at moderate tolerance
@@ -39,13 +39,24 @@ module solver_options
       character(kind=c_char), intent(inout) :: mattype(*)
       integer(c_int), value :: mattype_len
     end function nuno_options_read
-    !> src/nuno_petsc_habits.c: PETSc's -ksp_*/-pc_* options on the path in use.
-    integer(c_int) function nuno_petsc_habits(fcomm, reduced, mattype, mattype_len) bind(C, name='nuno_petsc_habits')
+    !> src/nuno_petsc_habits.c: -pc_type (NUL-terminated) and -ksp_type in an options block.
+    integer(c_int) function nuno_petsc_habits_options(fcomm, pctype, len, pcset) bind(C, name='nuno_petsc_habits_options')
       import :: c_int, c_char
-      integer(c_int), value :: fcomm, reduced
-      character(kind=c_char), intent(inout) :: mattype(*)
-      integer(c_int), value :: mattype_len
-    end function nuno_petsc_habits
+      integer(c_int), value :: fcomm, len
+      character(kind=c_char), intent(out) :: pctype(*)
+      integer(c_int), intent(out) :: pcset
+    end function nuno_petsc_habits_options
+    !> src/nuno_petsc_habits.c: whether mt (NUL-terminated) is a PETSc matrix type.
+    integer(c_int) function nuno_mat_type_exists(mt, exists) bind(C, name='nuno_mat_type_exists')
+      import :: c_int, c_char
+      character(kind=c_char), intent(in) :: mt(*)
+      integer(c_int), intent(out) :: exists
+    end function nuno_mat_type_exists
+    !> src/nuno_petsc_habits.c: -ksp_*, -pc_*, ... moved to -reduced_*.
+    integer(c_int) function nuno_petsc_habits_move(fcomm) bind(C, name='nuno_petsc_habits_move')
+      import :: c_int
+      integer(c_int), value :: fcomm
+    end function nuno_petsc_habits_move
     !> src/nuno_options.c: -nuno_linesearch_fallback, a code of the list names.
     integer(c_int) function nuno_linesearch_options_read(fcomm, names, n, len, fallback, given) &
         bind(C, name='nuno_linesearch_options_read')
@@ -155,6 +166,76 @@ contains
       PetscCall(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-snes_lag_jacobian', '2', ierr))
     end if
   end subroutine step_defaults
+
+  !> PETSc's linear-solver options as users type them (input/README.md,
+  !> "Linear solvers: PETSc options as you know them"), on the path in use;
+  !> before anything reads -ksp_* or -pc_*. Collective (the options are the
+  !> same on every rank, so is every decision).
+  !> The default (reduced) path's outer linear solve is nuno's elimination
+  !> around the 3-dof system S (a shell preconditioner under KSP preonly): a
+  !> PETSc -pc_type there replaced the elimination and failed ("Could not
+  !> locate a solver type for factorization type LU and matrix type shell").
+  !> The linear solve a user means is the inner one, so on that path every
+  !> option of the prefix-less solver, -ksp_*, -pc_*, and those of its
+  !> sub-solvers -sub_*, -mg_levels_*, -mg_coarse_*, is read as the same
+  !> option of the inner solve, -reduced_ksp_*, -reduced_pc_*, ... (-pc_type
+  !> lu: an exact inner solve). Refused there, one line each with what to
+  !> use: -pc_type fieldsplit and shell, -dm_mat_type, and an option given
+  !> both ways with different values. On the 6-dof path (-nuno_jacobian
+  !> full) PETSc's options act as usual; -dm_mat_type is checked against
+  !> PETSc's matrix types, and -pc_type fieldsplit, which cannot split
+  !> baij's 6 x 6 blocks, gets aij storage (mattype, NUL-terminated) unless
+  !> -dm_mat_type says otherwise.
+  subroutine petsc_habits(comm, reduced, mattype, ierr)
+    integer, intent(in) :: comm
+    logical, intent(in) :: reduced
+    character(len=*, kind=c_char), intent(inout) :: mattype
+    PetscErrorCode, intent(out) :: ierr
+    character(len=64, kind=c_char) :: cpc
+    character(len=64) :: pctype, mt
+    integer(c_int) :: pcset, exists
+    PetscBool :: mtset
+    logical :: fieldsplit
+
+    ierr = nuno_petsc_habits_options(comm, cpc, len(cpc), pcset)
+    if (ierr /= 0) return
+    pctype = cpc(1:index(cpc, c_null_char) - 1)
+    mt = ''
+    PetscCall(PetscOptionsGetString(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-dm_mat_type', mt, mtset, ierr))
+    fieldsplit = pcset /= 0 .and. lower(trim(pctype)) == PCFIELDSPLIT
+    if (.not. reduced) then
+      if (mtset) then
+        ierr = nuno_mat_type_exists(trim(mt)//c_null_char, exists)
+        if (ierr /= 0) return
+        if (exists == 0) then
+          ierr = PETSC_ERR_ARG_UNKNOWN_TYPE
+          SETERRQ(comm, ierr, '-dm_mat_type '//trim(mt)//' is not a PETSc matrix type (baij: the default, 6 x 6 blocks; aij: for -pc_type fieldsplit)')
+        end if
+      end if
+      if (fieldsplit) then
+        if (.not. mtset) then
+          mattype = MATAIJ//c_null_char
+        else if (lower(trim(mt)) == MATBAIJ .or. lower(trim(mt)) == MATSBAIJ) then
+          ierr = PETSC_ERR_ARG_INCOMP
+          SETERRQ(comm, ierr, '-pc_type fieldsplit with -dm_mat_type '//trim(mt)//': PETSc''s field split cannot split the 6 x 6 blocks of '//trim(mt)//'; leave -dm_mat_type out (aij then) or give aij')
+        end if
+      end if
+      return
+    end if
+    if (mtset) then
+      ierr = PETSC_ERR_ARG_INCOMP
+      SETERRQ(comm, ierr, '-dm_mat_type '//trim(mt)//' is the storage of the 6-dof Jacobian, which the default (reduced) path does not assemble: -reduced_dm_mat_type sets that of S (with -reduced_pc_type), -nuno_jacobian full -dm_mat_type '//trim(mt)//' the 6-dof path')
+    end if
+    if (fieldsplit) then
+      ierr = PETSC_ERR_ARG_INCOMP
+      SETERRQ(comm, ierr, '-pc_type fieldsplit: the default (reduced) path already eliminates the positions and solves their Schur complement S; for PETSc''s field split of the 6-dof Jacobian give -nuno_jacobian full -pc_type fieldsplit (input/README.md), for the inner solve of S -reduced_pc_type')
+    end if
+    if (pcset /= 0 .and. lower(trim(pctype)) == PCSHELL) then
+      ierr = PETSC_ERR_ARG_INCOMP
+      SETERRQ(comm, ierr, '-pc_type shell: nuno has no user preconditioner to call; the default path''s own is its elimination (-reduced_pc_type for the inner solve)')
+    end if
+    ierr = nuno_petsc_habits_move(comm)
+  end subroutine petsc_habits
 
   !> The TS type with its scheme, for the start-up line: "rosw ra34pw2",
   !> "arkimex 5", "bdf order 4", "theta 0.5", else the type alone. Collective.

@@ -19,8 +19,8 @@ module solver_setup
   use reduced, only: reduced_create, reduced_destroy, reduced_attach, reduced_set_guess, reduced_describe
   use app_context, only: app_ctx, model_state_free, assembly_free, energy_integrals_free, restart_state_free, &
                          nuno_signals_install
-  use solver_options, only: nuno_options_read, nuno_petsc_habits, nuno_linesearch_options_read, &
-                            nuno_tolerance_options_read, nuno_options_report_unused, adaptive_default, step_defaults, ts_scheme
+  use solver_options, only: nuno_options_read, nuno_linesearch_options_read, nuno_tolerance_options_read, &
+                            nuno_options_report_unused, adaptive_default, step_defaults, ts_scheme, petsc_habits
   use newton_start, only: newton_start_free, newton_start_order
   use strings, only: itoa, real_g0
   use failure_text, only: num, inum
@@ -121,8 +121,7 @@ contains
     ctx%newton%newton_forcing = forcing /= 0
     ctx%use_reduced = jac == JACOBIAN_REDUCED
     ! -pc_type lu and friends on the path in use (before anything reads them)
-    ierr = nuno_petsc_habits(ctx%comm, merge(1_c_int, 0_c_int, ctx%use_reduced), cmattype, len(cmattype))
-    if (ierr /= 0) return
+    PetscCall(petsc_habits(ctx%comm, ctx%use_reduced, cmattype, ierr))
     if (.not. ctx%use_reduced .and. mg_interp > 0) then
       ierr = PETSC_ERR_ARG_INCOMP
       SETERRQ(ctx%comm, ierr, 'nuno: -nuno_mg_interpolation is for the reduced solve, not -nuno_jacobian full')
