@@ -171,7 +171,7 @@ contains
   subroutine newton_start_guess(snes_h, x_h, sp, ierr) bind(C, name='nuno_newton_start_guess')
     integer(c_intptr_t), intent(in) :: snes_h, x_h   !< SNES, Vec
     type(c_ptr), value :: sp                         !< the newton_start_t
-    PetscErrorCode, intent(out) :: ierr
+    integer(c_int), intent(out) :: ierr              !< PetscErrorCode, as C's int
     type(newton_start_t), pointer :: s
     type(tSNES) :: snes
     type(tVec) :: x
