@@ -1,6 +1,6 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> The solver's context, passed to every PETSc callback as the user
-!> context, and the C functions of the solver (src/nuno_*.c).
+!> context, and the C functions of the time loop (src/nuno_signals.c).
 module app_context
 #include "petsc/finclude/petscts.h"
   use petscts
@@ -14,13 +14,14 @@ module app_context
   use constraints, only: constraint_set_t
   use output, only: output_file, checkpoint_t
   use inner_guess, only: GUESS_AUTO
+  use newton_start, only: newton_start_t
   use reduced, only: reduced_t
   implicit none
   private
   public :: app_ctx, model_state_t, assembly_t, newton_state_t, step_settings_t, energy_integrals_t, progress_t, &
             restart_state_t
   public :: model_state_free, assembly_free, energy_integrals_free, restart_state_free
-  public :: nuno_walltime_arm, nuno_adaptive_default, nuno_checkpoint_due, nuno_linesearch_options_read, nuno_newton_start_count, nuno_newton_start_get, nuno_newton_start_push, nuno_newton_start_put, nuno_newton_start_reset, nuno_newton_start_setup, nuno_options_read, nuno_options_report_unused, nuno_petsc_habits, nuno_signal_agreed, nuno_signals_install, nuno_step_defaults, nuno_tolerance_options_read, nuno_ts_scheme, nuno_ts_stop
+  public :: nuno_walltime_arm, nuno_checkpoint_due, nuno_signal_agreed, nuno_signals_install, nuno_ts_stop
 
   interface
     !> src/nuno_signals.c: SIGTERM/SIGINT end the run after the current step.
@@ -28,40 +29,6 @@ module app_context
       import :: c_int, c_intptr_t
       integer(c_intptr_t) :: ts             !< the TS handle (tTS%v), passed as TS*
     end function nuno_signals_install
-    !> src/nuno_newton_start.c: -nuno_newton_start, the cubic start of beuler's Newton solve.
-    integer(c_int) function nuno_newton_start_setup(ts, auto_cubic, order) bind(C, name='nuno_newton_start_setup')
-      import :: c_int, c_intptr_t
-      integer(c_intptr_t) :: ts             !< the TS handle (tTS%v), passed as TS*
-      integer(c_int) :: auto_cubic          !< 1: auto means cubic for this run
-      integer(c_int) :: order               !< out: 1 (linear) or 3 (cubic)
-    end function nuno_newton_start_setup
-    integer(c_int) function nuno_newton_start_push(ts, u, t) bind(C, name='nuno_newton_start_push')
-      import :: c_int, c_intptr_t, c_double
-      integer(c_intptr_t) :: ts, u          !< TS*, Vec*
-      real(c_double) :: t
-    end function nuno_newton_start_push
-    integer(c_int) function nuno_newton_start_reset(ts) bind(C, name='nuno_newton_start_reset')
-      import :: c_int, c_intptr_t
-      integer(c_intptr_t) :: ts
-    end function nuno_newton_start_reset
-    integer(c_int) function nuno_newton_start_count(ts, n, compare, nc_prev) bind(C, name='nuno_newton_start_count')
-      import :: c_int, c_intptr_t, c_double
-      integer(c_intptr_t) :: ts
-      integer(c_int) :: n, compare
-      real(c_double) :: nc_prev
-    end function nuno_newton_start_count
-    integer(c_int) function nuno_newton_start_get(ts, k, v, t) bind(C, name='nuno_newton_start_get')
-      import :: c_int, c_intptr_t, c_double
-      integer(c_intptr_t) :: ts, v          !< TS*, Vec*
-      integer(c_int) :: k
-      real(c_double) :: t
-    end function nuno_newton_start_get
-    integer(c_int) function nuno_newton_start_put(ts, k, v, t, n, compare, nc_prev) bind(C, name='nuno_newton_start_put')
-      import :: c_int, c_intptr_t, c_double
-      integer(c_intptr_t) :: ts, v          !< TS*, Vec*
-      integer(c_int) :: k, n, compare
-      real(c_double) :: t, nc_prev
-    end function nuno_newton_start_put
     integer(c_int) function nuno_signal_agreed() bind(C, name='nuno_signal_agreed')
       import :: c_int
     end function nuno_signal_agreed
@@ -79,68 +46,6 @@ module app_context
       import :: c_int, c_intptr_t
       integer(c_intptr_t) :: ts             !< the TS handle (tTS%v), passed as TS*
     end function nuno_ts_stop
-    !> src/nuno_options.c: nuno's options in a PETSc options block.
-    integer(c_int) function nuno_options_read(fcomm, jacobian, pc_lag, mg_interp, snes_floor, gauss_newton, clamp, &
-                                              mattype, mattype_len, fail_newton, forcing, guess, guess_given) &
-                                              bind(C, name='nuno_options_read')
-      import :: c_int, c_double, c_char
-      integer(c_int), value :: fcomm
-      integer(c_int), intent(inout) :: jacobian, pc_lag, mg_interp, gauss_newton, clamp, fail_newton, forcing, guess
-      integer(c_int), intent(out) :: guess_given
-      real(c_double), intent(inout) :: snes_floor
-      character(kind=c_char), intent(inout) :: mattype(*)
-      integer(c_int), value :: mattype_len
-    end function nuno_options_read
-    !> src/nuno_petsc_habits.c: PETSc's -ksp_*/-pc_* options on the path in use.
-    integer(c_int) function nuno_petsc_habits(fcomm, reduced, mattype, mattype_len) bind(C, name='nuno_petsc_habits')
-      import :: c_int, c_char
-      integer(c_int), value :: fcomm, reduced
-      character(kind=c_char), intent(inout) :: mattype(*)
-      integer(c_int), value :: mattype_len
-    end function nuno_petsc_habits
-    !> src/nuno_options.c: -nuno_linesearch_fallback, and whether -snes_linesearch_type is given.
-    integer(c_int) function nuno_linesearch_options_read(fcomm, fallback, given, ls_given) &
-        bind(C, name='nuno_linesearch_options_read')
-      import :: c_int
-      integer(c_int), value :: fcomm
-      integer(c_int), intent(inout) :: fallback
-      integer(c_int), intent(out) :: given, ls_given
-    end function nuno_linesearch_options_read
-    !> src/nuno_options.c: -nuno_atol_position, -nuno_atol_velocity (after TSSetFromOptions).
-    integer(c_int) function nuno_tolerance_options_read(fcomm, atol_x, atol_v, given_x, given_v) &
-        bind(C, name='nuno_tolerance_options_read')
-      import :: c_int, c_double
-      integer(c_int), value :: fcomm
-      real(c_double), intent(inout) :: atol_x, atol_v
-      integer(c_int), intent(out) :: given_x, given_v
-    end function nuno_tolerance_options_read
-    !> src/nuno_options.c: -nuno_adaptive_ts_type, the integrator of an
-    !> adaptive run without -ts_type (before TSSetFromOptions).
-    integer(c_int) function nuno_adaptive_default(fcomm, ts, applied) bind(C, name='nuno_adaptive_default')
-      import :: c_int, c_intptr_t
-      integer(c_int), value :: fcomm
-      integer(c_intptr_t) :: ts             !< the TS handle (tTS%v), passed as TS*
-      integer(c_int), intent(out) :: applied
-    end function nuno_adaptive_default
-    !> src/nuno_options.c: the Newton solve's defaults (extrapolated start for beuler, lagged S).
-    integer(c_int) function nuno_step_defaults(ts, reduced) bind(C, name='nuno_step_defaults')
-      import :: c_int, c_intptr_t
-      integer(c_intptr_t) :: ts             !< the TS handle (tTS%v), passed as TS*
-      integer(c_int), value :: reduced      !< 1 on the reduced path
-    end function nuno_step_defaults
-    !> src/nuno_options.c: "rosw ra34pw2", "bdf order 4", ...: the TS type with its scheme.
-    integer(c_int) function nuno_ts_scheme(ts, buf, len) bind(C, name='nuno_ts_scheme')
-      import :: c_int, c_intptr_t, c_char
-      integer(c_intptr_t) :: ts             !< the TS handle (tTS%v), passed as TS*
-      character(kind=c_char), intent(out) :: buf(*)
-      integer(c_int), value :: len
-    end function nuno_ts_scheme
-    !> src/nuno_options.c: warn about options that nothing read.
-    integer(c_int) function nuno_options_report_unused(fcomm, nunused) bind(C, name='nuno_options_report_unused')
-      import :: c_int
-      integer(c_int), value :: fcomm
-      integer(c_int), intent(out) :: nunused
-    end function nuno_options_report_unused
   end interface
 
 
@@ -179,7 +84,7 @@ module app_context
     integer(c_int) :: guess = GUESS_AUTO        !< -nuno_inner_guess (module inner_guess)
     integer(c_int) :: guess_given = 0           !< 1: set on the command line
     real(rp) :: cquad = 0                       !< estimate of C in ||F_k+1|| ~ C ||F_k||^2; 0 at every window start
-    integer :: start_order = 1                  !< Newton start of beuler: 1 linear, 3 cubic (-nuno_newton_start)
+    type(newton_start_t) :: start               !< beuler's Newton start and its kept states (module newton_start)
     integer :: fail_newton = 0                  !< -nuno_fail_newton: Newton solves still to be declared failed
     !> -nuno_linesearch_fallback: 0 none, 1 bt, 2 l2 (the line search once a
     !> Newton solve has failed); ls_switched once it has been put in place

@@ -47,7 +47,7 @@ module checkpoint_check
     character(len=64) :: ts_type = ''     !< the integrator that wrote it
     integer :: sequence = 0               !< 1, 2, ... in the order written (set by output_write_checkpoint)
     !> The Newton start's kept states before this one (-nuno_newton_start
-    !> cubic, src/nuno_newton_start.c), newest first, so that a restart
+    !> cubic, module newton_start), newest first, so that a restart
     !> starts the next steps as the run that went through did: their
     !> number (0..3; 0 in files written before 4 Dec 2026), positions and
     !> velocities (3, nx, ym, start_count) [length], [length/time], times,

@@ -13,7 +13,9 @@ module newton_policy
   use kinds, only: rp
   use newton_forcing, only: forcing_term, quadratic_constant
   use newton_control, only: FLOOR_FACTOR, NEWTON_CONVERGED, NEWTON_DIVERGED, floor_verdict
-  use app_context, only: app_ctx, nuno_newton_start_setup
+  use app_context, only: app_ctx
+  use newton_start, only: newton_start_setup
+  use solver_choices, only: FALLBACK_NAMES
   use strings, only: num => real_brief
   implicit none
   private
@@ -29,7 +31,7 @@ module newton_policy
 
 contains
 
-  !> Newton's start (-nuno_newton_start, src/nuno_newton_start.c): auto
+  !> Newton's start (-nuno_newton_start, module newton_start): auto
   !> is the cubic start for Newton with beuler at fixed steps (hang 257 x
   !> 257: one Newton iteration a step instead of two, commit 9f1bf04;
   !> the linear start where its residual is the
@@ -40,17 +42,15 @@ contains
   !> there), adaptive steps change dt, and identification and control
   !> runs keep their trajectories as they were.
   subroutine set_newton_start(ctx, ierr)
-    type(app_ctx), intent(inout) :: ctx
+    type(app_ctx), intent(inout), target :: ctx
     PetscErrorCode, intent(out) :: ierr
     type(tSNES) :: snes
     character(len=64) :: sntype
-    integer(c_int) :: auto_cubic, order
+    logical :: auto_cubic
     PetscCall(TSGetSNES(ctx%ts, snes, ierr))
     PetscCall(SNESGetType(snes, sntype, ierr))
-    auto_cubic = merge(1_c_int, 0_c_int, ctx%step%fixed_step .and. trim(sntype) /= SNESKSPONLY .and. &
-                       .not. (ctx%cfg%identify .or. ctx%cfg%control))
-    ierr = nuno_newton_start_setup(ctx%ts%v, auto_cubic, order)
-    ctx%newton%start_order = order
+    auto_cubic = ctx%step%fixed_step .and. trim(sntype) /= SNESKSPONLY .and. .not. (ctx%cfg%identify .or. ctx%cfg%control)
+    PetscCall(newton_start_setup(ctx%newton%start, ctx%ts, ctx%comm, auto_cubic, ierr))
   end subroutine set_newton_start
 
   !> PETSc's residual test, plus the round-off floor of the residual, which
@@ -215,8 +215,8 @@ contains
     PetscErrorCode, intent(out) :: ierr
     type(tSNES) :: snes
     SNESLineSearch :: linesearch
-    character(len=2) :: kind
-    kind = merge('bt', 'l2', ctx%newton%ls_fallback == 1)
+    character(len=:), allocatable :: kind
+    kind = trim(FALLBACK_NAMES(ctx%newton%ls_fallback))
     PetscCall(TSGetSNES(ts, snes, ierr))
     PetscCall(SNESGetLineSearch(snes, linesearch, ierr))
     PetscCall(SNESLineSearchSetType(linesearch, kind, ierr))

@@ -1,25 +1,13 @@
 // SPDX-License-Identifier: BSD-2-Clause
 /* PETSc's linear-solver options as users type them (input/README.md,
- * "Linear solvers: PETSc options as you know them"). Called once from
- * module timestepping's solver_create, after nuno_options_read (which
- * knows the path) and before anything reads -ksp_* or -pc_*; in C because
- * the options block that puts this in -help and the listing of the options
- * database have no Fortran interface in PETSc 3.18 (../shared/STYLE.md).
- *
- * The default (reduced) path's outer linear solve is nuno's elimination
- * around the 3-dof system S (a shell preconditioner under KSP preonly): a
- * PETSc -pc_type there replaced the elimination and failed ("Could not
- * locate a solver type for factorization type LU and matrix type shell").
- * The linear solve a user means is the inner one, so on that path every
- * option of the prefix-less solver, -ksp_*, -pc_*, and those of its
- * sub-solvers -sub_*, -mg_levels_*, -mg_coarse_*, is read as the same
- * option of the inner solve, -reduced_ksp_*, -reduced_pc_*, ... (-pc_type
- * lu: an exact inner solve). Refused there, one line each with what to
- * use: -pc_type fieldsplit and shell, -dm_mat_type, and an option given
- * both ways with different values. On the 6-dof path (-nuno_jacobian full)
- * PETSc's options act as usual; -dm_mat_type is checked against PETSc's
- * matrix types and -pc_type fieldsplit, which cannot split baij's 6 x 6
- * blocks, gets aij storage unless -dm_mat_type says otherwise. */
+ * "Linear solvers: PETSc options as you know them"): the C calls of module
+ * solver_options' petsc_habits, which holds the policy (called once from
+ * solver_create, after nuno_options_read, which knows the path, and before
+ * anything reads -ksp_* or -pc_*). In C because PETSc 3.18 has no Fortran
+ * interface to the options block that puts -pc_type and -ksp_type in -help,
+ * to the listing of the options database (PetscOptionsGetAll), nor to the
+ * list of matrix types (MatList) (../shared/STYLE.md).
+ * What is moved, refused or defaulted, and why: petsc_habits. */
 #include <petscts.h>
 #include <string.h>
 #include <strings.h>
@@ -38,16 +26,14 @@ static PetscBool is_outer_option(const char *name)
   return PETSC_FALSE;
 }
 
-/* reduced: 1 on the default path; mattype in/out (NUL-terminated,
- * mattype_len bytes): the 6-dof Jacobian's storage from -dm_mat_type or
- * its default. Returns a PETSc error code; a refusal is an error whose
- * message is the one line. Collective (the options are the same on every
- * rank, so is every decision). */
-PetscErrorCode nuno_petsc_habits(MPI_Fint fcomm, int reduced, char *mattype, int mattype_len)
+/* The options block: -pc_type into pctype (NUL-terminated, len bytes),
+ * *pcset 1 when given; -ksp_type only for -help (its value is read where
+ * it acts). Collective. */
+PetscErrorCode nuno_petsc_habits_options(MPI_Fint fcomm, char *pctype, int len, int *pcset)
 {
-  MPI_Comm    comm = MPI_Comm_f2c(fcomm);
-  char        pctype[64] = "", ksptype[64] = "", mt[64] = "";
-  PetscBool   pcset = PETSC_FALSE, mtset = PETSC_FALSE;
+  MPI_Comm  comm = MPI_Comm_f2c(fcomm);
+  char      pc[64] = "", ksptype[64] = "";
+  PetscBool set = PETSC_FALSE;
 
   PetscFunctionBeginUser;
   PetscOptionsBegin(comm, NULL,
@@ -58,49 +44,44 @@ PetscErrorCode nuno_petsc_habits(MPI_Fint fcomm, int reduced, char *mattype, int
                                "default path: the inner 3-dof solve's preconditioner, as -reduced_pc_type (lu, cholesky: an exact inner solve; "
                                "gamg, hypre, ilu, jacobi, sor, bjacobi, asm, none); fieldsplit and shell refused; "
                                "-nuno_jacobian full: the 6-dof solve's, as in PETSc",
-                               "PCSetType", pctype, pctype, sizeof(pctype), &pcset));
+                               "PCSetType", pc, pc, sizeof(pc), &set));
   PetscCall(PetscOptionsString("-ksp_type",
                                "default path: the inner 3-dof solve's Krylov method, as -reduced_ksp_type (preonly with -pc_type lu: a direct solve); "
                                "-nuno_jacobian full: the 6-dof solve's, as in PETSc",
                                "KSPSetType", ksptype, ksptype, sizeof(ksptype), NULL));
   PetscOptionsEnd();
-  PetscCall(PetscOptionsGetString(NULL, NULL, "-dm_mat_type", mt, sizeof(mt), &mtset));
+  PetscCall(PetscStrncpy(pctype, pc, (size_t)len));
+  *pcset = set ? 1 : 0;
+  PetscFunctionReturn(0);
+}
 
-  if (!reduced) {
-    PetscErrorCode (*create)(Mat) = NULL;
-    if (mtset) {
-      /* a type (seqaij) or a root name standing for seq and mpi ones (aij) */
-      char seq[80], mpi[80];
-      PetscCall(PetscSNPrintf(seq, sizeof(seq), "seq%s", mt));
-      PetscCall(PetscSNPrintf(mpi, sizeof(mpi), "mpi%s", mt));
-      PetscCall(MatInitializePackage());
-      PetscCall(PetscFunctionListFind(MatList, mt, &create));
-      if (!create) PetscCall(PetscFunctionListFind(MatList, seq, &create));
-      if (!create) PetscCall(PetscFunctionListFind(MatList, mpi, &create));
-      PetscCheck(create, comm, PETSC_ERR_ARG_UNKNOWN_TYPE, "-dm_mat_type %s is not a PETSc matrix type (baij: the default, 6 x 6 blocks; aij: for -pc_type fieldsplit)", mt);
-    }
-    if (pcset && strcasecmp(pctype, PCFIELDSPLIT) == 0) {
-      if (!mtset) {
-        PetscCall(PetscStrncpy(mattype, MATAIJ, (size_t)mattype_len));
-      } else {
-        PetscCheck(strcasecmp(mt, MATBAIJ) != 0 && strcasecmp(mt, MATSBAIJ) != 0, comm, PETSC_ERR_ARG_INCOMP,
-                   "-pc_type fieldsplit with -dm_mat_type %s: PETSc's field split cannot split the 6 x 6 blocks of %s; leave -dm_mat_type out (aij then) or give aij", mt, mt);
-      }
-    }
-    PetscFunctionReturn(0);
-  }
+/* *exists 1 when mt (NUL-terminated) names a PETSc matrix type, or a root
+ * name standing for seq and mpi ones (aij). */
+PetscErrorCode nuno_mat_type_exists(const char *mt, int *exists)
+{
+  PetscErrorCode (*create)(Mat) = NULL;
+  char seq[80], mpi[80];
 
-  PetscCheck(!mtset, comm, PETSC_ERR_ARG_INCOMP,
-             "-dm_mat_type %s is the storage of the 6-dof Jacobian, which the default (reduced) path does not assemble: "
-             "-reduced_dm_mat_type sets that of S (with -reduced_pc_type), -nuno_jacobian full -dm_mat_type %s the 6-dof path", mt, mt);
-  PetscCheck(!(pcset && strcasecmp(pctype, PCFIELDSPLIT) == 0), comm, PETSC_ERR_ARG_INCOMP,
-             "-pc_type fieldsplit: the default (reduced) path already eliminates the positions and solves their Schur complement S; "
-             "for PETSc's field split of the 6-dof Jacobian give -nuno_jacobian full -pc_type fieldsplit (input/README.md), "
-             "for the inner solve of S -reduced_pc_type");
-  PetscCheck(!(pcset && strcasecmp(pctype, PCSHELL) == 0), comm, PETSC_ERR_ARG_INCOMP,
-             "-pc_type shell: nuno has no user preconditioner to call; the default path's own is its elimination (-reduced_pc_type for the inner solve)");
+  PetscFunctionBeginUser;
+  PetscCall(PetscSNPrintf(seq, sizeof(seq), "seq%s", mt));
+  PetscCall(PetscSNPrintf(mpi, sizeof(mpi), "mpi%s", mt));
+  PetscCall(MatInitializePackage());
+  PetscCall(PetscFunctionListFind(MatList, mt, &create));
+  if (!create) PetscCall(PetscFunctionListFind(MatList, seq, &create));
+  if (!create) PetscCall(PetscFunctionListFind(MatList, mpi, &create));
+  *exists = create ? 1 : 0;
+  PetscFunctionReturn(0);
+}
 
-  /* Every option of the prefix-less solver becomes the inner solve's. */
+/* The default (reduced) path: every option of the prefix-less solver
+ * becomes the inner solve's, -reduced_...; an option given both ways with
+ * different values is refused. Says what it moved (rank 0). Collective
+ * (the options are the same on every rank, so is every decision). */
+PetscErrorCode nuno_petsc_habits_move(MPI_Fint fcomm)
+{
+  MPI_Comm comm = MPI_Comm_f2c(fcomm);
+
+  PetscFunctionBeginUser;
   {
     char    *all, *copy, *tok, *save = NULL;
     char     moved[1024] = "", into[1024] = "";

@@ -15,6 +15,7 @@ module reduced_mg
   use mpi
   use, intrinsic :: iso_c_binding, only: c_int, c_intptr_t, c_int64_t
   use kinds, only: rp
+  use solver_choices, only: INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
   use lattice, only: lattice_t
   use reduced_assembly, only: assemble_stencil
   use offset_product, only: stencil_product, offset_count
@@ -28,9 +29,6 @@ module reduced_mg
   public :: mg_coarse_levels, levels_that_fit, default_preconditioner, mg_interpolations, true_residual_defaults
   public :: INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
 
-  !> Interpolation between multigrid levels (-nuno_mg_interpolation; the
-  !> values of src/nuno_options.c's list, 0 being auto).
-  integer, parameter :: INTERP_LINEAR = 1, INTERP_CUBIC = 2, INTERP_COARSE_CUBIC = 3
 
   !> nuno's multigrid and S by stencil offset.
   type :: mg_glue_t

@@ -11,7 +11,8 @@ module run_checkpoint
   use, intrinsic :: iso_fortran_env, only: output_unit
   use kinds, only: rp
   use output, only: output_file, checkpoint_t, output_write_checkpoint, output_steps
-  use app_context, only: app_ctx, nuno_newton_start_count, nuno_newton_start_get, nuno_newton_start_put
+  use app_context, only: app_ctx
+  use newton_start, only: newton_start_count, newton_start_get, newton_start_put
   use failure_text, only: report_io_error
   use strings, only: inum => itoa
   implicit none
@@ -81,21 +82,16 @@ contains
     if (ck%start_count > 0) then
       block
         type(tVec) :: w
-        integer(c_int) :: kk, nk, cmp
-        real(c_double) :: tk, ncp
+        integer :: kk, nk
+        logical :: cmp
         PetscErrorCode :: err
-        nk = int(ck%start_count + 1, c_int)
-        cmp = int(ck%start_compare, c_int)
-        ncp = real(ck%start_nc_prev, c_double)
-        tk = real(ck%time, c_double)
-        kk = 0
-        ierr = nuno_newton_start_put(ctx%ts%v, kk, ctx%u%v, tk, nk, cmp, ncp)
-        if (ierr /= 0) return
+        nk = ck%start_count + 1
+        cmp = ck%start_compare /= 0
+        PetscCall(newton_start_put(ctx%newton%start, 1, ctx%u, ck%time, nk, cmp, ck%start_nc_prev, ierr))
         PetscCall(DMGetGlobalVector(ctx%da, w, ierr))
         do kk = 1, nk - 1
           PetscCall(strips_to_state(ctx, ck%start_x(:, :, :, kk), ck%start_v(:, :, :, kk), w, ierr))
-          tk = real(ck%start_t(kk), c_double)
-          ierr = nuno_newton_start_put(ctx%ts%v, kk, w%v, tk, nk, cmp, ncp)
+          call newton_start_put(ctx%newton%start, kk + 1, w, ck%start_t(kk), nk, cmp, ck%start_nc_prev, ierr)
           if (ierr /= 0) exit
         end do
         ! (a failed put's error code, not the restore's, is the answer)
@@ -203,37 +199,37 @@ contains
 
   !> The Newton start's kept states before t (at most three, newest first)
   !> into ck, for a restart to start its next steps as this run does
-  !> (src/nuno_newton_start.c). Collective.
+  !> (module newton_start). Collective.
   subroutine checkpoint_start_states(ctx, t, ck, ierr)
     type(app_ctx), intent(inout) :: ctx
     real(rp), intent(in) :: t
     type(checkpoint_t), intent(inout) :: ck
     PetscErrorCode, intent(out) :: ierr
     type(tVec) :: w
-    integer(c_int) :: n, compare, k
-    real(c_double) :: nc_prev, tk
+    integer :: n, k, m
+    logical :: compare
+    real(rp) :: nc_prev, tk
     PetscErrorCode :: err
-    integer :: m
 
-    ierr = nuno_newton_start_count(ctx%ts%v, n, compare, nc_prev)
-    if (ierr /= 0) return
+    ierr = 0
+    call newton_start_count(ctx%newton%start, n, compare, nc_prev)
     ck%start_count = 0
-    ck%start_compare = int(compare)
-    ck%start_nc_prev = real(nc_prev, rp)
+    ck%start_compare = merge(1, 0, compare)
+    ck%start_nc_prev = nc_prev
     if (allocated(ck%start_x)) deallocate(ck%start_x)
     if (allocated(ck%start_v)) deallocate(ck%start_v)
     allocate(ck%start_x(3, ctx%lat%nx, ctx%lat%ye - ctx%lat%ys + 1, 3), ck%start_v(3, ctx%lat%nx, ctx%lat%ye - ctx%lat%ys + 1, 3))
     if (n == 0) return
     PetscCall(DMGetGlobalVector(ctx%da, w, ierr))
-    do k = 0, n - 1
+    do k = 1, n
       if (ck%start_count == 3) exit
-      ierr = nuno_newton_start_get(ctx%ts%v, k, w%v, tk)
+      call newton_start_get(ctx%newton%start, k, w, tk, ierr)
       if (ierr /= 0) exit
       ! (the step's own state, if pushed already, is the checkpoint's state)
-      if (real(tk, rp) >= t) cycle
+      if (tk >= t) cycle
       m = ck%start_count + 1
       ck%start_count = m
-      ck%start_t(m) = real(tk, rp)
+      ck%start_t(m) = tk
       PetscCall(state_to_strips(ctx, w, ck%start_x(:, :, :, m), ck%start_v(:, :, :, m), ierr))
     end do
     ! (a failed get's error code, not the restore's, is the answer)

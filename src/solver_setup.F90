@@ -14,13 +14,15 @@ module solver_setup
   use lattice, only: lattice_init, halo_width
   use forces, only: jac_buffer_init
   use scenes, only: scene_setup
-  use inner_guess, only: GUESS_AUTO, GUESS_NONE, GUESS_EXTRAPOLATE, GUESS_PROJECT
+  use solver_choices, only: JACOBIAN_NAMES, JACOBIAN_REDUCED, INTERP_AUTO, INTERP_NAMES, GUESS_AUTO, GUESS_NONE, &
+                            GUESS_EXTRAPOLATE, GUESS_PROJECT, GUESS_NAMES, FALLBACK_BT, FALLBACK_NAMES
   use reduced, only: reduced_create, reduced_destroy, reduced_attach, reduced_set_guess, reduced_describe
   use app_context, only: app_ctx, model_state_free, assembly_free, energy_integrals_free, restart_state_free, &
-                         nuno_adaptive_default, nuno_linesearch_options_read, nuno_options_read, &
-                         nuno_options_report_unused, nuno_petsc_habits, nuno_signals_install, nuno_step_defaults, &
-                         nuno_tolerance_options_read, nuno_ts_scheme
-  use strings, only: num => real_brief, inum => itoa
+                         nuno_signals_install
+  use solver_options, only: nuno_options_read, nuno_linesearch_options_read, nuno_tolerance_options_read, &
+                            nuno_options_report_unused, adaptive_default, step_defaults, ts_scheme, petsc_habits
+  use newton_start, only: newton_start_free, newton_start_order
+  use strings, only: itoa, real_g0, num => real_brief, inum => itoa
   use cloth_model, only: form_ifunction, form_ijacobian
   use newton_policy, only: set_newton_start, snes_converged
   use step_monitor, only: ts_monitor
@@ -70,8 +72,9 @@ contains
     PetscScalar, pointer :: ua(:, :, :)
     character(len=64) :: mattype
     character(len=64, kind=c_char) :: cmattype
-    integer(c_int) :: jac_full, pc_lag, gn, cl, nfail, mg_interp, applied, forcing, ls_fallback, ls_given, ls_type_given
-    logical :: symmetric, constant, damping
+    integer(c_int) :: jac, pc_lag, gn, cl, nfail, mg_interp, forcing, ls_fallback, ls_given
+    PetscBool :: ls_type_given
+    logical :: symmetric, constant, damping, applied
 
     ctx%cfg = cfg
     ctx%comm = PETSC_COMM_WORLD
@@ -88,23 +91,36 @@ contains
     ! Jacobian (the reference for -snes_test_jacobian and small scenes),
     ! and the storage of that Jacobian: BAIJ (6 x 6 blocks) assembles and
     ! multiplies fastest; -dm_mat_type aij for field splits.
-    jac_full = 0
+    jac = JACOBIAN_REDUCED
     pc_lag = 0                     ! the default: 3 with the multigrid, 1 otherwise (module reduced)
-    mg_interp = 0                  ! auto: cubic with bending, linear without (module reduced)
+    mg_interp = INTERP_AUTO        ! cubic with bending, linear without (module reduced)
     gn = 0
     cl = 0
     nfail = 0
     cmattype = MATBAIJ//c_null_char
     forcing = 1
     ctx%newton%guess = GUESS_AUTO
-    ierr = nuno_options_read(ctx%comm, jac_full, pc_lag, mg_interp, ctx%newton%snes_floor, gn, cl, cmattype, len(cmattype), nfail, forcing, &
-                             ctx%newton%guess, ctx%newton%guess_given)
+    ierr = nuno_options_read(ctx%comm, JACOBIAN_NAMES, size(JACOBIAN_NAMES), len(JACOBIAN_NAMES), jac, pc_lag, &
+                             INTERP_NAMES, size(INTERP_NAMES), len(INTERP_NAMES), mg_interp, ctx%newton%snes_floor, gn, cl, &
+                             cmattype, len(cmattype), nfail, forcing, &
+                             GUESS_NAMES, size(GUESS_NAMES), len(GUESS_NAMES), ctx%newton%guess, ctx%newton%guess_given)
     if (ierr /= 0) return
+    if (pc_lag < 0) then
+      ierr = PETSC_ERR_ARG_OUTOFRANGE
+      SETERRQ(ctx%comm, ierr, '-nuno_pc_lag '//itoa(int(pc_lag))//' must be >= 1 (or 0: the default)')
+    end if
+    if (.not. (ctx%newton%snes_floor >= 0.0_rp .and. ctx%newton%snes_floor < 1.0_rp)) then
+      ierr = PETSC_ERR_ARG_OUTOFRANGE
+      SETERRQ(ctx%comm, ierr, '-nuno_snes_floor '//real_g0(ctx%newton%snes_floor)//' must be in [0, 1)')
+    end if
+    if (nfail < 0) then
+      ierr = PETSC_ERR_ARG_OUTOFRANGE
+      SETERRQ(ctx%comm, ierr, '-nuno_fail_newton '//itoa(int(nfail))//' must be >= 0')
+    end if
     ctx%newton%newton_forcing = forcing /= 0
-    ctx%use_reduced = jac_full == 0
+    ctx%use_reduced = jac == JACOBIAN_REDUCED
     ! -pc_type lu and friends on the path in use (before anything reads them)
-    ierr = nuno_petsc_habits(ctx%comm, merge(1_c_int, 0_c_int, ctx%use_reduced), cmattype, len(cmattype))
-    if (ierr /= 0) return
+    PetscCall(petsc_habits(ctx%comm, ctx%use_reduced, cmattype, ierr))
     if (.not. ctx%use_reduced .and. mg_interp > 0) then
       ierr = PETSC_ERR_ARG_INCOMP
       SETERRQ(ctx%comm, ierr, 'nuno: -nuno_mg_interpolation is for the reduced solve, not -nuno_jacobian full')
@@ -112,19 +128,21 @@ contains
     ctx%model%gauss_newton = gn /= 0
     ctx%model%clamp = cl /= 0
     ctx%newton%fail_newton = nfail
-    ls_fallback = 1
-    ierr = nuno_linesearch_options_read(ctx%comm, ls_fallback, ls_given, ls_type_given)
+    ls_fallback = FALLBACK_BT
+    ierr = nuno_linesearch_options_read(ctx%comm, FALLBACK_NAMES, size(FALLBACK_NAMES), len(FALLBACK_NAMES), ls_fallback, ls_given)
     if (ierr /= 0) return
+    ! the user's -snes_linesearch_type then holds for the whole run
+    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-snes_linesearch_type', ls_type_given, ierr))
     if (ls_given /= 0 .and. .not. ctx%use_reduced) then
       ierr = PETSC_ERR_ARG_INCOMP
       SETERRQ(ctx%comm, ierr, 'nuno: -nuno_linesearch_fallback is for the reduced path; with -nuno_jacobian full Newton backtracks (bt) from the start')
     end if
-    if (ls_given /= 0 .and. ls_type_given /= 0) then
+    if (ls_given /= 0 .and. ls_type_given) then
       ierr = PETSC_ERR_ARG_INCOMP
       SETERRQ(ctx%comm, ierr, 'nuno: -nuno_linesearch_fallback and -snes_linesearch_type: give one (the first changes the line search after a failed Newton solve, the second sets it for the whole run)')
     end if
     ctx%newton%ls_fallback = 0
-    if (ctx%use_reduced .and. ls_type_given == 0) ctx%newton%ls_fallback = ls_fallback
+    if (ctx%use_reduced .and. .not. ls_type_given) ctx%newton%ls_fallback = ls_fallback
     mattype = cmattype(1:index(cmattype, c_null_char) - 1)
     PetscCall(DMSetMatType(ctx%da, mattype, ierr))
     PetscCall(DMSetUp(ctx%da, ierr))
@@ -218,16 +236,14 @@ contains
       PetscCall(SNESLineSearchSetType(linesearch, SNESLINESEARCHBASIC, ierr))
     end if
     ! An adaptive run without -ts_type: the method that won the
-    ! work-precision measurement at moderate tolerance (nuno_options.c). The
-    ! identification and the control keep beuler: their adjoint needs a theta method.
+    ! work-precision measurement at moderate tolerance (module solver_options).
+    ! The identification and the control keep beuler: their adjoint needs a theta method.
     ctx%step%adaptive_default = .false.
     if (.not. (cfg%identify .or. cfg%control)) then
-      ierr = nuno_adaptive_default(ctx%comm, ctx%ts%v, applied)
-      if (ierr /= 0) return
-      ctx%step%adaptive_default = applied /= 0
+      PetscCall(adaptive_default(ctx%ts, ctx%comm, applied, ierr))
+      ctx%step%adaptive_default = applied
     end if
-    ierr = nuno_step_defaults(ctx%ts%v, merge(1_c_int, 0_c_int, ctx%use_reduced))
-    if (ierr /= 0) return
+    PetscCall(step_defaults(ctx%ts, ctx%use_reduced, ierr))
     PetscCall(TSSetFromOptions(ctx%ts, ierr))
     PetscCall(effective_time_integration(ctx, ierr))
   end subroutine solver_create
@@ -244,7 +260,7 @@ contains
     TSExactFinalTimeOption :: eft
     PetscBool :: match
     character(len=64) :: tstype, adtype
-    character(len=64, kind=c_char) :: scheme
+    character(len=:), allocatable :: scheme
     character(len=512) :: line, inner
     character(len=64) :: sntype
     type(tSNES) :: snes
@@ -293,8 +309,7 @@ contains
     PetscCall(VecDuplicate(ctx%u, ctx%energy%uq, ierr))
     PetscCall(set_tolerances(ctx, srcx, srcv, ierr))
 
-    ierr = nuno_ts_scheme(ctx%ts%v, scheme, len(scheme))
-    if (ierr /= 0) return
+    PetscCall(ts_scheme(ctx%ts, scheme, ierr))
     inner = ''
     if (ctx%use_reduced) then
       PetscCall(reduced_describe(ctx%red, inner, ierr))
@@ -305,7 +320,7 @@ contains
     end if
     if (ctx%rank == 0) then
       PetscCall(TSAdaptGetType(adapt, adtype, ierr))
-      line = 'solver    : TS '//scheme(1:index(scheme, c_null_char) - 1)
+      line = 'solver    : TS '//scheme
       if (ctx%step%adaptive_default) line = trim(line)//' (the default of adaptive runs, -nuno_adaptive_ts_type)'
       line = trim(line)//', adapt '//trim(adtype)
       if (ctx%step%fixed_step) then
@@ -322,7 +337,7 @@ contains
       if (.not. ctx%step%fixed_step) line = trim(line)//', rtol '//num(ctx%step%rtol)//', atol position '// &
         num(ctx%step%atol_x)//' ('//trim(srcx)//'), velocity '//num(ctx%step%atol_v)//' ('//trim(srcv)//')'
       line = trim(line)//', Newton step '//trim(merge('reduced', 'full   ', ctx%use_reduced))
-      if (ctx%newton%start_order == 3) line = trim(line)//', started cubic (-nuno_newton_start)'
+      if (newton_start_order(ctx%newton%start) == 3) line = trim(line)//', started cubic (-nuno_newton_start)'
       write(output_unit, '(a)') trim(line)
       if (ctx%use_reduced) write(output_unit, '(a)') 'inner     : '//trim(inner)
       flush(output_unit)
@@ -382,7 +397,7 @@ contains
                                          ctx%cfg%bending_code /= BEND_NONE .and. .not. (ctx%cfg%identify .or. ctx%cfg%control))
     if (.not. one_stage .or. direct) mode = GUESS_NONE
     ctx%newton%guess = mode
-    ! (nuno_step_defaults put the extrapolated start of beuler in the options)
+    ! (step_defaults put the extrapolated start of beuler in the options)
     PetscCall(PetscOptionsGetBool(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-ts_theta_initial_guess_extrapolate', extrap, set, ierr))
     PetscCall(reduced_set_guess(ctx%red, mode, logical(set .and. extrap), ierr))
   end subroutine set_inner_guess
@@ -417,6 +432,14 @@ contains
     av = ax / TOLERANCE_TIME
     ierr = nuno_tolerance_options_read(ctx%comm, ax, av, gx, gv)
     if (ierr /= 0) return
+    if (.not. (ax > 0.0_rp)) then
+      ierr = PETSC_ERR_ARG_OUTOFRANGE
+      SETERRQ(ctx%comm, ierr, '-nuno_atol_position '//real_g0(ax)//' must be > 0')
+    end if
+    if (.not. (av > 0.0_rp)) then
+      ierr = PETSC_ERR_ARG_OUTOFRANGE
+      SETERRQ(ctx%comm, ierr, '-nuno_atol_velocity '//real_g0(av)//' must be > 0')
+    end if
     if (gx /= 0) srcx = '-nuno_atol_position'
     srcv = 'position atol / 1 time unit'
     if (gv /= 0) srcv = '-nuno_atol_velocity'
@@ -449,6 +472,7 @@ contains
     integer(c_int) :: nunused
     ierr = nuno_options_report_unused(ctx%comm, nunused)
     if (ierr /= 0) return
+    PetscCall(newton_start_free(ctx%newton%start, ierr))
     PetscCall(TSDestroy(ctx%ts, ierr))
     if (ctx%use_reduced) then
       PetscCall(reduced_destroy(ctx%red, ierr))

@@ -13,7 +13,8 @@ module step_monitor
   use forces, only: internal_forces, dissipated_power
   use constraints, only: constraint_target
   use reduced, only: reduced_step_accepted
-  use app_context, only: app_ctx, nuno_checkpoint_due, nuno_newton_start_push, nuno_ts_stop
+  use app_context, only: app_ctx, nuno_checkpoint_due, nuno_ts_stop
+  use newton_start, only: newton_start_push
   use strings, only: num => real_brief
   use newton_policy, only: linesearch_fallback
   use run_checkpoint, only: take_checkpoint
@@ -44,7 +45,6 @@ contains
     real(rp) :: wall   ! wall-clock seconds since the start of the run [s]
     PetscInt :: rejects, nfails
     integer :: q
-    real(c_double) :: tc
 
     ! A failed Newton solve makes the TS retry the step with dt/4, and with
     ! -ts_adapt_type none it keeps that step: a fixed step would silently
@@ -91,9 +91,7 @@ contains
     ! the accepted step's first Newton correction, for the next inner guesses
     if (ctx%use_reduced) call reduced_step_accepted(ctx%red)
     ! and its state, for the next Newton start
-    tc = t
-    ierr = nuno_newton_start_push(ts%v, uvec%v, tc)
-    if (ierr /= 0) return
+    PetscCall(newton_start_push(ctx%newton%start, uvec, t, ierr))
     PetscCall(TSGetStepRejections(ts, rejects, ierr))
     if (rejects > ctx%step%rejects_seen) then
       ctx%step%rejects_seen = rejects

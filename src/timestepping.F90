@@ -25,7 +25,8 @@ module timestepping
   use diagnostics, only: state_diagnostics_t, state_diagnostics
   use output, only: output_file, output_record, output_write_step, output_write_wall_time
   use reduced, only: reduced_set_fixed
-  use app_context, only: app_ctx, nuno_walltime_arm, nuno_newton_start_reset, nuno_signal_agreed
+  use app_context, only: app_ctx, nuno_walltime_arm, nuno_signal_agreed
+  use newton_start, only: newton_start_reset
   use failure_text, only: signal_name, failure_reason, report_io_error, ieee_nan
   use strings, only: num => real_brief, inum => itoa
   use run_checkpoint, only: run_counts, take_checkpoint, keep_restart_point, solver_restore
@@ -85,10 +86,7 @@ contains
     ! take_checkpoint, solver_restore). Forgetting them at every window
     ! cost 12 % of hang's 1 s at 257 x 257 (1100 instead of 1005 Newton
     ! iterations, 4697 instead of 4001 inner ones).
-    if (loc(3) > 0.0_rp) then
-      ierr = nuno_newton_start_reset(ctx%ts%v)
-      if (ierr /= 0) return
-    end if
+    if (loc(3) > 0.0_rp) call newton_start_reset(ctx%newton%start)
     dke = loc(1)
     ctx%model%moving_constraints = loc(2) > 0.0_rp
   end subroutine enter_window

@@ -30,12 +30,12 @@
 !> tolerance).
 module inner_guess
   use kinds, only: rp
+  use solver_choices, only: GUESS_AUTO, GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, GUESS_PROJECT
   implicit none
   private
   public :: GUESS_AUTO, GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, GUESS_PROJECT, PROJECT_PAIRS
   public :: guess_weights, second_weight, projection_weights
 
-  integer, parameter :: GUESS_AUTO = 0, GUESS_NONE = 1, GUESS_PREVIOUS = 2, GUESS_EXTRAPOLATE = 3, GUESS_PROJECT = 4
   !> the inner solves the projection keeps (two 3-dof vectors each); 8 took
   !> 16 % fewer cycles than the extrapolation over 120 bw steps at 257 x
   !> 257, 16 another 5 % (measured with commit 0a41017)

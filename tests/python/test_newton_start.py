@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: BSD-2-Clause
 """The Newton start of backward Euler (-nuno_newton_start,
-src/nuno_newton_start.c; issue 7, the nineteenth round): auto starts
+module newton_start; issue 7, the nineteenth round): auto starts
 Newton at fixed steps from the polynomial through the last accepted states
 (cubic once four are at hand), linear is PETSc's x_n + dt xdot_n.
 

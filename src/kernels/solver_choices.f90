@@ -1,0 +1,43 @@
+! SPDX-License-Identifier: BSD-2-Clause
+!> The choices of nuno's enumerated solver options, defined once: each
+!> option's integer codes and, in the same order, its names (a name's
+!> position from 0 is its code). The options blocks in C
+!> (src/nuno_options.c), which put the options in -help and check a
+!> value, get the names from here as arguments and hand back a position;
+!> the modules compare the codes. No PETSc: unit-tested alone
+!> (tests/unit/test_solver_choices.f90).
+module solver_choices
+  implicit none
+  private
+  public :: JACOBIAN_REDUCED, JACOBIAN_FULL, JACOBIAN_NAMES
+  public :: INTERP_AUTO, INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC, INTERP_NAMES
+  public :: GUESS_AUTO, GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, GUESS_PROJECT, GUESS_NAMES
+  public :: FALLBACK_NONE, FALLBACK_BT, FALLBACK_L2, FALLBACK_NAMES
+  public :: START_AUTO, START_LINEAR, START_CUBIC, START_NAMES
+
+  !> -nuno_jacobian: the reduced 3-dof elimination (module reduced) or the
+  !> assembled 6-dof Jacobian.
+  integer, parameter :: JACOBIAN_REDUCED = 0, JACOBIAN_FULL = 1
+  character(len=*), parameter :: JACOBIAN_NAMES(0:1) = [character(len=7) :: 'reduced', 'full']
+
+  !> -nuno_mg_interpolation: the multigrid's interpolation between levels
+  !> (module reduced_mg); auto: cubic on the coarse levels with bending,
+  !> linear without.
+  integer, parameter :: INTERP_AUTO = 0, INTERP_LINEAR = 1, INTERP_CUBIC = 2, INTERP_COARSE_CUBIC = 3
+  character(len=*), parameter :: INTERP_NAMES(0:3) = [character(len=12) :: 'auto', 'linear', 'cubic', 'coarse_cubic']
+
+  !> -nuno_inner_guess: the inner solve's initial guess (kernel inner_guess).
+  integer, parameter :: GUESS_AUTO = 0, GUESS_NONE = 1, GUESS_PREVIOUS = 2, GUESS_EXTRAPOLATE = 3, GUESS_PROJECT = 4
+  character(len=*), parameter :: GUESS_NAMES(0:4) = [character(len=11) :: 'auto', 'none', 'previous', 'extrapolate', &
+                                                      'project']
+
+  !> -nuno_linesearch_fallback: the line search once a Newton solve has
+  !> failed (module newton_policy); the names are PETSc's line-search types.
+  integer, parameter :: FALLBACK_NONE = 0, FALLBACK_BT = 1, FALLBACK_L2 = 2
+  character(len=*), parameter :: FALLBACK_NAMES(0:2) = [character(len=4) :: 'none', 'bt', 'l2']
+
+  !> -nuno_newton_start: beuler's Newton start (module newton_start).
+  integer, parameter :: START_AUTO = 0, START_LINEAR = 1, START_CUBIC = 2
+  character(len=*), parameter :: START_NAMES(0:2) = [character(len=6) :: 'auto', 'linear', 'cubic']
+
+end module solver_choices
