@@ -48,7 +48,7 @@ contains
     PetscCall(TSGetSNES(ctx%ts, snes, ierr))
     PetscCall(SNESGetType(snes, sntype, ierr))
     auto_cubic = merge(1_c_int, 0_c_int, ctx%step%fixed_step .and. trim(sntype) /= SNESKSPONLY .and. &
-                       .not. (ctx%cfg%identify .or. ctx%cfg%control))
+                       .not. (ctx%cfg%identify .or. ctx%cfg%control) .and. ctx%cfg%contact%n_obstacles == 0)
     ierr = nuno_newton_start_setup(ctx%ts%v, auto_cubic, order)
     ctx%newton%start_order = order
   end subroutine set_newton_start

@@ -23,6 +23,7 @@ module solver_setup
   use failure_text, only: num, inum
   use cloth_model, only: form_ifunction, form_ijacobian
   use newton_policy, only: set_newton_start, snes_converged
+  use contact_solver, only: contact_solver_options, contact_setup
   use step_monitor, only: ts_monitor
   implicit none
   private
@@ -161,7 +162,7 @@ contains
       symmetric = (cfg%spring_code == SPRING_LINEAR .or. .not. cfg%has_damping) .and. &
                   (cfg%bending_code == BEND_NONE .or. (cfg%bending_code == BEND_ENERGY .and. &
                    (cfg%eta_b == 0.0_rp .or. ctx%model%gauss_newton)))
-      constant = cfg%spring_code == SPRING_LINEAR .and. cfg%bending_code == BEND_NONE
+      constant = cfg%spring_code == SPRING_LINEAR .and. cfg%bending_code == BEND_NONE .and. cfg%contact%n_obstacles == 0
       PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, symmetric, constant, damping, ctx%model%clamp, ctx%model%gauss_newton, pc_lag, ierr, mg_interpolation=mg_interp))
     else
       ! Jacobian with the DMDA's exact box-stencil preallocation.
@@ -226,10 +227,12 @@ contains
       if (ierr /= 0) return
       ctx%step%adaptive_default = applied /= 0
     end if
+    PetscCall(contact_solver_options(ctx, ierr))
     ierr = nuno_step_defaults(ctx%ts%v, merge(1_c_int, 0_c_int, ctx%use_reduced))
     if (ierr /= 0) return
     PetscCall(TSSetFromOptions(ctx%ts, ierr))
     PetscCall(effective_time_integration(ctx, ierr))
+    PetscCall(contact_setup(ctx, ierr))
   end subroutine solver_create
 
   !> Read back what the options made of the time integration, so that the
