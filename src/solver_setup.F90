@@ -158,7 +158,8 @@ contains
     if (ctx%use_reduced) then
       ! S is symmetric when K and C are: no moving dampers (linear springs
       ! have constant ones), no paper bending, no bending damping.
-      damping = cfg%has_damping .or. (cfg%bending_code == BEND_ENERGY .and. cfg%eta_b /= 0.0_rp)
+      damping = cfg%has_damping .or. (cfg%bending_code == BEND_ENERGY .and. cfg%eta_b /= 0.0_rp) .or. &
+                cfg%contact%n_obstacles > 0   ! friction's df/dv
       symmetric = (cfg%spring_code == SPRING_LINEAR .or. .not. cfg%has_damping) .and. &
                   (cfg%bending_code == BEND_NONE .or. (cfg%bending_code == BEND_ENERGY .and. &
                    (cfg%eta_b == 0.0_rp .or. ctx%model%gauss_newton)))
