@@ -53,7 +53,8 @@ def test_drop_reaches_the_plane_at_the_free_fall_time(tmp_path):
     assert abs(first - expected) <= 3 * dt, (first, expected)
     assert all(r[5] > 0.0 for r in rows)                       # every output state outside the plane
     assert rows[-1][6] > 0.0                                   # and every accepted state (monitor's minimum)
-    assert rows[-1][7] >= round(0.12 / dt)                     # ... all of them checked
+    steps = int(re.search(r"complete at t = .*?: (\d+) steps", proc.stdout + proc.stderr).group(1))
+    assert rows[-1][7] == steps + 1                            # ... all of them checked, and the start
 
 
 def final_positions(h5):
