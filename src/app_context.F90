@@ -10,6 +10,7 @@ module app_context
   use kinds, only: rp
   use config, only: nuno_config
   use lattice, only: lattice_t
+  use contact_forces, only: contact_state_t
   use forces, only: jac_buffer_t
   use constraints, only: constraint_set_t
   use output, only: output_file, checkpoint_t
@@ -178,6 +179,7 @@ module app_context
     type(energy_integrals_t) :: energy
     type(progress_t) :: progress
     type(restart_state_t) :: restart
+    type(contact_state_t) :: contact            !< obstacles and friction lag (module contact_forces; empty without)
   end type app_ctx
 
 contains

@@ -24,6 +24,7 @@ module cloth_model
   use reduced, only: reduced_assemble, set_block_row
   use app_context, only: app_ctx
   use failure_text, only: ieee_nan
+  use contact_forces, only: contact_on, contact_add_forces, contact_blocks
   implicit none
   private
   public :: form_ifunction, form_ijacobian
@@ -64,10 +65,13 @@ contains
     real(rp), intent(in) :: u(0:5, 0:ctx%lat%nx - 1, ctx%lat%gys:ctx%lat%gye)
     real(rp), intent(in) :: ud(0:5, 0:ctx%lat%nx - 1, ctx%lat%ys:ctx%lat%ye)
     real(rp), intent(out) :: fv(0:5, 0:ctx%lat%nx - 1, ctx%lat%ys:ctx%lat%ye)
-    integer :: i, j, k, nbad, bad(2)
+    integer :: i, j, k, nbad, bad(2), ncross
     real(rp) :: xb(3), vb(3)
 
     call internal_forces(ctx%lat, u, ctx%model%f, nbad, bad)
+    ncross = 0
+    if (contact_on(ctx%contact)) call contact_add_forces(ctx%contact, ctx%lat, ctx%model%fixed, u, &
+                                                         ctx%model%f(:, :, ctx%lat%ys:ctx%lat%ye), ncross)
     do j = ctx%lat%ys, ctx%lat%ye
       do i = 0, ctx%lat%nx - 1
         fv(0:2, i, j) = ud(0:2, i, j) - u(3:5, i, j)
@@ -89,6 +93,8 @@ contains
       ctx%model%t_bad = t
       fv(0, 0, ctx%lat%ys) = ieee_nan()
     end if
+    ! a state inside an obstacle (module contact_solver): the step fails and is retried smaller
+    if (ncross > 0) fv(0, 0, ctx%lat%ys) = ieee_nan()
   end subroutine residual
 
   !> dF/dU + a dF/dUdot (v-rows: -K/m and a I - C/m), assembled row by row from the rolling buffer of
@@ -110,6 +116,8 @@ contains
     PetscCall(DMGlobalToLocalBegin(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
     PetscCall(DMGlobalToLocalEnd(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
+    ! contact's diagonal blocks at this state, which both assemblies add (lattice_t's nodal)
+    if (contact_on(ctx%contact)) call contact_blocks(ctx%contact, ctx%lat, ctx%model%fixed, u, ctx%lat%nodal)
     if (ctx%use_reduced) then
       PetscCall(DMGetLocalVector(ctx%da, udloc, ierr))
       PetscCall(DMGlobalToLocalBegin(ctx%da, udotvec, INSERT_VALUES, udloc, ierr))

@@ -16,11 +16,13 @@ module config
   public :: MASS_UNIFORM, MASS_AREA
   public :: SCENE_LIFT_RELEASE, SCENE_BEND_RELEASE, SCENE_WAVE_POINT, SCENE_HANG, SCENE_FLAT
   public :: unset_real
+  public :: contact_config, obstacle_max
   public :: n_fit_kinds, fit_kind_names
 
   integer, parameter :: keyframe_max = 32   !< most keyframes of a prescribed node
   integer, parameter :: label_len = 32      !< length of a choice string ('axial', ...)
   integer, parameter :: path_len = 512      !< length of a file name
+  integer, parameter :: obstacle_max = 8    !< most obstacles of &contact
   !> Marks a real key the user did not set, so that a scene default applies.
   real(rp), parameter :: unset_real = -huge(1.0_rp)
   !> Parameters an identification run can fit (&identify fit), by code 1..7.
@@ -34,6 +36,22 @@ module config
   integer, parameter :: MASS_UNIFORM = 1, MASS_AREA = 2
   integer, parameter :: SCENE_LIFT_RELEASE = 1, SCENE_BEND_RELEASE = 2, SCENE_WAVE_POINT = 3, &
                         SCENE_HANG = 4, SCENE_FLAT = 5
+
+  !> &contact (docs/design.md, "Contact"): rigid static obstacles and the
+  !> barrier's parameters. n_obstacles = 0: no contact code runs.
+  type :: contact_config
+    integer :: n_obstacles = 0                                  !< obstacles in use (0..obstacle_max)
+    character(label_len) :: shape(obstacle_max) = 'plane'      !< plane | sphere
+    real(rp) :: point(3, obstacle_max) = 0.0_rp                 !< plane: a point on it; sphere: centre [length]
+    real(rp) :: normal(3, obstacle_max) = spread([0.0_rp, 0.0_rp, 1.0_rp], 2, obstacle_max)  !< plane: outward normal [1]
+    real(rp) :: radius(obstacle_max) = 0.0_rp                   !< sphere: radius [length]
+    real(rp) :: mu(obstacle_max) = 0.0_rp                       !< Coulomb friction coefficient [1]
+    real(rp) :: thickness = 0.0_rp        !< contact distance: gap = distance - thickness [length]
+    real(rp) :: dhat = 1.0e-3_rp          !< barrier active for gap < dhat [length]
+    real(rp) :: stiffness = 1.0_rp        !< barrier stiffness kappa [force/length]
+    real(rp) :: eps_v = 1.0e-3_rp         !< friction smoothing velocity [length/time]
+    integer :: shape_code(obstacle_max) = 1   !< derived: 1 plane, 2 sphere (the kernel's SHAPE_*)
+  end type contact_config
 
   !> All inputs of a run. Strings hold the namelist spelling; the integer
   !> codes beside them are derived by the input module.
@@ -91,6 +109,8 @@ module config
     real(rp) :: max_speed = unset_real         !< bound on each component of the driven nodes' speed [length/time]; unset: none
     real(rp) :: velocity_weight = 0.0_rp       !< weight of |v - v_target|^2 beside |x - x_target|^2 [time^2]
     real(rp) :: keyframe_tikhonov = 0.0_rp     !< weight of sum (d - d_initial)^2 over the optimised keyframe steps d [1]
+    ! &contact
+    type(contact_config) :: contact
 
     ! ---- derived by the input module ----
     logical :: identify = .false.         !< the input has an &identify group

@@ -481,6 +481,14 @@ contains
         end do
       end do
     end do
+    ! forces on single nodes (contact): -df/dx, -df/dv on the node's diagonal
+    if (lat%nodal%n > 0 .and. ja >= lat%ys) then
+      do a = lat%nodal%row_start(ja), lat%nodal%row_start(ja + 1) - 1
+        i = lat%nodal%col(a)
+        buf%k(:, :, 0, 0, i, slot_of(ja)) = buf%k(:, :, 0, 0, i, slot_of(ja)) - lat%nodal%kx(:, :, a)
+        buf%c(:, :, 0, 0, i, slot_of(ja)) = buf%c(:, :, 0, 0, i, slot_of(ja)) - lat%nodal%kv(:, :, a)
+      end do
+    end if
 
   contains
 

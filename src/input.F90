@@ -14,12 +14,12 @@ module input
   use kinds, only: rp
   use config, only: nuno_config, keyframe_max, label_len, path_len, unset_real, &
                     BEND_NONE, BEND_PAPER, BEND_ENERGY, SCENE_WAVE_POINT, SCENE_HANG, SCENE_LIFT_RELEASE, &
-                    n_fit_kinds
+                    n_fit_kinds, obstacle_max
   use input_text, only: assignment_t, lex_overrides, value_error, next_assignment, lower, &
                         strip_commas, overrides_record, key_default, namelist_value
   use strings, only: real_short
   use input_keys, only: keys, n_keys, n_groups, group_names, KEY_REAL, G_LATTICE, G_MATERIAL, G_SCENE, G_TIME, G_OUTPUT, &
-                        G_IDENTIFY, G_CONTROL
+                        G_IDENTIFY, G_CONTROL, G_CONTACT
   use input_scan, only: parsed_text, scan_text, group_index
   use input_checks, only: derive_codes, resolve_unset, validate, check_choice, &
                           choices, check_lattice_size, check_lattice_extent
@@ -142,6 +142,7 @@ contains
     call read_group(G_OUTPUT, pt, cfg, ierr, msg);   if (ierr /= 0) goto 900
     call read_group(G_IDENTIFY, pt, cfg, ierr, msg); if (ierr /= 0) goto 900
     call read_group(G_CONTROL, pt, cfg, ierr, msg);  if (ierr /= 0) goto 900
+    call read_group(G_CONTACT, pt, cfg, ierr, msg);  if (ierr /= 0) goto 900
     cfg%identify = pt%count(G_IDENTIFY) > 0
     cfg%control = pt%count(G_CONTROL) > 0
     cfg%namelist_text = text
@@ -389,6 +390,12 @@ contains
     character(label_len) :: components
     real(rp) :: max_speed, velocity_weight, keyframe_tikhonov
     namelist /control/ target_file, components, max_speed, velocity_weight, keyframe_tikhonov
+    integer :: n_obstacles
+    character(label_len) :: obstacle_shape(obstacle_max)
+    real(rp) :: obstacle_point(3, obstacle_max), obstacle_normal(3, obstacle_max), obstacle_radius(obstacle_max), &
+                obstacle_mu(obstacle_max), contact_thickness, contact_dhat, contact_stiffness, friction_eps_v
+    namelist /contact/ n_obstacles, obstacle_shape, obstacle_point, obstacle_normal, obstacle_radius, obstacle_mu, &
+                       contact_thickness, contact_dhat, contact_stiffness, friction_eps_v
 
     ios = 0
     select case (g)
@@ -482,6 +489,24 @@ contains
         cfg%target_file = target_file; cfg%components = components; cfg%max_speed = max_speed
         cfg%velocity_weight = velocity_weight; cfg%keyframe_tikhonov = keyframe_tikhonov
       end if
+    case (G_CONTACT)
+      associate (c => cfg%contact)
+        n_obstacles = c%n_obstacles; obstacle_shape = c%shape; obstacle_point = c%point
+        obstacle_normal = c%normal; obstacle_radius = c%radius; obstacle_mu = c%mu
+        contact_thickness = c%thickness; contact_dhat = c%dhat; contact_stiffness = c%stiffness
+        friction_eps_v = c%eps_v
+        if (present(dump)) then
+          write(dump, nml=contact, delim='apostrophe', iostat=ios, iomsg=iomsg)
+        else
+          read(lines, nml=contact, iostat=ios, iomsg=iomsg)
+        end if
+        if (ios == 0) then
+          c%n_obstacles = n_obstacles; c%shape = obstacle_shape; c%point = obstacle_point
+          c%normal = obstacle_normal; c%radius = obstacle_radius; c%mu = obstacle_mu
+          c%thickness = contact_thickness; c%dhat = contact_dhat; c%stiffness = contact_stiffness
+          c%eps_v = friction_eps_v
+        end if
+      end associate
     end select
     ! gfortran may report an end of file with iostat < 0: the group is known
     ! to be present and closed, so any non-zero status is an error.

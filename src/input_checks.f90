@@ -106,8 +106,63 @@ contains
     call check_time(cfg, ierr, msg);           if (ierr /= 0) return
     call check_output(cfg, ierr, msg);         if (ierr /= 0) return
     call check_identify(cfg, ierr, msg);       if (ierr /= 0) return
-    call check_control(cfg, ierr, msg)
+    call check_control(cfg, ierr, msg);        if (ierr /= 0) return
+    call check_contact(cfg, ierr, msg)
   end subroutine validate
+
+  !> &contact: the barrier's parameters always (a key given is checked
+  !> even without obstacles), each obstacle in use; contact with
+  !> identification or control is refused (the adjoint has no contact terms).
+  subroutine check_contact(cfg, ierr, msg)
+    type(nuno_config), intent(inout) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    integer :: k, code
+    character(8) :: sub
+    real(rp) :: nn
+    associate (c => cfg%contact)
+      call need_nonnegative('contact', 'contact_thickness', c%thickness, ierr, msg); if (ierr /= 0) return
+      call need_positive('contact', 'contact_dhat', c%dhat, ierr, msg);             if (ierr /= 0) return
+      call need_positive('contact', 'contact_stiffness', c%stiffness, ierr, msg);   if (ierr /= 0) return
+      call need_positive('contact', 'friction_eps_v', c%eps_v, ierr, msg);          if (ierr /= 0) return
+      ierr = 1
+      if (c%n_obstacles < 0 .or. c%n_obstacles > size(c%shape)) then
+        write(msg, '(a,i0,a,i0)') 'input: &contact: n_obstacles = ', c%n_obstacles, ' must be in 0..', size(c%shape)
+        return
+      end if
+      do k = 1, c%n_obstacles
+        write(sub, '(a,i0,a)') '(', k, ')'
+        c%shape(k) = lower(adjustl(c%shape(k)))
+        call check_choice('contact', 'obstacle_shape'//trim(sub), c%shape(k), 'plane, sphere', code, ierr, msg)
+        if (ierr /= 0) return
+        c%shape_code(k) = code
+        ierr = 1
+        if (c%mu(k) < 0.0_rp) then
+          msg = 'input: &contact: obstacle_mu'//trim(sub)//' = '//real_short(c%mu(k))//' must be >= 0'
+          return
+        end if
+        if (code == 1) then
+          nn = norm2(c%normal(:, k))
+          if (.not. (nn > 0.0_rp)) then
+            write(msg, '(a,i0,a)') 'input: &contact: obstacle_normal(:, ', k, ') = 0, 0, 0 must not be zero'
+            return
+          end if
+          c%normal(:, k) = c%normal(:, k) / nn
+        else if (.not. (c%radius(k) > 0.0_rp)) then
+          msg = 'input: &contact: obstacle_radius'//trim(sub)//' = '//real_short(c%radius(k))// &
+                ' must be > 0 for a sphere'
+          return
+        end if
+      end do
+      if (c%n_obstacles > 0 .and. (cfg%identify .or. cfg%control)) then
+        msg = 'input: &contact: obstacles (n_obstacles > 0) with &identify or &control are not supported: '// &
+              'the adjoint has no contact terms yet'
+        return
+      end if
+      ierr = 0
+      msg = ''
+    end associate
+  end subroutine check_contact
 
   !> &identify: known, distinct parameter names, each with an initial guess
   !> > 0 (fitted in log space) inside its bounds; a model that has the

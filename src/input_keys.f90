@@ -21,17 +21,17 @@ module input_keys
   private
   public :: key_info, keys, n_keys, key_index, key_type_text, group_names, n_groups, key_group_list
   public :: KEY_INTEGER, KEY_REAL, KEY_LOGICAL, KEY_STRING
-  public :: G_LATTICE, G_MATERIAL, G_SCENE, G_TIME, G_OUTPUT, G_IDENTIFY, G_CONTROL
+  public :: G_LATTICE, G_MATERIAL, G_SCENE, G_TIME, G_OUTPUT, G_IDENTIFY, G_CONTROL, G_CONTACT
 
   integer, parameter :: KEY_INTEGER = 1, KEY_REAL = 2, KEY_LOGICAL = 3, KEY_STRING = 4
 
   !> The namelist groups, in the order of --help and input/README.md.
-  integer, parameter :: n_groups = 7
+  integer, parameter :: n_groups = 8
   character(8), parameter :: group_names(n_groups) = &
-    [character(8) :: 'lattice', 'material', 'scene', 'time', 'output', 'identify', 'control']
+    [character(8) :: 'lattice', 'material', 'scene', 'time', 'output', 'identify', 'control', 'contact']
   !> Group codes: positions in group_names.
   integer, parameter :: G_LATTICE = 1, G_MATERIAL = 2, G_SCENE = 3, G_TIME = 4, G_OUTPUT = 5, G_IDENTIFY = 6, &
-                        G_CONTROL = 7
+                        G_CONTROL = 7, G_CONTACT = 8
 
   type :: key_info
     character(20) :: name      !< the key, lower case (unique across groups)
@@ -44,7 +44,7 @@ module input_keys
     character(96) :: meaning   !< one line
   end type key_info
 
-  integer, parameter :: n_keys = 46
+  integer, parameter :: n_keys = 56
   type(key_info), parameter :: keys(n_keys) = [ &
     ! &lattice
     key_info('nx', 'lattice', KEY_INTEGER, 1, '', '11; hang 21', '>= 3', 'nodes along x'), &
@@ -133,7 +133,28 @@ module input_keys
     key_info('velocity_weight', 'control', KEY_REAL, 1, 'time^2', '0', '>= 0', &
              'weight of |v - v_target|^2 beside |x - x_target|^2'), &
     key_info('keyframe_tikhonov', 'control', KEY_REAL, 1, '1', '0', '>= 0', &
-             'weight of sum (d - d_initial)^2 over the optimised keyframe steps')]
+             'weight of sum (d - d_initial)^2 over the optimised keyframe steps'), &
+    ! &contact
+    key_info('n_obstacles', 'contact', KEY_INTEGER, 1, '', '0', '0..8', &
+             'obstacles in use (0: no contact, no cost)'), &
+    key_info('obstacle_shape', 'contact', KEY_STRING, 8, '', "'plane'", 'plane, sphere', &
+             'obstacle k''s shape, obstacle_shape(k)'), &
+    key_info('obstacle_point', 'contact', KEY_REAL, 24, 'length', '0', 'finite', &
+             'plane: a point on it; sphere: centre; obstacle_point(:, k)'), &
+    key_info('obstacle_normal', 'contact', KEY_REAL, 24, '1', '0, 0, 1', 'not zero', &
+             'plane: outward normal (normalised), obstacle_normal(:, k)'), &
+    key_info('obstacle_radius', 'contact', KEY_REAL, 8, 'length', '0', '> 0 for a sphere', &
+             'sphere: radius, obstacle_radius(k)'), &
+    key_info('obstacle_mu', 'contact', KEY_REAL, 8, '1', '0', '>= 0', &
+             'Coulomb friction coefficient of obstacle k'), &
+    key_info('contact_thickness', 'contact', KEY_REAL, 1, 'length', '0', '>= 0', &
+             'contact distance: the gap is the distance to the surface minus this'), &
+    key_info('contact_dhat', 'contact', KEY_REAL, 1, 'length', '1e-3', '> 0', &
+             'the barrier acts on gaps below this'), &
+    key_info('contact_stiffness', 'contact', KEY_REAL, 1, 'force/length', '1', '> 0', &
+             'barrier stiffness kappa: energy kappa b(gap)'), &
+    key_info('friction_eps_v', 'contact', KEY_REAL, 1, 'length/time', '1e-3', '> 0', &
+             'friction: sliding speed below which friction is smoothed (sticking)')]
 
 contains
 

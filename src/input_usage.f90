@@ -167,7 +167,7 @@ contains
   subroutine usage_keys(unit)
     integer, intent(in) :: unit
     character(8), parameter :: order(n_groups) = &
-      [character(8) :: 'scene', 'lattice', 'material', 'time', 'output', 'identify', 'control']
+      [character(8) :: 'scene', 'lattice', 'material', 'time', 'output', 'identify', 'control', 'contact']
     character(:), allocatable :: line, list, word
     integer :: g, p, q
     write(unit, '(a)') 'INPUT.nml holds Fortran namelist groups, each optional, each at most once, and', &
@@ -202,6 +202,9 @@ contains
       case ('control')
         write(unit, '(a)') '             optimise the keyframes of the driven nodes so that the cloth reaches', &
           '             the target (docs/identification.md); -control_check_gradient as above'
+      case ('contact')
+        write(unit, '(a)') '             rigid static obstacles (plane, sphere): barrier contact, friction', &
+          '             (docs/design.md, "Contact"); n_obstacles = 0 (default): none'
       end select
     end do
     write(unit, '(a)') 'The scene sets the defaults of every other key. Every key, its unit and its', &

@@ -16,6 +16,7 @@
 !> global sums count each element once.
 module lattice
   use kinds, only: rp
+  use node_blocks, only: node_blocks_t
   use config, only: nuno_config, SCALING_CONTINUUM, MASS_AREA, BEND_NONE, BEND_ENERGY
   implicit none
   private
@@ -41,6 +42,7 @@ module lattice
     real(rp) :: total_mass = 0, lx = 0, ly = 0
     logical :: area_mass = .false.
     real(rp), allocatable :: mass(:, :)   !< (0:nx-1, gys:gye) node masses [mass]
+    type(node_blocks_t) :: nodal          !< diagonal blocks of the forces on single nodes (contact), owned rows
   end type lattice_t
 
 contains

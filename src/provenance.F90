@@ -129,11 +129,37 @@ contains
       call output_config_key(out, 'control', 'velocity_weight', [cfg%velocity_weight], e, errmsg)
       call output_config_key(out, 'control', 'keyframe_tikhonov', [cfg%keyframe_tikhonov], e, errmsg)
     end if
+    if (cfg%contact%n_obstacles > 0) then
+      associate (c => cfg%contact, n => cfg%contact%n_obstacles)
+        call output_config_key(out, 'contact', 'n_obstacles', n, e, errmsg)
+        call output_config_key(out, 'contact', 'obstacle_shape', contact_shapes(c%shape(1:n)), e, errmsg)
+        call output_config_key(out, 'contact', 'obstacle_point', reshape(c%point(:, 1:n), [3 * n]), e, errmsg)
+        call output_config_key(out, 'contact', 'obstacle_normal', reshape(c%normal(:, 1:n), [3 * n]), e, errmsg)
+        call output_config_key(out, 'contact', 'obstacle_radius', c%radius(1:n), e, errmsg)
+        call output_config_key(out, 'contact', 'obstacle_mu', c%mu(1:n), e, errmsg)
+        call output_config_key(out, 'contact', 'contact_thickness', [c%thickness], e, errmsg)
+        call output_config_key(out, 'contact', 'contact_dhat', [c%dhat], e, errmsg)
+        call output_config_key(out, 'contact', 'contact_stiffness', [c%stiffness], e, errmsg)
+        call output_config_key(out, 'contact', 'friction_eps_v', [c%eps_v], e, errmsg)
+      end associate
+    end if
     ! One error flag for all ranks (each call above is local HDF5 metadata).
     call MPI_Allreduce(MPI_IN_PLACE, e, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
     ierr = e
     if (e /= 0 .and. len_trim(errmsg) == 0) errmsg = 'output: writing /config failed on another rank'
   end subroutine write_config
+
+  !> The obstacles' shapes as one comma-separated string ('plane, sphere').
+  function contact_shapes(shapes) result(t)
+    character(*), intent(in) :: shapes(:)
+    character(:), allocatable :: t
+    integer :: k
+    t = ''
+    do k = 1, size(shapes)
+      if (k > 1) t = t//', '
+      t = t//trim(shapes(k))
+    end do
+  end function contact_shapes
 
   !> The unit system of a scene's defaults (input/README.md, Scenes): the
   !> report scenes and flat use mm, g, s; hang uses SI. The program itself

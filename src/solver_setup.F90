@@ -25,6 +25,7 @@ module solver_setup
   use strings, only: itoa, real_g0, num => real_brief, inum => itoa
   use cloth_model, only: form_ifunction, form_ijacobian
   use newton_policy, only: set_newton_start, snes_converged
+  use contact_solver, only: contact_solver_options, contact_setup
   use step_monitor, only: ts_monitor
   implicit none
   private
@@ -175,11 +176,12 @@ contains
     if (ctx%use_reduced) then
       ! S is symmetric when K and C are: no moving dampers (linear springs
       ! have constant ones), no paper bending, no bending damping.
-      damping = cfg%has_damping .or. (cfg%bending_code == BEND_ENERGY .and. cfg%eta_b /= 0.0_rp)
+      damping = cfg%has_damping .or. (cfg%bending_code == BEND_ENERGY .and. cfg%eta_b /= 0.0_rp) .or. &
+                cfg%contact%n_obstacles > 0   ! friction's df/dv
       symmetric = (cfg%spring_code == SPRING_LINEAR .or. .not. cfg%has_damping) .and. &
                   (cfg%bending_code == BEND_NONE .or. (cfg%bending_code == BEND_ENERGY .and. &
                    (cfg%eta_b == 0.0_rp .or. ctx%model%gauss_newton)))
-      constant = cfg%spring_code == SPRING_LINEAR .and. cfg%bending_code == BEND_NONE
+      constant = cfg%spring_code == SPRING_LINEAR .and. cfg%bending_code == BEND_NONE .and. cfg%contact%n_obstacles == 0
       PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, symmetric, constant, damping, ctx%model%clamp, ctx%model%gauss_newton, pc_lag, ierr, mg_interpolation=mg_interp))
     else
       ! Jacobian with the DMDA's exact box-stencil preallocation.
@@ -243,9 +245,11 @@ contains
       PetscCall(adaptive_default(ctx%ts, ctx%comm, applied, ierr))
       ctx%step%adaptive_default = applied
     end if
+    PetscCall(contact_solver_options(ctx, ierr))
     PetscCall(step_defaults(ctx%ts, ctx%use_reduced, ierr))
     PetscCall(TSSetFromOptions(ctx%ts, ierr))
     PetscCall(effective_time_integration(ctx, ierr))
+    PetscCall(contact_setup(ctx, ierr))
   end subroutine solver_create
 
   !> Read back what the options made of the time integration, so that the

@@ -211,8 +211,25 @@ contains
       if (present(fine) .and. present(st) .and. jt >= lat%ys .and. jt <= lat%ye) &
         call stencil_row_from_full(fine, st(:, :, :, :, srow(jt)), jt)
     end do
+    if (lat%nodal%n > 0) call nodal_products()
 
   contains
+
+    !> The forces on single nodes (contact, module node_blocks): their
+    !> products in g and diagonals in kd (S's diagonal: put_rows_st, put_row).
+    subroutine nodal_products()
+      integer :: m, i, jn, r
+      do jn = lat%ys, lat%ye
+        do m = lat%nodal%row_start(jn), lat%nodal%row_start(jn + 1) - 1
+          i = lat%nodal%col(m)
+          g(:, i, jn) = g(:, i, jn) - matmul(lat%nodal%kx(:, :, m), w(0:2, i, jn)) &
+                        - matmul(lat%nodal%kv(:, :, m), w(3:5, i, jn))
+          do r = 1, 3
+            kd(r, i, jn) = kd(r, i, jn) - lat%nodal%kx(r, r, m)
+          end do
+        end do
+      end do
+    end subroutine nodal_products
 
     !> Slot of owned row j in st.
     pure integer function srow(j)
@@ -331,6 +348,12 @@ contains
           st(i, r, r, sd, s0) = st(i, r, r, sd, s0) + a * lat%mass(i, j0)
         end do
       end do
+      if (lat%nodal%n > 0) then
+        do r = lat%nodal%row_start(j0), lat%nodal%row_start(j0 + 1) - 1
+          i = lat%nodal%col(r)
+          st(i, :, :, sd, s0) = st(i, :, :, sd, s0) - lat%nodal%kv(:, :, r) - rinv * lat%nodal%kx(:, :, r)
+        end do
+      end if
     end subroutine put_rows_st
 
     !> The bending triples anchored at row j0 (their lowest row), added to
@@ -487,6 +510,11 @@ contains
       do r = 1, 3
         vals(r, r, m) = vals(r, r, m) + a * lat%mass(i0, j0)
       end do
+      if (lat%nodal%n > 0) then
+        do r = lat%nodal%row_start(j0), lat%nodal%row_start(j0 + 1) - 1
+          if (lat%nodal%col(r) == i0) vals(:, :, m) = vals(:, :, m) - lat%nodal%kv(:, :, r) - rinv * lat%nodal%kx(:, :, r)
+        end do
+      end if
       do r = 0, 2
         pa = ia(3 * (i0 + (j0 - lat%ys) * lat%nx) + r)
         pb = 0

@@ -38,14 +38,20 @@ program test_reduced_assembly
   call one(BEND_ENERGY, SPRING_AXIAL, .true., .false., .false., 9, 12, 4, 7, 'energy bending, middle strip')
   call one(BEND_ENERGY, SPRING_AXIAL, .true., .true., .true., 35, 10, 6, 9, 'energy bending, Gauss-Newton, clamped, last strip')
   call one(BEND_ENERGY, SPRING_AXIAL, .false., .false., .false., 6, 9, 2, 5, 'energy bending, undamped, middle strip')
+  ! forces on single nodes (contact's blocks, lattice_t's nodal) on the diagonal
+  call one(BEND_NONE, SPRING_AXIAL, .true., .false., .false., 37, 9, 0, 8, 'no bending, node blocks, whole lattice', &
+           nodal=.true.)
+  call one(BEND_ENERGY, SPRING_AXIAL, .true., .false., .false., 9, 12, 4, 7, 'energy bending, node blocks, middle strip', &
+           nodal=.true.)
   call check_report()
 
 contains
 
-  subroutine one(bending, spring, damping, clamp, gauss_newton, nx, ny, ys, ye, what)
+  subroutine one(bending, spring, damping, clamp, gauss_newton, nx, ny, ys, ye, what, nodal)
     integer, intent(in) :: bending, spring, nx, ny, ys, ye
     logical, intent(in) :: damping, clamp, gauss_newton
     character(*), intent(in) :: what
+    logical, intent(in), optional :: nodal
     real(rp), parameter :: a = 40.0_rp               ! TS shift [1/s]
     type(nuno_config) :: cfg
     type(lattice_t) :: lat
@@ -103,6 +109,27 @@ contains
         if (fixedg(i, j)) w(3:5, i, j) = 0.5_rp   ! a prescribed velocity change, as reduced's right-hand side
       end do
     end do
+
+    ! Random blocks on every third free owned node of each row (the list by row).
+    if (present(nodal)) then
+      allocate(lat%nodal%row_start(ys:ye + 1), lat%nodal%col(nx * (ye - ys + 1)), &
+               lat%nodal%kx(3, 3, nx * (ye - ys + 1)), lat%nodal%kv(3, 3, nx * (ye - ys + 1)))
+      n = 0
+      do j = ys, ye
+        lat%nodal%row_start(j) = n + 1
+        do i = mod(j, 3), nx - 1, 3
+          if (fixedg(i, j)) cycle
+          n = n + 1
+          lat%nodal%col(n) = i
+          call random_number(lat%nodal%kx(:, :, n))
+          call random_number(lat%nodal%kv(:, :, n))
+          lat%nodal%kx(:, :, n) = -50.0_rp * lat%nodal%kx(:, :, n)
+          lat%nodal%kv(:, :, n) = -0.2_rp * lat%nodal%kv(:, :, n)
+        end do
+      end do
+      lat%nodal%row_start(ye + 1) = n + 1
+      lat%nodal%n = n
+    end if
 
     ! The reference: the element buffer, as module reduced's third storage path.
     allocate(sref(3, 3, -hw:hw, -hw:hw, 0:nx - 1, ys:ye), gref(3, 0:nx - 1, ys:ye), kdref(3, 0:nx - 1, ys:ye))

@@ -1,0 +1,240 @@
+! SPDX-License-Identifier: BSD-2-Clause
+!> Contact with rigid static obstacles on a rank's strip (plain arrays: no
+!> PETSc, no MPI; the kernel of one node is module contact). Each free
+!> owned node meets each obstacle through contact_node: an IPC barrier on
+!> the gap plus smoothed Coulomb friction whose normal force lam and normal
+!> nlag are lagged: taken at the last accepted state (the step's start,
+!> t_n) and frozen during the step's Newton solve, so that friction is
+!> implicit in the velocity with a fixed magnitude (IPC's lagged friction).
+!> Constrained nodes take no contact force (their rows are replaced).
+!> Nothing here runs when the scene has no obstacle (n_obs = 0): the
+!> callers test contact_on first.
+module contact_forces
+  use kinds, only: rp
+  use config, only: contact_config
+  use lattice, only: lattice_t
+  use node_blocks, only: node_blocks_t
+  use contact, only: obstacle_t, contact_params_t, contact_node, time_of_impact, signed_distance, friction_power
+  implicit none
+  private
+  public :: contact_state_t, contact_init, contact_on, contact_add_forces, contact_blocks, contact_lag, &
+            contact_step_limit, contact_stats
+
+  type :: contact_state_t
+    integer :: n_obs = 0
+    type(obstacle_t), allocatable :: obs(:)         !< (n_obs)
+    type(contact_params_t) :: cp
+    real(rp), allocatable :: lam(:, :, :)           !< (n_obs, 0:nx-1, ys:ye) lagged normal force [force]
+    real(rp), allocatable :: nlag(:, :, :, :)       !< (3, n_obs, 0:nx-1, ys:ye) lagged normal [1]
+    ! run's diagnostics (accepted states, this rank's view; reduced by the caller)
+    real(rp) :: min_gap_run = huge(1.0_rp)          !< smallest gap over every accepted state [length]
+    integer :: states_checked = 0                   !< accepted states checked
+    integer :: limited_steps = 0                    !< Newton updates scaled by the step limit
+    ! the last accepted state's, over all ranks (module contact_solver)
+    integer :: active = 0                           !< node-obstacle pairs with gap < dhat
+    real(rp) :: force(3) = 0.0_rp                   !< total contact force [force]
+    real(rp) :: energy = 0.0_rp                     !< barrier energy [energy]
+    real(rp) :: min_gap = huge(1.0_rp)              !< smallest gap [length]
+    real(rp) :: friction_work = 0.0_rp              !< friction work since the start (trapezoid rule) [energy]
+    real(rp) :: t_last = 0.0_rp, pfric_last = 0.0_rp
+  end type contact_state_t
+
+contains
+
+  !> Obstacles and parameters from &contact; lags zero (no friction at the first step).
+  subroutine contact_init(cs, cc, lat)
+    type(contact_state_t), intent(out) :: cs
+    type(contact_config), intent(in) :: cc
+    type(lattice_t), intent(in) :: lat
+    integer :: k
+    cs%n_obs = cc%n_obstacles
+    if (cs%n_obs == 0) return
+    allocate(cs%obs(cs%n_obs))
+    do k = 1, cs%n_obs
+      cs%obs(k)%shape = cc%shape_code(k)
+      cs%obs(k)%p = cc%point(:, k)
+      cs%obs(k)%n = cc%normal(:, k)
+      cs%obs(k)%r = cc%radius(k)
+      cs%obs(k)%mu = cc%mu(k)
+    end do
+    cs%cp = contact_params_t(thickness=cc%thickness, dhat=cc%dhat, kappa=cc%stiffness, eps_v=cc%eps_v)
+    allocate(cs%lam(cs%n_obs, 0:lat%nx - 1, lat%ys:lat%ye), cs%nlag(3, cs%n_obs, 0:lat%nx - 1, lat%ys:lat%ye))
+    cs%lam = 0.0_rp
+    cs%nlag = 0.0_rp
+  end subroutine contact_init
+
+  pure logical function contact_on(cs)
+    type(contact_state_t), intent(in) :: cs
+    contact_on = cs%n_obs > 0
+  end function contact_on
+
+  !> f += contact forces on the free owned nodes; nbad counts nodes with a
+  !> gap <= 0 (the state is infeasible: the caller makes the residual NaN).
+  subroutine contact_add_forces(cs, lat, fixed, u, f, nbad)
+    type(contact_state_t), intent(in) :: cs
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    real(rp), intent(inout) :: f(:, 0:, lat%ys:)
+    integer, intent(out) :: nbad
+    integer :: i, j, k
+    real(rp) :: fc(3), kx(3, 3), kv(3, 3), e, fn, d, g(3), hd(3, 3)
+    logical :: act
+    nbad = 0
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
+        if (fixed(i, j)) cycle
+        do k = 1, cs%n_obs
+          call signed_distance(cs%obs(k), u(0:2, i, j), d, g, hd)
+          if (.not. (d - cs%cp%thickness > 0.0_rp)) then
+            nbad = nbad + 1
+            cycle
+          end if
+          call contact_node(cs%obs(k), cs%cp, u(0:2, i, j), u(3:5, i, j), cs%lam(k, i, j), cs%nlag(:, k, i, j), &
+                            fc, kx, kv, e, fn, act)
+          f(:, i, j) = f(:, i, j) + fc
+        end do
+      end do
+    end do
+  end subroutine contact_add_forces
+
+  !> The diagonal blocks df/dx, df/dv of the nodes in contact (or with
+  !> friction) at state u, by owned row, into nb (lattice_t's nodal).
+  subroutine contact_blocks(cs, lat, fixed, u, nb)
+    type(contact_state_t), intent(in) :: cs
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    type(node_blocks_t), intent(inout) :: nb
+    integer :: i, j, k, n
+    real(rp) :: fc(3), kx(3, 3), kv(3, 3), e, fn, bx(3, 3), bv(3, 3)
+    logical :: act, any_blk
+    if (.not. allocated(nb%row_start)) allocate(nb%row_start(lat%ys:lat%ye + 1))
+    if (.not. allocated(nb%col)) allocate(nb%col(64), nb%kx(3, 3, 64), nb%kv(3, 3, 64))
+    n = 0
+    do j = lat%ys, lat%ye
+      nb%row_start(j) = n + 1
+      do i = 0, lat%nx - 1
+        if (fixed(i, j)) cycle
+        bx = 0.0_rp
+        bv = 0.0_rp
+        any_blk = .false.
+        do k = 1, cs%n_obs
+          ! project: the barrier's stiffness with the negative eigenvalues of
+          ! its energy Hessian set to zero (curved shapes), so that S stays SPD.
+          call contact_node(cs%obs(k), cs%cp, u(0:2, i, j), u(3:5, i, j), cs%lam(k, i, j), cs%nlag(:, k, i, j), &
+                            fc, kx, kv, e, fn, act, project=.true.)
+          if (.not. (act .or. cs%lam(k, i, j) > 0.0_rp)) cycle
+          any_blk = .true.
+          bx = bx + kx
+          bv = bv + kv
+        end do
+        if (.not. any_blk) cycle
+        n = n + 1
+        if (n > size(nb%col)) call grow(nb, 2 * n)
+        nb%col(n) = i
+        nb%kx(:, :, n) = bx
+        nb%kv(:, :, n) = bv
+      end do
+    end do
+    nb%row_start(lat%ye + 1) = n + 1
+    nb%n = n
+  end subroutine contact_blocks
+
+  subroutine grow(nb, m)
+    type(node_blocks_t), intent(inout) :: nb
+    integer, intent(in) :: m
+    integer, allocatable :: c(:)
+    real(rp), allocatable :: a(:, :, :), b(:, :, :)
+    allocate(c(m), a(3, 3, m), b(3, 3, m))
+    c(1:size(nb%col)) = nb%col
+    a(:, :, 1:size(nb%col)) = nb%kx
+    b(:, :, 1:size(nb%col)) = nb%kv
+    call move_alloc(c, nb%col)
+    call move_alloc(a, nb%kx)
+    call move_alloc(b, nb%kv)
+  end subroutine grow
+
+  !> Friction's lag from an accepted state u (the next step's start):
+  !> lam = the barrier's normal force, nlag = the surface normal.
+  subroutine contact_lag(cs, lat, fixed, u)
+    type(contact_state_t), intent(inout) :: cs
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    integer :: i, j, k
+    real(rp) :: fc(3), kx(3, 3), kv(3, 3), e, fn, d, g(3), hd(3, 3), zero3(3)
+    logical :: act
+    zero3 = 0.0_rp
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
+        do k = 1, cs%n_obs
+          cs%lam(k, i, j) = 0.0_rp
+          cs%nlag(:, k, i, j) = 0.0_rp
+          if (fixed(i, j) .or. cs%obs(k)%mu <= 0.0_rp) cycle
+          call contact_node(cs%obs(k), cs%cp, u(0:2, i, j), u(3:5, i, j), 0.0_rp, zero3, fc, kx, kv, e, fn, act)
+          if (.not. act) cycle
+          call signed_distance(cs%obs(k), u(0:2, i, j), d, g, hd)
+          cs%lam(k, i, j) = fn
+          cs%nlag(:, k, i, j) = g
+        end do
+      end do
+    end do
+  end subroutine contact_lag
+
+  !> Largest alpha in [0, 1] for which no free owned node's gap reaches 0
+  !> along x + t dx, t < alpha (this rank; the caller takes the minimum).
+  real(rp) function contact_step_limit(cs, lat, fixed, x, dx) result(alpha)
+    type(contact_state_t), intent(in) :: cs
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: x(0:, 0:, lat%ys:), dx(0:, 0:, lat%ys:)
+    integer :: i, j, k
+    alpha = 1.0_rp
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
+        if (fixed(i, j)) cycle
+        do k = 1, cs%n_obs
+          alpha = min(alpha, time_of_impact(cs%obs(k), cs%cp%thickness, x(0:2, i, j), dx(0:2, i, j)))
+        end do
+      end do
+    end do
+  end function contact_step_limit
+
+  !> This rank's contact statistics at state u: the smallest gap (free
+  !> nodes), the active contacts (gap < dhat), the total contact force
+  !> (3) and the barrier energy, the friction power.
+  subroutine contact_stats(cs, lat, fixed, u, gmin, nact, ftot, ebar, pfric)
+    type(contact_state_t), intent(in) :: cs
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    real(rp), intent(out) :: gmin, ftot(3), ebar, pfric
+    integer, intent(out) :: nact
+    integer :: i, j, k
+    real(rp) :: fc(3), kx(3, 3), kv(3, 3), e, fn, d, g(3), hd(3, 3)
+    logical :: act
+    gmin = huge(1.0_rp)
+    nact = 0
+    ftot = 0.0_rp
+    ebar = 0.0_rp
+    pfric = 0.0_rp
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
+        if (fixed(i, j)) cycle
+        do k = 1, cs%n_obs
+          call signed_distance(cs%obs(k), u(0:2, i, j), d, g, hd)
+          gmin = min(gmin, d - cs%cp%thickness)
+          if (.not. (d - cs%cp%thickness > 0.0_rp)) cycle
+          call contact_node(cs%obs(k), cs%cp, u(0:2, i, j), u(3:5, i, j), cs%lam(k, i, j), cs%nlag(:, k, i, j), &
+                            fc, kx, kv, e, fn, act)
+          if (act) nact = nact + 1
+          ftot = ftot + fc
+          ebar = ebar + e
+          pfric = pfric + friction_power(cs%obs(k), cs%cp, u(3:5, i, j), cs%lam(k, i, j), cs%nlag(:, k, i, j))
+        end do
+      end do
+    end do
+  end subroutine contact_stats
+
+end module contact_forces

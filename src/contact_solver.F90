@@ -1,0 +1,155 @@
+! SPDX-License-Identifier: BSD-2-Clause
+!> Contact on the PETSc side (module contact_forces holds the plain-array
+!> work): set-up, the Newton step limited so that no node crosses an
+!> obstacle, and the check of every accepted state.
+!>
+!> No penetration, ever: (1) each Newton solve starts from the last
+!> accepted state x_n, which is feasible (beuler's extrapolated start
+!> x_n + dt xdot_n and the cubic start may lie inside an obstacle, where
+!> the barrier is undefined: with obstacles they are off, and an explicit
+!> -nuno_newton_start cubic is refused); (2) each Newton update is limited
+!> by the continuous collision test against the analytic shapes (a line
+!> search pre-check): where a node would reach its obstacle within the
+!> full update, the update is scaled by 0.8 alpha (IPC), alpha the first
+!> time of impact over all nodes and obstacles; (3) a residual evaluated
+!> at an infeasible state is NaN (the step fails and is retried smaller);
+!> (4) every accepted state is checked (a TS monitor: the smallest gap
+!> over nodes and obstacles, MPI_Allreduce), and a gap <= 0 ends the run
+!> with an error. The monitor also lags friction's normal force and normal
+!> for the next step and prints a contact line at each output time.
+module contact_solver
+#include "petsc/finclude/petscts.h"
+  use petscts
+  use petscdmda
+  use mpi
+  use kinds, only: rp
+  use app_context, only: app_ctx
+  use newton_start, only: newton_start_order
+  use contact_forces, only: contact_init, contact_on, contact_lag, contact_step_limit, contact_stats
+  use strings, only: real_es, itoa
+  implicit none
+  private
+  public :: contact_solver_options, contact_setup
+
+contains
+
+  !> Before TSSetFromOptions: with obstacles, beuler starts Newton from x_n
+  !> (see the module header). Collective.
+  subroutine contact_solver_options(ctx, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    PetscErrorCode, intent(out) :: ierr
+    ierr = 0
+    if (ctx%cfg%contact%n_obstacles == 0) return
+    PetscCall(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-ts_theta_initial_guess_extrapolate', 'false', ierr))
+  end subroutine contact_solver_options
+
+  !> After the TS and SNES are set up: the obstacles, the step limit and
+  !> the monitor of accepted states. Nothing without obstacles. Collective.
+  subroutine contact_setup(ctx, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    PetscErrorCode, intent(out) :: ierr
+    type(tSNES) :: snes
+    SNESLineSearch :: ls
+    character(len=64) :: tstype
+    ierr = 0
+    if (ctx%cfg%contact%n_obstacles == 0) return
+    PetscCall(TSGetType(ctx%ts, tstype, ierr))
+    if (trim(tstype) /= TSBEULER) then
+      ierr = PETSC_ERR_SUP
+      SETERRQ(ctx%comm, ierr, 'nuno: &contact: obstacles need -ts_type beuler (its Newton solve starts from the last accepted, feasible state), not -ts_type '//trim(tstype))
+    end if
+    if (newton_start_order(ctx%newton%start) == 3) then
+      ierr = PETSC_ERR_SUP
+      SETERRQ(ctx%comm, ierr, 'nuno: &contact: -nuno_newton_start cubic is refused with obstacles: its start may lie inside an obstacle')
+    end if
+    call contact_init(ctx%contact, ctx%cfg%contact, ctx%lat)
+    PetscCall(TSGetSNES(ctx%ts, snes, ierr))
+    PetscCall(SNESGetLineSearch(snes, ls, ierr))
+    PetscCall(SNESLineSearchSetPreCheck(ls, contact_precheck, ctx, ierr))
+    PetscCall(TSMonitorSet(ctx%ts, contact_monitor, ctx, PETSC_NULL_FUNCTION, ierr))
+  end subroutine contact_setup
+
+  !> The line search's pre-check: PETSc steps x - lambda y; where a node
+  !> would reach an obstacle along -y, y is scaled by 0.8 alpha.
+  subroutine contact_precheck(ls, xvec, yvec, changed, ctx, ierr)
+    SNESLineSearch :: ls
+    type(tVec) :: xvec, yvec
+    PetscBool :: changed
+    type(app_ctx) :: ctx
+    PetscErrorCode :: ierr
+    PetscScalar, pointer :: x(:, :, :), y(:, :, :)
+    real(rp) :: alpha, galpha
+    real(rp), allocatable :: dx(:, :, :)
+    changed = PETSC_FALSE
+    PetscCall(DMDAVecGetArrayReadF90(ctx%da, xvec, x, ierr))
+    PetscCall(DMDAVecGetArrayReadF90(ctx%da, yvec, y, ierr))
+    allocate(dx(0:5, 0:ctx%lat%nx - 1, ctx%lat%ys:ctx%lat%ye))
+    dx = -y
+    alpha = contact_step_limit(ctx%contact, ctx%lat, ctx%model%fixed, x, dx)
+    PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, yvec, y, ierr))
+    PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, xvec, x, ierr))
+    call MPI_Allreduce(alpha, galpha, 1, MPI_DOUBLE_PRECISION, MPI_MIN, ctx%comm, ierr)
+    if (galpha < 1.0_rp) then
+      PetscCall(VecScale(yvec, 0.8_rp * galpha, ierr))
+      changed = PETSC_TRUE
+      ctx%contact%limited_steps = ctx%contact%limited_steps + 1
+    end if
+  end subroutine contact_precheck
+
+  !> After each accepted step (and at the start): the smallest gap over
+  !> every node and obstacle (collective); a gap <= 0 is an error. Then the
+  !> friction lag for the next step, and a line at each output time.
+  subroutine contact_monitor(ts, step, t, uvec, ctx, ierr)
+    type(tTS) :: ts
+    PetscInt :: step
+    PetscReal :: t
+    type(tVec) :: uvec
+    type(app_ctx) :: ctx
+    PetscErrorCode :: ierr
+    type(tVec) :: uloc
+    PetscScalar, pointer :: u(:, :, :)
+    real(rp) :: gmin, ftot(3), ebar, pfric, loc(5), glob(5), r
+    integer :: nact, gnact
+    ierr = 0
+    ! TSSolve calls its monitors at every window's start too, with the state
+    ! its last step accepted: checked already
+    if (ctx%contact%states_checked > 0 .and. t == ctx%contact%t_last) return
+    PetscCall(DMGetLocalVector(ctx%da, uloc, ierr))
+    PetscCall(DMGlobalToLocalBegin(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
+    PetscCall(DMGlobalToLocalEnd(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
+    PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
+    call contact_stats(ctx%contact, ctx%lat, ctx%model%fixed, u, gmin, nact, ftot, ebar, pfric)
+    call contact_lag(ctx%contact, ctx%lat, ctx%model%fixed, u)
+    PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, uloc, u, ierr))
+    PetscCall(DMRestoreLocalVector(ctx%da, uloc, ierr))
+    call MPI_Allreduce(gmin, r, 1, MPI_DOUBLE_PRECISION, MPI_MIN, ctx%comm, ierr)
+    gmin = r
+    loc = [ftot, ebar, pfric]
+    call MPI_Allreduce(loc, glob, 5, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, ierr)
+    call MPI_Allreduce(nact, gnact, 1, MPI_INTEGER, MPI_SUM, ctx%comm, ierr)
+    ! friction work: trapezoid rule over the step
+    if (ctx%contact%states_checked > 0) ctx%contact%friction_work = ctx%contact%friction_work + &
+      0.5_rp * (t - ctx%contact%t_last) * (glob(5) + ctx%contact%pfric_last)
+    ctx%contact%t_last = t
+    ctx%contact%pfric_last = glob(5)
+    ctx%contact%states_checked = ctx%contact%states_checked + 1
+    ctx%contact%min_gap_run = min(ctx%contact%min_gap_run, gmin)
+    ctx%contact%active = gnact
+    ctx%contact%force = glob(1:3)
+    ctx%contact%energy = glob(4)
+    ctx%contact%min_gap = gmin
+    if (.not. (gmin > 0.0_rp)) then
+      ierr = PETSC_ERR_NOT_CONVERGED
+      SETERRQ(ctx%comm, ierr, 'nuno: contact: an accepted state penetrates an obstacle at t = '//real_es(t)//': smallest gap '//real_es(gmin))
+    end if
+    r = t / ctx%cfg%output_interval
+    if (ctx%rank == 0 .and. abs(r - anint(r)) <= 1.0e-9_rp * max(1.0_rp, r)) then
+      write(*, '(a)') 'contact: t = '//real_es(t)//', active = '//itoa(gnact)//', force = '// &
+        real_es(glob(1))//' '//real_es(glob(2))//' '//real_es(glob(3))//', min gap = '//real_es(gmin)// &
+        ', min gap of all accepted states = '//real_es(ctx%contact%min_gap_run)//', states checked = '// &
+        itoa(ctx%contact%states_checked)//', limited Newton steps = '//itoa(ctx%contact%limited_steps)// &
+        ', barrier energy = '//real_es(glob(4))//', friction work = '//real_es(ctx%contact%friction_work)
+    end if
+  end subroutine contact_monitor
+
+end module contact_solver

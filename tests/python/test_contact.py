@@ -1,0 +1,127 @@
+# SPDX-License-Identifier: BSD-2-Clause
+"""Contact with a static plane (&contact): the normal force of a sheet at
+rest is its weight, a drop reaches the plane at t = sqrt(2 h/g), no accepted
+state penetrates, 1 and 3 ranks and the reduced and 6-dof paths agree, bad
+&contact keys are refused on 2 ranks. Small lattices, seconds each."""
+import math
+import re
+import subprocess
+
+import h5py
+import numpy as np
+
+from nunorun import exe, mpiexec, run
+
+G = 9.81
+MASS = 0.1
+LINE = re.compile(r"contact: t = (\S+), active = (\d+), force = (\S+) (\S+) (\S+), min gap = (\S+), "
+                  r"min gap of all accepted states = (\S+), states checked = (\d+)")
+
+
+def groups(h, t_end, out_dt, mu=0.0, n=7):
+    return dict(
+        scene="scene='flat' gravity=0.0,0.0,-9.81",
+        lattice=f"nx={n} ny={n} lx=1.0 ly=1.0 total_mass={MASS} mass_distribution='area'",
+        material="e_s=100.0 eta_s=0.1 e_d=100.0 eta_d=0.1 bending_model='energy' k_b=0.1 eta_b=1e-4",
+        contact=(f"n_obstacles=1 obstacle_shape(1)='plane' obstacle_point(:,1)=0.0,0.0,{-h} "
+                 f"obstacle_normal(:,1)=0.0,0.0,1.0 obstacle_mu(1)={mu} contact_dhat=1e-3 contact_stiffness=1.0"),
+        time=f"t_end={t_end} dt=1e-3",
+        output=f"output_interval={out_dt}",
+    )
+
+
+def lines(stdout):
+    return [tuple(float(v) for v in m.groups()) for m in LINE.finditer(stdout)]
+
+
+def test_sheet_at_rest_carries_its_weight(tmp_path):
+    # released 0.5 mm above the plane, inside the barrier's reach: it settles
+    proc, _ = run(tmp_path, "rest", **groups(5e-4, 0.4, 0.1))
+    last = lines(proc.stdout)[-1]
+    fz = last[4]
+    assert abs(fz - MASS * G) < 1e-3 * MASS * G, fz          # the barrier's force holds m g
+    assert abs(last[2]) < 1e-9 and abs(last[3]) < 1e-9       # no tangential force on a level plane
+    assert last[6] > 0.0                                       # no accepted state reached the plane
+
+
+def test_drop_reaches_the_plane_at_the_free_fall_time(tmp_path):
+    h, dhat, dt = 0.05, 1e-3, 1e-3
+    proc, _ = run(tmp_path, "drop", **groups(h, 0.12, dt))
+    rows = lines(proc.stdout)
+    first = min(r[0] for r in rows if r[1] > 0)               # first state with a gap below dhat
+    expected = math.sqrt(2.0 * (h - dhat) / G)
+    assert abs(first - expected) <= 3 * dt, (first, expected)
+    assert all(r[5] > 0.0 for r in rows)                       # every output state outside the plane
+    assert rows[-1][6] > 0.0                                   # and every accepted state (monitor's minimum)
+    steps = int(re.search(r"complete at t = .*?: (\d+) steps", proc.stdout + proc.stderr).group(1))
+    assert rows[-1][7] == steps + 1                            # ... all of them checked, and the start
+
+
+def final_positions(h5):
+    with h5py.File(h5, "r") as f:
+        return np.array(f["position"][-1])
+
+
+def test_ranks_and_paths_agree(tmp_path):
+    exact = ["-snes_rtol", "1e-12", "-reduced_pc_type", "lu", "-reduced_ksp_type", "preonly"]
+    g = groups(0.02, 0.1, 0.1, mu=0.3)
+    for d in "abc":
+        (tmp_path / d).mkdir()
+    _, h1 = run(tmp_path / "a", "one", options=exact, **g)
+    _, h3 = run(tmp_path / "b", "three", nranks=3, options=exact, **g)
+    _, hf = run(tmp_path / "c", "full", options=["-snes_rtol", "1e-12", "-nuno_jacobian", "full", "-pc_type", "lu",
+                                                 "-ksp_type", "preonly", "-snes_linesearch_type", "basic"], **g)
+    x1, x3, xf = final_positions(h1), final_positions(h3), final_positions(hf)
+    assert x1[..., 2].min() < -0.019                            # it has landed
+    assert np.abs(x1 - x3).max() < 1e-10
+    assert np.abs(x1 - xf).max() < 1e-9
+
+
+def test_no_obstacles_runs_no_contact_code(tmp_path):
+    g = groups(0.05, 0.01, 0.01)
+    g["contact"] = "n_obstacles=0"
+    proc, _ = run(tmp_path, "none", **g)
+    assert "contact:" not in proc.stdout
+
+
+def test_bad_contact_keys_are_refused_on_two_ranks(tmp_path):
+    cases = {"contact_dhat=-1.0": ["contact_dhat", "-1"],
+             "n_obstacles=1 obstacle_shape(1)='cube'": ["obstacle_shape(1)", "cube"],
+             "n_obstacles=1 obstacle_shape(1)='sphere' obstacle_radius(1)=0.0": ["obstacle_radius(1)", "0"],
+             "n_obstacles=9": ["n_obstacles", "9"]}
+    for text, words in cases.items():
+        (tmp_path / "bad.nml").write_text(f"&contact {text} /\n&output output_file='bad.h5' /\n")
+        proc = subprocess.run([mpiexec(), "-n", "2", "--oversubscribe", exe(), "bad.nml"], cwd=tmp_path,
+                              capture_output=True, text=True, timeout=60)
+        assert proc.returncode != 0
+        errors = [ln for ln in proc.stderr.splitlines() if ln.startswith("nuno: error")]
+        assert len(errors) == 1, proc.stderr
+        assert all(w in errors[0] for w in words), errors[0]
+        assert not (tmp_path / "bad.h5").exists()
+
+
+def test_contact_jacobian_against_finite_differences(tmp_path):
+    """The 6-dof Jacobian with the contact blocks (barrier and sliding and
+    smoothed friction: a sheet spinning 0.5 mm above the plane, mu = 0.3)
+    against PETSc's finite differences of the residual."""
+    from nunorun import jacobian_ratios
+    g = groups(5e-4, 0.002, 0.002, mu=0.3, n=5)
+    g["scene"] = "scene='flat' gravity=0.0,0.0,-9.81 initial_omega=0.0,0.0,0.5"
+    proc, _ = run(tmp_path, "jac", options=["-nuno_jacobian", "full", "-snes_test_jacobian", "-snes_max_it", "1",
+                                            "-snes_convergence_test", "skip", "-ts_max_snes_failures", "-1"], **g)
+    r = jacobian_ratios(proc.stdout + proc.stderr)
+    assert r and max(r) < 1e-5, r
+    assert "active = 25" in proc.stdout                          # every node in the barrier's reach
+
+
+def test_drape_over_a_sphere_never_penetrates(tmp_path):
+    """input/drape_sphere.nml's scene on 11 x 11 nodes (2 ranks): the cloth
+    lands on the sphere's top and folds down; the smallest gap over every
+    accepted state stays > 0, and the sphere carries a load."""
+    g = groups(0.0, 0.3, 0.1, mu=0.3, n=11)
+    g["contact"] = ("n_obstacles=1 obstacle_shape(1)='sphere' obstacle_point(:,1)=0.5,0.5,-0.3 "
+                    "obstacle_radius(1)=0.25 obstacle_mu(1)=0.3 contact_dhat=1e-3 contact_stiffness=1.0")
+    proc, _ = run(tmp_path, "drape", nranks=2, **g)
+    rows = lines(proc.stdout)
+    assert rows[-1][6] > 0.0
+    assert max(r[4] for r in rows) > 0.1 * MASS * G
