@@ -19,7 +19,8 @@ module app_context
   private
   public :: app_ctx, model_state_t, assembly_t, newton_state_t, step_settings_t, energy_integrals_t, progress_t, &
             restart_state_t
-  public :: model_state_free, assembly_free, energy_integrals_free, restart_state_free
+  public :: model_state_free, assembly_free, energy_integrals_free, energy_integrals_reset, energy_add_work, &
+            progress_reset, restart_state_free
   public :: nuno_walltime_arm, nuno_adaptive_default, nuno_checkpoint_due, nuno_linesearch_options_read, nuno_newton_start_count, nuno_newton_start_get, nuno_newton_start_push, nuno_newton_start_put, nuno_newton_start_reset, nuno_newton_start_setup, nuno_options_read, nuno_options_report_unused, nuno_petsc_habits, nuno_signal_agreed, nuno_signals_install, nuno_step_defaults, nuno_tolerance_options_read, nuno_ts_scheme, nuno_ts_stop
 
   interface
@@ -253,7 +254,10 @@ module app_context
 
   !> Everything the callbacks need; passed to PETSc as the user context.
   type :: app_ctx
-    type(nuno_config) :: cfg
+    !> the run's one configuration: the caller's (main program), which
+    !> solver_create points to and completes with the effective dt and
+    !> t_end; identify's fitted values and a restart's patch land there too
+    type(nuno_config), pointer :: cfg => null()
     type(lattice_t) :: lat
     type(constraint_set_t) :: cs
     type(tDM) :: da
@@ -303,6 +307,34 @@ contains
     PetscErrorCode, intent(out) :: ierr
     PetscCall(VecDestroy(e%uq, ierr))
   end subroutine energy_integrals_free
+
+  !> The integrals back at their start (t = 0, nothing dissipated, no work
+  !> done) for a new run over the same solver (identification, control);
+  !> the integration rule and its work vector stay.
+  subroutine energy_integrals_reset(e)
+    type(energy_integrals_t), intent(inout) :: e
+    e%t_prev = 0
+    e%pdiss_prev = 0
+    e%pcon_prev = 0
+    e%dissipated = 0
+    e%work_constraints = 0
+    e%mgx0 = 0
+  end subroutine energy_integrals_reset
+
+  !> The work dw [energy] done on the cloth at a window's start (the
+  !> impulse of a keyframe: enter_window) added to the constraint work.
+  subroutine energy_add_work(e, dw)
+    type(energy_integrals_t), intent(inout) :: e
+    real(rp), intent(in) :: dw
+    e%work_constraints = e%work_constraints + dw
+  end subroutine energy_add_work
+
+  !> No output step written, the monitor's stall check afresh: a new run
+  !> over the same solver (identification, control).
+  subroutine progress_reset(p)
+    type(progress_t), intent(inout) :: p
+    p = progress_t()
+  end subroutine progress_reset
 
   !> The restart point's state; the output file is the caller's.
   subroutine restart_state_free(r)

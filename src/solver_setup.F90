@@ -60,7 +60,10 @@ contains
   !> matrix and the TS. Collective.
   subroutine solver_create(ctx, cfg, ierr)
     type(app_ctx), intent(inout), target :: ctx
-    type(nuno_config), intent(in) :: cfg
+    !> the run's configuration: the context points to it from here on (one
+    !> configuration for the caller and the solver), and the effective dt
+    !> and t_end are written into it
+    type(nuno_config), intent(inout), target :: cfg
     PetscErrorCode, intent(out) :: ierr
     PetscInt :: xs, ys, zs, xm, ym, zm, gxs, gys, gzs, gxm, gym, gzm, w, nc, nxp, nyp
     PetscInt, parameter :: one = 1, two = 2, six = 6, eight = 8
@@ -73,7 +76,7 @@ contains
     integer(c_int) :: jac_full, pc_lag, gn, cl, nfail, mg_interp, applied, forcing, ls_fallback, ls_given, ls_type_given
     logical :: symmetric, constant, damping
 
-    ctx%cfg = cfg
+    ctx%cfg => cfg
     ctx%comm = PETSC_COMM_WORLD
     call MPI_Comm_rank(ctx%comm, ctx%rank, ierr)
     call MPI_Comm_size(ctx%comm, ctx%size, ierr)

@@ -25,7 +25,7 @@ module timestepping
   use diagnostics, only: state_diagnostics_t, state_diagnostics
   use output, only: output_file, output_record, output_write_step, output_write_wall_time
   use reduced, only: reduced_set_fixed
-  use app_context, only: app_ctx, nuno_walltime_arm, nuno_newton_start_reset, nuno_signal_agreed
+  use app_context, only: app_ctx, nuno_walltime_arm, nuno_newton_start_reset, nuno_signal_agreed, energy_add_work
   use failure_text, only: signal_name, failure_reason, report_io_error, num, inum, ieee_nan
   use run_checkpoint, only: run_counts, take_checkpoint, keep_restart_point, solver_restore
   use provenance, only: write_run_info
@@ -33,7 +33,8 @@ module timestepping
   implicit none
   private
   public :: app_ctx, solver_create, solver_destroy, solver_run, check_decomposition, solver_restore
-  public :: enter_window            ! module identify: the constraint state of a time window
+  public :: advance_window          ! module identify_adjoint: its forward run's windows
+  public :: enter_window            ! module identify_adjoint: the constraint state of an adjoint window
 
 contains
 
@@ -91,6 +92,44 @@ contains
     dke = loc(1)
     ctx%model%moving_constraints = loc(2) > 0.0_rp
   end subroutine enter_window
+
+  !> Advance the solution from ta to tb, the window between two stop times
+  !> (output, observed, keyframe and release times): with enter, first
+  !> the window's constraint state (enter_window; the work of its impulse
+  !> added to the constraint work) and a fresh start of the integrator;
+  !> then steps of h (dt for fixed steps; the adaptive step carried from
+  !> the window before), the last one clipped to end on tb. On return t
+  !> and reason are the TS's (t is tb up to round-off unless the solve
+  !> stopped early: the caller decides what that means) and h the step
+  !> the window began with. The one window loop of the run (solver_run)
+  !> and of identification and control (module identify_adjoint).
+  !> Collective.
+  subroutine advance_window(ctx, t, tb, h, enter, reason, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    real(rp), intent(inout) :: t
+    real(rp), intent(in) :: tb
+    real(rp), intent(inout) :: h
+    logical, intent(in) :: enter
+    TSConvergedReason, intent(out) :: reason
+    PetscErrorCode, intent(out) :: ierr
+    real(rp) :: dke
+
+    ierr = 0
+    ctx%step%tstop = tb
+    if (enter) then
+      call enter_window(ctx, t, tb, dke, ierr)
+      if (ierr /= 0) return
+      call energy_add_work(ctx%energy, dke)
+      PetscCall(TSRestartStep(ctx%ts, ierr))
+    end if
+    PetscCall(TSSetMaxTime(ctx%ts, tb, ierr))
+    if (ctx%step%fixed_step) h = ctx%step%dt
+    if (t + 1.01_rp * h >= tb) h = tb - t
+    PetscCall(TSSetTimeStep(ctx%ts, h, ierr))
+    PetscCall(TSSolve(ctx%ts, ctx%u, ierr))
+    PetscCall(TSGetConvergedReason(ctx%ts, reason, ierr))
+    PetscCall(TSGetTime(ctx%ts, t, ierr))
+  end subroutine advance_window
 
   !> Integrate from t = 0 (or from the checkpoint of solver_restore) to
   !> t_end, writing every output step and the checkpoints (every
@@ -164,25 +203,14 @@ contains
 
     do while (t < ctx%step%t_end - eps .and. .not. at_max_steps)
       tstop = next_stop(t)
-      ctx%step%tstop = tstop
-      if (t > 0.0_rp) then
-        call enter_window(ctx, t, tstop, dke, ierr)
-        if (ierr /= 0) return
-        ctx%energy%work_constraints = ctx%energy%work_constraints + dke
-        PetscCall(TSRestartStep(ctx%ts, ierr))
-      end if
-      PetscCall(TSSetMaxTime(ctx%ts, tstop, ierr))
-      if (ctx%step%fixed_step) h = ctx%step%dt
-      if (t + 1.01_rp * h >= tstop) h = tstop - t
-      PetscCall(TSSetTimeStep(ctx%ts, h, ierr))
-      PetscCall(TSSolve(ctx%ts, ctx%u, ierr))
+      ! The first window was entered above, before the output step at t = 0.
+      call advance_window(ctx, t, tstop, h, t > 0.0_rp, reason, ierr)
+      if (ierr /= 0) return
       if (len_trim(ctx%io_error) > 0) then
         ! A wall-clock checkpoint could not be written (wall_checkpoint).
         status = 'failed: '//trim(ctx%io_error)
         exit
       end if
-      PetscCall(TSGetConvergedReason(ctx%ts, reason, ierr))
-      PetscCall(TSGetTime(ctx%ts, t, ierr))
       PetscCall(VecNorm(ctx%u, NORM_INFINITY, unorm, ierr))
       if (reason >= 0 .and. nuno_signal_agreed() /= 0) then
         ! SIGTERM/SIGINT: every rank finished the same step; keep its state
