@@ -12,15 +12,15 @@ module app_context
   use lattice, only: lattice_t
   use forces, only: jac_buffer_t
   use constraints, only: constraint_set_t
-  use output, only: output_file, checkpoint_t
+  use output, only: checkpoint_t
   use inner_guess, only: GUESS_AUTO
   use reduced, only: reduced_t
   implicit none
   private
   public :: app_ctx, model_state_t, assembly_t, newton_state_t, step_settings_t, energy_integrals_t, progress_t, &
             restart_state_t
-  public :: model_state_free, assembly_free, energy_integrals_free, energy_integrals_reset, energy_add_work, &
-            progress_reset, restart_state_free
+  public :: model_state_free, assembly_free, energy_integrals_free, energy_integrals_reset, energy_integrals_start, &
+            energy_integrals_restore, energy_add_work, energy_set_mgx0, progress_reset, restart_state_free
   public :: nuno_walltime_arm, nuno_adaptive_default, nuno_checkpoint_due, nuno_linesearch_options_read, nuno_newton_start_count, nuno_newton_start_get, nuno_newton_start_push, nuno_newton_start_put, nuno_newton_start_reset, nuno_newton_start_setup, nuno_options_read, nuno_options_report_unused, nuno_petsc_habits, nuno_signal_agreed, nuno_signals_install, nuno_step_defaults, nuno_tolerance_options_read, nuno_ts_scheme, nuno_ts_stop
 
   interface
@@ -67,7 +67,8 @@ module app_context
       import :: c_int
     end function nuno_signal_agreed
     !> src/nuno_signals.c: -nuno_checkpoint_walltime, agreed after each step.
-    !> Due after a step: the monitor of that step writes the checkpoint.
+    !> Due after a step: TSSolve ends there (nuno_checkpoint_due() = 2) and
+    !> the run driver writes the checkpoint (advance_window).
     subroutine nuno_walltime_arm(seconds) bind(C, name='nuno_walltime_arm')
       import :: c_double
       real(c_double), value :: seconds
@@ -249,7 +250,6 @@ module app_context
     !> rejected steps, Newton and linear iterations and retries of the runs
     !> before this one (the step count goes on in the TS itself)
     real(rp) :: counts_before(5) = 0
-    type(output_file), pointer :: out => null() !< the output file, for the wall-clock checkpoints (solver_run)
   end type restart_state_t
 
   !> Everything the callbacks need; passed to PETSc as the user context.
@@ -321,6 +321,31 @@ contains
     e%mgx0 = 0
   end subroutine energy_integrals_reset
 
+  !> The integrals go on from t [time] (the run's start, or a restart's
+  !> checkpoint time): the monitor's next step integrates from there.
+  subroutine energy_integrals_start(e, t)
+    type(energy_integrals_t), intent(inout) :: e
+    real(rp), intent(in) :: t
+    e%t_prev = t
+  end subroutine energy_integrals_start
+
+  !> The integrals of a checkpoint [energy] (module run_checkpoint).
+  subroutine energy_integrals_restore(e, dissipated, work_constraints, mgx0)
+    type(energy_integrals_t), intent(inout) :: e
+    real(rp), intent(in) :: dissipated, work_constraints, mgx0
+    e%dissipated = dissipated
+    e%work_constraints = work_constraints
+    e%mgx0 = mgx0
+  end subroutine energy_integrals_restore
+
+  !> sum m g . x at t = 0 [energy], the reference of the potential energy
+  !> of gravity in the external work (the output step at t = 0).
+  subroutine energy_set_mgx0(e, mgx0)
+    type(energy_integrals_t), intent(inout) :: e
+    real(rp), intent(in) :: mgx0
+    e%mgx0 = mgx0
+  end subroutine energy_set_mgx0
+
   !> The work dw [energy] done on the cloth at a window's start (the
   !> impulse of a keyframe: enter_window) added to the constraint work.
   subroutine energy_add_work(e, dw)
@@ -336,13 +361,12 @@ contains
     p = progress_t()
   end subroutine progress_reset
 
-  !> The restart point's state; the output file is the caller's.
+  !> The restart point's state.
   subroutine restart_state_free(r)
     type(restart_state_t), intent(inout) :: r
     if (allocated(r%rp_x)) deallocate(r%rp_x)
     if (allocated(r%rp_v)) deallocate(r%rp_v)
     r%rp_valid = .false.
-    nullify(r%out)
   end subroutine restart_state_free
 
 end module app_context
