@@ -13,7 +13,7 @@ module app_context
   use contact_forces, only: contact_state_t
   use forces, only: jac_buffer_t
   use constraints, only: constraint_set_t
-  use output, only: output_file, checkpoint_t
+  use output, only: checkpoint_t
   use inner_guess, only: GUESS_AUTO
   use newton_start, only: newton_start_t
   use reduced, only: reduced_t
@@ -21,7 +21,8 @@ module app_context
   private
   public :: app_ctx, model_state_t, assembly_t, newton_state_t, step_settings_t, energy_integrals_t, progress_t, &
             restart_state_t
-  public :: model_state_free, assembly_free, energy_integrals_free, restart_state_free
+  public :: model_state_free, assembly_free, energy_integrals_free, energy_integrals_reset, energy_integrals_start, &
+            energy_integrals_restore, energy_add_work, energy_set_mgx0, progress_reset, restart_state_free
   public :: nuno_walltime_arm, nuno_checkpoint_due, nuno_signal_agreed, nuno_signals_install, nuno_ts_stop
 
   interface
@@ -34,7 +35,8 @@ module app_context
       import :: c_int
     end function nuno_signal_agreed
     !> src/nuno_signals.c: -nuno_checkpoint_walltime, agreed after each step.
-    !> Due after a step: the monitor of that step writes the checkpoint.
+    !> Due after a step: TSSolve ends there (nuno_checkpoint_due() = 2) and
+    !> the run driver writes the checkpoint (advance_window).
     subroutine nuno_walltime_arm(seconds) bind(C, name='nuno_walltime_arm')
       import :: c_double
       real(c_double), value :: seconds
@@ -154,12 +156,14 @@ module app_context
     !> rejected steps, Newton and linear iterations and retries of the runs
     !> before this one (the step count goes on in the TS itself)
     real(rp) :: counts_before(5) = 0
-    type(output_file), pointer :: out => null() !< the output file, for the wall-clock checkpoints (solver_run)
   end type restart_state_t
 
   !> Everything the callbacks need; passed to PETSc as the user context.
   type :: app_ctx
-    type(nuno_config) :: cfg
+    !> the run's one configuration: the caller's (main program), which
+    !> solver_create points to and completes with the effective dt and
+    !> t_end; identify's fitted values and a restart's patch land there too
+    type(nuno_config), pointer :: cfg => null()
     type(lattice_t) :: lat
     type(constraint_set_t) :: cs
     type(tDM) :: da
@@ -211,13 +215,65 @@ contains
     PetscCall(VecDestroy(e%uq, ierr))
   end subroutine energy_integrals_free
 
-  !> The restart point's state; the output file is the caller's.
+  !> The integrals back at their start (t = 0, nothing dissipated, no work
+  !> done) for a new run over the same solver (identification, control);
+  !> the integration rule and its work vector stay.
+  subroutine energy_integrals_reset(e)
+    type(energy_integrals_t), intent(inout) :: e
+    e%t_prev = 0
+    e%pdiss_prev = 0
+    e%pcon_prev = 0
+    e%dissipated = 0
+    e%work_constraints = 0
+    e%mgx0 = 0
+  end subroutine energy_integrals_reset
+
+  !> The integrals go on from t [time] (the run's start, or a restart's
+  !> checkpoint time): the monitor's next step integrates from there.
+  subroutine energy_integrals_start(e, t)
+    type(energy_integrals_t), intent(inout) :: e
+    real(rp), intent(in) :: t
+    e%t_prev = t
+  end subroutine energy_integrals_start
+
+  !> The integrals of a checkpoint [energy] (module run_checkpoint).
+  subroutine energy_integrals_restore(e, dissipated, work_constraints, mgx0)
+    type(energy_integrals_t), intent(inout) :: e
+    real(rp), intent(in) :: dissipated, work_constraints, mgx0
+    e%dissipated = dissipated
+    e%work_constraints = work_constraints
+    e%mgx0 = mgx0
+  end subroutine energy_integrals_restore
+
+  !> sum m g . x at t = 0 [energy], the reference of the potential energy
+  !> of gravity in the external work (the output step at t = 0).
+  subroutine energy_set_mgx0(e, mgx0)
+    type(energy_integrals_t), intent(inout) :: e
+    real(rp), intent(in) :: mgx0
+    e%mgx0 = mgx0
+  end subroutine energy_set_mgx0
+
+  !> The work dw [energy] done on the cloth at a window's start (the
+  !> impulse of a keyframe: enter_window) added to the constraint work.
+  subroutine energy_add_work(e, dw)
+    type(energy_integrals_t), intent(inout) :: e
+    real(rp), intent(in) :: dw
+    e%work_constraints = e%work_constraints + dw
+  end subroutine energy_add_work
+
+  !> No output step written, the monitor's stall check afresh: a new run
+  !> over the same solver (identification, control).
+  subroutine progress_reset(p)
+    type(progress_t), intent(inout) :: p
+    p = progress_t()
+  end subroutine progress_reset
+
+  !> The restart point's state.
   subroutine restart_state_free(r)
     type(restart_state_t), intent(inout) :: r
     if (allocated(r%rp_x)) deallocate(r%rp_x)
     if (allocated(r%rp_v)) deallocate(r%rp_v)
     r%rp_valid = .false.
-    nullify(r%out)
   end subroutine restart_state_free
 
 end module app_context

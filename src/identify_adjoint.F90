@@ -42,7 +42,8 @@ module identify_adjoint
   use forces, only: internal_forces
   use scenes, only: scene_setup
   use constraints, only: constraint_step_sensitivity, PATH_KEYFRAMES
-  use timestepping, only: app_ctx, enter_window
+  use timestepping, only: app_ctx, enter_window, advance_window
+  use app_context, only: energy_integrals_reset, progress_reset
   use safe_files, only: make_scratch_dir, remove_scratch
   use identify_params, only: ident_params_t, MODE_CONTROL, params_setup_identify, params_setup_control, &
                              apply_theta, values_text
@@ -202,12 +203,8 @@ contains
       return
     end if
     if (ierr /= 0) return
-    app%energy%dissipated = 0
-    app%energy%work_constraints = 0
-    app%energy%t_prev = 0
-    app%energy%pdiss_prev = 0
-    app%energy%pcon_prev = 0
-    app%progress%t_written = -1
+    call energy_integrals_reset(app%energy)
+    call progress_reset(app%progress)
   end subroutine reset_state
 
   !> id%run%scratch: a new private directory beside the output file (rank 0
@@ -256,7 +253,7 @@ contains
     PetscScalar, pointer :: ua(:, :, :)
     TSConvergedReason :: reason
     PetscLogDouble :: mem0, mem1
-    real(rp) :: t, h, dke, floc, wall0, eps
+    real(rp) :: t, h, floc, wall0, eps
     integer :: w, k, mpierr
 
     app => id%app
@@ -268,25 +265,17 @@ contains
     floc = 0.0_rp
     t = 0.0_rp
     eps = 1.0e-12_rp * max(1.0_rp, id%obs%wb(id%obs%nw))
-    ! This window loop is its own copy of solver_run's (timestepping): it
-    ! should become the driver's advance_window once timestepping has one.
+    ! The run's window loop (advance_window of the run driver), each window
+    ! entered afresh; t = wa(w) here, the end of the window before.
     do w = 1, id%obs%nw
-      call enter_window(app, id%obs%wa(w), id%obs%wb(w), dke, ierr)
-      if (ierr /= 0) return
-      app%step%tstop = id%obs%wb(w)
-      PetscCall(TSRestartStep(app%ts, ierr))
       ! The memory trajectory stores a window's first state only if the TS
       ! is not marked converged (from the previous window) when TSSolve
       ! saves it; otherwise the adjoint of the previous window pops the
       ! wrong checkpoint.
       PetscCall(TSSetConvergedReason(app%ts, TS_CONVERGED_ITERATING, ierr))
-      PetscCall(TSSetMaxTime(app%ts, id%obs%wb(w), ierr))
       h = app%step%dt
-      if (t + 1.01_rp * h >= id%obs%wb(w)) h = id%obs%wb(w) - t
-      PetscCall(TSSetTimeStep(app%ts, h, ierr))
-      PetscCall(TSSolve(app%ts, app%u, ierr))
-      PetscCall(TSGetConvergedReason(app%ts, reason, ierr))
-      PetscCall(TSGetTime(app%ts, t, ierr))
+      call advance_window(app, t, id%obs%wb(w), h, .true., reason, ierr)
+      if (ierr /= 0) return
       if (reason < 0 .or. abs(t - id%obs%wb(w)) > 1.0e3_rp * eps) then
         id%run%failed = .true.
         if (app%rank == 0) write(output_unit, '(a,i0,a,es14.6,a,es14.6)') trim(id%par%tag)// &

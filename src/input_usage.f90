@@ -125,7 +125,8 @@ contains
       '                                               interpolated cubic too; linear without)', &
       '  -nuno_newton_forcing [true|false]            Newton solves each inner system only as far as the', &
       '                                               step needs: its Newton remainder, or half the residual', &
-      '                                               at which Newton stops (default true)', &
+      '                                               at which Newton stops (default true; false with', &
+      '                                               obstacles, see &contact)', &
       '  -nuno_inner_guess auto|none|previous|extrapolate|project  the inner solve''s initial guess:', &
       '                                               the least-squares combination of the last 8 inner', &
       '                                               solves (project; auto: with bending), at a step''s', &

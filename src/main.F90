@@ -30,7 +30,7 @@ program nuno
                     read_input_options, quiet_petsc_errors
   implicit none
 
-  type(nuno_config) :: cfg
+  type(nuno_config), target :: cfg     !< the run's one configuration (the solver's ctx%cfg points to it)
   type(app_ctx), target :: ctx
   type(output_file), target :: out
   type(checkpoint_t) :: ck
@@ -194,7 +194,7 @@ program nuno
       PetscCallA(PetscFinalize(ierr))
       stop
     end if
-    cfg = ctx%cfg          ! the fitted parameters, the optimised keyframes
+    ! cfg holds the fitted parameters, the optimised keyframes (ctx%cfg is cfg)
   end if
 
   ! 4. Output file, the time loop, and the completion mark written last. The
@@ -207,19 +207,19 @@ program nuno
     petsc_opts = trim(petsc_opts//' [namelist, overridden by the above: '//trim(cfg%petsc_options)//']')
   ctx%restart%checkpoint_walltime = walltime
   if (len_trim(restart_file) > 0) then
-    if (len_trim(restart_file) > len(ctx%cfg%output_file)) &
-      call fatal_collective('-nuno_restart: the file name is longer than '//trim(adjustl(itoa(len(ctx%cfg%output_file))))// &
+    if (len_trim(restart_file) > len(cfg%output_file)) &
+      call fatal_collective('-nuno_restart: the file name is longer than '//trim(adjustl(itoa(len(cfg%output_file))))// &
                             ' characters')
     call output_reopen(out, trim(restart_file), PETSC_COMM_WORLD, cfg%nx, cfg%ny, ctx%lat%ys, &
                        ctx%lat%ye - ctx%lat%ys + 1, cfg%write_velocity, ctx%step%t_end, cfg%namelist_text, petsc_opts, &
-                       ck, ctx%xout, ctx%vout, ierr, errmsg, protect=trim(path), overwrite=overwrite /= 0, cfg=ctx%cfg)
+                       ck, ctx%xout, ctx%vout, ierr, errmsg, protect=trim(path), overwrite=overwrite /= 0, cfg=cfg)
     if (ierr /= 0) call fatal_collective(errmsg)
     if (rank == 0 .and. trim(restart_file) /= trim(cfg%output_file) .and. &
         trim(restart_file) /= trim(cfg%output_file)//'.partial' .and. &
         .not. same_file(trim(restart_file), trim(cfg%output_file))) &
       write(*, '(a)') 'nuno: -nuno_restart: the run goes on in '//trim(restart_file)//"; the input's output_file = '"// &
                       trim(cfg%output_file)//"' is not used"
-    ctx%cfg%output_file = restart_file(1:len(ctx%cfg%output_file))
+    cfg%output_file = restart_file(1:len(cfg%output_file))
     call solver_restore(ctx, ck, ctx%xout, ctx%vout, ierr)
     if (ierr /= 0) call fatal_local('could not restore the checkpoint')
     if (rank == 0) write(*, '(a,i0,a,es12.5e2,a)') 'nuno: restart from checkpoint ', ck%sequence, ' at t =', ck%time, &

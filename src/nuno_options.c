@@ -71,7 +71,7 @@ PetscErrorCode nuno_options_read(MPI_Fint fcomm, const char *jac_names, int jac_
                               "nuno", interps.name, interps.n, interps.name[interp], &interp, NULL));
   PetscCall(PetscOptionsReal("-nuno_snes_floor", "Newton: converged when a residual below this fraction of its start or below the round-off floor estimated from the assembled matrix (S or the 6-dof Jacobian) stops decreasing or finds no decrease in the line search, or is below half that floor (0: off)",
                              "nuno", floor, &floor, NULL));
-  PetscCall(PetscOptionsBool("-nuno_newton_forcing", "reduced Newton: solve each inner system only as far as the step needs (its Newton remainder, or half the residual at which Newton stops); off: always -reduced_ksp_rtol",
+  PetscCall(PetscOptionsBool("-nuno_newton_forcing", "reduced Newton: solve each inner system only as far as the step needs (its Newton remainder, or half the residual at which Newton stops); off: always -reduced_ksp_rtol (default on; off with obstacles)",
                              "nuno", fc, &fc, NULL));
   PetscCall(PetscOptionsEList("-nuno_inner_guess", "reduced, one-stage methods (beuler, theta, cn): the inner solve's initial guess: auto (project with bending at fixed steps, extrapolate at adaptive ones, none without bending), none (zero), previous (at a step's first Newton iteration the last step's first correction, rescaled to this step), extrapolate (the last two steps' first corrections extrapolated linearly in time), project (at every Newton iteration the least-squares combination of the last 8 inner solves)",
                               "nuno", guesses.name, guesses.n, guesses.name[gs], &gs, &gset));

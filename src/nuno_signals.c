@@ -90,11 +90,17 @@ static pid_t open_mpi_launcher(void)
 
 /* -nuno_checkpoint_walltime: a checkpoint after each `interval` seconds of
  * wall-clock time, agreed after a step like the signals (the same
- * allreduce); the monitor of that step (which runs after the post-step, once
- * the step's energy integrals are added) writes it without stopping
- * TSSolve, so the integration goes on exactly as without it. */
+ * allreduce). TSSolve ends after that step (its monitor, which adds the
+ * step's energy integrals, runs as TSSolve's last call) and the run driver
+ * writes the checkpoint and calls TSSolve again in the same window
+ * (advance_window in module timestepping): a second TSSolve with steps
+ * taken resets no counter and no multistep history, and the monitor that
+ * opens it repeats the last one's work on the same state, so the
+ * integration goes on exactly as without the checkpoint. */
 static double interval = 0.0, deadline = 0.0;
-static int    due = 0; /* every rank agreed that a checkpoint is due after this step */
+/* every rank agreed that a checkpoint is due after this step: 1, or 2 when
+ * the post-step ended TSSolve for it (the window goes on after it) */
+static int due = 0;
 
 /* A stop asked for by the monitor (nuno_ts_stop), applied after the next
  * step: TSStep sets the TS's reason back to "iterating" before it steps,
@@ -121,8 +127,28 @@ static PetscErrorCode poststep(TS ts)
     agreed = all[0];
     PetscCall(TSSetConvergedReason(ts, TS_CONVERGED_USER));
   } else if (all[1]) {
-    due      = 1;
+    TSConvergedReason reason;
     deadline = MPI_Wtime() + interval;
+    due      = 1;
+    /* A step that ended the window, failed or reached -ts_max_steps ends
+     * TSSolve anyway; any other ends it now, for the driver to write.
+     * Except where the step the TS chose ends within round-off of the
+     * window's end: TSSolve, entered again, would clip it to max_time - t
+     * (PETSc 3.18's TSSolve under matchstep), where the adaptor kept it
+     * when t + dt == max_time (hang 21 x 21: the window's last step then
+     * differed in its last bits). There the checkpoint waits for the
+     * window's end, one step later. */
+    PetscCall(TSGetConvergedReason(ts, &reason));
+    if (reason == TS_CONVERGED_ITERATING) {
+      PetscReal t, dt, tmax;
+      PetscCall(TSGetTime(ts, &t));
+      PetscCall(TSGetTimeStep(ts, &dt));
+      PetscCall(TSGetMaxTime(ts, &tmax));
+      if (dt < tmax - t && !PetscIsCloseAtTol(dt, tmax - t, 10 * PETSC_MACHINE_EPSILON, 0)) {
+        due = 2;
+        PetscCall(TSSetConvergedReason(ts, TS_CONVERGED_USER));
+      }
+    }
   }
   PetscFunctionReturn(0);
 }
@@ -135,7 +161,9 @@ void nuno_walltime_arm(double seconds)
   due      = 0;
 }
 
-/* 1 once after the step at which all ranks agreed a checkpoint is due. */
+/* Once after the step at which all ranks agreed a checkpoint is due: 2
+ * when TSSolve ended for it (the window is not done), 1 when TSSolve ended
+ * there anyway; else 0. */
 int nuno_checkpoint_due(void)
 {
   int d = due;

@@ -11,7 +11,7 @@ module run_checkpoint
   use, intrinsic :: iso_fortran_env, only: output_unit
   use kinds, only: rp
   use output, only: output_file, checkpoint_t, output_write_checkpoint, output_steps
-  use app_context, only: app_ctx
+  use app_context, only: app_ctx, energy_integrals_restore
   use newton_start, only: newton_start_count, newton_start_get, newton_start_put
   use failure_text, only: report_io_error
   use strings, only: inum => itoa
@@ -61,9 +61,7 @@ contains
     ctx%restart%t_checkpoint = ck%time
     ctx%restart%wall_before = ck%wall_time
     ctx%restart%counts_before = [0.0_rp, ck%counters(2:5)]
-    ctx%energy%dissipated = ck%dissipated
-    ctx%energy%work_constraints = ck%work_constraints
-    ctx%energy%mgx0 = ck%mgx0
+    call energy_integrals_restore(ctx%energy, ck%dissipated, ck%work_constraints, ck%mgx0)
     ctx%progress%t_written = ck%t_written
     ctx%progress%stretch_warned = ck%stretch_warned /= 0
     ! The first Newton iteration's inner tolerance takes the round-off floor

@@ -63,7 +63,10 @@ contains
   !> matrix and the TS. Collective.
   subroutine solver_create(ctx, cfg, ierr)
     type(app_ctx), intent(inout), target :: ctx
-    type(nuno_config), intent(in) :: cfg
+    !> the run's configuration: the context points to it from here on (one
+    !> configuration for the caller and the solver), and the effective dt
+    !> and t_end are written into it
+    type(nuno_config), intent(inout), target :: cfg
     PetscErrorCode, intent(out) :: ierr
     PetscInt :: xs, ys, zs, xm, ym, zm, gxs, gys, gzs, gxm, gym, gzm, w, nc, nxp, nyp
     PetscInt, parameter :: one = 1, two = 2, six = 6, eight = 8
@@ -77,7 +80,7 @@ contains
     PetscBool :: ls_type_given
     logical :: symmetric, constant, damping, applied
 
-    ctx%cfg = cfg
+    ctx%cfg => cfg
     ctx%comm = PETSC_COMM_WORLD
     call MPI_Comm_rank(ctx%comm, ctx%rank, ierr)
     call MPI_Comm_size(ctx%comm, ctx%size, ierr)
@@ -99,7 +102,11 @@ contains
     cl = 0
     nfail = 0
     cmattype = MATBAIJ//c_null_char
-    forcing = 1
+    ! With obstacles the inner rtol stays -reduced_ksp_rtol: the forcing
+    ! term's quadratic model of Newton's convergence does not hold at a
+    ! contact's onset, and its loose inner solves (up to 0.1) failed
+    ! drop_table's impact step (4 retries) where a fixed 1e-6 takes none.
+    forcing = merge(0, 1, cfg%contact%n_obstacles > 0)
     ctx%newton%guess = GUESS_AUTO
     ierr = nuno_options_read(ctx%comm, JACOBIAN_NAMES, size(JACOBIAN_NAMES), len(JACOBIAN_NAMES), jac, pc_lag, &
                              INTERP_NAMES, size(INTERP_NAMES), len(INTERP_NAMES), mg_interp, ctx%newton%snes_floor, gn, cl, &
@@ -234,6 +241,13 @@ contains
       ! The full step is exact in x and Newton-exact in v: no backtracking by
       ! default (bt needs a Jacobian product, an extra pass over the
       ! elements, for every Newton iteration); -snes_linesearch_type bt works.
+      PetscCall(SNESGetLineSearch(snes, linesearch, ierr))
+      PetscCall(SNESLineSearchSetType(linesearch, SNESLINESEARCHBASIC, ierr))
+    else if (cfg%contact%n_obstacles > 0) then
+      ! With obstacles the update is already limited by the time of impact
+      ! (module contact_solver's pre-check); bt's cubic model of ||F||^2
+      ! does not hold across the barrier's log, and failed the 6-dof path at
+      ! a drop's impact (drop_table to 0.15 s). -snes_linesearch_type bt works.
       PetscCall(SNESGetLineSearch(snes, linesearch, ierr))
       PetscCall(SNESLineSearchSetType(linesearch, SNESLINESEARCHBASIC, ierr))
     end if

@@ -1,7 +1,7 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> The TS monitor, run after every accepted step: the progress line, the
-!> energy integrals (dissipated power, constraint work), the checkpoints
-!> due and the step-stall checks.
+!> energy integrals (dissipated power, constraint work) and the step-stall
+!> checks. Checkpoints are the run driver's (module timestepping).
 module step_monitor
 #include "petsc/finclude/petscts.h"
   use petscts
@@ -13,11 +13,10 @@ module step_monitor
   use forces, only: internal_forces, dissipated_power
   use constraints, only: constraint_target
   use reduced, only: reduced_step_accepted
-  use app_context, only: app_ctx, nuno_checkpoint_due, nuno_ts_stop
+  use app_context, only: app_ctx, nuno_ts_stop
   use newton_start, only: newton_start_push
   use strings, only: num => real_brief
   use newton_policy, only: linesearch_fallback
-  use run_checkpoint, only: take_checkpoint
   implicit none
   private
   public :: ts_monitor
@@ -150,21 +149,6 @@ contains
           '  (between output steps)'
         flush(output_unit)
         ctx%progress%wall_said = MPI_Wtime()
-      end if
-    end if
-    ! -nuno_checkpoint_walltime: due after this step (agreed by the
-    ! post-step, which runs before the monitor); written here without
-    ! stopping TSSolve, so that the run goes on exactly as without it: the
-    ! restart point of the last output step (keep_restart_point; this
-    ! step's state, with its energy integrals, before the first one). A
-    ! failed write stops the run.
-    if (nuno_checkpoint_due() /= 0) then
-      PetscCall(TSGetTimeStep(ts, h, ierr))
-      call take_checkpoint(ctx, ctx%restart%out, t, h, 'wall time', ierr, restart_point=.true.)
-      if (ierr /= 0) then
-        ierr = 0
-        if (len_trim(ctx%io_error) == 0) ctx%io_error = 'the wall-clock checkpoint at t = '//num(t)//' failed'
-        ierr = nuno_ts_stop(ts%v)
       end if
     end if
   end subroutine ts_monitor

@@ -25,7 +25,8 @@ module timestepping
   use diagnostics, only: state_diagnostics_t, state_diagnostics
   use output, only: output_file, output_record, output_write_step, output_write_wall_time
   use reduced, only: reduced_set_fixed
-  use app_context, only: app_ctx, nuno_walltime_arm, nuno_signal_agreed
+  use app_context, only: app_ctx, nuno_walltime_arm, nuno_checkpoint_due, nuno_signal_agreed, energy_add_work, &
+                         energy_integrals_start, energy_set_mgx0
   use newton_start, only: newton_start_reset
   use failure_text, only: signal_name, failure_reason, report_io_error, ieee_nan
   use strings, only: num => real_brief, inum => itoa
@@ -35,7 +36,8 @@ module timestepping
   implicit none
   private
   public :: app_ctx, solver_create, solver_destroy, solver_run, check_decomposition, solver_restore
-  public :: enter_window            ! module identify: the constraint state of a time window
+  public :: advance_window          ! module identify_adjoint: its forward run's windows
+  public :: enter_window            ! module identify_adjoint: the constraint state of an adjoint window
 
 contains
 
@@ -91,6 +93,69 @@ contains
     ctx%model%moving_constraints = loc(2) > 0.0_rp
   end subroutine enter_window
 
+  !> Advance the solution from ta to tb, the window between two stop times
+  !> (output, observed, keyframe and release times): with enter, first
+  !> the window's constraint state (enter_window; the work of its impulse
+  !> added to the constraint work) and a fresh start of the integrator;
+  !> then steps of h (dt for fixed steps; the adaptive step carried from
+  !> the window before), the last one clipped to end on tb. On return t
+  !> and reason are the TS's (t is tb up to round-off unless the solve
+  !> stopped early: the caller decides what that means) and h the step
+  !> the window began with. With out, the wall-clock checkpoints
+  !> (-nuno_checkpoint_walltime) due inside the window are written into
+  !> it between steps; a failed write ends the window early with
+  !> ctx%io_error set. The one window loop of the run (solver_run) and of
+  !> identification and control (module identify_adjoint). Collective.
+  subroutine advance_window(ctx, t, tb, h, enter, reason, ierr, out)
+    type(app_ctx), intent(inout) :: ctx
+    real(rp), intent(inout) :: t
+    real(rp), intent(in) :: tb
+    real(rp), intent(inout) :: h
+    logical, intent(in) :: enter
+    TSConvergedReason, intent(out) :: reason
+    PetscErrorCode, intent(out) :: ierr
+    type(output_file), intent(inout), optional :: out
+    real(rp) :: dke, hnext
+    integer :: due
+
+    ierr = 0
+    ctx%step%tstop = tb
+    if (enter) then
+      call enter_window(ctx, t, tb, dke, ierr)
+      if (ierr /= 0) return
+      call energy_add_work(ctx%energy, dke)
+      PetscCall(TSRestartStep(ctx%ts, ierr))
+    end if
+    PetscCall(TSSetMaxTime(ctx%ts, tb, ierr))
+    if (ctx%step%fixed_step) h = ctx%step%dt
+    if (t + 1.01_rp * h >= tb) h = tb - t
+    PetscCall(TSSetTimeStep(ctx%ts, h, ierr))
+    do
+      PetscCall(TSSolve(ctx%ts, ctx%u, ierr))
+      PetscCall(TSGetConvergedReason(ctx%ts, reason, ierr))
+      PetscCall(TSGetTime(ctx%ts, t, ierr))
+      ! -nuno_checkpoint_walltime, due after the step just taken (agreed by
+      ! the post-step, src/nuno_signals.c): the restart point of the last
+      ! output step (keep_restart_point; before the first one, this step's
+      ! state with its energy integrals), h the step the TS takes next.
+      ! Where the post-step ended TSSolve for it (due = 2), the window goes
+      ! on with the same TS: no new window, the step the TS chose.
+      due = int(nuno_checkpoint_due())
+      if (due == 0) exit
+      if (present(out)) then
+        PetscCall(TSGetTimeStep(ctx%ts, hnext, ierr))
+        call take_checkpoint(ctx, out, t, hnext, 'wall time', ierr, restart_point=.true.)
+        if (ierr /= 0) then
+          ! a failed write ends the run (solver_run reads io_error)
+          ierr = 0
+          if (len_trim(ctx%io_error) == 0) ctx%io_error = 'the wall-clock checkpoint at t = '//num(t)//' failed'
+          exit
+        end if
+      end if
+      if (due /= 2) exit
+    end do
+  end subroutine advance_window
+
   !> Integrate from t = 0 (or from the checkpoint of solver_restore) to
   !> t_end, writing every output step and the checkpoints (every
   !> checkpoint_interval at an output step, every -nuno_checkpoint_walltime
@@ -117,7 +182,6 @@ contains
     ctx%progress%wall_said = MPI_Wtime()
     call write_run_info(ctx, out, ierr)
     if (io_failed()) return
-    ctx%restart%out => out
     call nuno_walltime_arm(real(ctx%restart%checkpoint_walltime, c_double))
     events = constraint_events(ctx%cs, ctx%step%t_end)
     eps = 1.0e-12_rp * max(1.0_rp, ctx%step%t_end)
@@ -136,14 +200,14 @@ contains
       do while (output_time(iout) <= ctx%progress%t_written + eps .and. real(iout, rp) * ctx%cfg%output_interval < ctx%step%t_end)
         iout = iout + 1
       end do
-      ctx%energy%t_prev = t
+      call energy_integrals_start(ctx%energy, t)
       ! A wall-clock checkpoint after a window's last step is at the
       ! window's end, before solver_run wrote that output step: as the run
       ! did next, put t onto it and write it.
       tstop = next_stop(t - 1.0e3_rp * eps)
       if (abs(t - tstop) <= 1.0e3_rp * eps) then
         t = tstop
-        ctx%energy%t_prev = t
+        call energy_integrals_start(ctx%energy, t)
         PetscCall(TSSetTime(ctx%ts, t, ierr))
         if (abs(t - output_time(iout)) <= eps) then
           call write_output(ctx, out, t, ierr)
@@ -155,7 +219,7 @@ contains
       tstop = next_stop(t)
       call enter_window(ctx, t, tstop, dke, ierr)
       if (ierr /= 0) return
-      ctx%energy%t_prev = 0.0_rp
+      call energy_integrals_start(ctx%energy, 0.0_rp)
       call write_output(ctx, out, t, ierr)
       if (io_failed()) return
       iout = 1
@@ -163,25 +227,15 @@ contains
 
     do while (t < ctx%step%t_end - eps .and. .not. at_max_steps)
       tstop = next_stop(t)
-      ctx%step%tstop = tstop
-      if (t > 0.0_rp) then
-        call enter_window(ctx, t, tstop, dke, ierr)
-        if (ierr /= 0) return
-        ctx%energy%work_constraints = ctx%energy%work_constraints + dke
-        PetscCall(TSRestartStep(ctx%ts, ierr))
-      end if
-      PetscCall(TSSetMaxTime(ctx%ts, tstop, ierr))
-      if (ctx%step%fixed_step) h = ctx%step%dt
-      if (t + 1.01_rp * h >= tstop) h = tstop - t
-      PetscCall(TSSetTimeStep(ctx%ts, h, ierr))
-      PetscCall(TSSolve(ctx%ts, ctx%u, ierr))
+      ! The first window was entered above, before the output step at t = 0.
+      call advance_window(ctx, t, tstop, h, t > 0.0_rp, reason, ierr, out)
+      if (ierr /= 0) return
       if (len_trim(ctx%io_error) > 0) then
-        ! A wall-clock checkpoint could not be written (wall_checkpoint).
+        ! A wall-clock checkpoint could not be written (advance_window), or
+        ! the monitor's stall check ended the run.
         status = 'failed: '//trim(ctx%io_error)
         exit
       end if
-      PetscCall(TSGetConvergedReason(ctx%ts, reason, ierr))
-      PetscCall(TSGetTime(ctx%ts, t, ierr))
       PetscCall(VecNorm(ctx%u, NORM_INFINITY, unorm, ierr))
       if (reason >= 0 .and. nuno_signal_agreed() /= 0) then
         ! SIGTERM/SIGINT: every rank finished the same step; keep its state
@@ -347,7 +401,7 @@ contains
     end do
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, uloc, u, ierr))
     PetscCall(DMRestoreLocalVector(ctx%da, uloc, ierr))
-    if (t == 0.0_rp) ctx%energy%mgx0 = d%mgx
+    if (t == 0.0_rp) call energy_set_mgx0(ctx%energy, d%mgx)
 
     call run_counts(ctx, c, ierr)
     if (ierr /= 0) return

@@ -123,8 +123,9 @@ def test_wall_clock_checkpoints_change_nothing(tmp_path):
     groups = dict(scene="scene='hang'", lattice="nx=21 ny=21", time="t_end=0.4 dt=0.002",
                   output="output_interval=0.1")
     _, plain = run(tmp_path, "plain", nranks=2, **groups)
-    # A checkpoint after (nearly) every step: written by the step's monitor,
-    # TSSolve is not interrupted, so the run is the same bit for bit.
+    # A checkpoint after (nearly) every step: TSSolve ends after the step,
+    # the driver writes it and goes on in the same window; the run must be
+    # the same bit for bit.
     short = dict(groups, time="t_end=0.2 dt=0.002")
     proc, often = run(tmp_path, "often", nranks=2, options=["-nuno_checkpoint_walltime", "1e-4s"], **short)
     assert proc.stdout.count("(wall time)") >= 50, proc.stdout
@@ -142,6 +143,23 @@ def test_wall_clock_checkpoints_change_nothing(tmp_path):
                 g.attrs["sequence"] = np.int32(0)
     proc, _ = restart(tmp_path, "often", often, nranks=2, **groups)
     assert "(wall time) in" in proc.stdout
+    b, status = series(often)
+    assert status == "complete"
+    for k in a:
+        assert np.array_equal(a[k], b[k]), k
+
+
+def test_wall_clock_checkpoints_change_no_adaptive_multistep_run(tmp_path):
+    """The wall-clock checkpoint ends TSSolve after the step that is due and
+    the driver calls it again in the same window: an adaptive bdf run (its
+    history of steps, the step its controller chose) must go on as if
+    nothing happened. Expectation: the same run without the checkpoints."""
+    groups = dict(HANG, time="t_end=0.1 dt=0.005")
+    opts = ["-ts_type", "bdf", "-ts_adapt_type", "basic"]
+    _, plain = run(tmp_path, "plain", nranks=2, options=opts, **groups)
+    proc, often = run(tmp_path, "often", nranks=2, options=opts + ["-nuno_checkpoint_walltime", "1e-4s"], **groups)
+    assert proc.stdout.count("(wall time)") >= 10, proc.stdout
+    a, _ = series(plain)
     b, status = series(often)
     assert status == "complete"
     for k in a:
