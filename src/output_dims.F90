@@ -28,7 +28,7 @@ contains
   !> output_write_run_info's /wall_time, a restart). Collective: every rank
   !> makes the same metadata calls.
   module procedure netcdf_dims
-    integer(hid_t) :: sj, si, sxyz, lat
+    integer(hid_t) :: sj, si, sxyz
     integer :: k, h
     logical :: is_scale
 
@@ -56,31 +56,30 @@ contains
         call attach(out%dset(k), sxyz, 2, trim(dset_names(k)))
       end select
     end do
-    if (ierr == 0) then
-      call h5dopen_f(out%file, '/lattice/rest_position', lat, h)
-      if (h < 0) then
-        call fail('h5dopen_f', '/lattice/rest_position', ierr, errmsg)
-      else
-        call attach(lat, sj, 1, '/lattice/rest_position')
-        call attach(lat, si, 2, '/lattice/rest_position')
-        call attach(lat, sxyz, 3, '/lattice/rest_position')
-        call close_dset(lat, '/lattice/rest_position', ierr, errmsg)
-      end if
-    end if
-    if (ierr == 0) then
-      call h5dopen_f(out%file, '/lattice/mass', lat, h)
-      if (h < 0) then
-        call fail('h5dopen_f', '/lattice/mass', ierr, errmsg)
-      else
-        call attach(lat, sj, 1, '/lattice/mass')
-        call attach(lat, si, 2, '/lattice/mass')
-        call close_dset(lat, '/lattice/mass', ierr, errmsg)
-      end if
-    end if
+    call attach_static('/lattice/rest_position', [sj, si, sxyz])
+    call attach_static('/lattice/mass', [sj, si])
     if (sj >= 0) call close_dset(sj, '/j', ierr, errmsg)
     if (si >= 0) call close_dset(si, '/i', ierr, errmsg)
     if (sxyz >= 0) call close_dset(sxyz, '/xyz', ierr, errmsg)
   contains
+    !> The scales of a dataset written once at the open (dimension d gets
+    !> scales(d)), attached where missing.
+    subroutine attach_static(name, scales)
+      character(*), intent(in) :: name
+      integer(hid_t), intent(in) :: scales(:)
+      integer(hid_t) :: dset
+      integer :: d
+      if (ierr /= 0) return
+      call h5dopen_f(out%file, name, dset, h)
+      if (h < 0) then
+        call fail('h5dopen_f', name, ierr, errmsg); return
+      end if
+      do d = 1, size(scales)
+        call attach(dset, scales(d), d, name)
+      end do
+      call close_dset(dset, name, ierr, errmsg)
+    end subroutine attach_static
+
     !> The value-less scale `name` of length n, opened (made when missing).
     subroutine axis_scale(name, n, dset)
       character(*), intent(in) :: name
