@@ -25,6 +25,7 @@
 module stencil_mg
   use mpi
   use kinds, only: rp
+  use solver_choices, only: CYCLE_V, CYCLE_KASKADE
   use mg_kernels, only: mp, stencil_t, transfer_t, stencil_init, stencil_put_row, stencil_finish, stencil_from_full, transfer_init, offset_index, &
                         stencil_block, diagonal_block, &
                         coarse_reach, gs_sweep, residual, interpolate, restrict_add, galerkin_add, level_product_rows, &
@@ -33,10 +34,6 @@ module stencil_mg
   private
   public :: stencil_mg_t, mg_create, mg_destroy, mg_set_fine_row, mg_set_fine, mg_fine_level, mg_build_coarse, mg_apply, mg_describe, &
             mg_product
-  public :: MG_MULTIPLICATIVE, MG_KASKADE
-
-  integer, parameter :: MG_MULTIPLICATIVE = 1, MG_KASKADE = 2
-
   type :: mg_level_t
     type(stencil_t) :: a                         !< the operator (rows ys..ye)
     integer :: h = 0                             !< padding rows and columns of the vectors
@@ -65,7 +62,7 @@ module stencil_mg
   type :: stencil_mg_t
     integer :: comm = MPI_COMM_NULL, rank = 0, nranks = 1, below = MPI_PROC_NULL, above = MPI_PROC_NULL
     integer :: nlev = 0
-    integer :: cycle_type = MG_MULTIPLICATIVE
+    integer :: cycle_type = CYCLE_V
     integer :: nu = 1                            !< symmetric Gauss-Seidel sweeps per smoothing
     type(mg_level_t), allocatable :: lev(:)
     ! the coarsest level's banded LU (LAPACK dgbtrf), same on every rank
@@ -550,7 +547,7 @@ contains
       if (present(formed)) formed = present(ax) .and. mg%nlev > 1
       if (mg%nlev == 1) then
         call coarse_solve(mg)
-      else if (mg%cycle_type == MG_KASKADE) then
+      else if (mg%cycle_type == CYCLE_KASKADE) then
         call kcycle(mg, ax)
       else
         call vcycle(mg, 1, ax)
@@ -591,7 +588,7 @@ contains
     mp_bytes = real(storage_size(1.0_mp) / 8, rp)
     n = 1
     write(text(1), '(a, i0, a, a, a, i0, a)') 'levels ', mg%nlev, ', ', trim(merge('kaskade cycle', 'V-cycle      ', &
-      mg%cycle_type == MG_KASKADE)), ', ', mg%nu, ' symmetric Gauss-Seidel sweep(s) a smoothing, single precision'
+      mg%cycle_type == CYCLE_KASKADE)), ', ', mg%nu, ' symmetric Gauss-Seidel sweep(s) a smoothing, single precision'
     cycle_bytes = 0.0_rp
     do l = 1, mg%nlev
       associate (a => mg%lev(l)%a)
@@ -609,7 +606,7 @@ contains
         ! from the row below's blocks back up, read a row before
         if (a%paired) sweep = sweep - 9.0_rp * mp_bytes * real(count(a%odj < 0), rp)
         if (l < mg%nlev) then
-          if (mg%cycle_type == MG_KASKADE) then
+          if (mg%cycle_type == CYCLE_KASKADE) then
             cycle_bytes = cycle_bytes + real(nodes8, rp) * mg%nu * sweep
           else
             ! 2 nu smoothings and a residual (operator, row sums, x, rhs, res)
