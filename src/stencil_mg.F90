@@ -475,7 +475,7 @@ contains
       call coarse_solve(mg)
       return
     end if
-    associate (f => mg%lev(l), c => mg%lev(l + 1))
+    associate (f => mg%lev(l))
       f%x = 0.0_mp
       do k = 1, mg%nu
         call smooth(mg, f)
@@ -484,8 +484,37 @@ contains
       call residual(f%a, f%h, f%x, f%rhs, f%res)
       call restrict_level(mg, l, .false.)
       call vcycle(mg, l + 1)
+    end associate
+    call correct_and_smooth(mg, l, .true., ax)
+  end subroutine vcycle
+
+  !> Kaskade: rhs restricted to the coarsest level, solved, then up level by
+  !> level: interpolated, smoothed, never back down.
+  subroutine kcycle(mg, ax)
+    type(stencil_mg_t), intent(inout) :: mg
+    real(rp), intent(inout), optional :: ax(:, 0:, mg%lev(1)%a%ys:)   !< (3, 0:nx-1, ys:ye) A x of the result (smooth)
+    integer :: l
+    do l = 1, mg%nlev - 1
+      call restrict_level(mg, l, .true.)
+    end do
+    call coarse_solve(mg)
+    do l = mg%nlev - 1, 1, -1
+      call correct_and_smooth(mg, l, .false., ax)
+    end do
+  end subroutine kcycle
+
+  !> Level l's x from level l + 1's, interpolated (added to x: the V-cycle's
+  !> correction; or x itself: kaskade), then nu symmetric sweeps on level l,
+  !> the last of which forms A x (ax) on the finest level when asked.
+  subroutine correct_and_smooth(mg, l, add, ax)
+    type(stencil_mg_t), intent(inout) :: mg
+    integer, intent(in) :: l
+    logical, intent(in) :: add
+    real(rp), intent(inout), optional :: ax(:, 0:, mg%lev(1)%a%ys:)   !< (3, 0:nx-1, ys:ye) A x of the result (smooth)
+    integer :: k
+    associate (f => mg%lev(l), c => mg%lev(l + 1))
       call exchange(mg, c)
-      call interpolate(f%ux, f%uy, f%a%ys, f%a%ye, c%h, c%a%ys, c%x, f%h, f%x, .true., c%t)
+      call interpolate(f%ux, f%uy, f%a%ys, f%a%ye, c%h, c%a%ys, c%x, f%h, f%x, add, c%t)
       do k = 1, mg%nu - 1
         call smooth(mg, f)
       end do
@@ -495,33 +524,7 @@ contains
         call smooth(mg, f)
       end if
     end associate
-  end subroutine vcycle
-
-  !> Kaskade: rhs restricted to the coarsest level, solved, then up level by
-  !> level: interpolated, smoothed, never back down.
-  subroutine kcycle(mg, ax)
-    type(stencil_mg_t), intent(inout) :: mg
-    real(rp), intent(inout), optional :: ax(:, 0:, mg%lev(1)%a%ys:)   !< (3, 0:nx-1, ys:ye) A x of the result (smooth)
-    integer :: l, k
-    do l = 1, mg%nlev - 1
-      call restrict_level(mg, l, .true.)
-    end do
-    call coarse_solve(mg)
-    do l = mg%nlev - 1, 1, -1
-      associate (f => mg%lev(l), c => mg%lev(l + 1))
-        call exchange(mg, c)
-        call interpolate(f%ux, f%uy, f%a%ys, f%a%ye, c%h, c%a%ys, c%x, f%h, f%x, .false., c%t)
-        do k = 1, mg%nu - 1
-          call smooth(mg, f)
-        end do
-        if (l == 1 .and. present(ax)) then
-          call smooth(mg, f, ax)
-        else
-          call smooth(mg, f)
-        end if
-      end associate
-    end do
-  end subroutine kcycle
+  end subroutine correct_and_smooth
 
   !> x = M^{-1} b, one cycle: b(3, 0:nx-1, ys:ye), x likewise (the layout
   !> of a 3-dof DMDA vector). With ax: also ax = A x, formed in the
