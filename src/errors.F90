@@ -60,36 +60,30 @@ contains
 
   !> True when an argument is --help or -h.
   logical function help_requested()
-    integer :: k
-    character(len=64) :: arg
-    help_requested = .false.
-    do k = 1, command_argument_count()
-      call get_command_argument(k, arg)
-      if (arg == '--help' .or. arg == '-h') help_requested = .true.
-    end do
+    help_requested = argument_given([character(len=6) :: '--help', '-h'])
   end function help_requested
 
   !> True when an argument is --version.
   logical function version_requested()
-    integer :: k
-    character(len=64) :: arg
-    version_requested = .false.
-    do k = 1, command_argument_count()
-      call get_command_argument(k, arg)
-      if (arg == '--version') version_requested = .true.
-    end do
+    version_requested = argument_given(['--version'])
   end function version_requested
 
   !> True when an argument is --list-keys.
   logical function list_keys_requested()
+    list_keys_requested = argument_given(['--list-keys'])
+  end function list_keys_requested
+
+  !> True when an argument is one of names (a whole argument).
+  logical function argument_given(names)
+    character(*), intent(in) :: names(:)
     integer :: k
     character(len=64) :: arg
-    list_keys_requested = .false.
+    argument_given = .false.
     do k = 1, command_argument_count()
       call get_command_argument(k, arg)
-      if (arg == '--list-keys') list_keys_requested = .true.
+      if (any(arg == names)) argument_given = .true.
     end do
-  end function list_keys_requested
+  end function argument_given
 
   !> The input file: the first argument, which must not be an option.
   logical function input_path_argument(path)

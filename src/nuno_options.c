@@ -6,8 +6,9 @@
  * PetscOptionsLeftGet (the end-of-run report of options that nothing read).
  * Each function reads one block and hands the values back; what they mean,
  * their checks and defaults are Fortran's (modules solver_setup,
- * newton_policy, newton_start). The choice lists come from Fortran (module
- * solver_choices) as arguments: a choice's position is its code there.
+ * newton_policy, newton_start, reduced). The choice lists come from Fortran
+ * (module solver_choices) as arguments: a choice's position is its code
+ * there.
  * Called through bind(C); collective. */
 #include <petscts.h>
 #include <string.h>
@@ -122,37 +123,36 @@ PetscErrorCode nuno_linesearch_options_read(MPI_Fint fcomm, const char *names, i
 }
 
 /* nuno's structured multigrid, the default inner preconditioner (module
- * stencil_mg): impl in/out 0 = stencil (nuno's), 1 = petsc (PETSc's PCMG
- * with Galerkin operators and SOR, the earlier default); cycle in/out 1 =
- * v (multiplicative), 2 = kaskade; sweeps in/out >= 1 symmetric
- * Gauss-Seidel sweeps per smoothing; levels in/out >= 0 (0: as many as
- * fit); *given: 1 when -nuno_mg_cycle, -nuno_mg_sweeps or -nuno_mg_levels
- * is set (they are refused where nuno's multigrid is not used); product
- * in/out 0 = mixed, 1 = double, 2 = fused: the Krylov method's product with S
- * (module reduced), *given too when -nuno_mg_product is set. Collective. */
-PetscErrorCode nuno_mg_options_read(MPI_Fint fcomm, int *impl, int *cycle, int *sweeps, int *levels, int *product, int *given)
+ * stencil_mg; module reduced checks the values): impl, cycle, product
+ * in/out codes of the lists impl_names (-nuno_mg), cycle_names
+ * (-nuno_mg_cycle) and product_names (-nuno_mg_product: the Krylov
+ * method's product with S); sweeps in/out symmetric Gauss-Seidel sweeps
+ * per smoothing; levels in/out (0: as many as fit); *given: 1 when
+ * -nuno_mg_cycle, -nuno_mg_sweeps, -nuno_mg_levels or -nuno_mg_product is
+ * set (they are refused where nuno's multigrid is not used). Collective. */
+PetscErrorCode nuno_mg_options_read(MPI_Fint fcomm, const char *impl_names, int impl_n, int impl_len, int *impl,
+                                    const char *cycle_names, int cycle_n, int cycle_len, int *cycle, int *sweeps, int *levels,
+                                    const char *product_names, int product_n, int product_len, int *product, int *given)
 {
-  static const char *const impls[]    = {"stencil", "petsc"};
-  static const char *const cycles[]   = {"none", "v", "kaskade"};
-  static const char *const products[] = {"mixed", "double", "fused"};
+  Choices   impls, cycles, products;
   MPI_Comm  comm = MPI_Comm_f2c(fcomm);
   PetscInt  im = *impl, cy = *cycle, sw = *sweeps, lv = *levels, pr = *product;
   PetscBool s1 = PETSC_FALSE, s2 = PETSC_FALSE, s3 = PETSC_FALSE, s4 = PETSC_FALSE;
 
   PetscFunctionBeginUser;
+  PetscCall(choices_from_fortran(impl_names, impl_n, impl_len, &impls));
+  PetscCall(choices_from_fortran(cycle_names, cycle_n, cycle_len, &cycles));
+  PetscCall(choices_from_fortran(product_names, product_n, product_len, &products));
   PetscOptionsBegin(comm, NULL, "nuno: the inner multigrid (docs/design.md, docs/performance.md)", "nuno");
   PetscCall(PetscOptionsEList("-nuno_mg", "inner multigrid where 3 levels fit and -reduced_pc_type is not given: stencil (nuno's, single precision, no index arrays) or petsc (PCMG, Galerkin, SOR)",
-                              "nuno", impls, 2, impls[im], &im, NULL));
+                              "nuno", impls.name, impls.n, impls.name[im], &im, NULL));
   PetscCall(PetscOptionsEList("-nuno_mg_cycle", "cycle of nuno's multigrid: v (smooth, restrict the residual, correct, smooth) or kaskade (restrict the right-hand side, then only upwards)",
-                              "nuno", cycles + 1, 2, cycles[cy], &cy, &s1));
-  if (s1) cy += 1;
+                              "nuno", cycles.name, cycles.n, cycles.name[cy], &cy, &s1));
   PetscCall(PetscOptionsInt("-nuno_mg_sweeps", "symmetric Gauss-Seidel sweeps of nuno's multigrid per smoothing", "nuno", sw, &sw, &s2));
   PetscCall(PetscOptionsInt("-nuno_mg_levels", "levels of nuno's multigrid (0: as many as fit, down to 5 nodes a side)", "nuno", lv, &lv, &s3));
   PetscCall(PetscOptionsEList("-nuno_mg_product", "the Krylov method's product with S where nuno's multigrid is used: mixed (from the multigrid's single-precision copy of S in difference form, double-precision vectors, each offset's products in single and their sum in double; half the bytes), fused (mixed, and the product of each cycle's output formed in the cycle's last sweep, from the rows it has just finished: the Krylov method's product of that output is a copy; right preconditioning only, else mixed) or double (S in double precision)",
-                              "nuno", products, 3, products[pr], &pr, &s4));
+                              "nuno", products.name, products.n, products.name[pr], &pr, &s4));
   PetscOptionsEnd();
-  PetscCheck(sw >= 1, comm, PETSC_ERR_ARG_OUTOFRANGE, "-nuno_mg_sweeps %" PetscInt_FMT " must be >= 1", sw);
-  PetscCheck(lv >= 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-nuno_mg_levels %" PetscInt_FMT " must be >= 1 (or 0: as many as fit)", lv);
   *impl = (int)im;
   *cycle = (int)cy;
   *sweeps = (int)sw;

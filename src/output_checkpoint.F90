@@ -224,21 +224,7 @@ contains
   !> before t_end, read ck and the state strips, cut the series back to the
   !> checkpoint's output steps, mark it running. Nothing is changed in the
   !> file when a check fails. Collective.
-  module subroutine output_reopen(out, filename, comm, nx, ny, ys, ym, write_velocity, t_end, attrs_namelist, &
-                                  attrs_petsc_options, ck, x, v, ierr, errmsg, protect, overwrite, cfg)
-    type(output_file), intent(inout) :: out
-    character(*), intent(in) :: filename
-    integer, intent(in) :: comm, nx, ny, ys, ym
-    logical, intent(in) :: write_velocity
-    real(rp), intent(in) :: t_end
-    character(*), intent(in) :: attrs_namelist, attrs_petsc_options
-    type(checkpoint_t), intent(out) :: ck
-    real(rp), intent(out) :: x(:, :, :), v(:, :, :)
-    integer, intent(out) :: ierr
-    character(*), intent(out) :: errmsg
-    character(*), intent(in), optional :: protect
-    logical, intent(in), optional :: overwrite      ! -nuno_overwrite (default .false.)
-    type(nuno_config), intent(in), optional :: cfg   !< the input's: its scene and model must be the file's
+  module procedure output_reopen
     integer(hid_t) :: fapl, grp
     integer :: h, mpierr, fnx, fny, slot, seq(0:1), k, restarts, extent, n
     logical :: exists, has_velocity, attempt
@@ -439,7 +425,7 @@ contains
       out%is_open = .false.
       if (out%rank == 0) call lock_release(out%lock_path, out%lock_fd)
     end if
-  end subroutine output_reopen
+  end procedure output_reopen
 
   ! ---------------------------------------------------------------------------
 

@@ -69,11 +69,8 @@ contains
       integer(hid_t), intent(in) :: scales(:)
       integer(hid_t) :: dset
       integer :: d
+      call open_dset(out%file, name, dset, ierr, errmsg)
       if (ierr /= 0) return
-      call h5dopen_f(out%file, name, dset, h)
-      if (h < 0) then
-        call fail('h5dopen_f', name, ierr, errmsg); return
-      end if
       do d = 1, size(scales)
         call attach(dset, scales(d), d, name)
       end do
@@ -85,7 +82,6 @@ contains
       character(*), intent(in) :: name
       integer, intent(in) :: n
       integer(hid_t), intent(out) :: dset
-      integer(hid_t) :: space, dcpl
       logical :: exists
       character(len=10) :: len_text
 
@@ -96,36 +92,11 @@ contains
         call fail('h5lexists_f', name, ierr, errmsg); return
       end if
       if (exists) then
-        call h5dopen_f(out%file, name, dset, h)
-        if (h < 0) then
-          dset = -1
-          call fail('h5dopen_f', name, ierr, errmsg)
-        end if
+        call open_dset(out%file, name, dset, ierr, errmsg)
         return
       end if
-      call h5screate_simple_f(1, [int(n, hsize_t)], space, h)
-      if (h < 0) then
-        call fail('h5screate_simple_f', name, ierr, errmsg); return
-      end if
-      call h5pcreate_f(H5P_DATASET_CREATE_F, dcpl, h)
-      if (h < 0) then
-        call fail('h5pcreate_f(dataset create)', name, ierr, errmsg)
-      else
-        ! Never written: no fill values either (parallel HDF5 would write them).
-        call h5pset_fill_time_f(dcpl, H5D_FILL_TIME_NEVER_F, h)
-        if (h < 0) call fail('h5pset_fill_time_f', name, ierr, errmsg)
-        if (ierr == 0) then
-          call h5dcreate_f(out%file, name, H5T_NATIVE_REAL, space, dset, h, dcpl_id=dcpl)
-          if (h < 0) then
-            dset = -1
-            call fail('h5dcreate_f', name, ierr, errmsg)
-          end if
-        end if
-        call h5pclose_f(dcpl, h)
-        if (h < 0) call fail('h5pclose_f(dataset create)', name, ierr, errmsg)
-      end if
-      call h5sclose_f(space, h)
-      if (h < 0) call fail('h5sclose_f', name, ierr, errmsg)
+      ! never written (no values), nor filled
+      call create_dataset(out%file, name, H5T_NATIVE_REAL, [int(n, hsize_t)], dset, ierr, errmsg)
       if (ierr /= 0) return
       write(len_text, '(i10)') n
       call h5dsset_scale_f(dset, h, NOT_A_VARIABLE//len_text)
@@ -155,8 +126,7 @@ contains
   !> strings. Collective.
   module procedure write_units
     character(len=16) :: length, velocity, mass, energy, momentum, angular
-    integer(hid_t) :: lat
-    integer :: k, h
+    integer :: k
 
     if (ierr /= 0) return
     select case (system)
@@ -186,28 +156,24 @@ contains
         call put(out%dset(k), '1')   ! counts
       end select
     end do
-    if (ierr == 0) then
-      call h5dopen_f(out%file, '/lattice/rest_position', lat, h)
-      if (h < 0) then
-        call fail('h5dopen_f', '/lattice/rest_position', ierr, errmsg); return
-      end if
-      call set_attr_str(lat, 'units', trim(length), '/lattice/rest_position', ierr, errmsg)
-      call close_dset(lat, '/lattice/rest_position', ierr, errmsg)
-    end if
-    if (ierr == 0) then
-      call h5dopen_f(out%file, '/lattice/mass', lat, h)
-      if (h < 0) then
-        call fail('h5dopen_f', '/lattice/mass', ierr, errmsg); return
-      end if
-      call set_attr_str(lat, 'units', trim(mass), '/lattice/mass', ierr, errmsg)
-      call close_dset(lat, '/lattice/mass', ierr, errmsg)
-    end if
+    call put_lattice('/lattice/rest_position', length)
+    call put_lattice('/lattice/mass', mass)
   contains
     subroutine put(dset, value)
       integer(hid_t), intent(in) :: dset
       character(*), intent(in) :: value
       call set_attr_str(dset, 'units', trim(value), trim(dset_names(k)), ierr, errmsg)
     end subroutine put
+
+    !> The units of the /lattice dataset `name`, written once at the open.
+    subroutine put_lattice(name, value)
+      character(*), intent(in) :: name, value
+      integer(hid_t) :: lat
+      call open_dset(out%file, name, lat, ierr, errmsg)
+      if (ierr /= 0) return
+      call set_attr_str(lat, 'units', trim(value), name, ierr, errmsg)
+      call close_dset(lat, name, ierr, errmsg)
+    end subroutine put_lattice
   end procedure write_units
 
 end submodule output_dims

@@ -12,8 +12,8 @@ module output_h5
   private
 
   public :: select_spaces, close_spaces, set_attr_str, set_attr_int, set_attr_reals, delete_attr
-  public :: close_dset, fail, keep_first, agree, get_attr_int, get_attr_str, get_attr_reals
-  public :: open_or_create_group, close_group, put_doubles, write_rows
+  public :: open_dset, close_dset, fail, keep_first, agree, get_attr_int, get_attr_str, get_attr_reals
+  public :: open_or_create_group, close_group, put_doubles, write_rows, create_dataset
 
 contains
 
@@ -40,6 +40,58 @@ contains
     end if
     call h5sclose_f(sp, h)
   end subroutine put_doubles
+
+  !> A new dataset `name` in loc of type dtype and Fortran shape dims (C
+  !> order reversed), never filled: parallel HDF5 would otherwise write
+  !> fill values, a second write of all of it; with maxdims and chunk
+  !> (both or neither), extendable and chunked. dset: -1 unless made;
+  !> nothing when ierr /= 0 already.
+  subroutine create_dataset(loc, name, dtype, dims, dset, ierr, errmsg, maxdims, chunk)
+    integer(hid_t), intent(in) :: loc, dtype
+    character(*), intent(in) :: name
+    integer(hsize_t), intent(in) :: dims(:)
+    integer(hid_t), intent(out) :: dset
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hsize_t), intent(in), optional :: maxdims(:), chunk(:)
+    integer(hid_t) :: space, dcpl
+    integer :: h
+
+    dset = -1
+    if (ierr /= 0) return
+    call h5screate_simple_f(size(dims), dims, space, h, maxdims)
+    if (h < 0) then
+      call fail('h5screate_simple_f', name, ierr, errmsg); return
+    end if
+    call h5pcreate_f(H5P_DATASET_CREATE_F, dcpl, h)
+    if (h < 0) then
+      call fail('h5pcreate_f(dataset create)', name, ierr, errmsg)
+    else
+      if (present(chunk)) then
+        call h5pset_chunk_f(dcpl, size(chunk), chunk, h)
+        if (h < 0) call fail('h5pset_chunk_f', name, ierr, errmsg)
+      end if
+      ! Chunked: parallel HDF5 allocates a chunk when the extent grows, and
+      ! would write fill values into it there, a second write of every
+      ! output step (and, on a full disk, a write that fails inside the
+      ! collective H5Dset_extent on some ranks only, which hangs the others).
+      if (ierr == 0) then
+        call h5pset_fill_time_f(dcpl, H5D_FILL_TIME_NEVER_F, h)
+        if (h < 0) call fail('h5pset_fill_time_f', name, ierr, errmsg)
+      end if
+      if (ierr == 0) then
+        call h5dcreate_f(loc, name, dtype, space, dset, h, dcpl_id=dcpl)
+        if (h < 0) then
+          dset = -1
+          call fail('h5dcreate_f', name, ierr, errmsg)
+        end if
+      end if
+      call h5pclose_f(dcpl, h)
+      if (h < 0) call fail('h5pclose_f(dataset create)', name, ierr, errmsg)
+    end if
+    call h5sclose_f(space, h)
+    if (h < 0) call fail('h5sclose_f', name, ierr, errmsg)
+  end subroutine create_dataset
 
   !> Open the group path (absolute, one level below an existing group), or
   !> create it; grp must be closed by the caller.
@@ -310,6 +362,25 @@ contains
       if (h < 0) call fail('h5adelete_f', what, ierr, errmsg)
     end if
   end subroutine delete_attr
+
+  !> Open the dataset `name` of loc; dset: -1 unless opened; nothing when
+  !> ierr /= 0 already.
+  subroutine open_dset(loc, name, dset, ierr, errmsg)
+    integer(hid_t), intent(in) :: loc
+    character(*), intent(in) :: name
+    integer(hid_t), intent(out) :: dset
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer :: h
+
+    dset = -1
+    if (ierr /= 0) return
+    call h5dopen_f(loc, name, dset, h)
+    if (h < 0) then
+      dset = -1
+      call fail('h5dopen_f', name, ierr, errmsg)
+    end if
+  end subroutine open_dset
 
   subroutine close_dset(dset, name, ierr, errmsg)
     integer(hid_t), intent(in) :: dset

@@ -228,8 +228,7 @@ contains
   !> An extendable dataset: Fortran dims (fixed..., 0), unlimited along t, chunked.
   module procedure create_series
     integer(hsize_t) :: dims(4), maxdims(4)
-    integer(hid_t) :: space, dcpl
-    integer :: r, h
+    integer :: r
     character(len=:), allocatable :: name
 
     name = trim(dset_names(idx))
@@ -238,34 +237,7 @@ contains
     maxdims(1:r) = [fixed, H5S_UNLIMITED_F]
     out%drank(idx) = r
     out%ddims(1:r, idx) = dims(1:r)
-
-    call h5screate_simple_f(r, dims(1:r), space, h, maxdims(1:r))
-    if (h < 0) then
-      call fail('h5screate_simple_f', name, ierr, errmsg); return
-    end if
-    call h5pcreate_f(H5P_DATASET_CREATE_F, dcpl, h)
-    if (h < 0) then
-      call fail('h5pcreate_f(dataset create)', name, ierr, errmsg)
-    else
-      call h5pset_chunk_f(dcpl, r, chunk, h)
-      if (h < 0) call fail('h5pset_chunk_f', name, ierr, errmsg)
-      ! Parallel HDF5 allocates a chunk when the extent grows; without this
-      ! it also writes fill values into it there, a second write of every
-      ! output step (and, on a full disk, a write that fails inside the
-      ! collective H5Dset_extent on some ranks only, which hangs the others).
-      if (ierr == 0) then
-        call h5pset_fill_time_f(dcpl, H5D_FILL_TIME_NEVER_F, h)
-        if (h < 0) call fail('h5pset_fill_time_f', name, ierr, errmsg)
-      end if
-      if (ierr == 0) then
-        call h5dcreate_f(out%file, name, ftype, space, out%dset(idx), h, dcpl_id=dcpl)
-        if (h < 0) call fail('h5dcreate_f', name, ierr, errmsg)
-      end if
-      call h5pclose_f(dcpl, h)
-      if (h < 0) call fail('h5pclose_f(dataset create)', name, ierr, errmsg)
-    end if
-    call h5sclose_f(space, h)
-    if (h < 0) call fail('h5sclose_f', name, ierr, errmsg)
+    call create_dataset(out%file, name, ftype, dims(1:r), out%dset(idx), ierr, errmsg, maxdims(1:r), chunk)
     if (ierr == 0) call set_attr_str(out%dset(idx), 'description', trim(dset_descriptions(idx)), name, ierr, errmsg)
   end procedure create_series
 

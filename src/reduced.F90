@@ -14,7 +14,7 @@ module reduced
   use petscsnes
   use petscdmda
   use mpi
-  use, intrinsic :: iso_c_binding, only: c_int
+  use, intrinsic :: iso_c_binding, only: c_int, c_char
   use kinds, only: rp
   use lattice, only: lattice_t
   use config, only: BEND_NONE
@@ -24,7 +24,8 @@ module reduced
   use inner_guess, only: GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, GUESS_PROJECT, PROJECT_PAIRS
   use reduced_guess, only: guess_t, guess_use, guess_free, guess_restart, guess_set, guess_keep, guess_push, &
                            guess_accepted, guess_mode
-  use stencil_mg, only: MG_KASKADE
+  use solver_choices, only: MG_NAMES, MG_STENCIL, CYCLE_NAMES, CYCLE_KASKADE, PRODUCT_NAMES, PRODUCT_DOUBLE, PRODUCT_FUSED
+  use strings, only: itoa
   use reduced_mg, only: mg_glue_t, mg_glue_matrix, mg_glue_pc, mg_glue_free, mg_glue_assemble, mg_glue_built, &
                         mg_glue_describe, mg_coarse_levels, levels_that_fit, default_preconditioner, mg_interpolations, &
                         true_residual_defaults, &
@@ -98,10 +99,15 @@ module reduced
   end type reduced_t
 
   interface
-    !> src/nuno_options.c: the options of nuno's multigrid (-nuno_mg ...).
-    integer(c_int) function nuno_mg_options_read(fcomm, impl, cycle, sweeps, levels, product, given) bind(C, name='nuno_mg_options_read')
-      import :: c_int
-      integer(c_int), value :: fcomm
+    !> src/nuno_options.c: the options of nuno's multigrid (-nuno_mg ...);
+    !> the choices as codes of the lists passed (module solver_choices).
+    integer(c_int) function nuno_mg_options_read(fcomm, impl_names, impl_n, impl_len, impl, &
+                                                 cycle_names, cycle_n, cycle_len, cycle, sweeps, levels, &
+                                                 product_names, product_n, product_len, product, given) &
+        bind(C, name='nuno_mg_options_read')
+      import :: c_int, c_char
+      integer(c_int), value :: fcomm, impl_n, impl_len, cycle_n, cycle_len, product_n, product_len
+      character(kind=c_char), intent(in) :: impl_names(*), cycle_names(*), product_names(*)
       integer(c_int), intent(inout) :: impl, cycle, sweeps, levels, product
       integer(c_int), intent(out) :: given
     end function nuno_mg_options_read
@@ -214,24 +220,34 @@ contains
     ! the halo's rows in every coarse strip.
     red%pcc%use_mg = levels_that_fit(nx, ny, izero, ione) >= 3
     levels = levels_that_fit(nx, ny, w, nranks)
-    mg_impl = 0
-    mg_cycle = MG_KASKADE
+    mg_impl = MG_STENCIL
+    mg_cycle = CYCLE_KASKADE
     mg_sweeps = 1
     mg_levels = 0
-    mg_product = 2
-    ierr = nuno_mg_options_read(comm, mg_impl, mg_cycle, mg_sweeps, mg_levels, mg_product, mg_given)
+    mg_product = PRODUCT_FUSED
+    ierr = nuno_mg_options_read(comm, MG_NAMES, size(MG_NAMES), len(MG_NAMES), mg_impl, &
+                                CYCLE_NAMES, size(CYCLE_NAMES), len(CYCLE_NAMES), mg_cycle, mg_sweeps, mg_levels, &
+                                PRODUCT_NAMES, size(PRODUCT_NAMES), len(PRODUCT_NAMES), mg_product, mg_given)
     if (ierr /= 0) return
+    if (mg_sweeps < 1) then
+      ierr = PETSC_ERR_ARG_OUTOFRANGE
+      SETERRQ(comm, ierr, '-nuno_mg_sweeps '//itoa(int(mg_sweeps))//' must be >= 1')
+    end if
+    if (mg_levels < 0) then
+      ierr = PETSC_ERR_ARG_OUTOFRANGE
+      SETERRQ(comm, ierr, '-nuno_mg_levels '//itoa(int(mg_levels))//' must be >= 1 (or 0: as many as fit)')
+    end if
     PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_pc_type', found, ierr))
-    red%pcc%use_mg = red%pcc%use_mg .and. .not. found .and. mg_impl == 0
+    red%pcc%use_mg = red%pcc%use_mg .and. .not. found .and. mg_impl == MG_STENCIL
     if (mg_given /= 0 .and. .not. red%pcc%use_mg) then
       ierr = PETSC_ERR_ARG_INCOMP
       SETERRQ(comm, ierr, 'nuno: -nuno_mg_cycle, -nuno_mg_sweeps, -nuno_mg_levels and -nuno_mg_product are for nuno''s multigrid (-nuno_mg stencil, the default from 3 levels on, no -reduced_pc_type)')
     end if
-    ! 0 mixed, 1 double, 2 fused (mixed, each cycle's output multiplied in
-    ! its last sweep; where the Krylov method multiplies that output:
-    ! checked at the first cycle, mg_pc_apply)
-    mixed = red%pcc%use_mg .and. mg_product /= 1
-    fused = red%pcc%use_mg .and. mg_product == 2
+    ! fused: mixed, each cycle's output multiplied in its last sweep, where
+    ! the Krylov method multiplies that output (checked at the first cycle,
+    ! mg_pc_apply)
+    mixed = red%pcc%use_mg .and. mg_product /= PRODUCT_DOUBLE
+    fused = red%pcc%use_mg .and. mg_product == PRODUCT_FUSED
     if (red%pcc%use_mg) then
       ! FGMRES even where S is symmetric: the kaskade cycle is not, and
       ! FGMRES + kaskade beat CG + V-cycles by 1.4x on a symmetric hang

@@ -90,14 +90,12 @@ contains
     else
       call element_products(red, red%el%w)
     end if
+    ! A constrained node's row takes no element products (its row of S is
+    ! a m I): m b_v - 0 there, which is m b_v to the bit.
     PetscCall(DMDAVecGetArrayF90(red%da3, rhs, r, ierr))
     do j = red%lat%ys, red%lat%ye
       do i = 0, red%lat%nx - 1
-        if (red%el%fixedg(i, j)) then
-          r(0:2, i, j) = red%lat%mass(i, j) * bl(3:5, i, j)
-        else
-          r(0:2, i, j) = red%lat%mass(i, j) * bl(3:5, i, j) - red%el%g(:, i, j)
-        end if
+        r(0:2, i, j) = red%lat%mass(i, j) * bl(3:5, i, j) - merge(0.0_rp, red%el%g(:, i, j), red%el%fixedg(i, j))
       end do
     end do
     PetscCall(DMDAVecRestoreArrayF90(red%da3, rhs, r, ierr))

@@ -25,6 +25,7 @@
 module stencil_mg
   use mpi
   use kinds, only: rp
+  use solver_choices, only: CYCLE_V, CYCLE_KASKADE
   use mg_kernels, only: mp, stencil_t, transfer_t, stencil_init, stencil_put_row, stencil_finish, stencil_from_full, transfer_init, offset_index, &
                         stencil_block, diagonal_block, &
                         coarse_reach, gs_sweep, residual, interpolate, restrict_add, galerkin_add, level_product_rows, &
@@ -33,10 +34,6 @@ module stencil_mg
   private
   public :: stencil_mg_t, mg_create, mg_destroy, mg_set_fine_row, mg_set_fine, mg_fine_level, mg_build_coarse, mg_apply, mg_describe, &
             mg_product
-  public :: MG_MULTIPLICATIVE, MG_KASKADE
-
-  integer, parameter :: MG_MULTIPLICATIVE = 1, MG_KASKADE = 2
-
   type :: mg_level_t
     type(stencil_t) :: a                         !< the operator (rows ys..ye)
     integer :: h = 0                             !< padding rows and columns of the vectors
@@ -65,7 +62,7 @@ module stencil_mg
   type :: stencil_mg_t
     integer :: comm = MPI_COMM_NULL, rank = 0, nranks = 1, below = MPI_PROC_NULL, above = MPI_PROC_NULL
     integer :: nlev = 0
-    integer :: cycle_type = MG_MULTIPLICATIVE
+    integer :: cycle_type = CYCLE_V
     integer :: nu = 1                            !< symmetric Gauss-Seidel sweeps per smoothing
     type(mg_level_t), allocatable :: lev(:)
     ! the coarsest level's banded LU (LAPACK dgbtrf), same on every rank
@@ -478,7 +475,7 @@ contains
       call coarse_solve(mg)
       return
     end if
-    associate (f => mg%lev(l), c => mg%lev(l + 1))
+    associate (f => mg%lev(l))
       f%x = 0.0_mp
       do k = 1, mg%nu
         call smooth(mg, f)
@@ -487,8 +484,37 @@ contains
       call residual(f%a, f%h, f%x, f%rhs, f%res)
       call restrict_level(mg, l, .false.)
       call vcycle(mg, l + 1)
+    end associate
+    call correct_and_smooth(mg, l, .true., ax)
+  end subroutine vcycle
+
+  !> Kaskade: rhs restricted to the coarsest level, solved, then up level by
+  !> level: interpolated, smoothed, never back down.
+  subroutine kcycle(mg, ax)
+    type(stencil_mg_t), intent(inout) :: mg
+    real(rp), intent(inout), optional :: ax(:, 0:, mg%lev(1)%a%ys:)   !< (3, 0:nx-1, ys:ye) A x of the result (smooth)
+    integer :: l
+    do l = 1, mg%nlev - 1
+      call restrict_level(mg, l, .true.)
+    end do
+    call coarse_solve(mg)
+    do l = mg%nlev - 1, 1, -1
+      call correct_and_smooth(mg, l, .false., ax)
+    end do
+  end subroutine kcycle
+
+  !> Level l's x from level l + 1's, interpolated (added to x: the V-cycle's
+  !> correction; or x itself: kaskade), then nu symmetric sweeps on level l,
+  !> the last of which forms A x (ax) on the finest level when asked.
+  subroutine correct_and_smooth(mg, l, add, ax)
+    type(stencil_mg_t), intent(inout) :: mg
+    integer, intent(in) :: l
+    logical, intent(in) :: add
+    real(rp), intent(inout), optional :: ax(:, 0:, mg%lev(1)%a%ys:)   !< (3, 0:nx-1, ys:ye) A x of the result (smooth)
+    integer :: k
+    associate (f => mg%lev(l), c => mg%lev(l + 1))
       call exchange(mg, c)
-      call interpolate(f%ux, f%uy, f%a%ys, f%a%ye, c%h, c%a%ys, c%x, f%h, f%x, .true., c%t)
+      call interpolate(f%ux, f%uy, f%a%ys, f%a%ye, c%h, c%a%ys, c%x, f%h, f%x, add, c%t)
       do k = 1, mg%nu - 1
         call smooth(mg, f)
       end do
@@ -498,33 +524,7 @@ contains
         call smooth(mg, f)
       end if
     end associate
-  end subroutine vcycle
-
-  !> Kaskade: rhs restricted to the coarsest level, solved, then up level by
-  !> level: interpolated, smoothed, never back down.
-  subroutine kcycle(mg, ax)
-    type(stencil_mg_t), intent(inout) :: mg
-    real(rp), intent(inout), optional :: ax(:, 0:, mg%lev(1)%a%ys:)   !< (3, 0:nx-1, ys:ye) A x of the result (smooth)
-    integer :: l, k
-    do l = 1, mg%nlev - 1
-      call restrict_level(mg, l, .true.)
-    end do
-    call coarse_solve(mg)
-    do l = mg%nlev - 1, 1, -1
-      associate (f => mg%lev(l), c => mg%lev(l + 1))
-        call exchange(mg, c)
-        call interpolate(f%ux, f%uy, f%a%ys, f%a%ye, c%h, c%a%ys, c%x, f%h, f%x, .false., c%t)
-        do k = 1, mg%nu - 1
-          call smooth(mg, f)
-        end do
-        if (l == 1 .and. present(ax)) then
-          call smooth(mg, f, ax)
-        else
-          call smooth(mg, f)
-        end if
-      end associate
-    end do
-  end subroutine kcycle
+  end subroutine correct_and_smooth
 
   !> x = M^{-1} b, one cycle: b(3, 0:nx-1, ys:ye), x likewise (the layout
   !> of a 3-dof DMDA vector). With ax: also ax = A x, formed in the
@@ -550,7 +550,7 @@ contains
       if (present(formed)) formed = present(ax) .and. mg%nlev > 1
       if (mg%nlev == 1) then
         call coarse_solve(mg)
-      else if (mg%cycle_type == MG_KASKADE) then
+      else if (mg%cycle_type == CYCLE_KASKADE) then
         call kcycle(mg, ax)
       else
         call vcycle(mg, 1, ax)
@@ -591,7 +591,7 @@ contains
     mp_bytes = real(storage_size(1.0_mp) / 8, rp)
     n = 1
     write(text(1), '(a, i0, a, a, a, i0, a)') 'levels ', mg%nlev, ', ', trim(merge('kaskade cycle', 'V-cycle      ', &
-      mg%cycle_type == MG_KASKADE)), ', ', mg%nu, ' symmetric Gauss-Seidel sweep(s) a smoothing, single precision'
+      mg%cycle_type == CYCLE_KASKADE)), ', ', mg%nu, ' symmetric Gauss-Seidel sweep(s) a smoothing, single precision'
     cycle_bytes = 0.0_rp
     do l = 1, mg%nlev
       associate (a => mg%lev(l)%a)
@@ -609,7 +609,7 @@ contains
         ! from the row below's blocks back up, read a row before
         if (a%paired) sweep = sweep - 9.0_rp * mp_bytes * real(count(a%odj < 0), rp)
         if (l < mg%nlev) then
-          if (mg%cycle_type == MG_KASKADE) then
+          if (mg%cycle_type == CYCLE_KASKADE) then
             cycle_bytes = cycle_bytes + real(nodes8, rp) * mg%nu * sweep
           else
             ! 2 nu smoothings and a residual (operator, row sums, x, rhs, res)

@@ -4,7 +4,7 @@
 !> position from 0 is its code). The options blocks in C
 !> (src/nuno_options.c), which put the options in -help and check a
 !> value, get the names from here as arguments and hand back a position;
-!> the modules compare the codes. No PETSc: unit-tested alone
+!> the modules compare the codes. No list is spelled out anywhere else. No PETSc: unit-tested alone
 !> (tests/unit/test_solver_choices.f90).
 module solver_choices
   implicit none
@@ -14,6 +14,9 @@ module solver_choices
   public :: GUESS_AUTO, GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, GUESS_PROJECT, GUESS_NAMES
   public :: FALLBACK_NONE, FALLBACK_BT, FALLBACK_L2, FALLBACK_NAMES
   public :: START_AUTO, START_LINEAR, START_CUBIC, START_NAMES
+  public :: MG_STENCIL, MG_PETSC, MG_NAMES
+  public :: CYCLE_V, CYCLE_KASKADE, CYCLE_NAMES
+  public :: PRODUCT_MIXED, PRODUCT_DOUBLE, PRODUCT_FUSED, PRODUCT_NAMES
 
   !> -nuno_jacobian: the reduced 3-dof elimination (module reduced) or the
   !> assembled 6-dof Jacobian.
@@ -39,5 +42,23 @@ module solver_choices
   !> -nuno_newton_start: beuler's Newton start (module newton_start).
   integer, parameter :: START_AUTO = 0, START_LINEAR = 1, START_CUBIC = 2
   character(len=*), parameter :: START_NAMES(0:2) = [character(len=6) :: 'auto', 'linear', 'cubic']
+
+  !> -nuno_mg: the inner multigrid where one fits and -reduced_pc_type is
+  !> not given (module reduced): nuno's structured one (module stencil_mg)
+  !> or PETSc's PCMG with Galerkin operators.
+  integer, parameter :: MG_STENCIL = 0, MG_PETSC = 1
+  character(len=*), parameter :: MG_NAMES(0:1) = [character(len=7) :: 'stencil', 'petsc']
+
+  !> -nuno_mg_cycle: the cycle of nuno's multigrid (module stencil_mg): a
+  !> V-cycle (multiplicative) or kaskade (only upwards).
+  integer, parameter :: CYCLE_V = 0, CYCLE_KASKADE = 1
+  character(len=*), parameter :: CYCLE_NAMES(0:1) = [character(len=7) :: 'v', 'kaskade']
+
+  !> -nuno_mg_product: the Krylov method's product with S where nuno's
+  !> multigrid is used (module reduced_mg): from the multigrid's
+  !> single-precision S (mixed), from S in double precision (double), or
+  !> mixed and formed in each cycle's last sweep (fused).
+  integer, parameter :: PRODUCT_MIXED = 0, PRODUCT_DOUBLE = 1, PRODUCT_FUSED = 2
+  character(len=*), parameter :: PRODUCT_NAMES(0:2) = [character(len=6) :: 'mixed', 'double', 'fused']
 
 end module solver_choices

@@ -26,8 +26,8 @@
 program test_stencil_mg
   use mpi
   use kinds, only: rp
-  use stencil_mg, only: stencil_mg_t, mg_create, mg_destroy, mg_set_fine, mg_build_coarse, mg_apply, &
-                        MG_MULTIPLICATIVE, MG_KASKADE
+  use stencil_mg, only: stencil_mg_t, mg_create, mg_destroy, mg_set_fine, mg_build_coarse, mg_apply
+  use solver_choices, only: CYCLE_V, CYCLE_KASKADE
   use check, only: check_true, check_close, check_report
   use offset_product, only: offset_count, offset_slot
   implicit none
@@ -47,13 +47,13 @@ program test_stencil_mg
   rows = base + merge(1, 0, rank < extra)
   ye = ys + rows - 1
 
-  call run_case(.false., MG_MULTIPLICATIVE, 'bilinear, V', .false.)
-  call run_case(.true., MG_MULTIPLICATIVE, 'cubic, V', .false.)
-  call run_case(.true., MG_KASKADE, 'cubic, kaskade', .false.)
+  call run_case(.false., CYCLE_V, 'bilinear, V', .false.)
+  call run_case(.true., CYCLE_V, 'cubic, V', .false.)
+  call run_case(.true., CYCLE_KASKADE, 'cubic, kaskade', .false.)
   ! nuno's default with bending: the finest level's correction cubic too
   ! (its restriction and Galerkin product bilinear)
-  call run_case(.true., MG_KASKADE, 'cubic, kaskade, cubic correction', .true.)
-  call run_case(.true., MG_MULTIPLICATIVE, 'cubic, V, cubic correction', .true.)
+  call run_case(.true., CYCLE_KASKADE, 'cubic, kaskade, cubic correction', .true.)
+  call run_case(.true., CYCLE_V, 'cubic, V, cubic correction', .true.)
   call check_report()
   call MPI_Finalize(ierr)
 
@@ -260,7 +260,7 @@ contains
       call halo(x, MPI_COMM_WORLD)
       call model_residual(x, b, res, ys, ye)
       call mg_apply(mg, res, e)
-      if (cycle_type == MG_KASKADE) then
+      if (cycle_type == CYCLE_KASKADE) then
         xs = 0.0_rp
         xs(:, 0:n - 1, ys:ye) = e
         call halo(xs, MPI_COMM_WORLD)
@@ -278,7 +278,7 @@ contains
     rk = gnorm(res)
     write(what, '(a, a, es9.2)') label, ': 12 cycles reduce the residual by 0.75^12, measured ', rk / r0
     ! (kaskade on several strips: see the header)
-    if (cycle_type /= MG_KASKADE .or. nranks == 1) call check_true(rk < 0.75_rp**nit * r0, trim(what))
+    if (cycle_type /= CYCLE_KASKADE .or. nranks == 1) call check_true(rk < 0.75_rp**nit * r0, trim(what))
 
     ! 3. The same answer as the one-rank hierarchy (each rank runs it whole).
     allocate(x1(3, -r:n - 1 + r, -r:n - 1 + r))
@@ -303,10 +303,10 @@ contains
         call model_residual(x1, b1, res1, 0, n - 1)
         call mg_apply(mg1, res1, e1)
         x1(:, 0:n - 1, 0:n - 1) = x1(:, 0:n - 1, 0:n - 1) + e1
-        if (cycle_type == MG_KASKADE) exit      ! (step 3 only for the V-cycle)
+        if (cycle_type == CYCLE_KASKADE) exit      ! (step 3 only for the V-cycle)
       end do
     end block
-    if (cycle_type /= MG_KASKADE) then
+    if (cycle_type /= CYCLE_KASKADE) then
       do it = 1, 28
         call halo(x, MPI_COMM_WORLD)
         call model_residual(x, b, res, ys, ye)

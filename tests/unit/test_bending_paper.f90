@@ -7,7 +7,8 @@
 program test_bending_paper
   use kinds, only: rp
   use bending_paper, only: paper_force, paper_jacobian, paper_energy
-  use check, only: check_true, check_close, check_close_array, check_report
+  use check, only: check_true, check_close, check_close_array, check_report, rotation
+  use vec3, only: cross
   implicit none
   real(rp), parameter :: PI = acos(-1.0_rp)
   real(rp), parameter :: KB = 1.7_rp
@@ -84,33 +85,6 @@ contains
     x9(7:9) = q + lw*e2
     t = e1
   end subroutine make_triple
-
-  ! Rodrigues rotation about an oblique unit axis; io = 1 gives the identity.
-  function rotation(io) result(r)
-    integer, intent(in) :: io
-    real(rp) :: r(3,3), k(3), kx(3,3), ang
-    integer :: i
-    select case (io)
-    case (2)
-      k = [0.3_rp, -0.5_rp, 0.8_rp]; ang = 0.9_rp
-    case (3)
-      k = [-0.7_rp, 0.2_rp, 0.4_rp]; ang = 2.1_rp
-    case default
-      k = [0.0_rp, 0.0_rp, 1.0_rp]; ang = 0.0_rp
-    end select
-    k = k/norm2(k)
-    kx = reshape([0.0_rp, k(3), -k(2), -k(3), 0.0_rp, k(1), k(2), -k(1), 0.0_rp], [3,3])
-    r = sin(ang)*kx + (1.0_rp - cos(ang))*matmul(kx, kx)
-    do i = 1, 3
-      r(i,i) = r(i,i) + 1.0_rp
-    end do
-  end function rotation
-
-  function cross(a, b) result(c)
-    real(rp), intent(in) :: a(3), b(3)
-    real(rp) :: c(3)
-    c = [a(2)*b(3) - a(3)*b(2), a(3)*b(1) - a(1)*b(3), a(1)*b(2) - a(2)*b(1)]
-  end function cross
 
   ! Size k_b theta, perpendicular to own segment, in the plane, straightening, f_q = 0.
   subroutine force_checks(th, x9, io)

@@ -16,10 +16,10 @@
 program test_forces
   use kinds, only: rp
   use config, only: nuno_config, BEND_NONE, BEND_ENERGY, SPRING_AXIAL, SPRING_LINEAR, &
-                    SCALING_ELEMENT, SCALING_CONTINUUM, MASS_UNIFORM
-  use lattice, only: lattice_t, lattice_init, rest_position
+                    SCALING_ELEMENT, SCALING_CONTINUUM
+  use lattice, only: lattice_t, lattice_init
   use forces, only: internal_forces, element_energies, dissipated_power
-  use check, only: check_true, check_close, check_close_array, check_report
+  use check, only: check_true, check_close, check_close_array, check_report, lattice_config, seed_random, perturbed_state
   implicit none
 
   integer, parameter :: nx = 6, ny = 7
@@ -38,39 +38,15 @@ contains
     character(*), intent(in) :: what
     type(nuno_config) :: cfg
     type(lattice_t) :: lat
-    real(rp) :: u(0:5, 0:nx - 1, 0:ny - 1), up(0:5, 0:nx - 1, 0:ny - 1), noise(6, 0:nx - 1, 0:ny - 1)
+    real(rp) :: u(0:5, 0:nx - 1, 0:ny - 1), up(0:5, 0:nx - 1, 0:ny - 1), noise(3, 0:nx - 1, 0:ny - 1)
     real(rp) :: f(3, 0:nx - 1, 0:ny - 1), fv(3, 0:nx - 1, 0:ny - 1), grad(3, 0:nx - 1, 0:ny - 1)
     real(rp) :: h, ep, em, s, b, power, fscale, torque(3)
     integer :: i, j, c, nbad, bad(2)
 
-    cfg%nx = nx
-    cfg%ny = ny
-    cfg%lx = 1.0_rp
-    cfg%ly = 1.5_rp
-    cfg%ax = cfg%lx / (nx - 1)
-    cfg%ay = cfg%ly / (ny - 1)
-    cfg%total_mass = 0.1_rp
-    cfg%e_s = 100.0_rp
-    cfg%e_d = 60.0_rp
-    cfg%k_b = 0.1_rp
-    cfg%eta_s = 0.0_rp
-    cfg%eta_d = 0.0_rp
-    cfg%eta_b = 0.0_rp
-    cfg%spring_code = spring
-    cfg%bending_code = bending
-    cfg%scaling_code = scaling
-    cfg%mass_code = MASS_UNIFORM
+    cfg = lattice_config(nx, ny, 1.0_rp, 1.5_rp, 0.1_rp, 100.0_rp, 60.0_rp, 0.1_rp, bending, spring, scaling)
     call lattice_init(lat, cfg, 0, ny - 1)
-
-    call seed()
-    call random_number(noise)
-    noise = 2.0_rp * noise - 1.0_rp
-    do j = 0, ny - 1
-      do i = 0, nx - 1
-        u(0:2, i, j) = rest_position(lat, i, j) + 0.2_rp * cfg%ax * noise(1:3, i, j)
-        u(3:5, i, j) = 0.0_rp
-      end do
-    end do
+    call seed_random(4711)
+    call perturbed_state(lat, 0.2_rp * cfg%ax, u)
 
     ! forces against the central difference of the energy
     call internal_forces(lat, u, f, nbad, bad)
@@ -113,26 +89,13 @@ contains
     if (bending == BEND_ENERGY) cfg%eta_b = 1.0e-3_rp
     call lattice_init(lat, cfg, 0, ny - 1)
     call internal_forces(lat, u, f, nbad, bad)
-    do j = 0, ny - 1
-      do i = 0, nx - 1
-        u(3:5, i, j) = noise(4:6, i, j)
-      end do
-    end do
+    call random_number(noise)
+    u(3:5, :, :) = 2.0_rp * noise - 1.0_rp
     call internal_forces(lat, u, fv, nbad, bad)
     call dissipated_power(lat, u, power)
     call check_true(power > 0.0_rp, what//': damped')
     call check_close(power, -sum((fv - f) * u(3:5, :, :)), 1.0e-12_rp, 0.0_rp, &
                      what//': dissipated power = -(f(x, v) - f(x, 0)) . v')
   end subroutine one
-
-  !> The same pseudo-random numbers for every case and run.
-  subroutine seed()
-    integer :: n, i
-    integer, allocatable :: s(:)
-    call random_seed(size=n)
-    allocate(s(n))
-    s = 4711 + 13 * [(i, i = 1, n)]
-    call random_seed(put=s)
-  end subroutine seed
 
 end program test_forces

@@ -29,7 +29,7 @@ program test_lattice
   use lattice, only: lattice_t, lattice_init, link_dir, line_dir, link_constants, link_lane_constants, &
                      triple_constants, rest_position, node_mass, rest_strip, halo_width
   use forces, only: internal_forces, element_energies, link_lane_range, triple_lane_range
-  use check, only: check_true, check_close, check_close_array, check_report
+  use check, only: check_true, check_close, check_close_array, check_report, lattice_config, seed_random, perturbed_state
   implicit none
 
   call index_convention()
@@ -54,23 +54,7 @@ contains
     integer, intent(in) :: nx, ny, bending, spring, scaling
     real(rp), intent(in) :: lx, ly
     type(nuno_config) :: cfg
-    cfg%nx = nx
-    cfg%ny = ny
-    cfg%lx = lx
-    cfg%ly = ly
-    cfg%ax = lx / (nx - 1)
-    cfg%ay = ly / (ny - 1)
-    cfg%total_mass = 0.3_rp
-    cfg%e_s = 7.0_rp
-    cfg%eta_s = 0.0_rp
-    cfg%e_d = 3.0_rp
-    cfg%eta_d = 0.0_rp
-    cfg%k_b = 0.2_rp
-    cfg%eta_b = 0.0_rp
-    cfg%bending_code = bending
-    cfg%spring_code = spring
-    cfg%scaling_code = scaling
-    cfg%mass_code = MASS_UNIFORM
+    cfg = lattice_config(nx, ny, lx, ly, 0.3_rp, 7.0_rp, 3.0_rp, 0.2_rp, bending, spring, scaling)
   end function make_cfg
 
   !> Owned and ghost rows, array bounds, rest positions.
@@ -295,22 +279,16 @@ contains
       0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10], [11, 4])
     type(nuno_config) :: cfg
     type(lattice_t) :: lat, whole
-    real(rp) :: uw(0:5, 0:nx - 1, 0:ny - 1), fw(3, 0:nx - 1, 0:ny - 1), noise(3, 0:nx - 1, 0:ny - 1)
+    real(rp) :: uw(0:5, 0:nx - 1, 0:ny - 1), fw(3, 0:nx - 1, 0:ny - 1)
     real(rp), allocatable :: u(:, :, :), f(:, :, :)
     real(rp) :: sw, bw, ss, bs, st, bt, err, fscale
-    integer :: i, j, split, s, nbad, bad(2)
+    integer :: split, s, nbad, bad(2)
     character(80) :: what
 
     cfg = make_cfg(nx, ny, 1.2_rp, 1.5_rp, bending, spring, scaling)
     call lattice_init(whole, cfg, 0, ny - 1)
-    call random_seed_fixed()
-    call random_number(noise)
-    do j = 0, ny - 1
-      do i = 0, nx - 1
-        uw(0:2, i, j) = rest_position(whole, i, j) + 0.15_rp * cfg%ax * (2.0_rp * noise(:, i, j) - 1.0_rp)
-        uw(3:5, i, j) = 0.0_rp
-      end do
-    end do
+    call seed_random(20261205)
+    call perturbed_state(whole, 0.15_rp * cfg%ax, uw)
     call element_energies(whole, uw, sw, bw)
     call internal_forces(whole, uw, fw, nbad, bad)
     fscale = maxval(abs(fw))
@@ -465,15 +443,5 @@ contains
       call check_true(ok, 'link_lane_constants equals link_constants, lane by lane')
     end do
   end subroutine continuum_constants
-
-  !> The same pseudo-random numbers at every run.
-  subroutine random_seed_fixed()
-    integer :: n, i
-    integer, allocatable :: seed(:)
-    call random_seed(size=n)
-    allocate(seed(n))
-    seed = 20261205 + 37 * [(i, i = 1, n)]
-    call random_seed(put=seed)
-  end subroutine random_seed_fixed
 
 end program test_lattice
