@@ -1,6 +1,11 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> The solver's context, passed to every PETSc callback as the user
 !> context, and the C functions of the time loop (src/nuno_signals.c).
+!> The context's records are defined here and written only by the module
+!> that owns each (named at its type; its routines set, restore and free
+!> the record): every other module reads them or calls those routines
+!> (docs/design.md, "Records and their owners";
+!> tests/python/test_record_owners.py).
 module app_context
 #include "petsc/finclude/petscts.h"
   use petscts
@@ -21,8 +26,6 @@ module app_context
   private
   public :: app_ctx, model_state_t, assembly_t, newton_state_t, step_settings_t, energy_integrals_t, progress_t, &
             restart_state_t
-  public :: model_state_free, assembly_free, energy_integrals_free, energy_integrals_reset, energy_integrals_start, &
-            energy_integrals_restore, energy_add_work, energy_set_mgx0, progress_reset, restart_state_free
   public :: nuno_walltime_arm, nuno_checkpoint_due, nuno_signal_agreed, nuno_signals_install, nuno_ts_stop
 
   interface
@@ -52,8 +55,8 @@ module app_context
   end interface
 
 
-  !> The model's state within a time window and its work arrays (module
-  !> cloth_model, set by enter_window).
+  !> The model's state within a time window and its work arrays (owner:
+  !> module cloth_model; model_state_init, model_enter_window).
   type :: model_state_t
     real(rp), allocatable :: f(:, :, :)         !< (3, 0:nx-1, gys:gye) force work array
     logical, allocatable :: fixed(:, :)         !< (0:nx-1, ys:ye) constrained in the current window
@@ -68,7 +71,7 @@ module app_context
   end type model_state_t
 
   !> The assembled 6-dof Jacobian and its work buffers (-nuno_jacobian full;
-  !> module cloth_model).
+  !> owner: module cloth_model; assembly_create).
   type :: assembly_t
     type(jac_buffer_t) :: jbuf
     type(tMat) :: p                             !< assembled 6-dof Jacobian (-nuno_jacobian full only)
@@ -77,7 +80,9 @@ module app_context
   end type assembly_t
 
   !> Newton's policy state: the round-off floor, inexact Newton, the line-
-  !> search fallback and the Newton start (module newton_policy).
+  !> search fallback and the Newton start (owner: module newton_policy,
+  !> newton_state_init and its setters; the Newton start's kept states:
+  !> module newton_start).
   type :: newton_state_t
     real(rp) :: snes_floor = 1.0e-6_rp          !< -nuno_snes_floor: stagnation below this relative residual is convergence
     real(rp) :: fnorm0 = 0, fnorm_prev = 0
@@ -96,7 +101,9 @@ module app_context
   end type newton_state_t
 
   !> The time integration as used: the namelist's values after the PETSc
-  !> options (module solver_setup), and the current time window.
+  !> options (resolved by module solver_setup), and the current time window
+  !> (owner: module step_monitor; step_settings_init, step_set_tolerances,
+  !> step_enter_window).
   type :: step_settings_t
     real(rp) :: dt = 0                          !< fixed (or initial) step [time]: -ts_dt, else the namelist's
     real(rp) :: t_end = 0                       !< end time [time]: -ts_max_time, else the namelist's
@@ -113,7 +120,7 @@ module app_context
 
   !> Time integrals, advanced by the monitor over each accepted step so that
   !> they close at the method's order: Gauss-Legendre on the interpolant of bdf
-  !> (order up to 6), the trapezoid rule otherwise (module step_monitor).
+  !> (order up to 6), the trapezoid rule otherwise (owner: module step_monitor).
   type :: energy_integrals_t
     logical :: gauss = .false.
     type(tVec) :: uq                            !< interpolated state (Gauss points)
@@ -123,7 +130,8 @@ module app_context
     real(rp) :: mgx0 = 0                        !< sum m g . x at t = 0
   end type energy_integrals_t
 
-  !> Progress of the run: wall clock, output steps, the monitor's stall check.
+  !> Progress of the run: wall clock, output steps, the monitor's stall check
+  !> (owner: module step_monitor).
   type :: progress_t
     logical :: monitor_seen = .false.           !< ts_monitor has run (its stall check)
     PetscInt :: monitor_step = 0                !< the step number it saw last
@@ -134,7 +142,7 @@ module app_context
     logical :: stretch_warned = .false.         !< the stretch_limit warning was given
   end type progress_t
 
-  !> Checkpoints and restarts (docs/design.md, "Checkpoints"; module
+  !> Checkpoints and restarts (docs/design.md, "Checkpoints"; owner: module
   !> run_checkpoint).
   type :: restart_state_t
     real(rp) :: checkpoint_walltime = 0         !< -nuno_checkpoint_walltime: a checkpoint after each [s]; 0: none
@@ -185,95 +193,5 @@ module app_context
     type(restart_state_t) :: restart
     type(contact_state_t) :: contact            !< obstacles and friction lag (module contact_forces; empty without)
   end type app_ctx
-
-contains
-
-  ! Each record starts from its type's default initialisation (solver_create
-  ! fills in what the options give); these free what it allocated.
-
-  !> The model's work arrays.
-  subroutine model_state_free(m)
-    type(model_state_t), intent(inout) :: m
-    if (allocated(m%f)) deallocate(m%f)
-    if (allocated(m%fixed)) deallocate(m%fixed)
-  end subroutine model_state_free
-
-  !> The assembled 6-dof Jacobian and its buffers (-nuno_jacobian full only:
-  !> the reduced solve creates none). Collective.
-  subroutine assembly_free(a, ierr)
-    type(assembly_t), intent(inout) :: a
-    PetscErrorCode, intent(out) :: ierr
-    PetscCall(MatDestroy(a%p, ierr))
-    if (allocated(a%vals)) deallocate(a%vals)
-    if (allocated(a%cols)) deallocate(a%cols)
-  end subroutine assembly_free
-
-  !> The interpolated state of the Gauss points. Collective.
-  subroutine energy_integrals_free(e, ierr)
-    type(energy_integrals_t), intent(inout) :: e
-    PetscErrorCode, intent(out) :: ierr
-    PetscCall(VecDestroy(e%uq, ierr))
-  end subroutine energy_integrals_free
-
-  !> The integrals back at their start (t = 0, nothing dissipated, no work
-  !> done) for a new run over the same solver (identification, control);
-  !> the integration rule and its work vector stay.
-  subroutine energy_integrals_reset(e)
-    type(energy_integrals_t), intent(inout) :: e
-    e%t_prev = 0
-    e%pdiss_prev = 0
-    e%pcon_prev = 0
-    e%dissipated = 0
-    e%work_constraints = 0
-    e%mgx0 = 0
-  end subroutine energy_integrals_reset
-
-  !> The integrals go on from t [time] (the run's start, or a restart's
-  !> checkpoint time): the monitor's next step integrates from there.
-  subroutine energy_integrals_start(e, t)
-    type(energy_integrals_t), intent(inout) :: e
-    real(rp), intent(in) :: t
-    e%t_prev = t
-  end subroutine energy_integrals_start
-
-  !> The integrals of a checkpoint [energy] (module run_checkpoint).
-  subroutine energy_integrals_restore(e, dissipated, work_constraints, mgx0)
-    type(energy_integrals_t), intent(inout) :: e
-    real(rp), intent(in) :: dissipated, work_constraints, mgx0
-    e%dissipated = dissipated
-    e%work_constraints = work_constraints
-    e%mgx0 = mgx0
-  end subroutine energy_integrals_restore
-
-  !> sum m g . x at t = 0 [energy], the reference of the potential energy
-  !> of gravity in the external work (the output step at t = 0).
-  subroutine energy_set_mgx0(e, mgx0)
-    type(energy_integrals_t), intent(inout) :: e
-    real(rp), intent(in) :: mgx0
-    e%mgx0 = mgx0
-  end subroutine energy_set_mgx0
-
-  !> The work dw [energy] done on the cloth at a window's start (the
-  !> impulse of a keyframe: enter_window) added to the constraint work.
-  subroutine energy_add_work(e, dw)
-    type(energy_integrals_t), intent(inout) :: e
-    real(rp), intent(in) :: dw
-    e%work_constraints = e%work_constraints + dw
-  end subroutine energy_add_work
-
-  !> No output step written, the monitor's stall check afresh: a new run
-  !> over the same solver (identification, control).
-  subroutine progress_reset(p)
-    type(progress_t), intent(inout) :: p
-    p = progress_t()
-  end subroutine progress_reset
-
-  !> The restart point's state.
-  subroutine restart_state_free(r)
-    type(restart_state_t), intent(inout) :: r
-    if (allocated(r%rp_x)) deallocate(r%rp_x)
-    if (allocated(r%rp_v)) deallocate(r%rp_v)
-    r%rp_valid = .false.
-  end subroutine restart_state_free
 
 end module app_context

@@ -18,16 +18,21 @@ module cloth_model
   use petscdmda
   use mpi
   use kinds, only: rp
-  use forces, only: internal_forces, jac_buffer_row, slot_of, first_anchor_row
-  use constraints, only: constraint_target
+  use forces, only: internal_forces, jac_buffer_row, slot_of, first_anchor_row, jac_buffer_init
+  use lattice, only: lattice_t
+  use constraints, only: constraint_set_t, constraint_target
   use newton_control, only: floor_node_add, floor_estimate
   use reduced, only: reduced_assemble, set_block_row
-  use app_context, only: app_ctx
+  use app_context, only: app_ctx, model_state_t, assembly_t
+  use newton_policy, only: newton_set_floor
   use failure_text, only: ieee_nan
   use contact_forces, only: contact_on, contact_add_forces, contact_blocks
   implicit none
   private
   public :: form_ifunction, form_ijacobian
+  ! the model and assembly records of app_ctx: written only here
+  public :: model_state_init, model_enter_window, model_state_free, assembly_create, assembly_free, &
+            model_internal_forces
 
 contains
 
@@ -156,7 +161,7 @@ contains
     PetscCall(DMRestoreLocalVector(ctx%da, uloc, ierr))
     call MPI_Allreduce(sums(1), gsums(1), 1, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, ierr)
     call MPI_Allreduce(sums(2), gsums(2), 1, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
-    ctx%newton%floor_est = floor_estimate(gsums)
+    call newton_set_floor(ctx%newton, floor_estimate(gsums))
     PetscCall(MatAssemblyBegin(pmat, MAT_FINAL_ASSEMBLY, ierr))
     PetscCall(MatAssemblyEnd(pmat, MAT_FINAL_ASSEMBLY, ierr))
     if (jmat%v /= pmat%v) then
@@ -213,5 +218,89 @@ contains
       PetscCall(set_block_row(pmat, row, ncol, ctx%asm%cols, ctx%asm%vals, 36 * nc, ierr))
     end do
   end subroutine insert_row
+
+  ! ------------------------------------------- the model's records (owner)
+
+  !> The model's work arrays for the strip of lat (rows ys..ye, ghosts
+  !> gys..gye), no node constrained yet, and the model's flags: gravity
+  !> [length/time^2] (zero without), clamp (indefinite spring compression
+  !> terms dropped from the preconditioner), gauss_newton (Gauss-Newton
+  !> energy-bending blocks).
+  subroutine model_state_init(m, lat, gravity, clamp, gauss_newton)
+    type(model_state_t), intent(inout) :: m
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: gravity(3)
+    logical, intent(in) :: clamp, gauss_newton
+    allocate(m%f(3, 0:lat%nx - 1, lat%gys:lat%gye))
+    allocate(m%fixed(0:lat%nx - 1, lat%ys:lat%ye))
+    m%gravity = gravity
+    m%fixed = .false.
+    m%clamp = clamp
+    m%gauss_newton = gauss_newton
+  end subroutine model_state_init
+
+  !> A time window's constraint state (enter_window): the nodes of cs (the
+  !> rank's own) constrained, the others free; moving: a constrained node
+  !> moves in this window (the constraint power is then integrated).
+  subroutine model_enter_window(m, cs, moving)
+    type(model_state_t), intent(inout) :: m
+    type(constraint_set_t), intent(in) :: cs
+    logical, intent(in) :: moving
+    integer :: k
+    m%fixed = .false.
+    if (cs%active) then
+      do k = 1, cs%n
+        m%fixed(cs%node(1, k), cs%node(2, k)) = .true.
+      end do
+    end if
+    m%moving_constraints = moving
+  end subroutine model_enter_window
+
+  !> The internal forces of the ghosted state u (the strip of lat, whose
+  !> element parameters are used) into the model's work array m%f [force]
+  !> (the monitor's constraint power, identification's dF/dp); nbad, bad:
+  !> the singular elements met (module forces' internal_forces).
+  subroutine model_internal_forces(m, lat, u, nbad, bad)
+    type(model_state_t), intent(inout) :: m
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: u(0:5, 0:lat%nx - 1, lat%gys:lat%gye)
+    integer, intent(out) :: nbad, bad(2)
+    call internal_forces(lat, u, m%f, nbad, bad)
+  end subroutine model_internal_forces
+
+  !> The model's work arrays.
+  subroutine model_state_free(m)
+    type(model_state_t), intent(inout) :: m
+    if (allocated(m%f)) deallocate(m%f)
+    if (allocated(m%fixed)) deallocate(m%fixed)
+  end subroutine model_state_free
+
+  !> The assembled 6-dof Jacobian on da with the DMDA's exact box-stencil
+  !> preallocation, its rolling buffer of element blocks and one block
+  !> row's work arrays (w: the halo width). -nuno_jacobian full only.
+  !> Collective.
+  subroutine assembly_create(a, da, lat, w, ierr)
+    type(assembly_t), intent(inout) :: a
+    type(tDM), intent(in) :: da
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: w
+    PetscErrorCode, intent(out) :: ierr
+    integer :: nc
+    PetscCall(DMCreateMatrix(da, a%p, ierr))
+    PetscCall(MatSetOption(a%p, MAT_ROW_ORIENTED, PETSC_FALSE, ierr))
+    call jac_buffer_init(a%jbuf, lat)
+    nc = (2 * w + 1)**2
+    allocate(a%vals(6, 6, nc), a%cols(nc))
+  end subroutine assembly_create
+
+  !> The assembled 6-dof Jacobian and its buffers (-nuno_jacobian full only:
+  !> the reduced solve creates none). Collective.
+  subroutine assembly_free(a, ierr)
+    type(assembly_t), intent(inout) :: a
+    PetscErrorCode, intent(out) :: ierr
+    PetscCall(MatDestroy(a%p, ierr))
+    if (allocated(a%vals)) deallocate(a%vals)
+    if (allocated(a%cols)) deallocate(a%cols)
+  end subroutine assembly_free
 
 end module cloth_model

@@ -39,11 +39,11 @@ module identify_adjoint
   use, intrinsic :: iso_c_binding, only: c_null_char
   use kinds, only: rp
   use lattice, only: lattice_t, lattice_init
-  use forces, only: internal_forces
+  use cloth_model, only: model_internal_forces
   use scenes, only: scene_setup
   use constraints, only: constraint_step_sensitivity, PATH_KEYFRAMES
   use timestepping, only: app_ctx, enter_window, advance_window
-  use app_context, only: energy_integrals_reset, progress_reset
+  use step_monitor, only: energy_integrals_reset, progress_reset
   use safe_files, only: make_scratch_dir, remove_scratch
   use identify_params, only: ident_params_t, MODE_CONTROL, params_setup_identify, params_setup_control, &
                              apply_theta, values_text
@@ -460,7 +460,7 @@ contains
         case (6); lp%eta_b = app%lat%eta_b
         end select
       end if
-      call internal_forces(lp, u, app%model%f, nbad, bad)
+      call model_internal_forces(app%model, lp, u, nbad, bad)
       do j = app%lat%ys, app%lat%ye
         do i = 0, app%lat%nx - 1
           if (app%model%fixed(i, j)) cycle

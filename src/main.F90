@@ -14,7 +14,8 @@ program nuno
   use, intrinsic :: iso_c_binding, only: c_int
   use input, only: input_read, input_summary, input_check_run
   use input_usage, only: usage_text, list_keys
-  use timestepping, only: app_ctx, solver_create, solver_destroy, solver_run, check_decomposition, solver_restore
+  use timestepping, only: app_ctx, solver_create, solver_destroy, solver_run, check_decomposition, solver_restore, &
+                          restart_state_init
   use output, only: output_file, output_open, output_close, output_reopen, checkpoint_t, output_write_identify, &
                     output_write_control
   use identify, only: ident_t, identify_prepare_options, identify_run, identify_result, control_result, &
@@ -205,7 +206,7 @@ program nuno
   petsc_opts = petsc_options_text()
   if (len_trim(cfg%petsc_options) > 0) &
     petsc_opts = trim(petsc_opts//' [namelist, overridden by the above: '//trim(cfg%petsc_options)//']')
-  ctx%restart%checkpoint_walltime = walltime
+  call restart_state_init(ctx%restart, checkpoint_walltime=walltime)
   if (len_trim(restart_file) > 0) then
     if (len_trim(restart_file) > len(cfg%output_file)) &
       call fatal_collective('-nuno_restart: the file name is longer than '//trim(adjustl(itoa(len(cfg%output_file))))// &

@@ -13,13 +13,17 @@ module newton_policy
   use kinds, only: rp
   use newton_forcing, only: forcing_term, quadratic_constant
   use newton_control, only: FLOOR_FACTOR, NEWTON_CONVERGED, NEWTON_DIVERGED, floor_verdict
-  use app_context, only: app_ctx
+  use app_context, only: app_ctx, newton_state_t
   use newton_start, only: newton_start_setup
+  use reduced, only: reduced_set_forcing
   use solver_choices, only: FALLBACK_NAMES
   use strings, only: num => real_brief
   implicit none
   private
   public :: set_newton_start, snes_converged, linesearch_fallback
+  ! the newton record of app_ctx: written only here (its Newton start's
+  ! kept states by module newton_start)
+  public :: newton_state_init, newton_set_inner_guess, newton_enter_window, newton_set_floor
 
   !> Adaptive steps: Newton has converged when its estimated remaining error
   !> is below this fraction of the time integrator's tolerance (the
@@ -167,7 +171,7 @@ contains
     if (it >= 1) ctx%newton%cquad = quadratic_constant(ctx%newton%fnorm_prev, fnorm, ctx%red%lin_rel)
     target = max(atol, rtol * ctx%newton%fnorm0)
     if (ctx%newton%snes_floor > 0.0_rp) target = max(target, FLOOR_FACTOR * ctx%red%floor_est)
-    ctx%red%eta = forcing_term(fnorm, target, ctx%newton%cquad, ctx%red%rtol0, ETA_MAX)
+    call reduced_set_forcing(ctx%red, forcing_term(fnorm, target, ctx%newton%cquad, ctx%red%rtol0, ETA_MAX))
   end subroutine set_newton_forcing
 
   !> The last Newton update in the weighted RMS norm of the time integrator:
@@ -226,5 +230,50 @@ contains
     if (ctx%rank == 0) write(output_unit, '(a)') 'nuno: after a failed Newton solve (its step retried smaller), line search '// &
       kind//' from t = '//num(t)//' on (-nuno_linesearch_fallback)'
   end subroutine linesearch_fallback
+
+  ! ------------------------------------------ the newton record (owner)
+
+  !> Newton's policy as the options resolved it (solver_create):
+  !> snes_floor (-nuno_snes_floor, relative residual), guess and
+  !> guess_given (-nuno_inner_guess and whether it was given), forcing
+  !> (-nuno_newton_forcing), fail_newton (-nuno_fail_newton, tests),
+  !> ls_fallback (-nuno_linesearch_fallback's code; 0: none).
+  subroutine newton_state_init(n, snes_floor, guess, guess_given, forcing, fail_newton, ls_fallback)
+    type(newton_state_t), intent(inout) :: n
+    real(rp), intent(in) :: snes_floor
+    integer(c_int), intent(in) :: guess, guess_given
+    logical, intent(in) :: forcing
+    integer, intent(in) :: fail_newton, ls_fallback
+    n%snes_floor = snes_floor
+    n%guess = guess
+    n%guess_given = guess_given
+    n%newton_forcing = forcing
+    n%fail_newton = fail_newton
+    n%ls_fallback = ls_fallback
+  end subroutine newton_state_init
+
+  !> The inner guess the run uses (auto resolved, or none where the run
+  !> cannot use one: module solver_setup's set_inner_guess).
+  subroutine newton_set_inner_guess(n, guess)
+    type(newton_state_t), intent(inout) :: n
+    integer(c_int), intent(in) :: guess
+    n%guess = guess
+  end subroutine newton_set_inner_guess
+
+  !> A time window's start (enter_window): the Newton remainder is learnt
+  !> anew in each window, so that a run restarted at a window's start takes
+  !> the same iterations as the run that went through it.
+  subroutine newton_enter_window(n)
+    type(newton_state_t), intent(inout) :: n
+    n%cquad = 0.0_rp
+  end subroutine newton_enter_window
+
+  !> The round-off floor of ||F||_2 estimated at the last 6-dof assembly
+  !> (module cloth_model; the reduced path keeps its own in reduced_t).
+  subroutine newton_set_floor(n, floor_est)
+    type(newton_state_t), intent(inout) :: n
+    real(rp), intent(in) :: floor_est
+    n%floor_est = floor_est
+  end subroutine newton_set_floor
 
 end module newton_policy

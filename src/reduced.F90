@@ -34,6 +34,7 @@ module reduced
   private
   public :: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach, reduced_describe
   public :: set_block_row, reduced_set_guess, reduced_step_accepted
+  public :: reduced_set_forcing, reduced_restore_floor
   public :: INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
 
   !> The element model's flags and the element products of the reduced
@@ -583,5 +584,22 @@ contains
     call guess_accepted(red%gs)
   end subroutine reduced_step_accepted
 
+  !> Inexact Newton: the inner rtol of the coming Newton iteration's solve
+  !> (module newton_policy, from module newton_forcing); the elimination
+  !> takes it once and clears it (0: the options' rtol0).
+  subroutine reduced_set_forcing(red, eta)
+    type(reduced_t), intent(inout) :: red
+    real(rp), intent(in) :: eta
+    red%eta = eta
+  end subroutine reduced_set_forcing
+
+  !> A restart's round-off floor of ||F||_2 [residual], that of the last
+  !> assembly before its checkpoint (module run_checkpoint): the first
+  !> Newton iteration's inner tolerance depends on it.
+  subroutine reduced_restore_floor(red, floor_est)
+    type(reduced_t), intent(inout) :: red
+    real(rp), intent(in) :: floor_est
+    red%floor_est = floor_est
+  end subroutine reduced_restore_floor
 
 end module reduced

@@ -11,13 +11,17 @@ module run_checkpoint
   use, intrinsic :: iso_fortran_env, only: output_unit
   use kinds, only: rp
   use output, only: output_file, checkpoint_t, output_write_checkpoint, output_steps
-  use app_context, only: app_ctx, energy_integrals_restore
+  use app_context, only: app_ctx, restart_state_t
+  use step_monitor, only: energy_integrals_restore, progress_restore
+  use reduced, only: reduced_restore_floor
   use newton_start, only: newton_start_count, newton_start_get, newton_start_put
   use failure_text, only: report_io_error
   use strings, only: inum => itoa
   implicit none
   private
   public :: run_counts, solver_restore, take_checkpoint, keep_restart_point
+  ! the restart record of app_ctx: written only here
+  public :: restart_state_init, restart_output_written, restart_state_free
 
 contains
 
@@ -62,13 +66,12 @@ contains
     ctx%restart%wall_before = ck%wall_time
     ctx%restart%counts_before = [0.0_rp, ck%counters(2:5)]
     call energy_integrals_restore(ctx%energy, ck%dissipated, ck%work_constraints, ck%mgx0)
-    ctx%progress%t_written = ck%t_written
-    ctx%progress%stretch_warned = ck%stretch_warned /= 0
+    call progress_restore(ctx%progress, t_written=ck%t_written, stretch_warned=ck%stretch_warned /= 0)
     ! The first Newton iteration's inner tolerance takes the round-off floor
     ! of the last step's assembly (set_newton_forcing): without it the
     ! restart's first step solved to another tolerance and the run
     ! differed from the one it continues by 1e-13 m (hang 65 x 65).
-    if (ctx%use_reduced) ctx%red%floor_est = ck%newton_floor
+    if (ctx%use_reduced) call reduced_restore_floor(ctx%red, ck%newton_floor)
     ! A checkpoint at an output step is the restart point until the next one.
     if (ck%time == ck%t_written) then
       ctx%restart%rp_ck = ck
@@ -270,5 +273,30 @@ contains
     end do
     PetscCall(DMDAVecRestoreArrayF90(ctx%da, u, ua, ierr))
   end subroutine strips_to_state
+
+  ! ----------------------------------------- the restart record (owner)
+
+  !> The run's checkpoint policy from the command line (main):
+  !> checkpoint_walltime (-nuno_checkpoint_walltime) [s], 0 for none.
+  subroutine restart_state_init(r, checkpoint_walltime)
+    type(restart_state_t), intent(inout) :: r
+    real(rp), intent(in) :: checkpoint_walltime
+    r%checkpoint_walltime = checkpoint_walltime
+  end subroutine restart_state_init
+
+  !> An output step was written (solver_run): the last checkpoint is now
+  !> older than it, so a complete run writes one at its end.
+  subroutine restart_output_written(r)
+    type(restart_state_t), intent(inout) :: r
+    r%checkpoint_current = .false.
+  end subroutine restart_output_written
+
+  !> The restart point's state.
+  subroutine restart_state_free(r)
+    type(restart_state_t), intent(inout) :: r
+    if (allocated(r%rp_x)) deallocate(r%rp_x)
+    if (allocated(r%rp_v)) deallocate(r%rp_v)
+    r%rp_valid = .false.
+  end subroutine restart_state_free
 
 end module run_checkpoint

@@ -12,21 +12,20 @@ module solver_setup
   use kinds, only: rp
   use config, only: nuno_config, SPRING_LINEAR, BEND_NONE, BEND_ENERGY
   use lattice, only: lattice_init, halo_width
-  use forces, only: jac_buffer_init
   use scenes, only: scene_setup
   use solver_choices, only: JACOBIAN_NAMES, JACOBIAN_REDUCED, INTERP_AUTO, INTERP_NAMES, GUESS_AUTO, GUESS_NONE, &
                             GUESS_EXTRAPOLATE, GUESS_PROJECT, GUESS_NAMES, FALLBACK_BT, FALLBACK_NAMES
   use reduced, only: reduced_create, reduced_destroy, reduced_attach, reduced_set_guess, reduced_describe
-  use app_context, only: app_ctx, model_state_free, assembly_free, energy_integrals_free, restart_state_free, &
-                         nuno_signals_install
+  use app_context, only: app_ctx, nuno_signals_install
   use solver_options, only: nuno_options_read, nuno_linesearch_options_read, nuno_tolerance_options_read, &
                             nuno_options_report_unused, adaptive_default, step_defaults, ts_scheme, petsc_habits
   use newton_start, only: newton_start_free, newton_start_order
   use strings, only: itoa, real_g0, num => real_brief, inum => itoa
-  use cloth_model, only: form_ifunction, form_ijacobian
-  use newton_policy, only: set_newton_start, snes_converged
+  use cloth_model, only: form_ifunction, form_ijacobian, model_state_init, model_state_free, assembly_create, assembly_free
+  use newton_policy, only: set_newton_start, snes_converged, newton_state_init, newton_set_inner_guess
   use contact_solver, only: contact_solver_options, contact_setup
-  use step_monitor, only: ts_monitor
+  use step_monitor, only: ts_monitor, step_settings_init, step_set_tolerances, energy_integrals_init, energy_integrals_free
+  use run_checkpoint, only: restart_state_free
   implicit none
   private
   public :: check_decomposition, solver_create, solver_destroy
@@ -68,7 +67,7 @@ contains
     !> and t_end are written into it
     type(nuno_config), intent(inout), target :: cfg
     PetscErrorCode, intent(out) :: ierr
-    PetscInt :: xs, ys, zs, xm, ym, zm, gxs, gys, gzs, gxm, gym, gzm, w, nc, nxp, nyp
+    PetscInt :: xs, ys, zs, xm, ym, zm, gxs, gys, gzs, gxm, gym, gzm, w, nxp, nyp
     PetscInt, parameter :: one = 1, two = 2, six = 6, eight = 8
     type(tSNES) :: snes
     type(tTSAdapt) :: adapt
@@ -76,7 +75,8 @@ contains
     PetscScalar, pointer :: ua(:, :, :)
     character(len=64) :: mattype
     character(len=64, kind=c_char) :: cmattype
-    integer(c_int) :: jac, pc_lag, gn, cl, nfail, mg_interp, forcing, ls_fallback, ls_given
+    integer(c_int) :: jac, pc_lag, gn, cl, nfail, mg_interp, forcing, ls_fallback, ls_given, guess, guess_given
+    real(c_double) :: snes_floor
     PetscBool :: ls_type_given
     logical :: symmetric, constant, damping, applied
 
@@ -107,25 +107,25 @@ contains
     ! contact's onset, and its loose inner solves (up to 0.1) failed
     ! drop_table's impact step (4 retries) where a fixed 1e-6 takes none.
     forcing = merge(0, 1, cfg%contact%n_obstacles > 0)
-    ctx%newton%guess = GUESS_AUTO
+    guess = GUESS_AUTO
+    snes_floor = ctx%newton%snes_floor             ! the default (module newton_policy's record)
     ierr = nuno_options_read(ctx%comm, JACOBIAN_NAMES, size(JACOBIAN_NAMES), len(JACOBIAN_NAMES), jac, pc_lag, &
-                             INTERP_NAMES, size(INTERP_NAMES), len(INTERP_NAMES), mg_interp, ctx%newton%snes_floor, gn, cl, &
+                             INTERP_NAMES, size(INTERP_NAMES), len(INTERP_NAMES), mg_interp, snes_floor, gn, cl, &
                              cmattype, len(cmattype), nfail, forcing, &
-                             GUESS_NAMES, size(GUESS_NAMES), len(GUESS_NAMES), ctx%newton%guess, ctx%newton%guess_given)
+                             GUESS_NAMES, size(GUESS_NAMES), len(GUESS_NAMES), guess, guess_given)
     if (ierr /= 0) return
     if (pc_lag < 0) then
       ierr = PETSC_ERR_ARG_OUTOFRANGE
       SETERRQ(ctx%comm, ierr, '-nuno_pc_lag '//itoa(int(pc_lag))//' must be >= 1 (or 0: the default)')
     end if
-    if (.not. (ctx%newton%snes_floor >= 0.0_rp .and. ctx%newton%snes_floor < 1.0_rp)) then
+    if (.not. (snes_floor >= 0.0_rp .and. snes_floor < 1.0_rp)) then
       ierr = PETSC_ERR_ARG_OUTOFRANGE
-      SETERRQ(ctx%comm, ierr, '-nuno_snes_floor '//real_g0(ctx%newton%snes_floor)//' must be in [0, 1)')
+      SETERRQ(ctx%comm, ierr, '-nuno_snes_floor '//real_g0(snes_floor)//' must be in [0, 1)')
     end if
     if (nfail < 0) then
       ierr = PETSC_ERR_ARG_OUTOFRANGE
       SETERRQ(ctx%comm, ierr, '-nuno_fail_newton '//itoa(int(nfail))//' must be >= 0')
     end if
-    ctx%newton%newton_forcing = forcing /= 0
     ctx%use_reduced = jac == JACOBIAN_REDUCED
     ! -pc_type lu and friends on the path in use (before anything reads them)
     PetscCall(petsc_habits(ctx%comm, ctx%use_reduced, cmattype, ierr))
@@ -133,9 +133,6 @@ contains
       ierr = PETSC_ERR_ARG_INCOMP
       SETERRQ(ctx%comm, ierr, 'nuno: -nuno_mg_interpolation is for the reduced solve, not -nuno_jacobian full')
     end if
-    ctx%model%gauss_newton = gn /= 0
-    ctx%model%clamp = cl /= 0
-    ctx%newton%fail_newton = nfail
     ls_fallback = FALLBACK_BT
     ierr = nuno_linesearch_options_read(ctx%comm, FALLBACK_NAMES, size(FALLBACK_NAMES), len(FALLBACK_NAMES), ls_fallback, ls_given)
     if (ierr /= 0) return
@@ -149,8 +146,9 @@ contains
       ierr = PETSC_ERR_ARG_INCOMP
       SETERRQ(ctx%comm, ierr, 'nuno: -nuno_linesearch_fallback and -snes_linesearch_type: give one (the first changes the line search after a failed Newton solve, the second sets it for the whole run)')
     end if
-    ctx%newton%ls_fallback = 0
-    if (ctx%use_reduced .and. .not. ls_type_given) ctx%newton%ls_fallback = ls_fallback
+    if (.not. ctx%use_reduced .or. ls_type_given) ls_fallback = 0
+    call newton_state_init(ctx%newton, snes_floor=snes_floor, guess=guess, guess_given=guess_given, &
+                           forcing=forcing /= 0, fail_newton=nfail, ls_fallback=ls_fallback)
     mattype = cmattype(1:index(cmattype, c_null_char) - 1)
     PetscCall(DMSetMatType(ctx%da, mattype, ierr))
     PetscCall(DMSetUp(ctx%da, ierr))
@@ -168,11 +166,9 @@ contains
       ierr = PETSC_ERR_PLIB
       SETERRQ(ctx%comm, ierr, 'nuno: the DMDA is not split into strips of whole rows')
     end if
-    allocate(ctx%model%f(3, 0:cfg%nx - 1, ctx%lat%gys:ctx%lat%gye))
-    allocate(ctx%model%fixed(0:cfg%nx - 1, ys:ys + ym - 1))
+    call model_state_init(ctx%model, ctx%lat, gravity=merge(cfg%gravity, [0.0_rp, 0.0_rp, 0.0_rp], cfg%has_gravity), &
+                          clamp=cl /= 0, gauss_newton=gn /= 0)
     allocate(ctx%xout(3, 0:cfg%nx - 1, ys:ys + ym - 1), ctx%vout(3, 0:cfg%nx - 1, ys:ys + ym - 1))
-    ctx%model%gravity = merge(cfg%gravity, [0.0_rp, 0.0_rp, 0.0_rp], cfg%has_gravity)
-    ctx%model%fixed = .false.
 
     ! Initial state and constraints of the scene.
     PetscCall(DMCreateGlobalVector(ctx%da, ctx%u, ierr))
@@ -192,11 +188,7 @@ contains
       PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, symmetric, constant, damping, ctx%model%clamp, ctx%model%gauss_newton, pc_lag, ierr, mg_interpolation=mg_interp))
     else
       ! Jacobian with the DMDA's exact box-stencil preallocation.
-      PetscCall(DMCreateMatrix(ctx%da, ctx%asm%p, ierr))
-      PetscCall(MatSetOption(ctx%asm%p, MAT_ROW_ORIENTED, PETSC_FALSE, ierr))
-      call jac_buffer_init(ctx%asm%jbuf, ctx%lat)
-      nc = (2 * w + 1)**2
-      allocate(ctx%asm%vals(6, 6, nc), ctx%asm%cols(nc))
+      PetscCall(assembly_create(ctx%asm, ctx%da, ctx%lat, int(w), ierr))
     end if
 
     ! The report's scheme by default: backward Euler with the namelist's
@@ -254,15 +246,14 @@ contains
     ! An adaptive run without -ts_type: the method that won the
     ! work-precision measurement at moderate tolerance (module solver_options).
     ! The identification and the control keep beuler: their adjoint needs a theta method.
-    ctx%step%adaptive_default = .false.
+    applied = .false.
     if (.not. (cfg%identify .or. cfg%control)) then
       PetscCall(adaptive_default(ctx%ts, ctx%comm, applied, ierr))
-      ctx%step%adaptive_default = applied
     end if
     PetscCall(contact_solver_options(ctx, ierr))
     PetscCall(step_defaults(ctx%ts, ctx%use_reduced, ierr))
     PetscCall(TSSetFromOptions(ctx%ts, ierr))
-    PetscCall(effective_time_integration(ctx, ierr))
+    PetscCall(effective_time_integration(ctx, applied, ierr))
     PetscCall(contact_setup(ctx, ierr))
   end subroutine solver_create
 
@@ -270,9 +261,12 @@ contains
   !> run, the start-up line and the output file use the values actually in
   !> force: -ts_dt overrides the namelist's dt, -ts_max_time its t_end,
   !> -ts_max_steps ends the run early (complete). Options the time loop
-  !> cannot honour are refused here. Collective.
-  subroutine effective_time_integration(ctx, ierr)
+  !> cannot honour are refused here. adaptive: the TS type is
+  !> -nuno_adaptive_ts_type's (module solver_options' adaptive_default).
+  !> Collective.
+  subroutine effective_time_integration(ctx, adaptive, ierr)
     type(app_ctx), intent(inout) :: ctx
+    logical, intent(in) :: adaptive
     PetscErrorCode, intent(out) :: ierr
     type(tTSAdapt) :: adapt
     TSExactFinalTimeOption :: eft
@@ -283,17 +277,19 @@ contains
     character(len=64) :: sntype
     type(tSNES) :: snes
     character(len=40) :: srcx, srcv
-    real(rp) :: dt_namelist, t_end_namelist
+    real(rp) :: dt_namelist, t_end_namelist, dt, t_end
+    PetscInt :: max_steps
 
     dt_namelist = ctx%cfg%dt
     t_end_namelist = ctx%cfg%t_end
-    PetscCall(TSGetTimeStep(ctx%ts, ctx%step%dt, ierr))
-    PetscCall(TSGetMaxTime(ctx%ts, ctx%step%t_end, ierr))
-    PetscCall(TSGetMaxSteps(ctx%ts, ctx%step%max_steps, ierr))
+    PetscCall(TSGetTimeStep(ctx%ts, dt, ierr))
+    PetscCall(TSGetMaxTime(ctx%ts, t_end, ierr))
+    PetscCall(TSGetMaxSteps(ctx%ts, max_steps, ierr))
     PetscCall(TSGetExactFinalTime(ctx%ts, eft, ierr))
     PetscCall(TSGetAdapt(ctx%ts, adapt, ierr))
     PetscCall(PetscObjectTypeCompare(adapt, TSADAPTNONE, match, ierr))
-    ctx%step%fixed_step = match
+    call step_settings_init(ctx%step, dt=dt, t_end=t_end, max_steps=max_steps, fixed_step=logical(match), &
+                            adaptive_default=adaptive)
     ! The time loop stops exactly at output, keyframe and release times.
     if (eft /= TS_EXACTFINALTIME_MATCHSTEP) then
       ierr = PETSC_ERR_ARG_WRONG
@@ -321,10 +317,9 @@ contains
     ! its history (three passes a step). arkimex and rosw tableaus may lack
     ! an interpolant: trapezoid.
     PetscCall(TSGetType(ctx%ts, tstype, ierr))
-    ctx%energy%gauss = trim(tstype) == 'bdf'
     PetscCall(set_inner_guess(ctx, tstype, ierr))
     PetscCall(set_newton_start(ctx, ierr))
-    PetscCall(VecDuplicate(ctx%u, ctx%energy%uq, ierr))
+    PetscCall(energy_integrals_init(ctx%energy, trim(tstype) == 'bdf', ctx%u, ierr))
     PetscCall(set_tolerances(ctx, srcx, srcv, ierr))
 
     PetscCall(ts_scheme(ctx%ts, scheme, ierr))
@@ -414,7 +409,7 @@ contains
     if (mode == GUESS_AUTO) mode = merge(merge(GUESS_PROJECT, GUESS_EXTRAPOLATE, ctx%step%fixed_step), GUESS_NONE, one_stage .and. &
                                          ctx%cfg%bending_code /= BEND_NONE .and. .not. (ctx%cfg%identify .or. ctx%cfg%control))
     if (.not. one_stage .or. direct) mode = GUESS_NONE
-    ctx%newton%guess = mode
+    call newton_set_inner_guess(ctx%newton, mode)
     ! (step_defaults put the extrapolated start of beuler in the options)
     PetscCall(PetscOptionsGetBool(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-ts_theta_initial_guess_extrapolate', extrap, set, ierr))
     PetscCall(reduced_set_guess(ctx%red, mode, logical(set .and. extrap), ierr))
@@ -461,9 +456,7 @@ contains
     if (gx /= 0) srcx = '-nuno_atol_position'
     srcv = 'position atol / 1 time unit'
     if (gv /= 0) srcv = '-nuno_atol_velocity'
-    ctx%step%rtol = rtol
-    ctx%step%atol_x = ax
-    ctx%step%atol_v = av
+    call step_set_tolerances(ctx%step, rtol=rtol, atol_x=ax, atol_v=av)
     PetscCall(DMCreateGlobalVector(ctx%da, vatol, ierr))
     PetscCall(DMDAVecGetArrayF90(ctx%da, vatol, va, ierr))
     va(0:2, :, :) = ax

@@ -1,7 +1,9 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> The TS monitor, run after every accepted step: the progress line, the
 !> energy integrals (dissipated power, constraint work) and the step-stall
-!> checks. Checkpoints are the run driver's (module timestepping).
+!> checks. Checkpoints are the run driver's (module timestepping). It owns
+!> the records it advances, step, energy and progress of app_ctx: their
+!> other writers call the routines at the end of this module.
 module step_monitor
 #include "petsc/finclude/petscts.h"
   use petscts
@@ -10,16 +12,23 @@ module step_monitor
   use, intrinsic :: iso_c_binding, only: c_double
   use, intrinsic :: iso_fortran_env, only: output_unit, error_unit
   use kinds, only: rp
-  use forces, only: internal_forces, dissipated_power
+  use forces, only: dissipated_power
+  use cloth_model, only: model_internal_forces
   use constraints, only: constraint_target
   use reduced, only: reduced_step_accepted
-  use app_context, only: app_ctx, nuno_ts_stop
+  use app_context, only: app_ctx, nuno_ts_stop, step_settings_t, energy_integrals_t, progress_t
   use newton_start, only: newton_start_push
   use strings, only: num => real_brief
   use newton_policy, only: linesearch_fallback
   implicit none
   private
   public :: ts_monitor
+  ! the step, energy and progress records of app_ctx: written only here
+  public :: step_settings_init, step_set_tolerances, step_enter_window
+  public :: energy_integrals_init, energy_integrals_free, energy_integrals_reset, energy_integrals_start, &
+            energy_integrals_restore, energy_add_work, energy_set_mgx0
+  public :: progress_start, progress_output_written, progress_said, progress_stretch_warned, progress_restore, &
+            progress_reset
 
   !> Wall seconds without a line on stdout after which the monitor prints one.
   real(rp), parameter :: HEARTBEAT_S = 10.0_rp
@@ -176,7 +185,7 @@ contains
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
     call dissipated_power(ctx%lat, u, loc(1))
     if (ctx%model%moving_constraints) then
-      call internal_forces(ctx%lat, u, ctx%model%f, nbad, bad)
+      call model_internal_forces(ctx%model, ctx%lat, u, nbad, bad)
       do k = 1, ctx%cs%n
         call constraint_target(ctx%cs, k, t, xb, vb)
         i = ctx%cs%node(1, k)
@@ -188,5 +197,152 @@ contains
     PetscCall(DMRestoreLocalVector(ctx%da, uloc, ierr))
     call MPI_Allreduce(loc, p, 2, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, ierr)
   end subroutine powers
+
+  ! --------------------------------- the step, energy and progress records
+
+  !> The time integration in force after the options (module solver_setup):
+  !> dt the fixed (or initial) step and t_end the end [time], max_steps
+  !> (-ts_max_steps), fixed_step (-ts_adapt_type none), adaptive_default
+  !> (the TS type is -nuno_adaptive_ts_type's).
+  subroutine step_settings_init(s, dt, t_end, max_steps, fixed_step, adaptive_default)
+    type(step_settings_t), intent(inout) :: s
+    real(rp), intent(in) :: dt, t_end
+    PetscInt, intent(in) :: max_steps
+    logical, intent(in) :: fixed_step, adaptive_default
+    s%dt = dt
+    s%t_end = t_end
+    s%max_steps = max_steps
+    s%fixed_step = fixed_step
+    s%adaptive_default = adaptive_default
+  end subroutine step_settings_init
+
+  !> The error tolerances of adaptive steps (module solver_setup's
+  !> set_tolerances): rtol [1], atol_x [length], atol_v [length/time].
+  subroutine step_set_tolerances(s, rtol, atol_x, atol_v)
+    type(step_settings_t), intent(inout) :: s
+    real(rp), intent(in) :: rtol, atol_x, atol_v
+    s%rtol = rtol
+    s%atol_x = atol_x
+    s%atol_v = atol_v
+  end subroutine step_set_tolerances
+
+  !> The current time window ends at tstop [time] (advance_window): a
+  !> retried fixed step returns to dt clipped to it.
+  subroutine step_enter_window(s, tstop)
+    type(step_settings_t), intent(inout) :: s
+    real(rp), intent(in) :: tstop
+    s%tstop = tstop
+  end subroutine step_enter_window
+
+  !> The integration rule (gauss: Gauss-Legendre on the interpolant, for
+  !> bdf; else the trapezoid rule) and the work vector of its points, like
+  !> the state u. Collective.
+  subroutine energy_integrals_init(e, gauss, u, ierr)
+    type(energy_integrals_t), intent(inout) :: e
+    logical, intent(in) :: gauss
+    type(tVec), intent(in) :: u                 !< the state (its layout)
+    PetscErrorCode, intent(out) :: ierr
+    e%gauss = gauss
+    PetscCall(VecDuplicate(u, e%uq, ierr))
+  end subroutine energy_integrals_init
+
+  !> The interpolated state of the Gauss points. Collective.
+  subroutine energy_integrals_free(e, ierr)
+    type(energy_integrals_t), intent(inout) :: e
+    PetscErrorCode, intent(out) :: ierr
+    PetscCall(VecDestroy(e%uq, ierr))
+  end subroutine energy_integrals_free
+
+  !> The integrals back at their start (t = 0, nothing dissipated, no work
+  !> done) for a new run over the same solver (identification, control);
+  !> the integration rule and its work vector stay.
+  subroutine energy_integrals_reset(e)
+    type(energy_integrals_t), intent(inout) :: e
+    e%t_prev = 0
+    e%pdiss_prev = 0
+    e%pcon_prev = 0
+    e%dissipated = 0
+    e%work_constraints = 0
+    e%mgx0 = 0
+  end subroutine energy_integrals_reset
+
+  !> The integrals go on from t [time] (the run's start, or a restart's
+  !> checkpoint time): the monitor's next step integrates from there.
+  subroutine energy_integrals_start(e, t)
+    type(energy_integrals_t), intent(inout) :: e
+    real(rp), intent(in) :: t
+    e%t_prev = t
+  end subroutine energy_integrals_start
+
+  !> The integrals of a checkpoint [energy] (module run_checkpoint).
+  subroutine energy_integrals_restore(e, dissipated, work_constraints, mgx0)
+    type(energy_integrals_t), intent(inout) :: e
+    real(rp), intent(in) :: dissipated, work_constraints, mgx0
+    e%dissipated = dissipated
+    e%work_constraints = work_constraints
+    e%mgx0 = mgx0
+  end subroutine energy_integrals_restore
+
+  !> sum m g . x at t = 0 [energy], the reference of the potential energy
+  !> of gravity in the external work (the output step at t = 0).
+  subroutine energy_set_mgx0(e, mgx0)
+    type(energy_integrals_t), intent(inout) :: e
+    real(rp), intent(in) :: mgx0
+    e%mgx0 = mgx0
+  end subroutine energy_set_mgx0
+
+  !> The work dw [energy] done on the cloth at a window's start (the
+  !> impulse of a keyframe: enter_window) added to the constraint work.
+  subroutine energy_add_work(e, dw)
+    type(energy_integrals_t), intent(inout) :: e
+    real(rp), intent(in) :: dw
+    e%work_constraints = e%work_constraints + dw
+  end subroutine energy_add_work
+
+  !> The run's clock starts (solver_run): wall_before [s] is the wall time
+  !> of the runs a restart continues; the heartbeat counts from now.
+  subroutine progress_start(p, wall_before)
+    type(progress_t), intent(inout) :: p
+    real(rp), intent(in) :: wall_before
+    p%wall0 = MPI_Wtime() - wall_before
+    p%wall_said = MPI_Wtime()
+  end subroutine progress_start
+
+  !> The output step at t [time] is written.
+  subroutine progress_output_written(p, t)
+    type(progress_t), intent(inout) :: p
+    real(rp), intent(in) :: t
+    p%t_written = t
+  end subroutine progress_output_written
+
+  !> Rank 0 has just printed a line on stdout (the heartbeat waits
+  !> HEARTBEAT_S from now).
+  subroutine progress_said(p)
+    type(progress_t), intent(inout) :: p
+    p%wall_said = MPI_Wtime()
+  end subroutine progress_said
+
+  !> The stretch_limit warning was given (once a run).
+  subroutine progress_stretch_warned(p)
+    type(progress_t), intent(inout) :: p
+    p%stretch_warned = .true.
+  end subroutine progress_stretch_warned
+
+  !> A checkpoint's progress (module run_checkpoint): the time of its last
+  !> output step [time] and whether the stretch warning was given.
+  subroutine progress_restore(p, t_written, stretch_warned)
+    type(progress_t), intent(inout) :: p
+    real(rp), intent(in) :: t_written
+    logical, intent(in) :: stretch_warned
+    p%t_written = t_written
+    p%stretch_warned = stretch_warned
+  end subroutine progress_restore
+
+  !> No output step written, the monitor's stall check afresh: a new run
+  !> over the same solver (identification, control).
+  subroutine progress_reset(p)
+    type(progress_t), intent(inout) :: p
+    p = progress_t()
+  end subroutine progress_reset
 
 end module step_monitor

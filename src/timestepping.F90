@@ -25,17 +25,22 @@ module timestepping
   use diagnostics, only: state_diagnostics_t, state_diagnostics
   use output, only: output_file, output_record, output_write_step, output_write_wall_time
   use reduced, only: reduced_set_fixed
-  use app_context, only: app_ctx, nuno_walltime_arm, nuno_checkpoint_due, nuno_signal_agreed, energy_add_work, &
-                         energy_integrals_start, energy_set_mgx0
+  use app_context, only: app_ctx, nuno_walltime_arm, nuno_checkpoint_due, nuno_signal_agreed
+  use step_monitor, only: energy_add_work, energy_integrals_start, energy_set_mgx0, step_enter_window, progress_start, &
+                          progress_output_written, progress_said, progress_stretch_warned
+  use cloth_model, only: model_enter_window
+  use newton_policy, only: newton_enter_window
   use newton_start, only: newton_start_reset
   use failure_text, only: signal_name, failure_reason, report_io_error, ieee_nan
   use strings, only: num => real_brief, inum => itoa
-  use run_checkpoint, only: run_counts, take_checkpoint, keep_restart_point, solver_restore
+  use run_checkpoint, only: run_counts, take_checkpoint, keep_restart_point, solver_restore, restart_state_init, &
+                            restart_output_written
   use provenance, only: write_run_info
   use solver_setup, only: check_decomposition, solver_create, solver_destroy
   implicit none
   private
   public :: app_ctx, solver_create, solver_destroy, solver_run, check_decomposition, solver_restore
+  public :: restart_state_init      ! module run_checkpoint: main's -nuno_checkpoint_walltime
   public :: advance_window          ! module identify_adjoint: its forward run's windows
   public :: enter_window            ! module identify_adjoint: the constraint state of an adjoint window
 
@@ -59,8 +64,7 @@ contains
     ! The Newton remainder is learnt anew in each window, so that a run
     ! restarted at a window's start takes the same iterations as the run
     ! that went through it.
-    ctx%newton%cquad = 0.0_rp
-    ctx%model%fixed = .false.
+    call newton_enter_window(ctx%newton)
     loc = 0.0_rp
     PetscCall(DMDAVecGetArrayF90(ctx%da, ctx%u, ua, ierr))
     if (ctx%cs%active) then
@@ -74,11 +78,12 @@ contains
         if (any(ua(0:2, i, j) /= xb) .or. any(ua(3:5, i, j) /= vb)) loc(3) = 1.0_rp
         ua(0:2, i, j) = xb
         ua(3:5, i, j) = vb
-        ctx%model%fixed(i, j) = .true.
       end do
     end if
     PetscCall(DMDAVecRestoreArrayF90(ctx%da, ctx%u, ua, ierr))
     call MPI_Allreduce(MPI_IN_PLACE, loc, 3, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, ierr)
+    ! the window's constrained nodes, and whether one moves (module cloth_model)
+    call model_enter_window(ctx%model, ctx%cs, moving=loc(2) > 0.0_rp)
     if (ctx%use_reduced) then
       PetscCall(reduced_set_fixed(ctx%red, ctx%model%fixed, ierr))
     end if
@@ -90,7 +95,6 @@ contains
     ! iterations, 4697 instead of 4001 inner ones).
     if (loc(3) > 0.0_rp) call newton_start_reset(ctx%newton%start)
     dke = loc(1)
-    ctx%model%moving_constraints = loc(2) > 0.0_rp
   end subroutine enter_window
 
   !> Advance the solution from ta to tb, the window between two stop times
@@ -119,7 +123,7 @@ contains
     integer :: due
 
     ierr = 0
-    ctx%step%tstop = tb
+    call step_enter_window(ctx%step, tstop=tb)
     if (enter) then
       call enter_window(ctx, t, tb, dke, ierr)
       if (ierr /= 0) return
@@ -178,8 +182,7 @@ contains
     character(len=512) :: errmsg
 
     status = 'complete'
-    ctx%progress%wall0 = MPI_Wtime() - ctx%restart%wall_before
-    ctx%progress%wall_said = MPI_Wtime()
+    call progress_start(ctx%progress, wall_before=ctx%restart%wall_before)
     call write_run_info(ctx, out, ierr)
     if (io_failed()) return
     call nuno_walltime_arm(real(ctx%restart%checkpoint_walltime, c_double))
@@ -435,8 +438,8 @@ contains
       call report_io_error(ctx, errmsg)
       return
     end if
-    ctx%progress%t_written = t
-    ctx%restart%checkpoint_current = .false.
+    call progress_output_written(ctx%progress, t)
+    call restart_output_written(ctx%restart)
     ! Progress for a person and for awk: every field has a blank before it
     ! (es13.5e2 of a negative value still starts with one; the integer
     ! widths hold 10^8 steps), rates from the start of the run. Flushed: a
@@ -456,7 +459,7 @@ contains
         '  E_total', d%kinetic + d%stretch + d%bend + ctx%energy%dissipated - rec%external_work, &
         '  wall_s', wall, '  sim_per_wall_s', rate, '  eta_s', eta
       flush(output_unit)
-      ctx%progress%wall_said = MPI_Wtime()
+      call progress_said(ctx%progress)
     end if
   end subroutine write_output
 
@@ -477,7 +480,7 @@ contains
     call MPI_Allreduce(r, g, 2, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, mpierr)
     lim = ctx%cfg%stretch_limit
     if (g(1) <= lim .and. g(2) <= lim) return
-    ctx%progress%stretch_warned = .true.
+    call progress_stretch_warned(ctx%progress)
     loc = -1
     if (g(1) > lim) then
       if (r(1) == g(1)) loc = atmax
