@@ -43,23 +43,23 @@ contains
     real(rp) :: h, ep, em, s, b, power, fscale, torque(3)
     integer :: i, j, c, nbad, bad(2)
 
-    cfg%nx = nx
-    cfg%ny = ny
-    cfg%lx = 1.0_rp
-    cfg%ly = 1.5_rp
-    cfg%ax = cfg%lx / (nx - 1)
-    cfg%ay = cfg%ly / (ny - 1)
-    cfg%total_mass = 0.1_rp
-    cfg%e_s = 100.0_rp
-    cfg%e_d = 60.0_rp
-    cfg%k_b = 0.1_rp
-    cfg%eta_s = 0.0_rp
-    cfg%eta_d = 0.0_rp
-    cfg%eta_b = 0.0_rp
-    cfg%spring_code = spring
-    cfg%bending_code = bending
-    cfg%scaling_code = scaling
-    cfg%mass_code = MASS_UNIFORM
+    cfg%lattice%nx = nx
+    cfg%lattice%ny = ny
+    cfg%lattice%lx = 1.0_rp
+    cfg%lattice%ly = 1.5_rp
+    cfg%lattice%ax = cfg%lattice%lx / (nx - 1)
+    cfg%lattice%ay = cfg%lattice%ly / (ny - 1)
+    cfg%lattice%total_mass = 0.1_rp
+    cfg%material%e_s = 100.0_rp
+    cfg%material%e_d = 60.0_rp
+    cfg%material%k_b = 0.1_rp
+    cfg%material%eta_s = 0.0_rp
+    cfg%material%eta_d = 0.0_rp
+    cfg%material%eta_b = 0.0_rp
+    cfg%material%spring_code = spring
+    cfg%material%bending_code = bending
+    cfg%lattice%scaling_code = scaling
+    cfg%lattice%mass_code = MASS_UNIFORM
     call lattice_init(lat, cfg, 0, ny - 1)
 
     call seed()
@@ -67,7 +67,7 @@ contains
     noise = 2.0_rp * noise - 1.0_rp
     do j = 0, ny - 1
       do i = 0, nx - 1
-        u(0:2, i, j) = rest_position(lat, i, j) + 0.2_rp * cfg%ax * noise(1:3, i, j)
+        u(0:2, i, j) = rest_position(lat, i, j) + 0.2_rp * cfg%lattice%ax * noise(1:3, i, j)
         u(3:5, i, j) = 0.0_rp
       end do
     end do
@@ -75,7 +75,7 @@ contains
     ! forces against the central difference of the energy
     call internal_forces(lat, u, f, nbad, bad)
     call check_true(nbad == 0, what//': a regular state')
-    h = 1.0e-5_rp * cfg%ax
+    h = 1.0e-5_rp * cfg%lattice%ax
     do j = 0, ny - 1
       do i = 0, nx - 1
         do c = 0, 2
@@ -104,13 +104,13 @@ contains
                              u(0, i, j) * f(2, i, j) - u(1, i, j) * f(1, i, j)]
         end do
       end do
-      call check_true(all(abs(torque) <= 1.0e-13_rp * fscale * nx * ny * cfg%ly), what//': zero torque')
+      call check_true(all(abs(torque) <= 1.0e-13_rp * fscale * nx * ny * cfg%lattice%ly), what//': zero torque')
     end if
 
     ! damping: the power the damping forces take out
-    cfg%eta_s = 0.3_rp
-    cfg%eta_d = 0.2_rp
-    if (bending == BEND_ENERGY) cfg%eta_b = 1.0e-3_rp
+    cfg%material%eta_s = 0.3_rp
+    cfg%material%eta_d = 0.2_rp
+    if (bending == BEND_ENERGY) cfg%material%eta_b = 1.0e-3_rp
     call lattice_init(lat, cfg, 0, ny - 1)
     call internal_forces(lat, u, f, nbad, bad)
     do j = 0, ny - 1

@@ -54,23 +54,23 @@ contains
     integer, intent(in) :: nx, ny, bending, spring, scaling
     real(rp), intent(in) :: lx, ly
     type(nuno_config) :: cfg
-    cfg%nx = nx
-    cfg%ny = ny
-    cfg%lx = lx
-    cfg%ly = ly
-    cfg%ax = lx / (nx - 1)
-    cfg%ay = ly / (ny - 1)
-    cfg%total_mass = 0.3_rp
-    cfg%e_s = 7.0_rp
-    cfg%eta_s = 0.0_rp
-    cfg%e_d = 3.0_rp
-    cfg%eta_d = 0.0_rp
-    cfg%k_b = 0.2_rp
-    cfg%eta_b = 0.0_rp
-    cfg%bending_code = bending
-    cfg%spring_code = spring
-    cfg%scaling_code = scaling
-    cfg%mass_code = MASS_UNIFORM
+    cfg%lattice%nx = nx
+    cfg%lattice%ny = ny
+    cfg%lattice%lx = lx
+    cfg%lattice%ly = ly
+    cfg%lattice%ax = lx / (nx - 1)
+    cfg%lattice%ay = ly / (ny - 1)
+    cfg%lattice%total_mass = 0.3_rp
+    cfg%material%e_s = 7.0_rp
+    cfg%material%eta_s = 0.0_rp
+    cfg%material%e_d = 3.0_rp
+    cfg%material%eta_d = 0.0_rp
+    cfg%material%k_b = 0.2_rp
+    cfg%material%eta_b = 0.0_rp
+    cfg%material%bending_code = bending
+    cfg%material%spring_code = spring
+    cfg%lattice%scaling_code = scaling
+    cfg%lattice%mass_code = MASS_UNIFORM
   end function make_cfg
 
   !> Owned and ghost rows, array bounds, rest positions.
@@ -250,13 +250,13 @@ contains
     ax = 0.5_rp
     ay = 0.25_rp
     if (scaling == SCALING_ELEMENT) then
-      expect = 0.5_rp * cfg%e_s * (real((nx - 1) * ny, rp) * ax**2 + real(nx * (ny - 1), rp) * ay**2) &
-             + 0.5_rp * cfg%e_d * real(2 * (nx - 1) * (ny - 1), rp) * (ax**2 + ay**2)
+      expect = 0.5_rp * cfg%material%e_s * (real((nx - 1) * ny, rp) * ax**2 + real(nx * (ny - 1), rp) * ay**2) &
+             + 0.5_rp * cfg%material%e_d * real(2 * (nx - 1) * (ny - 1), rp) * (ax**2 + ay**2)
     else
       ! E_x = Y ay/ax, E_y = Y ax/ay, halved on the boundary: each kind
       ! holds (nx-1)(ny-1) whole links, 1/2 Y ax ay each: Y lx ly in all.
-      expect = cfg%e_s * cfg%lx * cfg%ly &
-             + 0.5_rp * cfg%e_d * real(2 * (nx - 1) * (ny - 1), rp) * (ax**2 + ay**2)
+      expect = cfg%material%e_s * cfg%lattice%lx * cfg%lattice%ly &
+             + 0.5_rp * cfg%material%e_d * real(2 * (nx - 1) * (ny - 1), rp) * (ax**2 + ay**2)
     end if
     do split = 1, 5
       total = 0.0_rp
@@ -307,7 +307,7 @@ contains
     call random_number(noise)
     do j = 0, ny - 1
       do i = 0, nx - 1
-        uw(0:2, i, j) = rest_position(whole, i, j) + 0.15_rp * cfg%ax * (2.0_rp * noise(:, i, j) - 1.0_rp)
+        uw(0:2, i, j) = rest_position(whole, i, j) + 0.15_rp * cfg%lattice%ax * (2.0_rp * noise(:, i, j) - 1.0_rp)
         uw(3:5, i, j) = 0.0_rp
       end do
     end do
@@ -353,15 +353,15 @@ contains
     ok = .true.
     do j = 0, ny - 1
       do i = 0, nx - 1
-        ok = ok .and. abs(lat%mass(i, j) - cfg%total_mass / (nx * ny)) <= 1.0e-15_rp
+        ok = ok .and. abs(lat%mass(i, j) - cfg%lattice%total_mass / (nx * ny)) <= 1.0e-15_rp
       end do
     end do
     call check_true(ok, 'uniform masses M/(nx ny)')
 
-    cfg%mass_code = MASS_AREA
+    cfg%lattice%mass_code = MASS_AREA
     call lattice_init(lat, cfg, 0, ny - 1)
-    interior = cfg%total_mass / real((nx - 1) * (ny - 1), rp)   ! a cell's area times the density
-    call check_close(sum(lat%mass), cfg%total_mass, 1.0e-14_rp, 0.0_rp, 'area masses sum to M')
+    interior = cfg%lattice%total_mass / real((nx - 1) * (ny - 1), rp)   ! a cell's area times the density
+    call check_close(sum(lat%mass), cfg%lattice%total_mass, 1.0e-14_rp, 0.0_rp, 'area masses sum to M')
     call check_close(lat%mass(2, 2), interior, 1.0e-14_rp, 0.0_rp, 'area mass of an interior node')
     call check_close(lat%mass(0, 0), interior / 4, 1.0e-14_rp, 0.0_rp, 'area mass of corner (0, 0)')
     call check_close(lat%mass(nx - 1, ny - 1), interior / 4, 1.0e-14_rp, 0.0_rp, 'area mass of corner (nx-1, ny-1)')
@@ -376,8 +376,8 @@ contains
     call check_true(nedge == 2 * (nx - 2) + 2 * (ny - 2), 'area masses: 2 (nx-2) + 2 (ny-2) edge nodes')
 
     ! continuum scaling takes area masses whatever mass_distribution says
-    cfg%mass_code = MASS_UNIFORM
-    cfg%scaling_code = SCALING_CONTINUUM
+    cfg%lattice%mass_code = MASS_UNIFORM
+    cfg%lattice%scaling_code = SCALING_CONTINUUM
     call lattice_init(lat, cfg, 2, 3)
     call check_close(lat%mass(0, 1), interior / 2, 1.0e-14_rp, 0.0_rp, 'continuum: area mass of edge node (0, 1)')
     call check_close(lat%mass(3, 4), interior / 2, 1.0e-14_rp, 0.0_rp, 'continuum: area mass of edge ghost node (3, 4)')
@@ -395,9 +395,9 @@ contains
     logical :: ok
 
     cfg = make_cfg(nx, ny, 2.5_rp, 2.0_rp, BEND_ENERGY, SPRING_AXIAL, SCALING_CONTINUUM)
-    cfg%eta_s = 0.7_rp
-    cfg%eta_d = 0.3_rp
-    cfg%eta_b = 0.02_rp
+    cfg%material%eta_s = 0.7_rp
+    cfg%material%eta_d = 0.3_rp
+    cfg%material%eta_b = 0.02_rp
     call lattice_init(lat, cfg, 0, ny - 1)
     call link_constants(lat, 2, 3, 1, e, eta)
     call check_close(e, 7.0_rp * 0.5_rp, 1.0e-15_rp, 0.0_rp, 'continuum x link: Y ay/ax')
@@ -432,7 +432,7 @@ contains
     end do
 
     ! element scaling: every constant as given
-    cfg%scaling_code = SCALING_ELEMENT
+    cfg%lattice%scaling_code = SCALING_ELEMENT
     call lattice_init(lat, cfg, 0, ny - 1)
     call link_constants(lat, 0, 0, 1, e, eta)
     call check_true(e == 7.0_rp .and. eta == 0.7_rp, 'element x link on the corner: E_s, eta_s')
@@ -445,7 +445,7 @@ contains
 
     ! lanes: the same constants link by link, for every start and length
     do l = 1, 2
-      cfg%scaling_code = merge(SCALING_CONTINUUM, SCALING_ELEMENT, l == 1)
+      cfg%lattice%scaling_code = merge(SCALING_CONTINUUM, SCALING_ELEMENT, l == 1)
       call lattice_init(lat, cfg, 0, ny - 1)
       ok = .true.
       do j = 0, ny - 1
