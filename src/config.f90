@@ -10,6 +10,7 @@ module config
   implicit none
   private
   public :: nuno_config, keyframe_max, label_len, path_len
+  public :: lattice_config, material_config, scene_config, time_config, output_config, identify_config, control_config
   public :: SPRING_AXIAL, SPRING_LINEAR
   public :: BEND_NONE, BEND_PAPER, BEND_ENERGY
   public :: SCALING_ELEMENT, SCALING_CONTINUUM
@@ -53,10 +54,8 @@ module config
     integer :: shape_code(obstacle_max) = 1   !< derived: 1 plane, 2 sphere (the kernel's SHAPE_*)
   end type contact_config
 
-  !> All inputs of a run. Strings hold the namelist spelling; the integer
-  !> codes beside them are derived by the input module.
-  type :: nuno_config
-    ! &lattice
+  !> &lattice and the values derived from it.
+  type :: lattice_config
     integer :: nx = 11                       !< nodes along x (>= 3)
     integer :: ny = 11                       !< nodes along y (>= 3)
     real(rp) :: lx = 100.0_rp                !< rest size along x [length]
@@ -64,7 +63,14 @@ module config
     real(rp) :: total_mass = 1.0_rp          !< mass of the whole cloth [mass]
     character(label_len) :: mass_distribution = 'uniform'   !< uniform | area
     character(label_len) :: lattice_scaling = 'element'     !< element | continuum
-    ! &material
+    ! derived
+    integer :: scaling_code = SCALING_ELEMENT
+    integer :: mass_code = MASS_UNIFORM
+    real(rp) :: ax = 0.0_rp, ay = 0.0_rp  !< lattice spacings [length]
+  end type lattice_config
+
+  !> &material and the values derived from it.
+  type :: material_config
     character(label_len) :: spring_model = 'axial'          !< axial | linear
     real(rp) :: e_s = 1.0_rp      !< structural stiffness [force/length] (continuum: Y_s [force/length])
     real(rp) :: eta_s = 1.0_rp    !< structural damping [force time/length]
@@ -73,8 +79,16 @@ module config
     character(label_len) :: bending_model = 'paper'         !< none | paper | energy
     real(rp) :: k_b = unset_real  !< bending: paper [force/rad], energy [energy]; unset -> scene default
     real(rp) :: eta_b = 0.0_rp    !< bending damping (energy model) [energy time]
-    ! &scene
-    character(label_len) :: scene = 'lift_release'  !< lift_release | bend_release | wave_point | hang | flat
+    ! derived
+    integer :: spring_code = SPRING_AXIAL
+    integer :: bending_code = BEND_PAPER
+    logical :: has_damping = .false.      !< any of eta_s, eta_d > 0
+  end type material_config
+
+  !> &scene and the values derived from it. The key `scene` (the scene's
+  !> name) is the component `name`: cfg%scene is this record.
+  type :: scene_config
+    character(label_len) :: name = 'lift_release'  !< the key `scene`: lift_release | bend_release | wave_point | hang | flat
     real(rp) :: gravity(3) = 0.0_rp       !< [length/time^2]
     real(rp) :: lift_length = 30.0_rp     !< lift_release: length of the folded part [length]
     real(rp) :: lift_height = 15.0_rp     !< lift_release: height of edge i = nx-1 [length]
@@ -87,45 +101,68 @@ module config
     character(label_len) :: wave_nodes = 'corner'  !< wave_point: driven nodes: corner (0,0) | edge (every node of i = 0)
     real(rp) :: release_time = huge(1.0_rp)  !< time at which the scene's constraints end [time]
     real(rp) :: initial_omega(3) = 0.0_rp    !< initial rigid angular velocity about the centroid [rad/time]
-    ! &time
+    ! derived
+    integer :: scene_code = SCENE_LIFT_RELEASE
+    logical :: has_gravity = .false.
+  end type scene_config
+
+  !> &time.
+  type :: time_config
     real(rp) :: t_end = 2.0_rp            !< [time]
     real(rp) :: dt = 1.0e-3_rp            !< (initial) step [time]
-    ! &output
+  end type time_config
+
+  !> &output.
+  type :: output_config
     real(rp) :: output_interval = 0.1_rp  !< [time]
     real(rp) :: checkpoint_interval = 0.0_rp  !< checkpoint at the first output step this long after the last; 0: at the end only [time]
     real(rp) :: stretch_limit = 5.0_rp    !< warn once when a link's l/L leaves [1/limit, limit]; 0: never [1]
     logical :: write_velocity = .true.    !< also store /velocity: ParaView's colouring and energy checks use it
     character(path_len) :: output_file = 'nuno.h5'
     character(1024) :: petsc_options = '' !< PETSc options; the command line overrides them
-    ! &identify (docs/identification.md): present = an identification run
+  end type output_config
+
+  !> &identify (docs/identification.md): present = an identification run.
+  type :: identify_config
     character(path_len) :: observed_file = ''  !< observed motion (HDF5: /time, /position [nt][ny][nx][3])
     character(256) :: fit = ''                 !< comma-separated parameters to fit (fit_kind_names)
     real(rp) :: fit_lower(n_fit_kinds) = unset_real  !< lower bounds, in the order of fit; unset: initial / 1000
     real(rp) :: fit_upper(n_fit_kinds) = unset_real  !< upper bounds, in the order of fit; unset: initial x 1000
     real(rp) :: tikhonov = 0.0_rp              !< weight of sum (ln p - ln p_initial)^2 in the objective [length^2]
-    ! &control (docs/identification.md, "Deformation control"): present = a control run
+    ! derived
+    logical :: active = .false.           !< the input has an &identify group: an identification run
+    integer :: n_fit = 0                  !< parameters fitted
+    integer :: fit_code(n_fit_kinds) = 0  !< their codes (index into fit_kind_names), in the order of fit
+  end type identify_config
+
+  !> &control (docs/identification.md, "Deformation control"): present = a control run.
+  type :: control_config
     character(path_len) :: target_file = ''    !< target (HDF5: /time, /position [nt][ny][nx][3], optional /velocity)
     character(label_len) :: components = 'xyz' !< components of the keyframe path that are optimised: letters of xyz
     real(rp) :: max_speed = unset_real         !< bound on each component of the driven nodes' speed [length/time]; unset: none
     real(rp) :: velocity_weight = 0.0_rp       !< weight of |v - v_target|^2 beside |x - x_target|^2 [time^2]
     real(rp) :: keyframe_tikhonov = 0.0_rp     !< weight of sum (d - d_initial)^2 over the optimised keyframe steps d [1]
-    ! &contact
-    type(contact_config) :: contact
-
-    ! ---- derived by the input module ----
-    logical :: identify = .false.         !< the input has an &identify group
-    integer :: n_fit = 0                  !< parameters fitted
-    integer :: fit_code(n_fit_kinds) = 0  !< their codes (index into fit_kind_names), in the order of fit
-    logical :: control = .false.          !< the input has a &control group
+    ! derived
+    logical :: active = .false.           !< the input has a &control group: a control run
     logical :: control_comp(3) = .false.  !< x, y, z of the keyframe offsets optimised (components)
-    integer :: spring_code = SPRING_AXIAL
-    integer :: bending_code = BEND_PAPER
-    integer :: scaling_code = SCALING_ELEMENT
-    integer :: mass_code = MASS_UNIFORM
-    integer :: scene_code = SCENE_LIFT_RELEASE
-    real(rp) :: ax = 0.0_rp, ay = 0.0_rp  !< lattice spacings [length]
-    logical :: has_gravity = .false.
-    logical :: has_damping = .false.      !< any of eta_s, eta_d > 0
+  end type control_config
+
+  !> All inputs of a run, one record per namelist group: cfg%<group>%<key>
+  !> (cfg%lattice%nx, cfg%time%dt, ...), the values derived from a group's
+  !> keys beside them (cfg%material%bending_code, cfg%lattice%ax, ...).
+  !> Strings hold the namelist spelling; the integer codes beside them are
+  !> derived by the input module. Three names differ from the key: the key
+  !> `scene` is cfg%scene%name, and cfg%identify%active, cfg%control%active
+  !> say that the input has that group.
+  type :: nuno_config
+    type(lattice_config) :: lattice
+    type(material_config) :: material
+    type(scene_config) :: scene
+    type(time_config) :: time
+    type(output_config) :: output
+    type(identify_config) :: identify
+    type(control_config) :: control
+    type(contact_config) :: contact
     character(:), allocatable :: namelist_text  !< the input file as read, for the output file
   end type nuno_config
 

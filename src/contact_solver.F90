@@ -142,7 +142,7 @@ contains
       ierr = PETSC_ERR_NOT_CONVERGED
       SETERRQ(ctx%comm, ierr, 'nuno: contact: an accepted state penetrates an obstacle at t = '//real_es(t)//': smallest gap '//real_es(gmin))
     end if
-    r = t / ctx%cfg%output_interval
+    r = t / ctx%cfg%output%output_interval
     if (ctx%rank == 0 .and. abs(r - anint(r)) <= 1.0e-9_rp * max(1.0_rp, r)) then
       write(*, '(a)') 'contact: t = '//real_es(t)//', active = '//itoa(gnact)//', force = '// &
         real_es(glob(1))//' '//real_es(glob(2))//' '//real_es(glob(3))//', min gap = '//real_es(gmin)// &

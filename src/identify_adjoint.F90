@@ -116,13 +116,13 @@ contains
 
     id%app => ctx
     app => id%app
-    if (app%cfg%control) then
+    if (app%cfg%control%active) then
       call params_setup_control(id%par, app%cfg)
-      call obs_read(id%obs, app%lat, app%comm, app%cfg%velocity_weight, trim(app%cfg%target_file), 'control', &
+      call obs_read(id%obs, app%lat, app%comm, app%cfg%control%velocity_weight, trim(app%cfg%control%target_file), 'control', &
                     'target_file', ierr, errmsg)
     else
       call params_setup_identify(id%par, app%cfg)
-      call obs_read(id%obs, app%lat, app%comm, 0.0_rp, trim(app%cfg%observed_file), 'identify', 'observed_file', &
+      call obs_read(id%obs, app%lat, app%comm, 0.0_rp, trim(app%cfg%identify%observed_file), 'identify', 'observed_file', &
                     ierr, errmsg)
     end if
     if (ierr /= 0) return
@@ -131,7 +131,7 @@ contains
     ! and only it is removed at the end: a user's OUTPUT.adjoint (or a
     ! link of that name) is never touched. PETSc's basic trajectory makes
     ! and removes the subdirectory `trajectory` itself.
-    call make_scratch(id, trim(app%cfg%output_file), ierr, errmsg)
+    call make_scratch(id, trim(app%cfg%output%output_file), ierr, errmsg)
     if (ierr /= 0) return
     id%run%traj_dir = trim(id%run%scratch)//'/trajectory'
 
@@ -157,11 +157,11 @@ contains
     if (app%rank == 0) then
       if (id%par%mode == MODE_CONTROL) then
         write(output_unit, '(a,i0,a,i0,a,i0,a,i0,a)') 'control   : ', id%par%np, ' variable(s) (the steps of ', id%par%nk, &
-          ' keyframes in '//trim(app%cfg%components)//'), ', id%obs%nt, ' target time(s), ', id%obs%nw, &
-          ' time windows; '//trim(app%cfg%target_file)
+          ' keyframes in '//trim(app%cfg%control%components)//'), ', id%obs%nt, ' target time(s), ', id%obs%nw, &
+          ' time windows; '//trim(app%cfg%control%target_file)
       else
         write(output_unit, '(a,i0,a,i0,a,i0,a)') 'identify  : ', id%par%np, ' parameter(s), ', id%obs%nt, &
-          ' observed times, ', id%obs%nw, ' time windows; '//trim(app%cfg%observed_file)
+          ' observed times, ', id%obs%nw, ' time windows; '//trim(app%cfg%identify%observed_file)
       end if
       flush(output_unit)
     end if

@@ -55,15 +55,15 @@ contains
     integer :: k
     p%mode = MODE_IDENTIFY
     p%tag = 'identify'
-    p%np = cfg%n_fit
-    p%code = cfg%fit_code(1:p%np)
+    p%np = cfg%identify%n_fit
+    p%code = cfg%identify%fit_code(1:p%np)
     allocate(p%theta0(p%np), p%lo(p%np), p%hi(p%np))
     do k = 1, p%np
       p%theta0(k) = log(param_value(cfg, p%code(k)))
-      p%lo(k) = log(cfg%fit_lower(k))
-      p%hi(k) = log(cfg%fit_upper(k))
+      p%lo(k) = log(cfg%identify%fit_lower(k))
+      p%hi(k) = log(cfg%identify%fit_upper(k))
     end do
-    p%tikhonov = cfg%tikhonov
+    p%tikhonov = cfg%identify%tikhonov
     p%fd_step = FD_STEP
     p%nrow = p%np
   end subroutine params_setup_identify
@@ -78,20 +78,20 @@ contains
     real(rp) :: bound
     p%mode = MODE_CONTROL
     p%tag = 'control'
-    p%nk = cfg%n_keyframes
-    p%kt = cfg%keyframe_time(1:p%nk)
+    p%nk = cfg%scene%n_keyframes
+    p%kt = cfg%scene%keyframe_time(1:p%nk)
     allocate(p%koff0(3, p%nk))
-    p%koff0(1, :) = cfg%keyframe_dx(1:p%nk)
-    p%koff0(2, :) = cfg%keyframe_dy(1:p%nk)
-    p%koff0(3, :) = cfg%keyframe_dz(1:p%nk)
-    p%np = (p%nk - 1) * count(cfg%control_comp)
+    p%koff0(1, :) = cfg%scene%keyframe_dx(1:p%nk)
+    p%koff0(2, :) = cfg%scene%keyframe_dy(1:p%nk)
+    p%koff0(3, :) = cfg%scene%keyframe_dz(1:p%nk)
+    p%np = (p%nk - 1) * count(cfg%control%control_comp)
     allocate(p%km(p%np), p%kc(p%np), p%theta0(p%np), p%lo(p%np), p%hi(p%np))
     k = 0
     do m = 2, p%nk
       bound = NO_BOUND
-      if (cfg%max_speed /= unset_real) bound = cfg%max_speed * (p%kt(m) - p%kt(m - 1))
+      if (cfg%control%max_speed /= unset_real) bound = cfg%control%max_speed * (p%kt(m) - p%kt(m - 1))
       do c = 1, 3
-        if (.not. cfg%control_comp(c)) cycle
+        if (.not. cfg%control%control_comp(c)) cycle
         k = k + 1
         p%km(k) = m
         p%kc(k) = c
@@ -100,8 +100,8 @@ contains
         p%hi(k) = bound
       end do
     end do
-    p%tikhonov = cfg%keyframe_tikhonov
-    p%fd_step = FD_STEP_LENGTH * max(cfg%lx, cfg%ly)
+    p%tikhonov = cfg%control%keyframe_tikhonov
+    p%fd_step = FD_STEP_LENGTH * max(cfg%lattice%lx, cfg%lattice%ly)
     p%nrow = 3 * p%nk
   end subroutine params_setup_control
 
@@ -110,13 +110,13 @@ contains
     type(nuno_config), intent(in) :: cfg
     integer, intent(in) :: code
     select case (code)
-    case (1); param_value = cfg%e_s
-    case (2); param_value = cfg%e_d
-    case (3); param_value = cfg%eta_s
-    case (4); param_value = cfg%eta_d
-    case (5); param_value = cfg%k_b
-    case (6); param_value = cfg%eta_b
-    case default; param_value = cfg%total_mass
+    case (1); param_value = cfg%material%e_s
+    case (2); param_value = cfg%material%e_d
+    case (3); param_value = cfg%material%eta_s
+    case (4); param_value = cfg%material%eta_d
+    case (5); param_value = cfg%material%k_b
+    case (6); param_value = cfg%material%eta_b
+    case default; param_value = cfg%lattice%total_mass
     end select
   end function param_value
 
@@ -125,13 +125,13 @@ contains
     integer, intent(in) :: code
     real(rp), intent(in) :: v
     select case (code)
-    case (1); cfg%e_s = v
-    case (2); cfg%e_d = v
-    case (3); cfg%eta_s = v
-    case (4); cfg%eta_d = v
-    case (5); cfg%k_b = v
-    case (6); cfg%eta_b = v
-    case default; cfg%total_mass = v
+    case (1); cfg%material%e_s = v
+    case (2); cfg%material%e_d = v
+    case (3); cfg%material%eta_s = v
+    case (4); cfg%material%eta_d = v
+    case (5); cfg%material%k_b = v
+    case (6); cfg%material%eta_b = v
+    case default; cfg%lattice%total_mass = v
     end select
   end subroutine set_param
 
@@ -172,14 +172,14 @@ contains
     integer :: k
     if (p%mode == MODE_CONTROL) then
       off = keyframes(p, theta)
-      cfg%keyframe_dx(1:p%nk) = off(1, :)
-      cfg%keyframe_dy(1:p%nk) = off(2, :)
-      cfg%keyframe_dz(1:p%nk) = off(3, :)
+      cfg%scene%keyframe_dx(1:p%nk) = off(1, :)
+      cfg%scene%keyframe_dy(1:p%nk) = off(2, :)
+      cfg%scene%keyframe_dz(1:p%nk) = off(3, :)
     else
       do k = 1, p%np
         call set_param(cfg, p%code(k), exp(theta(k)))
       end do
-      cfg%has_damping = cfg%eta_s > 0.0_rp .or. cfg%eta_d > 0.0_rp
+      cfg%material%has_damping = cfg%material%eta_s > 0.0_rp .or. cfg%material%eta_d > 0.0_rp
     end if
   end subroutine apply_theta
 

@@ -123,16 +123,16 @@ contains
       call apply_overrides(overrides, first, .true., ierr, msg)
       if (ierr /= 0) goto 900
     end if
-    first%scene = lower(adjustl(first%scene))
-    call check_choice('scene', 'scene', first%scene, choices('scene'), code, ierr, msg)
+    first%scene%name = lower(adjustl(first%scene%name))
+    call check_choice('scene', 'scene', first%scene%name, choices('scene'), code, ierr, msg)
     if (ierr /= 0) goto 900
 
     ! 2. That scene's defaults; keys whose default depends on other keys start unset.
-    call table_defaults(trim(first%scene), code, cfg, ierr, msg)
+    call table_defaults(trim(first%scene%name), code, cfg, ierr, msg)
     if (ierr /= 0) goto 900
-    cfg%k_b = unset_real
-    cfg%eta_b = unset_real
-    cfg%mass_distribution = ''
+    cfg%material%k_b = unset_real
+    cfg%material%eta_b = unset_real
+    cfg%lattice%mass_distribution = ''
 
     ! 3. Every group over them (&scene again, so its other keys see the scene's defaults).
     call read_group(G_SCENE, pt, cfg, ierr, msg);    if (ierr /= 0) goto 900
@@ -143,8 +143,8 @@ contains
     call read_group(G_IDENTIFY, pt, cfg, ierr, msg); if (ierr /= 0) goto 900
     call read_group(G_CONTROL, pt, cfg, ierr, msg);  if (ierr /= 0) goto 900
     call read_group(G_CONTACT, pt, cfg, ierr, msg);  if (ierr /= 0) goto 900
-    cfg%identify = pt%count(G_IDENTIFY) > 0
-    cfg%control = pt%count(G_CONTROL) > 0
+    cfg%identify%active = pt%count(G_IDENTIFY) > 0
+    cfg%control%active = pt%count(G_CONTROL) > 0
     cfg%namelist_text = text
     if (present(overrides)) then
       ! Command-line keys win over the file's; they are recorded with it.
@@ -152,19 +152,19 @@ contains
       if (ierr /= 0) goto 900
       cfg%namelist_text = text//new_line('a')//'! '//overrides_record(trim(overrides))
     end if
-    cfg%scene = lower(adjustl(cfg%scene))
-    cfg%scene_code = code
+    cfg%scene%name = lower(adjustl(cfg%scene%name))
+    cfg%scene%scene_code = code
 
     ! 4. Choices to codes, lattice spacing, keys left unset, then the checks.
     call derive_codes(cfg, ierr, msg);        if (ierr /= 0) goto 900
     call check_finite_keys(cfg, ierr, msg);   if (ierr /= 0) goto 900
     call check_lattice_size(cfg, ierr, msg);  if (ierr /= 0) goto 900
     call check_lattice_extent(cfg, ierr, msg); if (ierr /= 0) goto 900
-    cfg%ax = cfg%lx/real(cfg%nx - 1, rp)
-    cfg%ay = cfg%ly/real(cfg%ny - 1, rp)
+    cfg%lattice%ax = cfg%lattice%lx/real(cfg%lattice%nx - 1, rp)
+    cfg%lattice%ay = cfg%lattice%ly/real(cfg%lattice%ny - 1, rp)
     call resolve_unset(cfg, ierr, msg);       if (ierr /= 0) goto 900
-    cfg%has_gravity = any(cfg%gravity /= 0.0_rp)
-    cfg%has_damping = cfg%eta_s > 0.0_rp .or. cfg%eta_d > 0.0_rp
+    cfg%scene%has_gravity = any(cfg%scene%gravity /= 0.0_rp)
+    cfg%material%has_damping = cfg%material%eta_s > 0.0_rp .or. cfg%material%eta_d > 0.0_rp
     call validate(cfg, ierr, msg)
 
 900 if (ierr /= 0) errmsg = trim(msg)
@@ -374,7 +374,7 @@ contains
     real(rp) :: output_interval, stretch_limit, checkpoint_interval
     logical :: write_velocity
     character(path_len) :: output_file
-    character(len(cfg%petsc_options)) :: petsc_options
+    character(len(cfg%output%petsc_options)) :: petsc_options
     namelist /lattice/ nx, ny, lx, ly, total_mass, mass_distribution, lattice_scaling
     namelist /material/ spring_model, e_s, eta_s, e_d, eta_d, bending_model, k_b, eta_b
     namelist /scene/ scene_name, gravity, lift_length, lift_height, bend_angle, n_keyframes, &
@@ -383,7 +383,7 @@ contains
     namelist /output/ output_interval, write_velocity, output_file, petsc_options, stretch_limit, &
                       checkpoint_interval
     character(path_len) :: observed_file
-    character(len(cfg%fit)) :: fit
+    character(len(cfg%identify%fit)) :: fit
     real(rp) :: fit_lower(n_fit_kinds), fit_upper(n_fit_kinds), tikhonov
     namelist /identify/ observed_file, fit, fit_lower, fit_upper, tikhonov
     character(path_len) :: target_file
@@ -400,94 +400,94 @@ contains
     ios = 0
     select case (g)
     case (G_LATTICE)
-      nx = cfg%nx; ny = cfg%ny; lx = cfg%lx; ly = cfg%ly; total_mass = cfg%total_mass
-      mass_distribution = cfg%mass_distribution; lattice_scaling = cfg%lattice_scaling
+      nx = cfg%lattice%nx; ny = cfg%lattice%ny; lx = cfg%lattice%lx; ly = cfg%lattice%ly; total_mass = cfg%lattice%total_mass
+      mass_distribution = cfg%lattice%mass_distribution; lattice_scaling = cfg%lattice%lattice_scaling
       if (present(dump)) then
         write(dump, nml=lattice, delim='apostrophe', iostat=ios, iomsg=iomsg)
       else
         read(lines, nml=lattice, iostat=ios, iomsg=iomsg)
       end if
       if (ios == 0) then
-      cfg%nx = nx; cfg%ny = ny; cfg%lx = lx; cfg%ly = ly; cfg%total_mass = total_mass
-      cfg%mass_distribution = mass_distribution; cfg%lattice_scaling = lattice_scaling
+      cfg%lattice%nx = nx; cfg%lattice%ny = ny; cfg%lattice%lx = lx; cfg%lattice%ly = ly; cfg%lattice%total_mass = total_mass
+      cfg%lattice%mass_distribution = mass_distribution; cfg%lattice%lattice_scaling = lattice_scaling
       end if
     case (G_MATERIAL)
-      spring_model = cfg%spring_model; e_s = cfg%e_s; eta_s = cfg%eta_s; e_d = cfg%e_d
-      eta_d = cfg%eta_d; bending_model = cfg%bending_model; k_b = cfg%k_b; eta_b = cfg%eta_b
+      spring_model = cfg%material%spring_model; e_s = cfg%material%e_s; eta_s = cfg%material%eta_s; e_d = cfg%material%e_d
+      eta_d = cfg%material%eta_d; bending_model = cfg%material%bending_model; k_b = cfg%material%k_b; eta_b = cfg%material%eta_b
       if (present(dump)) then
         write(dump, nml=material, delim='apostrophe', iostat=ios, iomsg=iomsg)
       else
         read(lines, nml=material, iostat=ios, iomsg=iomsg)
       end if
       if (ios == 0) then
-      cfg%spring_model = spring_model; cfg%e_s = e_s; cfg%eta_s = eta_s; cfg%e_d = e_d
-      cfg%eta_d = eta_d; cfg%bending_model = bending_model; cfg%k_b = k_b; cfg%eta_b = eta_b
+      cfg%material%spring_model = spring_model; cfg%material%e_s = e_s; cfg%material%eta_s = eta_s; cfg%material%e_d = e_d
+      cfg%material%eta_d = eta_d; cfg%material%bending_model = bending_model; cfg%material%k_b = k_b; cfg%material%eta_b = eta_b
       end if
     case (G_SCENE)
-      scene_name = cfg%scene; gravity = cfg%gravity; lift_length = cfg%lift_length
-      lift_height = cfg%lift_height; bend_angle = cfg%bend_angle; n_keyframes = cfg%n_keyframes
-      keyframe_time = cfg%keyframe_time; keyframe_dz = cfg%keyframe_dz; wave_nodes = cfg%wave_nodes
-      keyframe_dx = cfg%keyframe_dx; keyframe_dy = cfg%keyframe_dy
-      release_time = cfg%release_time; initial_omega = cfg%initial_omega
+      scene_name = cfg%scene%name; gravity = cfg%scene%gravity; lift_length = cfg%scene%lift_length
+      lift_height = cfg%scene%lift_height; bend_angle = cfg%scene%bend_angle; n_keyframes = cfg%scene%n_keyframes
+      keyframe_time = cfg%scene%keyframe_time; keyframe_dz = cfg%scene%keyframe_dz; wave_nodes = cfg%scene%wave_nodes
+      keyframe_dx = cfg%scene%keyframe_dx; keyframe_dy = cfg%scene%keyframe_dy
+      release_time = cfg%scene%release_time; initial_omega = cfg%scene%initial_omega
       if (present(dump)) then
         write(dump, nml=scene, delim='apostrophe', iostat=ios, iomsg=iomsg)
       else
         read(lines, nml=scene, iostat=ios, iomsg=iomsg)
       end if
       if (ios == 0) then
-      cfg%scene = scene_name; cfg%gravity = gravity; cfg%lift_length = lift_length
-      cfg%lift_height = lift_height; cfg%bend_angle = bend_angle; cfg%n_keyframes = n_keyframes
-      cfg%keyframe_time = keyframe_time; cfg%keyframe_dz = keyframe_dz; cfg%wave_nodes = wave_nodes
-      cfg%keyframe_dx = keyframe_dx; cfg%keyframe_dy = keyframe_dy
-      cfg%release_time = release_time; cfg%initial_omega = initial_omega
+      cfg%scene%name = scene_name; cfg%scene%gravity = gravity; cfg%scene%lift_length = lift_length
+      cfg%scene%lift_height = lift_height; cfg%scene%bend_angle = bend_angle; cfg%scene%n_keyframes = n_keyframes
+      cfg%scene%keyframe_time = keyframe_time; cfg%scene%keyframe_dz = keyframe_dz; cfg%scene%wave_nodes = wave_nodes
+      cfg%scene%keyframe_dx = keyframe_dx; cfg%scene%keyframe_dy = keyframe_dy
+      cfg%scene%release_time = release_time; cfg%scene%initial_omega = initial_omega
       end if
     case (G_TIME)
-      t_end = cfg%t_end; dt = cfg%dt
+      t_end = cfg%time%t_end; dt = cfg%time%dt
       if (present(dump)) then
         write(dump, nml=time, delim='apostrophe', iostat=ios, iomsg=iomsg)
       else
         read(lines, nml=time, iostat=ios, iomsg=iomsg)
       end if
       if (ios == 0) then
-        cfg%t_end = t_end; cfg%dt = dt
+        cfg%time%t_end = t_end; cfg%time%dt = dt
       end if
     case (G_OUTPUT)
-      output_interval = cfg%output_interval; write_velocity = cfg%write_velocity
-      output_file = cfg%output_file; petsc_options = cfg%petsc_options
-      stretch_limit = cfg%stretch_limit; checkpoint_interval = cfg%checkpoint_interval
+      output_interval = cfg%output%output_interval; write_velocity = cfg%output%write_velocity
+      output_file = cfg%output%output_file; petsc_options = cfg%output%petsc_options
+      stretch_limit = cfg%output%stretch_limit; checkpoint_interval = cfg%output%checkpoint_interval
       if (present(dump)) then
         write(dump, nml=output, delim='apostrophe', iostat=ios, iomsg=iomsg)
       else
         read(lines, nml=output, iostat=ios, iomsg=iomsg)
       end if
       if (ios == 0) then
-      cfg%output_interval = output_interval; cfg%write_velocity = write_velocity
-      cfg%output_file = output_file; cfg%petsc_options = petsc_options
-      cfg%stretch_limit = stretch_limit; cfg%checkpoint_interval = checkpoint_interval
+      cfg%output%output_interval = output_interval; cfg%output%write_velocity = write_velocity
+      cfg%output%output_file = output_file; cfg%output%petsc_options = petsc_options
+      cfg%output%stretch_limit = stretch_limit; cfg%output%checkpoint_interval = checkpoint_interval
       end if
     case (G_IDENTIFY)
-      observed_file = cfg%observed_file; fit = cfg%fit; fit_lower = cfg%fit_lower
-      fit_upper = cfg%fit_upper; tikhonov = cfg%tikhonov
+      observed_file = cfg%identify%observed_file; fit = cfg%identify%fit; fit_lower = cfg%identify%fit_lower
+      fit_upper = cfg%identify%fit_upper; tikhonov = cfg%identify%tikhonov
       if (present(dump)) then
         write(dump, nml=identify, delim='apostrophe', iostat=ios, iomsg=iomsg)
       else
         read(lines, nml=identify, iostat=ios, iomsg=iomsg)
       end if
       if (ios == 0) then
-        cfg%observed_file = observed_file; cfg%fit = fit; cfg%fit_lower = fit_lower
-        cfg%fit_upper = fit_upper; cfg%tikhonov = tikhonov
+        cfg%identify%observed_file = observed_file; cfg%identify%fit = fit; cfg%identify%fit_lower = fit_lower
+        cfg%identify%fit_upper = fit_upper; cfg%identify%tikhonov = tikhonov
       end if
     case (G_CONTROL)
-      target_file = cfg%target_file; components = cfg%components; max_speed = cfg%max_speed
-      velocity_weight = cfg%velocity_weight; keyframe_tikhonov = cfg%keyframe_tikhonov
+      target_file = cfg%control%target_file; components = cfg%control%components; max_speed = cfg%control%max_speed
+      velocity_weight = cfg%control%velocity_weight; keyframe_tikhonov = cfg%control%keyframe_tikhonov
       if (present(dump)) then
         write(dump, nml=control, delim='apostrophe', iostat=ios, iomsg=iomsg)
       else
         read(lines, nml=control, iostat=ios, iomsg=iomsg)
       end if
       if (ios == 0) then
-        cfg%target_file = target_file; cfg%components = components; cfg%max_speed = max_speed
-        cfg%velocity_weight = velocity_weight; cfg%keyframe_tikhonov = keyframe_tikhonov
+        cfg%control%target_file = target_file; cfg%control%components = components; cfg%control%max_speed = max_speed
+        cfg%control%velocity_weight = velocity_weight; cfg%control%keyframe_tikhonov = keyframe_tikhonov
       end if
     case (G_CONTACT)
       associate (c => cfg%contact)
@@ -554,8 +554,8 @@ contains
         return
       end if
     end do
-    cfg%scene = scene
-    cfg%scene_code = code
+    cfg%scene%name = scene
+    cfg%scene%scene_code = code
   end subroutine table_defaults
 
   !> Every real key of the key table finite: NaN or Inf would pass some
@@ -649,33 +649,33 @@ contains
     real(rp), intent(in), optional :: ts_dt, ts_max_time   !< -ts_dt, -ts_max_time when given: they win
     character(256) :: terms, cons
     character(len=:), allocatable :: tline
-    write(unit, '(a)') 'scene     : '//trim(cfg%scene)
-    write(unit, '(a,i0,a,i0,a)') 'lattice   : ', cfg%nx, ' x ', cfg%ny, ' nodes, '// &
-      real_short(cfg%lx)//' x '//real_short(cfg%ly)//' (spacing '//real_short(cfg%ax)//' x '// &
-      real_short(cfg%ay)//'), mass '//real_short(cfg%total_mass)//' ('//trim(cfg%mass_distribution)// &
-      '), '//trim(cfg%lattice_scaling)//' constants'
-    write(unit, '(a)') 'springs   : '//trim(cfg%spring_model)//': E_s = '//real_short(cfg%e_s)// &
-      ', eta_s = '//real_short(cfg%eta_s)//', E_d = '//real_short(cfg%e_d)//', eta_d = '//real_short(cfg%eta_d)
-    select case (cfg%bending_code)
+    write(unit, '(a)') 'scene     : '//trim(cfg%scene%name)
+    write(unit, '(a,i0,a,i0,a)') 'lattice   : ', cfg%lattice%nx, ' x ', cfg%lattice%ny, ' nodes, '// &
+      real_short(cfg%lattice%lx)//' x '//real_short(cfg%lattice%ly)//' (spacing '//real_short(cfg%lattice%ax)//' x '// &
+      real_short(cfg%lattice%ay)//'), mass '//real_short(cfg%lattice%total_mass)//' ('//trim(cfg%lattice%mass_distribution)// &
+      '), '//trim(cfg%lattice%lattice_scaling)//' constants'
+    write(unit, '(a)') 'springs   : '//trim(cfg%material%spring_model)//': E_s = '//real_short(cfg%material%e_s)// &
+      ', eta_s = '//real_short(cfg%material%eta_s)//', E_d = '//real_short(cfg%material%e_d)//', eta_d = '//real_short(cfg%material%eta_d)
+    select case (cfg%material%bending_code)
     case (BEND_NONE)
       write(unit, '(a)') 'bending   : none'
     case (BEND_PAPER)
-      write(unit, '(a)') 'bending   : paper (report eqs. 2-3): k_b = '//real_short(cfg%k_b)//' per radian'
+      write(unit, '(a)') 'bending   : paper (report eqs. 2-3): k_b = '//real_short(cfg%material%k_b)//' per radian'
     case (BEND_ENERGY)
-      write(unit, '(a)') 'bending   : energy: k_b = '//real_short(cfg%k_b)//', eta_b = '//real_short(cfg%eta_b)
+      write(unit, '(a)') 'bending   : energy: k_b = '//real_short(cfg%material%k_b)//', eta_b = '//real_short(cfg%material%eta_b)
     end select
     terms = ''
-    if (cfg%bending_code /= BEND_NONE) terms = trim(terms)//', bending'
-    if (cfg%has_damping .or. (cfg%bending_code == BEND_ENERGY .and. cfg%eta_b > 0.0_rp)) &
+    if (cfg%material%bending_code /= BEND_NONE) terms = trim(terms)//', bending'
+    if (cfg%material%has_damping .or. (cfg%material%bending_code == BEND_ENERGY .and. cfg%material%eta_b > 0.0_rp)) &
       terms = trim(terms)//', damping'
-    if (cfg%has_gravity) terms = trim(terms)//', gravity ('//real_short(cfg%gravity(1))//', '// &
-      real_short(cfg%gravity(2))//', '//real_short(cfg%gravity(3))//')'
-    if (any(cfg%initial_omega /= 0.0_rp)) terms = trim(terms)//', initial spin'
+    if (cfg%scene%has_gravity) terms = trim(terms)//', gravity ('//real_short(cfg%scene%gravity(1))//', '// &
+      real_short(cfg%scene%gravity(2))//', '//real_short(cfg%scene%gravity(3))//')'
+    if (any(cfg%scene%initial_omega /= 0.0_rp)) terms = trim(terms)//', initial spin'
     write(unit, '(a)') 'terms     : springs'//trim(terms)
-    select case (cfg%scene_code)
+    select case (cfg%scene%scene_code)
     case (SCENE_LIFT_RELEASE); cons = 'edge i = 0 pinned'
     case (SCENE_WAVE_POINT)
-      if (trim(cfg%wave_nodes) == 'edge') then
+      if (trim(cfg%scene%wave_nodes) == 'edge') then
         cons = 'edge i = 0 prescribed through keyframes'
       else
         cons = 'corner (0,0) prescribed through keyframes'
@@ -683,26 +683,26 @@ contains
     case (SCENE_HANG);         cons = 'corners (0,ny-1) and (nx-1,ny-1) pinned'
     case default;              cons = 'none'
     end select
-    if (cfg%release_time < huge(1.0_rp) .and. trim(cons) /= 'none') &
-      cons = trim(cons)//', released at t = '//real_short(cfg%release_time)
+    if (cfg%scene%release_time < huge(1.0_rp) .and. trim(cons) /= 'none') &
+      cons = trim(cons)//', released at t = '//real_short(cfg%scene%release_time)
     write(unit, '(a)') 'constraint: '//trim(cons)
     ! The values the run uses: an option over the namelist says so.
     if (present(ts_max_time)) then
-      tline = 'time      : t_end = '//real_short(ts_max_time)//' (-ts_max_time; namelist '//real_short(cfg%t_end)//')'
+      tline = 'time      : t_end = '//real_short(ts_max_time)//' (-ts_max_time; namelist '//real_short(cfg%time%t_end)//')'
     else
-      tline = 'time      : t_end = '//real_short(cfg%t_end)
+      tline = 'time      : t_end = '//real_short(cfg%time%t_end)
     end if
     if (present(ts_dt)) then
-      tline = tline//', dt = '//real_short(ts_dt)//' (-ts_dt; namelist '//real_short(cfg%dt)//')'
+      tline = tline//', dt = '//real_short(ts_dt)//' (-ts_dt; namelist '//real_short(cfg%time%dt)//')'
     else
-      tline = tline//', dt = '//real_short(cfg%dt)
+      tline = tline//', dt = '//real_short(cfg%time%dt)
     end if
     write(unit, '(a)') tline
-    if (cfg%write_velocity) then
-      write(unit, '(a)') 'output    : '//trim(cfg%output_file)//' every '//real_short(cfg%output_interval)// &
+    if (cfg%output%write_velocity) then
+      write(unit, '(a)') 'output    : '//trim(cfg%output%output_file)//' every '//real_short(cfg%output%output_interval)// &
         ' (with velocity)'
     else
-      write(unit, '(a)') 'output    : '//trim(cfg%output_file)//' every '//real_short(cfg%output_interval)
+      write(unit, '(a)') 'output    : '//trim(cfg%output%output_file)//' every '//real_short(cfg%output%output_interval)
     end if
   end subroutine input_summary
 

@@ -30,32 +30,32 @@ contains
     type(nuno_config), intent(inout) :: cfg
     integer, intent(out) :: ierr
     character(*), intent(out) :: msg
-    cfg%lattice_scaling = lower(adjustl(cfg%lattice_scaling))
-    cfg%mass_distribution = lower(adjustl(cfg%mass_distribution))
-    cfg%spring_model = lower(adjustl(cfg%spring_model))
-    cfg%bending_model = lower(adjustl(cfg%bending_model))
-    cfg%wave_nodes = lower(adjustl(cfg%wave_nodes))
-    call check_choice('lattice', 'lattice_scaling', cfg%lattice_scaling, choices('lattice_scaling'), &
-                      cfg%scaling_code, ierr, msg)
+    cfg%lattice%lattice_scaling = lower(adjustl(cfg%lattice%lattice_scaling))
+    cfg%lattice%mass_distribution = lower(adjustl(cfg%lattice%mass_distribution))
+    cfg%material%spring_model = lower(adjustl(cfg%material%spring_model))
+    cfg%material%bending_model = lower(adjustl(cfg%material%bending_model))
+    cfg%scene%wave_nodes = lower(adjustl(cfg%scene%wave_nodes))
+    call check_choice('lattice', 'lattice_scaling', cfg%lattice%lattice_scaling, choices('lattice_scaling'), &
+                      cfg%lattice%scaling_code, ierr, msg)
     if (ierr /= 0) return
-    if (len_trim(cfg%mass_distribution) == 0) then
+    if (len_trim(cfg%lattice%mass_distribution) == 0) then
       ! Unset: the continuum mode needs area masses; else the scene's default.
-      if (cfg%scaling_code == SCALING_CONTINUUM .or. cfg%scene_code == SCENE_HANG) then
-        cfg%mass_distribution = 'area'
+      if (cfg%lattice%scaling_code == SCALING_CONTINUUM .or. cfg%scene%scene_code == SCENE_HANG) then
+        cfg%lattice%mass_distribution = 'area'
       else
-        cfg%mass_distribution = 'uniform'
+        cfg%lattice%mass_distribution = 'uniform'
       end if
     end if
-    call check_choice('lattice', 'mass_distribution', cfg%mass_distribution, choices('mass_distribution'), &
-                      cfg%mass_code, ierr, msg)
+    call check_choice('lattice', 'mass_distribution', cfg%lattice%mass_distribution, choices('mass_distribution'), &
+                      cfg%lattice%mass_code, ierr, msg)
     if (ierr /= 0) return
-    call check_choice('material', 'spring_model', cfg%spring_model, choices('spring_model'), &
-                      cfg%spring_code, ierr, msg)
+    call check_choice('material', 'spring_model', cfg%material%spring_model, choices('spring_model'), &
+                      cfg%material%spring_code, ierr, msg)
     if (ierr /= 0) return
-    call check_choice('material', 'bending_model', cfg%bending_model, choices('bending_model'), &
-                      cfg%bending_code, ierr, msg)
+    call check_choice('material', 'bending_model', cfg%material%bending_model, choices('bending_model'), &
+                      cfg%material%bending_code, ierr, msg)
     if (ierr /= 0) return
-    cfg%bending_code = cfg%bending_code - 1   ! list order none, paper, energy = 0, 1, 2
+    cfg%material%bending_code = cfg%material%bending_code - 1   ! list order none, paper, energy = 0, 1, 2
   end subroutine derive_codes
 
   !> Keys left unset take defaults that depend on other keys:
@@ -69,23 +69,23 @@ contains
     real(rp) :: kb_paper, kb_energy
     ierr = 0
     msg = ''
-    if (cfg%scene_code == SCENE_HANG) then
+    if (cfg%scene%scene_code == SCENE_HANG) then
       kb_energy = 0.1_rp
-      kb_paper = kb_energy/cfg%ax
+      kb_paper = kb_energy/cfg%lattice%ax
     else
       kb_paper = 1.0_rp
-      kb_energy = kb_paper*cfg%ax
+      kb_energy = kb_paper*cfg%lattice%ax
     end if
-    if (cfg%k_b == unset_real) then
-      select case (cfg%bending_code)
-      case (BEND_PAPER);  cfg%k_b = kb_paper
-      case (BEND_ENERGY); cfg%k_b = kb_energy
-      case default;       cfg%k_b = 0.0_rp
+    if (cfg%material%k_b == unset_real) then
+      select case (cfg%material%bending_code)
+      case (BEND_PAPER);  cfg%material%k_b = kb_paper
+      case (BEND_ENERGY); cfg%material%k_b = kb_energy
+      case default;       cfg%material%k_b = 0.0_rp
       end select
     end if
-    if (cfg%eta_b == unset_real) then
-      cfg%eta_b = 0.0_rp
-      if (cfg%scene_code == SCENE_HANG .and. cfg%bending_code == BEND_ENERGY) cfg%eta_b = 1.0e-4_rp
+    if (cfg%material%eta_b == unset_real) then
+      cfg%material%eta_b = 0.0_rp
+      if (cfg%scene%scene_code == SCENE_HANG .and. cfg%material%bending_code == BEND_ENERGY) cfg%material%eta_b = 1.0e-4_rp
     end if
   end subroutine resolve_unset
 
@@ -154,7 +154,7 @@ contains
           return
         end if
       end do
-      if (c%n_obstacles > 0 .and. (cfg%identify .or. cfg%control)) then
+      if (c%n_obstacles > 0 .and. (cfg%identify%active .or. cfg%control%active)) then
         msg = 'input: &contact: obstacles (n_obstacles > 0) with &identify or &control are not supported: '// &
               'the adjoint has no contact terms yet'
         return
@@ -177,14 +177,14 @@ contains
 
     ierr = 0
     msg = ''
-    cfg%n_fit = 0
-    if (.not. cfg%identify) return
+    cfg%identify%n_fit = 0
+    if (.not. cfg%identify%active) return
     ierr = 1
-    if (len_trim(cfg%observed_file) == 0) then
+    if (len_trim(cfg%identify%observed_file) == 0) then
       msg = "input: &identify: observed_file is required (an HDF5 file with /time and /position [nt][ny][nx][3])"
       return
     end if
-    rest = lower(trim(adjustl(cfg%fit)))
+    rest = lower(trim(adjustl(cfg%identify%fit)))
     if (len(rest) == 0) then
       msg = 'input: &identify: fit is required: a comma-separated list of '//kinds_list()
       return
@@ -202,17 +202,17 @@ contains
         msg = "input: &identify: fit: unknown parameter '"//name//"' (known: "//kinds_list()//')'
         return
       end if
-      if (any(cfg%fit_code(1:cfg%n_fit) == code)) then
+      if (any(cfg%identify%fit_code(1:cfg%identify%n_fit) == code)) then
         msg = "input: &identify: fit: '"//name//"' is named twice"
         return
       end if
-      cfg%n_fit = cfg%n_fit + 1
-      cfg%fit_code(cfg%n_fit) = code
-      if ((code == 5 .or. code == 6) .and. cfg%bending_code == BEND_NONE) then
+      cfg%identify%n_fit = cfg%identify%n_fit + 1
+      cfg%identify%fit_code(cfg%identify%n_fit) = code
+      if ((code == 5 .or. code == 6) .and. cfg%material%bending_code == BEND_NONE) then
         msg = "input: &identify: fit: '"//name//"' needs bending (&material bending_model = 'none')"
         return
       end if
-      if (code == 6 .and. cfg%bending_code /= BEND_ENERGY) then
+      if (code == 6 .and. cfg%material%bending_code /= BEND_ENERGY) then
         msg = "input: &identify: fit: 'eta_b' exists only with bending_model = 'energy'"
         return
       end if
@@ -222,17 +222,17 @@ contains
               'fitted in log space, so the initial guess (the namelist value) must be > 0'
         return
       end if
-      k = cfg%n_fit
-      if (cfg%fit_lower(k) == unset_real) cfg%fit_lower(k) = p0 / 1000.0_rp
-      if (cfg%fit_upper(k) == unset_real) cfg%fit_upper(k) = p0 * 1000.0_rp
-      if (.not. (cfg%fit_lower(k) > 0.0_rp .and. cfg%fit_lower(k) <= p0 .and. p0 <= cfg%fit_upper(k))) then
+      k = cfg%identify%n_fit
+      if (cfg%identify%fit_lower(k) == unset_real) cfg%identify%fit_lower(k) = p0 / 1000.0_rp
+      if (cfg%identify%fit_upper(k) == unset_real) cfg%identify%fit_upper(k) = p0 * 1000.0_rp
+      if (.not. (cfg%identify%fit_lower(k) > 0.0_rp .and. cfg%identify%fit_lower(k) <= p0 .and. p0 <= cfg%identify%fit_upper(k))) then
         msg = "input: &identify: the bounds of '"//name//"' must satisfy 0 < fit_lower <= initial guess <= "// &
-              'fit_upper (got '//real_short(cfg%fit_lower(k))//' <= '//real_short(p0)//' <= '//real_short(cfg%fit_upper(k))//')'
+              'fit_upper (got '//real_short(cfg%identify%fit_lower(k))//' <= '//real_short(p0)//' <= '//real_short(cfg%identify%fit_upper(k))//')'
         return
       end if
     end do
-    if (.not. (cfg%tikhonov >= 0.0_rp)) then
-      msg = 'input: &identify: tikhonov must be >= 0 (got '//real_short(cfg%tikhonov)//')'
+    if (.not. (cfg%identify%tikhonov >= 0.0_rp)) then
+      msg = 'input: &identify: tikhonov must be >= 0 (got '//real_short(cfg%identify%tikhonov)//')'
       return
     end if
     ierr = 0
@@ -264,58 +264,58 @@ contains
 
     ierr = 0
     msg = ''
-    cfg%control_comp = .false.
-    if (.not. cfg%control) return
+    cfg%control%control_comp = .false.
+    if (.not. cfg%control%active) return
     ierr = 1
-    if (cfg%identify) then
+    if (cfg%identify%active) then
       msg = 'input: &control and &identify cannot be in one input: a run either fits the model to an '// &
             'observation or optimises the keyframes for a target'
       return
     end if
-    if (len_trim(cfg%target_file) == 0) then
+    if (len_trim(cfg%control%target_file) == 0) then
       msg = 'input: &control: target_file is required (an HDF5 file with /time and /position [nt][ny][nx][3])'
       return
     end if
-    if (cfg%scene_code /= SCENE_WAVE_POINT) then
-      msg = "input: &control: scene = '"//trim(cfg%scene)//"' has no nodes on a keyframe path to control "// &
+    if (cfg%scene%scene_code /= SCENE_WAVE_POINT) then
+      msg = "input: &control: scene = '"//trim(cfg%scene%name)//"' has no nodes on a keyframe path to control "// &
             "(wave_point drives its corner or, with wave_nodes = 'edge', its edge i = 0)"
       return
     end if
-    if (cfg%n_keyframes < 2) then
-      write(a, '(i0)') cfg%n_keyframes
+    if (cfg%scene%n_keyframes < 2) then
+      write(a, '(i0)') cfg%scene%n_keyframes
       msg = 'input: &control: &scene n_keyframes = '//trim(a)//' leaves nothing to optimise: the steps '// &
             'between consecutive keyframes are the controls, so at least 2 keyframes are needed'
       return
     end if
-    comps = lower(trim(adjustl(cfg%components)))
+    comps = lower(trim(adjustl(cfg%control%components)))
     if (len(comps) == 0 .or. verify(comps, xyz) /= 0) then
-      msg = "input: &control: components = '"//trim(cfg%components)//"' must be letters among x, y, z (e.g. 'z' or 'xyz')"
+      msg = "input: &control: components = '"//trim(cfg%control%components)//"' must be letters among x, y, z (e.g. 'z' or 'xyz')"
       return
     end if
     do k = 1, len(comps)
       c = index(xyz, comps(k:k))
-      if (cfg%control_comp(c)) then
-        msg = "input: &control: components = '"//trim(cfg%components)//"' names "//comps(k:k)//' twice'
+      if (cfg%control%control_comp(c)) then
+        msg = "input: &control: components = '"//trim(cfg%control%components)//"' names "//comps(k:k)//' twice'
         return
       end if
-      cfg%control_comp(c) = .true.
+      cfg%control%control_comp(c) = .true.
     end do
-    if (cfg%max_speed /= unset_real) then
-      call need_positive('control', 'max_speed', cfg%max_speed, ierr, msg)
+    if (cfg%control%max_speed /= unset_real) then
+      call need_positive('control', 'max_speed', cfg%control%max_speed, ierr, msg)
       if (ierr /= 0) return
       ierr = 1
-      off(1, :) = cfg%keyframe_dx
-      off(2, :) = cfg%keyframe_dy
-      off(3, :) = cfg%keyframe_dz
-      do m = 2, cfg%n_keyframes
-        dt = cfg%keyframe_time(m) - cfg%keyframe_time(m - 1)
+      off(1, :) = cfg%scene%keyframe_dx
+      off(2, :) = cfg%scene%keyframe_dy
+      off(3, :) = cfg%scene%keyframe_dz
+      do m = 2, cfg%scene%n_keyframes
+        dt = cfg%scene%keyframe_time(m) - cfg%scene%keyframe_time(m - 1)
         do c = 1, 3
-          if (.not. cfg%control_comp(c)) cycle
+          if (.not. cfg%control%control_comp(c)) cycle
           speed = abs(off(c, m) - off(c, m - 1)) / dt
-          if (speed > cfg%max_speed * (1.0_rp + 1.0e-12_rp)) then
+          if (speed > cfg%control%max_speed * (1.0_rp + 1.0e-12_rp)) then
             write(a, '(i0)') m
             write(b, '(i0)') m - 1
-            msg = 'input: &control: the initial keyframes exceed max_speed = '//real_short(cfg%max_speed)// &
+            msg = 'input: &control: the initial keyframes exceed max_speed = '//real_short(cfg%control%max_speed)// &
                   ': keyframe_d'//xyz(c:c)//'('//trim(a)//') - keyframe_d'//xyz(c:c)//'('//trim(b)//') = '// &
                   real_short(off(c, m) - off(c, m - 1))//' in '//real_short(dt)//' is a speed of '//real_short(speed)
             return
@@ -323,8 +323,8 @@ contains
         end do
       end do
     end if
-    call need_nonnegative('control', 'velocity_weight', cfg%velocity_weight, ierr, msg); if (ierr /= 0) return
-    call need_nonnegative('control', 'keyframe_tikhonov', cfg%keyframe_tikhonov, ierr, msg)
+    call need_nonnegative('control', 'velocity_weight', cfg%control%velocity_weight, ierr, msg); if (ierr /= 0) return
+    call need_nonnegative('control', 'keyframe_tikhonov', cfg%control%keyframe_tikhonov, ierr, msg)
   end subroutine check_control
 
   !> The namelist value of fit parameter `code` (the initial guess).
@@ -332,13 +332,13 @@ contains
     type(nuno_config), intent(in) :: cfg
     integer, intent(in) :: code
     select case (code)
-    case (1); fit_initial = cfg%e_s
-    case (2); fit_initial = cfg%e_d
-    case (3); fit_initial = cfg%eta_s
-    case (4); fit_initial = cfg%eta_d
-    case (5); fit_initial = cfg%k_b
-    case (6); fit_initial = cfg%eta_b
-    case default; fit_initial = cfg%total_mass
+    case (1); fit_initial = cfg%material%e_s
+    case (2); fit_initial = cfg%material%e_d
+    case (3); fit_initial = cfg%material%eta_s
+    case (4); fit_initial = cfg%material%eta_d
+    case (5); fit_initial = cfg%material%k_b
+    case (6); fit_initial = cfg%material%eta_b
+    case default; fit_initial = cfg%lattice%total_mass
     end select
   end function fit_initial
 
@@ -383,35 +383,35 @@ contains
     type(nuno_config), intent(in) :: cfg
     integer, intent(out) :: ierr
     character(*), intent(out) :: msg
-    call need_int_ge('lattice', 'nx', cfg%nx, 3, ierr, msg); if (ierr /= 0) return
-    call need_int_ge('lattice', 'ny', cfg%ny, 3, ierr, msg)
+    call need_int_ge('lattice', 'nx', cfg%lattice%nx, 3, ierr, msg); if (ierr /= 0) return
+    call need_int_ge('lattice', 'ny', cfg%lattice%ny, 3, ierr, msg)
   end subroutine check_lattice_size
 
   subroutine check_lattice_extent(cfg, ierr, msg)
     type(nuno_config), intent(in) :: cfg
     integer, intent(out) :: ierr
     character(*), intent(out) :: msg
-    call need_positive('lattice', 'lx', cfg%lx, ierr, msg); if (ierr /= 0) return
-    call need_positive('lattice', 'ly', cfg%ly, ierr, msg)
+    call need_positive('lattice', 'lx', cfg%lattice%lx, ierr, msg); if (ierr /= 0) return
+    call need_positive('lattice', 'ly', cfg%lattice%ly, ierr, msg)
   end subroutine check_lattice_extent
 
   subroutine check_mass(cfg, ierr, msg)
     type(nuno_config), intent(in) :: cfg
     integer, intent(out) :: ierr
     character(*), intent(out) :: msg
-    call need_positive('lattice', 'total_mass', cfg%total_mass, ierr, msg)
+    call need_positive('lattice', 'total_mass', cfg%lattice%total_mass, ierr, msg)
   end subroutine check_mass
 
   subroutine check_material(cfg, ierr, msg)
     type(nuno_config), intent(in) :: cfg
     integer, intent(out) :: ierr
     character(*), intent(out) :: msg
-    call need_nonnegative('material', 'e_s', cfg%e_s, ierr, msg);     if (ierr /= 0) return
-    call need_nonnegative('material', 'eta_s', cfg%eta_s, ierr, msg); if (ierr /= 0) return
-    call need_nonnegative('material', 'e_d', cfg%e_d, ierr, msg);     if (ierr /= 0) return
-    call need_nonnegative('material', 'eta_d', cfg%eta_d, ierr, msg); if (ierr /= 0) return
-    call need_nonnegative('material', 'k_b', cfg%k_b, ierr, msg);     if (ierr /= 0) return
-    call need_nonnegative('material', 'eta_b', cfg%eta_b, ierr, msg)
+    call need_nonnegative('material', 'e_s', cfg%material%e_s, ierr, msg);     if (ierr /= 0) return
+    call need_nonnegative('material', 'eta_s', cfg%material%eta_s, ierr, msg); if (ierr /= 0) return
+    call need_nonnegative('material', 'e_d', cfg%material%e_d, ierr, msg);     if (ierr /= 0) return
+    call need_nonnegative('material', 'eta_d', cfg%material%eta_d, ierr, msg); if (ierr /= 0) return
+    call need_nonnegative('material', 'k_b', cfg%material%k_b, ierr, msg);     if (ierr /= 0) return
+    call need_nonnegative('material', 'eta_b', cfg%material%eta_b, ierr, msg)
   end subroutine check_material
 
   !> The paper bending force does not scale with the spacing: no continuum limit.
@@ -421,13 +421,13 @@ contains
     character(*), intent(out) :: msg
     ierr = 0
     msg = ''
-    if (cfg%scaling_code == SCALING_CONTINUUM .and. cfg%bending_code == BEND_PAPER) then
+    if (cfg%lattice%scaling_code == SCALING_CONTINUUM .and. cfg%material%bending_code == BEND_PAPER) then
       ierr = 1
       msg = "input: &material: bending_model = 'paper' has no continuum limit: " // &
             "not allowed with &lattice lattice_scaling = 'continuum' (use 'energy' or 'none')"
-    else if (cfg%scaling_code == SCALING_CONTINUUM .and. cfg%mass_code /= MASS_AREA) then
+    else if (cfg%lattice%scaling_code == SCALING_CONTINUUM .and. cfg%lattice%mass_code /= MASS_AREA) then
       ierr = 1
-      msg = "input: &lattice: mass_distribution = '"//trim(cfg%mass_distribution)// &
+      msg = "input: &lattice: mass_distribution = '"//trim(cfg%lattice%mass_distribution)// &
             "' not allowed with lattice_scaling = 'continuum' (needs 'area')"
     end if
   end subroutine check_scaling_bending
@@ -441,33 +441,33 @@ contains
     real(rp) :: flap
     ierr = 0
     msg = ''
-    if (.not. (cfg%release_time >= 0.0_rp)) then
+    if (.not. (cfg%scene%release_time >= 0.0_rp)) then
       ierr = 1
-      msg = 'input: &scene: release_time = '//real_short(cfg%release_time)//' must be >= 0'
+      msg = 'input: &scene: release_time = '//real_short(cfg%scene%release_time)//' must be >= 0'
       return
     end if
-    select case (cfg%scene_code)
+    select case (cfg%scene%scene_code)
     case (SCENE_LIFT_RELEASE)
-      call need_positive('scene', 'lift_length', cfg%lift_length, ierr, msg); if (ierr /= 0) return
-      call need_nonnegative('scene', 'lift_height', cfg%lift_height, ierr, msg); if (ierr /= 0) return
+      call need_positive('scene', 'lift_length', cfg%scene%lift_length, ierr, msg); if (ierr /= 0) return
+      call need_nonnegative('scene', 'lift_height', cfg%scene%lift_height, ierr, msg); if (ierr /= 0) return
       ! The fold line is the node column nearest to x = lx - lift_length.
-      i_fold = nint((cfg%lx - cfg%lift_length)/cfg%ax)
-      if (i_fold < 0 .or. i_fold >= cfg%nx - 1) then
+      i_fold = nint((cfg%lattice%lx - cfg%scene%lift_length)/cfg%lattice%ax)
+      if (i_fold < 0 .or. i_fold >= cfg%lattice%nx - 1) then
         ierr = 1
-        msg = 'input: &scene: lift_length = '//real_short(cfg%lift_length)// &
+        msg = 'input: &scene: lift_length = '//real_short(cfg%scene%lift_length)// &
               ' leaves no part to lift (must lie between ax/2 and lx)'
         return
       end if
-      flap = cfg%lx - real(i_fold, rp)*cfg%ax
-      if (cfg%lift_height > flap*(1.0_rp + 1.0e-12_rp)) then
+      flap = cfg%lattice%lx - real(i_fold, rp)*cfg%lattice%ax
+      if (cfg%scene%lift_height > flap*(1.0_rp + 1.0e-12_rp)) then
         ierr = 1
-        msg = 'input: &scene: lift_height = '//real_short(cfg%lift_height)// &
+        msg = 'input: &scene: lift_height = '//real_short(cfg%scene%lift_height)// &
               ' must be <= the length of the lifted part ('//real_short(flap)//')'
       end if
     case (SCENE_BEND_RELEASE)
-      if (.not. (cfg%bend_angle >= 0.0_rp .and. cfg%bend_angle < 360.0_rp)) then
+      if (.not. (cfg%scene%bend_angle >= 0.0_rp .and. cfg%scene%bend_angle < 360.0_rp)) then
         ierr = 1
-        msg = 'input: &scene: bend_angle = '//real_short(cfg%bend_angle)//' must be in [0, 360) degrees'
+        msg = 'input: &scene: bend_angle = '//real_short(cfg%scene%bend_angle)//' must be in [0, 360) degrees'
       end if
     end select
   end subroutine check_scene_geometry
@@ -480,25 +480,25 @@ contains
     integer :: k
     ierr = 0
     msg = ''
-    if (cfg%n_keyframes < 1 .or. cfg%n_keyframes > keyframe_max) then
+    if (cfg%scene%n_keyframes < 1 .or. cfg%scene%n_keyframes > keyframe_max) then
       ierr = 1
-      write(a, '(i0)') cfg%n_keyframes
+      write(a, '(i0)') cfg%scene%n_keyframes
       write(b, '(i0)') keyframe_max
       msg = 'input: &scene: n_keyframes = '//trim(a)//' must be in 1..'//trim(b)
       return
     end if
-    if (.not. (cfg%keyframe_time(1) >= 0.0_rp)) then
+    if (.not. (cfg%scene%keyframe_time(1) >= 0.0_rp)) then
       ierr = 1
-      msg = 'input: &scene: keyframe_time(1) = '//real_short(cfg%keyframe_time(1))//' must be >= 0'
+      msg = 'input: &scene: keyframe_time(1) = '//real_short(cfg%scene%keyframe_time(1))//' must be >= 0'
       return
     end if
-    do k = 2, cfg%n_keyframes
-      if (.not. (cfg%keyframe_time(k) > cfg%keyframe_time(k - 1))) then
+    do k = 2, cfg%scene%n_keyframes
+      if (.not. (cfg%scene%keyframe_time(k) > cfg%scene%keyframe_time(k - 1))) then
         ierr = 1
         write(a, '(i0)') k
         write(b, '(i0)') k - 1
-        msg = 'input: &scene: keyframe_time('//trim(a)//') = '//real_short(cfg%keyframe_time(k))// &
-              ' must be > keyframe_time('//trim(b)//') = '//real_short(cfg%keyframe_time(k - 1))// &
+        msg = 'input: &scene: keyframe_time('//trim(a)//') = '//real_short(cfg%scene%keyframe_time(k))// &
+              ' must be > keyframe_time('//trim(b)//') = '//real_short(cfg%scene%keyframe_time(k - 1))// &
               ' (strictly increasing)'
         return
       end if
@@ -511,35 +511,35 @@ contains
     integer, intent(out) :: ierr
     character(*), intent(out) :: msg
     integer :: code
-    call check_choice('scene', 'wave_nodes', cfg%wave_nodes, choices('wave_nodes'), code, ierr, msg)
+    call check_choice('scene', 'wave_nodes', cfg%scene%wave_nodes, choices('wave_nodes'), code, ierr, msg)
   end subroutine check_wave_nodes
 
   subroutine check_time(cfg, ierr, msg)
     type(nuno_config), intent(in) :: cfg
     integer, intent(out) :: ierr
     character(*), intent(out) :: msg
-    call need_positive('time', 't_end', cfg%t_end, ierr, msg); if (ierr /= 0) return
-    call need_positive('time', 'dt', cfg%dt, ierr, msg)
+    call need_positive('time', 't_end', cfg%time%t_end, ierr, msg); if (ierr /= 0) return
+    call need_positive('time', 'dt', cfg%time%dt, ierr, msg)
   end subroutine check_time
 
   subroutine check_output(cfg, ierr, msg)
     type(nuno_config), intent(in) :: cfg
     integer, intent(out) :: ierr
     character(*), intent(out) :: msg
-    call need_positive('output', 'output_interval', cfg%output_interval, ierr, msg)
+    call need_positive('output', 'output_interval', cfg%output%output_interval, ierr, msg)
     if (ierr /= 0) return
-    if (cfg%stretch_limit /= 0.0_rp .and. .not. cfg%stretch_limit > 1.0_rp) then
+    if (cfg%output%stretch_limit /= 0.0_rp .and. .not. cfg%output%stretch_limit > 1.0_rp) then
       ierr = 1
-      msg = 'input: &output: stretch_limit = '//real_short(cfg%stretch_limit)//' must be > 1 (or 0: no warning)'
+      msg = 'input: &output: stretch_limit = '//real_short(cfg%output%stretch_limit)//' must be > 1 (or 0: no warning)'
       return
     end if
-    if (cfg%checkpoint_interval < 0.0_rp) then
+    if (cfg%output%checkpoint_interval < 0.0_rp) then
       ierr = 1
-      msg = 'input: &output: checkpoint_interval = '//real_short(cfg%checkpoint_interval)// &
+      msg = 'input: &output: checkpoint_interval = '//real_short(cfg%output%checkpoint_interval)// &
             ' must be >= 0 (0: a checkpoint at the end of the run only)'
       return
     end if
-    if (len_trim(cfg%output_file) == 0) then
+    if (len_trim(cfg%output%output_file) == 0) then
       ierr = 1
       msg = "input: &output: output_file = '' must not be empty"
     end if

@@ -45,33 +45,33 @@ contains
     end if
     if (.not. allow_long) then
       if (present(ts_dt)) then
-        if (cfg%t_end/ts_dt > max_steps) then
+        if (cfg%time%t_end/ts_dt > max_steps) then
           ierr = 1
-          errmsg = 'input: -ts_dt '//real_short(ts_dt)//' with &time t_end = '//real_short(cfg%t_end)//' is '// &
-                   count_text(cfg%t_end/ts_dt)//' steps, more than '//count_text(max_steps)// &
+          errmsg = 'input: -ts_dt '//real_short(ts_dt)//' with &time t_end = '//real_short(cfg%time%t_end)//' is '// &
+                   count_text(cfg%time%t_end/ts_dt)//' steps, more than '//count_text(max_steps)// &
                    ': give -nuno_allow_long to run it anyway'
           return
         end if
-      else if (cfg%t_end/cfg%dt > max_steps) then
+      else if (cfg%time%t_end/cfg%time%dt > max_steps) then
         ierr = 1
-        errmsg = 'input: &time: t_end = '//real_short(cfg%t_end)//', dt = '//real_short(cfg%dt)//' is '// &
-                 count_text(cfg%t_end/cfg%dt)//' steps, more than '//count_text(max_steps)// &
+        errmsg = 'input: &time: t_end = '//real_short(cfg%time%t_end)//', dt = '//real_short(cfg%time%dt)//' is '// &
+                 count_text(cfg%time%t_end/cfg%time%dt)//' steps, more than '//count_text(max_steps)// &
                  ': give -nuno_allow_long to run it anyway'
         return
       end if
-      if (cfg%t_end/cfg%output_interval > max_outputs) then
+      if (cfg%time%t_end/cfg%output%output_interval > max_outputs) then
         ierr = 1
-        errmsg = 'input: &output: output_interval = '//real_short(cfg%output_interval)//' with t_end = '// &
-                 real_short(cfg%t_end)//' is '//count_text(cfg%t_end/cfg%output_interval)// &
+        errmsg = 'input: &output: output_interval = '//real_short(cfg%output%output_interval)//' with t_end = '// &
+                 real_short(cfg%time%t_end)//' is '//count_text(cfg%time%t_end/cfg%output%output_interval)// &
                  ' output steps, more than '//count_text(max_outputs)//': give -nuno_allow_long to run it anyway'
         return
       end if
     end if
 
-    write(a, '(i0)') cfg%nx
-    write(b, '(i0)') cfg%ny
+    write(a, '(i0)') cfg%lattice%nx
+    write(b, '(i0)') cfg%lattice%ny
     write(lim, '(i0)') index_max
-    nodes = real(cfg%nx, rp)*real(cfg%ny, rp)
+    nodes = real(cfg%lattice%nx, rp)*real(cfg%lattice%ny, rp)
     if (6.0_rp*nodes > real(index_max, rp)) then
       ierr = 1
       errmsg = 'input: &lattice: nx = '//trim(a)//', ny = '//trim(b)//': 6 nx ny = '// &
@@ -79,7 +79,7 @@ contains
                ' (largest PetscInt)'
       return
     end if
-    per_node = merge(bytes_per_node_plain, bytes_per_node_bending, cfg%bending_code == BEND_NONE)
+    per_node = merge(bytes_per_node_plain, bytes_per_node_bending, cfg%material%bending_code == BEND_NONE)
     need = nodes*per_node
     call memory_available(comm, avail)
     if (avail > 0) then

@@ -54,29 +54,29 @@ contains
     integer, intent(in) :: ys, ye
     integer :: i, j
 
-    lat%nx = cfg%nx
-    lat%ny = cfg%ny
+    lat%nx = cfg%lattice%nx
+    lat%ny = cfg%lattice%ny
     lat%ys = ys
     lat%ye = ye
     lat%halo = halo_width(cfg)
     lat%gys = max(0, ys - lat%halo)
-    lat%gye = min(cfg%ny - 1, ye + lat%halo)
-    lat%ax = cfg%ax
-    lat%ay = cfg%ay
-    lat%spring_model = cfg%spring_code
-    lat%bending_model = cfg%bending_code
-    lat%continuum = cfg%scaling_code == SCALING_CONTINUUM
-    lat%e_s = cfg%e_s
-    lat%eta_s = cfg%eta_s
-    lat%e_d = cfg%e_d
-    lat%eta_d = cfg%eta_d
-    lat%k_b = cfg%k_b
-    lat%eta_b = cfg%eta_b
+    lat%gye = min(cfg%lattice%ny - 1, ye + lat%halo)
+    lat%ax = cfg%lattice%ax
+    lat%ay = cfg%lattice%ay
+    lat%spring_model = cfg%material%spring_code
+    lat%bending_model = cfg%material%bending_code
+    lat%continuum = cfg%lattice%scaling_code == SCALING_CONTINUUM
+    lat%e_s = cfg%material%e_s
+    lat%eta_s = cfg%material%eta_s
+    lat%e_d = cfg%material%e_d
+    lat%eta_d = cfg%material%eta_d
+    lat%k_b = cfg%material%k_b
+    lat%eta_b = cfg%material%eta_b
 
-    lat%total_mass = cfg%total_mass
-    lat%lx = cfg%lx
-    lat%ly = cfg%ly
-    lat%area_mass = cfg%mass_code == MASS_AREA .or. lat%continuum
+    lat%total_mass = cfg%lattice%total_mass
+    lat%lx = cfg%lattice%lx
+    lat%ly = cfg%lattice%ly
+    lat%area_mass = cfg%lattice%mass_code == MASS_AREA .or. lat%continuum
     allocate(lat%mass(0:lat%nx - 1, lat%gys:lat%gye))
     do j = lat%gys, lat%gye
       do i = 0, lat%nx - 1
@@ -88,7 +88,7 @@ contains
   !> Ghost width of the strips: bending triples reach two rows, links one.
   pure integer function halo_width(cfg)
     type(nuno_config), intent(in) :: cfg
-    halo_width = merge(1, 2, cfg%bending_code == BEND_NONE)
+    halo_width = merge(1, 2, cfg%material%bending_code == BEND_NONE)
   end function halo_width
 
   !> Mass of node (i, j) [mass]: uniform (the report), or the node's Voronoi

@@ -115,11 +115,11 @@ program nuno
     call input_read(trim(path), PETSC_COMM_WORLD, cfg, ierr, errmsg)
   end if
   if (ierr /= 0) call fatal_collective(errmsg)
-  call apply_namelist_options(cfg%petsc_options, ierr, errmsg)
+  call apply_namelist_options(cfg%output%petsc_options, ierr, errmsg)
   if (ierr /= 0) call fatal_collective(errmsg)
   ! Step/output counts, index space and memory, before anything is allocated.
   ! Indices: PETSc's and the default integers of the Fortran code.
-  call read_input_options(PETSC_COMM_WORLD, cfg%dt, allow_long, ts_dt, ts_dt_set, restart_file, walltime, &
+  call read_input_options(PETSC_COMM_WORLD, cfg%time%dt, allow_long, ts_dt, ts_dt_set, restart_file, walltime, &
                           bad_option, ierr)
   if (ierr /= 0) call fatal_local('could not read the -nuno_allow_long, -nuno_restart or -nuno_checkpoint_walltime option')
   if (len_trim(bad_option) > 0) call fatal_collective(trim(bad_option))
@@ -137,12 +137,12 @@ program nuno
   ! no control character, not too long for MPI-IO, no input file by any
   ! of the names written with it (input/README.md, Output files).
   inputs(1) = path
-  inputs(2) = cfg%observed_file
-  inputs(3) = cfg%target_file
+  inputs(2) = cfg%identify%observed_file
+  inputs(3) = cfg%control%target_file
   if (len_trim(restart_file) > 0) then
     wname = trim(restart_file)
   else
-    wname = trim(cfg%output_file)
+    wname = trim(cfg%output%output_file)
   end if
   derived(1) = wname//'.partial'
   derived(2) = wname//'.lock'
@@ -152,7 +152,7 @@ program nuno
                            inputs, derived, ierr, errmsg)
   else
     call check_output_name(PETSC_COMM_WORLD, '&output: output_file', wname, &
-                           len_trim(cfg%output_file) >= len(cfg%output_file), inputs, derived, ierr, errmsg)
+                           len_trim(cfg%output%output_file) >= len(cfg%output%output_file), inputs, derived, ierr, errmsg)
   end if
   if (ierr /= 0) call fatal_collective(errmsg)
   if (rank == 0) then
@@ -177,7 +177,7 @@ program nuno
   ! &control group: optimise the keyframes for the target first (module
   ! identify); the run below then writes the resulting motion and
   ! /identify or /control.
-  if (cfg%identify .or. cfg%control) then
+  if (cfg%identify%active .or. cfg%control%active) then
     if (len_trim(restart_file) > 0) &
       call fatal_collective('-nuno_restart cannot continue an identification or a control run (&identify, &control)')
     call identify_prepare_options(ierr)
@@ -185,7 +185,7 @@ program nuno
   end if
   call solver_create(ctx, cfg, ierr)
   if (ierr /= 0) call fatal_local('could not set up the solver')
-  if (cfg%identify .or. cfg%control) then
+  if (cfg%identify%active .or. cfg%control%active) then
     call identify_run(id, ctx, id_done, ierr, errmsg)
     if (ierr == 1) call fatal_collective(errmsg)
     if (ierr /= 0) call fatal_local('PETSc error during the identification or control')
@@ -204,31 +204,31 @@ program nuno
   !    before that leaves an earlier output file as it was. -nuno_restart
   !    continues an earlier run's file in place from its last checkpoint.
   petsc_opts = petsc_options_text()
-  if (len_trim(cfg%petsc_options) > 0) &
-    petsc_opts = trim(petsc_opts//' [namelist, overridden by the above: '//trim(cfg%petsc_options)//']')
+  if (len_trim(cfg%output%petsc_options) > 0) &
+    petsc_opts = trim(petsc_opts//' [namelist, overridden by the above: '//trim(cfg%output%petsc_options)//']')
   call restart_state_init(ctx%restart, checkpoint_walltime=walltime)
   if (len_trim(restart_file) > 0) then
-    if (len_trim(restart_file) > len(cfg%output_file)) &
-      call fatal_collective('-nuno_restart: the file name is longer than '//trim(adjustl(itoa(len(cfg%output_file))))// &
+    if (len_trim(restart_file) > len(cfg%output%output_file)) &
+      call fatal_collective('-nuno_restart: the file name is longer than '//trim(adjustl(itoa(len(cfg%output%output_file))))// &
                             ' characters')
-    call output_reopen(out, trim(restart_file), PETSC_COMM_WORLD, cfg%nx, cfg%ny, ctx%lat%ys, &
-                       ctx%lat%ye - ctx%lat%ys + 1, cfg%write_velocity, ctx%step%t_end, cfg%namelist_text, petsc_opts, &
+    call output_reopen(out, trim(restart_file), PETSC_COMM_WORLD, cfg%lattice%nx, cfg%lattice%ny, ctx%lat%ys, &
+                       ctx%lat%ye - ctx%lat%ys + 1, cfg%output%write_velocity, ctx%step%t_end, cfg%namelist_text, petsc_opts, &
                        ck, ctx%xout, ctx%vout, ierr, errmsg, protect=trim(path), overwrite=overwrite /= 0, cfg=cfg)
     if (ierr /= 0) call fatal_collective(errmsg)
-    if (rank == 0 .and. trim(restart_file) /= trim(cfg%output_file) .and. &
-        trim(restart_file) /= trim(cfg%output_file)//'.partial' .and. &
-        .not. same_file(trim(restart_file), trim(cfg%output_file))) &
+    if (rank == 0 .and. trim(restart_file) /= trim(cfg%output%output_file) .and. &
+        trim(restart_file) /= trim(cfg%output%output_file)//'.partial' .and. &
+        .not. same_file(trim(restart_file), trim(cfg%output%output_file))) &
       write(*, '(a)') 'nuno: -nuno_restart: the run goes on in '//trim(restart_file)//"; the input's output_file = '"// &
-                      trim(cfg%output_file)//"' is not used"
-    cfg%output_file = restart_file(1:len(cfg%output_file))
+                      trim(cfg%output%output_file)//"' is not used"
+    cfg%output%output_file = restart_file(1:len(cfg%output%output_file))
     call solver_restore(ctx, ck, ctx%xout, ctx%vout, ierr)
     if (ierr /= 0) call fatal_local('could not restore the checkpoint')
     if (rank == 0) write(*, '(a,i0,a,es12.5e2,a)') 'nuno: restart from checkpoint ', ck%sequence, ' at t =', ck%time, &
       ' ('//trim(ck%reason)//') in '//trim(restart_file)
   else
-    call output_open(out, trim(cfg%output_file), PETSC_COMM_WORLD, cfg%nx, cfg%ny, ctx%lat%ys, &
+    call output_open(out, trim(cfg%output%output_file), PETSC_COMM_WORLD, cfg%lattice%nx, cfg%lattice%ny, ctx%lat%ys, &
                      ctx%lat%ye - ctx%lat%ys + 1, rest_strip(ctx%lat), ctx%lat%mass(:, ctx%lat%ys:ctx%lat%ye), &
-                     cfg%write_velocity, cfg%namelist_text, petsc_opts, ierr, errmsg, protect=trim(path), &
+                     cfg%output%write_velocity, cfg%namelist_text, petsc_opts, ierr, errmsg, protect=trim(path), &
                      overwrite=overwrite /= 0)
     if (ierr /= 0) call fatal_collective(errmsg)
   end if
@@ -237,16 +237,16 @@ program nuno
   ! leaving the file marked 'running', never 'complete'.
   call solver_run(ctx, out, status, ierr)
   if (ierr /= 0) call fatal_local('PETSc or HDF5 error during the run; output not marked complete')
-  if (cfg%identify .and. status == 'complete') then
+  if (cfg%identify%active .and. status == 'complete') then
     call identify_result(id, id_names, id_values, id_unc, id_initial, id_objective, id_hist)
     call output_write_identify(out, id_names, id_values, id_unc, id_initial, id_objective, id_hist, ierr, errmsg)
     if (ierr /= 0) call fatal_collective(errmsg)
   end if
-  if (cfg%control .and. status == 'complete') then
+  if (cfg%control%active .and. status == 'complete') then
     call control_result(id, kf_time, kf_offset, kf_initial, id_objective, kf_fhist, kf_hist)
     call output_write_control(out, kf_time, kf_offset, kf_initial, id_objective, kf_fhist, kf_hist, &
-                              merge(ieee_value(1.0_rp, ieee_positive_inf), cfg%max_speed, cfg%max_speed == unset_real), &
-                              cfg%components, ierr, errmsg)
+                              merge(ieee_value(1.0_rp, ieee_positive_inf), cfg%control%max_speed, cfg%control%max_speed == unset_real), &
+                              cfg%control%components, ierr, errmsg)
     if (ierr /= 0) call fatal_collective(errmsg)
   end if
   call output_close(out, trim(status), ierr, errmsg)
@@ -255,7 +255,7 @@ program nuno
 
   ! 5. Clean up; a failed run exits non-zero on every rank.
   call solver_destroy(ctx, ierr)
-  if (cfg%identify .or. cfg%control) call identify_scratch_remove(id)
+  if (cfg%identify%active .or. cfg%control%active) call identify_scratch_remove(id)
   PetscCallA(PetscFinalize(ierr))
   ! Quiet: the failure was reported in one line already (no ERROR STOP, no backtrace).
   if (status /= 'complete') call quiet_exit(1)

@@ -54,7 +54,7 @@ contains
     PetscCall(TSGetSNES(ctx%ts, snes, ierr))
     PetscCall(SNESGetType(snes, sntype, ierr))
     auto_cubic = ctx%step%fixed_step .and. trim(sntype) /= SNESKSPONLY .and. &
-                 .not. (ctx%cfg%identify .or. ctx%cfg%control) .and. ctx%cfg%contact%n_obstacles == 0
+                 .not. (ctx%cfg%identify%active .or. ctx%cfg%control%active) .and. ctx%cfg%contact%n_obstacles == 0
     PetscCall(newton_start_setup(ctx%newton%start, ctx%ts, ctx%comm, auto_cubic, ierr))
   end subroutine set_newton_start
 

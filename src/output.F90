@@ -125,18 +125,18 @@ module output
   !> file (8-10 ms on 2 ranks) in 64 steps.
   integer, parameter :: REFRESH_STEPS = 64
 
-  !> Opaque handle of an open output file.
-  type, public :: output_file
-    private
-    logical :: is_open = .false.
+  !> The time series of an open file (submodule output_series).
+  type :: series_state
     logical :: write_velocity = .false.
-    integer :: comm = MPI_COMM_NULL, rank = 0, n_ranks = 1
-    integer :: nx = 0, ny = 0, ys = 0, ym = 0   ! lattice and this rank's rows
     integer :: nt = 0                           ! output steps completely written
-    integer(hid_t) :: file = -1, dxpl = -1
     integer(hid_t) :: dset(n_dsets) = -1
     integer :: drank(n_dsets) = 0
     integer(hsize_t) :: ddims(4, n_dsets) = 0   ! Fortran dims, the last one is t
+    real(rp), allocatable :: times(:)           ! output times, for the XDMF file
+  end type series_state
+
+  !> The file names, the lock and the commit of the safety rules (submodule output_files).
+  type :: safe_state
     character(len=:), allocatable :: xmf_path, h5_base
     character(len=:), allocatable :: final_path  ! the output file's name
     character(len=:), allocatable :: work_path   ! <final>.partial: written until committed
@@ -146,11 +146,27 @@ module output
     logical :: had_earlier = .false.             ! final_path was an earlier nuno output when the run began
     logical :: overwrite = .false.               ! -nuno_overwrite: replace it at the first step, not at the end
     logical :: stepped = .false.                 ! an output step after a successful time step is written
-    real(rp), allocatable :: times(:)           ! output times, for the XDMF file
+  end type safe_state
+
+  !> Checkpoints and restarts of the series (submodule output_checkpoint).
+  type :: checkpoint_state
     logical :: reopened = .false.               ! continued by output_reopen (-nuno_restart)
     integer :: restarts = 0                     ! restarts of the series, this one included
     integer :: ck_seq = 0                       ! sequence of the last valid checkpoint (0: none)
     integer :: ck_slot = -1                     ! its slot, /checkpoint/slot_0 or slot_1 (-1: none)
+  end type checkpoint_state
+
+  !> Opaque handle of an open output file: the open file itself, and one
+  !> record per concern.
+  type, public :: output_file
+    private
+    logical :: is_open = .false.
+    integer :: comm = MPI_COMM_NULL, rank = 0, n_ranks = 1
+    integer :: nx = 0, ny = 0, ys = 0, ym = 0   ! lattice and this rank's rows
+    integer(hid_t) :: file = -1, dxpl = -1
+    type(series_state) :: series
+    type(safe_state) :: safe
+    type(checkpoint_state) :: ckpt
   end type output_file
 
   ! The procedures, by concern, in submodules: output_files (lifecycle and the

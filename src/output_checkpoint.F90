@@ -53,13 +53,13 @@ contains
     if (ierr /= 0) return
 
     ! (a restart point, kept at an earlier output step, holds its own count)
-    if (ck%n_output_steps <= 0) ck%n_output_steps = out%nt
+    if (ck%n_output_steps <= 0) ck%n_output_steps = out%series%nt
     call check_space(out, 48.0_rp * (1 + ck%start_count) * out%nx * out%ny + 65536.0_rp, 'a checkpoint', ierr, errmsg)
     if (ierr /= 0) then
       errmsg = 'checkpoint not written: '//trim(errmsg)
       return
     end if
-    slot = merge(0, 1 - out%ck_slot, out%ck_slot < 0)
+    slot = merge(0, 1 - out%ckpt%ck_slot, out%ckpt%ck_slot < 0)
     where = trim(slot_names(slot))
     grp = -1
     call open_or_create_group(out%file, '/checkpoint', grp, ierr, errmsg)
@@ -111,7 +111,7 @@ contains
     end if
     if (all_ok()) call flush_file(out, ierr, errmsg)
     ! Valid from here on.
-    if (all_ok()) call set_attr_int(grp, 'sequence', out%ck_seq + 1, where, ierr, errmsg)
+    if (all_ok()) call set_attr_int(grp, 'sequence', out%ckpt%ck_seq + 1, where, ierr, errmsg)
     if (all_ok()) call flush_file(out, ierr, errmsg)
     if (grp >= 0) call close_group(grp, where, ierr, errmsg)
     call agree(out%comm, 'output_write_checkpoint', ierr, errmsg)
@@ -120,9 +120,9 @@ contains
       errmsg = 'checkpoint not written: '//trim(errmsg)
       return
     end if
-    out%ck_seq = out%ck_seq + 1
-    out%ck_slot = slot
-    ck%sequence = out%ck_seq
+    out%ckpt%ck_seq = out%ckpt%ck_seq + 1
+    out%ckpt%ck_slot = slot
+    ck%sequence = out%ckpt%ck_seq
   contains
     logical function all_ok()
       call agree(out%comm, 'output_write_checkpoint', ierr, errmsg)
@@ -157,8 +157,8 @@ contains
     logical :: exists_
 
     if (ierr /= 0) return
-    path = out%work_path
-    if (out%committed) path = out%final_path
+    path = out%safe%work_path
+    if (out%safe%committed) path = out%safe%final_path
     call close_ids(out, ierr, errmsg)
     call h5close_f(h)
     if (h < 0) call fail('h5close_f', path, ierr, errmsg)
@@ -200,13 +200,13 @@ contains
     end if
     do i = 1, n_dsets
       if (ierr /= 0) exit
-      if (i == d_velocity .and. .not. out%write_velocity) cycle
+      if (i == d_velocity .and. .not. out%series%write_velocity) cycle
       call h5lexists_f(out%file, trim(dset_names(i)), exists_, h)
       if (h < 0) call fail('h5lexists_f', trim(dset_names(i)), ierr, errmsg)
       if (ierr /= 0 .or. .not. exists_) cycle
-      call h5dopen_f(out%file, trim(dset_names(i)), out%dset(i), h)
+      call h5dopen_f(out%file, trim(dset_names(i)), out%series%dset(i), h)
       if (h < 0) then
-        out%dset(i) = -1
+        out%series%dset(i) = -1
         call fail('h5dopen_f', trim(dset_names(i)), ierr, errmsg)
       end if
     end do
@@ -216,7 +216,7 @@ contains
   !> The output steps completely written so far.
   integer module function output_steps(out)
     type(output_file), intent(in) :: out
-    output_steps = out%nt
+    output_steps = out%series%nt
   end function output_steps
 
   !> Open an earlier run's file to continue it from its last valid
@@ -245,7 +245,7 @@ contains
     out%ny = ny
     out%ys = ys
     out%ym = ym
-    out%write_velocity = write_velocity
+    out%series%write_velocity = write_velocity
     ! A run that has not yet given its file the output's name (killed
     ! before its first output step, or one that keeps an earlier result
     ! until it completes) left OUTPUT.partial: the restart continues that,
@@ -254,38 +254,38 @@ contains
     attempt = .false.
     if (n > 8) attempt = filename(n - 7:n) == '.partial'
     if (attempt) then
-      out%final_path = filename(1:n - 8)
-      out%work_path = filename
+      out%safe%final_path = filename(1:n - 8)
+      out%safe%work_path = filename
     else
       if (out%rank == 0) attempt = path_kind(filename//'.partial', why) == kind_file
       call MPI_Bcast(attempt, 1, MPI_LOGICAL, 0, comm, mpierr)
-      out%final_path = filename
-      out%work_path = filename
-      if (attempt) out%work_path = filename//'.partial'
+      out%safe%final_path = filename
+      out%safe%work_path = filename
+      if (attempt) out%safe%work_path = filename//'.partial'
     end if
-    call sidecar_names(out%final_path, out%xmf_path, out%h5_base)
-    out%lock_path = out%final_path//'.lock'
+    call sidecar_names(out%safe%final_path, out%safe%xmf_path, out%safe%h5_base)
+    out%safe%lock_path = out%safe%final_path//'.lock'
     ! In place: the checkpoint is in it already.
-    out%committed = out%work_path == out%final_path
-    out%reopened = .true.
-    out%stepped = .true.          ! a result already: never removed
-    out%overwrite = .false.
-    if (present(overwrite)) out%overwrite = overwrite
+    out%safe%committed = out%safe%work_path == out%safe%final_path
+    out%ckpt%reopened = .true.
+    out%safe%stepped = .true.          ! a result already: never removed
+    out%safe%overwrite = .false.
+    if (present(overwrite)) out%safe%overwrite = overwrite
 
     if (out%rank == 0) then
-      if (.not. file_exists(out%work_path)) then
+      if (.not. file_exists(out%safe%work_path)) then
         ierr = 1
         errmsg = '-nuno_restart '//filename//': no such file'
       else
         call claim_files(out, ierr, errmsg, protect)
-        if (ierr == 0 .and. .not. out%committed) write(*, '(a)') 'nuno: -nuno_restart: continuing '// &
-          out%work_path//', the last run''s file; it becomes '//out%final_path//' as a run''s file does'
+        if (ierr == 0 .and. .not. out%safe%committed) write(*, '(a)') 'nuno: -nuno_restart: continuing '// &
+          out%safe%work_path//', the last run''s file; it becomes '//out%safe%final_path//' as a run''s file does'
       end if
     end if
-    call MPI_Bcast(out%had_earlier, 1, MPI_LOGICAL, 0, comm, mpierr)
+    call MPI_Bcast(out%safe%had_earlier, 1, MPI_LOGICAL, 0, comm, mpierr)
     call agree(comm, '-nuno_restart', ierr, errmsg)
     if (ierr /= 0) then
-      if (out%rank == 0) call lock_release(out%lock_path, out%lock_fd)
+      if (out%rank == 0) call lock_release(out%safe%lock_path, out%safe%lock_fd)
       return
     end if
 
@@ -298,16 +298,16 @@ contains
       if (h < 0) call fail('h5pset_fapl_mpio_f', filename, ierr, errmsg)
     end if
     if (ierr == 0) then
-      call h5fopen_f(out%work_path, H5F_ACC_RDWR_F, out%file, h, access_prp=fapl)
+      call h5fopen_f(out%safe%work_path, H5F_ACC_RDWR_F, out%file, h, access_prp=fapl)
       if (h < 0) then
         ierr = 1
-        errmsg = '-nuno_restart '//out%work_path//': not an HDF5 file that can be opened for writing'
+        errmsg = '-nuno_restart '//out%safe%work_path//': not an HDF5 file that can be opened for writing'
       end if
       call h5pclose_f(fapl, h)
     end if
     call agree(comm, '-nuno_restart', ierr, errmsg)
     if (ierr /= 0) then
-      if (out%rank == 0) call lock_release(out%lock_path, out%lock_fd)
+      if (out%rank == 0) call lock_release(out%safe%lock_path, out%safe%lock_fd)
       return
     end if
     out%is_open = .true.
@@ -372,8 +372,8 @@ contains
       where = trim(slot_names(slot))
       call read_checkpoint(out, where, ck, x, v, ierr, errmsg)
       ck%sequence = seq(slot)
-      out%ck_seq = seq(slot)
-      out%ck_slot = slot
+      out%ckpt%ck_seq = seq(slot)
+      out%ckpt%ck_slot = slot
       ! a sound checkpoint, checked before anything in the file changes
       call agree(comm, '-nuno_restart', ierr, errmsg)
       if (ierr == 0) call checkpoint_refusal(out%file, filename, where, ck, x, v, comm, ierr, errmsg)
@@ -404,11 +404,11 @@ contains
           call close_group(grp, '/run', ierr, errmsg)
         end if
       end if
-      out%restarts = restarts + 1
+      out%ckpt%restarts = restarts + 1
       call open_or_create_group(out%file, '/run', grp, ierr, errmsg)
-      if (ierr == 0) call set_attr_int(grp, 'restarts', out%restarts, '/run', ierr, errmsg)
+      if (ierr == 0) call set_attr_int(grp, 'restarts', out%ckpt%restarts, '/run', ierr, errmsg)
       if (grp >= 0) call close_group(grp, '/run', ierr, errmsg)
-      where = '/run/restart_'//itoa(out%restarts)
+      where = '/run/restart_'//itoa(out%ckpt%restarts)
       if (ierr == 0) call open_or_create_group(out%file, where, grp, ierr, errmsg)
       if (ierr == 0) call set_attr_reals(grp, 'from_time', [ck%time], where, ierr, errmsg)
       if (ierr == 0) call set_attr_int(grp, 'from_checkpoint', ck%sequence, where, ierr, errmsg)
@@ -423,7 +423,7 @@ contains
     if (ierr /= 0) then
       call close_ids(out, ierr, errmsg)
       out%is_open = .false.
-      if (out%rank == 0) call lock_release(out%lock_path, out%lock_fd)
+      if (out%rank == 0) call lock_release(out%safe%lock_path, out%safe%lock_fd)
     end if
   end procedure output_reopen
 

@@ -32,12 +32,12 @@ contains
     integer :: k, h
     logical :: is_scale
 
-    if (ierr /= 0 .or. out%dset(d_time) < 0) return
+    if (ierr /= 0 .or. out%series%dset(d_time) < 0) return
     sj = -1; si = -1; sxyz = -1
-    call h5dsis_scale_f(out%dset(d_time), is_scale, h)
+    call h5dsis_scale_f(out%series%dset(d_time), is_scale, h)
     if (h < 0) call fail('h5dsis_scale_f', '/time', ierr, errmsg)
     if (ierr == 0 .and. .not. is_scale) then
-      call h5dsset_scale_f(out%dset(d_time), h, 'time')
+      call h5dsset_scale_f(out%series%dset(d_time), h, 'time')
       if (h < 0) call fail('h5dsset_scale_f', '/time', ierr, errmsg)
     end if
     call axis_scale('/j', out%ny, sj)
@@ -45,15 +45,15 @@ contains
     call axis_scale('/xyz', 3, sxyz)
     do k = 1, n_dsets
       if (ierr /= 0) exit
-      if (k == d_time .or. out%dset(k) < 0) cycle
-      call attach(out%dset(k), out%dset(d_time), 1, trim(dset_names(k)))
+      if (k == d_time .or. out%series%dset(k) < 0) cycle
+      call attach(out%series%dset(k), out%series%dset(d_time), 1, trim(dset_names(k)))
       select case (k)
       case (d_position, d_velocity)
-        call attach(out%dset(k), sj, 2, trim(dset_names(k)))
-        call attach(out%dset(k), si, 3, trim(dset_names(k)))
-        call attach(out%dset(k), sxyz, 4, trim(dset_names(k)))
+        call attach(out%series%dset(k), sj, 2, trim(dset_names(k)))
+        call attach(out%series%dset(k), si, 3, trim(dset_names(k)))
+        call attach(out%series%dset(k), sxyz, 4, trim(dset_names(k)))
       case (d_momentum, d_angular_momentum)
-        call attach(out%dset(k), sxyz, 2, trim(dset_names(k)))
+        call attach(out%series%dset(k), sxyz, 2, trim(dset_names(k)))
       end select
     end do
     call attach_static('/lattice/rest_position', [sj, si, sxyz])
@@ -138,22 +138,22 @@ contains
       return
     end select
     do k = 1, n_dsets
-      if (out%dset(k) < 0 .or. ierr /= 0) cycle
+      if (out%series%dset(k) < 0 .or. ierr /= 0) cycle
       select case (k)
       case (d_time, d_wall_time)
-        call put(out%dset(k), 's')
+        call put(out%series%dset(k), 's')
       case (d_position, d_length, d_flatness)
-        call put(out%dset(k), length)
+        call put(out%series%dset(k), length)
       case (d_velocity)
-        call put(out%dset(k), velocity)
+        call put(out%series%dset(k), velocity)
       case (d_kinetic, d_stretch, d_bend, d_dissipated, d_external_work)
-        call put(out%dset(k), energy)
+        call put(out%series%dset(k), energy)
       case (d_momentum)
-        call put(out%dset(k), momentum)
+        call put(out%series%dset(k), momentum)
       case (d_angular_momentum)
-        call put(out%dset(k), angular)
+        call put(out%series%dset(k), angular)
       case default
-        call put(out%dset(k), '1')   ! counts
+        call put(out%series%dset(k), '1')   ! counts
       end select
     end do
     call put_lattice('/lattice/rest_position', length)

@@ -47,52 +47,52 @@ contains
     out%ny = ny
     out%ys = ys
     out%ym = ym
-    out%nt = 0
-    out%write_velocity = write_velocity
-    call sidecar_names(filename, out%xmf_path, out%h5_base)
-    if (allocated(out%times)) deallocate(out%times)
-    allocate(out%times(16))
-    out%final_path = filename
-    out%work_path = filename//'.partial'
-    out%lock_path = filename//'.lock'
-    out%committed = .false.
-    out%reopened = .false.
-    out%stepped = .false.
-    out%overwrite = .false.
-    if (present(overwrite)) out%overwrite = overwrite
+    out%series%nt = 0
+    out%series%write_velocity = write_velocity
+    call sidecar_names(filename, out%safe%xmf_path, out%safe%h5_base)
+    if (allocated(out%series%times)) deallocate(out%series%times)
+    allocate(out%series%times(16))
+    out%safe%final_path = filename
+    out%safe%work_path = filename//'.partial'
+    out%safe%lock_path = filename//'.lock'
+    out%safe%committed = .false.
+    out%ckpt%reopened = .false.
+    out%safe%stepped = .false.
+    out%safe%overwrite = .false.
+    if (present(overwrite)) out%safe%overwrite = overwrite
 
     ! Before anything is written: not the input file, no other writer, and
     ! only nuno's own files under the names this run writes.
     if (out%rank == 0) call claim_files(out, ierr, errmsg, protect)
     call agree(comm, 'output_open', ierr, errmsg)
     if (ierr /= 0) then
-      if (out%rank == 0) call lock_release(out%lock_path, out%lock_fd)
+      if (out%rank == 0) call lock_release(out%safe%lock_path, out%safe%lock_fd)
       return
     end if
-    call MPI_Bcast(out%had_earlier, 1, MPI_LOGICAL, 0, comm, mpierr)
+    call MPI_Bcast(out%safe%had_earlier, 1, MPI_LOGICAL, 0, comm, mpierr)
 
     ! The file, the lattice and a first step must fit (check_space).
     call check_space(out, 32.0_rp * nx * ny + step_bytes(out) + 2.0_rp * (len(attrs_namelist) + len(attrs_petsc_options)), &
                      'a new output file', ierr, errmsg)
     if (ierr /= 0) then
-      if (out%rank == 0) call lock_release(out%lock_path, out%lock_fd)
+      if (out%rank == 0) call lock_release(out%safe%lock_path, out%safe%lock_fd)
       return
     end if
-    call open_local(out, out%work_path, rest, mass, attrs_namelist, attrs_petsc_options, ierr, errmsg, version)
+    call open_local(out, out%safe%work_path, rest, mass, attrs_namelist, attrs_petsc_options, ierr, errmsg, version)
     call agree(comm, 'output_open', ierr, errmsg)
     ! Made by this run (created: the file is open here): an error exit
     ! before it holds a result removes it (errors: cleanup_run), and so
     ! does a failure here; a name this run did not create is left alone.
     made = out%is_open
-    if (out%rank == 0 .and. made) call cleanup_add(out%work_path, cleanup_file)
+    if (out%rank == 0 .and. made) call cleanup_add(out%safe%work_path, cleanup_file)
     if (ierr /= 0) then
       call close_ids(out, ierr, errmsg)   ! best effort; ierr/errmsg keep the first error
       out%is_open = .false.
       if (out%rank == 0 .and. made) then
-        call remove_file(out%work_path, made, detail)
-        call cleanup_drop(out%work_path)
+        call remove_file(out%safe%work_path, made, detail)
+        call cleanup_drop(out%safe%work_path)
       end if
-      if (out%rank == 0) call lock_release(out%lock_path, out%lock_fd)
+      if (out%rank == 0) call lock_release(out%safe%lock_path, out%safe%lock_fd)
     end if
   end procedure output_open
 
@@ -105,59 +105,59 @@ contains
     logical :: stale, ok
 
     if (present(protect)) then
-      if (same_file(protect, out%final_path) .or. same_file(protect, out%work_path) .or. &
-          same_file(protect, out%lock_path) .or. same_file(protect, out%xmf_path)) then
+      if (same_file(protect, out%safe%final_path) .or. same_file(protect, out%safe%work_path) .or. &
+          same_file(protect, out%safe%lock_path) .or. same_file(protect, out%safe%xmf_path)) then
         ierr = 1
-        errmsg = "input: &output: output_file = '"//out%final_path//"' would overwrite the input file "// &
+        errmsg = "input: &output: output_file = '"//out%safe%final_path//"' would overwrite the input file "// &
                  protect//': choose another output_file'
         return
       end if
     end if
-    call lock_acquire(out%lock_path, out%lock_fd, code, detail)
+    call lock_acquire(out%safe%lock_path, out%safe%lock_fd, code, detail)
     if (code == 1) then
       ierr = 1
-      errmsg = 'output: '//out%final_path//' is being written by another run ('//trim(detail)// &
-               ', lock '//out%lock_path//'): wait for it to end or choose another output_file'
+      errmsg = 'output: '//out%safe%final_path//' is being written by another run ('//trim(detail)// &
+               ', lock '//out%safe%lock_path//'): wait for it to end or choose another output_file'
     else if (code == 3) then
       ierr = 1
-      errmsg = 'output: nuno''s lock file '//out%lock_path//' cannot be made: '//trim(detail)// &
+      errmsg = 'output: nuno''s lock file '//out%safe%lock_path//' cannot be made: '//trim(detail)// &
                '; nuno never writes through or over what it did not make: move it away or choose another output_file'
     else if (code /= 0) then
       ierr = 1
-      errmsg = 'output: cannot create '//out%lock_path//' beside the output file: '//trim(detail)
+      errmsg = 'output: cannot create '//out%safe%lock_path//' beside the output file: '//trim(detail)
     end if
     if (ierr /= 0) return
     ! Under the lock, the names this run writes: each must be free or a
     ! regular file that nuno wrote (an earlier result, a killed run's
     ! attempt, a sidecar), never a link, a directory or a user's file.
-    out%had_earlier = .false.
-    if (out%work_path /= out%final_path) then
-      call own_or_free(out%final_path, 'output file', out%had_earlier)
-      if (ierr == 0 .and. .not. out%reopened) then
-        call own_or_free(out%work_path, 'working file', stale)
+    out%safe%had_earlier = .false.
+    if (out%safe%work_path /= out%safe%final_path) then
+      call own_or_free(out%safe%final_path, 'output file', out%safe%had_earlier)
+      if (ierr == 0 .and. .not. out%ckpt%reopened) then
+        call own_or_free(out%safe%work_path, 'working file', stale)
         ! A killed run's attempt (nuno's, under this lock): replaced.
         if (ierr == 0 .and. stale) then
-          call remove_file(out%work_path, ok, detail)
+          call remove_file(out%safe%work_path, ok, detail)
           if (.not. ok) then
             ierr = 1
-            errmsg = 'output: cannot remove the earlier attempt '//out%work_path//': '//trim(detail)
+            errmsg = 'output: cannot remove the earlier attempt '//out%safe%work_path//': '//trim(detail)
           end if
         end if
       end if
     end if
-    if (ierr == 0 .and. out%reopened) then
+    if (ierr == 0 .and. out%ckpt%reopened) then
       ! Opened for writing only when it is nuno's (an HDF5 file of another
       ! program could be changed by the mere open and close).
-      if (path_kind(out%work_path, detail) /= kind_file) then
+      if (path_kind(out%safe%work_path, detail) /= kind_file) then
         ierr = 1
-        errmsg = '-nuno_restart '//out%work_path//': not a regular file (a symbolic link, a directory or '// &
+        errmsg = '-nuno_restart '//out%safe%work_path//': not a regular file (a symbolic link, a directory or '// &
                  'another kind of file): nuno continues only its own output files'
-      else if (.not. is_nuno_output(out%work_path)) then
+      else if (.not. is_nuno_output(out%safe%work_path)) then
         ierr = 1
-        errmsg = '-nuno_restart '//out%work_path//': not a nuno output file: nuno continues only its own output files'
+        errmsg = '-nuno_restart '//out%safe%work_path//': not a nuno output file: nuno continues only its own output files'
       end if
     end if
-    if (ierr == 0) call own_or_free(out%xmf_path, 'XDMF sidecar', stale, sidecar=.true.)
+    if (ierr == 0) call own_or_free(out%safe%xmf_path, 'XDMF sidecar', stale, sidecar=.true.)
   contains
     !> ierr = 1 unless path is free or a regular file of nuno's (exists: it is).
     subroutine own_or_free(path, what, exists, sidecar)
@@ -200,26 +200,26 @@ contains
     character(len=256) :: detail
     logical :: ok
 
-    if (out%committed .or. ierr /= 0) return
+    if (out%safe%committed .or. ierr /= 0) return
     if (out%rank == 0) then
-      call rename_file(out%work_path, out%final_path, ok, detail)
+      call rename_file(out%safe%work_path, out%safe%final_path, ok, detail)
       if (.not. ok) then
         ierr = 1
-        errmsg = 'output: cannot rename '//out%work_path//' to '//out%final_path//': '//trim(detail)
+        errmsg = 'output: cannot rename '//out%safe%work_path//' to '//out%safe%final_path//': '//trim(detail)
       else
-        call cleanup_drop(out%work_path)
+        call cleanup_drop(out%safe%work_path)
       end if
     end if
     call agree(out%comm, 'output: rename', ierr, errmsg)
     if (ierr /= 0) return
-    out%committed = .true.
+    out%safe%committed = .true.
     if (out%rank == 0) call write_xdmf(out, ierr, errmsg)
   end procedure commit
 
   !> Bytes of one output step in the file (the strips and a margin for the
   !> scalars and metadata).
   module procedure step_bytes
-    step_bytes = 24.0_rp * out%nx * out%ny * merge(2, 1, out%write_velocity) + 65536.0_rp
+    step_bytes = 24.0_rp * out%nx * out%ny * merge(2, 1, out%series%write_velocity) + 65536.0_rp
   end procedure step_bytes
 
   !> Refuse a write of about `bytes` before any HDF5 call when the file
@@ -233,8 +233,8 @@ contains
     character(len=:), allocatable :: path
 
     if (out%rank == 0) then
-      path = out%work_path
-      if (out%committed) path = out%final_path
+      path = out%safe%work_path
+      if (out%safe%committed) path = out%safe%final_path
       free = free_bytes(path)
       if (free >= 0.0_rp .and. free < 2.0_rp * bytes) then
         write(fb, '(es10.3e2)') free
@@ -242,7 +242,7 @@ contains
         ierr = 1
         errmsg = 'output: no space left for '//what//' in '//path//' ('//trim(adjustl(fb))//' bytes free, '// &
                  trim(adjustl(nb))//' needed)'
-        if (out%is_open) errmsg = trim(errmsg)//': the file holds the '//itoa(out%nt)//' output steps before it'
+        if (out%is_open) errmsg = trim(errmsg)//': the file holds the '//itoa(out%series%nt)//' output steps before it'
       end if
     end if
     call agree(out%comm, 'output', ierr, errmsg)
@@ -258,8 +258,8 @@ contains
     character(len=:), allocatable :: path
 
     if (out%rank == 0) then
-      path = out%work_path
-      if (out%committed) path = out%final_path
+      path = out%safe%work_path
+      if (out%safe%committed) path = out%safe%final_path
       free = free_bytes(path)
       write(buf, '(es10.3e2)') free
       if (free < 0.0_rp) then
@@ -286,15 +286,15 @@ contains
     ! Not committed: no time step succeeded (or none was written). A complete
     ! run, or one with no earlier file to protect, takes the name now; a
     ! failed one leaves an earlier file as it was and its own as .partial.
-    if (.not. out%committed) then
+    if (.not. out%safe%committed) then
       keep = .false.
-      if (out%rank == 0) keep = status /= 'complete' .and. file_exists(out%final_path)
+      if (out%rank == 0) keep = status /= 'complete' .and. file_exists(out%safe%final_path)
       call MPI_Bcast(keep, 1, MPI_LOGICAL, 0, out%comm, mpierr)
       if (keep) then
-        if (out%rank == 0) write(*, '(a)') 'output: the earlier '//out%final_path// &
-          ' is kept as it was; this run''s file is '//out%work_path//' (-nuno_restart '//out%final_path// &
+        if (out%rank == 0) write(*, '(a)') 'output: the earlier '//out%safe%final_path// &
+          ' is kept as it was; this run''s file is '//out%safe%work_path//' (-nuno_restart '//out%safe%final_path// &
           ' continues it from its checkpoint, if it has one)'
-        if (out%rank == 0) call cleanup_drop(out%work_path)   ! the record of the failure
+        if (out%rank == 0) call cleanup_drop(out%safe%work_path)   ! the record of the failure
       else
         call commit(out, ierr, errmsg)   ! writes the XDMF sidecar
       end if
@@ -311,7 +311,7 @@ contains
     call keep_first(ierr, errmsg, e2, msg2)
     call close_ids(out, ierr, errmsg)
     out%is_open = .false.
-    if (out%rank == 0) call lock_release(out%lock_path, out%lock_fd)
+    if (out%rank == 0) call lock_release(out%safe%lock_path, out%safe%lock_fd)
     call agree(out%comm, 'output_close', ierr, errmsg)
   end procedure output_close
 
@@ -409,7 +409,7 @@ contains
     call create_series(out, d_time, [integer(hsize_t) ::], [scalar_chunk], H5T_NATIVE_DOUBLE, ierr, errmsg)
     if (ierr == 0) call create_series(out, d_position, [3_hsize_t, int(out%nx, hsize_t), int(out%ny, hsize_t)], &
       [3_hsize_t, int(out%nx, hsize_t), chunk_rows, 1_hsize_t], H5T_NATIVE_DOUBLE, ierr, errmsg)
-    if (ierr == 0 .and. out%write_velocity) call create_series(out, d_velocity, &
+    if (ierr == 0 .and. out%series%write_velocity) call create_series(out, d_velocity, &
       [3_hsize_t, int(out%nx, hsize_t), int(out%ny, hsize_t)], &
       [3_hsize_t, int(out%nx, hsize_t), chunk_rows, 1_hsize_t], H5T_NATIVE_DOUBLE, ierr, errmsg)
     do i = d_kinetic, d_external_work
@@ -439,8 +439,8 @@ contains
     integer :: i, h
 
     do i = 1, n_dsets
-      if (out%dset(i) >= 0) call close_dset(out%dset(i), trim(dset_names(i)), ierr, errmsg)
-      out%dset(i) = -1
+      if (out%series%dset(i) >= 0) call close_dset(out%series%dset(i), trim(dset_names(i)), ierr, errmsg)
+      out%series%dset(i) = -1
     end do
     if (out%dxpl >= 0) then
       call h5pclose_f(out%dxpl, h)
@@ -467,7 +467,7 @@ contains
   module procedure flush_file
     integer :: h
     call h5fflush_f(out%file, H5F_SCOPE_GLOBAL_F, h)
-    if (h < 0) call fail('h5fflush_f', out%final_path, ierr, errmsg)
+    if (h < 0) call fail('h5fflush_f', out%safe%final_path, ierr, errmsg)
   end procedure flush_file
 
 end submodule output_files

@@ -23,7 +23,7 @@ contains
       errmsg = 'output_write_run_info: the output file is not open'
       return
     end if
-    if (out%nt /= 0 .and. .not. out%reopened) then
+    if (out%series%nt /= 0 .and. .not. out%ckpt%reopened) then
       ierr = 1
       errmsg = 'output_write_run_info: must come before the first output step (/wall_time)'
     end if
@@ -36,8 +36,8 @@ contains
     if (ierr == 0) call set_attr_str(out%file, 'units', trim(info%units), '/', ierr, errmsg)
     ! A continued run (output_reopen) keeps the first run's /run and
     ! describes itself in /run/restart_<k>.
-    if (out%reopened) then
-      where = '/run/restart_'//itoa(out%restarts)
+    if (out%ckpt%reopened) then
+      where = '/run/restart_'//itoa(out%ckpt%restarts)
     else
       where = '/run'
     end if
@@ -60,7 +60,7 @@ contains
       call h5gclose_f(grp, h)
       if (h < 0) call fail('h5gclose_f', where, ierr, errmsg)
     end if
-    if (ierr == 0 .and. out%dset(d_wall_time) < 0) &
+    if (ierr == 0 .and. out%series%dset(d_wall_time) < 0) &
       call create_series(out, d_wall_time, [integer(hsize_t) ::], [scalar_chunk], H5T_NATIVE_DOUBLE, ierr, errmsg)
     ! /wall_time's axis, and those of a file continued from an earlier version.
     call netcdf_dims(out, ierr, errmsg)

@@ -19,10 +19,10 @@ contains
     if (size(x, 1) /= 3 .or. size(x, 2) /= out%nx .or. size(x, 3) /= out%ym) then
       ierr = 1
       errmsg = 'output_write_step: x must be (3, nx, ym) for /position'
-    else if (out%write_velocity .and. .not. present(v)) then
+    else if (out%series%write_velocity .and. .not. present(v)) then
       ierr = 1
       errmsg = 'output_write_step: v is required for /velocity'
-    else if (out%write_velocity) then
+    else if (out%series%write_velocity) then
       if (size(v, 1) /= 3 .or. size(v, 2) /= out%nx .or. size(v, 3) /= out%ym) then
         ierr = 1
         errmsg = 'output_write_step: v must be (3, nx, ym) for /velocity'
@@ -30,10 +30,10 @@ contains
     end if
     call agree(out%comm, 'output_write_step', ierr, errmsg)
     if (ierr /= 0) return
-    call check_space(out, step_bytes(out), 'output step '//itoa(out%nt), ierr, errmsg)
+    call check_space(out, step_bytes(out), 'output step '//itoa(out%series%nt), ierr, errmsg)
     if (ierr /= 0) return
 
-    if (out%write_velocity) then
+    if (out%series%write_velocity) then
       call write_step_local(out, rec, x, ierr, errmsg, v)
     else
       call write_step_local(out, rec, x, ierr, errmsg)
@@ -45,12 +45,12 @@ contains
     ! name unless that would replace an earlier result before this run
     ! completes (output_close; -nuno_overwrite: now).
     if (ierr == 0 .and. rec%steps > 0) then
-      if (.not. out%stepped .and. out%rank == 0) call cleanup_drop(out%work_path)
-      out%stepped = .true.
-      if (.not. out%had_earlier .or. out%overwrite) call commit(out, ierr, errmsg)
+      if (.not. out%safe%stepped .and. out%rank == 0) call cleanup_drop(out%safe%work_path)
+      out%safe%stepped = .true.
+      if (.not. out%safe%had_earlier .or. out%safe%overwrite) call commit(out, ierr, errmsg)
     end if
     ! The memory parallel HDF5 keeps for the objects made so far (the views)
-    if (ierr == 0 .and. mod(out%nt, REFRESH_STEPS) == 0) then
+    if (ierr == 0 .and. mod(out%series%nt, REFRESH_STEPS) == 0) then
       call refresh_library(out, ierr, errmsg)
       call agree(out%comm, 'output_write_step', ierr, errmsg)
     end if
@@ -235,10 +235,10 @@ contains
     r = size(fixed) + 1
     dims(1:r) = [fixed, 0_hsize_t]
     maxdims(1:r) = [fixed, H5S_UNLIMITED_F]
-    out%drank(idx) = r
-    out%ddims(1:r, idx) = dims(1:r)
-    call create_dataset(out%file, name, ftype, dims(1:r), out%dset(idx), ierr, errmsg, maxdims(1:r), chunk)
-    if (ierr == 0) call set_attr_str(out%dset(idx), 'description', trim(dset_descriptions(idx)), name, ierr, errmsg)
+    out%series%drank(idx) = r
+    out%series%ddims(1:r, idx) = dims(1:r)
+    call create_dataset(out%file, name, ftype, dims(1:r), out%series%dset(idx), ierr, errmsg, maxdims(1:r), chunk)
+    if (ierr == 0) call set_attr_str(out%series%dset(idx), 'description', trim(dset_descriptions(idx)), name, ierr, errmsg)
   end procedure create_series
 
   ! ---------------------------------------------------------------------------
@@ -260,24 +260,24 @@ contains
     integer :: i, h
     real(rp), allocatable :: grown(:)
 
-    t = out%nt   ! 0-based index of the new step
+    t = out%series%nt   ! 0-based index of the new step
     nx = out%nx; ys = out%ys; ym = out%ym
 
     ! Extend every dataset by one step (collective).
     do i = 1, n_dsets
-      if (out%dset(i) < 0) cycle
-      out%ddims(out%drank(i), i) = t + 1
-      call h5dset_extent_f(out%dset(i), out%ddims(1:out%drank(i), i), h)
+      if (out%series%dset(i) < 0) cycle
+      out%series%ddims(out%series%drank(i), i) = t + 1
+      call h5dset_extent_f(out%series%dset(i), out%series%ddims(1:out%series%drank(i), i), h)
       if (h < 0) call fail('h5dset_extent_f', trim(dset_names(i)), ierr, errmsg)
       if (.not. all_ok()) return
     end do
 
     ! Strips, each rank its rows.
-    call write_rows(out%dxpl, out%dset(d_position), '/position', [0_hsize_t, 0_hsize_t, ys, t], &
+    call write_rows(out%dxpl, out%series%dset(d_position), '/position', [0_hsize_t, 0_hsize_t, ys, t], &
                      [3_hsize_t, nx, ym, 1_hsize_t], x, ierr, errmsg)
     if (.not. all_ok()) return
-    if (out%write_velocity) then
-      call write_rows(out%dxpl, out%dset(d_velocity), '/velocity', [0_hsize_t, 0_hsize_t, ys, t], &
+    if (out%series%write_velocity) then
+      call write_rows(out%dxpl, out%series%dset(d_velocity), '/velocity', [0_hsize_t, 0_hsize_t, ys, t], &
                        [3_hsize_t, nx, ym, 1_hsize_t], v, ierr, errmsg)
       if (.not. all_ok()) return
     end if
@@ -298,33 +298,33 @@ contains
     if (all_ok()) call write_int(out, d_newton_iterations, rec%newton_iterations, ierr, errmsg)
     if (all_ok()) call write_int(out, d_linear_iterations, rec%linear_iterations, ierr, errmsg)
     ! Created by output_write_run_info; absent for callers that never call it.
-    if (all_ok() .and. out%dset(d_wall_time) >= 0) call write_reals(out, d_wall_time, [rec%wall_time], ierr, errmsg)
+    if (all_ok() .and. out%series%dset(d_wall_time) >= 0) call write_reals(out, d_wall_time, [rec%wall_time], ierr, errmsg)
     if (.not. all_ok()) return
 
     ! The step's views for the XDMF sidecar (metadata only). None of this
     ! step is there: a new file has none, output_reopen deleted those of the
     ! steps it cut off (sync_views); were one there, h5dcreate_f would fail.
     do i = d_position, d_velocity
-      if (out%dset(i) < 0) cycle
-      call make_view(out, step_view(i, out%nt), trim(dset_names(i)), [0_hsize_t, 0_hsize_t, 0_hsize_t, t], &
+      if (out%series%dset(i) < 0) cycle
+      call make_view(out, step_view(i, out%series%nt), trim(dset_names(i)), [0_hsize_t, 0_hsize_t, 0_hsize_t, t], &
                      [3_hsize_t, nx, int(out%ny, hsize_t), 1_hsize_t], ierr, errmsg)
       if (.not. all_ok()) return
     end do
 
     ! The step is complete: count it, then flush so that a later crash keeps it.
-    call set_attr_int(out%file, 'n_output_steps', out%nt + 1, '/', ierr, errmsg)
+    call set_attr_int(out%file, 'n_output_steps', out%series%nt + 1, '/', ierr, errmsg)
     if (.not. all_ok()) return
     call h5fflush_f(out%file, H5F_SCOPE_GLOBAL_F, h)
     if (h < 0) call fail('h5fflush_f', '/', ierr, errmsg)
     if (.not. all_ok()) return
-    out%nt = out%nt + 1
-    if (out%nt > size(out%times)) then
-      allocate(grown(2*size(out%times)))
-      grown(1:size(out%times)) = out%times
-      call move_alloc(grown, out%times)
+    out%series%nt = out%series%nt + 1
+    if (out%series%nt > size(out%series%times)) then
+      allocate(grown(2*size(out%series%times)))
+      grown(1:size(out%series%times)) = out%series%times
+      call move_alloc(grown, out%series%times)
     end if
-    out%times(out%nt) = rec%time
-    if (out%rank == 0 .and. out%committed) call write_xdmf(out, ierr, errmsg)
+    out%series%times(out%series%nt) = rec%time
+    if (out%rank == 0 .and. out%safe%committed) call write_xdmf(out, ierr, errmsg)
   contains
     logical function all_ok()
       call agree(out%comm, 'output', ierr, errmsg)
@@ -345,14 +345,14 @@ contains
     character(len=:), allocatable :: name
 
     name = trim(dset_names(idx))
-    r = out%drank(idx)
+    r = out%series%drank(idx)
     start(1:r) = 0
-    start(r) = out%nt
-    count(1:r) = out%ddims(1:r, idx)
+    start(r) = out%series%nt
+    count(1:r) = out%series%ddims(1:r, idx)
     count(r) = 1
-    call select_spaces(out%dset(idx), name, start(1:r), count(1:r), out%rank /= 0, fspace, mspace, ierr, errmsg)
+    call select_spaces(out%series%dset(idx), name, start(1:r), count(1:r), out%rank /= 0, fspace, mspace, ierr, errmsg)
     if (ierr == 0) then
-      call h5dwrite_f(out%dset(idx), H5T_NATIVE_DOUBLE, vals, [int(size(vals), hsize_t)], h, &
+      call h5dwrite_f(out%series%dset(idx), H5T_NATIVE_DOUBLE, vals, [int(size(vals), hsize_t)], h, &
                       mem_space_id=mspace, file_space_id=fspace, xfer_prp=out%dxpl)
       if (h < 0) call fail('h5dwrite_f', name, ierr, errmsg)
     end if
@@ -372,10 +372,10 @@ contains
 
     name = trim(dset_names(idx))
     buf(1) = val
-    call select_spaces(out%dset(idx), name, [int(out%nt, hsize_t)], [1_hsize_t], out%rank /= 0, &
+    call select_spaces(out%series%dset(idx), name, [int(out%series%nt, hsize_t)], [1_hsize_t], out%rank /= 0, &
                        fspace, mspace, ierr, errmsg)
     if (ierr == 0) then
-      call h5dwrite_f(out%dset(idx), h5kind_to_type(int64, H5_INTEGER_KIND), buf, [1_hsize_t], h, &
+      call h5dwrite_f(out%series%dset(idx), h5kind_to_type(int64, H5_INTEGER_KIND), buf, [1_hsize_t], h, &
                       mem_space_id=mspace, file_space_id=fspace, xfer_prp=out%dxpl)
       if (h < 0) call fail('h5dwrite_f', name, ierr, errmsg)
     end if
@@ -400,7 +400,7 @@ contains
       return
     end if
     do i = 1, n_dsets
-      if (i == d_velocity .and. .not. out%write_velocity) cycle
+      if (i == d_velocity .and. .not. out%series%write_velocity) cycle
       call h5lexists_f(out%file, trim(dset_names(i)), exists, h)
       if (h < 0) then
         call fail('h5lexists_f', trim(dset_names(i)), ierr, errmsg); return
@@ -411,11 +411,11 @@ contains
         errmsg = '-nuno_restart: the file has no '//trim(dset_names(i))
         return
       end if
-      call h5dopen_f(out%file, trim(dset_names(i)), out%dset(i), h)
+      call h5dopen_f(out%file, trim(dset_names(i)), out%series%dset(i), h)
       if (h < 0) then
         call fail('h5dopen_f', trim(dset_names(i)), ierr, errmsg); return
       end if
-      call h5dget_space_f(out%dset(i), space, h)
+      call h5dget_space_f(out%series%dset(i), space, h)
       if (h < 0) then
         call fail('h5dget_space_f', trim(dset_names(i)), ierr, errmsg); return
       end if
@@ -423,20 +423,20 @@ contains
       if (h >= 0) call h5sget_simple_extent_dims_f(space, dims(1:r), maxdims(1:r), h)
       call h5sclose_f(space, h)
       if (i == d_position) extent = int(dims(r))
-      out%drank(i) = r
-      out%ddims(1:r, i) = dims(1:r)
-      out%ddims(r, i) = int(nt, hsize_t)
-      call h5dset_extent_f(out%dset(i), out%ddims(1:r, i), h)
+      out%series%drank(i) = r
+      out%series%ddims(1:r, i) = dims(1:r)
+      out%series%ddims(r, i) = int(nt, hsize_t)
+      call h5dset_extent_f(out%series%dset(i), out%series%ddims(1:r, i), h)
       if (h < 0) then
         call fail('h5dset_extent_f', trim(dset_names(i)), ierr, errmsg); return
       end if
     end do
-    out%nt = nt
-    if (allocated(out%times)) deallocate(out%times)
-    allocate(out%times(max(16, 2 * nt)))
-    call select_spaces(out%dset(d_time), '/time', [0_hsize_t], [int(nt, hsize_t)], .false., fspace, mspace, ierr, errmsg)
+    out%series%nt = nt
+    if (allocated(out%series%times)) deallocate(out%series%times)
+    allocate(out%series%times(max(16, 2 * nt)))
+    call select_spaces(out%series%dset(d_time), '/time', [0_hsize_t], [int(nt, hsize_t)], .false., fspace, mspace, ierr, errmsg)
     if (ierr == 0) then
-      call h5dread_f(out%dset(d_time), H5T_NATIVE_DOUBLE, out%times(1:nt), [int(nt, hsize_t)], h, &
+      call h5dread_f(out%series%dset(d_time), H5T_NATIVE_DOUBLE, out%series%times(1:nt), [int(nt, hsize_t)], h, &
                      mem_space_id=mspace, file_space_id=fspace, xfer_prp=out%dxpl)
       if (h < 0) call fail('h5dread_f', '/time', ierr, errmsg)
     end if
@@ -455,10 +455,10 @@ contains
     call lattice_views(out, ierr, errmsg)
     if (.not. all_ok()) return
     do i = d_position, d_velocity
-      if (out%dset(i) < 0) cycle
+      if (out%series%dset(i) < 0) cycle
       ! Views are made in step order: delete up to the extent, and on
       ! while there are more (left by an earlier cut that did not finish).
-      k = out%nt
+      k = out%series%nt
       do
         call h5lexists_f(out%file, '/xdmf/'//step_view(i, k), exists, h)
         if (h < 0) call fail('h5lexists_f', '/xdmf/'//step_view(i, k), ierr, errmsg)
@@ -467,7 +467,7 @@ contains
         if (.not. all_ok()) return
         k = k + 1
       end do
-      do k = 0, out%nt - 1
+      do k = 0, out%series%nt - 1
         call h5lexists_f(out%file, '/xdmf/'//step_view(i, k), exists, h)
         if (h < 0) call fail('h5lexists_f', '/xdmf/'//step_view(i, k), ierr, errmsg)
         if (ierr == 0 .and. .not. exists) &

@@ -37,16 +37,16 @@ contains
     character(len=65536) :: buf                   ! lines gathered for one write(2)
 
     if (ierr /= 0) return
-    h5 = xml_escape(out%h5_base)                  ! the file's name in XML text
+    h5 = xml_escape(out%safe%h5_base)                  ! the file's name in XML text
     plane = itoa(out%ny)//' '//itoa(out%nx)        ! /lattice/mass [ny][nx]
     surf = '1 '//plane                            ! the topology, one layer of points; the views
     f8 = 'NumberType="Float" Precision="8"'
     ! Written whole into a new file made exclusively beside it, then renamed
     ! onto the name: never through a symbolic link, never half-written.
-    call tmp_open(out%xmf_path, tmp, u, good, iom)
+    call tmp_open(out%safe%xmf_path, tmp, u, good, iom)
     if (.not. good) then
       ierr = 1
-      errmsg = 'output: cannot write '//out%xmf_path//': '//trim(iom)
+      errmsg = 'output: cannot write '//out%safe%xmf_path//': '//trim(iom)
       return
     end if
     nbuf = 0
@@ -54,14 +54,14 @@ contains
     call put('<Xdmf Version="3.0">')
     call put(' <Domain>')
     call put('  <Grid Name="cloth" GridType="Collection" CollectionType="Temporal">')
-    do k = 1, out%nt
+    do k = 1, out%series%nt
       call put('   <Grid Name="step_'//itoa(k - 1)//'" GridType="Uniform">')
-      call put('    <Time Value="'//real_es(out%times(k))//'"/>')
+      call put('    <Time Value="'//real_es(out%series%times(k))//'"/>')
       call put('    <Topology TopologyType="3DSMesh" Dimensions="'//surf//'"/>')
       call put('    <Geometry GeometryType="XYZ">')
       call item('     ', surf//' 3', '/xdmf/'//step_view(d_position, k - 1))
       call put('    </Geometry>')
-      if (out%write_velocity) then
+      if (out%series%write_velocity) then
         call put('    <Attribute Name="velocity" AttributeType="Vector" Center="Node">')
         call item('     ', surf//' 3', '/xdmf/'//step_view(d_velocity, k - 1))
         call put('    </Attribute>')
@@ -86,12 +86,12 @@ contains
     call flush_buf()
     if (.not. good) then
       ierr = 1
-      errmsg = 'output: write error on '//out%xmf_path
+      errmsg = 'output: write error on '//out%safe%xmf_path
     end if
-    call tmp_commit(u, tmp, out%xmf_path, good, iom)
+    call tmp_commit(u, tmp, out%safe%xmf_path, good, iom)
     if (.not. good .and. ierr == 0) then
       ierr = 1
-      errmsg = 'output: cannot put '//out%xmf_path//' in place: '//trim(iom)
+      errmsg = 'output: cannot put '//out%safe%xmf_path//' in place: '//trim(iom)
     end if
   contains
     subroutine put(line)

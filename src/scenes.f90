@@ -27,14 +27,14 @@ contains
     real(rp) :: phi, s, radius, xc
 
     x = rest_position(lat, i, j)
-    select case (cfg%scene_code)
+    select case (cfg%scene%scene_code)
     case (SCENE_LIFT_RELEASE)
       ! Fold about the node column nearest to x = lx - lift_length, a rigid
       ! rotation of the part beyond it until edge i = nx-1 is lift_height up.
-      ic = nint((cfg%lx - cfg%lift_length) / lat%ax)
+      ic = nint((cfg%lattice%lx - cfg%scene%lift_length) / lat%ax)
       ic = max(0, min(lat%nx - 2, ic))
       if (i > ic) then
-        phi = asin(min(1.0_rp, cfg%lift_height / (real(lat%nx - 1 - ic, rp) * lat%ax)))
+        phi = asin(min(1.0_rp, cfg%scene%lift_height / (real(lat%nx - 1 - ic, rp) * lat%ax)))
         xc = real(ic, rp) * lat%ax
         s = x(1) - xc
         x(1) = xc + s * cos(phi)
@@ -43,11 +43,11 @@ contains
     case (SCENE_BEND_RELEASE)
       ! Circular arc in the x-z plane, symmetric about x = lx/2, ends up;
       ! x spacing kept along the arc; the whole centre line subtends bend_angle.
-      if (cfg%bend_angle > 0.0_rp) then
-        radius = cfg%lx / (cfg%bend_angle * pi / 180.0_rp)
-        s = x(1) - 0.5_rp * cfg%lx
+      if (cfg%scene%bend_angle > 0.0_rp) then
+        radius = cfg%lattice%lx / (cfg%scene%bend_angle * pi / 180.0_rp)
+        s = x(1) - 0.5_rp * cfg%lattice%lx
         phi = s / radius
-        x(1) = 0.5_rp * cfg%lx + radius * sin(phi)
+        x(1) = 0.5_rp * cfg%lattice%lx + radius * sin(phi)
         x(3) = radius * (1.0_rp - cos(phi))
       end if
     case default
@@ -68,7 +68,7 @@ contains
     ! Rigid initial spin about the mass centroid (all nodes, analytic).
     centroid = 0.0_rp
     mtot = 0.0_rp
-    if (any(cfg%initial_omega /= 0.0_rp)) then
+    if (any(cfg%scene%initial_omega /= 0.0_rp)) then
       do j = 0, lat%ny - 1
         do i = 0, lat%nx - 1
           m = node_mass(lat, i, j)
@@ -82,23 +82,23 @@ contains
       do i = 0, lat%nx - 1
         x = scene_position(cfg, lat, i, j)
         u(0:2, i, j) = x
-        u(3:5, i, j) = cross(cfg%initial_omega, x - centroid)
+        u(3:5, i, j) = cross(cfg%scene%initial_omega, x - centroid)
       end do
     end do
 
     ! Constraints: keyframes only for the scene that has a path.
-    if (cfg%scene_code == SCENE_WAVE_POINT) then
-      nk = cfg%n_keyframes
-      kt = cfg%keyframe_time(1:nk)
+    if (cfg%scene%scene_code == SCENE_WAVE_POINT) then
+      nk = cfg%scene%n_keyframes
+      kt = cfg%scene%keyframe_time(1:nk)
       allocate(koff(3, nk))
-      koff(1, :) = cfg%keyframe_dx(1:nk)
-      koff(2, :) = cfg%keyframe_dy(1:nk)
-      koff(3, :) = cfg%keyframe_dz(1:nk)
+      koff(1, :) = cfg%scene%keyframe_dx(1:nk)
+      koff(2, :) = cfg%scene%keyframe_dy(1:nk)
+      koff(3, :) = cfg%scene%keyframe_dz(1:nk)
     else
       allocate(kt(0), koff(3, 0))
     end if
-    call constraints_init(cs, 2 * lat%ny + 4, kt, koff, cfg%release_time)
-    select case (cfg%scene_code)
+    call constraints_init(cs, 2 * lat%ny + 4, kt, koff, cfg%scene%release_time)
+    select case (cfg%scene%scene_code)
     case (SCENE_LIFT_RELEASE)
       cs%any_global = .true.
       do j = lat%ys, lat%ye           ! edge i = 0 pinned
@@ -106,7 +106,7 @@ contains
       end do
     case (SCENE_WAVE_POINT)
       cs%any_global = .true.
-      if (trim(cfg%wave_nodes) == 'edge') then
+      if (trim(cfg%scene%wave_nodes) == 'edge') then
         do j = lat%ys, lat%ye         ! every node of edge i = 0: a wave along +x
           call constraints_add(cs, 0, j, u(0:2, 0, j), PATH_KEYFRAMES)
         end do

@@ -50,11 +50,11 @@ contains
     w = halo_width(cfg)
     ierr = 0
     errmsg = ''
-    if (cfg%ny / nranks < w) then
+    if (cfg%lattice%ny / nranks < w) then
       ierr = 1
-      write(errmsg, '(a,i0,a,i0,a,i0,a,i0,a)') '&lattice: ny = ', cfg%ny, ' is too small for ', nranks, &
+      write(errmsg, '(a,i0,a,i0,a,i0,a,i0,a)') '&lattice: ny = ', cfg%lattice%ny, ' is too small for ', nranks, &
         ' ranks: each rank owns whole rows and needs at least ', w, ' (the halo width) of them; use at most ', &
-        cfg%ny / w, ' ranks'
+        cfg%lattice%ny / w, ' ranks'
     end if
   end subroutine check_decomposition
 
@@ -85,8 +85,8 @@ contains
     call MPI_Comm_rank(ctx%comm, ctx%rank, ierr)
     call MPI_Comm_size(ctx%comm, ctx%size, ierr)
     w = halo_width(cfg)
-    nxp = cfg%nx
-    nyp = cfg%ny
+    nxp = cfg%lattice%nx
+    nyp = cfg%lattice%ny
 
     ! 1 x P processes: each rank owns whole rows, ghost width 2 with bending.
     PetscCall(DMDACreate2d(ctx%comm, DM_BOUNDARY_NONE, DM_BOUNDARY_NONE, DMDA_STENCIL_BOX, nxp, nyp, one, PETSC_DECIDE, six, w, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, ctx%da, ierr))
@@ -162,13 +162,13 @@ contains
     PetscCall(DMDAGetGhostCorners(ctx%da, gxs, gys, gzs, gxm, gym, gzm, ierr))
 
     call lattice_init(ctx%lat, cfg, ys, ys + ym - 1)
-    if (xs /= 0 .or. xm /= cfg%nx .or. gys /= ctx%lat%gys .or. gys + gym - 1 /= ctx%lat%gye) then
+    if (xs /= 0 .or. xm /= cfg%lattice%nx .or. gys /= ctx%lat%gys .or. gys + gym - 1 /= ctx%lat%gye) then
       ierr = PETSC_ERR_PLIB
       SETERRQ(ctx%comm, ierr, 'nuno: the DMDA is not split into strips of whole rows')
     end if
-    call model_state_init(ctx%model, ctx%lat, gravity=merge(cfg%gravity, [0.0_rp, 0.0_rp, 0.0_rp], cfg%has_gravity), &
+    call model_state_init(ctx%model, ctx%lat, gravity=merge(cfg%scene%gravity, [0.0_rp, 0.0_rp, 0.0_rp], cfg%scene%has_gravity), &
                           clamp=cl /= 0, gauss_newton=gn /= 0)
-    allocate(ctx%xout(3, 0:cfg%nx - 1, ys:ys + ym - 1), ctx%vout(3, 0:cfg%nx - 1, ys:ys + ym - 1))
+    allocate(ctx%xout(3, 0:cfg%lattice%nx - 1, ys:ys + ym - 1), ctx%vout(3, 0:cfg%lattice%nx - 1, ys:ys + ym - 1))
 
     ! Initial state and constraints of the scene.
     PetscCall(DMCreateGlobalVector(ctx%da, ctx%u, ierr))
@@ -179,12 +179,12 @@ contains
     if (ctx%use_reduced) then
       ! S is symmetric when K and C are: no moving dampers (linear springs
       ! have constant ones), no paper bending, no bending damping.
-      damping = cfg%has_damping .or. (cfg%bending_code == BEND_ENERGY .and. cfg%eta_b /= 0.0_rp) .or. &
+      damping = cfg%material%has_damping .or. (cfg%material%bending_code == BEND_ENERGY .and. cfg%material%eta_b /= 0.0_rp) .or. &
                 cfg%contact%n_obstacles > 0   ! friction's df/dv
-      symmetric = (cfg%spring_code == SPRING_LINEAR .or. .not. cfg%has_damping) .and. &
-                  (cfg%bending_code == BEND_NONE .or. (cfg%bending_code == BEND_ENERGY .and. &
-                   (cfg%eta_b == 0.0_rp .or. ctx%model%gauss_newton)))
-      constant = cfg%spring_code == SPRING_LINEAR .and. cfg%bending_code == BEND_NONE .and. cfg%contact%n_obstacles == 0
+      symmetric = (cfg%material%spring_code == SPRING_LINEAR .or. .not. cfg%material%has_damping) .and. &
+                  (cfg%material%bending_code == BEND_NONE .or. (cfg%material%bending_code == BEND_ENERGY .and. &
+                   (cfg%material%eta_b == 0.0_rp .or. ctx%model%gauss_newton)))
+      constant = cfg%material%spring_code == SPRING_LINEAR .and. cfg%material%bending_code == BEND_NONE .and. cfg%contact%n_obstacles == 0
       PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, symmetric, constant, damping, ctx%model%clamp, ctx%model%gauss_newton, pc_lag, ierr, mg_interpolation=mg_interp))
     else
       ! Jacobian with the DMDA's exact box-stencil preallocation.
@@ -204,8 +204,8 @@ contains
       PetscCall(TSSetIJacobian(ctx%ts, ctx%asm%p, ctx%asm%p, form_ijacobian, ctx, ierr))
     end if
     PetscCall(TSSetTime(ctx%ts, 0.0_rp, ierr))
-    PetscCall(TSSetTimeStep(ctx%ts, cfg%dt, ierr))
-    PetscCall(TSSetMaxTime(ctx%ts, cfg%t_end, ierr))
+    PetscCall(TSSetTimeStep(ctx%ts, cfg%time%dt, ierr))
+    PetscCall(TSSetMaxTime(ctx%ts, cfg%time%t_end, ierr))
     PetscCall(TSSetExactFinalTime(ctx%ts, TS_EXACTFINALTIME_MATCHSTEP, ierr))
     PetscCall(TSGetAdapt(ctx%ts, adapt, ierr))
     PetscCall(TSAdaptSetType(adapt, TSADAPTNONE, ierr))
@@ -247,7 +247,7 @@ contains
     ! work-precision measurement at moderate tolerance (module solver_options).
     ! The identification and the control keep beuler: their adjoint needs a theta method.
     applied = .false.
-    if (.not. (cfg%identify .or. cfg%control)) then
+    if (.not. (cfg%identify%active .or. cfg%control%active)) then
       PetscCall(adaptive_default(ctx%ts, ctx%comm, applied, ierr))
     end if
     PetscCall(contact_solver_options(ctx, ierr))
@@ -280,8 +280,8 @@ contains
     real(rp) :: dt_namelist, t_end_namelist, dt, t_end
     PetscInt :: max_steps
 
-    dt_namelist = ctx%cfg%dt
-    t_end_namelist = ctx%cfg%t_end
+    dt_namelist = ctx%cfg%time%dt
+    t_end_namelist = ctx%cfg%time%t_end
     PetscCall(TSGetTimeStep(ctx%ts, dt, ierr))
     PetscCall(TSGetMaxTime(ctx%ts, t_end, ierr))
     PetscCall(TSGetMaxSteps(ctx%ts, max_steps, ierr))
@@ -308,8 +308,8 @@ contains
       SETERRQ(ctx%comm, ierr, 'nuno: -ts_max_steps must be >= 0')
     end if
     ! From here on the effective values are the run's configuration.
-    ctx%cfg%dt = ctx%step%dt
-    ctx%cfg%t_end = ctx%step%t_end
+    ctx%cfg%time%dt = ctx%step%dt
+    ctx%cfg%time%t_end = ctx%step%t_end
     ! The energy integrals close at the method's order: the trapezoid rule
     ! over each step (one power pass a step) is second order, enough for
     ! beuler, theta and cn (order <= 2); bdf (up to order 6) gets three
@@ -407,7 +407,7 @@ contains
     ! adaptive steps it would rarely have any: the extrapolation, which
     ! scales across steps of other sizes, there.
     if (mode == GUESS_AUTO) mode = merge(merge(GUESS_PROJECT, GUESS_EXTRAPOLATE, ctx%step%fixed_step), GUESS_NONE, one_stage .and. &
-                                         ctx%cfg%bending_code /= BEND_NONE .and. .not. (ctx%cfg%identify .or. ctx%cfg%control))
+                                         ctx%cfg%material%bending_code /= BEND_NONE .and. .not. (ctx%cfg%identify%active .or. ctx%cfg%control%active))
     if (.not. one_stage .or. direct) mode = GUESS_NONE
     call newton_set_inner_guess(ctx%newton, mode)
     ! (step_defaults put the extrapolated start of beuler in the options)
@@ -439,7 +439,7 @@ contains
       ax = atol
       srcx = '-ts_atol'
     else
-      ax = rtol * max(ctx%cfg%lx, ctx%cfg%ly)
+      ax = rtol * max(ctx%cfg%lattice%lx, ctx%cfg%lattice%ly)
       srcx = 'rtol x cloth size'
     end if
     av = ax / TOLERANCE_TIME

@@ -178,7 +178,7 @@ contains
     loc = 0.0_rp
     p = 0.0_rp
     ierr = 0
-    if (.not. ctx%cfg%has_damping .and. ctx%cfg%eta_b == 0.0_rp .and. .not. ctx%model%moving_constraints) return
+    if (.not. ctx%cfg%material%has_damping .and. ctx%cfg%material%eta_b == 0.0_rp .and. .not. ctx%model%moving_constraints) return
     PetscCall(DMGetLocalVector(ctx%da, uloc, ierr))
     PetscCall(DMGlobalToLocalBegin(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
     PetscCall(DMGlobalToLocalEnd(ctx%da, uvec, INSERT_VALUES, uloc, ierr))

@@ -200,7 +200,7 @@ contains
       if (.not. ctx%step%fixed_step) h = ctx%restart%h_restart
       ! The next output step is the first after the last one written.
       iout = 1
-      do while (output_time(iout) <= ctx%progress%t_written + eps .and. real(iout, rp) * ctx%cfg%output_interval < ctx%step%t_end)
+      do while (output_time(iout) <= ctx%progress%t_written + eps .and. real(iout, rp) * ctx%cfg%output%output_interval < ctx%step%t_end)
         iout = iout + 1
       end do
       call energy_integrals_start(ctx%energy, t)
@@ -253,7 +253,7 @@ contains
         if (io_failed()) return
         write(msg, '(a,es12.5,a)') trim(signal_name(nuno_signal_agreed()))//' at t = ', t, &
           ': the run stopped after that step, with its state and a checkpoint written (continue it with'// &
-          ' -nuno_restart '//trim(ctx%cfg%output_file)//')'
+          ' -nuno_restart '//trim(ctx%cfg%output%output_file)//')'
         status = 'interrupted: '//trim(msg)
         if (ctx%rank == 0) write(error_unit, '(a)') 'nuno: interrupted: '//trim(msg)
         exit
@@ -286,8 +286,8 @@ contains
           call keep_restart_point(ctx, out, t, h, ierr)
           if (ierr /= 0) return
         end if
-        if (ctx%cfg%checkpoint_interval > 0.0_rp .and. t < ctx%step%t_end - eps .and. &
-            t >= ctx%restart%t_checkpoint + ctx%cfg%checkpoint_interval - eps) then
+        if (ctx%cfg%output%checkpoint_interval > 0.0_rp .and. t < ctx%step%t_end - eps .and. &
+            t >= ctx%restart%t_checkpoint + ctx%cfg%output%checkpoint_interval - eps) then
           call take_checkpoint(ctx, out, t, h, 'checkpoint_interval', ierr)
           if (io_failed()) return
         end if
@@ -333,7 +333,7 @@ contains
     !> Output times: multiples of output_interval, and t_end.
     real(rp) function output_time(k)
       integer, intent(in) :: k
-      output_time = min(real(k, rp) * ctx%cfg%output_interval, ctx%step%t_end)
+      output_time = min(real(k, rp) * ctx%cfg%output%output_interval, ctx%step%t_end)
     end function output_time
 
     !> Next time at which the integrator must stop after t.
@@ -397,7 +397,7 @@ contains
     PetscCall(DMGlobalToLocalEnd(ctx%da, ctx%u, INSERT_VALUES, uloc, ierr))
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
     call state_diagnostics(ctx%lat, u, ctx%model%gravity, ctx%comm, d, ierr)
-    if (.not. ctx%progress%stretch_warned .and. ctx%cfg%stretch_limit > 0.0_rp) call check_stretch(ctx, u, t)
+    if (.not. ctx%progress%stretch_warned .and. ctx%cfg%output%stretch_limit > 0.0_rp) call check_stretch(ctx, u, t)
     do j = ctx%lat%ys, ctx%lat%ye
       ctx%xout(:, :, j) = u(0:2, :, j)
       ctx%vout(:, :, j) = u(3:5, :, j)
@@ -429,7 +429,7 @@ contains
     rec%linear_iterations = lits
     wall = MPI_Wtime() - ctx%progress%wall0
     rec%wall_time = wall
-    if (ctx%cfg%write_velocity) then
+    if (ctx%cfg%output%write_velocity) then
       call output_write_step(out, rec, ctx%xout, ierr, errmsg, v=ctx%vout)
     else
       call output_write_step(out, rec, ctx%xout, ierr, errmsg)
@@ -478,7 +478,7 @@ contains
     call link_stretch_extremes(ctx%lat, u, r(1), atmax, r(2), atmin)
     r(2) = 1.0_rp / max(r(2), tiny(1.0_rp))      ! shrink as a factor > 1
     call MPI_Allreduce(r, g, 2, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, mpierr)
-    lim = ctx%cfg%stretch_limit
+    lim = ctx%cfg%output%stretch_limit
     if (g(1) <= lim .and. g(2) <= lim) return
     call progress_stretch_warned(ctx%progress)
     loc = -1

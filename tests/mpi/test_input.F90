@@ -26,22 +26,22 @@ program test_input
   ! ---- defaults: an input with one empty group is lift_release --------------
   call read_text('! nothing here'//nl//'&scene /'//nl, cfg, ierr, msg)
   call expect_ok('empty input')
-  call check_true(trim(cfg%scene) == 'lift_release' .and. cfg%scene_code == SCENE_LIFT_RELEASE, 'default scene')
-  call check_true(cfg%nx == 11 .and. cfg%ny == 11, 'default nx, ny')
-  call check_close(cfg%lx, 100.0_rp, tol, 0.0_rp, 'default lx')
-  call check_close(cfg%ax, 10.0_rp, tol, 0.0_rp, 'ax = lx/(nx-1)')
-  call check_close(cfg%ay, 10.0_rp, tol, 0.0_rp, 'ay = ly/(ny-1)')
-  call check_close(cfg%total_mass, 1.0_rp, tol, 0.0_rp, 'default total_mass')
-  call check_true(cfg%mass_code == MASS_UNIFORM .and. cfg%scaling_code == SCALING_ELEMENT, 'default mass, scaling')
-  call check_true(cfg%spring_code == SPRING_AXIAL .and. cfg%bending_code == BEND_PAPER, 'default models')
-  call check_close(cfg%k_b, 1.0_rp, tol, 0.0_rp, 'lift_release paper k_b')
-  call check_close(cfg%eta_b, 0.0_rp, tol, 0.0_rp, 'lift_release eta_b')
-  call check_close(cfg%e_s, 1.0_rp, tol, 0.0_rp, 'report E')
-  call check_close(cfg%eta_d, 1.0_rp, tol, 0.0_rp, 'report eta')
-  call check_true(.not. cfg%has_gravity .and. cfg%has_damping, 'has_gravity, has_damping')
-  call check_close(cfg%t_end, 5.0_rp, tol, 0.0_rp, 'lift_release t_end')
-  call check_close(cfg%dt, 1.0e-3_rp, tol, 0.0_rp, 'lift_release dt')
-  call check_true(trim(cfg%output_file) == 'lift_release.h5', 'lift_release output_file')
+  call check_true(trim(cfg%scene%name) == 'lift_release' .and. cfg%scene%scene_code == SCENE_LIFT_RELEASE, 'default scene')
+  call check_true(cfg%lattice%nx == 11 .and. cfg%lattice%ny == 11, 'default nx, ny')
+  call check_close(cfg%lattice%lx, 100.0_rp, tol, 0.0_rp, 'default lx')
+  call check_close(cfg%lattice%ax, 10.0_rp, tol, 0.0_rp, 'ax = lx/(nx-1)')
+  call check_close(cfg%lattice%ay, 10.0_rp, tol, 0.0_rp, 'ay = ly/(ny-1)')
+  call check_close(cfg%lattice%total_mass, 1.0_rp, tol, 0.0_rp, 'default total_mass')
+  call check_true(cfg%lattice%mass_code == MASS_UNIFORM .and. cfg%lattice%scaling_code == SCALING_ELEMENT, 'default mass, scaling')
+  call check_true(cfg%material%spring_code == SPRING_AXIAL .and. cfg%material%bending_code == BEND_PAPER, 'default models')
+  call check_close(cfg%material%k_b, 1.0_rp, tol, 0.0_rp, 'lift_release paper k_b')
+  call check_close(cfg%material%eta_b, 0.0_rp, tol, 0.0_rp, 'lift_release eta_b')
+  call check_close(cfg%material%e_s, 1.0_rp, tol, 0.0_rp, 'report E')
+  call check_close(cfg%material%eta_d, 1.0_rp, tol, 0.0_rp, 'report eta')
+  call check_true(.not. cfg%scene%has_gravity .and. cfg%material%has_damping, 'has_gravity, has_damping')
+  call check_close(cfg%time%t_end, 5.0_rp, tol, 0.0_rp, 'lift_release t_end')
+  call check_close(cfg%time%dt, 1.0e-3_rp, tol, 0.0_rp, 'lift_release dt')
+  call check_true(trim(cfg%output%output_file) == 'lift_release.h5', 'lift_release output_file')
   call check_true(allocated(cfg%namelist_text), 'namelist_text kept')
   if (allocated(cfg%namelist_text)) &
     call check_true(cfg%namelist_text == '! nothing here'//nl//'&scene /'//nl, 'namelist_text = file')
@@ -49,33 +49,33 @@ program test_input
   ! ---- hang: SI scene defaults -----------------------------------------------
   call read_text("&scene scene = 'hang' /", cfg, ierr, msg)
   call expect_ok('hang')
-  call check_true(cfg%scene_code == SCENE_HANG .and. cfg%nx == 21 .and. cfg%ny == 21, 'hang lattice')
-  call check_close(cfg%lx, 1.0_rp, tol, 0.0_rp, 'hang lx')
-  call check_close(cfg%total_mass, 0.1_rp, tol, 0.0_rp, 'hang mass')
-  call check_true(cfg%mass_code == MASS_AREA .and. cfg%bending_code == BEND_ENERGY, 'hang area masses, energy')
-  call check_close(cfg%e_s, 100.0_rp, tol, 0.0_rp, 'hang E_s')
-  call check_close(cfg%eta_d, 0.1_rp, tol, 0.0_rp, 'hang eta_d')
-  call check_close(cfg%k_b, 0.1_rp, tol, 0.0_rp, 'hang k_b')
-  call check_close(cfg%eta_b, 1.0e-4_rp, tol, 0.0_rp, 'hang eta_b')
-  call check_close_array(cfg%gravity, [0.0_rp, 0.0_rp, -9.81_rp], tol, 0.0_rp, 'hang gravity')
-  call check_true(cfg%has_gravity, 'hang has_gravity')
-  call check_close(cfg%t_end, 2.0_rp, tol, 0.0_rp, 'hang t_end')
-  call check_close(cfg%output_interval, 0.05_rp, tol, 0.0_rp, 'hang output_interval')
+  call check_true(cfg%scene%scene_code == SCENE_HANG .and. cfg%lattice%nx == 21 .and. cfg%lattice%ny == 21, 'hang lattice')
+  call check_close(cfg%lattice%lx, 1.0_rp, tol, 0.0_rp, 'hang lx')
+  call check_close(cfg%lattice%total_mass, 0.1_rp, tol, 0.0_rp, 'hang mass')
+  call check_true(cfg%lattice%mass_code == MASS_AREA .and. cfg%material%bending_code == BEND_ENERGY, 'hang area masses, energy')
+  call check_close(cfg%material%e_s, 100.0_rp, tol, 0.0_rp, 'hang E_s')
+  call check_close(cfg%material%eta_d, 0.1_rp, tol, 0.0_rp, 'hang eta_d')
+  call check_close(cfg%material%k_b, 0.1_rp, tol, 0.0_rp, 'hang k_b')
+  call check_close(cfg%material%eta_b, 1.0e-4_rp, tol, 0.0_rp, 'hang eta_b')
+  call check_close_array(cfg%scene%gravity, [0.0_rp, 0.0_rp, -9.81_rp], tol, 0.0_rp, 'hang gravity')
+  call check_true(cfg%scene%has_gravity, 'hang has_gravity')
+  call check_close(cfg%time%t_end, 2.0_rp, tol, 0.0_rp, 'hang t_end')
+  call check_close(cfg%output%output_interval, 0.05_rp, tol, 0.0_rp, 'hang output_interval')
 
   ! ---- other scenes ----------------------------------------------------------
   call read_text("&scene scene = 'bend_release' /", cfg, ierr, msg)
   call expect_ok('bend_release')
-  call check_close(cfg%lx, 50.0_rp, tol, 0.0_rp, 'bend_release lx')
-  call check_close(cfg%total_mass, 0.25_rp, tol, 0.0_rp, 'bend_release mass')
-  call check_close(cfg%bend_angle, 30.0_rp, tol, 0.0_rp, 'bend_release bend_angle')
+  call check_close(cfg%lattice%lx, 50.0_rp, tol, 0.0_rp, 'bend_release lx')
+  call check_close(cfg%lattice%total_mass, 0.25_rp, tol, 0.0_rp, 'bend_release mass')
+  call check_close(cfg%scene%bend_angle, 30.0_rp, tol, 0.0_rp, 'bend_release bend_angle')
   call read_text("&scene scene = 'wave_point' /", cfg, ierr, msg)
   call expect_ok('wave_point')
-  call check_true(cfg%bending_code == BEND_NONE .and. cfg%n_keyframes == 3, 'wave_point: no bending, 3 keyframes')
-  call check_close_array(cfg%keyframe_time(1:3), [0.0_rp, 0.5_rp, 1.0_rp], tol, 0.0_rp, 'wave_point keyframe_time')
-  call check_close_array(cfg%keyframe_dz(1:3), [0.0_rp, -10.0_rp, 15.0_rp], tol, 0.0_rp, 'wave_point keyframe_dz')
+  call check_true(cfg%material%bending_code == BEND_NONE .and. cfg%scene%n_keyframes == 3, 'wave_point: no bending, 3 keyframes')
+  call check_close_array(cfg%scene%keyframe_time(1:3), [0.0_rp, 0.5_rp, 1.0_rp], tol, 0.0_rp, 'wave_point keyframe_time')
+  call check_close_array(cfg%scene%keyframe_dz(1:3), [0.0_rp, -10.0_rp, 15.0_rp], tol, 0.0_rp, 'wave_point keyframe_dz')
   call read_text("&scene scene = 'FLAT' /", cfg, ierr, msg)
   call expect_ok('flat (upper case)')
-  call check_true(cfg%scene_code == SCENE_FLAT .and. trim(cfg%scene) == 'flat', 'flat scene, lower-cased')
+  call check_true(cfg%scene%scene_code == SCENE_FLAT .and. trim(cfg%scene%name) == 'flat', 'flat scene, lower-cased')
 
   ! ---- values set in the file override; comments, &end, subscripts ------------
   call read_text( &
@@ -88,34 +88,34 @@ program test_input
     "&output output_file = 'a!b&c/d.h5', petsc_options = '-ts_type bdf' &end"//nl// &
     '&time dt = 0.01 /', cfg, ierr, msg)
   call expect_ok('overrides')
-  call check_true(cfg%nx == 21 .and. cfg%ny == 11, 'nx from the file, ny default')
-  call check_close(cfg%ax, 5.0_rp, tol, 0.0_rp, 'ax at nx = 21')
-  call check_close(cfg%ay, 5.0_rp, tol, 0.0_rp, 'ay at ly = 50')
-  call check_true(cfg%bending_code == BEND_ENERGY, 'bending_model energy (case-insensitive)')
-  call check_close(cfg%k_b, 5.0_rp, tol, 0.0_rp, 'energy k_b = 1 * ax at nx = 21')
-  call check_close(cfg%keyframe_time(2), 0.6_rp, tol, 0.0_rp, 'keyframe_time(2) set')
-  call check_close(cfg%keyframe_time(3), 1.0_rp, tol, 0.0_rp, 'keyframe_time(3) default')
-  call check_true(cfg%has_gravity, 'gravity set')
-  call check_true(trim(cfg%output_file) == 'a!b&c/d.h5', 'string with ! & / kept')
-  call check_true(trim(cfg%petsc_options) == '-ts_type bdf', 'petsc_options')
-  call check_close(cfg%dt, 0.01_rp, tol, 0.0_rp, 'dt set')
-  call check_close(cfg%t_end, 5.0_rp, tol, 0.0_rp, 't_end default')
+  call check_true(cfg%lattice%nx == 21 .and. cfg%lattice%ny == 11, 'nx from the file, ny default')
+  call check_close(cfg%lattice%ax, 5.0_rp, tol, 0.0_rp, 'ax at nx = 21')
+  call check_close(cfg%lattice%ay, 5.0_rp, tol, 0.0_rp, 'ay at ly = 50')
+  call check_true(cfg%material%bending_code == BEND_ENERGY, 'bending_model energy (case-insensitive)')
+  call check_close(cfg%material%k_b, 5.0_rp, tol, 0.0_rp, 'energy k_b = 1 * ax at nx = 21')
+  call check_close(cfg%scene%keyframe_time(2), 0.6_rp, tol, 0.0_rp, 'keyframe_time(2) set')
+  call check_close(cfg%scene%keyframe_time(3), 1.0_rp, tol, 0.0_rp, 'keyframe_time(3) default')
+  call check_true(cfg%scene%has_gravity, 'gravity set')
+  call check_true(trim(cfg%output%output_file) == 'a!b&c/d.h5', 'string with ! & / kept')
+  call check_true(trim(cfg%output%petsc_options) == '-ts_type bdf', 'petsc_options')
+  call check_close(cfg%time%dt, 0.01_rp, tol, 0.0_rp, 'dt set')
+  call check_close(cfg%time%t_end, 5.0_rp, tol, 0.0_rp, 't_end default')
 
   ! ---- the energy k_b conversion; a k_b that the user sets is used as given -----
   call read_text("&material bending_model = 'energy' /", cfg, ierr, msg)
   call expect_ok('lift_release energy')
-  call check_close(cfg%k_b, 10.0_rp, tol, 0.0_rp, 'lift_release energy k_b = 1 * 10')
-  call check_close(cfg%eta_b, 0.0_rp, tol, 0.0_rp, 'lift_release energy eta_b = 0')
+  call check_close(cfg%material%k_b, 10.0_rp, tol, 0.0_rp, 'lift_release energy k_b = 1 * 10')
+  call check_close(cfg%material%eta_b, 0.0_rp, tol, 0.0_rp, 'lift_release energy eta_b = 0')
   call read_text("&scene scene = 'wave_point' / &material bending_model = 'energy' /", cfg, ierr, msg)
   call expect_ok('wave_point energy')
-  call check_close(cfg%k_b, 10.0_rp, tol, 0.0_rp, 'wave_point energy k_b')
+  call check_close(cfg%material%k_b, 10.0_rp, tol, 0.0_rp, 'wave_point energy k_b')
   call read_text("&material bending_model = 'energy', k_b = 3.5, eta_b = 0.25 /", cfg, ierr, msg)
   call expect_ok('k_b set')
-  call check_close(cfg%k_b, 3.5_rp, tol, 0.0_rp, 'k_b as given')
-  call check_close(cfg%eta_b, 0.25_rp, tol, 0.0_rp, 'eta_b as given')
+  call check_close(cfg%material%k_b, 3.5_rp, tol, 0.0_rp, 'k_b as given')
+  call check_close(cfg%material%eta_b, 0.25_rp, tol, 0.0_rp, 'eta_b as given')
   call read_text("&scene scene='hang' / &lattice lattice_scaling='continuum' /", cfg, ierr, msg)
   call expect_ok('hang continuum')
-  call check_true(cfg%scaling_code == SCALING_CONTINUUM .and. cfg%mass_code == MASS_AREA, 'continuum + area')
+  call check_true(cfg%lattice%scaling_code == SCALING_CONTINUUM .and. cfg%lattice%mass_code == MASS_AREA, 'continuum + area')
 
   ! ---- the files in input/ ---------------------------------------------------
   call read_file(root//'input/lift_release.nml', cfg, ierr, msg)
@@ -132,7 +132,7 @@ program test_input
   call check_same(cfg, ref, 'bend_release.nml = scene defaults')
   call read_file(root//'input/bend_release_energy.nml', cfg, ierr, msg)
   call expect_ok('input/bend_release_energy.nml')
-  call check_close(cfg%k_b, 5.0_rp, tol, 0.0_rp, 'bend_release energy k_b = 1 * 5')
+  call check_close(cfg%material%k_b, 5.0_rp, tol, 0.0_rp, 'bend_release energy k_b = 1 * 5')
   call read_text("&scene scene = 'bend_release' / &material bending_model = 'energy' /", ref, ierr, msg)
   call check_same(cfg, ref, 'bend_release_energy.nml = defaults with energy')
   call read_file(root//'input/wave_point.nml', cfg, ierr, msg)
@@ -289,18 +289,18 @@ contains
     type(nuno_config), intent(in) :: a, b
     character(*), intent(in) :: what
     logical :: same
-    same = a%nx == b%nx .and. a%ny == b%ny .and. a%lx == b%lx .and. a%ly == b%ly .and. &
-      a%total_mass == b%total_mass .and. a%mass_code == b%mass_code .and. a%scaling_code == b%scaling_code .and. &
-      a%spring_code == b%spring_code .and. a%e_s == b%e_s .and. a%eta_s == b%eta_s .and. &
-      a%e_d == b%e_d .and. a%eta_d == b%eta_d .and. a%bending_code == b%bending_code .and. &
-      a%k_b == b%k_b .and. a%eta_b == b%eta_b .and. a%scene_code == b%scene_code .and. &
-      all(a%gravity == b%gravity) .and. a%lift_length == b%lift_length .and. &
-      a%lift_height == b%lift_height .and. a%bend_angle == b%bend_angle .and. &
-      a%n_keyframes == b%n_keyframes .and. all(a%keyframe_time == b%keyframe_time) .and. &
-      all(a%keyframe_dz == b%keyframe_dz) .and. a%release_time == b%release_time .and. &
-      all(a%initial_omega == b%initial_omega) .and. a%t_end == b%t_end .and. a%dt == b%dt .and. &
-      a%output_interval == b%output_interval .and. (a%write_velocity .eqv. b%write_velocity) .and. &
-      (a%has_gravity .eqv. b%has_gravity)
+    same = a%lattice%nx == b%lattice%nx .and. a%lattice%ny == b%lattice%ny .and. a%lattice%lx == b%lattice%lx .and. a%lattice%ly == b%lattice%ly .and. &
+      a%lattice%total_mass == b%lattice%total_mass .and. a%lattice%mass_code == b%lattice%mass_code .and. a%lattice%scaling_code == b%lattice%scaling_code .and. &
+      a%material%spring_code == b%material%spring_code .and. a%material%e_s == b%material%e_s .and. a%material%eta_s == b%material%eta_s .and. &
+      a%material%e_d == b%material%e_d .and. a%material%eta_d == b%material%eta_d .and. a%material%bending_code == b%material%bending_code .and. &
+      a%material%k_b == b%material%k_b .and. a%material%eta_b == b%material%eta_b .and. a%scene%scene_code == b%scene%scene_code .and. &
+      all(a%scene%gravity == b%scene%gravity) .and. a%scene%lift_length == b%scene%lift_length .and. &
+      a%scene%lift_height == b%scene%lift_height .and. a%scene%bend_angle == b%scene%bend_angle .and. &
+      a%scene%n_keyframes == b%scene%n_keyframes .and. all(a%scene%keyframe_time == b%scene%keyframe_time) .and. &
+      all(a%scene%keyframe_dz == b%scene%keyframe_dz) .and. a%scene%release_time == b%scene%release_time .and. &
+      all(a%scene%initial_omega == b%scene%initial_omega) .and. a%time%t_end == b%time%t_end .and. a%time%dt == b%time%dt .and. &
+      a%output%output_interval == b%output%output_interval .and. (a%output%write_velocity .eqv. b%output%write_velocity) .and. &
+      (a%scene%has_gravity .eqv. b%scene%has_gravity)
     call check_true(same, what)
   end subroutine check_same
 

@@ -107,34 +107,34 @@ contains
     real(rp) :: a, eps, x(3), vv(3), err, scale, fd(3), m
     integer :: i, j
 
-    cfg%nx = 7
-    cfg%ny = 9
-    cfg%lx = 1.3_rp
-    cfg%ly = 1.7_rp
-    cfg%total_mass = 0.3_rp
-    cfg%mass_code = MASS_AREA
-    cfg%spring_code = SPRING_AXIAL
-    cfg%e_s = 2.0_rp
-    cfg%eta_s = 0.3_rp
-    cfg%e_d = 1.5_rp
-    cfg%eta_d = 0.2_rp
-    cfg%bending_code = bend
-    cfg%k_b = merge(0.01_rp, 0.05_rp, bend == BEND_PAPER)
-    cfg%eta_b = merge(0.02_rp, 0.0_rp, bend == BEND_ENERGY)
-    cfg%ax = cfg%lx / real(cfg%nx - 1, rp)
-    cfg%ay = cfg%ly / real(cfg%ny - 1, rp)
-    cfg%has_damping = .true.
+    cfg%lattice%nx = 7
+    cfg%lattice%ny = 9
+    cfg%lattice%lx = 1.3_rp
+    cfg%lattice%ly = 1.7_rp
+    cfg%lattice%total_mass = 0.3_rp
+    cfg%lattice%mass_code = MASS_AREA
+    cfg%material%spring_code = SPRING_AXIAL
+    cfg%material%e_s = 2.0_rp
+    cfg%material%eta_s = 0.3_rp
+    cfg%material%e_d = 1.5_rp
+    cfg%material%eta_d = 0.2_rp
+    cfg%material%bending_code = bend
+    cfg%material%k_b = merge(0.01_rp, 0.05_rp, bend == BEND_PAPER)
+    cfg%material%eta_b = merge(0.02_rp, 0.0_rp, bend == BEND_ENERGY)
+    cfg%lattice%ax = cfg%lattice%lx / real(cfg%lattice%nx - 1, rp)
+    cfg%lattice%ay = cfg%lattice%ly / real(cfg%lattice%ny - 1, rp)
+    cfg%material%has_damping = .true.
     w = halo_width(cfg)
-    nxp = cfg%nx
-    nyp = cfg%ny
+    nxp = cfg%lattice%nx
+    nyp = cfg%lattice%ny
     a = 37.0_rp
 
     PetscCallA(DMDACreate2d(PETSC_COMM_WORLD, DM_BOUNDARY_NONE, DM_BOUNDARY_NONE, DMDA_STENCIL_BOX, nxp, nyp, one, PETSC_DECIDE, six, w, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, da6, ierr))
     PetscCallA(DMSetUp(da6, ierr))
     PetscCallA(DMDAGetCorners(da6, xs, ys, zs, xm, ym, zm, ierr))
     call lattice_init(lat, cfg, ys, ys + ym - 1)
-    allocate(fp(3, 0:cfg%nx - 1, lat%gys:lat%gye), fm(3, 0:cfg%nx - 1, lat%gys:lat%gye))
-    allocate(fixed(0:cfg%nx - 1, lat%ys:lat%ye))
+    allocate(fp(3, 0:cfg%lattice%nx - 1, lat%gys:lat%gye), fm(3, 0:cfg%lattice%nx - 1, lat%gys:lat%gye))
+    allocate(fixed(0:cfg%lattice%nx - 1, lat%ys:lat%ye))
 
     ! State, its time derivative (any), constrained nodes.
     PetscCallA(DMCreateGlobalVector(da6, u, ierr))

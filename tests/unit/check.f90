@@ -68,23 +68,23 @@ contains
     integer, intent(in) :: nx, ny, bending, spring, scaling
     real(rp), intent(in) :: lx, ly, total_mass, e_s, e_d, k_b
     type(nuno_config) :: cfg
-    cfg%nx = nx
-    cfg%ny = ny
-    cfg%lx = lx
-    cfg%ly = ly
-    cfg%ax = lx / (nx - 1)
-    cfg%ay = ly / (ny - 1)
-    cfg%total_mass = total_mass
-    cfg%e_s = e_s
-    cfg%eta_s = 0.0_rp
-    cfg%e_d = e_d
-    cfg%eta_d = 0.0_rp
-    cfg%k_b = k_b
-    cfg%eta_b = 0.0_rp
-    cfg%bending_code = bending
-    cfg%spring_code = spring
-    cfg%scaling_code = scaling
-    cfg%mass_code = MASS_UNIFORM
+    cfg%lattice%nx = nx
+    cfg%lattice%ny = ny
+    cfg%lattice%lx = lx
+    cfg%lattice%ly = ly
+    cfg%lattice%ax = lx / (nx - 1)
+    cfg%lattice%ay = ly / (ny - 1)
+    cfg%lattice%total_mass = total_mass
+    cfg%material%e_s = e_s
+    cfg%material%eta_s = 0.0_rp
+    cfg%material%e_d = e_d
+    cfg%material%eta_d = 0.0_rp
+    cfg%material%k_b = k_b
+    cfg%material%eta_b = 0.0_rp
+    cfg%material%bending_code = bending
+    cfg%material%spring_code = spring
+    cfg%lattice%scaling_code = scaling
+    cfg%lattice%mass_code = MASS_UNIFORM
   end function lattice_config
 
   !> The same pseudo-random numbers at every run: the generator seeded

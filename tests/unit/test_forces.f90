@@ -46,12 +46,12 @@ contains
     cfg = lattice_config(nx, ny, 1.0_rp, 1.5_rp, 0.1_rp, 100.0_rp, 60.0_rp, 0.1_rp, bending, spring, scaling)
     call lattice_init(lat, cfg, 0, ny - 1)
     call seed_random(4711)
-    call perturbed_state(lat, 0.2_rp * cfg%ax, u)
+    call perturbed_state(lat, 0.2_rp * cfg%lattice%ax, u)
 
     ! forces against the central difference of the energy
     call internal_forces(lat, u, f, nbad, bad)
     call check_true(nbad == 0, what//': a regular state')
-    h = 1.0e-5_rp * cfg%ax
+    h = 1.0e-5_rp * cfg%lattice%ax
     do j = 0, ny - 1
       do i = 0, nx - 1
         do c = 0, 2
@@ -80,13 +80,13 @@ contains
                              u(0, i, j) * f(2, i, j) - u(1, i, j) * f(1, i, j)]
         end do
       end do
-      call check_true(all(abs(torque) <= 1.0e-13_rp * fscale * nx * ny * cfg%ly), what//': zero torque')
+      call check_true(all(abs(torque) <= 1.0e-13_rp * fscale * nx * ny * cfg%lattice%ly), what//': zero torque')
     end if
 
     ! damping: the power the damping forces take out
-    cfg%eta_s = 0.3_rp
-    cfg%eta_d = 0.2_rp
-    if (bending == BEND_ENERGY) cfg%eta_b = 1.0e-3_rp
+    cfg%material%eta_s = 0.3_rp
+    cfg%material%eta_d = 0.2_rp
+    if (bending == BEND_ENERGY) cfg%material%eta_b = 1.0e-3_rp
     call lattice_init(lat, cfg, 0, ny - 1)
     call internal_forces(lat, u, f, nbad, bad)
     call random_number(noise)

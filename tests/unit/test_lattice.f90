@@ -234,13 +234,13 @@ contains
     ax = 0.5_rp
     ay = 0.25_rp
     if (scaling == SCALING_ELEMENT) then
-      expect = 0.5_rp * cfg%e_s * (real((nx - 1) * ny, rp) * ax**2 + real(nx * (ny - 1), rp) * ay**2) &
-             + 0.5_rp * cfg%e_d * real(2 * (nx - 1) * (ny - 1), rp) * (ax**2 + ay**2)
+      expect = 0.5_rp * cfg%material%e_s * (real((nx - 1) * ny, rp) * ax**2 + real(nx * (ny - 1), rp) * ay**2) &
+             + 0.5_rp * cfg%material%e_d * real(2 * (nx - 1) * (ny - 1), rp) * (ax**2 + ay**2)
     else
       ! E_x = Y ay/ax, E_y = Y ax/ay, halved on the boundary: each kind
       ! holds (nx-1)(ny-1) whole links, 1/2 Y ax ay each: Y lx ly in all.
-      expect = cfg%e_s * cfg%lx * cfg%ly &
-             + 0.5_rp * cfg%e_d * real(2 * (nx - 1) * (ny - 1), rp) * (ax**2 + ay**2)
+      expect = cfg%material%e_s * cfg%lattice%lx * cfg%lattice%ly &
+             + 0.5_rp * cfg%material%e_d * real(2 * (nx - 1) * (ny - 1), rp) * (ax**2 + ay**2)
     end if
     do split = 1, 5
       total = 0.0_rp
@@ -288,7 +288,7 @@ contains
     cfg = make_cfg(nx, ny, 1.2_rp, 1.5_rp, bending, spring, scaling)
     call lattice_init(whole, cfg, 0, ny - 1)
     call seed_random(20261205)
-    call perturbed_state(whole, 0.15_rp * cfg%ax, uw)
+    call perturbed_state(whole, 0.15_rp * cfg%lattice%ax, uw)
     call element_energies(whole, uw, sw, bw)
     call internal_forces(whole, uw, fw, nbad, bad)
     fscale = maxval(abs(fw))
@@ -331,15 +331,15 @@ contains
     ok = .true.
     do j = 0, ny - 1
       do i = 0, nx - 1
-        ok = ok .and. abs(lat%mass(i, j) - cfg%total_mass / (nx * ny)) <= 1.0e-15_rp
+        ok = ok .and. abs(lat%mass(i, j) - cfg%lattice%total_mass / (nx * ny)) <= 1.0e-15_rp
       end do
     end do
     call check_true(ok, 'uniform masses M/(nx ny)')
 
-    cfg%mass_code = MASS_AREA
+    cfg%lattice%mass_code = MASS_AREA
     call lattice_init(lat, cfg, 0, ny - 1)
-    interior = cfg%total_mass / real((nx - 1) * (ny - 1), rp)   ! a cell's area times the density
-    call check_close(sum(lat%mass), cfg%total_mass, 1.0e-14_rp, 0.0_rp, 'area masses sum to M')
+    interior = cfg%lattice%total_mass / real((nx - 1) * (ny - 1), rp)   ! a cell's area times the density
+    call check_close(sum(lat%mass), cfg%lattice%total_mass, 1.0e-14_rp, 0.0_rp, 'area masses sum to M')
     call check_close(lat%mass(2, 2), interior, 1.0e-14_rp, 0.0_rp, 'area mass of an interior node')
     call check_close(lat%mass(0, 0), interior / 4, 1.0e-14_rp, 0.0_rp, 'area mass of corner (0, 0)')
     call check_close(lat%mass(nx - 1, ny - 1), interior / 4, 1.0e-14_rp, 0.0_rp, 'area mass of corner (nx-1, ny-1)')
@@ -354,8 +354,8 @@ contains
     call check_true(nedge == 2 * (nx - 2) + 2 * (ny - 2), 'area masses: 2 (nx-2) + 2 (ny-2) edge nodes')
 
     ! continuum scaling takes area masses whatever mass_distribution says
-    cfg%mass_code = MASS_UNIFORM
-    cfg%scaling_code = SCALING_CONTINUUM
+    cfg%lattice%mass_code = MASS_UNIFORM
+    cfg%lattice%scaling_code = SCALING_CONTINUUM
     call lattice_init(lat, cfg, 2, 3)
     call check_close(lat%mass(0, 1), interior / 2, 1.0e-14_rp, 0.0_rp, 'continuum: area mass of edge node (0, 1)')
     call check_close(lat%mass(3, 4), interior / 2, 1.0e-14_rp, 0.0_rp, 'continuum: area mass of edge ghost node (3, 4)')
@@ -373,9 +373,9 @@ contains
     logical :: ok
 
     cfg = make_cfg(nx, ny, 2.5_rp, 2.0_rp, BEND_ENERGY, SPRING_AXIAL, SCALING_CONTINUUM)
-    cfg%eta_s = 0.7_rp
-    cfg%eta_d = 0.3_rp
-    cfg%eta_b = 0.02_rp
+    cfg%material%eta_s = 0.7_rp
+    cfg%material%eta_d = 0.3_rp
+    cfg%material%eta_b = 0.02_rp
     call lattice_init(lat, cfg, 0, ny - 1)
     call link_constants(lat, 2, 3, 1, e, eta)
     call check_close(e, 7.0_rp * 0.5_rp, 1.0e-15_rp, 0.0_rp, 'continuum x link: Y ay/ax')
@@ -410,7 +410,7 @@ contains
     end do
 
     ! element scaling: every constant as given
-    cfg%scaling_code = SCALING_ELEMENT
+    cfg%lattice%scaling_code = SCALING_ELEMENT
     call lattice_init(lat, cfg, 0, ny - 1)
     call link_constants(lat, 0, 0, 1, e, eta)
     call check_true(e == 7.0_rp .and. eta == 0.7_rp, 'element x link on the corner: E_s, eta_s')
@@ -423,7 +423,7 @@ contains
 
     ! lanes: the same constants link by link, for every start and length
     do l = 1, 2
-      cfg%scaling_code = merge(SCALING_CONTINUUM, SCALING_ELEMENT, l == 1)
+      cfg%lattice%scaling_code = merge(SCALING_CONTINUUM, SCALING_ELEMENT, l == 1)
       call lattice_init(lat, cfg, 0, ny - 1)
       ok = .true.
       do j = 0, ny - 1

@@ -66,23 +66,23 @@ contains
     integer :: cols(25), nc, i, j, ja, n, q, iq, jq, di, dj, hw, k, nd, no, row, lag
     logical, allocatable :: fixedg(:, :)
 
-    cfg%nx = nx
-    cfg%ny = ny
-    cfg%lx = 1.0_rp
-    cfg%ly = 1.2_rp
-    cfg%ax = cfg%lx / (nx - 1)
-    cfg%ay = cfg%ly / (ny - 1)
-    cfg%total_mass = 0.1_rp
-    cfg%e_s = 100.0_rp
-    cfg%eta_s = 0.1_rp
-    cfg%e_d = 70.0_rp
-    cfg%eta_d = 0.05_rp
-    cfg%k_b = 0.1_rp
-    cfg%eta_b = 1.0e-3_rp
-    cfg%spring_code = spring
-    cfg%bending_code = bending
-    cfg%scaling_code = SCALING_ELEMENT
-    cfg%mass_code = MASS_AREA
+    cfg%lattice%nx = nx
+    cfg%lattice%ny = ny
+    cfg%lattice%lx = 1.0_rp
+    cfg%lattice%ly = 1.2_rp
+    cfg%lattice%ax = cfg%lattice%lx / (nx - 1)
+    cfg%lattice%ay = cfg%lattice%ly / (ny - 1)
+    cfg%lattice%total_mass = 0.1_rp
+    cfg%material%e_s = 100.0_rp
+    cfg%material%eta_s = 0.1_rp
+    cfg%material%e_d = 70.0_rp
+    cfg%material%eta_d = 0.05_rp
+    cfg%material%k_b = 0.1_rp
+    cfg%material%eta_b = 1.0e-3_rp
+    cfg%material%spring_code = spring
+    cfg%material%bending_code = bending
+    cfg%lattice%scaling_code = SCALING_ELEMENT
+    cfg%lattice%mass_code = MASS_AREA
     call lattice_init(lat, cfg, ys, ye)
     hw = lat%halo
 
@@ -92,7 +92,7 @@ contains
     call random_number(noise)
     do j = lat%gys, lat%gye
       do i = 0, nx - 1
-        u(0:2, i, j) = rest_position(lat, i, j) + 0.6_rp * cfg%ax * (noise(0:2, i, j) - 0.5_rp)
+        u(0:2, i, j) = rest_position(lat, i, j) + 0.6_rp * cfg%lattice%ax * (noise(0:2, i, j) - 0.5_rp)
         u(3:5, i, j) = noise(3:5, i, j) - 0.5_rp
       end do
     end do

@@ -55,20 +55,20 @@ contains
     integer, intent(in) :: scene, n
     real(rp), intent(in) :: l, mass
     type(nuno_config) :: cfg
-    cfg%scene_code = scene
-    cfg%nx = n
-    cfg%ny = n
-    cfg%lx = l
-    cfg%ly = l
-    cfg%ax = l / (n - 1)
-    cfg%ay = l / (n - 1)
-    cfg%total_mass = mass
-    cfg%spring_code = SPRING_AXIAL
-    cfg%bending_code = BEND_PAPER
-    cfg%scaling_code = SCALING_ELEMENT
-    cfg%mass_code = MASS_UNIFORM
-    cfg%release_time = huge(1.0_rp)
-    cfg%initial_omega = 0.0_rp
+    cfg%scene%scene_code = scene
+    cfg%lattice%nx = n
+    cfg%lattice%ny = n
+    cfg%lattice%lx = l
+    cfg%lattice%ly = l
+    cfg%lattice%ax = l / (n - 1)
+    cfg%lattice%ay = l / (n - 1)
+    cfg%lattice%total_mass = mass
+    cfg%material%spring_code = SPRING_AXIAL
+    cfg%material%bending_code = BEND_PAPER
+    cfg%lattice%scaling_code = SCALING_ELEMENT
+    cfg%lattice%mass_code = MASS_UNIFORM
+    cfg%scene%release_time = huge(1.0_rp)
+    cfg%scene%initial_omega = 0.0_rp
   end function make_cfg
 
   !> The whole lattice's state (one strip of all rows) and its constraints.
@@ -77,8 +77,8 @@ contains
     real(rp), allocatable, intent(out) :: u(:, :, :)
     type(constraint_set_t), intent(out) :: cs
     type(lattice_t) :: lat
-    call lattice_init(lat, cfg, 0, cfg%ny - 1)
-    allocate(u(0:5, 0:cfg%nx - 1, 0:cfg%ny - 1))
+    call lattice_init(lat, cfg, 0, cfg%lattice%ny - 1)
+    allocate(u(0:5, 0:cfg%lattice%nx - 1, 0:cfg%lattice%ny - 1))
     call scene_setup(cfg, lat, u, cs)
   end subroutine whole
 
@@ -95,12 +95,12 @@ contains
     real(rp), allocatable :: u(:, :, :)
     integer :: cuts(6), s, k, m, found, ntotal
     logical :: same
-    cuts = [0, 1, 3, 4, cfg%ny - 2, cfg%ny]
+    cuts = [0, 1, 3, 4, cfg%lattice%ny - 2, cfg%lattice%ny]
     same = .true.
     ntotal = 0
     do s = 1, 5
       call lattice_init(lat, cfg, cuts(s), cuts(s + 1) - 1)
-      allocate(u(0:5, 0:cfg%nx - 1, lat%ys:lat%ye))
+      allocate(u(0:5, 0:cfg%lattice%nx - 1, lat%ys:lat%ye))
       call scene_setup(cfg, lat, u, cs)
       same = same .and. all(u == uw(:, :, lat%ys:lat%ye))
       call check_true(cs%any_global .eqv. csw%any_global, what//': strips agree on any_global')
@@ -131,10 +131,10 @@ contains
     real(rp), intent(in) :: u(0:, 0:, 0:)
     integer :: i, j
     flat_at_rest = .true.
-    do j = 0, cfg%ny - 1
-      do i = 0, cfg%nx - 1
-        flat_at_rest = flat_at_rest .and. all(abs(u(0:2, i, j) - [i * cfg%ax, j * cfg%ay, 0.0_rp]) &
-                                               <= 1.0e-13_rp * cfg%lx) .and. all(u(3:5, i, j) == 0.0_rp)
+    do j = 0, cfg%lattice%ny - 1
+      do i = 0, cfg%lattice%nx - 1
+        flat_at_rest = flat_at_rest .and. all(abs(u(0:2, i, j) - [i * cfg%lattice%ax, j * cfg%lattice%ay, 0.0_rp]) &
+                                               <= 1.0e-13_rp * cfg%lattice%lx) .and. all(u(3:5, i, j) == 0.0_rp)
       end do
     end do
   end function flat_at_rest
@@ -146,13 +146,13 @@ contains
     integer :: i, j, k, iq, jq
     real(rp) :: l0, l
     r = 0.0_rp
-    do j = 0, cfg%ny - 1
-      do i = 0, cfg%nx - 1
+    do j = 0, cfg%lattice%ny - 1
+      do i = 0, cfg%lattice%nx - 1
         do k = 1, 4
           iq = i + link_dir(1, k)
           jq = j + link_dir(2, k)
-          if (iq < 0 .or. iq >= cfg%nx .or. jq >= cfg%ny) cycle
-          l0 = hypot(link_dir(1, k) * cfg%ax, link_dir(2, k) * cfg%ay)
+          if (iq < 0 .or. iq >= cfg%lattice%nx .or. jq >= cfg%lattice%ny) cycle
+          l0 = hypot(link_dir(1, k) * cfg%lattice%ax, link_dir(2, k) * cfg%lattice%ay)
           l = norm2(u(0:2, iq, jq) - u(0:2, i, j))
           r = max(r, abs(l - l0) / l0)
         end do
@@ -174,9 +174,9 @@ contains
     character(60) :: what
     write(what, '(a,i0,a,f0.1)') 'lift_release ', n, ' lift_length ', lift_length
     cfg = make_cfg(SCENE_LIFT_RELEASE, n, 100.0_rp, 1.0_rp)
-    cfg%lift_length = lift_length
-    cfg%lift_height = lift_height
-    cfg%release_time = 0.75_rp
+    cfg%scene%lift_length = lift_length
+    cfg%scene%lift_height = lift_height
+    cfg%scene%release_time = 0.75_rp
     call whole(cfg, u, cs)
 
     ok_flat = .true.
@@ -185,11 +185,11 @@ contains
     do j = 0, n - 1
       do i = 0, n - 1
         if (i <= ic) then
-          ok_flat = ok_flat .and. all(u(0:2, i, j) == [i * cfg%ax, j * cfg%ay, 0.0_rp])
+          ok_flat = ok_flat .and. all(u(0:2, i, j) == [i * cfg%lattice%ax, j * cfg%lattice%ay, 0.0_rp])
         else
           ok_lifted = ok_lifted .and. u(2, i, j) > 0.0_rp
         end if
-        ok_y = ok_y .and. u(1, i, j) == j * cfg%ay
+        ok_y = ok_y .and. u(1, i, j) == j * cfg%lattice%ay
       end do
     end do
     call check_true(ok_flat, trim(what)//': flat up to the fold column')
@@ -203,7 +203,7 @@ contains
     ! the folded part is one plane through the fold line at the fold angle
     d = u(0:2, n - 1, 3) - u(0:2, ic, 3)
     angle = atan2(d(3), d(1))
-    call check_close(angle, asin(lift_height / ((n - 1 - ic) * cfg%ax)), 1.0e-13_rp, 0.0_rp, &
+    call check_close(angle, asin(lift_height / ((n - 1 - ic) * cfg%lattice%ax)), 1.0e-13_rp, 0.0_rp, &
                      trim(what)//': fold angle')
     if (n == 11 .and. ic == 7) call check_close(angle, pi / 6, 1.0e-13_rp, 0.0_rp, trim(what)//': a 30 degree fold')
     do i = ic + 1, n - 1
@@ -235,20 +235,20 @@ contains
     character(60) :: what
     write(what, '(a,i0,a,f0.1)') 'bend_release ', n, ' angle ', bend_angle
     cfg = make_cfg(SCENE_BEND_RELEASE, n, 50.0_rp, 0.25_rp)
-    cfg%bend_angle = bend_angle
-    cfg%release_time = 0.5_rp      ! nothing constrained: never released
+    cfg%scene%bend_angle = bend_angle
+    cfg%scene%release_time = 0.5_rp      ! nothing constrained: never released
     call whole(cfg, u, cs)
-    r = cfg%lx / (bend_angle * pi / 180.0_rp)
+    r = cfg%lattice%lx / (bend_angle * pi / 180.0_rp)
     ok_r = .true.
     ok_y = .true.
     ok_sym = .true.
     do j = 0, n - 1
-      c = [0.5_rp * cfg%lx, j * cfg%ay, r]
+      c = [0.5_rp * cfg%lattice%lx, j * cfg%lattice%ay, r]
       do i = 0, n - 1
         ok_r = ok_r .and. abs(norm2(u(0:2, i, j) - c) - r) <= 1.0e-12_rp * r
-        ok_y = ok_y .and. u(1, i, j) == j * cfg%ay
-        ok_sym = ok_sym .and. abs(u(0, i, j) + u(0, n - 1 - i, j) - cfg%lx) <= 1.0e-12_rp * cfg%lx &
-                        .and. abs(u(2, i, j) - u(2, n - 1 - i, j)) <= 1.0e-12_rp * cfg%lx
+        ok_y = ok_y .and. u(1, i, j) == j * cfg%lattice%ay
+        ok_sym = ok_sym .and. abs(u(0, i, j) + u(0, n - 1 - i, j) - cfg%lattice%lx) <= 1.0e-12_rp * cfg%lattice%lx &
+                        .and. abs(u(2, i, j) - u(2, n - 1 - i, j)) <= 1.0e-12_rp * cfg%lattice%lx
       end do
       ! the centre line: the end nodes subtend bend_angle, each half of it
       ! from the middle (x = lx/2, z = 0, the lowest point)
@@ -266,10 +266,10 @@ contains
         a0 = u(0:2, i, j) - c
         a1 = u(0:2, i + 1, j) - c
         th = 2.0_rp * asin(0.5_rp * norm2(a1 - a0) / r)
-        call check_close(r * th, cfg%ax, 1.0e-12_rp, 0.0_rp, trim(what)//': x spacing kept along the arc')
+        call check_close(r * th, cfg%lattice%ax, 1.0e-12_rp, 0.0_rp, trim(what)//': x spacing kept along the arc')
         arc = arc + r * th
       end do
-      call check_close(arc, cfg%lx, 1.0e-12_rp, 0.0_rp, trim(what)//': arc length lx')
+      call check_close(arc, cfg%lattice%lx, 1.0e-12_rp, 0.0_rp, trim(what)//': arc length lx')
       call check_true(u(2, 0, j) > 0.0_rp .and. u(2, n - 1, j) > 0.0_rp .and. &
                       all(u(2, :, j) >= 0.0_rp), trim(what)//': ends up')
     end do
@@ -297,13 +297,13 @@ contains
     character(40) :: what
     what = 'wave_point '//nodes
     cfg = make_cfg(SCENE_WAVE_POINT, 11, 100.0_rp, 1.0_rp)
-    cfg%bending_code = BEND_NONE
-    cfg%wave_nodes = nodes
-    cfg%n_keyframes = 3
-    cfg%keyframe_time(1:3) = [0.0_rp, 0.5_rp, 1.0_rp]
-    cfg%keyframe_dz(1:3) = [0.0_rp, -10.0_rp, 15.0_rp]
-    cfg%keyframe_time(4) = 9.0_rp        ! beyond n_keyframes: not used
-    cfg%keyframe_dz(4) = 99.0_rp
+    cfg%material%bending_code = BEND_NONE
+    cfg%scene%wave_nodes = nodes
+    cfg%scene%n_keyframes = 3
+    cfg%scene%keyframe_time(1:3) = [0.0_rp, 0.5_rp, 1.0_rp]
+    cfg%scene%keyframe_dz(1:3) = [0.0_rp, -10.0_rp, 15.0_rp]
+    cfg%scene%keyframe_time(4) = 9.0_rp        ! beyond n_keyframes: not used
+    cfg%scene%keyframe_dz(4) = 99.0_rp
     call whole(cfg, u, cs)
     call check_true(flat_at_rest(cfg, u), trim(what)//': flat and at rest')
     call check_true(cs%any_global .and. cs%nk == 3, trim(what)//': constrained, three keyframes')
@@ -311,7 +311,7 @@ contains
       call check_true(cs%n == 1, trim(what)//': one node')
       call check_true(all(cs%node(:, 1) == [0, 0]), trim(what)//': the corner (0, 0)')
     else
-      call check_true(cs%n == cfg%ny, trim(what)//': every node of edge i = 0')
+      call check_true(cs%n == cfg%lattice%ny, trim(what)//': every node of edge i = 0')
       call check_true(all(cs%node(1, 1:cs%n) == 0), trim(what)//': edge i = 0')
     end if
     call check_true(all(cs%path(1:cs%n) == PATH_KEYFRAMES), trim(what)//': on the keyframe path')
@@ -331,7 +331,7 @@ contains
           vexp = 0.0_rp
         end if
         do k = 1, cs%n
-          x0 = [0.0_rp, cs%node(2, k) * cfg%ay, 0.0_rp]
+          x0 = [0.0_rp, cs%node(2, k) * cfg%lattice%ay, 0.0_rp]
           call constraint_target(cs, k, t, xb, vb)
           call check_close_array(xb, x0 + [0.0_rp, 0.0_rp, zexp], 1.0e-14_rp, 1.0e-13_rp, &
                                  trim(what)//': prescribed position')
@@ -351,13 +351,13 @@ contains
     type(lattice_t) :: lat
     integer :: a, b
     cfg = make_cfg(SCENE_HANG, 21, 1.0_rp, 0.1_rp)
-    cfg%bending_code = BEND_ENERGY
-    cfg%mass_code = MASS_AREA
+    cfg%material%bending_code = BEND_ENERGY
+    cfg%lattice%mass_code = MASS_AREA
     call whole(cfg, u, cs)
     call check_true(flat_at_rest(cfg, u), 'hang: flat and at rest')
     call check_close(maxval(u(0, :, :)) - minval(u(0, :, :)), 1.0_rp, 1.0e-14_rp, 0.0_rp, 'hang: 1 m along x')
     call check_close(maxval(u(1, :, :)) - minval(u(1, :, :)), 1.0_rp, 1.0e-14_rp, 0.0_rp, 'hang: 1 m along y')
-    call lattice_init(lat, cfg, 0, cfg%ny - 1)
+    call lattice_init(lat, cfg, 0, cfg%lattice%ny - 1)
     call check_close(sum(lat%mass), 0.1_rp, 1.0e-14_rp, 0.0_rp, 'hang: 0.1 kg')
     call check_true(cs%n == 2 .and. cs%any_global .and. cs%nk == 0, 'hang: two pinned nodes')
     a = findloc(cs%node(1, 1:2), 0, dim=1)
@@ -378,7 +378,7 @@ contains
     type(constraint_set_t) :: cs
     real(rp), allocatable :: u(:, :, :)
     cfg = make_cfg(SCENE_FLAT, 9, 2.0_rp, 1.0_rp)
-    cfg%release_time = 1.0_rp
+    cfg%scene%release_time = 1.0_rp
     call whole(cfg, u, cs)
     call check_true(flat_at_rest(cfg, u), 'flat: flat and at rest')
     call check_true(cs%n == 0 .and. .not. cs%any_global .and. cs%release_time == huge(1.0_rp), &
@@ -398,15 +398,15 @@ contains
     integer :: i, j
     logical :: ok
     cfg = make_cfg(SCENE_LIFT_RELEASE, 11, 100.0_rp, 1.0_rp)
-    cfg%mass_code = MASS_AREA
+    cfg%lattice%mass_code = MASS_AREA
     om = [0.3_rp, -0.2_rp, 0.7_rp]
-    cfg%initial_omega = om
+    cfg%scene%initial_omega = om
     call whole(cfg, u, cs)
-    call lattice_init(lat, cfg, 0, cfg%ny - 1)
+    call lattice_init(lat, cfg, 0, cfg%lattice%ny - 1)
     c = 0.0_rp
     mt = 0.0_rp
-    do j = 0, cfg%ny - 1
-      do i = 0, cfg%nx - 1
+    do j = 0, cfg%lattice%ny - 1
+      do i = 0, cfg%lattice%nx - 1
         c = c + lat%mass(i, j) * u(0:2, i, j)
         mt = mt + lat%mass(i, j)
       end do
@@ -416,13 +416,13 @@ contains
     ok = .true.
     p = 0.0_rp
     vscale = 0.0_rp
-    do j = 0, cfg%ny - 1
-      do i = 0, cfg%nx - 1
+    do j = 0, cfg%lattice%ny - 1
+      do i = 0, cfg%lattice%nx - 1
         m = lat%mass(i, j)
         v = [om(2) * (u(2, i, j) - c(3)) - om(3) * (u(1, i, j) - c(2)), &
              om(3) * (u(0, i, j) - c(1)) - om(1) * (u(2, i, j) - c(3)), &
              om(1) * (u(1, i, j) - c(2)) - om(2) * (u(0, i, j) - c(1))]
-        ok = ok .and. all(abs(u(3:5, i, j) - v) <= 1.0e-12_rp * norm2(om) * cfg%lx)
+        ok = ok .and. all(abs(u(3:5, i, j) - v) <= 1.0e-12_rp * norm2(om) * cfg%lattice%lx)
         p = p + m * u(3:5, i, j)
         vscale = max(vscale, norm2(v))
       end do
