@@ -112,7 +112,7 @@ contains
 
   !> &contact: the barrier's parameters always (a key given is checked
   !> even without obstacles), each obstacle in use; contact with
-  !> identification or control is refused (the adjoint has no contact terms).
+  !> identification or control is refused (the adjoint is not exact with contact).
   subroutine check_contact(cfg, ierr, msg)
     type(nuno_config), intent(inout) :: cfg
     integer, intent(out) :: ierr
@@ -154,9 +154,14 @@ contains
           return
         end if
       end do
+      ! The adjoint would be inexact with contact (docs/identification.md,
+      ! "Contact"): friction's lagged normal force is not differentiated, the
+      ! curved obstacles' Jacobian is PSD-projected, and the step limit's
+      ! retries change the step sequence with the parameters.
       if (c%n_obstacles > 0 .and. (cfg%identify%active .or. cfg%control%active)) then
-        msg = 'input: &contact: obstacles (n_obstacles > 0) with &identify or &control are not supported: '// &
-              'the adjoint has no contact terms yet'
+        write(msg, '(a,i0,a)') 'input: &contact: n_obstacles = ', c%n_obstacles, ' is refused with '// &
+          trim(merge('&identify', '&control ', cfg%identify%active))//': the adjoint gradient is not exact with contact '// &
+          "(friction's lag is not differentiated; docs/identification.md)"
         return
       end if
       ierr = 0
