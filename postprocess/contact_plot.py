@@ -29,8 +29,9 @@ KEY_SHAPE = "obstacle_shape"
 KEY_POINT = "obstacle_point"      # plane: a point on it; sphere, box: centre; capsule: first end
 KEY_NORMAL = "obstacle_normal"    # plane: outward normal
 KEY_RADIUS = "obstacle_radius"    # sphere, capsule
-KEY_HALF = "obstacle_half_extent"  # box: half extents along its axes
-KEY_AXES = "obstacle_axes"        # box: its unit axes (default: x, y, z)
+KEY_HALF = "obstacle_half_size"    # box: half extents along its axes
+KEY_AXES = "obstacle_axes"        # box: its unit axes, 9 a box (default x, y, z; an oriented box whose
+#                                   file keys differ is drawn axis-aligned)
 KEY_END = "obstacle_end"          # capsule: the second end
 SHAPES = ("plane", "sphere", "box", "capsule")
 
