@@ -1,0 +1,401 @@
+# SPDX-License-Identifier: BSD-2-Clause
+"""The cloth with its obstacles (&contact) at a few times, and an animation.
+
+    nuno-contact-plot drape_sphere.h5 --times 0 0.3 0.6 1.0 -o drape.png --gif drape.gif
+
+The obstacles are read from the file's /config/contact group (the keys as
+resolved, -nuno_set overrides included), else from the namelist the file
+echoes: planes (a square patch under the cloth), spheres, boxes (centre,
+half extents, axes) and capsules (two ends, radius). A run without
+obstacles is drawn as the cloth alone.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from matplotlib import colormaps
+from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+from . import cli, plotting
+from .snapshots import choose_steps, grid_columns
+
+# The &contact keys of an obstacle's shape (input/README.md, "&contact").
+# Arrays of 3-vectors hold obstacle k in elements 3k-2..3k (Fortran
+# obstacle_point(:, k)); box axes 9 a box (its three unit axes, columns).
+KEY_SHAPE = "obstacle_shape"
+KEY_POINT = "obstacle_point"      # plane: a point on it; sphere, box: centre; capsule: first end
+KEY_NORMAL = "obstacle_normal"    # plane: outward normal
+KEY_RADIUS = "obstacle_radius"    # sphere, capsule
+KEY_HALF = "obstacle_half_size"    # box: half extents along its axes
+KEY_AXES = "obstacle_axes"        # box: its unit axes, 9 a box (default x, y, z; an oriented box whose
+#                                   file keys differ is drawn axis-aligned)
+KEY_END = "obstacle_end"          # capsule: the second end
+SHAPES = ("plane", "sphere", "box", "capsule")
+
+CLOTH = colormaps[plotting.CMAP](0.62)   # one colour for the cloth (viridis, green)
+SOLID = (0.62, 0.62, 0.66, 1.0)           # obstacles: grey
+TABLE = (0.78, 0.72, 0.62, 1.0)           # a plane: light wood
+LIGHT = np.array([-0.35, -0.55, 0.76])    # light direction (unit-ish), from the viewer's upper left
+
+
+@dataclass
+class Obstacle:
+    """One rigid obstacle as the file describes it (lengths in the run's unit)."""
+
+    shape: str
+    point: np.ndarray
+    normal: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+    radius: float = 0.0
+    half: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    axes: np.ndarray = field(default_factory=lambda: np.eye(3))   # columns: the box's axes
+    end: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+
+def _contact_keys(run) -> dict:
+    """{key: value} of the run's &contact: /config/contact, else the echoed namelist."""
+    if run.config.get("contact"):
+        return dict(run.config["contact"])
+    try:
+        import f90nml
+        nml = f90nml.reads(run.namelist)
+    except Exception:  # an unreadable echoed namelist: no obstacles from it
+        return {}
+    group = nml.get("contact", {})
+    out = {}
+    for k, v in group.items():
+        # f90nml drops the unset elements before the first one given
+        # (obstacle_radius(2) = 0.5 reads as [0.5], starting at 2): pad them
+        start = getattr(group, "start_index", {}).get(k)
+        if isinstance(v, list) and start:
+            first = start[-1] if start[-1] is not None else 1
+            v = [None] * (first - 1) + v
+        out[k] = v
+    return out
+
+
+def _floats(value, n: int, width: int, default) -> np.ndarray:
+    """value (a flat list, nested lists from f90nml, or an array) as [n][width],
+    entries that are missing (None, or past the end) taken from default."""
+    flat = []
+
+    def walk(v):
+        if isinstance(v, (list, tuple, np.ndarray)):
+            for w in v:
+                walk(w)
+        else:
+            flat.append(v)
+
+    if value is not None:
+        walk(value if isinstance(value, (list, tuple, np.ndarray)) else [value])
+    out = np.tile(np.asarray(default, float).ravel(), n)
+    for k, v in enumerate(flat[: n * width]):
+        if v is not None and str(v).strip() != "":
+            out[k] = float(v)
+    return out.reshape(n, width)
+
+
+def _shapes(value, n: int) -> list[str]:
+    if value is None:
+        return ["plane"] * n
+    if isinstance(value, str):
+        names = [s.strip().strip("'\"").lower() for s in value.split(",")]
+    else:
+        names = [str(s or "plane").strip().lower() for s in np.ravel(np.asarray(value, dtype=object))]
+    return (names + ["plane"] * n)[:n]
+
+
+def obstacles(run) -> list[Obstacle]:
+    """The run's obstacles, in the order of &contact (empty without any)."""
+    keys = _contact_keys(run)
+    n = int(np.asarray(keys.get("n_obstacles", 0)).ravel()[0]) if keys else 0
+    if n <= 0:
+        return []
+    shapes = _shapes(keys.get(KEY_SHAPE), n)
+    point = _floats(keys.get(KEY_POINT), n, 3, [0.0, 0.0, 0.0])
+    normal = _floats(keys.get(KEY_NORMAL), n, 3, [0.0, 0.0, 1.0])
+    radius = _floats(keys.get(KEY_RADIUS), n, 1, [0.0])[:, 0]
+    half = _floats(keys.get(KEY_HALF), n, 3, [0.0, 0.0, 0.0])
+    axes = _floats(keys.get(KEY_AXES), n, 9, np.eye(3).T.ravel())
+    end = _floats(keys.get(KEY_END), n, 3, [0.0, 0.0, 0.0])
+    out = []
+    for k in range(n):
+        nrm = normal[k] / max(np.linalg.norm(normal[k]), 1e-300)
+        out.append(Obstacle(shapes[k], point[k], nrm, float(radius[k]), half[k],
+                            axes[k].reshape(3, 3).T, end[k]))
+    return out
+
+
+# ---------------------------------------------------------------- geometry as quads
+
+
+def cloth_quads(pos, stride: int = 1) -> np.ndarray:
+    """The lattice [ny][nx][3] as quads [m][4][3] (every stride-th line kept)."""
+    p = np.asarray(pos, float)
+    ny, nx = p.shape[:2]
+    js = sorted(set(range(0, ny, stride)) | {ny - 1})
+    is_ = sorted(set(range(0, nx, stride)) | {nx - 1})
+    p = p[np.ix_(js, is_)]
+    return np.stack([p[:-1, :-1], p[:-1, 1:], p[1:, 1:], p[1:, :-1]], axis=2).reshape(-1, 4, 3)
+
+
+def _grid_quads(origin, u, v, n: int) -> np.ndarray:
+    """An n x n grid of quads over the parallelogram origin + [0,1] u + [0,1] v."""
+    s = np.linspace(0.0, 1.0, n + 1)
+    g = origin + s[None, :, None] * u + s[:, None, None] * v   # [n+1][n+1][3]
+    return np.stack([g[:-1, :-1], g[:-1, 1:], g[1:, 1:], g[1:, :-1]], axis=2).reshape(-1, 4, 3)
+
+
+def _tangents(n):
+    """Two unit vectors orthogonal to the unit vector n and to each other."""
+    a = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(n, a)
+    u /= np.linalg.norm(u)
+    return u, np.cross(n, u)
+
+
+def plane_quads(ob: Obstacle, lo, hi, n: int = 8) -> np.ndarray:
+    """A square patch of the plane under the box [lo, hi] (the cloth's), 1.3 times its size."""
+    centre = 0.5 * (np.asarray(lo) + np.asarray(hi))
+    c = centre - np.dot(centre - ob.point, ob.normal) * ob.normal   # centre projected on the plane
+    size = 1.3 * max(float(np.max(np.asarray(hi) - np.asarray(lo))), 1e-12)
+    u, v = _tangents(ob.normal)
+    return _grid_quads(c - 0.5 * size * (u + v), size * u, size * v, n)
+
+
+def sphere_quads(centre, r: float, n_lat: int = 14, n_lon: int = 28, lat_range=(-90.0, 90.0),
+                 axis=None) -> np.ndarray:
+    """Quads of a sphere (or a latitude band of it) about axis (default z)."""
+    lat = np.radians(np.linspace(*lat_range, n_lat + 1))
+    lon = np.linspace(0.0, 2.0 * math.pi, n_lon + 1)
+    ez = np.array([0.0, 0.0, 1.0]) if axis is None else np.asarray(axis, float)
+    ex, ey = _tangents(ez)
+    pts = (np.cos(lat)[:, None, None] * (np.cos(lon)[None, :, None] * ex + np.sin(lon)[None, :, None] * ey)
+           + np.sin(lat)[:, None, None] * ez)
+    g = np.asarray(centre, float) + r * pts
+    return np.stack([g[:-1, :-1], g[:-1, 1:], g[1:, 1:], g[1:, :-1]], axis=2).reshape(-1, 4, 3)
+
+
+def box_quads(ob: Obstacle, n: int = 4) -> np.ndarray:
+    """The six faces of a box, each as n x n quads."""
+    faces = []
+    for a in range(3):
+        b, c = (a + 1) % 3, (a + 2) % 3
+        ea, eb, ec = (ob.axes[:, k] * ob.half[k] for k in (a, b, c))
+        for sgn in (-1.0, 1.0):
+            faces.append(_grid_quads(ob.point + sgn * ea - eb - ec, 2.0 * eb, 2.0 * ec, n))
+    return np.concatenate(faces)
+
+
+def capsule_quads(ob: Obstacle, n_lon: int = 24) -> np.ndarray:
+    """A capsule: the cylinder between its ends and a half sphere on each."""
+    p, q = np.asarray(ob.point, float), np.asarray(ob.end, float)
+    axis = q - p
+    length = np.linalg.norm(axis)
+    ez = axis / length if length > 0 else np.array([0.0, 0.0, 1.0])
+    ex, ey = _tangents(ez)
+    lon = np.linspace(0.0, 2.0 * math.pi, n_lon + 1)
+    ring = ob.radius * (np.cos(lon)[:, None] * ex + np.sin(lon)[:, None] * ey)   # [n+1][3]
+    s = np.linspace(0.0, 1.0, max(2, int(np.ceil(4 * length / max(ob.radius, 1e-300)))) + 1)
+    g = p + s[:, None, None] * axis + ring[None, :, :]
+    cyl = np.stack([g[:-1, :-1], g[:-1, 1:], g[1:, 1:], g[1:, :-1]], axis=2).reshape(-1, 4, 3)
+    caps = [sphere_quads(p, ob.radius, 6, n_lon, (-90.0, 0.0), ez),
+            sphere_quads(q, ob.radius, 6, n_lon, (0.0, 90.0), ez)]
+    return np.concatenate([cyl, *caps])
+
+
+def solid_quads(ob: Obstacle) -> np.ndarray | None:
+    """The quads of an obstacle other than a plane (None for a shape this script does not know)."""
+    if ob.shape == "sphere":
+        return sphere_quads(ob.point, ob.radius)
+    if ob.shape == "box":
+        return box_quads(ob)
+    if ob.shape == "capsule":
+        return capsule_quads(ob)
+    return None
+
+
+def quads_bounds(quads) -> tuple[np.ndarray, np.ndarray]:
+    pts = np.asarray(quads).reshape(-1, 3)
+    return pts.min(axis=0), pts.max(axis=0)
+
+
+def shaded(quads, rgba) -> np.ndarray:
+    """Face colours of quads: rgba lit from LIGHT (Lambert, both sides lit alike)."""
+    q = np.asarray(quads)
+    nrm = np.cross(q[:, 2] - q[:, 0], q[:, 3] - q[:, 1])
+    nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
+    light = LIGHT / np.linalg.norm(LIGHT)
+    k = 0.45 + 0.55 * np.abs(nrm @ light)
+    out = np.tile(np.asarray(rgba, float), (len(q), 1))
+    out[:, :3] *= k[:, None]
+    return out
+
+
+# ---------------------------------------------------------------- drawing
+
+
+class Scene:
+    """The obstacles of a run as quads, made once for every frame or panel."""
+
+    def __init__(self, run, steps, stride: int = 1):
+        self.obstacles = obstacles(run)
+        self.stride = stride
+        lo, hi = plotting.bounds(*(run.position[k] for k in steps))
+        self.cloth_lo, self.cloth_hi = lo, hi
+        self.planes = [plane_quads(o, lo, hi) for o in self.obstacles if o.shape == "plane"]
+        solids = [solid_quads(o) for o in self.obstacles if o.shape != "plane"]
+        self.solids = [s for s in solids if s is not None]   # a shape not known: not drawn
+        parts = [np.stack([lo, hi])] + [np.asarray(quads_bounds(q)) for q in self.planes + self.solids]
+        allpts = np.concatenate(parts)
+        self.lo, self.hi = allpts.min(axis=0), allpts.max(axis=0)
+
+    def draw(self, ax, pos, edges: bool = True):
+        """The plane patches (behind everything: the cloth cannot be below them)
+        and one collection of cloth and solid quads, depth-sorted together."""
+        artists = []
+        for q in self.planes:
+            pc = Poly3DCollection(q, facecolors=shaded(q, TABLE), edgecolors="none", zorder=1)
+            ax.add_collection3d(pc)
+            artists.append(pc)
+        cloth = cloth_quads(pos, self.stride)
+        quads = [cloth] + self.solids
+        colors = [shaded(cloth, CLOTH)] + [shaded(s, SOLID) for s in self.solids]
+        edge = np.concatenate([np.tile([0.1, 0.15, 0.3, 0.6 if edges else 0.0], (len(cloth), 1))]
+                              + [np.zeros((len(s), 4)) for s in self.solids])
+        pc = Poly3DCollection(np.concatenate(quads), facecolors=np.concatenate(colors),
+                              edgecolors=edge, linewidths=0.3, zorder=2)
+        ax.add_collection3d(pc)
+        artists.append(pc)
+        return artists
+
+
+def _axes(ax, scene, units, view, elev, azim, title=None):
+    plotting.setup_3d(ax, scene.lo, scene.hi, units, view, title=title)
+    if elev is not None or azim is not None:
+        e0, a0 = plotting.VIEWS[view]
+        ax.view_init(elev=e0 if elev is None else elev, azim=a0 if azim is None else azim)
+    ax.computed_zorder = False      # the planes first, then the sorted quads
+
+
+def lattice_stride(run, max_lines: int) -> int:
+    """Every how many lattice lines to draw, so at most about max_lines a direction."""
+    return max(1, math.ceil((max(run.nx, run.ny) - 1) / max(max_lines, 1)))
+
+
+def build_figure(run, steps, units: str, view: str = "iso", elev=None, azim=None,
+                 max_lines: int = 64, title: str | None = None):
+    """One 3-D panel a step: the cloth and its obstacles, one box for all panels."""
+    scene = Scene(run, steps, lattice_stride(run, max_lines))
+    n = len(steps)
+    ncols = grid_columns(n)
+    size = plotting.iso_panel_size(scene.lo, scene.hi)
+    fig, axes = plotting.new_figure(n, ncols=ncols, projection="3d", panel_size=size)
+    for ax, k in zip(axes, steps):
+        scene.draw(ax, run.position[k])
+        _axes(ax, scene, units, view, elev, azim, title=f"t = {run.time[k]:.3g} s")
+        plotting.shrink_3d_box(ax, plotting.iso_zoom(scene.lo, scene.hi))
+    plotting.room_for_3d_labels(fig)
+    if title:
+        fig.suptitle(title)
+    return fig, scene
+
+
+def frame_steps(run, frames: int) -> list[int]:
+    """At most `frames` output steps, evenly spaced, the first and last included."""
+    if frames < 2:
+        raise cli.UsageError(f"--frames {frames}: at least 2")
+    n = min(frames, run.nt)
+    return [int(k) for k in np.unique(np.rint(np.linspace(0, run.nt - 1, n)).astype(int))]
+
+
+def write_animation(run, output: str, units: str, frames: int = 60, size_px: int = 400,
+                    fps: float = 12.0, view: str = "iso", elev=None, azim=None,
+                    max_lines: int = 40, colors: int = 64) -> int:
+    """A GIF of the run (Pillow): the cloth and obstacles in one fixed box.
+    Each frame is reduced to `colors` colours without dithering (flat
+    shading compresses well that way: a 400 px frame of 60 takes some
+    10-30 KB). Returns the number of frames."""
+    from matplotlib.animation import PillowWriter
+    from PIL import Image
+
+    if not output.lower().endswith(".gif"):
+        raise cli.UsageError(f"--gif {output}: the animation is a .gif")
+    steps = frame_steps(run, frames)
+    scene = Scene(run, steps, lattice_stride(run, max_lines))
+    dpi = 100
+    fig, (ax,) = plotting.new_figure(1, ncols=1, projection="3d",
+                                     panel_size=(size_px / dpi, size_px / dpi))
+    _axes(ax, scene, units, view, elev, azim)
+    plotting.shrink_3d_box(ax, plotting.iso_zoom(scene.lo, scene.hi))
+    plotting.room_for_3d_labels(fig)
+
+    class Quantized(PillowWriter):
+        """PillowWriter whose frames are reduced to a few colours, undithered."""
+
+        def grab_frame(self, **kwargs):
+            super().grab_frame(**kwargs)
+            im = self._frames[-1].convert("RGB")
+            self._frames[-1] = im.quantize(colors, method=Image.Quantize.MEDIANCUT,
+                                           dither=Image.Dither.NONE)
+
+    writer = Quantized(fps=fps)
+    artists = []
+    with writer.saving(fig, output, dpi):
+        for k in steps:
+            for a in artists:
+                a.remove()
+            artists = scene.draw(ax, run.position[k])
+            ax.set_title(f"t = {run.time[k]:.2f} s", fontsize="medium")
+            writer.grab_frame()
+    return len(steps)
+
+
+def _parser():
+    p = cli.parser(__doc__.splitlines()[0], "contact_plot")
+    p.add_argument("run", help="nuno output file (.h5)")
+    p.add_argument("--times", type=float, nargs="+", default=None,
+                   help="times to show (nearest output step); default: 4 evenly spaced steps")
+    p.add_argument("--view", choices=tuple(plotting.VIEWS), default="iso")
+    p.add_argument("--elev", type=float, default=None, help="view elevation [degree] (default: the view's)")
+    p.add_argument("--azim", type=float, default=None, help="view azimuth [degree] (default: the view's)")
+    p.add_argument("--units", default=None,
+                   help="length unit of the labels (default: the file's units attribute)")
+    p.add_argument("--title", default=None, help="a title over the panels")
+    p.add_argument("--gif", default=None, metavar="FILE.gif", help="also write an animation")
+    p.add_argument("--frames", type=int, default=60, help="animation: most frames (default 60)")
+    p.add_argument("--size", type=int, default=400, help="animation: width and height in pixels (default 400)")
+    p.add_argument("--fps", type=float, default=12.0, help="animation: frames per second (default 12)")
+    cli.add_output(p, "contact")
+    return p
+
+
+def _body(args):
+    # every argument checked before anything is written
+    if args.gif is not None and not args.gif.lower().endswith(".gif"):
+        raise cli.UsageError(f"--gif {args.gif}: the animation is a .gif")
+    if args.size < 100:
+        raise cli.UsageError(f"--size {args.size}: at least 100 pixels")
+    if args.frames < 2:
+        raise cli.UsageError(f"--frames {args.frames}: at least 2")
+    run = cli.load_run(args.run)
+    units = args.units or run.units()
+    steps = choose_steps(run, args.times)
+    unknown = sorted({o.shape for o in obstacles(run)} - set(SHAPES))
+    if unknown:
+        raise ValueError(f"{args.run}: obstacle shape {', '.join(unknown)}: not one this script draws "
+                         f"({', '.join(SHAPES)})")
+    fig, _ = build_figure(run, steps, units, args.view, args.elev, args.azim, title=args.title)
+    plotting.save(fig, args.output or cli.default_output(args.run, "contact"), args.dpi)
+    if args.gif:
+        write_animation(run, args.gif, units, args.frames, args.size, args.fps, args.view, args.elev, args.azim)
+
+
+def main(argv=None) -> int:
+    return cli.run_main(_body, _parser().parse_args(argv))
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
