@@ -28,7 +28,7 @@ module timestepping
   use app_context, only: app_ctx, nuno_walltime_arm, nuno_checkpoint_due, nuno_signal_agreed, energy_add_work, &
                          energy_integrals_start, energy_set_mgx0
   use newton_start, only: newton_start_reset
-  use failure_text, only: signal_name, failure_reason, report_io_error, ieee_nan
+  use failure_text, only: signal_name, failure_reason, report_io_error
   use strings, only: num => real_brief, inum => itoa
   use run_checkpoint, only: run_counts, take_checkpoint, keep_restart_point, solver_restore
   use provenance, only: write_run_info
@@ -442,19 +442,21 @@ contains
     ! widths hold 10^8 steps), rates from the start of the run. Flushed: a
     ! redirected run shows its progress and keeps it when killed. The order
     ! up to 'linear' is the one bench/solver.py parses.
-    if (t > 0.0_rp .and. wall > 0.0_rp) then
-      rate = t / wall
-      eta = (ctx%step%t_end - t) / rate
-    else
-      rate = 0.0_rp
-      eta = ieee_nan()
-    end if
+    ! Before any step (t = 0) there is no rate yet: '-' for the rate and
+    ! the ETA (same fields, so awk's columns stay).
     if (ctx%rank == 0) then
-      write(output_unit, '(a,es12.5e2, a,i9, a,i6, a,i9, a,i11, a,i6, 2(a,es13.5e2), 3(a,es10.3e2))') &
+      write(output_unit, '(a,es12.5e2, a,i9, a,i6, a,i9, a,i11, a,i6, 2(a,es13.5e2), a,es10.3e2)', advance='no') &
         't =', t, '  steps', steps, '  rejected', rejects, '  newton', nits, '  linear', lits, &
         '  retries', fails, '  E_kin', d%kinetic, &
         '  E_total', d%kinetic + d%stretch + d%bend + ctx%energy%dissipated - rec%external_work, &
-        '  wall_s', wall, '  sim_per_wall_s', rate, '  eta_s', eta
+        '  wall_s', wall
+      if (t > 0.0_rp .and. wall > 0.0_rp) then
+        rate = t / wall
+        eta = (ctx%step%t_end - t) / rate
+        write(output_unit, '(2(a,es10.3e2))') '  sim_per_wall_s', rate, '  eta_s', eta
+      else
+        write(output_unit, '(a)') '  sim_per_wall_s -  eta_s -'
+      end if
       flush(output_unit)
       ctx%progress%wall_said = MPI_Wtime()
     end if
