@@ -13,10 +13,11 @@
 !> full update, the update is scaled by 0.8 alpha (IPC), alpha the first
 !> time of impact over all nodes and obstacles; (3) a residual evaluated
 !> at an infeasible state is NaN (the step fails and is retried smaller);
-!> (4) every accepted state is checked (a TS monitor: the smallest gap
-!> over nodes and obstacles, MPI_Allreduce), and a gap <= 0 ends the run
-!> with an error. The monitor also lags friction's normal force and normal
-!> for the next step and prints a contact line at each output time.
+!> (4) every accepted state is checked (contact_monitor, called by the TS
+!> monitor of module step_monitor: the smallest gap over nodes and
+!> obstacles, MPI_Allreduce), and a gap <= 0 ends the run with an error.
+!> The check also lags friction's normal force and normal for the next
+!> step and prints a contact line at each output time.
 module contact_solver
 #include "petsc/finclude/petscts.h"
   use petscts
@@ -29,7 +30,7 @@ module contact_solver
   use strings, only: real_es, itoa
   implicit none
   private
-  public :: contact_solver_options, contact_setup
+  public :: contact_solver_options, contact_setup, contact_monitor
 
 contains
 
@@ -43,8 +44,9 @@ contains
     PetscCall(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-ts_theta_initial_guess_extrapolate', 'false', ierr))
   end subroutine contact_solver_options
 
-  !> After the TS and SNES are set up: the obstacles, the step limit and
-  !> the monitor of accepted states. Nothing without obstacles. Collective.
+  !> After the TS and SNES are set up: the obstacles and the step limit
+  !> (the check of accepted states is called by the TS monitor). Nothing
+  !> without obstacles. Collective.
   subroutine contact_setup(ctx, ierr)
     type(app_ctx), intent(inout) :: ctx
     PetscErrorCode, intent(out) :: ierr
@@ -66,7 +68,6 @@ contains
     PetscCall(TSGetSNES(ctx%ts, snes, ierr))
     PetscCall(SNESGetLineSearch(snes, ls, ierr))
     PetscCall(SNESLineSearchSetPreCheck(ls, contact_precheck, ctx, ierr))
-    PetscCall(TSMonitorSet(ctx%ts, contact_monitor, ctx, PETSC_NULL_FUNCTION, ierr))
   end subroutine contact_setup
 
   !> The line search's pre-check: PETSc steps x - lambda y; where a node
@@ -96,9 +97,10 @@ contains
     end if
   end subroutine contact_precheck
 
-  !> After each accepted step (and at the start): the smallest gap over
-  !> every node and obstacle (collective); a gap <= 0 is an error. Then the
-  !> friction lag for the next step, and a line at each output time.
+  !> After each accepted step (and at the start; called by the TS monitor,
+  !> module step_monitor): the smallest gap over every node and obstacle
+  !> (collective); a gap <= 0 is an error. Then the friction lag for the
+  !> next step, and a line at each output time.
   subroutine contact_monitor(ts, step, t, uvec, ctx, ierr)
     type(tTS) :: ts
     PetscInt :: step

@@ -1,9 +1,15 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> The TS monitor, run after every accepted step: the progress line, the
-!> energy integrals (dissipated power, constraint work) and the step-stall
-!> checks. Checkpoints are the run driver's (module timestepping). It owns
-!> the records it advances, step, energy and progress of app_ctx: their
-!> other writers call the routines at the end of this module.
+!> energy integrals (dissipated power, constraint work), the step-stall
+!> checks and, with obstacles, the contact check. Checkpoints are the run
+!> driver's (module timestepping). It owns the records it advances, step,
+!> energy and progress of app_ctx: their other writers call the routines at
+!> the end of this module.
+!>
+!> It is the run's only Fortran TS monitor: PETSc 3.18's Fortran
+!> TSMonitorSet keeps one Fortran callback per TS, and a second call
+!> silently replaces the first (TSMonitorSet finds its C wrapper set
+!> already). Other per-step work, as the contact check, is called from here.
 module step_monitor
 #include "petsc/finclude/petscts.h"
   use petscts
@@ -20,6 +26,7 @@ module step_monitor
   use newton_start, only: newton_start_push
   use strings, only: num => real_brief
   use newton_policy, only: linesearch_fallback
+  use contact_solver, only: contact_monitor
   implicit none
   private
   public :: ts_monitor
@@ -40,8 +47,9 @@ contains
 
   !> After every accepted step (and at the start of each TSSolve): keep its
   !> first Newton correction for the inner guesses, advance the integrals
-  !> of dissipated power and constraint power, and after a retried step go
-  !> back to the fixed step.
+  !> of dissipated power and constraint power, after a retried step go
+  !> back to the fixed step, and with obstacles check the state (module
+  !> contact_solver).
   subroutine ts_monitor(ts, step, t, uvec, ctx, ierr)
     type(tTS) :: ts
     PetscInt :: step
@@ -159,6 +167,10 @@ contains
         flush(output_unit)
         ctx%progress%wall_said = MPI_Wtime()
       end if
+    end if
+    ! no node inside an obstacle, and friction's lag for the next step
+    if (ctx%cfg%contact%n_obstacles > 0) then
+      PetscCall(contact_monitor(ts, step, t, uvec, ctx, ierr))
     end if
   end subroutine ts_monitor
 

@@ -31,7 +31,7 @@ module timestepping
   use cloth_model, only: model_enter_window
   use newton_policy, only: newton_enter_window
   use newton_start, only: newton_start_reset
-  use failure_text, only: signal_name, failure_reason, report_io_error, ieee_nan
+  use failure_text, only: signal_name, failure_reason, report_io_error
   use strings, only: num => real_brief, inum => itoa
   use run_checkpoint, only: run_counts, take_checkpoint, keep_restart_point, solver_restore, restart_state_init, &
                             restart_output_written
@@ -445,19 +445,21 @@ contains
     ! widths hold 10^8 steps), rates from the start of the run. Flushed: a
     ! redirected run shows its progress and keeps it when killed. The order
     ! up to 'linear' is the one bench/solver.py parses.
-    if (t > 0.0_rp .and. wall > 0.0_rp) then
-      rate = t / wall
-      eta = (ctx%step%t_end - t) / rate
-    else
-      rate = 0.0_rp
-      eta = ieee_nan()
-    end if
+    ! Before any step (t = 0) there is no rate yet: '-' for the rate and
+    ! the ETA (same fields, so awk's columns stay).
     if (ctx%rank == 0) then
-      write(output_unit, '(a,es12.5e2, a,i9, a,i6, a,i9, a,i11, a,i6, 2(a,es13.5e2), 3(a,es10.3e2))') &
+      write(output_unit, '(a,es12.5e2, a,i9, a,i6, a,i9, a,i11, a,i6, 2(a,es13.5e2), a,es10.3e2)', advance='no') &
         't =', t, '  steps', steps, '  rejected', rejects, '  newton', nits, '  linear', lits, &
         '  retries', fails, '  E_kin', d%kinetic, &
         '  E_total', d%kinetic + d%stretch + d%bend + ctx%energy%dissipated - rec%external_work, &
-        '  wall_s', wall, '  sim_per_wall_s', rate, '  eta_s', eta
+        '  wall_s', wall
+      if (t > 0.0_rp .and. wall > 0.0_rp) then
+        rate = t / wall
+        eta = (ctx%step%t_end - t) / rate
+        write(output_unit, '(2(a,es10.3e2))') '  sim_per_wall_s', rate, '  eta_s', eta
+      else
+        write(output_unit, '(a)') '  sim_per_wall_s -  eta_s -'
+      end if
       flush(output_unit)
       call progress_said(ctx%progress)
     end if

@@ -30,14 +30,15 @@ def progress_lines(stdout):
 
 
 def fields(line):
-    """The progress line as {name: value}: 't =' then blank-separated name value pairs."""
+    """The progress line as {name: value}: 't =' then blank-separated name
+    value pairs; a value '-' (no rate yet at t = 0) as None."""
     words = line.split()
     assert words[:2] == ["t", "="], line
     out = {"t": float(words[2])}
     rest = words[3:]
     assert len(rest) % 2 == 0, line
     for name, value in zip(rest[::2], rest[1::2]):
-        out[name] = float(value)
+        out[name] = None if value == "-" else float(value)
     return out
 
 
@@ -163,7 +164,8 @@ def test_progress_line_parses_and_matches_the_file(tmp_path):
         for name in ("steps", "rejected", "newton", "linear", "retries", "E_total", "wall_s",
                      "sim_per_wall_s", "eta_s"):
             assert name in f, (name, line)
-    last = fields(lines[-1])
+    first, last = fields(lines[0]), fields(lines[-1])
+    assert first["t"] == 0.0 and first["sim_per_wall_s"] is None and first["eta_s"] is None
     assert last["eta_s"] == 0.0 and last["sim_per_wall_s"] > 0
     walls = [fields(ln)["wall_s"] for ln in lines]
     assert walls == sorted(walls)

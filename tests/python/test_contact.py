@@ -10,7 +10,7 @@ import subprocess
 import h5py
 import numpy as np
 
-from nunorun import exe, mpiexec, run
+from nunorun import exe, mpiexec, run, run_and_read
 
 G = 9.81
 MASS = 0.1
@@ -55,6 +55,20 @@ def test_drop_reaches_the_plane_at_the_free_fall_time(tmp_path):
     assert rows[-1][6] > 0.0                                   # and every accepted state (monitor's minimum)
     steps = int(re.search(r"complete at t = .*?: (\d+) steps", proc.stdout + proc.stderr).group(1))
     assert rows[-1][7] == steps + 1                            # ... all of them checked, and the start
+
+
+def test_fixed_step_returns_to_dt_after_a_retry_with_obstacles(tmp_path):
+    """-nuno_fail_newton 1 fails the first Newton solve; its step is retried
+    with dt/4 and the next step is dt again, with obstacles as without. Over
+    one output window of 10 dt (the sheet falls freely, 5 cm above the
+    plane): the retried step of dt/4, then the 9.75 dt left in ceil(9.75) =
+    10 steps of at most dt (the last ones shortened to end on the window's
+    end): 11 steps, 1 rejected. A step left at dt/4 until the window's end
+    would take 40 (as it did while contact's TS monitor replaced nuno's)."""
+    _, r = run_and_read(tmp_path, "retry", options=["-nuno_fail_newton", "1"], **groups(0.05, 0.01, 0.01))
+    assert r.complete
+    assert int(r.diagnostics["steps"][-1]) == 11
+    assert int(r.diagnostics["rejected_steps"][-1]) == 1
 
 
 def final_positions(h5):

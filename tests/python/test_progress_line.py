@@ -3,8 +3,10 @@
 without a line) shows a rate and an ETA, as the output step's line does:
 sim_per_wall_s = t / wall_s and eta_s = (t_end - t) / sim_per_wall_s,
 checked here by arithmetic on the line's own t and wall_s and the t_end of
-the input. The run (hang 21 x 21 with tiny steps and one output interval
-longer than the run) is stopped by SIGTERM as soon as the line is seen."""
+the input. The output step's line at t = 0, before any step, has no rate
+yet: '-' for both. The run (hang 21 x 21 with tiny steps and one output
+interval longer than the run) is stopped by SIGTERM as soon as the line
+between output steps is seen."""
 import re
 import signal
 import subprocess
@@ -42,6 +44,9 @@ def test_line_between_output_steps_has_rate_and_eta(tmp_path):
             proc.kill()
             proc.communicate()
     assert line is not None, "no progress line between output steps:\n" + "".join(seen[-20:])
+    start = [ln for ln in seen if ln.startswith("t =")]
+    assert len(start) == 1 and float(start[0].split()[2]) == 0.0, seen
+    assert start[0].split()[-4:] == ["sim_per_wall_s", "-", "eta_s", "-"], start[0]
     fields = {}
     for key in ("t =", "steps", "dt", "wall_s", "sim_per_wall_s", "eta_s"):
         m = re.search(r"(?:^|\s)" + re.escape(key) + r"\s+" + NUM, line)
