@@ -6,6 +6,7 @@
     run.position        # [nt][ny][nx][3], float64, read lazily (Steps)
     run.position[k]     # one step [ny][nx][3]: reads only that step
     run.energy_balance()
+    run.contact         # /contact of a scene with obstacles ({} without)
 
 Positions and velocities stay in the file: ``run.position`` is a ``Steps``
 view of the open HDF5 dataset, and indexing it reads only the steps asked
@@ -33,6 +34,12 @@ import numpy as np
 from numpy.lib.mixins import NDArrayOperatorsMixin
 
 ENERGY_NAMES = ("kinetic", "stretch", "bend", "dissipated", "external_work")
+# Energies of a scene with obstacles only (docs/model.md section 10): the
+# barrier energy, a potential energy of the balance.
+CONTACT_ENERGY_NAMES = ("barrier",)
+# /contact: scenes with obstacles only.
+CONTACT_NAMES = ("active", "force", "normal_force", "friction_work", "barrier_energy",
+                 "min_gap", "min_gap_run", "states_checked")
 DIAGNOSTIC_NAMES = ("momentum", "angular_momentum", "length", "flatness",
                     "steps", "rejected_steps", "newton_iterations",
                     "linear_iterations")
@@ -189,6 +196,7 @@ class Run:
     config: dict = field(default_factory=dict)     # /config: {group: {key: value}}, the resolved keys
     identify: dict = field(default_factory=dict)   # /identify of an identification run: {dataset: array}, names as str
     control: dict = field(default_factory=dict)    # /control of a control run: {dataset: array} + its attributes
+    contact: dict = field(default_factory=dict)    # /contact of a scene with obstacles: name -> [nt] or [nt][3]; {} without
     file: h5py.File | None = field(default=None, repr=False)  # kept open for Steps
 
     def close(self) -> None:
@@ -216,13 +224,18 @@ class Run:
                 f"using {self.nt} complete output steps")
 
     def energy_balance(self) -> np.ndarray:
-        """E_kin + E_stretch + E_bend + E_dissipated - W_external per step."""
+        """E_kin + E_stretch + E_bend (+ E_barrier) + E_dissipated - W_external
+        per step. With obstacles the barrier energy is a potential energy and
+        the friction work is part of E_dissipated (docs/model.md section 10)."""
         missing = [n for n in ENERGY_NAMES if n not in self.energy]
         if missing:
             raise ValueError(f"{self.path}: energy datasets missing: {', '.join(missing)}")
         e = self.energy
-        return (e["kinetic"] + e["stretch"] + e["bend"] + e["dissipated"]
-                - e["external_work"])
+        b = (e["kinetic"] + e["stretch"] + e["bend"] + e["dissipated"]
+             - e["external_work"])
+        if "barrier" in e:
+            b = b + e["barrier"]
+        return b
 
     def scene(self) -> str | None:
         """The scene named in the echoed namelist (``scene = '...'``), if any."""
@@ -326,6 +339,14 @@ def read_run(path, load_velocity: bool = True) -> Run:
         config = {g: _attrs(f["config"][g]) for g in f["config"]} if "config" in f else {}
         identify = _small_group(f, "identify")
         control = _small_group(f, "control")
+        # Contact series (scenes with obstacles): their first nt steps. A
+        # file continued from a version without them holds NaN (counts: -1)
+        # for the steps before the restart.
+        contact = {n: np.asarray(f[f"contact/{n}"][:nt]) for n in CONTACT_NAMES
+                   if f"contact/{n}" in f}
+        energy = {n: data[f"energy/{n}"] for n in ENERGY_NAMES if f"energy/{n}" in data}
+        energy.update({n: np.asarray(f[f"energy/{n}"][:nt]) for n in CONTACT_ENERGY_NAMES
+                       if f"energy/{n}" in f})
         wall_time = None
         if "wall_time" in f:
             wall_time = np.asarray(f["wall_time"][:nt], dtype=np.float64)
@@ -344,8 +365,7 @@ def read_run(path, load_velocity: bool = True) -> Run:
             velocity=vel,
             rest_position=rest,
             mass=mass,
-            energy={n: data[f"energy/{n}"] for n in ENERGY_NAMES
-                    if f"energy/{n}" in data},
+            energy=energy,
             diagnostics={n: data[f"diagnostics/{n}"] for n in DIAGNOSTIC_NAMES
                          if f"diagnostics/{n}" in data},
             n_stored=n_stored,
@@ -355,6 +375,7 @@ def read_run(path, load_velocity: bool = True) -> Run:
             config=config,
             identify=identify,
             control=control,
+            contact=contact,
             file=f,
         )
     except BaseException:

@@ -24,13 +24,14 @@ N_PANELS = 8
 def balance_drift(run) -> np.ndarray:
     """(B(t) - B(0)) / scale, B the energy balance, scale the largest energy seen.
 
-    The scale is max over time of E_kin + E_stretch + E_bend + |W_external|
-    (B(0) alone is zero for a cloth released at rest without stored energy).
+    The scale is max over time of E_kin + E_stretch + E_bend (+ E_barrier,
+    with obstacles) + |W_external| (B(0) alone is zero for a cloth released
+    at rest without stored energy).
     """
     b = run.energy_balance()
     e = run.energy
     scale = np.max(np.abs(e["kinetic"]) + np.abs(e["stretch"]) + np.abs(e["bend"])
-                   + np.abs(e["external_work"]))
+                   + np.abs(e.get("barrier", 0.0)) + np.abs(e["external_work"]))
     scale = scale if scale > 0 else 1.0
     return (b - b[0]) / scale
 
@@ -59,7 +60,8 @@ def build_figure(run):
     ax_e, ax_b, ax_p, ax_l, ax_len, ax_flat, ax_steps, ax_it = axes
 
     for name, label in (("kinetic", "kinetic"), ("stretch", "stretch"), ("bend", "bend"),
-                        ("dissipated", "dissipated"), ("external_work", "external work")):
+                        ("barrier", "barrier (contact)"), ("dissipated", "dissipated"),
+                        ("external_work", "external work")):
         if name in run.energy:
             ax_e.plot(t, run.energy[name], label=label)
     try:

@@ -19,6 +19,7 @@ module contact_forces
   private
   public :: contact_state_t, contact_init, contact_on, contact_add_forces, contact_blocks, contact_lag, &
             contact_step_limit, contact_stats
+  public :: contact_record, contact_seen, contact_restore, contact_count_limited
 
   type :: contact_state_t
     integer :: n_obs = 0
@@ -26,17 +27,28 @@ module contact_forces
     type(contact_params_t) :: cp
     real(rp), allocatable :: lam(:, :, :)           !< (n_obs, 0:nx-1, ys:ye) lagged normal force [force]
     real(rp), allocatable :: nlag(:, :, :, :)       !< (3, n_obs, 0:nx-1, ys:ye) lagged normal [1]
-    ! run's diagnostics (accepted states, this rank's view; reduced by the caller)
+    ! The run's diagnostics, over all ranks: written by contact_record (the
+    ! monitor of accepted states, module contact_solver, after its
+    ! reductions), contact_restore and contact_count_limited only.
     real(rp) :: min_gap_run = huge(1.0_rp)          !< smallest gap over every accepted state [length]
-    integer :: states_checked = 0                   !< accepted states checked
+    integer :: states_checked = 0                   !< accepted states checked (the start included)
     integer :: limited_steps = 0                    !< Newton updates scaled by the step limit
-    ! the last accepted state's, over all ranks (module contact_solver)
+    ! the last accepted state's
     integer :: active = 0                           !< node-obstacle pairs with gap < dhat
-    real(rp) :: force(3) = 0.0_rp                   !< total contact force [force]
+    real(rp) :: force(3) = 0.0_rp                   !< total contact force, barrier and friction [force]
+    real(rp) :: normal_force(3) = 0.0_rp            !< the barrier's part of it, sum of f_n g [force]
     real(rp) :: energy = 0.0_rp                     !< barrier energy [energy]
     real(rp) :: min_gap = huge(1.0_rp)              !< smallest gap [length]
-    real(rp) :: friction_work = 0.0_rp              !< friction work since the start (trapezoid rule) [energy]
-    real(rp) :: t_last = 0.0_rp, pfric_last = 0.0_rp
+    !> friction work since the start [energy]: the trapezoid rule over each
+    !> accepted step on the friction power with the step's own lag at both
+    !> ends (the lag taken at its start), dissipated (>= 0)
+    real(rp) :: friction_work = 0.0_rp
+    logical :: have_last = .false.                  !< t_last, pfric_last hold the last accepted state's
+    !> the next state recorded is a checkpoint's, recorded already by the
+    !> run that wrote it (contact_restore): not counted again
+    logical :: resumed = .false.
+    real(rp) :: t_last = 0.0_rp                     !< time of the last accepted state [time]
+    real(rp) :: pfric_last = 0.0_rp                 !< friction power there with the next step's lag [energy/time]
   end type contact_state_t
 
 contains
@@ -156,12 +168,15 @@ contains
   end subroutine grow
 
   !> Friction's lag from an accepted state u (the next step's start):
-  !> lam = the barrier's normal force, nlag = the surface normal.
-  subroutine contact_lag(cs, lat, fixed, u)
+  !> lam = the barrier's normal force, nlag = the surface normal; pstart,
+  !> this rank's friction power at u with the new lag [energy/time] (the
+  !> start of the next step's friction work).
+  subroutine contact_lag(cs, lat, fixed, u, pstart)
     type(contact_state_t), intent(inout) :: cs
     type(lattice_t), intent(in) :: lat
     logical, intent(in) :: fixed(0:, lat%ys:)
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    real(rp), intent(out), optional :: pstart
     integer :: i, j, k
     real(rp) :: fc(3), kx(3, 3), kv(3, 3), e, fn, d, g(3), hd(3, 3), zero3(3)
     logical :: act
@@ -180,6 +195,17 @@ contains
         end do
       end do
     end do
+    if (present(pstart)) then
+      pstart = 0.0_rp
+      do j = lat%ys, lat%ye
+        do i = 0, lat%nx - 1
+          do k = 1, cs%n_obs
+            if (cs%lam(k, i, j) > 0.0_rp) pstart = pstart + &
+              friction_power(cs%obs(k), cs%cp, u(3:5, i, j), cs%lam(k, i, j), cs%nlag(:, k, i, j))
+          end do
+        end do
+      end do
+    end if
   end subroutine contact_lag
 
   !> Largest alpha in [0, 1] for which no free owned node's gap reaches 0
@@ -203,13 +229,14 @@ contains
 
   !> This rank's contact statistics at state u: the smallest gap (free
   !> nodes), the active contacts (gap < dhat), the total contact force
-  !> (3) and the barrier energy, the friction power.
-  subroutine contact_stats(cs, lat, fixed, u, gmin, nact, ftot, ebar, pfric)
+  !> (3) and its barrier part fnrm (3, sum of f_n g), the barrier energy,
+  !> the friction power (with the lag of the step that ended at u).
+  subroutine contact_stats(cs, lat, fixed, u, gmin, nact, ftot, fnrm, ebar, pfric)
     type(contact_state_t), intent(in) :: cs
     type(lattice_t), intent(in) :: lat
     logical, intent(in) :: fixed(0:, lat%ys:)
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)
-    real(rp), intent(out) :: gmin, ftot(3), ebar, pfric
+    real(rp), intent(out) :: gmin, ftot(3), fnrm(3), ebar, pfric
     integer, intent(out) :: nact
     integer :: i, j, k
     real(rp) :: fc(3), kx(3, 3), kv(3, 3), e, fn, d, g(3), hd(3, 3)
@@ -217,6 +244,7 @@ contains
     gmin = huge(1.0_rp)
     nact = 0
     ftot = 0.0_rp
+    fnrm = 0.0_rp
     ebar = 0.0_rp
     pfric = 0.0_rp
     do j = lat%ys, lat%ye
@@ -230,11 +258,66 @@ contains
                             fc, kx, kv, e, fn, act)
           if (act) nact = nact + 1
           ftot = ftot + fc
+          fnrm = fnrm + fn * g
           ebar = ebar + e
           pfric = pfric + friction_power(cs%obs(k), cs%cp, u(3:5, i, j), cs%lam(k, i, j), cs%nlag(:, k, i, j))
         end do
       end do
     end do
   end subroutine contact_stats
+
+  !> True when state t was recorded last (TSSolve calls its monitors at
+  !> every window's start too, with the state its last step accepted).
+  pure logical function contact_seen(cs, t)
+    type(contact_state_t), intent(in) :: cs
+    real(rp), intent(in) :: t
+    contact_seen = cs%have_last .and. t == cs%t_last
+  end function contact_seen
+
+  !> Record an accepted state at t, its statistics reduced over all ranks
+  !> (contact_stats, contact_lag): the smallest gap gmin, the active pairs,
+  !> the total and normal forces, the barrier energy; pend the friction
+  !> power at t with the lag of the step that ended there, pstart with the
+  !> next step's [energy/time]. The friction work grows by the trapezoid
+  !> rule over the step, both ends with the step's own lag.
+  subroutine contact_record(cs, t, gmin, nact, ftot, fnrm, ebar, pend, pstart)
+    type(contact_state_t), intent(inout) :: cs
+    real(rp), intent(in) :: t, gmin, ftot(3), fnrm(3), ebar, pend, pstart
+    integer, intent(in) :: nact
+    if (cs%have_last) cs%friction_work = cs%friction_work + 0.5_rp * (t - cs%t_last) * (cs%pfric_last + pend)
+    if (.not. cs%resumed) cs%states_checked = cs%states_checked + 1
+    cs%resumed = .false.
+    cs%have_last = .true.
+    cs%t_last = t
+    cs%pfric_last = pstart
+    cs%min_gap_run = min(cs%min_gap_run, gmin)
+    cs%active = nact
+    cs%force = ftot
+    cs%normal_force = fnrm
+    cs%energy = ebar
+    cs%min_gap = gmin
+  end subroutine contact_record
+
+  !> A restart's run diagnostics from its checkpoint: the friction work
+  !> [energy], the smallest gap so far [length], the states checked and
+  !> the limited Newton updates. The checkpoint's own state, recorded
+  !> again at the restart's first monitor call, is not counted twice.
+  subroutine contact_restore(cs, friction_work, min_gap_run, states_checked, limited_steps)
+    type(contact_state_t), intent(inout) :: cs
+    real(rp), intent(in) :: friction_work, min_gap_run
+    integer, intent(in) :: states_checked, limited_steps
+    cs%friction_work = friction_work
+    cs%min_gap_run = min_gap_run
+    cs%states_checked = states_checked
+    cs%limited_steps = limited_steps
+    cs%have_last = .false.
+    cs%resumed = states_checked > 0
+  end subroutine contact_restore
+
+  !> One more Newton update scaled by the step limit (module contact_solver's pre-check).
+  subroutine contact_count_limited(cs)
+    type(contact_state_t), intent(inout) :: cs
+    cs%limited_steps = cs%limited_steps + 1
+  end subroutine contact_count_limited
 
 end module contact_forces

@@ -13,7 +13,7 @@
 !> full update, the update is scaled by 0.8 alpha (IPC), alpha the first
 !> time of impact over all nodes and obstacles; (3) a residual evaluated
 !> at an infeasible state is NaN (the step fails and is retried smaller);
-!> (4) every accepted state is checked (contact_monitor, called by the TS
+!> (4) every accepted state is checked (contact_observe, called by the TS
 !> monitor of module step_monitor: the smallest gap over nodes and
 !> obstacles, MPI_Allreduce), and a gap <= 0 ends the run with an error.
 !> The check also lags friction's normal force and normal for the next
@@ -26,11 +26,12 @@ module contact_solver
   use kinds, only: rp
   use app_context, only: app_ctx
   use newton_start, only: newton_start_order
-  use contact_forces, only: contact_init, contact_on, contact_lag, contact_step_limit, contact_stats
+  use contact_forces, only: contact_init, contact_on, contact_lag, contact_step_limit, contact_stats, contact_record, &
+                            contact_seen, contact_count_limited
   use strings, only: real_es, itoa
   implicit none
   private
-  public :: contact_solver_options, contact_setup, contact_monitor
+  public :: contact_solver_options, contact_setup, contact_observe
 
 contains
 
@@ -93,53 +94,44 @@ contains
     if (galpha < 1.0_rp) then
       PetscCall(VecScale(yvec, 0.8_rp * galpha, ierr))
       changed = PETSC_TRUE
-      ctx%contact%limited_steps = ctx%contact%limited_steps + 1
+      call contact_count_limited(ctx%contact)
     end if
   end subroutine contact_precheck
 
-  !> After each accepted step (and at the start; called by the TS monitor,
-  !> module step_monitor): the smallest gap over every node and obstacle
-  !> (collective); a gap <= 0 is an error. Then the friction lag for the
-  !> next step, and a line at each output time.
-  subroutine contact_monitor(ts, step, t, uvec, ctx, ierr)
-    type(tTS) :: ts
-    PetscInt :: step
-    PetscReal :: t
-    type(tVec) :: uvec
-    type(app_ctx) :: ctx
-    PetscErrorCode :: ierr
+  !> An accepted state uvec at t (called by the TS monitor of module
+  !> step_monitor after each accepted step and at each TSSolve's start, and
+  !> by the output step at t = 0, before the first step): the smallest gap over every node and
+  !> obstacle (collective); a gap <= 0 is an error. Then the friction lag
+  !> for the next step, the state's record (contact_record: the /contact
+  !> series and the friction work), and a line at each output time. A
+  !> state recorded already is left alone. Collective.
+  subroutine contact_observe(ctx, t, uvec, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    real(rp), intent(in) :: t
+    type(tVec), intent(in) :: uvec
+    PetscErrorCode, intent(out) :: ierr
     type(tVec) :: uloc
     PetscScalar, pointer :: u(:, :, :)
-    real(rp) :: gmin, ftot(3), ebar, pfric, loc(5), glob(5), r
+    real(rp) :: gmin, ftot(3), fnrm(3), ebar, pfric, pstart, loc(9), glob(9), r
     integer :: nact, gnact
     ierr = 0
     ! TSSolve calls its monitors at every window's start too, with the state
     ! its last step accepted: checked already
-    if (ctx%contact%states_checked > 0 .and. t == ctx%contact%t_last) return
+    if (contact_seen(ctx%contact, t)) return
     PetscCall(DMGetLocalVector(ctx%da, uloc, ierr))
     PetscCall(DMGlobalToLocalBegin(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
     PetscCall(DMGlobalToLocalEnd(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
-    call contact_stats(ctx%contact, ctx%lat, ctx%model%fixed, u, gmin, nact, ftot, ebar, pfric)
-    call contact_lag(ctx%contact, ctx%lat, ctx%model%fixed, u)
+    call contact_stats(ctx%contact, ctx%lat, ctx%model%fixed, u, gmin, nact, ftot, fnrm, ebar, pfric)
+    call contact_lag(ctx%contact, ctx%lat, ctx%model%fixed, u, pstart)
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, uloc, u, ierr))
     PetscCall(DMRestoreLocalVector(ctx%da, uloc, ierr))
     call MPI_Allreduce(gmin, r, 1, MPI_DOUBLE_PRECISION, MPI_MIN, ctx%comm, ierr)
     gmin = r
-    loc = [ftot, ebar, pfric]
-    call MPI_Allreduce(loc, glob, 5, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, ierr)
+    loc = [ftot, fnrm, ebar, pfric, pstart]
+    call MPI_Allreduce(loc, glob, 9, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, ierr)
     call MPI_Allreduce(nact, gnact, 1, MPI_INTEGER, MPI_SUM, ctx%comm, ierr)
-    ! friction work: trapezoid rule over the step
-    if (ctx%contact%states_checked > 0) ctx%contact%friction_work = ctx%contact%friction_work + &
-      0.5_rp * (t - ctx%contact%t_last) * (glob(5) + ctx%contact%pfric_last)
-    ctx%contact%t_last = t
-    ctx%contact%pfric_last = glob(5)
-    ctx%contact%states_checked = ctx%contact%states_checked + 1
-    ctx%contact%min_gap_run = min(ctx%contact%min_gap_run, gmin)
-    ctx%contact%active = gnact
-    ctx%contact%force = glob(1:3)
-    ctx%contact%energy = glob(4)
-    ctx%contact%min_gap = gmin
+    call contact_record(ctx%contact, t, gmin, gnact, glob(1:3), glob(4:6), glob(7), glob(8), glob(9))
     if (.not. (gmin > 0.0_rp)) then
       ierr = PETSC_ERR_NOT_CONVERGED
       SETERRQ(ctx%comm, ierr, 'nuno: contact: an accepted state penetrates an obstacle at t = '//real_es(t)//': smallest gap '//real_es(gmin))
@@ -150,8 +142,8 @@ contains
         real_es(glob(1))//' '//real_es(glob(2))//' '//real_es(glob(3))//', min gap = '//real_es(gmin)// &
         ', min gap of all accepted states = '//real_es(ctx%contact%min_gap_run)//', states checked = '// &
         itoa(ctx%contact%states_checked)//', limited Newton steps = '//itoa(ctx%contact%limited_steps)// &
-        ', barrier energy = '//real_es(glob(4))//', friction work = '//real_es(ctx%contact%friction_work)
+        ', barrier energy = '//real_es(glob(7))//', friction work = '//real_es(ctx%contact%friction_work)
     end if
-  end subroutine contact_monitor
+  end subroutine contact_observe
 
 end module contact_solver

@@ -64,6 +64,18 @@ module output
     real(rp) :: length = 0, flatness = 0
     integer :: steps = 0, rejected_steps = 0, newton_iterations = 0, linear_iterations = 0
     real(rp) :: wall_time = 0            !< wall-clock seconds since the run started (rank 0's clock) [s]
+    !> contact with obstacles (written only where the file has /contact:
+    !> run_info%contact): the barrier energy (also /energy/barrier) [energy],
+    !> node-obstacle pairs with gap < dhat, the total contact force and its
+    !> barrier (normal) part [force], the friction work since the start
+    !> [energy], the smallest gap at this state and over every accepted
+    !> state so far [length], the accepted states checked
+    real(rp) :: barrier = 0
+    integer :: contact_active = 0
+    real(rp) :: contact_force(3) = 0, normal_force(3) = 0
+    real(rp) :: friction_work = 0
+    real(rp) :: min_gap = 0, min_gap_run = 0
+    integer :: states_checked = 0
   end type output_record
 
   !> Provenance of a run for the /run group: what a reader needs to
@@ -80,6 +92,7 @@ module output
     real(rp) :: atol_velocity = 0                !< absolute tolerance of velocities [length/time]
     character(len=32) :: start_date = ''         !< ISO 8601, local time with offset
     character(len=256) :: host = ''              !< host of rank 0
+    logical :: contact = .false.                 !< the scene has obstacles: /energy/barrier and /contact
   end type run_info
 
   ! checkpoint_t (what a checkpoint holds) is module checkpoint_check's.
@@ -89,8 +102,11 @@ module output
   integer, parameter :: d_time = 1, d_position = 2, d_velocity = 3, d_kinetic = 4, &
     d_stretch = 5, d_bend = 6, d_dissipated = 7, d_external_work = 8, d_momentum = 9, &
     d_angular_momentum = 10, d_length = 11, d_flatness = 12, d_steps = 13, &
-    d_rejected_steps = 14, d_newton_iterations = 15, d_linear_iterations = 16, d_wall_time = 17
-  integer, parameter :: n_dsets = 17
+    d_rejected_steps = 14, d_newton_iterations = 15, d_linear_iterations = 16, d_wall_time = 17, &
+    d_barrier = 18, d_contact_active = 19, d_contact_force = 20, d_normal_force = 21, d_friction_work = 22, &
+    d_barrier_energy = 23, d_min_gap = 24, d_min_gap_run = 25, d_states_checked = 26
+  !> the series of contact (d_barrier .. d_states_checked): only in the files of scenes with obstacles
+  integer, parameter :: d_contact_first = 18, n_dsets = 26
   character(len=*), parameter :: slot_names(0:1) = [character(len=24) :: '/checkpoint/slot_0', '/checkpoint/slot_1']
   character(len=*), parameter :: dset_names(n_dsets) = [character(len=32) :: &
     '/time', '/position', '/velocity', &
@@ -98,7 +114,9 @@ module output
     '/energy/external_work', '/diagnostics/momentum', '/diagnostics/angular_momentum', &
     '/diagnostics/length', '/diagnostics/flatness', '/diagnostics/steps', &
     '/diagnostics/rejected_steps', '/diagnostics/newton_iterations', &
-    '/diagnostics/linear_iterations', '/wall_time']
+    '/diagnostics/linear_iterations', '/wall_time', &
+    '/energy/barrier', '/contact/active', '/contact/force', '/contact/normal_force', '/contact/friction_work', &
+    '/contact/barrier_energy', '/contact/min_gap', '/contact/min_gap_run', '/contact/states_checked']
   character(len=*), parameter :: dset_descriptions(n_dsets) = [character(len=96) :: &
     'simulation time of each output step', &
     'node positions [t][j][i][xyz] of the ny-by-nx lattice', &
@@ -116,7 +134,16 @@ module output
     'rejected time steps since the start (cumulative)', &
     'Newton iterations since the start (cumulative)', &
     'linear solver iterations since the start (cumulative)', &
-    'wall-clock seconds from the start of the run to this output step']
+    'wall-clock seconds from the start of the run to this output step', &
+    'barrier (contact) energy, sum of kappa b(gap) over node-obstacle pairs', &
+    'node-obstacle pairs with a gap below contact_dhat', &
+    'total contact force on the cloth, barrier and friction, sum over nodes, [t][xyz]', &
+    'normal (barrier) contact force on the cloth, sum of f_n n over nodes, [t][xyz]', &
+    'friction work since the start (dissipated, >= 0; part of /energy/dissipated)', &
+    'barrier energy, sum of kappa b(gap) over node-obstacle pairs (the same as /energy/barrier)', &
+    'smallest gap (signed distance - contact_thickness) over free nodes and obstacles', &
+    'smallest gap over every accepted state since the start', &
+    'accepted states checked for penetration since the start (the initial state included)']
   ! Output steps per chunk of the small datasets (one step per chunk would make
   ! thousands of tiny chunks; a crash still leaves complete steps readable).
   integer(hsize_t), parameter :: scalar_chunk = 256
@@ -128,6 +155,7 @@ module output
   !> The time series of an open file (submodule output_series).
   type :: series_state
     logical :: write_velocity = .false.
+    logical :: contact = .false.                ! the file has the contact series (output_contact)
     integer :: nt = 0                           ! output steps completely written
     integer(hid_t) :: dset(n_dsets) = -1
     integer :: drank(n_dsets) = 0
@@ -172,8 +200,9 @@ module output
   ! The procedures, by concern, in submodules: output_files (lifecycle and the
   ! safety rules), output_series (lattice, time series and views),
   ! output_results (run info, config, identify, control), output_checkpoint
-  ! (checkpoint write, reopen, read), output_xdmf (the sidecar) and
-  ! output_dims (dimension scales and units for netCDF-4 readers).
+  ! (checkpoint write, reopen, read), output_xdmf (the sidecar),
+  ! output_dims (dimension scales and units for netCDF-4 readers) and
+  ! output_contact (the series of contact, for scenes with obstacles).
   interface
     module subroutine output_open(out, filename, comm, nx, ny, ys, ym, rest, mass, write_velocity, &
                            attrs_namelist, attrs_petsc_options, ierr, errmsg, version, protect, overwrite)
@@ -417,6 +446,12 @@ module output
       integer, intent(inout) :: ierr
       character(*), intent(inout) :: errmsg
     end subroutine write_units
+
+    module subroutine contact_series(out, ierr, errmsg)
+      type(output_file), intent(inout) :: out
+      integer, intent(inout) :: ierr
+      character(*), intent(inout) :: errmsg
+    end subroutine contact_series
 
     module subroutine write_xdmf(out, ierr, errmsg)
       type(output_file), intent(in) :: out

@@ -108,6 +108,12 @@ contains
       if (ierr == 0) call set_attr_int(grp, 'start_compare', ck%start_compare, where, ierr, errmsg)
       if (ierr == 0) call set_attr_reals(grp, 'start_nc_prev', [ck%start_nc_prev], where, ierr, errmsg)
       if (ierr == 0) call set_attr_reals(grp, 'newton_floor', [ck%newton_floor], where, ierr, errmsg)
+      if (ierr == 0 .and. ck%contact /= 0) then
+        call set_attr_reals(grp, 'contact_friction_work', [ck%friction_work], where, ierr, errmsg)
+        if (ierr == 0) call set_attr_reals(grp, 'contact_min_gap_run', [ck%min_gap_run], where, ierr, errmsg)
+        if (ierr == 0) call set_attr_int(grp, 'contact_states_checked', ck%states_checked, where, ierr, errmsg)
+        if (ierr == 0) call set_attr_int(grp, 'contact_limited_steps', ck%limited_steps, where, ierr, errmsg)
+      end if
     end if
     if (all_ok()) call flush_file(out, ierr, errmsg)
     ! Valid from here on.
@@ -201,6 +207,7 @@ contains
     do i = 1, n_dsets
       if (ierr /= 0) exit
       if (i == d_velocity .and. .not. out%series%write_velocity) cycle
+      if (i >= d_contact_first .and. .not. out%series%contact) cycle
       call h5lexists_f(out%file, trim(dset_names(i)), exists_, h)
       if (h < 0) call fail('h5lexists_f', trim(dset_names(i)), ierr, errmsg)
       if (ierr /= 0 .or. .not. exists_) cycle
@@ -478,6 +485,17 @@ contains
     ck%newton_floor = 0
     if (ierr == 0 .and. exists) then
       call get_attr_reals(grp, 'newton_floor', where, r, ierr, errmsg); ck%newton_floor = r(1)
+    end if
+    ! contact's run diagnostics: scenes with obstacles (none in files written before /contact)
+    call h5aexists_f(grp, 'contact_friction_work', exists, h)
+    if (h < 0) call fail('h5aexists_f', where//' contact_friction_work', ierr, errmsg)
+    ck%contact = 0
+    if (ierr == 0 .and. exists) then
+      ck%contact = 1
+      call get_attr_reals(grp, 'contact_friction_work', where, r, ierr, errmsg); ck%friction_work = r(1)
+      call get_attr_reals(grp, 'contact_min_gap_run', where, r, ierr, errmsg); ck%min_gap_run = r(1)
+      call get_attr_int(grp, 'contact_states_checked', where, ck%states_checked, ierr, errmsg)
+      call get_attr_int(grp, 'contact_limited_steps', where, ck%limited_steps, ierr, errmsg)
     end if
     call close_group(grp, where, ierr, errmsg)
     if (ierr /= 0) return

@@ -8,8 +8,8 @@
 !>
 !> Layout (C order, as readers see it): /position and /velocity
 !> (time, j, i, xyz), /lattice/rest_position (j, i, xyz), /lattice/mass
-!> (j, i), /diagnostics/momentum and angular_momentum (time, xyz), every other
-!> series (time). /time is the scale "time"; /j, /i and /xyz are scales
+!> (j, i), /diagnostics/momentum and angular_momentum and /contact/force and
+!> normal_force (time, xyz), every other series (time). /time is the scale "time"; /j, /i and /xyz are scales
 !> without values, marked as netCDF-4 marks a dimension that is not a
 !> variable (its NAME attribute), so readers list them as dimensions only.
 !> All of it is metadata written once, at the open (or at a restart of a
@@ -52,7 +52,7 @@ contains
         call attach(out%series%dset(k), sj, 2, trim(dset_names(k)))
         call attach(out%series%dset(k), si, 3, trim(dset_names(k)))
         call attach(out%series%dset(k), sxyz, 4, trim(dset_names(k)))
-      case (d_momentum, d_angular_momentum)
+      case (d_momentum, d_angular_momentum, d_contact_force, d_normal_force)
         call attach(out%series%dset(k), sxyz, 2, trim(dset_names(k)))
       end select
     end do
@@ -125,15 +125,17 @@ contains
   !> unit system ('SI' or 'mm g s'; another value: none written), as UDUNITS
   !> strings. Collective.
   module procedure write_units
-    character(len=16) :: length, velocity, mass, energy, momentum, angular
+    character(len=16) :: length, velocity, mass, energy, momentum, angular, force
     integer :: k
 
     if (ierr /= 0) return
     select case (system)
     case ('SI')
       length = 'm'; velocity = 'm/s'; mass = 'kg'; energy = 'J'; momentum = 'kg m/s'; angular = 'kg m^2/s'
+      force = 'N'
     case ('mm g s')
       length = 'mm'; velocity = 'mm/s'; mass = 'g'; energy = 'g mm^2/s^2'; momentum = 'g mm/s'; angular = 'g mm^2/s'
+      force = 'g mm/s^2'
     case default
       return
     end select
@@ -142,12 +144,15 @@ contains
       select case (k)
       case (d_time, d_wall_time)
         call put(out%series%dset(k), 's')
-      case (d_position, d_length, d_flatness)
+      case (d_position, d_length, d_flatness, d_min_gap, d_min_gap_run)
         call put(out%series%dset(k), length)
       case (d_velocity)
         call put(out%series%dset(k), velocity)
-      case (d_kinetic, d_stretch, d_bend, d_dissipated, d_external_work)
+      case (d_kinetic, d_stretch, d_bend, d_dissipated, d_external_work, d_barrier, d_friction_work, &
+            d_barrier_energy)
         call put(out%series%dset(k), energy)
+      case (d_contact_force, d_normal_force)
+        call put(out%series%dset(k), force)
       case (d_momentum)
         call put(out%series%dset(k), momentum)
       case (d_angular_momentum)

@@ -62,6 +62,8 @@ contains
     end if
     if (ierr == 0 .and. out%series%dset(d_wall_time) < 0) &
       call create_series(out, d_wall_time, [integer(hsize_t) ::], [scalar_chunk], H5T_NATIVE_DOUBLE, ierr, errmsg)
+    ! /energy/barrier and /contact: scenes with obstacles only
+    if (info%contact) call contact_series(out, ierr, errmsg)
     ! /wall_time's axis, and those of a file continued from an earlier version.
     call netcdf_dims(out, ierr, errmsg)
     call write_units(out, trim(info%units), ierr, errmsg)

@@ -300,6 +300,19 @@ contains
     ! Created by output_write_run_info; absent for callers that never call it.
     if (all_ok() .and. out%series%dset(d_wall_time) >= 0) call write_reals(out, d_wall_time, [rec%wall_time], ierr, errmsg)
     if (.not. all_ok()) return
+    ! Contact: scenes with obstacles only (output_contact).
+    if (out%series%contact) then
+      call write_reals(out, d_barrier, [rec%barrier], ierr, errmsg)
+      if (all_ok()) call write_int(out, d_contact_active, rec%contact_active, ierr, errmsg)
+      if (all_ok()) call write_reals(out, d_contact_force, rec%contact_force, ierr, errmsg)
+      if (all_ok()) call write_reals(out, d_normal_force, rec%normal_force, ierr, errmsg)
+      if (all_ok()) call write_reals(out, d_friction_work, [rec%friction_work], ierr, errmsg)
+      if (all_ok()) call write_reals(out, d_barrier_energy, [rec%barrier], ierr, errmsg)
+      if (all_ok()) call write_reals(out, d_min_gap, [rec%min_gap], ierr, errmsg)
+      if (all_ok()) call write_reals(out, d_min_gap_run, [rec%min_gap_run], ierr, errmsg)
+      if (all_ok()) call write_int(out, d_states_checked, rec%states_checked, ierr, errmsg)
+      if (.not. all_ok()) return
+    end if
 
     ! The step's views for the XDMF sidecar (metadata only). None of this
     ! step is there: a new file has none, output_reopen deleted those of the
@@ -394,6 +407,11 @@ contains
     extent = 0
     call get_attr_int(out%file, 'n_output_steps', '/', have, ierr, errmsg)
     if (ierr /= 0) return
+    ! the contact series, where the file has them (a scene with obstacles)
+    call h5lexists_f(out%file, '/contact', out%series%contact, h)
+    if (h < 0) then
+      call fail('h5lexists_f', '/contact', ierr, errmsg); return
+    end if
     if (nt > have .or. nt < 1) then
       ierr = 1
       errmsg = '-nuno_restart: the checkpoint counts '//itoa(nt)//' output steps, the file holds '//itoa(have)
@@ -401,12 +419,14 @@ contains
     end if
     do i = 1, n_dsets
       if (i == d_velocity .and. .not. out%series%write_velocity) cycle
+      if (i >= d_contact_first .and. .not. out%series%contact) cycle
       call h5lexists_f(out%file, trim(dset_names(i)), exists, h)
       if (h < 0) then
         call fail('h5lexists_f', trim(dset_names(i)), ierr, errmsg); return
       end if
       if (.not. exists) then
         if (i == d_wall_time) cycle   ! files of callers that never wrote /run
+        if (i >= d_contact_first) cycle   ! made by contact_series (output_write_run_info)
         ierr = 1
         errmsg = '-nuno_restart: the file has no '//trim(dset_names(i))
         return

@@ -41,6 +41,7 @@ contains
     info%atol_position = ctx%step%atol_x
     info%atol_velocity = ctx%step%atol_v
     info%units = scene_units(ctx%cfg%scene%scene_code)
+    info%contact = ctx%cfg%contact%n_obstacles > 0
     ! Rank 0's host and clock, broadcast: attributes must be equal on all ranks.
     if (ctx%rank == 0) then
       PetscCall(PetscGetHostName(info%host, ierr))

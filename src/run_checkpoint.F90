@@ -14,6 +14,7 @@ module run_checkpoint
   use app_context, only: app_ctx, restart_state_t
   use step_monitor, only: energy_integrals_restore, progress_restore
   use reduced, only: reduced_restore_floor
+  use contact_forces, only: contact_on, contact_restore
   use newton_start, only: newton_start_count, newton_start_get, newton_start_put
   use failure_text, only: report_io_error
   use strings, only: inum => itoa
@@ -66,6 +67,8 @@ contains
     ctx%restart%wall_before = ck%wall_time
     ctx%restart%counts_before = [0.0_rp, ck%counters(2:5)]
     call energy_integrals_restore(ctx%energy, ck%dissipated, ck%work_constraints, ck%mgx0)
+    if (ck%contact /= 0 .and. contact_on(ctx%contact)) &
+      call contact_restore(ctx%contact, ck%friction_work, ck%min_gap_run, ck%states_checked, ck%limited_steps)
     call progress_restore(ctx%progress, t_written=ck%t_written, stretch_warned=ck%stretch_warned /= 0)
     ! The first Newton iteration's inner tolerance takes the round-off floor
     ! of the last step's assembly (set_newton_forcing): without it the
@@ -163,6 +166,13 @@ contains
     ck%dissipated = ctx%energy%dissipated
     ck%work_constraints = ctx%energy%work_constraints
     ck%mgx0 = ctx%energy%mgx0
+    if (contact_on(ctx%contact)) then
+      ck%contact = 1
+      ck%friction_work = ctx%contact%friction_work
+      ck%min_gap_run = ctx%contact%min_gap_run
+      ck%states_checked = ctx%contact%states_checked
+      ck%limited_steps = ctx%contact%limited_steps
+    end if
     ck%t_written = ctx%progress%t_written
     call run_counts(ctx, ck%counters, ierr)
     if (ierr /= 0) return

@@ -26,7 +26,7 @@ module step_monitor
   use newton_start, only: newton_start_push
   use strings, only: num => real_brief
   use newton_policy, only: linesearch_fallback
-  use contact_solver, only: contact_monitor
+  use contact_solver, only: contact_observe
   implicit none
   private
   public :: ts_monitor
@@ -170,7 +170,7 @@ contains
     end if
     ! no node inside an obstacle, and friction's lag for the next step
     if (ctx%cfg%contact%n_obstacles > 0) then
-      PetscCall(contact_monitor(ts, step, t, uvec, ctx, ierr))
+      PetscCall(contact_observe(ctx, t, uvec, ierr))
     end if
   end subroutine ts_monitor
 

@@ -31,6 +31,8 @@ module timestepping
   use cloth_model, only: model_enter_window
   use newton_policy, only: newton_enter_window
   use newton_start, only: newton_start_reset
+  use contact_forces, only: contact_on
+  use contact_solver, only: contact_observe
   use failure_text, only: signal_name, failure_reason, report_io_error
   use strings, only: num => real_brief, inum => itoa
   use run_checkpoint, only: run_counts, take_checkpoint, keep_restart_point, solver_restore, restart_state_init, &
@@ -405,6 +407,11 @@ contains
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, uloc, u, ierr))
     PetscCall(DMRestoreLocalVector(ctx%da, uloc, ierr))
     if (t == 0.0_rp) call energy_set_mgx0(ctx%energy, d%mgx)
+    ! the state's contact record (the monitor's after a step; at t = 0,
+    ! before any step, made here: the barrier energy of the start)
+    if (contact_on(ctx%contact)) then
+      PetscCall(contact_observe(ctx, t, ctx%u, ierr))
+    end if
 
     call run_counts(ctx, c, ierr)
     if (ierr /= 0) return
@@ -423,6 +430,20 @@ contains
     rec%angular_momentum = d%angular_momentum
     rec%length = d%length
     rec%flatness = d%flatness
+    if (contact_on(ctx%contact)) then
+      ! The barrier energy is a potential energy of the balance and the
+      ! friction work a dissipation (docs/model.md section 10): the state's
+      ! record of the contact monitor (module contact_solver).
+      rec%barrier = ctx%contact%energy
+      rec%dissipated = rec%dissipated + ctx%contact%friction_work
+      rec%contact_active = ctx%contact%active
+      rec%contact_force = ctx%contact%force
+      rec%normal_force = ctx%contact%normal_force
+      rec%friction_work = ctx%contact%friction_work
+      rec%min_gap = ctx%contact%min_gap
+      rec%min_gap_run = ctx%contact%min_gap_run
+      rec%states_checked = ctx%contact%states_checked
+    end if
     rec%steps = steps
     rec%rejected_steps = rejects
     rec%newton_iterations = nits
@@ -451,7 +472,7 @@ contains
       write(output_unit, '(a,es12.5e2, a,i9, a,i6, a,i9, a,i11, a,i6, 2(a,es13.5e2), a,es10.3e2)', advance='no') &
         't =', t, '  steps', steps, '  rejected', rejects, '  newton', nits, '  linear', lits, &
         '  retries', fails, '  E_kin', d%kinetic, &
-        '  E_total', d%kinetic + d%stretch + d%bend + ctx%energy%dissipated - rec%external_work, &
+        '  E_total', d%kinetic + d%stretch + d%bend + rec%barrier + rec%dissipated - rec%external_work, &
         '  wall_s', wall
       if (t > 0.0_rp .and. wall > 0.0_rp) then
         rate = t / wall
