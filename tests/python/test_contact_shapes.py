@@ -1,9 +1,11 @@
 # SPDX-License-Identifier: BSD-2-Clause
 """Contact with boxes, capsules and moving obstacles (&contact): a cloth
-dropped over a table's edge (a box) rests on the top and falls beyond the
-edge, a cloth over a rod (a capsule) rests on the rod's top, neither
-penetrates on any accepted state; a plane rising on keyframes lifts the
-sheet on it by the keyframes' travel; bad keys of the new shapes and of
+dropped over a table's edge (a box) is held by the top and falls beyond
+the edge, slides off without friction and sticks with it; a cloth over a
+rod (a capsule) rests on the rod's top; none penetrates on any accepted
+state; a plane rising on keyframes lifts the sheet on it by the keyframes'
+travel, and two gripper fingers (capsules closing on keyframes) pinch a
+hanging cloth and carry it by theirs; bad keys of the new shapes and of
 the motion are refused on 2 ranks. Small lattices, seconds each."""
 import re
 import subprocess
@@ -132,6 +134,37 @@ def test_rising_plane_lifts_the_sheet_by_its_travel(tmp_path):
     dz = x[-1][..., 2] - before[..., 2]
     assert np.all(np.abs(dz - rise) < 1e-3), dz
     assert np.abs(x[-1][..., :2] - before[..., :2]).max() < 1e-4    # straight up: no sliding
+
+
+def test_gripper_fingers_pinch_and_carry_the_cloth(tmp_path):
+    """input/gripper.nml's fingers (two capsules closing on a cloth hanging
+    in its plane, gravity along +x, edge i = 0 held) on 11 x 11 nodes,
+    faster: closed by t = 0.5 s, then pulled 5 cm along +z by t = 1.2 s. The
+    pinched column i = 5 ends 5 cm out (the keyframes' offset: it is held
+    between the fingers) and stays between them (its x within 5 mm of where
+    it was pinched, against the weight below and the pull above); no
+    accepted state penetrates a finger."""
+    fingers = ("n_obstacles=2 obstacle_shape(1:2)='capsule','capsule' "
+               "obstacle_point(:,1)=0.5,-0.1,0.05 obstacle_end(:,1)=0.5,1.1,0.05 "
+               "obstacle_point(:,2)=0.5,-0.1,-0.05 obstacle_end(:,2)=0.5,1.1,-0.05 "
+               "obstacle_radius(1:2)=0.01,0.01 obstacle_mu(1:2)=0.5,0.5 "
+               "obstacle_close_dir(:,1)=0.0,0.0,-1.0 obstacle_close_dir(:,2)=0.0,0.0,1.0 "
+               "obstacle_n_keyframes(1:2)=4,4 obstacle_time(1:4,1)=0.0,0.2,0.5,1.2 "
+               "obstacle_time(1:4,2)=0.0,0.2,0.5,1.2 obstacle_close(1:4,1)=0.0,0.035,0.0399,0.0399 "
+               "obstacle_close(1:4,2)=0.0,0.035,0.0399,0.0399 obstacle_offset(:,4,1)=0.0,0.0,0.05 "
+               "obstacle_offset(:,4,2)=0.0,0.0,0.05 friction_eps_v=1e-2")
+    g = groups(fingers, 1.3, 0.05)
+    g["scene"] = ("scene='wave_point' wave_nodes='edge' gravity=9.81,0.0,0.0 n_keyframes=1 keyframe_time=0.0 "
+                  "keyframe_dx=0.0 keyframe_dy=0.0 keyframe_dz=0.0")
+    g["contact"] = g["contact"].replace("contact_stiffness=1.0", "contact_stiffness=10.0")
+    proc, h5 = run(tmp_path, "grip", nranks=2, **g)
+    rows = lines(proc.stdout)
+    assert rows and rows[-1][6] > 0.0, rows[-1:]
+    t, x = positions(h5)
+    pinched = x[np.argmin(np.abs(t - 0.5))][:, 5, :]
+    last = x[-1][:, 5, :]
+    assert np.all(np.abs(last[:, 2] - 0.05) < 1e-3), last[:, 2]
+    assert np.all(np.abs(last[:, 0] - pinched[:, 0]) < 5e-3), last[:, 0] - pinched[:, 0]
 
 
 def test_bad_shape_and_motion_keys_are_refused_on_two_ranks(tmp_path):
