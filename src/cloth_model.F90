@@ -26,7 +26,7 @@ module cloth_model
   use app_context, only: app_ctx, model_state_t, assembly_t
   use newton_policy, only: newton_set_floor
   use failure_text, only: ieee_nan
-  use contact_forces, only: contact_on, contact_add_forces, contact_blocks
+  use contact_forces, only: contact_on, contact_add_forces, contact_blocks, contact_move
   implicit none
   private
   public :: form_ifunction, form_ijacobian
@@ -75,8 +75,10 @@ contains
 
     call internal_forces(ctx%lat, u, ctx%model%f, nbad, bad)
     ncross = 0
-    if (contact_on(ctx%contact)) call contact_add_forces(ctx%contact, ctx%lat, ctx%model%fixed, u, &
-                                                         ctx%model%f(:, :, ctx%lat%ys:ctx%lat%ye), ncross)
+    if (contact_on(ctx%contact)) then
+      call contact_move(ctx%contact, t)    ! the obstacles at the stage time
+      call contact_add_forces(ctx%contact, ctx%lat, ctx%model%fixed, u, ctx%model%f(:, :, ctx%lat%ys:ctx%lat%ye), ncross)
+    end if
     do j = ctx%lat%ys, ctx%lat%ye
       do i = 0, ctx%lat%nx - 1
         fv(0:2, i, j) = ud(0:2, i, j) - u(3:5, i, j)
@@ -122,7 +124,10 @@ contains
     PetscCall(DMGlobalToLocalEnd(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
     ! contact's diagonal blocks at this state, which both assemblies add (lattice_t's nodal)
-    if (contact_on(ctx%contact)) call contact_blocks(ctx%contact, ctx%lat, ctx%model%fixed, u, ctx%lat%nodal)
+    if (contact_on(ctx%contact)) then
+      call contact_move(ctx%contact, t)
+      call contact_blocks(ctx%contact, ctx%lat, ctx%model%fixed, u, ctx%lat%nodal)
+    end if
     if (ctx%use_reduced) then
       PetscCall(DMGetLocalVector(ctx%da, udloc, ierr))
       PetscCall(DMGlobalToLocalBegin(ctx%da, udotvec, INSERT_VALUES, udloc, ierr))

@@ -17,13 +17,14 @@ module config
   public :: MASS_UNIFORM, MASS_AREA
   public :: SCENE_LIFT_RELEASE, SCENE_BEND_RELEASE, SCENE_WAVE_POINT, SCENE_HANG, SCENE_FLAT
   public :: unset_real
-  public :: contact_config, obstacle_max
+  public :: contact_config, obstacle_max, obstacle_keyframe_max
   public :: n_fit_kinds, fit_kind_names
 
   integer, parameter :: keyframe_max = 32   !< most keyframes of a prescribed node
   integer, parameter :: label_len = 32      !< length of a choice string ('axial', ...)
   integer, parameter :: path_len = 512      !< length of a file name
   integer, parameter :: obstacle_max = 8    !< most obstacles of &contact
+  integer, parameter :: obstacle_keyframe_max = 16  !< most keyframes of a moving obstacle
   !> Marks a real key the user did not set, so that a scene default applies.
   real(rp), parameter :: unset_real = -huge(1.0_rp)
   !> Parameters an identification run can fit (&identify fit), by code 1..7.
@@ -38,20 +39,28 @@ module config
   integer, parameter :: SCENE_LIFT_RELEASE = 1, SCENE_BEND_RELEASE = 2, SCENE_WAVE_POINT = 3, &
                         SCENE_HANG = 4, SCENE_FLAT = 5
 
-  !> &contact (docs/design.md, "Contact"): rigid static obstacles and the
-  !> barrier's parameters. n_obstacles = 0: no contact code runs.
+  !> &contact (docs/design.md, "Contact"): rigid obstacles, static or moving
+  !> on keyframes, and the barrier's parameters. n_obstacles = 0: no contact code runs.
   type :: contact_config
     integer :: n_obstacles = 0                                  !< obstacles in use (0..obstacle_max)
-    character(label_len) :: shape(obstacle_max) = 'plane'      !< plane | sphere
-    real(rp) :: point(3, obstacle_max) = 0.0_rp                 !< plane: a point on it; sphere: centre [length]
-    real(rp) :: normal(3, obstacle_max) = spread([0.0_rp, 0.0_rp, 1.0_rp], 2, obstacle_max)  !< plane: outward normal [1]
-    real(rp) :: radius(obstacle_max) = 0.0_rp                   !< sphere: radius [length]
+    character(label_len) :: shape(obstacle_max) = 'plane'      !< plane | sphere | box | capsule
+    real(rp) :: point(3, obstacle_max) = 0.0_rp                 !< plane: a point on it; sphere, box: centre; capsule: first end [length]
+    real(rp) :: normal(3, obstacle_max) = spread([0.0_rp, 0.0_rp, 1.0_rp], 2, obstacle_max)  !< plane: outward normal; box: its local z axis [1]
+    real(rp) :: axis(3, obstacle_max) = spread([1.0_rp, 0.0_rp, 0.0_rp], 2, obstacle_max)    !< box: its local x axis (orthogonalised against normal) [1]
+    real(rp) :: half_size(3, obstacle_max) = 0.0_rp             !< box: half extents along its local x, y, z [length]
+    real(rp) :: end_pt(3, obstacle_max) = 0.0_rp                !< capsule: second end [length]
+    real(rp) :: radius(obstacle_max) = 0.0_rp                   !< sphere, capsule: radius [length]
     real(rp) :: mu(obstacle_max) = 0.0_rp                       !< Coulomb friction coefficient [1]
+    integer :: n_keyframes(obstacle_max) = 0                    !< keyframes of obstacle k's motion; 0: static
+    real(rp) :: key_time(obstacle_keyframe_max, obstacle_max) = 0.0_rp       !< keyframe times [time]
+    real(rp) :: key_offset(3, obstacle_keyframe_max, obstacle_max) = 0.0_rp  !< translation at the keyframes [length]
+    real(rp) :: key_close(obstacle_keyframe_max, obstacle_max) = 0.0_rp      !< closing offset at the keyframes [length]
+    real(rp) :: close_dir(3, obstacle_max) = 0.0_rp                          !< closing direction (normalised) [1]
     real(rp) :: thickness = 0.0_rp        !< contact distance: gap = distance - thickness [length]
     real(rp) :: dhat = 1.0e-3_rp          !< barrier active for gap < dhat [length]
     real(rp) :: stiffness = 1.0_rp        !< barrier stiffness kappa [force/length]
     real(rp) :: eps_v = 1.0e-3_rp         !< friction smoothing velocity [length/time]
-    integer :: shape_code(obstacle_max) = 1   !< derived: 1 plane, 2 sphere (the kernel's SHAPE_*)
+    integer :: shape_code(obstacle_max) = 1   !< derived: 1 plane, 2 sphere, 3 box, 4 capsule (the kernel's SHAPE_*)
   end type contact_config
 
   !> &lattice and the values derived from it.

@@ -9,21 +9,44 @@
 !> Constrained nodes take no contact force (their rows are replaced).
 !> Nothing here runs when the scene has no obstacle (n_obs = 0): the
 !> callers test contact_on first.
+!>
+!> Moving obstacles: cs%obs holds every obstacle's pose at one time,
+!> set by contact_move (the residual's and the Jacobian's stage time, the
+!> accepted state's time in the monitor) from its keyframes (kernel
+!> obstacle_motion), with its velocity for friction; a static scene's
+!> contact_move returns at once. contact_swept checks a whole step's path
+!> against the obstacles' motion over the step.
 module contact_forces
   use kinds, only: rp
   use config, only: contact_config
   use lattice, only: lattice_t
   use node_blocks, only: node_blocks_t
-  use contact, only: obstacle_t, contact_params_t, contact_node, time_of_impact, signed_distance, friction_power
+  use contact, only: obstacle_t, contact_params_t, contact_node, time_of_impact, signed_distance, friction_power, &
+                     time_of_impact_moving, SHAPE_BOX, SHAPE_CAPSULE
+  use obstacle_motion, only: obstacle_at
   implicit none
   private
   public :: contact_state_t, contact_init, contact_on, contact_add_forces, contact_blocks, contact_lag, &
-            contact_step_limit, contact_stats
+            contact_step_limit, contact_stats, contact_move, contact_swept, contact_moving, obstacle_from_config
   public :: contact_record, contact_seen, contact_restore, contact_count_limited
+
+  !> The keyframes of the obstacles (&contact's obstacle_time,
+  !> obstacle_offset, obstacle_close): contact_move sets the poses from them.
+  type :: obstacle_keys_t
+    type(obstacle_t), allocatable :: base(:)        !< (n_obs) poses with zero keyframe offset
+    integer, allocatable :: nk(:)                   !< (n_obs) keyframes of each obstacle; 0: static
+    real(rp), allocatable :: tk(:, :)               !< (max nk, n_obs) keyframe times [time]
+    real(rp), allocatable :: off(:, :, :)           !< (3, max nk, n_obs) translations at the keyframes [length]
+    real(rp), allocatable :: close(:, :)            !< (max nk, n_obs) closing offsets at the keyframes [length]
+    real(rp), allocatable :: cdir(:, :)             !< (3, n_obs) unit closing directions [1]
+  end type obstacle_keys_t
 
   type :: contact_state_t
     integer :: n_obs = 0
-    type(obstacle_t), allocatable :: obs(:)         !< (n_obs)
+    type(obstacle_t), allocatable :: obs(:)         !< (n_obs) poses at time t_pose (contact_move)
+    type(obstacle_keys_t) :: keys                   !< keyframes of the moving ones (contact_move)
+    logical :: moving = .false.                     !< some obstacle has keyframes
+    real(rp) :: t_pose = 0.0_rp                     !< time of the poses in obs [time]
     type(contact_params_t) :: cp
     real(rp), allocatable :: lam(:, :, :)           !< (n_obs, 0:nx-1, ys:ye) lagged normal force [force]
     real(rp), allocatable :: nlag(:, :, :, :)       !< (3, n_obs, 0:nx-1, ys:ye) lagged normal [1]
@@ -58,22 +81,130 @@ contains
     type(contact_state_t), intent(out) :: cs
     type(contact_config), intent(in) :: cc
     type(lattice_t), intent(in) :: lat
-    integer :: k
+    integer :: k, m
     cs%n_obs = cc%n_obstacles
     if (cs%n_obs == 0) return
-    allocate(cs%obs(cs%n_obs))
+    allocate(cs%obs(cs%n_obs), cs%keys%base(cs%n_obs))
     do k = 1, cs%n_obs
-      cs%obs(k)%shape = cc%shape_code(k)
-      cs%obs(k)%p = cc%point(:, k)
-      cs%obs(k)%n = cc%normal(:, k)
-      cs%obs(k)%r = cc%radius(k)
-      cs%obs(k)%mu = cc%mu(k)
+      cs%keys%base(k) = obstacle_from_config(cc, k)
     end do
+    cs%obs = cs%keys%base
+    cs%keys%nk = cc%n_keyframes(1:cs%n_obs)
+    cs%moving = any(cs%keys%nk > 0)
+    m = max(1, maxval(cs%keys%nk))
+    cs%keys%tk = cc%key_time(1:m, 1:cs%n_obs)
+    cs%keys%off = cc%key_offset(:, 1:m, 1:cs%n_obs)
+    cs%keys%close = cc%key_close(1:m, 1:cs%n_obs)
+    cs%keys%cdir = cc%close_dir(:, 1:cs%n_obs)
+    call contact_move(cs, 0.0_rp)
     cs%cp = contact_params_t(thickness=cc%thickness, dhat=cc%dhat, kappa=cc%stiffness, eps_v=cc%eps_v)
     allocate(cs%lam(cs%n_obs, 0:lat%nx - 1, lat%ys:lat%ye), cs%nlag(3, cs%n_obs, 0:lat%nx - 1, lat%ys:lat%ye))
     cs%lam = 0.0_rp
     cs%nlag = 0.0_rp
   end subroutine contact_init
+
+  !> Obstacle k of &contact (checked: unit normal and box axis) at zero
+  !> keyframe offset. A box's local z is the normal, its local x the axis
+  !> (orthogonal to the normal), its local y = z x x.
+  pure function obstacle_from_config(cc, k) result(o)
+    type(contact_config), intent(in) :: cc
+    integer, intent(in) :: k
+    type(obstacle_t) :: o
+    real(rp) :: ex(3), ez(3)
+    o%shape = cc%shape_code(k)
+    o%p = cc%point(:, k)
+    o%n = cc%normal(:, k)
+    o%r = cc%radius(k)
+    o%mu = cc%mu(k)
+    if (o%shape == SHAPE_BOX) then
+      ez = cc%normal(:, k)
+      ex = cc%axis(:, k)
+      o%h = cc%half_size(:, k)
+      o%axes(:, 1) = ex
+      o%axes(:, 2) = [ez(2) * ex(3) - ez(3) * ex(2), ez(3) * ex(1) - ez(1) * ex(3), ez(1) * ex(2) - ez(2) * ex(1)]
+      o%axes(:, 3) = ez
+    else if (o%shape == SHAPE_CAPSULE) then
+      o%q = cc%end_pt(:, k)
+    end if
+  end function obstacle_from_config
+
+  !> The obstacles' poses (and velocities, the slope of the keyframe
+  !> segment that ends at t) at time t into cs%obs. Static obstacles keep
+  !> theirs; a scene without keyframes returns at once.
+  subroutine contact_move(cs, t)
+    type(contact_state_t), intent(inout) :: cs
+    real(rp), intent(in) :: t    ! [time]
+    integer :: k, m
+    if (.not. cs%moving) return
+    cs%t_pose = t
+    do k = 1, cs%n_obs
+      m = cs%keys%nk(k)
+      if (m == 0) cycle
+      call obstacle_at(cs%keys%base(k), cs%keys%tk(1:m, k), cs%keys%off(:, 1:m, k), cs%keys%close(1:m, k), cs%keys%cdir(:, k), t, cs%obs(k))
+    end do
+  end subroutine contact_move
+
+  !> Whether some obstacle moves between t0 and t1.
+  logical function contact_moving(cs, t0, t1) result(mv)
+    type(contact_state_t), intent(in) :: cs
+    real(rp), intent(in) :: t0, t1
+    integer :: k
+    real(rp) :: d(3)
+    type(obstacle_t) :: o0, o1
+    mv = .false.
+    if (.not. cs%moving) return
+    do k = 1, cs%n_obs
+      if (cs%keys%nk(k) < 2) cycle
+      call pose_pair(cs, k, t0, t1, o0, o1, d)
+      if (any(d /= 0.0_rp)) mv = .true.
+    end do
+  end function contact_moving
+
+  !> Obstacle k at t0 and t1 and its translation d over [t0, t1].
+  subroutine pose_pair(cs, k, t0, t1, o0, o1, d)
+    type(contact_state_t), intent(in) :: cs
+    integer, intent(in) :: k
+    real(rp), intent(in) :: t0, t1
+    type(obstacle_t), intent(out) :: o0, o1
+    real(rp), intent(out) :: d(3)
+    integer :: m
+    m = cs%keys%nk(k)
+    call obstacle_at(cs%keys%base(k), cs%keys%tk(1:m, k), cs%keys%off(:, 1:m, k), cs%keys%close(1:m, k), cs%keys%cdir(:, k), t0, o0)
+    call obstacle_at(cs%keys%base(k), cs%keys%tk(1:m, k), cs%keys%off(:, 1:m, k), cs%keys%close(1:m, k), cs%keys%cdir(:, k), t1, o1)
+    d = o1%p - o0%p
+  end subroutine pose_pair
+
+  !> Free owned nodes whose path over the step, from x0 (the accepted
+  !> state at t0) to x + dx (a Newton candidate at t1), meets an obstacle
+  !> that moves over the step (continuous collision detection of the
+  !> motion relative to the obstacle, time_of_impact_moving: exact for a
+  !> translation linear over the step). A candidate outside every obstacle
+  !> at t1 can still have crossed a thin or fast one on the way: this
+  !> counts such nodes (this rank; the caller sums).
+  integer function contact_swept(cs, lat, fixed, t0, t1, x0, x, dx) result(n)
+    type(contact_state_t), intent(in) :: cs
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t0, t1
+    real(rp), intent(in) :: x0(0:, 0:, lat%ys:), x(0:, 0:, lat%ys:), dx(0:, 0:, lat%ys:)
+    integer :: i, j, k
+    real(rp) :: d(3)
+    type(obstacle_t) :: o0, o1
+    n = 0
+    if (.not. cs%moving) return
+    do k = 1, cs%n_obs
+      if (cs%keys%nk(k) < 2) cycle
+      call pose_pair(cs, k, t0, t1, o0, o1, d)
+      if (all(d == 0.0_rp)) cycle
+      do j = lat%ys, lat%ye
+        do i = 0, lat%nx - 1
+          if (fixed(i, j)) cycle
+          if (time_of_impact_moving(o0, cs%cp%thickness, x0(0:2, i, j), &
+                                    x(0:2, i, j) + dx(0:2, i, j) - x0(0:2, i, j), d) < 1.0_rp) n = n + 1
+        end do
+      end do
+    end do
+  end function contact_swept
 
   pure logical function contact_on(cs)
     type(contact_state_t), intent(in) :: cs

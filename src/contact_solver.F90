@@ -11,7 +11,11 @@
 !> by the continuous collision test against the analytic shapes (a line
 !> search pre-check): where a node would reach its obstacle within the
 !> full update, the update is scaled by 0.8 alpha (IPC), alpha the first
-!> time of impact over all nodes and obstacles; (3) a residual evaluated
+!> time of impact over all nodes and obstacles (at their poses at the
+!> step's end, t_n + dt); where an obstacle moves over the step, the
+!> candidate's path from x_n is also checked against the obstacle's
+!> motion (contact_swept), the update halved until no node crosses it,
+!> and the step failed (retried smaller) if none is found; (3) a residual evaluated
 !> at an infeasible state is NaN (the step fails and is retried smaller);
 !> (4) every accepted state is checked (contact_observe, called by the TS
 !> monitor of module step_monitor: the smallest gap over nodes and
@@ -27,7 +31,8 @@ module contact_solver
   use app_context, only: app_ctx
   use newton_start, only: newton_start_order
   use contact_forces, only: contact_init, contact_on, contact_lag, contact_step_limit, contact_stats, contact_record, &
-                            contact_seen, contact_count_limited
+                            contact_seen, contact_count_limited, contact_move, contact_moving, contact_swept
+  use failure_text, only: ieee_nan
   use strings, only: real_es, itoa
   implicit none
   private
@@ -72,27 +77,58 @@ contains
   end subroutine contact_setup
 
   !> The line search's pre-check: PETSc steps x - lambda y; where a node
-  !> would reach an obstacle along -y, y is scaled by 0.8 alpha.
+  !> would reach an obstacle (at its pose at the step's end) along -y, y is
+  !> scaled by 0.8 alpha. Where obstacles move over the step, y is halved
+  !> (at most 10 times) until no node's path from x_n crosses them, or set
+  !> to NaN: the residual at the candidate is NaN and the step is retried smaller.
   subroutine contact_precheck(ls, xvec, yvec, changed, ctx, ierr)
     SNESLineSearch :: ls
     type(tVec) :: xvec, yvec
     PetscBool :: changed
     type(app_ctx) :: ctx
     PetscErrorCode :: ierr
-    PetscScalar, pointer :: x(:, :, :), y(:, :, :)
-    real(rp) :: alpha, galpha
+    PetscScalar, pointer :: x(:, :, :), y(:, :, :), x0(:, :, :)
+    type(tVec) :: x0vec
+    real(rp) :: alpha, galpha, s, t0, dt
     real(rp), allocatable :: dx(:, :, :)
+    integer :: try, ncross, gcross
+    logical :: moving
     changed = PETSC_FALSE
+    moving = .false.
+    if (ctx%contact%moving) then
+      PetscCall(TSGetTime(ctx%ts, t0, ierr))
+      PetscCall(TSGetTimeStep(ctx%ts, dt, ierr))
+      call contact_move(ctx%contact, t0 + dt)
+      moving = contact_moving(ctx%contact, t0, t0 + dt)
+    end if
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, xvec, x, ierr))
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, yvec, y, ierr))
     allocate(dx(0:5, 0:ctx%lat%nx - 1, ctx%lat%ys:ctx%lat%ye))
     dx = -y
     alpha = contact_step_limit(ctx%contact, ctx%lat, ctx%model%fixed, x, dx)
+    call MPI_Allreduce(alpha, galpha, 1, MPI_DOUBLE_PRECISION, MPI_MIN, ctx%comm, ierr)
+    s = 1.0_rp
+    if (galpha < 1.0_rp) s = 0.8_rp * galpha
+    gcross = 0
+    if (moving) then
+      ! x_n: the TS's solution until the step is accepted
+      PetscCall(TSGetSolution(ctx%ts, x0vec, ierr))
+      PetscCall(DMDAVecGetArrayReadF90(ctx%da, x0vec, x0, ierr))
+      do try = 0, 10
+        ncross = contact_swept(ctx%contact, ctx%lat, ctx%model%fixed, t0, t0 + dt, x0, x, s * dx)
+        call MPI_Allreduce(ncross, gcross, 1, MPI_INTEGER, MPI_SUM, ctx%comm, ierr)
+        if (gcross == 0) exit
+        s = 0.5_rp * s
+      end do
+      PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, x0vec, x0, ierr))
+    end if
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, yvec, y, ierr))
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, xvec, x, ierr))
-    call MPI_Allreduce(alpha, galpha, 1, MPI_DOUBLE_PRECISION, MPI_MIN, ctx%comm, ierr)
-    if (galpha < 1.0_rp) then
-      PetscCall(VecScale(yvec, 0.8_rp * galpha, ierr))
+    if (gcross > 0) then
+      PetscCall(VecSet(yvec, ieee_nan(), ierr))
+      changed = PETSC_TRUE
+    else if (s < 1.0_rp) then
+      PetscCall(VecScale(yvec, s, ierr))
       changed = PETSC_TRUE
       call contact_count_limited(ctx%contact)
     end if
@@ -122,6 +158,7 @@ contains
     PetscCall(DMGlobalToLocalBegin(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
     PetscCall(DMGlobalToLocalEnd(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
+    call contact_move(ctx%contact, t)
     call contact_stats(ctx%contact, ctx%lat, ctx%model%fixed, u, gmin, nact, ftot, fnrm, ebar, pfric)
     call contact_lag(ctx%contact, ctx%lat, ctx%model%fixed, u, pstart)
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, uloc, u, ierr))

@@ -14,7 +14,7 @@ module input
   use kinds, only: rp
   use config, only: nuno_config, keyframe_max, label_len, path_len, unset_real, &
                     BEND_NONE, BEND_PAPER, BEND_ENERGY, SCENE_WAVE_POINT, SCENE_HANG, SCENE_LIFT_RELEASE, &
-                    n_fit_kinds, obstacle_max
+                    n_fit_kinds, obstacle_max, obstacle_keyframe_max
   use input_text, only: assignment_t, lex_overrides, value_error, next_assignment, lower, &
                         strip_commas, overrides_record, key_default, namelist_value
   use strings, only: real_short
@@ -390,12 +390,18 @@ contains
     character(label_len) :: components
     real(rp) :: max_speed, velocity_weight, keyframe_tikhonov
     namelist /control/ target_file, components, max_speed, velocity_weight, keyframe_tikhonov
-    integer :: n_obstacles
+    integer :: n_obstacles, obstacle_n_keyframes(obstacle_max)
     character(label_len) :: obstacle_shape(obstacle_max)
     real(rp) :: obstacle_point(3, obstacle_max), obstacle_normal(3, obstacle_max), obstacle_radius(obstacle_max), &
                 obstacle_mu(obstacle_max), contact_thickness, contact_dhat, contact_stiffness, friction_eps_v
+    real(rp) :: obstacle_axis(3, obstacle_max), obstacle_half_size(3, obstacle_max), obstacle_end(3, obstacle_max), &
+                obstacle_time(obstacle_keyframe_max, obstacle_max), &
+                obstacle_offset(3, obstacle_keyframe_max, obstacle_max), &
+                obstacle_close(obstacle_keyframe_max, obstacle_max), obstacle_close_dir(3, obstacle_max)
     namelist /contact/ n_obstacles, obstacle_shape, obstacle_point, obstacle_normal, obstacle_radius, obstacle_mu, &
-                       contact_thickness, contact_dhat, contact_stiffness, friction_eps_v
+                       contact_thickness, contact_dhat, contact_stiffness, friction_eps_v, &
+                       obstacle_half_size, obstacle_axis, obstacle_end, obstacle_n_keyframes, obstacle_time, &
+                       obstacle_offset, obstacle_close, obstacle_close_dir
 
     ios = 0
     select case (g)
@@ -495,6 +501,9 @@ contains
         obstacle_normal = c%normal; obstacle_radius = c%radius; obstacle_mu = c%mu
         contact_thickness = c%thickness; contact_dhat = c%dhat; contact_stiffness = c%stiffness
         friction_eps_v = c%eps_v
+        obstacle_half_size = c%half_size; obstacle_axis = c%axis; obstacle_end = c%end_pt
+        obstacle_n_keyframes = c%n_keyframes; obstacle_time = c%key_time; obstacle_offset = c%key_offset
+        obstacle_close = c%key_close; obstacle_close_dir = c%close_dir
         if (present(dump)) then
           write(dump, nml=contact, delim='apostrophe', iostat=ios, iomsg=iomsg)
         else
@@ -505,6 +514,9 @@ contains
           c%normal = obstacle_normal; c%radius = obstacle_radius; c%mu = obstacle_mu
           c%thickness = contact_thickness; c%dhat = contact_dhat; c%stiffness = contact_stiffness
           c%eps_v = friction_eps_v
+          c%half_size = obstacle_half_size; c%axis = obstacle_axis; c%end_pt = obstacle_end
+          c%n_keyframes = obstacle_n_keyframes; c%key_time = obstacle_time; c%key_offset = obstacle_offset
+          c%key_close = obstacle_close; c%close_dir = obstacle_close_dir
         end if
       end associate
     end select

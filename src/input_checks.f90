@@ -7,7 +7,7 @@
 !> No MPI, no PETSc: every rank reaches the same result alone.
 module input_checks
   use kinds, only: rp
-  use config, only: nuno_config, keyframe_max, unset_real, &
+  use config, only: nuno_config, keyframe_max, unset_real, contact_config, obstacle_keyframe_max, &
                     BEND_NONE, BEND_PAPER, BEND_ENERGY, SCALING_CONTINUUM, MASS_AREA, &
                     SCENE_LIFT_RELEASE, SCENE_BEND_RELEASE, SCENE_WAVE_POINT, SCENE_HANG, &
                     n_fit_kinds, fit_kind_names
@@ -119,7 +119,6 @@ contains
     character(*), intent(out) :: msg
     integer :: k, code
     character(8) :: sub
-    real(rp) :: nn
     associate (c => cfg%contact)
       call need_nonnegative('contact', 'contact_thickness', c%thickness, ierr, msg); if (ierr /= 0) return
       call need_positive('contact', 'contact_dhat', c%dhat, ierr, msg);             if (ierr /= 0) return
@@ -133,7 +132,8 @@ contains
       do k = 1, c%n_obstacles
         write(sub, '(a,i0,a)') '(', k, ')'
         c%shape(k) = lower(adjustl(c%shape(k)))
-        call check_choice('contact', 'obstacle_shape'//trim(sub), c%shape(k), 'plane, sphere', code, ierr, msg)
+        call check_choice('contact', 'obstacle_shape'//trim(sub), c%shape(k), &
+                          choices('obstacle_shape'), code, ierr, msg)
         if (ierr /= 0) return
         c%shape_code(k) = code
         ierr = 1
@@ -141,18 +141,9 @@ contains
           msg = 'input: &contact: obstacle_mu'//trim(sub)//' = '//real_short(c%mu(k))//' must be >= 0'
           return
         end if
-        if (code == 1) then
-          nn = norm2(c%normal(:, k))
-          if (.not. (nn > 0.0_rp)) then
-            write(msg, '(a,i0,a)') 'input: &contact: obstacle_normal(:, ', k, ') = 0, 0, 0 must not be zero'
-            return
-          end if
-          c%normal(:, k) = c%normal(:, k) / nn
-        else if (.not. (c%radius(k) > 0.0_rp)) then
-          msg = 'input: &contact: obstacle_radius'//trim(sub)//' = '//real_short(c%radius(k))// &
-                ' must be > 0 for a sphere'
-          return
-        end if
+        call check_obstacle_shape(c, k, ierr, msg); if (ierr /= 0) return
+        call check_obstacle_motion(c, k, ierr, msg); if (ierr /= 0) return
+        ierr = 1
       end do
       ! The adjoint would be inexact with contact (docs/identification.md,
       ! "Contact"): friction's lagged normal force is not differentiated, the
@@ -168,6 +159,124 @@ contains
       msg = ''
     end associate
   end subroutine check_contact
+
+  !> Obstacle k's geometry by its shape (code: 1 plane, 2 sphere, 3 box,
+  !> 4 capsule): a plane's normal and a box's axes normalised (the box's x
+  !> axis orthogonalised against its normal, its local z); radii and half
+  !> extents > 0.
+  subroutine check_obstacle_shape(c, k, ierr, msg)
+    type(contact_config), intent(inout) :: c
+    integer, intent(in) :: k
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    character(12) :: sub, sub3
+    real(rp) :: nn, a(3), na
+    write(sub, '(a,i0,a)') '(', k, ')'
+    write(sub3, '(a,i0,a)') '(:, ', k, ')'
+    ierr = 1
+    if (c%shape_code(k) == 1 .or. c%shape_code(k) == 3) then
+      nn = norm2(c%normal(:, k))
+      if (.not. (nn > 0.0_rp)) then
+        msg = 'input: &contact: obstacle_normal'//trim(sub3)//' = '//vec_text(c%normal(:, k))//' must not be zero'
+        return
+      end if
+      c%normal(:, k) = c%normal(:, k) / nn
+    end if
+    select case (c%shape_code(k))
+    case (2, 4)
+      if (.not. (c%radius(k) > 0.0_rp)) then
+        msg = 'input: &contact: obstacle_radius'//trim(sub)//' = '//real_short(c%radius(k))// &
+              ' must be > 0 for a '//trim(c%shape(k))
+        return
+      end if
+    case (3)
+      if (.not. all(c%half_size(:, k) > 0.0_rp)) then
+        msg = 'input: &contact: obstacle_half_size'//trim(sub3)//' = '//vec_text(c%half_size(:, k))// &
+              ' must be > 0 (each) for a box'
+        return
+      end if
+      ! the box's local x: the given axis less its part along the normal (local z)
+      a = c%axis(:, k) - dot_product(c%axis(:, k), c%normal(:, k)) * c%normal(:, k)
+      na = norm2(a)
+      if (.not. (na > 1.0e-6_rp * norm2(c%axis(:, k)))) then
+        msg = 'input: &contact: obstacle_axis'//trim(sub3)//' = '//vec_text(c%axis(:, k))// &
+              ' must not be zero nor parallel to obstacle_normal'//trim(sub3)//' = '//vec_text(c%normal(:, k))
+        return
+      end if
+      c%axis(:, k) = a / na
+    end select
+    ierr = 0
+    msg = ''
+  end subroutine check_obstacle_shape
+
+  !> Obstacle k's keyframes: 0..obstacle_keyframe_max of them, times >= 0
+  !> and strictly increasing, a closing direction (normalised) where a
+  !> closing offset is given; offsets beyond the keyframes in use are
+  !> refused rather than ignored.
+  subroutine check_obstacle_motion(c, k, ierr, msg)
+    type(contact_config), intent(inout) :: c
+    integer, intent(in) :: k
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    character(24) :: sub, sub2
+    integer :: nk, j
+    real(rp) :: nd
+    nk = c%n_keyframes(k)
+    write(sub, '(a,i0,a)') '(', k, ')'
+    ierr = 1
+    if (nk < 0 .or. nk > obstacle_keyframe_max) then
+      write(msg, '(a,i0,a,i0)') 'input: &contact: obstacle_n_keyframes'//trim(sub)//' = ', nk, ' must be in 0..', &
+        obstacle_keyframe_max
+      return
+    end if
+    do j = 1, nk
+      write(sub2, '(a,i0,a,i0,a)') '(', j, ', ', k, ')'
+      if (c%key_time(j, k) < 0.0_rp .or. (j > 1 .and. .not. (c%key_time(j, k) > c%key_time(max(j - 1, 1), k)))) then
+        msg = 'input: &contact: obstacle_time'//trim(sub2)//' = '//real_short(c%key_time(j, k))// &
+              ' must be >= 0 and greater than the keyframe before'
+        return
+      end if
+    end do
+    do j = nk + 1, obstacle_keyframe_max
+      write(sub2, '(a,i0,a,i0,a)') '(', j, ', ', k, ')'
+      if (c%key_time(j, k) /= 0.0_rp) then
+        write(msg, '(a,i0,a)') 'input: &contact: obstacle_time'//trim(sub2)//' = '//real_short(c%key_time(j, k))// &
+          ' is beyond obstacle_n_keyframes'//trim(sub)//' = ', nk, ': set obstacle_n_keyframes'
+        return
+      end if
+      write(sub2, '(a,i0,a,i0,a)') '(:, ', j, ', ', k, ')'
+      if (any(c%key_offset(:, j, k) /= 0.0_rp)) then
+        write(msg, '(a,i0,a)') 'input: &contact: obstacle_offset'//trim(sub2)//' = '//vec_text(c%key_offset(:, j, k))// &
+          ' is beyond obstacle_n_keyframes'//trim(sub)//' = ', nk, ': set obstacle_n_keyframes'
+        return
+      end if
+      write(sub2, '(a,i0,a,i0,a)') '(', j, ', ', k, ')'
+      if (c%key_close(j, k) /= 0.0_rp) then
+        write(msg, '(a,i0,a)') 'input: &contact: obstacle_close'//trim(sub2)//' = '//real_short(c%key_close(j, k))// &
+          ' is beyond obstacle_n_keyframes'//trim(sub)//' = ', nk, ': set obstacle_n_keyframes'
+        return
+      end if
+    end do
+    if (any(c%key_close(1:nk, k) /= 0.0_rp)) then
+      nd = norm2(c%close_dir(:, k))
+      if (.not. (nd > 0.0_rp)) then
+        write(sub2, '(a,i0,a)') '(:, ', k, ')'
+        msg = 'input: &contact: obstacle_close_dir'//trim(sub2)//' = '//vec_text(c%close_dir(:, k))// &
+              ' must not be zero: obstacle '//trim(adjustl(sub(2:len_trim(sub) - 1)))//' has closing offsets'
+        return
+      end if
+      c%close_dir(:, k) = c%close_dir(:, k) / nd
+    end if
+    ierr = 0
+    msg = ''
+  end subroutine check_obstacle_motion
+
+  !> "a, b, c" of a 3-vector, as the namelist would write it back short.
+  function vec_text(v) result(s)
+    real(rp), intent(in) :: v(3)
+    character(:), allocatable :: s
+    s = real_short(v(1))//', '//real_short(v(2))//', '//real_short(v(3))
+  end function vec_text
 
   !> &identify: known, distinct parameter names, each with an initial guess
   !> > 0 (fitted in log space) inside its bounds; a model that has the

@@ -44,7 +44,7 @@ module input_keys
     character(96) :: meaning   !< one line
   end type key_info
 
-  integer, parameter :: n_keys = 56
+  integer, parameter :: n_keys = 64
   type(key_info), parameter :: keys(n_keys) = [ &
     ! &lattice
     key_info('nx', 'lattice', KEY_INTEGER, 1, '', '11; hang 21', '>= 3', 'nodes along x'), &
@@ -137,14 +137,30 @@ module input_keys
     ! &contact
     key_info('n_obstacles', 'contact', KEY_INTEGER, 1, '', '0', '0..8', &
              'obstacles in use (0: no contact, no cost)'), &
-    key_info('obstacle_shape', 'contact', KEY_STRING, 8, '', "'plane'", 'plane, sphere', &
+    key_info('obstacle_shape', 'contact', KEY_STRING, 8, '', "'plane'", 'plane, sphere, box, capsule', &
              'obstacle k''s shape, obstacle_shape(k)'), &
     key_info('obstacle_point', 'contact', KEY_REAL, 24, 'length', '0', 'finite', &
-             'plane: a point on it; sphere: centre; obstacle_point(:, k)'), &
+             'plane: a point on it; sphere, box: centre; capsule: first end; obstacle_point(:, k)'), &
     key_info('obstacle_normal', 'contact', KEY_REAL, 24, '1', '0, 0, 1', 'not zero', &
-             'plane: outward normal (normalised), obstacle_normal(:, k)'), &
-    key_info('obstacle_radius', 'contact', KEY_REAL, 8, 'length', '0', '> 0 for a sphere', &
-             'sphere: radius, obstacle_radius(k)'), &
+             'plane: outward normal; box: its local z axis (normalised), obstacle_normal(:, k)'), &
+    key_info('obstacle_radius', 'contact', KEY_REAL, 8, 'length', '0', '> 0 for a sphere or capsule', &
+             'sphere, capsule: radius, obstacle_radius(k)'), &
+    key_info('obstacle_half_size', 'contact', KEY_REAL, 24, 'length', '0', '> 0 for a box', &
+             'box: half extents along its local x, y, z axes, obstacle_half_size(:, k)'), &
+    key_info('obstacle_axis', 'contact', KEY_REAL, 24, '1', '1, 0, 0', 'not zero, not parallel to the normal', &
+             'box: its local x axis (orthogonalised against the normal), obstacle_axis(:, k)'), &
+    key_info('obstacle_end', 'contact', KEY_REAL, 24, 'length', '0', 'finite', &
+             'capsule: the second end of its axis, obstacle_end(:, k)'), &
+    key_info('obstacle_n_keyframes', 'contact', KEY_INTEGER, 8, '', '0', '0..16', &
+             'keyframes of obstacle k''s motion, obstacle_n_keyframes(k); 0: static'), &
+    key_info('obstacle_time', 'contact', KEY_REAL, 128, 'time', '0', '>= 0, strictly increasing', &
+             'keyframe times (keyframe j of obstacle k), obstacle_time(j, k)'), &
+    key_info('obstacle_offset', 'contact', KEY_REAL, 384, 'length', '0', 'finite', &
+             'translation of obstacle k at keyframe j, obstacle_offset(:, j, k)'), &
+    key_info('obstacle_close', 'contact', KEY_REAL, 128, 'length', '0', 'finite', &
+             'gripper: closing offset along obstacle_close_dir at keyframe j, obstacle_close(j, k)'), &
+    key_info('obstacle_close_dir', 'contact', KEY_REAL, 24, '1', '0', 'not zero where obstacle_close is not', &
+             'gripper: closing direction (normalised), obstacle_close_dir(:, k)'), &
     key_info('obstacle_mu', 'contact', KEY_REAL, 8, '1', '0', '>= 0', &
              'Coulomb friction coefficient of obstacle k'), &
     key_info('contact_thickness', 'contact', KEY_REAL, 1, 'length', '0', '>= 0', &

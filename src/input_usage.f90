@@ -204,8 +204,9 @@ contains
         write(unit, '(a)') '             optimise the keyframes of the driven nodes so that the cloth reaches', &
           '             the target (docs/identification.md); -control_check_gradient as above'
       case ('contact')
-        write(unit, '(a)') '             rigid static obstacles (plane, sphere): barrier contact, friction', &
-          '             (docs/design.md, "Contact"); n_obstacles = 0 (default): none'
+        write(unit, '(a)') '             rigid obstacles (plane, sphere, box, capsule), static or moving on', &
+          '             keyframes: barrier contact, friction (docs/design.md, "Contact");', &
+          '             n_obstacles = 0 (default): none'
       end select
     end do
     write(unit, '(a)') 'The scene sets the defaults of every other key. Every key, its unit and its', &

@@ -71,7 +71,7 @@ contains
     type(output_file), intent(inout) :: out
     PetscErrorCode, intent(out) :: ierr
     character(len=*), intent(inout) :: errmsg
-    integer :: e, nk
+    integer :: e, nk, k
 
     e = 0
     call output_config_key(out, 'lattice', 'nx', cfg%lattice%nx, e, errmsg)
@@ -142,6 +142,21 @@ contains
         call output_config_key(out, 'contact', 'contact_dhat', [c%dhat], e, errmsg)
         call output_config_key(out, 'contact', 'contact_stiffness', [c%stiffness], e, errmsg)
         call output_config_key(out, 'contact', 'friction_eps_v', [c%eps_v], e, errmsg)
+        call output_config_key(out, 'contact', 'obstacle_half_size', reshape(c%half_size(:, 1:n), [3 * n]), e, errmsg)
+        call output_config_key(out, 'contact', 'obstacle_axis', reshape(c%axis(:, 1:n), [3 * n]), e, errmsg)
+        call output_config_key(out, 'contact', 'obstacle_end', reshape(c%end_pt(:, 1:n), [3 * n]), e, errmsg)
+        ! keyframes: the n_keyframes(k) in use of each obstacle, one after the other
+        call output_config_key(out, 'contact', 'obstacle_n_keyframes', dble(c%n_keyframes(1:n)), e, errmsg)
+        if (any(c%n_keyframes(1:n) > 0)) then
+          call output_config_key(out, 'contact', 'obstacle_time', &
+                                 [(c%key_time(1:c%n_keyframes(k), k), k = 1, n)], e, errmsg)
+          call output_config_key(out, 'contact', 'obstacle_offset', &
+                                 [(reshape(c%key_offset(:, 1:c%n_keyframes(k), k), [3 * c%n_keyframes(k)]), k = 1, n)], &
+                                 e, errmsg)
+          call output_config_key(out, 'contact', 'obstacle_close', &
+                                 [(c%key_close(1:c%n_keyframes(k), k), k = 1, n)], e, errmsg)
+          call output_config_key(out, 'contact', 'obstacle_close_dir', reshape(c%close_dir(:, 1:n), [3 * n]), e, errmsg)
+        end if
       end associate
     end if
     ! One error flag for all ranks (each call above is local HDF5 metadata).

@@ -27,6 +27,7 @@ OWNERS = {
     ("progress",): "step_monitor",
     ("restart",): "run_checkpoint",
     ("red",): "reduced",
+    ("contact",): "contact_forces",
 }
 # The records' types -> their owner: only there may a procedure take one as
 # a dummy argument it can write (intent out or inout, or no intent), or
@@ -41,6 +42,7 @@ TYPE_OWNERS = {
     "progress_t": "step_monitor",
     "restart_state_t": "run_checkpoint",
     "reduced_t": "reduced",
+    "contact_state_t": "contact_forces",
 }
 def strip_comment(line):
     """The line without its ! comment and with string literals blanked."""
@@ -176,7 +178,7 @@ def record_owner(comps, apps):
     """The owner of the record a written designator reaches into, or None:
     a record is a component of an app_ctx (a name in apps: ctx%newton%cquad,
     ctx%newton, id%app%red%eta; not a dummy argument named like a record,
-    nor another type's component of that name, as ctx%contact%energy)."""
+    nor another type's component of that name, as ctx%cfg%contact%stiffness)."""
     best = None
     for i in range(1, len(comps)):
         if comps[i - 1] not in apps:
@@ -268,7 +270,7 @@ contains
     call f(ctx%energy%t_prev == t, a=ctx%restart%t_restart)
     id%app%red%eta = 1; ctx%asm%jbuf%k(:, :, slot_of(j)) = 0
     x = merge(ctx%red%floor_est, 0.0_rp, ctx%use_reduced)
-    ctx%contact%energy = 0; red%eta = 0
+    ctx%cfg%contact%stiffness = 0; red%eta = 0
     b = ctx%newton%cquad /= 0 ! ctx%newton%cquad = 1
     associate (m => ctx%model)
   end subroutine s
