@@ -19,6 +19,9 @@ when a case differs, unless it is listed with --intended CASE=SIZE (a
 defect fix that changes results on purpose) and differs by at most SIZE;
 2 when a run fails.
 
+A scene the old build cannot run (a key it does not know) is no comparison:
+leave it out with --skip (e.g. scenes newer than the old build).
+
 --new-options and --new-set change the NEW runs only: a check that the
 comparison can fail (e.g. --new-set e_s=100.000001 or --new-options
 "-reduced_ksp_rtol 1e-6" must give a non-zero exit).
@@ -121,6 +124,7 @@ def main() -> int:
                     help="a difference made on purpose: CASE (as in the table, e.g. hang.np3, or a scene for "
                          "both rank counts) may differ by at most SIZE; repeatable")
     ap.add_argument("--only", nargs="*", default=None, help="run only these cases (names as in the table, no .npN)")
+    ap.add_argument("--skip", nargs="*", default=[], help="leave these cases out (names as in the table, no .npN)")
     ap.add_argument("--new-set", default="", help="-nuno_set keys added to NEW's runs only (a check that it can fail)")
     ap.add_argument("--new-options", default="", help="PETSc options added to NEW's runs only (as --new-set)")
     ap.add_argument("--keep", metavar="DIR", help="write the runs here and keep them (default: a temporary directory)")
@@ -151,6 +155,7 @@ def main() -> int:
     todo = cases(sorted((ROOT / "input").glob("*.nml")))
     if args.only is not None:
         todo = [c for c in todo if c[0] in args.only]
+    todo = [c for c in todo if c[0] not in args.skip]
     print(f"old: {exes['old']}\nnew: {exes['new']}")
     if args.new_set or args.new_options:
         print("NEW runs only:" + (f" -nuno_set +'{args.new_set}'" if args.new_set else "") + f" {args.new_options}")
