@@ -1,12 +1,14 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: BSD-2-Clause
 """The figures and animations of docs/contact.md: each contact scene of
-input/ (drop_table, drape_sphere, and table_edge where it is there) run as shipped on 2 ranks into runs/contact/, then drawn by
+input/ (drop_table, drape_sphere, table_edge, gripper, fold_table) run as
+shipped on 2 ranks into runs/contact/, then drawn by
 postprocess.contact_plot: docs/figures/contact-<scene>.png (four times)
-and contact-<scene>.gif (at most 60 frames, 400 px).
+and contact-<scene>.gif (at most 60 frames, 400 px; 40 for the gripper
+and the fold, slow motions: each GIF below 0.5 MB).
 
     source tools/env.sh
-    python3 bench/contact_figures.py                 # a minute or two
+    python3 bench/contact_figures.py                 # a few minutes
     python3 bench/contact_figures.py --skip-run      # re-draw from runs/contact/
     python3 bench/contact_figures.py --scenes drop_table --outdir /tmp/fig
 """
@@ -24,7 +26,12 @@ from postprocess import contact_plot  # noqa: E402
 SCENES = {
     "drop_table": ((0.0, 0.1, 0.2, 0.5), ("--elev", "20")),
     "drape_sphere": ((0.0, 0.3, 0.6, 1.0), ("--elev", "20")),
-    "table_edge": (None, ()),
+    # the cloth lies on the box's top: the box drawn first (contact_plot --solids-first)
+    "table_edge": ((0.0, 0.3, 0.8, 1.5), ("--elev", "25", "--azim", "-60", "--solids-first")),
+    # from below the fingers' line: the pinched line pulled 5 cm out of the cloth's plane
+    "gripper": ((0.0, 0.7, 1.5, 2.5), ("--elev", "20", "--azim", "-125", "--frames", "40")),
+    # along the fold line, from the far half's side
+    "fold_table": ((0.0, 0.9, 1.6, 2.2), ("--elev", "20", "--azim", "-105", "--frames", "40")),
 }
 
 

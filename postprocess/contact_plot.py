@@ -240,9 +240,10 @@ def shaded(quads, rgba) -> np.ndarray:
 class Scene:
     """The obstacles of a run as quads, made once for every frame or panel."""
 
-    def __init__(self, run, steps, stride: int = 1):
+    def __init__(self, run, steps, stride: int = 1, solids_first: bool = False):
         self.obstacles = obstacles(run)
         self.stride = stride
+        self.solids_first = solids_first
         lo, hi = plotting.bounds(*(run.position[k] for k in steps))
         self.cloth_lo, self.cloth_hi = lo, hi
         self.planes = [plane_quads(o, lo, hi) for o in self.obstacles if o.shape == "plane"]
@@ -254,17 +255,28 @@ class Scene:
 
     def draw(self, ax, pos, edges: bool = True):
         """The plane patches (behind everything: the cloth cannot be below them)
-        and one collection of cloth and solid quads, depth-sorted together."""
+        and one collection of cloth and solid quads, depth-sorted together;
+        with solids_first the solids too are drawn before the cloth: a cloth
+        resting 2 mm above a box's top is seen over it from above, while the
+        sort by quad centroids put the box's large top quads over the cloth
+        (input/table_edge.nml)."""
         artists = []
         for q in self.planes:
             pc = Poly3DCollection(q, facecolors=shaded(q, TABLE), edgecolors="none", zorder=1)
             ax.add_collection3d(pc)
             artists.append(pc)
         cloth = cloth_quads(pos, self.stride)
-        quads = [cloth] + self.solids
-        colors = [shaded(cloth, CLOTH)] + [shaded(s, SOLID) for s in self.solids]
+        solids = self.solids
+        if self.solids_first and solids:
+            pc = Poly3DCollection(np.concatenate(solids), facecolors=np.concatenate([shaded(s, SOLID) for s in solids]),
+                                  edgecolors="none", zorder=1)
+            ax.add_collection3d(pc)
+            artists.append(pc)
+            solids = []
+        quads = [cloth] + solids
+        colors = [shaded(cloth, CLOTH)] + [shaded(s, SOLID) for s in solids]
         edge = np.concatenate([np.tile([0.1, 0.15, 0.3, 0.6 if edges else 0.0], (len(cloth), 1))]
-                              + [np.zeros((len(s), 4)) for s in self.solids])
+                              + [np.zeros((len(s), 4)) for s in solids])
         pc = Poly3DCollection(np.concatenate(quads), facecolors=np.concatenate(colors),
                               edgecolors=edge, linewidths=0.3, zorder=2)
         ax.add_collection3d(pc)
@@ -286,9 +298,9 @@ def lattice_stride(run, max_lines: int) -> int:
 
 
 def build_figure(run, steps, units: str, view: str = "iso", elev=None, azim=None,
-                 max_lines: int = 64, title: str | None = None):
+                 max_lines: int = 64, title: str | None = None, solids_first: bool = False):
     """One 3-D panel a step: the cloth and its obstacles, one box for all panels."""
-    scene = Scene(run, steps, lattice_stride(run, max_lines))
+    scene = Scene(run, steps, lattice_stride(run, max_lines), solids_first)
     n = len(steps)
     ncols = grid_columns(n)
     size = plotting.iso_panel_size(scene.lo, scene.hi)
@@ -313,7 +325,7 @@ def frame_steps(run, frames: int) -> list[int]:
 
 def write_animation(run, output: str, units: str, frames: int = 60, size_px: int = 400,
                     fps: float = 12.0, view: str = "iso", elev=None, azim=None,
-                    max_lines: int = 40, colors: int = 64) -> int:
+                    max_lines: int = 40, colors: int = 64, solids_first: bool = False) -> int:
     """A GIF of the run (Pillow): the cloth and obstacles in one fixed box.
     Each frame is reduced to `colors` colours without dithering (flat
     shading compresses well that way: a 400 px frame of 60 takes some
@@ -324,7 +336,7 @@ def write_animation(run, output: str, units: str, frames: int = 60, size_px: int
     if not output.lower().endswith(".gif"):
         raise cli.UsageError(f"--gif {output}: the animation is a .gif")
     steps = frame_steps(run, frames)
-    scene = Scene(run, steps, lattice_stride(run, max_lines))
+    scene = Scene(run, steps, lattice_stride(run, max_lines), solids_first)
     dpi = 100
     fig, (ax,) = plotting.new_figure(1, ncols=1, projection="3d",
                                      panel_size=(size_px / dpi, size_px / dpi))
@@ -364,6 +376,9 @@ def _parser():
     p.add_argument("--units", default=None,
                    help="length unit of the labels (default: the file's units attribute)")
     p.add_argument("--title", default=None, help="a title over the panels")
+    p.add_argument("--solids-first", action="store_true",
+                   help="draw the solid obstacles before the cloth, not depth-sorted with it "
+                        "(a cloth lying on a box's top, seen from above)")
     p.add_argument("--gif", default=None, metavar="FILE.gif", help="also write an animation")
     p.add_argument("--frames", type=int, default=60, help="animation: most frames (default 60)")
     p.add_argument("--size", type=int, default=400, help="animation: width and height in pixels (default 400)")
@@ -387,10 +402,12 @@ def _body(args):
     if unknown:
         raise ValueError(f"{args.run}: obstacle shape {', '.join(unknown)}: not one this script draws "
                          f"({', '.join(SHAPES)})")
-    fig, _ = build_figure(run, steps, units, args.view, args.elev, args.azim, title=args.title)
+    fig, _ = build_figure(run, steps, units, args.view, args.elev, args.azim, title=args.title,
+                          solids_first=args.solids_first)
     plotting.save(fig, args.output or cli.default_output(args.run, "contact"), args.dpi)
     if args.gif:
-        write_animation(run, args.gif, units, args.frames, args.size, args.fps, args.view, args.elev, args.azim)
+        write_animation(run, args.gif, units, args.frames, args.size, args.fps, args.view, args.elev, args.azim,
+                        solids_first=args.solids_first)
 
 
 def main(argv=None) -> int:

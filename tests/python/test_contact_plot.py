@@ -122,6 +122,31 @@ def test_script_writes_png_and_small_gif(tmp_path, make_run):
     assert gif.stat().st_size < 400 * 1024
 
 
+def test_solids_first_draws_the_obstacles_under_the_cloth(tmp_path, make_run):
+    """--solids-first: the solids (sphere, box, capsule) are one collection
+    drawn after the plane and before the cloth, which is then alone in its
+    own; by default the cloth and the solids are depth-sorted together. The
+    script takes the option."""
+    from postprocess import plotting
+    make_run(tmp_path / "a.h5", nx=6, ny=5, nt=3)
+    add_contact_config(tmp_path / "a.h5")
+    run = read_run(str(tmp_path / "a.h5"))
+    n_cloth = len(contact_plot.cloth_quads(run.position[0]))
+    n_solid = sum(len(contact_plot.solid_quads(o)) for o in contact_plot.obstacles(run) if o.shape != "plane")
+    assert n_solid > 0
+    for first, expect in ((False, [n_cloth + n_solid]), (True, [n_solid, n_cloth])):
+        fig, (ax,) = plotting.new_figure(1, ncols=1, projection="3d")
+        artists = contact_plot.Scene(run, [0], solids_first=first).draw(ax, run.position[0])
+        assert [a.get_zorder() for a in artists] == [1] * len(expect) + [2]
+        fig.canvas.draw()                                                   # projects the quads
+        assert [len(a.get_paths()) for a in artists[1:]] == expect          # artists[0]: the plane
+    run.close()
+    png = tmp_path / "a.png"
+    proc = cli(tmp_path / "a.h5", "-o", png, "--solids-first")
+    assert proc.returncode == 0, proc.stderr
+    assert_image(png, "PNG")
+
+
 def test_missing_file_and_bad_arguments_fail_cleanly(tmp_path, make_run):
     make_run(tmp_path / "a.h5", nt=3)
     out = tmp_path / "x.png"
