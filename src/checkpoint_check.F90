@@ -65,10 +65,12 @@ module checkpoint_check
     real(rp) :: newton_floor = 0
     !> Contact's run diagnostics (module contact_forces; scenes with
     !> obstacles: contact = 1, else 0, as in files written before them):
-    !> the friction work so far [energy], the smallest gap over every
-    !> accepted state [length], the states checked, the limited Newton updates
+    !> the friction work and the moving obstacles' work so far [energy],
+    !> the smallest gap over every accepted state [length], the states
+    !> checked, the limited Newton updates
     integer :: contact = 0
     real(rp) :: friction_work = 0
+    real(rp) :: obstacle_work = 0
     real(rp) :: min_gap_run = huge(1.0_rp)
     integer :: states_checked = 0, limited_steps = 0
   end type checkpoint_t
