@@ -12,6 +12,7 @@ from pathlib import Path
 
 import h5py
 import numpy as np
+import pytest
 
 from nunorun import ROOT, run, run_and_read
 
@@ -187,6 +188,32 @@ def test_restart_continues_the_contact_series(tmp_path):
             assert fa[k].shape == fb[k].shape, k
             np.testing.assert_array_equal(fa[k][:n], fb[k][:n], err_msg=k)
         assert fa["contact/friction_work"][-1] > fa["contact/friction_work"][2] > 0.0
+
+
+@pytest.mark.parametrize("before,after", [(1, 0), (0, 1), (1, 2)])
+def test_a_restart_with_other_obstacles_is_refused(tmp_path, before, after):
+    """A restart continues the /contact series and the checkpoint's contact
+    diagnostics of the obstacles the file began with: an input with another
+    number of obstacles (none, or one more) is refused in one line naming
+    n_obstacles and both values, with a non-zero exit, on 2 ranks, and the
+    file is left byte for byte as it was (the user's bytes)."""
+    def scene(n):
+        g = groups(0.02, 0.04, 0.02, mu=0.3, dhat=1e-2, omega=0.5)
+        if n == 0:
+            del g["contact"]
+        elif n == 2:
+            g["contact"] = g["contact"].replace("n_obstacles=1", "n_obstacles=2") + (
+                " obstacle_shape(2)='sphere' obstacle_point(:,2)=0.5,0.5,2.0 obstacle_radius(2)=0.1")
+        return g
+    _, h5 = run(tmp_path, "s", nranks=2, **scene(before))
+    data = h5.read_bytes()
+    proc, _ = run(tmp_path, "s", nranks=2, options=["-nuno_restart", str(h5)], check=False, timeout=120,
+                  **dict(scene(after), time="t_end=0.08 dt=0.001"))
+    assert proc.returncode != 0
+    errors = [ln for ln in proc.stderr.splitlines() if ln.startswith("nuno: error")]
+    assert len(errors) == 1, proc.stderr[-3000:]
+    assert f"n_obstacles = {after} is not the file's {before}" in errors[0], errors[0]
+    assert h5.read_bytes() == data
 
 
 def test_only_contact_forces_writes_the_contact_state():
