@@ -26,7 +26,7 @@ def groups(h, t_end, out_dt, mu=0.0, n=7, dt=1e-3, dhat=1e-3, omega=0.0, kappa=1
     """drop_table's cloth (input/drop_table.nml) on an n x n lattice, flat at
     z = 0 and at rest (or spinning about z at omega), over the plane z = -h."""
     return dict(
-        scene=f"scene='flat' gravity=0.0,0.0,-9.81 initial_omega=0.0,0.0,{omega}",
+        scene=f"scene='flat' gravity=0.0,0.0,-9.81 initial_omega=0.0,0.0,{omega} units='SI'",
         lattice=f"nx={n} ny={n} lx=1.0 ly=1.0 total_mass={MASS} mass_distribution='area'",
         material="e_s=100.0 eta_s=0.1 e_d=100.0 eta_d=0.1 bending_model='energy' k_b=0.1 eta_b=1e-4",
         contact=(f"n_obstacles=1 obstacle_shape(1)='plane' obstacle_point(:,1)=0.0,0.0,{-h} "
@@ -70,9 +70,9 @@ def test_contact_series_of_a_sheet_settling_on_a_plane(tmp_path):
         np.testing.assert_array_equal(c["barrier_energy"], r.energy["barrier"])
         assert r.energy["barrier"][0] > 0.0            # in reach at the start: part of the balance at t = 0
     with h5py.File(tmp_path / "rest.h5", "r") as f:
-        # the scene's unit system ('flat' is a report scene: mm g s)
-        force, length, energy = {"SI": ("N", "m", "J"),
-                                 "mm g s": ("g mm/s^2", "mm", "g mm^2/s^2")}[f.attrs["units"].decode()]
+        # the input's unit system (SI, as drop_table's: units = 'SI')
+        assert f.attrs["units"].decode() == "SI"
+        force, length, energy = "N", "m", "J"
         assert f["contact/force"].attrs["units"].decode() == force
         assert f["contact/min_gap"].attrs["units"].decode() == length
         assert f["contact/friction_work"].attrs["units"].decode() == energy
