@@ -167,19 +167,26 @@ def test_energy_balance_with_a_rising_plane_falls_at_first_order(tmp_path):
     assert min(d_without) > 0.5 and d_without[-1] > 0.8 * d_without[0], d_without
 
 
-def test_restart_continues_the_contact_series(tmp_path):
+@pytest.mark.parametrize("moving", [False, True])
+def test_restart_continues_the_contact_series(tmp_path, moving):
     """A run continued from its checkpoint at t = 0.05 equals the run that
     went through, bit for bit (fixed-step backward Euler, same ranks),
-    /contact and /energy included: the friction work and the run's smallest
-    gap and counts go on from the checkpoint."""
+    /contact and /energy included: the friction work, the moving plane's
+    work (a plane rising from t = 0.02) and the run's smallest gap and
+    counts go on from the checkpoint."""
     full = groups(0.02, 0.1, 0.025, mu=0.3, dhat=1e-2, omega=0.5)
+    if moving:
+        # the rising plane of the balance test below
+        full = groups(0.005, 0.1, 0.025, mu=0.3, dhat=1e-2, omega=0.5, kappa=10.0)
+        full["contact"] += " obstacle_n_keyframes(1)=3 obstacle_time(1:3,1)=0.0,0.02,0.1 obstacle_offset(:,3,1)=0.0,0.0,0.04"
     half = dict(full, time="t_end=0.05 dt=0.001")
     (tmp_path / "a").mkdir()
     (tmp_path / "b").mkdir()
     _, a = run(tmp_path / "a", "full", nranks=2, **full)
     _, b = run(tmp_path / "b", "half", nranks=2, **half)
     run(tmp_path / "b", "half", nranks=2, options=["-nuno_restart", str(b)], **full)
-    names = ["position", "energy/dissipated", "energy/barrier"] + [f"contact/{k}" for k in CONTACT]
+    names = ["position", "energy/dissipated", "energy/barrier", "energy/external_work"] + \
+        [f"contact/{k}" for k in CONTACT]
     with h5py.File(a, "r") as fa, h5py.File(b, "r") as fb:
         assert int(fb["run"].attrs["restarts"]) == 1
         n = int(fa.attrs["n_output_steps"])
