@@ -59,3 +59,22 @@ def test_the_output_records_the_inputs_unit_system(tmp_path, name):
         assert f.attrs["units"].decode() == system, name
         for dset, unit in LABELS[system].items():
             assert f[dset].attrs["units"].decode() == unit, (name, dset)
+
+
+def test_units_key_any_case_and_a_bad_value_refused(tmp_path):
+    """`units` is read in any case ('si' records 'SI'); another value is
+    refused in one line naming the key and the value, on 2 ranks, and no
+    output file is made."""
+    from nunorun import run
+    flat = dict(scene="scene='flat' gravity=0.0,0.0,-9.81 units='si'", lattice="nx=5 ny=5",
+                time="t_end=0.002 dt=0.001", output="output_interval=0.001")
+    _, h5 = run(tmp_path, "si", nranks=2, **flat)
+    with h5py.File(h5, "r") as f:
+        assert f.attrs["units"].decode() == "SI"
+        assert f["config/scene"].attrs["units"].decode() == "SI"
+    proc, bad = run(tmp_path, "cgs", nranks=2, check=False, timeout=120,
+                    **dict(flat, scene="scene='flat' units='cgs'"))
+    assert proc.returncode != 0
+    errors = [ln for ln in proc.stderr.splitlines() if ln.startswith("nuno: error")]
+    assert len(errors) == 1 and "&scene: units = 'cgs' is not one of" in errors[0], proc.stderr[-2000:]
+    assert not bad.exists()
