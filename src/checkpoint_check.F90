@@ -6,7 +6,10 @@
 !> - scene_refusal: the input's scene, lattice geometry and material (every
 !>   model constant, /config/lattice, /config/material, /config/scene) must
 !>   be the file's; a restart continues the motion the file began, so a
-!>   namelist of another scene on the same lattice is refused by name.
+!>   namelist of another scene on the same lattice is refused by name;
+!>   and the number of obstacles (/config/contact n_obstacles, none
+!>   without that group): the /contact series and the checkpoint's contact
+!>   diagnostics go on only with the obstacles they began with.
 !> - checkpoint_refusal: the checkpoint it continues must be sound: finite
 !>   time, step and state, a time within the file's series (at or after
 !>   its last output step, before the next one), counters that are counts
@@ -65,10 +68,12 @@ module checkpoint_check
     real(rp) :: newton_floor = 0
     !> Contact's run diagnostics (module contact_forces; scenes with
     !> obstacles: contact = 1, else 0, as in files written before them):
-    !> the friction work so far [energy], the smallest gap over every
-    !> accepted state [length], the states checked, the limited Newton updates
+    !> the friction work and the moving obstacles' work so far [energy],
+    !> the smallest gap over every accepted state [length], the states
+    !> checked, the limited Newton updates
     integer :: contact = 0
     real(rp) :: friction_work = 0
+    real(rp) :: obstacle_work = 0
     real(rp) :: min_gap_run = huge(1.0_rp)
     integer :: states_checked = 0, limited_steps = 0
   end type checkpoint_t
@@ -224,7 +229,34 @@ contains
     call str_key('scene', 'wave_nodes', cfg%scene%wave_nodes)
     call real_key('scene', 'release_time', [cfg%scene%release_time])
     call real_key('scene', 'initial_omega', cfg%scene%initial_omega)
+    call obstacle_count(cfg%contact%n_obstacles)
   contains
+    !> The file's obstacles: /config/contact n_obstacles, written by runs
+    !> with obstacles only (none: 0). A restart with another count would
+    !> write the /contact series of other obstacles, or none, after them.
+    subroutine obstacle_count(mine)
+      integer, intent(in) :: mine
+      real(rp), allocatable :: theirs(:)
+      logical :: exists, ok
+      integer :: h, n
+      if (ierr /= 0) return
+      call h5lexists_f(file, '/config/contact', exists, h)
+      if (h < 0) then
+        call missing('contact', 'n_obstacles')
+        return
+      end if
+      n = 0
+      if (exists) then
+        call read_attr_any(file, '/config/contact', 'n_obstacles', theirs, ok)
+        if (.not. ok .or. size(theirs) /= 1) then
+          call missing('contact', 'n_obstacles')
+          return
+        end if
+        n = nint(theirs(1))
+      end if
+      if (n /= mine) call differs('contact', 'n_obstacles', itoa(mine), itoa(n))
+    end subroutine obstacle_count
+
     subroutine real_key(group, key, mine)
       character(*), intent(in) :: group, key
       real(rp), intent(in) :: mine(:)

@@ -110,6 +110,9 @@ module config
     character(label_len) :: wave_nodes = 'corner'  !< wave_point: driven nodes: corner (0,0) | edge (every node of i = 0)
     real(rp) :: release_time = huge(1.0_rp)  !< time at which the scene's constraints end [time]
     real(rp) :: initial_omega(3) = 0.0_rp    !< initial rigid angular velocity about the centroid [rad/time]
+    !> the unit system the input's values are in: 'mm g s' | 'SI' (the
+    !> program is unit-agnostic: recorded in the output, for its labels)
+    character(label_len) :: units = 'mm g s'
     ! derived
     integer :: scene_code = SCENE_LIFT_RELEASE
     logical :: has_gravity = .false.

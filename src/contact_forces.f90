@@ -66,12 +66,18 @@ module contact_forces
     !> accepted step on the friction power with the step's own lag at both
     !> ends (the lag taken at its start), dissipated (>= 0)
     real(rp) :: friction_work = 0.0_rp
+    !> work of the contact forces of moving obstacles on the cloth since the
+    !> start [energy]: sum over obstacles of (their contact force on the
+    !> cloth) . (their velocity), by the same trapezoid rule (an external
+    !> work of the energy balance; 0 with static obstacles)
+    real(rp) :: obstacle_work = 0.0_rp
     logical :: have_last = .false.                  !< t_last, pfric_last hold the last accepted state's
     !> the next state recorded is a checkpoint's, recorded already by the
     !> run that wrote it (contact_restore): not counted again
     logical :: resumed = .false.
     real(rp) :: t_last = 0.0_rp                     !< time of the last accepted state [time]
     real(rp) :: pfric_last = 0.0_rp                 !< friction power there with the next step's lag [energy/time]
+    real(rp) :: pobs_last = 0.0_rp                  !< obstacles' power there with the next step's lag [energy/time]
   end type contact_state_t
 
 contains
@@ -301,15 +307,19 @@ contains
   !> Friction's lag from an accepted state u (the next step's start):
   !> lam = the barrier's normal force, nlag = the surface normal; pstart,
   !> this rank's friction power at u with the new lag [energy/time] (the
-  !> start of the next step's friction work).
-  subroutine contact_lag(cs, lat, fixed, u, pstart)
+  !> start of the next step's friction work), and pobs, the power of the
+  !> moving obstacles' contact forces on the cloth there [energy/time] (the
+  !> start of the next step's obstacle work). Both take the obstacles'
+  !> velocities over the next step (at a keyframe, the segment after it).
+  subroutine contact_lag(cs, lat, fixed, u, pstart, pobs)
     type(contact_state_t), intent(inout) :: cs
     type(lattice_t), intent(in) :: lat
     logical, intent(in) :: fixed(0:, lat%ys:)
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)
-    real(rp), intent(out), optional :: pstart
-    integer :: i, j, k
+    real(rp), intent(out), optional :: pstart, pobs
+    integer :: i, j, k, m
     real(rp) :: fc(3), kx(3, 3), kv(3, 3), e, fn, d, g(3), hd(3, 3), zero3(3)
+    type(obstacle_t), allocatable :: onext(:)
     logical :: act
     zero3 = 0.0_rp
     do j = lat%ys, lat%ye
@@ -326,13 +336,41 @@ contains
         end do
       end do
     end do
+    if (.not. (present(pstart) .or. present(pobs))) return
+    ! the poses at t with the velocities of the step that starts there
+    onext = cs%obs
+    if (cs%moving) then
+      do k = 1, cs%n_obs
+        m = cs%keys%nk(k)
+        if (m == 0) cycle
+        call obstacle_at(cs%keys%base(k), cs%keys%tk(1:m, k), cs%keys%off(:, 1:m, k), cs%keys%close(1:m, k), &
+                         cs%keys%cdir(:, k), cs%t_pose, onext(k), right=.true.)
+      end do
+    end if
     if (present(pstart)) then
       pstart = 0.0_rp
       do j = lat%ys, lat%ye
         do i = 0, lat%nx - 1
           do k = 1, cs%n_obs
             if (cs%lam(k, i, j) > 0.0_rp) pstart = pstart + &
-              friction_power(cs%obs(k), cs%cp, u(3:5, i, j), cs%lam(k, i, j), cs%nlag(:, k, i, j))
+              friction_power(onext(k), cs%cp, u(3:5, i, j), cs%lam(k, i, j), cs%nlag(:, k, i, j))
+          end do
+        end do
+      end do
+    end if
+    if (present(pobs)) then
+      pobs = 0.0_rp
+      if (.not. cs%moving) return
+      do j = lat%ys, lat%ye
+        do i = 0, lat%nx - 1
+          if (fixed(i, j)) cycle
+          do k = 1, cs%n_obs
+            if (all(onext(k)%vel == 0.0_rp)) cycle
+            call signed_distance(onext(k), u(0:2, i, j), d, g, hd)
+            if (.not. (d - cs%cp%thickness > 0.0_rp)) cycle
+            call contact_node(onext(k), cs%cp, u(0:2, i, j), u(3:5, i, j), cs%lam(k, i, j), cs%nlag(:, k, i, j), &
+                              fc, kx, kv, e, fn, act)
+            pobs = pobs + dot_product(fc, onext(k)%vel)
           end do
         end do
       end do
@@ -361,13 +399,15 @@ contains
   !> This rank's contact statistics at state u: the smallest gap (free
   !> nodes), the active contacts (gap < dhat), the total contact force
   !> (3) and its barrier part fnrm (3, sum of f_n g), the barrier energy,
-  !> the friction power (with the lag of the step that ended at u).
-  subroutine contact_stats(cs, lat, fixed, u, gmin, nact, ftot, fnrm, ebar, pfric)
+  !> the friction power (with the lag of the step that ended at u) and the
+  !> power of the obstacles' contact forces on the cloth, sum of f . v_obs
+  !> (with that lag and the obstacles' velocities over that step).
+  subroutine contact_stats(cs, lat, fixed, u, gmin, nact, ftot, fnrm, ebar, pfric, pobs)
     type(contact_state_t), intent(in) :: cs
     type(lattice_t), intent(in) :: lat
     logical, intent(in) :: fixed(0:, lat%ys:)
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)
-    real(rp), intent(out) :: gmin, ftot(3), fnrm(3), ebar, pfric
+    real(rp), intent(out) :: gmin, ftot(3), fnrm(3), ebar, pfric, pobs
     integer, intent(out) :: nact
     integer :: i, j, k
     real(rp) :: fc(3), kx(3, 3), kv(3, 3), e, fn, d, g(3), hd(3, 3)
@@ -378,6 +418,7 @@ contains
     fnrm = 0.0_rp
     ebar = 0.0_rp
     pfric = 0.0_rp
+    pobs = 0.0_rp
     do j = lat%ys, lat%ye
       do i = 0, lat%nx - 1
         if (fixed(i, j)) cycle
@@ -392,6 +433,7 @@ contains
           fnrm = fnrm + fn * g
           ebar = ebar + e
           pfric = pfric + friction_power(cs%obs(k), cs%cp, u(3:5, i, j), cs%lam(k, i, j), cs%nlag(:, k, i, j))
+          pobs = pobs + dot_product(fc, cs%obs(k)%vel)
         end do
       end do
     end do
@@ -409,18 +451,23 @@ contains
   !> (contact_stats, contact_lag): the smallest gap gmin, the active pairs,
   !> the total and normal forces, the barrier energy; pend the friction
   !> power at t with the lag of the step that ended there, pstart with the
-  !> next step's [energy/time]. The friction work grows by the trapezoid
-  !> rule over the step, both ends with the step's own lag.
-  subroutine contact_record(cs, t, gmin, nact, ftot, fnrm, ebar, pend, pstart)
+  !> next step's [energy/time]; oend and ostart the same of the moving
+  !> obstacles' power on the cloth. The friction work and the obstacle work
+  !> grow by the trapezoid rule over the step, both ends with the step's own lag.
+  subroutine contact_record(cs, t, gmin, nact, ftot, fnrm, ebar, pend, pstart, oend, ostart)
     type(contact_state_t), intent(inout) :: cs
-    real(rp), intent(in) :: t, gmin, ftot(3), fnrm(3), ebar, pend, pstart
+    real(rp), intent(in) :: t, gmin, ftot(3), fnrm(3), ebar, pend, pstart, oend, ostart
     integer, intent(in) :: nact
-    if (cs%have_last) cs%friction_work = cs%friction_work + 0.5_rp * (t - cs%t_last) * (cs%pfric_last + pend)
+    if (cs%have_last) then
+      cs%friction_work = cs%friction_work + 0.5_rp * (t - cs%t_last) * (cs%pfric_last + pend)
+      cs%obstacle_work = cs%obstacle_work + 0.5_rp * (t - cs%t_last) * (cs%pobs_last + oend)
+    end if
     if (.not. cs%resumed) cs%states_checked = cs%states_checked + 1
     cs%resumed = .false.
     cs%have_last = .true.
     cs%t_last = t
     cs%pfric_last = pstart
+    cs%pobs_last = ostart
     cs%min_gap_run = min(cs%min_gap_run, gmin)
     cs%active = nact
     cs%force = ftot
@@ -430,14 +477,15 @@ contains
   end subroutine contact_record
 
   !> A restart's run diagnostics from its checkpoint: the friction work
-  !> [energy], the smallest gap so far [length], the states checked and
-  !> the limited Newton updates. The checkpoint's own state, recorded
-  !> again at the restart's first monitor call, is not counted twice.
-  subroutine contact_restore(cs, friction_work, min_gap_run, states_checked, limited_steps)
+  !> and the obstacle work [energy], the smallest gap so far [length], the
+  !> states checked and the limited Newton updates. The checkpoint's own
+  !> state, recorded again at the restart's first monitor call, is not counted twice.
+  subroutine contact_restore(cs, friction_work, obstacle_work, min_gap_run, states_checked, limited_steps)
     type(contact_state_t), intent(inout) :: cs
-    real(rp), intent(in) :: friction_work, min_gap_run
+    real(rp), intent(in) :: friction_work, obstacle_work, min_gap_run
     integer, intent(in) :: states_checked, limited_steps
     cs%friction_work = friction_work
+    cs%obstacle_work = obstacle_work
     cs%min_gap_run = min_gap_run
     cs%states_checked = states_checked
     cs%limited_steps = limited_steps

@@ -139,7 +139,7 @@ contains
   !> by the output step at t = 0, before the first step): the smallest gap over every node and
   !> obstacle (collective); a gap <= 0 is an error. Then the friction lag
   !> for the next step, the state's record (contact_record: the /contact
-  !> series and the friction work), and a line at each output time. A
+  !> series, the friction work and the moving obstacles' work), and a line at each output time. A
   !> state recorded already is left alone. Collective.
   subroutine contact_observe(ctx, t, uvec, ierr)
     type(app_ctx), intent(inout) :: ctx
@@ -148,7 +148,7 @@ contains
     PetscErrorCode, intent(out) :: ierr
     type(tVec) :: uloc
     PetscScalar, pointer :: u(:, :, :)
-    real(rp) :: gmin, ftot(3), fnrm(3), ebar, pfric, pstart, loc(9), glob(9), r
+    real(rp) :: gmin, ftot(3), fnrm(3), ebar, pfric, pstart, pobs, ostart, loc(11), glob(11), r
     integer :: nact, gnact
     ierr = 0
     ! TSSolve calls its monitors at every window's start too, with the state
@@ -159,16 +159,16 @@ contains
     PetscCall(DMGlobalToLocalEnd(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
     call contact_move(ctx%contact, t)
-    call contact_stats(ctx%contact, ctx%lat, ctx%model%fixed, u, gmin, nact, ftot, fnrm, ebar, pfric)
-    call contact_lag(ctx%contact, ctx%lat, ctx%model%fixed, u, pstart)
+    call contact_stats(ctx%contact, ctx%lat, ctx%model%fixed, u, gmin, nact, ftot, fnrm, ebar, pfric, pobs)
+    call contact_lag(ctx%contact, ctx%lat, ctx%model%fixed, u, pstart, ostart)
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, uloc, u, ierr))
     PetscCall(DMRestoreLocalVector(ctx%da, uloc, ierr))
     call MPI_Allreduce(gmin, r, 1, MPI_DOUBLE_PRECISION, MPI_MIN, ctx%comm, ierr)
     gmin = r
-    loc = [ftot, fnrm, ebar, pfric, pstart]
-    call MPI_Allreduce(loc, glob, 9, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, ierr)
+    loc = [ftot, fnrm, ebar, pfric, pstart, pobs, ostart]
+    call MPI_Allreduce(loc, glob, 11, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, ierr)
     call MPI_Allreduce(nact, gnact, 1, MPI_INTEGER, MPI_SUM, ctx%comm, ierr)
-    call contact_record(ctx%contact, t, gmin, gnact, glob(1:3), glob(4:6), glob(7), glob(8), glob(9))
+    call contact_record(ctx%contact, t, gmin, gnact, glob(1:3), glob(4:6), glob(7), glob(8), glob(9), glob(10), glob(11))
     if (.not. (gmin > 0.0_rp)) then
       ierr = PETSC_ERR_NOT_CONVERGED
       SETERRQ(ctx%comm, ierr, 'nuno: contact: an accepted state penetrates an obstacle at t = '//real_es(t)//': smallest gap '//real_es(gmin))

@@ -368,7 +368,7 @@ contains
     integer :: n_keyframes
     real(rp) :: keyframe_time(keyframe_max), keyframe_dx(keyframe_max), keyframe_dy(keyframe_max), &
                 keyframe_dz(keyframe_max)
-    character(label_len) :: wave_nodes
+    character(label_len) :: wave_nodes, units
     real(rp) :: release_time, initial_omega(3)
     real(rp) :: t_end, dt
     real(rp) :: output_interval, stretch_limit, checkpoint_interval
@@ -378,7 +378,7 @@ contains
     namelist /lattice/ nx, ny, lx, ly, total_mass, mass_distribution, lattice_scaling
     namelist /material/ spring_model, e_s, eta_s, e_d, eta_d, bending_model, k_b, eta_b
     namelist /scene/ scene_name, gravity, lift_length, lift_height, bend_angle, n_keyframes, &
-                     keyframe_time, keyframe_dx, keyframe_dy, keyframe_dz, wave_nodes, release_time, initial_omega
+                     keyframe_time, keyframe_dx, keyframe_dy, keyframe_dz, wave_nodes, release_time, initial_omega, units
     namelist /time/ t_end, dt
     namelist /output/ output_interval, write_velocity, output_file, petsc_options, stretch_limit, &
                       checkpoint_interval
@@ -434,7 +434,7 @@ contains
       lift_height = cfg%scene%lift_height; bend_angle = cfg%scene%bend_angle; n_keyframes = cfg%scene%n_keyframes
       keyframe_time = cfg%scene%keyframe_time; keyframe_dz = cfg%scene%keyframe_dz; wave_nodes = cfg%scene%wave_nodes
       keyframe_dx = cfg%scene%keyframe_dx; keyframe_dy = cfg%scene%keyframe_dy
-      release_time = cfg%scene%release_time; initial_omega = cfg%scene%initial_omega
+      release_time = cfg%scene%release_time; initial_omega = cfg%scene%initial_omega; units = cfg%scene%units
       if (present(dump)) then
         write(dump, nml=scene, delim='apostrophe', iostat=ios, iomsg=iomsg)
       else
@@ -445,7 +445,7 @@ contains
       cfg%scene%lift_height = lift_height; cfg%scene%bend_angle = bend_angle; cfg%scene%n_keyframes = n_keyframes
       cfg%scene%keyframe_time = keyframe_time; cfg%scene%keyframe_dz = keyframe_dz; cfg%scene%wave_nodes = wave_nodes
       cfg%scene%keyframe_dx = keyframe_dx; cfg%scene%keyframe_dy = keyframe_dy
-      cfg%scene%release_time = release_time; cfg%scene%initial_omega = initial_omega
+      cfg%scene%release_time = release_time; cfg%scene%initial_omega = initial_omega; cfg%scene%units = units
       end if
     case (G_TIME)
       t_end = cfg%time%t_end; dt = cfg%time%dt

@@ -35,6 +35,9 @@ contains
     cfg%material%spring_model = lower(adjustl(cfg%material%spring_model))
     cfg%material%bending_model = lower(adjustl(cfg%material%bending_model))
     cfg%scene%wave_nodes = lower(adjustl(cfg%scene%wave_nodes))
+    ! the unit system as the output names it ('SI' in capitals), any case in
+    cfg%scene%units = lower(adjustl(cfg%scene%units))
+    if (trim(cfg%scene%units) == 'si') cfg%scene%units = 'SI'
     call check_choice('lattice', 'lattice_scaling', cfg%lattice%lattice_scaling, choices('lattice_scaling'), &
                       cfg%lattice%scaling_code, ierr, msg)
     if (ierr /= 0) return
@@ -103,6 +106,7 @@ contains
     call check_scene_geometry(cfg, ierr, msg); if (ierr /= 0) return
     call check_keyframes(cfg, ierr, msg);      if (ierr /= 0) return
     call check_wave_nodes(cfg, ierr, msg);     if (ierr /= 0) return
+    call check_units(cfg, ierr, msg);          if (ierr /= 0) return
     call check_time(cfg, ierr, msg);           if (ierr /= 0) return
     call check_output(cfg, ierr, msg);         if (ierr /= 0) return
     call check_identify(cfg, ierr, msg);       if (ierr /= 0) return
@@ -627,6 +631,15 @@ contains
     integer :: code
     call check_choice('scene', 'wave_nodes', cfg%scene%wave_nodes, choices('wave_nodes'), code, ierr, msg)
   end subroutine check_wave_nodes
+
+  !> The unit system of the input's values: 'mm g s' or 'SI'.
+  subroutine check_units(cfg, ierr, msg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    integer :: code
+    call check_choice('scene', 'units', cfg%scene%units, choices('units'), code, ierr, msg)
+  end subroutine check_units
 
   subroutine check_time(cfg, ierr, msg)
     type(nuno_config), intent(in) :: cfg

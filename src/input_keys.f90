@@ -44,7 +44,7 @@ module input_keys
     character(96) :: meaning   !< one line
   end type key_info
 
-  integer, parameter :: n_keys = 64
+  integer, parameter :: n_keys = 65
   type(key_info), parameter :: keys(n_keys) = [ &
     ! &lattice
     key_info('nx', 'lattice', KEY_INTEGER, 1, '', '11; hang 21', '>= 3', 'nodes along x'), &
@@ -96,6 +96,8 @@ module input_keys
              'the scene''s constraints end at this time'), &
     key_info('initial_omega', 'scene', KEY_REAL, 3, 'rad/time', '(0, 0, 0)', 'finite', &
              'initial rigid angular velocity about the centroid'), &
+    key_info('units', 'scene', KEY_STRING, 1, '', "'mm g s'; hang 'SI'", 'mm g s, SI', &
+             'the unit system of the values given, recorded in the output (labels)'), &
     ! &time
     key_info('t_end', 'time', KEY_REAL, 1, 'time', '5; wave_point 3; hang 2; flat 1', '> 0', 'final time'), &
     key_info('dt', 'time', KEY_REAL, 1, 'time', '1e-3', '> 0', 'time step (the first one of adaptive steps)'), &

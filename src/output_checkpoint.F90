@@ -110,6 +110,7 @@ contains
       if (ierr == 0) call set_attr_reals(grp, 'newton_floor', [ck%newton_floor], where, ierr, errmsg)
       if (ierr == 0 .and. ck%contact /= 0) then
         call set_attr_reals(grp, 'contact_friction_work', [ck%friction_work], where, ierr, errmsg)
+        if (ierr == 0) call set_attr_reals(grp, 'contact_obstacle_work', [ck%obstacle_work], where, ierr, errmsg)
         if (ierr == 0) call set_attr_reals(grp, 'contact_min_gap_run', [ck%min_gap_run], where, ierr, errmsg)
         if (ierr == 0) call set_attr_int(grp, 'contact_states_checked', ck%states_checked, where, ierr, errmsg)
         if (ierr == 0) call set_attr_int(grp, 'contact_limited_steps', ck%limited_steps, where, ierr, errmsg)
@@ -496,6 +497,15 @@ contains
       call get_attr_reals(grp, 'contact_min_gap_run', where, r, ierr, errmsg); ck%min_gap_run = r(1)
       call get_attr_int(grp, 'contact_states_checked', where, ck%states_checked, ierr, errmsg)
       call get_attr_int(grp, 'contact_limited_steps', where, ck%limited_steps, ierr, errmsg)
+    end if
+    ! the moving obstacles' work: not in files written before it (static obstacles: 0)
+    ck%obstacle_work = 0
+    if (ierr == 0 .and. ck%contact /= 0) then
+      call h5aexists_f(grp, 'contact_obstacle_work', exists, h)
+      if (h < 0) call fail('h5aexists_f', where//' contact_obstacle_work', ierr, errmsg)
+      if (ierr == 0 .and. exists) then
+        call get_attr_reals(grp, 'contact_obstacle_work', where, r, ierr, errmsg); ck%obstacle_work = r(1)
+      end if
     end if
     call close_group(grp, where, ierr, errmsg)
     if (ierr /= 0) return

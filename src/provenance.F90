@@ -1,12 +1,12 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> Provenance of a run in its output file: the run information, the
-!> configuration as used, and the scene's units.
+!> configuration as used, and the input's unit system (&scene units).
 module provenance
 #include "petsc/finclude/petscts.h"
   use petscts
   use petscdmda
   use mpi
-  use config, only: nuno_config, SCENE_HANG, unset_real
+  use config, only: nuno_config, unset_real
   use output, only: output_file, run_info, output_write_run_info, output_config_key
   use app_context, only: app_ctx
   use failure_text, only: report_io_error
@@ -40,7 +40,7 @@ contains
     info%rtol = ctx%step%rtol
     info%atol_position = ctx%step%atol_x
     info%atol_velocity = ctx%step%atol_v
-    info%units = scene_units(ctx%cfg%scene%scene_code)
+    info%units = ctx%cfg%scene%units
     info%contact = ctx%cfg%contact%n_obstacles > 0
     ! Rank 0's host and clock, broadcast: attributes must be equal on all ranks.
     if (ctx%rank == 0) then
@@ -106,6 +106,7 @@ contains
     call output_config_key(out, 'scene', 'wave_nodes', trim(cfg%scene%wave_nodes), e, errmsg)
     call output_config_key(out, 'scene', 'release_time', [cfg%scene%release_time], e, errmsg)
     call output_config_key(out, 'scene', 'initial_omega', cfg%scene%initial_omega, e, errmsg)
+    call output_config_key(out, 'scene', 'units', trim(cfg%scene%units), e, errmsg)
     call output_config_key(out, 'time', 't_end', [cfg%time%t_end], e, errmsg)
     call output_config_key(out, 'time', 'dt', [cfg%time%dt], e, errmsg)
     call output_config_key(out, 'output', 'output_interval', [cfg%output%output_interval], e, errmsg)
@@ -176,18 +177,5 @@ contains
       t = t//trim(shapes(k))
     end do
   end function contact_shapes
-
-  !> The unit system of a scene's defaults (input/README.md, Scenes): the
-  !> report scenes and flat use mm, g, s; hang uses SI. The program itself
-  !> is unit-agnostic: these are the units the scene's constants are in.
-  function scene_units(scene_code) result(units)
-    integer, intent(in) :: scene_code
-    character(len=8) :: units
-    if (scene_code == SCENE_HANG) then
-      units = 'SI'
-    else
-      units = 'mm g s'
-    end if
-  end function scene_units
 
 end module provenance

@@ -68,7 +68,7 @@ contains
     ctx%restart%counts_before = [0.0_rp, ck%counters(2:5)]
     call energy_integrals_restore(ctx%energy, ck%dissipated, ck%work_constraints, ck%mgx0)
     if (ck%contact /= 0 .and. contact_on(ctx%contact)) &
-      call contact_restore(ctx%contact, ck%friction_work, ck%min_gap_run, ck%states_checked, ck%limited_steps)
+      call contact_restore(ctx%contact, ck%friction_work, ck%obstacle_work, ck%min_gap_run, ck%states_checked, ck%limited_steps)
     call progress_restore(ctx%progress, t_written=ck%t_written, stretch_warned=ck%stretch_warned /= 0)
     ! The first Newton iteration's inner tolerance takes the round-off floor
     ! of the last step's assembly (set_newton_forcing): without it the
@@ -169,6 +169,7 @@ contains
     if (contact_on(ctx%contact)) then
       ck%contact = 1
       ck%friction_work = ctx%contact%friction_work
+      ck%obstacle_work = ctx%contact%obstacle_work
       ck%min_gap_run = ctx%contact%min_gap_run
       ck%states_checked = ctx%contact%states_checked
       ck%limited_steps = ctx%contact%limited_steps

@@ -431,11 +431,13 @@ contains
     rec%length = d%length
     rec%flatness = d%flatness
     if (contact_on(ctx%contact)) then
-      ! The barrier energy is a potential energy of the balance and the
-      ! friction work a dissipation (docs/model.md section 10): the state's
-      ! record of the contact monitor (module contact_solver).
+      ! The barrier energy is a potential energy of the balance, the
+      ! friction work a dissipation and the moving obstacles' work an
+      ! external work (docs/model.md section 10): the state's record of the
+      ! contact monitor (module contact_solver).
       rec%barrier = ctx%contact%energy
       rec%dissipated = rec%dissipated + ctx%contact%friction_work
+      rec%external_work = rec%external_work + ctx%contact%obstacle_work
       rec%contact_active = ctx%contact%active
       rec%contact_force = ctx%contact%force
       rec%normal_force = ctx%contact%normal_force

@@ -1,6 +1,7 @@
 # SPDX-License-Identifier: BSD-2-Clause
 """Contact with a static plane (&contact): the normal force of a sheet at
-rest is its weight, a drop reaches the plane at t = sqrt(2 h/g), no accepted
+rest is its weight, a drop reaches the plane at backward Euler's step of
+the free fall (within one step of t = sqrt(2 h/g)), no accepted
 state penetrates, 1 and 3 ranks and the reduced and 6-dof paths agree, bad
 &contact keys are refused on 2 ranks. Small lattices, seconds each."""
 import math
@@ -44,17 +45,50 @@ def test_sheet_at_rest_carries_its_weight(tmp_path):
     assert last[6] > 0.0                                       # no accepted state reached the plane
 
 
+def beuler_drop(g, dt, n):
+    """Backward Euler's free fall from rest, in closed form: v_k = v_{k-1}
+    - g dt and z_k = z_{k-1} + dt v_k give the drop after n steps
+    g dt^2 n (n + 1) / 2 = g t (t + dt) / 2 (t = n dt)."""
+    return g * dt * dt * n * (n + 1) / 2.0
+
+
 def test_drop_reaches_the_plane_at_the_free_fall_time(tmp_path):
-    h, dhat, dt = 0.05, 1e-3, 1e-3
-    proc, _ = run(tmp_path, "drop", **groups(h, 0.12, dt))
+    """A flat sheet at rest falls freely (no strain, no barrier force while
+    every gap is >= dhat) onto a plane h below it, its nodes a distance
+    `contact_thickness` from the plane's surface at contact: the gap is
+    h - thickness - drop. Before the barrier acts, every step's smallest
+    gap is backward Euler's closed-form fall (beuler_drop) to the solver's
+    tolerance; the first step with a gap below dhat is the first step of
+    that fall past h - thickness - dhat, and within one step of the exact
+    time the free fall gets there, t* = sqrt(2 (h - thickness - dhat) / g).
+    The drop is long (t* = 0.2992 s, 299 steps) so that a gravity off by
+    1 % moves the first step by more than one step either way (checked
+    below on the closed form): it would fail here."""
+    h, thickness, dhat, dt = 0.45, 0.01, 1e-3, 1e-3
+    g = groups(h, 0.31, dt)
+    g["contact"] += f" contact_thickness={thickness}"
+    proc, _ = run(tmp_path, "drop", **g)
     rows = lines(proc.stdout)
-    first = min(r[0] for r in rows if r[1] > 0)               # first state with a gap below dhat
-    expected = math.sqrt(2.0 * (h - dhat) / G)
-    assert abs(first - expected) <= 3 * dt, (first, expected)
+    steps = [round(r[0] / dt) for r in rows]
+    assert steps == list(range(len(rows)))                      # a line at every step
+    first = min(n for n, r in zip(steps, rows) if r[1] > 0)    # first state with a gap below dhat
+
+    def first_step(gravity):
+        return next(n for n in range(10 ** 6) if h - thickness - beuler_drop(gravity, dt, n) < dhat)
+
+    assert first == first_step(G), (first, first_step(G))
+    t_star = math.sqrt(2.0 * (h - thickness - dhat) / G)
+    assert abs(first * dt - t_star) <= dt, (first * dt, t_star)
+    for n, r in zip(steps, rows):
+        if n < first:
+            assert abs(r[5] - (h - thickness - beuler_drop(G, dt, n))) <= 1e-6 * h, (n, r[5])
+    # a gravity off by 1 % would have landed more than one step from t*
+    for wrong in (0.99 * G, 1.01 * G):
+        assert abs(first_step(wrong) * dt - t_star) > dt, wrong
     assert all(r[5] > 0.0 for r in rows)                       # every output state outside the plane
     assert rows[-1][6] > 0.0                                   # and every accepted state (monitor's minimum)
-    steps = int(re.search(r"complete at t = .*?: (\d+) steps", proc.stdout + proc.stderr).group(1))
-    assert rows[-1][7] == steps + 1                            # ... all of them checked, and the start
+    nsteps = int(re.search(r"complete at t = .*?: (\d+) steps", proc.stdout + proc.stderr).group(1))
+    assert rows[-1][7] == nsteps + 1                           # ... all of them checked, and the start
 
 
 def test_fixed_step_returns_to_dt_after_a_retry_with_obstacles(tmp_path):
