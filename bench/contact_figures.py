@@ -60,10 +60,9 @@ def main(argv=None):
                 print(f"contact_figures.py: {scene} failed", file=sys.stderr)
                 return 1
         times, extra = SCENES[scene]
-        # --units m: these scenes are in SI, but the file's units attribute
-        # follows the scene key ('flat', 'wave_point': 'mm g s')
+        # the labels' unit: the file's (the scenes say &scene units = 'SI')
         args = [str(h5), "-o", str(outdir / f"contact-{scene}.png"), "--gif", str(outdir / f"contact-{scene}.gif"),
-                "--units", "m", "--dpi", "100", *extra]
+                "--dpi", "100", *extra]
         if times:
             args += ["--times", *map(str, times)]
         if contact_plot.main(args) != 0:
