@@ -9,7 +9,8 @@
 !> the barrier is undefined: with obstacles they are off, and an explicit
 !> -nuno_newton_start cubic is refused); (2) each Newton update is limited
 !> by the continuous collision test against the analytic shapes (a line
-!> search pre-check): where a node would reach its obstacle within the
+!> search pre-check; in the Baraff-Witkin mode, which has no line search,
+!> the post-solve of the SNES's KSP): where a node would reach its obstacle within the
 !> full update, the update is scaled by 0.8 alpha (IPC), alpha the first
 !> time of impact over all nodes and obstacles (at their poses at the
 !> step's end, t_n + dt); where an obstacle moves over the step, the
