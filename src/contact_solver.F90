@@ -48,6 +48,12 @@ module contact_solver
       integer(c_intptr_t) :: ksp                 !< KSP*
       type(c_ptr), value :: ctx
     end function nuno_ksp_set_contact_post_solve
+    !> src/nuno_contact_ksp.c: TSSetFunctionDomainError with its check
+    !> that rejects a NaN state.
+    integer(c_int) function nuno_ts_set_contact_domain(ts) bind(C, name='nuno_ts_set_contact_domain')
+      import :: c_int, c_intptr_t
+      integer(c_intptr_t) :: ts                  !< TS*
+    end function nuno_ts_set_contact_domain
   end interface
 
 contains
@@ -85,7 +91,7 @@ contains
   !> the same limit runs as the post-solve of the SNES's KSP, on the update
   !> that SNES KSPONLY then takes in full (x - y), and a state made NaN by
   !> a failed limit (a moving obstacle crossed) is rejected by the TS's
-  !> domain check (contact_domain), so the step is retried smaller.
+  !> domain check (src/nuno_contact_ksp.c), so the step is retried smaller.
   !> Collective.
   subroutine contact_setup(ctx, ierr)
     type(app_ctx), intent(inout), target :: ctx
@@ -115,7 +121,8 @@ contains
       ierr = nuno_ksp_set_contact_post_solve(ksp%v, c_loc(ctx))
       if (ierr /= 0) return
       if (ctx%contact%moving) then
-        PetscCall(TSSetFunctionDomainError(ctx%ts, contact_domain, ierr))
+        ierr = nuno_ts_set_contact_domain(ctx%ts%v)
+        if (ierr /= 0) return
       end if
     end if
   end subroutine contact_setup
@@ -138,22 +145,6 @@ contains
     PetscCall(SNESGetSolution(snes, x, ierr))
     PetscCall(limit_update(ctx, x, y, changed, ierr))
   end subroutine contact_limit_update_c
-
-  !> The TS's check of a stage in the Baraff-Witkin mode with moving
-  !> obstacles: a state made NaN by limit_update (no halving kept a node
-  !> from crossing a moving obstacle) is rejected, and the step retried
-  !> smaller, as Newton's failed residual does in the other modes.
-  !> Collective (VecNorm).
-  subroutine contact_domain(ts, t, yvec, accept, ierr)
-    type(tTS) :: ts
-    PetscReal :: t
-    type(tVec) :: yvec
-    PetscBool :: accept
-    PetscErrorCode :: ierr
-    PetscReal :: ynorm
-    PetscCall(VecNorm(yvec, NORM_INFINITY, ynorm, ierr))
-    accept = merge(PETSC_TRUE, PETSC_FALSE, ynorm == ynorm)
-  end subroutine contact_domain
 
   !> The line search's pre-check: PETSc steps x - lambda y; y is limited
   !> as limit_update says.

@@ -6,7 +6,7 @@
  * SNES's KSP sees the update Y before SNES KSPONLY steps X - Y; the
  * trampoline calls the Fortran callback with the context Fortran
  * registered (its app_ctx). */
-#include <petscksp.h>
+#include <petscts.h>
 
 /* module contact_solver's callback: the update y by reference, the
  * app_ctx, *ierr out */
@@ -28,5 +28,30 @@ PetscErrorCode nuno_ksp_set_contact_post_solve(KSP *ksp, void *ctx)
 {
   PetscFunctionBeginUser;
   PetscCall(KSPSetPostSolve(*ksp, post_solve_trampoline, ctx));
+  PetscFunctionReturn(0);
+}
+
+/* The TS's check of a stage in that mode with moving obstacles: a state
+ * made NaN by the limit (no halving kept a node from crossing a moving
+ * obstacle) is rejected, and the step retried smaller, as a failed Newton
+ * solve is in the other modes. Collective (VecNorm). */
+static PetscErrorCode contact_domain(TS ts, PetscReal t, Vec y, PetscBool *accept)
+{
+  PetscReal ynorm;
+  PetscFunctionBeginUser;
+  (void)ts;
+  (void)t;
+  PetscCall(VecNorm(y, NORM_INFINITY, &ynorm));
+  *accept = (ynorm == ynorm) ? PETSC_TRUE : PETSC_FALSE;
+  PetscFunctionReturn(0);
+}
+
+/* TSSetFunctionDomainError(*ts, contact_domain): PETSc 3.18's Fortran
+ * binding of it crashed here (SEGV at the first step). Logically
+ * collective. */
+PetscErrorCode nuno_ts_set_contact_domain(TS *ts)
+{
+  PetscFunctionBeginUser;
+  PetscCall(TSSetFunctionDomainError(*ts, contact_domain));
   PetscFunctionReturn(0);
 }
