@@ -54,6 +54,12 @@ def run_input(tmp_path, scene, name, nranks, options, t_end, dt, timeout=300, **
 def test_reduced_and_full_newton_give_the_same_trajectory(tmp_path, scene, nranks):
     # paper bending amplifies round-off (docs/model.md section 3): short times
     t_end, dt = (0.2, 0.01) if scene != "hang" else (0.1, 0.005)
+    # table_edge in steps of 2 ms: at 10 ms its impact on the box's edge
+    # fails Newton solves (6 retried steps), each path retries its own
+    # steps, and the two trajectories part (2e-3) for that reason alone;
+    # at 2 ms no step is retried
+    if scene == "table_edge":
+        dt = 0.002
     _, red = run_input(tmp_path, scene, f"{scene}_red", nranks, REDUCED, t_end, dt)
     _, full = run_input(tmp_path, scene, f"{scene}_full", nranks, FULL, t_end, dt)
     assert red.complete and full.complete
