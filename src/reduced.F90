@@ -27,7 +27,7 @@ module reduced
   use solver_choices, only: MG_NAMES, MG_STENCIL, CYCLE_NAMES, CYCLE_KASKADE, PRODUCT_NAMES, PRODUCT_DOUBLE, PRODUCT_FUSED
   use strings, only: itoa
   use reduced_mg, only: mg_glue_t, mg_glue_matrix, mg_glue_pc, mg_glue_free, mg_glue_assemble, mg_glue_built, &
-                        mg_glue_describe, mg_coarse_levels, mg_glue_track_diagonal, mg_diagonal_levels, levels_that_fit, default_preconditioner, mg_interpolations, &
+                        mg_glue_describe, mg_coarse_levels, levels_that_fit, default_preconditioner, mg_interpolations, &
                         true_residual_defaults, &
                         INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
   implicit none
@@ -189,7 +189,6 @@ contains
     PetscCall(PetscLogEventRegister('nunoAssembleS', classid, red%ev_assemble, ierr))
     PetscCall(PetscLogEventRegister('nunoMGGalerkin', classid, ev_galerkin, ierr))
     PetscCall(PetscLogEventRegister('nunoMGCycle', classid, ev_cycle, ierr))
-    PetscCall(PetscLogEventRegister('nunoMGDiagonal', classid, red%mgg%ev_diagonal, ierr))
     red%el%constant = constant
     red%el%damping = damping
     red%el%clamp = clamp
@@ -527,11 +526,6 @@ contains
     ! Preconditioner reuse: rebuild every pc_lag assemblies (and after a
     ! failed inner solve, see reduced_pc_apply).
     red%pcc%since_pc = red%pcc%since_pc + 1
-    ! Contact's node blocks (the lattice's list exists on every rank from
-    ! the first Jacobian with obstacles on): the coarse levels follow the
-    ! finest level's row sums between rebuilds (mg_glue_track_diagonal).
-    ! Never without obstacles.
-    if (red%pcc%use_mg .and. allocated(red%lat%nodal%row_start)) call mg_glue_track_diagonal(red%mgg)
     if (red%pcc%since_pc >= red%pcc%pc_lag) then
       red%pcc%since_pc = 0
       PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_FALSE, ierr))
@@ -545,8 +539,6 @@ contains
       PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_TRUE, ierr))
       if (red%pcc%use_mg .and. .not. mg_glue_built(red%mgg)) then
         PetscCall(mg_coarse_levels(red%mgg, ierr))
-      else if (red%pcc%use_mg) then
-        PetscCall(mg_diagonal_levels(red%mgg, ierr))
       end if
     end if
   end subroutine reduced_assemble

@@ -22,11 +22,11 @@ module reduced_mg
   use interpolation, only: cubic_weights
   use mg_kernels, only: stencil_t
   use stencil_mg, only: stencil_mg_t, mg_create, mg_destroy, mg_build_coarse, mg_apply, mg_describe, mg_product, &
-                        mg_fine_level, mg_track_diagonal, mg_tracks_diagonal, mg_update_diagonal
+                        mg_fine_level
   implicit none
   private
   public :: mg_glue_t, mg_glue_matrix, mg_glue_pc, mg_glue_free, mg_glue_assemble, mg_glue_built, mg_glue_describe
-  public :: mg_coarse_levels, mg_glue_track_diagonal, mg_diagonal_levels, levels_that_fit, default_preconditioner, mg_interpolations, true_residual_defaults
+  public :: mg_coarse_levels, levels_that_fit, default_preconditioner, mg_interpolations, true_residual_defaults
   public :: INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
 
 
@@ -39,7 +39,6 @@ module reduced_mg
     logical :: built = .false.             !< its coarse levels exist
     PetscLogEvent :: ev_galerkin = 0       !< the multigrid's coarse levels and coarsest factorisation
     PetscLogEvent :: ev_cycle = 0          !< one multigrid cycle
-    PetscLogEvent :: ev_diagonal = 0       !< the coarse levels' row sums from the finest level's (contact)
     real(rp), allocatable :: st(:, :, :, :, :) !< (0:nx-1, 3, 3, offset_count(w), 0:nrow-1) S by stencil offset, nodes fastest (module offset_product): rows ys..ye, or with the mixed product a ring of 2w - 1 rows (module reduced_assembly)
     ! The product with S from the multigrid's finest level (single-precision
     ! blocks in difference form, double-precision vectors; -nuno_mg_product)
@@ -288,36 +287,6 @@ contains
       SETERRQ(comm, ierr, 'nuno: the coarsest multigrid matrix is singular')
     end if
   end subroutine mg_coarse_levels
-
-  !> With contact's node blocks: every later rebuild keeps the levels' row
-  !> sums, and mg_diagonal_levels carries the finest level's changes to
-  !> the coarse levels between rebuilds (stencil_mg's mg_track_diagonal
-  !> says why). Collective: the same on every rank.
-  subroutine mg_glue_track_diagonal(gl)
-    type(mg_glue_t), intent(inout) :: gl
-    call mg_track_diagonal(gl%mg)
-  end subroutine mg_glue_track_diagonal
-
-  !> After an assembly that keeps the coarse levels: their row sums and
-  !> inverted diagonal blocks from the finest level's row sums, the
-  !> coarsest level refactored (nothing unless mg_glue_track_diagonal and
-  !> a rebuild since). Collective.
-  subroutine mg_diagonal_levels(gl, ierr)
-    type(mg_glue_t), intent(inout) :: gl
-    PetscErrorCode, intent(out) :: ierr
-    integer :: info
-    MPI_Comm :: comm
-    ierr = 0
-    if (.not. mg_tracks_diagonal(gl%mg)) return
-    PetscCall(PetscLogEventBegin(gl%ev_diagonal, ierr))
-    call mg_update_diagonal(gl%mg, info)
-    PetscCall(PetscLogEventEnd(gl%ev_diagonal, ierr))
-    if (info /= 0) then
-      PetscCall(PetscObjectGetComm(gl%da3, comm, ierr))
-      ierr = PETSC_ERR_MAT_LU_ZRPVT
-      SETERRQ(comm, ierr, 'nuno: the coarsest multigrid matrix is singular')
-    end if
-  end subroutine mg_diagonal_levels
 
   !> MATSHELL mult of S: y = S x, one halo exchange of x (none on a rank
   !> that owns every row), then by default

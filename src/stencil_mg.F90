@@ -27,13 +27,13 @@ module stencil_mg
   use kinds, only: rp
   use solver_choices, only: CYCLE_V, CYCLE_KASKADE
   use mg_kernels, only: mp, stencil_t, transfer_t, stencil_init, stencil_put_row, stencil_finish, stencil_from_full, transfer_init, offset_index, &
-                        stencil_block, diagonal_block, stencil_shift_inverses, &
+                        stencil_block, diagonal_block, &
                         coarse_reach, gs_sweep, residual, interpolate, restrict_add, galerkin_add, level_product_rows, &
                         stencil_product_mixed
   implicit none
   private
   public :: stencil_mg_t, mg_create, mg_destroy, mg_set_fine_row, mg_set_fine, mg_fine_level, mg_build_coarse, mg_apply, mg_describe, &
-            mg_product, mg_track_diagonal, mg_tracks_diagonal, mg_update_diagonal
+            mg_product
   type :: mg_level_t
     type(stencil_t) :: a                         !< the operator (rows ys..ye)
     integer :: h = 0                             !< padding rows and columns of the vectors
@@ -56,12 +56,6 @@ module stencil_mg
     !> (0:nx-1, 3, 3, -r:r, -r:r, h) the neighbour rank's Galerkin sums of
     !> this rank's rows, received (finish_sums_ac; a level split over ranks)
     real(rp), allocatable :: acbuf(:, :, :, :, :, :)
-    !> (0:nx-1, 3, 3, ys:ye) the row sums D as of the last mg_build_coarse
-    !> (only with mg_track_diagonal: contact's node blocks)
-    real(mp), allocatable :: d0(:, :, :, :)
-    !> (0:nx-1, 9, ys:ye) the diagonal blocks D - sum B as of the last
-    !> mg_build_coarse, double precision (coarse levels, mg_track_diagonal)
-    real(rp), allocatable :: g0(:, :, :)
   end type mg_level_t
 
   !> The hierarchy: lev(1) is the lattice itself.
@@ -76,7 +70,6 @@ module stencil_mg
     real(rp), allocatable :: ab(:, :)            !< (3 kl + 1, n)
     real(rp), allocatable :: xc(:)               !< (n)
     integer, allocatable :: ipiv(:)              !< (n)
-    real(rp), allocatable :: ab0(:, :)           !< ab before its factorisation at the last mg_build_coarse (mg_track_diagonal)
     !> the Galerkin sums of one coarse level at a time (the largest's size):
     !> they are needed only while that level is built from them
     real(rp), pointer, contiguous :: acw(:) => null()
@@ -86,9 +79,6 @@ module stencil_mg
     real(rp), allocatable :: pxs(:, :, :)        !< (-r:nx-1+r, 3, 0:2r)
     real(rp), allocatable :: pacc(:, :)          !< (0:nx-1, 4)
     real(mp), allocatable :: pds(:, :)           !< (0:nx-1, 3)
-    !> the coarse levels follow the finest level's row sums between
-    !> rebuilds (mg_update_diagonal; set by mg_track_diagonal)
-    logical :: track_d = .false.
   end type stencil_mg_t
 
 contains
@@ -235,7 +225,6 @@ contains
     type(stencil_mg_t), intent(inout) :: mg
     if (allocated(mg%lev)) deallocate(mg%lev)
     if (allocated(mg%ab)) deallocate(mg%ab, mg%xc, mg%ipiv)
-    if (allocated(mg%ab0)) deallocate(mg%ab0)
     if (associated(mg%acw)) deallocate(mg%acw)
     if (allocated(mg%pxs)) deallocate(mg%pxs, mg%pacc, mg%pds)
     mg%nlev = 0
@@ -276,7 +265,7 @@ contains
   subroutine mg_build_coarse(mg, ierr)
     type(stencil_mg_t), intent(inout) :: mg
     integer, intent(out) :: ierr
-    integer :: l
+    integer :: l, j, i, di, dj, c1, c2, row, col, n
     ierr = 0
     do l = 2, mg%nlev
       associate (f => mg%lev(l - 1), c => mg%lev(l))
@@ -285,29 +274,11 @@ contains
         call galerkin_add(f%a, f%tx, f%ty, c%a%r, c%a%ys - c%h, c%ac, c%bx, f%rw)
         call finish_sums_ac(mg, c)
         call stencil_finish(c%a, c%ac(:, :, :, :, :, c%a%ys:c%a%ye))
-        if (mg%track_d) then
-          if (.not. allocated(c%g0)) allocate(c%g0(0:c%a%nx - 1, 9, c%a%ys:c%a%ye))
-          c%g0 = reshape(c%ac(:, :, :, 0, 0, c%a%ys:c%a%ye), shape(c%g0))
-        end if
         nullify(c%ac)
       end associate
     end do
-    if (mg%track_d) then
-      do l = 1, mg%nlev
-        if (.not. allocated(mg%lev(l)%d0)) allocate(mg%lev(l)%d0, mold=mg%lev(l)%a%d)
-        mg%lev(l)%d0 = mg%lev(l)%a%d
-      end do
-    end if
-    call factor_coarsest(mg, ierr)
-  end subroutine mg_build_coarse
-
-  !> Banded LU of the coarsest level (full blocks from its stored
-  !> operator: its Galerkin sums, or the finest level's rows on one level).
-  !> ierr /= 0: singular (LAPACK's info).
-  subroutine factor_coarsest(mg, ierr)
-    type(stencil_mg_t), intent(inout) :: mg
-    integer, intent(out) :: ierr
-    integer :: j, i, di, dj, c1, c2, row, col, n
+    ! Banded LU of the coarsest level (full blocks from its Galerkin sums,
+    ! or the finest level's rows on one level).
     associate (c => mg%lev(mg%nlev))
       mg%ab = 0.0_rp
       n = mg%n
@@ -328,10 +299,6 @@ contains
           end do
         end do
       end do
-      if (mg%track_d) then
-        if (.not. allocated(mg%ab0)) allocate(mg%ab0, mold=mg%ab)
-        mg%ab0 = mg%ab
-      end if
       call dgbtrf(n, n, mg%kl, mg%kl, mg%ab, 3 * mg%kl + 1, mg%ipiv, ierr)
     end associate
   contains
@@ -354,92 +321,7 @@ contains
         end if
       end if
     end function block_entry
-  end subroutine factor_coarsest
-
-  !> Contact's node blocks (-K_c/a - C_c on the node's diagonal, S's row
-  !> sums D) change at every assembly, by orders of magnitude as a gap
-  !> closes (kappa g''(d) ~ 1/g^2), while the coarse levels are rebuilt
-  !> only every -nuno_pc_lag assemblies (20 with bending): with them
-  !> stale, the coarse correction misses the stiff nodes (the bw drops of
-  !> bench/contact.py took 20-25 % more cycles than with the levels rebuilt
-  !> every step; the free sheet's none). mg_track_diagonal has every
-  !> later mg_build_coarse keep each level's D (d0), and
-  !> mg_update_diagonal then carries the change of the finest level's D
-  !> since that build down the levels: the change of the coarse D is
-  !> P^T (change of the fine D), the restriction with the Galerkin
-  !> product's own transfers, exactly the row sums of the Galerkin product
-  !> of the change (P takes constants exactly), put on the coarse diagonal
-  !> blocks (lumped: the off-diagonal part of P^T dD P waits for the next
-  !> rebuild); the diagonal blocks are inverted again and the coarsest
-  !> level refactored. Lumping is safe with bilinear transfers (weights
-  !> >= 0: a positive semidefinite change stays so); the cubic transfers'
-  !> negative weights (-1/16) give a coarse node beside a sharp edge of
-  !> very stiff contact a negative share of it (V-cycles on the model of
-  !> tests/mpi/test_stencil_mg.F90 with node blocks 1e4 times the mass on
-  !> a disc diverged there); an inner solve that fails so is retried with
-  !> the levels rebuilt (module reduced). Restricting the change bilinear
-  !> on the cubic levels instead made a solve of drop_table (newton,
-  !> 65 x 65) fail that way, and cost 1.8x the inner iterations.
-  !> The update: a restriction of 9 components, the inverses of the coarse
-  !> levels and the coarsest LU, about half a cycle at 65 x 65 (less on
-  !> larger lattices: the coarsest level stays small), against about 7
-  !> cycles for a rebuild (bw drop_table 65 x 65).
-  !> Collective; idempotent.
-  subroutine mg_track_diagonal(mg)
-    type(stencil_mg_t), intent(inout) :: mg
-    mg%track_d = .true.
-  end subroutine mg_track_diagonal
-
-  logical function mg_tracks_diagonal(mg)
-    type(stencil_mg_t), intent(in) :: mg
-    mg_tracks_diagonal = mg%track_d .and. allocated(mg%lev(1)%d0)
-  end function mg_tracks_diagonal
-
-  !> The coarse levels' row sums D from the finest level's (see
-  !> mg_track_diagonal), after an assembly that kept the coarse levels.
-  !> Nothing before the first mg_build_coarse that kept d0. ierr /= 0:
-  !> the coarsest matrix is singular (LAPACK's info). Collective.
-  subroutine mg_update_diagonal(mg, ierr)
-    type(stencil_mg_t), intent(inout) :: mg
-    integer, intent(out) :: ierr
-    integer :: l, c1, c2, i, j, row, col
-    ierr = 0
-    if (.not. mg_tracks_diagonal(mg)) return
-    do l = 2, mg%nlev
-      associate (f => mg%lev(l - 1), c => mg%lev(l))
-        ! column c2 of every block at a time, as a vector of 3 components
-        ! (the residual's and right-hand side's work arrays: free between
-        ! applications)
-        do c2 = 1, 3
-          f%res = f%a%d(:, :, c2, :) - f%d0(:, :, c2, :)
-          c%w = 0.0_mp
-          call restrict_add(f%tx, f%ty, f%a%ys, f%a%ye, f%res, c%h, c%a%ys, c%w, c%t)
-          call finish_sums_w(mg, c)
-          c%a%d(:, :, c2, :) = c%d0(:, :, c2, :) + c%rhs
-        end do
-        call stencil_shift_inverses(c%a, c%g0, c%d0)
-      end associate
-    end do
-    ! the coarsest level's band as built plus the change of its diagonal
-    ! blocks, refactored (its blocks assembled again from the level took
-    ! twice as long as the rest of the update at 65 x 65)
-    associate (c => mg%lev(mg%nlev))
-      mg%ab = mg%ab0
-      do j = 0, c%a%ny - 1
-        do i = 0, c%a%nx - 1
-          do c2 = 1, 3
-            col = 3 * (i + c%a%nx * j) + c2
-            do c1 = 1, 3
-              row = 3 * (i + c%a%nx * j) + c1
-              mg%ab(2 * mg%kl + 1 + row - col, col) = mg%ab(2 * mg%kl + 1 + row - col, col) &
-                + (real(c%a%d(i, c1, c2, j), rp) - real(c%d0(i, c1, c2, j), rp))
-            end do
-          end do
-        end do
-      end do
-      call dgbtrf(mg%n, mg%n, mg%kl, mg%kl, mg%ab, 3 * mg%kl + 1, mg%ipiv, ierr)
-    end associate
-  end subroutine mg_update_diagonal
+  end subroutine mg_build_coarse
 
   !> The Galerkin sums of level c as every rank's partial sums added where
   !> they belong: over all ranks for a replicated level, else the rows

@@ -15,14 +15,14 @@ module mg_kernels
   use kinds, only: rp
   use offset_product, only: coupled_by_elements
   use mg_stencil, only: mp, stencil_t, stencil_init, stencil_put_row, stencil_finish, stencil_from_full, &
-                        stencil_row_from_full, offset_index, stencil_block, diagonal_block, block_inverse, stencil_shift_inverses
+                        stencil_row_from_full, offset_index, stencil_block, diagonal_block, block_inverse
   use mg_transfer, only: transfer_t, transfer_init, coarse_reach, interpolate, restrict_add, galerkin_add
   implicit none
   private
   public :: mp, stencil_t, transfer_t, stencil_init, stencil_put_row, stencil_finish, stencil_from_full, stencil_row_from_full, transfer_init, &
             coarse_reach, &
             coupled_by_elements, offset_index, stencil_block, diagonal_block
-  public :: gs_sweep, residual, stencil_apply, interpolate, restrict_add, galerkin_add, block_inverse, stencil_shift_inverses
+  public :: gs_sweep, residual, stencil_apply, interpolate, restrict_add, galerkin_add, block_inverse
   public :: stencil_product_mixed, level_product_rows
 
 contains

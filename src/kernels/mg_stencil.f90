@@ -30,7 +30,7 @@ module mg_stencil
   implicit none
   private
   public :: mp, stencil_t, stencil_init, stencil_put_row, stencil_finish, stencil_from_full, stencil_row_from_full, &
-            offset_index, stencil_block, diagonal_block, block_inverse, stencil_shift_inverses
+            offset_index, stencil_block, diagonal_block, block_inverse
 
   !> Kind of the multigrid's matrices and vectors (single precision: half
   !> the bytes of every pass; the smoother and the coarse correction only
@@ -232,26 +232,6 @@ contains
       call row_inverses(st%nx, ac(:, :, :, 0, 0, j), st%ainv(:, :, :, j))
     end do
   end subroutine stencil_finish
-
-  !> The inverted diagonal blocks again after the row sums D alone
-  !> changed from d0 (stencil_mg's mg_update_diagonal): the diagonal block
-  !> D - sum_o B_o is g0 (the one of d0, double precision) plus D - d0,
-  !> row by row in vector loops (row_inverses).
-  subroutine stencil_shift_inverses(st, g0, d0)
-    type(stencil_t), intent(inout) :: st
-    real(rp), intent(in) :: g0(0:, :, st%ys:)    !< (0:nx-1, 9, ys:ye)
-    real(mp), intent(in) :: d0(0:, :, :, st%ys:) !< (0:nx-1, 3, 3, ys:ye), as st%d
-    real(rp) :: dg(0:st%nx - 1, 9)
-    integer :: j, c1, c2
-    do j = st%ys, st%ye
-      do c2 = 1, 3
-        do c1 = 1, 3
-          dg(:, c1 + 3 * (c2 - 1)) = g0(:, c1 + 3 * (c2 - 1), j) + (real(st%d(:, c1, c2, j), rp) - real(d0(:, c1, c2, j), rp))
-        end do
-      end do
-      call row_inverses(st%nx, dg, st%ainv(:, :, :, j))
-    end do
-  end subroutine stencil_shift_inverses
 
   !> stencil_finish's blocks of one offset within the row, a(i, :) (nodes
   !> fastest, double precision), into slot kk of br (node by node).
