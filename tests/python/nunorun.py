@@ -110,3 +110,45 @@ def series(h5):
 def jacobian_ratios(text):
     """All ||J - Jfd||_F/||J||_F values printed by -snes_test_jacobian."""
     return [float(m) for m in re.findall(r"\|\|J - Jfd\|\|_F/\|\|J\|\|_F = ([0-9.eE+-]+)", text)]
+
+
+# The line contact's check prints at each output time (module contact_solver,
+# contact_observe): t, active pairs, total force (3), smallest gap now and over
+# the run, states checked.
+CONTACT_LINE = re.compile(r"contact: t = (\S+), active = (\d+), force = (\S+) (\S+) (\S+), min gap = (\S+), "
+                          r"min gap of all accepted states = (\S+), states checked = (\d+)")
+
+
+def contact_lines(stdout):
+    """The contact lines of a run's stdout, each a tuple of floats in CONTACT_LINE's order."""
+    return [tuple(float(v) for v in m.groups()) for m in CONTACT_LINE.finditer(stdout)]
+
+
+def contact_sheet(contact, t_end, out_dt, n=7, dt=1e-3, gravity=(0.0, 0.0, -9.81), masses="area",
+                  omega=None, units=None):
+    """The groups of `run` for drop_table's cloth (input/drop_table.nml: 1 m x
+    1 m, 0.1 kg, E = 100 N/m, energy bending) on an n x n lattice, flat at
+    z = 0 and at rest (or spinning about z at omega [1/s]), with the &contact
+    group `contact` (its keys as text). gravity [m/s^2]; masses: the
+    mass_distribution; units: &scene units, or None for the scene's."""
+    scene = "scene='flat' gravity=" + ",".join(repr(float(g)) for g in gravity)
+    if omega is not None:
+        scene += f" initial_omega=0.0,0.0,{omega}"
+    if units is not None:
+        scene += f" units='{units}'"
+    return dict(
+        scene=scene,
+        lattice=f"nx={n} ny={n} lx=1.0 ly=1.0 total_mass=0.1 mass_distribution='{masses}'",
+        material="e_s=100.0 eta_s=0.1 e_d=100.0 eta_d=0.1 bending_model='energy' k_b=0.1 eta_b=1e-4",
+        contact=contact,
+        time=f"t_end={t_end} dt={dt}",
+        output=f"output_interval={out_dt}",
+    )
+
+
+def plane_below(h, mu=0.0, dhat=1e-3, kappa=1.0, eps_v=None):
+    """&contact text: one plane z = -h (normal +z) with friction mu, the
+    barrier's reach dhat and stiffness kappa, friction_eps_v if given."""
+    text = (f"n_obstacles=1 obstacle_shape(1)='plane' obstacle_point(:,1)=0.0,0.0,{-h!r} "
+            f"obstacle_normal(:,1)=0.0,0.0,1.0 obstacle_mu(1)={mu} contact_dhat={dhat} contact_stiffness={kappa}")
+    return text + (f" friction_eps_v={eps_v}" if eps_v is not None else "")

@@ -11,28 +11,14 @@ import subprocess
 import h5py
 import numpy as np
 
-from nunorun import exe, mpiexec, run, run_and_read
+from nunorun import contact_lines as lines, contact_sheet, exe, mpiexec, plane_below, run, run_and_read
 
 G = 9.81
 MASS = 0.1
-LINE = re.compile(r"contact: t = (\S+), active = (\d+), force = (\S+) (\S+) (\S+), min gap = (\S+), "
-                  r"min gap of all accepted states = (\S+), states checked = (\d+)")
 
 
 def groups(h, t_end, out_dt, mu=0.0, n=7):
-    return dict(
-        scene="scene='flat' gravity=0.0,0.0,-9.81",
-        lattice=f"nx={n} ny={n} lx=1.0 ly=1.0 total_mass={MASS} mass_distribution='area'",
-        material="e_s=100.0 eta_s=0.1 e_d=100.0 eta_d=0.1 bending_model='energy' k_b=0.1 eta_b=1e-4",
-        contact=(f"n_obstacles=1 obstacle_shape(1)='plane' obstacle_point(:,1)=0.0,0.0,{-h} "
-                 f"obstacle_normal(:,1)=0.0,0.0,1.0 obstacle_mu(1)={mu} contact_dhat=1e-3 contact_stiffness=1.0"),
-        time=f"t_end={t_end} dt=1e-3",
-        output=f"output_interval={out_dt}",
-    )
-
-
-def lines(stdout):
-    return [tuple(float(v) for v in m.groups()) for m in LINE.finditer(stdout)]
+    return contact_sheet(plane_below(h, mu), t_end, out_dt, n=n)
 
 
 def test_sheet_at_rest_carries_its_weight(tmp_path):

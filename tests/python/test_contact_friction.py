@@ -25,14 +25,13 @@ load from the first step on, and the sheet has no internal force.
 Small lattices, 1 s of simulated time, seconds each."""
 import math
 import os
-import re
 import subprocess
 
 import h5py
 import numpy as np
 import pytest
 
-from nunorun import exe, mpiexec, namelist, run
+from nunorun import contact_lines, contact_sheet, exe, mpiexec, namelist, plane_below, run
 
 G = 9.81
 MASS = 0.1           # total mass, uniform over the nodes
@@ -42,9 +41,6 @@ EPS_V = 1e-3         # friction_eps_v [length/time]
 TAN = 0.5            # tan theta of the incline
 THETA = math.atan(TAN)
 T_END, DT, OUT = 1.0, 2e-3, 0.02
-LINE = re.compile(r"contact: t = (\S+), active = (\d+), force = (\S+) (\S+) (\S+), min gap = (\S+), "
-                  r"min gap of all accepted states = ([^,\s]+)")
-
 
 def barrier_force(s):
     """-kappa b'(s), b(s) = -(s - dhat)^2 log(s / dhat) (docs/model.md section 10)."""
@@ -68,16 +64,8 @@ def incline(mu, n, lift=0.0):
     node_load = MASS / (n * n) * G * math.cos(THETA)
     s_eq = equilibrium_gap(node_load)
     gx, gz = G * math.sin(THETA), -G * math.cos(THETA)
-    return dict(
-        scene=f"scene='flat' gravity={gx!r},0.0,{gz!r}",
-        lattice=f"nx={n} ny={n} lx=1.0 ly=1.0 total_mass={MASS} mass_distribution='uniform'",
-        material="e_s=100.0 eta_s=0.1 e_d=100.0 eta_d=0.1 bending_model='energy' k_b=0.1 eta_b=1e-4",
-        contact=(f"n_obstacles=1 obstacle_shape(1)='plane' obstacle_point(:,1)=0.0,0.0,{-(s_eq + lift)!r} "
-                 f"obstacle_normal(:,1)=0.0,0.0,1.0 obstacle_mu(1)={mu} contact_dhat={DHAT} "
-                 f"contact_stiffness={KAPPA} friction_eps_v={EPS_V}"),
-        time=f"t_end={T_END} dt={DT}",
-        output=f"output_interval={OUT}",
-    )
+    return contact_sheet(plane_below(s_eq + lift, mu, dhat=DHAT, kappa=KAPPA, eps_v=EPS_V), T_END, OUT, n=n, dt=DT,
+                         gravity=(gx, 0.0, gz), masses="uniform")
 
 
 def centre_of_mass(h5):
@@ -85,10 +73,6 @@ def centre_of_mass(h5):
     with h5py.File(h5, "r") as f:
         n = int(f.attrs["n_output_steps"])
         return np.array(f["time"][:n]), np.array(f["position"][:n, :, :, 0]).mean(axis=(1, 2))
-
-
-def contact_lines(stdout):
-    return [tuple(float(v) for v in m.groups()) for m in LINE.finditer(stdout)]
 
 
 @pytest.mark.parametrize("nranks", [1, 2])

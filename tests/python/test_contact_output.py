@@ -14,7 +14,7 @@ import h5py
 import numpy as np
 import pytest
 
-from nunorun import ROOT, run, run_and_read
+from nunorun import ROOT, contact_sheet, plane_below, run, run_and_read
 
 G = 9.81
 MASS = 0.1
@@ -25,16 +25,9 @@ CONTACT = ["active", "force", "normal_force", "friction_work", "barrier_energy",
 def groups(h, t_end, out_dt, mu=0.0, n=7, dt=1e-3, dhat=1e-3, omega=0.0, kappa=1.0):
     """drop_table's cloth (input/drop_table.nml) on an n x n lattice, flat at
     z = 0 and at rest (or spinning about z at omega), over the plane z = -h."""
-    return dict(
-        scene=f"scene='flat' gravity=0.0,0.0,-9.81 initial_omega=0.0,0.0,{omega} units='SI'",
-        lattice=f"nx={n} ny={n} lx=1.0 ly=1.0 total_mass={MASS} mass_distribution='area'",
-        material="e_s=100.0 eta_s=0.1 e_d=100.0 eta_d=0.1 bending_model='energy' k_b=0.1 eta_b=1e-4",
-        contact=(f"n_obstacles=1 obstacle_shape(1)='plane' obstacle_point(:,1)=0.0,0.0,{-h} "
-                 f"obstacle_normal(:,1)=0.0,0.0,1.0 obstacle_mu(1)={mu} contact_dhat={dhat} "
-                 f"contact_stiffness={kappa}"),
-        time=f"t_end={t_end} dt={dt}",
-        output=f"output_interval={out_dt} write_velocity=.true.",
-    )
+    g = contact_sheet(plane_below(h, mu, dhat=dhat, kappa=kappa), t_end, out_dt, n=n, dt=dt, omega=omega, units="SI")
+    g["output"] += " write_velocity=.true."
+    return g
 
 
 def test_contact_series_of_a_sheet_settling_on_a_plane(tmp_path):

@@ -7,33 +7,19 @@ state; a plane rising on keyframes lifts the sheet on it by the keyframes'
 travel, and two gripper fingers (capsules closing on keyframes) pinch a
 hanging cloth and carry it by theirs; bad keys of the new shapes and of
 the motion are refused on 2 ranks. Small lattices, seconds each."""
-import re
 import subprocess
 
 import numpy as np
 
-from nunorun import exe, mpiexec, run
+from nunorun import contact_lines as lines, contact_sheet, exe, mpiexec, run
 from postprocess.reader import read_run
 
 G = 9.81
 MASS = 0.1
-LINE = re.compile(r"contact: t = (\S+), active = (\d+), force = (\S+) (\S+) (\S+), min gap = (\S+), "
-                  r"min gap of all accepted states = (\S+), states checked = (\d+)")
 
 
 def groups(contact, t_end, out_dt, n=11):
-    return dict(
-        scene="scene='flat' gravity=0.0,0.0,-9.81",
-        lattice=f"nx={n} ny={n} lx=1.0 ly=1.0 total_mass={MASS} mass_distribution='area'",
-        material="e_s=100.0 eta_s=0.1 e_d=100.0 eta_d=0.1 bending_model='energy' k_b=0.1 eta_b=1e-4",
-        contact=contact + " contact_dhat=1e-3 contact_stiffness=1.0",
-        time=f"t_end={t_end} dt=1e-3",
-        output=f"output_interval={out_dt}",
-    )
-
-
-def lines(stdout):
-    return [tuple(float(v) for v in m.groups()) for m in LINE.finditer(stdout)]
+    return contact_sheet(contact + " contact_dhat=1e-3 contact_stiffness=1.0", t_end, out_dt, n=n)
 
 
 def positions(h5):
