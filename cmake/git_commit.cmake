@@ -4,8 +4,8 @@
 # 'unknown' outside a git checkout. Run at every build (target
 # nuno_git_commit), so that a build after a new commit or an edit records
 # what was built, not what was configured; OUT is rewritten only when the
-# commit changed, so only the files that include it (src/output.F90,
-# src/build_info.F90) are recompiled, and only then.
+# commit changed, so only the files that include it (src/output/output.F90,
+# src/app/build_info.F90) are recompiled, and only then.
 #   cmake -DSRC=<source dir> -DOUT=<file> -P cmake/git_commit.cmake
 execute_process(COMMAND git describe --always --dirty
                 WORKING_DIRECTORY "${SRC}"

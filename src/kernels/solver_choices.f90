@@ -2,7 +2,7 @@
 !> The choices of nuno's enumerated solver options, defined once: each
 !> option's integer codes and, in the same order, its names (a name's
 !> position from 0 is its code). The options blocks in C
-!> (src/nuno_options.c), which put the options in -help and check a
+!> (src/solver/nuno_options.c), which put the options in -help and check a
 !> value, get the names from here as arguments and hand back a position;
 !> the modules compare the codes. No list is spelled out anywhere else. No PETSc: unit-tested alone
 !> (tests/unit/test_solver_choices.f90).

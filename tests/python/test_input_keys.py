@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: BSD-2-Clause
 """input/README.md's key tables against the key table of the program
-(src/input_keys.f90, printed by `nuno --list-keys`): every key documented
+(src/input/input_keys.f90, printed by `nuno --list-keys`): every key documented
 once, in its group's section, with the same type, unit and default, and no
 documented key that the program does not have. The program's table is in
 turn held against the namelist reader by tests/mpi/test_input_keys.F90.
@@ -107,7 +107,7 @@ def test_help_lists_every_key_in_its_group():
 
 
 def test_config_in_the_output_holds_the_table_keys(tmp_path):
-    """The output's /config (written key by key in src/timestepping.F90,
+    """The output's /config (written key by key in src/run/timestepping.F90,
     write_config) records every key of the table's always-present groups,
     and no other: a key added to the table and not to the writer fails."""
     _, h5 = run(tmp_path, "cfg", options=["-ts_max_steps", "1"],

@@ -138,7 +138,7 @@ def _mem_available():
 def test_lattice_beyond_memory_is_refused_before_allocation(tmp_path):
     avail = _mem_available()
     nodes = 15000 * 15000                      # 6 nodes < 2^31: the index check passes
-    if avail is None or nodes * 3500 < 2 * avail:      # src/input_limits.f90
+    if avail is None or nodes * 3500 < 2 * avail:      # src/input/input_limits.f90
         pytest.skip("this host has memory for the test lattice")
     (tmp_path / "in.nml").write_bytes(b"&lattice nx = 15000 ny = 15000 /\n")
     t0 = time.monotonic()

@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: BSD-2-Clause
 """The start-up memory check must never refuse a run that fits: its bytes a
-node (src/input_limits.f90, quoted by --help) must stay below what a real
+node (src/input/input_limits.f90, quoted by --help) must stay below what a real
 run takes. Measured here: the peak resident set of one-rank runs of the
 leanest path (-snes_type ksponly), hang scene, 129 x 129 and 17 x 17 (the
 per-process cost), a few steps; the difference over the extra nodes is the
@@ -53,7 +53,7 @@ def test_memory_estimate_is_below_a_real_runs_peak(tmp_path, bending):
     base = peak_rss_bytes(tmp_path, small, bending)
     peak = peak_rss_bytes(tmp_path, large, bending)
     per_node = (peak - base) / (large * large - small * small)
-    # Measured 3.9 KB with bending, 2.4 KB without (src/input_limits.f90).
+    # Measured 3.9 KB with bending, 2.4 KB without (src/input/input_limits.f90).
     assert 1000 < per_node < 20000, per_node
     assert estimate <= per_node, (
         f"the memory check takes {estimate:.0f} B a node, but a real run ({bending} bending, "

@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: BSD-2-Clause
 """A context's fields are written only by its own module (docs/design.md,
-"Records and their owners"): the records of app_ctx (src/app_context.F90)
+"Records and their owners"): the records of app_ctx (src/solver/app_context.F90)
 are assigned, allocated or taken as a writable dummy argument only in the
 module that owns each; every other module reads them or calls the owner's
 routines. A pure scan of src/ (no build, no run): it lists every offending
@@ -242,7 +242,7 @@ def test_owners_and_types_exist():
     renamed module or record would otherwise make the scan pass vacuously)."""
     modules = {module_of(p.read_text()) for p in source_files()}
     assert set(OWNERS.values()) <= modules
-    ctx = (SRC / "app_context.F90").read_text().lower()
+    ctx = (SRC / "solver" / "app_context.F90").read_text().lower()
     body = ctx[ctx.index("type :: app_ctx"):ctx.index("end type app_ctx")]
     for path in OWNERS:
         assert re.search(r"::\s*" + path[0] + r"\b", body), path

@@ -2,7 +2,7 @@
 !> Unit test of the option choice lists (module solver_choices): each code
 !> names the choice the options and docs call it by (input/README.md,
 !> -help), so that a list reordered without its codes fails here; the names
-!> of a list are distinct and fit the C options blocks (src/nuno_options.c:
+!> of a list are distinct and fit the C options blocks (src/solver/nuno_options.c:
 !> at most 8 names of at most 31 characters).
 program test_solver_choices
   use solver_choices

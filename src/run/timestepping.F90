@@ -141,7 +141,7 @@ contains
       PetscCall(TSGetConvergedReason(ctx%ts, reason, ierr))
       PetscCall(TSGetTime(ctx%ts, t, ierr))
       ! -nuno_checkpoint_walltime, due after the step just taken (agreed by
-      ! the post-step, src/nuno_signals.c): the restart point of the last
+      ! the post-step, src/solver/nuno_signals.c): the restart point of the last
       ! output step (keep_restart_point; before the first one, this step's
       ! state with its energy integrals), h the step the TS takes next.
       ! Where the post-step ended TSSolve for it (due = 2), the window goes

@@ -1,6 +1,6 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> nuno's solver options on the Fortran side: the interfaces of the PETSc
-!> options blocks in C (src/nuno_options.c, src/nuno_petsc_habits.c: PETSc
+!> options blocks in C (src/solver/nuno_options.c, src/solver/nuno_petsc_habits.c: PETSc
 !> 3.18 has no Fortran PetscOptionsBegin/End, so an option shows in -help
 !> only from C), and the policy around them: the defaults nuno puts in the
 !> options database for the time step's Newton solve, the integrator of
@@ -24,7 +24,7 @@ module solver_options
   character(len=*), parameter :: ADAPTIVE_TS_TYPE = TSROSW
 
   interface
-    !> src/nuno_options.c: the Newton step's options in a PETSc options
+    !> src/solver/nuno_options.c: the Newton step's options in a PETSc options
     !> block; the choices as codes of the lists passed (module solver_choices).
     integer(c_int) function nuno_options_read(fcomm, jac_names, jac_n, jac_len, jacobian, pc_lag, &
                                               interp_names, interp_n, interp_len, mg_interp, snes_floor, gauss_newton, clamp, &
@@ -39,25 +39,25 @@ module solver_options
       character(kind=c_char), intent(inout) :: mattype(*)
       integer(c_int), value :: mattype_len
     end function nuno_options_read
-    !> src/nuno_petsc_habits.c: -pc_type (NUL-terminated) and -ksp_type in an options block.
+    !> src/solver/nuno_petsc_habits.c: -pc_type (NUL-terminated) and -ksp_type in an options block.
     integer(c_int) function nuno_petsc_habits_options(fcomm, pctype, len, pcset) bind(C, name='nuno_petsc_habits_options')
       import :: c_int, c_char
       integer(c_int), value :: fcomm, len
       character(kind=c_char), intent(out) :: pctype(*)
       integer(c_int), intent(out) :: pcset
     end function nuno_petsc_habits_options
-    !> src/nuno_petsc_habits.c: whether mt (NUL-terminated) is a PETSc matrix type.
+    !> src/solver/nuno_petsc_habits.c: whether mt (NUL-terminated) is a PETSc matrix type.
     integer(c_int) function nuno_mat_type_exists(mt, exists) bind(C, name='nuno_mat_type_exists')
       import :: c_int, c_char
       character(kind=c_char), intent(in) :: mt(*)
       integer(c_int), intent(out) :: exists
     end function nuno_mat_type_exists
-    !> src/nuno_petsc_habits.c: -ksp_*, -pc_*, ... moved to -reduced_*.
+    !> src/solver/nuno_petsc_habits.c: -ksp_*, -pc_*, ... moved to -reduced_*.
     integer(c_int) function nuno_petsc_habits_move(fcomm) bind(C, name='nuno_petsc_habits_move')
       import :: c_int
       integer(c_int), value :: fcomm
     end function nuno_petsc_habits_move
-    !> src/nuno_options.c: -nuno_linesearch_fallback, a code of the list names.
+    !> src/solver/nuno_options.c: -nuno_linesearch_fallback, a code of the list names.
     integer(c_int) function nuno_linesearch_options_read(fcomm, names, n, len, fallback, given) &
         bind(C, name='nuno_linesearch_options_read')
       import :: c_int, c_char
@@ -66,7 +66,7 @@ module solver_options
       integer(c_int), intent(inout) :: fallback
       integer(c_int), intent(out) :: given
     end function nuno_linesearch_options_read
-    !> src/nuno_options.c: -nuno_atol_position, -nuno_atol_velocity (after TSSetFromOptions).
+    !> src/solver/nuno_options.c: -nuno_atol_position, -nuno_atol_velocity (after TSSetFromOptions).
     integer(c_int) function nuno_tolerance_options_read(fcomm, atol_x, atol_v, given_x, given_v) &
         bind(C, name='nuno_tolerance_options_read')
       import :: c_int, c_double
@@ -74,14 +74,14 @@ module solver_options
       real(c_double), intent(inout) :: atol_x, atol_v
       integer(c_int), intent(out) :: given_x, given_v
     end function nuno_tolerance_options_read
-    !> src/nuno_options.c: -nuno_adaptive_ts_type (type in/out, NUL-terminated).
+    !> src/solver/nuno_options.c: -nuno_adaptive_ts_type (type in/out, NUL-terminated).
     integer(c_int) function nuno_adaptive_ts_type_option(fcomm, type, len) bind(C, name='nuno_adaptive_ts_type_option')
       import :: c_int, c_char
       integer(c_int), value :: fcomm
       character(kind=c_char), intent(inout) :: type(*)
       integer(c_int), value :: len
     end function nuno_adaptive_ts_type_option
-    !> src/nuno_options.c: warn about options that nothing read.
+    !> src/solver/nuno_options.c: warn about options that nothing read.
     integer(c_int) function nuno_options_report_unused(fcomm, nunused) bind(C, name='nuno_options_report_unused')
       import :: c_int
       integer(c_int), value :: fcomm

@@ -53,7 +53,7 @@ module identify
   end type ident_t
 
   interface
-    !> src/nuno_adjoint.c: -identify_check_gradient, -control_check_gradient (in -help).
+    !> src/identify/nuno_adjoint.c: -identify_check_gradient, -control_check_gradient (in -help).
     integer(c_int) function nuno_adjoint_options_read(fcomm, check_identify, check_control) &
         bind(C, name='nuno_adjoint_options_read')
       import :: c_int

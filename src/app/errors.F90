@@ -24,7 +24,7 @@ module errors
   public :: petsc_options_text, quiet_exit, read_input_options, quiet_petsc_errors
 
   interface
-    !> src/nuno_errors.c: PETSc errors kept as text instead of printed.
+    !> src/app/nuno_errors.c: PETSc errors kept as text instead of printed.
     function nuno_quiet_petsc_errors() bind(C, name='nuno_quiet_petsc_errors') result(code)
       import :: c_int
       integer(c_int) :: code
@@ -40,7 +40,7 @@ module errors
       import :: c_int
       integer(c_int), value :: ms
     end subroutine nuno_pause_ms
-    !> src/nuno_input_options.c: the -nuno_allow_long option block.
+    !> src/app/nuno_input_options.c: the -nuno_allow_long option block.
     function nuno_input_options_read(fcomm, allow_long, ts_dt, ts_dt_set, restart, restart_len, walltime, bad, bad_len) &
         bind(C, name='nuno_input_options_read') result(code)
       import :: c_int, c_double, c_char

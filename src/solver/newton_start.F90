@@ -16,7 +16,7 @@
 !> one iteration a step instead of two (measured with commit 9f1bf04).
 !>
 !> PETSc 3.18's Fortran interface has no SNESSetComputeInitialGuess (a C
-!> function pointer) nor SNESSetInitialFunction: src/nuno_newton_start.c
+!> function pointer) nor SNESSetInitialFunction: src/solver/nuno_newton_start.c
 !> registers a C trampoline that calls newton_start_guess with this
 !> module's record as the context.
 module newton_start
@@ -50,19 +50,19 @@ module newton_start
   end type newton_start_t
 
   interface
-    !> src/nuno_newton_start.c: SNESSetComputeInitialGuess with the C
+    !> src/solver/nuno_newton_start.c: SNESSetComputeInitialGuess with the C
     !> trampoline that calls newton_start_guess(snes, x, ctx).
     integer(c_int) function nuno_snes_set_initial_guess(snes, ctx) bind(C, name='nuno_snes_set_initial_guess')
       import :: c_int, c_intptr_t, c_ptr
       integer(c_intptr_t) :: snes                !< SNES*
       type(c_ptr), value :: ctx
     end function nuno_snes_set_initial_guess
-    !> src/nuno_newton_start.c: SNESSetInitialFunction.
+    !> src/solver/nuno_newton_start.c: SNESSetInitialFunction.
     integer(c_int) function nuno_snes_set_initial_function(snes, f) bind(C, name='nuno_snes_set_initial_function')
       import :: c_int, c_intptr_t
       integer(c_intptr_t) :: snes, f             !< SNES*, Vec*
     end function nuno_snes_set_initial_function
-    !> src/nuno_options.c: -nuno_newton_start in an options block (in -help);
+    !> src/solver/nuno_options.c: -nuno_newton_start in an options block (in -help);
     !> choice in/out: a code, the position in names.
     integer(c_int) function nuno_newton_start_option(fcomm, names, nnames, namelen, choice) &
         bind(C, name='nuno_newton_start_option')

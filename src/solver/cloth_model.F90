@@ -25,7 +25,7 @@ module cloth_model
   use reduced, only: reduced_assemble, set_block_row
   use app_context, only: app_ctx, model_state_t, assembly_t
   use newton_policy, only: newton_set_floor
-  use failure_text, only: ieee_nan
+  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use contact_forces, only: contact_on, contact_add_forces, contact_blocks, contact_move
   implicit none
   private
@@ -98,10 +98,10 @@ contains
       ctx%model%nbad = nbad
       ctx%model%bad = bad
       ctx%model%t_bad = t
-      fv(0, 0, ctx%lat%ys) = ieee_nan()
+      fv(0, 0, ctx%lat%ys) = ieee_value(1.0_rp, ieee_quiet_nan)
     end if
     ! a state inside an obstacle (module contact_solver): the step fails and is retried smaller
-    if (ncross > 0) fv(0, 0, ctx%lat%ys) = ieee_nan()
+    if (ncross > 0) fv(0, 0, ctx%lat%ys) = ieee_value(1.0_rp, ieee_quiet_nan)
   end subroutine residual
 
   !> dF/dU + a dF/dUdot (v-rows: -K/m and a I - C/m), assembled row by row from the rolling buffer of

@@ -36,7 +36,8 @@ module output
   use mpi
   use kinds, only: rp
   use config, only: nuno_config
-  use checkpoint_check, only: checkpoint_t, checkpoint_refusal, scene_refusal
+  use checkpoint_record, only: checkpoint_t
+  use checkpoint_check, only: checkpoint_refusal, scene_refusal
   use safe_files, only: lock_acquire, lock_release, same_file, file_exists, rename_file, free_bytes, &
                         path_kind, kind_none, kind_file, kind_link, kind_dir, kind_unknown, remove_file, &
                         is_nuno_output, is_nuno_sidecar, sidecar_path, tmp_open, tmp_write, tmp_commit, cleanup_add, &
@@ -95,7 +96,7 @@ module output
     logical :: contact = .false.                 !< the scene has obstacles: /energy/barrier and /contact
   end type run_info
 
-  ! checkpoint_t (what a checkpoint holds) is module checkpoint_check's.
+  ! checkpoint_t (what a checkpoint holds) is module checkpoint_record's.
   public :: checkpoint_t
 
   ! Time-dependent datasets, in the order they are extended and written.

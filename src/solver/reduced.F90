@@ -100,7 +100,7 @@ module reduced
   end type reduced_t
 
   interface
-    !> src/nuno_options.c: the options of nuno's multigrid (-nuno_mg ...);
+    !> src/solver/nuno_options.c: the options of nuno's multigrid (-nuno_mg ...);
     !> the choices as codes of the lists passed (module solver_choices).
     integer(c_int) function nuno_mg_options_read(fcomm, impl_names, impl_n, impl_len, impl, &
                                                  cycle_names, cycle_n, cycle_len, cycle, sweeps, levels, &

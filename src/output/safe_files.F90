@@ -1,5 +1,5 @@
 ! SPDX-License-Identifier: BSD-2-Clause
-!> Thin Fortran wrappers of src/nuno_files.c (POSIX: flock, stat, rename,
+!> Thin Fortran wrappers of src/output/nuno_files.c (POSIX: flock, stat, rename,
 !> mkstemp, mkdtemp, with strerror causes) for the safe output files of
 !> module output, and the rules for the names nuno writes (input/README.md,
 !> "Output files"): no control character, not too long for MPI-IO, never an

@@ -1,6 +1,6 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> The solver's context, passed to every PETSc callback as the user
-!> context, and the C functions of the time loop (src/nuno_signals.c).
+!> context, and the C functions of the time loop (src/solver/nuno_signals.c).
 !> The context's records are defined here and written only by the module
 !> that owns each (named at its type; its routines set, restore and free
 !> the record): every other module reads them or calls those routines
@@ -18,7 +18,7 @@ module app_context
   use contact_forces, only: contact_state_t
   use forces, only: jac_buffer_t
   use constraints, only: constraint_set_t
-  use output, only: checkpoint_t
+  use checkpoint_record, only: checkpoint_t
   use inner_guess, only: GUESS_AUTO
   use newton_start, only: newton_start_t
   use reduced, only: reduced_t
@@ -29,7 +29,7 @@ module app_context
   public :: nuno_walltime_arm, nuno_checkpoint_due, nuno_signal_agreed, nuno_signals_install, nuno_ts_stop
 
   interface
-    !> src/nuno_signals.c: SIGTERM/SIGINT end the run after the current step.
+    !> src/solver/nuno_signals.c: SIGTERM/SIGINT end the run after the current step.
     integer(c_int) function nuno_signals_install(ts) bind(C, name='nuno_signals_install')
       import :: c_int, c_intptr_t
       integer(c_intptr_t) :: ts             !< the TS handle (tTS%v), passed as TS*
@@ -37,7 +37,7 @@ module app_context
     integer(c_int) function nuno_signal_agreed() bind(C, name='nuno_signal_agreed')
       import :: c_int
     end function nuno_signal_agreed
-    !> src/nuno_signals.c: -nuno_checkpoint_walltime, agreed after each step.
+    !> src/solver/nuno_signals.c: -nuno_checkpoint_walltime, agreed after each step.
     !> Due after a step: TSSolve ends there (nuno_checkpoint_due() = 2) and
     !> the run driver writes the checkpoint (advance_window).
     subroutine nuno_walltime_arm(seconds) bind(C, name='nuno_walltime_arm')

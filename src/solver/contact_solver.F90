@@ -34,21 +34,21 @@ module contact_solver
   use newton_start, only: newton_start_order
   use contact_forces, only: contact_init, contact_on, contact_lag, contact_step_limit, contact_stats, contact_record, &
                             contact_seen, contact_count_limited, contact_move, contact_moving, contact_swept
-  use failure_text, only: ieee_nan
+  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use strings, only: real_es, itoa
   implicit none
   private
   public :: contact_solver_options, contact_setup, contact_observe
 
   interface
-    !> src/nuno_contact_ksp.c: KSPSetPostSolve with the C trampoline that
+    !> src/solver/nuno_contact_ksp.c: KSPSetPostSolve with the C trampoline that
     !> calls contact_limit_update_c(y, ctx).
     integer(c_int) function nuno_ksp_set_contact_post_solve(ksp, ctx) bind(C, name='nuno_ksp_set_contact_post_solve')
       import :: c_int, c_intptr_t, c_ptr
       integer(c_intptr_t) :: ksp                 !< KSP*
       type(c_ptr), value :: ctx
     end function nuno_ksp_set_contact_post_solve
-    !> src/nuno_contact_ksp.c: TSSetFunctionDomainError with its check
+    !> src/solver/nuno_contact_ksp.c: TSSetFunctionDomainError with its check
     !> that rejects a NaN state.
     integer(c_int) function nuno_ts_set_contact_domain(ts) bind(C, name='nuno_ts_set_contact_domain')
       import :: c_int, c_intptr_t
@@ -91,7 +91,7 @@ contains
   !> the same limit runs as the post-solve of the SNES's KSP, on the update
   !> that SNES KSPONLY then takes in full (x - y), and a state made NaN by
   !> a failed limit (a moving obstacle crossed) is rejected by the TS's
-  !> domain check (src/nuno_contact_ksp.c), so the step is retried smaller.
+  !> domain check (src/solver/nuno_contact_ksp.c), so the step is retried smaller.
   !> Collective.
   subroutine contact_setup(ctx, ierr)
     type(app_ctx), intent(inout), target :: ctx
@@ -127,7 +127,7 @@ contains
     end if
   end subroutine contact_setup
 
-  !> The Baraff-Witkin mode's step limit (src/nuno_contact_ksp.c: the
+  !> The Baraff-Witkin mode's step limit (src/solver/nuno_contact_ksp.c: the
   !> post-solve of the SNES's KSP): the update y at the SNES's solution x,
   !> limited as limit_update says. Collective.
   subroutine contact_limit_update_c(y_h, cp, ierr) bind(C, name='nuno_contact_limit_update')
@@ -209,7 +209,7 @@ contains
     end if
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, xvec, x, ierr))
     if (gcross > 0) then
-      PetscCall(VecSet(yvec, ieee_nan(), ierr))
+      PetscCall(VecSet(yvec, ieee_value(1.0_rp, ieee_quiet_nan), ierr))
       changed = .true.
     else if (s < 1.0_rp) then
       PetscCall(VecScale(yvec, s, ierr))

@@ -62,7 +62,7 @@ program nuno
   character(len=1024) :: inputs(3)       ! the input files: namelist, observed, target
   character(len=1100) :: derived(3)      ! the side files of the name written
   interface
-    !> src/nuno_file_options.c: -nuno_overwrite (in -help).
+    !> src/app/nuno_file_options.c: -nuno_overwrite (in -help).
     integer(c_int) function nuno_file_options_read(fcomm, overwrite) bind(C, name='nuno_file_options_read')
       import :: c_int
       integer(c_int), value :: fcomm

@@ -11,7 +11,7 @@
 !> themselves, and every window's Jacobians see the constraint state of that
 !> window.
 !>
-!> dF/dtheta (TSSetIJacobianP, through src/nuno_adjoint.c). Identification:
+!> dF/dtheta (TSSetIJacobianP, through src/identify/nuno_adjoint.c). Identification:
 !> every force is linear in each of e_s, e_d, eta_s, eta_d, k_b, eta_b, so
 !> dF_v/d(ln p) = -f_p/m with f_p the force of the elements computed with
 !> only p non-zero (the kernels of module forces on a lattice copy); for
@@ -81,7 +81,7 @@ module identify_adjoint
   end type ident_core_t
 
   interface
-    !> src/nuno_adjoint.c: TSSetIJacobianP for Fortran callbacks.
+    !> src/identify/nuno_adjoint.c: TSSetIJacobianP for Fortran callbacks.
     subroutine nuno_ts_set_ijacobianp(ts, a, func, ctx, ierr)
       import :: tTS, tMat, ident_core_t
       type(tTS) :: ts
@@ -90,7 +90,7 @@ module identify_adjoint
       type(ident_core_t) :: ctx
       PetscErrorCode :: ierr
     end subroutine nuno_ts_set_ijacobianp
-    !> src/nuno_adjoint.c: a fresh trajectory (memory unless -ts_trajectory_type).
+    !> src/identify/nuno_adjoint.c: a fresh trajectory (memory unless -ts_trajectory_type).
     subroutine nuno_ts_trajectory_fresh(ts, horizon, dt, nwindows, dirname, ierr)
       import :: tTS
       type(tTS) :: ts

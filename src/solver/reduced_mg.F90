@@ -58,7 +58,7 @@ module reduced_mg
   end type mg_glue_t
 
   interface
-    !> src/nuno_vec_state.c: PetscObjectStateGet (no Fortran stub in 3.18).
+    !> src/solver/nuno_vec_state.c: PetscObjectStateGet (no Fortran stub in 3.18).
     integer(c_int) function nuno_object_state(obj, state) bind(C, name='nuno_object_state')
       import :: c_int, c_intptr_t, c_int64_t
       integer(c_intptr_t) :: obj            !< the handle (tVec%v, ...), passed as PetscObject*

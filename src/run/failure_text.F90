@@ -13,7 +13,7 @@ module failure_text
   use app_context, only: app_ctx
   implicit none
   private
-  public :: signal_name, failure_reason, report_io_error, ieee_nan
+  public :: signal_name, failure_reason, report_io_error
 
 contains
 
@@ -122,11 +122,5 @@ contains
     if (ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//trim(errmsg)
     ctx%io_error = errmsg
   end subroutine report_io_error
-
-  !> A quiet NaN.
-  real(rp) function ieee_nan()
-    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
-    ieee_nan = ieee_value(1.0_rp, ieee_quiet_nan)
-  end function ieee_nan
 
 end module failure_text
