@@ -11,6 +11,7 @@ module failure_text
   use, intrinsic :: iso_fortran_env, only: error_unit
   use kinds, only: rp
   use app_context, only: app_ctx
+  use reduced, only: reduced_inner_ksp
   implicit none
   private
   public :: signal_name, failure_reason, report_io_error
@@ -40,7 +41,7 @@ contains
     ! prefix) or the 6-dof Krylov solve (no prefix).
     if (ctx%use_reduced) then
       ! (-reduced_pc_type is always in the options: nuno sets its default.)
-      call KSPGetPC(ctx%red%ksp, pc, ierr)
+      call KSPGetPC(reduced_inner_ksp(ctx%red), pc, ierr)
       if (ierr == 0) call PCGetType(pc, pctype, ierr)
       if (ierr == 0 .and. pctype /= PCLU .and. pctype /= PCCHOLESKY) &
         h = trim(h)//' a stronger inner preconditioner (-reduced_pc_type lu on small lattices),'

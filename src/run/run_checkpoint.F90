@@ -13,7 +13,7 @@ module run_checkpoint
   use output, only: output_file, checkpoint_t, output_write_checkpoint, output_steps
   use app_context, only: app_ctx, restart_state_t
   use step_monitor, only: energy_integrals_restore, progress_restore
-  use reduced, only: reduced_restore_floor
+  use reduced, only: reduced_restore_floor, reduced_its, reduced_floor_est
   use contact_forces, only: contact_on, contact_restore
   use newton_start, only: newton_start_count, newton_start_get, newton_start_put
   use failure_text, only: report_io_error
@@ -40,7 +40,7 @@ contains
     PetscCall(TSGetSNESIterations(ctx%ts, nits, ierr))
     PetscCall(TSGetKSPIterations(ctx%ts, lits, ierr))
     PetscCall(TSGetSNESFailures(ctx%ts, fails, ierr))
-    if (ctx%use_reduced) lits = ctx%red%its        ! the outer KSP is preonly: count the inner iterations
+    if (ctx%use_reduced) lits = reduced_its(ctx%red)        ! the outer KSP is preonly: count the inner iterations
     c = [real(steps, rp), real(rejects, rp), real(nits, rp), real(lits, rp), real(fails, rp)] + ctx%restart%counts_before
     c(1) = real(steps, rp)                         ! the TS goes on counting from the checkpoint's step
   end subroutine run_counts
@@ -179,7 +179,7 @@ contains
     if (ierr /= 0) return
     ck%stretch_warned = merge(1, 0, ctx%progress%stretch_warned)
     ! the next step's first inner tolerance depends on it (set_newton_forcing)
-    if (ctx%use_reduced) ck%newton_floor = ctx%red%floor_est
+    if (ctx%use_reduced) ck%newton_floor = reduced_floor_est(ctx%red)
     PetscCall(TSGetType(ctx%ts, ck%ts_type, ierr))
     PetscCall(checkpoint_start_states(ctx, t, ck, ierr))
   end subroutine fill_checkpoint

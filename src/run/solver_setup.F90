@@ -15,7 +15,8 @@ module solver_setup
   use scenes, only: scene_setup
   use solver_choices, only: JACOBIAN_NAMES, JACOBIAN_REDUCED, INTERP_AUTO, INTERP_NAMES, GUESS_AUTO, GUESS_NONE, &
                             GUESS_EXTRAPOLATE, GUESS_PROJECT, GUESS_NAMES, FALLBACK_BT, FALLBACK_NAMES
-  use reduced, only: reduced_create, reduced_destroy, reduced_attach, reduced_set_guess, reduced_describe
+  use reduced, only: reduced_create, reduced_destroy, reduced_attach, reduced_set_guess, reduced_describe, &
+                     reduced_jacobian, reduced_forward_ew, reduced_inner_ksp
   use app_context, only: app_ctx, nuno_signals_install
   use solver_options, only: nuno_options_read, nuno_linesearch_options_read, nuno_tolerance_options_read, &
                             nuno_options_report_unused, adaptive_default, step_defaults, ts_scheme, petsc_habits
@@ -185,7 +186,7 @@ contains
                   (cfg%material%bending_code == BEND_NONE .or. (cfg%material%bending_code == BEND_ENERGY .and. &
                    (cfg%material%eta_b == 0.0_rp .or. ctx%model%gauss_newton)))
       constant = cfg%material%spring_code == SPRING_LINEAR .and. cfg%material%bending_code == BEND_NONE .and. cfg%contact%n_obstacles == 0
-      PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, symmetric, constant, damping, ctx%model%clamp, ctx%model%gauss_newton, pc_lag, ierr, mg_interpolation=mg_interp))
+      PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, symmetric, constant, damping, ctx%model%clamp, ctx%model%gauss_newton, pc_lag, mg_interp, ierr))
     else
       ! Jacobian with the DMDA's exact box-stencil preallocation.
       PetscCall(assembly_create(ctx%asm, ctx%da, ctx%lat, int(w), ierr))
@@ -199,7 +200,7 @@ contains
     PetscCall(TSSetType(ctx%ts, TSBEULER, ierr))
     PetscCall(TSSetIFunction(ctx%ts, PETSC_NULL_VEC, form_ifunction, ctx, ierr))
     if (ctx%use_reduced) then
-      PetscCall(TSSetIJacobian(ctx%ts, ctx%red%jac, ctx%red%jac, form_ijacobian, ctx, ierr))
+      PetscCall(TSSetIJacobian(ctx%ts, reduced_jacobian(ctx%red), reduced_jacobian(ctx%red), form_ijacobian, ctx, ierr))
     else
       PetscCall(TSSetIJacobian(ctx%ts, ctx%asm%p, ctx%asm%p, form_ijacobian, ctx, ierr))
     end if
@@ -328,7 +329,7 @@ contains
       PetscCall(reduced_describe(ctx%red, inner, ierr))
       PetscCall(TSGetSNES(ctx%ts, snes, ierr))
       PetscCall(SNESGetType(snes, sntype, ierr))
-      if (trim(sntype) == SNESNEWTONLS .and. ctx%newton%newton_forcing .and. ctx%red%forward_ew) &
+      if (trim(sntype) == SNESNEWTONLS .and. ctx%newton%newton_forcing .and. reduced_forward_ew(ctx%red)) &
         inner = trim(inner)//'; Newton: inner rtol from the step''s needs (-nuno_newton_forcing)'
     end if
     if (ctx%rank == 0) then
@@ -382,7 +383,7 @@ contains
     ! a direct inner solve (preonly) takes no initial guess
     direct = .false.
     if (ctx%use_reduced) then
-      PetscCall(KSPGetType(ctx%red%ksp, ktype, ierr))
+      PetscCall(KSPGetType(reduced_inner_ksp(ctx%red), ktype, ierr))
       direct = ktype == KSPPREONLY
     end if
     if (ctx%newton%guess_given /= 0 .and. ctx%newton%guess /= GUESS_NONE .and. ctx%newton%guess /= GUESS_AUTO) then

@@ -15,7 +15,7 @@ module newton_policy
   use newton_control, only: FLOOR_FACTOR, NEWTON_CONVERGED, NEWTON_DIVERGED, floor_verdict
   use app_context, only: app_ctx, newton_state_t
   use newton_start, only: newton_start_setup
-  use reduced, only: reduced_set_forcing
+  use reduced, only: reduced_set_forcing, reduced_floor_est, reduced_lin_rel, reduced_rtol0
   use solver_choices, only: FALLBACK_NAMES
   use strings, only: num => real_brief
   implicit none
@@ -104,7 +104,7 @@ contains
       if (lsreason /= LS_SUCCEEDED .and. lsreason /= LS_FAILED_REDUCT) then
         reason = SNES_DIVERGED_LINE_SEARCH        ! NaN, domain error: PETSc's own verdict
       else
-        floor_est = merge(ctx%red%floor_est, ctx%newton%floor_est, ctx%use_reduced)
+        floor_est = merge(reduced_floor_est(ctx%red), ctx%newton%floor_est, ctx%use_reduced)
         verdict = floor_verdict(fnorm, ctx%newton%fnorm_prev, ctx%newton%fnorm0, ctx%newton%snes_floor, floor_est, &
                                 lsreason == LS_FAILED_REDUCT)
         if (verdict == NEWTON_CONVERGED) then
@@ -168,10 +168,10 @@ contains
     real(rp) :: target
 
     PetscCall(SNESGetTolerances(snes, atol, rtol, stol, maxit, maxf, ierr))
-    if (it >= 1) ctx%newton%cquad = quadratic_constant(ctx%newton%fnorm_prev, fnorm, ctx%red%lin_rel)
+    if (it >= 1) ctx%newton%cquad = quadratic_constant(ctx%newton%fnorm_prev, fnorm, reduced_lin_rel(ctx%red))
     target = max(atol, rtol * ctx%newton%fnorm0)
-    if (ctx%newton%snes_floor > 0.0_rp) target = max(target, FLOOR_FACTOR * ctx%red%floor_est)
-    call reduced_set_forcing(ctx%red, forcing_term(fnorm, target, ctx%newton%cquad, ctx%red%rtol0, ETA_MAX))
+    if (ctx%newton%snes_floor > 0.0_rp) target = max(target, FLOOR_FACTOR * reduced_floor_est(ctx%red))
+    call reduced_set_forcing(ctx%red, forcing_term(fnorm, target, ctx%newton%cquad, reduced_rtol0(ctx%red), ETA_MAX))
   end subroutine set_newton_forcing
 
   !> The last Newton update in the weighted RMS norm of the time integrator:

@@ -7,34 +7,43 @@
 !> the inner KSP (options prefix -reduced_) and its preconditioner's reuse,
 !> the assembly, the constraints and the inner guesses (module
 !> reduced_guess). The elimination itself, the PCSHELL and the 6-dof
-!> MATSHELL product, is in submodule reduced_elim.
+!> MATSHELL product, is in submodule reduced_elim. Its record (reduced_t)
+!> and sub-records have private components: only this module and its
+!> submodule write them; others call its routines and read accessors.
 module reduced
 #include "petsc/finclude/petscsnes.h"
 #include "petsc/finclude/petscdmda.h"
   use petscsnes
   use petscdmda
   use mpi
-  use, intrinsic :: iso_c_binding, only: c_int, c_char
+  use, intrinsic :: iso_c_binding, only: c_ptr, c_f_pointer
   use kinds, only: rp
   use lattice, only: lattice_t
   use config, only: BEND_NONE
-  use reduced_assembly, only: kc_products
-  use reduced_storage, only: s_store_t, store_init, store_matrix, store_assemble, check_direct, set_block_row
+  use reduced_assembly, only: kc_products, assemble_stencil
+  use reduced_storage, only: s_store_t, store_init, store_matrix, store_assemble, check_direct, set_block_row, &
+                             store_use_buffer, store_direct
   use newton_control, only: floor_node_add, floor_estimate
   use inner_guess, only: GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, GUESS_PROJECT, PROJECT_PAIRS
   use reduced_guess, only: guess_t, guess_use, guess_free, guess_restart, guess_set, guess_keep, guess_push, &
                            guess_accepted, guess_mode
-  use solver_choices, only: MG_NAMES, MG_STENCIL, CYCLE_NAMES, CYCLE_KASKADE, PRODUCT_NAMES, PRODUCT_DOUBLE, PRODUCT_FUSED
-  use strings, only: itoa
+  use solver_choices, only: MG_STENCIL
   use reduced_mg, only: mg_glue_t, mg_glue_matrix, mg_glue_pc, mg_glue_free, mg_glue_assemble, mg_glue_built, &
                         mg_glue_describe, mg_coarse_levels, levels_that_fit, default_preconditioner, mg_interpolations, &
-                        true_residual_defaults, &
+                        true_residual_defaults, mg_options_t, mg_options_read, &
                         INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
+  use shell_context, only: PCShellSetContext, PCShellGetContext, MatShellSetContext, MatShellGetContext
   implicit none
   private
   public :: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach, reduced_describe
   public :: set_block_row, reduced_set_guess, reduced_step_accepted
   public :: reduced_set_forcing, reduced_restore_floor
+  ! read accessors
+  public :: reduced_inner_ksp, reduced_jacobian, reduced_forward_ew, reduced_its, reduced_floor_est, reduced_lin_rel, &
+            reduced_rtol0
+  ! for tests/mpi/test_reduced.F90: S, its DMDA, the two fillings of an AIJ S, S by stencil offset
+  public :: reduced_matrix, reduced_dm, reduced_writes_directly, reduced_use_buffer, reduced_offset_assembly, &
+            reduced_products
   public :: INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
 
   !> The element model's flags and the element products of the reduced
@@ -45,6 +54,7 @@ module reduced
   !> the elements (wpred, gpred); any other right-hand side is recognised
   !> and gets its own pass.
   type :: elements_t
+    private
     logical :: constant = .false.          !< K and C do not depend on the state (linear springs, no bending)
     logical :: damping = .true.            !< some element has a damper (C /= 0)
     logical :: clamp = .false., gauss_newton = .false.
@@ -61,6 +71,7 @@ module reduced
 
   !> The inner preconditioner in use and its reuse.
   type :: inner_pc_t
+    private
     type(tVec) :: coords                   !< 3-dof node positions (GAMG near-null space)
     logical :: use_nullspace = .false.     !< inner PC is GAMG: give it the rigid-body modes
     logical :: use_mg = .false.            !< inner PC is nuno's structured multigrid (module stencil_mg)
@@ -71,6 +82,7 @@ module reduced
 
   !> Context of the reduced solve (PCSHELL and MATSHELL context).
   type :: reduced_t
+    private
     type(elements_t) :: el                 !< the element model and its products (this module)
     type(inner_pc_t) :: pcc                !< the inner preconditioner in use and its reuse (this module)
     type(lattice_t), pointer :: lat => null()
@@ -99,45 +111,6 @@ module reduced
     type(guess_t) :: gs                    !< the inner initial guesses (module reduced_guess)
   end type reduced_t
 
-  interface
-    !> src/solver/nuno_options.c: the options of nuno's multigrid (-nuno_mg ...);
-    !> the choices as codes of the lists passed (module solver_choices).
-    integer(c_int) function nuno_mg_options_read(fcomm, impl_names, impl_n, impl_len, impl, &
-                                                 cycle_names, cycle_n, cycle_len, cycle, sweeps, levels, &
-                                                 product_names, product_n, product_len, product, given) &
-        bind(C, name='nuno_mg_options_read')
-      import :: c_int, c_char
-      integer(c_int), value :: fcomm, impl_n, impl_len, cycle_n, cycle_len, product_n, product_len
-      character(kind=c_char), intent(in) :: impl_names(*), cycle_names(*), product_names(*)
-      integer(c_int), intent(inout) :: impl, cycle, sweeps, levels, product
-      integer(c_int), intent(out) :: given
-    end function nuno_mg_options_read
-    subroutine PCShellSetContext(pc, ctx, ierr)
-      import :: tPC, reduced_t
-      type(tPC) :: pc
-      type(reduced_t) :: ctx
-      PetscErrorCode :: ierr
-    end subroutine PCShellSetContext
-    subroutine PCShellGetContext(pc, ctx, ierr)
-      import :: tPC, reduced_t
-      type(tPC) :: pc
-      type(reduced_t), pointer :: ctx
-      PetscErrorCode :: ierr
-    end subroutine PCShellGetContext
-    subroutine MatShellSetContext(mat, ctx, ierr)
-      import :: tMat, reduced_t
-      type(tMat) :: mat
-      type(reduced_t) :: ctx
-      PetscErrorCode :: ierr
-    end subroutine MatShellSetContext
-    subroutine MatShellGetContext(mat, ctx, ierr)
-      import :: tMat, reduced_t
-      type(tMat) :: mat
-      type(reduced_t), pointer :: ctx
-      PetscErrorCode :: ierr
-    end subroutine MatShellGetContext
-  end interface
-
   ! The elimination (submodule reduced_elim)
   interface
     !> PCSHELL apply: du = J^{-1} b by elimination.
@@ -156,99 +129,146 @@ module reduced
 
 contains
 
-  !> Build the 3-dof DMDA on the strips of da6, S with its exact box-stencil
-  !> preallocation, the 6-dof MATSHELL and the inner KSP (prefix reduced_).
-  !> symmetric selects the default inner Krylov method (CG or GMRES).
-  !> Collective.
-  subroutine reduced_create(red, da6, lat, symmetric, constant, damping, clamp, gauss_newton, pc_lag, ierr, mg_interpolation)
+  !> Build the 3-dof DMDA on the strips of da6, the inner KSP (prefix
+  !> reduced_) with its preconditioner, S with its exact box-stencil
+  !> preallocation (or by stencil offset for nuno's multigrid), the 6-dof
+  !> MATSHELL and the element model's arrays. symmetric selects the
+  !> default inner Krylov method (CG or GMRES). Collective.
+  subroutine reduced_create(red, da6, lat, symmetric, constant, damping, clamp, gauss_newton, pc_lag, mg_interpolation, ierr)
     type(reduced_t), intent(inout), target :: red
     type(tDM), intent(in) :: da6
     type(lattice_t), intent(in), target :: lat
     logical, intent(in) :: symmetric, constant, damping, clamp, gauss_newton
     integer, intent(in) :: pc_lag                  !< rebuild the inner preconditioner every pc_lag assemblies (>= 1; 0: default)
+    integer, intent(in) :: mg_interpolation        !< multigrid interpolation: 0 auto, else an INTERP_ code
     PetscErrorCode, intent(out) :: ierr
-    integer, intent(in), optional :: mg_interpolation  !< multigrid interpolation: 0 auto, else an INTERP_ code
-    PetscInt :: nx, ny, w, m, n, mg, ng, nranks, dummy(1), xs, ys, zs, zm, maxit0
-    PetscReal :: atol0, dtol0
-    integer :: levels
+    type(mg_options_t) :: mgo
     PetscLogEvent :: ev_galerkin, ev_cycle
-    logical :: mixed, fused
-    PetscClassId :: classid
-    integer(c_int) :: mg_impl, mg_cycle, mg_sweeps, mg_levels, mg_product, mg_given
-    PetscInt, allocatable :: ly(:)
-    PetscInt, parameter :: one = 1, three = 3, izero = 0, ione = 1
-    type(tPC) :: pc
-    PetscBool :: found
+    PetscInt :: nx, ny, w, nranks
     character(len=64) :: pctype
+    PetscBool :: found
     MPI_Comm :: comm
-    integer :: mpierr
 
     red%lat => lat
     red%da6 = da6
+    PetscCall(register_events(red, ev_galerkin, ev_cycle, ierr))
+    PetscCall(PetscObjectGetComm(da6, comm, ierr))
+    PetscCall(create_da3(red, comm, nx, ny, w, nranks, ierr))
+    PetscCall(inner_ksp_create(red, comm, symmetric, nx, ny, w, nranks, mgo, pctype, ierr))
+    PetscCall(s_create(red, symmetric, pctype, mgo%product, nx, ny, w, ev_galerkin, ev_cycle, ierr))
+    if (mg_interpolation > 0 .and. pctype /= PCMG .and. .not. red%pcc%use_mg) then
+      ierr = PETSC_ERR_ARG_INCOMP
+      SETERRQ(comm, ierr, 'nuno: -nuno_mg_interpolation needs an inner multigrid: nuno''s (the default from 3 levels on) or -reduced_pc_type mg')
+    end if
+    if (pctype == PCMG .or. red%pcc%use_mg) then
+      PetscCall(inner_multigrid(red, mgo, mg_interpolation, nx, ny, w, ierr))
+    end if
+    PetscCall(DMCreateGlobalVector(red%da3, red%rhs, ierr))
+    PetscCall(VecDuplicate(red%rhs, red%dv, ierr))
+    PetscCall(VecDuplicate(red%rhs, red%pcc%coords, ierr))
+    PetscCall(jacobian_create(red, comm, nx, ny, ierr))
+    call store_init(red%sto, lat)
+    call elements_init(red%el, lat, constant, damping, clamp, gauss_newton)
+    if (.not. red%pcc%use_mg) then
+      PetscCall(check_direct(red%sto, red%s, red%da3, red%el%fixedg, red%el%damping, ierr))
+    end if
+    ! An explicit -reduced_ksp_rtol wins over the outer forcing term.
+    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_ksp_rtol', found, ierr))
+    red%forward_ew = .not. found
+    red%pcc%pc_lag = default_pc_lag(pc_lag, pctype == PCMG .or. red%pcc%use_mg, red%pcc%interp)
+  end subroutine reduced_create
+
+  !> The -log_view events of the reduced solve's own work (class nuno):
+  !> the assembly of S (red's), the multigrid's coarse levels and its cycle
+  !> (for module reduced_mg).
+  subroutine register_events(red, ev_galerkin, ev_cycle, ierr)
+    type(reduced_t), intent(inout) :: red
+    PetscLogEvent, intent(out) :: ev_galerkin, ev_cycle
+    PetscErrorCode, intent(out) :: ierr
+    PetscClassId :: classid
     PetscCall(PetscClassIdRegister('nuno', classid, ierr))
     PetscCall(PetscLogEventRegister('nunoAssembleS', classid, red%ev_assemble, ierr))
     PetscCall(PetscLogEventRegister('nunoMGGalerkin', classid, ev_galerkin, ierr))
     PetscCall(PetscLogEventRegister('nunoMGCycle', classid, ev_cycle, ierr))
-    red%el%constant = constant
-    red%el%damping = damping
-    red%el%clamp = clamp
-    red%el%gauss_newton = gauss_newton
-    PetscCall(PetscObjectGetComm(da6, comm, ierr))
+  end subroutine register_events
+
+  !> The 3-dof DMDA (prefix reduced_) on the strips and halo of the state's:
+  !> its nx x ny lattice, halo w, over nranks ranks (1 x P). Collective.
+  subroutine create_da3(red, comm, nx, ny, w, nranks, ierr)
+    type(reduced_t), intent(inout) :: red
+    MPI_Comm, intent(in) :: comm
+    PetscInt, intent(out) :: nx, ny, w, nranks
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt :: dummy(1)
+    PetscInt, allocatable :: ly(:)
+    PetscInt, parameter :: one = 1, three = 3
+    integer :: mpierr
     call MPI_Comm_size(comm, nranks, mpierr)
     allocate(ly(nranks))
-    PetscCall(DMDAGetInfo(da6, PETSC_NULL_INTEGER, nx, ny, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, w, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, ierr))
-    PetscCall(DMDAGetOwnershipRanges(da6, dummy, ly, PETSC_NULL_INTEGER, ierr))
+    PetscCall(DMDAGetInfo(red%da6, PETSC_NULL_INTEGER, nx, ny, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, w, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, ierr))
+    PetscCall(DMDAGetOwnershipRanges(red%da6, dummy, ly, PETSC_NULL_INTEGER, ierr))
     dummy(1) = nx
     PetscCall(DMDACreate2d(comm, DM_BOUNDARY_NONE, DM_BOUNDARY_NONE, DMDA_STENCIL_BOX, nx, ny, one, nranks, three, w, dummy, ly, red%da3, ierr))
     PetscCall(DMSetOptionsPrefix(red%da3, 'reduced_', ierr))
+  end subroutine create_da3
 
-    ! Inner solver: FGMRES with nuno's multigrid by default; with another
-    ! preconditioner CG on a symmetric S, FGMRES otherwise; all stop on
-    ! the true residual (true_residual_defaults).
-    ! FGMRES rather than right-preconditioned GMRES: the same iterates, but
-    ! it keeps the preconditioned directions, so the solution needs no
-    ! further V-cycle at the end (with 1-2 iterations a step in the bw
-    ! mode that cycle was a third of the smoothing; docs/performance.md).
+  !> The inner solver (prefix reduced_): FGMRES with nuno's multigrid by
+  !> default; with another preconditioner CG on a symmetric S, FGMRES
+  !> otherwise; all stop on the true residual (true_residual_defaults).
+  !> FGMRES rather than right-preconditioned GMRES: the same iterates, but
+  !> it keeps the preconditioned directions, so the solution needs no
+  !> further V-cycle at the end (with 1-2 iterations a step in the bw
+  !> mode that cycle was a third of the smoothing; docs/performance.md).
+  !> Gives the multigrid's options mgo and the preconditioner's type.
+  !> Collective.
+  subroutine inner_ksp_create(red, comm, symmetric, nx, ny, w, nranks, mgo, pctype, ierr)
+    type(reduced_t), intent(inout) :: red
+    MPI_Comm, intent(in) :: comm
+    logical, intent(in) :: symmetric
+    PetscInt, intent(in) :: nx, ny, w, nranks
+    type(mg_options_t), intent(out) :: mgo
+    character(len=*), intent(out) :: pctype
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt :: maxit0
+    PetscReal :: atol0, dtol0
+    type(tPC) :: pc
     PetscCall(KSPCreate(comm, red%ksp, ierr))
     PetscCall(KSPSetOptionsPrefix(red%ksp, 'reduced_', ierr))
     PetscCall(KSPSetType(red%ksp, KSPFGMRES, ierr))
-    ! The inner preconditioner: nuno's structured multigrid where three
-    ! levels fit and -reduced_pc_type is not given (-nuno_mg petsc: PETSc's
-    ! PCMG with Galerkin operators instead), else what default_preconditioner
-    ! puts in the options.
-    ! nuno's multigrid replicates its coarsest level where strips get too
-    ! thin, so only the lattice's size limits its levels; PETSc's needs
-    ! the halo's rows in every coarse strip.
-    red%pcc%use_mg = levels_that_fit(nx, ny, izero, ione) >= 3
-    levels = levels_that_fit(nx, ny, w, nranks)
-    mg_impl = MG_STENCIL
-    mg_cycle = CYCLE_KASKADE
-    mg_sweeps = 1
-    mg_levels = 0
-    mg_product = PRODUCT_FUSED
-    ierr = nuno_mg_options_read(comm, MG_NAMES, size(MG_NAMES), len(MG_NAMES), mg_impl, &
-                                CYCLE_NAMES, size(CYCLE_NAMES), len(CYCLE_NAMES), mg_cycle, mg_sweeps, mg_levels, &
-                                PRODUCT_NAMES, size(PRODUCT_NAMES), len(PRODUCT_NAMES), mg_product, mg_given)
-    if (ierr /= 0) return
-    if (mg_sweeps < 1) then
-      ierr = PETSC_ERR_ARG_OUTOFRANGE
-      SETERRQ(comm, ierr, '-nuno_mg_sweeps '//itoa(int(mg_sweeps))//' must be >= 1')
-    end if
-    if (mg_levels < 0) then
-      ierr = PETSC_ERR_ARG_OUTOFRANGE
-      SETERRQ(comm, ierr, '-nuno_mg_levels '//itoa(int(mg_levels))//' must be >= 1 (or 0: as many as fit)')
-    end if
+    PetscCall(mg_options_read(comm, mgo, ierr))
+    PetscCall(inner_pc_choose(red, comm, symmetric, nx, ny, w, nranks, mgo, ierr))
+    PetscCall(KSPSetTolerances(red%ksp, 1.0e-6_rp, 1.0e-50_rp, PETSC_DEFAULT_REAL, 500, ierr))
+    PetscCall(KSPSetFromOptions(red%ksp, ierr))
+    PetscCall(true_residual_defaults(red%ksp, ierr))
+    PetscCall(KSPGetTolerances(red%ksp, red%rtol0, atol0, dtol0, maxit0, ierr))
+    PetscCall(KSPGetPC(red%ksp, pc, ierr))
+    PetscCall(PCGetType(pc, pctype, ierr))
+    red%pcc%use_nullspace = pctype == PCGAMG
+  end subroutine inner_ksp_create
+
+  !> The inner preconditioner: nuno's structured multigrid where three
+  !> levels fit and -reduced_pc_type is not given (-nuno_mg petsc: PETSc's
+  !> PCMG with Galerkin operators instead), else what default_preconditioner
+  !> puts in the options. nuno's multigrid replicates its coarsest level
+  !> where strips get too thin, so only the lattice's size limits its
+  !> levels; PETSc's needs the halo's rows in every coarse strip.
+  !> Collective.
+  subroutine inner_pc_choose(red, comm, symmetric, nx, ny, w, nranks, mgo, ierr)
+    type(reduced_t), intent(inout) :: red
+    MPI_Comm, intent(in) :: comm
+    logical, intent(in) :: symmetric
+    PetscInt, intent(in) :: nx, ny, w, nranks
+    type(mg_options_t), intent(in) :: mgo
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt, parameter :: izero = 0, ione = 1
+    PetscBool :: found
+    type(tPC) :: pc
     PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_pc_type', found, ierr))
-    red%pcc%use_mg = red%pcc%use_mg .and. .not. found .and. mg_impl == MG_STENCIL
-    if (mg_given /= 0 .and. .not. red%pcc%use_mg) then
+    red%pcc%use_mg = levels_that_fit(nx, ny, izero, ione) >= 3 .and. .not. found .and. mgo%impl == MG_STENCIL
+    if (mgo%given .and. .not. red%pcc%use_mg) then
       ierr = PETSC_ERR_ARG_INCOMP
       SETERRQ(comm, ierr, 'nuno: -nuno_mg_cycle, -nuno_mg_sweeps, -nuno_mg_levels and -nuno_mg_product are for nuno''s multigrid (-nuno_mg stencil, the default from 3 levels on, no -reduced_pc_type)')
     end if
-    ! fused: mixed, each cycle's output multiplied in its last sweep, where
-    ! the Krylov method multiplies that output (checked at the first cycle,
-    ! mg_pc_apply)
-    mixed = red%pcc%use_mg .and. mg_product /= PRODUCT_DOUBLE
-    fused = red%pcc%use_mg .and. mg_product == PRODUCT_FUSED
     if (red%pcc%use_mg) then
       ! FGMRES even where S is symmetric: the kaskade cycle is not, and
       ! FGMRES + kaskade beat CG + V-cycles by 1.4x on a symmetric hang
@@ -259,21 +279,27 @@ contains
       if (symmetric) then
         PetscCall(KSPSetType(red%ksp, KSPCG, ierr))
       end if
-      PetscCall(default_preconditioner(levels, ierr))
+      PetscCall(default_preconditioner(levels_that_fit(nx, ny, w, nranks), ierr))
     end if
-    PetscCall(KSPSetTolerances(red%ksp, 1.0e-6_rp, 1.0e-50_rp, PETSC_DEFAULT_REAL, 500, ierr))
-    PetscCall(KSPSetFromOptions(red%ksp, ierr))
-    PetscCall(true_residual_defaults(red%ksp, ierr))
-    PetscCall(KSPGetTolerances(red%ksp, red%rtol0, atol0, dtol0, maxit0, ierr))
-    PetscCall(KSPGetPC(red%ksp, pc, ierr))
-    PetscCall(PCGetType(pc, pctype, ierr))
-    red%pcc%use_nullspace = pctype == PCGAMG
+  end subroutine inner_pc_choose
 
+  !> S and the inner KSP's operators: by stencil offset, its product a
+  !> MATSHELL (module reduced_mg), with nuno's multigrid; else in a PETSc
+  !> matrix for the preconditioner pctype (module reduced_storage).
+  !> product: the multigrid's product with S (-nuno_mg_product). Collective.
+  subroutine s_create(red, symmetric, pctype, product, nx, ny, w, ev_galerkin, ev_cycle, ierr)
+    type(reduced_t), intent(inout) :: red
+    logical, intent(in) :: symmetric
+    character(len=*), intent(in) :: pctype
+    integer, intent(in) :: product
+    PetscInt, intent(in) :: nx, ny, w
+    PetscLogEvent, intent(in) :: ev_galerkin, ev_cycle
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt :: xs, ys, zs, m, n, zm
     if (red%pcc%use_mg) then
-      ! S by stencil offset, its product a MATSHELL (module reduced_mg)
       PetscCall(DMSetUp(red%da3, ierr))
-      PetscCall(DMDAGetCorners(da6, xs, ys, zs, m, n, zm, ierr))
-      PetscCall(mg_glue_matrix(red%mgg, lat, red%da3, red%ksp, nx, ny, n, w, mixed, fused, ev_galerkin, ev_cycle, red%s, ierr))
+      PetscCall(DMDAGetCorners(red%da6, xs, ys, zs, m, n, zm, ierr))
+      PetscCall(mg_glue_matrix(red%mgg, red%lat, red%da3, red%ksp, nx, ny, n, w, product, ev_galerkin, ev_cycle, red%s, ierr))
     else
       PetscCall(store_matrix(red%da3, pctype, symmetric, red%s, ierr))
     end if
@@ -281,82 +307,100 @@ contains
     ! The DM gives -reduced_pc_type mg its grid hierarchy; the operators stay ours.
     PetscCall(KSPSetDM(red%ksp, red%da3, ierr))
     PetscCall(KSPSetDMActive(red%ksp, PETSC_FALSE, ierr))
-    if (present(mg_interpolation)) then
-      if (mg_interpolation > 0 .and. pctype /= PCMG .and. .not. red%pcc%use_mg) then
-        ierr = PETSC_ERR_ARG_INCOMP
-        SETERRQ(comm, ierr, 'nuno: -nuno_mg_interpolation needs an inner multigrid: nuno''s (the default from 3 levels on) or -reduced_pc_type mg')
-      end if
-    end if
-    if (pctype == PCMG .or. red%pcc%use_mg) then
-      ! auto: with bending, cubic on every level but the finest (measured
-      ! with commit 458d4d3: as fast as cubic everywhere, and the parallel
-      ! Galerkin product of the finest level with a cubic P doubled the
-      ! peak memory at 1025 x 1025 on 2 ranks; with commit e284754: cubic
-      ! everywhere still as fast, 30 % fewer iterations for
-      ! cycles 1.6 times as long), the finest level's correction cubic in
-      ! nuno's multigrid (10 % fewer iterations for the same cycle).
-      red%pcc%interp = INTERP_LINEAR
-      if (lat%bending_model /= BEND_NONE) red%pcc%interp = INTERP_COARSE_CUBIC
-      if (present(mg_interpolation)) then
-        if (mg_interpolation > 0) red%pcc%interp = mg_interpolation
-      end if
-      if (red%pcc%use_mg) then
-        PetscCall(DMDAGetCorners(da6, xs, ys, zs, m, n, zm, ierr))
-        ! without bending every element of S is a link, so S(p, q) = S(q, p)
-        ! block for block (mg_stencil's stencil_t, paired): the sweeps and
-        ! products read the blocks to the row below from that row
-        PetscCall(mg_glue_pc(red%mgg, pc, nx, ny, ys, n, w, red%pcc%interp, merge(int(mg_levels), 10, mg_levels > 0), int(mg_cycle), int(mg_sweeps), lat%bending_model == BEND_NONE, ierr))
-      else
-        PetscCall(mg_interpolations(red%da3, red%pcc%interp, pc, ierr))
-      end if
-    end if
-    PetscCall(DMCreateGlobalVector(red%da3, red%rhs, ierr))
-    PetscCall(VecDuplicate(red%rhs, red%dv, ierr))
-    PetscCall(VecDuplicate(red%rhs, red%pcc%coords, ierr))
+  end subroutine s_create
 
-    ! The 6-dof Jacobian: only its action, from the element blocks.
-    PetscCall(DMDAGetCorners(da6, xs, ys, zs, m, n, zm, ierr))
+  !> An inner multigrid's interpolation (mg_interpolation: 0 auto, else an
+  !> INTERP_ code) and set-up: nuno's as the inner PCSHELL with the
+  !> options mgo, or PETSc's PCMG given the DMDA's interpolations.
+  !> Collective.
+  subroutine inner_multigrid(red, mgo, mg_interpolation, nx, ny, w, ierr)
+    type(reduced_t), intent(inout) :: red
+    type(mg_options_t), intent(in) :: mgo
+    integer, intent(in) :: mg_interpolation
+    PetscInt, intent(in) :: nx, ny, w
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt :: xs, ys, zs, m, n, zm
+    type(tPC) :: pc
+    ! auto: with bending, cubic on every level but the finest (measured
+    ! with commit 458d4d3: as fast as cubic everywhere, and the parallel
+    ! Galerkin product of the finest level with a cubic P doubled the
+    ! peak memory at 1025 x 1025 on 2 ranks; with commit e284754: cubic
+    ! everywhere still as fast, 30 % fewer iterations for
+    ! cycles 1.6 times as long), the finest level's correction cubic in
+    ! nuno's multigrid (10 % fewer iterations for the same cycle).
+    red%pcc%interp = INTERP_LINEAR
+    if (red%lat%bending_model /= BEND_NONE) red%pcc%interp = INTERP_COARSE_CUBIC
+    if (mg_interpolation > 0) red%pcc%interp = mg_interpolation
+    PetscCall(KSPGetPC(red%ksp, pc, ierr))
+    if (red%pcc%use_mg) then
+      PetscCall(DMDAGetCorners(red%da6, xs, ys, zs, m, n, zm, ierr))
+      ! without bending every element of S is a link, so S(p, q) = S(q, p)
+      ! block for block (mg_stencil's stencil_t, paired): the sweeps and
+      ! products read the blocks to the row below from that row
+      PetscCall(mg_glue_pc(red%mgg, pc, nx, ny, ys, n, w, red%pcc%interp, merge(mgo%levels, 10, mgo%levels > 0), mgo%cycle, mgo%sweeps, red%lat%bending_model == BEND_NONE, ierr))
+    else
+      PetscCall(mg_interpolations(red%da3, red%pcc%interp, pc, ierr))
+    end if
+  end subroutine inner_multigrid
+
+  !> The 6-dof Jacobian: only its action, from the element blocks (a
+  !> MATSHELL on the state's rows of the nx x ny lattice). Collective.
+  subroutine jacobian_create(red, comm, nx, ny, ierr)
+    type(reduced_t), intent(inout), target :: red
+    MPI_Comm, intent(in) :: comm
+    PetscInt, intent(in) :: nx, ny
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt :: xs, ys, zs, m, n, zm, mg
+    PetscCall(DMDAGetCorners(red%da6, xs, ys, zs, m, n, zm, ierr))
     m = 6 * m * n
     mg = 6 * nx * ny
-    ng = mg
-    n = m
-    PetscCall(MatCreateShell(comm, m, n, mg, ng, PETSC_NULL_INTEGER, red%jac, ierr))
+    PetscCall(MatCreateShell(comm, m, m, mg, mg, PETSC_NULL_INTEGER, red%jac, ierr))
     PetscCall(MatShellSetContext(red%jac, red, ierr))
     PetscCall(MatShellSetOperation(red%jac, MATOP_MULT, reduced_jac_mult, ierr))
+  end subroutine jacobian_create
 
-    call store_init(red%sto, lat)
-    allocate(red%el%fixedg(0:lat%nx - 1, lat%gys:lat%gye))
-    allocate(red%el%ujac(0:5, 0:lat%nx - 1, lat%gys:lat%gye), red%el%w(0:5, 0:lat%nx - 1, lat%gys:lat%gye))
-    allocate(red%el%g(3, 0:lat%nx - 1, lat%ys:lat%ye), red%el%gpred(3, 0:lat%nx - 1, lat%ys:lat%ye))
-    allocate(red%el%wpred(0:5, 0:lat%nx - 1, lat%gys:lat%gye), red%el%kd(3, 0:lat%nx - 1, lat%ys:lat%ye))
-    allocate(red%el%lb(0:lat%nx - 1, 3, 3, 4, 0:1))
-    red%el%fixedg = .false.
-    red%el%ujac = 0.0_rp
-    if (.not. red%pcc%use_mg) then
-      PetscCall(check_direct(red%sto, red%s, red%da3, red%el%fixedg, red%el%damping, ierr))
-    end if
+  !> The element model's flags and arrays on lat's strip: no constrained
+  !> node, no state yet.
+  subroutine elements_init(el, lat, constant, damping, clamp, gauss_newton)
+    type(elements_t), intent(inout) :: el
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: constant, damping, clamp, gauss_newton
+    el%constant = constant
+    el%damping = damping
+    el%clamp = clamp
+    el%gauss_newton = gauss_newton
+    allocate(el%fixedg(0:lat%nx - 1, lat%gys:lat%gye))
+    allocate(el%ujac(0:5, 0:lat%nx - 1, lat%gys:lat%gye), el%w(0:5, 0:lat%nx - 1, lat%gys:lat%gye))
+    allocate(el%g(3, 0:lat%nx - 1, lat%ys:lat%ye), el%gpred(3, 0:lat%nx - 1, lat%ys:lat%ye))
+    allocate(el%wpred(0:5, 0:lat%nx - 1, lat%gys:lat%gye), el%kd(3, 0:lat%nx - 1, lat%ys:lat%ye))
+    allocate(el%lb(0:lat%nx - 1, 3, 3, 4, 0:1))
+    el%fixedg = .false.
+    el%ujac = 0.0_rp
+  end subroutine elements_init
 
-    ! An explicit -reduced_ksp_rtol wins over the outer forcing term.
-    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_ksp_rtol', found, ierr))
-    red%forward_ew = .not. found
-    ! 0: the default, measured (commits e0d6262, 458d4d3 and 53c2cdd):
-    ! the multigrid's Galerkin
-    ! coarse operators kept for 3 assemblies, 20 with the cubic
-    ! interpolation, whose products cost about five times more (its
-    ! fine-level smoother and residual always use the current S, so only
-    ! the coarse correction ages; 20 against 10: the same inner iterations
-    ! on hang's 1 s, 1-4 % more on the release scenes, half the rebuilds),
-    ! any other preconditioner rebuilt each time.
+  !> The inner preconditioner's rebuild interval: pc_lag where given (> 0),
+  !> else the default, measured (commits e0d6262, 458d4d3 and 53c2cdd):
+  !> a multigrid's (mg: nuno's or PCMG) Galerkin coarse operators kept
+  !> for 3 assemblies, 20 with the cubic interpolation, whose products
+  !> cost about five times more (its fine-level smoother and residual
+  !> always use the current S, so only the coarse correction ages; 20
+  !> against 10: the same inner iterations on hang's 1 s, 1-4 % more on
+  !> the release scenes, half the rebuilds), any other preconditioner
+  !> rebuilt each time.
+  pure integer function default_pc_lag(pc_lag, mg, interp) result(lag)
+    integer, intent(in) :: pc_lag
+    logical, intent(in) :: mg
+    integer, intent(in) :: interp          !< the multigrid's interpolation (INTERP_*)
     if (pc_lag > 0) then
-      red%pcc%pc_lag = pc_lag
-    else if ((pctype == PCMG .or. red%pcc%use_mg) .and. red%pcc%interp /= INTERP_LINEAR) then
-      red%pcc%pc_lag = 20
-    else if (pctype == PCMG .or. red%pcc%use_mg) then
-      red%pcc%pc_lag = 3
+      lag = pc_lag
+    else if (mg .and. interp /= INTERP_LINEAR) then
+      lag = 20
+    else if (mg) then
+      lag = 3
     else
-      red%pcc%pc_lag = 1
+      lag = 1
     end if
-  end subroutine reduced_create
+  end function default_pc_lag
 
   !> One line on the inner solver for the start-up summary: Krylov method,
   !> tolerance, preconditioner; for nuno's multigrid its levels, cycle and
@@ -405,6 +449,8 @@ contains
     PetscCall(PCShellSetName(pc, 'nuno reduced elimination (inner solver: -reduced_ksp_view)', ierr))
   end subroutine reduced_attach
 
+  !> Destroy what reduced_create made (the DMDA dof 6 and the lattice are
+  !> the caller's). Collective.
   subroutine reduced_destroy(red, ierr)
     type(reduced_t), intent(inout) :: red
     PetscErrorCode, intent(out) :: ierr
@@ -463,9 +509,6 @@ contains
     real(rp), intent(in) :: ud(0:, 0:, red%lat%gys:)
     real(rp), intent(in) :: a
     PetscErrorCode, intent(out) :: ierr
-    integer :: ja, i, j
-    real(rp) :: loc(2), glob(2)
-    MPI_Comm :: comm
 
     ierr = 0
     red%el%ujac = u
@@ -473,19 +516,7 @@ contains
     ! (one pass over the elements, none when they vanish).
     red%el%have_pred = .not. (red%el%constant .and. red%assembled .and. .not. red%dirty .and. a == red%a)
     if (.not. red%el%have_pred) return
-    ! w of the right-hand side b = F(u): F_x = xdot - v, F_v = vdot on
-    ! constrained nodes (whose v is their prescribed velocity).
-    do j = red%lat%gys, red%lat%gye
-      do i = 0, red%lat%nx - 1
-        red%el%wpred(0:2, i, j) = (ud(0:2, i, j) - u(3:5, i, j)) / a
-        if (red%el%fixedg(i, j)) then
-          red%el%wpred(3:5, i, j) = ud(3:5, i, j) / a
-        else
-          red%el%wpred(3:5, i, j) = 0.0_rp
-        end if
-      end do
-    end do
-    loc = 0.0_rp
+    call newton_rhs_w(red%el, red%lat, u, ud, a)
     PetscCall(PetscLogEventBegin(red%ev_assemble, ierr))
     if (red%pcc%use_mg) then
       ! By stencil offset (module reduced_assembly), for nuno's multigrid,
@@ -501,30 +532,76 @@ contains
     PetscCall(MatAssemblyBegin(red%s, MAT_FINAL_ASSEMBLY, ierr))
     PetscCall(MatAssemblyEnd(red%s, MAT_FINAL_ASSEMBLY, ierr))
     PetscCall(PetscLogEventEnd(red%ev_assemble, ierr))
+    PetscCall(estimate_floor(red, u, a, ierr))
+    red%a = a
+    red%assembled = .true.
+    red%dirty = .false.
+    PetscCall(reuse_or_rebuild_pc(red, u, ierr))
+  end subroutine reduced_assemble
+
+  !> w of the Newton step's right-hand side b = F(u), whose element
+  !> products the assembly forms on the way: F_x = xdot - v, F_v = vdot on
+  !> constrained nodes (whose v is their prescribed velocity); u and ud as
+  !> in reduced_assemble, a the shift.
+  subroutine newton_rhs_w(el, lat, u, ud, a)
+    type(elements_t), intent(inout) :: el
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    real(rp), intent(in) :: ud(0:, 0:, lat%gys:)
+    real(rp), intent(in) :: a
+    integer :: i, j
+    do j = lat%gys, lat%gye
+      do i = 0, lat%nx - 1
+        el%wpred(0:2, i, j) = (ud(0:2, i, j) - u(3:5, i, j)) / a
+        if (el%fixedg(i, j)) then
+          el%wpred(3:5, i, j) = ud(3:5, i, j) / a
+        else
+          el%wpred(3:5, i, j) = 0.0_rp
+        end if
+      end do
+    end do
+  end subroutine newton_rhs_w
+
+  !> Round-off floor of the residual at the assembled state u and shift a:
+  !> a position is known to eps |x|, and
+  !> the v-rows amplify that by the stiffness over the mass, K_ii/m_i (the
+  !> stiffest, bending, grows like N^4 on a refined lattice), the x-rows
+  !> (xdot - v = a (x - x_n) - v) by the shift a, so that ||F||_2 cannot go
+  !> below about eps max|x| (sum K_ii^2/m_i^2 + a^2)^(1/2). (The a^2 term
+  !> matters on soft lattices, where K_ii/m_i is not far above a: with a
+  !> start at 3e-5, wave_point's edge wave stalled at 2.9e-11 for 50
+  !> Newton iterations, just above 1e-6 of the start, with the estimate
+  !> from K alone below it.) Collective.
+  subroutine estimate_floor(red, u, a, ierr)
+    type(reduced_t), intent(inout) :: red
+    real(rp), intent(in) :: u(0:, 0:, red%lat%gys:)
+    real(rp), intent(in) :: a
+    PetscErrorCode, intent(out) :: ierr
+    integer :: ja, i
+    real(rp) :: loc(2), glob(2)
+    MPI_Comm :: comm
+    loc = 0.0_rp
     do ja = red%lat%ys, red%lat%ye
       do i = 0, red%lat%nx - 1
         if (red%el%fixedg(i, ja)) cycle
         call floor_node_add(red%el%kd(:, i, ja), red%lat%mass(i, ja), u(0:2, i, ja), a, loc)
       end do
     end do
-    ! Round-off floor of the residual: a position is known to eps |x|, and
-    ! the v-rows amplify that by the stiffness over the mass, K_ii/m_i (the
-    ! stiffest, bending, grows like N^4 on a refined lattice), the x-rows
-    ! (xdot - v = a (x - x_n) - v) by the shift a, so that ||F||_2 cannot go
-    ! below about eps max|x| (sum K_ii^2/m_i^2 + a^2)^(1/2). (The a^2 term
-    ! matters on soft lattices, where K_ii/m_i is not far above a: with a
-    ! start at 3e-5, wave_point's edge wave stalled at 2.9e-11 for 50
-    ! Newton iterations, just above 1e-6 of the start, with the estimate
-    ! from K alone below it.)
     PetscCall(PetscObjectGetComm(red%da3, comm, ierr))
     call MPI_Allreduce(loc(1), glob(1), 1, MPI_DOUBLE_PRECISION, MPI_SUM, comm, ierr)
     call MPI_Allreduce(loc(2), glob(2), 1, MPI_DOUBLE_PRECISION, MPI_MAX, comm, ierr)
     red%floor_est = floor_estimate(glob)
-    red%a = a
-    red%assembled = .true.
-    red%dirty = .false.
-    ! Preconditioner reuse: rebuild every pc_lag assemblies (and after a
-    ! failed inner solve, see reduced_pc_apply).
+  end subroutine estimate_floor
+
+  !> Preconditioner reuse after an assembly at the state u: rebuild every
+  !> pc_lag assemblies (and after a failed inner solve, see
+  !> reduced_pc_apply), nuno's multigrid's coarse levels and GAMG's
+  !> rigid-body modes with it; else keep it (the coarse levels made if they
+  !> do not exist yet). Collective.
+  subroutine reuse_or_rebuild_pc(red, u, ierr)
+    type(reduced_t), intent(inout) :: red
+    real(rp), intent(in) :: u(0:, 0:, red%lat%gys:)
+    PetscErrorCode, intent(out) :: ierr
     red%pcc%since_pc = red%pcc%since_pc + 1
     if (red%pcc%since_pc >= red%pcc%pc_lag) then
       red%pcc%since_pc = 0
@@ -541,7 +618,7 @@ contains
         PetscCall(mg_coarse_levels(red%mgg, ierr))
       end if
     end if
-  end subroutine reduced_assemble
+  end subroutine reuse_or_rebuild_pc
 
   !> GAMG's near-null space: the six rigid-body modes of the current shape.
   subroutine set_rigid_body_modes(red, u, ierr)
@@ -557,7 +634,6 @@ contains
     PetscCall(MatSetNearNullSpace(red%s, nsp, ierr))
     PetscCall(MatNullSpaceDestroy(nsp, ierr))
   end subroutine set_rigid_body_modes
-
 
   !> Use the inner initial guess mode (GUESS_NONE, _PREVIOUS, _EXTRAPOLATE;
   !> solver_setup decides, from -nuno_inner_guess and the TS type). Its two
@@ -601,5 +677,103 @@ contains
     real(rp), intent(in) :: floor_est
     red%floor_est = floor_est
   end subroutine reduced_restore_floor
+
+  ! Read accessors: what other modules need of the record.
+
+  !> The inner solver (KSP, options prefix -reduced_).
+  type(tKSP) function reduced_inner_ksp(red)
+    type(reduced_t), intent(in) :: red
+    reduced_inner_ksp = red%ksp
+  end function reduced_inner_ksp
+
+  !> The TS's Jacobian: the exact 6-dof action (MATSHELL).
+  type(tMat) function reduced_jacobian(red)
+    type(reduced_t), intent(in) :: red
+    reduced_jacobian = red%jac
+  end function reduced_jacobian
+
+  !> The outer KSP's rtol (Eisenstat-Walker) is passed to the inner solve
+  !> (no -reduced_ksp_rtol given).
+  pure logical function reduced_forward_ew(red)
+    type(reduced_t), intent(in) :: red
+    reduced_forward_ew = red%forward_ew
+  end function reduced_forward_ew
+
+  !> Inner Krylov iterations since the start, all solves together.
+  pure integer function reduced_its(red)
+    type(reduced_t), intent(in) :: red
+    reduced_its = red%its
+  end function reduced_its
+
+  !> The round-off floor of ||F||_2 [residual] at the last assembly.
+  pure real(rp) function reduced_floor_est(red)
+    type(reduced_t), intent(in) :: red
+    reduced_floor_est = red%floor_est
+  end function reduced_floor_est
+
+  !> The relative residual the last inner solve left.
+  pure real(rp) function reduced_lin_rel(red)
+    type(reduced_t), intent(in) :: red
+    reduced_lin_rel = red%lin_rel
+  end function reduced_lin_rel
+
+  !> The inner rtol of the options (-reduced_ksp_rtol, default 1e-6).
+  pure real(rp) function reduced_rtol0(red)
+    type(reduced_t), intent(in) :: red
+    reduced_rtol0 = red%rtol0
+  end function reduced_rtol0
+
+  ! For tests/mpi/test_reduced.F90.
+
+  !> S: a PETSc matrix, or nuno's multigrid's MATSHELL.
+  type(tMat) function reduced_matrix(red)
+    type(reduced_t), intent(in) :: red
+    reduced_matrix = red%s
+  end function reduced_matrix
+
+  !> S's DMDA (dof 3, the state's strips and halo).
+  type(tDM) function reduced_dm(red)
+    type(reduced_t), intent(in) :: red
+    reduced_dm = red%da3
+  end function reduced_dm
+
+  !> An AIJ S is written straight into its arrays (module reduced_storage).
+  logical function reduced_writes_directly(red)
+    type(reduced_t), intent(in) :: red
+    reduced_writes_directly = store_direct(red%sto)
+  end function reduced_writes_directly
+
+  !> Fill S block row by block row even where its values could be written
+  !> directly (the test compares the two).
+  subroutine reduced_use_buffer(red)
+    type(reduced_t), intent(inout) :: red
+    call store_use_buffer(red%sto)
+  end subroutine reduced_use_buffer
+
+  !> S by stencil offset as nuno's multigrid path writes it (module
+  !> reduced_assembly's assemble_stencil) at the ghosted state u with the
+  !> constraints, shift and Newton right-hand side of the last assembly,
+  !> into st (0:nx-1, 3, 3, offset_count(halo), 0:ye-ys), with the
+  !> element products g and diagonal kd (3, 0:nx-1, ys:ye) on the way.
+  subroutine reduced_offset_assembly(red, u, st, g, kd)
+    type(reduced_t), intent(in) :: red
+    real(rp), intent(in) :: u(0:, 0:, red%lat%gys:)
+    real(rp), intent(inout), contiguous :: st(0:, :, :, :, 0:)
+    real(rp), intent(out) :: g(:, 0:, red%lat%ys:), kd(:, 0:, red%lat%ys:)
+    real(rp), allocatable :: lb(:, :, :, :, :)
+    allocate(lb, mold=red%el%lb)
+    lb = 0.0_rp
+    call assemble_stencil(red%lat, u, red%el%fixedg, red%a, red%el%damping, red%el%clamp, red%el%gauss_newton, &
+                          red%el%wpred, lb, g, kd, st)
+  end subroutine reduced_offset_assembly
+
+  !> The last assembly's element products of the Newton right-hand side
+  !> and diagonal of -df/dx, both (3, 0:nx-1, ys:ye).
+  subroutine reduced_products(red, g, kd)
+    type(reduced_t), intent(in) :: red
+    real(rp), intent(out) :: g(:, 0:, red%lat%ys:), kd(:, 0:, red%lat%ys:)
+    g = red%el%gpred
+    kd = red%el%kd
+  end subroutine reduced_products
 
 end module reduced

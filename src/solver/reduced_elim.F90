@@ -39,6 +39,31 @@ contains
     call kc_products(red%lat, red%el%ujac, red%el%fixedg, red%el%damping, red%el%clamp, red%el%gauss_newton, w, red%el%g, red%el%kd)
   end subroutine element_products
 
+  !> The ghosted array v(0:5, 0:nx-1, gys:gye) of the 6-dof global vector
+  !> vg: one halo exchange into vloc, a local vector of the state's DMDA.
+  !> Give both back with ghosted_restore. Collective.
+  subroutine ghosted_get(red, vg, vloc, v, ierr)
+    type(reduced_t), intent(in) :: red
+    type(tVec), intent(in) :: vg
+    type(tVec), intent(out) :: vloc
+    PetscScalar, pointer, intent(out) :: v(:, :, :)
+    PetscErrorCode, intent(out) :: ierr
+    PetscCall(DMGetLocalVector(red%da6, vloc, ierr))
+    PetscCall(DMGlobalToLocalBegin(red%da6, vg, INSERT_VALUES, vloc, ierr))
+    PetscCall(DMGlobalToLocalEnd(red%da6, vg, INSERT_VALUES, vloc, ierr))
+    PetscCall(DMDAVecGetArrayReadF90(red%da6, vloc, v, ierr))
+  end subroutine ghosted_get
+
+  !> Give back a ghosted array and its local vector (ghosted_get).
+  subroutine ghosted_restore(red, vloc, v, ierr)
+    type(reduced_t), intent(in) :: red
+    type(tVec), intent(inout) :: vloc
+    PetscScalar, pointer, intent(inout) :: v(:, :, :)
+    PetscErrorCode, intent(out) :: ierr
+    PetscCall(DMDAVecRestoreArrayReadF90(red%da6, vloc, v, ierr))
+    PetscCall(DMRestoreLocalVector(red%da6, vloc, ierr))
+  end subroutine ghosted_restore
+
   !> The right-hand side of S dv = rhs for the 6-dof right-hand side b
   !> (global, dof 6): rhs = m b_v + K b_x/a + C z (see the header above).
   !> Collective (one halo exchange of b).
@@ -54,10 +79,7 @@ contains
 
     ainv = 1.0_rp / red%a
     any_w = .false.
-    PetscCall(DMGetLocalVector(red%da6, bloc, ierr))
-    PetscCall(DMGlobalToLocalBegin(red%da6, b, INSERT_VALUES, bloc, ierr))
-    PetscCall(DMGlobalToLocalEnd(red%da6, b, INSERT_VALUES, bloc, ierr))
-    PetscCall(DMDAVecGetArrayReadF90(red%da6, bloc, bl, ierr))
+    PetscCall(ghosted_get(red, b, bloc, bl, ierr))
     do j = red%lat%gys, red%lat%gye
       do i = 0, red%lat%nx - 1
         ! After a Newton update the x-rows are solved exactly: what is left
@@ -99,8 +121,7 @@ contains
       end do
     end do
     PetscCall(DMDAVecRestoreArrayF90(red%da3, rhs, r, ierr))
-    PetscCall(DMDAVecRestoreArrayReadF90(red%da6, bloc, bl, ierr))
-    PetscCall(DMRestoreLocalVector(red%da6, bloc, ierr))
+    PetscCall(ghosted_restore(red, bloc, bl, ierr))
   end subroutine reduced_rhs
 
   !> x = sgn y up to round-off (both come from the same expressions); no
@@ -149,20 +170,41 @@ contains
     type(tPC) :: pc
     type(tVec) :: b, du
     PetscErrorCode :: ierr
-    type(reduced_t), pointer :: red
-    PetscScalar, pointer :: bl(:, :, :), y(:, :, :), dv(:, :, :)
-    integer :: i, j
-    real(rp) :: ainv, rtol, atol, dtol, rnorm, bnorm
-    PetscInt :: maxit
     KSPConvergedReason :: reason
-    PetscInt :: nit
-    PetscBool :: ew, reused
-    logical :: guessed
+    real(rp) :: bnorm                      !< ||rhs||_2
+    type(reduced_t), pointer :: red
+    type(c_ptr) :: ctx                     !< the shell's context: the record's address
 
-    PetscCall(PCShellGetContext(pc, red, ierr))
-    ! Eisenstat-Walker sets the outer KSP's rtol: that is the forcing term;
-    ! otherwise the Newton iteration's own (newton_policy: set_newton_forcing),
-    ! unless -reduced_ksp_rtol fixes it.
+    PetscCall(PCShellGetContext(pc, ctx, ierr))
+    call c_f_pointer(ctx, red)
+    PetscCall(set_inner_rtol(red, ierr))
+    PetscCall(reduced_rhs(red, b, red%rhs, ierr))
+    ! (the inner solves leave rhs as it is: its norm serves the guess, the
+    ! second correction kept and the relative residual below)
+    PetscCall(VecNorm(red%rhs, NORM_2, bnorm, ierr))
+    PetscCall(solve_s(red, bnorm, reason, ierr))
+    ! PETSc keeps a PC's failure until its next set-up, which this shell
+    ! PC (its matrix unchanged) never gets: set it each time, or one
+    ! failed inner solve would fail every retry of the step after it
+    if (reason < 0) then
+      PetscCall(PCSetFailedReason(pc, PC_SUBPC_ERROR, ierr))
+    else
+      PetscCall(PCSetFailedReason(pc, PC_NOERROR, ierr))
+    end if
+    PetscCall(back_substitute(red, b, du, ierr))
+  end subroutine reduced_pc_apply
+
+  !> The inner rtol of this solve. Eisenstat-Walker sets the outer KSP's
+  !> rtol: that is the forcing term; otherwise the Newton iteration's own
+  !> (newton_policy: set_newton_forcing, taken once), unless
+  !> -reduced_ksp_rtol fixes it.
+  subroutine set_inner_rtol(red, ierr)
+    type(reduced_t), intent(inout) :: red
+    PetscErrorCode, intent(out) :: ierr
+    real(rp) :: rtol, atol, dtol
+    PetscInt :: maxit
+    PetscBool :: ew
+    ierr = 0
     if (red%forward_ew) then
       PetscCall(KSPGetTolerances(red%outer, rtol, atol, dtol, maxit, ierr))
       PetscCall(SNESKSPGetUseEW(red%snes, ew, ierr))
@@ -170,10 +212,24 @@ contains
       PetscCall(KSPSetTolerances(red%ksp, rtol, PETSC_DEFAULT_REAL, PETSC_DEFAULT_REAL, PETSC_DEFAULT_INTEGER, ierr))
     end if
     red%eta = 0.0_rp
-    PetscCall(reduced_rhs(red, b, red%rhs, ierr))
-    ! (the inner solves leave rhs as it is: its norm serves the guess, the
-    ! second correction kept and the relative residual below)
-    PetscCall(VecNorm(red%rhs, NORM_2, bnorm, ierr))
+  end subroutine set_inner_rtol
+
+  !> S dv = rhs (bnorm = ||rhs||_2) from the inner guess, if any: a
+  !> guessed solve that fails is done again from zero (a guess must never
+  !> fail a step), and a solve with a reused preconditioner that fails
+  !> again with a fresh one. The guesses keep what the converged solves
+  !> give; lin_rel takes the relative residual left. reason: the last
+  !> solve's. Collective.
+  subroutine solve_s(red, bnorm, reason, ierr)
+    type(reduced_t), intent(inout) :: red
+    real(rp), intent(in) :: bnorm
+    KSPConvergedReason, intent(out) :: reason
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt :: nit
+    PetscBool :: reused
+    real(rp) :: rnorm
+    logical :: guessed
+
     PetscCall(SNESGetIterationNumber(red%snes, nit, ierr))
     guessed = .false.
     if (guess_mode(red%gs) /= GUESS_NONE) then
@@ -207,15 +263,18 @@ contains
     if (reason > 0) then
       PetscCall(guess_push(red%gs, red%a, red%rhs, bnorm, red%dv, ierr))
     end if
-    ! PETSc keeps a PC's failure until its next set-up, which this shell
-    ! PC (its matrix unchanged) never gets: set it each time, or one
-    ! failed inner solve would fail every retry of the step after it
-    if (reason < 0) then
-      PetscCall(PCSetFailedReason(pc, PC_SUBPC_ERROR, ierr))
-    else
-      PetscCall(PCSetFailedReason(pc, PC_NOERROR, ierr))
-    end if
+  end subroutine solve_s
 
+  !> The back-substitution: du from the inner solution dv and the 6-dof
+  !> right-hand side b (global, dof 6): dv and dx = (dv + b_x)/a on free
+  !> nodes, b / a on constrained ones.
+  subroutine back_substitute(red, b, du, ierr)
+    type(reduced_t), intent(inout) :: red
+    type(tVec) :: b, du
+    PetscErrorCode, intent(out) :: ierr
+    PetscScalar, pointer :: bl(:, :, :), y(:, :, :), dv(:, :, :)
+    real(rp) :: ainv
+    integer :: i, j
     ainv = 1.0_rp / red%a
     PetscCall(DMDAVecGetArrayReadF90(red%da6, b, bl, ierr))
     PetscCall(DMDAVecGetArrayReadF90(red%da3, red%dv, dv, ierr))
@@ -236,7 +295,7 @@ contains
     PetscCall(DMDAVecRestoreArrayF90(red%da6, du, y, ierr))
     PetscCall(DMDAVecRestoreArrayReadF90(red%da3, red%dv, dv, ierr))
     PetscCall(DMDAVecRestoreArrayReadF90(red%da6, b, bl, ierr))
-  end subroutine reduced_pc_apply
+  end subroutine back_substitute
 
   !> MATSHELL mult: y = J du, the exact 6-dof Jacobian at the last assembled
   !> state (x-rows a dx - dv, v-rows a dv - (K dx + C dv)/m; a I on
@@ -250,13 +309,12 @@ contains
     PetscScalar, pointer :: d(:, :, :), y(:, :, :)
     integer :: i, j
     real(rp) :: a
+    type(c_ptr) :: ctx                     !< the shell's context: the record's address
 
-    PetscCall(MatShellGetContext(mat, red, ierr))
+    PetscCall(MatShellGetContext(mat, ctx, ierr))
+    call c_f_pointer(ctx, red)
     a = red%a
-    PetscCall(DMGetLocalVector(red%da6, dloc, ierr))
-    PetscCall(DMGlobalToLocalBegin(red%da6, du, INSERT_VALUES, dloc, ierr))
-    PetscCall(DMGlobalToLocalEnd(red%da6, du, INSERT_VALUES, dloc, ierr))
-    PetscCall(DMDAVecGetArrayReadF90(red%da6, dloc, d, ierr))
+    PetscCall(ghosted_get(red, du, dloc, d, ierr))
     call element_products(red, d)
     PetscCall(DMDAVecGetArrayF90(red%da6, yv, y, ierr))
     do j = red%lat%ys, red%lat%ye
@@ -270,8 +328,7 @@ contains
       end do
     end do
     PetscCall(DMDAVecRestoreArrayF90(red%da6, yv, y, ierr))
-    PetscCall(DMDAVecRestoreArrayReadF90(red%da6, dloc, d, ierr))
-    PetscCall(DMRestoreLocalVector(red%da6, dloc, ierr))
+    PetscCall(ghosted_restore(red, dloc, d, ierr))
   end subroutine reduced_jac_mult
 
 end submodule reduced_elim

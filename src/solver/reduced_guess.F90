@@ -1,8 +1,8 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> The inner solve's initial guesses (-nuno_inner_guess): the PETSc side of
 !> the kernel module inner_guess. It keeps the corrections of earlier inner
-!> solves and forms a guess for the next one from them; only this module
-!> writes its record (guess_t). The reduced solve (module reduced) calls it
+!> solves and forms a guess for the next one from them. Its record
+!> (guess_t) has private components: only this module writes it. The reduced solve (module reduced) calls it
 !> around each inner solve with the shift a of S [1/time], the right-hand
 !> side rhs and the solution dv (3-dof vectors).
 module reduced_guess
@@ -24,6 +24,7 @@ module reduced_guess
   !> pb and their products pd with this solve's right-hand side (formed by
   !> project_guess, which every solve calls first).
   type :: guess_t
+    private
     integer :: mode = GUESS_NONE           !< GUESS_NONE, _PREVIOUS, _EXTRAPOLATE or _PROJECT
     type(tVec) :: dvh(2)                   !< dvh(1) the last step's first correction, dvh(2) the one before
     real(rp) :: ah(2) = 0                  !< their shifts a [1/time]

@@ -5,17 +5,21 @@
 !> and with nuno's multigrid (module stencil_mg) S stored by stencil offset,
 !> its product a MATSHELL (stencil_mult), one cycle a PCSHELL (mg_pc_apply),
 !> the coarse levels (mg_coarse_levels) and the fused product of a cycle's
-!> output with S. Only this module writes its record (mg_glue_t), which is
-!> the MATSHELL's and the PCSHELL's context.
+!> output with S; the multigrid's options (-nuno_mg ..., mg_options_read).
+!> Its record (mg_glue_t, the MATSHELL's and the PCSHELL's context) has
+!> private components: only this module writes it.
 module reduced_mg
 #include "petsc/finclude/petscksp.h"
 #include "petsc/finclude/petscdmda.h"
   use petscksp
   use petscdmda
   use mpi
-  use, intrinsic :: iso_c_binding, only: c_int, c_intptr_t, c_int64_t
+  use, intrinsic :: iso_c_binding, only: c_int, c_intptr_t, c_int64_t, c_char, c_ptr, c_f_pointer
   use kinds, only: rp
-  use solver_choices, only: INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
+  use strings, only: itoa
+  use solver_choices, only: INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC, MG_NAMES, MG_STENCIL, CYCLE_NAMES, &
+                            CYCLE_KASKADE, PRODUCT_NAMES, PRODUCT_DOUBLE, PRODUCT_FUSED
+  use shell_context, only: PCShellSetContext, PCShellGetContext, MatShellSetContext, MatShellGetContext
   use lattice, only: lattice_t
   use reduced_assembly, only: assemble_stencil
   use offset_product, only: stencil_product, offset_count
@@ -27,11 +31,24 @@ module reduced_mg
   private
   public :: mg_glue_t, mg_glue_matrix, mg_glue_pc, mg_glue_free, mg_glue_assemble, mg_glue_built, mg_glue_describe
   public :: mg_coarse_levels, levels_that_fit, default_preconditioner, mg_interpolations, true_residual_defaults
+  public :: mg_options_t, mg_options_read
   public :: INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
 
+  !> The options of nuno's multigrid as read (-nuno_mg, -nuno_mg_cycle,
+  !> -nuno_mg_sweeps, -nuno_mg_levels, -nuno_mg_product): a value record,
+  !> the choices as module solver_choices' codes.
+  type :: mg_options_t
+    integer :: impl = MG_STENCIL           !< MG_STENCIL (nuno's) or PETSc's PCMG
+    integer :: cycle = CYCLE_KASKADE       !< module stencil_mg's cycle
+    integer :: sweeps = 1                  !< symmetric Gauss-Seidel sweeps per smoothing (>= 1)
+    integer :: levels = 0                  !< most levels (0: as many as fit)
+    integer :: product = PRODUCT_FUSED     !< the product with S: PRODUCT_DOUBLE, _MIXED or _FUSED
+    logical :: given = .false.             !< one of the cycle's options was given
+  end type mg_options_t
 
   !> nuno's multigrid and S by stencil offset.
   type :: mg_glue_t
+    private
     type(lattice_t), pointer :: lat => null()
     type(tDM) :: da3                       !< dof 3 (not owned)
     type(tKSP) :: ksp                      !< the inner solver (not owned)
@@ -64,30 +81,18 @@ module reduced_mg
       integer(c_intptr_t) :: obj            !< the handle (tVec%v, ...), passed as PetscObject*
       integer(c_int64_t), intent(out) :: state
     end function nuno_object_state
-    subroutine PCShellSetContext(pc, ctx, ierr)
-      import :: tPC, mg_glue_t
-      type(tPC) :: pc
-      type(mg_glue_t) :: ctx
-      PetscErrorCode :: ierr
-    end subroutine PCShellSetContext
-    subroutine PCShellGetContext(pc, ctx, ierr)
-      import :: tPC, mg_glue_t
-      type(tPC) :: pc
-      type(mg_glue_t), pointer :: ctx
-      PetscErrorCode :: ierr
-    end subroutine PCShellGetContext
-    subroutine MatShellSetContext(mat, ctx, ierr)
-      import :: tMat, mg_glue_t
-      type(tMat) :: mat
-      type(mg_glue_t) :: ctx
-      PetscErrorCode :: ierr
-    end subroutine MatShellSetContext
-    subroutine MatShellGetContext(mat, ctx, ierr)
-      import :: tMat, mg_glue_t
-      type(tMat) :: mat
-      type(mg_glue_t), pointer :: ctx
-      PetscErrorCode :: ierr
-    end subroutine MatShellGetContext
+    !> src/solver/nuno_options.c: the options of nuno's multigrid (-nuno_mg ...);
+    !> the choices as codes of the lists passed (module solver_choices).
+    integer(c_int) function nuno_mg_options_read(fcomm, impl_names, impl_n, impl_len, impl, &
+                                                 cycle_names, cycle_n, cycle_len, cycle, sweeps, levels, &
+                                                 product_names, product_n, product_len, product, given) &
+        bind(C, name='nuno_mg_options_read')
+      import :: c_int, c_char
+      integer(c_int), value :: fcomm, impl_n, impl_len, cycle_n, cycle_len, product_n, product_len
+      character(kind=c_char), intent(in) :: impl_names(*), cycle_names(*), product_names(*)
+      integer(c_int), intent(inout) :: impl, cycle, sweeps, levels, product
+      integer(c_int), intent(out) :: given
+    end function nuno_mg_options_read
   end interface
 
 contains
@@ -98,13 +103,13 @@ contains
   !> mixed product only a ring of rows: 648 B a node in the multigrid's
   !> finest level instead). nx x ny lattice, n owned rows, halo w.
   !> Collective.
-  subroutine mg_glue_matrix(gl, lat, da3, ksp, nx, ny, n, w, mixed, fused, ev_galerkin, ev_cycle, s, ierr)
+  subroutine mg_glue_matrix(gl, lat, da3, ksp, nx, ny, n, w, product, ev_galerkin, ev_cycle, s, ierr)
     type(mg_glue_t), intent(inout), target :: gl
     type(lattice_t), intent(in), target :: lat
     type(tDM), intent(in) :: da3
     type(tKSP), intent(in) :: ksp
     PetscInt, intent(in) :: nx, ny, n, w
-    logical, intent(in) :: mixed, fused            !< the product with S mixed; fused too (-nuno_mg_product)
+    integer, intent(in) :: product                 !< the product with S (-nuno_mg_product): PRODUCT_DOUBLE, _MIXED or _FUSED
     PetscLogEvent, intent(in) :: ev_galerkin, ev_cycle
     type(tMat), intent(out) :: s
     PetscErrorCode, intent(out) :: ierr
@@ -113,8 +118,11 @@ contains
     gl%lat => lat
     gl%da3 = da3
     gl%ksp = ksp
-    gl%mixed_product = mixed
-    gl%fused_product = fused
+    ! fused: mixed, each cycle's output multiplied in its last sweep, where
+    ! the Krylov method multiplies that output (checked at the first cycle,
+    ! mg_pc_apply)
+    gl%mixed_product = product /= PRODUCT_DOUBLE
+    gl%fused_product = product == PRODUCT_FUSED
     gl%ev_galerkin = ev_galerkin
     gl%ev_cycle = ev_cycle
     PetscCall(PetscObjectGetComm(da3, comm, ierr))
@@ -160,10 +168,11 @@ contains
     call mg_create(gl%mg, comm, nx, ny, ys, ys + n - 1, w, cubic, max_levels, cycle, sweeps, cubic_up, paired=paired)
     PetscCall(PCShellSetContext(pc, gl, ierr))
     PetscCall(PCShellSetApply(pc, mg_pc_apply, ierr))
-    PetscCall(PCShellSetView(pc, mg_pc_view, ierr))
     PetscCall(PCShellSetName(pc, 'nuno structured multigrid (module stencil_mg)', ierr))
+    PetscCall(PCShellSetView(pc, mg_pc_view, ierr))
   end subroutine mg_glue_pc
 
+  !> Free the multigrid and the fused product's vector.
   subroutine mg_glue_free(gl, ierr)
     type(mg_glue_t), intent(inout) :: gl
     PetscErrorCode, intent(out) :: ierr
@@ -218,6 +227,35 @@ contains
                                                            'double                                            ', gl%mixed_product))
     end if
   end subroutine mg_glue_describe
+
+  !> The options of nuno's multigrid (-nuno_mg ...; read in
+  !> src/solver/nuno_options.c, where -help shows them) over opt's
+  !> defaults, and their checks. Collective.
+  subroutine mg_options_read(comm, opt, ierr)
+    MPI_Comm, intent(in) :: comm
+    type(mg_options_t), intent(out) :: opt
+    PetscErrorCode, intent(out) :: ierr
+    integer(c_int) :: impl, cycle, sweeps, levels, product, given
+    impl = opt%impl
+    cycle = opt%cycle
+    sweeps = opt%sweeps
+    levels = opt%levels
+    product = opt%product
+    ierr = nuno_mg_options_read(comm, MG_NAMES, size(MG_NAMES), len(MG_NAMES), impl, &
+                                CYCLE_NAMES, size(CYCLE_NAMES), len(CYCLE_NAMES), cycle, sweeps, levels, &
+                                PRODUCT_NAMES, size(PRODUCT_NAMES), len(PRODUCT_NAMES), product, given)
+    if (ierr /= 0) return
+    if (sweeps < 1) then
+      ierr = PETSC_ERR_ARG_OUTOFRANGE
+      SETERRQ(comm, ierr, '-nuno_mg_sweeps '//itoa(int(sweeps))//' must be >= 1')
+    end if
+    if (levels < 0) then
+      ierr = PETSC_ERR_ARG_OUTOFRANGE
+      SETERRQ(comm, ierr, '-nuno_mg_levels '//itoa(int(levels))//' must be >= 1 (or 0: as many as fit)')
+    end if
+    opt = mg_options_t(impl=int(impl), cycle=int(cycle), sweeps=int(sweeps), levels=int(levels), &
+                       product=int(product), given=given /= 0)
+  end subroutine mg_options_read
 
   !> Multigrid levels of the lattice: as many as it halves into with at
   !> least 5 nodes a side and, in every strip, the halo width of rows on
@@ -306,7 +344,9 @@ contains
     PetscScalar, pointer :: xl(:), ya(:)
     logical :: whole
     integer(c_int64_t) :: state
-    PetscCall(MatShellGetContext(mat, gl, ierr))
+    type(c_ptr) :: ctx                     !< the shell's context: the record's address
+    PetscCall(MatShellGetContext(mat, ctx, ierr))
+    call c_f_pointer(ctx, gl)
     if (gl%pax_valid) then
       ! x the last cycle's output, unchanged: its product is formed
       if (x%v == gl%pax_of%v) then
@@ -356,7 +396,9 @@ contains
     type(mg_glue_t), pointer :: gl
     character(len=160) :: text(16)
     integer :: n, k
-    PetscCall(PCShellGetContext(pc, gl, ierr))
+    type(c_ptr) :: ctx                     !< the shell's context: the record's address
+    PetscCall(PCShellGetContext(pc, ctx, ierr))
+    call c_f_pointer(ctx, gl)
     call mg_describe(gl%mg, text, n)
     do k = 1, n
       PetscCall(PetscViewerASCIIPrintf(viewer, '  '//trim(text(k))//new_line('a'), ierr))
@@ -376,7 +418,9 @@ contains
     PetscScalar, pointer :: xa(:, :, :), ya(:, :, :), pa(:, :, :)
     PCSide :: side
     logical :: formed
-    PetscCall(PCShellGetContext(pc, gl, ierr))
+    type(c_ptr) :: ctx                     !< the shell's context: the record's address
+    PetscCall(PCShellGetContext(pc, ctx, ierr))
+    call c_f_pointer(ctx, gl)
     if (gl%fused_product .and. .not. gl%pax_checked) then
       ! the first cycle: only a Krylov method that multiplies the
       ! preconditioner's output (right preconditioning: FGMRES, GCR,

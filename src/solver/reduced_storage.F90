@@ -4,8 +4,8 @@
 !> S by stencil offset is module reduced_mg's): BAIJ or AIJ from the DMDA,
 !> an AIJ S filled by writing its CSR value arrays directly (module
 !> reduced_assembly's assemble_csr) when its structure is the stencil,
-!> else block row by block row from the element buffer. Only this module
-!> writes its record (s_store_t).
+!> else block row by block row from the element buffer. Its record
+!> (s_store_t) has private components: only this module writes it.
 module reduced_storage
 #include "petsc/finclude/petscksp.h"
 #include "petsc/finclude/petscdmda.h"
@@ -19,10 +19,11 @@ module reduced_storage
   use reduced_assembly, only: assemble_csr
   implicit none
   private
-  public :: s_store_t, store_init, store_matrix, store_assemble, check_direct, set_block_row, store_use_buffer
+  public :: s_store_t, store_init, store_matrix, store_assemble, check_direct, set_block_row, store_use_buffer, store_direct
 
   !> The element buffer and one block row's work.
   type :: s_store_t
+    private
     type(lattice_t), pointer :: lat => null()
     type(jac_buffer_t) :: jbuf
     real(rp), allocatable :: vals(:, :, :) !< (3, 3, ncol) one block row
@@ -38,6 +39,7 @@ module reduced_storage
   !> av) and off-diagonal part (ib, jb, bv; empty on one rank), 1-based
   !> pointers into PETSc's own arrays (no copies).
   type :: aij_view_t
+    private
     type(tMat) :: ad, ao
     logical :: parallel = .false.
     PetscInt :: na = 0, nb = 0
@@ -101,6 +103,12 @@ contains
     type(s_store_t), intent(inout) :: st
     st%direct = .false.
   end subroutine store_use_buffer
+
+  !> An AIJ S is written straight into its value arrays (check_direct).
+  pure logical function store_direct(st)
+    type(s_store_t), intent(in) :: st
+    store_direct = st%direct
+  end function store_direct
 
   !> S at the ghosted state u and shift a into the matrix s (not yet
   !> assembled), with the products gpred of wpred and the diagonal kd on the

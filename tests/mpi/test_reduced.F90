@@ -26,10 +26,9 @@ program test_reduced
   use lattice, only: lattice_t, lattice_init, halo_width, rest_position
   use forces, only: internal_forces
   use reduced, only: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, &
-                     reduced_attach
-  use reduced_storage, only: store_use_buffer
+                     reduced_attach, reduced_matrix, reduced_dm, reduced_jacobian, reduced_inner_ksp, &
+                     reduced_writes_directly, reduced_use_buffer, reduced_offset_assembly, reduced_products
   use check, only: check_true, check_report
-  use reduced_assembly, only: assemble_stencil
   use offset_product, only: stencil_product, offset_count
   implicit none
   PetscErrorCode :: ierr
@@ -93,7 +92,8 @@ contains
     type(lattice_t), target :: lat
     type(reduced_t), target :: red, red2
     PetscReal :: snorm, dnorm
-    type(tDM) :: da6
+    type(tDM) :: da6, da3
+    type(tMat) :: jac
     type(tVec) :: u, ud, up, um, y3, sy3, sy3b, b, du, jdu
     type(tVec) :: uloc, udloc
     type(tSNES) :: snes
@@ -153,7 +153,9 @@ contains
     PetscCallA(DMDAVecRestoreArrayF90(da6, ud, uda, ierr))
     PetscCallA(DMDAVecRestoreArrayF90(da6, u, ua, ierr))
 
-    PetscCallA(reduced_create(red, da6, lat, .false., .false., .true., .false., .false., 1, ierr))
+    PetscCallA(reduced_create(red, da6, lat, .false., .false., .true., .false., .false., 1, 0, ierr))
+    da3 = reduced_dm(red)
+    jac = reduced_jacobian(red)
     PetscCallA(reduced_set_fixed(red, fixed, ierr))
     PetscCallA(DMGetLocalVector(da6, uloc, ierr))
     PetscCallA(DMGetLocalVector(da6, udloc, ierr))
@@ -168,14 +170,14 @@ contains
     ! element by element (module reduced_assembly). The S of the block
     ! buffer through MatSetValues sums the same terms in another order: the
     ! two must agree to round-off, on every rank count.
-    call check_true(red%sto%direct, label//': AIJ S is written directly')
-    PetscCallA(reduced_create(red2, da6, lat, .false., .false., .true., .false., .false., 1, ierr))
-    call store_use_buffer(red2%sto)
+    call check_true(reduced_writes_directly(red), label//': AIJ S is written directly')
+    PetscCallA(reduced_create(red2, da6, lat, .false., .false., .true., .false., .false., 1, 0, ierr))
+    call reduced_use_buffer(red2)
     PetscCallA(reduced_set_fixed(red2, fixed, ierr))
     PetscCallA(reduced_assemble(red2, ul, udl, a, ierr))
-    PetscCallA(MatNorm(red2%s, NORM_FROBENIUS, snorm, ierr))
-    PetscCallA(MatAXPY(red2%s, -1.0_rp, red%s, SAME_NONZERO_PATTERN, ierr))
-    PetscCallA(MatNorm(red2%s, NORM_FROBENIUS, dnorm, ierr))
+    PetscCallA(MatNorm(reduced_matrix(red2), NORM_FROBENIUS, snorm, ierr))
+    PetscCallA(MatAXPY(reduced_matrix(red2), -1.0_rp, reduced_matrix(red), SAME_NONZERO_PATTERN, ierr))
+    PetscCallA(MatNorm(reduced_matrix(red2), NORM_FROBENIUS, dnorm, ierr))
     if (dnorm > 1.0e-14_rp * snorm) print '(a, es10.2)', ' relative difference ', dnorm / snorm
     call check_true(dnorm <= 1.0e-14_rp * snorm .and. snorm > 0.0_rp, label//': direct S equals the MatSetValues S')
     PetscCallA(reduced_destroy(red2, ierr))
@@ -185,22 +187,22 @@ contains
     PetscCallA(DMRestoreLocalVector(da6, uloc, ierr))
 
     ! 1. S y against finite differences (y = 0 on constrained nodes).
-    PetscCallA(VecDuplicate(red%rhs, y3, ierr))
-    PetscCallA(VecDuplicate(red%rhs, sy3, ierr))
-    PetscCallA(VecDuplicate(red%rhs, sy3b, ierr))
-    PetscCallA(DMDAVecGetArrayF90(red%da3, y3, ya, ierr))
+    PetscCallA(DMCreateGlobalVector(da3, y3, ierr))
+    PetscCallA(VecDuplicate(y3, sy3, ierr))
+    PetscCallA(VecDuplicate(y3, sy3b, ierr))
+    PetscCallA(DMDAVecGetArrayF90(da3, y3, ya, ierr))
     do j = lat%ys, lat%ye
       do i = 0, lat%nx - 1
         ya(:, i, j) = [sin(1.0_rp + i + 2.0_rp * j), cos(0.5_rp * i - j), sin(0.3_rp * i * j + 0.2_rp)]
         if (fixed(i, j)) ya(:, i, j) = 0.0_rp
       end do
     end do
-    PetscCallA(DMDAVecRestoreArrayF90(red%da3, y3, ya, ierr))
-    PetscCallA(MatMult(red%s, y3, sy3, ierr))
+    PetscCallA(DMDAVecRestoreArrayF90(da3, y3, ya, ierr))
+    PetscCallA(MatMult(reduced_matrix(red), y3, sy3, ierr))
     eps = 1.0e-6_rp
     PetscCallA(VecDuplicate(u, up, ierr))
     PetscCallA(VecDuplicate(u, um, ierr))
-    PetscCallA(DMDAVecGetArrayReadF90(red%da3, y3, ya, ierr))
+    PetscCallA(DMDAVecGetArrayReadF90(da3, y3, ya, ierr))
     PetscCallA(DMDAVecGetArrayReadF90(da6, u, ua, ierr))
     PetscCallA(DMDAVecGetArrayF90(da6, up, pa, ierr))
     pa = ua
@@ -217,7 +219,7 @@ contains
     call forces_at(da6, lat, um, fm)
     err = 0.0_rp
     scale = 0.0_rp
-    PetscCallA(DMDAVecGetArrayReadF90(red%da3, sy3, sa, ierr))
+    PetscCallA(DMDAVecGetArrayReadF90(da3, sy3, sa, ierr))
     do j = lat%ys, lat%ye
       do i = 0, lat%nx - 1
         m = lat%mass(i, j)
@@ -230,26 +232,26 @@ contains
         scale = max(scale, maxval(abs(fd)))
       end do
     end do
-    PetscCallA(DMDAVecRestoreArrayReadF90(red%da3, sy3, sa, ierr))
-    PetscCallA(DMDAVecRestoreArrayReadF90(red%da3, y3, ya, ierr))
+    PetscCallA(DMDAVecRestoreArrayReadF90(da3, sy3, sa, ierr))
+    PetscCallA(DMDAVecRestoreArrayReadF90(da3, y3, ya, ierr))
     err = gmax(err)
     scale = gmax(scale)
     call check_true(scale > 0.0_rp .and. err <= 1.0e-7_rp * scale, label//': S y against finite differences')
     if (err > 1.0e-7_rp * scale) write(*, '(a,es10.3,a,es10.3)') label//': |S y - fd| = ', err, ' of ', scale
-    call check_stencil_s(red, lat, u, y3, sy3, a, label)
+    call check_stencil_s(red, da6, lat, u, y3, sy3, label)
 
     ! Constrained columns and rows: changing y on constrained nodes changes
     ! S y only there, by a m dy.
-    PetscCallA(DMDAVecGetArrayF90(red%da3, y3, ya, ierr))
+    PetscCallA(DMDAVecGetArrayF90(da3, y3, ya, ierr))
     do j = lat%ys, lat%ye
       do i = 0, lat%nx - 1
         if (fixed(i, j)) ya(:, i, j) = [1.0_rp, -2.0_rp, 3.0_rp]
       end do
     end do
-    PetscCallA(DMDAVecRestoreArrayF90(red%da3, y3, ya, ierr))
-    PetscCallA(MatMult(red%s, y3, sy3b, ierr))
-    PetscCallA(DMDAVecGetArrayReadF90(red%da3, sy3, sa, ierr))
-    PetscCallA(DMDAVecGetArrayReadF90(red%da3, sy3b, sb, ierr))
+    PetscCallA(DMDAVecRestoreArrayF90(da3, y3, ya, ierr))
+    PetscCallA(MatMult(reduced_matrix(red), y3, sy3b, ierr))
+    PetscCallA(DMDAVecGetArrayReadF90(da3, sy3, sa, ierr))
+    PetscCallA(DMDAVecGetArrayReadF90(da3, sy3b, sb, ierr))
     err = 0.0_rp
     do j = lat%ys, lat%ye
       do i = 0, lat%nx - 1
@@ -261,8 +263,8 @@ contains
         err = max(err, maxval(abs(sb(0:2, i, j) - fd)))
       end do
     end do
-    PetscCallA(DMDAVecRestoreArrayReadF90(red%da3, sy3b, sb, ierr))
-    PetscCallA(DMDAVecRestoreArrayReadF90(red%da3, sy3, sa, ierr))
+    PetscCallA(DMDAVecRestoreArrayReadF90(da3, sy3b, sb, ierr))
+    PetscCallA(DMDAVecRestoreArrayReadF90(da3, sy3, sa, ierr))
     err = gmax(err)
     call check_true(err <= 1.0e-12_rp * scale, label//': constrained rows and columns of S')
 
@@ -278,7 +280,7 @@ contains
       end do
     end do
     PetscCallA(DMDAVecRestoreArrayF90(da6, du, da, ierr))
-    PetscCallA(MatMult(red%jac, du, jdu, ierr))
+    PetscCallA(MatMult(jac, du, jdu, ierr))
     PetscCallA(VecWAXPY(up, eps, du, u, ierr))
     PetscCallA(VecWAXPY(um, -eps, du, u, ierr))
     call forces_at(da6, lat, up, fp)
@@ -310,9 +312,9 @@ contains
     PetscCallA(SNESCreate(PETSC_COMM_WORLD, snes, ierr))
     PetscCallA(reduced_attach(red, snes, ierr))
     PetscCallA(SNESGetKSP(snes, outer, ierr))
-    PetscCallA(KSPSetOperators(outer, red%jac, red%jac, ierr))
+    PetscCallA(KSPSetOperators(outer, jac, jac, ierr))
     call general_b(da6, lat, b)
-    call check_inverse(outer, red%jac, b, du, jdu, label//': elimination inverts J, general b')
+    call check_inverse(outer, jac, b, du, jdu, label//': elimination inverts J, general b')
     ! ... and b = F(u) as in a Newton step: F_x = xdot - v everywhere,
     ! F_v = vdot on constrained nodes (free F_v arbitrary).
     PetscCallA(DMDAVecGetArrayF90(da6, b, ba, ierr))
@@ -327,9 +329,9 @@ contains
     PetscCallA(DMDAVecRestoreArrayReadF90(da6, ud, uda, ierr))
     PetscCallA(DMDAVecRestoreArrayReadF90(da6, u, ua, ierr))
     PetscCallA(DMDAVecRestoreArrayF90(da6, b, ba, ierr))
-    call check_inverse(outer, red%jac, b, du, jdu, label//': elimination inverts J, b = F(u)')
+    call check_inverse(outer, jac, b, du, jdu, label//': elimination inverts J, b = F(u)')
     PetscCallA(VecScale(b, -1.0_rp, ierr))
-    call check_inverse(outer, red%jac, b, du, jdu, label//': elimination inverts J, b = -F(u)')
+    call check_inverse(outer, jac, b, du, jdu, label//': elimination inverts J, b = -F(u)')
 
     ! 4. Constrained nodes exact whatever the inner solve: with dv = rhs
     ! inside (preonly, no preconditioner), J (P b) = b holds on the
@@ -339,11 +341,11 @@ contains
       type(tPC) :: ipc
       PetscScalar, pointer :: ra(:, :, :)
       real(rp) :: efix, efree, bmax
-      PetscCallA(KSPGetPC(red%ksp, ipc, ierr))
+      PetscCallA(KSPGetPC(reduced_inner_ksp(red), ipc, ierr))
       PetscCallA(PCSetType(ipc, PCNONE, ierr))
       call general_b(da6, lat, b)
       PetscCallA(KSPSolve(outer, b, du, ierr))
-      PetscCallA(MatMult(red%jac, du, jdu, ierr))
+      PetscCallA(MatMult(jac, du, jdu, ierr))
       PetscCallA(VecAXPY(jdu, -1.0_rp, b, ierr))
       PetscCallA(VecNorm(b, NORM_INFINITY, bmax, ierr))
       efix = 0.0_rp
@@ -388,13 +390,15 @@ contains
   !> against sy = S y of the AIJ S (checked against finite differences
   !> above, written element by element), and the element products g and
   !> diagonals kd against the AIJ assembly's (gpred, kd).
-  subroutine check_stencil_s(red, lat, u, y3, sy, a, label)
-    type(reduced_t), intent(inout) :: red
+  subroutine check_stencil_s(red, da6, lat, u, y3, sy, label)
+    type(reduced_t), intent(in) :: red
+    type(tDM), intent(in) :: da6
     type(lattice_t), intent(in) :: lat
     type(tVec), intent(in) :: u, y3, sy
-    real(rp), intent(in) :: a
     character(*), intent(in) :: label
     real(rp), allocatable :: st(:, :, :, :, :), g(:, :, :), kd(:, :, :), ys(:, :, :), yg(:, :, :)
+    real(rp), allocatable :: gpred(:, :, :), kdpred(:, :, :)
+    type(tDM) :: da3
     type(tVec) :: uloc, yloc
     PetscScalar, pointer :: ul(:, :, :), yl(:, :, :), sa(:, :, :)
     PetscInt :: gxs, gys, gzs, gxm, gym, gzm
@@ -403,33 +407,35 @@ contains
 
     allocate(st(0:lat%nx - 1, 3, 3, offset_count(lat%halo), 0:lat%ye - lat%ys))
     allocate(g(3, 0:lat%nx - 1, lat%ys:lat%ye), kd(3, 0:lat%nx - 1, lat%ys:lat%ye))
+    allocate(gpred(3, 0:lat%nx - 1, lat%ys:lat%ye), kdpred(3, 0:lat%nx - 1, lat%ys:lat%ye))
+    da3 = reduced_dm(red)
+    call reduced_products(red, gpred, kdpred)
     allocate(ys(3, 0:lat%nx - 1, lat%ys:lat%ye), yg(3, 0:lat%nx - 1, lat%gys:lat%gye))
-    PetscCallA(DMGetLocalVector(red%da6, uloc, ierr))
-    PetscCallA(DMGlobalToLocalBegin(red%da6, u, INSERT_VALUES, uloc, ierr))
-    PetscCallA(DMGlobalToLocalEnd(red%da6, u, INSERT_VALUES, uloc, ierr))
-    PetscCallA(DMDAVecGetArrayReadF90(red%da6, uloc, ul, ierr))
-    call assemble_stencil(lat, ul, red%el%fixedg, a, red%el%damping, red%el%clamp, red%el%gauss_newton, red%el%wpred, &
-                          red%el%lb, g, kd, st)
-    PetscCallA(DMDAVecRestoreArrayReadF90(red%da6, uloc, ul, ierr))
-    PetscCallA(DMRestoreLocalVector(red%da6, uloc, ierr))
-    PetscCallA(DMGetLocalVector(red%da3, yloc, ierr))
-    PetscCallA(DMGlobalToLocalBegin(red%da3, y3, INSERT_VALUES, yloc, ierr))
-    PetscCallA(DMGlobalToLocalEnd(red%da3, y3, INSERT_VALUES, yloc, ierr))
-    PetscCallA(DMDAGetGhostCorners(red%da3, gxs, gys, gzs, gxm, gym, gzm, ierr))
+    PetscCallA(DMGetLocalVector(da6, uloc, ierr))
+    PetscCallA(DMGlobalToLocalBegin(da6, u, INSERT_VALUES, uloc, ierr))
+    PetscCallA(DMGlobalToLocalEnd(da6, u, INSERT_VALUES, uloc, ierr))
+    PetscCallA(DMDAVecGetArrayReadF90(da6, uloc, ul, ierr))
+    call reduced_offset_assembly(red, ul, st, g, kd)
+    PetscCallA(DMDAVecRestoreArrayReadF90(da6, uloc, ul, ierr))
+    PetscCallA(DMRestoreLocalVector(da6, uloc, ierr))
+    PetscCallA(DMGetLocalVector(da3, yloc, ierr))
+    PetscCallA(DMGlobalToLocalBegin(da3, y3, INSERT_VALUES, yloc, ierr))
+    PetscCallA(DMGlobalToLocalEnd(da3, y3, INSERT_VALUES, yloc, ierr))
+    PetscCallA(DMDAGetGhostCorners(da3, gxs, gys, gzs, gxm, gym, gzm, ierr))
     call check_true(gys <= lat%gys .and. gys + gym - 1 >= lat%gye, label//': the 3-dof ghost rows hold the lattice''s')
-    PetscCallA(DMDAVecGetArrayReadF90(red%da3, yloc, yl, ierr))
+    PetscCallA(DMDAVecGetArrayReadF90(da3, yloc, yl, ierr))
     yg = yl(0:2, :, lat%gys:lat%gye)
-    PetscCallA(DMDAVecRestoreArrayReadF90(red%da3, yloc, yl, ierr))
-    PetscCallA(DMRestoreLocalVector(red%da3, yloc, ierr))
+    PetscCallA(DMDAVecRestoreArrayReadF90(da3, yloc, yl, ierr))
+    PetscCallA(DMRestoreLocalVector(da3, yloc, ierr))
     call stencil_product(lat%nx, lat%ny, lat%ys, lat%ye, lat%gys, lat%gye, lat%halo, st, yg, ys)
-    PetscCallA(DMDAVecGetArrayReadF90(red%da3, sy, sa, ierr))
+    PetscCallA(DMDAVecGetArrayReadF90(da3, sy, sa, ierr))
     err = gmax(maxval(abs(ys - sa(0:2, :, lat%ys:lat%ye))))
     scale = gmax(maxval(abs(sa(0:2, :, lat%ys:lat%ye))))
-    PetscCallA(DMDAVecRestoreArrayReadF90(red%da3, sy, sa, ierr))
+    PetscCallA(DMDAVecRestoreArrayReadF90(da3, sy, sa, ierr))
     call check_true(scale > 0.0_rp .and. err <= 1.0e-12_rp * scale, label//': S by stencil offset equals the AIJ S')
     if (.not. err <= 1.0e-12_rp * scale) write(*, '(a,es10.3,a,es10.3)') label//': |S_st y - S y| = ', err, ' of ', scale
-    errg = gmax(max(maxval(abs(g - red%el%gpred)), maxval(abs(kd - red%el%kd))))
-    scaleg = gmax(max(maxval(abs(red%el%gpred)), maxval(abs(red%el%kd))))
+    errg = gmax(max(maxval(abs(g - gpred)), maxval(abs(kd - kdpred))))
+    scaleg = gmax(max(maxval(abs(gpred)), maxval(abs(kdpred))))
     call check_true(scaleg > 0.0_rp .and. errg <= 1.0e-12_rp * scaleg, label//': the stencil assembly''s products equal the AIJ''s')
   end subroutine check_stencil_s
 
