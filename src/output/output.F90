@@ -108,6 +108,11 @@ module output
     d_barrier_energy = 23, d_min_gap = 24, d_min_gap_run = 25, d_states_checked = 26
   !> the series of contact (d_barrier .. d_states_checked): only in the files of scenes with obstacles
   integer, parameter :: d_contact_first = 18, n_dsets = 26
+  !> the series of counts, stored as 64-bit integers (the others are float64)
+  integer, parameter :: count_series(6) = [d_steps, d_rejected_steps, d_newton_iterations, d_linear_iterations, &
+                                           d_contact_active, d_states_checked]
+  !> the series of 3-vectors [t][xyz] (besides the strips /position and /velocity)
+  integer, parameter :: vector_series(4) = [d_momentum, d_angular_momentum, d_contact_force, d_normal_force]
   character(len=*), parameter :: slot_names(0:1) = [character(len=24) :: '/checkpoint/slot_0', '/checkpoint/slot_1']
   character(len=*), parameter :: dset_names(n_dsets) = [character(len=32) :: &
     '/time', '/position', '/velocity', &
@@ -155,6 +160,7 @@ module output
 
   !> The time series of an open file (submodule output_series).
   type :: series_state
+    private
     logical :: write_velocity = .false.
     logical :: contact = .false.                ! the file has the contact series (output_contact)
     integer :: nt = 0                           ! output steps completely written
@@ -166,6 +172,7 @@ module output
 
   !> The file names, the lock and the commit of the safety rules (submodule output_files).
   type :: safe_state
+    private
     character(len=:), allocatable :: xmf_path, h5_base
     character(len=:), allocatable :: final_path  ! the output file's name
     character(len=:), allocatable :: work_path   ! <final>.partial: written until committed
@@ -179,6 +186,7 @@ module output
 
   !> Checkpoints and restarts of the series (submodule output_checkpoint).
   type :: checkpoint_state
+    private
     logical :: reopened = .false.               ! continued by output_reopen (-nuno_restart)
     integer :: restarts = 0                     ! restarts of the series, this one included
     integer :: ck_seq = 0                       ! sequence of the last valid checkpoint (0: none)
@@ -222,12 +230,28 @@ module output
       logical, intent(in), optional :: overwrite      ! -nuno_overwrite (default .false.)
     end subroutine output_open
 
-    module subroutine claim_files(out, ierr, errmsg, protect)
+    module subroutine claim_files(out, protect, ierr, errmsg)
       type(output_file), intent(inout) :: out
+      character(*), intent(in) :: protect         ! a file that must not be written ('': none)
       integer, intent(inout) :: ierr
       character(*), intent(inout) :: errmsg
-      character(*), intent(in), optional :: protect
     end subroutine claim_files
+
+    module subroutine require_open(out, who, ierr, errmsg)
+      type(output_file), intent(in) :: out
+      character(*), intent(in) :: who               ! the caller, for the message
+      integer, intent(out) :: ierr
+      character(*), intent(out) :: errmsg
+    end subroutine require_open
+
+    module subroutine handle_init(out, who, filename, comm, nx, ny, ys, ym, write_velocity, overwrite, ierr, errmsg)
+      type(output_file), intent(inout) :: out
+      character(*), intent(in) :: who, filename   ! the caller and its file, for the message
+      integer, intent(in) :: comm, nx, ny, ys, ym
+      logical, intent(in) :: write_velocity, overwrite
+      integer, intent(out) :: ierr
+      character(*), intent(out) :: errmsg
+    end subroutine handle_init
 
     module subroutine commit(out, ierr, errmsg)
       type(output_file), intent(inout) :: out
@@ -323,14 +347,13 @@ module output
       character(*), intent(out) :: errmsg
     end subroutine output_write_wall_time
 
-    module subroutine open_local(out, filename, rest, mass, namelist, petsc_options, ierr, errmsg, version)
+    module subroutine open_local(out, filename, rest, mass, namelist, petsc_options, version, ierr, errmsg)
       type(output_file), intent(inout) :: out
       character(*), intent(in) :: filename
       real(rp), intent(in) :: rest(:, :, :), mass(:, :)
-      character(*), intent(in) :: namelist, petsc_options
+      character(*), intent(in) :: namelist, petsc_options, version
       integer, intent(inout) :: ierr
       character(*), intent(inout) :: errmsg
-      character(*), intent(in), optional :: version
     end subroutine open_local
 
     module subroutine write_lattice(out, rest, mass, ierr, errmsg)
@@ -359,11 +382,9 @@ module output
       character(len=:), allocatable :: name
     end function step_view
 
-    module subroutine create_series(out, idx, fixed, chunk, ftype, ierr, errmsg)
+    module subroutine create_series(out, idx, ierr, errmsg)
       type(output_file), intent(inout) :: out
       integer, intent(in) :: idx
-      integer(hsize_t), intent(in) :: fixed(:), chunk(:)
-      integer(hid_t), intent(in) :: ftype
       integer, intent(inout) :: ierr
       character(*), intent(inout) :: errmsg
     end subroutine create_series
@@ -409,9 +430,9 @@ module output
       real(rp), intent(out) :: x(:, :, :), v(:, :, :)
       integer, intent(out) :: ierr
       character(*), intent(out) :: errmsg
-      character(*), intent(in), optional :: protect
-      logical, intent(in), optional :: overwrite      ! -nuno_overwrite (default .false.)
-      type(nuno_config), intent(in), optional :: cfg   !< the input's: its scene and model must be the file's
+      character(*), intent(in) :: protect             ! a file that must not be written (the input; '': none)
+      logical, intent(in) :: overwrite                ! -nuno_overwrite
+      type(nuno_config), intent(in) :: cfg            !< the input's: its scene and model must be the file's
     end subroutine output_reopen
 
     module subroutine open_series(out, nt, extent, ierr, errmsg)

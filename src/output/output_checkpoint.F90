@@ -4,6 +4,9 @@
 submodule (output) output_checkpoint
   implicit none
 
+  character(len=*), parameter :: WRITER = 'output_write_checkpoint'   ! agree's name of the checkpoint write
+  character(len=*), parameter :: RESTART = '-nuno_restart'            ! agree's name of the reopening
+
 contains
 
   ! ---------------------------------------------------------------------------
@@ -24,32 +27,19 @@ contains
   !> Write a checkpoint: the state strips x, v (3, 0:nx-1, ys:ys+ym-1) and
   !> ck, into the slot that does not hold the last valid one; its
   !> sequence attribute, written last, makes it valid. Collective.
-  module subroutine output_write_checkpoint(out, ck, x, v, ierr, errmsg)
-    type(output_file), intent(inout) :: out
-    type(checkpoint_t), intent(inout) :: ck
-    real(rp), intent(in) :: x(:, :, :), v(:, :, :)
-    integer, intent(out) :: ierr
-    character(*), intent(out) :: errmsg
-    integer(hid_t) :: grp, dset
-    integer(hsize_t) :: nx, ny, ys, ym
+  module procedure output_write_checkpoint
+    integer(hid_t) :: grp
     integer :: slot, k
     character(len=:), allocatable :: where
-    character(len=*), parameter :: fields(2) = [character(len=8) :: 'position', 'velocity']
 
-    ierr = 0
-    errmsg = ''
-    if (.not. out%is_open) then
-      ierr = 1
-      errmsg = 'output_write_checkpoint: the output file is not open'
-      return
-    end if
-    nx = out%nx; ny = out%ny; ys = out%ys; ym = out%ym
+    call require_open(out, 'output_write_checkpoint', ierr, errmsg)
+    if (ierr /= 0) return
     if (size(x, 1) /= 3 .or. size(x, 2) /= out%nx .or. size(x, 3) /= out%ym .or. &
         any(shape(v) /= shape(x))) then
       ierr = 1
       errmsg = 'output_write_checkpoint: x and v must be (3, nx, ym)'
     end if
-    call agree(out%comm, 'output_write_checkpoint', ierr, errmsg)
+    call agree(out%comm, WRITER, ierr, errmsg)
     if (ierr /= 0) return
 
     ! (a restart point, kept at an earlier output step, holds its own count)
@@ -61,67 +51,30 @@ contains
     end if
     slot = merge(0, 1 - out%ckpt%ck_slot, out%ckpt%ck_slot < 0)
     where = trim(slot_names(slot))
-    grp = -1
     call open_or_create_group(out%file, '/checkpoint', grp, ierr, errmsg)
-    if (grp >= 0) call close_group(grp, '/checkpoint', ierr, errmsg)
+    call close_group(grp, '/checkpoint', ierr, errmsg)
     grp = -1
-    if (all_ok()) call open_or_create_group(out%file, where, grp, ierr, errmsg)
+    if (all_agree(out%comm, WRITER, ierr, errmsg)) call open_or_create_group(out%file, where, grp, ierr, errmsg)
     ! Invalid while it is being written, and that on disk before anything else.
-    if (all_ok()) call set_attr_int(grp, 'sequence', 0, where, ierr, errmsg)
-    if (all_ok()) call flush_file(out, ierr, errmsg)
-    do k = 1, 2
-      if (.not. all_ok()) exit
-      call open_or_create_state(out, grp, where//'/'//trim(fields(k)), trim(fields(k)), dset, ierr, errmsg)
-      if (.not. all_ok()) exit
-      if (k == 1) then
-        call write_rows(out%dxpl, dset, where//'/position', [0_hsize_t, 0_hsize_t, ys], &
-                        [3_hsize_t, nx, ym], x, ierr, errmsg)
-      else
-        call write_rows(out%dxpl, dset, where//'/velocity', [0_hsize_t, 0_hsize_t, ys], &
-                        [3_hsize_t, nx, ym], v, ierr, errmsg)
-      end if
-      call close_dset(dset, where//'/'//trim(fields(k)), ierr, errmsg)
-    end do
+    if (all_agree(out%comm, WRITER, ierr, errmsg)) call set_attr_int(grp, 'sequence', 0, where, ierr, errmsg)
+    if (all_agree(out%comm, WRITER, ierr, errmsg)) call flush_file(out, ierr, errmsg)
+    if (all_agree(out%comm, WRITER, ierr, errmsg)) call write_state(out, where, 'position', x, ierr, errmsg)
+    if (all_agree(out%comm, WRITER, ierr, errmsg)) call write_state(out, where, 'velocity', v, ierr, errmsg)
     ! The Newton start's earlier states (start_position_1.., start_velocity_1..)
     do k = 1, ck%start_count
-      if (.not. all_ok()) exit
-      call write_state(where//'/start_position_'//itoa(k), 'start_position_'//itoa(k), ck%start_x(:, :, :, k))
-      if (.not. all_ok()) exit
-      call write_state(where//'/start_velocity_'//itoa(k), 'start_velocity_'//itoa(k), ck%start_v(:, :, :, k))
+      if (all_agree(out%comm, WRITER, ierr, errmsg)) &
+        call write_state(out, where, 'start_position_'//itoa(k), ck%start_x(:, :, :, k), ierr, errmsg)
+      if (all_agree(out%comm, WRITER, ierr, errmsg)) &
+        call write_state(out, where, 'start_velocity_'//itoa(k), ck%start_v(:, :, :, k), ierr, errmsg)
     end do
     ! Attributes: metadata, written at the flush (which is agreed on).
-    if (all_ok()) then
-      call set_attr_reals(grp, 'time', [ck%time], where, ierr, errmsg)
-      if (ierr == 0) call set_attr_reals(grp, 'dt_next', [ck%dt_next], where, ierr, errmsg)
-      if (ierr == 0) call set_attr_reals(grp, 'wall_time', [ck%wall_time], where, ierr, errmsg)
-      if (ierr == 0) call set_attr_reals(grp, 'dissipated', [ck%dissipated], where, ierr, errmsg)
-      if (ierr == 0) call set_attr_reals(grp, 'work_constraints', [ck%work_constraints], where, ierr, errmsg)
-      if (ierr == 0) call set_attr_reals(grp, 'mgx0', [ck%mgx0], where, ierr, errmsg)
-      if (ierr == 0) call set_attr_reals(grp, 't_written', [ck%t_written], where, ierr, errmsg)
-      if (ierr == 0) call set_attr_reals(grp, 'counters', ck%counters, where, ierr, errmsg)
-      if (ierr == 0) call set_attr_int(grp, 'n_output_steps', ck%n_output_steps, where, ierr, errmsg)
-      if (ierr == 0) call set_attr_int(grp, 'stretch_warned', ck%stretch_warned, where, ierr, errmsg)
-      if (ierr == 0) call set_attr_str(grp, 'reason', trim(ck%reason), where, ierr, errmsg)
-      if (ierr == 0) call set_attr_str(grp, 'ts_type', trim(ck%ts_type), where, ierr, errmsg)
-      if (ierr == 0) call set_attr_int(grp, 'start_count', ck%start_count, where, ierr, errmsg)
-      if (ierr == 0) call set_attr_reals(grp, 'start_times', ck%start_t, where, ierr, errmsg)
-      if (ierr == 0) call set_attr_int(grp, 'start_compare', ck%start_compare, where, ierr, errmsg)
-      if (ierr == 0) call set_attr_reals(grp, 'start_nc_prev', [ck%start_nc_prev], where, ierr, errmsg)
-      if (ierr == 0) call set_attr_reals(grp, 'newton_floor', [ck%newton_floor], where, ierr, errmsg)
-      if (ierr == 0 .and. ck%contact /= 0) then
-        call set_attr_reals(grp, 'contact_friction_work', [ck%friction_work], where, ierr, errmsg)
-        if (ierr == 0) call set_attr_reals(grp, 'contact_obstacle_work', [ck%obstacle_work], where, ierr, errmsg)
-        if (ierr == 0) call set_attr_reals(grp, 'contact_min_gap_run', [ck%min_gap_run], where, ierr, errmsg)
-        if (ierr == 0) call set_attr_int(grp, 'contact_states_checked', ck%states_checked, where, ierr, errmsg)
-        if (ierr == 0) call set_attr_int(grp, 'contact_limited_steps', ck%limited_steps, where, ierr, errmsg)
-      end if
-    end if
-    if (all_ok()) call flush_file(out, ierr, errmsg)
+    if (all_agree(out%comm, WRITER, ierr, errmsg)) call write_checkpoint_attrs(grp, where, ck, ierr, errmsg)
+    if (all_agree(out%comm, WRITER, ierr, errmsg)) call flush_file(out, ierr, errmsg)
     ! Valid from here on.
-    if (all_ok()) call set_attr_int(grp, 'sequence', out%ckpt%ck_seq + 1, where, ierr, errmsg)
-    if (all_ok()) call flush_file(out, ierr, errmsg)
-    if (grp >= 0) call close_group(grp, where, ierr, errmsg)
-    call agree(out%comm, 'output_write_checkpoint', ierr, errmsg)
+    if (all_agree(out%comm, WRITER, ierr, errmsg)) call set_attr_int(grp, 'sequence', out%ckpt%ck_seq + 1, where, ierr, errmsg)
+    if (all_agree(out%comm, WRITER, ierr, errmsg)) call flush_file(out, ierr, errmsg)
+    call close_group(grp, where, ierr, errmsg)
+    call agree(out%comm, WRITER, ierr, errmsg)
     if (ierr /= 0) then
       call add_cause(out, errmsg)
       errmsg = 'checkpoint not written: '//trim(errmsg)
@@ -130,96 +83,60 @@ contains
     out%ckpt%ck_seq = out%ckpt%ck_seq + 1
     out%ckpt%ck_slot = slot
     ck%sequence = out%ckpt%ck_seq
-  contains
-    logical function all_ok()
-      call agree(out%comm, 'output_write_checkpoint', ierr, errmsg)
-      all_ok = ierr == 0
-    end function all_ok
-    subroutine write_state(path, name, a)
-      character(*), intent(in) :: path, name
-      real(rp), intent(in) :: a(:, :, :)
-      call open_or_create_state(out, grp, path, name, dset, ierr, errmsg)
-      if (ierr /= 0) return
-      call write_rows(out%dxpl, dset, path, [0_hsize_t, 0_hsize_t, ys], [3_hsize_t, nx, ym], a, ierr, errmsg)
-      call close_dset(dset, path, ierr, errmsg)
-    end subroutine write_state
-  end subroutine output_write_checkpoint
+  end procedure output_write_checkpoint
 
-  !> Close the file and the HDF5 library and open both again, with the
-  !> series as they were (every REFRESH_STEPS output steps, from
-  !> output_write_step). Parallel HDF5 1.10.8 keeps memory for every object
-  !> created in a file opened with the MPI-IO driver until the library
-  !> closes (about 20 kB a rank for each /xdmf view, 6 kB for a plain
-  !> dataset; closing the file alone does not release it): without this a
-  !> run grew by 10-25 kB a rank for each output step (docs/stability.md,
-  !> "Memory over a long run"). Nothing else in nuno holds an HDF5 object
-  !> while a run writes its output. Collective.
-  module subroutine refresh_library(out, ierr, errmsg)
-    type(output_file), intent(inout) :: out
+  !> The state a(3, nx, ym) of this rank into the dataset `name` of the
+  !> checkpoint slot `where` (made on first use). Collective.
+  subroutine write_state(out, where, name, a, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    character(*), intent(in) :: where, name
+    real(rp), intent(in) :: a(:, :, :)
     integer, intent(inout) :: ierr
     character(*), intent(inout) :: errmsg
+    integer(hid_t) :: dset
     character(len=:), allocatable :: path
-    integer(hid_t) :: fapl
-    integer :: h, i
-    logical :: exists_
 
-    if (ierr /= 0) return
-    path = out%safe%work_path
-    if (out%safe%committed) path = out%safe%final_path
-    call close_ids(out, ierr, errmsg)
-    call h5close_f(h)
-    if (h < 0) call fail('h5close_f', path, ierr, errmsg)
-    call h5open_f(h)
-    if (h < 0) call fail('h5open_f', path, ierr, errmsg)
-    call h5eset_auto_f(0, h)
-    fapl = -1
-    if (ierr == 0) then
-      call h5pcreate_f(H5P_FILE_ACCESS_F, fapl, h)
-      if (h < 0) call fail('h5pcreate_f(file access)', path, ierr, errmsg)
+    path = where//'/'//name
+    call open_or_create_state(out, path, dset, ierr, errmsg)
+    if (.not. all_agree(out%comm, WRITER, ierr, errmsg)) return
+    call write_rows(out%dxpl, dset, path, [0_hsize_t, 0_hsize_t, int(out%ys, hsize_t)], &
+                    [3_hsize_t, int(out%nx, hsize_t), int(out%ym, hsize_t)], a, ierr, errmsg)
+    call close_dset(dset, path, ierr, errmsg)
+  end subroutine write_state
+
+  !> The attributes of checkpoint_t on the slot's group grp (at where).
+  subroutine write_checkpoint_attrs(grp, where, ck, ierr, errmsg)
+    integer(hid_t), intent(in) :: grp
+    character(*), intent(in) :: where
+    type(checkpoint_t), intent(in) :: ck
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+
+    call set_attr_reals(grp, 'time', [ck%time], where, ierr, errmsg)
+    call set_attr_reals(grp, 'dt_next', [ck%dt_next], where, ierr, errmsg)
+    call set_attr_reals(grp, 'wall_time', [ck%wall_time], where, ierr, errmsg)
+    call set_attr_reals(grp, 'dissipated', [ck%dissipated], where, ierr, errmsg)
+    call set_attr_reals(grp, 'work_constraints', [ck%work_constraints], where, ierr, errmsg)
+    call set_attr_reals(grp, 'mgx0', [ck%mgx0], where, ierr, errmsg)
+    call set_attr_reals(grp, 't_written', [ck%t_written], where, ierr, errmsg)
+    call set_attr_reals(grp, 'counters', ck%counters, where, ierr, errmsg)
+    call set_attr_int(grp, 'n_output_steps', ck%n_output_steps, where, ierr, errmsg)
+    call set_attr_int(grp, 'stretch_warned', ck%stretch_warned, where, ierr, errmsg)
+    call set_attr_str(grp, 'reason', trim(ck%reason), where, ierr, errmsg)
+    call set_attr_str(grp, 'ts_type', trim(ck%ts_type), where, ierr, errmsg)
+    call set_attr_int(grp, 'start_count', ck%start_count, where, ierr, errmsg)
+    call set_attr_reals(grp, 'start_times', ck%start_t, where, ierr, errmsg)
+    call set_attr_int(grp, 'start_compare', ck%start_compare, where, ierr, errmsg)
+    call set_attr_reals(grp, 'start_nc_prev', [ck%start_nc_prev], where, ierr, errmsg)
+    call set_attr_reals(grp, 'newton_floor', [ck%newton_floor], where, ierr, errmsg)
+    if (ck%contact /= 0) then
+      call set_attr_reals(grp, 'contact_friction_work', [ck%friction_work], where, ierr, errmsg)
+      call set_attr_reals(grp, 'contact_obstacle_work', [ck%obstacle_work], where, ierr, errmsg)
+      call set_attr_reals(grp, 'contact_min_gap_run', [ck%min_gap_run], where, ierr, errmsg)
+      call set_attr_int(grp, 'contact_states_checked', ck%states_checked, where, ierr, errmsg)
+      call set_attr_int(grp, 'contact_limited_steps', ck%limited_steps, where, ierr, errmsg)
     end if
-    if (ierr == 0) then
-      call h5pset_fapl_mpio_f(fapl, out%comm, MPI_INFO_NULL, h)
-      if (h < 0) call fail('h5pset_fapl_mpio_f', path, ierr, errmsg)
-    end if
-    if (ierr == 0) then
-      ! (the bounds of open_local: the views need the 1.10 format)
-      call h5pset_libver_bounds_f(fapl, H5F_LIBVER_V18_F, H5F_LIBVER_V110_F, h)
-      if (h < 0) call fail('h5pset_libver_bounds_f', path, ierr, errmsg)
-    end if
-    if (ierr == 0) then
-      call h5fopen_f(path, H5F_ACC_RDWR_F, out%file, h, access_prp=fapl)
-      if (h < 0) then
-        out%file = -1
-        call fail('h5fopen_f (reopening)', path, ierr, errmsg)
-      end if
-    end if
-    if (fapl >= 0) call h5pclose_f(fapl, h)
-    if (ierr == 0) then
-      call h5pcreate_f(H5P_DATASET_XFER_F, out%dxpl, h)
-      if (h < 0) then
-        out%dxpl = -1
-        call fail('h5pcreate_f(dataset transfer)', path, ierr, errmsg)
-      end if
-    end if
-    if (ierr == 0) then
-      call h5pset_dxpl_mpio_f(out%dxpl, H5FD_MPIO_COLLECTIVE_F, h)
-      if (h < 0) call fail('h5pset_dxpl_mpio_f', path, ierr, errmsg)
-    end if
-    do i = 1, n_dsets
-      if (ierr /= 0) exit
-      if (i == d_velocity .and. .not. out%series%write_velocity) cycle
-      if (i >= d_contact_first .and. .not. out%series%contact) cycle
-      call h5lexists_f(out%file, trim(dset_names(i)), exists_, h)
-      if (h < 0) call fail('h5lexists_f', trim(dset_names(i)), ierr, errmsg)
-      if (ierr /= 0 .or. .not. exists_) cycle
-      call h5dopen_f(out%file, trim(dset_names(i)), out%series%dset(i), h)
-      if (h < 0) then
-        out%series%dset(i) = -1
-        call fail('h5dopen_f', trim(dset_names(i)), ierr, errmsg)
-      end if
-    end do
-    if (ierr /= 0) out%is_open = out%file >= 0
-  end subroutine refresh_library
+  end subroutine write_checkpoint_attrs
 
   !> The output steps completely written so far.
   integer module function output_steps(out)
@@ -227,37 +144,74 @@ contains
     output_steps = out%series%nt
   end function output_steps
 
+  ! ---------------------------------------------------------------------------
+  ! Reopening.
+
   !> Open an earlier run's file to continue it from its last valid
   !> checkpoint: lock it, check the lattice and that the checkpoint is
   !> before t_end, read ck and the state strips, cut the series back to the
   !> checkpoint's output steps, mark it running. Nothing is changed in the
   !> file when a check fails. Collective.
   module procedure output_reopen
-    integer(hid_t) :: fapl, grp
-    integer :: h, mpierr, fnx, fny, slot, seq(0:1), k, restarts, extent, n
-    logical :: exists, has_velocity, attempt
-    character(len=:), allocatable :: where
-    character(len=256) :: why
+    integer :: seq(0:1), extent
 
-    ierr = 0
-    errmsg = ''
-    if (out%is_open) then
-      ierr = 1
-      errmsg = 'output_reopen: handle already open ('//filename//')'
+    call handle_init(out, 'output_reopen', filename, comm, nx, ny, ys, ym, write_velocity, overwrite, ierr, errmsg)
+    if (ierr /= 0) return
+    call reopen_names(out, filename)
+    call reopen_claim(out, filename, protect, ierr, errmsg)
+    if (ierr == 0) call reopen_file(out, filename, ierr, errmsg)
+    if (ierr /= 0) then
+      if (out%rank == 0) call lock_release(out%safe%lock_path, out%safe%lock_fd)
       return
     end if
-    call MPI_Comm_rank(comm, out%rank, mpierr)
-    call MPI_Comm_size(comm, out%n_ranks, mpierr)
-    out%comm = comm
-    out%nx = nx
-    out%ny = ny
-    out%ys = ys
-    out%ym = ym
-    out%series%write_velocity = write_velocity
-    ! A run that has not yet given its file the output's name (killed
-    ! before its first output step, or one that keeps an earlier result
-    ! until it completes) left OUTPUT.partial: the restart continues that,
-    ! named either way, and gives it the name OUTPUT as a run would.
+    call collective_transfer(filename, out%dxpl, ierr, errmsg)
+
+    ! The same lattice and series; a valid checkpoint.
+    call refuse_other_run(out, filename, write_velocity, cfg, ierr, errmsg)
+    call slot_sequences(out, seq, ierr, errmsg)
+    call agree(comm, RESTART, ierr, errmsg)
+    if (ierr == 0 .and. maxval(seq) <= 0) then
+      ierr = 1
+      errmsg = '-nuno_restart '//filename//': no valid checkpoint in it (one is written at the end of a run, '// &
+               'on SIGTERM/SIGINT, every checkpoint_interval and every -nuno_checkpoint_walltime)'
+    end if
+    if (ierr == 0) call load_checkpoint(out, filename, seq, t_end, ck, x, v, ierr, errmsg)
+
+    ! The series, cut back to the checkpoint's output steps: what a run
+    ! wrote after its last checkpoint is computed again (the same way).
+    ! So are the XDMF views: those of later steps are deleted, those of the
+    ! kept steps (and of the lattice) made where the file lacks them (a file
+    ! of an earlier version). All ranks take part (collective calls).
+    call agree(comm, RESTART, ierr, errmsg)
+    extent = 0
+    if (ierr == 0) call open_series(out, ck%n_output_steps, extent, ierr, errmsg)
+    call agree(comm, RESTART, ierr, errmsg)
+    if (ierr == 0) call sync_views(out, extent, ierr, errmsg)
+    if (ierr == 0) call record_restart(out, ck, attrs_namelist, attrs_petsc_options, ierr, errmsg)
+    call set_attr_str(out%file, 'status', 'running', '/', ierr, errmsg)
+    call set_attr_int(out%file, 'n_ranks', out%n_ranks, '/', ierr, errmsg)
+    if (ierr == 0) call flush_file(out, ierr, errmsg)
+    call agree(comm, RESTART, ierr, errmsg)
+    if (ierr /= 0) then
+      call close_ids(out, ierr, errmsg)
+      out%is_open = .false.
+      if (out%rank == 0) call lock_release(out%safe%lock_path, out%safe%lock_fd)
+    end if
+  end procedure output_reopen
+
+  !> The handle's names for `filename` and the state of a continued file. A
+  !> run that has not yet given its file the output's name (killed before
+  !> its first output step, or one that keeps an earlier result until it
+  !> completes) left OUTPUT.partial: the restart continues that, named
+  !> either way, and gives it the name OUTPUT as a run would. Collective
+  !> (rank 0 looks for OUTPUT.partial).
+  subroutine reopen_names(out, filename)
+    type(output_file), intent(inout) :: out
+    character(*), intent(in) :: filename
+    character(len=256) :: why
+    integer :: n, mpierr
+    logical :: attempt
+
     n = len(filename)
     attempt = .false.
     if (n > 8) attempt = filename(n - 7:n) == '.partial'
@@ -266,7 +220,7 @@ contains
       out%safe%work_path = filename
     else
       if (out%rank == 0) attempt = path_kind(filename//'.partial', why) == kind_file
-      call MPI_Bcast(attempt, 1, MPI_LOGICAL, 0, comm, mpierr)
+      call MPI_Bcast(attempt, 1, MPI_LOGICAL, 0, out%comm, mpierr)
       out%safe%final_path = filename
       out%safe%work_path = filename
       if (attempt) out%safe%work_path = filename//'.partial'
@@ -277,165 +231,185 @@ contains
     out%safe%committed = out%safe%work_path == out%safe%final_path
     out%ckpt%reopened = .true.
     out%safe%stepped = .true.          ! a result already: never removed
-    out%safe%overwrite = .false.
-    if (present(overwrite)) out%safe%overwrite = overwrite
+  end subroutine reopen_names
+
+  !> Rank 0 claims the file (claim_files) and says which file goes on;
+  !> every rank gets the answer. Collective.
+  subroutine reopen_claim(out, filename, protect, ierr, errmsg)
+    type(output_file), intent(inout) :: out
+    character(*), intent(in) :: filename, protect
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer :: mpierr
 
     if (out%rank == 0) then
       if (.not. file_exists(out%safe%work_path)) then
         ierr = 1
         errmsg = '-nuno_restart '//filename//': no such file'
       else
-        call claim_files(out, ierr, errmsg, protect)
+        call claim_files(out, protect, ierr, errmsg)
         if (ierr == 0 .and. .not. out%safe%committed) write(*, '(a)') 'nuno: -nuno_restart: continuing '// &
           out%safe%work_path//', the last run''s file; it becomes '//out%safe%final_path//' as a run''s file does'
       end if
     end if
-    call MPI_Bcast(out%safe%had_earlier, 1, MPI_LOGICAL, 0, comm, mpierr)
-    call agree(comm, '-nuno_restart', ierr, errmsg)
-    if (ierr /= 0) then
-      if (out%rank == 0) call lock_release(out%safe%lock_path, out%safe%lock_fd)
-      return
-    end if
+    call MPI_Bcast(out%safe%had_earlier, 1, MPI_LOGICAL, 0, out%comm, mpierr)
+    call agree(out%comm, RESTART, ierr, errmsg)
+  end subroutine reopen_claim
 
-    call h5open_f(h)
-    call h5eset_auto_f(0, h)
-    call h5pcreate_f(H5P_FILE_ACCESS_F, fapl, h)
-    if (h < 0) call fail('h5pcreate_f(file access)', filename, ierr, errmsg)
-    if (ierr == 0) then
-      call h5pset_fapl_mpio_f(fapl, comm, MPI_INFO_NULL, h)
-      if (h < 0) call fail('h5pset_fapl_mpio_f', filename, ierr, errmsg)
-    end if
+  !> Open the claimed file for writing with the MPI-IO driver. Collective.
+  subroutine reopen_file(out, filename, ierr, errmsg)
+    type(output_file), intent(inout) :: out
+    character(*), intent(in) :: filename
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: fapl
+    integer :: h
+
+    fapl = -1
+    call library_open(filename, ierr, errmsg)
+    if (ierr == 0) call mpio_access_list(out%comm, filename, fapl, ierr, errmsg)
     if (ierr == 0) then
       call h5fopen_f(out%safe%work_path, H5F_ACC_RDWR_F, out%file, h, access_prp=fapl)
       if (h < 0) then
         ierr = 1
         errmsg = '-nuno_restart '//out%safe%work_path//': not an HDF5 file that can be opened for writing'
       end if
-      call h5pclose_f(fapl, h)
     end if
-    call agree(comm, '-nuno_restart', ierr, errmsg)
-    if (ierr /= 0) then
-      if (out%rank == 0) call lock_release(out%safe%lock_path, out%safe%lock_fd)
-      return
-    end if
-    out%is_open = .true.
-    call h5pcreate_f(H5P_DATASET_XFER_F, out%dxpl, h)
-    if (h < 0) call fail('h5pcreate_f(dataset transfer)', filename, ierr, errmsg)
-    if (ierr == 0) then
-      call h5pset_dxpl_mpio_f(out%dxpl, H5FD_MPIO_COLLECTIVE_F, h)
-      if (h < 0) call fail('h5pset_dxpl_mpio_f', filename, ierr, errmsg)
-    end if
+    call close_access_list(fapl, filename, ierr, errmsg)
+    call agree(out%comm, RESTART, ierr, errmsg)
+    out%is_open = ierr == 0
+  end subroutine reopen_file
 
-    ! The same lattice and series; a valid checkpoint.
-    fnx = -1
-    fny = -1
-    if (ierr == 0) call get_attr_int(out%file, 'nx', '/', fnx, ierr, errmsg)
-    if (ierr == 0) call get_attr_int(out%file, 'ny', '/', fny, ierr, errmsg)
+  !> ierr = 1 unless the file is of the run the input describes: its
+  !> lattice, its velocity series and (module checkpoint_check) its scene
+  !> and model constants.
+  subroutine refuse_other_run(out, filename, write_velocity, cfg, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    character(*), intent(in) :: filename
+    logical, intent(in) :: write_velocity
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer :: fnx, fny
+    logical :: has_velocity
+
+    call get_attr_int(out%file, 'nx', '/', fnx, ierr, errmsg)
+    call get_attr_int(out%file, 'ny', '/', fny, ierr, errmsg)
     if (ierr /= 0) then
       errmsg = '-nuno_restart '//filename//': not a nuno output file ('//trim(errmsg)//')'
-    else if (fnx /= nx .or. fny /= ny) then
+    else if (fnx /= out%nx .or. fny /= out%ny) then
       ierr = 1
       errmsg = '-nuno_restart '//filename//': its lattice is nx = '//itoa(fnx)//', ny = '//itoa(fny)// &
-               ', the input''s nx = '//itoa(nx)//', ny = '//itoa(ny)
+               ', the input''s nx = '//itoa(out%nx)//', ny = '//itoa(out%ny)
     end if
-    if (ierr == 0) then
-      call h5lexists_f(out%file, 'velocity', has_velocity, h)
-      if (h < 0) call fail('h5lexists_f', '/velocity', ierr, errmsg)
-      if (ierr == 0 .and. (has_velocity .neqv. write_velocity)) then
-        ierr = 1
-        errmsg = '-nuno_restart '//filename//': &output: write_velocity = '// &
-                 trim(merge('.true. ', '.false.', write_velocity))//' but the file was written with '// &
-                 trim(merge('.true. ', '.false.', has_velocity))//': the series must go on as it began'
-      end if
-    end if
-    ! the same scene and model constants (module checkpoint_check)
-    if (ierr == 0 .and. present(cfg)) call scene_refusal(out%file, filename, cfg, ierr, errmsg)
-    seq = 0
-    do k = 0, 1
-      if (ierr /= 0) exit
-      call h5lexists_f(out%file, 'checkpoint', exists, h)
-      if (h < 0) call fail('h5lexists_f', '/checkpoint', ierr, errmsg)
-      if (.not. exists .or. ierr /= 0) exit
-      call h5lexists_f(out%file, trim(slot_names(k)), exists, h)
-      if (h < 0) call fail('h5lexists_f', trim(slot_names(k)), ierr, errmsg)
-      if (exists .and. ierr == 0) then
-        call h5gopen_f(out%file, trim(slot_names(k)), grp, h)
-        if (h < 0) then
-          call fail('h5gopen_f', trim(slot_names(k)), ierr, errmsg)
-        else
-          call h5aexists_f(grp, 'sequence', exists, h)
-          if (exists) call get_attr_int(grp, 'sequence', trim(slot_names(k)), seq(k), ierr, errmsg)
-          call close_group(grp, trim(slot_names(k)), ierr, errmsg)
-        end if
-      end if
-    end do
-    call agree(comm, '-nuno_restart', ierr, errmsg)
-    if (ierr == 0 .and. maxval(seq) <= 0) then
+    if (ierr /= 0) return
+    call has_link(out%file, 'velocity', '/velocity', has_velocity, ierr, errmsg)
+    if (ierr == 0 .and. (has_velocity .neqv. write_velocity)) then
       ierr = 1
-      errmsg = '-nuno_restart '//filename//': no valid checkpoint in it (one is written at the end of a run, '// &
-               'on SIGTERM/SIGINT, every checkpoint_interval and every -nuno_checkpoint_walltime)'
+      errmsg = '-nuno_restart '//filename//': &output: write_velocity = '// &
+               trim(merge('.true. ', '.false.', write_velocity))//' but the file was written with '// &
+               trim(merge('.true. ', '.false.', has_velocity))//': the series must go on as it began'
     end if
-    if (ierr == 0) then
-      slot = maxloc(seq, 1) - 1
-      where = trim(slot_names(slot))
-      call read_checkpoint(out, where, ck, x, v, ierr, errmsg)
-      ck%sequence = seq(slot)
-      out%ckpt%ck_seq = seq(slot)
-      out%ckpt%ck_slot = slot
-      ! a sound checkpoint, checked before anything in the file changes
-      call agree(comm, '-nuno_restart', ierr, errmsg)
-      if (ierr == 0) call checkpoint_refusal(out%file, filename, where, ck, x, v, comm, ierr, errmsg)
-      if (ierr == 0 .and. ck%time >= t_end - 1.0e-12_rp * max(1.0_rp, t_end)) then
-        ierr = 1
-        write(errmsg, '(a,es12.5e2,a,es12.5e2,a)') '-nuno_restart '//filename//': its last checkpoint is at t =', &
-          ck%time, ', not before t_end =', t_end, ': nothing to continue (a later t_end: -nuno_set t_end=...)'
-      end if
-    end if
+    if (ierr == 0) call scene_refusal(out%file, filename, cfg, ierr, errmsg)
+  end subroutine refuse_other_run
 
-    ! The series, cut back to the checkpoint's output steps: what a run
-    ! wrote after its last checkpoint is computed again (the same way).
-    ! So are the XDMF views: those of later steps are deleted, those of the
-    ! kept steps (and of the lattice) made where the file lacks them (a file
-    ! of an earlier version). All ranks take part (collective calls).
-    call agree(comm, '-nuno_restart', ierr, errmsg)
-    extent = 0
-    if (ierr == 0) call open_series(out, ck%n_output_steps, extent, ierr, errmsg)
-    call agree(comm, '-nuno_restart', ierr, errmsg)
-    if (ierr == 0) call sync_views(out, extent, ierr, errmsg)
-    if (ierr == 0) then
-      restarts = 0
-      call h5aexists_by_name_f(out%file, 'run', 'restarts', exists, h)
-      if (h >= 0 .and. exists) then
-        call h5gopen_f(out%file, 'run', grp, h)
-        if (h >= 0) then
-          call get_attr_int(grp, 'restarts', '/run', restarts, ierr, errmsg)
-          call close_group(grp, '/run', ierr, errmsg)
-        end if
+  !> The sequence attribute of each checkpoint slot (0: none, or invalid).
+  subroutine slot_sequences(out, seq, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    integer, intent(out) :: seq(0:1)
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: grp
+    integer :: h, k
+    logical :: exists
+
+    seq = 0
+    if (ierr /= 0) return
+    call has_link(out%file, 'checkpoint', '/checkpoint', exists, ierr, errmsg)
+    if (.not. exists) return
+    do k = 0, 1
+      call has_link(out%file, trim(slot_names(k)), trim(slot_names(k)), exists, ierr, errmsg)
+      if (ierr /= 0) return
+      if (.not. exists) cycle
+      call h5gopen_f(out%file, trim(slot_names(k)), grp, h)
+      if (h < 0) then
+        call fail('h5gopen_f', trim(slot_names(k)), ierr, errmsg); return
       end if
-      out%ckpt%restarts = restarts + 1
-      call open_or_create_group(out%file, '/run', grp, ierr, errmsg)
-      if (ierr == 0) call set_attr_int(grp, 'restarts', out%ckpt%restarts, '/run', ierr, errmsg)
-      if (grp >= 0) call close_group(grp, '/run', ierr, errmsg)
-      where = '/run/restart_'//itoa(out%ckpt%restarts)
-      if (ierr == 0) call open_or_create_group(out%file, where, grp, ierr, errmsg)
-      if (ierr == 0) call set_attr_reals(grp, 'from_time', [ck%time], where, ierr, errmsg)
-      if (ierr == 0) call set_attr_int(grp, 'from_checkpoint', ck%sequence, where, ierr, errmsg)
-      if (ierr == 0) call set_attr_str(grp, 'namelist', attrs_namelist, where, ierr, errmsg)
-      if (ierr == 0) call set_attr_str(grp, 'petsc_options', attrs_petsc_options, where, ierr, errmsg)
-      if (grp >= 0) call close_group(grp, where, ierr, errmsg)
+      call h5aexists_f(grp, 'sequence', exists, h)
+      if (h >= 0 .and. exists) call get_attr_int(grp, 'sequence', trim(slot_names(k)), seq(k), ierr, errmsg)
+      call close_group(grp, trim(slot_names(k)), ierr, errmsg)
+      if (ierr /= 0) return
+    end do
+  end subroutine slot_sequences
+
+  !> Read the checkpoint of the slot with the largest sequence seq and
+  !> refuse it unless it is sound (checkpoint_check) and before t_end.
+  !> Collective.
+  subroutine load_checkpoint(out, filename, seq, t_end, ck, x, v, ierr, errmsg)
+    type(output_file), intent(inout) :: out
+    character(*), intent(in) :: filename
+    integer, intent(in) :: seq(0:1)
+    real(rp), intent(in) :: t_end
+    type(checkpoint_t), intent(out) :: ck
+    real(rp), intent(out) :: x(:, :, :), v(:, :, :)
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer :: slot
+    character(len=:), allocatable :: where
+
+    slot = maxloc(seq, 1) - 1
+    where = trim(slot_names(slot))
+    call read_checkpoint(out, where, ck, x, v, ierr, errmsg)
+    ck%sequence = seq(slot)
+    out%ckpt%ck_seq = seq(slot)
+    out%ckpt%ck_slot = slot
+    ! a sound checkpoint, checked before anything in the file changes
+    call agree(out%comm, RESTART, ierr, errmsg)
+    if (ierr == 0) call checkpoint_refusal(out%file, filename, where, ck, x, v, out%comm, ierr, errmsg)
+    if (ierr == 0 .and. ck%time >= t_end - 1.0e-12_rp * max(1.0_rp, t_end)) then
+      ierr = 1
+      write(errmsg, '(a,es12.5e2,a,es12.5e2,a)') '-nuno_restart '//filename//': its last checkpoint is at t =', &
+        ck%time, ', not before t_end =', t_end, ': nothing to continue (a later t_end: -nuno_set t_end=...)'
     end if
-    if (ierr == 0) call set_attr_str(out%file, 'status', 'running', '/', ierr, errmsg)
-    if (ierr == 0) call set_attr_int(out%file, 'n_ranks', out%n_ranks, '/', ierr, errmsg)
-    if (ierr == 0) call flush_file(out, ierr, errmsg)
-    call agree(comm, '-nuno_restart', ierr, errmsg)
-    if (ierr /= 0) then
-      call close_ids(out, ierr, errmsg)
-      out%is_open = .false.
-      if (out%rank == 0) call lock_release(out%safe%lock_path, out%safe%lock_fd)
+  end subroutine load_checkpoint
+
+  !> /run's count of restarts, and /run/restart_<k> of this one: the
+  !> checkpoint it starts from and its input.
+  subroutine record_restart(out, ck, attrs_namelist, attrs_petsc_options, ierr, errmsg)
+    type(output_file), intent(inout) :: out
+    type(checkpoint_t), intent(in) :: ck
+    character(*), intent(in) :: attrs_namelist, attrs_petsc_options
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: grp
+    integer :: h, restarts
+    logical :: exists
+    character(len=:), allocatable :: where
+
+    restarts = 0
+    call h5aexists_by_name_f(out%file, 'run', 'restarts', exists, h)
+    if (h >= 0 .and. exists) then
+      call h5gopen_f(out%file, 'run', grp, h)
+      if (h >= 0) then
+        call get_attr_int(grp, 'restarts', '/run', restarts, ierr, errmsg)
+        call close_group(grp, '/run', ierr, errmsg)
+      end if
     end if
-  end procedure output_reopen
+    out%ckpt%restarts = restarts + 1
+    call open_or_create_group(out%file, '/run', grp, ierr, errmsg)
+    call set_attr_int(grp, 'restarts', out%ckpt%restarts, '/run', ierr, errmsg)
+    call close_group(grp, '/run', ierr, errmsg)
+    where = '/run/restart_'//itoa(out%ckpt%restarts)
+    call open_or_create_group(out%file, where, grp, ierr, errmsg)
+    call set_attr_reals(grp, 'from_time', [ck%time], where, ierr, errmsg)
+    call set_attr_int(grp, 'from_checkpoint', ck%sequence, where, ierr, errmsg)
+    call set_attr_str(grp, 'namelist', attrs_namelist, where, ierr, errmsg)
+    call set_attr_str(grp, 'petsc_options', attrs_petsc_options, where, ierr, errmsg)
+    call close_group(grp, where, ierr, errmsg)
+  end subroutine record_restart
 
   ! ---------------------------------------------------------------------------
+  ! Checkpoint read.
 
   !> The attributes and state strips of the checkpoint slot `where`.
   subroutine read_checkpoint(out, where, ck, x, v, ierr, errmsg)
@@ -447,13 +421,34 @@ contains
     character(*), intent(inout) :: errmsg
     integer(hid_t) :: grp
     integer :: h, k
-    real(rp) :: r(1)
-    logical :: exists
 
     call h5gopen_f(out%file, where, grp, h)
     if (h < 0) then
       call fail('h5gopen_f', where, ierr, errmsg); return
     end if
+    call read_checkpoint_attrs(grp, where, ck, ierr, errmsg)
+    call close_group(grp, where, ierr, errmsg)
+    if (ierr /= 0) return
+    call read_rows3(out, where//'/position', x, ierr, errmsg)
+    call read_rows3(out, where//'/velocity', v, ierr, errmsg)
+    allocate(ck%start_x(size(x, 1), size(x, 2), size(x, 3), ck%start_count), &
+             ck%start_v(size(x, 1), size(x, 2), size(x, 3), ck%start_count))
+    do k = 1, ck%start_count
+      call read_rows3(out, where//'/start_position_'//itoa(k), ck%start_x(:, :, :, k), ierr, errmsg)
+      call read_rows3(out, where//'/start_velocity_'//itoa(k), ck%start_v(:, :, :, k), ierr, errmsg)
+    end do
+  end subroutine read_checkpoint
+
+  !> checkpoint_t from the attributes of the slot's group grp (at where);
+  !> those that files of earlier versions lack take their neutral values.
+  subroutine read_checkpoint_attrs(grp, where, ck, ierr, errmsg)
+    integer(hid_t), intent(in) :: grp
+    character(*), intent(in) :: where
+    type(checkpoint_t), intent(inout) :: ck
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    real(rp) :: r(1)
+
     call get_attr_reals(grp, 'time', where, r, ierr, errmsg); ck%time = r(1)
     call get_attr_reals(grp, 'dt_next', where, r, ierr, errmsg); ck%dt_next = r(1)
     call get_attr_reals(grp, 'wall_time', where, r, ierr, errmsg); ck%wall_time = r(1)
@@ -467,10 +462,8 @@ contains
     call get_attr_str(grp, 'reason', where, ck%reason, ierr, errmsg)
     call get_attr_str(grp, 'ts_type', where, ck%ts_type, ierr, errmsg)
     ! the Newton start's earlier states: not in files written before 4 Dec 2026
-    call h5aexists_f(grp, 'start_count', exists, h)
-    if (h < 0) call fail('h5aexists_f', where//' start_count', ierr, errmsg)
     ck%start_count = 0
-    if (ierr == 0 .and. exists) then
+    if (has_attr(grp, 'start_count', where, ierr, errmsg)) then
       call get_attr_int(grp, 'start_count', where, ck%start_count, ierr, errmsg)
       call get_attr_reals(grp, 'start_times', where, ck%start_t, ierr, errmsg)
       call get_attr_int(grp, 'start_compare', where, ck%start_compare, ierr, errmsg)
@@ -481,17 +474,13 @@ contains
       end if
     end if
     ! the Newton floor: not in files written before 5 Dec 2026
-    call h5aexists_f(grp, 'newton_floor', exists, h)
-    if (h < 0) call fail('h5aexists_f', where//' newton_floor', ierr, errmsg)
     ck%newton_floor = 0
-    if (ierr == 0 .and. exists) then
+    if (has_attr(grp, 'newton_floor', where, ierr, errmsg)) then
       call get_attr_reals(grp, 'newton_floor', where, r, ierr, errmsg); ck%newton_floor = r(1)
     end if
     ! contact's run diagnostics: scenes with obstacles (none in files written before /contact)
-    call h5aexists_f(grp, 'contact_friction_work', exists, h)
-    if (h < 0) call fail('h5aexists_f', where//' contact_friction_work', ierr, errmsg)
     ck%contact = 0
-    if (ierr == 0 .and. exists) then
+    if (has_attr(grp, 'contact_friction_work', where, ierr, errmsg)) then
       ck%contact = 1
       call get_attr_reals(grp, 'contact_friction_work', where, r, ierr, errmsg); ck%friction_work = r(1)
       call get_attr_reals(grp, 'contact_min_gap_run', where, r, ierr, errmsg); ck%min_gap_run = r(1)
@@ -501,54 +490,44 @@ contains
     ! the moving obstacles' work: not in files written before it (static obstacles: 0)
     ck%obstacle_work = 0
     if (ierr == 0 .and. ck%contact /= 0) then
-      call h5aexists_f(grp, 'contact_obstacle_work', exists, h)
-      if (h < 0) call fail('h5aexists_f', where//' contact_obstacle_work', ierr, errmsg)
-      if (ierr == 0 .and. exists) then
+      if (has_attr(grp, 'contact_obstacle_work', where, ierr, errmsg)) then
         call get_attr_reals(grp, 'contact_obstacle_work', where, r, ierr, errmsg); ck%obstacle_work = r(1)
       end if
     end if
-    call close_group(grp, where, ierr, errmsg)
-    if (ierr /= 0) return
-    call read_rows3(out, where//'/position', x, ierr, errmsg)
-    call read_rows3(out, where//'/velocity', v, ierr, errmsg)
-    allocate(ck%start_x(size(x, 1), size(x, 2), size(x, 3), ck%start_count), &
-             ck%start_v(size(x, 1), size(x, 2), size(x, 3), ck%start_count))
-    do k = 1, ck%start_count
-      call read_rows3(out, where//'/start_position_'//itoa(k), ck%start_x(:, :, :, k), ierr, errmsg)
-      call read_rows3(out, where//'/start_velocity_'//itoa(k), ck%start_v(:, :, :, k), ierr, errmsg)
-    end do
-  end subroutine read_checkpoint
+  end subroutine read_checkpoint_attrs
 
-  !> A fixed [ny][nx][3] state dataset of a checkpoint slot, created on first use.
-  subroutine open_or_create_state(out, grp, path, name, dset, ierr, errmsg)
-    type(output_file), intent(in) :: out
+  !> Whether grp (at where) has the attribute `name`: .false. when it has
+  !> not, when the question fails (ierr set) or when ierr /= 0 already.
+  logical function has_attr(grp, name, where, ierr, errmsg)
     integer(hid_t), intent(in) :: grp
-    character(*), intent(in) :: path, name
+    character(*), intent(in) :: name, where
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer :: h
+
+    call h5aexists_f(grp, name, has_attr, h)
+    if (h < 0) call fail('h5aexists_f', where//' '//name, ierr, errmsg)
+    has_attr = has_attr .and. ierr == 0
+  end function has_attr
+
+  !> A fixed [ny][nx][3] state dataset (at the absolute path), created on first use.
+  subroutine open_or_create_state(out, path, dset, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    character(*), intent(in) :: path
     integer(hid_t), intent(out) :: dset
     integer, intent(inout) :: ierr
     character(*), intent(inout) :: errmsg
-    integer(hid_t) :: space
     logical :: exists
-    integer :: h
 
     dset = -1
-    call h5lexists_f(grp, name, exists, h)
-    if (h < 0) then
-      call fail('h5lexists_f', path, ierr, errmsg); return
-    end if
+    call has_link(out%file, path, path, exists, ierr, errmsg)
+    if (ierr /= 0) return
     if (exists) then
-      call h5dopen_f(grp, name, dset, h)
-      if (h < 0) call fail('h5dopen_f', path, ierr, errmsg)
-      return
+      call open_dset(out%file, path, dset, ierr, errmsg)
+    else
+      call create_doubles(out%file, path, path, [3_hsize_t, int(out%nx, hsize_t), int(out%ny, hsize_t)], dset, &
+                          ierr, errmsg)
     end if
-    call h5screate_simple_f(3, [3_hsize_t, int(out%nx, hsize_t), int(out%ny, hsize_t)], space, h)
-    if (h < 0) then
-      call fail('h5screate_simple_f', path, ierr, errmsg); return
-    end if
-    call h5dcreate_f(grp, name, H5T_NATIVE_DOUBLE, space, dset, h)
-    if (h < 0) call fail('h5dcreate_f', path, ierr, errmsg)
-    call h5sclose_f(space, h)
-    if (ierr /= 0) dset = -1
   end subroutine open_or_create_state
 
   !> Collective read of this rank's rows of a [ny][nx][3] dataset into a(3, nx, ym).
@@ -564,11 +543,8 @@ contains
     real(rp) :: empty(1)
 
     a = 0
+    call open_dset(out%file, path, dset, ierr, errmsg)
     if (ierr /= 0) return
-    call h5dopen_f(out%file, path, dset, h)
-    if (h < 0) then
-      call fail('h5dopen_f', path, ierr, errmsg); return
-    end if
     count = [3_hsize_t, int(out%nx, hsize_t), int(out%ym, hsize_t)]
     call select_spaces(dset, path, [0_hsize_t, 0_hsize_t, int(out%ys, hsize_t)], count, product(count) == 0, &
                        fspace, mspace, ierr, errmsg)

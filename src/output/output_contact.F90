@@ -29,14 +29,7 @@ contains
     do k = d_contact_first, n_dsets
       if (ierr /= 0) exit
       if (out%series%dset(k) >= 0) cycle
-      select case (k)
-      case (d_contact_force, d_normal_force)
-        call create_series(out, k, [3_hsize_t], [3_hsize_t, scalar_chunk], H5T_NATIVE_DOUBLE, ierr, errmsg)
-      case (d_contact_active, d_states_checked)
-        call create_series(out, k, [integer(hsize_t) ::], [scalar_chunk], H5T_STD_I64LE, ierr, errmsg)
-      case default
-        call create_series(out, k, [integer(hsize_t) ::], [scalar_chunk], H5T_NATIVE_DOUBLE, ierr, errmsg)
-      end select
+      call create_series(out, k, ierr, errmsg)
       if (ierr == 0 .and. out%series%nt > 0) call pad(k)
       call agree(out%comm, 'contact_series', ierr, errmsg)
     end do
@@ -64,7 +57,7 @@ contains
       count(1:r) = out%series%ddims(1:r, k)
       call select_spaces(out%series%dset(k), name, start(1:r), count(1:r), out%rank /= 0, fspace, mspace, ierr, errmsg)
       if (ierr == 0) then
-        if (k == d_contact_active .or. k == d_states_checked) then
+        if (any(count_series == k)) then
           allocate(minus(product(count(1:r))))
           minus = -1
           call h5dwrite_f(out%series%dset(k), h5kind_to_type(int64, H5_INTEGER_KIND), minus, [int(size(minus), hsize_t)], h, &

@@ -28,98 +28,111 @@ contains
   !> output_write_run_info's /wall_time, a restart). Collective: every rank
   !> makes the same metadata calls.
   module procedure netcdf_dims
-    integer(hid_t) :: sj, si, sxyz
+    integer(hid_t) :: sj, si, sxyz, time
     integer :: k, h
     logical :: is_scale
+    character(len=:), allocatable :: name
 
-    if (ierr /= 0 .or. out%series%dset(d_time) < 0) return
-    sj = -1; si = -1; sxyz = -1
-    call h5dsis_scale_f(out%series%dset(d_time), is_scale, h)
+    time = out%series%dset(d_time)
+    if (ierr /= 0 .or. time < 0) return
+    call h5dsis_scale_f(time, is_scale, h)
     if (h < 0) call fail('h5dsis_scale_f', '/time', ierr, errmsg)
     if (ierr == 0 .and. .not. is_scale) then
-      call h5dsset_scale_f(out%series%dset(d_time), h, 'time')
+      call h5dsset_scale_f(time, h, 'time')
       if (h < 0) call fail('h5dsset_scale_f', '/time', ierr, errmsg)
     end if
-    call axis_scale('/j', out%ny, sj)
-    call axis_scale('/i', out%nx, si)
-    call axis_scale('/xyz', 3, sxyz)
+    call axis_scale(out, '/j', out%ny, sj, ierr, errmsg)
+    call axis_scale(out, '/i', out%nx, si, ierr, errmsg)
+    call axis_scale(out, '/xyz', 3, sxyz, ierr, errmsg)
     do k = 1, n_dsets
       if (ierr /= 0) exit
       if (k == d_time .or. out%series%dset(k) < 0) cycle
-      call attach(out%series%dset(k), out%series%dset(d_time), 1, trim(dset_names(k)))
+      name = trim(dset_names(k))
+      call attach(out%series%dset(k), time, 1, name, ierr, errmsg)
       select case (k)
       case (d_position, d_velocity)
-        call attach(out%series%dset(k), sj, 2, trim(dset_names(k)))
-        call attach(out%series%dset(k), si, 3, trim(dset_names(k)))
-        call attach(out%series%dset(k), sxyz, 4, trim(dset_names(k)))
+        call attach(out%series%dset(k), sj, 2, name, ierr, errmsg)
+        call attach(out%series%dset(k), si, 3, name, ierr, errmsg)
+        call attach(out%series%dset(k), sxyz, 4, name, ierr, errmsg)
       case (d_momentum, d_angular_momentum, d_contact_force, d_normal_force)
-        call attach(out%series%dset(k), sxyz, 2, trim(dset_names(k)))
+        call attach(out%series%dset(k), sxyz, 2, name, ierr, errmsg)
       end select
     end do
-    call attach_static('/lattice/rest_position', [sj, si, sxyz])
-    call attach_static('/lattice/mass', [sj, si])
-    if (sj >= 0) call close_dset(sj, '/j', ierr, errmsg)
-    if (si >= 0) call close_dset(si, '/i', ierr, errmsg)
-    if (sxyz >= 0) call close_dset(sxyz, '/xyz', ierr, errmsg)
-  contains
-    !> The scales of a dataset written once at the open (dimension d gets
-    !> scales(d)), attached where missing.
-    subroutine attach_static(name, scales)
-      character(*), intent(in) :: name
-      integer(hid_t), intent(in) :: scales(:)
-      integer(hid_t) :: dset
-      integer :: d
-      call open_dset(out%file, name, dset, ierr, errmsg)
-      if (ierr /= 0) return
-      do d = 1, size(scales)
-        call attach(dset, scales(d), d, name)
-      end do
-      call close_dset(dset, name, ierr, errmsg)
-    end subroutine attach_static
-
-    !> The value-less scale `name` of length n, opened (made when missing).
-    subroutine axis_scale(name, n, dset)
-      character(*), intent(in) :: name
-      integer, intent(in) :: n
-      integer(hid_t), intent(out) :: dset
-      logical :: exists
-      character(len=10) :: len_text
-
-      dset = -1
-      if (ierr /= 0) return
-      call h5lexists_f(out%file, name, exists, h)
-      if (h < 0) then
-        call fail('h5lexists_f', name, ierr, errmsg); return
-      end if
-      if (exists) then
-        call open_dset(out%file, name, dset, ierr, errmsg)
-        return
-      end if
-      ! never written (no values), nor filled
-      call create_dataset(out%file, name, H5T_NATIVE_REAL, [int(n, hsize_t)], dset, ierr, errmsg)
-      if (ierr /= 0) return
-      write(len_text, '(i10)') n
-      call h5dsset_scale_f(dset, h, NOT_A_VARIABLE//len_text)
-      if (h < 0) call fail('h5dsset_scale_f', name, ierr, errmsg)
-    end subroutine axis_scale
-
-    !> Scale `scale` on axis idx (1-based, C order: 1 is the slowest) of dset, unless there.
-    subroutine attach(dset, scale, idx, name)
-      integer(hid_t), intent(in) :: dset, scale
-      integer, intent(in) :: idx
-      character(*), intent(in) :: name
-      logical :: there
-
-      if (ierr /= 0) return
-      call h5dsis_attached_f(dset, scale, idx, there, h)
-      if (h < 0) then
-        call fail('h5dsis_attached_f', name, ierr, errmsg); return
-      end if
-      if (there) return
-      call h5dsattach_scale_f(dset, scale, idx, h)
-      if (h < 0) call fail('h5dsattach_scale_f', name, ierr, errmsg)
-    end subroutine attach
+    call attach_static(out, '/lattice/rest_position', [sj, si, sxyz], ierr, errmsg)
+    call attach_static(out, '/lattice/mass', [sj, si], ierr, errmsg)
+    call close_dset(sj, '/j', ierr, errmsg)
+    call close_dset(si, '/i', ierr, errmsg)
+    call close_dset(sxyz, '/xyz', ierr, errmsg)
   end procedure netcdf_dims
+
+  !> The scales of a dataset written once at the open (dimension d gets
+  !> scales(d)), attached where missing.
+  subroutine attach_static(out, name, scales, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    character(*), intent(in) :: name
+    integer(hid_t), intent(in) :: scales(:)
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer(hid_t) :: dset
+    integer :: d
+
+    call open_dset(out%file, name, dset, ierr, errmsg)
+    if (ierr /= 0) return
+    do d = 1, size(scales)
+      call attach(dset, scales(d), d, name, ierr, errmsg)
+    end do
+    call close_dset(dset, name, ierr, errmsg)
+  end subroutine attach_static
+
+  !> The value-less scale `name` of length n, opened (made when missing);
+  !> dset: -1 unless opened; nothing when ierr /= 0 already.
+  subroutine axis_scale(out, name, n, dset, ierr, errmsg)
+    type(output_file), intent(in) :: out
+    character(*), intent(in) :: name
+    integer, intent(in) :: n
+    integer(hid_t), intent(out) :: dset
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    logical :: exists
+    integer :: h
+    character(len=10) :: len_text
+
+    dset = -1
+    if (ierr /= 0) return
+    call has_link(out%file, name, name, exists, ierr, errmsg)
+    if (ierr /= 0) return
+    if (exists) then
+      call open_dset(out%file, name, dset, ierr, errmsg)
+      return
+    end if
+    ! never written (no values), nor filled
+    call create_dataset(out%file, name, H5T_NATIVE_REAL, [int(n, hsize_t)], dset, ierr, errmsg)
+    if (ierr /= 0) return
+    write(len_text, '(i10)') n
+    call h5dsset_scale_f(dset, h, NOT_A_VARIABLE//len_text)
+    if (h < 0) call fail('h5dsset_scale_f', name, ierr, errmsg)
+  end subroutine axis_scale
+
+  !> Scale `scale` on axis idx (1-based, C order: 1 is the slowest) of dset
+  !> (name, for messages), unless there; nothing when ierr /= 0 already.
+  subroutine attach(dset, scale, idx, name, ierr, errmsg)
+    integer(hid_t), intent(in) :: dset, scale
+    integer, intent(in) :: idx
+    character(*), intent(in) :: name
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    logical :: there
+    integer :: h
+
+    if (ierr /= 0) return
+    call h5dsis_attached_f(dset, scale, idx, there, h)
+    if (h < 0) then
+      call fail('h5dsis_attached_f', name, ierr, errmsg); return
+    end if
+    if (there) return
+    call h5dsattach_scale_f(dset, scale, idx, h)
+    if (h < 0) call fail('h5dsattach_scale_f', name, ierr, errmsg)
+  end subroutine attach
 
   !> The attribute `units` of every series and of /lattice, in the scene's
   !> unit system ('SI' or 'mm g s'; another value: none written), as UDUNITS

@@ -1,7 +1,8 @@
 ! SPDX-License-Identifier: BSD-2-Clause
-!> Module output: the file lifecycle (open, claim, commit, close) and its safety
-!> rules (one writer per file, <file>.partial until committed, free space
-!> checked before a collective write).
+!> Module output: the file lifecycle (open, claim, commit, close, the
+!> library's refresh) and its safety rules (one writer per file,
+!> <file>.partial until committed, free space checked before a collective
+!> write).
 submodule (output) output_files
   implicit none
 
@@ -11,18 +12,19 @@ contains
   !> alone), write root attributes and the lattice, create the time series. Collective.
   module procedure output_open
     integer :: mpierr, rows
-    logical :: made
+    logical :: made, replace
     character(len=256) :: detail
+    character(len=:), allocatable :: program_version
+#ifdef NUNO_VERSION
+    character(len=*), parameter :: default_version = NUNO_VERSION
+#else
+    character(len=*), parameter :: default_version = '0.1.0'
+#endif
 
-    ierr = 0
-    errmsg = ''
-    if (out%is_open) then
-      ierr = 1
-      errmsg = 'output_open: handle already open ('//filename//')'
-      return
-    end if
-    call MPI_Comm_rank(comm, out%rank, mpierr)
-    call MPI_Comm_size(comm, out%n_ranks, mpierr)
+    replace = .false.
+    if (present(overwrite)) replace = overwrite
+    call handle_init(out, 'output_open', filename, comm, nx, ny, ys, ym, write_velocity, replace, ierr, errmsg)
+    if (ierr /= 0) return
     ! Shape checks, then a reduction so that every rank takes the same branch.
     if (nx < 1 .or. ny < 1 .or. ys < 0 .or. ym < 0 .or. ys + ym > ny) then
       ierr = 1
@@ -42,13 +44,7 @@ contains
     call agree(comm, 'output_open', ierr, errmsg)
     if (ierr /= 0) return
 
-    out%comm = comm
-    out%nx = nx
-    out%ny = ny
-    out%ys = ys
-    out%ym = ym
     out%series%nt = 0
-    out%series%write_velocity = write_velocity
     call sidecar_names(filename, out%safe%xmf_path, out%safe%h5_base)
     if (allocated(out%series%times)) deallocate(out%series%times)
     allocate(out%series%times(16))
@@ -58,12 +54,16 @@ contains
     out%safe%committed = .false.
     out%ckpt%reopened = .false.
     out%safe%stepped = .false.
-    out%safe%overwrite = .false.
-    if (present(overwrite)) out%safe%overwrite = overwrite
 
     ! Before anything is written: not the input file, no other writer, and
     ! only nuno's own files under the names this run writes.
-    if (out%rank == 0) call claim_files(out, ierr, errmsg, protect)
+    if (out%rank == 0) then
+      if (present(protect)) then
+        call claim_files(out, protect, ierr, errmsg)
+      else
+        call claim_files(out, '', ierr, errmsg)
+      end if
+    end if
     call agree(comm, 'output_open', ierr, errmsg)
     if (ierr /= 0) then
       if (out%rank == 0) call lock_release(out%safe%lock_path, out%safe%lock_fd)
@@ -78,7 +78,9 @@ contains
       if (out%rank == 0) call lock_release(out%safe%lock_path, out%safe%lock_fd)
       return
     end if
-    call open_local(out, out%safe%work_path, rest, mass, attrs_namelist, attrs_petsc_options, ierr, errmsg, version)
+    program_version = default_version
+    if (present(version)) program_version = version
+    call open_local(out, out%safe%work_path, rest, mass, attrs_namelist, attrs_petsc_options, program_version, ierr, errmsg)
     call agree(comm, 'output_open', ierr, errmsg)
     ! Made by this run (created: the file is open here): an error exit
     ! before it holds a result removes it (errors: cleanup_run), and so
@@ -96,15 +98,47 @@ contains
     end if
   end procedure output_open
 
-  !> Rank 0: refuse to write over `protect` (by any of the names this run
-  !> writes), then take the lock. The lock file is made beside the output,
-  !> so a missing or unwritable directory is reported here, with its cause.
-  module procedure claim_files
-    character(len=256) :: detail
-    integer :: code
-    logical :: stale, ok
+  !> The start of output_open and output_reopen (who, for the message): a
+  !> handle that is not open, this rank in comm, the lattice strip, the
+  !> series' velocity and -nuno_overwrite. Local.
+  module procedure handle_init
+    integer :: mpierr
 
-    if (present(protect)) then
+    ierr = 0
+    errmsg = ''
+    if (out%is_open) then
+      ierr = 1
+      errmsg = who//': handle already open ('//filename//')'
+      return
+    end if
+    call MPI_Comm_rank(comm, out%rank, mpierr)
+    call MPI_Comm_size(comm, out%n_ranks, mpierr)
+    out%comm = comm
+    out%nx = nx
+    out%ny = ny
+    out%ys = ys
+    out%ym = ym
+    out%series%write_velocity = write_velocity
+    out%safe%overwrite = overwrite
+  end procedure handle_init
+
+  !> ierr = 0 and errmsg = '' when the file is open; otherwise ierr = 1
+  !> and a line saying who found it closed.
+  module procedure require_open
+    ierr = 0
+    errmsg = ''
+    if (.not. out%is_open) then
+      ierr = 1
+      errmsg = who//': the output file is not open'
+    end if
+  end procedure require_open
+
+  !> Rank 0: refuse to write over `protect` (by any of the names this run
+  !> writes), then take the lock, then check the names under it. The lock
+  !> file is made beside the output, so a missing or unwritable directory is
+  !> reported here, with its cause.
+  module procedure claim_files
+    if (len(protect) > 0) then
       if (same_file(protect, out%safe%final_path) .or. same_file(protect, out%safe%work_path) .or. &
           same_file(protect, out%safe%lock_path) .or. same_file(protect, out%safe%xmf_path)) then
         ierr = 1
@@ -113,6 +147,18 @@ contains
         return
       end if
     end if
+    call take_lock(out, ierr, errmsg)
+    if (ierr == 0) call claim_names(out, ierr, errmsg)
+  end procedure claim_files
+
+  !> Rank 0: the lock file <final>.lock, flock'd for the life of the run.
+  subroutine take_lock(out, ierr, errmsg)
+    type(output_file), intent(inout) :: out
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    character(len=256) :: detail
+    integer :: code
+
     call lock_acquire(out%safe%lock_path, out%safe%lock_fd, code, detail)
     if (code == 1) then
       ierr = 1
@@ -126,15 +172,25 @@ contains
       ierr = 1
       errmsg = 'output: cannot create '//out%safe%lock_path//' beside the output file: '//trim(detail)
     end if
-    if (ierr /= 0) return
-    ! Under the lock, the names this run writes: each must be free or a
-    ! regular file that nuno wrote (an earlier result, a killed run's
-    ! attempt, a sidecar), never a link, a directory or a user's file.
+  end subroutine take_lock
+
+  !> Rank 0, under the lock: the names this run writes must each be free or
+  !> a regular file that nuno wrote (an earlier result, a killed run's
+  !> attempt, a sidecar), never a link, a directory or a user's file; a
+  !> killed run's attempt is removed. A file continued by -nuno_restart
+  !> must be nuno's own.
+  subroutine claim_names(out, ierr, errmsg)
+    type(output_file), intent(inout) :: out
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    character(len=256) :: detail
+    logical :: stale, ok
+
     out%safe%had_earlier = .false.
     if (out%safe%work_path /= out%safe%final_path) then
-      call own_or_free(out%safe%final_path, 'output file', out%safe%had_earlier)
+      call own_or_free(out%safe%final_path, 'output file', .false., out%safe%had_earlier, ierr, errmsg)
       if (ierr == 0 .and. .not. out%ckpt%reopened) then
-        call own_or_free(out%safe%work_path, 'working file', stale)
+        call own_or_free(out%safe%work_path, 'working file', .false., stale, ierr, errmsg)
         ! A killed run's attempt (nuno's, under this lock): replaced.
         if (ierr == 0 .and. stale) then
           call remove_file(out%safe%work_path, ok, detail)
@@ -157,41 +213,44 @@ contains
         errmsg = '-nuno_restart '//out%safe%work_path//': not a nuno output file: nuno continues only its own output files'
       end if
     end if
-    if (ierr == 0) call own_or_free(out%safe%xmf_path, 'XDMF sidecar', stale, sidecar=.true.)
-  contains
-    !> ierr = 1 unless path is free or a regular file of nuno's (exists: it is).
-    subroutine own_or_free(path, what, exists, sidecar)
-      character(*), intent(in) :: path, what
-      logical, intent(out) :: exists
-      logical, intent(in), optional :: sidecar
-      character(len=256) :: why
-      integer :: k
-      logical :: own
-      exists = .false.
-      k = path_kind(path, why)
-      if (k == kind_none) return
-      exists = k == kind_file
-      if (k == kind_file) then
-        if (present(sidecar)) then
-          own = is_nuno_sidecar(path)
-        else
-          own = is_nuno_output(path)
-        end if
-        if (own) return
-        why = 'it exists and is not '//merge('an XDMF sidecar written by nuno', 'an output file of nuno         ', &
-                                           present(sidecar))
-      else if (k == kind_link) then
-        why = 'it is a symbolic link'
-      else if (k == kind_dir) then
-        why = 'it is a directory'
-      else if (k /= kind_unknown) then
-        why = 'it is not a regular file'
+    if (ierr == 0) call own_or_free(out%safe%xmf_path, 'XDMF sidecar', .true., stale, ierr, errmsg)
+  end subroutine claim_names
+
+  !> ierr = 1 unless path is free or a regular file of nuno's (exists: it
+  !> is): an output file, or an XDMF sidecar (sidecar).
+  subroutine own_or_free(path, what, sidecar, exists, ierr, errmsg)
+    character(*), intent(in) :: path, what
+    logical, intent(in) :: sidecar
+    logical, intent(out) :: exists
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    character(len=256) :: why
+    integer :: k
+    logical :: own
+
+    exists = .false.
+    k = path_kind(path, why)
+    if (k == kind_none) return
+    exists = k == kind_file
+    if (k == kind_file) then
+      if (sidecar) then
+        own = is_nuno_sidecar(path)
+      else
+        own = is_nuno_output(path)
       end if
-      ierr = 1
-      errmsg = 'output: '//path//' (this run''s '//what//'): '//trim(why)// &
-               '; nuno replaces only its own files, never through a link: move it away or choose another output_file'
-    end subroutine own_or_free
-  end procedure claim_files
+      if (own) return
+      why = 'it exists and is not '//merge('an XDMF sidecar written by nuno', 'an output file of nuno         ', sidecar)
+    else if (k == kind_link) then
+      why = 'it is a symbolic link'
+    else if (k == kind_dir) then
+      why = 'it is a directory'
+    else if (k /= kind_unknown) then
+      why = 'it is not a regular file'
+    end if
+    ierr = 1
+    errmsg = 'output: '//path//' (this run''s '//what//'): '//trim(why)// &
+             '; nuno replaces only its own files, never through a link: move it away or choose another output_file'
+  end subroutine own_or_free
 
   !> Rename `<file>.partial` onto `<file>` (rank 0), then write the XDMF
   !> sidecar, which names `<file>`. Collective; from here on an earlier
@@ -216,6 +275,14 @@ contains
     if (out%rank == 0) call write_xdmf(out, ierr, errmsg)
   end procedure commit
 
+  !> The file's name now: <file>.partial until committed, then <file>.
+  function file_path(out) result(path)
+    type(output_file), intent(in) :: out
+    character(len=:), allocatable :: path
+    path = out%safe%work_path
+    if (out%safe%committed) path = out%safe%final_path
+  end function file_path
+
   !> Bytes of one output step in the file (the strips and a margin for the
   !> scalars and metadata).
   module procedure step_bytes
@@ -233,8 +300,7 @@ contains
     character(len=:), allocatable :: path
 
     if (out%rank == 0) then
-      path = out%safe%work_path
-      if (out%safe%committed) path = out%safe%final_path
+      path = file_path(out)
       free = free_bytes(path)
       if (free >= 0.0_rp .and. free < 2.0_rp * bytes) then
         write(fb, '(es10.3e2)') free
@@ -258,8 +324,7 @@ contains
     character(len=:), allocatable :: path
 
     if (out%rank == 0) then
-      path = out%safe%work_path
-      if (out%safe%committed) path = out%safe%final_path
+      path = file_path(out)
       free = free_bytes(path)
       write(buf, '(es10.3e2)') free
       if (free < 0.0_rp) then
@@ -320,116 +385,109 @@ contains
 
   module procedure open_local
     integer(hid_t) :: fapl, grp
-    integer :: h, i
-    integer(hsize_t) :: chunk_rows
-#ifdef NUNO_VERSION
-    character(len=*), parameter :: default_version = NUNO_VERSION
-#else
-    character(len=*), parameter :: default_version = '0.1.0'
-#endif
+    integer :: i, h
+    character(len=12), parameter :: groups(3) = [character(len=12) :: 'lattice', 'energy', 'diagnostics']
 
-    call h5open_f(h)
-    if (h < 0) then
-      call fail('h5open_f', filename, ierr, errmsg); return
-    end if
-    ! No HDF5 error stack on stderr: a failure comes back as one line of ours.
-    call h5eset_auto_f(0, h)
-    call h5pcreate_f(H5P_FILE_ACCESS_F, fapl, h)
-    if (h < 0) then
-      call fail('h5pcreate_f(file access)', filename, ierr, errmsg); return
-    end if
-    call h5pset_fapl_mpio_f(fapl, out%comm, MPI_INFO_NULL, h)
-    if (h < 0) call fail('h5pset_fapl_mpio_f', filename, ierr, errmsg)
-    ! The 1.8 file format: attributes over 64 KiB (long namelists) are allowed,
-    ! and a file left open by a crash still opens without h5clear (superblock
-    ! version 2). Objects up to the 1.10 format are allowed, for the virtual
-    ! datasets of /xdmf (layout message version 4; HDF5 refuses them with
-    ! the bound at 1.8); everything else is written as with 1.8 bounds.
-    if (ierr == 0) then
-      call h5pset_libver_bounds_f(fapl, H5F_LIBVER_V18_F, H5F_LIBVER_V110_F, h)
-      if (h < 0) call fail('h5pset_libver_bounds_f', filename, ierr, errmsg)
-    end if
+    ! The file, with the MPI-IO driver and its collective transfer list.
+    call library_open(filename, ierr, errmsg)
+    if (ierr /= 0) return
+    call mpio_access_list(out%comm, filename, fapl, ierr, errmsg)
+    if (ierr == 0) call set_format_bounds(fapl, filename, ierr, errmsg)
     if (ierr == 0) then
       ! EXCL: a new file (O_EXCL), never one that took the name meanwhile
       ! nor the target of a symbolic link (claim_files cleared the name).
       call h5fcreate_f(filename, H5F_ACC_EXCL_F, out%file, h, access_prp=fapl)
       if (h < 0) call fail('h5fcreate_f', filename, ierr, errmsg)
     end if
-    call h5pclose_f(fapl, h)
-    if (h < 0) call fail('h5pclose_f(file access)', filename, ierr, errmsg)
+    call close_access_list(fapl, filename, ierr, errmsg)
     if (ierr /= 0) return
     out%is_open = .true.
-
-    call h5pcreate_f(H5P_DATASET_XFER_F, out%dxpl, h)
-    if (h < 0) then
-      call fail('h5pcreate_f(dataset transfer)', filename, ierr, errmsg); return
-    end if
-    call h5pset_dxpl_mpio_f(out%dxpl, H5FD_MPIO_COLLECTIVE_F, h)
-    if (h < 0) then
-      call fail('h5pset_dxpl_mpio_f', filename, ierr, errmsg); return
-    end if
-
-    ! Root attributes (metadata: every rank makes the same calls with the same values).
-    if (present(version)) then
-      call set_attr_str(out%file, 'program_version', version, '/', ierr, errmsg)
-    else
-      call set_attr_str(out%file, 'program_version', default_version, '/', ierr, errmsg)
-    end if
-    if (ierr == 0) call set_attr_int(out%file, 'nx', out%nx, '/', ierr, errmsg)
-    if (ierr == 0) call set_attr_int(out%file, 'ny', out%ny, '/', ierr, errmsg)
-    if (ierr == 0) call set_attr_int(out%file, 'n_ranks', out%n_ranks, '/', ierr, errmsg)
-    if (ierr == 0) call set_attr_str(out%file, 'namelist', namelist, '/', ierr, errmsg)
-    if (ierr == 0) call set_attr_str(out%file, 'petsc_options', petsc_options, '/', ierr, errmsg)
-    if (ierr == 0) call set_attr_str(out%file, 'status', 'running', '/', ierr, errmsg)
-    if (ierr == 0) call set_attr_int(out%file, 'n_output_steps', 0, '/', ierr, errmsg)
+    call collective_transfer(filename, out%dxpl, ierr, errmsg)
     if (ierr /= 0) return
 
-    ! Groups.
+    ! Root attributes (metadata: every rank makes the same calls with the same values).
+    call set_attr_str(out%file, 'program_version', version, '/', ierr, errmsg)
+    call set_attr_int(out%file, 'nx', out%nx, '/', ierr, errmsg)
+    call set_attr_int(out%file, 'ny', out%ny, '/', ierr, errmsg)
+    call set_attr_int(out%file, 'n_ranks', out%n_ranks, '/', ierr, errmsg)
+    call set_attr_str(out%file, 'namelist', namelist, '/', ierr, errmsg)
+    call set_attr_str(out%file, 'petsc_options', petsc_options, '/', ierr, errmsg)
+    call set_attr_str(out%file, 'status', 'running', '/', ierr, errmsg)
+    call set_attr_int(out%file, 'n_output_steps', 0, '/', ierr, errmsg)
     do i = 1, 3
-      block
-        character(len=12), parameter :: groups(3) = [character(len=12) :: 'lattice', 'energy', 'diagnostics']
-        call h5gcreate_f(out%file, trim(groups(i)), grp, h)
-        if (h < 0) then
-          call fail('h5gcreate_f', '/'//trim(groups(i)), ierr, errmsg); return
-        end if
-        call h5gclose_f(grp, h)
-        if (h < 0) then
-          call fail('h5gclose_f', '/'//trim(groups(i)), ierr, errmsg); return
-        end if
-      end block
+      call open_or_create_group(out%file, '/'//trim(groups(i)), grp, ierr, errmsg)
+      call close_group(grp, '/'//trim(groups(i)), ierr, errmsg)
     end do
+    if (ierr /= 0) return
 
     call write_lattice(out, rest, mass, ierr, errmsg)
     if (ierr /= 0) return
     call lattice_views(out, ierr, errmsg)
     if (ierr /= 0) return
-
-    ! Time series. Position chunks hold one step (whole rows, at most ~1 GiB).
-    chunk_rows = max(1_hsize_t, min(int(out%ny, hsize_t), (2_hsize_t**30)/(24_hsize_t*out%nx)))
-    call create_series(out, d_time, [integer(hsize_t) ::], [scalar_chunk], H5T_NATIVE_DOUBLE, ierr, errmsg)
-    if (ierr == 0) call create_series(out, d_position, [3_hsize_t, int(out%nx, hsize_t), int(out%ny, hsize_t)], &
-      [3_hsize_t, int(out%nx, hsize_t), chunk_rows, 1_hsize_t], H5T_NATIVE_DOUBLE, ierr, errmsg)
-    if (ierr == 0 .and. out%series%write_velocity) call create_series(out, d_velocity, &
-      [3_hsize_t, int(out%nx, hsize_t), int(out%ny, hsize_t)], &
-      [3_hsize_t, int(out%nx, hsize_t), chunk_rows, 1_hsize_t], H5T_NATIVE_DOUBLE, ierr, errmsg)
-    do i = d_kinetic, d_external_work
-      if (ierr == 0) call create_series(out, i, [integer(hsize_t) ::], [scalar_chunk], H5T_NATIVE_DOUBLE, ierr, errmsg)
-    end do
-    do i = d_momentum, d_angular_momentum
-      if (ierr == 0) call create_series(out, i, [3_hsize_t], [3_hsize_t, scalar_chunk], H5T_NATIVE_DOUBLE, ierr, errmsg)
-    end do
-    do i = d_length, d_flatness
-      if (ierr == 0) call create_series(out, i, [integer(hsize_t) ::], [scalar_chunk], H5T_NATIVE_DOUBLE, ierr, errmsg)
-    end do
-    do i = d_steps, d_linear_iterations
-      if (ierr == 0) call create_series(out, i, [integer(hsize_t) ::], [scalar_chunk], H5T_STD_I64LE, ierr, errmsg)
-    end do
+    call create_all_series(out, ierr, errmsg)
     call netcdf_dims(out, ierr, errmsg)
     if (ierr /= 0) return
-
     call h5fflush_f(out%file, H5F_SCOPE_GLOBAL_F, h)
     if (h < 0) call fail('h5fflush_f', filename, ierr, errmsg)
   end procedure open_local
+
+  !> The time series of a new file, empty (those of /run and contact come
+  !> with output_write_run_info).
+  subroutine create_all_series(out, ierr, errmsg)
+    type(output_file), intent(inout) :: out
+    integer, intent(inout) :: ierr
+    character(*), intent(inout) :: errmsg
+    integer :: i
+
+    do i = d_time, d_linear_iterations
+      if (i == d_velocity .and. .not. out%series%write_velocity) cycle
+      if (ierr == 0) call create_series(out, i, ierr, errmsg)
+    end do
+  end subroutine create_all_series
+
+  !> Close the file and the HDF5 library and open both again, with the
+  !> series as they were (every REFRESH_STEPS output steps, from
+  !> output_write_step). Parallel HDF5 1.10.8 keeps memory for every object
+  !> created in a file opened with the MPI-IO driver until the library
+  !> closes (about 20 kB a rank for each /xdmf view, 6 kB for a plain
+  !> dataset; closing the file alone does not release it): without this a
+  !> run grew by 10-25 kB a rank for each output step (docs/stability.md,
+  !> "Memory over a long run"). Nothing else in nuno holds an HDF5 object
+  !> while a run writes its output. Collective.
+  module procedure refresh_library
+    character(len=:), allocatable :: path, name
+    integer(hid_t) :: fapl
+    integer :: h, i
+    logical :: exists
+
+    if (ierr /= 0) return
+    path = file_path(out)
+    call close_ids(out, ierr, errmsg)
+    call h5close_f(h)
+    if (h < 0) call fail('h5close_f', path, ierr, errmsg)
+    call library_open(path, ierr, errmsg)
+    fapl = -1
+    if (ierr == 0) call mpio_access_list(out%comm, path, fapl, ierr, errmsg)
+    if (ierr == 0) call set_format_bounds(fapl, path, ierr, errmsg)
+    if (ierr == 0) then
+      call h5fopen_f(path, H5F_ACC_RDWR_F, out%file, h, access_prp=fapl)
+      if (h < 0) then
+        out%file = -1
+        call fail('h5fopen_f (reopening)', path, ierr, errmsg)
+      end if
+    end if
+    call close_access_list(fapl, path, ierr, errmsg)
+    if (ierr == 0) call collective_transfer(path, out%dxpl, ierr, errmsg)
+    do i = 1, n_dsets
+      if (ierr /= 0) exit
+      if (i == d_velocity .and. .not. out%series%write_velocity) cycle
+      if (i >= d_contact_first .and. .not. out%series%contact) cycle
+      name = trim(dset_names(i))
+      call has_link(out%file, name, name, exists, ierr, errmsg)
+      if (exists) call open_dset(out%file, name, out%series%dset(i), ierr, errmsg)
+    end do
+    if (ierr /= 0) out%is_open = out%file >= 0
+  end procedure refresh_library
 
   ! ---------------------------------------------------------------------------
   ! Closing, errors, file names.

@@ -16,13 +16,8 @@ contains
     character(len=32) :: hdf5_version
     character(len=:), allocatable :: where
 
-    ierr = 0
-    errmsg = ''
-    if (.not. out%is_open) then
-      ierr = 1
-      errmsg = 'output_write_run_info: the output file is not open'
-      return
-    end if
+    call require_open(out, 'output_write_run_info', ierr, errmsg)
+    if (ierr /= 0) return
     if (out%series%nt /= 0 .and. .not. out%ckpt%reopened) then
       ierr = 1
       errmsg = 'output_write_run_info: must come before the first output step (/wall_time)'
@@ -33,7 +28,7 @@ contains
       if (h < 0) call fail('h5get_libversion_f', '/run', ierr, errmsg)
       write(hdf5_version, '(i0,a,i0,a,i0)') major, '.', minor, '.', release
     end if
-    if (ierr == 0) call set_attr_str(out%file, 'units', trim(info%units), '/', ierr, errmsg)
+    call set_attr_str(out%file, 'units', trim(info%units), '/', ierr, errmsg)
     ! A continued run (output_reopen) keeps the first run's /run and
     ! describes itself in /run/restart_<k>.
     if (out%ckpt%reopened) then
@@ -41,27 +36,26 @@ contains
     else
       where = '/run'
     end if
-    if (ierr == 0) call open_or_create_group(out%file, where, grp, ierr, errmsg)
     if (ierr == 0) then
+      call open_or_create_group(out%file, where, grp, ierr, errmsg)
       call set_attr_str(grp, 'git_commit', git_commit, where, ierr, errmsg)
-      if (ierr == 0) call set_attr_str(grp, 'petsc_version', trim(info%petsc_version), where, ierr, errmsg)
-      if (ierr == 0) call set_attr_str(grp, 'hdf5_version', trim(hdf5_version), where, ierr, errmsg)
-      if (ierr == 0) call set_attr_str(grp, 'ts_type', trim(info%ts_type), where, ierr, errmsg)
-      if (ierr == 0) call set_attr_str(grp, 'ts_adapt_type', trim(info%ts_adapt_type), where, ierr, errmsg)
-      if (ierr == 0) call set_attr_reals(grp, 'dt', [info%dt], where, ierr, errmsg)
-      if (ierr == 0) call set_attr_reals(grp, 't_end', [info%t_end], where, ierr, errmsg)
-      if (ierr == 0) call set_attr_int(grp, 'max_steps', info%max_steps, where, ierr, errmsg)
-      if (ierr == 0) call set_attr_reals(grp, 'rtol', [info%rtol], where, ierr, errmsg)
-      if (ierr == 0) call set_attr_reals(grp, 'atol_position', [info%atol_position], where, ierr, errmsg)
-      if (ierr == 0) call set_attr_reals(grp, 'atol_velocity', [info%atol_velocity], where, ierr, errmsg)
-      if (ierr == 0) call set_attr_str(grp, 'start_date', trim(info%start_date), where, ierr, errmsg)
-      if (ierr == 0) call set_attr_str(grp, 'host', trim(info%host), where, ierr, errmsg)
-      if (ierr == 0) call set_attr_int(grp, 'n_ranks', out%n_ranks, where, ierr, errmsg)
-      call h5gclose_f(grp, h)
-      if (h < 0) call fail('h5gclose_f', where, ierr, errmsg)
+      call set_attr_str(grp, 'petsc_version', trim(info%petsc_version), where, ierr, errmsg)
+      call set_attr_str(grp, 'hdf5_version', trim(hdf5_version), where, ierr, errmsg)
+      call set_attr_str(grp, 'ts_type', trim(info%ts_type), where, ierr, errmsg)
+      call set_attr_str(grp, 'ts_adapt_type', trim(info%ts_adapt_type), where, ierr, errmsg)
+      call set_attr_reals(grp, 'dt', [info%dt], where, ierr, errmsg)
+      call set_attr_reals(grp, 't_end', [info%t_end], where, ierr, errmsg)
+      call set_attr_int(grp, 'max_steps', info%max_steps, where, ierr, errmsg)
+      call set_attr_reals(grp, 'rtol', [info%rtol], where, ierr, errmsg)
+      call set_attr_reals(grp, 'atol_position', [info%atol_position], where, ierr, errmsg)
+      call set_attr_reals(grp, 'atol_velocity', [info%atol_velocity], where, ierr, errmsg)
+      call set_attr_str(grp, 'start_date', trim(info%start_date), where, ierr, errmsg)
+      call set_attr_str(grp, 'host', trim(info%host), where, ierr, errmsg)
+      call set_attr_int(grp, 'n_ranks', out%n_ranks, where, ierr, errmsg)
+      call close_group(grp, where, ierr, errmsg)
     end if
     if (ierr == 0 .and. out%series%dset(d_wall_time) < 0) &
-      call create_series(out, d_wall_time, [integer(hsize_t) ::], [scalar_chunk], H5T_NATIVE_DOUBLE, ierr, errmsg)
+      call create_series(out, d_wall_time, ierr, errmsg)
     ! /energy/barrier and /contact: scenes with obstacles only
     if (info%contact) call contact_series(out, ierr, errmsg)
     ! /wall_time's axis, and those of a file continued from an earlier version.
@@ -92,10 +86,10 @@ contains
     call put_doubles(grp, '/identify', 'objective', [objective], [1_hsize_t], ierr, errmsg)
     call put_doubles(grp, '/identify', 'history', reshape(hist, [size(hist)]), &
                      [int(size(hist, 1), hsize_t), int(size(hist, 2), hsize_t)], ierr, errmsg)
+    call new_space([int(size(names), hsize_t)], '/identify/names', space, ierr, errmsg)
     if (ierr == 0) then
       call h5tcopy_f(H5T_FORTRAN_S1, strtype, h)
       call h5tset_size_f(strtype, int(len(names), size_t), h)
-      call h5screate_simple_f(1, [int(size(names), hsize_t)], space, h)
       call h5dcreate_f(grp, 'names', strtype, space, dset, h)
       if (h < 0) then
         call fail('h5dcreate_f', '/identify/names', ierr, errmsg)
@@ -138,7 +132,7 @@ contains
     call put_doubles(grp, '/control', 'keyframe_history', reshape(offset_hist, [size(offset_hist)]), &
                      [3_hsize_t, nk, nit], ierr, errmsg)
     call put_doubles(grp, '/control', 'max_speed', [max_speed], [1_hsize_t], ierr, errmsg)
-    if (ierr == 0) call set_attr_str(grp, 'components', trim(components), '/control', ierr, errmsg)
+    call set_attr_str(grp, 'components', trim(components), '/control', ierr, errmsg)
     call close_and_flush(out, grp, '/control', ierr, errmsg)
 900 call agree(out%comm, 'output_write_control', ierr, errmsg)
   end procedure output_write_control
@@ -169,11 +163,8 @@ contains
 
     grp = -1
     if (ierr /= 0) return
-    if (.not. out%is_open) then
-      ierr = 1
-      errmsg = 'output_config_key: the output file is not open'
-      return
-    end if
+    call require_open(out, 'output_config_key', ierr, errmsg)
+    if (ierr /= 0) return
     call open_or_create_group(out%file, '/config', top, ierr, errmsg)
     if (ierr /= 0) return
     call open_or_create_group(out%file, '/config/'//group, grp, ierr, errmsg)
@@ -185,14 +176,14 @@ contains
   module procedure config_key_str
     integer(hid_t) :: grp
     call config_group(out, group, grp, ierr, errmsg)
-    if (ierr == 0) call set_attr_str(grp, key, value, '/config/'//group, ierr, errmsg)
+    call set_attr_str(grp, key, value, '/config/'//group, ierr, errmsg)
     call close_group(grp, '/config/'//group, ierr, errmsg)
   end procedure config_key_str
 
   module procedure config_key_int
     integer(hid_t) :: grp
     call config_group(out, group, grp, ierr, errmsg)
-    if (ierr == 0) call set_attr_int(grp, key, value, '/config/'//group, ierr, errmsg)
+    call set_attr_int(grp, key, value, '/config/'//group, ierr, errmsg)
     call close_group(grp, '/config/'//group, ierr, errmsg)
   end procedure config_key_int
 
@@ -201,7 +192,7 @@ contains
     integer(hid_t) :: grp
 
     call config_group(out, group, grp, ierr, errmsg)
-    if (ierr == 0) call set_attr_reals(grp, key, values, '/config/'//group, ierr, errmsg)
+    call set_attr_reals(grp, key, values, '/config/'//group, ierr, errmsg)
     call close_group(grp, '/config/'//group, ierr, errmsg)
   end procedure config_key_reals
 
@@ -211,13 +202,8 @@ contains
     integer(hid_t) :: grp
     integer :: h
 
-    ierr = 0
-    errmsg = ''
-    if (.not. out%is_open) then
-      ierr = 1
-      errmsg = 'output_write_wall_time: the output file is not open'
-      return
-    end if
+    call require_open(out, 'output_write_wall_time', ierr, errmsg)
+    if (ierr /= 0) return
     call h5gopen_f(out%file, 'run', grp, h)
     if (h < 0) then
       call fail('h5gopen_f (output_write_run_info first)', '/run', ierr, errmsg)

@@ -406,17 +406,17 @@ contains
     function printable(s) result(r)
       character(*), intent(in) :: s
       character(len=:), allocatable :: r
-      integer :: i, cc
+      integer :: i
       r = ''
       do i = 1, min(len(s), 120)
-        cc = iachar(s(i:i))
-        if (cc < 32) then
-          r = r//'^'//achar(cc + 64)
-        else if (cc == 127) then
+        select case (iachar(s(i:i)))
+        case (0:31)
+          r = r//'^'//achar(iachar(s(i:i)) + 64)
+        case (127)
           r = r//'^?'
-        else
+        case default
           r = r//s(i:i)
-        end if
+        end select
       end do
     end function printable
   end subroutine check_output_name
