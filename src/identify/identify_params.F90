@@ -11,6 +11,7 @@
 module identify_params
   use kinds, only: rp
   use config, only: nuno_config, fit_kind_names, unset_real
+  use input_checks, only: fit_initial
   implicit none
   private
   public :: ident_params_t, params_setup_identify, params_setup_control, keyframes, row_values, apply_theta, &
@@ -59,7 +60,7 @@ contains
     p%code = cfg%identify%fit_code(1:p%np)
     allocate(p%theta0(p%np), p%lo(p%np), p%hi(p%np))
     do k = 1, p%np
-      p%theta0(k) = log(param_value(cfg, p%code(k)))
+      p%theta0(k) = log(fit_initial(cfg, p%code(k)))
       p%lo(k) = log(cfg%identify%fit_lower(k))
       p%hi(k) = log(cfg%identify%fit_upper(k))
     end do
@@ -105,21 +106,8 @@ contains
     p%nrow = 3 * p%nk
   end subroutine params_setup_control
 
-  !> Value of parameter `code` in cfg.
-  pure real(rp) function param_value(cfg, code)
-    type(nuno_config), intent(in) :: cfg
-    integer, intent(in) :: code
-    select case (code)
-    case (1); param_value = cfg%material%e_s
-    case (2); param_value = cfg%material%e_d
-    case (3); param_value = cfg%material%eta_s
-    case (4); param_value = cfg%material%eta_d
-    case (5); param_value = cfg%material%k_b
-    case (6); param_value = cfg%material%eta_b
-    case default; param_value = cfg%lattice%total_mass
-    end select
-  end function param_value
-
+  !> Parameter `code` of the trial configuration set to v (read back by
+  !> input_checks' fit_initial).
   subroutine set_param(cfg, code, v)
     type(nuno_config), intent(inout) :: cfg
     integer, intent(in) :: code
