@@ -34,8 +34,8 @@ module identify
   use timestepping, only: app_ctx
   use identify_params, only: ident_params_t, MODE_IDENTIFY, MODE_CONTROL, FD_STEP, keyframes, row_values, values_text, &
                              max_speed_of, var_name, params_mode, params_tag, params_np, params_nrow, params_initial, &
-                             params_lower, params_upper, params_tikhonov, params_nk, params_times, params_initial_offsets
-  use identify_objective, only: ident_obs_t, obs_n_times, obs_count, obs_last_residuals, obs_gauss_newton
+                             params_bounds, params_tikhonov, params_nk, params_times, params_initial_offsets
+  use identify_objective, only: ident_obs_t, obs_sizes, obs_last_residuals, obs_gauss_newton
   use identify_adjoint, only: ident_core_t, identify_setup, reset_state, forward, objective_gradient, failed_run, &
                               identify_scratch_remove, core_app, core_params, core_obs, core_np, theta_vec_create, &
                               run_failed, run_fail_message, run_objective_data, write_cost
@@ -162,6 +162,7 @@ contains
     TaoConvergedReason :: reason
     PetscInt :: its
     PetscInt, parameter :: maxit = 200
+    real(rp) :: lo(core_np(id)), hi(core_np(id))
 
     errmsg = ''
     par => core_params(id)
@@ -169,9 +170,10 @@ contains
     call theta_vec_create(id, x, ierr);  if (ierr /= 0) return
     call theta_vec_create(id, xl, ierr); if (ierr /= 0) return
     call theta_vec_create(id, xu, ierr); if (ierr /= 0) return
-    call put_rank0(app, x, params_initial(par), ierr); if (ierr /= 0) return
-    call put_rank0(app, xl, params_lower(par), ierr);  if (ierr /= 0) return
-    call put_rank0(app, xu, params_upper(par), ierr);  if (ierr /= 0) return
+    call params_bounds(par, lo, hi)
+    call put_rank0(app%rank, x, params_initial(par), ierr); if (ierr /= 0) return
+    call put_rank0(app%rank, xl, lo, ierr);                 if (ierr /= 0) return
+    call put_rank0(app%rank, xu, hi, ierr);                 if (ierr /= 0) return
     PetscCall(TaoCreate(app%comm, tao, ierr))
     PetscCall(TaoSetType(tao, 'bqnls', ierr))
     PetscCall(TaoSetSolution(tao, x, ierr))
@@ -218,15 +220,16 @@ contains
     end if
   end subroutine fit
 
-  !> v into TAO's vector x, whose entries all lie on rank 0.
-  subroutine put_rank0(app, x, v, ierr)
-    type(app_ctx), intent(in) :: app
+  !> v into TAO's vector x, whose entries all lie on rank 0 (rank: this
+  !> rank's; the others have nothing to do).
+  subroutine put_rank0(rank, x, v, ierr)
+    integer, intent(in) :: rank
     type(tVec), intent(in) :: x
     real(rp), intent(in) :: v(:)
     PetscErrorCode, intent(out) :: ierr
     PetscScalar, pointer :: xa(:)
     ierr = 0
-    if (app%rank /= 0) return
+    if (rank /= 0) return
     PetscCall(VecGetArrayF90(x, xa, ierr))
     xa = v
     PetscCall(VecRestoreArrayF90(x, xa, ierr))
@@ -257,12 +260,14 @@ contains
     type(ident_t), intent(inout) :: id
     PetscErrorCode, intent(out) :: ierr
     real(rp) :: theta(core_np(id)), gl(core_np(id))
+    type(app_ctx), pointer :: app
 
-    call get_rank0(core_app(id), x, theta, ierr)
+    app => core_app(id)
+    call get_rank0(app, x, theta, ierr)
     if (ierr /= 0) return
     call objective_gradient(id, theta, f, gl, ierr)
     if (ierr /= 0) return
-    call put_rank0(core_app(id), g, gl, ierr)
+    call put_rank0(app%rank, g, gl, ierr)
   end subroutine tao_objgrad
 
   !> TAO monitor: the history, one row per iteration, and a line on rank 0.
@@ -312,17 +317,18 @@ contains
     type(ident_t), intent(inout), target :: id
     PetscErrorCode, intent(out) :: ierr
     character(*), intent(out) :: errmsg
+    real(rp), allocatable :: a(:, :, :, :, :), rp_(:, :, :, :)
+    real(rp) :: hmat(core_np(id), core_np(id)), cov(core_np(id), core_np(id)), lp(core_np(id)), f, fdata, s2, nobs
+    integer :: k, np, nt, info, mpierr, ipiv(core_np(id))
     type(app_ctx), pointer :: app
     type(ident_obs_t), pointer :: obs
-    real(rp), allocatable :: a(:, :, :, :, :), rp_(:, :, :, :)
-    real(rp) :: hmat(core_np(id), core_np(id)), cov(core_np(id), core_np(id)), lp(core_np(id)), f, fdata, s2
-    integer :: k, np, info, mpierr, ipiv(core_np(id))
 
     np = core_np(id)
     app => core_app(id)
     obs => core_obs(id)
     errmsg = ''
-    allocate(a(3, 0:app%lat%nx - 1, app%lat%ys:app%lat%ye, obs_n_times(obs), np))
+    call obs_sizes(obs, nt, nobs)
+    allocate(a(3, 0:app%lat%nx - 1, app%lat%ys:app%lat%ye, nt, np))
     do k = 1, np
       lp = id%theta
       lp(k) = lp(k) + FD_STEP
@@ -346,7 +352,7 @@ contains
     if (ierr /= 0) return
     fdata = run_objective_data(id)
     id%objective = f
-    s2 = fdata / max(obs_count(obs) - real(np, rp), 1.0_rp)
+    s2 = fdata / max(nobs - real(np, rp), 1.0_rp)
     cov = 0.0_rp
     do k = 1, np
       cov(k, k) = 1.0_rp

@@ -49,8 +49,8 @@ module identify_adjoint
   use identify_params, only: ident_params_t, MODE_CONTROL, params_setup_identify, params_setup_control, &
                              apply_theta, values_text, params_mode, params_tag, params_np, params_nk, params_code, &
                              params_tikhonov, params_initial, control_variables, step_sensitivities
-  use identify_objective, only: ident_obs_t, obs_read, obs_windows, obs_residuals, obs_adjoint_terms, obs_n_times, &
-                                obs_n_windows, obs_window_start, obs_window_end, obs_window_obs
+  use identify_objective, only: ident_obs_t, obs_read, obs_windows, obs_residuals, obs_adjoint_terms, obs_sizes, &
+                                obs_n_windows, obs_window
   implicit none
   private
   public :: ident_core_t, identify_setup, reset_state, forward, objective_gradient, failed_run, &
@@ -177,7 +177,8 @@ contains
   subroutine setup_line(id)
     class(ident_core_t), intent(in) :: id
     integer :: nt, nw
-    nt = obs_n_times(id%obs)
+    real(rp) :: nobs
+    call obs_sizes(id%obs, nt, nobs)
     nw = obs_n_windows(id%obs)
     if (params_mode(id%par) == MODE_CONTROL) then
       write(output_unit, '(a,i0,a,i0,a,i0,a,i0,a)') 'control   : ', params_np(id%par), ' variable(s) (the steps of ', &
@@ -201,8 +202,9 @@ contains
     PetscScalar, pointer :: ua(:, :, :)
     integer :: ys, ye
     PetscInt, parameter :: zero = 0
-    PetscReal :: horizon
+    PetscReal :: horizon, ta, tend
     PetscInt :: nw
+    integer :: k
 
     app => id%app
     call apply_theta(id%par, theta, id%cfg)
@@ -216,7 +218,8 @@ contains
     PetscCall(TSSetStepNumber(app%ts, zero, ierr))
     ! Room for the whole run: its steps, one more per window, retries.
     nw = obs_n_windows(id%obs)
-    horizon = 2.0_rp * (obs_window_end(id%obs, int(nw)) + real(nw + 1, rp) * app%step%dt)
+    call obs_window(id%obs, int(nw), ta, tend, k)
+    horizon = 2.0_rp * (tend + real(nw + 1, rp) * app%step%dt)
     call nuno_ts_trajectory_fresh(app%ts, horizon, app%step%dt, nw, trim(id%run%traj_dir)//c_null_char, ierr)
     if (ierr == -1) then
       ierr = 1
@@ -276,7 +279,7 @@ contains
     PetscScalar, pointer :: ua(:, :, :)
     TSConvergedReason :: reason
     PetscLogDouble :: mem0, mem1
-    real(rp) :: t, h, floc, wall0, eps, tb
+    real(rp) :: t, h, floc, wall0, eps, ta, tb
     integer :: w, k, mpierr, nw, np
 
     app => id%app
@@ -289,11 +292,12 @@ contains
     id%run%failed = .false.
     floc = 0.0_rp
     t = 0.0_rp
-    eps = 1.0e-12_rp * max(1.0_rp, obs_window_end(id%obs, nw))
+    call obs_window(id%obs, nw, ta, tb, k)
+    eps = 1.0e-12_rp * max(1.0_rp, tb)
     ! The run's window loop (advance_window of the run driver), each window
     ! entered afresh; t = wa(w) here, the end of the window before.
     do w = 1, nw
-      tb = obs_window_end(id%obs, w)
+      call obs_window(id%obs, w, ta, tb, k)
       ! The memory trajectory stores a window's first state only if the TS
       ! is not marked converged (from the previous window) when TSSolve
       ! saves it; otherwise the adjoint of the previous window pops the
@@ -311,7 +315,6 @@ contains
       t = tb
       PetscCall(TSSetTime(app%ts, t, ierr))
       PetscCall(TSGetStepNumber(app%ts, id%run%wsteps(w), ierr))
-      k = obs_window_obs(id%obs, w)
       if (k > 0) then
         PetscCall(DMDAVecGetArrayReadF90(app%da, app%u, ua, ierr))
         call obs_residuals(id%obs, k, app%lat, ua, floc)
@@ -344,7 +347,7 @@ contains
     type(app_ctx), pointer :: app
     PetscScalar, pointer :: la(:, :, :), ma(:)
     PetscInt :: nsteps
-    real(rp) :: dke, wall0, greset(params_np(id%par)), ta
+    real(rp) :: dke, wall0, greset(params_np(id%par)), ta, tb
     integer :: w, k, mpierr, np
     PetscInt, parameter :: one = 1
 
@@ -360,15 +363,14 @@ contains
     PetscCall(VecZeroEntries(id%run%mu(1), ierr))
     PetscCall(TSSetCostGradients(app%ts, one, id%run%lam(1), id%run%mu(1), ierr))
     do w = obs_n_windows(id%obs), 1, -1
-      ta = obs_window_start(id%obs, w)
-      k = obs_window_obs(id%obs, w)
+      call obs_window(id%obs, w, ta, tb, k)
       if (k > 0) then
         PetscCall(DMDAVecGetArrayF90(app%da, id%run%lam(1), la, ierr))
         call obs_adjoint_terms(id%obs, k, app%lat, la)
         PetscCall(DMDAVecRestoreArrayF90(app%da, id%run%lam(1), la, ierr))
       end if
       ! The constraint state of this window for its Jacobians.
-      call enter_window(app, ta, obs_window_end(id%obs, w), dke, ierr)
+      call enter_window(app, ta, tb, dke, ierr)
       if (ierr /= 0) return
       nsteps = id%run%wsteps(w) - id%run%wsteps(w - 1)
       PetscCall(TSAdjointSetSteps(app%ts, nsteps, ierr))

@@ -30,11 +30,11 @@ contains
     class(ident_core_t), intent(inout), target :: id
     PetscErrorCode, intent(out) :: ierr
     character(*), intent(out) :: errmsg
-    type(ident_params_t), pointer :: par
-    type(app_ctx), pointer :: app
     real(rp), allocatable :: g(:), theta0(:)
     real(rp) :: f, tf, wall0, mem_bytes, file_bytes
     integer :: k, nsteps
+    type(ident_params_t), pointer :: par
+    type(app_ctx), pointer :: app
 
     par => core_params(id)
     app => core_app(id)

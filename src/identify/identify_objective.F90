@@ -19,7 +19,7 @@ module identify_objective
   implicit none
   private
   public :: ident_obs_t, obs_read, obs_windows, obs_residuals, obs_adjoint_terms, obs_gauss_newton
-  public :: obs_n_times, obs_count, obs_n_windows, obs_window_start, obs_window_end, obs_window_obs, obs_last_residuals
+  public :: obs_n_windows, obs_window, obs_sizes, obs_last_residuals
 
   !> The observation or target (owned rows only), the windows and the
   !> residuals of the last forward run; written only by this module.
@@ -143,45 +143,33 @@ contains
     end do
   end subroutine obs_gauss_newton
 
-  !> Observed times used (t > 0).
-  pure integer function obs_n_times(o)
-    type(ident_obs_t), intent(in) :: o
-    obs_n_times = o%nt
-  end function obs_n_times
-
-  !> Scalar observations with weight > 0 (all ranks).
-  pure real(rp) function obs_count(o)
-    type(ident_obs_t), intent(in) :: o
-    obs_count = o%nobs
-  end function obs_count
-
   !> Time windows of a forward run.
   pure integer function obs_n_windows(o)
     type(ident_obs_t), intent(in) :: o
     obs_n_windows = o%nw
   end function obs_n_windows
 
-  !> Start of window w [time].
-  pure real(rp) function obs_window_start(o, w)
+  !> Window w: its start ta and end tb [time], and the observed time at its
+  !> end (kobs, an index into the observed times; 0: none).
+  pure subroutine obs_window(o, w, ta, tb, kobs)
     type(ident_obs_t), intent(in) :: o
     integer, intent(in) :: w
-    obs_window_start = o%wa(w)
-  end function obs_window_start
+    real(rp), intent(out) :: ta, tb
+    integer, intent(out) :: kobs
+    ta = o%wa(w)
+    tb = o%wb(w)
+    kobs = o%wobs(w)
+  end subroutine obs_window
 
-  !> End of window w [time].
-  pure real(rp) function obs_window_end(o, w)
+  !> Observed times used (t > 0), and the scalar observations with weight
+  !> > 0 (all ranks).
+  pure subroutine obs_sizes(o, nt, nobs)
     type(ident_obs_t), intent(in) :: o
-    integer, intent(in) :: w
-    obs_window_end = o%wb(w)
-  end function obs_window_end
-
-  !> The observed time at the end of window w (index into the observed
-  !> times; 0: none).
-  pure integer function obs_window_obs(o, w)
-    type(ident_obs_t), intent(in) :: o
-    integer, intent(in) :: w
-    obs_window_obs = o%wobs(w)
-  end function obs_window_obs
+    integer, intent(out) :: nt
+    real(rp), intent(out) :: nobs
+    nt = o%nt
+    nobs = o%nobs
+  end subroutine obs_sizes
 
   !> x - xobs of the last forward run (3, 0:nx-1, ys:ye, nt) [length].
   pure function obs_last_residuals(o) result(r)

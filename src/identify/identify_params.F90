@@ -17,7 +17,7 @@ module identify_params
   private
   public :: ident_params_t, params_setup_identify, params_setup_control, keyframes, row_values, apply_theta, &
             values_text, max_speed_of, var_name, check_direction, control_variables, step_sensitivities
-  public :: params_mode, params_tag, params_np, params_nrow, params_initial, params_lower, params_upper, &
+  public :: params_mode, params_tag, params_np, params_nrow, params_initial, params_bounds, &
             params_tikhonov, params_fd_step, params_code, params_nk, params_times, params_initial_offsets
   public :: MODE_IDENTIFY, MODE_CONTROL, FD_STEP
 
@@ -161,19 +161,13 @@ contains
     v = p%theta0
   end function params_initial
 
-  !> The lower bounds of theta (np).
-  pure function params_lower(p) result(v)
+  !> The bounds of theta, lo(np) <= theta <= hi(np).
+  pure subroutine params_bounds(p, lo, hi)
     type(ident_params_t), intent(in) :: p
-    real(rp) :: v(p%np)
-    v = p%lo
-  end function params_lower
-
-  !> The upper bounds of theta (np).
-  pure function params_upper(p) result(v)
-    type(ident_params_t), intent(in) :: p
-    real(rp) :: v(p%np)
-    v = p%hi
-  end function params_upper
+    real(rp), intent(out) :: lo(:), hi(:)
+    lo = p%lo
+    hi = p%hi
+  end subroutine params_bounds
 
   !> The weight of sum (theta - theta0)^2.
   pure real(rp) function params_tikhonov(p)
