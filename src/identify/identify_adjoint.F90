@@ -42,7 +42,7 @@ module identify_adjoint
   use lattice, only: lattice_t, lattice_init
   use cloth_model, only: model_internal_forces
   use scenes, only: scene_setup
-  use constraints, only: constraint_step_sensitivity, PATH_KEYFRAMES
+  use constraints, only: PATH_KEYFRAMES
   use timestepping, only: app_ctx, enter_window, advance_window
   use step_monitor, only: energy_integrals_reset, progress_reset
   use safe_files, only: make_scratch_dir, remove_scratch
