@@ -90,7 +90,7 @@ module identify_adjoint
     type(nuno_config) :: cfg
     type(ident_params_t) :: par                   !< the variables theta (identify_params)
     type(ident_obs_t) :: obs                      !< observation, windows, residuals (identify_objective)
-    type(ident_run_t) :: run
+    type(ident_run_t) :: run                      !< the adjoint's PETSc objects and what the forward runs measured
   end type ident_core_t
 
   interface
