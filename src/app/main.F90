@@ -31,7 +31,7 @@ program nuno
                     read_input_options, quiet_petsc_errors
   implicit none
 
-  type(nuno_config), target :: cfg     !< the run's one configuration (the solver's ctx%cfg points to it)
+  type(nuno_config), target :: cfg     !< the input's configuration (the solver's ctx%cfg points to it, or to identify's trial copy)
   type(app_ctx), target :: ctx
   type(output_file), target :: out
   type(checkpoint_t) :: ck
@@ -195,7 +195,8 @@ program nuno
       PetscCallA(PetscFinalize(ierr))
       stop
     end if
-    ! cfg holds the fitted parameters, the optimised keyframes (ctx%cfg is cfg)
+    ! ctx%cfg is identify's trial configuration now, with the fitted parameters
+    ! or the optimised keyframes; cfg stays the input's
   end if
 
   ! 4. Output file, the time loop, and the completion mark written last. The

@@ -31,11 +31,14 @@ module identify
   use, intrinsic :: iso_fortran_env, only: output_unit
   use, intrinsic :: iso_c_binding, only: c_int
   use kinds, only: rp
-  use config, only: fit_kind_names
   use timestepping, only: app_ctx
-  use identify_params, only: MODE_IDENTIFY, MODE_CONTROL, FD_STEP, keyframes, row_values, values_text, max_speed_of
+  use identify_params, only: ident_params_t, MODE_IDENTIFY, MODE_CONTROL, FD_STEP, keyframes, row_values, values_text, &
+                             max_speed_of, var_name, params_mode, params_tag, params_np, params_nrow, params_initial, &
+                             params_bounds, params_tikhonov, params_nk, params_times, params_initial_offsets
+  use identify_objective, only: ident_obs_t, obs_sizes, obs_last_residuals, obs_gauss_newton
   use identify_adjoint, only: ident_core_t, identify_setup, reset_state, forward, objective_gradient, failed_run, &
-                              identify_scratch_remove
+                              identify_scratch_remove, core_app, core_params, core_obs, core_np, theta_vec_create, &
+                              run_failed, run_fail_message, run_objective_data, write_cost
   use identify_check, only: check_gradient
   implicit none
   private
@@ -44,6 +47,7 @@ module identify
   !> An identification or a control: the TS callbacks' record and the TAO
   !> driver's current point and results (written only by this module).
   type, extends(ident_core_t) :: ident_t
+    private
     real(rp), allocatable :: theta(:)             !< (np) current theta (the optimum after the fit)
     real(rp), allocatable :: unc(:)               !< (np) 1-sigma uncertainty of the fitted values [their units]
     real(rp) :: objective = 0                     !< J at the optimum
@@ -93,17 +97,19 @@ contains
 
   !> The identification (&identify) or the control (&control): read the
   !> observation or target, optimise with TAO (identification: estimate the
-  !> uncertainty too); on return ctx holds the fitted parameters or the
-  !> optimised keyframes and the initial state, ready for solver_run to
-  !> write the resulting motion. ierr = 1 with errmsg: a collective error
-  !> (bad observation, failed forward run); ierr > 1: a PETSc error. done:
-  !> nothing more to do (-identify_check_gradient, -control_check_gradient).
+  !> uncertainty too); on return ctx's configuration is identify's trial
+  !> one, with the fitted parameters or the optimised keyframes, and ctx
+  !> holds the initial state, ready for solver_run to write the resulting
+  !> motion. ierr = 1 with errmsg: a collective error (bad observation,
+  !> failed forward run); ierr > 1: a PETSc error. done: nothing more to do
+  !> (-identify_check_gradient, -control_check_gradient).
   subroutine identify_run(id, ctx, done, ierr, errmsg)
     type(ident_t), intent(inout), target :: id
     type(app_ctx), intent(inout), target :: ctx
     logical, intent(out) :: done
     PetscErrorCode, intent(out) :: ierr
     character(*), intent(out) :: errmsg
+    type(ident_params_t), pointer :: par
     integer(c_int) :: check_identify, check_control
 
     done = .false.
@@ -112,12 +118,13 @@ contains
     if (ierr /= 0) return
     call identify_setup(id, ctx, ierr, errmsg)
     if (ierr /= 0) return
-    id%theta = id%par%theta0
-    if (id%par%mode == MODE_IDENTIFY) then
-      allocate(id%unc(id%par%np))
+    par => core_params(id)
+    id%theta = params_initial(par)
+    if (params_mode(par) == MODE_IDENTIFY) then
+      allocate(id%unc(params_np(par)))
       id%unc = 0.0_rp
     end if
-    allocate(id%hist(0:id%par%nrow, 0))
+    allocate(id%hist(0:params_nrow(par), 0))
     ! The two names are one check (each reads better in its own input).
     if (check_identify /= 0 .or. check_control /= 0) then
       call check_gradient(id, ierr, errmsg)
@@ -125,7 +132,7 @@ contains
     else
       call fit(id, ierr, errmsg)
       if (ierr == 0) then
-        if (id%par%mode == MODE_IDENTIFY) then
+        if (params_mode(par) == MODE_IDENTIFY) then
           call uncertainty(id, ierr, errmsg)
         else
           call final_objective(id, ierr, errmsg)
@@ -133,7 +140,7 @@ contains
       end if
       if (ierr == 0) call report(id)
     end if
-    if (ierr == 1 .and. len_trim(id%run%fail_msg) > 0) errmsg = id%run%fail_msg
+    if (ierr == 1 .and. len(run_fail_message(id)) > 0) errmsg = run_fail_message(id)
     if (ierr /= 0) return
     ! The resulting motion, from t = 0, for solver_run.
     call reset_state(id, id%theta, ierr)
@@ -148,20 +155,26 @@ contains
     type(ident_t), intent(inout), target :: id
     PetscErrorCode, intent(out) :: ierr
     character(*), intent(out) :: errmsg
+    type(ident_params_t), pointer :: par
+    type(app_ctx), pointer :: app
     Tao :: tao
     type(tVec) :: x, xl, xu
     TaoConvergedReason :: reason
     PetscInt :: its
     PetscInt, parameter :: maxit = 200
+    real(rp) :: lo(core_np(id)), hi(core_np(id))
 
     errmsg = ''
-    PetscCall(VecDuplicate(id%run%mu(1), x, ierr))
-    PetscCall(VecDuplicate(id%run%mu(1), xl, ierr))
-    PetscCall(VecDuplicate(id%run%mu(1), xu, ierr))
-    call put_rank0(id, x, id%par%theta0, ierr); if (ierr /= 0) return
-    call put_rank0(id, xl, id%par%lo, ierr);    if (ierr /= 0) return
-    call put_rank0(id, xu, id%par%hi, ierr);    if (ierr /= 0) return
-    PetscCall(TaoCreate(id%app%comm, tao, ierr))
+    par => core_params(id)
+    app => core_app(id)
+    call theta_vec_create(id, x, ierr);  if (ierr /= 0) return
+    call theta_vec_create(id, xl, ierr); if (ierr /= 0) return
+    call theta_vec_create(id, xu, ierr); if (ierr /= 0) return
+    call params_bounds(par, lo, hi)
+    call put_rank0(app%rank, x, params_initial(par), ierr); if (ierr /= 0) return
+    call put_rank0(app%rank, xl, lo, ierr);                 if (ierr /= 0) return
+    call put_rank0(app%rank, xu, hi, ierr);                 if (ierr /= 0) return
+    PetscCall(TaoCreate(app%comm, tao, ierr))
     PetscCall(TaoSetType(tao, 'bqnls', ierr))
     PetscCall(TaoSetSolution(tao, x, ierr))
     PetscCall(TaoSetVariableBounds(tao, xl, xu, ierr))
@@ -171,7 +184,7 @@ contains
     ! Control also stops when |g| fell by 1e-8 from the start (the
     ! objective by some 1e-16, its round-off floor for a target reached):
     ! gatol alone would spend the last half of 200 iterations there.
-    if (id%par%mode == MODE_CONTROL) then
+    if (params_mode(par) == MODE_CONTROL) then
       PetscCall(TaoSetTolerances(tao, 1.0e-10_rp, 0.0_rp, 1.0e-8_rp, ierr))
     else
       PetscCall(TaoSetTolerances(tao, 1.0e-10_rp, 0.0_rp, 0.0_rp, ierr))
@@ -180,115 +193,117 @@ contains
     PetscCall(TaoSolve(tao, ierr))
     PetscCall(TaoGetConvergedReason(tao, reason, ierr))
     PetscCall(TaoGetIterationNumber(tao, its, ierr))
-    call get_rank0(id, x, id%theta, ierr)
+    call get_rank0(app, x, id%theta, ierr)
     if (ierr /= 0) return
     PetscCall(TaoDestroy(tao, ierr))
     PetscCall(VecDestroy(xu, ierr))
     PetscCall(VecDestroy(xl, ierr))
     PetscCall(VecDestroy(x, ierr))
-    if (id%app%rank == 0) then
-      write(output_unit, '(a,i0,a,i0,a)') trim(id%par%tag)//': TAO stopped after ', its, &
+    if (app%rank == 0) then
+      write(output_unit, '(a,i0,a,i0,a)') params_tag(par)//': TAO stopped after ', its, &
         ' iterations (TaoConvergedReason ', reason, ')'
       flush(output_unit)
     end if
-    if (id%run%failed .or. reason < 0) then
+    if (run_failed(id)) then
       ! A diverged TAO still returns its best point; a failed forward run is an error.
-      if (id%run%failed) then
-        ierr = 1
-        if (id%par%mode == MODE_CONTROL) then
-          errmsg = 'control: a forward run failed during the optimisation; try a smaller &time dt, a lower '// &
-                   '&control max_speed or a better initial guess (&scene keyframe_dx, keyframe_dy, keyframe_dz)'
-        else
-          errmsg = 'identify: a forward run failed during the fit; try a smaller &time dt, tighter bounds '// &
-                   '(&identify fit_lower, fit_upper) or a better initial guess'
-        end if
-      else if (id%app%rank == 0) then
-        write(output_unit, '(a)') trim(id%par%tag)//': warning: TAO did not converge (negative reason); the values '// &
-          'below are its last iterate'
+      ierr = 1
+      if (params_mode(par) == MODE_CONTROL) then
+        errmsg = 'control: a forward run failed during the optimisation; try a smaller &time dt, a lower '// &
+                 '&control max_speed or a better initial guess (&scene keyframe_dx, keyframe_dy, keyframe_dz)'
+      else
+        errmsg = 'identify: a forward run failed during the fit; try a smaller &time dt, tighter bounds '// &
+                 '(&identify fit_lower, fit_upper) or a better initial guess'
       end if
+    else if (reason < 0 .and. app%rank == 0) then
+      write(output_unit, '(a)') params_tag(par)//': warning: TAO did not converge (negative reason); the values '// &
+        'below are its last iterate'
     end if
   end subroutine fit
 
-  !> v into TAO's vector x, whose entries all lie on rank 0.
-  subroutine put_rank0(id, x, v, ierr)
-    type(ident_t), intent(in) :: id
-    type(tVec) :: x
+  !> v into TAO's vector x, whose entries all lie on rank 0 (rank: this
+  !> rank's; the others have nothing to do).
+  subroutine put_rank0(rank, x, v, ierr)
+    integer, intent(in) :: rank
+    type(tVec), intent(in) :: x
     real(rp), intent(in) :: v(:)
     PetscErrorCode, intent(out) :: ierr
     PetscScalar, pointer :: xa(:)
     ierr = 0
-    if (id%app%rank /= 0) return
+    if (rank /= 0) return
     PetscCall(VecGetArrayF90(x, xa, ierr))
     xa = v
     PetscCall(VecRestoreArrayF90(x, xa, ierr))
   end subroutine put_rank0
 
   !> TAO's vector x (entries on rank 0) into v on every rank. Collective.
-  subroutine get_rank0(id, x, v, ierr)
-    type(ident_t), intent(in) :: id
-    type(tVec) :: x
+  subroutine get_rank0(app, x, v, ierr)
+    type(app_ctx), intent(in) :: app
+    type(tVec), intent(in) :: x
     real(rp), intent(out) :: v(:)
     PetscErrorCode, intent(out) :: ierr
     PetscScalar, pointer :: xa(:)
     integer :: mpierr
     ierr = 0
-    if (id%app%rank == 0) then
+    if (app%rank == 0) then
       PetscCall(VecGetArrayReadF90(x, xa, ierr))
       v = xa
       PetscCall(VecRestoreArrayReadF90(x, xa, ierr))
     end if
-    call MPI_Bcast(v, size(v), MPI_DOUBLE_PRECISION, 0, id%app%comm, mpierr)
+    call MPI_Bcast(v, size(v), MPI_DOUBLE_PRECISION, 0, app%comm, mpierr)
   end subroutine get_rank0
 
   !> TAO callback: objective and gradient at x = theta.
   subroutine tao_objgrad(tao, x, f, g, id, ierr)
-    Tao :: tao
-    type(tVec) :: x, g
-    PetscReal :: f
-    type(ident_t) :: id
-    PetscErrorCode :: ierr
-    real(rp) :: theta(id%par%np), gl(id%par%np)
+    Tao, intent(in) :: tao
+    type(tVec), intent(in) :: x, g
+    PetscReal, intent(out) :: f
+    type(ident_t), intent(inout) :: id
+    PetscErrorCode, intent(out) :: ierr
+    real(rp) :: theta(core_np(id)), gl(core_np(id))
+    type(app_ctx), pointer :: app
 
-    call get_rank0(id, x, theta, ierr)
+    app => core_app(id)
+    call get_rank0(app, x, theta, ierr)
     if (ierr /= 0) return
     call objective_gradient(id, theta, f, gl, ierr)
     if (ierr /= 0) return
-    call put_rank0(id, g, gl, ierr)
+    call put_rank0(app%rank, g, gl, ierr)
   end subroutine tao_objgrad
 
   !> TAO monitor: the history, one row per iteration, and a line on rank 0.
   subroutine tao_monitor(tao, id, ierr)
-    Tao :: tao
-    type(ident_t) :: id
-    PetscErrorCode :: ierr
+    Tao, intent(in) :: tao
+    type(ident_t), intent(inout), target :: id
+    PetscErrorCode, intent(out) :: ierr
+    type(ident_params_t), pointer :: par
+    type(app_ctx), pointer :: app
     type(tVec) :: x
     PetscInt :: its
     PetscReal :: f, gnorm, cnorm, xdiff
     TaoConvergedReason :: reason
-    real(rp) :: theta(id%par%np), row(0:id%par%nrow)
+    real(rp) :: theta(core_np(id))
     real(rp), allocatable :: grown(:, :)
 
+    par => core_params(id)
+    app => core_app(id)
     PetscCall(TaoGetSolutionStatus(tao, its, f, gnorm, cnorm, xdiff, reason, ierr))
     PetscCall(TaoGetSolution(tao, x, ierr))
-    call get_rank0(id, x, theta, ierr)
+    call get_rank0(app, x, theta, ierr)
     if (ierr /= 0) return
-    row(0) = f
-    row(1:) = row_values(id%par, theta)
-    allocate(grown(0:id%par%nrow, id%nhist + 1))     ! (an assignment would reset the lower bound to 1)
+    allocate(grown(0:params_nrow(par), id%nhist + 1))     ! (an assignment would reset the lower bound to 1)
     grown(:, 1:id%nhist) = id%hist
-    grown(:, id%nhist + 1) = row
+    grown(:, id%nhist + 1) = [f, row_values(par, theta)]
     call move_alloc(grown, id%hist)
     id%nhist = id%nhist + 1
-    if (id%app%rank == 0) then
-      if (id%par%mode == MODE_CONTROL) then
-        write(output_unit, '(a,i4,a,es14.6e2,a,es10.3e2,a,es10.3e2)') 'control: iteration ', its, '  objective ', f, &
-          '  |g| ', gnorm, '  max speed ', max_speed_of(id%par, theta)
-      else
-        write(output_unit, '(a,i4,a,es14.6e2,a,es10.3e2,a)') 'identify: iteration ', its, '  objective ', f, &
-          '  |g| ', gnorm, trim(values_text(id%par, theta))
-      end if
-      flush(output_unit)
+    if (app%rank /= 0) return
+    if (params_mode(par) == MODE_CONTROL) then
+      write(output_unit, '(a,i4,a,es14.6e2,a,es10.3e2,a,es10.3e2)') 'control: iteration ', its, '  objective ', f, &
+        '  |g| ', gnorm, '  max speed ', max_speed_of(par, theta)
+    else
+      write(output_unit, '(a,i4,a,es14.6e2,a,es10.3e2,a)') 'identify: iteration ', its, '  objective ', f, &
+        '  |g| ', gnorm, trim(values_text(par, theta))
     end if
+    flush(output_unit)
   end subroutine tao_monitor
 
   ! ------------------------------------------------------------ uncertainty
@@ -299,47 +314,45 @@ contains
   !> gives the covariance of ln p, 2 s^2 H^-1, and the 1-sigma uncertainty
   !> of each fitted value p sqrt(cov_kk) (first order in the noise).
   subroutine uncertainty(id, ierr, errmsg)
-    type(ident_t), intent(inout) :: id
+    type(ident_t), intent(inout), target :: id
     PetscErrorCode, intent(out) :: ierr
     character(*), intent(out) :: errmsg
     real(rp), allocatable :: a(:, :, :, :, :), rp_(:, :, :, :)
-    real(rp) :: hmat(id%par%np, id%par%np), cov(id%par%np, id%par%np), lp(id%par%np), f, fdata, s2
-    integer :: k, l, kt, np, info, mpierr, ipiv(id%par%np)
+    real(rp) :: hmat(core_np(id), core_np(id)), cov(core_np(id), core_np(id)), lp(core_np(id)), f, fdata, s2, nobs
+    integer :: k, np, nt, info, mpierr, ipiv(core_np(id))
+    type(app_ctx), pointer :: app
+    type(ident_obs_t), pointer :: obs
 
-    np = id%par%np
+    np = core_np(id)
+    app => core_app(id)
+    obs => core_obs(id)
     errmsg = ''
-    allocate(a(3, 0:id%app%lat%nx - 1, id%app%lat%ys:id%app%lat%ye, id%obs%nt, np))
+    call obs_sizes(obs, nt, nobs)
+    allocate(a(3, 0:app%lat%nx - 1, app%lat%ys:app%lat%ye, nt, np))
     do k = 1, np
       lp = id%theta
       lp(k) = lp(k) + FD_STEP
       call forward(id, lp, f, ierr)
       if (ierr /= 0) return
-      rp_ = id%obs%res
+      rp_ = obs_last_residuals(obs)
       lp(k) = id%theta(k) - FD_STEP
       call forward(id, lp, f, ierr)
       if (ierr /= 0) return
       if (failed_run(id, id%theta, errmsg, ierr)) return
-      a(:, :, :, :, k) = (rp_ - id%obs%res) / (2.0_rp * FD_STEP)
+      a(:, :, :, :, k) = (rp_ - obs_last_residuals(obs)) / (2.0_rp * FD_STEP)
     end do
     hmat = 0.0_rp
+    call obs_gauss_newton(obs, a, hmat)
+    call MPI_Allreduce(MPI_IN_PLACE, hmat, np**2, MPI_DOUBLE_PRECISION, MPI_SUM, app%comm, mpierr)
     do k = 1, np
-      do l = 1, np
-        do kt = 1, id%obs%nt
-          hmat(k, l) = hmat(k, l) + 2.0_rp * id%obs%wt(kt) * &
-            sum(spread(id%obs%mask, 1, 3) * a(:, :, :, kt, k) * a(:, :, :, kt, l))
-        end do
-      end do
-    end do
-    call MPI_Allreduce(MPI_IN_PLACE, hmat, np**2, MPI_DOUBLE_PRECISION, MPI_SUM, id%app%comm, mpierr)
-    do k = 1, np
-      hmat(k, k) = hmat(k, k) + 2.0_rp * id%par%tikhonov
+      hmat(k, k) = hmat(k, k) + 2.0_rp * params_tikhonov(core_params(id))
     end do
     ! The objective at the fit (and its residuals, for what is written).
     call forward(id, id%theta, f, ierr)
     if (ierr /= 0) return
-    fdata = id%run%objective_data
+    fdata = run_objective_data(id)
     id%objective = f
-    s2 = fdata / max(id%obs%nobs - real(np, rp), 1.0_rp)
+    s2 = fdata / max(nobs - real(np, rp), 1.0_rp)
     cov = 0.0_rp
     do k = 1, np
       cov(k, k) = 1.0_rp
@@ -368,29 +381,32 @@ contains
   !> The result on rank 0 (fitted values with their uncertainty, or the
   !> optimised keyframes), and the cost of a gradient.
   subroutine report(id)
-    type(ident_t), intent(in) :: id
-    real(rp) :: off(3, id%par%nk)
+    type(ident_t), intent(in), target :: id
+    type(ident_params_t), pointer :: par
+    type(app_ctx), pointer :: app
+    real(rp), allocatable :: off(:, :), kt(:), koff0(:, :), theta0(:)
     integer :: k, m
-    if (id%app%rank /= 0) return
-    write(output_unit, '(a,es24.16)') trim(id%par%tag)//': objective ', id%objective
-    if (id%par%mode == MODE_CONTROL) then
-      off = keyframes(id%par, id%theta)
-      do m = 1, id%par%nk
-        write(output_unit, '(a,i3,a,es14.6e2,a,3es16.8e2,a,3es12.4e2,a)') 'control: keyframe ', m, '  t ', id%par%kt(m), &
-          '  offset ', off(:, m), '  (initial', id%par%koff0(:, m), ')'
+    app => core_app(id)
+    if (app%rank /= 0) return
+    par => core_params(id)
+    write(output_unit, '(a,es24.16)') params_tag(par)//': objective ', id%objective
+    if (params_mode(par) == MODE_CONTROL) then
+      off = keyframes(par, id%theta)
+      kt = params_times(par)
+      koff0 = params_initial_offsets(par)
+      do m = 1, params_nk(par)
+        write(output_unit, '(a,i3,a,es14.6e2,a,3es16.8e2,a,3es12.4e2,a)') 'control: keyframe ', m, '  t ', kt(m), &
+          '  offset ', off(:, m), '  (initial', koff0(:, m), ')'
       end do
-      write(output_unit, '(a,es12.4e2)') 'control: max speed of a component on a segment ', max_speed_of(id%par, id%theta)
+      write(output_unit, '(a,es12.4e2)') 'control: max speed of a component on a segment ', max_speed_of(par, id%theta)
     else
-      do k = 1, id%par%np
+      theta0 = params_initial(par)
+      do k = 1, params_np(par)
         write(output_unit, '(a,a12,a,es24.16,a,es12.4e2,a,es12.4e2)') 'identify: fitted ', &
-          trim(fit_kind_names(id%par%code(k))), ' ', exp(id%theta(k)), ' +- ', id%unc(k), '  initial ', exp(id%par%theta0(k))
+          trim(var_name(par, k)), ' ', exp(id%theta(k)), ' +- ', id%unc(k), '  initial ', exp(theta0(k))
       end do
     end if
-    if (id%run%n_forward > 0 .and. id%run%n_adjoint > 0) &
-      write(output_unit, '(a,es10.3,a,es10.3,a,f6.2,2(a,es10.3),a)') trim(id%par%tag)//': cost: forward run ', &
-        id%run%t_forward / id%run%n_forward, ' s, adjoint sweep ', id%run%t_adjoint / id%run%n_adjoint, &
-        ' s, gradient/forward ', 1.0_rp + (id%run%t_adjoint / id%run%n_adjoint) / (id%run%t_forward / id%run%n_forward), &
-        ', trajectory ', id%run%traj_bytes, ' bytes in memory, ', id%run%traj_disk_bytes, ' bytes in files'
+    call write_cost(id, output_unit)
     flush(output_unit)
   end subroutine report
 
@@ -398,18 +414,20 @@ contains
   !> initial guess, the objective, the history (objective, values per TAO
   !> iteration).
   subroutine identify_result(id, names, values, unc, initial, objective, hist)
-    type(ident_t), intent(in) :: id
+    type(ident_t), intent(in), target :: id
     character(len=16), allocatable, intent(out) :: names(:)
     real(rp), allocatable, intent(out) :: values(:), unc(:), initial(:), hist(:, :)
     real(rp), intent(out) :: objective
+    type(ident_params_t), pointer :: par
     integer :: k
-    allocate(names(id%par%np))
-    do k = 1, id%par%np
-      names(k) = fit_kind_names(id%par%code(k))
+    par => core_params(id)
+    allocate(names(params_np(par)))
+    do k = 1, params_np(par)
+      names(k) = trim(var_name(par, k))
     end do
     values = exp(id%theta)
     unc = id%unc
-    initial = exp(id%par%theta0)
+    initial = exp(params_initial(par))
     objective = id%objective
     hist = id%hist
   end subroutine identify_result
@@ -418,16 +436,18 @@ contains
   !> initial keyframe offsets (3, nk), the objective at the optimum, and per
   !> TAO iteration the objective [nit] and the keyframe offsets (3, nk, nit).
   subroutine control_result(id, times, offsets, initial, objective, objective_hist, offset_hist)
-    type(ident_t), intent(in) :: id
+    type(ident_t), intent(in), target :: id
     real(rp), allocatable, intent(out) :: times(:), offsets(:, :), initial(:, :), objective_hist(:), &
                                           offset_hist(:, :, :)
     real(rp), intent(out) :: objective
-    times = id%par%kt
-    offsets = keyframes(id%par, id%theta)
-    initial = id%par%koff0
+    type(ident_params_t), pointer :: par
+    par => core_params(id)
+    times = params_times(par)
+    offsets = keyframes(par, id%theta)
+    initial = params_initial_offsets(par)
     objective = id%objective
     objective_hist = id%hist(0, :)
-    offset_hist = reshape(id%hist(1:, :), [3, id%par%nk, id%nhist])
+    offset_hist = reshape(id%hist(1:, :), [3, params_nk(par), id%nhist])
   end subroutine control_result
 
 end module identify

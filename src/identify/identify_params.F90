@@ -11,11 +11,15 @@
 module identify_params
   use kinds, only: rp
   use config, only: nuno_config, fit_kind_names, unset_real
+  use input_checks, only: fit_initial
+  use constraints, only: constraint_set_t, constraint_step_sensitivity
   implicit none
   private
   public :: ident_params_t, params_setup_identify, params_setup_control, keyframes, row_values, apply_theta, &
-            values_text, max_speed_of
-  public :: MODE_IDENTIFY, MODE_CONTROL, FD_STEP, XYZ
+            values_text, max_speed_of, var_name, check_direction, control_variables, step_sensitivities
+  public :: params_mode, params_tag, params_np, params_nrow, params_initial, params_bounds, &
+            params_tikhonov, params_fd_step, params_code, params_nk, params_times, params_initial_offsets
+  public :: MODE_IDENTIFY, MODE_CONTROL, FD_STEP
 
   integer, parameter :: MODE_IDENTIFY = 1, MODE_CONTROL = 2
   !> Step of the central differences (the Gauss-Newton Hessian of the
@@ -29,6 +33,7 @@ module identify_params
   !> The optimisation variables; written only by params_setup_identify and
   !> params_setup_control.
   type :: ident_params_t
+    private
     integer :: mode = MODE_IDENTIFY
     character(len=8) :: tag = 'identify'          !< prefix of the printed lines: identify | control
     integer :: np = 0                             !< TAO variables theta
@@ -59,7 +64,7 @@ contains
     p%code = cfg%identify%fit_code(1:p%np)
     allocate(p%theta0(p%np), p%lo(p%np), p%hi(p%np))
     do k = 1, p%np
-      p%theta0(k) = log(param_value(cfg, p%code(k)))
+      p%theta0(k) = log(fit_initial(cfg, p%code(k)))
       p%lo(k) = log(cfg%identify%fit_lower(k))
       p%hi(k) = log(cfg%identify%fit_upper(k))
     end do
@@ -105,21 +110,8 @@ contains
     p%nrow = 3 * p%nk
   end subroutine params_setup_control
 
-  !> Value of parameter `code` in cfg.
-  pure real(rp) function param_value(cfg, code)
-    type(nuno_config), intent(in) :: cfg
-    integer, intent(in) :: code
-    select case (code)
-    case (1); param_value = cfg%material%e_s
-    case (2); param_value = cfg%material%e_d
-    case (3); param_value = cfg%material%eta_s
-    case (4); param_value = cfg%material%eta_d
-    case (5); param_value = cfg%material%k_b
-    case (6); param_value = cfg%material%eta_b
-    case default; param_value = cfg%lattice%total_mass
-    end select
-  end function param_value
-
+  !> Parameter `code` of the trial configuration set to v (read back by
+  !> input_checks' fit_initial).
   subroutine set_param(cfg, code, v)
     type(nuno_config), intent(inout) :: cfg
     integer, intent(in) :: code
@@ -134,6 +126,142 @@ contains
     case default; cfg%lattice%total_mass = v
     end select
   end subroutine set_param
+
+  ! ---------------------------------------------------------------- readers
+
+  !> MODE_IDENTIFY or MODE_CONTROL.
+  pure integer function params_mode(p)
+    type(ident_params_t), intent(in) :: p
+    params_mode = p%mode
+  end function params_mode
+
+  !> The prefix of the printed lines: 'identify' or 'control' (trimmed).
+  pure function params_tag(p) result(tag)
+    type(ident_params_t), intent(in) :: p
+    character(len=len_trim(p%tag)) :: tag
+    tag = p%tag
+  end function params_tag
+
+  !> The number of variables theta (TAO's).
+  pure integer function params_np(p)
+    type(ident_params_t), intent(in) :: p
+    params_np = p%np
+  end function params_np
+
+  !> Values per history row after the objective (row_values).
+  pure integer function params_nrow(p)
+    type(ident_params_t), intent(in) :: p
+    params_nrow = p%nrow
+  end function params_nrow
+
+  !> The initial theta (np).
+  pure function params_initial(p) result(v)
+    type(ident_params_t), intent(in) :: p
+    real(rp) :: v(p%np)
+    v = p%theta0
+  end function params_initial
+
+  !> The bounds of theta, lo(np) <= theta <= hi(np).
+  pure subroutine params_bounds(p, lo, hi)
+    type(ident_params_t), intent(in) :: p
+    real(rp), intent(out) :: lo(:), hi(:)
+    lo = p%lo
+    hi = p%hi
+  end subroutine params_bounds
+
+  !> The weight of sum (theta - theta0)^2.
+  pure real(rp) function params_tikhonov(p)
+    type(ident_params_t), intent(in) :: p
+    params_tikhonov = p%tikhonov
+  end function params_tikhonov
+
+  !> The step of the central differences in theta.
+  pure real(rp) function params_fd_step(p)
+    type(ident_params_t), intent(in) :: p
+    params_fd_step = p%fd_step
+  end function params_fd_step
+
+  !> Identification: the parameter code of variable k (config: fit_kind_names).
+  pure integer function params_code(p, k)
+    type(ident_params_t), intent(in) :: p
+    integer, intent(in) :: k
+    params_code = p%code(k)
+  end function params_code
+
+  !> Control: the keyframes of the path.
+  pure integer function params_nk(p)
+    type(ident_params_t), intent(in) :: p
+    params_nk = p%nk
+  end function params_nk
+
+  !> Control: the keyframe times (nk) [time].
+  pure function params_times(p) result(v)
+    type(ident_params_t), intent(in) :: p
+    real(rp) :: v(p%nk)
+    v = p%kt
+  end function params_times
+
+  !> Control: the initial keyframe offsets (3, nk) [length].
+  pure function params_initial_offsets(p) result(v)
+    type(ident_params_t), intent(in) :: p
+    real(rp) :: v(3, p%nk)
+    v = p%koff0
+  end function params_initial_offsets
+
+  !> Control: variable k is the step of component kc(k) (1..3) into
+  !> keyframe km(k) (2..nk); km, kc: (np).
+  pure subroutine control_variables(p, km, kc)
+    type(ident_params_t), intent(in) :: p
+    integer, intent(out) :: km(:), kc(:)
+    km = p%km
+    kc = p%kc
+  end subroutine control_variables
+
+  !> Control: dxb/dtheta_k and dvb/dtheta_k of a driven node at time t in
+  !> the constraint state cs (the component kc(k) of control_variables);
+  !> sx, sv: (np) [1], [1/time]. The same for every driven node.
+  pure subroutine step_sensitivities(p, cs, t, sx, sv)
+    type(ident_params_t), intent(in) :: p
+    type(constraint_set_t), intent(in) :: cs
+    real(rp), intent(in) :: t
+    real(rp), intent(out) :: sx(:), sv(:)
+    integer :: k
+    do k = 1, p%np
+      call constraint_step_sensitivity(cs, t, p%km(k), sx(k), sv(k))
+    end do
+  end subroutine step_sensitivities
+
+  !> The name of variable k: the fitted parameter's (identification) or
+  !> keyframe_dC(m) (control: the position of keyframe m in component C).
+  function var_name(p, k) result(s)
+    type(ident_params_t), intent(in) :: p
+    integer, intent(in) :: k
+    character(len=32) :: s
+    if (p%mode == MODE_CONTROL) then
+      write(s, '(a,i0,a)') 'keyframe_d'//XYZ(p%kc(k))//'(', p%km(k), ')'
+    else
+      s = fit_kind_names(p%code(k))
+    end if
+  end function var_name
+
+  !> The direction in theta of a check of variable k: theta_k alone
+  !> (identification), or the position of keyframe km(k) alone (control:
+  !> moving it changes the step into it and the step out of it, so
+  !> dJ/dkoff(c, m) = dJ/dd_m - dJ/dd_(m+1)); (np), entries 0 and +-1.
+  pure function check_direction(p, k) result(dir)
+    type(ident_params_t), intent(in) :: p
+    integer, intent(in) :: k
+    real(rp) :: dir(p%np)
+    integer :: q
+    dir = 0.0_rp
+    dir(k) = 1.0_rp
+    if (p%mode /= MODE_CONTROL) return
+    do q = 1, p%np
+      if (p%km(q) == p%km(k) + 1 .and. p%kc(q) == p%kc(k)) dir(q) = -1.0_rp
+    end do
+  end function check_direction
+
+  ! ---------------------------------------------------------------- theta
 
   !> Control: the keyframe offsets (3, nk) [length] of theta: the first
   !> keyframe and the components not optimised as given, the others the

@@ -18,6 +18,7 @@ module input_checks
   private
   public :: derive_codes, resolve_unset, validate, check_choice, choices
   public :: check_lattice_size, check_lattice_extent
+  public :: fit_initial             ! module identify_params: a fit parameter's value in a configuration
 
 contains
 
