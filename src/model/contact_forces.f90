@@ -20,7 +20,7 @@ module contact_forces
   use kinds, only: rp
   use config, only: contact_config
   use lattice, only: lattice_t
-  use node_blocks, only: node_blocks_t
+  use node_blocks, only: node_blocks_t, node_blocks_begin, node_blocks_add, node_blocks_end
   use contact, only: obstacle_t, contact_params_t, contact_node, time_of_impact, signed_distance, friction_power, &
                      time_of_impact_moving, SHAPE_BOX, SHAPE_CAPSULE
   use obstacle_motion, only: obstacle_at
@@ -248,21 +248,18 @@ contains
   end subroutine contact_add_forces
 
   !> The diagonal blocks df/dx, df/dv of the nodes in contact (or with
-  !> friction) at state u, by owned row, into nb (lattice_t's nodal).
+  !> friction) at state u, by owned row, into nb (which both assemblies add).
   subroutine contact_blocks(cs, lat, fixed, u, nb)
     type(contact_state_t), intent(in) :: cs
     type(lattice_t), intent(in) :: lat
     logical, intent(in) :: fixed(0:, lat%ys:)
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)
     type(node_blocks_t), intent(inout) :: nb
-    integer :: i, j, k, n
+    integer :: i, j, k
     real(rp) :: fc(3), kx(3, 3), kv(3, 3), e, fn, bx(3, 3), bv(3, 3)
     logical :: act, any_blk
-    if (.not. allocated(nb%row_start)) allocate(nb%row_start(lat%ys:lat%ye + 1))
-    if (.not. allocated(nb%col)) allocate(nb%col(64), nb%kx(3, 3, 64), nb%kv(3, 3, 64))
-    n = 0
+    call node_blocks_begin(nb, lat%ys, lat%ye)
     do j = lat%ys, lat%ye
-      nb%row_start(j) = n + 1
       do i = 0, lat%nx - 1
         if (fixed(i, j)) cycle
         bx = 0.0_rp
@@ -278,31 +275,11 @@ contains
           bx = bx + kx
           bv = bv + kv
         end do
-        if (.not. any_blk) cycle
-        n = n + 1
-        if (n > size(nb%col)) call grow(nb, 2 * n)
-        nb%col(n) = i
-        nb%kx(:, :, n) = bx
-        nb%kv(:, :, n) = bv
+        if (any_blk) call node_blocks_add(nb, i, j, bx, bv)
       end do
     end do
-    nb%row_start(lat%ye + 1) = n + 1
-    nb%n = n
+    call node_blocks_end(nb)
   end subroutine contact_blocks
-
-  subroutine grow(nb, m)
-    type(node_blocks_t), intent(inout) :: nb
-    integer, intent(in) :: m
-    integer, allocatable :: c(:)
-    real(rp), allocatable :: a(:, :, :), b(:, :, :)
-    allocate(c(m), a(3, 3, m), b(3, 3, m))
-    c(1:size(nb%col)) = nb%col
-    a(:, :, 1:size(nb%col)) = nb%kx
-    b(:, :, 1:size(nb%col)) = nb%kv
-    call move_alloc(c, nb%col)
-    call move_alloc(a, nb%kx)
-    call move_alloc(b, nb%kv)
-  end subroutine grow
 
   !> Friction's lag from an accepted state u (the next step's start):
   !> lam = the barrier's normal force, nlag = the surface normal; pstart,

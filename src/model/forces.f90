@@ -11,12 +11,13 @@ module forces
   use springs, only: link_force_lanes, link_jacobian, link_energy, link_power_lanes
   use bending_paper, only: paper_force, paper_jacobian, paper_energy
   use bending_energy, only: energy_force_lanes, energy_jacobian, energy_bend_energy, energy_power_lanes
+  use node_blocks, only: node_blocks_t, node_blocks_count, node_blocks_sub_diagonal
   implicit none
   private
   public :: internal_forces, element_energies, dissipated_power
   public :: jac_buffer_t, jac_buffer_init, jac_buffer_row, slot_of
   public :: first_anchor_row, link_stretch_extremes, triple_lane_range, TRIPLE_LANES
-  public :: link_lane_range
+  public :: link_lane_range, link_lanes, triple_lane_setup, triple_lane_edges, rest_link
   public :: RING_ROWS, ring_load, ring_link_diffs, ring_triple_edges
 
   !> Jacobian blocks of the v-rows of three consecutive node rows (a rolling
@@ -137,6 +138,59 @@ contains
     end do
   end subroutine ring_triple_edges
 
+  !> The next nl <= ld links anchored at (i0 + l - 1, j0) along
+  !> link_dir(:, k), up to anchor ihi: their constants e, eta
+  !> (link_lane_constants) and differences d, dv from the ring s
+  !> (ring_link_diffs), by lanes, as the lane kernels take them.
+  pure subroutine link_lanes(lat, s, j0, k, i0, ihi, ld, nl, e, eta, d, dv)
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: s(0:lat%nx - 1, 0:5, 0:RING_ROWS - 1)
+    integer, intent(in) :: j0, k, i0, ihi, ld
+    integer, intent(out) :: nl
+    real(rp), intent(out) :: e(ld), eta(ld), d(ld, 3), dv(ld, 3)
+    nl = min(ld, ihi - i0 + 1)
+    call link_lane_constants(lat, j0, k, i0, nl, ld, e, eta)
+    call ring_link_diffs(lat%nx, s, j0, k, i0, nl, ld, d, dv)
+  end subroutine link_lanes
+
+  !> The triples anchored at row j0 along line_dir(:, k) that touch the
+  !> owned rows, i = ilo..ihi (triple_lane_range), and their bending
+  !> stiffness and damping (triple_constants).
+  pure subroutine triple_lane_setup(lat, j0, k, ilo, ihi, kb, etab)
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: j0, k
+    integer, intent(out) :: ilo, ihi
+    real(rp), intent(out) :: kb, etab
+    call triple_lane_range(lat, j0, k, ilo, ihi)
+    call triple_constants(lat, k, kb, etab)
+  end subroutine triple_lane_setup
+
+  !> The next nl <= ld triples anchored at (i0 + l - 1, j0) along
+  !> line_dir(:, k), up to anchor ihi: their edges and rates from the ring
+  !> s (ring_triple_edges).
+  pure subroutine triple_lane_edges(nx, s, j0, k, i0, ihi, ld, nl, e1, e2, de)
+    integer, intent(in) :: nx, j0, k, i0, ihi, ld
+    real(rp), intent(in) :: s(0:nx - 1, 0:5, 0:RING_ROWS - 1)
+    integer, intent(out) :: nl
+    real(rp), intent(out) :: e1(ld, 3), e2(ld, 3), de(ld, 6)
+    nl = min(ld, ihi - i0 + 1)
+    call ring_triple_edges(nx, s, j0, k, i0, nl, ld, e1, e2, de)
+  end subroutine triple_lane_edges
+
+  !> Count the lanes whose element is singular (okl false) in nbad, and
+  !> keep the anchor (i0 + l - 1, j0) of the last of them in bad.
+  pure subroutine note_bad(nl, okl, i0, j0, nbad, bad)
+    integer, intent(in) :: nl, i0, j0
+    logical, intent(in) :: okl(:)
+    integer, intent(inout) :: nbad, bad(2)
+    integer :: l
+    do l = 1, nl
+      if (okl(l)) cycle
+      nbad = nbad + 1
+      bad = [i0 + l - 1, j0]
+    end do
+  end subroutine note_bad
+
 
   !> Lowest anchor row whose elements touch row ys.
   pure integer function first_anchor_row(lat)
@@ -241,16 +295,11 @@ contains
         dx = link_dir(1, k)
         call link_lane_range(lat, j0, k, ilo, ihi, jq0)
         do i0 = ilo, ihi, NL
-          nl1 = min(NL, ihi - i0 + 1)
-          call link_lane_constants(lat, j0, k, i0, nl1, NL, el, etal)
-          call ring_link_diffs(lat%nx, us, j0, k, i0, nl1, NL, dd, vr)
+          call link_lanes(lat, us, j0, k, i0, ihi, NL, nl1, el, etal, dd, vr)
           call link_force_lanes(nl1, NL, lat%spring_model, el, etal, d0(:, k), len0(k), dd, vr, fl3, okl)
+          call note_bad(nl1, okl, i0, j0, nbad, bad)
           do l = 1, nl1
             ii = i0 + l - 1
-            if (.not. okl(l)) then
-              nbad = nbad + 1
-              bad = [ii, j0]
-            end if
             f(:, ii, j0) = f(:, ii, j0) + fl3(l, :)
             f(:, ii + dx, jq0) = f(:, ii + dx, jq0) - fl3(l, :)
           end do
@@ -292,18 +341,13 @@ contains
       do k = 1, 4
         dx = line_dir(1, k)
         dy = line_dir(2, k)
-        call triple_lane_range(lat, j0, k, ilo, ihi)
-        call triple_constants(lat, k, kb, etab)
+        call triple_lane_setup(lat, j0, k, ilo, ihi, kb, etab)
         do i0 = ilo, ihi, NL
-          nl1 = min(NL, ihi - i0 + 1)
-          call ring_triple_edges(lat%nx, us, j0, k, i0, nl1, NL, e1, e2, de)
+          call triple_lane_edges(lat%nx, us, j0, k, i0, ihi, NL, nl1, e1, e2, de)
           call energy_force_lanes(nl1, NL, kb, etab, e1, e2, de, fl9, okl)
+          call note_bad(nl1, okl, i0, j0, nbad, bad)
           do l = 1, nl1
             i = i0 + l - 1
-            if (.not. okl(l)) then
-              nbad = nbad + 1
-              bad = [i, j0]
-            end if
             f(:, i, j0) = f(:, i, j0) + fl9(l, 1:3)
             f(:, i + dx, j0 + dy) = f(:, i + dx, j0 + dy) + fl9(l, 4:6)
             f(:, i + 2 * dx, j0 + 2 * dy) = f(:, i + 2 * dx, j0 + 2 * dy) + fl9(l, 7:9)
@@ -381,13 +425,11 @@ contains
       integer, intent(in) :: j0
       integer, parameter :: NL = 32
       real(rp) :: el(NL), etal(NL), dd(NL, 3), vr(NL, 3), pl(NL)
-      integer :: k, jq0, ilo, ihi, i0, nl1, l
+      integer :: k, jq0, ilo, ihi, i0, nl1
       do k = 1, 4
         call link_lane_range(lat, j0, k, ilo, ihi, jq0)
         do i0 = ilo, ihi, NL
-          nl1 = min(NL, ihi - i0 + 1)
-          call link_lane_constants(lat, j0, k, i0, nl1, NL, el, etal)
-          call ring_link_diffs(lat%nx, us, j0, k, i0, nl1, NL, dd, vr)
+          call link_lanes(lat, us, j0, k, i0, ihi, NL, nl1, el, etal, dd, vr)
           call link_power_lanes(nl1, NL, lat%spring_model, etal, dd, vr, pl)
           power = power + sum(pl(1:nl1))
         end do
@@ -402,12 +444,10 @@ contains
       real(rp) :: e1(NL, 3), e2(NL, 3), de(NL, 6), pw(NL)
       integer :: k, ilo, ihi, i0, nl1
       do k = 1, 4
-        call triple_constants(lat, k, kb, etab)
+        call triple_lane_setup(lat, j0, k, ilo, ihi, kb, etab)
         if (etab == 0.0_rp) cycle
-        call triple_lane_range(lat, j0, k, ilo, ihi)
         do i0 = ilo, ihi, NL
-          nl1 = min(NL, ihi - i0 + 1)
-          call ring_triple_edges(lat%nx, us, j0, k, i0, nl1, NL, e1, e2, de)
+          call triple_lane_edges(lat%nx, us, j0, k, i0, ihi, NL, nl1, e1, e2, de)
           call energy_power_lanes(nl1, NL, etab, e1, e2, de, pw)
           power = power + sum(pw(1:nl1))
         end do
@@ -430,9 +470,10 @@ contains
   !> an owned row) to the buffer. After this call, row ja is complete.
   !> clamp drops the indefinite compression term of the springs and
   !> gauss_newton keeps only -k_b J^T J of energy bending (preconditioner use).
-  subroutine jac_buffer_row(buf, lat, u, ja, clamp, gauss_newton)
+  subroutine jac_buffer_row(buf, lat, nodal, u, ja, clamp, gauss_newton)
     type(jac_buffer_t), intent(inout) :: buf
     type(lattice_t), intent(in) :: lat
+    type(node_blocks_t), intent(in) :: nodal      !< forces on single nodes (contact): their diagonal blocks
     real(rp), intent(in) :: u(0:5, 0:lat%nx - 1, lat%gys:lat%gye)
     integer, intent(in) :: ja
     logical, intent(in) :: clamp, gauss_newton
@@ -482,13 +523,8 @@ contains
       end do
     end do
     ! forces on single nodes (contact): -df/dx, -df/dv on the node's diagonal
-    if (lat%nodal%n > 0 .and. ja >= lat%ys) then
-      do a = lat%nodal%row_start(ja), lat%nodal%row_start(ja + 1) - 1
-        i = lat%nodal%col(a)
-        buf%k(:, :, 0, 0, i, slot_of(ja)) = buf%k(:, :, 0, 0, i, slot_of(ja)) - lat%nodal%kx(:, :, a)
-        buf%c(:, :, 0, 0, i, slot_of(ja)) = buf%c(:, :, 0, 0, i, slot_of(ja)) - lat%nodal%kv(:, :, a)
-      end do
-    end if
+    if (node_blocks_count(nodal) > 0 .and. ja >= lat%ys) &
+      call node_blocks_sub_diagonal(nodal, ja, buf%k(:, :, 0, 0, :, slot_of(ja)), buf%c(:, :, 0, 0, :, slot_of(ja)))
 
   contains
 

@@ -123,10 +123,10 @@ contains
     PetscCall(DMGlobalToLocalBegin(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
     PetscCall(DMGlobalToLocalEnd(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
-    ! contact's diagonal blocks at this state, which both assemblies add (lattice_t's nodal)
+    ! contact's diagonal blocks at this state, which both assemblies add (app_ctx's nodal)
     if (contact_on(ctx%contact)) then
       call contact_move(ctx%contact, t)
-      call contact_blocks(ctx%contact, ctx%lat, ctx%model%fixed, u, ctx%lat%nodal)
+      call contact_blocks(ctx%contact, ctx%lat, ctx%model%fixed, u, ctx%nodal)
     end if
     if (ctx%use_reduced) then
       PetscCall(DMGetLocalVector(ctx%da, udloc, ierr))
@@ -146,7 +146,7 @@ contains
     ctx%asm%jbuf%c = 0.0_rp
     sums = 0.0_rp
     do ja = first_anchor_row(ctx%lat), ctx%lat%ye
-      call jac_buffer_row(ctx%asm%jbuf, ctx%lat, u, ja, ctx%model%clamp, ctx%model%gauss_newton)
+      call jac_buffer_row(ctx%asm%jbuf, ctx%lat, ctx%nodal, u, ja, ctx%model%clamp, ctx%model%gauss_newton)
       if (ja >= ctx%lat%ys) then
         PetscCall(insert_row(ctx, pmat, ja, a, ierr))
         ! the round-off floor of F from this assembly, as the reduced path

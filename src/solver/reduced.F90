@@ -17,6 +17,7 @@ module reduced
   use, intrinsic :: iso_c_binding, only: c_int, c_char
   use kinds, only: rp
   use lattice, only: lattice_t
+  use node_blocks, only: node_blocks_t
   use config, only: BEND_NONE
   use reduced_assembly, only: kc_products
   use reduced_storage, only: s_store_t, store_init, store_matrix, store_assemble, check_direct, set_block_row
@@ -74,6 +75,7 @@ module reduced
     type(elements_t) :: el                 !< the element model and its products (this module)
     type(inner_pc_t) :: pcc                !< the inner preconditioner in use and its reuse (this module)
     type(lattice_t), pointer :: lat => null()
+    type(node_blocks_t), pointer :: nodal => null()  !< forces on single nodes (contact), written by contact_forces
     type(tDM) :: da6                       !< the state's DMDA (dof 6; not owned)
     type(tDM) :: da3                       !< dof 3, same strips and halo
     type(tMat) :: s                        !< S = a M - C - K/a, block size 3 (AIJ for multigrid, else BAIJ)
@@ -160,10 +162,11 @@ contains
   !> preallocation, the 6-dof MATSHELL and the inner KSP (prefix reduced_).
   !> symmetric selects the default inner Krylov method (CG or GMRES).
   !> Collective.
-  subroutine reduced_create(red, da6, lat, symmetric, constant, damping, clamp, gauss_newton, pc_lag, ierr, mg_interpolation)
+  subroutine reduced_create(red, da6, lat, nodal, symmetric, constant, damping, clamp, gauss_newton, pc_lag, ierr, mg_interpolation)
     type(reduced_t), intent(inout), target :: red
     type(tDM), intent(in) :: da6
     type(lattice_t), intent(in), target :: lat
+    type(node_blocks_t), intent(in), target :: nodal   !< the node blocks every assembly adds (app_ctx's)
     logical, intent(in) :: symmetric, constant, damping, clamp, gauss_newton
     integer, intent(in) :: pc_lag                  !< rebuild the inner preconditioner every pc_lag assemblies (>= 1; 0: default)
     PetscErrorCode, intent(out) :: ierr
@@ -184,6 +187,7 @@ contains
     integer :: mpierr
 
     red%lat => lat
+    red%nodal => nodal
     red%da6 = da6
     PetscCall(PetscClassIdRegister('nuno', classid, ierr))
     PetscCall(PetscLogEventRegister('nunoAssembleS', classid, red%ev_assemble, ierr))
@@ -492,11 +496,11 @@ contains
       ! whose finest level is made from it row by row on the way (every
       ! assembly: its smoother and residual use the current S, as PETSc's
       ! PCMG does with a reused hierarchy).
-      call mg_glue_assemble(red%mgg, u, red%el%fixedg, a, red%el%damping, red%el%clamp, red%el%gauss_newton, red%el%wpred, &
+      call mg_glue_assemble(red%mgg, red%nodal, u, red%el%fixedg, a, red%el%damping, red%el%clamp, red%el%gauss_newton, red%el%wpred, &
                             red%el%lb, red%el%gpred, red%el%kd)
     else
       ! S in a PETSc matrix (module reduced_storage)
-      PetscCall(store_assemble(red%sto, red%s, u, red%el%fixedg, a, red%el%damping, red%el%clamp, red%el%gauss_newton, red%el%wpred, red%el%lb, red%el%gpred, red%el%kd, ierr))
+      PetscCall(store_assemble(red%sto, red%s, red%nodal, u, red%el%fixedg, a, red%el%damping, red%el%clamp, red%el%gauss_newton, red%el%wpred, red%el%lb, red%el%gpred, red%el%kd, ierr))
     end if
     PetscCall(MatAssemblyBegin(red%s, MAT_FINAL_ASSEMBLY, ierr))
     PetscCall(MatAssemblyEnd(red%s, MAT_FINAL_ASSEMBLY, ierr))

@@ -30,6 +30,8 @@ program test_reduced
   use reduced_storage, only: store_use_buffer
   use check, only: check_true, check_report
   use reduced_assembly, only: assemble_stencil
+  use node_blocks, only: node_blocks_t
+  use mg_kernels, only: stencil_t, stencil_init
   use offset_product, only: stencil_product, offset_count
   implicit none
   PetscErrorCode :: ierr
@@ -91,6 +93,7 @@ contains
     character(*), intent(in) :: label
     type(nuno_config) :: cfg
     type(lattice_t), target :: lat
+    type(node_blocks_t), target :: nodal   ! none: no contact here
     type(reduced_t), target :: red, red2
     PetscReal :: snorm, dnorm
     type(tDM) :: da6
@@ -153,7 +156,7 @@ contains
     PetscCallA(DMDAVecRestoreArrayF90(da6, ud, uda, ierr))
     PetscCallA(DMDAVecRestoreArrayF90(da6, u, ua, ierr))
 
-    PetscCallA(reduced_create(red, da6, lat, .false., .false., .true., .false., .false., 1, ierr))
+    PetscCallA(reduced_create(red, da6, lat, nodal, .false., .false., .true., .false., .false., 1, ierr))
     PetscCallA(reduced_set_fixed(red, fixed, ierr))
     PetscCallA(DMGetLocalVector(da6, uloc, ierr))
     PetscCallA(DMGetLocalVector(da6, udloc, ierr))
@@ -169,7 +172,7 @@ contains
     ! buffer through MatSetValues sums the same terms in another order: the
     ! two must agree to round-off, on every rank count.
     call check_true(red%sto%direct, label//': AIJ S is written directly')
-    PetscCallA(reduced_create(red2, da6, lat, .false., .false., .true., .false., .false., 1, ierr))
+    PetscCallA(reduced_create(red2, da6, lat, nodal, .false., .false., .true., .false., .false., 1, ierr))
     call store_use_buffer(red2%sto)
     PetscCallA(reduced_set_fixed(red2, fixed, ierr))
     PetscCallA(reduced_assemble(red2, ul, udl, a, ierr))
@@ -399,8 +402,10 @@ contains
     PetscScalar, pointer :: ul(:, :, :), yl(:, :, :), sa(:, :, :)
     PetscInt :: gxs, gys, gzs, gxm, gym, gzm
     real(rp) :: err, scale, errg, scaleg
+    type(stencil_t) :: fine
     PetscErrorCode :: ierr
 
+    call stencil_init(fine, lat%nx, lat%ny, lat%ys, lat%ye, lat%halo, lines=.true.)
     allocate(st(0:lat%nx - 1, 3, 3, offset_count(lat%halo), 0:lat%ye - lat%ys))
     allocate(g(3, 0:lat%nx - 1, lat%ys:lat%ye), kd(3, 0:lat%nx - 1, lat%ys:lat%ye))
     allocate(ys(3, 0:lat%nx - 1, lat%ys:lat%ye), yg(3, 0:lat%nx - 1, lat%gys:lat%gye))
@@ -408,8 +413,8 @@ contains
     PetscCallA(DMGlobalToLocalBegin(red%da6, u, INSERT_VALUES, uloc, ierr))
     PetscCallA(DMGlobalToLocalEnd(red%da6, u, INSERT_VALUES, uloc, ierr))
     PetscCallA(DMDAVecGetArrayReadF90(red%da6, uloc, ul, ierr))
-    call assemble_stencil(lat, ul, red%el%fixedg, a, red%el%damping, red%el%clamp, red%el%gauss_newton, red%el%wpred, &
-                          red%el%lb, g, kd, st)
+    call assemble_stencil(lat, red%nodal, ul, red%el%fixedg, a, red%el%damping, red%el%clamp, red%el%gauss_newton, &
+                          red%el%wpred, red%el%lb, g, kd, st, fine)
     PetscCallA(DMDAVecRestoreArrayReadF90(red%da6, uloc, ul, ierr))
     PetscCallA(DMRestoreLocalVector(red%da6, uloc, ierr))
     PetscCallA(DMGetLocalVector(red%da3, yloc, ierr))
