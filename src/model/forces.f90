@@ -17,7 +17,7 @@ module forces
   public :: internal_forces, element_energies, dissipated_power
   public :: jac_buffer_t, jac_buffer_init, jac_buffer_row, slot_of
   public :: first_anchor_row, link_stretch_extremes, triple_lane_range, TRIPLE_LANES
-  public :: link_lane_range, link_lanes, triple_lane_setup, triple_lane_edges, rest_link
+  public :: link_lane_range, link_lanes, triple_lane_setup, triple_lane_edges, rest_link, triple_at
   public :: RING_ROWS, ring_load, ring_link_diffs, ring_triple_edges
 
   !> Jacobian blocks of the v-rows of three consecutive node rows (a rolling
@@ -232,19 +232,26 @@ contains
     ok = inside(lat, iq, jq)
   end subroutine link_end
 
-  !> Middle (iq, jq) and far end (ir, jr) of the triple from anchor (i, j)
-  !> along line_dir(:, k); false when the far end lies outside the lattice.
-  pure subroutine triple_ends(lat, i, j, k, iq, jq, ir, jr, ok)
+  !> The triple from anchor (i, j) along line_dir(:, k), one at a time:
+  !> its nodes n(:, 1..3) = (i, j) + (0, 1, 2) line_dir(:, k), their
+  !> positions x9 from u(0:5, 0:nx-1, gys:gye) and its bending constants
+  !> (triple_constants); false when its far end lies outside the lattice
+  !> or below row ys (then the rest is not set).
+  pure subroutine triple_at(lat, u, i, j, k, n, x9, kb, etab, ok)
     type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
     integer, intent(in) :: i, j, k
-    integer, intent(out) :: iq, jq, ir, jr
+    integer, intent(out) :: n(2, 3)
+    real(rp), intent(out) :: x9(9), kb, etab
     logical, intent(out) :: ok
-    iq = i + line_dir(1, k)
-    jq = j + line_dir(2, k)
-    ir = iq + line_dir(1, k)
-    jr = jq + line_dir(2, k)
-    ok = inside(lat, ir, jr)
-  end subroutine triple_ends
+    n(:, 1) = [i, j]
+    n(:, 2) = n(:, 1) + line_dir(:, k)
+    n(:, 3) = n(:, 2) + line_dir(:, k)
+    ok = inside(lat, n(1, 3), n(2, 3)) .and. n(2, 3) >= lat%ys
+    if (.not. ok) return
+    call triple_constants(lat, k, kb, etab)
+    x9 = [u(0:2, i, j), u(0:2, n(1, 2), n(2, 2)), u(0:2, n(1, 3), n(2, 3))]
+  end subroutine triple_at
 
   !> Internal forces f(3, 0:nx-1, gys:gye) [force] of all elements touching
   !> the owned rows, from the state u(0:5, 0:nx-1, gys:gye). Entries of ghost
@@ -310,23 +317,17 @@ contains
     !> Paper bending: the triples anchored at node (i, j), one at a time.
     subroutine paper_triples(i, j)
       integer, intent(in) :: i, j
-      integer :: k, iq, jq, ir, jr
+      integer :: k, n(2, 3)
       real(rp) :: x9(9), f9(9), theta
-      logical :: ok, inl
+      logical :: ok(1), inl
       do k = 1, 4
-        call triple_ends(lat, i, j, k, iq, jq, ir, jr, inl)
+        call triple_at(lat, u, i, j, k, n, x9, kb, etab, inl)
         if (.not. inl) cycle
-        if (jr < lat%ys) cycle
-        call triple_constants(lat, k, kb, etab)
-        x9 = [u(0:2, i, j), u(0:2, iq, jq), u(0:2, ir, jr)]
-        call paper_force(kb, x9, f9, theta, ok)
-        if (.not. ok) then
-          nbad = nbad + 1
-          bad = [i, j]
-        end if
+        call paper_force(kb, x9, f9, theta, ok(1))
+        call note_bad(1, ok, i, j, nbad, bad)
         f(:, i, j) = f(:, i, j) + f9(1:3)
-        f(:, iq, jq) = f(:, iq, jq) + f9(4:6)
-        f(:, ir, jr) = f(:, ir, jr) + f9(7:9)
+        f(:, n(1, 2), n(2, 2)) = f(:, n(1, 2), n(2, 2)) + f9(4:6)
+        f(:, n(1, 3), n(2, 3)) = f(:, n(1, 3), n(2, 3)) + f9(7:9)
       end do
     end subroutine paper_triples
 
@@ -363,7 +364,7 @@ contains
     type(lattice_t), intent(in) :: lat
     real(rp), intent(in) :: u(0:5, 0:lat%nx - 1, lat%gys:lat%gye)
     real(rp), intent(out) :: stretch, bend
-    integer :: i, j, k, iq, jq, ir, jr
+    integer :: i, j, k, iq, jq, n(2, 3)
     real(rp) :: d0(3, 4), len0(4), e, eta, x9(9), kb, etab
     logical :: inl
 
@@ -382,10 +383,8 @@ contains
         end do
         if (lat%bending_model == BEND_NONE) cycle
         do k = 1, 4
-          call triple_ends(lat, i, j, k, iq, jq, ir, jr, inl)
+          call triple_at(lat, u, i, j, k, n, x9, kb, etab, inl)
           if (.not. inl) cycle
-          call triple_constants(lat, k, kb, etab)
-          x9 = [u(0:2, i, j), u(0:2, iq, jq), u(0:2, ir, jr)]
           if (lat%bending_model == BEND_PAPER) then
             bend = bend + paper_energy(kb, x9)
           else
@@ -477,7 +476,7 @@ contains
     real(rp), intent(in) :: u(0:5, 0:lat%nx - 1, lat%gys:lat%gye)
     integer, intent(in) :: ja
     logical, intent(in) :: clamp, gauss_newton
-    integer :: i, k, iq, jq, ir, jr, a, b, ia(3), jj(3)
+    integer :: i, k, iq, jq, a, b, n(2, 3)
     real(rp) :: d0(3, 4), len0(4), e, eta, kl(3, 3), cl(3, 3), x9(9), v9(9), k9(9, 9), c9(9, 9), kb, etab
     logical :: ok, inl
 
@@ -497,24 +496,19 @@ contains
       end do
       if (lat%bending_model == BEND_NONE) cycle
       do k = 1, 4
-        call triple_ends(lat, i, ja, k, iq, jq, ir, jr, inl)
+        call triple_at(lat, u, i, ja, k, n, x9, kb, etab, inl)
         if (.not. inl) cycle
-        if (jr < lat%ys) cycle
-        call triple_constants(lat, k, kb, etab)
-        x9 = [u(0:2, i, ja), u(0:2, iq, jq), u(0:2, ir, jr)]
         if (lat%bending_model == BEND_PAPER) then
           call paper_jacobian(kb, x9, k9, ok)
           c9 = 0.0_rp
         else
-          v9 = [u(3:5, i, ja), u(3:5, iq, jq), u(3:5, ir, jr)]
+          v9 = [u(3:5, n(1, 1), n(2, 1)), u(3:5, n(1, 2), n(2, 2)), u(3:5, n(1, 3), n(2, 3))]
           call energy_jacobian(kb, etab, x9, v9, gauss_newton, k9, c9, ok)
         end if
-        ia = [i, iq, ir]
-        jj = [ja, jq, jr]
         do a = 1, 3
           do b = 1, 3
-            associate (dk => buf%k(:, :, ia(b) - ia(a), jj(b) - jj(a), ia(a), slot_of(jj(a))), &
-                       dc => buf%c(:, :, ia(b) - ia(a), jj(b) - jj(a), ia(a), slot_of(jj(a))))
+            associate (dk => buf%k(:, :, n(1, b) - n(1, a), n(2, b) - n(2, a), n(1, a), slot_of(n(2, a))), &
+                       dc => buf%c(:, :, n(1, b) - n(1, a), n(2, b) - n(2, a), n(1, a), slot_of(n(2, a))))
               dk = dk - k9(3*a - 2:3*a, 3*b - 2:3*b)
               if (lat%bending_model == BEND_ENERGY) dc = dc - c9(3*a - 2:3*a, 3*b - 2:3*b)
             end associate

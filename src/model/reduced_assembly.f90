@@ -25,14 +25,14 @@
 module reduced_assembly
   use kinds, only: rp
   use config, only: BEND_NONE, BEND_PAPER, BEND_ENERGY
-  use lattice, only: lattice_t, link_dir, line_dir, stencil_box, triple_constants
+  use lattice, only: lattice_t, link_dir, line_dir, stencil_box
   use node_blocks, only: node_blocks_t, node_blocks_count, node_blocks_products, node_blocks_sub_row, &
                          node_blocks_sub_node
   use springs, only: link_jacobian_lanes
   use bending_paper, only: paper_jacobian
   use bending_energy, only: energy_jacobian_lanes
   use offset_product, only: offset_table
-  use forces, only: TRIPLE_LANES, link_lane_range, link_lanes, triple_lane_setup, triple_lane_edges, rest_link, &
+  use forces, only: TRIPLE_LANES, link_lane_range, link_lanes, triple_lane_setup, triple_lane_edges, rest_link, triple_at, &
                     RING_ROWS, ring_load, ring_link_diffs, ring_triple_edges
   use csr_layout, only: csr_put_block_row, csr_add_block
   use reduced_lanes, only: triple_node_blocks, add_lane_blocks, sub_lane_forces, put_link_blocks
@@ -426,12 +426,10 @@ contains
     real(rp), intent(inout) :: av(0:), bv(0:)
     real(rp), intent(inout), contiguous :: st(0:, :, :, :, 0:)
     integer, parameter :: NL = TRIPLE_LANES
-    integer :: i, k, n(2, 3), dx, dy, ilo, ihi, i0, nl1, l
+    integer :: k, n(2, 3), ilo, ihi, i0, nl1, l
     real(rp) :: kb, etab, e1(NL, 3), e2(NL, 3), de(NL, 6), ke(NL, 6, 6), ce(NL, 6, 6)
     logical :: okl(NL)
     do k = 1, 4
-      dx = line_dir(1, k)
-      dy = line_dir(2, k)
       call triple_lane_setup(lat, j0, k, ilo, ihi, kb, etab)
       do i0 = ilo, ihi, NL
         call triple_lane_edges(lat%nx, us, j0, k, i0, ihi, NL, nl1, e1, e2, de)
@@ -442,10 +440,9 @@ contains
           cycle
         end if
         do l = 1, nl1
-          i = i0 + l - 1
-          n(:, 1) = [i, j0]
-          n(:, 2) = [i + dx, j0 + dy]
-          n(:, 3) = [i + 2 * dx, j0 + 2 * dy]
+          n(:, 1) = [i0 + l - 1, j0]
+          n(:, 2) = n(:, 1) + line_dir(:, k)
+          n(:, 3) = n(:, 2) + line_dir(:, k)
           call add_triple_edges(p, lat, w, fixedg, n, ke(l, :, :), ce(l, :, :), g, kd, ia, av, ib, bv)
         end do
       end do
@@ -466,16 +463,12 @@ contains
     real(rp), intent(inout), contiguous :: st(0:, :, :, :, 0:)
     integer :: i, k, n(2, 3), pp, qq
     real(rp) :: x9(9), k9(9, 9), c9(9, 9), kb, etab
-    logical :: ok
+    logical :: ok, inl
     c9 = 0.0_rp
     do i = 0, lat%nx - 1
       do k = 1, 4
-        n(:, 1) = [i, j0]
-        n(:, 2) = n(:, 1) + line_dir(:, k)
-        n(:, 3) = n(:, 2) + line_dir(:, k)
-        if (n(1, 3) < 0 .or. n(1, 3) >= lat%nx .or. n(2, 3) >= lat%ny .or. n(2, 3) < lat%ys) cycle
-        call triple_constants(lat, k, kb, etab)
-        x9 = [u(0:2, n(1, 1), n(2, 1)), u(0:2, n(1, 2), n(2, 2)), u(0:2, n(1, 3), n(2, 3))]
+        call triple_at(lat, u, i, j0, k, n, x9, kb, etab, inl)
+        if (.not. inl) cycle
         call paper_jacobian(kb, x9, k9, ok)
         do pp = 1, 3
           do qq = 1, 3
