@@ -381,7 +381,11 @@ contains
           call link_constants(lat, i, j, k, e, eta)
           stretch = stretch + link_energy(lat%spring_model, e, d0(:, k), len0(k), u(0:2, i, j), u(0:2, iq, jq))
         end do
-        if (lat%bending_model == BEND_NONE) cycle
+      end do
+    end do
+    if (lat%bending_model == BEND_NONE) return
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
         do k = 1, 4
           call triple_at(lat, u, i, j, k, n, x9, kb, etab, inl)
           if (.not. inl) cycle
