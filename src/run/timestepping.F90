@@ -31,7 +31,7 @@ module timestepping
   use cloth_model, only: model_enter_window
   use newton_policy, only: newton_enter_window
   use newton_start, only: newton_start_reset
-  use contact_forces, only: contact_on
+  use contact_forces, only: contact_on, contact_summary
   use contact_solver, only: contact_observe
   use failure_text, only: signal_name, failure_reason, report_io_error
   use strings, only: num => real_brief, inum => itoa
@@ -435,16 +435,18 @@ contains
       ! friction work a dissipation and the moving obstacles' work an
       ! external work (docs/model.md section 10): the state's record of the
       ! contact monitor (module contact_solver).
-      rec%barrier = ctx%contact%energy
-      rec%dissipated = rec%dissipated + ctx%contact%friction_work
-      rec%external_work = rec%external_work + ctx%contact%obstacle_work
-      rec%contact_active = ctx%contact%active
-      rec%contact_force = ctx%contact%force
-      rec%normal_force = ctx%contact%normal_force
-      rec%friction_work = ctx%contact%friction_work
-      rec%min_gap = ctx%contact%min_gap
-      rec%min_gap_run = ctx%contact%min_gap_run
-      rec%states_checked = ctx%contact%states_checked
+      associate (c => contact_summary(ctx%contact))
+        rec%barrier = c%energy
+        rec%dissipated = rec%dissipated + c%friction_work
+        rec%external_work = rec%external_work + c%obstacle_work
+        rec%contact_active = c%active
+        rec%contact_force = c%force
+        rec%normal_force = c%normal_force
+        rec%friction_work = c%friction_work
+        rec%min_gap = c%min_gap
+        rec%min_gap_run = c%min_gap_run
+        rec%states_checked = c%states_checked
+      end associate
     end if
     rec%steps = steps
     rec%rejected_steps = rejects
