@@ -41,7 +41,8 @@ module identify_adjoint
   use lattice, only: lattice_t, lattice_init
   use cloth_model, only: model_internal_forces
   use scenes, only: scene_setup
-  use constraints, only: constraint_step_sensitivity, PATH_KEYFRAMES
+  use constraints, only: constraint_step_sensitivity, PATH_KEYFRAMES, constraints_active, constraint_count, &
+                         constraint_node, constraint_path
   use timestepping, only: app_ctx, enter_window, advance_window
   use step_monitor, only: energy_integrals_reset, progress_reset
   use safe_files, only: make_scratch_dir, remove_scratch
@@ -390,12 +391,11 @@ contains
 
     app => id%app
     ierr = 0
-    if (.not. app%cs%active) return
+    if (.not. constraints_active(app%cs)) return
     PetscCall(DMDAVecGetArrayF90(app%da, id%run%lam(1), la, ierr))
-    do n = 1, app%cs%n
-      i = app%cs%node(1, n)
-      j = app%cs%node(2, n)
-      if (app%cs%path(n) == PATH_KEYFRAMES) then
+    do n = 1, constraint_count(app%cs)
+      call constraint_node(app%cs, n, i, j)
+      if (constraint_path(app%cs, n) == PATH_KEYFRAMES) then
         do k = 1, id%par%np
           call constraint_step_sensitivity(app%cs, ta, id%par%km(k), sx, sv)
           c = id%par%kc(k) - 1
@@ -427,10 +427,11 @@ contains
     a = 0.0_rp
     if (id%par%mode == MODE_CONTROL) then
       ! F_x = xdot - vb on the driven nodes: dF_x/dd = -dvb/dd.
-      if (app%cs%active) then
-        do n = 1, app%cs%n
-          if (app%cs%path(n) /= PATH_KEYFRAMES) cycle
-          r = 6 * (app%cs%node(1, n) + app%lat%nx * (app%cs%node(2, n) - app%lat%ys))
+      if (constraints_active(app%cs)) then
+        do n = 1, constraint_count(app%cs)
+          if (constraint_path(app%cs, n) /= PATH_KEYFRAMES) cycle
+          call constraint_node(app%cs, n, i, j)
+          r = 6 * (i + app%lat%nx * (j - app%lat%ys))
           do k = 1, id%par%np
             call constraint_step_sensitivity(app%cs, t, id%par%km(k), sx, sv)
             a(r + id%par%kc(k), k) = -sv

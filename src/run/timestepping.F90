@@ -21,7 +21,8 @@ module timestepping
   use kinds, only: rp
   use lattice, only: link_dir
   use forces, only: link_stretch_extremes
-  use constraints, only: constraints_set_window, constraint_target, constraint_events
+  use constraints, only: constraints_set_window, constraint_target, constraint_events, constraints_active, &
+                         constraint_count, constraint_node
   use diagnostics, only: state_diagnostics_t, state_diagnostics
   use output, only: output_file, output_record, output_write_step, output_write_wall_time
   use reduced, only: reduced_set_fixed
@@ -69,10 +70,9 @@ contains
     call newton_enter_window(ctx%newton)
     loc = 0.0_rp
     PetscCall(DMDAVecGetArrayF90(ctx%da, ctx%u, ua, ierr))
-    if (ctx%cs%active) then
-      do k = 1, ctx%cs%n
-        i = ctx%cs%node(1, k)
-        j = ctx%cs%node(2, k)
+    if (constraints_active(ctx%cs)) then
+      do k = 1, constraint_count(ctx%cs)
+        call constraint_node(ctx%cs, k, i, j)
         call constraint_target(ctx%cs, k, ta, xb, vb)
         m = ctx%lat%mass(i, j)
         loc(1) = loc(1) + 0.5_rp * m * (dot_product(vb, vb) - dot_product(ua(3:5, i, j), ua(3:5, i, j)))

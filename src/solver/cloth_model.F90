@@ -20,7 +20,7 @@ module cloth_model
   use kinds, only: rp
   use forces, only: internal_forces, jac_buffer_row, slot_of, first_anchor_row, jac_buffer_init
   use lattice, only: lattice_t
-  use constraints, only: constraint_set_t, constraint_target
+  use constraints, only: constraint_set_t, constraint_target, constraints_active, constraint_count, constraint_node
   use newton_control, only: floor_node_add, floor_estimate
   use reduced, only: reduced_assemble, set_block_row
   use app_context, only: app_ctx, model_state_t, assembly_t
@@ -85,11 +85,10 @@ contains
         fv(3:5, i, j) = ud(3:5, i, j) - ctx%model%f(:, i, j) / ctx%lat%mass(i, j) - ctx%model%gravity
       end do
     end do
-    if (ctx%cs%active) then
-      do k = 1, ctx%cs%n
+    if (constraints_active(ctx%cs)) then
+      do k = 1, constraint_count(ctx%cs)
         call constraint_target(ctx%cs, k, t, xb, vb)
-        i = ctx%cs%node(1, k)
-        j = ctx%cs%node(2, k)
+        call constraint_node(ctx%cs, k, i, j)
         fv(0:2, i, j) = ud(0:2, i, j) - vb
         fv(3:5, i, j) = ud(3:5, i, j)
       end do
@@ -251,11 +250,12 @@ contains
     type(model_state_t), intent(inout) :: m
     type(constraint_set_t), intent(in) :: cs
     logical, intent(in) :: moving
-    integer :: k
+    integer :: k, i, j
     m%fixed = .false.
-    if (cs%active) then
-      do k = 1, cs%n
-        m%fixed(cs%node(1, k), cs%node(2, k)) = .true.
+    if (constraints_active(cs)) then
+      do k = 1, constraint_count(cs)
+        call constraint_node(cs, k, i, j)
+        m%fixed(i, j) = .true.
       end do
     end if
     m%moving_constraints = moving
