@@ -27,10 +27,19 @@ contains
   pure function real_es(x) result(s)
     real(rp), intent(in) :: x
     character(len=:), allocatable :: s
-    character(len=32) :: buf
-    write(buf, '(es24.16e3)') x
-    s = trim(adjustl(buf))
+    s = real_edit(x, '(es24.16e3)')
   end function real_es
+
+  !> x written with the format fmt (at most 32 characters), without the
+  !> blanks around it.
+  pure function real_edit(x, fmt) result(s)
+    real(rp), intent(in) :: x
+    character(*), intent(in) :: fmt
+    character(len=:), allocatable :: s
+    character(len=32) :: buf
+    write(buf, fmt) x
+    s = trim(adjustl(buf))
+  end function real_edit
 
   !> A double as the shortest text that reads back the same, NaN and Inf
   !> spelled so.
@@ -112,9 +121,7 @@ contains
   function real_brief(x) result(s)
     real(rp), intent(in) :: x
     character(len=:), allocatable :: s
-    character(len=32) :: buf
-    write(buf, '(es13.5e2)') x
-    s = trim(adjustl(buf))
+    s = real_edit(x, '(es13.5e2)')
   end function real_brief
 
   !> A count such as 2.2E+10 (or 11 when small), for messages.

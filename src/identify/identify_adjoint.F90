@@ -42,7 +42,7 @@ module identify_adjoint
   use lattice, only: lattice_t, lattice_init
   use cloth_model, only: model_internal_forces
   use scenes, only: scene_setup
-  use constraints, only: PATH_KEYFRAMES
+  use constraints, only: PATH_KEYFRAMES, constraints_active, constraint_count, constraint_node, constraint_path
   use timestepping, only: app_ctx, enter_window, advance_window
   use step_monitor, only: energy_integrals_reset, progress_reset
   use safe_files, only: make_scratch_dir, remove_scratch
@@ -420,14 +420,13 @@ contains
 
     app => id%app
     ierr = 0
-    if (.not. app%cs%active) return
+    if (.not. constraints_active(app%cs)) return
     call control_variables(id%par, km, kc)
     call step_sensitivities(id%par, app%cs, ta, sx, sv)
     PetscCall(DMDAVecGetArrayF90(app%da, id%run%lam(1), la, ierr))
-    do n = 1, app%cs%n
-      i = app%cs%node(1, n)
-      j = app%cs%node(2, n)
-      if (app%cs%path(n) == PATH_KEYFRAMES) then
+    do n = 1, constraint_count(app%cs)
+      call constraint_node(app%cs, n, i, j)
+      if (constraint_path(app%cs, n) == PATH_KEYFRAMES) then
         do k = 1, size(kc)
           c = kc(k) - 1
           g(k) = g(k) + la(c, i, j) * sx(k) + la(3 + c, i, j) * sv(k)
@@ -467,15 +466,16 @@ contains
     real(rp), intent(inout) :: a(:, :)
     type(app_ctx), pointer :: app
     real(rp) :: sx(params_np(id%par)), sv(params_np(id%par))
-    integer :: n, k, r, km(params_np(id%par)), kc(params_np(id%par))
+    integer :: n, k, r, i, j, km(params_np(id%par)), kc(params_np(id%par))
 
     app => id%app
-    if (.not. app%cs%active) return
+    if (.not. constraints_active(app%cs)) return
     call control_variables(id%par, km, kc)
     call step_sensitivities(id%par, app%cs, t, sx, sv)
-    do n = 1, app%cs%n
-      if (app%cs%path(n) /= PATH_KEYFRAMES) cycle
-      r = 6 * (app%cs%node(1, n) + app%lat%nx * (app%cs%node(2, n) - app%lat%ys))
+    do n = 1, constraint_count(app%cs)
+      if (constraint_path(app%cs, n) /= PATH_KEYFRAMES) cycle
+      call constraint_node(app%cs, n, i, j)
+      r = 6 * (i + app%lat%nx * (j - app%lat%ys))
       do k = 1, size(kc)
         a(r + kc(k), k) = -sv(k)
       end do

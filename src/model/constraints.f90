@@ -14,10 +14,16 @@ module constraints
   private
   public :: constraint_set_t, constraints_init, constraints_add, constraints_set_window
   public :: constraint_target, constraint_events, constraint_step_sensitivity
+  public :: constraint_count, constraints_active, constraint_node, constraint_path, constraint_base, constraints_global, &
+            constraint_release_time, constraint_segment, constraint_keyframes
 
   integer, parameter, public :: PATH_FIXED = 0, PATH_KEYFRAMES = 1
 
+  !> The set: built by constraints_init and constraints_add (module
+  !> scenes), its window set by constraints_set_window; written by this
+  !> module's procedures alone (private components), read through them.
   type :: constraint_set_t
+    private
     integer :: n = 0                       !< constrained nodes owned by this rank
     integer, allocatable :: node(:, :)     !< (2, n) indices (i, j)
     integer, allocatable :: path(:)        !< (n) PATH_FIXED or PATH_KEYFRAMES
@@ -35,16 +41,20 @@ module constraints
 contains
 
   !> Empty set with room for nmax nodes and the keyframe path (kt, koff).
-  subroutine constraints_init(cs, nmax, kt, koff, release_time)
+  !> any_global: some rank has constraints (the same on every rank); if
+  !> none has, nothing is released (release_time is taken as never).
+  subroutine constraints_init(cs, nmax, kt, koff, release_time, any_global)
     type(constraint_set_t), intent(out) :: cs
     integer, intent(in) :: nmax
     real(rp), intent(in) :: kt(:), koff(:, :)
-    real(rp), intent(in) :: release_time
+    real(rp), intent(in) :: release_time       !< [time]
+    logical, intent(in) :: any_global
     allocate(cs%node(2, nmax), cs%path(nmax), cs%x0(3, nmax))
     cs%nk = size(kt)
     cs%kt = kt
     cs%koff = koff
-    cs%release_time = release_time
+    cs%any_global = any_global
+    cs%release_time = merge(release_time, huge(1.0_rp), any_global)
   end subroutine constraints_init
 
   !> Constrain node (i, j) with base position x0 to a path.
@@ -140,5 +150,70 @@ contains
     end do
     if (cs%release_time > 0.0_rp .and. cs%release_time < t_end) ev = [ev, cs%release_time]
   end function constraint_events
+
+  !> Constrained nodes of this rank (in every window, released or not).
+  pure integer function constraint_count(cs)
+    type(constraint_set_t), intent(in) :: cs
+    constraint_count = cs%n
+  end function constraint_count
+
+  !> The constraints hold in the current window (not yet released).
+  pure logical function constraints_active(cs)
+    type(constraint_set_t), intent(in) :: cs
+    constraints_active = cs%active
+  end function constraints_active
+
+  !> Node (i, j) of constraint k.
+  pure subroutine constraint_node(cs, k, i, j)
+    type(constraint_set_t), intent(in) :: cs
+    integer, intent(in) :: k
+    integer, intent(out) :: i, j
+    i = cs%node(1, k)
+    j = cs%node(2, k)
+  end subroutine constraint_node
+
+  !> Path of constraint k: PATH_FIXED or PATH_KEYFRAMES.
+  pure integer function constraint_path(cs, k)
+    type(constraint_set_t), intent(in) :: cs
+    integer, intent(in) :: k
+    constraint_path = cs%path(k)
+  end function constraint_path
+
+  !> Base position of constraint k [length].
+  pure function constraint_base(cs, k) result(x0)
+    type(constraint_set_t), intent(in) :: cs
+    integer, intent(in) :: k
+    real(rp) :: x0(3)
+    x0 = cs%x0(:, k)
+  end function constraint_base
+
+  !> Some rank has constraints (the same on every rank).
+  pure logical function constraints_global(cs)
+    type(constraint_set_t), intent(in) :: cs
+    constraints_global = cs%any_global
+  end function constraints_global
+
+  !> When the constraints end [time] (huge: never).
+  pure real(rp) function constraint_release_time(cs)
+    type(constraint_set_t), intent(in) :: cs
+    constraint_release_time = cs%release_time
+  end function constraint_release_time
+
+  !> The current window's segment of the keyframe path (see constraints_set_window).
+  pure integer function constraint_segment(cs)
+    type(constraint_set_t), intent(in) :: cs
+    constraint_segment = cs%seg
+  end function constraint_segment
+
+  !> The keyframe path: nk keyframes, their times kt(nk) [time] and offsets
+  !> koff(3, nk) [length] (constraints_init's).
+  pure subroutine constraint_keyframes(cs, nk, kt, koff)
+    type(constraint_set_t), intent(in) :: cs
+    integer, intent(out) :: nk
+    real(rp), allocatable, intent(out) :: kt(:), koff(:, :)
+    nk = cs%nk
+    kt = cs%kt
+    koff = cs%koff
+  end subroutine constraint_keyframes
 
 end module constraints

@@ -20,7 +20,7 @@ module contact_forces
   use kinds, only: rp
   use config, only: contact_config
   use lattice, only: lattice_t
-  use node_blocks, only: node_blocks_t
+  use node_blocks, only: node_blocks_t, node_blocks_begin, node_blocks_add, node_blocks_end
   use contact, only: obstacle_t, contact_params_t, contact_node, time_of_impact, signed_distance, friction_power, &
                      time_of_impact_moving, SHAPE_BOX, SHAPE_CAPSULE
   use obstacle_motion, only: obstacle_at
@@ -29,6 +29,7 @@ module contact_forces
   public :: contact_state_t, contact_init, contact_on, contact_add_forces, contact_blocks, contact_lag, &
             contact_step_limit, contact_stats, contact_move, contact_swept, contact_moving, obstacle_from_config
   public :: contact_record, contact_seen, contact_restore, contact_count_limited
+  public :: contact_summary_t, contact_summary, contact_keyframed, contact_obstacle
 
   !> The keyframes of the obstacles (&contact's obstacle_time,
   !> obstacle_offset, obstacle_close): contact_move sets the poses from them.
@@ -41,18 +42,10 @@ module contact_forces
     real(rp), allocatable :: cdir(:, :)             !< (3, n_obs) unit closing directions [1]
   end type obstacle_keys_t
 
-  type :: contact_state_t
-    integer :: n_obs = 0
-    type(obstacle_t), allocatable :: obs(:)         !< (n_obs) poses at time t_pose (contact_move)
-    type(obstacle_keys_t) :: keys                   !< keyframes of the moving ones (contact_move)
-    logical :: moving = .false.                     !< some obstacle has keyframes
-    real(rp) :: t_pose = 0.0_rp                     !< time of the poses in obs [time]
-    type(contact_params_t) :: cp
-    real(rp), allocatable :: lam(:, :, :)           !< (n_obs, 0:nx-1, ys:ye) lagged normal force [force]
-    real(rp), allocatable :: nlag(:, :, :, :)       !< (3, n_obs, 0:nx-1, ys:ye) lagged normal [1]
-    ! The run's diagnostics, over all ranks: written by contact_record (the
-    ! monitor of accepted states, module contact_solver, after its
-    ! reductions), contact_restore and contact_count_limited only.
+  !> The contact diagnostics of the last accepted state and of the run so
+  !> far, over all ranks (a value record: contact_summary hands out a copy
+  !> for the output, the checkpoints and the messages).
+  type :: contact_summary_t
     real(rp) :: min_gap_run = huge(1.0_rp)          !< smallest gap over every accepted state [length]
     integer :: states_checked = 0                   !< accepted states checked (the start included)
     integer :: limited_steps = 0                    !< Newton updates scaled by the step limit
@@ -71,6 +64,25 @@ module contact_forces
     !> cloth) . (their velocity), by the same trapezoid rule (an external
     !> work of the energy balance; 0 with static obstacles)
     real(rp) :: obstacle_work = 0.0_rp
+  end type contact_summary_t
+
+  !> Contact's state on a rank's strip: written by this module's
+  !> procedures alone (private components), read through contact_on,
+  !> contact_keyframed, contact_obstacle, contact_seen and contact_summary.
+  type :: contact_state_t
+    private
+    integer :: n_obs = 0
+    type(obstacle_t), allocatable :: obs(:)         !< (n_obs) poses at time t_pose (contact_move)
+    type(obstacle_keys_t) :: keys                   !< keyframes of the moving ones (contact_move)
+    logical :: moving = .false.                     !< some obstacle has keyframes
+    real(rp) :: t_pose = 0.0_rp                     !< time of the poses in obs [time]
+    type(contact_params_t) :: cp
+    real(rp), allocatable :: lam(:, :, :)           !< (n_obs, 0:nx-1, ys:ye) lagged normal force [force]
+    real(rp), allocatable :: nlag(:, :, :, :)       !< (3, n_obs, 0:nx-1, ys:ye) lagged normal [1]
+    ! The run's diagnostics, over all ranks: written by contact_record (the
+    ! monitor of accepted states, module contact_solver, after its
+    ! reductions), contact_restore and contact_count_limited only.
+    type(contact_summary_t) :: rec
     logical :: have_last = .false.                  !< t_last, pfric_last hold the last accepted state's
     !> the next state recorded is a checkpoint's, recorded already by the
     !> run that wrote it (contact_restore): not counted again
@@ -248,21 +260,18 @@ contains
   end subroutine contact_add_forces
 
   !> The diagonal blocks df/dx, df/dv of the nodes in contact (or with
-  !> friction) at state u, by owned row, into nb (lattice_t's nodal).
+  !> friction) at state u, by owned row, into nb (which both assemblies add).
   subroutine contact_blocks(cs, lat, fixed, u, nb)
     type(contact_state_t), intent(in) :: cs
     type(lattice_t), intent(in) :: lat
     logical, intent(in) :: fixed(0:, lat%ys:)
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)
     type(node_blocks_t), intent(inout) :: nb
-    integer :: i, j, k, n
+    integer :: i, j, k
     real(rp) :: fc(3), kx(3, 3), kv(3, 3), e, fn, bx(3, 3), bv(3, 3)
     logical :: act, any_blk
-    if (.not. allocated(nb%row_start)) allocate(nb%row_start(lat%ys:lat%ye + 1))
-    if (.not. allocated(nb%col)) allocate(nb%col(64), nb%kx(3, 3, 64), nb%kv(3, 3, 64))
-    n = 0
+    call node_blocks_begin(nb, lat%ys, lat%ye)
     do j = lat%ys, lat%ye
-      nb%row_start(j) = n + 1
       do i = 0, lat%nx - 1
         if (fixed(i, j)) cycle
         bx = 0.0_rp
@@ -278,31 +287,11 @@ contains
           bx = bx + kx
           bv = bv + kv
         end do
-        if (.not. any_blk) cycle
-        n = n + 1
-        if (n > size(nb%col)) call grow(nb, 2 * n)
-        nb%col(n) = i
-        nb%kx(:, :, n) = bx
-        nb%kv(:, :, n) = bv
+        if (any_blk) call node_blocks_add(nb, i, j, bx, bv)
       end do
     end do
-    nb%row_start(lat%ye + 1) = n + 1
-    nb%n = n
+    call node_blocks_end(nb)
   end subroutine contact_blocks
-
-  subroutine grow(nb, m)
-    type(node_blocks_t), intent(inout) :: nb
-    integer, intent(in) :: m
-    integer, allocatable :: c(:)
-    real(rp), allocatable :: a(:, :, :), b(:, :, :)
-    allocate(c(m), a(3, 3, m), b(3, 3, m))
-    c(1:size(nb%col)) = nb%col
-    a(:, :, 1:size(nb%col)) = nb%kx
-    b(:, :, 1:size(nb%col)) = nb%kv
-    call move_alloc(c, nb%col)
-    call move_alloc(a, nb%kx)
-    call move_alloc(b, nb%kv)
-  end subroutine grow
 
   !> Friction's lag from an accepted state u (the next step's start):
   !> lam = the barrier's normal force, nlag = the surface normal; pstart,
@@ -458,22 +447,24 @@ contains
     type(contact_state_t), intent(inout) :: cs
     real(rp), intent(in) :: t, gmin, ftot(3), fnrm(3), ebar, pend, pstart, oend, ostart
     integer, intent(in) :: nact
-    if (cs%have_last) then
-      cs%friction_work = cs%friction_work + 0.5_rp * (t - cs%t_last) * (cs%pfric_last + pend)
-      cs%obstacle_work = cs%obstacle_work + 0.5_rp * (t - cs%t_last) * (cs%pobs_last + oend)
-    end if
-    if (.not. cs%resumed) cs%states_checked = cs%states_checked + 1
+    associate (r => cs%rec)
+      if (cs%have_last) then
+        r%friction_work = r%friction_work + 0.5_rp * (t - cs%t_last) * (cs%pfric_last + pend)
+        r%obstacle_work = r%obstacle_work + 0.5_rp * (t - cs%t_last) * (cs%pobs_last + oend)
+      end if
+      if (.not. cs%resumed) r%states_checked = r%states_checked + 1
+      r%min_gap_run = min(r%min_gap_run, gmin)
+      r%active = nact
+      r%force = ftot
+      r%normal_force = fnrm
+      r%energy = ebar
+      r%min_gap = gmin
+    end associate
     cs%resumed = .false.
     cs%have_last = .true.
     cs%t_last = t
     cs%pfric_last = pstart
     cs%pobs_last = ostart
-    cs%min_gap_run = min(cs%min_gap_run, gmin)
-    cs%active = nact
-    cs%force = ftot
-    cs%normal_force = fnrm
-    cs%energy = ebar
-    cs%min_gap = gmin
   end subroutine contact_record
 
   !> A restart's run diagnostics from its checkpoint: the friction work
@@ -484,11 +475,11 @@ contains
     type(contact_state_t), intent(inout) :: cs
     real(rp), intent(in) :: friction_work, obstacle_work, min_gap_run
     integer, intent(in) :: states_checked, limited_steps
-    cs%friction_work = friction_work
-    cs%obstacle_work = obstacle_work
-    cs%min_gap_run = min_gap_run
-    cs%states_checked = states_checked
-    cs%limited_steps = limited_steps
+    cs%rec%friction_work = friction_work
+    cs%rec%obstacle_work = obstacle_work
+    cs%rec%min_gap_run = min_gap_run
+    cs%rec%states_checked = states_checked
+    cs%rec%limited_steps = limited_steps
     cs%have_last = .false.
     cs%resumed = states_checked > 0
   end subroutine contact_restore
@@ -496,7 +487,29 @@ contains
   !> One more Newton update scaled by the step limit (module contact_solver's pre-check).
   subroutine contact_count_limited(cs)
     type(contact_state_t), intent(inout) :: cs
-    cs%limited_steps = cs%limited_steps + 1
+    cs%rec%limited_steps = cs%rec%limited_steps + 1
   end subroutine contact_count_limited
+
+  !> The contact diagnostics of the last accepted state and of the run
+  !> (contact_record, contact_restore, contact_count_limited).
+  pure function contact_summary(cs) result(r)
+    type(contact_state_t), intent(in) :: cs
+    type(contact_summary_t) :: r
+    r = cs%rec
+  end function contact_summary
+
+  !> Some obstacle has keyframes (it may move: contact_move, contact_moving).
+  pure logical function contact_keyframed(cs)
+    type(contact_state_t), intent(in) :: cs
+    contact_keyframed = cs%moving
+  end function contact_keyframed
+
+  !> Obstacle k at the time of the last contact_move.
+  pure function contact_obstacle(cs, k) result(o)
+    type(contact_state_t), intent(in) :: cs
+    integer, intent(in) :: k
+    type(obstacle_t) :: o
+    o = cs%obs(k)
+  end function contact_obstacle
 
 end module contact_forces

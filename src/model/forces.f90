@@ -11,12 +11,13 @@ module forces
   use springs, only: link_force_lanes, link_jacobian, link_energy, link_power_lanes
   use bending_paper, only: paper_force, paper_jacobian, paper_energy
   use bending_energy, only: energy_force_lanes, energy_jacobian, energy_bend_energy, energy_power_lanes
+  use node_blocks, only: node_blocks_t, node_blocks_count, node_blocks_sub_diagonal
   implicit none
   private
   public :: internal_forces, element_energies, dissipated_power
   public :: jac_buffer_t, jac_buffer_init, jac_buffer_row, slot_of
   public :: first_anchor_row, link_stretch_extremes, triple_lane_range, TRIPLE_LANES
-  public :: link_lane_range
+  public :: link_lane_range, link_lanes, triple_lane_setup, triple_lane_edges, rest_link, triple_at
   public :: RING_ROWS, ring_load, ring_link_diffs, ring_triple_edges
 
   !> Jacobian blocks of the v-rows of three consecutive node rows (a rolling
@@ -137,6 +138,59 @@ contains
     end do
   end subroutine ring_triple_edges
 
+  !> The next nl <= ld links anchored at (i0 + l - 1, j0) along
+  !> link_dir(:, k), up to anchor ihi: their constants e, eta
+  !> (link_lane_constants) and differences d, dv from the ring s
+  !> (ring_link_diffs), by lanes, as the lane kernels take them.
+  pure subroutine link_lanes(lat, s, j0, k, i0, ihi, ld, nl, e, eta, d, dv)
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: s(0:lat%nx - 1, 0:5, 0:RING_ROWS - 1)
+    integer, intent(in) :: j0, k, i0, ihi, ld
+    integer, intent(out) :: nl
+    real(rp), intent(out) :: e(ld), eta(ld), d(ld, 3), dv(ld, 3)
+    nl = min(ld, ihi - i0 + 1)
+    call link_lane_constants(lat, j0, k, i0, nl, ld, e, eta)
+    call ring_link_diffs(lat%nx, s, j0, k, i0, nl, ld, d, dv)
+  end subroutine link_lanes
+
+  !> The triples anchored at row j0 along line_dir(:, k) that touch the
+  !> owned rows, i = ilo..ihi (triple_lane_range), and their bending
+  !> stiffness and damping (triple_constants).
+  pure subroutine triple_lane_setup(lat, j0, k, ilo, ihi, kb, etab)
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: j0, k
+    integer, intent(out) :: ilo, ihi
+    real(rp), intent(out) :: kb, etab
+    call triple_lane_range(lat, j0, k, ilo, ihi)
+    call triple_constants(lat, k, kb, etab)
+  end subroutine triple_lane_setup
+
+  !> The next nl <= ld triples anchored at (i0 + l - 1, j0) along
+  !> line_dir(:, k), up to anchor ihi: their edges and rates from the ring
+  !> s (ring_triple_edges).
+  pure subroutine triple_lane_edges(nx, s, j0, k, i0, ihi, ld, nl, e1, e2, de)
+    integer, intent(in) :: nx, j0, k, i0, ihi, ld
+    real(rp), intent(in) :: s(0:nx - 1, 0:5, 0:RING_ROWS - 1)
+    integer, intent(out) :: nl
+    real(rp), intent(out) :: e1(ld, 3), e2(ld, 3), de(ld, 6)
+    nl = min(ld, ihi - i0 + 1)
+    call ring_triple_edges(nx, s, j0, k, i0, nl, ld, e1, e2, de)
+  end subroutine triple_lane_edges
+
+  !> Count the lanes whose element is singular (okl false) in nbad, and
+  !> keep the anchor (i0 + l - 1, j0) of the last of them in bad.
+  pure subroutine note_bad(nl, okl, i0, j0, nbad, bad)
+    integer, intent(in) :: nl, i0, j0
+    logical, intent(in) :: okl(:)
+    integer, intent(inout) :: nbad, bad(2)
+    integer :: l
+    do l = 1, nl
+      if (okl(l)) cycle
+      nbad = nbad + 1
+      bad = [i0 + l - 1, j0]
+    end do
+  end subroutine note_bad
+
 
   !> Lowest anchor row whose elements touch row ys.
   pure integer function first_anchor_row(lat)
@@ -178,19 +232,26 @@ contains
     ok = inside(lat, iq, jq)
   end subroutine link_end
 
-  !> Middle (iq, jq) and far end (ir, jr) of the triple from anchor (i, j)
-  !> along line_dir(:, k); false when the far end lies outside the lattice.
-  pure subroutine triple_ends(lat, i, j, k, iq, jq, ir, jr, ok)
+  !> The triple from anchor (i, j) along line_dir(:, k), one at a time:
+  !> its nodes n(:, 1..3) = (i, j) + (0, 1, 2) line_dir(:, k), their
+  !> positions x9 from u(0:5, 0:nx-1, gys:gye) and its bending constants
+  !> (triple_constants); false when its far end lies outside the lattice
+  !> or below row ys (then the rest is not set).
+  pure subroutine triple_at(lat, u, i, j, k, n, x9, kb, etab, ok)
     type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
     integer, intent(in) :: i, j, k
-    integer, intent(out) :: iq, jq, ir, jr
+    integer, intent(out) :: n(2, 3)
+    real(rp), intent(out) :: x9(9), kb, etab
     logical, intent(out) :: ok
-    iq = i + line_dir(1, k)
-    jq = j + line_dir(2, k)
-    ir = iq + line_dir(1, k)
-    jr = jq + line_dir(2, k)
-    ok = inside(lat, ir, jr)
-  end subroutine triple_ends
+    n(:, 1) = [i, j]
+    n(:, 2) = n(:, 1) + line_dir(:, k)
+    n(:, 3) = n(:, 2) + line_dir(:, k)
+    ok = inside(lat, n(1, 3), n(2, 3)) .and. n(2, 3) >= lat%ys
+    if (.not. ok) return
+    call triple_constants(lat, k, kb, etab)
+    x9 = [u(0:2, i, j), u(0:2, n(1, 2), n(2, 2)), u(0:2, n(1, 3), n(2, 3))]
+  end subroutine triple_at
 
   !> Internal forces f(3, 0:nx-1, gys:gye) [force] of all elements touching
   !> the owned rows, from the state u(0:5, 0:nx-1, gys:gye). Entries of ghost
@@ -241,16 +302,11 @@ contains
         dx = link_dir(1, k)
         call link_lane_range(lat, j0, k, ilo, ihi, jq0)
         do i0 = ilo, ihi, NL
-          nl1 = min(NL, ihi - i0 + 1)
-          call link_lane_constants(lat, j0, k, i0, nl1, NL, el, etal)
-          call ring_link_diffs(lat%nx, us, j0, k, i0, nl1, NL, dd, vr)
+          call link_lanes(lat, us, j0, k, i0, ihi, NL, nl1, el, etal, dd, vr)
           call link_force_lanes(nl1, NL, lat%spring_model, el, etal, d0(:, k), len0(k), dd, vr, fl3, okl)
+          call note_bad(nl1, okl, i0, j0, nbad, bad)
           do l = 1, nl1
             ii = i0 + l - 1
-            if (.not. okl(l)) then
-              nbad = nbad + 1
-              bad = [ii, j0]
-            end if
             f(:, ii, j0) = f(:, ii, j0) + fl3(l, :)
             f(:, ii + dx, jq0) = f(:, ii + dx, jq0) - fl3(l, :)
           end do
@@ -261,23 +317,17 @@ contains
     !> Paper bending: the triples anchored at node (i, j), one at a time.
     subroutine paper_triples(i, j)
       integer, intent(in) :: i, j
-      integer :: k, iq, jq, ir, jr
+      integer :: k, n(2, 3)
       real(rp) :: x9(9), f9(9), theta
-      logical :: ok, inl
+      logical :: ok(1), inl
       do k = 1, 4
-        call triple_ends(lat, i, j, k, iq, jq, ir, jr, inl)
+        call triple_at(lat, u, i, j, k, n, x9, kb, etab, inl)
         if (.not. inl) cycle
-        if (jr < lat%ys) cycle
-        call triple_constants(lat, k, kb, etab)
-        x9 = [u(0:2, i, j), u(0:2, iq, jq), u(0:2, ir, jr)]
-        call paper_force(kb, x9, f9, theta, ok)
-        if (.not. ok) then
-          nbad = nbad + 1
-          bad = [i, j]
-        end if
+        call paper_force(kb, x9, f9, theta, ok(1))
+        call note_bad(1, ok, i, j, nbad, bad)
         f(:, i, j) = f(:, i, j) + f9(1:3)
-        f(:, iq, jq) = f(:, iq, jq) + f9(4:6)
-        f(:, ir, jr) = f(:, ir, jr) + f9(7:9)
+        f(:, n(1, 2), n(2, 2)) = f(:, n(1, 2), n(2, 2)) + f9(4:6)
+        f(:, n(1, 3), n(2, 3)) = f(:, n(1, 3), n(2, 3)) + f9(7:9)
       end do
     end subroutine paper_triples
 
@@ -292,18 +342,13 @@ contains
       do k = 1, 4
         dx = line_dir(1, k)
         dy = line_dir(2, k)
-        call triple_lane_range(lat, j0, k, ilo, ihi)
-        call triple_constants(lat, k, kb, etab)
+        call triple_lane_setup(lat, j0, k, ilo, ihi, kb, etab)
         do i0 = ilo, ihi, NL
-          nl1 = min(NL, ihi - i0 + 1)
-          call ring_triple_edges(lat%nx, us, j0, k, i0, nl1, NL, e1, e2, de)
+          call triple_lane_edges(lat%nx, us, j0, k, i0, ihi, NL, nl1, e1, e2, de)
           call energy_force_lanes(nl1, NL, kb, etab, e1, e2, de, fl9, okl)
+          call note_bad(nl1, okl, i0, j0, nbad, bad)
           do l = 1, nl1
             i = i0 + l - 1
-            if (.not. okl(l)) then
-              nbad = nbad + 1
-              bad = [i, j0]
-            end if
             f(:, i, j0) = f(:, i, j0) + fl9(l, 1:3)
             f(:, i + dx, j0 + dy) = f(:, i + dx, j0 + dy) + fl9(l, 4:6)
             f(:, i + 2 * dx, j0 + 2 * dy) = f(:, i + 2 * dx, j0 + 2 * dy) + fl9(l, 7:9)
@@ -319,7 +364,7 @@ contains
     type(lattice_t), intent(in) :: lat
     real(rp), intent(in) :: u(0:5, 0:lat%nx - 1, lat%gys:lat%gye)
     real(rp), intent(out) :: stretch, bend
-    integer :: i, j, k, iq, jq, ir, jr
+    integer :: i, j, k, iq, jq, n(2, 3)
     real(rp) :: d0(3, 4), len0(4), e, eta, x9(9), kb, etab
     logical :: inl
 
@@ -336,12 +381,14 @@ contains
           call link_constants(lat, i, j, k, e, eta)
           stretch = stretch + link_energy(lat%spring_model, e, d0(:, k), len0(k), u(0:2, i, j), u(0:2, iq, jq))
         end do
-        if (lat%bending_model == BEND_NONE) cycle
+      end do
+    end do
+    if (lat%bending_model == BEND_NONE) return
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
         do k = 1, 4
-          call triple_ends(lat, i, j, k, iq, jq, ir, jr, inl)
+          call triple_at(lat, u, i, j, k, n, x9, kb, etab, inl)
           if (.not. inl) cycle
-          call triple_constants(lat, k, kb, etab)
-          x9 = [u(0:2, i, j), u(0:2, iq, jq), u(0:2, ir, jr)]
           if (lat%bending_model == BEND_PAPER) then
             bend = bend + paper_energy(kb, x9)
           else
@@ -381,13 +428,11 @@ contains
       integer, intent(in) :: j0
       integer, parameter :: NL = 32
       real(rp) :: el(NL), etal(NL), dd(NL, 3), vr(NL, 3), pl(NL)
-      integer :: k, jq0, ilo, ihi, i0, nl1, l
+      integer :: k, jq0, ilo, ihi, i0, nl1
       do k = 1, 4
         call link_lane_range(lat, j0, k, ilo, ihi, jq0)
         do i0 = ilo, ihi, NL
-          nl1 = min(NL, ihi - i0 + 1)
-          call link_lane_constants(lat, j0, k, i0, nl1, NL, el, etal)
-          call ring_link_diffs(lat%nx, us, j0, k, i0, nl1, NL, dd, vr)
+          call link_lanes(lat, us, j0, k, i0, ihi, NL, nl1, el, etal, dd, vr)
           call link_power_lanes(nl1, NL, lat%spring_model, etal, dd, vr, pl)
           power = power + sum(pl(1:nl1))
         end do
@@ -402,12 +447,10 @@ contains
       real(rp) :: e1(NL, 3), e2(NL, 3), de(NL, 6), pw(NL)
       integer :: k, ilo, ihi, i0, nl1
       do k = 1, 4
-        call triple_constants(lat, k, kb, etab)
+        call triple_lane_setup(lat, j0, k, ilo, ihi, kb, etab)
         if (etab == 0.0_rp) cycle
-        call triple_lane_range(lat, j0, k, ilo, ihi)
         do i0 = ilo, ihi, NL
-          nl1 = min(NL, ihi - i0 + 1)
-          call ring_triple_edges(lat%nx, us, j0, k, i0, nl1, NL, e1, e2, de)
+          call triple_lane_edges(lat%nx, us, j0, k, i0, ihi, NL, nl1, e1, e2, de)
           call energy_power_lanes(nl1, NL, etab, e1, e2, de, pw)
           power = power + sum(pw(1:nl1))
         end do
@@ -430,13 +473,14 @@ contains
   !> an owned row) to the buffer. After this call, row ja is complete.
   !> clamp drops the indefinite compression term of the springs and
   !> gauss_newton keeps only -k_b J^T J of energy bending (preconditioner use).
-  subroutine jac_buffer_row(buf, lat, u, ja, clamp, gauss_newton)
+  subroutine jac_buffer_row(buf, lat, nodal, u, ja, clamp, gauss_newton)
     type(jac_buffer_t), intent(inout) :: buf
     type(lattice_t), intent(in) :: lat
+    type(node_blocks_t), intent(in) :: nodal      !< forces on single nodes (contact): their diagonal blocks
     real(rp), intent(in) :: u(0:5, 0:lat%nx - 1, lat%gys:lat%gye)
     integer, intent(in) :: ja
     logical, intent(in) :: clamp, gauss_newton
-    integer :: i, k, iq, jq, ir, jr, a, b, ia(3), jj(3)
+    integer :: i, k, iq, jq, a, b, n(2, 3)
     real(rp) :: d0(3, 4), len0(4), e, eta, kl(3, 3), cl(3, 3), x9(9), v9(9), k9(9, 9), c9(9, 9), kb, etab
     logical :: ok, inl
 
@@ -456,24 +500,19 @@ contains
       end do
       if (lat%bending_model == BEND_NONE) cycle
       do k = 1, 4
-        call triple_ends(lat, i, ja, k, iq, jq, ir, jr, inl)
+        call triple_at(lat, u, i, ja, k, n, x9, kb, etab, inl)
         if (.not. inl) cycle
-        if (jr < lat%ys) cycle
-        call triple_constants(lat, k, kb, etab)
-        x9 = [u(0:2, i, ja), u(0:2, iq, jq), u(0:2, ir, jr)]
         if (lat%bending_model == BEND_PAPER) then
           call paper_jacobian(kb, x9, k9, ok)
           c9 = 0.0_rp
         else
-          v9 = [u(3:5, i, ja), u(3:5, iq, jq), u(3:5, ir, jr)]
+          v9 = [u(3:5, n(1, 1), n(2, 1)), u(3:5, n(1, 2), n(2, 2)), u(3:5, n(1, 3), n(2, 3))]
           call energy_jacobian(kb, etab, x9, v9, gauss_newton, k9, c9, ok)
         end if
-        ia = [i, iq, ir]
-        jj = [ja, jq, jr]
         do a = 1, 3
           do b = 1, 3
-            associate (dk => buf%k(:, :, ia(b) - ia(a), jj(b) - jj(a), ia(a), slot_of(jj(a))), &
-                       dc => buf%c(:, :, ia(b) - ia(a), jj(b) - jj(a), ia(a), slot_of(jj(a))))
+            associate (dk => buf%k(:, :, n(1, b) - n(1, a), n(2, b) - n(2, a), n(1, a), slot_of(n(2, a))), &
+                       dc => buf%c(:, :, n(1, b) - n(1, a), n(2, b) - n(2, a), n(1, a), slot_of(n(2, a))))
               dk = dk - k9(3*a - 2:3*a, 3*b - 2:3*b)
               if (lat%bending_model == BEND_ENERGY) dc = dc - c9(3*a - 2:3*a, 3*b - 2:3*b)
             end associate
@@ -482,13 +521,8 @@ contains
       end do
     end do
     ! forces on single nodes (contact): -df/dx, -df/dv on the node's diagonal
-    if (lat%nodal%n > 0 .and. ja >= lat%ys) then
-      do a = lat%nodal%row_start(ja), lat%nodal%row_start(ja + 1) - 1
-        i = lat%nodal%col(a)
-        buf%k(:, :, 0, 0, i, slot_of(ja)) = buf%k(:, :, 0, 0, i, slot_of(ja)) - lat%nodal%kx(:, :, a)
-        buf%c(:, :, 0, 0, i, slot_of(ja)) = buf%c(:, :, 0, 0, i, slot_of(ja)) - lat%nodal%kv(:, :, a)
-      end do
-    end if
+    if (node_blocks_count(nodal) > 0 .and. ja >= lat%ys) &
+      call node_blocks_sub_diagonal(nodal, ja, buf%k(:, :, 0, 0, :, slot_of(ja)), buf%c(:, :, 0, 0, :, slot_of(ja)))
 
   contains
 

@@ -16,12 +16,11 @@
 !> global sums count each element once.
 module lattice
   use kinds, only: rp
-  use node_blocks, only: node_blocks_t
   use config, only: nuno_config, SCALING_CONTINUUM, MASS_AREA, BEND_NONE, BEND_ENERGY
   implicit none
   private
   public :: lattice_t, lattice_init, link_dir, line_dir, link_constants, link_lane_constants, triple_constants
-  public :: rest_position, node_mass, rest_strip, halo_width
+  public :: rest_position, node_mass, rest_strip, halo_width, stencil_box
 
   !> Link directions from the anchor: +x, +y, +x+y, -x+y (each link once).
   integer, parameter :: link_dir(2, 4) = reshape([1, 0, 0, 1, 1, 1, -1, 1], [2, 4])
@@ -42,7 +41,6 @@ module lattice
     real(rp) :: total_mass = 0, lx = 0, ly = 0
     logical :: area_mass = .false.
     real(rp), allocatable :: mass(:, :)   !< (0:nx-1, gys:gye) node masses [mass]
-    type(node_blocks_t) :: nodal          !< diagonal blocks of the forces on single nodes (contact), owned rows
   end type lattice_t
 
 contains
@@ -125,6 +123,18 @@ contains
       end do
     end do
   end function rest_strip
+
+  !> The offsets (di, dj), |di|, |dj| <= w, from node (i, j) to nodes of
+  !> the lattice: di0..di1, dj0..dj1 (a node's stencil of half-width w).
+  pure subroutine stencil_box(lat, i, j, w, di0, di1, dj0, dj1)
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: i, j, w
+    integer, intent(out) :: di0, di1, dj0, dj1
+    di0 = max(-w, -i)
+    di1 = min(w, lat%nx - 1 - i)
+    dj0 = max(-w, -j)
+    dj1 = min(w, lat%ny - 1 - j)
+  end subroutine stencil_box
 
   !> Stiffness E and damping eta of the link from anchor (i, j) along
   !> link_dir(:, k). Continuum scaling: E = Y * (spacing across / spacing

@@ -11,7 +11,7 @@
 !> right-hand side), which keeps S symmetric whenever K and C are.
 module reduced_blocks
   use kinds, only: rp
-  use lattice, only: lattice_t
+  use lattice, only: lattice_t, stencil_box
   use forces, only: jac_buffer_t, slot_of
   implicit none
   private
@@ -34,18 +34,16 @@ contains
     real(rp), intent(out) :: vals(:, :, :)        !< (3, 3, >= nc) [mass/time]
     integer, intent(out) :: cols(:)               !< (>= nc)
     integer, intent(out) :: nc
-    integer :: di, dj, w, s, q
+    integer :: di, dj, s, q, di0, di1, dj0, dj1
     real(rp) :: am, rinv
 
-    w = buf%w
     s = slot_of(j)
     am = a * lat%mass(i, j)
     rinv = 1.0_rp / a
     nc = 0
-    do dj = -w, w
-      if (j + dj < 0 .or. j + dj >= lat%ny) cycle
-      do di = -w, w
-        if (i + di < 0 .or. i + di >= lat%nx) cycle
+    call stencil_box(lat, i, j, buf%w, di0, di1, dj0, dj1)
+    do dj = dj0, dj1
+      do di = di0, di1
         nc = nc + 1
         cols(nc) = (i + di) + (j + dj - lat%gys) * lat%nx
         if (fixedg(i, j) .or. fixedg(i + di, j + dj)) then
@@ -73,17 +71,15 @@ contains
     integer, intent(in) :: j
     logical, intent(in) :: with_damping
     real(rp), intent(out) :: g(:, 0:)             !< (3, 0:nx-1) [force]
-    integer :: i, di, dj, s, hw, dj0, dj1, q
+    integer :: i, di, dj, s, di0, di1, dj0, dj1, q
     real(rp) :: acc(3)
 
-    hw = buf%w
     s = slot_of(j)
-    dj0 = max(-hw, -j)
-    dj1 = min(hw, lat%ny - 1 - j)
     do i = 0, lat%nx - 1
+      call stencil_box(lat, i, j, buf%w, di0, di1, dj0, dj1)
       acc = 0.0_rp
       do dj = dj0, dj1
-        do di = max(-hw, -i), min(hw, lat%nx - 1 - i)
+        do di = di0, di1
           do q = 1, 3
             acc = acc + buf%k(:, q, di, dj, i, s) * w(q - 1, i + di, j + dj)
           end do

@@ -4,8 +4,7 @@
 !> rank sets up its own rows without communication.
 module scenes
   use kinds, only: rp
-  use config, only: nuno_config, SCENE_LIFT_RELEASE, SCENE_BEND_RELEASE, SCENE_WAVE_POINT, &
-                    SCENE_HANG, SCENE_FLAT
+  use config, only: nuno_config, SCENE_LIFT_RELEASE, SCENE_BEND_RELEASE, SCENE_WAVE_POINT, SCENE_HANG
   use lattice, only: lattice_t, rest_position, node_mass
   use vec3, only: cross
   use constraints, only: constraint_set_t, constraints_init, constraints_add, PATH_FIXED, PATH_KEYFRAMES
@@ -97,15 +96,15 @@ contains
     else
       allocate(kt(0), koff(3, 0))
     end if
-    call constraints_init(cs, 2 * lat%ny + 4, kt, koff, cfg%scene%release_time)
+    ! lift_release, wave_point and hang constrain nodes (on some rank)
+    call constraints_init(cs, 2 * lat%ny + 4, kt, koff, cfg%scene%release_time, &
+                          any(cfg%scene%scene_code == [SCENE_LIFT_RELEASE, SCENE_WAVE_POINT, SCENE_HANG]))
     select case (cfg%scene%scene_code)
     case (SCENE_LIFT_RELEASE)
-      cs%any_global = .true.
       do j = lat%ys, lat%ye           ! edge i = 0 pinned
         call constraints_add(cs, 0, j, u(0:2, 0, j), PATH_FIXED)
       end do
     case (SCENE_WAVE_POINT)
-      cs%any_global = .true.
       if (trim(cfg%scene%wave_nodes) == 'edge') then
         do j = lat%ys, lat%ye         ! every node of edge i = 0: a wave along +x
           call constraints_add(cs, 0, j, u(0:2, 0, j), PATH_KEYFRAMES)
@@ -114,16 +113,12 @@ contains
         if (lat%ys == 0) call constraints_add(cs, 0, 0, u(0:2, 0, 0), PATH_KEYFRAMES)
       end if
     case (SCENE_HANG)
-      cs%any_global = .true.
       j = lat%ny - 1                  ! the two corners of edge j = ny-1
       if (j >= lat%ys .and. j <= lat%ye) then
         call constraints_add(cs, 0, j, u(0:2, 0, j), PATH_FIXED)
         call constraints_add(cs, lat%nx - 1, j, u(0:2, lat%nx - 1, j), PATH_FIXED)
       end if
-    case (SCENE_BEND_RELEASE, SCENE_FLAT)
-      cs%any_global = .false.
     end select
-    if (.not. cs%any_global) cs%release_time = huge(1.0_rp)
   end subroutine scene_setup
 
 

@@ -14,7 +14,7 @@ module run_checkpoint
   use app_context, only: app_ctx, restart_state_t
   use step_monitor, only: energy_integrals_restore, progress_restore
   use reduced, only: reduced_restore_floor, reduced_its, reduced_floor_est
-  use contact_forces, only: contact_on, contact_restore
+  use contact_forces, only: contact_on, contact_restore, contact_summary
   use newton_start, only: newton_start_count, newton_start_get, newton_start_put
   use failure_text, only: report_io_error
   use strings, only: inum => itoa
@@ -168,11 +168,13 @@ contains
     ck%mgx0 = ctx%energy%mgx0
     if (contact_on(ctx%contact)) then
       ck%contact = 1
-      ck%friction_work = ctx%contact%friction_work
-      ck%obstacle_work = ctx%contact%obstacle_work
-      ck%min_gap_run = ctx%contact%min_gap_run
-      ck%states_checked = ctx%contact%states_checked
-      ck%limited_steps = ctx%contact%limited_steps
+      associate (c => contact_summary(ctx%contact))
+        ck%friction_work = c%friction_work
+        ck%obstacle_work = c%obstacle_work
+        ck%min_gap_run = c%min_gap_run
+        ck%states_checked = c%states_checked
+        ck%limited_steps = c%limited_steps
+      end associate
     end if
     ck%t_written = ctx%progress%t_written
     call run_counts(ctx, ck%counters, ierr)

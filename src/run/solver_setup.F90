@@ -186,7 +186,7 @@ contains
                   (cfg%material%bending_code == BEND_NONE .or. (cfg%material%bending_code == BEND_ENERGY .and. &
                    (cfg%material%eta_b == 0.0_rp .or. ctx%model%gauss_newton)))
       constant = cfg%material%spring_code == SPRING_LINEAR .and. cfg%material%bending_code == BEND_NONE .and. cfg%contact%n_obstacles == 0
-      PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, symmetric, constant, damping, ctx%model%clamp, ctx%model%gauss_newton, pc_lag, mg_interp, ierr))
+      PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, ctx%nodal, symmetric, constant, damping, ctx%model%clamp, ctx%model%gauss_newton, pc_lag, mg_interp, ierr))
     else
       ! Jacobian with the DMDA's exact box-stencil preallocation.
       PetscCall(assembly_create(ctx%asm, ctx%da, ctx%lat, int(w), ierr))

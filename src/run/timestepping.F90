@@ -21,7 +21,8 @@ module timestepping
   use kinds, only: rp
   use lattice, only: link_dir
   use forces, only: link_stretch_extremes
-  use constraints, only: constraints_set_window, constraint_target, constraint_events
+  use constraints, only: constraints_set_window, constraint_target, constraint_events, constraints_active, &
+                         constraint_count, constraint_node
   use diagnostics, only: state_diagnostics_t, state_diagnostics
   use output, only: output_file, output_record, output_write_step, output_write_wall_time
   use reduced, only: reduced_set_fixed
@@ -31,7 +32,7 @@ module timestepping
   use cloth_model, only: model_enter_window
   use newton_policy, only: newton_enter_window
   use newton_start, only: newton_start_reset
-  use contact_forces, only: contact_on
+  use contact_forces, only: contact_on, contact_summary
   use contact_solver, only: contact_observe
   use failure_text, only: signal_name, failure_reason, report_io_error
   use strings, only: num => real_brief, inum => itoa
@@ -69,10 +70,9 @@ contains
     call newton_enter_window(ctx%newton)
     loc = 0.0_rp
     PetscCall(DMDAVecGetArrayF90(ctx%da, ctx%u, ua, ierr))
-    if (ctx%cs%active) then
-      do k = 1, ctx%cs%n
-        i = ctx%cs%node(1, k)
-        j = ctx%cs%node(2, k)
+    if (constraints_active(ctx%cs)) then
+      do k = 1, constraint_count(ctx%cs)
+        call constraint_node(ctx%cs, k, i, j)
         call constraint_target(ctx%cs, k, ta, xb, vb)
         m = ctx%lat%mass(i, j)
         loc(1) = loc(1) + 0.5_rp * m * (dot_product(vb, vb) - dot_product(ua(3:5, i, j), ua(3:5, i, j)))
@@ -435,16 +435,18 @@ contains
       ! friction work a dissipation and the moving obstacles' work an
       ! external work (docs/model.md section 10): the state's record of the
       ! contact monitor (module contact_solver).
-      rec%barrier = ctx%contact%energy
-      rec%dissipated = rec%dissipated + ctx%contact%friction_work
-      rec%external_work = rec%external_work + ctx%contact%obstacle_work
-      rec%contact_active = ctx%contact%active
-      rec%contact_force = ctx%contact%force
-      rec%normal_force = ctx%contact%normal_force
-      rec%friction_work = ctx%contact%friction_work
-      rec%min_gap = ctx%contact%min_gap
-      rec%min_gap_run = ctx%contact%min_gap_run
-      rec%states_checked = ctx%contact%states_checked
+      associate (c => contact_summary(ctx%contact))
+        rec%barrier = c%energy
+        rec%dissipated = rec%dissipated + c%friction_work
+        rec%external_work = rec%external_work + c%obstacle_work
+        rec%contact_active = c%active
+        rec%contact_force = c%force
+        rec%normal_force = c%normal_force
+        rec%friction_work = c%friction_work
+        rec%min_gap = c%min_gap
+        rec%min_gap_run = c%min_gap_run
+        rec%states_checked = c%states_checked
+      end associate
     end if
     rec%steps = steps
     rec%rejected_steps = rejects

@@ -16,6 +16,7 @@ module app_context
   use config, only: nuno_config
   use lattice, only: lattice_t
   use contact_forces, only: contact_state_t
+  use node_blocks, only: node_blocks_t
   use forces, only: jac_buffer_t
   use constraints, only: constraint_set_t
   use checkpoint_record, only: checkpoint_t
@@ -192,6 +193,9 @@ module app_context
     type(progress_t) :: progress
     type(restart_state_t) :: restart
     type(contact_state_t) :: contact            !< obstacles and friction lag (module contact_forces; empty without)
+    !> contact's diagonal blocks at the last Jacobian's state, which every
+    !> assembly adds (written by contact_forces' contact_blocks alone)
+    type(node_blocks_t) :: nodal
   end type app_ctx
 
 end module app_context

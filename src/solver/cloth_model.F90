@@ -20,7 +20,7 @@ module cloth_model
   use kinds, only: rp
   use forces, only: internal_forces, jac_buffer_row, slot_of, first_anchor_row, jac_buffer_init
   use lattice, only: lattice_t
-  use constraints, only: constraint_set_t, constraint_target
+  use constraints, only: constraint_set_t, constraint_target, constraints_active, constraint_count, constraint_node
   use newton_control, only: floor_node_add, floor_estimate
   use reduced, only: reduced_assemble, set_block_row
   use app_context, only: app_ctx, model_state_t, assembly_t
@@ -85,11 +85,10 @@ contains
         fv(3:5, i, j) = ud(3:5, i, j) - ctx%model%f(:, i, j) / ctx%lat%mass(i, j) - ctx%model%gravity
       end do
     end do
-    if (ctx%cs%active) then
-      do k = 1, ctx%cs%n
+    if (constraints_active(ctx%cs)) then
+      do k = 1, constraint_count(ctx%cs)
         call constraint_target(ctx%cs, k, t, xb, vb)
-        i = ctx%cs%node(1, k)
-        j = ctx%cs%node(2, k)
+        call constraint_node(ctx%cs, k, i, j)
         fv(0:2, i, j) = ud(0:2, i, j) - vb
         fv(3:5, i, j) = ud(3:5, i, j)
       end do
@@ -123,10 +122,10 @@ contains
     PetscCall(DMGlobalToLocalBegin(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
     PetscCall(DMGlobalToLocalEnd(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
-    ! contact's diagonal blocks at this state, which both assemblies add (lattice_t's nodal)
+    ! contact's diagonal blocks at this state, which both assemblies add (app_ctx's nodal)
     if (contact_on(ctx%contact)) then
       call contact_move(ctx%contact, t)
-      call contact_blocks(ctx%contact, ctx%lat, ctx%model%fixed, u, ctx%lat%nodal)
+      call contact_blocks(ctx%contact, ctx%lat, ctx%model%fixed, u, ctx%nodal)
     end if
     if (ctx%use_reduced) then
       PetscCall(DMGetLocalVector(ctx%da, udloc, ierr))
@@ -146,7 +145,7 @@ contains
     ctx%asm%jbuf%c = 0.0_rp
     sums = 0.0_rp
     do ja = first_anchor_row(ctx%lat), ctx%lat%ye
-      call jac_buffer_row(ctx%asm%jbuf, ctx%lat, u, ja, ctx%model%clamp, ctx%model%gauss_newton)
+      call jac_buffer_row(ctx%asm%jbuf, ctx%lat, ctx%nodal, u, ja, ctx%model%clamp, ctx%model%gauss_newton)
       if (ja >= ctx%lat%ys) then
         PetscCall(insert_row(ctx, pmat, ja, a, ierr))
         ! the round-off floor of F from this assembly, as the reduced path
@@ -251,11 +250,12 @@ contains
     type(model_state_t), intent(inout) :: m
     type(constraint_set_t), intent(in) :: cs
     logical, intent(in) :: moving
-    integer :: k
+    integer :: k, i, j
     m%fixed = .false.
-    if (cs%active) then
-      do k = 1, cs%n
-        m%fixed(cs%node(1, k), cs%node(2, k)) = .true.
+    if (constraints_active(cs)) then
+      do k = 1, constraint_count(cs)
+        call constraint_node(cs, k, i, j)
+        m%fixed(i, j) = .true.
       end do
     end if
     m%moving_constraints = moving

@@ -33,7 +33,8 @@ module contact_solver
   use app_context, only: app_ctx
   use newton_start, only: newton_start_order
   use contact_forces, only: contact_init, contact_on, contact_lag, contact_step_limit, contact_stats, contact_record, &
-                            contact_seen, contact_count_limited, contact_move, contact_moving, contact_swept
+                            contact_seen, contact_count_limited, contact_move, contact_moving, contact_swept, &
+                            contact_keyframed, contact_summary
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use strings, only: real_es, itoa
   implicit none
@@ -120,7 +121,7 @@ contains
       PetscCall(SNESGetKSP(snes, ksp, ierr))
       ierr = nuno_ksp_set_contact_post_solve(ksp%v, c_loc(ctx))
       if (ierr /= 0) return
-      if (ctx%contact%moving) then
+      if (contact_keyframed(ctx%contact)) then
         ierr = nuno_ts_set_contact_domain(ctx%ts%v)
         if (ierr /= 0) return
       end if
@@ -179,7 +180,7 @@ contains
     logical :: moving
     changed = .false.
     moving = .false.
-    if (ctx%contact%moving) then
+    if (contact_keyframed(ctx%contact)) then
       PetscCall(TSGetTime(ctx%ts, t0, ierr))
       PetscCall(TSGetTimeStep(ctx%ts, dt, ierr))
       call contact_move(ctx%contact, t0 + dt)
@@ -259,11 +260,13 @@ contains
     end if
     r = t / ctx%cfg%output%output_interval
     if (ctx%rank == 0 .and. abs(r - anint(r)) <= 1.0e-9_rp * max(1.0_rp, r)) then
-      write(*, '(a)') 'contact: t = '//real_es(t)//', active = '//itoa(gnact)//', force = '// &
-        real_es(glob(1))//' '//real_es(glob(2))//' '//real_es(glob(3))//', min gap = '//real_es(gmin)// &
-        ', min gap of all accepted states = '//real_es(ctx%contact%min_gap_run)//', states checked = '// &
-        itoa(ctx%contact%states_checked)//', limited Newton steps = '//itoa(ctx%contact%limited_steps)// &
-        ', barrier energy = '//real_es(glob(7))//', friction work = '//real_es(ctx%contact%friction_work)
+      associate (c => contact_summary(ctx%contact))
+        write(*, '(a)') 'contact: t = '//real_es(t)//', active = '//itoa(gnact)//', force = '// &
+          real_es(glob(1))//' '//real_es(glob(2))//' '//real_es(glob(3))//', min gap = '//real_es(gmin)// &
+          ', min gap of all accepted states = '//real_es(c%min_gap_run)//', states checked = '// &
+          itoa(c%states_checked)//', limited Newton steps = '//itoa(c%limited_steps)// &
+          ', barrier energy = '//real_es(glob(7))//', friction work = '//real_es(c%friction_work)
+      end associate
     end if
   end subroutine contact_observe
 

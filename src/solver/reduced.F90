@@ -19,8 +19,10 @@ module reduced
   use, intrinsic :: iso_c_binding, only: c_ptr, c_f_pointer
   use kinds, only: rp
   use lattice, only: lattice_t
+  use node_blocks, only: node_blocks_t
   use config, only: BEND_NONE
   use reduced_assembly, only: kc_products, assemble_stencil
+  use mg_kernels, only: stencil_t
   use reduced_storage, only: s_store_t, store_init, store_matrix, store_assemble, check_direct, set_block_row, &
                              store_use_buffer, store_direct
   use newton_control, only: floor_node_add, floor_estimate
@@ -86,6 +88,7 @@ module reduced
     type(elements_t) :: el                 !< the element model and its products (this module)
     type(inner_pc_t) :: pcc                !< the inner preconditioner in use and its reuse (this module)
     type(lattice_t), pointer :: lat => null()
+    type(node_blocks_t), pointer :: nodal => null()  !< forces on single nodes (contact), written by contact_forces
     type(tDM) :: da6                       !< the state's DMDA (dof 6; not owned)
     type(tDM) :: da3                       !< dof 3, same strips and halo
     type(tMat) :: s                        !< S = a M - C - K/a, block size 3 (AIJ for multigrid, else BAIJ)
@@ -134,10 +137,11 @@ contains
   !> preallocation (or by stencil offset for nuno's multigrid), the 6-dof
   !> MATSHELL and the element model's arrays. symmetric selects the
   !> default inner Krylov method (CG or GMRES). Collective.
-  subroutine reduced_create(red, da6, lat, symmetric, constant, damping, clamp, gauss_newton, pc_lag, mg_interpolation, ierr)
+  subroutine reduced_create(red, da6, lat, nodal, symmetric, constant, damping, clamp, gauss_newton, pc_lag, mg_interpolation, ierr)
     type(reduced_t), intent(inout), target :: red
     type(tDM), intent(in) :: da6
     type(lattice_t), intent(in), target :: lat
+    type(node_blocks_t), intent(in), target :: nodal   !< the node blocks every assembly adds (app_ctx's)
     logical, intent(in) :: symmetric, constant, damping, clamp, gauss_newton
     integer, intent(in) :: pc_lag                  !< rebuild the inner preconditioner every pc_lag assemblies (>= 1; 0: default)
     integer, intent(in) :: mg_interpolation        !< multigrid interpolation: 0 auto, else an INTERP_ code
@@ -150,6 +154,7 @@ contains
     MPI_Comm :: comm
 
     red%lat => lat
+    red%nodal => nodal
     red%da6 = da6
     PetscCall(register_events(red, ev_galerkin, ev_cycle, ierr))
     PetscCall(PetscObjectGetComm(da6, comm, ierr))
@@ -523,11 +528,11 @@ contains
       ! whose finest level is made from it row by row on the way (every
       ! assembly: its smoother and residual use the current S, as PETSc's
       ! PCMG does with a reused hierarchy).
-      call mg_glue_assemble(red%mgg, u, red%el%fixedg, a, red%el%damping, red%el%clamp, red%el%gauss_newton, red%el%wpred, &
+      call mg_glue_assemble(red%mgg, red%nodal, u, red%el%fixedg, a, red%el%damping, red%el%clamp, red%el%gauss_newton, red%el%wpred, &
                             red%el%lb, red%el%gpred, red%el%kd)
     else
       ! S in a PETSc matrix (module reduced_storage)
-      PetscCall(store_assemble(red%sto, red%s, u, red%el%fixedg, a, red%el%damping, red%el%clamp, red%el%gauss_newton, red%el%wpred, red%el%lb, red%el%gpred, red%el%kd, ierr))
+      PetscCall(store_assemble(red%sto, red%s, red%nodal, u, red%el%fixedg, a, red%el%damping, red%el%clamp, red%el%gauss_newton, red%el%wpred, red%el%lb, red%el%gpred, red%el%kd, ierr))
     end if
     PetscCall(MatAssemblyBegin(red%s, MAT_FINAL_ASSEMBLY, ierr))
     PetscCall(MatAssemblyEnd(red%s, MAT_FINAL_ASSEMBLY, ierr))
@@ -755,16 +760,17 @@ contains
   !> constraints, shift and Newton right-hand side of the last assembly,
   !> into st (0:nx-1, 3, 3, offset_count(halo), 0:ye-ys), with the
   !> element products g and diagonal kd (3, 0:nx-1, ys:ye) on the way.
-  subroutine reduced_offset_assembly(red, u, st, g, kd)
+  subroutine reduced_offset_assembly(red, u, st, fine, g, kd)
     type(reduced_t), intent(in) :: red
     real(rp), intent(in) :: u(0:, 0:, red%lat%gys:)
     real(rp), intent(inout), contiguous :: st(0:, :, :, :, 0:)
+    type(stencil_t), intent(inout) :: fine           !< a level the rows are converted into (the test's own)
     real(rp), intent(out) :: g(:, 0:, red%lat%ys:), kd(:, 0:, red%lat%ys:)
     real(rp), allocatable :: lb(:, :, :, :, :)
     allocate(lb, mold=red%el%lb)
     lb = 0.0_rp
-    call assemble_stencil(red%lat, u, red%el%fixedg, red%a, red%el%damping, red%el%clamp, red%el%gauss_newton, &
-                          red%el%wpred, lb, g, kd, st)
+    call assemble_stencil(red%lat, red%nodal, u, red%el%fixedg, red%a, red%el%damping, red%el%clamp, &
+                          red%el%gauss_newton, red%el%wpred, lb, g, kd, st, fine)
   end subroutine reduced_offset_assembly
 
   !> The last assembly's element products of the Newton right-hand side

@@ -36,7 +36,8 @@ contains
   subroutine element_products(red, w)
     type(reduced_t), intent(inout) :: red
     real(rp), intent(in) :: w(0:, 0:, red%lat%gys:)
-    call kc_products(red%lat, red%el%ujac, red%el%fixedg, red%el%damping, red%el%clamp, red%el%gauss_newton, w, red%el%g, red%el%kd)
+    call kc_products(red%lat, red%nodal, red%el%ujac, red%el%fixedg, red%el%damping, red%el%clamp, red%el%gauss_newton, w, &
+                     red%el%lb, red%el%g, red%el%kd)
   end subroutine element_products
 
   !> The ghosted array v(0:5, 0:nx-1, gys:gye) of the 6-dof global vector

@@ -22,6 +22,7 @@ module reduced_mg
   use shell_context, only: PCShellSetContext, PCShellGetContext, MatShellSetContext, MatShellGetContext
   use lattice, only: lattice_t
   use reduced_assembly, only: assemble_stencil
+  use node_blocks, only: node_blocks_t
   use offset_product, only: stencil_product, offset_count
   use interpolation, only: cubic_weights
   use mg_kernels, only: stencil_t
@@ -188,8 +189,9 @@ contains
   !> on the way), and the multigrid's finest level made from it row by row
   !> (every assembly: its smoother and residual use the current S, as
   !> PETSc's PCMG does with a reused hierarchy).
-  subroutine mg_glue_assemble(gl, u, fixedg, a, damping, clamp, gauss_newton, w, lb, g, kd)
+  subroutine mg_glue_assemble(gl, nodal, u, fixedg, a, damping, clamp, gauss_newton, w, lb, g, kd)
     type(mg_glue_t), intent(inout), target :: gl
+    type(node_blocks_t), intent(in) :: nodal
     real(rp), intent(in) :: u(0:, 0:, gl%lat%gys:)
     logical, intent(in) :: fixedg(0:, gl%lat%gys:)
     real(rp), intent(in) :: a
@@ -201,7 +203,7 @@ contains
     type(stencil_t), pointer :: fine
     gl%pax_valid = .false.
     fine => mg_fine_level(gl%mg)
-    call assemble_stencil(gl%lat, u, fixedg, a, damping, clamp, gauss_newton, w, lb, g, kd, gl%st, fine)
+    call assemble_stencil(gl%lat, nodal, u, fixedg, a, damping, clamp, gauss_newton, w, lb, g, kd, gl%st, fine)
   end subroutine mg_glue_assemble
 
   !> The coarse levels exist (mg_coarse_levels ran).

@@ -17,6 +17,7 @@ module reduced_storage
   use forces, only: jac_buffer_t, jac_buffer_init, jac_buffer_row, slot_of, first_anchor_row
   use reduced_blocks, only: reduced_row_blocks, buffer_row_apply, csr_fits_block_row
   use reduced_assembly, only: assemble_csr
+  use node_blocks, only: node_blocks_t
   implicit none
   private
   public :: s_store_t, store_init, store_matrix, store_assemble, check_direct, set_block_row, store_use_buffer, store_direct
@@ -114,9 +115,10 @@ contains
   !> assembled), with the products gpred of wpred and the diagonal kd on the
   !> way (see module reduced's reduced_assemble). Collective for an AIJ S
   !> written directly.
-  subroutine store_assemble(st, s, u, fixedg, a, damping, clamp, gauss_newton, wpred, lb, gpred, kd, ierr)
+  subroutine store_assemble(st, s, nodal, u, fixedg, a, damping, clamp, gauss_newton, wpred, lb, gpred, kd, ierr)
     type(s_store_t), intent(inout) :: st
     type(tMat) :: s
+    type(node_blocks_t), intent(in) :: nodal
     real(rp), intent(in) :: u(0:, 0:, st%lat%gys:)
     logical, intent(in) :: fixedg(0:, st%lat%gys:)
     real(rp), intent(in) :: a
@@ -133,14 +135,14 @@ contains
     if (st%direct) then
       ! AIJ: element blocks straight into the CSR values (module reduced_assembly).
       PetscCall(aij_open(s, view, ierr))
-      call assemble_csr(st%lat, u, fixedg, a, damping, clamp, gauss_newton, wpred, &
+      call assemble_csr(st%lat, nodal, u, fixedg, a, damping, clamp, gauss_newton, wpred, &
                         lb, gpred, kd, view%ia, view%av, view%ib, view%bv)
       PetscCall(aij_close(view, ierr))
     else
       st%jbuf%k = 0.0_rp
       st%jbuf%c = 0.0_rp
       do ja = first_anchor_row(st%lat), st%lat%ye
-        call jac_buffer_row(st%jbuf, st%lat, u, ja, clamp, gauss_newton)
+        call jac_buffer_row(st%jbuf, st%lat, nodal, u, ja, clamp, gauss_newton)
         if (ja >= st%lat%ys) then
           call buffer_row_apply(st%jbuf, st%lat, wpred, ja, damping, gpred(:, :, ja))
           do i = 0, st%lat%nx - 1

@@ -20,7 +20,7 @@ module step_monitor
   use kinds, only: rp
   use forces, only: dissipated_power
   use cloth_model, only: model_internal_forces
-  use constraints, only: constraint_target
+  use constraints, only: constraint_target, constraint_count, constraint_node
   use reduced, only: reduced_step_accepted
   use app_context, only: app_ctx, nuno_ts_stop, step_settings_t, energy_integrals_t, progress_t
   use newton_start, only: newton_start_push
@@ -198,10 +198,9 @@ contains
     call dissipated_power(ctx%lat, u, loc(1))
     if (ctx%model%moving_constraints) then
       call model_internal_forces(ctx%model, ctx%lat, u, nbad, bad)
-      do k = 1, ctx%cs%n
+      do k = 1, constraint_count(ctx%cs)
         call constraint_target(ctx%cs, k, t, xb, vb)
-        i = ctx%cs%node(1, k)
-        j = ctx%cs%node(2, k)
+        call constraint_node(ctx%cs, k, i, j)
         loc(2) = loc(2) - dot_product(ctx%model%f(:, i, j) + ctx%lat%mass(i, j) * ctx%model%gravity, vb)
       end do
     end if

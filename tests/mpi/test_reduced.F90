@@ -29,6 +29,8 @@ program test_reduced
                      reduced_attach, reduced_matrix, reduced_dm, reduced_jacobian, reduced_inner_ksp, &
                      reduced_writes_directly, reduced_use_buffer, reduced_offset_assembly, reduced_products
   use check, only: check_true, check_report
+  use node_blocks, only: node_blocks_t
+  use mg_kernels, only: stencil_t, stencil_init
   use offset_product, only: stencil_product, offset_count
   implicit none
   PetscErrorCode :: ierr
@@ -90,6 +92,7 @@ contains
     character(*), intent(in) :: label
     type(nuno_config) :: cfg
     type(lattice_t), target :: lat
+    type(node_blocks_t), target :: nodal   ! none: no contact here
     type(reduced_t), target :: red, red2
     PetscReal :: snorm, dnorm
     type(tDM) :: da6, da3
@@ -153,7 +156,7 @@ contains
     PetscCallA(DMDAVecRestoreArrayF90(da6, ud, uda, ierr))
     PetscCallA(DMDAVecRestoreArrayF90(da6, u, ua, ierr))
 
-    PetscCallA(reduced_create(red, da6, lat, .false., .false., .true., .false., .false., 1, 0, ierr))
+    PetscCallA(reduced_create(red, da6, lat, nodal, .false., .false., .true., .false., .false., 1, 0, ierr))
     da3 = reduced_dm(red)
     jac = reduced_jacobian(red)
     PetscCallA(reduced_set_fixed(red, fixed, ierr))
@@ -171,7 +174,7 @@ contains
     ! buffer through MatSetValues sums the same terms in another order: the
     ! two must agree to round-off, on every rank count.
     call check_true(reduced_writes_directly(red), label//': AIJ S is written directly')
-    PetscCallA(reduced_create(red2, da6, lat, .false., .false., .true., .false., .false., 1, 0, ierr))
+    PetscCallA(reduced_create(red2, da6, lat, nodal, .false., .false., .true., .false., .false., 1, 0, ierr))
     call reduced_use_buffer(red2)
     PetscCallA(reduced_set_fixed(red2, fixed, ierr))
     PetscCallA(reduced_assemble(red2, ul, udl, a, ierr))
@@ -403,8 +406,10 @@ contains
     PetscScalar, pointer :: ul(:, :, :), yl(:, :, :), sa(:, :, :)
     PetscInt :: gxs, gys, gzs, gxm, gym, gzm
     real(rp) :: err, scale, errg, scaleg
+    type(stencil_t) :: fine
     PetscErrorCode :: ierr
 
+    call stencil_init(fine, lat%nx, lat%ny, lat%ys, lat%ye, lat%halo, lines=.true.)
     allocate(st(0:lat%nx - 1, 3, 3, offset_count(lat%halo), 0:lat%ye - lat%ys))
     allocate(g(3, 0:lat%nx - 1, lat%ys:lat%ye), kd(3, 0:lat%nx - 1, lat%ys:lat%ye))
     allocate(gpred(3, 0:lat%nx - 1, lat%ys:lat%ye), kdpred(3, 0:lat%nx - 1, lat%ys:lat%ye))
@@ -415,7 +420,7 @@ contains
     PetscCallA(DMGlobalToLocalBegin(da6, u, INSERT_VALUES, uloc, ierr))
     PetscCallA(DMGlobalToLocalEnd(da6, u, INSERT_VALUES, uloc, ierr))
     PetscCallA(DMDAVecGetArrayReadF90(da6, uloc, ul, ierr))
-    call reduced_offset_assembly(red, ul, st, g, kd)
+    call reduced_offset_assembly(red, ul, st, fine, g, kd)
     PetscCallA(DMDAVecRestoreArrayReadF90(da6, uloc, ul, ierr))
     PetscCallA(DMRestoreLocalVector(da6, uloc, ierr))
     PetscCallA(DMGetLocalVector(da3, yloc, ierr))

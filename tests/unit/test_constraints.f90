@@ -16,7 +16,8 @@ program test_constraints
   use kinds, only: rp
   use constraints, only: constraint_set_t, constraints_init, constraints_add, constraints_set_window, &
                          constraint_target, constraint_events, constraint_step_sensitivity, &
-                         PATH_FIXED, PATH_KEYFRAMES
+                         constraint_count, constraint_node, constraint_path, constraint_base, constraint_keyframes, &
+                         constraint_release_time, constraint_segment, constraints_active, PATH_FIXED, PATH_KEYFRAMES
   use check, only: check_true, check_close, check_close_array, check_report
   implicit none
 
@@ -42,21 +43,31 @@ contains
   !> A pinned node (1) and a node on the path (2).
   subroutine make(cs)
     type(constraint_set_t), intent(out) :: cs
-    call constraints_init(cs, 5, kt, koff, release)
+    call constraints_init(cs, 5, kt, koff, release, .true.)
     call constraints_add(cs, 3, 7, xa, PATH_FIXED)
     call constraints_add(cs, 0, 2, xk, PATH_KEYFRAMES)
   end subroutine make
 
   subroutine contents()
     type(constraint_set_t) :: cs
+    integer :: n(2, 5), k, nk
+    real(rp), allocatable :: kt1(:), koff1(:, :)
     call make(cs)
-    call check_true(cs%n == 2, 'two nodes added')
-    call check_true(all(cs%node(:, 1) == [3, 7]) .and. all(cs%node(:, 2) == [0, 2]), 'their indices')
-    call check_true(cs%path(1) == PATH_FIXED .and. cs%path(2) == PATH_KEYFRAMES, 'their paths')
-    call check_true(all(cs%x0(:, 1) == xa) .and. all(cs%x0(:, 2) == xk), 'their base positions')
-    call check_true(cs%nk == 4 .and. all(cs%kt == kt) .and. all(cs%koff == koff), 'the keyframes')
-    call check_true(cs%release_time == release, 'the release time')
-    call check_true(size(cs%node, 2) >= 5, 'room for nmax nodes')
+    call check_true(constraint_count(cs) == 2, 'two nodes added')
+    do k = 1, 2
+      call constraint_node(cs, k, n(1, k), n(2, k))
+    end do
+    call check_true(all(n(:, 1) == [3, 7]) .and. all(n(:, 2) == [0, 2]), 'their indices')
+    call check_true(constraint_path(cs, 1) == PATH_FIXED .and. constraint_path(cs, 2) == PATH_KEYFRAMES, 'their paths')
+    call check_true(all(constraint_base(cs, 1) == xa) .and. all(constraint_base(cs, 2) == xk), 'their base positions')
+    call constraint_keyframes(cs, nk, kt1, koff1)
+    call check_true(nk == 4 .and. all(kt1 == kt) .and. all(koff1 == koff), 'the keyframes')
+    call check_true(constraint_release_time(cs) == release, 'the release time')
+    do k = 3, 5
+      call constraints_add(cs, k, 1, xa, PATH_FIXED)
+      call constraint_node(cs, k, n(1, k), n(2, k))
+    end do
+    call check_true(constraint_count(cs) == 5 .and. all(n(1, 3:5) == [3, 4, 5]), 'room for nmax nodes')
   end subroutine contents
 
   !> Position and velocity of both nodes along the path, window by window
@@ -71,7 +82,7 @@ contains
     do w = 1, 6
       call constraints_set_window(cs, ev(w), ev(w + 1))
       s = w - 1                            ! the segment: 0 before, 4 after
-      call check_true(cs%seg == min(s, 4), 'segment of the window')
+      call check_true(constraint_segment(cs) == min(s, 4), 'segment of the window')
       do q = 0, 4
         t = ev(w) + 0.25_rp * q * (ev(w + 1) - ev(w))
         write(what, '(a,i0,a,f0.3)') 'window ', w, ' t = ', t
@@ -119,21 +130,21 @@ contains
     type(constraint_set_t) :: cs
     call make(cs)
     call constraints_set_window(cs, 0.0_rp, 0.1_rp)
-    call check_true(cs%seg == 0 .and. cs%active, 'before the first keyframe: segment 0, active')
+    call check_true(constraint_segment(cs) == 0 .and. constraints_active(cs), 'before the first keyframe: segment 0, active')
     call constraints_set_window(cs, 0.2_rp, 0.3_rp)
-    call check_true(cs%seg == 1, 'a window starting at a keyframe: its segment')
+    call check_true(constraint_segment(cs) == 1, 'a window starting at a keyframe: its segment')
     call constraints_set_window(cs, 0.4_rp, 0.5_rp)
-    call check_true(cs%seg == 1, 'a window ending at a keyframe: the segment before it')
+    call check_true(constraint_segment(cs) == 1, 'a window ending at a keyframe: the segment before it')
     ! a window's ends a round-off off the keyframes: its segment still from
     ! its midpoint
     call constraints_set_window(cs, nearest(0.5_rp, -1.0_rp), nearest(1.0_rp, -1.0_rp))
-    call check_true(cs%seg == 2, 'a window starting a round-off before a keyframe: the segment after it')
+    call check_true(constraint_segment(cs) == 2, 'a window starting a round-off before a keyframe: the segment after it')
     call constraints_set_window(cs, 1.6_rp, release)
-    call check_true(cs%seg == 4 .and. cs%active, 'the window ending at release: still active')
+    call check_true(constraint_segment(cs) == 4 .and. constraints_active(cs), 'the window ending at release: still active')
     call constraints_set_window(cs, release, 3.0_rp)
-    call check_true(.not. cs%active, 'the window starting at release: released')
+    call check_true(.not. constraints_active(cs), 'the window starting at release: released')
     call constraints_set_window(cs, 0.0_rp, 0.2_rp)
-    call check_true(cs%active .and. cs%seg == 0, 'a later window before release: active again')
+    call check_true(constraints_active(cs) .and. constraint_segment(cs) == 0, 'a later window before release: active again')
   end subroutine windows
 
   !> Event times: keyframes and release within (0, t_end).
@@ -150,7 +161,7 @@ contains
     call check_true(size(ev) == 2, 'events before 1: 0.2 and 0.5 (not t_end itself)')
     if (size(ev) == 2) call check_true(all(ev == kt(1:2)), 'events before 1: their times')
     kt0 = [0.0_rp, kt(2:4)]
-    call constraints_init(cs, 1, kt0, koff, huge(1.0_rp))
+    call constraints_init(cs, 1, kt0, koff, huge(1.0_rp), .true.)
     ev = constraint_events(cs, 5.0_rp)
     call check_true(size(ev) == 3, 'no event at t = 0, none for a release that never comes')
   end subroutine events
@@ -159,7 +170,7 @@ contains
   subroutine no_path()
     type(constraint_set_t) :: cs
     real(rp) :: kt0(0), koff0(3, 0), xb(3), vb(3)
-    call constraints_init(cs, 1, kt0, koff0, huge(1.0_rp))
+    call constraints_init(cs, 1, kt0, koff0, huge(1.0_rp), .true.)
     call constraints_add(cs, 1, 1, xk, PATH_KEYFRAMES)
     call constraints_set_window(cs, 0.0_rp, 1.0_rp)
     call constraint_target(cs, 1, 0.5_rp, xb, vb)
@@ -182,7 +193,7 @@ contains
       do c = 1, 3
         kp = koff
         if (m >= 2 .and. m <= 4) kp(c, m:4) = kp(c, m:4) + h
-        call constraints_init(cp, 5, kt, kp, release)
+        call constraints_init(cp, 5, kt, kp, release, .true.)
         call constraints_add(cp, 0, 2, xk, PATH_KEYFRAMES)
         do w = 1, 6
           call constraints_set_window(cs, ev(w), ev(w + 1))

@@ -11,12 +11,14 @@ program test_contact_shapes
   use kinds, only: rp
   use config, only: contact_config
   use lattice, only: lattice_t
-  use contact, only: signed_distance, SHAPE_BOX, SHAPE_CAPSULE
-  use contact_forces, only: contact_state_t, contact_init, contact_move, contact_swept, obstacle_from_config
+  use contact, only: obstacle_t, signed_distance, SHAPE_BOX, SHAPE_CAPSULE
+  use contact_forces, only: contact_state_t, contact_init, contact_move, contact_swept, obstacle_from_config, &
+                            contact_obstacle
   use check, only: check_true, check_close, check_close_array, check_report
   implicit none
   type(contact_config) :: cc
   type(contact_state_t) :: cs
+  type(obstacle_t) :: o
   type(lattice_t) :: lat
   real(rp) :: ax(3, 3), eye(3, 3), d, g(3), hd(3, 3), c(3), n(3), e1(3), s
   real(rp), allocatable :: x0(:, :, :), x(:, :, :), dx(:, :, :)
@@ -84,13 +86,15 @@ program test_contact_shapes
   lat%gye = 0
   call contact_init(cs, cc, lat)
   call contact_move(cs, 1.5_rp)
+  o = contact_obstacle(cs, 1)
   ! halfway: 0.1 - 0.025 along x, velocity 0.2 - 0.05
-  call check_close_array(cs%obs(1)%p, [0.075_rp, 0.0_rp, 0.0_rp], 0.0_rp, 1.0e-15_rp, 'moved: first end')
-  call check_close_array(cs%obs(1)%q, [0.075_rp, 1.0_rp, 0.0_rp], 0.0_rp, 1.0e-15_rp, 'moved: second end')
-  call check_close_array(cs%obs(1)%vel, [0.15_rp, 0.0_rp, 0.0_rp], 0.0_rp, 1.0e-15_rp, 'moved: velocity')
+  call check_close_array(o%p, [0.075_rp, 0.0_rp, 0.0_rp], 0.0_rp, 1.0e-15_rp, 'moved: first end')
+  call check_close_array(o%q, [0.075_rp, 1.0_rp, 0.0_rp], 0.0_rp, 1.0e-15_rp, 'moved: second end')
+  call check_close_array(o%vel, [0.15_rp, 0.0_rp, 0.0_rp], 0.0_rp, 1.0e-15_rp, 'moved: velocity')
   call contact_move(cs, 5.0_rp)
-  call check_close_array(cs%obs(1)%p, [0.15_rp, 0.0_rp, 0.0_rp], 0.0_rp, 1.0e-15_rp, 'held after the last keyframe')
-  call check_true(all(cs%obs(1)%vel == 0.0_rp), 'held: at rest')
+  o = contact_obstacle(cs, 1)
+  call check_close_array(o%p, [0.15_rp, 0.0_rp, 0.0_rp], 0.0_rp, 1.0e-15_rp, 'held after the last keyframe')
+  call check_true(all(o%vel == 0.0_rp), 'held: at rest')
 
   ! ---- the swept check: the finger (radius 1 cm, travelling +0.15 in x over [1, 2]) and one node
   allocate(x0(0:5, 0:0, 0:0), x(0:5, 0:0, 0:0), dx(0:5, 0:0, 0:0), fixed(0:0, 0:0))

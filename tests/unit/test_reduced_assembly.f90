@@ -22,7 +22,9 @@ program test_reduced_assembly
   use lattice, only: lattice_t, lattice_init, rest_position
   use forces, only: jac_buffer_t, jac_buffer_init, jac_buffer_row, slot_of, first_anchor_row
   use reduced_blocks, only: reduced_row_blocks, buffer_row_apply
-  use reduced_assembly, only: assemble_csr, assemble_stencil, kc_products, csr_row_blocks
+  use reduced_assembly, only: assemble_csr, assemble_stencil, kc_products
+  use csr_layout, only: csr_row_blocks
+  use node_blocks, only: node_blocks_t, node_blocks_begin, node_blocks_add, node_blocks_end
   use offset_product, only: offset_count, offset_slot
   use mg_kernels, only: stencil_t, stencil_init, stencil_row_from_full
   use check, only: check_true, check_report
@@ -38,7 +40,7 @@ program test_reduced_assembly
   call one(BEND_ENERGY, SPRING_AXIAL, .true., .false., .false., 9, 12, 4, 7, 'energy bending, middle strip')
   call one(BEND_ENERGY, SPRING_AXIAL, .true., .true., .true., 35, 10, 6, 9, 'energy bending, Gauss-Newton, clamped, last strip')
   call one(BEND_ENERGY, SPRING_AXIAL, .false., .false., .false., 6, 9, 2, 5, 'energy bending, undamped, middle strip')
-  ! forces on single nodes (contact's blocks, lattice_t's nodal) on the diagonal
+  ! forces on single nodes (contact's blocks, module node_blocks) on the diagonal
   call one(BEND_NONE, SPRING_AXIAL, .true., .false., .false., 37, 9, 0, 8, 'no bending, node blocks, whole lattice', &
            nodal=.true.)
   call one(BEND_ENERGY, SPRING_AXIAL, .true., .false., .false., 9, 12, 4, 7, 'energy bending, node blocks, middle strip', &
@@ -55,13 +57,14 @@ contains
     real(rp), parameter :: a = 40.0_rp               ! TS shift [1/s]
     type(nuno_config) :: cfg
     type(lattice_t) :: lat
+    type(node_blocks_t) :: nb
     type(jac_buffer_t) :: buf
     type(stencil_t) :: fine, fine_ref
     real(rp), allocatable :: u(:, :, :), w(:, :, :), noise(:, :, :), lb(:, :, :, :, :)
     real(rp), allocatable :: sref(:, :, :, :, :, :), gref(:, :, :), kdref(:, :, :)
     real(rp), allocatable :: g(:, :, :), kd(:, :, :), g2(:, :, :), kd2(:, :, :), g3(:, :, :), kd3(:, :, :)
     real(rp), allocatable :: st(:, :, :, :, :), ring(:, :, :, :, :), av(:), bv(:), blk(:, :, :, :)
-    real(rp) :: vals(3, 3, 25), scale, gscale, err_st, err_csr, err_g, err_kd
+    real(rp) :: vals(3, 3, 25), scale, gscale, err_st, err_csr, err_g, err_kd, bx(3, 3), bv3(3, 3)
     integer, allocatable :: ia(:), ib(:)
     integer :: cols(25), nc, i, j, ja, n, q, iq, jq, di, dj, hw, k, nd, no, row, lag
     logical, allocatable :: fixedg(:, :)
@@ -111,32 +114,26 @@ contains
     end do
 
     ! Random blocks on every third free owned node of each row (the list by row).
+    ! (about 110 on the whole lattice: the list grows past its first 64)
+    call node_blocks_begin(nb, ys, ye)
     if (present(nodal)) then
-      allocate(lat%nodal%row_start(ys:ye + 1), lat%nodal%col(nx * (ye - ys + 1)), &
-               lat%nodal%kx(3, 3, nx * (ye - ys + 1)), lat%nodal%kv(3, 3, nx * (ye - ys + 1)))
-      n = 0
       do j = ys, ye
-        lat%nodal%row_start(j) = n + 1
         do i = mod(j, 3), nx - 1, 3
           if (fixedg(i, j)) cycle
-          n = n + 1
-          lat%nodal%col(n) = i
-          call random_number(lat%nodal%kx(:, :, n))
-          call random_number(lat%nodal%kv(:, :, n))
-          lat%nodal%kx(:, :, n) = -50.0_rp * lat%nodal%kx(:, :, n)
-          lat%nodal%kv(:, :, n) = -0.2_rp * lat%nodal%kv(:, :, n)
+          call random_number(bx)
+          call random_number(bv3)
+          call node_blocks_add(nb, i, j, -50.0_rp * bx, -0.2_rp * bv3)
         end do
       end do
-      lat%nodal%row_start(ye + 1) = n + 1
-      lat%nodal%n = n
     end if
+    call node_blocks_end(nb)
 
     ! The reference: the element buffer, as module reduced's third storage path.
     allocate(sref(3, 3, -hw:hw, -hw:hw, 0:nx - 1, ys:ye), gref(3, 0:nx - 1, ys:ye), kdref(3, 0:nx - 1, ys:ye))
     sref = 0.0_rp
     call jac_buffer_init(buf, lat)
     do ja = first_anchor_row(lat), ye
-      call jac_buffer_row(buf, lat, u, ja, clamp, gauss_newton)
+      call jac_buffer_row(buf, lat, nb, u, ja, clamp, gauss_newton)
       if (ja >= ys) then
         call buffer_row_apply(buf, lat, w, ja, damping, gref(:, :, ja))
         do i = 0, nx - 1
@@ -161,18 +158,19 @@ contains
     ! kc_products: S not written.
     allocate(g(3, 0:nx - 1, ys:ye), kd(3, 0:nx - 1, ys:ye), g2(3, 0:nx - 1, ys:ye), kd2(3, 0:nx - 1, ys:ye))
     allocate(g3(3, 0:nx - 1, ys:ye), kd3(3, 0:nx - 1, ys:ye))
-    call kc_products(lat, u, fixedg, damping, clamp, gauss_newton, w, g, kd)
+    allocate(lb(0:nx - 1, 3, 3, 4, 0:1))
+    call kc_products(lat, nb, u, fixedg, damping, clamp, gauss_newton, w, lb, g, kd)
     err_g = maxval(abs(g - gref))
     err_kd = maxval(abs(kd - kdref))
     call check_true(err_g <= 1.0e-12_rp * gscale .and. gscale > 0.0_rp, what//': kc_products g = -(K w_x + C w_v) as the buffer''s')
     call check_true(err_kd <= 1.0e-12_rp * maxval(abs(kdref)), what//': kc_products kd as the buffer''s diagonal')
     if (err_g > 1.0e-12_rp * gscale) write(*, '(a,2es11.3)') '  |g - gref|, scale: ', err_g, gscale
 
-    ! assemble_stencil over the whole strip.
-    allocate(lb(0:nx - 1, 3, 3, 4, 0:1))
+    ! assemble_stencil over the whole strip (and the finest level fine_ref made on the way).
     allocate(st(0:nx - 1, 3, 3, offset_count(hw), 0:ye - ys))
     st = ieee_value(1.0_rp, ieee_quiet_nan)
-    call assemble_stencil(lat, u, fixedg, a, damping, clamp, gauss_newton, w, lb, g2, kd2, st)
+    call stencil_init(fine_ref, nx, ny, ys, ye, hw, lines=.true.)
+    call assemble_stencil(lat, nb, u, fixedg, a, damping, clamp, gauss_newton, w, lb, g2, kd2, st, fine_ref)
     call check_true(all(st == st), what//': assemble_stencil writes every slot')
     err_st = 0.0_rp
     do j = ys, ye
@@ -200,8 +198,7 @@ contains
     lag = merge(0, 2, bending == BEND_NONE)
     allocate(ring(0:nx - 1, 3, 3, offset_count(hw), 0:lag))
     call stencil_init(fine, nx, ny, ys, ye, hw, lines=.true.)
-    call stencil_init(fine_ref, nx, ny, ys, ye, hw, lines=.true.)
-    call assemble_stencil(lat, u, fixedg, a, damping, clamp, gauss_newton, w, lb, g3, kd3, ring, fine)
+    call assemble_stencil(lat, nb, u, fixedg, a, damping, clamp, gauss_newton, w, lb, g3, kd3, ring, fine)
     do j = ys, ye
       call stencil_row_from_full(fine_ref, st(:, :, :, :, j - ys), j)
     end do
@@ -209,7 +206,7 @@ contains
                     what//': the finest level from a ring of rows as from the whole strip')
     call check_true(all(g3 == g) .and. all(kd3 == kd), what//': assemble_stencil (ring) g, kd bitwise as kc_products''')
 
-    ! assemble_csr into the layout of module reduced_assembly's header.
+    ! assemble_csr into the layout of module csr_layout's header.
     allocate(ia(0:3 * nx * (ye - ys + 1)), ib(0:3 * nx * (ye - ys + 1)))
     ia(0) = 0
     ib(0) = 0
@@ -235,7 +232,7 @@ contains
     allocate(av(0:ia(3 * nx * (ye - ys + 1)) - 1), bv(0:ib(3 * nx * (ye - ys + 1)) - 1))
     av = ieee_value(1.0_rp, ieee_quiet_nan)
     bv = av(0)
-    call assemble_csr(lat, u, fixedg, a, damping, clamp, gauss_newton, w, lb, g3, kd3, ia, av, ib, bv)
+    call assemble_csr(lat, nb, u, fixedg, a, damping, clamp, gauss_newton, w, lb, g3, kd3, ia, av, ib, bv)
     call check_true(all(av == av) .and. all(bv == bv), what//': assemble_csr writes every stored entry')
     allocate(blk(3, 3, -hw:hw, -hw:hw))
     err_csr = 0.0_rp

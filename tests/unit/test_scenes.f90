@@ -27,12 +27,25 @@ program test_scenes
                     MASS_UNIFORM, MASS_AREA, SCENE_LIFT_RELEASE, SCENE_BEND_RELEASE, SCENE_WAVE_POINT, &
                     SCENE_HANG, SCENE_FLAT
   use lattice, only: lattice_t, lattice_init, link_dir, node_mass
-  use constraints, only: constraint_set_t, constraints_set_window, constraint_target, PATH_FIXED, PATH_KEYFRAMES
+  use constraints, only: constraint_set_t, constraints_set_window, constraint_target, PATH_FIXED, PATH_KEYFRAMES, &
+                         constraint_count, constraint_node, constraint_path, constraint_base, constraints_global, &
+                         constraint_release_time, constraint_keyframes
   use scenes, only: scene_setup, scene_position
   use check, only: check_true, check_close, check_close_array, check_report
   implicit none
 
   real(rp), parameter :: pi = acos(-1.0_rp)
+
+  !> A constraint set's contents, read through module constraints' accessors
+  !> (view), for the checks below.
+  type :: cset_view_t
+    integer :: n = 0, nk = 0
+    integer, allocatable :: node(:, :)     ! (2, n)
+    integer, allocatable :: path(:)        ! (n)
+    real(rp), allocatable :: x0(:, :)      ! (3, n)
+    logical :: any_global = .false.
+    real(rp) :: release_time = 0
+  end type cset_view_t
 
   call lift_release(11, 30.0_rp, 15.0_rp, 7)
   call lift_release(11, 33.0_rp, 15.0_rp, 7)     ! x = 67: nearest column x = 70
@@ -71,6 +84,24 @@ contains
     cfg%scene%initial_omega = 0.0_rp
   end function make_cfg
 
+  !> The contents of the constraint set cs.
+  function view(cs) result(v)
+    type(constraint_set_t), intent(in) :: cs
+    type(cset_view_t) :: v
+    real(rp), allocatable :: kt(:), koff(:, :)
+    integer :: k
+    v%n = constraint_count(cs)
+    allocate(v%node(2, v%n), v%path(v%n), v%x0(3, v%n))
+    do k = 1, v%n
+      call constraint_node(cs, k, v%node(1, k), v%node(2, k))
+      v%path(k) = constraint_path(cs, k)
+      v%x0(:, k) = constraint_base(cs, k)
+    end do
+    call constraint_keyframes(cs, v%nk, kt, koff)
+    v%any_global = constraints_global(cs)
+    v%release_time = constraint_release_time(cs)
+  end function view
+
   !> The whole lattice's state (one strip of all rows) and its constraints.
   subroutine whole(cfg, u, cs)
     type(nuno_config), intent(in) :: cfg
@@ -92,9 +123,11 @@ contains
     character(*), intent(in) :: what
     type(lattice_t) :: lat
     type(constraint_set_t) :: cs
+    type(cset_view_t) :: v, vw
     real(rp), allocatable :: u(:, :, :)
     integer :: cuts(6), s, k, m, found, ntotal
     logical :: same
+    vw = view(csw)
     cuts = [0, 1, 3, 4, cfg%lattice%ny - 2, cfg%lattice%ny]
     same = .true.
     ntotal = 0
@@ -102,27 +135,28 @@ contains
       call lattice_init(lat, cfg, cuts(s), cuts(s + 1) - 1)
       allocate(u(0:5, 0:cfg%lattice%nx - 1, lat%ys:lat%ye))
       call scene_setup(cfg, lat, u, cs)
+      v = view(cs)
       same = same .and. all(u == uw(:, :, lat%ys:lat%ye))
-      call check_true(cs%any_global .eqv. csw%any_global, what//': strips agree on any_global')
-      call check_true(cs%release_time == csw%release_time, what//': strips agree on the release time')
-      do k = 1, cs%n
+      call check_true(v%any_global .eqv. vw%any_global, what//': strips agree on any_global')
+      call check_true(v%release_time == vw%release_time, what//': strips agree on the release time')
+      do k = 1, v%n
         found = 0
-        do m = 1, csw%n
-          if (all(csw%node(:, m) == cs%node(:, k))) then
+        do m = 1, vw%n
+          if (all(vw%node(:, m) == v%node(:, k))) then
             found = found + 1
-            call check_true(csw%path(m) == cs%path(k) .and. all(csw%x0(:, m) == cs%x0(:, k)), &
+            call check_true(vw%path(m) == v%path(k) .and. all(vw%x0(:, m) == v%x0(:, k)), &
                             what//': a strip''s constraint has the whole''s path and base')
           end if
         end do
         call check_true(found == 1, what//': a strip''s constrained node is one of the whole''s')
-        call check_true(cs%node(2, k) >= lat%ys .and. cs%node(2, k) <= lat%ye, &
+        call check_true(v%node(2, k) >= lat%ys .and. v%node(2, k) <= lat%ye, &
                         what//': a strip constrains only its owned rows')
       end do
-      ntotal = ntotal + cs%n
+      ntotal = ntotal + v%n
       deallocate(u)
     end do
     call check_true(same, what//': each strip''s rows are the whole lattice''s')
-    call check_true(ntotal == csw%n, what//': the strips'' constraints add up to the whole''s')
+    call check_true(ntotal == vw%n, what//': the strips'' constraints add up to the whole''s')
   end subroutine strips_agree
 
   !> True when every node of u is at its rest position (i ax, j ay, 0) and at rest.
@@ -167,6 +201,7 @@ contains
     real(rp), intent(in) :: lift_length, lift_height
     type(nuno_config) :: cfg
     type(constraint_set_t) :: cs
+    type(cset_view_t) :: v
     real(rp), allocatable :: u(:, :, :)
     real(rp) :: d(3), angle
     integer :: i, j, k
@@ -178,6 +213,7 @@ contains
     cfg%scene%lift_height = lift_height
     cfg%scene%release_time = 0.75_rp
     call whole(cfg, u, cs)
+    v = view(cs)
 
     ok_flat = .true.
     ok_lifted = .true.
@@ -212,13 +248,13 @@ contains
     end do
 
     ! edge i = 0 pinned, nothing else; release at release_time
-    call check_true(cs%n == n .and. cs%any_global, trim(what)//': n constraints')
-    do k = 1, cs%n
-      call check_true(cs%node(1, k) == 0 .and. cs%path(k) == PATH_FIXED .and. &
-                      all(cs%x0(:, k) == u(0:2, 0, cs%node(2, k))), trim(what)//': edge i = 0 pinned where it lies')
+    call check_true(v%n == n .and. v%any_global, trim(what)//': n constraints')
+    do k = 1, v%n
+      call check_true(v%node(1, k) == 0 .and. v%path(k) == PATH_FIXED .and. &
+                      all(v%x0(:, k) == u(0:2, 0, v%node(2, k))), trim(what)//': edge i = 0 pinned where it lies')
     end do
-    call check_true(count([(any(cs%node(2, 1:cs%n) == j), j = 0, n - 1)]) == n, trim(what)//': every row of edge i = 0')
-    call check_true(cs%release_time == 0.75_rp .and. cs%nk == 0, trim(what)//': released at release_time, no path')
+    call check_true(count([(any(v%node(2, 1:v%n) == j), j = 0, n - 1)]) == n, trim(what)//': every row of edge i = 0')
+    call check_true(v%release_time == 0.75_rp .and. v%nk == 0, trim(what)//': released at release_time, no path')
     call strips_agree(cfg, u, cs, trim(what))
   end subroutine lift_release
 
@@ -228,6 +264,7 @@ contains
     real(rp), intent(in) :: bend_angle
     type(nuno_config) :: cfg
     type(constraint_set_t) :: cs
+    type(cset_view_t) :: v
     real(rp), allocatable :: u(:, :, :)
     real(rp) :: r, c(3), th, arc, a0(3), a1(3)
     integer :: i, j
@@ -238,6 +275,7 @@ contains
     cfg%scene%bend_angle = bend_angle
     cfg%scene%release_time = 0.5_rp      ! nothing constrained: never released
     call whole(cfg, u, cs)
+    v = view(cs)
     r = cfg%lattice%lx / (bend_angle * pi / 180.0_rp)
     ok_r = .true.
     ok_y = .true.
@@ -277,7 +315,7 @@ contains
     call check_true(ok_y, trim(what)//': y unchanged')
     call check_true(ok_sym, trim(what)//': symmetric about x = lx/2')
     call check_true(all(u(3:5, :, :) == 0.0_rp), trim(what)//': at rest')
-    call check_true(cs%n == 0 .and. .not. cs%any_global .and. cs%release_time == huge(1.0_rp), &
+    call check_true(v%n == 0 .and. .not. v%any_global .and. v%release_time == huge(1.0_rp), &
                     trim(what)//': nothing constrained, no release')
     call strips_agree(cfg, u, cs, trim(what))
   end subroutine bend_release
@@ -287,6 +325,7 @@ contains
     character(*), intent(in) :: nodes
     type(nuno_config) :: cfg
     type(constraint_set_t) :: cs
+    type(cset_view_t) :: v
     real(rp), allocatable :: u(:, :, :)
     real(rp) :: xb(3), vb(3), x0(3)
     integer :: k, w, m
@@ -305,16 +344,17 @@ contains
     cfg%scene%keyframe_time(4) = 9.0_rp        ! beyond n_keyframes: not used
     cfg%scene%keyframe_dz(4) = 99.0_rp
     call whole(cfg, u, cs)
+    v = view(cs)
     call check_true(flat_at_rest(cfg, u), trim(what)//': flat and at rest')
-    call check_true(cs%any_global .and. cs%nk == 3, trim(what)//': constrained, three keyframes')
+    call check_true(v%any_global .and. v%nk == 3, trim(what)//': constrained, three keyframes')
     if (nodes == 'corner') then
-      call check_true(cs%n == 1, trim(what)//': one node')
-      call check_true(all(cs%node(:, 1) == [0, 0]), trim(what)//': the corner (0, 0)')
+      call check_true(v%n == 1, trim(what)//': one node')
+      call check_true(all(v%node(:, 1) == [0, 0]), trim(what)//': the corner (0, 0)')
     else
-      call check_true(cs%n == cfg%lattice%ny, trim(what)//': every node of edge i = 0')
-      call check_true(all(cs%node(1, 1:cs%n) == 0), trim(what)//': edge i = 0')
+      call check_true(v%n == cfg%lattice%ny, trim(what)//': every node of edge i = 0')
+      call check_true(all(v%node(1, 1:v%n) == 0), trim(what)//': edge i = 0')
     end if
-    call check_true(all(cs%path(1:cs%n) == PATH_KEYFRAMES), trim(what)//': on the keyframe path')
+    call check_true(all(v%path(1:v%n) == PATH_KEYFRAMES), trim(what)//': on the keyframe path')
     ! the path: z linear to -10 at 0.5, then to +15 at 1.0, then held; x, y at rest
     do w = 1, 4
       call constraints_set_window(cs, tw(1, w), tw(2, w))
@@ -330,8 +370,8 @@ contains
           zexp = 15.0_rp
           vexp = 0.0_rp
         end if
-        do k = 1, cs%n
-          x0 = [0.0_rp, cs%node(2, k) * cfg%lattice%ay, 0.0_rp]
+        do k = 1, v%n
+          x0 = [0.0_rp, v%node(2, k) * cfg%lattice%ay, 0.0_rp]
           call constraint_target(cs, k, t, xb, vb)
           call check_close_array(xb, x0 + [0.0_rp, 0.0_rp, zexp], 1.0e-14_rp, 1.0e-13_rp, &
                                  trim(what)//': prescribed position')
@@ -347,6 +387,7 @@ contains
   subroutine hang()
     type(nuno_config) :: cfg
     type(constraint_set_t) :: cs
+    type(cset_view_t) :: v
     real(rp), allocatable :: u(:, :, :)
     type(lattice_t) :: lat
     integer :: a, b
@@ -354,21 +395,22 @@ contains
     cfg%material%bending_code = BEND_ENERGY
     cfg%lattice%mass_code = MASS_AREA
     call whole(cfg, u, cs)
+    v = view(cs)
     call check_true(flat_at_rest(cfg, u), 'hang: flat and at rest')
     call check_close(maxval(u(0, :, :)) - minval(u(0, :, :)), 1.0_rp, 1.0e-14_rp, 0.0_rp, 'hang: 1 m along x')
     call check_close(maxval(u(1, :, :)) - minval(u(1, :, :)), 1.0_rp, 1.0e-14_rp, 0.0_rp, 'hang: 1 m along y')
     call lattice_init(lat, cfg, 0, cfg%lattice%ny - 1)
     call check_close(sum(lat%mass), 0.1_rp, 1.0e-14_rp, 0.0_rp, 'hang: 0.1 kg')
-    call check_true(cs%n == 2 .and. cs%any_global .and. cs%nk == 0, 'hang: two pinned nodes')
-    a = findloc(cs%node(1, 1:2), 0, dim=1)
-    b = findloc(cs%node(1, 1:2), 20, dim=1)
-    call check_true(a > 0 .and. b > 0 .and. all(cs%node(2, 1:2) == 20), 'hang: the corners of edge j = ny-1')
-    call check_true(all(cs%path(1:2) == PATH_FIXED), 'hang: pinned')
+    call check_true(v%n == 2 .and. v%any_global .and. v%nk == 0, 'hang: two pinned nodes')
+    a = findloc(v%node(1, 1:2), 0, dim=1)
+    b = findloc(v%node(1, 1:2), 20, dim=1)
+    call check_true(a > 0 .and. b > 0 .and. all(v%node(2, 1:2) == 20), 'hang: the corners of edge j = ny-1')
+    call check_true(all(v%path(1:2) == PATH_FIXED), 'hang: pinned')
     if (a > 0 .and. b > 0) then
-      call check_close_array(cs%x0(:, a), [0.0_rp, 1.0_rp, 0.0_rp], 0.0_rp, 1.0e-14_rp, 'hang: corner (0, ny-1) at (0, 1, 0)')
-      call check_close_array(cs%x0(:, b), [1.0_rp, 1.0_rp, 0.0_rp], 0.0_rp, 1.0e-14_rp, 'hang: corner (nx-1, ny-1) at (1, 1, 0)')
+      call check_close_array(v%x0(:, a), [0.0_rp, 1.0_rp, 0.0_rp], 0.0_rp, 1.0e-14_rp, 'hang: corner (0, ny-1) at (0, 1, 0)')
+      call check_close_array(v%x0(:, b), [1.0_rp, 1.0_rp, 0.0_rp], 0.0_rp, 1.0e-14_rp, 'hang: corner (nx-1, ny-1) at (1, 1, 0)')
     end if
-    call check_true(cs%release_time == huge(1.0_rp), 'hang: never released by default')
+    call check_true(v%release_time == huge(1.0_rp), 'hang: never released by default')
     call strips_agree(cfg, u, cs, 'hang')
   end subroutine hang
 
@@ -376,12 +418,14 @@ contains
   subroutine flat()
     type(nuno_config) :: cfg
     type(constraint_set_t) :: cs
+    type(cset_view_t) :: v
     real(rp), allocatable :: u(:, :, :)
     cfg = make_cfg(SCENE_FLAT, 9, 2.0_rp, 1.0_rp)
     cfg%scene%release_time = 1.0_rp
     call whole(cfg, u, cs)
+    v = view(cs)
     call check_true(flat_at_rest(cfg, u), 'flat: flat and at rest')
-    call check_true(cs%n == 0 .and. .not. cs%any_global .and. cs%release_time == huge(1.0_rp), &
+    call check_true(v%n == 0 .and. .not. v%any_global .and. v%release_time == huge(1.0_rp), &
                     'flat: nothing constrained, no release')
     call strips_agree(cfg, u, cs, 'flat')
   end subroutine flat
