@@ -15,7 +15,7 @@ module input
   use config, only: nuno_config, keyframe_max, unset_real, &
                     BEND_NONE, BEND_PAPER, BEND_ENERGY, SCENE_WAVE_POINT, SCENE_HANG, SCENE_LIFT_RELEASE
   use input_text, only: assignment_t, lex_overrides, value_error, next_assignment, lower, &
-                        strip_commas, overrides_record, key_default, namelist_value
+                        strip_commas, overrides_record, key_default, namelist_value, assignment_lhs
   use strings, only: real_short
   use input_keys, only: keys, n_keys, n_groups, group_names, KEY_REAL, G_LATTICE, G_MATERIAL, G_SCENE, G_TIME, G_OUTPUT, &
                         G_IDENTIFY, G_CONTROL, G_CONTACT
@@ -277,12 +277,7 @@ contains
   function assignment_key(a) result(key)
     character(*), intent(in) :: a
     character(:), allocatable :: key
-    integer :: k, e
-    key = ''
-    e = index(a, '=')
-    do k = 1, e - 1
-      if (a(k:k) /= ' ') key = key//lower(a(k:k))
-    end do
+    key = assignment_lhs(a)
     if (len(key) >= 10) then
       if (key(1:10) == 'scene_name') key = 'scene'//key(11:)
     end if

@@ -12,7 +12,7 @@ module input_checks
                     SCENE_LIFT_RELEASE, SCENE_BEND_RELEASE, SCENE_WAVE_POINT, SCENE_HANG, &
                     n_fit_kinds, fit_kind_names
   use input_keys, only: keys, key_index
-  use input_text, only: lower
+  use input_text, only: lower, item_end
   use strings, only: real_short
   implicit none
   private
@@ -308,8 +308,7 @@ contains
       return
     end if
     do while (len(rest) > 0)
-      p = index(rest, ',')
-      if (p == 0) p = len(rest) + 1
+      p = item_end(rest, 1, ',')
       name = trim(adjustl(rest(1:p - 1)))
       rest = trim(adjustl(rest(min(p + 1, len(rest) + 1):)))
       code = 0
@@ -480,12 +479,7 @@ contains
     n = 0
     p = 1
     do while (p <= len(allowed))
-      q = index(allowed(p:), ',')
-      if (q == 0) then
-        q = len(allowed) + 1
-      else
-        q = p + q - 1
-      end if
+      q = item_end(allowed, p, ',')
       n = n + 1
       if (trim(adjustl(allowed(p:q - 1))) == trim(value)) then
         code = n
