@@ -6,6 +6,7 @@
 module input_scan
   use input_keys, only: n_groups, group_names, G_SCENE
   use input_text, only: lower, is_name_char
+  use strings, only: itoa
   implicit none
   private
   public :: parsed_text, scan_text, group_index
@@ -19,8 +20,11 @@ module input_scan
     character(:), allocatable :: body(:)
   end type parsed_text
 
-  !> Where scan_text is in the text, and what it has made of it so far.
+  !> scan_text's walk through the text: where it is, what it has made of
+  !> the text so far, and its refusal.
   type :: scanner
+    character(:), allocatable :: text     !< the input file
+    integer :: i = 1                      !< the character at hand, text(i:i)
     character(:), allocatable :: clean    !< the text for the reader, line feeds kept
     integer :: nc = 0                     !< characters of clean in use
     character(:), allocatable :: bodies   !< group g's body at (g-1)*cap + 1 ...
@@ -33,6 +37,7 @@ module input_scan
     integer :: group_start_line = 0       !< the line of the current group's &name
     logical :: in_comment = .false.
     character(1) :: quote = ' '           !< the open string's quote; ' ': none (only tracked in groups)
+    character(:), allocatable :: refusal  !< why the text is refused; '' while it is not
   end type scanner
 
 contains
@@ -48,27 +53,20 @@ contains
     integer, intent(out) :: ierr
     character(*), intent(out) :: msg
     type(scanner) :: s
-    integer :: i, g
+    integer :: g
 
-    ierr = 0
-    msg = ''
     call scanner_init(s, text)
-    i = s%first
-    do while (i <= len(text))
-      call scan_at(s, text, i, ierr, msg)
-      if (ierr /= 0) return
+    do while (s%i <= len(text) .and. len(s%refusal) == 0)
+      call scan_at(s)
     end do
-    ierr = 1
-    if (s%quote /= ' ') then
-      msg = 'input: &'//trim(group_names(s%cur))//': unterminated string'
-      return
+    if (len(s%refusal) == 0 .and. s%quote /= ' ') then
+      s%refusal = 'input: &'//trim(group_names(s%cur))//': unterminated string'
+    else if (len(s%refusal) == 0 .and. s%cur > 0) then
+      s%refusal = 'input: &'//trim(group_names(s%cur))//' (line '//itoa(s%group_start_line)//') has no closing /'
     end if
-    if (s%cur > 0) then
-      write(msg, '(a,i0,a)') 'input: &'//trim(group_names(s%cur))//' (line ', s%group_start_line, &
-        ') has no closing /'
-      return
-    end if
-    ierr = 0
+    ierr = merge(1, 0, len(s%refusal) > 0)
+    msg = s%refusal
+    if (ierr /= 0) return
     pt%count = s%count
     call split_lines(s%clean(1:s%nc), pt%lines)
     allocate(character(max(1, maxval(s%blen))) :: pt%body(n_groups))
@@ -83,6 +81,8 @@ contains
   subroutine scanner_init(s, text)
     type(scanner), intent(out) :: s
     character(*), intent(in) :: text
+    s%text = text
+    s%refusal = ''
     ! Every rename adds 5 characters to a key of at least 6 (with its '='): room enough.
     s%cap = 2*len(text) + 16
     allocate(character(s%cap) :: s%clean)
@@ -91,103 +91,89 @@ contains
     if (len(text) >= 3) then
       if (ichar(text(1:1)) == 239 .and. ichar(text(2:2)) == 187 .and. ichar(text(3:3)) == 191) s%first = 4
     end if
+    s%i = s%first
   end subroutine scanner_init
 
-  !> The character at text(i:): line ends, comments and strings first, then
-  !> by whether the scan is in a group; i moves past what it took.
-  subroutine scan_at(s, text, i, ierr, msg)
+  !> The character at hand: line ends, comments and strings first, then by
+  !> whether the scan is in a group; the scan moves past what it took.
+  subroutine scan_at(s)
     type(scanner), intent(inout) :: s
-    character(*), intent(in) :: text
-    integer, intent(inout) :: i
-    integer, intent(out) :: ierr
-    character(*), intent(inout) :: msg
     character(1) :: c
 
-    ierr = 0
-    c = text(i:i)
+    c = s%text(s%i:s%i)
     if (c == achar(13) .or. c == achar(9)) c = ' '
     if (c == achar(10)) then
       call emit(s, achar(10))
       s%in_comment = .false.
       s%line_no = s%line_no + 1
       call add_body(s, ' ')
-      i = i + 1
+      s%i = s%i + 1
     else if (s%in_comment) then
-      i = i + 1
+      s%i = s%i + 1
     else if (s%quote /= ' ') then
       ! Inside a string: copy; a doubled quote reopens at once.
       call emit(s, c)
       call add_body(s, c)
       if (c == s%quote) s%quote = ' '
-      i = i + 1
+      s%i = s%i + 1
     else if (c == '!') then
       s%in_comment = .true.
-      i = i + 1
+      s%i = s%i + 1
     else if (s%cur == 0) then
-      call scan_outside(s, text, c, i, ierr, msg)
+      call scan_outside(s, c)
     else
-      call scan_inside(s, text, c, i, ierr, msg)
+      call scan_inside(s, c)
     end if
   end subroutine scan_at
 
   !> Outside a group: a group starts with &name (or $name) at the start of
   !> a line or after a blank; anything else but blanks is refused, so that a
   !> truncated, misspelt or wrong file does not run the defaults silently.
-  subroutine scan_outside(s, text, c, i, ierr, msg)
+  subroutine scan_outside(s, c)
     type(scanner), intent(inout) :: s
-    character(*), intent(in) :: text
     character(1), intent(in) :: c
-    integer, intent(inout) :: i
-    integer, intent(out) :: ierr
-    character(*), intent(inout) :: msg
-    character(64) :: name
     logical :: at_word_start
+    character(64) :: name
     integer :: k
 
-    ierr = 0
-    at_word_start = i == s%first
-    if (i > s%first) at_word_start = index(' /'//achar(9)//achar(10)//achar(13), text(i - 1:i - 1)) > 0
+    at_word_start = s%i == s%first
+    if (s%i > s%first) at_word_start = index(' /'//achar(9)//achar(10)//achar(13), s%text(s%i - 1:s%i - 1)) > 0
     if ((c == '&' .or. c == '$') .and. at_word_start) then
-      call get_name(text, i + 1, name, k)
+      call get_name(s%text, s%i + 1, name, k)
       if (len_trim(name) > 0 .and. .not. (name(1:1) >= '0' .and. name(1:1) <= '9')) then
-        call open_group(s, name, ierr, msg)
-        i = k
+        call open_group(s, name)
+        s%i = k
         return
       end if
     end if
     if (c /= ' ') then
-      ierr = 1
-      k = min(len(text), i + 23)
-      if (index(text(i:k), achar(10)) > 0) k = i + index(text(i:k), achar(10)) - 2
-      write(msg, '(a,i0,a)') 'input: line ', s%line_no, ": text outside a namelist group: '"// &
-        trim(printable(text(i:k)))//"' (only &group ... / and ! comments are allowed)"
+      k = min(len(s%text), s%i + 23)
+      if (index(s%text(s%i:k), achar(10)) > 0) k = s%i + index(s%text(s%i:k), achar(10)) - 2
+      s%refusal = 'input: line '//itoa(s%line_no)//": text outside a namelist group: '"// &
+        trim(printable(s%text(s%i:k)))//"' (only &group ... / and ! comments are allowed)"
       return
     end if
-    i = i + 1
+    s%i = s%i + 1
   end subroutine scan_outside
 
   !> &name starts group `name`: a known group, not seen before.
-  subroutine open_group(s, name, ierr, msg)
+  subroutine open_group(s, name)
     type(scanner), intent(inout) :: s
     character(*), intent(in) :: name
-    integer, intent(out) :: ierr
-    character(*), intent(inout) :: msg
     integer :: g
 
-    ierr = 1
     g = group_index(name)
     if (g == 0) then
-      write(msg, '(a,i0,a)') 'input: line ', s%line_no, ': unknown namelist group &'//trim(name)// &
+      s%refusal = 'input: line '//itoa(s%line_no)//': unknown namelist group &'//trim(name)// &
         ' (groups: &lattice, &material, &scene, &time, &output, &identify, &control)'
       return
     end if
     s%count(g) = s%count(g) + 1
     if (s%count(g) > 1) then
-      write(msg, '(a,i0,a)') 'input: &'//trim(group_names(g))//' appears again at line ', &
-        s%line_no, ': each group may appear at most once'
+      s%refusal = 'input: &'//trim(group_names(g))//' appears again at line '//itoa(s%line_no)// &
+        ': each group may appear at most once'
       return
     end if
-    ierr = 0
     s%cur = g
     s%group_start_line = s%line_no
     call emit(s, '&'//trim(group_names(g))//' ')
@@ -196,49 +182,43 @@ contains
   !> Inside a group: '/' (or the old-style &end) closes it, another & or $
   !> is a group left open; the key `scene` of &scene is renamed; the rest is
   !> copied to the reader's text and the group's body.
-  subroutine scan_inside(s, text, c, i, ierr, msg)
+  subroutine scan_inside(s, c)
     type(scanner), intent(inout) :: s
-    character(*), intent(in) :: text
     character(1), intent(in) :: c
-    integer, intent(inout) :: i
-    integer, intent(out) :: ierr
-    character(*), intent(inout) :: msg
     character(64) :: name
     integer :: k
 
-    ierr = 0
     if (c == '/') then
       call emit(s, '/')
       s%cur = 0
-      i = i + 1
+      s%i = s%i + 1
     else if (c == '&' .or. c == '$') then
-      call get_name(text, i + 1, name, k)
+      call get_name(s%text, s%i + 1, name, k)
       if (trim(name) /= 'end') then
-        ierr = 1
-        write(msg, '(a,i0,a,i0)') 'input: &'//trim(group_names(s%cur))//' (line ', s%group_start_line, &
-          ') has no closing / before the '//c//' at line ', s%line_no
+        s%refusal = 'input: &'//trim(group_names(s%cur))//' (line '//itoa(s%group_start_line)// &
+          ') has no closing / before the '//c//' at line '//itoa(s%line_no)
         return
       end if
       ! Old-style terminator &end: hand the reader a plain '/'.
       call emit(s, '/')
       s%cur = 0
-      i = k
+      s%i = k
     else if (s%cur == G_SCENE .and. is_name_char(c)) then
       ! A whole name: copy it at once, renaming the key `scene`.
-      call get_name(text, i, name, k)
-      if (trim(name) == 'scene' .and. followed_by_equals(text, k)) then
+      call get_name(s%text, s%i, name, k)
+      if (trim(name) == 'scene' .and. followed_by_equals(s%text, k)) then
         call emit(s, 'scene_name')
         call add_body(s, 'scene_name')
       else
-        call emit(s, text(i:k - 1))
-        call add_body(s, text(i:k - 1))
+        call emit(s, s%text(s%i:k - 1))
+        call add_body(s, s%text(s%i:k - 1))
       end if
-      i = k
+      s%i = k
     else
       if (c == "'" .or. c == '"') s%quote = c
       call emit(s, c)
       call add_body(s, c)
-      i = i + 1
+      s%i = s%i + 1
     end if
   end subroutine scan_inside
 
