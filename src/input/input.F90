@@ -22,7 +22,7 @@ module input
   use input_scan, only: parsed_text, scan_text, group_index
   use input_namelist, only: namelist_read, namelist_write
   use input_checks, only: derive_codes, resolve_unset, validate, check_choice, &
-                          choices, check_lattice_size, check_lattice_extent
+                          choices, check_lattice
   use input_resources, only: input_check_run
   implicit none
   private
@@ -158,8 +158,7 @@ contains
     ! 4. Choices to codes, lattice spacing, keys left unset, then the checks.
     call derive_codes(cfg, ierr, msg);        if (ierr /= 0) goto 900
     call check_finite_keys(cfg, ierr, msg);   if (ierr /= 0) goto 900
-    call check_lattice_size(cfg, ierr, msg);  if (ierr /= 0) goto 900
-    call check_lattice_extent(cfg, ierr, msg); if (ierr /= 0) goto 900
+    call check_lattice(cfg, ierr, msg);       if (ierr /= 0) goto 900
     cfg%lattice%ax = cfg%lattice%lx/real(cfg%lattice%nx - 1, rp)
     cfg%lattice%ay = cfg%lattice%ly/real(cfg%lattice%ny - 1, rp)
     call resolve_unset(cfg, ierr, msg);       if (ierr /= 0) goto 900
