@@ -37,14 +37,16 @@ contains
   ! Reading and broadcasting
   ! ==========================================================================
 
-  !> Read the namelist file `path` on rank 0, broadcast it, parse it on every rank.
-  subroutine input_read(path, comm, cfg, ierr, errmsg, overrides)
+  !> Read the namelist file `path` on rank 0, broadcast it, parse it on
+  !> every rank with the n_set -nuno_set options of `overrides` over it.
+  subroutine input_read(path, comm, overrides, n_set, cfg, ierr, errmsg)
     character(*), intent(in) :: path          !< input file name
     integer, intent(in) :: comm               !< MPI communicator of the run
+    character(*), intent(in) :: overrides     !< -nuno_set: key=value,... over the file (options joined by line feeds)
+    integer, intent(in) :: n_set              !< how many -nuno_set options overrides holds; 0: none, overrides unread
     type(nuno_config), intent(out) :: cfg     !< the complete, checked configuration
     integer, intent(out) :: ierr              !< 0: fine; else errmsg says why (same on all ranks)
     character(*), intent(out) :: errmsg       !< one-line message; blank when ierr = 0
-    character(*), intent(in), optional :: overrides !< -nuno_set: key=value,... over the file
     character(:), allocatable :: text
     character(msg_len) :: iomsg
     integer :: rank, mpierr, u, ios, nbytes, hdr(2)
@@ -83,17 +85,28 @@ contains
       errmsg = "input: cannot open input file '"//trim(path)//"' ("//text//")"
       return
     end if
-    call input_parse(text, cfg, ierr, errmsg, overrides)
+    call parse_text(text, overrides, n_set, cfg, ierr, errmsg)
   end subroutine input_read
 
-  !> Parse namelist text (no MPI): scene, scene defaults, groups, derived values, checks.
-  !> Public so that tests and tools can build a configuration from a string.
-  subroutine input_parse(text, cfg, ierr, errmsg, overrides)
+  !> Parse namelist text (no MPI, no -nuno_set): a configuration from a
+  !> string, for tests and tools.
+  subroutine input_parse(text, cfg, ierr, errmsg)
     character(*), intent(in) :: text           !< the whole namelist file
     type(nuno_config), intent(out) :: cfg
     integer, intent(out) :: ierr
     character(*), intent(out) :: errmsg
-    character(*), intent(in), optional :: overrides !< -nuno_set: key=value,... read after the file
+    call parse_text(text, '', 0, cfg, ierr, errmsg)
+  end subroutine input_parse
+
+  !> Parse namelist text (no MPI): scene, scene defaults, groups, the n_set
+  !> -nuno_set options of `overrides`, derived values, checks.
+  subroutine parse_text(text, overrides, n_set, cfg, ierr, errmsg)
+    character(*), intent(in) :: text           !< the whole namelist file
+    character(*), intent(in) :: overrides      !< -nuno_set: key=value,... read after the file
+    integer, intent(in) :: n_set               !< how many -nuno_set options overrides holds; 0: none
+    type(nuno_config), intent(out) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: errmsg
     type(parsed_text) :: pt
     type(nuno_config) :: first
     character(msg_len) :: msg
@@ -119,7 +132,7 @@ contains
     ! 1. The scene name alone, read over the plain defaults.
     call read_group(G_SCENE, pt, first, ierr, msg)
     if (ierr /= 0) goto 900
-    if (present(overrides)) then
+    if (n_set > 0) then
       call apply_overrides(overrides, first, .true., ierr, msg)
       if (ierr /= 0) goto 900
     end if
@@ -146,7 +159,7 @@ contains
     cfg%identify%active = pt%count(G_IDENTIFY) > 0
     cfg%control%active = pt%count(G_CONTROL) > 0
     cfg%namelist_text = text
-    if (present(overrides)) then
+    if (n_set > 0) then
       ! Command-line keys win over the file's; they are recorded with it.
       call apply_overrides(overrides, cfg, .false., ierr, msg)
       if (ierr /= 0) goto 900
@@ -167,7 +180,7 @@ contains
     call validate(cfg, ierr, msg)
 
 900 if (ierr /= 0) errmsg = trim(msg)
-  end subroutine input_parse
+  end subroutine parse_text
 
   ! ==========================================================================
   ! Namelist groups
@@ -444,10 +457,11 @@ contains
   ! ==========================================================================
 
   !> Write a few lines that describe the run (call on one rank).
-  subroutine input_summary(cfg, unit, ts_dt, ts_max_time)
+  subroutine input_summary(cfg, unit, ts_dt, ts_dt_set, ts_max_time, ts_max_time_set)
     type(nuno_config), intent(in) :: cfg
     integer, intent(in) :: unit
-    real(rp), intent(in), optional :: ts_dt, ts_max_time   !< -ts_dt, -ts_max_time when given: they win
+    real(rp), intent(in) :: ts_dt, ts_max_time         !< -ts_dt, -ts_max_time [time]: they win where given
+    logical, intent(in) :: ts_dt_set, ts_max_time_set  !< whether -ts_dt, -ts_max_time are given
     character(256) :: terms, cons
     character(len=:), allocatable :: tline
     write(unit, '(a)') 'scene     : '//trim(cfg%scene%name)
@@ -488,12 +502,12 @@ contains
       cons = trim(cons)//', released at t = '//real_short(cfg%scene%release_time)
     write(unit, '(a)') 'constraint: '//trim(cons)
     ! The values the run uses: an option over the namelist says so.
-    if (present(ts_max_time)) then
+    if (ts_max_time_set) then
       tline = 'time      : t_end = '//real_short(ts_max_time)//' (-ts_max_time; namelist '//real_short(cfg%time%t_end)//')'
     else
       tline = 'time      : t_end = '//real_short(cfg%time%t_end)
     end if
-    if (present(ts_dt)) then
+    if (ts_dt_set) then
       tline = tline//', dt = '//real_short(ts_dt)//' (-ts_dt; namelist '//real_short(cfg%time%dt)//')'
     else
       tline = tline//', dt = '//real_short(cfg%time%dt)
