@@ -109,11 +109,7 @@ program nuno
       n_set = 1
     end if
   end if
-  if (n_set > 0) then
-    call input_read(trim(path), PETSC_COMM_WORLD, cfg, ierr, errmsg, overrides)
-  else
-    call input_read(trim(path), PETSC_COMM_WORLD, cfg, ierr, errmsg)
-  end if
+  call input_read(trim(path), PETSC_COMM_WORLD, overrides, n_set, cfg, ierr, errmsg)
   if (ierr /= 0) call fatal_collective(errmsg)
   call apply_namelist_options(cfg%output%petsc_options, ierr, errmsg)
   if (ierr /= 0) call fatal_collective(errmsg)
@@ -123,13 +119,8 @@ program nuno
                           bad_option, ierr)
   if (ierr /= 0) call fatal_local('could not read the -nuno_allow_long, -nuno_restart or -nuno_checkpoint_walltime option')
   if (len_trim(bad_option) > 0) call fatal_collective(trim(bad_option))
-  if (ts_dt_set) then
-    call input_check_run(cfg, PETSC_COMM_WORLD, allow_long, min(int(huge(pint), int64), int(huge(0), int64)), &
-                         ierr, errmsg, ts_dt=ts_dt)
-  else
-    call input_check_run(cfg, PETSC_COMM_WORLD, allow_long, min(int(huge(pint), int64), int(huge(0), int64)), &
-                         ierr, errmsg)
-  end if
+  call input_check_run(cfg, PETSC_COMM_WORLD, allow_long, min(int(huge(pint), int64), int(huge(0), int64)), &
+                       ts_dt, ts_dt_set, ierr, errmsg)
   if (ierr /= 0) call fatal_collective(errmsg)
   ierr = nuno_file_options_read(int(PETSC_COMM_WORLD, c_int), overwrite)
   if (ierr /= 0) call fatal_local('could not read the -nuno_overwrite option')
@@ -158,15 +149,7 @@ program nuno
   if (rank == 0) then
     write(*, '(a,i0,a)') 'nuno '//nuno_version//' on ', nranks, ' rank(s): '//trim(path)
     call PetscOptionsGetReal(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-ts_max_time', ts_max_time, have_max_time, ierr)
-    if (ts_dt_set .and. have_max_time) then
-      call input_summary(cfg, 6, ts_dt=ts_dt, ts_max_time=ts_max_time)
-    else if (ts_dt_set) then
-      call input_summary(cfg, 6, ts_dt=ts_dt)
-    else if (have_max_time) then
-      call input_summary(cfg, 6, ts_max_time=ts_max_time)
-    else
-      call input_summary(cfg, 6)
-    end if
+    call input_summary(cfg, 6, ts_dt, ts_dt_set, ts_max_time, have_max_time)
   end if
 
   ! 3. Lattice strips, scene, Jacobian, TS. A PETSc error here may have been

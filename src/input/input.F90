@@ -12,17 +12,17 @@
 module input
   use mpi
   use kinds, only: rp
-  use config, only: nuno_config, keyframe_max, label_len, path_len, unset_real, &
-                    BEND_NONE, BEND_PAPER, BEND_ENERGY, SCENE_WAVE_POINT, SCENE_HANG, SCENE_LIFT_RELEASE, &
-                    n_fit_kinds, obstacle_max, obstacle_keyframe_max
+  use config, only: nuno_config, keyframe_max, unset_real, &
+                    BEND_NONE, BEND_PAPER, BEND_ENERGY, SCENE_WAVE_POINT, SCENE_HANG, SCENE_LIFT_RELEASE
   use input_text, only: assignment_t, lex_overrides, value_error, next_assignment, lower, &
-                        strip_commas, overrides_record, key_default, namelist_value
+                        strip_commas, overrides_record, key_default, namelist_value, assignment_lhs
   use strings, only: real_short
   use input_keys, only: keys, n_keys, n_groups, group_names, KEY_REAL, G_LATTICE, G_MATERIAL, G_SCENE, G_TIME, G_OUTPUT, &
                         G_IDENTIFY, G_CONTROL, G_CONTACT
   use input_scan, only: parsed_text, scan_text, group_index
+  use input_namelist, only: namelist_read, namelist_write
   use input_checks, only: derive_codes, resolve_unset, validate, check_choice, &
-                          choices, check_lattice_size, check_lattice_extent
+                          choices, check_lattice
   use input_resources, only: input_check_run
   implicit none
   private
@@ -37,14 +37,16 @@ contains
   ! Reading and broadcasting
   ! ==========================================================================
 
-  !> Read the namelist file `path` on rank 0, broadcast it, parse it on every rank.
-  subroutine input_read(path, comm, cfg, ierr, errmsg, overrides)
+  !> Read the namelist file `path` on rank 0, broadcast it, parse it on
+  !> every rank with the n_set -nuno_set options of `overrides` over it.
+  subroutine input_read(path, comm, overrides, n_set, cfg, ierr, errmsg)
     character(*), intent(in) :: path          !< input file name
     integer, intent(in) :: comm               !< MPI communicator of the run
+    character(*), intent(in) :: overrides     !< -nuno_set: key=value,... over the file (options joined by line feeds)
+    integer, intent(in) :: n_set              !< how many -nuno_set options overrides holds; 0: none, overrides unread
     type(nuno_config), intent(out) :: cfg     !< the complete, checked configuration
     integer, intent(out) :: ierr              !< 0: fine; else errmsg says why (same on all ranks)
     character(*), intent(out) :: errmsg       !< one-line message; blank when ierr = 0
-    character(*), intent(in), optional :: overrides !< -nuno_set: key=value,... over the file
     character(:), allocatable :: text
     character(msg_len) :: iomsg
     integer :: rank, mpierr, u, ios, nbytes, hdr(2)
@@ -83,17 +85,28 @@ contains
       errmsg = "input: cannot open input file '"//trim(path)//"' ("//text//")"
       return
     end if
-    call input_parse(text, cfg, ierr, errmsg, overrides)
+    call parse_text(text, overrides, n_set, cfg, ierr, errmsg)
   end subroutine input_read
 
-  !> Parse namelist text (no MPI): scene, scene defaults, groups, derived values, checks.
-  !> Public so that tests and tools can build a configuration from a string.
-  subroutine input_parse(text, cfg, ierr, errmsg, overrides)
+  !> Parse namelist text (no MPI, no -nuno_set): a configuration from a
+  !> string, for tests and tools.
+  subroutine input_parse(text, cfg, ierr, errmsg)
     character(*), intent(in) :: text           !< the whole namelist file
     type(nuno_config), intent(out) :: cfg
     integer, intent(out) :: ierr
     character(*), intent(out) :: errmsg
-    character(*), intent(in), optional :: overrides !< -nuno_set: key=value,... read after the file
+    call parse_text(text, '', 0, cfg, ierr, errmsg)
+  end subroutine input_parse
+
+  !> Parse namelist text (no MPI): scene, scene defaults, groups, the n_set
+  !> -nuno_set options of `overrides`, derived values, checks.
+  subroutine parse_text(text, overrides, n_set, cfg, ierr, errmsg)
+    character(*), intent(in) :: text           !< the whole namelist file
+    character(*), intent(in) :: overrides      !< -nuno_set: key=value,... read after the file
+    integer, intent(in) :: n_set               !< how many -nuno_set options overrides holds; 0: none
+    type(nuno_config), intent(out) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: errmsg
     type(parsed_text) :: pt
     type(nuno_config) :: first
     character(msg_len) :: msg
@@ -119,7 +132,7 @@ contains
     ! 1. The scene name alone, read over the plain defaults.
     call read_group(G_SCENE, pt, first, ierr, msg)
     if (ierr /= 0) goto 900
-    if (present(overrides)) then
+    if (n_set > 0) then
       call apply_overrides(overrides, first, .true., ierr, msg)
       if (ierr /= 0) goto 900
     end if
@@ -146,7 +159,7 @@ contains
     cfg%identify%active = pt%count(G_IDENTIFY) > 0
     cfg%control%active = pt%count(G_CONTROL) > 0
     cfg%namelist_text = text
-    if (present(overrides)) then
+    if (n_set > 0) then
       ! Command-line keys win over the file's; they are recorded with it.
       call apply_overrides(overrides, cfg, .false., ierr, msg)
       if (ierr /= 0) goto 900
@@ -158,8 +171,7 @@ contains
     ! 4. Choices to codes, lattice spacing, keys left unset, then the checks.
     call derive_codes(cfg, ierr, msg);        if (ierr /= 0) goto 900
     call check_finite_keys(cfg, ierr, msg);   if (ierr /= 0) goto 900
-    call check_lattice_size(cfg, ierr, msg);  if (ierr /= 0) goto 900
-    call check_lattice_extent(cfg, ierr, msg); if (ierr /= 0) goto 900
+    call check_lattice(cfg, ierr, msg);       if (ierr /= 0) goto 900
     cfg%lattice%ax = cfg%lattice%lx/real(cfg%lattice%nx - 1, rp)
     cfg%lattice%ay = cfg%lattice%ly/real(cfg%lattice%ny - 1, rp)
     call resolve_unset(cfg, ierr, msg);       if (ierr /= 0) goto 900
@@ -168,7 +180,7 @@ contains
     call validate(cfg, ierr, msg)
 
 900 if (ierr /= 0) errmsg = trim(msg)
-  end subroutine input_parse
+  end subroutine parse_text
 
   ! ==========================================================================
   ! Namelist groups
@@ -193,7 +205,7 @@ contains
     body = trim(pt%body(g))
     nb = len(body)
     iomsg = ''
-    call read_nml(g, pt%lines, cfg, ios, iomsg)
+    call namelist_read(g, pt%lines, cfg, ios, iomsg)
     if (ios == 0) then
       call check_repeated_keys(g, body, ierr, msg)
       return
@@ -210,7 +222,7 @@ contains
         one(1) = '&'//trim(group_names(g))//' '//body(p:q - 1)//' /'
         scratch = cfg
         iomsg1 = ''
-        call read_nml(g, one, scratch, ios1, iomsg1)
+        call namelist_read(g, one, scratch, ios1, iomsg1)
       end block
       if (ios1 /= 0) then
         ! The key and the type it expects, where the value is not of it
@@ -277,12 +289,7 @@ contains
   function assignment_key(a) result(key)
     character(*), intent(in) :: a
     character(:), allocatable :: key
-    integer :: k, e
-    key = ''
-    e = index(a, '=')
-    do k = 1, e - 1
-      if (a(k:k) /= ' ') key = key//lower(a(k:k))
-    end do
+    key = assignment_lhs(a)
     if (len(key) >= 10) then
       if (key(1:10) == 'scene_name') key = 'scene'//key(11:)
     end if
@@ -323,7 +330,7 @@ contains
         character(len(key) + len(items(k)%value) + 32) :: line(1)
         line(1) = '&'//trim(group_names(g))//' '//key//' = '//items(k)%value//' /'
         iomsg = ''
-        call read_nml(g, line, cfg, ios, iomsg)
+        call namelist_read(g, line, cfg, ios, iomsg)
       end block
       if (ios /= 0) then
         ierr = 1
@@ -344,189 +351,6 @@ contains
       p = index(msg, 'scene_name')
     end do
   end subroutine unrename_scene
-
-  !> One namelist READ of group g from the records `lines`, over cfg; with
-  !> `dump`, a namelist WRITE of cfg's values of group g into dump instead.
-  subroutine read_nml(g, lines, cfg, ios, iomsg, dump)
-    integer, intent(in) :: g
-    character(*), intent(in) :: lines(:)
-    type(nuno_config), intent(inout) :: cfg
-    integer, intent(out) :: ios
-    character(*), intent(inout) :: iomsg
-    character(*), intent(out), optional :: dump(:)
-    ! Namelist objects must be variables: locals named after the keys. A key
-    ! added here goes into module input_keys' table too (name, group, type,
-    ! unit, default, meaning): tests/mpi/test_input_keys.F90 fails until the
-    ! two agree.
-    integer :: nx, ny
-    real(rp) :: lx, ly, total_mass
-    character(label_len) :: mass_distribution, lattice_scaling
-    character(label_len) :: spring_model, bending_model
-    real(rp) :: e_s, eta_s, e_d, eta_d, k_b, eta_b
-    character(label_len) :: scene_name   ! the key `scene` (renamed by scan_text)
-    real(rp) :: gravity(3), lift_length, lift_height, bend_angle
-    integer :: n_keyframes
-    real(rp) :: keyframe_time(keyframe_max), keyframe_dx(keyframe_max), keyframe_dy(keyframe_max), &
-                keyframe_dz(keyframe_max)
-    character(label_len) :: wave_nodes, units
-    real(rp) :: release_time, initial_omega(3)
-    real(rp) :: t_end, dt
-    real(rp) :: output_interval, stretch_limit, checkpoint_interval
-    logical :: write_velocity
-    character(path_len) :: output_file
-    character(len(cfg%output%petsc_options)) :: petsc_options
-    namelist /lattice/ nx, ny, lx, ly, total_mass, mass_distribution, lattice_scaling
-    namelist /material/ spring_model, e_s, eta_s, e_d, eta_d, bending_model, k_b, eta_b
-    namelist /scene/ scene_name, gravity, lift_length, lift_height, bend_angle, n_keyframes, &
-                     keyframe_time, keyframe_dx, keyframe_dy, keyframe_dz, wave_nodes, release_time, initial_omega, units
-    namelist /time/ t_end, dt
-    namelist /output/ output_interval, write_velocity, output_file, petsc_options, stretch_limit, &
-                      checkpoint_interval
-    character(path_len) :: observed_file
-    character(len(cfg%identify%fit)) :: fit
-    real(rp) :: fit_lower(n_fit_kinds), fit_upper(n_fit_kinds), tikhonov
-    namelist /identify/ observed_file, fit, fit_lower, fit_upper, tikhonov
-    character(path_len) :: target_file
-    character(label_len) :: components
-    real(rp) :: max_speed, velocity_weight, keyframe_tikhonov
-    namelist /control/ target_file, components, max_speed, velocity_weight, keyframe_tikhonov
-    integer :: n_obstacles, obstacle_n_keyframes(obstacle_max)
-    character(label_len) :: obstacle_shape(obstacle_max)
-    real(rp) :: obstacle_point(3, obstacle_max), obstacle_normal(3, obstacle_max), obstacle_radius(obstacle_max), &
-                obstacle_mu(obstacle_max), contact_thickness, contact_dhat, contact_stiffness, friction_eps_v
-    real(rp) :: obstacle_axis(3, obstacle_max), obstacle_half_size(3, obstacle_max), obstacle_end(3, obstacle_max), &
-                obstacle_time(obstacle_keyframe_max, obstacle_max), &
-                obstacle_offset(3, obstacle_keyframe_max, obstacle_max), &
-                obstacle_close(obstacle_keyframe_max, obstacle_max), obstacle_close_dir(3, obstacle_max)
-    namelist /contact/ n_obstacles, obstacle_shape, obstacle_point, obstacle_normal, obstacle_radius, obstacle_mu, &
-                       contact_thickness, contact_dhat, contact_stiffness, friction_eps_v, &
-                       obstacle_half_size, obstacle_axis, obstacle_end, obstacle_n_keyframes, obstacle_time, &
-                       obstacle_offset, obstacle_close, obstacle_close_dir
-
-    ios = 0
-    select case (g)
-    case (G_LATTICE)
-      nx = cfg%lattice%nx; ny = cfg%lattice%ny; lx = cfg%lattice%lx; ly = cfg%lattice%ly; total_mass = cfg%lattice%total_mass
-      mass_distribution = cfg%lattice%mass_distribution; lattice_scaling = cfg%lattice%lattice_scaling
-      if (present(dump)) then
-        write(dump, nml=lattice, delim='apostrophe', iostat=ios, iomsg=iomsg)
-      else
-        read(lines, nml=lattice, iostat=ios, iomsg=iomsg)
-      end if
-      if (ios == 0) then
-      cfg%lattice%nx = nx; cfg%lattice%ny = ny; cfg%lattice%lx = lx; cfg%lattice%ly = ly; cfg%lattice%total_mass = total_mass
-      cfg%lattice%mass_distribution = mass_distribution; cfg%lattice%lattice_scaling = lattice_scaling
-      end if
-    case (G_MATERIAL)
-      spring_model = cfg%material%spring_model; e_s = cfg%material%e_s; eta_s = cfg%material%eta_s; e_d = cfg%material%e_d
-      eta_d = cfg%material%eta_d; bending_model = cfg%material%bending_model; k_b = cfg%material%k_b; eta_b = cfg%material%eta_b
-      if (present(dump)) then
-        write(dump, nml=material, delim='apostrophe', iostat=ios, iomsg=iomsg)
-      else
-        read(lines, nml=material, iostat=ios, iomsg=iomsg)
-      end if
-      if (ios == 0) then
-      cfg%material%spring_model = spring_model; cfg%material%e_s = e_s; cfg%material%eta_s = eta_s; cfg%material%e_d = e_d
-      cfg%material%eta_d = eta_d; cfg%material%bending_model = bending_model; cfg%material%k_b = k_b; cfg%material%eta_b = eta_b
-      end if
-    case (G_SCENE)
-      scene_name = cfg%scene%name; gravity = cfg%scene%gravity; lift_length = cfg%scene%lift_length
-      lift_height = cfg%scene%lift_height; bend_angle = cfg%scene%bend_angle; n_keyframes = cfg%scene%n_keyframes
-      keyframe_time = cfg%scene%keyframe_time; keyframe_dz = cfg%scene%keyframe_dz; wave_nodes = cfg%scene%wave_nodes
-      keyframe_dx = cfg%scene%keyframe_dx; keyframe_dy = cfg%scene%keyframe_dy
-      release_time = cfg%scene%release_time; initial_omega = cfg%scene%initial_omega; units = cfg%scene%units
-      if (present(dump)) then
-        write(dump, nml=scene, delim='apostrophe', iostat=ios, iomsg=iomsg)
-      else
-        read(lines, nml=scene, iostat=ios, iomsg=iomsg)
-      end if
-      if (ios == 0) then
-      cfg%scene%name = scene_name; cfg%scene%gravity = gravity; cfg%scene%lift_length = lift_length
-      cfg%scene%lift_height = lift_height; cfg%scene%bend_angle = bend_angle; cfg%scene%n_keyframes = n_keyframes
-      cfg%scene%keyframe_time = keyframe_time; cfg%scene%keyframe_dz = keyframe_dz; cfg%scene%wave_nodes = wave_nodes
-      cfg%scene%keyframe_dx = keyframe_dx; cfg%scene%keyframe_dy = keyframe_dy
-      cfg%scene%release_time = release_time; cfg%scene%initial_omega = initial_omega; cfg%scene%units = units
-      end if
-    case (G_TIME)
-      t_end = cfg%time%t_end; dt = cfg%time%dt
-      if (present(dump)) then
-        write(dump, nml=time, delim='apostrophe', iostat=ios, iomsg=iomsg)
-      else
-        read(lines, nml=time, iostat=ios, iomsg=iomsg)
-      end if
-      if (ios == 0) then
-        cfg%time%t_end = t_end; cfg%time%dt = dt
-      end if
-    case (G_OUTPUT)
-      output_interval = cfg%output%output_interval; write_velocity = cfg%output%write_velocity
-      output_file = cfg%output%output_file; petsc_options = cfg%output%petsc_options
-      stretch_limit = cfg%output%stretch_limit; checkpoint_interval = cfg%output%checkpoint_interval
-      if (present(dump)) then
-        write(dump, nml=output, delim='apostrophe', iostat=ios, iomsg=iomsg)
-      else
-        read(lines, nml=output, iostat=ios, iomsg=iomsg)
-      end if
-      if (ios == 0) then
-      cfg%output%output_interval = output_interval; cfg%output%write_velocity = write_velocity
-      cfg%output%output_file = output_file; cfg%output%petsc_options = petsc_options
-      cfg%output%stretch_limit = stretch_limit; cfg%output%checkpoint_interval = checkpoint_interval
-      end if
-    case (G_IDENTIFY)
-      observed_file = cfg%identify%observed_file; fit = cfg%identify%fit; fit_lower = cfg%identify%fit_lower
-      fit_upper = cfg%identify%fit_upper; tikhonov = cfg%identify%tikhonov
-      if (present(dump)) then
-        write(dump, nml=identify, delim='apostrophe', iostat=ios, iomsg=iomsg)
-      else
-        read(lines, nml=identify, iostat=ios, iomsg=iomsg)
-      end if
-      if (ios == 0) then
-        cfg%identify%observed_file = observed_file; cfg%identify%fit = fit; cfg%identify%fit_lower = fit_lower
-        cfg%identify%fit_upper = fit_upper; cfg%identify%tikhonov = tikhonov
-      end if
-    case (G_CONTROL)
-      target_file = cfg%control%target_file; components = cfg%control%components; max_speed = cfg%control%max_speed
-      velocity_weight = cfg%control%velocity_weight; keyframe_tikhonov = cfg%control%keyframe_tikhonov
-      if (present(dump)) then
-        write(dump, nml=control, delim='apostrophe', iostat=ios, iomsg=iomsg)
-      else
-        read(lines, nml=control, iostat=ios, iomsg=iomsg)
-      end if
-      if (ios == 0) then
-        cfg%control%target_file = target_file; cfg%control%components = components; cfg%control%max_speed = max_speed
-        cfg%control%velocity_weight = velocity_weight; cfg%control%keyframe_tikhonov = keyframe_tikhonov
-      end if
-    case (G_CONTACT)
-      associate (c => cfg%contact)
-        n_obstacles = c%n_obstacles; obstacle_shape = c%shape; obstacle_point = c%point
-        obstacle_normal = c%normal; obstacle_radius = c%radius; obstacle_mu = c%mu
-        contact_thickness = c%thickness; contact_dhat = c%dhat; contact_stiffness = c%stiffness
-        friction_eps_v = c%eps_v
-        obstacle_half_size = c%half_size; obstacle_axis = c%axis; obstacle_end = c%end_pt
-        obstacle_n_keyframes = c%n_keyframes; obstacle_time = c%key_time; obstacle_offset = c%key_offset
-        obstacle_close = c%key_close; obstacle_close_dir = c%close_dir
-        if (present(dump)) then
-          write(dump, nml=contact, delim='apostrophe', iostat=ios, iomsg=iomsg)
-        else
-          read(lines, nml=contact, iostat=ios, iomsg=iomsg)
-        end if
-        if (ios == 0) then
-          c%n_obstacles = n_obstacles; c%shape = obstacle_shape; c%point = obstacle_point
-          c%normal = obstacle_normal; c%radius = obstacle_radius; c%mu = obstacle_mu
-          c%thickness = contact_thickness; c%dhat = contact_dhat; c%stiffness = contact_stiffness
-          c%eps_v = friction_eps_v
-          c%half_size = obstacle_half_size; c%axis = obstacle_axis; c%end_pt = obstacle_end
-          c%n_keyframes = obstacle_n_keyframes; c%key_time = obstacle_time; c%key_offset = obstacle_offset
-          c%key_close = obstacle_close; c%close_dir = obstacle_close_dir
-        end if
-      end associate
-    end select
-    ! gfortran may report an end of file with iostat < 0: the group is known
-    ! to be present and closed, so any non-zero status is an error.
-    if (ios /= 0) then
-      if (len_trim(iomsg) == 0) iomsg = 'read error'
-      call reset_list_state()
-    end if
-  end subroutine read_nml
 
   !> The defaults of scene `scene` (code: its position in the key table's
   !> list of scenes): the configuration's initial values (module config),
@@ -557,7 +381,7 @@ contains
         character(len(body) + 32) :: line(1)
         line(1) = '&'//trim(group_names(g))//body//' /'
         iomsg = ''
-        call read_nml(g, line, cfg, ios, iomsg)
+        call namelist_read(g, line, cfg, ios, iomsg)
       end block
       if (ios /= 0) then
         ierr = 1
@@ -622,43 +446,22 @@ contains
     character(*), intent(in) :: group
     character(:), allocatable, intent(out) :: text
     integer, intent(out) :: ios
-    character(2048), allocatable :: lines(:)   ! a record holds petsc_options (1024)
-    character(msg_len) :: iomsg
-    type(nuno_config) :: c
-    integer :: k
     text = ''
     ios = 1
     if (group_index(group) == 0) return
-    allocate(lines(200))
-    lines = ''
-    c = cfg
-    call read_nml(group_index(group), lines(1:1), c, ios, iomsg, dump=lines)
-    if (ios /= 0) return
-    do k = 1, size(lines)
-      if (len_trim(lines(k)) > 0) text = text//trim(lines(k))//new_line('a')
-    end do
+    call namelist_write(group_index(group), cfg, text, ios)
   end subroutine input_namelist_dump
-
-  !> libgfortran 12 keeps state after a failed namelist read (e.g. a bad
-  !> logical: 'Bad repeat count'), and the next namelist read then succeeds
-  !> wrongly; any list-directed read clears it.
-  subroutine reset_list_state()
-    character(1) :: one
-    integer :: i, ios
-    one = '0'
-    read(one, *, iostat=ios) i
-  end subroutine reset_list_state
-
 
   ! ==========================================================================
   ! Help and summary
   ! ==========================================================================
 
   !> Write a few lines that describe the run (call on one rank).
-  subroutine input_summary(cfg, unit, ts_dt, ts_max_time)
+  subroutine input_summary(cfg, unit, ts_dt, ts_dt_set, ts_max_time, ts_max_time_set)
     type(nuno_config), intent(in) :: cfg
     integer, intent(in) :: unit
-    real(rp), intent(in), optional :: ts_dt, ts_max_time   !< -ts_dt, -ts_max_time when given: they win
+    real(rp), intent(in) :: ts_dt, ts_max_time         !< -ts_dt, -ts_max_time [time]: they win where given
+    logical, intent(in) :: ts_dt_set, ts_max_time_set  !< whether -ts_dt, -ts_max_time are given
     character(256) :: terms, cons
     character(len=:), allocatable :: tline
     write(unit, '(a)') 'scene     : '//trim(cfg%scene%name)
@@ -699,12 +502,12 @@ contains
       cons = trim(cons)//', released at t = '//real_short(cfg%scene%release_time)
     write(unit, '(a)') 'constraint: '//trim(cons)
     ! The values the run uses: an option over the namelist says so.
-    if (present(ts_max_time)) then
+    if (ts_max_time_set) then
       tline = 'time      : t_end = '//real_short(ts_max_time)//' (-ts_max_time; namelist '//real_short(cfg%time%t_end)//')'
     else
       tline = 'time      : t_end = '//real_short(cfg%time%t_end)
     end if
-    if (present(ts_dt)) then
+    if (ts_dt_set) then
       tline = tline//', dt = '//real_short(ts_dt)//' (-ts_dt; namelist '//real_short(cfg%time%dt)//')'
     else
       tline = tline//', dt = '//real_short(cfg%time%dt)

@@ -12,12 +12,12 @@ module input_checks
                     SCENE_LIFT_RELEASE, SCENE_BEND_RELEASE, SCENE_WAVE_POINT, SCENE_HANG, &
                     n_fit_kinds, fit_kind_names
   use input_keys, only: keys, key_index
-  use input_text, only: lower
+  use input_text, only: lower, item_end
   use strings, only: real_short
   implicit none
   private
   public :: derive_codes, resolve_unset, validate, check_choice, choices
-  public :: check_lattice_size, check_lattice_extent
+  public :: check_lattice
   public :: fit_initial             ! module identify_params: a fit parameter's value in a configuration
 
 contains
@@ -94,24 +94,40 @@ contains
   end subroutine resolve_unset
 
   ! ==========================================================================
-  ! Checks: one routine per concern; the first error wins
+  ! Checks: the first error wins
   ! ==========================================================================
 
+  !> Every check of the configuration, in order: the range of a single key
+  !> here, a concern that relates keys in its own routine. Derives on the way
+  !> what the checks establish: the obstacles' shape codes and unit vectors,
+  !> the fitted parameters' codes and bounds, the controlled components.
   subroutine validate(cfg, ierr, msg)
     type(nuno_config), intent(inout) :: cfg
     integer, intent(out) :: ierr
     character(*), intent(out) :: msg
-    call check_mass(cfg, ierr, msg);           if (ierr /= 0) return
-    call check_material(cfg, ierr, msg);       if (ierr /= 0) return
-    call check_scaling_bending(cfg, ierr, msg); if (ierr /= 0) return
-    call check_scene_geometry(cfg, ierr, msg); if (ierr /= 0) return
-    call check_keyframes(cfg, ierr, msg);      if (ierr /= 0) return
-    call check_wave_nodes(cfg, ierr, msg);     if (ierr /= 0) return
-    call check_units(cfg, ierr, msg);          if (ierr /= 0) return
-    call check_time(cfg, ierr, msg);           if (ierr /= 0) return
-    call check_output(cfg, ierr, msg);         if (ierr /= 0) return
-    call check_identify(cfg, ierr, msg);       if (ierr /= 0) return
-    call check_control(cfg, ierr, msg);        if (ierr /= 0) return
+    integer :: code
+    associate (ma => cfg%material, sc => cfg%scene)
+      call need_positive('lattice', 'total_mass', cfg%lattice%total_mass, ierr, msg); if (ierr /= 0) return
+      call need_nonnegative('material', 'e_s', ma%e_s, ierr, msg);     if (ierr /= 0) return
+      call need_nonnegative('material', 'eta_s', ma%eta_s, ierr, msg); if (ierr /= 0) return
+      call need_nonnegative('material', 'e_d', ma%e_d, ierr, msg);     if (ierr /= 0) return
+      call need_nonnegative('material', 'eta_d', ma%eta_d, ierr, msg); if (ierr /= 0) return
+      call need_nonnegative('material', 'k_b', ma%k_b, ierr, msg);     if (ierr /= 0) return
+      call need_nonnegative('material', 'eta_b', ma%eta_b, ierr, msg); if (ierr /= 0) return
+      call check_scaling_bending(cfg, ierr, msg); if (ierr /= 0) return
+      call check_scene_geometry(cfg, ierr, msg);  if (ierr /= 0) return
+      call check_keyframes(cfg, ierr, msg);       if (ierr /= 0) return
+      ! wave_point's driven nodes: the corner (0,0) or the whole edge i = 0;
+      ! the unit system of the input's values: 'mm g s' or 'SI'.
+      call check_choice('scene', 'wave_nodes', sc%wave_nodes, choices('wave_nodes'), code, ierr, msg)
+      if (ierr /= 0) return
+      call check_choice('scene', 'units', sc%units, choices('units'), code, ierr, msg); if (ierr /= 0) return
+      call need_positive('time', 't_end', cfg%time%t_end, ierr, msg); if (ierr /= 0) return
+      call need_positive('time', 'dt', cfg%time%dt, ierr, msg);       if (ierr /= 0) return
+    end associate
+    call check_output(cfg, ierr, msg);   if (ierr /= 0) return
+    call check_identify(cfg, ierr, msg); if (ierr /= 0) return
+    call check_control(cfg, ierr, msg);  if (ierr /= 0) return
     call check_contact(cfg, ierr, msg)
   end subroutine validate
 
@@ -309,8 +325,7 @@ contains
       return
     end if
     do while (len(rest) > 0)
-      p = index(rest, ',')
-      if (p == 0) p = len(rest) + 1
+      p = item_end(rest, 1, ',')
       name = trim(adjustl(rest(1:p - 1)))
       rest = trim(adjustl(rest(min(p + 1, len(rest) + 1):)))
       code = 0
@@ -481,12 +496,7 @@ contains
     n = 0
     p = 1
     do while (p <= len(allowed))
-      q = index(allowed(p:), ',')
-      if (q == 0) then
-        q = len(allowed) + 1
-      else
-        q = p + q - 1
-      end if
+      q = item_end(allowed, p, ',')
       n = n + 1
       if (trim(adjustl(allowed(p:q - 1))) == trim(value)) then
         code = n
@@ -498,40 +508,16 @@ contains
     msg = 'input: &'//group//': '//key//" = '"//trim(value)//"' is not one of "//allowed
   end subroutine check_choice
 
-  subroutine check_lattice_size(cfg, ierr, msg)
+  !> The lattice's node counts and extent, before its spacing is derived.
+  subroutine check_lattice(cfg, ierr, msg)
     type(nuno_config), intent(in) :: cfg
     integer, intent(out) :: ierr
     character(*), intent(out) :: msg
     call need_int_ge('lattice', 'nx', cfg%lattice%nx, 3, ierr, msg); if (ierr /= 0) return
-    call need_int_ge('lattice', 'ny', cfg%lattice%ny, 3, ierr, msg)
-  end subroutine check_lattice_size
-
-  subroutine check_lattice_extent(cfg, ierr, msg)
-    type(nuno_config), intent(in) :: cfg
-    integer, intent(out) :: ierr
-    character(*), intent(out) :: msg
-    call need_positive('lattice', 'lx', cfg%lattice%lx, ierr, msg); if (ierr /= 0) return
+    call need_int_ge('lattice', 'ny', cfg%lattice%ny, 3, ierr, msg); if (ierr /= 0) return
+    call need_positive('lattice', 'lx', cfg%lattice%lx, ierr, msg);  if (ierr /= 0) return
     call need_positive('lattice', 'ly', cfg%lattice%ly, ierr, msg)
-  end subroutine check_lattice_extent
-
-  subroutine check_mass(cfg, ierr, msg)
-    type(nuno_config), intent(in) :: cfg
-    integer, intent(out) :: ierr
-    character(*), intent(out) :: msg
-    call need_positive('lattice', 'total_mass', cfg%lattice%total_mass, ierr, msg)
-  end subroutine check_mass
-
-  subroutine check_material(cfg, ierr, msg)
-    type(nuno_config), intent(in) :: cfg
-    integer, intent(out) :: ierr
-    character(*), intent(out) :: msg
-    call need_nonnegative('material', 'e_s', cfg%material%e_s, ierr, msg);     if (ierr /= 0) return
-    call need_nonnegative('material', 'eta_s', cfg%material%eta_s, ierr, msg); if (ierr /= 0) return
-    call need_nonnegative('material', 'e_d', cfg%material%e_d, ierr, msg);     if (ierr /= 0) return
-    call need_nonnegative('material', 'eta_d', cfg%material%eta_d, ierr, msg); if (ierr /= 0) return
-    call need_nonnegative('material', 'k_b', cfg%material%k_b, ierr, msg);     if (ierr /= 0) return
-    call need_nonnegative('material', 'eta_b', cfg%material%eta_b, ierr, msg)
-  end subroutine check_material
+  end subroutine check_lattice
 
   !> The paper bending force does not scale with the spacing: no continuum limit.
   subroutine check_scaling_bending(cfg, ierr, msg)
@@ -623,32 +609,6 @@ contains
       end if
     end do
   end subroutine check_keyframes
-
-  !> wave_point's driven nodes: the corner (0,0) or the whole edge i = 0.
-  subroutine check_wave_nodes(cfg, ierr, msg)
-    type(nuno_config), intent(in) :: cfg
-    integer, intent(out) :: ierr
-    character(*), intent(out) :: msg
-    integer :: code
-    call check_choice('scene', 'wave_nodes', cfg%scene%wave_nodes, choices('wave_nodes'), code, ierr, msg)
-  end subroutine check_wave_nodes
-
-  !> The unit system of the input's values: 'mm g s' or 'SI'.
-  subroutine check_units(cfg, ierr, msg)
-    type(nuno_config), intent(in) :: cfg
-    integer, intent(out) :: ierr
-    character(*), intent(out) :: msg
-    integer :: code
-    call check_choice('scene', 'units', cfg%scene%units, choices('units'), code, ierr, msg)
-  end subroutine check_units
-
-  subroutine check_time(cfg, ierr, msg)
-    type(nuno_config), intent(in) :: cfg
-    integer, intent(out) :: ierr
-    character(*), intent(out) :: msg
-    call need_positive('time', 't_end', cfg%time%t_end, ierr, msg); if (ierr /= 0) return
-    call need_positive('time', 'dt', cfg%time%dt, ierr, msg)
-  end subroutine check_time
 
   subroutine check_output(cfg, ierr, msg)
     type(nuno_config), intent(in) :: cfg

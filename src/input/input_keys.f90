@@ -4,7 +4,7 @@
 !> that names keys reads it: the -nuno_set lexer and the type check of
 !> values (module input_text), the choice checks and the key lists of
 !> `nuno --help` and `nuno --list-keys` (module input, input_usage). The
-!> namelist reader (input.F90, read_nml) must declare its variables by name;
+!> namelist reader (input_namelist.f90) must declare its variables by name;
 !> tests/mpi/test_input_keys.F90 checks that its groups hold exactly these
 !> keys with these types, sizes and defaults, tests/unit/test_input_text.f90
 !> that ranges and choices read here are the ones refused, and

@@ -21,14 +21,15 @@ contains
   !> the index space (6 unknowns a node) against index_max (the largest
   !> PetscInt), and the memory estimate against the memory the ranks' hosts
   !> have available. Collective over comm; every rank returns the same result.
-  subroutine input_check_run(cfg, comm, allow_long, index_max, ierr, errmsg, ts_dt)
+  subroutine input_check_run(cfg, comm, allow_long, index_max, ts_dt, ts_dt_set, ierr, errmsg)
     type(nuno_config), intent(in) :: cfg
     integer, intent(in) :: comm                     !< MPI communicator of the run
     logical, intent(in) :: allow_long               !< -nuno_allow_long given
     integer(int64), intent(in) :: index_max         !< largest index (PetscInt, default integer)
+    real(rp), intent(in) :: ts_dt                   !< -ts_dt, which overrides the namelist's dt where given [time]
+    logical, intent(in) :: ts_dt_set                !< whether -ts_dt is given
     integer, intent(out) :: ierr
     character(*), intent(out) :: errmsg
-    real(rp), intent(in), optional :: ts_dt         !< -ts_dt, which overrides the namelist's dt
     real(rp) :: nodes, need, per_node
     integer(int64) :: avail
     character(32) :: a, b, lim
@@ -36,7 +37,7 @@ contains
     ierr = 0
     errmsg = ''
     ! Counts in reals: t_end/dt may exceed every integer kind.
-    if (present(ts_dt)) then
+    if (ts_dt_set) then
       if (.not. (ts_dt > 0.0_rp .and. ts_dt <= huge(ts_dt))) then
         ierr = 1
         errmsg = 'input: -ts_dt '//real_short(ts_dt)//' must be a finite number > 0'
@@ -44,7 +45,7 @@ contains
       end if
     end if
     if (.not. allow_long) then
-      if (present(ts_dt)) then
+      if (ts_dt_set) then
         if (cfg%time%t_end/ts_dt > max_steps) then
           ierr = 1
           errmsg = 'input: -ts_dt '//real_short(ts_dt)//' with &time t_end = '//real_short(cfg%time%t_end)//' is '// &

@@ -6,6 +6,7 @@
 module input_scan
   use input_keys, only: n_groups, group_names, G_SCENE
   use input_text, only: lower, is_name_char
+  use strings, only: itoa
   implicit none
   private
   public :: parsed_text, scan_text, group_index
@@ -19,6 +20,26 @@ module input_scan
     character(:), allocatable :: body(:)
   end type parsed_text
 
+  !> scan_text's walk through the text: where it is, what it has made of
+  !> the text so far, and its refusal.
+  type :: scanner
+    character(:), allocatable :: text     !< the input file
+    integer :: i = 1                      !< the character at hand, text(i:i)
+    character(:), allocatable :: clean    !< the text for the reader, line feeds kept
+    integer :: nc = 0                     !< characters of clean in use
+    character(:), allocatable :: bodies   !< group g's body at (g-1)*cap + 1 ...
+    integer :: cap = 0                    !< room of clean and of each body [characters]
+    integer :: blen(n_groups) = 0         !< characters of each body in use
+    integer :: count(n_groups) = 0        !< times each group appeared
+    integer :: cur = 0                    !< the group the scan is in; 0: outside every group
+    integer :: first = 1                  !< the text's first character (after a byte-order mark)
+    integer :: line_no = 1                !< the line of the character at hand
+    integer :: group_start_line = 0       !< the line of the current group's &name
+    logical :: in_comment = .false.
+    character(1) :: quote = ' '           !< the open string's quote; ' ': none (only tracked in groups)
+    character(:), allocatable :: refusal  !< why the text is refused; '' while it is not
+  end type scanner
+
 contains
 
 
@@ -31,213 +52,225 @@ contains
     type(parsed_text), intent(out) :: pt
     integer, intent(out) :: ierr
     character(*), intent(out) :: msg
-    character(:), allocatable :: clean
-    character(:), allocatable :: bodies      ! group g's body at (g-1)*cap + 1 ...
-    integer :: blen(n_groups), cap
-    character(1) :: c, quote
-    character(64) :: name
-    logical :: in_group, in_comment, at_word_start
-    integer :: i, k, n, nc, g, nlines, maxlen, line_start, cur, group_start_line, line_no
-    integer :: first                         ! the first character of the text (after a byte-order mark)
+    type(scanner) :: s
+    integer :: g
 
-    ierr = 0
-    msg = ''
-    n = len(text)
-    ! Every rename adds 5 characters to a key of at least 6 (with its '='): room enough.
-    cap = 2*n + 16
-    allocate(character(cap) :: clean)
-    allocate(character(n_groups*cap) :: bodies)
-    nc = 0
-    blen = 0
-    in_group = .false.
-    in_comment = .false.
-    quote = ' '
-    cur = 0
-    line_no = 1
-    group_start_line = 0
-    i = 1
-    ! A UTF-8 byte-order mark (some editors write one) is not text (the
-    ! bytes by value: achar of them is outside ASCII).
-    if (n >= 3) then
-      if (ichar(text(1:1)) == 239 .and. ichar(text(2:2)) == 187 .and. ichar(text(3:3)) == 191) i = 4
+    call scanner_init(s, text)
+    do while (s%i <= len(text) .and. len(s%refusal) == 0)
+      call scan_at(s)
+    end do
+    if (len(s%refusal) == 0 .and. s%quote /= ' ') then
+      s%refusal = 'input: &'//trim(group_names(s%cur))//': unterminated string'
+    else if (len(s%refusal) == 0 .and. s%cur > 0) then
+      s%refusal = 'input: &'//trim(group_names(s%cur))//' (line '//itoa(s%group_start_line)//') has no closing /'
     end if
-    first = i
-    do while (i <= n)
-      c = text(i:i)
-      if (c == achar(13) .or. c == achar(9)) c = ' '
-      if (c == achar(10)) then
-        call emit(achar(10))
-        in_comment = .false.
-        line_no = line_no + 1
-        if (cur > 0) call add_body(' ')
-        i = i + 1
-        cycle
-      end if
-      if (in_comment) then
-        i = i + 1
-        cycle
-      end if
-      if (quote /= ' ') then
-        ! Inside a string (only tracked in groups): copy; a doubled quote reopens at once.
-        call emit(c)
-        call add_body(c)
-        if (c == quote) quote = ' '
-        i = i + 1
-        cycle
-      end if
-      if (c == '!') then
-        in_comment = .true.
-        i = i + 1
-        cycle
-      end if
-      if (.not. in_group) then
-        ! A group starts with &name (or $name) at the start of a line or after a blank.
-        at_word_start = i == first
-        if (i > first) at_word_start = index(' /'//achar(9)//achar(10)//achar(13), text(i - 1:i - 1)) > 0
-        if ((c == '&' .or. c == '$') .and. at_word_start) then
-          call get_name(text, i + 1, name, k)
-          if (len_trim(name) > 0 .and. .not. (name(1:1) >= '0' .and. name(1:1) <= '9')) then
-            g = group_index(name)
-            if (g == 0) then
-              ierr = 1
-              write(msg, '(a,i0,a)') 'input: line ', line_no, ': unknown namelist group &'//trim(name)// &
-                ' (groups: &lattice, &material, &scene, &time, &output, &identify, &control)'
-              return
-            end if
-            pt%count(g) = pt%count(g) + 1
-            if (pt%count(g) > 1) then
-              ierr = 1
-              write(msg, '(a,i0,a)') 'input: &'//trim(group_names(g))//' appears again at line ', &
-                line_no, ': each group may appear at most once'
-              return
-            end if
-            in_group = .true.
-            group_start_line = line_no
-            cur = g
-            call emit('&'//trim(group_names(g))//' ')
-            i = k
-            cycle
-          end if
-        end if
-        ! Anything but blanks and comments outside a group is an error: a
-        ! truncated, misspelt or wrong file must not run the defaults silently.
-        if (c /= ' ') then
-          ierr = 1
-          k = min(n, i + 23)
-          if (index(text(i:k), achar(10)) > 0) k = i + index(text(i:k), achar(10)) - 2
-          write(msg, '(a,i0,a)') 'input: line ', line_no, ": text outside a namelist group: '"// &
-            trim(printable(text(i:k)))//"' (only &group ... / and ! comments are allowed)"
-          return
-        end if
-        i = i + 1
-        cycle
-      end if
-      ! Inside a group.
-      if (c == '/') then
-        call emit('/')
-        in_group = .false.
-        cur = 0
-        i = i + 1
-        cycle
-      end if
-      if (c == '&' .or. c == '$') then
-        call get_name(text, i + 1, name, k)
-        if (trim(name) == 'end') then
-          ! Old-style terminator &end: hand the reader a plain '/'.
-          call emit('/')
-          in_group = .false.
-          cur = 0
-          i = k
-          cycle
-        end if
-        ierr = 1
-        write(msg, '(a,i0,a,i0)') 'input: &'//trim(group_names(cur))//' (line ', group_start_line, &
-          ') has no closing / before the '//c//' at line ', line_no
+    ierr = merge(1, 0, len(s%refusal) > 0)
+    msg = s%refusal
+    if (ierr /= 0) return
+    pt%count = s%count
+    call split_lines(s%clean(1:s%nc), pt%lines)
+    allocate(character(max(1, maxval(s%blen))) :: pt%body(n_groups))
+    pt%body = ''
+    do g = 1, n_groups
+      if (s%blen(g) > 0) pt%body(g) = s%bodies((g - 1)*s%cap + 1:(g - 1)*s%cap + s%blen(g))
+    end do
+  end subroutine scan_text
+
+  !> A scanner at the start of text: room for the reader's text and the
+  !> bodies, a UTF-8 byte-order mark (some editors write one) skipped.
+  subroutine scanner_init(s, text)
+    type(scanner), intent(out) :: s
+    character(*), intent(in) :: text
+    s%text = text
+    s%refusal = ''
+    ! Every rename adds 5 characters to a key of at least 6 (with its '='): room enough.
+    s%cap = 2*len(text) + 16
+    allocate(character(s%cap) :: s%clean)
+    allocate(character(n_groups*s%cap) :: s%bodies)
+    ! The mark's bytes by value: achar of them is outside ASCII.
+    if (len(text) >= 3) then
+      if (ichar(text(1:1)) == 239 .and. ichar(text(2:2)) == 187 .and. ichar(text(3:3)) == 191) s%first = 4
+    end if
+    s%i = s%first
+  end subroutine scanner_init
+
+  !> The character at hand: line ends, comments and strings first, then by
+  !> whether the scan is in a group; the scan moves past what it took.
+  subroutine scan_at(s)
+    type(scanner), intent(inout) :: s
+    character(1) :: c
+
+    c = s%text(s%i:s%i)
+    if (c == achar(13) .or. c == achar(9)) c = ' '
+    if (c == achar(10)) then
+      call emit(s, achar(10))
+      s%in_comment = .false.
+      s%line_no = s%line_no + 1
+      call add_body(s, ' ')
+      s%i = s%i + 1
+    else if (s%in_comment) then
+      s%i = s%i + 1
+    else if (s%quote /= ' ') then
+      ! Inside a string: copy; a doubled quote reopens at once.
+      call emit(s, c)
+      call add_body(s, c)
+      if (c == s%quote) s%quote = ' '
+      s%i = s%i + 1
+    else if (c == '!') then
+      s%in_comment = .true.
+      s%i = s%i + 1
+    else if (s%cur == 0) then
+      call scan_outside(s, c)
+    else
+      call scan_inside(s, c)
+    end if
+  end subroutine scan_at
+
+  !> Outside a group: a group starts with &name (or $name) at the start of
+  !> a line or after a blank; anything else but blanks is refused, so that a
+  !> truncated, misspelt or wrong file does not run the defaults silently.
+  subroutine scan_outside(s, c)
+    type(scanner), intent(inout) :: s
+    character(1), intent(in) :: c
+    logical :: at_word_start
+    character(64) :: name
+    integer :: k
+
+    at_word_start = s%i == s%first
+    if (s%i > s%first) at_word_start = index(' /'//achar(9)//achar(10)//achar(13), s%text(s%i - 1:s%i - 1)) > 0
+    if ((c == '&' .or. c == '$') .and. at_word_start) then
+      call get_name(s%text, s%i + 1, name, k)
+      if (len_trim(name) > 0 .and. .not. (name(1:1) >= '0' .and. name(1:1) <= '9')) then
+        call open_group(s, name)
+        s%i = k
         return
       end if
-      if (c == "'" .or. c == '"') quote = c
-      if (cur == G_SCENE .and. is_name_char(c)) then
-        ! A whole name: copy it at once, renaming the key `scene`.
-        call get_name(text, i, name, k)
-        if (trim(name) == 'scene' .and. followed_by_equals(text, k)) then
-          call emit('scene_name')
-          call add_body_str('scene_name')
-        else
-          call emit(text(i:k - 1))
-          call add_body_str(text(i:k - 1))
-        end if
-        i = k
-        cycle
-      end if
-      call emit(c)
-      call add_body(c)
-      i = i + 1
-    end do
-    if (quote /= ' ') then
-      ierr = 1
-      msg = 'input: &'//trim(group_names(cur))//': unterminated string'
+    end if
+    if (c /= ' ') then
+      k = min(len(s%text), s%i + 23)
+      if (index(s%text(s%i:k), achar(10)) > 0) k = s%i + index(s%text(s%i:k), achar(10)) - 2
+      s%refusal = 'input: line '//itoa(s%line_no)//": text outside a namelist group: '"// &
+        trim(printable(s%text(s%i:k)))//"' (only &group ... / and ! comments are allowed)"
       return
     end if
-    if (in_group) then
-      ierr = 1
-      write(msg, '(a,i0,a)') 'input: &'//trim(group_names(cur))//' (line ', group_start_line, &
-        ') has no closing /'
-      return
-    end if
+    s%i = s%i + 1
+  end subroutine scan_outside
 
-    ! Split into records, one per line.
+  !> &name starts group `name`: a known group, not seen before.
+  subroutine open_group(s, name)
+    type(scanner), intent(inout) :: s
+    character(*), intent(in) :: name
+    integer :: g
+
+    g = group_index(name)
+    if (g == 0) then
+      s%refusal = 'input: line '//itoa(s%line_no)//': unknown namelist group &'//trim(name)// &
+        ' (groups: &lattice, &material, &scene, &time, &output, &identify, &control)'
+      return
+    end if
+    s%count(g) = s%count(g) + 1
+    if (s%count(g) > 1) then
+      s%refusal = 'input: &'//trim(group_names(g))//' appears again at line '//itoa(s%line_no)// &
+        ': each group may appear at most once'
+      return
+    end if
+    s%cur = g
+    s%group_start_line = s%line_no
+    call emit(s, '&'//trim(group_names(g))//' ')
+  end subroutine open_group
+
+  !> Inside a group: '/' (or the old-style &end) closes it, another & or $
+  !> is a group left open; the key `scene` of &scene is renamed; the rest is
+  !> copied to the reader's text and the group's body.
+  subroutine scan_inside(s, c)
+    type(scanner), intent(inout) :: s
+    character(1), intent(in) :: c
+    character(64) :: name
+    integer :: k
+
+    if (c == '/') then
+      call emit(s, '/')
+      s%cur = 0
+      s%i = s%i + 1
+    else if (c == '&' .or. c == '$') then
+      call get_name(s%text, s%i + 1, name, k)
+      if (trim(name) /= 'end') then
+        s%refusal = 'input: &'//trim(group_names(s%cur))//' (line '//itoa(s%group_start_line)// &
+          ') has no closing / before the '//c//' at line '//itoa(s%line_no)
+        return
+      end if
+      ! Old-style terminator &end: hand the reader a plain '/'.
+      call emit(s, '/')
+      s%cur = 0
+      s%i = k
+    else if (s%cur == G_SCENE .and. is_name_char(c)) then
+      ! A whole name: copy it at once, renaming the key `scene`.
+      call get_name(s%text, s%i, name, k)
+      if (trim(name) == 'scene' .and. followed_by_equals(s%text, k)) then
+        call emit(s, 'scene_name')
+        call add_body(s, 'scene_name')
+      else
+        call emit(s, s%text(s%i:k - 1))
+        call add_body(s, s%text(s%i:k - 1))
+      end if
+      s%i = k
+    else
+      if (c == "'" .or. c == '"') s%quote = c
+      call emit(s, c)
+      call add_body(s, c)
+      s%i = s%i + 1
+    end if
+  end subroutine scan_inside
+
+  !> The reader's text as records, one a line.
+  subroutine split_lines(clean, lines)
+    character(*), intent(in) :: clean
+    character(:), allocatable, intent(out) :: lines(:)
+    integer :: i, k, nlines, maxlen, line_start
+
     nlines = 1
     maxlen = 1
     line_start = 1
-    do i = 1, nc
+    do i = 1, len(clean)
       if (clean(i:i) == achar(10)) then
         maxlen = max(maxlen, i - line_start)
         nlines = nlines + 1
         line_start = i + 1
       end if
     end do
-    maxlen = max(maxlen, nc - line_start + 1)
-    allocate(character(maxlen) :: pt%lines(nlines))
-    pt%lines = ''
+    maxlen = max(maxlen, len(clean) - line_start + 1)
+    allocate(character(maxlen) :: lines(nlines))
+    lines = ''
     k = 1
     line_start = 1
-    do i = 1, nc
+    do i = 1, len(clean)
       if (clean(i:i) == achar(10)) then
-        if (i > line_start) pt%lines(k) = clean(line_start:i - 1)
+        if (i > line_start) lines(k) = clean(line_start:i - 1)
         k = k + 1
         line_start = i + 1
       end if
     end do
-    if (nc >= line_start) pt%lines(k) = clean(line_start:nc)
-    allocate(character(max(1, maxval(blen))) :: pt%body(n_groups))
-    pt%body = ''
-    do g = 1, n_groups
-      if (blen(g) > 0) pt%body(g) = bodies((g - 1)*cap + 1:(g - 1)*cap + blen(g))
-    end do
+    if (len(clean) >= line_start) lines(k) = clean(line_start:)
+  end subroutine split_lines
 
-  contains
+  !> str appended to the reader's text.
+  subroutine emit(s, str)
+    type(scanner), intent(inout) :: s
+    character(*), intent(in) :: str
+    s%clean(s%nc + 1:s%nc + len(str)) = str
+    s%nc = s%nc + len(str)
+  end subroutine emit
 
-    subroutine emit(str)
-      character(*), intent(in) :: str
-      clean(nc + 1:nc + len(str)) = str
-      nc = nc + len(str)
-    end subroutine emit
-
-    subroutine add_body(ch)
-      character(1), intent(in) :: ch
-      if (cur == 0) return
-      blen(cur) = blen(cur) + 1
-      bodies((cur - 1)*cap + blen(cur):(cur - 1)*cap + blen(cur)) = ch
-    end subroutine add_body
-
-    subroutine add_body_str(str)
-      character(*), intent(in) :: str
-      if (cur == 0) return
-      bodies((cur - 1)*cap + blen(cur) + 1:(cur - 1)*cap + blen(cur) + len(str)) = str
-      blen(cur) = blen(cur) + len(str)
-    end subroutine add_body_str
-
-  end subroutine scan_text
+  !> str appended to the current group's body (none outside a group).
+  subroutine add_body(s, str)
+    type(scanner), intent(inout) :: s
+    character(*), intent(in) :: str
+    integer :: at
+    if (s%cur == 0) return
+    at = (s%cur - 1)*s%cap + s%blen(s%cur)
+    s%bodies(at + 1:at + len(str)) = str
+    s%blen(s%cur) = s%blen(s%cur) + len(str)
+  end subroutine add_body
 
   !> Whether text(k:) is blanks, optional subscripts, then '='.
   logical function followed_by_equals(text, k)

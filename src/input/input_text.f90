@@ -20,7 +20,7 @@ module input_text
   private
   public :: assignment_t, lex_overrides, key_lookup, value_error, command_line_overrides, key_default
   public :: namelist_value
-  public :: next_assignment, is_name_char, lower, strip_commas, overrides_record
+  public :: next_assignment, is_name_char, lower, strip_commas, overrides_record, assignment_lhs, item_end
   public :: KEY_INTEGER, KEY_REAL, KEY_LOGICAL, KEY_STRING
 
   !> The separator of the -nuno_set options joined into one text
@@ -68,16 +68,10 @@ contains
     character(:), allocatable :: v, d, part
     integer :: p, q, b
     d = trim(keys(k)%default)
-    p = index(d, '; ')
-    if (p == 0) p = len(d) + 1
+    p = item_end(d, 1, '; ')
     v = d(1:p - 1)
     do while (p <= len(d))
-      q = index(d(p + 2:), '; ')
-      if (q == 0) then
-        q = len(d) + 1
-      else
-        q = p + 1 + q
-      end if
+      q = item_end(d, p + 2, '; ')
       part = d(p + 2:q - 1)
       b = index(part, ' ')
       if (b > 0) then
@@ -106,12 +100,7 @@ contains
     inside = .false.
     p = 1
     do while (p <= len(dump))
-      q = index(dump(p:), achar(10))
-      if (q == 0) then
-        q = len(dump) + 1
-      else
-        q = p + q - 1
-      end if
+      q = item_end(dump, p, achar(10))
       rec = trim(adjustl(dump(p:q - 1)))
       p = q + 1
       e = index(rec, '=')
@@ -141,9 +130,8 @@ contains
     character(:), allocatable :: msg
     character(8) :: group
     character(:), allocatable :: base, item
-    integer :: kind, i, n, nitems, start, star
+    integer :: kind, i, n, nitems
     logical :: array, subscripted
-    character(1) :: quote
 
     msg = ''
     base = lower(trim(adjustl(key)))
@@ -160,8 +148,6 @@ contains
       msg = "a string must be quoted: "//trim(key)//"='"//trim(adjustl(value))//"'"
       return
     end if
-    ! Items, outside strings; '/' and '!' would end the group or start a
-    ! comment for the namelist reader, which then ignores the rest.
     nitems = 0
     i = 1
     do while (i <= n)
@@ -169,52 +155,11 @@ contains
         i = i + 1
         cycle
       end if
-      start = i
-      quote = ' '
-      do while (i <= n)
-        if (quote /= ' ') then
-          if (value(i:i) == quote) then
-            if (i < n) then
-              if (value(i + 1:i + 1) == quote) then
-                i = i + 2
-                cycle
-              end if
-            end if
-            quote = ' '
-          end if
-        else if (value(i:i) == "'" .or. value(i:i) == '"') then
-          quote = value(i:i)
-        else if (value(i:i) == ' ' .or. value(i:i) == ',') then
-          exit
-        else if (value(i:i) == '/' .or. value(i:i) == '!' .or. value(i:i) == '&' .or. value(i:i) == '$') then
-          msg = "'"//value(i:i)//"' outside a string is not part of a value (the namelist reader would drop "// &
-                "what follows it)"
-          return
-        end if
-        i = i + 1
-      end do
-      if (quote /= ' ') then
-        msg = 'unterminated string'
-        return
-      end if
-      item = value(start:i - 1)
+      call next_item(value(1:n), i, item, msg)
+      if (len(msg) > 0) return
       nitems = nitems + 1
-      ! A repeat count r*: the value after it (or none: r null values).
-      star = index(item, '*')
-      if (star > 1 .and. verify(item(1:max(1, star - 1)), '0123456789') == 0 .and. &
-          verify(item(1:1), '''"') /= 0) then
-        if (.not. array) then
-          msg = 'expected one '//type_name(kind, .false.)//' (a repeat count '//item(1:star)//' is for arrays)'
-          return
-        end if
-        item = item(star + 1:)
-        if (len(item) == 0) cycle
-      end if
-      if (.not. item_ok(kind, item)) then
-        msg = 'expected '//type_name(kind, .true.)
-        if (kind == KEY_STRING) msg = msg//' (one string in quotes)'
-        return
-      end if
+      msg = item_error(item, kind, array)
+      if (len(msg) > 0) return
     end do
     if (nitems == 0) then
       msg = 'no value'
@@ -223,6 +168,80 @@ contains
       if (kind == KEY_STRING) msg = msg//" (a string with blanks or commas goes in one pair of quotes)"
     end if
   end function value_error
+
+  !> The item of a value that starts at value(i:) (a quoted string, a doubled
+  !> quote inside, or text up to a blank or comma); i moves past it. msg
+  !> says why there is none: an unterminated string, or '/', '!', '&' or '$'
+  !> outside a string, which would end the group or start a comment for the
+  !> namelist reader, which then ignores the rest.
+  subroutine next_item(value, i, item, msg)
+    character(*), intent(in) :: value
+    integer, intent(inout) :: i
+    character(:), allocatable, intent(out) :: item, msg
+    character(1) :: quote
+    integer :: start, n
+
+    msg = ''
+    item = ''
+    n = len(value)
+    start = i
+    quote = ' '
+    do while (i <= n)
+      if (quote /= ' ') then
+        if (value(i:i) == quote) then
+          if (i < n) then
+            if (value(i + 1:i + 1) == quote) then
+              i = i + 2
+              cycle
+            end if
+          end if
+          quote = ' '
+        end if
+      else if (value(i:i) == "'" .or. value(i:i) == '"') then
+        quote = value(i:i)
+      else if (value(i:i) == ' ' .or. value(i:i) == ',') then
+        exit
+      else if (value(i:i) == '/' .or. value(i:i) == '!' .or. value(i:i) == '&' .or. value(i:i) == '$') then
+        msg = "'"//value(i:i)//"' outside a string is not part of a value (the namelist reader would drop "// &
+              "what follows it)"
+        return
+      end if
+      i = i + 1
+    end do
+    if (quote /= ' ') then
+      msg = 'unterminated string'
+      return
+    end if
+    item = value(start:i - 1)
+  end subroutine next_item
+
+  !> Why `item`, one item of a value, is not of type kind (array: the key
+  !> is an array, which may take a repeat count r*), or '' when it is.
+  function item_error(item, kind, array) result(msg)
+    character(*), intent(in) :: item
+    integer, intent(in) :: kind
+    logical, intent(in) :: array
+    character(:), allocatable :: msg, one
+    integer :: star
+
+    msg = ''
+    one = item
+    ! A repeat count r*: the value after it (or none: r null values).
+    star = index(item, '*')
+    if (star > 1 .and. verify(item(1:max(1, star - 1)), '0123456789') == 0 .and. &
+        verify(item(1:1), '''"') /= 0) then
+      if (.not. array) then
+        msg = 'expected one '//type_name(kind, .false.)//' (a repeat count '//item(1:star)//' is for arrays)'
+        return
+      end if
+      one = item(star + 1:)
+      if (len(one) == 0) return
+    end if
+    if (.not. item_ok(kind, one)) then
+      msg = 'expected '//type_name(kind, .true.)
+      if (kind == KEY_STRING) msg = msg//' (one string in quotes)'
+    end if
+  end function item_error
 
   !> Whether one item (no repeat count) is a value of type kind.
   logical function item_ok(kind, s) result(ok)
@@ -346,115 +365,146 @@ contains
     type(assignment_t), allocatable, intent(out) :: items(:)
     integer, intent(out) :: ierr
     character(:), allocatable, intent(out) :: msg
-    type(assignment_t), allocatable :: grown(:)
-    type(assignment_t) :: it
-    character(:), allocatable :: piece, a, lhs, why, qual
-    character(8) :: group
-    integer :: first, last, n, p, q, e, k, kind, nitems
-    logical :: array
+    integer :: first, last
 
     ierr = 0
     msg = ''
     allocate(items(0))
-    nitems = 0
     first = 1
     do
       ! One option's value: up to the next separator.
-      last = index(ov(first:), option_sep)
-      if (last == 0) then
-        last = len(ov)
-      else
-        last = first + last - 2
-      end if
-      piece = ov(first:last)
-      n = len_trim(piece)
-      if (n == 0 .or. verify(piece, ' ,') == 0) then
-        call fail('-nuno_set has no value: expected key=value[,key=value...]')
-        return
-      end if
-      p = next_assignment(piece(1:n), 1)
-      if (p > n) then
-        call fail("-nuno_set '"//piece(1:n)//"': expected key=value[,key=value...]")
-        return
-      end if
-      if (verify(piece(1:p - 1), ' ,') /= 0) then
-        call fail("-nuno_set '"//piece(1:n)//"': '"//trim(adjustl(piece(1:p - 1)))// &
-                  "' is not key=value (keys are separated by commas or blanks)")
-        return
-      end if
-      do while (p <= n)
-        q = next_assignment(piece(1:n), p + 1)
-        a = strip_commas(piece(p:q - 1))
-        p = q
-        e = index(a, '=')
-        lhs = ''
-        do k = 1, e - 1
-          if (a(k:k) /= ' ') lhs = lhs//lower(a(k:k))
-        end do
-        it%text = a
-        it%value = strip_commas(a(e + 1:))
-        ! group%key: the group must be the key's.
-        qual = ''
-        k = index(lhs, '%')
-        if (k > 0) then
-          qual = lhs(1:k - 1)
-          lhs = lhs(k + 1:)
-        end if
-        it%key = lhs
-        it%base = lhs
-        if (index(lhs, '(') > 0) it%base = lhs(1:index(lhs, '(') - 1)
-        call key_lookup(it%base, group, kind, array)
-        if (kind == 0) then
-          call fail("-nuno_set: unknown key '"//it%key//"' (in: "//a//')')
-          return
-        end if
-        if (len(qual) > 0 .and. qual /= trim(group)) then
-          call fail("-nuno_set: '"//qual//'%'//it%key//"': "//it%base//' is a key of &'//trim(group)// &
-                    ' (in: '//a//')')
-          return
-        end if
-        it%group = trim(group)
-        if (it%key /= it%base .and. .not. array) then
-          call fail('-nuno_set: '//it%base//' is not an array: no subscript (in: '//a//')')
-          return
-        end if
-        if (len(it%value) == 0) then
-          call fail('-nuno_set: '//it%key//' has no value (in: '//a//')')
-          return
-        end if
-        why = value_error(it%key, it%value)
-        if (len(why) > 0) then
-          ! An unquoted string: the shell may have eaten the quotes.
-          if (kind == KEY_STRING .and. verify(it%value(1:1), '''"') /= 0) &
-            why = "a string must be quoted, the quotes protected from the shell: -nuno_set """// &
-                  it%key//"='"//it%value//"'"""
-          call fail('-nuno_set: '//it%key//'='//it%value//': '//why)
-          return
-        end if
-        do k = 1, nitems
-          if (items(k)%base /= it%base) cycle
-          if (items(k)%key == it%key .or. items(k)%key == items(k)%base .or. it%key == it%base) then
-            call fail('-nuno_set: '//it%key//' is given twice ('//items(k)%text//' and '//a// &
-                      '): give each key once')
-            return
-          end if
-        end do
-        allocate(grown(nitems + 1))
-        grown(1:nitems) = items
-        grown(nitems + 1) = it
-        call move_alloc(grown, items)
-        nitems = nitems + 1
-      end do
+      last = item_end(ov, first, option_sep) - 1
+      call lex_option(ov(first:last), items, ierr, msg)
+      if (ierr /= 0) return
       if (last >= len(ov)) exit
       first = last + 2
     end do
-  contains
-    subroutine fail(text)
-      character(*), intent(in) :: text
-      ierr = 1
-      msg = 'input: '//text
-    end subroutine fail
   end subroutine lex_overrides
+
+  !> The assignments of one -nuno_set option's value `piece`, appended to
+  !> items; text before the first "key =" is refused.
+  subroutine lex_option(piece, items, ierr, msg)
+    character(*), intent(in) :: piece
+    type(assignment_t), allocatable, intent(inout) :: items(:)
+    integer, intent(out) :: ierr
+    character(:), allocatable, intent(inout) :: msg
+    type(assignment_t) :: it
+    integer :: n, p, q
+
+    ierr = 0
+    n = len_trim(piece)
+    if (n == 0 .or. verify(piece, ' ,') == 0) then
+      call refuse('-nuno_set has no value: expected key=value[,key=value...]', ierr, msg)
+      return
+    end if
+    p = next_assignment(piece(1:n), 1)
+    if (p > n) then
+      call refuse("-nuno_set '"//piece(1:n)//"': expected key=value[,key=value...]", ierr, msg)
+      return
+    end if
+    if (verify(piece(1:p - 1), ' ,') /= 0) then
+      call refuse("-nuno_set '"//piece(1:n)//"': '"//trim(adjustl(piece(1:p - 1)))// &
+                  "' is not key=value (keys are separated by commas or blanks)", ierr, msg)
+      return
+    end if
+    do while (p <= n)
+      q = next_assignment(piece(1:n), p + 1)
+      call lex_assignment(strip_commas(piece(p:q - 1)), it, ierr, msg)
+      if (ierr /= 0) return
+      call check_given_once(items, it, ierr, msg)
+      if (ierr /= 0) return
+      call append(items, it)
+      p = q
+    end do
+  end subroutine lex_option
+
+  !> One assignment `a` ("key = value", "group%key(i) = value") of -nuno_set
+  !> as `it`; refused: an unknown key or one of another group, a subscript
+  !> on a scalar key, a value that is empty or not of the key's type.
+  subroutine lex_assignment(a, it, ierr, msg)
+    character(*), intent(in) :: a
+    type(assignment_t), intent(out) :: it
+    integer, intent(out) :: ierr
+    character(:), allocatable, intent(inout) :: msg
+    character(:), allocatable :: lhs, why, qual
+    character(8) :: group
+    integer :: k, kind
+    logical :: array
+
+    ierr = 0
+    lhs = assignment_lhs(a)
+    it%text = a
+    it%value = strip_commas(a(index(a, '=') + 1:))
+    ! group%key: the group must be the key's.
+    qual = ''
+    k = index(lhs, '%')
+    if (k > 0) then
+      qual = lhs(1:k - 1)
+      lhs = lhs(k + 1:)
+    end if
+    it%key = lhs
+    it%base = lhs
+    if (index(lhs, '(') > 0) it%base = lhs(1:index(lhs, '(') - 1)
+    call key_lookup(it%base, group, kind, array)
+    if (kind == 0) then
+      call refuse("-nuno_set: unknown key '"//it%key//"' (in: "//a//')', ierr, msg)
+    else if (len(qual) > 0 .and. qual /= trim(group)) then
+      call refuse("-nuno_set: '"//qual//'%'//it%key//"': "//it%base//' is a key of &'//trim(group)// &
+                  ' (in: '//a//')', ierr, msg)
+    else if (it%key /= it%base .and. .not. array) then
+      call refuse('-nuno_set: '//it%base//' is not an array: no subscript (in: '//a//')', ierr, msg)
+    else if (len(it%value) == 0) then
+      call refuse('-nuno_set: '//it%key//' has no value (in: '//a//')', ierr, msg)
+    end if
+    if (ierr /= 0) return
+    it%group = trim(group)
+    why = value_error(it%key, it%value)
+    if (len(why) > 0) then
+      ! An unquoted string: the shell may have eaten the quotes.
+      if (kind == KEY_STRING .and. verify(it%value(1:1), '''"') /= 0) &
+        why = "a string must be quoted, the quotes protected from the shell: -nuno_set """// &
+              it%key//"='"//it%value//"'"""
+      call refuse('-nuno_set: '//it%key//'='//it%value//': '//why, ierr, msg)
+    end if
+  end subroutine lex_assignment
+
+  !> A key given twice (also across options; an array's element and the
+  !> whole array count as the same key) is refused.
+  subroutine check_given_once(items, it, ierr, msg)
+    type(assignment_t), intent(in) :: items(:), it
+    integer, intent(out) :: ierr
+    character(:), allocatable, intent(inout) :: msg
+    integer :: k
+    ierr = 0
+    do k = 1, size(items)
+      if (items(k)%base /= it%base) cycle
+      if (items(k)%key == it%key .or. items(k)%key == items(k)%base .or. it%key == it%base) then
+        call refuse('-nuno_set: '//it%key//' is given twice ('//items(k)%text//' and '//it%text// &
+                    '): give each key once', ierr, msg)
+        return
+      end if
+    end do
+  end subroutine check_given_once
+
+  !> it appended to items.
+  subroutine append(items, it)
+    type(assignment_t), allocatable, intent(inout) :: items(:)
+    type(assignment_t), intent(in) :: it
+    type(assignment_t), allocatable :: grown(:)
+    allocate(grown(size(items) + 1))
+    grown(1:size(items)) = items
+    grown(size(items) + 1) = it
+    call move_alloc(grown, items)
+  end subroutine append
+
+  !> A -nuno_set refusal: ierr = 1, msg the input's one line.
+  subroutine refuse(text, ierr, msg)
+    character(*), intent(in) :: text
+    integer, intent(out) :: ierr
+    character(:), allocatable, intent(inout) :: msg
+    ierr = 1
+    msg = 'input: '//text
+  end subroutine refuse
 
   !> The values of every -nuno_set option of the command line, in order,
   !> joined by line feeds (lex_overrides reads each alone); count: how many.
@@ -499,14 +549,16 @@ contains
   function overrides_record(ov) result(r)
     character(*), intent(in) :: ov
     character(:), allocatable :: r
-    integer :: i
+    integer :: p, q, n
     r = '-nuno_set '
-    do i = 1, len_trim(ov)
-      if (ov(i:i) == option_sep) then
-        r = r//' -nuno_set '
-      else
-        r = r//ov(i:i)
-      end if
+    n = len_trim(ov)
+    p = 1
+    do
+      q = item_end(ov(1:n), p, option_sep)
+      r = r//ov(p:q - 1)
+      if (q > n) exit
+      r = r//' -nuno_set '
+      p = q + 1
     end do
   end function overrides_record
 
@@ -571,6 +623,30 @@ contains
     is_name_char = (c >= 'a' .and. c <= 'z') .or. (c >= 'A' .and. c <= 'Z') .or. &
                    (c >= '0' .and. c <= '9') .or. c == '_'
   end function is_name_char
+
+  !> The key side of an assignment "key = value": lower case, without blanks.
+  function assignment_lhs(a) result(lhs)
+    character(*), intent(in) :: a
+    character(:), allocatable :: lhs
+    integer :: k
+    lhs = ''
+    do k = 1, index(a, '=') - 1
+      if (a(k:k) /= ' ') lhs = lhs//lower(a(k:k))
+    end do
+  end function assignment_lhs
+
+  !> The position of the first `sep` in s at or after `from`; len(s)+1 when
+  !> none: the end of an item of a list separated by sep.
+  pure integer function item_end(s, from, sep) result(q)
+    character(*), intent(in) :: s, sep
+    integer, intent(in) :: from
+    q = index(s(from:), sep)
+    if (q == 0) then
+      q = len(s) + 1
+    else
+      q = from + q - 1
+    end if
+  end function item_end
 
   !> An assignment without blanks and commas at its ends.
   function strip_commas(s) result(r)

@@ -7,6 +7,7 @@ module input_usage
   use strings, only: pow10_text, kb_text
   use input_keys, only: keys, n_keys, n_groups, key_index, key_type_text, key_group_list
   use input_limits, only: bytes_per_node_bending, bytes_per_node_plain, max_steps, max_outputs
+  use input_text, only: item_end
   implicit none
   private
   public :: usage_text, list_keys
@@ -36,6 +37,15 @@ contains
       'a symbolic link; OUTPUT may not be an input file (input/README.md, Output files).', &
       ''
     call usage_keys(unit)
+    call usage_run_options(unit)
+    call usage_petsc_options(unit)
+    call usage_newton_options(unit)
+  end subroutine usage_text
+
+  !> The --help lines on nuno's own options of a run: input checks, output
+  !> files, checkpoints and restart, namelist keys from the command line.
+  subroutine usage_run_options(unit)
+    integer, intent(in) :: unit
     write(unit, '(a)') '', &
       'Input checks:', &
       '  -nuno_allow_long                             run even with more than '//pow10_text(max_steps)// &
@@ -61,8 +71,14 @@ contains
       '                                               (recorded in the output''s namelist attribute);', &
       '                                               commas or blanks between keys; several -nuno_set', &
       '                                               are read in order; a key given twice, an empty', &
-      '                                               value or one not of the key''s type is refused', &
-      '', &
+      '                                               value or one not of the key''s type is refused'
+  end subroutine usage_run_options
+
+  !> The --help lines on PETSc's options of the time integration, and which
+  !> integrator suits which goal.
+  subroutine usage_petsc_options(unit)
+    integer, intent(in) :: unit
+    write(unit, '(a)') '', &
       'PETSc options (petsc_options in &output; the command line overrides them):', &
       '  -ts_type beuler|theta|cn|bdf|arkimex|rosw   integrator (default: backward Euler, the report''s, with', &
       '                                               the namelist''s fixed dt)', &
@@ -95,8 +111,13 @@ contains
       '  reproducible runs                            fixed steps (no -ts_adapt_type) with -ts_dt DT: the same', &
       '                                               steps whatever the solution; beuler (default) is order 1,', &
       '                                               -ts_type cn order 2, -ts_type rosw order 3 at about the', &
-      '                                               cost of cn (fixed-step bdf 3-5: order 2, see docs)', &
-      '', &
+      '                                               cost of cn (fixed-step bdf 3-5: order 2, see docs)'
+  end subroutine usage_petsc_options
+
+  !> The --help lines on the Newton step and its linear solves.
+  subroutine usage_newton_options(unit)
+    integer, intent(in) :: unit
+    write(unit, '(a)') '', &
       'The Newton step (docs/design.md):', &
       '  -nuno_jacobian reduced|full                  reduced (default): only the 3-dof velocity system', &
       '                                               S = a M - C - K/a is assembled and the 6-dof step is', &
@@ -161,7 +182,7 @@ contains
       'With -nuno_jacobian full (PETSc''s options act on the 6-dof solve as usual):', &
       '  -ksp_type gmres|bcgs|preonly, -pc_type ilu|lu|bjacobi|fieldsplit|gamg', &
       '  -dm_mat_type baij|aij                        Jacobian storage (default baij 6x6; aij for fieldsplit)'
-  end subroutine usage_text
+  end subroutine usage_newton_options
 
   !> The --help lines on the input file: the groups and their keys, from
   !> the key table (module input_keys).
@@ -178,19 +199,15 @@ contains
       line = '  &'//order(g)//'  '
       p = 1
       do while (p <= len(list))
-        q = index(list(p:), ', ')
-        if (q == 0) then
-          q = len(list) + 1
-        else
-          q = p + q + 1
-        end if
-        word = list(p:q - 1)
+        ! A key with the ', ' after it.
+        q = item_end(list, p, ', ')
+        word = list(p:min(q + 1, len(list)))
         if (len(line) + len(trim(word)) > 90) then
           write(unit, '(a)') trim(line)
           line = repeat(' ', 13)
         end if
         line = line//word
-        p = q
+        p = q + 2
       end do
       write(unit, '(a)') line
       select case (trim(order(g)))

@@ -204,13 +204,13 @@ program test_input
   open(newunit=u, status='scratch', action='readwrite')
   call usage_text(u)
   call read_text("&scene scene = 'wave_point' /", cfg, ierr, msg)
-  call input_summary(cfg, u)
+  call input_summary(cfg, u, 0.0_rp, .false., 0.0_rp, .false.)
   call read_text("&scene scene = 'hang' / &output write_velocity = .true. /", cfg, ierr, msg)
-  call input_summary(cfg, u)
+  call input_summary(cfg, u, 0.0_rp, .false., 0.0_rp, .false.)
   call check_true(count_lines(u) > 20, 'usage and summaries written')
   if (rank == 0) then
     call usage_text(output_unit)
-    call input_summary(cfg, output_unit)
+    call input_summary(cfg, output_unit, 0.0_rp, .false., 0.0_rp, .false.)
   end if
   close(u)
 
@@ -243,7 +243,7 @@ contains
       close(u)
     end if
     call MPI_Barrier(MPI_COMM_WORLD, merr)
-    call input_read(path, MPI_COMM_WORLD, cfg, ierr, msg)
+    call input_read(path, MPI_COMM_WORLD, '', 0, cfg, ierr, msg)
     ! Nobody rewrites the file before every rank has read it.
     call MPI_Barrier(MPI_COMM_WORLD, merr)
   end subroutine read_text
@@ -253,7 +253,7 @@ contains
     type(nuno_config), intent(out) :: cfg
     integer, intent(out) :: ierr
     character(*), intent(out) :: msg
-    call input_read(path, MPI_COMM_WORLD, cfg, ierr, msg)
+    call input_read(path, MPI_COMM_WORLD, '', 0, cfg, ierr, msg)
   end subroutine read_file
 
   subroutine expect_ok(what)

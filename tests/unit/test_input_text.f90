@@ -6,7 +6,8 @@
 !> in a scene, a value read back from a namelist WRITE.
 program test_input_text
   use input_text, only: assignment_t, lex_overrides, value_error, key_lookup, overrides_record, &
-                        KEY_INTEGER, KEY_REAL, KEY_LOGICAL, KEY_STRING, key_default, namelist_value
+                        KEY_INTEGER, KEY_REAL, KEY_LOGICAL, KEY_STRING, key_default, namelist_value, &
+                        item_end, assignment_lhs
   use input_keys, only: key_index
   use check, only: check_true, check_report
   implicit none
@@ -107,6 +108,16 @@ program test_input_text
   ! ---- the record in the output's namelist text --------------------------
   call check_true(overrides_record('nx=7,ny=6') == '-nuno_set nx=7,ny=6', 'one option recorded as given')
   call check_true(overrides_record('nx=7'//lf//'ny=9') == '-nuno_set nx=7 -nuno_set ny=9', 'two options recorded')
+  call check_true(overrides_record('nx=7'//lf) == '-nuno_set nx=7 -nuno_set ', 'an empty last option recorded')
+  call check_true(overrides_record('') == '-nuno_set ', 'an empty option recorded')
+
+  ! ---- the walk of a separated list and an assignment's key ------------
+  call check_true(item_end('a, b, c', 1, ', ') == 2, 'the first separator')
+  call check_true(item_end('a, b, c', 3, ', ') == 5, 'a separator after from')
+  call check_true(item_end('a, b, c', 6, ', ') == 8, 'none left: len + 1')
+  call check_true(item_end('abc', 4, ',') == 4, 'from past the end: len + 1')
+  call check_true(assignment_lhs(' Gravity( 3 ) = 1, 2') == 'gravity(3)', 'the key in lower case without blanks')
+  call check_true(assignment_lhs('no assignment') == '', 'no = : no key')
 
   ! ---- the table's default of a key in a scene, in namelist syntax -----
   call check_true(key_default(key_index('lx'), 'lift_release') == '100', 'lx default')
