@@ -207,7 +207,9 @@ def plots(study: dict, dpi: int) -> list[str]:
         jobs.append(("timeseries", timeseries.main,
                      [*files, "--label", label, "-o", str(outdir / "timeseries.png")]))
     if study["kind"] in ("lattice", "dt") and len(files) >= 3:
-        jobs.append(("convergence", convergence.main, [*files, "-o", str(outdir / "convergence.png")]))
+        jobs.append(("convergence", convergence.main,     # the title names the namelist file
+                     [*files, "--name", Path(study["namelist"]).name,
+                      "-o", str(outdir / "convergence.png")]))
     made = []
     for name, fn, argv in jobs:
         argv = argv + ["--dpi", str(dpi)]
