@@ -69,13 +69,13 @@ def test_compare_labels_runs_by_the_swept_value(tmp_path, make_run, capsys):
     assert_png(out)
     runs = [read_run(p) for p in paths]
     names = cli.run_labels(runs, "e_s")
-    assert names == ["e_s = 50", "e_s = 100", "e_s = 200", "e_s = 400"]
+    assert names == ["e_s = 50 N/m", "e_s = 100 N/m", "e_s = 200 N/m", "e_s = 400 N/m"]  # SI (hang)
     series = [compare.difference(runs[0], r, compare.common_interval(runs)) for r in runs[1:]]
     fig = compare.build_figure(runs, 0.5, series, "side", names)
     top, bottom = plotting.panels(fig)   # 4 runs: one overlay panel + the differences
     assert [t.get_text() for t in top.get_legend().get_texts()] == names
     assert [t.get_text() for t in bottom.get_legend().get_texts()] == \
-        [f"{n} vs e_s = 50" for n in names[1:]]
+        [f"{n} vs e_s = 50 N/m" for n in names[1:]]
     # the runs move in y: the side view is the y-z plane
     assert top.get_xlabel() == "y [m]" and top.get_ylabel() == "z [m]"
     # every axis label drawn whole inside the canvas, the x labels clear of the panel below
@@ -118,7 +118,7 @@ def test_timeseries_overlays_runs_in_sweep_order(tmp_path, make_run):
     assert len(axes) == timeseries.N_PANELS
     assert all(len(ax.lines) == 4 for ax in axes)
     assert [t.get_text() for t in fig.legends[0].get_texts()] == \
-        ["e_s = 50", "e_s = 100", "e_s = 200", "e_s = 400"]
+        ["e_s = 50 N/m", "e_s = 100 N/m", "e_s = 200 N/m", "e_s = 400 N/m"]
     # |p| = M |V| of the rigid motion (total mass 1): an independent value
     p_ax = axes[3]
     for k, line in enumerate(p_ax.lines):
