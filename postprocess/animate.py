@@ -44,21 +44,30 @@ def progress(done: int, total: int, stream=None, width: int = 40) -> None:
     stream.flush()
 
 
-def write_animation(run, output: str, stride: int = 1, fps: float = 10.0,
-                    view: str = "iso", dpi: int = 100, show_progress: bool = True) -> int:
-    """Write the animation; returns the number of frames."""
-    steps = frame_steps(run, stride)
-    writer = make_writer(output, fps)
-    units = run.units()
-    # Fixed box over the whole run, one step read at a time (bounded memory).
+def animation_figure(run, steps, view: str = "iso", dpi: int = 100):
+    """(figure, 3-D axes) every frame is drawn on: one box over the steps
+    (read one at a time: bounded memory), its labels placed inside the
+    frame (plotting.finish) with the longest title a frame will have."""
     lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
     for k in steps:
         a, b = plotting.bounds(run.position[k])
         lo, hi = np.minimum(lo, a), np.maximum(hi, b)
     fig, (ax,) = plotting.new_figure(1, ncols=1, projection="3d", panel_size=(6.0, 5.0))
-    plotting.setup_3d(ax, lo, hi, units, view)
+    fig.set_dpi(dpi)
+    plotting.setup_3d(ax, lo, hi, run.units(), view)
     plotting.shrink_3d_box(ax)
     plotting.room_for_3d_labels(fig)
+    ax.set_title(f"t = {run.time[steps[-1]]:.4g} s")
+    plotting.finish(fig)
+    return fig, ax
+
+
+def write_animation(run, output: str, stride: int = 1, fps: float = 10.0,
+                    view: str = "iso", dpi: int = 100, show_progress: bool = True) -> int:
+    """Write the animation; returns the number of frames."""
+    steps = frame_steps(run, stride)
+    writer = make_writer(output, fps)
+    fig, ax = animation_figure(run, steps, view, dpi)
     wire = None
     with writer.saving(fig, output, dpi):
         for n, k in enumerate(steps, start=1):

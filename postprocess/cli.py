@@ -92,14 +92,73 @@ def text_value(value) -> str:
     return str(value).strip()
 
 
+# The unit of each namelist key that has one, as `nuno --list-keys` prints it
+# (its 'unit' column: a dimension in the file's unit system); the test
+# tests/python/test_plot_labels.py checks this table against the program's.
+KEY_DIMENSIONS = {
+    "lx": "length", "ly": "length", "total_mass": "mass",
+    "e_s": "force/length", "eta_s": "force time/length", "e_d": "force/length",
+    "eta_d": "force time/length", "k_b": "paper: force/rad; energy: energy",
+    "eta_b": "energy time", "gravity": "length/time^2", "lift_length": "length",
+    "lift_height": "length", "bend_angle": "degree", "keyframe_time": "time",
+    "keyframe_dx": "length", "keyframe_dy": "length", "keyframe_dz": "length",
+    "release_time": "time", "initial_omega": "rad/time", "t_end": "time", "dt": "time",
+    "output_interval": "time", "stretch_limit": "1", "checkpoint_interval": "time",
+    "fit_lower": "as the parameter", "fit_upper": "as the parameter", "tikhonov": "length^2",
+    "max_speed": "length/time", "velocity_weight": "time^2", "keyframe_tikhonov": "1",
+    "obstacle_point": "length", "obstacle_normal": "1", "obstacle_radius": "length",
+    "obstacle_half_size": "length", "obstacle_axis": "1", "obstacle_end": "length",
+    "obstacle_time": "time", "obstacle_offset": "length", "obstacle_close": "length",
+    "obstacle_close_dir": "1", "obstacle_mu": "1", "contact_thickness": "length",
+    "contact_dhat": "length", "contact_stiffness": "force/length",
+    "friction_eps_v": "length/time",
+}
+# A dimension as a unit: (mm g s, SI). '' for none.
+DIMENSION_UNITS = {
+    "length": ("mm", "m"), "mass": ("g", "kg"), "time": ("s", "s"),
+    "force/length": ("g/s$^2$", "N/m"), "force time/length": ("g/s", "N s/m"),
+    "force/rad": ("g mm/s$^2$/rad", "N/rad"), "energy": ("g mm$^2$/s$^2$", "J"),
+    "energy time": ("g mm$^2$/s", "J s"), "length/time^2": ("mm/s$^2$", "m/s$^2$"),
+    "length/time": ("mm/s", "m/s"), "rad/time": ("rad/s", "rad/s"), "degree": ("°", "°"),
+    "length^2": ("mm$^2$", "m$^2$"), "time^2": ("s$^2$", "s$^2$"), "1": ("", ""),
+    "as the parameter": ("", ""),
+}
+
+
+def key_unit(run, key: str) -> str:
+    """The unit of namelist key in run's unit system ('' for none or unknown):
+    'N/m' for e_s of an SI file, 'g/s$^2$' in mm g s; k_b's follows the
+    bending model (paper: force per radian, energy: an energy)."""
+    name = key.lower().rpartition("%")[2].split("(")[0]
+    dim = KEY_DIMENSIONS.get(name)
+    if dim is None:
+        return ""
+    if dim.startswith("paper:"):
+        try:
+            model = text_value(run_value(run, "bending_model"))
+        except KeyError:
+            model = "paper"
+        dim = "energy" if model == "energy" else "force/rad"
+    system = getattr(run, "unit_system", None)
+    si = system == "SI" if system in ("SI", "mm g s") else run.units() == "m"
+    return DIMENSION_UNITS.get(dim, ("", ""))[1 if si else 0]
+
+
+def key_label(run, key: str) -> str:
+    """'e_s = 100 N/m': a swept key's value with its unit."""
+    unit = key_unit(run, key)
+    value = text_value(run_value(run, key))
+    return f"{key} = {value}" + (f" {unit}" if unit and unit != "°" else unit)
+
+
 def run_labels(runs, label_key: str | None = None, labels=None) -> list[str]:
-    """Legend labels: given ones, 'key = value' of a swept key, else file stems."""
+    """Legend labels: given ones, 'key = value unit' of a swept key, else file stems."""
     if labels:
         if len(labels) != len(runs):
             raise UsageError(f"--labels: {len(labels)} labels for {len(runs)} runs")
         return list(labels)
     if label_key:
-        return [f"{label_key} = {text_value(run_value(r, label_key))}" for r in runs]
+        return [key_label(r, label_key) for r in runs]
     names = [Path(r.path).stem for r in runs]
     if len(set(names)) < len(names):
         names = [f"{k + 1}: {n}" for k, n in enumerate(names)]

@@ -323,6 +323,23 @@ def frame_steps(run, frames: int) -> list[int]:
     return [int(k) for k in np.unique(np.rint(np.linspace(0, run.nt - 1, n)).astype(int))]
 
 
+def animation_figure(run, steps, units: str, size_px: int = 400, view: str = "iso", elev=None,
+                     azim=None, max_lines: int = 40, solids_first: bool = False, dpi: int = 100):
+    """(figure, 3-D axes, scene) every frame of the GIF is drawn on: one
+    box for all frames, its axis labels placed inside the square frame
+    (plotting.finish, with a frame's title)."""
+    scene = Scene(run, steps, lattice_stride(run, max_lines), solids_first)
+    fig, (ax,) = plotting.new_figure(1, ncols=1, projection="3d",
+                                     panel_size=(size_px / dpi, size_px / dpi))
+    fig.set_dpi(dpi)
+    _axes(ax, scene, units, view, elev, azim)
+    plotting.shrink_3d_box(ax, plotting.iso_zoom(scene.lo, scene.hi))
+    plotting.room_for_3d_labels(fig)
+    ax.set_title(f"t = {run.time[steps[-1]]:.2f} s", fontsize="medium")
+    plotting.finish(fig)
+    return fig, ax, scene
+
+
 def write_animation(run, output: str, units: str, frames: int = 60, size_px: int = 400,
                     fps: float = 12.0, view: str = "iso", elev=None, azim=None,
                     max_lines: int = 40, colors: int = 64, solids_first: bool = False) -> int:
@@ -336,13 +353,9 @@ def write_animation(run, output: str, units: str, frames: int = 60, size_px: int
     if not output.lower().endswith(".gif"):
         raise cli.UsageError(f"--gif {output}: the animation is a .gif")
     steps = frame_steps(run, frames)
-    scene = Scene(run, steps, lattice_stride(run, max_lines), solids_first)
     dpi = 100
-    fig, (ax,) = plotting.new_figure(1, ncols=1, projection="3d",
-                                     panel_size=(size_px / dpi, size_px / dpi))
-    _axes(ax, scene, units, view, elev, azim)
-    plotting.shrink_3d_box(ax, plotting.iso_zoom(scene.lo, scene.hi))
-    plotting.room_for_3d_labels(fig)
+    fig, ax, scene = animation_figure(run, steps, units, size_px, view, elev, azim, max_lines,
+                                      solids_first, dpi)
 
     class Quantized(PillowWriter):
         """PillowWriter whose frames are reduced to a few colours, undithered."""

@@ -25,21 +25,38 @@ biases their order upwards); --reference-run FILE against another run (a
 tighter tolerance or a finer lattice; every study run is kept, 2 runs
 suffice). Two runs and no reference run give no order: refused.
 
+The asymptotic range is judged before any estimate: the orders the study
+reports (those of the differences of successive runs, each from a triple of
+runs; with --reference-run those of the errors) must each be > 0 (the
+differences, or errors, fall) and agree within the band: the largest at most
+(1 + --band) times the smallest (default 0.2). Outside it one line says
+``not in the asymptotic range: orders ... (band ...)`` and no Richardson
+estimate and no fitted order is given (no order p <= 0 is ever used); the
+figure shows the differences with their orders and says so. With one order
+(3 runs; 2 with a reference run) the range cannot be checked and a line says
+that; with 3 runs the errors against the Richardson estimate follow from
+the one ratio of differences that gave p: they are printed as estimates,
+not drawn, and no order is fitted through them.
+
 Prints one ``error <h> <value>`` line per run, ``orders <p1> ...`` (the
 order between successive errors), ``difference <h_k> <d_k>`` per pair of
 successive runs, ``difference_orders ...``, ``observed_order_differences
 <value>`` (least-squares slope of the differences: their one ratio for 3
 runs), ``order <value>`` (least-squares slope of the errors, only through 3
-points or more: two points are one ratio, not a fit) and one ``using ...``
-line that says which reference the errors are against. The figure shows the
-errors and the differences with their orders, slope guides and the scene,
-the norm and the time in the title.
+points or more: two points are one ratio, not a fit), the line about the
+asymptotic range and one ``using ...`` line that says which reference the
+errors are against. The figure shows the errors and the differences with
+their orders, slope guides and, in the title, the study's name (--name;
+default: the files' common name, e.g. ``drop_table_dt-*.h5``), what varies,
+the norm and the time.
 From one CSV: the former mode, prints ``slope <value>``.
 """
 
 from __future__ import annotations
 
+import os
 import re
+from pathlib import Path
 
 import numpy as np
 
@@ -123,18 +140,48 @@ def successive_orders(h, e) -> np.ndarray:
 
 
 MIN_FIT_POINTS = 3   # a least-squares order through 2 points is one ratio, not a fit
+BAND = 0.2           # orders agree when the largest is at most (1 + BAND) times the smallest
 
 
-def study(runs, t=None, reference: str = "richardson", norm: str = "max", reference_run=None) -> dict:
+def judge_orders(orders, band: float = BAND) -> dict:
+    """Whether successive orders say the runs are in the asymptotic range.
+
+    In range: every order finite and > 0 (the differences, or errors, fall)
+    and, with two orders or more, max / min <= 1 + band. One order is
+    'unchecked' (nothing to agree with) when it is > 0. Returns
+    {'state': 'in' | 'out' | 'unchecked', 'orders': array, 'band': band}."""
+    ps = np.asarray(orders, float)
+    if len(ps) == 0:
+        state = "unchecked"
+    elif not np.all(np.isfinite(ps)) or np.any(ps <= 0):
+        state = "out"
+    elif len(ps) == 1:
+        state = "unchecked"
+    else:
+        state = "in" if ps.max() <= (1.0 + band) * ps.min() else "out"
+    return {"state": state, "orders": ps, "band": float(band)}
+
+
+def band_text(band: float) -> str:
+    return f"band: each > 0, largest <= {1.0 + band:g} x smallest"
+
+
+def study(runs, t=None, reference: str = "richardson", norm: str = "max", reference_run=None,
+          band: float = BAND) -> dict:
     """h, errors, differences and orders of a study; see the module docstring.
 
     reference_run: a Run to measure every run against (reference 'run');
     it may be of another time step or a finer lattice of the same sheet.
+    Outside the asymptotic range (judge_orders on the difference orders,
+    or with a reference run on the error orders) 'order' and 'observed' are
+    None and, against Richardson, there are no errors ('h', 'errors' empty).
     """
     if reference_run is not None:
         reference = "run"
     if reference not in ("finest", "richardson", "run"):
         raise ValueError(f"unknown reference {reference!r} (finest, richardson or a run)")
+    if not band > 0:
+        raise ValueError(f"--band {band:g}: must be > 0")
     need = {"finest": 3, "richardson": 3, "run": 2}[reference]
     kind = detect(runs) if len(runs) >= 2 else None   # what varies, before counting
     if len(runs) < need:
@@ -159,32 +206,59 @@ def study(runs, t=None, reference: str = "richardson", norm: str = "max", refere
         return distance(a, b, norm)
 
     diffs = np.array([dist(u[k], u[k + 1]) for k in range(len(runs) - 1)])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        d_orders = successive_orders(h[:-1], diffs) if len(diffs) >= 2 else np.array([])
+    d_range = judge_orders(d_orders, band)
+    if reference == "richardson" and np.any(diffs <= 0):
+        raise ValueError("successive runs agree exactly: no order to observe")
+    # the least-squares order of the differences: only inside the range
     observed = None
-    if len(runs) >= 3 and np.all(diffs > 0):
+    if len(runs) >= 3 and np.all(diffs > 0) and d_range["state"] != "out":
         observed, _ = loglog.fit_slope(h[:-1], diffs)
+    one_ratio = False
     if reference == "finest":
         ref = u[len(runs) - 1]
         hs, errors = h[:-1], np.array([dist(v, ref) for v in u[:len(runs) - 1]])
     elif reference == "run":
         ref = u[-1]
         hs, errors = h, np.array([dist(v, ref) for v in u[:-1]])
-    else:
-        if np.any(diffs <= 0):
-            raise ValueError("successive runs agree exactly: no order to observe")
+    elif observed is not None and observed > 0:
         r = h[-2] / h[-1]
         ref = u[-1] + (u[-1] - u[-2]) / (r ** observed - 1.0)
         hs, errors = h, np.array([dist(v, ref) for v in u])
+        one_ratio = len(runs) == 3
+    else:                                  # no Richardson estimate outside the range
+        hs, errors = h[:0], np.array([])
     if np.any(errors <= 0):
         raise ValueError("a run equals the reference exactly: no order to fit")
+    with np.errstate(divide="ignore", invalid="ignore"):
+        e_orders = successive_orders(hs, errors) if len(hs) >= 2 else np.array([])
+    judged = "errors" if reference == "run" else "differences"
+    rng = judge_orders(e_orders, band) if judged == "errors" else d_range
     order = icpt = None
-    if len(hs) >= MIN_FIT_POINTS:
+    if len(hs) >= MIN_FIT_POINTS and rng["state"] != "out" and not one_ratio:
         order, icpt = loglog.fit_slope(hs, errors)
     return {"kind": kind, "h": hs, "errors": errors, "order": order, "intercept": icpt,
-            "orders": successive_orders(hs, errors), "differences": diffs, "h_differences": h[:-1],
-            "difference_orders": successive_orders(h[:-1], diffs) if len(diffs) >= 2 else np.array([]),
+            "orders": e_orders, "differences": diffs, "h_differences": h[:-1],
+            "difference_orders": d_orders,
             "h_all": h, "time": t, "reference": reference, "observed": observed, "norm": norm,
-            "units": runs[0].units(), "scene": runs[0].scene(),
-            "lattices": [(r.nx, r.ny) for r in runs]}
+            "units": runs[0].units(), "scene": runs[0].scene(), "name": files_name(runs),
+            "lattices": [(r.nx, r.ny) for r in runs], "range": rng["state"],
+            "judged": judged, "judged_orders": rng["orders"], "band": band,
+            "one_ratio": one_ratio}
+
+
+def files_name(runs) -> str:
+    """What the runs' files are called together: their common stem with a
+    wildcard for the swept part (drop_table_dt-*.h5), else the names."""
+    names = [Path(str(r.path)).name for r in runs]
+    stems = [Path(n).stem for n in names]
+    if len(set(stems)) == 1:
+        return names[0]
+    prefix = re.sub(r"[0-9.]+$", "", os.path.commonprefix(stems))
+    if len(prefix.strip("-_.")) >= 2:
+        return f"{prefix}*{Path(names[0]).suffix}"
+    return ", ".join(names) if len(names) <= 3 else f"{names[0]} .. {names[-1]}"
 
 
 REFERENCE_NAMES = {"finest": "the finest run", "richardson": "the Richardson estimate",
@@ -219,15 +293,17 @@ def draw_study(ax, h, errors, h_diff, diffs, norm: str, reference: str, color="C
     on log-log axes, each labelled with its successive orders and, through 3
     points or more, its least-squares order. Shared with bench/convergence.py."""
     tag = f"{norm} " if show_label_norm else ""
-    err_orders = successive_orders(h, errors) if len(h) >= 2 else []
-    label = f"{tag}distance from {REFERENCE_NAMES.get(reference, reference)}"
-    if len(err_orders):
-        label += f": orders {_orders_text(err_orders)}"
-    if order is not None:
-        label += f", fit {order:.2f}"
-    ax.loglog(h, errors, "o-", color=color, label=label)
+    if len(errors):
+        err_orders = successive_orders(h, errors) if len(h) >= 2 else []
+        label = f"{tag}distance from {REFERENCE_NAMES.get(reference, reference)}"
+        if len(err_orders):
+            label += f": orders {_orders_text(err_orders)}"
+        if order is not None:
+            label += f", fit {order:.2f}"
+        ax.loglog(h, errors, "o-", color=color, label=label)
     if len(diffs):
-        d_orders = successive_orders(h_diff, diffs) if len(diffs) >= 2 else []
+        with np.errstate(divide="ignore", invalid="ignore"):
+            d_orders = successive_orders(h_diff, diffs) if len(diffs) >= 2 else []
         label = f"{tag}difference of successive runs"
         if len(d_orders):
             label += f": orders {_orders_text(d_orders)}"
@@ -235,32 +311,64 @@ def draw_study(ax, h, errors, h_diff, diffs, norm: str, reference: str, color="C
 
 
 def title(res) -> str:
-    """Scene, what varies, norm and time: the figure says what it shows."""
-    scene = res.get("scene") or "nuno"
+    """The study's name (the files, or --name), what varies, norm and time."""
+    name = res.get("name") or res.get("scene") or "nuno"
     if res["kind"] == "nx":
         lat = res["lattices"]
-        what = (f"N = {lat[0][0]} .. {lat[-1][0]}" if all(a == b for a, b in lat)
+        what = (f"nx = ny = {lat[0][0]} .. {lat[-1][0]}" if all(a == b for a, b in lat)
                 else f"{lat[0][0]} x {lat[0][1]} .. {lat[-1][0]} x {lat[-1][1]}")
     else:
         hs = res["h_all"]
         what = f"dt = {hs[0]:g} .. {hs[-1]:g} s"
-    return f"{scene}: {what}, {res['norm']} norm, t = {res['time']:g} s"
+    return f"{name}: {what} ({len(res['h_all'])} runs), {res['norm']} norm, t = {res['time']:g} s"
+
+
+def range_line(res) -> str:
+    """The one line about the asymptotic range (see the module docstring)."""
+    what = ("of the errors against the reference run" if res["judged"] == "errors"
+            else "of the differences of successive runs")
+    ps = _orders_text(res["judged_orders"])
+    band = band_text(res["band"])
+    if res["range"] == "out":
+        gone = ("no fitted order" if res["reference"] != "richardson"
+                else "no Richardson estimate and no fitted order")
+        return f"not in the asymptotic range: orders {ps} {what} ({band}): {gone}"
+    if res["range"] == "in":
+        return f"asymptotic range: orders {ps} {what} agree ({band})"
+    n = len(res["h_all"])
+    if res["one_ratio"]:
+        return (f"asymptotic range not checked: {n} runs give one order ({ps}); the errors "
+                "against the Richardson estimate follow from that one ratio of differences: "
+                "estimates, not separate evidence (not drawn, no order fitted); "
+                "4 runs give two orders to compare")
+    return (f"asymptotic range not checked: one order ({ps}) {what}; "
+            f"{n + 1} runs give two orders to compare")
 
 
 def build_figure(res):
     fig, (ax,) = plotting.new_figure(1, ncols=1, panel_size=(6.5, 5.0))
     units = res["units"]
-    draw_study(ax, res["h"], res["errors"], res["h_differences"], res["differences"],
-               res["norm"], res["reference"], order=res["order"])
-    slope_guides(ax, res["h_all"], float(res["errors"][0]), guide_orders(res["observed"]))
+    show_errors = not res["one_ratio"]
+    draw_study(ax, res["h"] if show_errors else [], res["errors"] if show_errors else [],
+               res["h_differences"], res["differences"], res["norm"], res["reference"],
+               order=res["order"])
+    anchor = float(res["errors"][0]) if show_errors and len(res["errors"]) else \
+        float(res["differences"][0])
+    h_guide = res["h_all"] if show_errors and len(res["errors"]) else res["h_differences"]
+    slope_guides(ax, h_guide, anchor, guide_orders(res["observed"]))
     if res["kind"] == "nx":
         ax.set_xlabel(plotting.length_label("lattice spacing h", units))
     else:
         ax.set_xlabel("time step dt [s]")
     ax.set_ylabel(plotting.length_label(f"{res['norm']} node distance", units))
     ax.set_title(title(res), fontsize="medium")
+    if res["range"] != "in":
+        # under the axes, where constrained layout keeps room for it (not over the data)
+        import textwrap
+        fig.supxlabel(textwrap.fill(range_line(res), 90), fontsize="small",
+                      color="C3" if res["range"] == "out" else "0.25")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize="small")
+    ax.legend(fontsize="small", loc="lower right")
     return fig
 
 
@@ -268,6 +376,8 @@ def using_line(res) -> str:
     """The one line that says which reference and which order the study reports."""
     obs = res["observed"]
     if res["reference"] == "richardson":
+        if not len(res["errors"]):
+            return "using richardson: no estimate (outside the asymptotic range)"
         return (f"using richardson: errors against the Richardson estimate of the two finest "
                 f"runs with the order of the differences of successive runs, {obs:.4g}")
     if res["reference"] == "finest":
@@ -291,6 +401,12 @@ def _parser():
     p.add_argument("--norm", choices=NORMS, default="max",
                    help="runs: largest node distance (max, default) or root mean square over "
                         "the nodes (rms)")
+    p.add_argument("--band", type=float, default=BAND,
+                   help="the asymptotic range: successive orders, each > 0, agree when the "
+                        f"largest is at most (1 + BAND) times the smallest (default {BAND:g})")
+    p.add_argument("--name", default=None,
+                   help="runs: what the title calls the study (default: the files' common "
+                        "name, e.g. drop_table_dt-*.h5; nuno-sweep gives the namelist file)")
     p.add_argument("--x-column", default="parameter", help="CSV: x column (default parameter)")
     p.add_argument("--y-column", default="error", help="CSV: y column (default error)")
     p.add_argument("--group-column", default=None,
@@ -306,15 +422,17 @@ def _parser():
 def _body(args):
     if len(args.inputs) == 1 and not args.inputs[0].lower().endswith((".h5", ".hdf5")):
         args.csv = args.inputs[0]
-        loglog.run(args)
+        loglog.run(args, band=args.band)
         return
     runs = [cli.load_run(path) for path in args.inputs]
     ref = cli.load_run(args.reference_run) if args.reference_run else None
-    res = study(runs, args.time, args.reference, args.norm, ref)
+    res = study(runs, args.time, args.reference, args.norm, ref, band=args.band)
+    if args.name:
+        res["name"] = args.name
     plotting.save(build_figure(res), args.output, args.dpi)
     for h, e in zip(res["h"], res["errors"]):
         print(f"error {h:.10g} {e:.10g}")
-    if len(res["orders"]):
+    if len(res["orders"]) and not res["one_ratio"]:
         print("orders " + " ".join(f"{p:.10g}" for p in res["orders"]))
     for h, d in zip(res["h_differences"], res["differences"]):
         print(f"difference {h:.10g} {d:.10g}")
@@ -324,9 +442,10 @@ def _body(args):
         print(f"observed_order_differences {res['observed']:.10g}")
     if res["order"] is not None:
         print(f"order {res['order']:.10g}")
-    else:
+    elif res["range"] != "out" and not res["one_ratio"]:
         print(f"no fitted order: {len(res['h'])} errors give one ratio (orders above); "
               f"a fit needs {MIN_FIT_POINTS}")
+    print(range_line(res))
     print(using_line(res))
 
 

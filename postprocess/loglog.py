@@ -65,21 +65,20 @@ def fit_slope(x, y) -> tuple[float, float]:
 
 
 def build_figure(series: dict, x_col: str, y_col: str, fit_range=(None, None),
-                 xlabel=None, ylabel=None):
-    """One log-log panel; returns (fig, {group: slope})."""
+                 xlabel=None, ylabel=None, no_fit=()):
+    """One log-log panel; returns (fig, {group: slope}); the groups in no_fit
+    are drawn without a fitted slope."""
     fig, (ax,) = plotting.new_figure(1, ncols=1, panel_size=(6.0, 4.5))
     lo, hi = fit_range
     slopes = {}
     for k, (name, (x, y)) in enumerate(series.items()):
-        use = np.ones(len(x), bool)
-        if lo is not None:
-            use &= x >= lo
-        if hi is not None:
-            use &= x <= hi
-        slope, icpt = fit_slope(x[use], y[use])
-        slopes[name] = slope
+        use = in_fit_range(x, lo, hi)
         tag = f"{name}: " if name else ""
         ax.loglog(x, y, "o", color=f"C{k}", label=f"{tag}{y_col}")
+        if name in no_fit:
+            continue
+        slope, icpt = fit_slope(x[use], y[use])
+        slopes[name] = slope
         xf = x[use]
         ax.loglog(xf, np.exp(icpt) * xf ** slope, "--", color=f"C{k}",
                   label=f"{tag}fit, slope {slope:.3f}")
@@ -104,11 +103,39 @@ def make_parser(prog: str, description: str, x_default: str, y_default: str):
     return p
 
 
-def run(args) -> None:
-    """Read, fit, print ``slope <value> [group]`` per series, save."""
+def in_fit_range(x, lo=None, hi=None):
+    use = np.ones(len(x), bool)
+    if lo is not None:
+        use &= x >= lo
+    if hi is not None:
+        use &= x <= hi
+    return use
+
+
+def run(args, band: float | None = None) -> None:
+    """Read, fit, print ``slope <value> [group]`` per series, save. With band
+    (a convergence study): the successive orders of the points in the fit
+    range are judged first (convergence.judge_orders); a series outside the
+    asymptotic range gets one line saying so and no slope."""
     series = read_columns(args.csv, args.x_column, args.y_column, args.group_column)
+    no_fit, lines = [], []
+    if band is not None:
+        from . import convergence  # noqa: the judge of the runs' studies
+        for name, (x, y) in series.items():
+            use = in_fit_range(x, args.fit_min, args.fit_max)
+            xs, ys = x[use][::-1], y[use][::-1]          # coarse first
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ps = convergence.successive_orders(xs, ys) if len(xs) >= 2 else []
+            rng = convergence.judge_orders(ps, band)
+            if rng["state"] == "out":
+                no_fit.append(name)
+                lines.append(f"not in the asymptotic range: orders {convergence._orders_text(ps)} "
+                             f"({convergence.band_text(band)}): no fitted slope"
+                             + (f" {name}" if name else ""))
     fig, slopes = build_figure(series, args.x_column, args.y_column,
-                               (args.fit_min, args.fit_max))
+                               (args.fit_min, args.fit_max), no_fit=no_fit)
     for name, slope in slopes.items():
         print(f"slope {slope:.10g}" + (f" {name}" if name else ""))
+    for line in lines:
+        print(line)
     plotting.save(fig, args.output, args.dpi)

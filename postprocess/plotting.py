@@ -14,7 +14,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.cm import ScalarMappable
 from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
-from matplotlib.ticker import MaxNLocator
+from matplotlib.ticker import Formatter, MaxNLocator, NullFormatter
 from mpl_toolkits.mplot3d import Axes3D  # noqa: F401  (registers projection='3d')
 
 CMAP = "viridis"  # perceptually uniform
@@ -46,8 +46,227 @@ def panels(fig) -> list:
 
 
 def save(fig, path, dpi: int = 120) -> None:
-    """Write the figure (format from the file name; PNG by default)."""
+    """Write the figure (format from the file name; PNG by default), its
+    labels placed first (finish)."""
+    fig.set_dpi(dpi)
+    finish(fig)
     fig.savefig(path, dpi=dpi)
+
+
+def finish(fig) -> None:
+    """What a figure needs once everything is drawn on it, before it is
+    written (save) or its frames grabbed (the animations): y labels that fit
+    their panel (wrap_tall_labels), 3-D z labels beside their own box and
+    every 3-D label inside the canvas (settle_3d), no two tick labels of an
+    axis on each other (unpile_tick_labels)."""
+    wrap_tall_labels(fig)
+    settle_3d(fig)
+    unpile_tick_labels(fig)
+
+
+def _renderer(fig):
+    fig.canvas.draw()
+    return fig.canvas.get_renderer()
+
+
+def wrap_tall_labels(fig) -> None:
+    """A y label taller than its panel reaches into the title above it (a
+    unit that collided with the suptitle): its unit goes on a second line,
+    and a label still too tall is wrapped further."""
+    import textwrap
+
+    r = _renderer(fig)
+    tall = [ax for ax in panels(fig) if ax.name != "3d" and ax.yaxis.label.get_text()
+            and ax.yaxis.label.get_window_extent(r).height > ax.get_window_extent(r).height]
+    for ax in tall:
+        name, sep, unit = ax.yaxis.label.get_text().rpartition(" [")
+        if sep:
+            ax.set_ylabel(f"{name}\n[{unit}")
+    r = _renderer(fig) if tall else r
+    for ax in tall:
+        label = ax.yaxis.label
+        if label.get_window_extent(r).height > ax.get_window_extent(r).height:
+            name, sep, unit = label.get_text().rpartition("\n[")
+            name = name or label.get_text()
+            lines = textwrap.wrap(name, max(8, len(name) // 2 + 1)) + ([f"[{unit}"] if sep else [])
+            ax.set_ylabel("\n".join(lines))
+
+
+def _zoom(ax) -> float:
+    return getattr(ax, "_nuno_zoom", 1.0)
+
+
+def _set_zoom(ax, zoom: float) -> None:
+    """The 3-D box at this zoom, its scales kept (equal on x, y, z)."""
+    ax.set_box_aspect(tuple(np.ptp([ax.get_xlim(), ax.get_ylim(), ax.get_zlim()], axis=1)), zoom=zoom)
+    ax._nuno_zoom = zoom
+
+
+def _tick_labels(axis, r) -> list:
+    """(location, text, window box, minor) of the tick labels drawn: only
+    ticks inside the axis' limits (3-D axes keep stale labels outside)."""
+    lo, hi = sorted(axis.get_view_interval())
+    span = hi - lo
+    out = []
+    for minor, ticks in ((False, axis.get_major_ticks()), (True, axis.get_minor_ticks())):
+        for t in ticks:
+            loc = t.get_loc()
+            if loc is None or not lo - 1e-9 * span <= loc <= hi + 1e-9 * span:
+                continue
+            lab = t.label1
+            if lab.get_visible() and lab.get_text():
+                out.append((loc, lab.get_text(), lab.get_window_extent(r), minor))
+    return out
+
+
+def _axes_of(ax) -> list:
+    return [ax.xaxis, ax.yaxis] + ([ax.zaxis] if ax.name == "3d" else [])
+
+
+def _label_boxes(ax, r) -> list:
+    return [lab.get_window_extent(r) for lab in (ax.xaxis.label, ax.yaxis.label, ax.zaxis.label)
+            if lab.get_visible() and lab.get_text()] + \
+        [b for axis in _axes_of(ax) for _, _, b, _ in _tick_labels(axis, r)]
+
+
+def _corners(box) -> np.ndarray:
+    return np.array([[box.x0, box.y0], [box.x0, box.y1], [box.x1, box.y0], [box.x1, box.y1]])
+
+
+def _axis_direction(ax, n: int) -> np.ndarray:
+    """Unit vector on the display of 3-D axes ax along its data axis n (x, y, z)."""
+    from mpl_toolkits.mplot3d import proj3d
+
+    lims = np.array([ax.get_xlim(), ax.get_ylim(), ax.get_zlim()])
+    a, b = lims[:, 0].copy(), lims[:, 0].copy()
+    b[n] = lims[n, 1]
+    m = ax.get_proj()
+    pa, pb = (proj3d.proj_transform(*p, m)[:2] for p in (a, b))
+    d = ax.transData.transform([pb])[0] - ax.transData.transform([pa])[0]
+    norm = float(np.hypot(*d))
+    return d / norm if norm > 0 else np.array([1.0, 0.0])
+
+
+def _place_3d_labels(axes, gap_px: float) -> None:
+    """Each axis label of each 3-D axes gap_px beyond its own tick labels.
+
+    matplotlib moves a 3-D axis label out from the box's centre by
+    (labelpad + 8) points times the box's spans, so on a flat or thin box
+    it lands far from its axis (a z label halfway to the next panel, the y
+    label of a thin box under the panel below). The position is linear in
+    labelpad: two draws give the direction it moves, and labelpad is set
+    so that the label's near edge lies gap_px past the tick labels' far edge
+    along that direction."""
+    fig = axes[0].figure
+    step = 4.0
+    r = _renderer(fig)
+    before = {(ax, n): axis.label.get_window_extent(r) for ax in axes
+              for n, axis in enumerate(_axes_of(ax))}
+    for ax in axes:
+        for axis in _axes_of(ax):
+            axis.labelpad -= step
+    r = _renderer(fig)
+    for ax in axes:
+        for n, axis in enumerate(_axes_of(ax)):
+            axis.labelpad += step
+            ticks = [b for _, _, b, _ in _tick_labels(axis, r)]
+            if not axis.label.get_text() or not axis.label.get_visible() or not ticks:
+                continue
+            b0, b1 = before[(ax, n)], axis.label.get_window_extent(r)
+            v = (np.array([b0.x0 + b0.x1, b0.y0 + b0.y1]) - [b1.x0 + b1.x1, b1.y0 + b1.y1]) / (2 * step)
+            speed = float(np.hypot(*v))          # display pixels per point of labelpad
+            if speed < 1e-9:
+                continue
+            u = v / speed
+            # measured across the axis: the tick labels spread along it
+            a = _axis_direction(ax, n)
+            across = u - (u @ a) * a
+            if np.hypot(*across) < 0.2:            # the label moves along its axis: leave it
+                continue
+            across /= np.hypot(*across)
+            far = max(float((_corners(b) @ across).max()) for b in ticks)
+            near = float((_corners(b0) @ across).min())
+            axis.labelpad += (far + gap_px - near) / (speed * float(u @ across))
+
+
+def settle_3d(fig, gap_pt: float = 4.0, slack: float = 1.0, rounds: int = 8) -> None:
+    """3-D panels: every axis label gap_pt beyond its own tick labels
+    (_place_3d_labels), and a box whose labels leave the canvas (a GIF's
+    square frame cut the z label) or reach into a 2-D panel drawn smaller
+    until they do not."""
+    axes = [ax for ax in fig.axes if ax.name == "3d"]
+    if not axes:
+        return
+    w, h = fig.canvas.get_width_height()
+    for _ in range(rounds):
+        _place_3d_labels(axes, gap_pt * fig.dpi / 72.0)
+        r = _renderer(fig)
+        flat = [a.get_window_extent(r) for a in panels(fig) if a.name != "3d"]
+        bad = []
+        for ax in axes:
+            boxes = _label_boxes(ax, r)
+            if any(b.x0 < -slack or b.y0 < -slack or b.x1 > w + slack or b.y1 > h + slack
+                   or any(b.overlaps(f) for f in flat) for b in boxes):
+                bad.append(ax)
+        if not bad:
+            return
+        for ax in bad:
+            if _zoom(ax) <= 0.5:
+                return
+            _set_zoom(ax, _zoom(ax) * 0.92)
+
+
+class _Thinned(Formatter):
+    """The labels of another formatter at the locations in keep only (the ticks stay)."""
+
+    def __init__(self, inner, keep):
+        self.inner, self.keep = inner, sorted(keep)
+
+    def _kept(self, v) -> bool:
+        return any(abs(v - k) <= 1e-9 * max(abs(k), 1e-300) for k in self.keep)
+
+    def set_locs(self, locs):
+        self.inner.set_locs(locs)
+
+    def format_ticks(self, values):
+        labels = self.inner.format_ticks(values)
+        return [lab if self._kept(v) else "" for v, lab in zip(values, labels)]
+
+    def __call__(self, x, pos=None):
+        return self.inner(x, pos) if self._kept(x) else ""
+
+    def get_offset(self):
+        return self.inner.get_offset()
+
+
+def _piled(boxes) -> bool:
+    return any(a.overlaps(b) for k, a in enumerate(boxes) for b in boxes[k + 1:])
+
+
+def unpile_tick_labels(fig, rounds: int = 6) -> None:
+    """No two tick labels of an axis drawn over each other: where they pile
+    (a log axis over less than a decade labels every minor tick; a short
+    3-D axis), the minor labels go first while two major labels remain, else
+    every second label of the piled kind; the ticks themselves stay."""
+    for _ in range(rounds):
+        r = _renderer(fig)
+        piled = []
+        for ax in panels(fig):
+            for axis in _axes_of(ax):
+                labels = _tick_labels(axis, r)
+                if _piled([b for _, _, b, _ in labels]):
+                    piled.append((axis, labels))
+        if not piled:
+            return
+        for axis, labels in piled:
+            majors = [loc for loc, _, _, minor in labels if not minor]
+            minors = [loc for loc, _, _, minor in labels if minor]
+            if minors and len(majors) >= 2:
+                axis.set_minor_formatter(NullFormatter())
+            elif minors:
+                axis.set_minor_formatter(_Thinned(axis.get_minor_formatter(), sorted(minors)[::2]))
+            else:
+                axis.set_major_formatter(_Thinned(axis.get_major_formatter(), sorted(majors)[::2]))
 
 
 def length_label(axis: str, units: str) -> str:
@@ -86,6 +305,7 @@ def setup_3d(ax, lo, hi, units: str, view: str = "iso", title: str | None = None
     ax.set_ylim(lo[1], hi[1])
     ax.set_zlim(lo[2], hi[2])
     ax.set_box_aspect(tuple(hi - lo), zoom=1.15)  # one unit, one length on every axis
+    ax._nuno_zoom = 1.15
     # Three ticks an axis and padded labels keep tick labels and axis labels
     # apart at panel size.
     for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
@@ -140,7 +360,7 @@ def iso_zoom(lo, hi) -> float:
 
 def shrink_3d_box(ax, zoom: float = 0.9) -> None:
     """A smaller box than setup_3d's (same scales), leaving room for the z label."""
-    ax.set_box_aspect(tuple(np.ptp([ax.get_xlim(), ax.get_ylim(), ax.get_zlim()], axis=1)), zoom=zoom)
+    _set_zoom(ax, zoom)
 
 
 def room_for_3d_labels(fig) -> None:

@@ -4,6 +4,7 @@
     nuno-sweep input/hang.nml --set e_s=1e3,2e3,4e3,8e3            # a parameter sweep
     nuno-sweep input/hang.nml --lattice 17,33,65 --fixed lattice_scaling="'continuum'"
     nuno-sweep input/hang.nml --dt 4e-3,2e-3,1e-3,5e-4 --options "-ts_type cn"
+    nuno-sweep input/hang.nml --set e_s=1e3,2e3 --batch local -j 2    # 2 runs at once
     nuno-sweep input/hang.nml --set e_s=1e3,2e3 --batch slurm [--submit]   # Slurm jobs
     nuno-sweep input/hang.nml --set e_s=1e3,2e3 --plots-only           # plot finished jobs
 
@@ -14,17 +15,21 @@ fixed time step dt. --fixed KEY=VALUE[,KEY=VALUE...] is set in every run,
 --options passes program options (-ts_type cn, ...) to every run. The files
 are <outdir>/<stem>_<key>-<value>.h5 (with .log beside each), outdir by
 default runs/sweep_<stem>_<key>; sweep.json there lists the values, files and
-commands. Runs go one after the other on --ranks ranks (mpiexec, or
-$NUNO_MPIEXEC); --batch slurm writes <outdir>/submit.sh instead, one
-`sbatch tools/slurm/nuno.sbatch ...` job a value (checkpointed and requeued:
-see that script), and runs it with --submit.
+commands. Runs go on this machine on --ranks ranks each (mpiexec, or
+$NUNO_MPIEXEC), -j N of them at once (--batch local; default one after the
+other). --batch slurm writes <outdir>/submit.sh instead: one Slurm job array
+of tools/slurm/nuno.sbatch (task k runs line k of runs.txt; checkpointed and
+requeued: see that script), with the executable's absolute path exported
+(NUNO_EXE), and a plotting job (plots.sbatch: this command with
+--plots-only) that runs after every task has ended well
+(--dependency=afterok:<array>); --submit runs submit.sh.
 
 Then (unless --no-plots) the comparison tools, labelled by the swept value,
 write into outdir: compare.png (nuno-compare: snapshots at the last common
 time and differences from the first run), timeseries.png (nuno-timeseries
 over all runs); for a lattice or dt refinement of 3 runs or more also
-convergence.png (nuno-convergence: the observed order). The command line of
-each is printed, to redo it with other options.
+convergence.png (nuno-convergence: the observed order, the asymptotic range
+judged). The command line of each is printed, to redo it with other options.
 """
 
 from __future__ import annotations
@@ -136,9 +141,10 @@ def plan(args) -> dict:
         name = file_stem(stem, key, v)
         runs.append({"value": v, "name": name, "file": f"{name}.h5",
                      "set": settings(kind, key, v, fixed)})
+    spec = {"set": args.set, "lattice": args.lattice, "dt": args.dt}[kind]
     return {"namelist": str(nml.resolve()), "kind": kind, "key": key, "values": values,
-            "fixed": fixed, "options": shlex.split(args.options or ""), "ranks": args.ranks,
-            "outdir": str(outdir), "runs": runs}
+            "spec": spec, "fixed": fixed, "options": shlex.split(args.options or ""),
+            "ranks": args.ranks, "outdir": str(outdir), "runs": runs}
 
 
 def nuno_args(study: dict, run: dict) -> list[str]:
@@ -146,46 +152,99 @@ def nuno_args(study: dict, run: dict) -> list[str]:
     return [study["namelist"], "-nuno_set", ",".join(sets), *study["options"]]
 
 
-def run_serially(study: dict, exe: str, mpiexec: str) -> list[str]:
-    """Each run in turn (cwd: outdir, log beside its file); returns the failures."""
+def run_local(study: dict, exe: str, mpiexec: str, jobs: int = 1) -> list[str]:
+    """Every run on this machine, `jobs` at once (cwd: outdir, log beside its
+    file); returns the failures."""
     outdir = Path(study["outdir"])
     failed = []
     n = len(study["runs"])
-    for k, run in enumerate(study["runs"], start=1):
-        cmd = [*shlex.split(mpiexec), "-n", str(study["ranks"]), exe, *nuno_args(study, run)]
-        run["command"] = shlex.join(cmd)
-        t0 = time.perf_counter()
-        with open(outdir / f"{run['name']}.log", "w") as log:
-            proc = subprocess.run(cmd, cwd=outdir, stdout=log, stderr=subprocess.STDOUT)
-        run["returncode"] = proc.returncode
-        run["wall_s"] = round(time.perf_counter() - t0, 3)
-        state = "ok" if proc.returncode == 0 else f"failed (exit {proc.returncode}; see {run['name']}.log)"
-        print(f"sweep: {k}/{n} {study['key']} = {run['value']}: {state}, {run['wall_s']:.1f} s",
-              flush=True)
-        if proc.returncode != 0:
-            failed.append(run["name"])
-    return failed
+    waiting = list(enumerate(study["runs"], start=1))
+    running: dict = {}        # Popen -> (k, run, log, start)
+    while waiting or running:
+        while waiting and len(running) < jobs:
+            k, run = waiting.pop(0)
+            cmd = [*shlex.split(mpiexec), "-n", str(study["ranks"]), exe, *nuno_args(study, run)]
+            run["command"] = shlex.join(cmd)
+            log = open(outdir / f"{run['name']}.log", "w")
+            proc = subprocess.Popen(cmd, cwd=outdir, stdout=log, stderr=subprocess.STDOUT)
+            running[proc] = (k, run, log, time.perf_counter())
+        done = [proc for proc in running if proc.poll() is not None]
+        if not done:
+            time.sleep(0.05)
+            continue
+        for proc in done:
+            k, run, log, t0 = running.pop(proc)
+            log.close()
+            run["returncode"] = proc.returncode
+            run["wall_s"] = round(time.perf_counter() - t0, 3)
+            state = ("ok" if proc.returncode == 0
+                     else f"failed (exit {proc.returncode}; see {run['name']}.log)")
+            print(f"sweep: {k}/{n} {study['key']} = {run['value']}: {state}, "
+                  f"{run['wall_s']:.1f} s", flush=True)
+            if proc.returncode != 0:
+                failed.append(run["name"])
+    return [r["name"] for r in study["runs"] if r["name"] in failed]   # in the sweep's order
 
 
-def write_batch(study: dict, exe: str | None, script: Path) -> Path:
-    """<outdir>/submit.sh: one sbatch job a value (tools/slurm/nuno.sbatch)."""
+def plots_command(study: dict) -> list[str]:
+    """This sweep's figures from its files: the command the plotting job runs."""
+    pkg = __package__ or "postprocess"
+    argv = [sys.executable, "-m", f"{pkg}.sweep", study["namelist"], f"--{study['kind']}",
+            study["spec"], "--outdir", str(Path(study["outdir"]).resolve()), "--plots-only"]
+    return argv
+
+
+def write_batch(study: dict, exe: str, script: Path) -> Path:
+    """<outdir>/submit.sh: one Slurm job array (task k: line k of runs.txt,
+    run by tools/slurm/nuno.sbatch --runs) and a plotting job after it
+    (afterok); the jobs find the executable by its exported absolute path."""
     if not script.is_file():
         raise FileNotFoundError(f"{script}: no batch script (give --sbatch-script)")
-    lines = ["#!/usr/bin/env bash",
-             f"# nuno-sweep: {study['key']} = {', '.join(study['values'])} of {study['namelist']},",
-             f"# one Slurm job a value ({script.name}: checkpointed, requeued, continued).",
-             "# Afterwards: nuno-sweep ... --plots-only (the same arguments) draws the figures.",
-             "set -euo pipefail", 'cd "$(dirname "$0")"']
-    if exe:
-        lines.append(f"export NUNO_EXE={shlex.quote(exe)}")
+    outdir = Path(study["outdir"])
+    name = f"{Path(study['namelist']).stem}_{study['key']}"
+    name = re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
+    lines = []
     for run in study["runs"]:
-        sets = ",".join(run["set"])
-        cmd = ["sbatch", f"--job-name={run['name']}", f"--ntasks={study['ranks']}", str(script),
-               study["namelist"], run["file"], "-nuno_set", sets, *study["options"]]
-        run["command"] = shlex.join(cmd)
+        words = [study["namelist"], run["file"], "-nuno_set", ",".join(run["set"]), *study["options"]]
+        run["command"] = shlex.join(words)
         lines.append(run["command"])
-    path = Path(study["outdir"]) / "submit.sh"
-    path.write_text("\n".join(lines) + "\n")
+    (outdir / "runs.txt").write_text("\n".join(lines) + "\n")
+    pythonpath = str(Path(__file__).resolve().parents[1])
+    (outdir / "plots.sbatch").write_text("\n".join([
+        "#!/usr/bin/env bash",
+        f"# nuno-sweep: the figures of the sweep in {outdir.resolve()}, once every run of",
+        "# its job array has ended well (submit.sh: --dependency=afterok:<array>).",
+        "#SBATCH --ntasks=1",
+        "#SBATCH --time=01:00:00",
+        "set -euo pipefail",
+        "export MPLBACKEND=Agg",
+        f"export PYTHONPATH={shlex.quote(pythonpath)}${{PYTHONPATH:+:$PYTHONPATH}}",
+        shlex.join(plots_command(study)),
+    ]) + "\n")
+    n = len(study["runs"])
+    array = ["sbatch", "--parsable", f"--array=0-{n - 1}", f"--job-name={name}",
+             f"--ntasks={study['ranks']}", "--output=%x-%A_%a.log", str(script.resolve()),
+             "--runs", "runs.txt"]
+    plot = ["sbatch", "--parsable", "--dependency=afterok:$array", "--kill-on-invalid-dep=yes",
+            f"--job-name={name}-plots", "--output=%x-%j.log", "plots.sbatch"]
+    text = [
+        "#!/usr/bin/env bash",
+        f"# nuno-sweep: {study['key']} = {', '.join(study['values'])} of {study['namelist']}:",
+        f"# one Slurm job array of {n} runs ({script.name} --runs runs.txt: task k runs line k,",
+        "# checkpointed, requeued, continued), then the plotting job (plots.sbatch) once",
+        "# every task has ended well (afterok). The jobs find nuno by NUNO_EXE, exported here.",
+        "set -euo pipefail",
+        'cd "$(dirname "$0")"',
+        f"export NUNO_EXE={shlex.quote(exe)}",
+        f"array=$({shlex.join(array)})",
+        "array=${array%%;*}    # --parsable prints ID or ID;CLUSTER",
+        f'echo "nuno-sweep: job array $array: {n} runs ({study["key"]})"',
+        # $array must expand: the dependency is not quoted by shlex
+        "plots=$(" + " ".join(shlex.quote(w) if "$array" not in w else f'"{w}"' for w in plot) + ")",
+        'echo "nuno-sweep: plotting job ${plots%%;*} after job array $array (afterok)"',
+    ]
+    path = outdir / "submit.sh"
+    path.write_text("\n".join(text) + "\n")
     path.chmod(0o755)
     return path
 
@@ -207,7 +266,9 @@ def plots(study: dict, dpi: int) -> list[str]:
         jobs.append(("timeseries", timeseries.main,
                      [*files, "--label", label, "-o", str(outdir / "timeseries.png")]))
     if study["kind"] in ("lattice", "dt") and len(files) >= 3:
-        jobs.append(("convergence", convergence.main, [*files, "-o", str(outdir / "convergence.png")]))
+        jobs.append(("convergence", convergence.main,     # the title names the namelist file
+                     [*files, "--name", Path(study["namelist"]).name,
+                      "-o", str(outdir / "convergence.png")]))
     made = []
     for name, fn, argv in jobs:
         argv = argv + ["--dpi", str(dpi)]
@@ -225,7 +286,7 @@ def _parser():
     p = cli.parser(__doc__.splitlines()[0], "sweep")
     p.formatter_class = argparse.RawDescriptionHelpFormatter
     p.epilog = "examples:\n" + "\n".join(
-        line for line in __doc__.splitlines()[2:7]) + "\n\nsee postprocess/README.md"
+        line for line in __doc__.splitlines()[2:9]) + "\n\nsee postprocess/README.md"
     p.add_argument("namelist", help="the case's namelist file")
     g = p.add_argument_group("what varies (one of)")
     g.add_argument("--set", default=None, metavar="KEY=V1,V2,...",
@@ -246,9 +307,12 @@ def _parser():
                    help="MPI launcher, may hold options (default $NUNO_MPIEXEC or mpiexec)")
     p.add_argument("--outdir", default=None,
                    help="where the runs and figures go (default runs/sweep_<stem>_<key>)")
-    p.add_argument("--batch", choices=("slurm",), default=None,
-                   help="write <outdir>/submit.sh (one Slurm job a value) instead of running")
-    p.add_argument("--submit", action="store_true", help="with --batch: run submit.sh (sbatch)")
+    p.add_argument("--batch", choices=("local", "slurm"), default=None,
+                   help="local: run here, -j at once; slurm: write <outdir>/submit.sh (a job "
+                        "array of the runs and a plotting job after it) instead of running")
+    p.add_argument("-j", "--jobs", type=int, default=1,
+                   help="runs at once on this machine (default 1: one after the other)")
+    p.add_argument("--submit", action="store_true", help="with --batch slurm: run submit.sh (sbatch)")
     p.add_argument("--sbatch-script", default=str(SBATCH_SCRIPT),
                    help="the job script (default tools/slurm/nuno.sbatch)")
     p.add_argument("--dry-run", action="store_true", help="print the commands, run nothing")
@@ -262,8 +326,13 @@ def _parser():
 def _body(args):
     if args.ranks < 1:
         raise cli.UsageError(f"--ranks {args.ranks}: must be >= 1")
-    if args.submit and not args.batch:
+    if args.submit and args.batch != "slurm":
         raise cli.UsageError("--submit goes with --batch slurm")
+    if args.jobs < 1:
+        raise cli.UsageError(f"-j {args.jobs}: must be >= 1")
+    if args.jobs > 1 and args.batch == "slurm":
+        raise cli.UsageError("-j is for runs on this machine (--batch local); Slurm runs the "
+                             "job array's tasks as it finds room")
     study = plan(args)
     outdir = Path(study["outdir"])
     if args.plots_only:
@@ -278,18 +347,17 @@ def _body(args):
         return
     outdir.mkdir(parents=True, exist_ok=True)
     manifest = outdir / "sweep.json"
-    if args.batch:
-        exe = find_exe(args.exe) if (args.exe or os.environ.get("NUNO_EXE")) else None
-        path = write_batch(study, exe, Path(args.sbatch_script))
+    if args.batch == "slurm":
+        path = write_batch(study, find_exe(args.exe), Path(args.sbatch_script))
         manifest.write_text(json.dumps(study, indent=1) + "\n")
-        print(f"sweep: {len(study['runs'])} jobs in {path}")
+        print(f"sweep: a job array of {len(study['runs'])} runs and a plotting job in {path}")
         if args.submit:
             proc = subprocess.run(["bash", str(path)])
             if proc.returncode != 0:
                 raise ValueError(f"{path}: exit {proc.returncode}")
         return
     exe = find_exe(args.exe)
-    failed = run_serially(study, exe, args.mpiexec)
+    failed = run_local(study, exe, args.mpiexec, args.jobs)
     manifest.write_text(json.dumps(study, indent=1) + "\n")
     if not args.no_plots:
         plots(study, args.dpi)

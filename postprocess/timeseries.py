@@ -5,7 +5,8 @@
     nuno-timeseries sweep/*.h5 --label e_s -o sweep_timeseries.png
 
 One run: its energies, balance, momentum and angular momentum components,
-length, flatness, step and iteration counts. Several runs (a sweep): the
+centre-line length (as its change from the rest length, stated on the
+axis: no offset), flatness, step and iteration counts. Several runs (a sweep): the
 same quantities overlaid, one line a run coloured in order and labelled by
 the file name, by --labels, or by the value of a swept namelist key
 (--label e_s): kinetic and elastic energy, balance drift, |p|, |L|,
@@ -34,6 +35,36 @@ def balance_drift(run) -> np.ndarray:
                    + np.abs(e.get("barrier", 0.0)) + np.abs(e["external_work"]))
     scale = scale if scale > 0 else 1.0
     return (b - b[0]) / scale
+
+
+def rest_length(run) -> float:
+    """The centre line's length on the rest lattice (row j = (ny-1)/2, as
+    the diagnostic is measured: docs/model.md section 7)."""
+    row = np.asarray(run.rest_position)[(run.ny - 1) // 2]
+    return float(np.linalg.norm(np.diff(row, axis=0), axis=-1).sum())
+
+
+def length_change(run):
+    """Centre-line length minus its rest length, [nt] (None without the diagnostic).
+
+    Plotted instead of the length itself: a length that stays within 1e-9 of
+    1 m drew as an axis offset '1e-9+9.9999999e-1', unreadable."""
+    length = run.diagnostics.get("length")
+    return None if length is None else np.asarray(length) - rest_length(run)
+
+
+def length_change_label(runs, units: str) -> str:
+    """'centre-line length - 100 mm [mm]': the reference stated (the runs'
+    rest length, or 'rest length' when they differ)."""
+    refs = [rest_length(r) for r in runs]
+    same = max(refs) - min(refs) <= 1e-12 * max(abs(max(refs)), 1e-300)
+    ref = f"{refs[0]:.6g} {units}" if same else "rest length"
+    return plotting.length_label(f"centre-line length \u2212 {ref}", units)
+
+
+def _plain_numbers(ax) -> None:
+    """y tick labels as numbers, never an offset added to them."""
+    ax.ticklabel_format(axis="y", useOffset=False)
 
 
 def _absent(ax, what):
@@ -78,13 +109,18 @@ def build_figure(run):
     _vector(ax_l, t, d.get("angular_momentum"), "L",
             plotting.quantity_label("angular momentum", units))
 
-    for ax, name, label in ((ax_len, "length", "centre-line length"),
-                            (ax_flat, "flatness", "flatness")):
-        if name in d:
-            ax.plot(t, d[name])
-        else:
-            _absent(ax, name)
-        ax.set_ylabel(plotting.length_label(label, units))
+    change = length_change(run)
+    if change is not None:
+        ax_len.plot(t, change)
+        _plain_numbers(ax_len)
+    else:
+        _absent(ax_len, "length")
+    ax_len.set_ylabel(length_change_label([run], units))
+    if "flatness" in d:
+        ax_flat.plot(t, d["flatness"])
+    else:
+        _absent(ax_flat, "flatness")
+    ax_flat.set_ylabel(plotting.length_label("flatness", units))
 
     for ax, names in ((ax_steps, ("steps", "rejected_steps")),
                       (ax_it, ("newton_iterations", "linear_iterations"))):
@@ -115,7 +151,7 @@ OVERLAY = (  # (panel, y label kind, function run -> [nt] or None)
     ("|momentum|", "momentum", lambda r: _norm(r.diagnostics.get("momentum"))),
     ("|angular momentum|", "angular momentum",
      lambda r: _norm(r.diagnostics.get("angular_momentum"))),
-    ("centre-line length", "length", lambda r: r.diagnostics.get("length")),
+    ("centre-line length", "length change", length_change),
     ("flatness", "length", lambda r: r.diagnostics.get("flatness")),
     ("linear iterations (cumulative)", None, lambda r: r.diagnostics.get("linear_iterations")),
 )
@@ -148,7 +184,10 @@ def build_overlay(runs, names):
                 drawn = True
         if not drawn:
             _absent(ax, title)
-        if kind == "length":
+        if kind == "length change":
+            ax.set_ylabel(length_change_label(runs, units))
+            _plain_numbers(ax)
+        elif kind == "length":
             ax.set_ylabel(plotting.length_label(title, units))
         elif kind:
             ax.set_ylabel(plotting.quantity_label(kind, units).replace(kind, title, 1))

@@ -11,13 +11,17 @@ listed in SKIP with a reason; a quoted line that is neither fails the test,
 so new docs cannot add untested lines.
 
 How a line is run: in one temporary directory that looks like the
-repository root to a user (build/nuno, input/*.nml, the postprocess
-package) and also holds copies of input/*.nml (the lines that say
-`nuno hang.nml`), with `nuno` and the `nuno-<name>` console scripts on PATH
-(python3 -m postprocess.<name>, what `pip install -e .` installs), the
-Open MPI variables of the caller's environment removed and what the
-README's run section says to source first (tools/env.sh) sourced. The line itself is
-not edited, except that it is made short (substitution rules):
+repository root to a user after the README's first command, `bash
+tools/demo.sh` (build/nuno, input/*.nml, tools/, the postprocess package),
+with the `nuno-<name>` console scripts on PATH (python3 -m
+postprocess.<name>, what `pip install -e .` installs) but not `nuno`
+itself, with the Open MPI variables and NUNO_EXE of the caller's
+environment removed, and with what the README's run section says to
+source first (tools/env.sh: build/ on PATH, Open MPI's settings) sourced.
+So `mpirun -n 2 nuno input/drop_table.nml`, as docs/contact.md and every
+namelist header quote it, runs only because tools/env.sh puts build/ on
+PATH (issue 48 item 6). The line itself is not edited, except that it is
+made short (substitution rules):
   - a nuno run gets `-nuno_set nx=9,ny=17,t_end=0.05` appended, without
     the keys the line sets itself; a `-nuno_restart` line gets t_end=0.1
     (the first job's run, at t_end=0.05, has finished and must be continued);
@@ -49,7 +53,7 @@ NOFILE = ("operates on example file names (run.h5, np1.h5, h17.h5, ...) that no 
           "test_studies, and their options checked against --help below")
 SKIP = {
     "mpirun -n P nuno INPUT.nml [PETSc options]": PLACEHOLDER,
-    "build/nuno INPUT.nml": PLACEHOLDER,
+    "nuno INPUT.nml": PLACEHOLDER,
     "python3 -m postprocess.<name>": PLACEHOLDER,
     "python3 -m nuno.<name>": PLACEHOLDER,
     "python3 -m postprocess.snapshots RUN.h5": PLACEHOLDER,
@@ -163,20 +167,20 @@ def _workdir(tmp_path, exe):
     (tmp_path / "input").mkdir()
     for p in (ROOT / "input").glob("*.nml"):
         (tmp_path / "input" / p.name).write_text(p.read_text())
-        (tmp_path / p.name).write_text(p.read_text())
     (tmp_path / "postprocess").symlink_to(ROOT / "postprocess")
     (tmp_path / "tools").symlink_to(ROOT / "tools")
-    bindir = tmp_path / ".bin"
+    bindir = tmp_path / ".bin"          # what pip install -e . puts on PATH: no nuno
     bindir.mkdir()
-    (bindir / "nuno").symlink_to(exe)
     for p in (ROOT / "postprocess").glob("*.py"):
         script = bindir / f"nuno-{p.stem}"
         script.write_text(f"#!/bin/sh\nPYTHONPATH={shlex.quote(str(ROOT))}${{PYTHONPATH:+:$PYTHONPATH}} "
                           f"exec python3 -m postprocess.{p.stem} \"$@\"\n")
         script.chmod(0o755)
     env = {k: v for k, v in os.environ.items()
-           if not k.startswith("OMPI_") and k not in ("NUNO_EXE", "NUNO_MPIEXEC")}
-    env["PATH"] = f"{bindir}:{env.get('PATH', '')}"
+           if not k.startswith("OMPI_") and k not in ("NUNO_EXE", "NUNO_MPIEXEC", "NUNO_ROOT")}
+    path = [d for d in env.get("PATH", "").split(":")      # no nuno of the caller's (a build/
+            if d and not (Path(d) / "nuno").exists()]      # on PATH from tools/env.sh)
+    env["PATH"] = ":".join([str(bindir), *path])
     return env
 
 
@@ -205,9 +209,46 @@ def failed(r):
 def test_extraction_finds_the_readme_run_line():
     """The extractor sees the README's run lines (a broken regex would pass vacuously)."""
     cmds = [c for _, _, c in quoted()]
-    assert any(c.startswith("mpirun") and "build/nuno input/hang.nml" in c for c in cmds)
+    assert any(c.startswith("mpirun") and "nuno input/hang.nml" in c for c in cmds)
     assert any(c.startswith("nuno-") for c in cmds)
     assert len(cmds) > 20
+
+
+def test_every_namelist_header_and_docs_page_is_covered():
+    """Each input/*.nml has its "! Run:" line among the lines run (none
+    skipped), and so have docs/contact.md's run lines: the lines of issue
+    48 item 6 that failed from a checkout."""
+    found = quoted()
+    for p in sorted((ROOT / "input").glob("*.nml")):
+        name = str(p.relative_to(ROOT))
+        runs = [c for f, _, c in found if f == name]
+        assert runs == [c for c in runs if c not in SKIP] and len(runs) == 1, (name, runs)
+        words = runs[0].split()
+        assert words[:2] == ["mpirun", "-n"] and words[3:5] == ["nuno", name], runs  # from the root
+    assert "mpirun -n 2 nuno input/drop_table.nml" in [c for f, _, c in found
+                                                       if f == "docs/contact.md"]
+
+
+def test_nuno_is_on_path_only_through_tools_env_sh(tmp_path):
+    """In the test's directory `nuno` is not found until tools/env.sh is
+    sourced (it puts build/ on PATH): the header lines pass because of it,
+    not because the test put nuno on PATH. Once sourced, `nuno` is the
+    directory's build/nuno."""
+    env = _workdir(tmp_path, nuno_exe())
+    bare = subprocess.run(["bash", "-c", "command -v nuno"], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=60)
+    assert bare.returncode != 0, bare.stdout
+    line = next(c for f, _, c in quoted() if f == "input/drop_table.nml")
+    r = run_line(line, tmp_path, dict(env, OMPI_ALLOW_RUN_AS_ROOT="1",
+                                      OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+                                      OMPI_MCA_rmaps_base_oversubscribe="1"), setup=[])
+    assert failed(r) and not (tmp_path / "drop_table.h5").exists(), r.stdout + r.stderr
+    sourced = subprocess.run(["bash", "-c", "source tools/env.sh && command -v nuno"], cwd=tmp_path,
+                             env=env, capture_output=True, text=True, timeout=60)
+    assert sourced.returncode == 0 and sourced.stdout.strip() == str(tmp_path / "build" / "nuno")
+    r = run_line(line, tmp_path, env)
+    assert not failed(r), r.stdout + r.stderr
+    assert (tmp_path / "drop_table.h5").is_file()
 
 
 def test_skip_list_has_no_stale_entries():

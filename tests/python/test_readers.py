@@ -142,7 +142,10 @@ def test_xarray_names_no_phony_dimension(hang):
 
 def test_the_docs_python_block_runs(hang):
     """postprocess/README.md's "pyvista and xarray" block, as written, on a
-    run named hang.h5, in its directory."""
+    run named hang.h5, in its directory: xyz selected by its labels x, y, z
+    (which the block attaches: the file has none), and the whole file as one
+    DataTree (xr.open_datatree fails on it; the block's open_groups recipe
+    does not)."""
     need("pyvista")
     need("xarray")
     need("h5netcdf")
@@ -159,6 +162,21 @@ def test_the_docs_python_block_runs(hang):
         zmean = f["position"][:nt, :, :, 2].min(axis=0).mean()
         assert lines[1] == f"{zmean} m"
         assert lines[2] == f"{float(f['energy/kinetic'][nt - 1])} J"
+        # the tree of every group: the energy at the last complete time by
+        # its inherited time coordinate, the lattice's components by name
+        assert lines[3] == f"{float(f['energy/kinetic'][nt - 1])} ('j', 'i')"
+
+
+def test_open_datatree_fails_as_the_docs_say(hang):
+    """postprocess/README.md says xr.open_datatree fails on the file with a
+    KeyError about /config's time: when an xarray opens it, this fails and
+    the docs must say so instead."""
+    xr = need("xarray")
+    need("h5netcdf")
+    text = (Path(__file__).resolve().parents[2] / "postprocess" / "README.md").read_text()
+    assert "KeyError: 'parent config already contains a variable named time'" in " ".join(text.split())
+    with pytest.raises(KeyError, match="parent config already contains a variable named time"):
+        xr.open_datatree(hang, engine="h5netcdf", phony_dims="access")
 
 
 def test_a_restart_adds_the_scales_to_a_file_of_an_earlier_version(tmp_path):

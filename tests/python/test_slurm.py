@@ -3,7 +3,8 @@
 plain bash under stub sbatch/srun/scontrol commands on PATH: the first job
 checkpoints by wall clock (-nuno_checkpoint_walltime), SIGTERM from Slurm is
 passed on and the job requeued, a requeued job continues the file
-(-nuno_restart), other endings are not requeued. The last test runs the
+(-nuno_restart), other endings are not requeued; a task of a job array
+(--runs, nuno-sweep's) takes its line of the runs file. The last test runs the
 real program through the script: interrupted, requeued, continued, complete."""
 import os
 import signal
@@ -132,6 +133,33 @@ def test_failed_run_is_not_requeued(stubs):
     proc = subprocess.run(["bash", str(SCRIPT), "case.nml"], cwd=work, env=env,
                           capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2 and proc.stderr.startswith("usage: sbatch")
+
+
+def test_array_task_takes_its_line_of_the_runs_file(stubs):
+    """--runs RUNS.txt (nuno-sweep's job array): task k runs with the shell
+    words of line k (from 0), quotes kept; without a task id, or past the
+    last line, the job stops with one line and no run."""
+    env, work, logs = stubs
+    (work / "runs.txt").write_text(
+        "case.nml a.h5 -nuno_set e_s=1\n"
+        "case.nml 'b c.h5' -nuno_set \"scene='hang',e_s=2\" -ts_type cn\n")
+    proc = subprocess.run(["bash", str(SCRIPT), "--runs", "runs.txt"], cwd=work,
+                          env=dict(env, SLURM_ARRAY_TASK_ID="1", SLURM_JOB_ID="9"),
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    args = srun_args(logs)
+    assert args[1] == "case.nml"
+    assert args[args.index("-nuno_set") + 1] == "output_file='b c.h5',scene='hang',e_s=2"
+    assert args[-2:] == ["-ts_type", "cn"]
+    (logs / "srun.args").unlink()
+    for task, code, message in ((None, 2, "needs a job array"), ("2", 1, "no line 2 in runs.txt")):
+        run_env = dict(env, SLURM_JOB_ID="9")
+        if task is not None:
+            run_env["SLURM_ARRAY_TASK_ID"] = task
+        proc = subprocess.run(["bash", str(SCRIPT), "--runs", "runs.txt"], cwd=work, env=run_env,
+                              capture_output=True, text=True, timeout=60)
+        assert proc.returncode == code and message in proc.stderr, proc.stderr
+        assert not (logs / "srun.args").exists()
 
 
 NAMELIST = """&scene scene='hang' /

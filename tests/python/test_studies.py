@@ -69,13 +69,13 @@ def test_compare_labels_runs_by_the_swept_value(tmp_path, make_run, capsys):
     assert_png(out)
     runs = [read_run(p) for p in paths]
     names = cli.run_labels(runs, "e_s")
-    assert names == ["e_s = 50", "e_s = 100", "e_s = 200", "e_s = 400"]
+    assert names == ["e_s = 50 N/m", "e_s = 100 N/m", "e_s = 200 N/m", "e_s = 400 N/m"]  # SI (hang)
     series = [compare.difference(runs[0], r, compare.common_interval(runs)) for r in runs[1:]]
     fig = compare.build_figure(runs, 0.5, series, "side", names)
     top, bottom = plotting.panels(fig)   # 4 runs: one overlay panel + the differences
     assert [t.get_text() for t in top.get_legend().get_texts()] == names
     assert [t.get_text() for t in bottom.get_legend().get_texts()] == \
-        [f"{n} vs e_s = 50" for n in names[1:]]
+        [f"{n} vs e_s = 50 N/m" for n in names[1:]]
     # the runs move in y: the side view is the y-z plane
     assert top.get_xlabel() == "y [m]" and top.get_ylabel() == "z [m]"
     # every axis label drawn whole inside the canvas, the x labels clear of the panel below
@@ -118,7 +118,7 @@ def test_timeseries_overlays_runs_in_sweep_order(tmp_path, make_run):
     assert len(axes) == timeseries.N_PANELS
     assert all(len(ax.lines) == 4 for ax in axes)
     assert [t.get_text() for t in fig.legends[0].get_texts()] == \
-        ["e_s = 50", "e_s = 100", "e_s = 200", "e_s = 400"]
+        ["e_s = 50 N/m", "e_s = 100 N/m", "e_s = 200 N/m", "e_s = 400 N/m"]
     # |p| = M |V| of the rigid motion (total mass 1): an independent value
     p_ax = axes[3]
     for k, line in enumerate(p_ax.lines):
@@ -262,28 +262,34 @@ def test_sweep_names_files_and_sets_keys(tmp_path, capsys):
 
 
 def test_sweep_writes_slurm_jobs(tmp_path, capsys):
-    """--batch slurm: one sbatch line a value with tools/slurm/nuno.sbatch,
-    the case, the named file and the value's -nuno_set; --submit runs them
-    (a stub sbatch records its arguments)."""
+    """--batch slurm: runs.txt holds one line a value (the case, the named
+    file and the value's -nuno_set) for a job array of tools/slurm/nuno.sbatch
+    --runs; --submit runs submit.sh (a stub sbatch records its arguments and
+    prints a job id): the array, then a plotting job after it. The whole
+    sweep through stub Slurm commands: tests/python/test_sweep_batch.py."""
     stub = tmp_path / "bin"
     stub.mkdir()
-    (stub / "sbatch").write_text('#!/bin/sh\necho "$@" >> "$STUB_LOG"\n')
+    (stub / "sbatch").write_text('#!/bin/sh\necho "$@" >> "$STUB_LOG"\necho 77\n')
     (stub / "sbatch").chmod(0o755)
     log = tmp_path / "sbatch.log"
     env = dict(os.environ, PATH=f"{stub}:{os.environ['PATH']}", STUB_LOG=str(log))
     env.pop("NUNO_EXE", None)
-    args = sweep_args(tmp_path, "--lattice", "9,17", "-n", "4", "--batch", "slurm", "--submit")
+    args = sweep_args(tmp_path, "--lattice", "9,17", "-n", "4", "--batch", "slurm", "--submit",
+                      "--exe", sys.executable)
     proc = subprocess.run([sys.executable, "-m", "postprocess.sweep", *args], cwd=tmp_path, env=dict(
         env, PYTHONPATH=str(REPO)), capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
+    runs = [shlex.split(line) for line in (tmp_path / "out" / "runs.txt").read_text().splitlines()]
+    assert len(runs) == 2
+    assert runs[1] == [str((tmp_path / "case.nml").resolve()), "case_nx-17.h5", "-nuno_set", "nx=17,ny=17"]
+    recorded = [shlex.split(line) for line in log.read_text().splitlines()]
+    assert len(recorded) == 2
+    assert "--array=0-1" in recorded[0] and "--ntasks=4" in recorded[0]
+    assert Path(recorded[0][-3]) == REPO / "tools" / "slurm" / "nuno.sbatch"
+    assert recorded[0][-2:] == ["--runs", "runs.txt"]
+    assert "--dependency=afterok:77" in recorded[1] and recorded[1][-1] == "plots.sbatch"
     submit = (tmp_path / "out" / "submit.sh").read_text().splitlines()
-    jobs = [shlex.split(line) for line in submit if line.startswith("sbatch ")]
-    assert len(jobs) == 2
-    assert jobs[1][:3] == ["sbatch", "--job-name=case_nx-17", "--ntasks=4"]
-    assert Path(jobs[1][3]) == REPO / "tools" / "slurm" / "nuno.sbatch"
-    assert jobs[1][5:] == ["case_nx-17.h5", "-nuno_set", "nx=17,ny=17"]
-    recorded = log.read_text().splitlines()
-    assert len(recorded) == 2 and recorded[0].split()[-1] == "nx=9,ny=9"
+    assert f"export NUNO_EXE={shlex.quote(str(Path(sys.executable).resolve()))}" in submit
     study = json.loads((tmp_path / "out" / "sweep.json").read_text())
     assert study["kind"] == "lattice" and [r["file"] for r in study["runs"]] == \
         ["case_nx-9.h5", "case_nx-17.h5"]
