@@ -24,6 +24,8 @@ program nuno
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_positive_inf
   use safe_files, only: same_file, check_output_name, sidecar_path
   use kinds, only: rp
+  use step_settings, only: step_t_end
+  use run_error, only: run_error_any
   use input_text, only: command_line_overrides
   use build_info, only: nuno_version, nuno_commit
   use errors, only: help_requested, version_requested, list_keys_requested, fatal_collective, fatal_local, input_path_argument, apply_namelist_options, &
@@ -212,7 +214,7 @@ program nuno
       call fatal_collective('-nuno_restart: the file name is longer than '//trim(adjustl(itoa(len(cfg%output%output_file))))// &
                             ' characters')
     call output_reopen(out, trim(restart_file), PETSC_COMM_WORLD, cfg%lattice%nx, cfg%lattice%ny, ctx%lat%ys, &
-                       ctx%lat%ye - ctx%lat%ys + 1, cfg%output%write_velocity, ctx%step%t_end, cfg%namelist_text, petsc_opts, &
+                       ctx%lat%ye - ctx%lat%ys + 1, cfg%output%write_velocity, step_t_end(ctx%step), cfg%namelist_text, petsc_opts, &
                        ck, ctx%xout, ctx%vout, ierr, errmsg, protect=trim(path), overwrite=overwrite /= 0, cfg=cfg)
     if (ierr /= 0) call fatal_collective(errmsg)
     if (rank == 0 .and. trim(restart_file) /= trim(cfg%output%output_file) .and. &
@@ -251,7 +253,7 @@ program nuno
   end if
   call output_close(out, trim(status), ierr, errmsg)
   ! After a failed write (a full disk) the close fails too: that was said.
-  if (ierr /= 0) call fatal_collective(errmsg, reported=status /= 'complete' .and. len_trim(ctx%io_error) > 0)
+  if (ierr /= 0) call fatal_collective(errmsg, reported=status /= 'complete' .and. run_error_any(ctx%error))
 
   ! 5. Clean up; a failed run exits non-zero on every rank.
   call solver_destroy(ctx, ierr)

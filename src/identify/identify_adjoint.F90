@@ -43,7 +43,9 @@ module identify_adjoint
   use scenes, only: scene_setup
   use constraints, only: constraint_step_sensitivity, PATH_KEYFRAMES
   use timestepping, only: app_ctx, enter_window, advance_window
-  use step_monitor, only: energy_integrals_reset, progress_reset
+  use energy_integrals, only: energy_integrals_reset
+  use run_progress, only: progress_reset
+  use step_settings, only: step_dt
   use safe_files, only: make_scratch_dir, remove_scratch
   use identify_params, only: ident_params_t, MODE_CONTROL, params_setup_identify, params_setup_control, &
                              apply_theta, values_text
@@ -192,9 +194,9 @@ contains
     PetscCall(TSSetTime(app%ts, 0.0_rp, ierr))
     PetscCall(TSSetStepNumber(app%ts, zero, ierr))
     ! Room for the whole run: its steps, one more per window, retries.
-    horizon = 2.0_rp * (id%obs%wb(id%obs%nw) + real(id%obs%nw + 1, rp) * app%step%dt)
+    horizon = 2.0_rp * (id%obs%wb(id%obs%nw) + real(id%obs%nw + 1, rp) * step_dt(app%step))
     nw = id%obs%nw
-    call nuno_ts_trajectory_fresh(app%ts, horizon, app%step%dt, nw, trim(id%run%traj_dir)//c_null_char, ierr)
+    call nuno_ts_trajectory_fresh(app%ts, horizon, step_dt(app%step), nw, trim(id%run%traj_dir)//c_null_char, ierr)
     if (ierr == -1) then
       ierr = 1
       id%run%failed = .true.
@@ -273,7 +275,7 @@ contains
       ! saves it; otherwise the adjoint of the previous window pops the
       ! wrong checkpoint.
       PetscCall(TSSetConvergedReason(app%ts, TS_CONVERGED_ITERATING, ierr))
-      h = app%step%dt
+      h = step_dt(app%step)
       call advance_window(app, t, id%obs%wb(w), h, .true., reason, ierr)
       if (ierr /= 0) return
       if (reason < 0 .or. abs(t - id%obs%wb(w)) > 1.0e3_rp * eps) then

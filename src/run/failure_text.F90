@@ -11,6 +11,8 @@ module failure_text
   use, intrinsic :: iso_fortran_env, only: error_unit
   use kinds, only: rp
   use app_context, only: app_ctx
+  use step_settings, only: step_fixed, step_dt
+  use run_error, only: run_error_set
   implicit none
   private
   public :: signal_name, failure_reason, report_io_error
@@ -30,8 +32,8 @@ contains
     type(tSNES) :: snes
     PetscErrorCode :: ierr
     h = 'try'
-    if (ctx%step%fixed_step) then
-      write(dtq, '(es10.3)') 0.25_rp * ctx%step%dt
+    if (step_fixed(ctx%step)) then
+      write(dtq, '(es10.3)') 0.25_rp * step_dt(ctx%step)
       h = trim(h)//' a smaller step (-ts_dt '//trim(adjustl(dtq))//'), adaptive steps (-ts_adapt_type basic),'
     else if (.not. given('-ts_max_snes_failures')) then
       h = trim(h)//' more retries (-ts_max_snes_failures -1),'
@@ -115,12 +117,13 @@ contains
   end subroutine failure_reason
 
   !> An output write failed (agreed by every rank): its one line on stderr
-  !> (rank 0), and the reason kept, so that solver_run ends the run as failed.
+  !> (rank 0), and the run's error (module run_error), so that solver_run
+  !> ends the run as failed.
   subroutine report_io_error(ctx, errmsg)
     type(app_ctx), intent(inout) :: ctx
     character(*), intent(in) :: errmsg
     if (ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//trim(errmsg)
-    ctx%io_error = errmsg
+    call run_error_set(ctx%error, errmsg)
   end subroutine report_io_error
 
 end module failure_text

@@ -9,6 +9,7 @@ module provenance
   use config, only: nuno_config, unset_real
   use output, only: output_file, run_info, output_write_run_info, output_config_key
   use app_context, only: app_ctx
+  use step_settings, only: step_dt, step_t_end, step_max_steps, step_rtol, step_atol_x, step_atol_v
   use failure_text, only: report_io_error
   implicit none
   private
@@ -34,12 +35,12 @@ contains
     PetscCall(TSGetAdapt(ctx%ts, adapt, ierr))
     PetscCall(TSAdaptGetType(adapt, info%ts_adapt_type, ierr))
     PetscCall(PetscGetVersion(info%petsc_version, ierr))
-    info%dt = ctx%step%dt
-    info%t_end = ctx%step%t_end
-    info%max_steps = int(min(ctx%step%max_steps, int(huge(1), kind(ctx%step%max_steps))))
-    info%rtol = ctx%step%rtol
-    info%atol_position = ctx%step%atol_x
-    info%atol_velocity = ctx%step%atol_v
+    info%dt = step_dt(ctx%step)
+    info%t_end = step_t_end(ctx%step)
+    info%max_steps = int(min(step_max_steps(ctx%step), int(huge(1), kind(step_max_steps(ctx%step)))))
+    info%rtol = step_rtol(ctx%step)
+    info%atol_position = step_atol_x(ctx%step)
+    info%atol_velocity = step_atol_v(ctx%step)
     info%units = ctx%cfg%scene%units
     info%contact = ctx%cfg%contact%n_obstacles > 0
     ! Rank 0's host and clock, broadcast: attributes must be equal on all ranks.

@@ -12,7 +12,9 @@ module run_checkpoint
   use kinds, only: rp
   use output, only: output_file, checkpoint_t, output_write_checkpoint, output_steps
   use app_context, only: app_ctx, restart_state_t
-  use step_monitor, only: energy_integrals_restore, progress_restore
+  use step_settings, only: step_max_steps
+  use energy_integrals, only: energy_integrals_restore, energy_dissipated, energy_work_constraints, energy_mgx0
+  use run_progress, only: progress_restore, progress_wall, progress_t_written, progress_stretch_warned
   use reduced, only: reduced_restore_floor
   use contact_forces, only: contact_on, contact_restore
   use newton_start, only: newton_start_count, newton_start_get, newton_start_put
@@ -130,7 +132,7 @@ contains
       if (ierr /= 0) return
     end if
     ! Attributes must be equal on all ranks: the slowest rank's clock.
-    ck%wall_time = MPI_Wtime() - ctx%progress%wall0
+    ck%wall_time = progress_wall(ctx%progress)
     call MPI_Allreduce(MPI_IN_PLACE, ck%wall_time, 1, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
     ck%reason = reason
     if (point) then
@@ -144,10 +146,10 @@ contains
     end if
     ctx%restart%t_checkpoint = ck%time
     ! (a restart point is older than the output steps written since)
-    ctx%restart%checkpoint_current = .not. point .or. ck%time >= ctx%progress%t_written
+    ctx%restart%checkpoint_current = .not. point .or. ck%time >= progress_t_written(ctx%progress)
     if (ctx%rank == 0) then
       write(output_unit, '(a,i0,a,es12.5e2,a)') 'nuno: checkpoint ', ck%sequence, ' at t =', ck%time, &
-        ' ('//trim(reason)//'), '//inum(int(ck%n_output_steps, kind(ctx%step%max_steps)))//' output steps'
+        ' ('//trim(reason)//'), '//inum(int(ck%n_output_steps, kind(step_max_steps(ctx%step))))//' output steps'
       flush(output_unit)
     end if
   end subroutine take_checkpoint
@@ -163,9 +165,9 @@ contains
 
     ck%time = t
     ck%dt_next = h
-    ck%dissipated = ctx%energy%dissipated
-    ck%work_constraints = ctx%energy%work_constraints
-    ck%mgx0 = ctx%energy%mgx0
+    ck%dissipated = energy_dissipated(ctx%energy)
+    ck%work_constraints = energy_work_constraints(ctx%energy)
+    ck%mgx0 = energy_mgx0(ctx%energy)
     if (contact_on(ctx%contact)) then
       ck%contact = 1
       ck%friction_work = ctx%contact%friction_work
@@ -174,10 +176,10 @@ contains
       ck%states_checked = ctx%contact%states_checked
       ck%limited_steps = ctx%contact%limited_steps
     end if
-    ck%t_written = ctx%progress%t_written
+    ck%t_written = progress_t_written(ctx%progress)
     call run_counts(ctx, ck%counters, ierr)
     if (ierr /= 0) return
-    ck%stretch_warned = merge(1, 0, ctx%progress%stretch_warned)
+    ck%stretch_warned = merge(1, 0, progress_stretch_warned(ctx%progress))
     ! the next step's first inner tolerance depends on it (set_newton_forcing)
     if (ctx%use_reduced) ck%newton_floor = ctx%red%floor_est
     PetscCall(TSGetType(ctx%ts, ck%ts_type, ierr))

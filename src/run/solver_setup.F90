@@ -24,7 +24,10 @@ module solver_setup
   use cloth_model, only: form_ifunction, form_ijacobian, model_state_init, model_state_free, assembly_create, assembly_free
   use newton_policy, only: set_newton_start, snes_converged, newton_state_init, newton_set_inner_guess
   use contact_solver, only: contact_solver_options, contact_setup
-  use step_monitor, only: ts_monitor, step_settings_init, step_set_tolerances, energy_integrals_init, energy_integrals_free
+  use step_monitor, only: ts_monitor
+  use step_settings, only: step_settings_init, step_set_tolerances, step_dt, step_t_end, step_fixed, step_max_steps, &
+                           step_rtol, step_atol_x, step_atol_v, step_adaptive_default
+  use energy_integrals, only: energy_integrals_init, energy_integrals_free
   use run_checkpoint, only: restart_state_free
   implicit none
   private
@@ -295,21 +298,21 @@ contains
       ierr = PETSC_ERR_ARG_WRONG
       SETERRQ(ctx%comm, ierr, 'nuno: -ts_exact_final_time must be matchstep: the run stops exactly at every output, keyframe and release time')
     end if
-    if (.not. (ctx%step%dt > 0.0_rp)) then
+    if (.not. (step_dt(ctx%step) > 0.0_rp)) then
       ierr = PETSC_ERR_ARG_OUTOFRANGE
       SETERRQ(ctx%comm, ierr, 'nuno: -ts_dt must be > 0')
     end if
-    if (.not. (ctx%step%t_end > 0.0_rp) .or. ctx%step%t_end > huge(1.0_rp)) then
+    if (.not. (step_t_end(ctx%step) > 0.0_rp) .or. step_t_end(ctx%step) > huge(1.0_rp)) then
       ierr = PETSC_ERR_ARG_OUTOFRANGE
       SETERRQ(ctx%comm, ierr, 'nuno: -ts_max_time must be > 0 and finite')
     end if
-    if (ctx%step%max_steps < 0) then
+    if (step_max_steps(ctx%step) < 0) then
       ierr = PETSC_ERR_ARG_OUTOFRANGE
       SETERRQ(ctx%comm, ierr, 'nuno: -ts_max_steps must be >= 0')
     end if
     ! From here on the effective values are the run's configuration.
-    ctx%cfg%time%dt = ctx%step%dt
-    ctx%cfg%time%t_end = ctx%step%t_end
+    ctx%cfg%time%dt = step_dt(ctx%step)
+    ctx%cfg%time%t_end = step_t_end(ctx%step)
     ! The energy integrals close at the method's order: the trapezoid rule
     ! over each step (one power pass a step) is second order, enough for
     ! beuler, theta and cn (order <= 2); bdf (up to order 6) gets three
@@ -334,21 +337,21 @@ contains
     if (ctx%rank == 0) then
       PetscCall(TSAdaptGetType(adapt, adtype, ierr))
       line = 'solver    : TS '//scheme
-      if (ctx%step%adaptive_default) line = trim(line)//' (the default of adaptive runs, -nuno_adaptive_ts_type)'
+      if (step_adaptive_default(ctx%step)) line = trim(line)//' (the default of adaptive runs, -nuno_adaptive_ts_type)'
       line = trim(line)//', adapt '//trim(adtype)
-      if (ctx%step%fixed_step) then
-        line = trim(line)//', dt = '//num(ctx%step%dt)
+      if (step_fixed(ctx%step)) then
+        line = trim(line)//', dt = '//num(step_dt(ctx%step))
       else
-        line = trim(line)//', initial dt = '//num(ctx%step%dt)
+        line = trim(line)//', initial dt = '//num(step_dt(ctx%step))
       end if
-      if (ctx%step%dt /= dt_namelist) line = trim(line)//' (-ts_dt; namelist '//num(dt_namelist)//')'
-      line = trim(line)//', t_end = '//num(ctx%step%t_end)
-      if (ctx%step%t_end /= t_end_namelist) &
+      if (step_dt(ctx%step) /= dt_namelist) line = trim(line)//' (-ts_dt; namelist '//num(dt_namelist)//')'
+      line = trim(line)//', t_end = '//num(step_t_end(ctx%step))
+      if (step_t_end(ctx%step) /= t_end_namelist) &
         line = trim(line)//' (-ts_max_time; namelist '//num(t_end_namelist)//')'
-      if (ctx%step%max_steps < huge(ctx%step%max_steps)) &
-        line = trim(line)//', at most '//inum(ctx%step%max_steps)//' steps (-ts_max_steps)'
-      if (.not. ctx%step%fixed_step) line = trim(line)//', rtol '//num(ctx%step%rtol)//', atol position '// &
-        num(ctx%step%atol_x)//' ('//trim(srcx)//'), velocity '//num(ctx%step%atol_v)//' ('//trim(srcv)//')'
+      if (step_max_steps(ctx%step) < huge(step_max_steps(ctx%step))) &
+        line = trim(line)//', at most '//inum(step_max_steps(ctx%step))//' steps (-ts_max_steps)'
+      if (.not. step_fixed(ctx%step)) line = trim(line)//', rtol '//num(step_rtol(ctx%step))//', atol position '// &
+        num(step_atol_x(ctx%step))//' ('//trim(srcx)//'), velocity '//num(step_atol_v(ctx%step))//' ('//trim(srcv)//')'
       line = trim(line)//', Newton step '//trim(merge('reduced', 'full   ', ctx%use_reduced))
       if (newton_start_order(ctx%newton%start) == 3) line = trim(line)//', started cubic (-nuno_newton_start)'
       write(output_unit, '(a)') trim(line)
@@ -406,7 +409,7 @@ contains
     ! The projection drops its kept solves whenever dt changes, so with
     ! adaptive steps it would rarely have any: the extrapolation, which
     ! scales across steps of other sizes, there.
-    if (mode == GUESS_AUTO) mode = merge(merge(GUESS_PROJECT, GUESS_EXTRAPOLATE, ctx%step%fixed_step), GUESS_NONE, one_stage .and. &
+    if (mode == GUESS_AUTO) mode = merge(merge(GUESS_PROJECT, GUESS_EXTRAPOLATE, step_fixed(ctx%step)), GUESS_NONE, one_stage .and. &
                                          ctx%cfg%material%bending_code /= BEND_NONE .and. .not. (ctx%cfg%identify%active .or. ctx%cfg%control%active))
     if (.not. one_stage .or. direct) mode = GUESS_NONE
     call newton_set_inner_guess(ctx%newton, mode)

@@ -26,8 +26,12 @@ module timestepping
   use output, only: output_file, output_record, output_write_step, output_write_wall_time
   use reduced, only: reduced_set_fixed
   use app_context, only: app_ctx, nuno_walltime_arm, nuno_checkpoint_due, nuno_signal_agreed
-  use step_monitor, only: energy_add_work, energy_integrals_start, energy_set_mgx0, step_enter_window, progress_start, &
-                          progress_output_written, progress_said, progress_stretch_warned
+  use step_settings, only: step_enter_window, step_dt, step_t_end, step_fixed, step_max_steps
+  use energy_integrals, only: energy_add_work, energy_integrals_start, energy_set_mgx0, energy_dissipated, &
+                              energy_work_constraints, energy_mgx0
+  use run_progress, only: progress_start, progress_output_written, progress_said, progress_warn_stretch, progress_wall, &
+                          progress_t_written, progress_stretch_warned
+  use run_error, only: run_error_first, run_error_any, run_error_text
   use cloth_model, only: model_enter_window
   use newton_policy, only: newton_enter_window
   use newton_start, only: newton_start_reset
@@ -110,7 +114,7 @@ contains
   !> the window began with. With out, the wall-clock checkpoints
   !> (-nuno_checkpoint_walltime) due inside the window are written into
   !> it between steps; a failed write ends the window early with
-  !> ctx%io_error set. The one window loop of the run (solver_run) and of
+  !> the run's error set (module run_error). The one window loop of the run (solver_run) and of
   !> identification and control (module identify_adjoint). Collective.
   subroutine advance_window(ctx, t, tb, h, enter, reason, ierr, out)
     type(app_ctx), intent(inout) :: ctx
@@ -123,6 +127,7 @@ contains
     type(output_file), intent(inout), optional :: out
     real(rp) :: dke, hnext
     integer :: due
+    logical :: taken
 
     ierr = 0
     call step_enter_window(ctx%step, tstop=tb)
@@ -133,7 +138,7 @@ contains
       PetscCall(TSRestartStep(ctx%ts, ierr))
     end if
     PetscCall(TSSetMaxTime(ctx%ts, tb, ierr))
-    if (ctx%step%fixed_step) h = ctx%step%dt
+    if (step_fixed(ctx%step)) h = step_dt(ctx%step)
     if (t + 1.01_rp * h >= tb) h = tb - t
     PetscCall(TSSetTimeStep(ctx%ts, h, ierr))
     do
@@ -152,9 +157,9 @@ contains
         PetscCall(TSGetTimeStep(ctx%ts, hnext, ierr))
         call take_checkpoint(ctx, out, t, hnext, 'wall time', ierr, restart_point=.true.)
         if (ierr /= 0) then
-          ! a failed write ends the run (solver_run reads io_error)
+          ! a failed write ends the run (solver_run reads the run's error)
           ierr = 0
-          if (len_trim(ctx%io_error) == 0) ctx%io_error = 'the wall-clock checkpoint at t = '//num(t)//' failed'
+          call run_error_first(ctx%error, 'the wall-clock checkpoint at t = '//num(t)//' failed', taken)
           exit
         end if
       end if
@@ -188,9 +193,9 @@ contains
     call write_run_info(ctx, out, ierr)
     if (io_failed()) return
     call nuno_walltime_arm(real(ctx%restart%checkpoint_walltime, c_double))
-    events = constraint_events(ctx%cs, ctx%step%t_end)
-    eps = 1.0e-12_rp * max(1.0_rp, ctx%step%t_end)
-    h = ctx%step%dt
+    events = constraint_events(ctx%cs, step_t_end(ctx%step))
+    eps = 1.0e-12_rp * max(1.0_rp, step_t_end(ctx%step))
+    h = step_dt(ctx%step)
     t = 0.0_rp
     ie = 1
     iout = 0
@@ -199,10 +204,10 @@ contains
       ! Go on from the checkpoint: its state, time and step number are in
       ! the TS (solver_restore); the next output step is the first after t.
       t = ctx%restart%t_restart
-      if (.not. ctx%step%fixed_step) h = ctx%restart%h_restart
+      if (.not. step_fixed(ctx%step)) h = ctx%restart%h_restart
       ! The next output step is the first after the last one written.
       iout = 1
-      do while (output_time(iout) <= ctx%progress%t_written + eps .and. real(iout, rp) * ctx%cfg%output%output_interval < ctx%step%t_end)
+      do while (output_time(iout) <= progress_t_written(ctx%progress) + eps .and. real(iout, rp) * ctx%cfg%output%output_interval < step_t_end(ctx%step))
         iout = iout + 1
       end do
       call energy_integrals_start(ctx%energy, t)
@@ -230,15 +235,15 @@ contains
       iout = 1
     end if
 
-    do while (t < ctx%step%t_end - eps .and. .not. at_max_steps)
+    do while (t < step_t_end(ctx%step) - eps .and. .not. at_max_steps)
       tstop = next_stop(t)
       ! The first window was entered above, before the output step at t = 0.
       call advance_window(ctx, t, tstop, h, t > 0.0_rp, reason, ierr, out)
       if (ierr /= 0) return
-      if (len_trim(ctx%io_error) > 0) then
+      if (run_error_any(ctx%error)) then
         ! A wall-clock checkpoint could not be written (advance_window), or
         ! the monitor's stall check ended the run.
-        status = 'failed: '//trim(ctx%io_error)
+        status = 'failed: '//run_error_text(ctx%error)
         exit
       end if
       PetscCall(VecNorm(ctx%u, NORM_INFINITY, unorm, ierr))
@@ -246,7 +251,7 @@ contains
         ! SIGTERM/SIGINT: every rank finished the same step; keep its state
         ! and a checkpoint to continue from (the restart point of the last
         ! output step: keep_restart_point).
-        if (t > ctx%progress%t_written) then
+        if (t > progress_t_written(ctx%progress)) then
           call write_output(ctx, out, t, ierr)
           if (io_failed()) return
         end if
@@ -284,22 +289,22 @@ contains
         call write_output(ctx, out, t, ierr)
         if (io_failed()) return
         iout = iout + 1
-        if (t < ctx%step%t_end - eps) then
+        if (t < step_t_end(ctx%step) - eps) then
           call keep_restart_point(ctx, out, t, h, ierr)
           if (ierr /= 0) return
         end if
-        if (ctx%cfg%output%checkpoint_interval > 0.0_rp .and. t < ctx%step%t_end - eps .and. &
+        if (ctx%cfg%output%checkpoint_interval > 0.0_rp .and. t < step_t_end(ctx%step) - eps .and. &
             t >= ctx%restart%t_checkpoint + ctx%cfg%output%checkpoint_interval - eps) then
           call take_checkpoint(ctx, out, t, h, 'checkpoint_interval', ierr)
           if (io_failed()) return
         end if
-      else if (at_max_steps .and. t > ctx%progress%t_written) then
+      else if (at_max_steps .and. t > progress_t_written(ctx%progress)) then
         ! Off the output grid (inside a window, or at a keyframe): the last state.
         call write_output(ctx, out, t, ierr)
         if (io_failed()) return
       end if
-      if (at_max_steps .and. t < ctx%step%t_end - eps .and. ctx%rank == 0) &
-        write(output_unit, '(a,es13.5e2,a)') 'nuno: -ts_max_steps '//inum(ctx%step%max_steps)// &
+      if (at_max_steps .and. t < step_t_end(ctx%step) - eps .and. ctx%rank == 0) &
+        write(output_unit, '(a,es13.5e2,a)') 'nuno: -ts_max_steps '//inum(step_max_steps(ctx%step))// &
           ' reached at t =', t, ': the run ends here, complete, with this state written'
     end do
     ! The end of a complete run: a checkpoint, so that it can be continued
@@ -310,7 +315,7 @@ contains
     end if
 
     ! The run's wall time, the same value on every rank (an attribute).
-    wall = MPI_Wtime() - ctx%progress%wall0
+    wall = progress_wall(ctx%progress)
     call MPI_Allreduce(MPI_IN_PLACE, wall, 1, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
     call output_write_wall_time(out, wall, ierr, errmsg)
     if (ierr /= 0) then
@@ -326,8 +331,8 @@ contains
     !> ends collectively as failed (ierr = 0); other errors stay errors.
     logical function io_failed()
       io_failed = ierr /= 0
-      if (io_failed .and. len_trim(ctx%io_error) > 0) then
-        status = 'failed: '//trim(ctx%io_error)
+      if (io_failed .and. run_error_any(ctx%error)) then
+        status = 'failed: '//run_error_text(ctx%error)
         ierr = 0
       end if
     end function io_failed
@@ -335,7 +340,7 @@ contains
     !> Output times: multiples of output_interval, and t_end.
     real(rp) function output_time(k)
       integer, intent(in) :: k
-      output_time = min(real(k, rp) * ctx%cfg%output%output_interval, ctx%step%t_end)
+      output_time = min(real(k, rp) * ctx%cfg%output%output_interval, step_t_end(ctx%step))
     end function output_time
 
     !> Next time at which the integrator must stop after t.
@@ -399,7 +404,7 @@ contains
     PetscCall(DMGlobalToLocalEnd(ctx%da, ctx%u, INSERT_VALUES, uloc, ierr))
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
     call state_diagnostics(ctx%lat, u, ctx%model%gravity, ctx%comm, d, ierr)
-    if (.not. ctx%progress%stretch_warned .and. ctx%cfg%output%stretch_limit > 0.0_rp) call check_stretch(ctx, u, t)
+    if (.not. progress_stretch_warned(ctx%progress) .and. ctx%cfg%output%stretch_limit > 0.0_rp) call check_stretch(ctx, u, t)
     do j = ctx%lat%ys, ctx%lat%ye
       ctx%xout(:, :, j) = u(0:2, :, j)
       ctx%vout(:, :, j) = u(3:5, :, j)
@@ -424,8 +429,8 @@ contains
     rec%kinetic = d%kinetic
     rec%stretch = d%stretch
     rec%bend = d%bend
-    rec%dissipated = ctx%energy%dissipated
-    rec%external_work = ctx%energy%work_constraints + (d%mgx - ctx%energy%mgx0)
+    rec%dissipated = energy_dissipated(ctx%energy)
+    rec%external_work = energy_work_constraints(ctx%energy) + (d%mgx - energy_mgx0(ctx%energy))
     rec%momentum = d%momentum
     rec%angular_momentum = d%angular_momentum
     rec%length = d%length
@@ -450,7 +455,7 @@ contains
     rec%rejected_steps = rejects
     rec%newton_iterations = nits
     rec%linear_iterations = lits
-    wall = MPI_Wtime() - ctx%progress%wall0
+    wall = progress_wall(ctx%progress)
     rec%wall_time = wall
     if (ctx%cfg%output%write_velocity) then
       call output_write_step(out, rec, ctx%xout, ierr, errmsg, v=ctx%vout)
@@ -478,7 +483,7 @@ contains
         '  wall_s', wall
       if (t > 0.0_rp .and. wall > 0.0_rp) then
         rate = t / wall
-        eta = (ctx%step%t_end - t) / rate
+        eta = (step_t_end(ctx%step) - t) / rate
         write(output_unit, '(2(a,es10.3e2))') '  sim_per_wall_s', rate, '  eta_s', eta
       else
         write(output_unit, '(a)') '  sim_per_wall_s -  eta_s -'
@@ -505,7 +510,7 @@ contains
     call MPI_Allreduce(r, g, 2, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, mpierr)
     lim = ctx%cfg%output%stretch_limit
     if (g(1) <= lim .and. g(2) <= lim) return
-    call progress_stretch_warned(ctx%progress)
+    call progress_warn_stretch(ctx%progress)
     loc = -1
     if (g(1) > lim) then
       if (r(1) == g(1)) loc = atmax

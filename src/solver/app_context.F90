@@ -22,10 +22,13 @@ module app_context
   use inner_guess, only: GUESS_AUTO
   use newton_start, only: newton_start_t
   use reduced, only: reduced_t
+  use step_settings, only: step_settings_t
+  use energy_integrals, only: energy_integrals_t
+  use run_progress, only: progress_t
+  use run_error, only: run_error_t
   implicit none
   private
-  public :: app_ctx, model_state_t, assembly_t, newton_state_t, step_settings_t, energy_integrals_t, progress_t, &
-            restart_state_t
+  public :: app_ctx, model_state_t, assembly_t, newton_state_t, restart_state_t
   public :: nuno_walltime_arm, nuno_checkpoint_due, nuno_signal_agreed, nuno_signals_install, nuno_ts_stop
 
   interface
@@ -100,48 +103,6 @@ module app_context
     logical :: ls_switched = .false.
   end type newton_state_t
 
-  !> The time integration as used: the namelist's values after the PETSc
-  !> options (resolved by module solver_setup), and the current time window
-  !> (owner: module step_monitor; step_settings_init, step_set_tolerances,
-  !> step_enter_window).
-  type :: step_settings_t
-    real(rp) :: dt = 0                          !< fixed (or initial) step [time]: -ts_dt, else the namelist's
-    real(rp) :: t_end = 0                       !< end time [time]: -ts_max_time, else the namelist's
-    logical :: fixed_step = .true.              !< -ts_adapt_type none: every step is dt unless retried
-    logical :: adaptive_default = .false.       !< the TS type is -nuno_adaptive_ts_type's (no -ts_type given)
-    PetscInt :: max_steps = 0                   !< -ts_max_steps: a clean end after this many steps
-    !> error tolerances of adaptive steps (TSSetTolerances: scalar rtol, vector atol)
-    real(rp) :: rtol = 0                        !< -ts_rtol [1]
-    real(rp) :: atol_x = 0                      !< absolute tolerance of positions [length]
-    real(rp) :: atol_v = 0                      !< absolute tolerance of velocities [length/time]
-    real(rp) :: tstop = 0                       !< end of the current time window [time]
-    PetscInt :: rejects_seen = 0                !< step rejections already answered by the monitor
-  end type step_settings_t
-
-  !> Time integrals, advanced by the monitor over each accepted step so that
-  !> they close at the method's order: Gauss-Legendre on the interpolant of bdf
-  !> (order up to 6), the trapezoid rule otherwise (owner: module step_monitor).
-  type :: energy_integrals_t
-    logical :: gauss = .false.
-    type(tVec) :: uq                            !< interpolated state (Gauss points)
-    real(rp) :: t_prev = 0, pdiss_prev = 0, pcon_prev = 0
-    real(rp) :: dissipated = 0                  !< dissipated energy [energy]
-    real(rp) :: work_constraints = 0            !< work of the constraint reactions [energy]
-    real(rp) :: mgx0 = 0                        !< sum m g . x at t = 0
-  end type energy_integrals_t
-
-  !> Progress of the run: wall clock, output steps, the monitor's stall check
-  !> (owner: module step_monitor).
-  type :: progress_t
-    logical :: monitor_seen = .false.           !< ts_monitor has run (its stall check)
-    PetscInt :: monitor_step = 0                !< the step number it saw last
-    integer :: stalled_steps = 0                !< accepted steps in a row that did not advance t
-    real(rp) :: wall0 = 0                       !< MPI_Wtime at the start of solver_run [s]
-    real(rp) :: t_written = -1                  !< time of the last output step [time]
-    real(rp) :: wall_said = 0                   !< MPI_Wtime of the last line on stdout (rank 0) [s]
-    logical :: stretch_warned = .false.         !< the stretch_limit warning was given
-  end type progress_t
-
   !> Checkpoints and restarts (docs/design.md, "Checkpoints"; owner: module
   !> run_checkpoint).
   type :: restart_state_t
@@ -182,8 +143,7 @@ module app_context
     integer :: comm = MPI_COMM_NULL, rank = 0, size = 1
     real(rp), allocatable :: xout(:, :, :)      !< (3, 0:nx-1, ys:ye) output buffer
     real(rp), allocatable :: vout(:, :, :)      !< (3, 0:nx-1, ys:ye) output buffer
-    !> the (collective) output error that ended the run, '' if none
-    character(len=512) :: io_error = ''
+    type(run_error_t) :: error                  !< the (collective) error that ended the run (module run_error)
     type(model_state_t) :: model
     type(assembly_t) :: asm
     type(newton_state_t) :: newton

@@ -17,6 +17,7 @@ module newton_policy
   use newton_start, only: newton_start_setup
   use reduced, only: reduced_set_forcing
   use solver_choices, only: FALLBACK_NAMES
+  use step_settings, only: step_fixed, step_rtol, step_atol_x, step_atol_v
   use strings, only: num => real_brief
   implicit none
   private
@@ -53,7 +54,7 @@ contains
     logical :: auto_cubic
     PetscCall(TSGetSNES(ctx%ts, snes, ierr))
     PetscCall(SNESGetType(snes, sntype, ierr))
-    auto_cubic = ctx%step%fixed_step .and. trim(sntype) /= SNESKSPONLY .and. &
+    auto_cubic = step_fixed(ctx%step) .and. trim(sntype) /= SNESKSPONLY .and. &
                  .not. (ctx%cfg%identify%active .or. ctx%cfg%control%active) .and. ctx%cfg%contact%n_obstacles == 0
     PetscCall(newton_start_setup(ctx%newton%start, ctx%ts, ctx%comm, auto_cubic, ierr))
   end subroutine set_newton_start
@@ -114,7 +115,7 @@ contains
         end if
       end if
     end if
-    if (it >= 2 .and. reason == SNES_CONVERGED_ITERATING .and. .not. ctx%step%fixed_step .and. ctx%newton%snorm_prev > 0.0_rp) then
+    if (it >= 2 .and. reason == SNES_CONVERGED_ITERATING .and. .not. step_fixed(ctx%step) .and. ctx%newton%snorm_prev > 0.0_rp) then
       rate = snorm / ctx%newton%snorm_prev
       if (rate < 0.9_rp) then
         call update_wrms(snes, ctx, wnorm, ierr)
@@ -185,10 +186,13 @@ contains
     PetscErrorCode, intent(out) :: ierr
     type(tVec) :: x, y
     PetscScalar, pointer :: xa(:), ya(:)
-    real(rp) :: loc(2), glob(2)
+    real(rp) :: loc(2), glob(2), atol_x, atol_v, rtol
     integer :: mpierr, k
 
     wnorm = huge(1.0_rp)
+    atol_x = step_atol_x(ctx%step)
+    atol_v = step_atol_v(ctx%step)
+    rtol = step_rtol(ctx%step)
     PetscCall(SNESGetSolution(snes, x, ierr))
     PetscCall(SNESGetSolutionUpdate(snes, y, ierr))
     PetscCall(VecGetArrayReadF90(x, xa, ierr))
@@ -198,9 +202,9 @@ contains
     loc(1) = 0.0_rp
     do k = 1, size(xa)
       if (mod(k - 1, 6) < 3) then
-        loc(1) = loc(1) + (ya(k) / ctx%step%atol_x)**2
+        loc(1) = loc(1) + (ya(k) / atol_x)**2
       else
-        loc(1) = loc(1) + (ya(k) / (ctx%step%atol_v + ctx%step%rtol * abs(xa(k))))**2
+        loc(1) = loc(1) + (ya(k) / (atol_v + rtol * abs(xa(k))))**2
       end if
     end do
     loc(2) = real(size(xa), rp)
