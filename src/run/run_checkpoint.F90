@@ -17,6 +17,7 @@ module run_checkpoint
   use run_progress, only: progress_restore, progress_wall, progress_t_written, progress_stretch_warned
   use reduced, only: reduced_restore_floor
   use contact_forces, only: contact_on, contact_restore
+  use newton_state, only: newton_set_failures_before
   use newton_start, only: newton_start_count, newton_start_get, newton_start_put
   use failure_text, only: report_io_error
   use strings, only: inum => itoa
@@ -68,6 +69,7 @@ contains
     ctx%restart%t_checkpoint = ck%time
     ctx%restart%wall_before = ck%wall_time
     ctx%restart%counts_before = [0.0_rp, ck%counters(2:5)]
+    call newton_set_failures_before(ctx%newton, nint(ck%counters(5)))
     call energy_integrals_restore(ctx%energy, ck%dissipated, ck%work_constraints, ck%mgx0)
     if (ck%contact /= 0 .and. contact_on(ctx%contact)) &
       call contact_restore(ctx%contact, ck%friction_work, ck%obstacle_work, ck%min_gap_run, ck%states_checked, ck%limited_steps)
@@ -93,11 +95,11 @@ contains
         PetscErrorCode :: err
         nk = ck%start_count + 1
         cmp = ck%start_compare /= 0
-        PetscCall(newton_start_put(ctx%newton%start, 1, ctx%u, ck%time, nk, cmp, ck%start_nc_prev, ierr))
+        PetscCall(newton_start_put(ctx%start, 1, ctx%u, ck%time, nk, cmp, ck%start_nc_prev, ierr))
         PetscCall(DMGetGlobalVector(ctx%da, w, ierr))
         do kk = 1, nk - 1
           PetscCall(strips_to_state(ctx, ck%start_x(:, :, :, kk), ck%start_v(:, :, :, kk), w, ierr))
-          call newton_start_put(ctx%newton%start, kk + 1, w, ck%start_t(kk), nk, cmp, ck%start_nc_prev, ierr)
+          call newton_start_put(ctx%start, kk + 1, w, ck%start_t(kk), nk, cmp, ck%start_nc_prev, ierr)
           if (ierr /= 0) exit
         end do
         ! (a failed put's error code, not the restore's, is the answer)
@@ -226,7 +228,7 @@ contains
     PetscErrorCode :: err
 
     ierr = 0
-    call newton_start_count(ctx%newton%start, n, compare, nc_prev)
+    call newton_start_count(ctx%start, n, compare, nc_prev)
     ck%start_count = 0
     ck%start_compare = merge(1, 0, compare)
     ck%start_nc_prev = nc_prev
@@ -237,7 +239,7 @@ contains
     PetscCall(DMGetGlobalVector(ctx%da, w, ierr))
     do k = 1, n
       if (ck%start_count == 3) exit
-      call newton_start_get(ctx%newton%start, k, w, tk, ierr)
+      call newton_start_get(ctx%start, k, w, tk, ierr)
       if (ierr /= 0) exit
       ! (the step's own state, if pushed already, is the checkpoint's state)
       if (tk >= t) cycle

@@ -22,7 +22,9 @@ module solver_setup
   use newton_start, only: newton_start_free, newton_start_order
   use strings, only: itoa, real_g0, num => real_brief, inum => itoa
   use cloth_model, only: form_ifunction, form_ijacobian, model_state_init, model_state_free, assembly_create, assembly_free
-  use newton_policy, only: set_newton_start, snes_converged, newton_state_init, newton_set_inner_guess
+  use newton_policy, only: set_newton_start, snes_converged
+  use newton_state, only: SNES_FLOOR_DEFAULT, newton_state_init, newton_set_inner_guess, newton_guess, newton_guess_given, &
+                          newton_forcing_on
   use contact_solver, only: contact_solver_options, contact_setup
   use step_monitor, only: ts_monitor
   use step_settings, only: step_settings_init, step_set_tolerances, step_dt, step_t_end, step_fixed, step_max_steps, &
@@ -111,7 +113,7 @@ contains
     ! drop_table's impact step (4 retries) where a fixed 1e-6 takes none.
     forcing = merge(0, 1, cfg%contact%n_obstacles > 0)
     guess = GUESS_AUTO
-    snes_floor = ctx%newton%snes_floor             ! the default (module newton_policy's record)
+    snes_floor = SNES_FLOOR_DEFAULT
     ierr = nuno_options_read(ctx%comm, JACOBIAN_NAMES, size(JACOBIAN_NAMES), len(JACOBIAN_NAMES), jac, pc_lag, &
                              INTERP_NAMES, size(INTERP_NAMES), len(INTERP_NAMES), mg_interp, snes_floor, gn, cl, &
                              cmattype, len(cmattype), nfail, forcing, &
@@ -331,7 +333,7 @@ contains
       PetscCall(reduced_describe(ctx%red, inner, ierr))
       PetscCall(TSGetSNES(ctx%ts, snes, ierr))
       PetscCall(SNESGetType(snes, sntype, ierr))
-      if (trim(sntype) == SNESNEWTONLS .and. ctx%newton%newton_forcing .and. ctx%red%forward_ew) &
+      if (trim(sntype) == SNESNEWTONLS .and. newton_forcing_on(ctx%newton) .and. ctx%red%forward_ew) &
         inner = trim(inner)//'; Newton: inner rtol from the step''s needs (-nuno_newton_forcing)'
     end if
     if (ctx%rank == 0) then
@@ -353,7 +355,7 @@ contains
       if (.not. step_fixed(ctx%step)) line = trim(line)//', rtol '//num(step_rtol(ctx%step))//', atol position '// &
         num(step_atol_x(ctx%step))//' ('//trim(srcx)//'), velocity '//num(step_atol_v(ctx%step))//' ('//trim(srcv)//')'
       line = trim(line)//', Newton step '//trim(merge('reduced', 'full   ', ctx%use_reduced))
-      if (newton_start_order(ctx%newton%start) == 3) line = trim(line)//', started cubic (-nuno_newton_start)'
+      if (newton_start_order(ctx%start) == 3) line = trim(line)//', started cubic (-nuno_newton_start)'
       write(output_unit, '(a)') trim(line)
       if (ctx%use_reduced) write(output_unit, '(a)') 'inner     : '//trim(inner)
       flush(output_unit)
@@ -388,7 +390,7 @@ contains
       PetscCall(KSPGetType(ctx%red%ksp, ktype, ierr))
       direct = ktype == KSPPREONLY
     end if
-    if (ctx%newton%guess_given /= 0 .and. ctx%newton%guess /= GUESS_NONE .and. ctx%newton%guess /= GUESS_AUTO) then
+    if (newton_guess_given(ctx%newton) .and. newton_guess(ctx%newton) /= GUESS_NONE .and. newton_guess(ctx%newton) /= GUESS_AUTO) then
       if (.not. ctx%use_reduced) then
         ierr = PETSC_ERR_ARG_INCOMP
         SETERRQ(ctx%comm, ierr, 'nuno: -nuno_inner_guess is for the reduced solve, not -nuno_jacobian full')
@@ -403,7 +405,7 @@ contains
       end if
     end if
     if (.not. ctx%use_reduced) return
-    mode = ctx%newton%guess
+    mode = newton_guess(ctx%newton)
     ! (auto leaves the fits alone: their finite-difference checks compare
     ! runs whose inexact solves would otherwise start from other guesses)
     ! The projection drops its kept solves whenever dt changes, so with
@@ -486,7 +488,7 @@ contains
     integer(c_int) :: nunused
     ierr = nuno_options_report_unused(ctx%comm, nunused)
     if (ierr /= 0) return
-    PetscCall(newton_start_free(ctx%newton%start, ierr))
+    PetscCall(newton_start_free(ctx%start, ierr))
     PetscCall(TSDestroy(ctx%ts, ierr))
     if (ctx%use_reduced) then
       PetscCall(reduced_destroy(ctx%red, ierr))

@@ -33,7 +33,7 @@ module timestepping
                           progress_t_written, progress_stretch_warned
   use run_error, only: run_error_first, run_error_any, run_error_text
   use cloth_model, only: model_enter_window
-  use newton_policy, only: newton_enter_window
+  use newton_state, only: newton_enter_window
   use newton_start, only: newton_start_reset
   use contact_forces, only: contact_on
   use contact_solver, only: contact_observe
@@ -99,7 +99,7 @@ contains
     ! take_checkpoint, solver_restore). Forgetting them at every window
     ! cost 12 % of hang's 1 s at 257 x 257 (1100 instead of 1005 Newton
     ! iterations, 4697 instead of 4001 inner ones).
-    if (loc(3) > 0.0_rp) call newton_start_reset(ctx%newton%start)
+    if (loc(3) > 0.0_rp) call newton_start_reset(ctx%start)
     dke = loc(1)
   end subroutine enter_window
 

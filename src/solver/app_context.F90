@@ -19,8 +19,8 @@ module app_context
   use forces, only: jac_buffer_t
   use constraints, only: constraint_set_t
   use checkpoint_record, only: checkpoint_t
-  use inner_guess, only: GUESS_AUTO
   use newton_start, only: newton_start_t
+  use newton_state, only: newton_state_t
   use reduced, only: reduced_t
   use step_settings, only: step_settings_t
   use energy_integrals, only: energy_integrals_t
@@ -28,7 +28,7 @@ module app_context
   use run_error, only: run_error_t
   implicit none
   private
-  public :: app_ctx, model_state_t, assembly_t, newton_state_t, restart_state_t
+  public :: app_ctx, model_state_t, assembly_t, restart_state_t
   public :: nuno_walltime_arm, nuno_checkpoint_due, nuno_signal_agreed, nuno_signals_install, nuno_ts_stop
 
   interface
@@ -82,27 +82,6 @@ module app_context
     integer, allocatable :: cols(:)             !< (ncol) its local block columns
   end type assembly_t
 
-  !> Newton's policy state: the round-off floor, inexact Newton, the line-
-  !> search fallback and the Newton start (owner: module newton_policy,
-  !> newton_state_init and its setters; the Newton start's kept states:
-  !> module newton_start).
-  type :: newton_state_t
-    real(rp) :: snes_floor = 1.0e-6_rp          !< -nuno_snes_floor: stagnation below this relative residual is convergence
-    real(rp) :: fnorm0 = 0, fnorm_prev = 0
-    real(rp) :: floor_est = 0                   !< round-off floor of ||F||_2 at the last 6-dof assembly (module newton_control)
-    real(rp) :: snorm_prev = 0                  !< ||update|| of the previous Newton iteration
-    logical :: newton_forcing = .true.          !< inner tolerance from the step's needs (reduced path)
-    integer(c_int) :: guess = GUESS_AUTO        !< -nuno_inner_guess (module inner_guess)
-    integer(c_int) :: guess_given = 0           !< 1: set on the command line
-    real(rp) :: cquad = 0                       !< estimate of C in ||F_k+1|| ~ C ||F_k||^2; 0 at every window start
-    type(newton_start_t) :: start               !< beuler's Newton start and its kept states (module newton_start)
-    integer :: fail_newton = 0                  !< -nuno_fail_newton: Newton solves still to be declared failed
-    !> -nuno_linesearch_fallback: 0 none, 1 bt, 2 l2 (the line search once a
-    !> Newton solve has failed); ls_switched once it has been put in place
-    integer :: ls_fallback = 0
-    logical :: ls_switched = .false.
-  end type newton_state_t
-
   !> Checkpoints and restarts (docs/design.md, "Checkpoints"; owner: module
   !> run_checkpoint).
   type :: restart_state_t
@@ -147,6 +126,7 @@ module app_context
     type(model_state_t) :: model
     type(assembly_t) :: asm
     type(newton_state_t) :: newton
+    type(newton_start_t) :: start               !< beuler's Newton start and its kept states (module newton_start)
     type(step_settings_t) :: step
     type(energy_integrals_t) :: energy
     type(progress_t) :: progress

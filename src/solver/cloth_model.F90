@@ -24,7 +24,7 @@ module cloth_model
   use newton_control, only: floor_node_add, floor_estimate
   use reduced, only: reduced_assemble, set_block_row
   use app_context, only: app_ctx, model_state_t, assembly_t
-  use newton_policy, only: newton_set_floor
+  use newton_state, only: newton_set_floor
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use contact_forces, only: contact_on, contact_add_forces, contact_blocks, contact_move
   implicit none

@@ -107,7 +107,7 @@ contains
       ierr = PETSC_ERR_SUP
       SETERRQ(ctx%comm, ierr, 'nuno: &contact: obstacles need -ts_type beuler (its Newton solve starts from the last accepted, feasible state), not -ts_type '//trim(tstype))
     end if
-    if (newton_start_order(ctx%newton%start) == 3) then
+    if (newton_start_order(ctx%start) == 3) then
       ierr = PETSC_ERR_SUP
       SETERRQ(ctx%comm, ierr, 'nuno: &contact: -nuno_newton_start cubic is refused with obstacles: its start may lie inside an obstacle')
     end if

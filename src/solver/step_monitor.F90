@@ -25,6 +25,7 @@ module step_monitor
   use newton_start, only: newton_start_push
   use strings, only: num => real_brief
   use newton_policy, only: linesearch_fallback
+  use newton_state, only: newton_fallback_pending, newton_has_failed
   use contact_solver, only: contact_observe
   use step_settings, only: step_rejections, step_back_to_dt, step_t_end
   use energy_integrals, only: energy_gauss, energy_t_prev, energy_gauss_time, energy_gauss_add, energy_trapezoid_add, &
@@ -63,18 +64,18 @@ contains
     ! (hang 257 x 257, dt = 1 ms: eight failures and the run stopped at
     ! t = 0.21 s). It costs nothing until then (bt: a product with the
     ! 6-dof Jacobian an iteration, for its slope). A run restarted from a
-    ! checkpoint after such a failure (counts_before) backtracks from its
+    ! checkpoint after such a failure (newton_set_failures_before) backtracks from its
     ! first step, as the run it continues did.
-    if (ctx%newton%ls_fallback > 0 .and. .not. ctx%newton%ls_switched) then
+    if (newton_fallback_pending(ctx%newton)) then
       PetscCall(TSGetSNESFailures(ts, nfails, ierr))
-      if (nfails + nint(ctx%restart%counts_before(5)) > 0) then
+      if (newton_has_failed(ctx%newton, int(nfails))) then
         PetscCall(linesearch_fallback(ts, ctx, t, ierr))
       end if
     end if
     ! the accepted step's first Newton correction, for the next inner guesses
     if (ctx%use_reduced) call reduced_step_accepted(ctx%red)
     ! and its state, for the next Newton start
-    PetscCall(newton_start_push(ctx%newton%start, uvec, t, ierr))
+    PetscCall(newton_start_push(ctx%start, uvec, t, ierr))
     ! a retried fixed step: back to dt (module step_settings)
     PetscCall(TSGetStepRejections(ts, rejects, ierr))
     call step_rejections(ctx%step, rejects, retried)
