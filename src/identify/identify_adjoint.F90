@@ -39,7 +39,7 @@ module identify_adjoint
   use, intrinsic :: iso_c_binding, only: c_null_char
   use kinds, only: rp
   use lattice, only: lattice_t, lattice_init
-  use cloth_model, only: model_internal_forces
+  use model_state, only: model_force_rows
   use scenes, only: scene_setup
   use constraints, only: constraint_step_sensitivity, PATH_KEYFRAMES
   use timestepping, only: app_ctx, enter_window, advance_window
@@ -421,7 +421,7 @@ contains
     type(lattice_t) :: lp
     type(tVec) :: uloc
     PetscScalar, pointer :: u(:, :, :), a(:, :)
-    integer :: k, i, j, r, n, nbad, bad(2)
+    integer :: k, r, n, nbad, bad(2)
     real(rp) :: sgn, sx, sv
 
     app => id%app
@@ -462,14 +462,7 @@ contains
         case (6); lp%eta_b = app%lat%eta_b
         end select
       end if
-      call model_internal_forces(app%model, lp, u, nbad, bad)
-      do j = app%lat%ys, app%lat%ye
-        do i = 0, app%lat%nx - 1
-          if (app%model%fixed(i, j)) cycle
-          r = 6 * (i + app%lat%nx * (j - app%lat%ys))
-          a(r + 4:r + 6, k) = sgn * app%model%f(:, i, j) / app%lat%mass(i, j)
-        end do
-      end do
+      call model_force_rows(app%model, lp, u, sgn, a(:, k), nbad, bad)
     end do
     PetscCall(MatDenseRestoreArrayF90(amat, a, ierr))
     PetscCall(DMDAVecRestoreArrayReadF90(app%da, uloc, u, ierr))

@@ -13,6 +13,7 @@ module failure_text
   use app_context, only: app_ctx
   use step_settings, only: step_fixed, step_dt
   use run_error, only: run_error_set
+  use model_state, only: model_singular
   implicit none
   private
   public :: signal_name, failure_reason, report_io_error
@@ -93,15 +94,16 @@ contains
     TSConvergedReason, intent(in) :: reason
     real(rp), intent(in) :: t
     character(len=*), intent(out) :: msg
-    integer :: nbad(1), gbad(1), ierr, loc(3), glob(3)
+    integer :: nbad(1), gbad(1), ierr, loc(3), glob(3), bad(2)
+    real(rp) :: t_bad
 
-    nbad(1) = ctx%model%nbad
+    call model_singular(ctx%model, nbad(1), bad, t_bad)
     call MPI_Allreduce(nbad, gbad, 1, MPI_INTEGER, MPI_MAX, ctx%comm, ierr)
     if (gbad(1) > 0) then
       loc = -1
-      if (ctx%model%nbad > 0) loc = [ctx%model%bad(1), ctx%model%bad(2), 1]
+      if (nbad(1) > 0) loc = [bad(1), bad(2), 1]
       call MPI_Allreduce(loc, glob, 3, MPI_INTEGER, MPI_MAX, ctx%comm, ierr)
-      write(msg, '(a,es12.5,a,i0,a,i0,a)') 'singular element at t = ', ctx%model%t_bad, &
+      write(msg, '(a,es12.5,a,i0,a,i0,a)') 'singular element at t = ', t_bad, &
         ' (zero-length link or bending triple folded back to theta = pi) anchored at node (', &
         glob(1), ', ', glob(2), ')'
     else if (reason == TS_DIVERGED_NONLINEAR_SOLVE) then

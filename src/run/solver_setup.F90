@@ -21,7 +21,8 @@ module solver_setup
                             nuno_options_report_unused, adaptive_default, step_defaults, ts_scheme, petsc_habits
   use newton_start, only: newton_start_free, newton_start_order
   use strings, only: itoa, real_g0, num => real_brief, inum => itoa
-  use cloth_model, only: form_ifunction, form_ijacobian, model_state_init, model_state_free, assembly_create, assembly_free
+  use cloth_model, only: form_ifunction, form_ijacobian
+  use model_state, only: model_state_init, model_state_free, assembly_create, assembly_free, assembly_matrix
   use newton_policy, only: set_newton_start, snes_converged
   use newton_state, only: SNES_FLOOR_DEFAULT, newton_state_init, newton_set_inner_guess, newton_guess, newton_guess_given, &
                           newton_forcing_on
@@ -188,9 +189,9 @@ contains
                 cfg%contact%n_obstacles > 0   ! friction's df/dv
       symmetric = (cfg%material%spring_code == SPRING_LINEAR .or. .not. cfg%material%has_damping) .and. &
                   (cfg%material%bending_code == BEND_NONE .or. (cfg%material%bending_code == BEND_ENERGY .and. &
-                   (cfg%material%eta_b == 0.0_rp .or. ctx%model%gauss_newton)))
+                   (cfg%material%eta_b == 0.0_rp .or. gn /= 0)))
       constant = cfg%material%spring_code == SPRING_LINEAR .and. cfg%material%bending_code == BEND_NONE .and. cfg%contact%n_obstacles == 0
-      PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, symmetric, constant, damping, ctx%model%clamp, ctx%model%gauss_newton, pc_lag, ierr, mg_interpolation=mg_interp))
+      PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, symmetric, constant, damping, cl /= 0, gn /= 0, pc_lag, ierr, mg_interpolation=mg_interp))
     else
       ! Jacobian with the DMDA's exact box-stencil preallocation.
       PetscCall(assembly_create(ctx%asm, ctx%da, ctx%lat, int(w), ierr))
@@ -206,7 +207,7 @@ contains
     if (ctx%use_reduced) then
       PetscCall(TSSetIJacobian(ctx%ts, ctx%red%jac, ctx%red%jac, form_ijacobian, ctx, ierr))
     else
-      PetscCall(TSSetIJacobian(ctx%ts, ctx%asm%p, ctx%asm%p, form_ijacobian, ctx, ierr))
+      PetscCall(TSSetIJacobian(ctx%ts, assembly_matrix(ctx%asm), assembly_matrix(ctx%asm), form_ijacobian, ctx, ierr))
     end if
     PetscCall(TSSetTime(ctx%ts, 0.0_rp, ierr))
     PetscCall(TSSetTimeStep(ctx%ts, cfg%time%dt, ierr))

@@ -24,7 +24,6 @@ module timestepping
   use constraints, only: constraints_set_window, constraint_target, constraint_events
   use diagnostics, only: state_diagnostics_t, state_diagnostics
   use output, only: output_file, output_record, output_write_step, output_write_wall_time
-  use reduced, only: reduced_set_fixed
   use app_context, only: app_ctx, nuno_walltime_arm, nuno_checkpoint_due, nuno_signal_agreed
   use step_settings, only: step_enter_window, step_dt, step_t_end, step_fixed, step_max_steps
   use energy_integrals, only: energy_add_work, energy_integrals_start, energy_set_mgx0, energy_dissipated, &
@@ -32,7 +31,7 @@ module timestepping
   use run_progress, only: progress_start, progress_output_written, progress_said, progress_warn_stretch, progress_wall, &
                           progress_t_written, progress_stretch_warned
   use run_error, only: run_error_first, run_error_any, run_error_text
-  use cloth_model, only: model_enter_window
+  use model_state, only: model_enter_window, model_fixed_to_reduced, model_gravity
   use newton_state, only: newton_enter_window
   use newton_start, only: newton_start_reset
   use contact_forces, only: contact_on
@@ -91,7 +90,7 @@ contains
     ! the window's constrained nodes, and whether one moves (module cloth_model)
     call model_enter_window(ctx%model, ctx%cs, moving=loc(2) > 0.0_rp)
     if (ctx%use_reduced) then
-      PetscCall(reduced_set_fixed(ctx%red, ctx%model%fixed, ierr))
+      PetscCall(model_fixed_to_reduced(ctx%model, ctx%red, ierr))
     end if
     ! The Newton start's kept states end here where the state jumps (a
     ! keyframe's start, a constraint's target moved); elsewhere they go on
@@ -403,7 +402,7 @@ contains
     PetscCall(DMGlobalToLocalBegin(ctx%da, ctx%u, INSERT_VALUES, uloc, ierr))
     PetscCall(DMGlobalToLocalEnd(ctx%da, ctx%u, INSERT_VALUES, uloc, ierr))
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
-    call state_diagnostics(ctx%lat, u, ctx%model%gravity, ctx%comm, d, ierr)
+    call state_diagnostics(ctx%lat, u, model_gravity(ctx%model), ctx%comm, d, ierr)
     if (.not. progress_stretch_warned(ctx%progress) .and. ctx%cfg%output%stretch_limit > 0.0_rp) call check_stretch(ctx, u, t)
     do j = ctx%lat%ys, ctx%lat%ye
       ctx%xout(:, :, j) = u(0:2, :, j)

@@ -16,11 +16,11 @@ module app_context
   use config, only: nuno_config
   use lattice, only: lattice_t
   use contact_forces, only: contact_state_t
-  use forces, only: jac_buffer_t
   use constraints, only: constraint_set_t
   use checkpoint_record, only: checkpoint_t
   use newton_start, only: newton_start_t
   use newton_state, only: newton_state_t
+  use model_state, only: model_state_t, assembly_t
   use reduced, only: reduced_t
   use step_settings, only: step_settings_t
   use energy_integrals, only: energy_integrals_t
@@ -28,7 +28,7 @@ module app_context
   use run_error, only: run_error_t
   implicit none
   private
-  public :: app_ctx, model_state_t, assembly_t, restart_state_t
+  public :: app_ctx, restart_state_t
   public :: nuno_walltime_arm, nuno_checkpoint_due, nuno_signal_agreed, nuno_signals_install, nuno_ts_stop
 
   interface
@@ -57,30 +57,6 @@ module app_context
     end function nuno_ts_stop
   end interface
 
-
-  !> The model's state within a time window and its work arrays (owner:
-  !> module cloth_model; model_state_init, model_enter_window).
-  type :: model_state_t
-    real(rp), allocatable :: f(:, :, :)         !< (3, 0:nx-1, gys:gye) force work array
-    logical, allocatable :: fixed(:, :)         !< (0:nx-1, ys:ye) constrained in the current window
-    real(rp) :: gravity(3) = 0
-    logical :: clamp = .false.                  !< drop indefinite spring compression terms in P
-    logical :: gauss_newton = .false.           !< Gauss-Newton energy-bending blocks in P
-    logical :: moving_constraints = .false.     !< a constrained node moves in this window
-    !> the singular element seen by the last residual evaluation: how many,
-    !> one of them (link end nodes) and the time
-    integer :: nbad = 0, bad(2) = -1
-    real(rp) :: t_bad = 0
-  end type model_state_t
-
-  !> The assembled 6-dof Jacobian and its work buffers (-nuno_jacobian full;
-  !> owner: module cloth_model; assembly_create).
-  type :: assembly_t
-    type(jac_buffer_t) :: jbuf
-    type(tMat) :: p                             !< assembled 6-dof Jacobian (-nuno_jacobian full only)
-    real(rp), allocatable :: vals(:, :, :)      !< (6, 6, ncol) one block row of the Jacobian
-    integer, allocatable :: cols(:)             !< (ncol) its local block columns
-  end type assembly_t
 
   !> Checkpoints and restarts (docs/design.md, "Checkpoints"; owner: module
   !> run_checkpoint).

@@ -32,8 +32,8 @@ module contact_solver
   use kinds, only: rp
   use app_context, only: app_ctx
   use newton_start, only: newton_start_order
-  use contact_forces, only: contact_init, contact_on, contact_lag, contact_step_limit, contact_stats, contact_record, &
-                            contact_seen, contact_count_limited, contact_move, contact_moving, contact_swept
+  use contact_forces, only: contact_init, contact_record, contact_seen, contact_count_limited, contact_move, contact_moving
+  use model_state, only: model_step_limit, model_swept, model_contact_state
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use strings, only: real_es, itoa
   implicit none
@@ -190,7 +190,7 @@ contains
     allocate(dx(0:5, 0:ctx%lat%nx - 1, ctx%lat%ys:ctx%lat%ye))
     dx = -y
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, yvec, y, ierr))
-    alpha = contact_step_limit(ctx%contact, ctx%lat, ctx%model%fixed, x, dx)
+    alpha = model_step_limit(ctx%model, ctx%contact, ctx%lat, x, dx)
     call MPI_Allreduce(alpha, galpha, 1, MPI_DOUBLE_PRECISION, MPI_MIN, ctx%comm, ierr)
     s = 1.0_rp
     if (galpha < 1.0_rp) s = 0.8_rp * galpha
@@ -200,7 +200,7 @@ contains
       PetscCall(TSGetSolution(ctx%ts, x0vec, ierr))
       PetscCall(DMDAVecGetArrayReadF90(ctx%da, x0vec, x0, ierr))
       do try = 0, 10
-        ncross = contact_swept(ctx%contact, ctx%lat, ctx%model%fixed, t0, t0 + dt, x0, x, s * dx)
+        ncross = model_swept(ctx%model, ctx%contact, ctx%lat, t0, t0 + dt, x0, x, s * dx)
         call MPI_Allreduce(ncross, gcross, 1, MPI_INTEGER, MPI_SUM, ctx%comm, ierr)
         if (gcross == 0) exit
         s = 0.5_rp * s
@@ -242,9 +242,7 @@ contains
     PetscCall(DMGlobalToLocalBegin(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
     PetscCall(DMGlobalToLocalEnd(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
-    call contact_move(ctx%contact, t)
-    call contact_stats(ctx%contact, ctx%lat, ctx%model%fixed, u, gmin, nact, ftot, fnrm, ebar, pfric, pobs)
-    call contact_lag(ctx%contact, ctx%lat, ctx%model%fixed, u, pstart, ostart)
+    call model_contact_state(ctx%model, ctx%contact, ctx%lat, t, u, gmin, nact, ftot, fnrm, ebar, pfric, pobs, pstart, ostart)
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, uloc, u, ierr))
     PetscCall(DMRestoreLocalVector(ctx%da, uloc, ierr))
     call MPI_Allreduce(gmin, r, 1, MPI_DOUBLE_PRECISION, MPI_MIN, ctx%comm, ierr)

@@ -18,8 +18,7 @@ module step_monitor
   use, intrinsic :: iso_fortran_env, only: output_unit, error_unit
   use kinds, only: rp
   use forces, only: dissipated_power
-  use cloth_model, only: model_internal_forces
-  use constraints, only: constraint_target
+  use model_state, only: model_moving, model_constraint_power
   use reduced, only: reduced_step_accepted
   use app_context, only: app_ctx, nuno_ts_stop
   use newton_start, only: newton_start_push
@@ -188,27 +187,18 @@ contains
     PetscErrorCode, intent(out) :: ierr
     type(tVec) :: uloc
     PetscScalar, pointer :: u(:, :, :)
-    real(rp) :: loc(2), xb(3), vb(3)
-    integer :: k, i, j, nbad, bad(2)
+    real(rp) :: loc(2)
 
     loc = 0.0_rp
     p = 0.0_rp
     ierr = 0
-    if (.not. ctx%cfg%material%has_damping .and. ctx%cfg%material%eta_b == 0.0_rp .and. .not. ctx%model%moving_constraints) return
+    if (.not. ctx%cfg%material%has_damping .and. ctx%cfg%material%eta_b == 0.0_rp .and. .not. model_moving(ctx%model)) return
     PetscCall(DMGetLocalVector(ctx%da, uloc, ierr))
     PetscCall(DMGlobalToLocalBegin(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
     PetscCall(DMGlobalToLocalEnd(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
     call dissipated_power(ctx%lat, u, loc(1))
-    if (ctx%model%moving_constraints) then
-      call model_internal_forces(ctx%model, ctx%lat, u, nbad, bad)
-      do k = 1, ctx%cs%n
-        call constraint_target(ctx%cs, k, t, xb, vb)
-        i = ctx%cs%node(1, k)
-        j = ctx%cs%node(2, k)
-        loc(2) = loc(2) - dot_product(ctx%model%f(:, i, j) + ctx%lat%mass(i, j) * ctx%model%gravity, vb)
-      end do
-    end if
+    if (model_moving(ctx%model)) loc(2) = model_constraint_power(ctx%model, ctx%lat, ctx%cs, u, t)
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, uloc, u, ierr))
     PetscCall(DMRestoreLocalVector(ctx%da, uloc, ierr))
     call MPI_Allreduce(loc, p, 2, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, ierr)
