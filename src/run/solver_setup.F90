@@ -31,7 +31,6 @@ module solver_setup
   use step_settings, only: step_settings_init, step_set_tolerances, step_dt, step_t_end, step_fixed, step_max_steps, &
                            step_rtol, step_atol_x, step_atol_v, step_adaptive_default
   use energy_integrals, only: energy_integrals_init, energy_integrals_free
-  use run_checkpoint, only: restart_state_free
   implicit none
   private
   public :: check_decomposition, solver_create, solver_destroy
@@ -69,9 +68,9 @@ contains
   subroutine solver_create(ctx, cfg, ierr)
     type(app_ctx), intent(inout), target :: ctx
     !> the run's configuration: the context points to it from here on (one
-    !> configuration for the caller and the solver), and the effective dt
-    !> and t_end are written into it
-    type(nuno_config), intent(inout), target :: cfg
+    !> configuration for the caller and the solver; the effective dt and
+    !> t_end are the step record's, module step_settings)
+    type(nuno_config), intent(in), target :: cfg
     PetscErrorCode, intent(out) :: ierr
     PetscInt :: xs, ys, zs, xm, ym, zm, gxs, gys, gzs, gxm, gym, gzm, w, nxp, nyp
     PetscInt, parameter :: one = 1, two = 2, six = 6, eight = 8
@@ -313,9 +312,6 @@ contains
       ierr = PETSC_ERR_ARG_OUTOFRANGE
       SETERRQ(ctx%comm, ierr, 'nuno: -ts_max_steps must be >= 0')
     end if
-    ! From here on the effective values are the run's configuration.
-    ctx%cfg%time%dt = step_dt(ctx%step)
-    ctx%cfg%time%t_end = step_t_end(ctx%step)
     ! The energy integrals close at the method's order: the trapezoid rule
     ! over each step (one power pass a step) is second order, enough for
     ! beuler, theta and cn (order <= 2); bdf (up to order 6) gets three
@@ -500,7 +496,6 @@ contains
     PetscCall(energy_integrals_free(ctx%energy, ierr))
     PetscCall(DMDestroy(ctx%da, ierr))
     call model_state_free(ctx%model)
-    call restart_state_free(ctx%restart)
   end subroutine solver_destroy
 
 end module solver_setup

@@ -17,7 +17,6 @@ module app_context
   use lattice, only: lattice_t
   use contact_forces, only: contact_state_t
   use constraints, only: constraint_set_t
-  use checkpoint_record, only: checkpoint_t
   use newton_start, only: newton_start_t
   use newton_state, only: newton_state_t
   use model_state, only: model_state_t, assembly_t
@@ -28,7 +27,7 @@ module app_context
   use run_error, only: run_error_t
   implicit none
   private
-  public :: app_ctx, restart_state_t
+  public :: app_ctx
   public :: nuno_walltime_arm, nuno_checkpoint_due, nuno_signal_agreed, nuno_signals_install, nuno_ts_stop
 
   interface
@@ -58,30 +57,6 @@ module app_context
   end interface
 
 
-  !> Checkpoints and restarts (docs/design.md, "Checkpoints"; owner: module
-  !> run_checkpoint).
-  type :: restart_state_t
-    real(rp) :: checkpoint_walltime = 0         !< -nuno_checkpoint_walltime: a checkpoint after each [s]; 0: none
-    !> time of the last checkpoint written or restarted from [time]; the
-    !> run's start at first, so that the first checkpoint_interval
-    !> checkpoint comes one interval after it
-    real(rp) :: t_checkpoint = 0
-    logical :: restarted = .false.              !< continues a checkpoint (solver_restore)
-    logical :: checkpoint_current = .false.     !< the last checkpoint was written after the last output step
-    real(rp) :: t_restart = 0, h_restart = 0    !< its time and next step [time]
-    real(rp) :: wall_before = 0                 !< wall-clock seconds of the runs before this one [s]
-    !> The restart point: the state at the last output step and what a
-    !> checkpoint of it holds (keep_restart_point), written by the
-    !> checkpoints that come between output steps (SIGTERM, SIGINT, the wall
-    !> clock), so that their restarts repeat the run bit for bit.
-    logical :: rp_valid = .false.
-    type(checkpoint_t) :: rp_ck
-    real(rp), allocatable :: rp_x(:, :, :), rp_v(:, :, :)  !< (3, 0:nx-1, ys:ye) [length], [length/time]
-    !> rejected steps, Newton and linear iterations and retries of the runs
-    !> before this one (the step count goes on in the TS itself)
-    real(rp) :: counts_before(5) = 0
-  end type restart_state_t
-
   !> Everything the callbacks need; passed to PETSc as the user context.
   type :: app_ctx
     !> the run's one configuration: the caller's (main program), which
@@ -106,7 +81,6 @@ module app_context
     type(step_settings_t) :: step
     type(energy_integrals_t) :: energy
     type(progress_t) :: progress
-    type(restart_state_t) :: restart
     type(contact_state_t) :: contact            !< obstacles and friction lag (module contact_forces; empty without)
   end type app_ctx
 
