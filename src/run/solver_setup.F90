@@ -42,6 +42,15 @@ module solver_setup
   !> to a later t_end keeps them; docs/workprecision.md, "Tolerances").
   real(rp), parameter :: TOLERANCE_TIME = 1.0_rp
 
+  !> nuno's own options of the Newton step as read (resolve_options), for
+  !> the set-up that follows.
+  type :: nuno_options_t
+    integer(c_int) :: pc_lag = 0                !< -nuno_pc_lag (0: the default)
+    integer(c_int) :: mg_interp = 0             !< -nuno_mg_interpolation's code (module reduced)
+    integer(c_int) :: gn = 0, cl = 0            !< -nuno_gauss_newton, -nuno_clamp (1: on)
+    character(len=64) :: mattype = ''           !< the 6-dof matrix type (-dm_mat_type)
+  end type nuno_options_t
+
 contains
 
   !> Every rank must own at least halo rows (the DMDA cannot build a halo
@@ -72,18 +81,10 @@ contains
     !> t_end are the step record's, module step_settings)
     type(nuno_config), intent(in), target :: cfg
     PetscErrorCode, intent(out) :: ierr
-    PetscInt :: xs, ys, zs, xm, ym, zm, gxs, gys, gzs, gxm, gym, gzm, w, nxp, nyp
-    PetscInt, parameter :: one = 1, two = 2, six = 6, eight = 8
-    type(tSNES) :: snes
-    type(tTSAdapt) :: adapt
-    SNESLineSearch :: linesearch
-    PetscScalar, pointer :: ua(:, :, :)
-    character(len=64) :: mattype
-    character(len=64, kind=c_char) :: cmattype
-    integer(c_int) :: jac, pc_lag, gn, cl, nfail, mg_interp, forcing, ls_fallback, ls_given, guess, guess_given
-    real(c_double) :: snes_floor
-    PetscBool :: ls_type_given
-    logical :: symmetric, constant, damping, applied
+    PetscInt :: w, nxp, nyp
+    PetscInt, parameter :: one = 1, six = 6
+    type(nuno_options_t) :: opt
+    logical :: applied
 
     ctx%cfg => cfg
     ctx%comm = PETSC_COMM_WORLD
@@ -92,19 +93,48 @@ contains
     w = halo_width(cfg)
     nxp = cfg%lattice%nx
     nyp = cfg%lattice%ny
-
     ! 1 x P processes: each rank owns whole rows, ghost width 2 with bending.
     PetscCall(DMDACreate2d(ctx%comm, DM_BOUNDARY_NONE, DM_BOUNDARY_NONE, DMDA_STENCIL_BOX, nxp, nyp, one, PETSC_DECIDE, six, w, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, ctx%da, ierr))
-    ! nuno's own options, in an options block (so in -help): the Newton
-    ! step, reduced 3-dof elimination (default) or the assembled 6-dof
-    ! Jacobian (the reference for -snes_test_jacobian and small scenes),
-    ! and the storage of that Jacobian: BAIJ (6 x 6 blocks) assembles and
-    ! multiplies fastest; -dm_mat_type aij for field splits.
+    PetscCall(resolve_options(ctx, cfg, opt, ierr))
+    PetscCall(setup_strips(ctx, cfg, opt, ierr))
+    PetscCall(create_jacobian(ctx, cfg, opt, int(w), ierr))
+    PetscCall(create_ts(ctx, cfg, ierr))
+    ! An adaptive run without -ts_type: the method that won the
+    ! work-precision measurement at moderate tolerance (module solver_options).
+    ! The identification and the control keep beuler: their adjoint needs a theta method.
+    applied = .false.
+    if (.not. (cfg%identify%active .or. cfg%control%active)) then
+      PetscCall(adaptive_default(ctx%ts, ctx%comm, applied, ierr))
+    end if
+    PetscCall(contact_solver_options(ctx, ierr))
+    PetscCall(step_defaults(ctx%ts, ctx%use_reduced, ierr))
+    PetscCall(TSSetFromOptions(ctx%ts, ierr))
+    PetscCall(effective_time_integration(ctx, applied, ierr))
+    PetscCall(contact_setup(ctx, ierr))
+  end subroutine solver_create
+
+  !> nuno's own options, in an options block (so in -help), resolved into
+  !> opt and Newton's record: the Newton step, reduced 3-dof elimination
+  !> (default) or the assembled 6-dof Jacobian (the reference for
+  !> -snes_test_jacobian and small scenes), and the storage of that
+  !> Jacobian: BAIJ (6 x 6 blocks) assembles and multiplies fastest;
+  !> -dm_mat_type aij for field splits. Refuses values and combinations
+  !> the run cannot honour. Collective.
+  subroutine resolve_options(ctx, cfg, opt, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    type(nuno_config), intent(in) :: cfg
+    type(nuno_options_t), intent(out) :: opt
+    PetscErrorCode, intent(out) :: ierr
+    character(len=64, kind=c_char) :: cmattype
+    integer(c_int) :: jac, nfail, forcing, ls_fallback, ls_given, guess, guess_given
+    real(c_double) :: snes_floor
+    PetscBool :: ls_type_given
+
     jac = JACOBIAN_REDUCED
-    pc_lag = 0                     ! the default: 3 with the multigrid, 1 otherwise (module reduced)
-    mg_interp = INTERP_AUTO        ! cubic with bending, linear without (module reduced)
-    gn = 0
-    cl = 0
+    opt%pc_lag = 0                 ! the default: 3 with the multigrid, 1 otherwise (module reduced)
+    opt%mg_interp = INTERP_AUTO    ! cubic with bending, linear without (module reduced)
+    opt%gn = 0
+    opt%cl = 0
     nfail = 0
     cmattype = MATBAIJ//c_null_char
     ! With obstacles the inner rtol stays -reduced_ksp_rtol: the forcing
@@ -114,14 +144,14 @@ contains
     forcing = merge(0, 1, cfg%contact%n_obstacles > 0)
     guess = GUESS_AUTO
     snes_floor = SNES_FLOOR_DEFAULT
-    ierr = nuno_options_read(ctx%comm, JACOBIAN_NAMES, size(JACOBIAN_NAMES), len(JACOBIAN_NAMES), jac, pc_lag, &
-                             INTERP_NAMES, size(INTERP_NAMES), len(INTERP_NAMES), mg_interp, snes_floor, gn, cl, &
+    ierr = nuno_options_read(ctx%comm, JACOBIAN_NAMES, size(JACOBIAN_NAMES), len(JACOBIAN_NAMES), jac, opt%pc_lag, &
+                             INTERP_NAMES, size(INTERP_NAMES), len(INTERP_NAMES), opt%mg_interp, snes_floor, opt%gn, opt%cl, &
                              cmattype, len(cmattype), nfail, forcing, &
                              GUESS_NAMES, size(GUESS_NAMES), len(GUESS_NAMES), guess, guess_given)
     if (ierr /= 0) return
-    if (pc_lag < 0) then
+    if (opt%pc_lag < 0) then
       ierr = PETSC_ERR_ARG_OUTOFRANGE
-      SETERRQ(ctx%comm, ierr, '-nuno_pc_lag '//itoa(int(pc_lag))//' must be >= 1 (or 0: the default)')
+      SETERRQ(ctx%comm, ierr, '-nuno_pc_lag '//itoa(int(opt%pc_lag))//' must be >= 1 (or 0: the default)')
     end if
     if (.not. (snes_floor >= 0.0_rp .and. snes_floor < 1.0_rp)) then
       ierr = PETSC_ERR_ARG_OUTOFRANGE
@@ -134,7 +164,7 @@ contains
     ctx%use_reduced = jac == JACOBIAN_REDUCED
     ! -pc_type lu and friends on the path in use (before anything reads them)
     PetscCall(petsc_habits(ctx%comm, ctx%use_reduced, cmattype, ierr))
-    if (.not. ctx%use_reduced .and. mg_interp > 0) then
+    if (.not. ctx%use_reduced .and. opt%mg_interp > 0) then
       ierr = PETSC_ERR_ARG_INCOMP
       SETERRQ(ctx%comm, ierr, 'nuno: -nuno_mg_interpolation is for the reduced solve, not -nuno_jacobian full')
     end if
@@ -154,8 +184,22 @@ contains
     if (.not. ctx%use_reduced .or. ls_type_given) ls_fallback = 0
     call newton_state_init(ctx%newton, snes_floor=snes_floor, guess=guess, guess_given=guess_given, &
                            forcing=forcing /= 0, fail_newton=nfail, ls_fallback=ls_fallback)
-    mattype = cmattype(1:index(cmattype, c_null_char) - 1)
-    PetscCall(DMSetMatType(ctx%da, mattype, ierr))
+    opt%mattype = cmattype(1:index(cmattype, c_null_char) - 1)
+  end subroutine resolve_options
+
+  !> The DMDA's strips set up (matrix type opt%mattype, field names), this
+  !> rank's lattice strip (refused unless the DMDA's strips are whole rows),
+  !> the model's work arrays, the output buffers, and the scene's initial
+  !> state and constraints. Collective.
+  subroutine setup_strips(ctx, cfg, opt, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    type(nuno_config), intent(in) :: cfg
+    type(nuno_options_t), intent(in) :: opt
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt :: xs, ys, zs, xm, ym, zm, gxs, gys, gzs, gxm, gym, gzm
+    PetscScalar, pointer :: ua(:, :, :)
+
+    PetscCall(DMSetMatType(ctx%da, opt%mattype, ierr))
     PetscCall(DMSetUp(ctx%da, ierr))
     PetscCall(DMDASetFieldName(ctx%da, 0, 'x', ierr))
     PetscCall(DMDASetFieldName(ctx%da, 1, 'y', ierr))
@@ -172,7 +216,7 @@ contains
       SETERRQ(ctx%comm, ierr, 'nuno: the DMDA is not split into strips of whole rows')
     end if
     call model_state_init(ctx%model, ctx%lat, gravity=merge(cfg%scene%gravity, [0.0_rp, 0.0_rp, 0.0_rp], cfg%scene%has_gravity), &
-                          clamp=cl /= 0, gauss_newton=gn /= 0)
+                          clamp=opt%cl /= 0, gauss_newton=opt%gn /= 0)
     allocate(ctx%xout(3, 0:cfg%lattice%nx - 1, ys:ys + ym - 1), ctx%vout(3, 0:cfg%lattice%nx - 1, ys:ys + ym - 1))
 
     ! Initial state and constraints of the scene.
@@ -180,24 +224,49 @@ contains
     PetscCall(DMDAVecGetArrayF90(ctx%da, ctx%u, ua, ierr))
     call scene_setup(cfg, ctx%lat, ua, ctx%cs)
     PetscCall(DMDAVecRestoreArrayF90(ctx%da, ctx%u, ua, ierr))
+  end subroutine setup_strips
 
-    if (ctx%use_reduced) then
-      ! S is symmetric when K and C are: no moving dampers (linear springs
-      ! have constant ones), no paper bending, no bending damping.
-      damping = cfg%material%has_damping .or. (cfg%material%bending_code == BEND_ENERGY .and. cfg%material%eta_b /= 0.0_rp) .or. &
-                cfg%contact%n_obstacles > 0   ! friction's df/dv
-      symmetric = (cfg%material%spring_code == SPRING_LINEAR .or. .not. cfg%material%has_damping) .and. &
-                  (cfg%material%bending_code == BEND_NONE .or. (cfg%material%bending_code == BEND_ENERGY .and. &
-                   (cfg%material%eta_b == 0.0_rp .or. gn /= 0)))
-      constant = cfg%material%spring_code == SPRING_LINEAR .and. cfg%material%bending_code == BEND_NONE .and. cfg%contact%n_obstacles == 0
-      PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, symmetric, constant, damping, cl /= 0, gn /= 0, pc_lag, ierr, mg_interpolation=mg_interp))
-    else
-      ! Jacobian with the DMDA's exact box-stencil preallocation.
-      PetscCall(assembly_create(ctx%asm, ctx%da, ctx%lat, int(w), ierr))
+  !> The Newton step's matrices: S and the inner solver of the reduced
+  !> solve (module reduced), or the assembled 6-dof Jacobian with the
+  !> DMDA's exact box-stencil preallocation (w: the halo width).
+  !> Collective.
+  subroutine create_jacobian(ctx, cfg, opt, w, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    type(nuno_config), intent(in) :: cfg
+    type(nuno_options_t), intent(in) :: opt
+    integer, intent(in) :: w
+    PetscErrorCode, intent(out) :: ierr
+    logical :: symmetric, constant, damping
+
+    ierr = 0
+    if (.not. ctx%use_reduced) then
+      PetscCall(assembly_create(ctx%asm, ctx%da, ctx%lat, w, ierr))
+      return
     end if
+    ! S is symmetric when K and C are: no moving dampers (linear springs
+    ! have constant ones), no paper bending, no bending damping.
+    damping = cfg%material%has_damping .or. (cfg%material%bending_code == BEND_ENERGY .and. cfg%material%eta_b /= 0.0_rp) .or. &
+              cfg%contact%n_obstacles > 0   ! friction's df/dv
+    symmetric = (cfg%material%spring_code == SPRING_LINEAR .or. .not. cfg%material%has_damping) .and. &
+                (cfg%material%bending_code == BEND_NONE .or. (cfg%material%bending_code == BEND_ENERGY .and. &
+                 (cfg%material%eta_b == 0.0_rp .or. opt%gn /= 0)))
+    constant = cfg%material%spring_code == SPRING_LINEAR .and. cfg%material%bending_code == BEND_NONE .and. cfg%contact%n_obstacles == 0
+    PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, symmetric, constant, damping, opt%cl /= 0, opt%gn /= 0, opt%pc_lag, ierr, mg_interpolation=opt%mg_interp))
+  end subroutine create_jacobian
 
-    ! The report's scheme by default: backward Euler with the namelist's
-    ! fixed step; any implicit TS type and adaptivity through the options.
+  !> The TS: the report's scheme by default, backward Euler with the
+  !> namelist's fixed step (any implicit TS type and adaptivity through the
+  !> options), nuno's callbacks, the retries of a failed step, and the
+  !> SNES's convergence test and line search. Collective.
+  subroutine create_ts(ctx, cfg, ierr)
+    type(app_ctx), intent(inout), target :: ctx
+    type(nuno_config), intent(in) :: cfg
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt, parameter :: two = 2, eight = 8
+    type(tSNES) :: snes
+    type(tTSAdapt) :: adapt
+    SNESLineSearch :: linesearch
+
     PetscCall(TSCreate(ctx%comm, ctx%ts, ierr))
     PetscCall(TSSetDM(ctx%ts, ctx%da, ierr))
     PetscCall(TSSetProblemType(ctx%ts, TS_NONLINEAR, ierr))
@@ -248,19 +317,7 @@ contains
       PetscCall(SNESGetLineSearch(snes, linesearch, ierr))
       PetscCall(SNESLineSearchSetType(linesearch, SNESLINESEARCHBASIC, ierr))
     end if
-    ! An adaptive run without -ts_type: the method that won the
-    ! work-precision measurement at moderate tolerance (module solver_options).
-    ! The identification and the control keep beuler: their adjoint needs a theta method.
-    applied = .false.
-    if (.not. (cfg%identify%active .or. cfg%control%active)) then
-      PetscCall(adaptive_default(ctx%ts, ctx%comm, applied, ierr))
-    end if
-    PetscCall(contact_solver_options(ctx, ierr))
-    PetscCall(step_defaults(ctx%ts, ctx%use_reduced, ierr))
-    PetscCall(TSSetFromOptions(ctx%ts, ierr))
-    PetscCall(effective_time_integration(ctx, applied, ierr))
-    PetscCall(contact_setup(ctx, ierr))
-  end subroutine solver_create
+  end subroutine create_ts
 
   !> Read back what the options made of the time integration, so that the
   !> run, the start-up line and the output file use the values actually in
@@ -276,11 +333,7 @@ contains
     type(tTSAdapt) :: adapt
     TSExactFinalTimeOption :: eft
     PetscBool :: match
-    character(len=64) :: tstype, adtype
-    character(len=:), allocatable :: scheme
-    character(len=512) :: line, inner
-    character(len=64) :: sntype
-    type(tSNES) :: snes
+    character(len=64) :: tstype
     character(len=40) :: srcx, srcv
     real(rp) :: dt_namelist, t_end_namelist, dt, t_end
     PetscInt :: max_steps
@@ -324,6 +377,25 @@ contains
     PetscCall(energy_integrals_init(ctx%energy, trim(tstype) == 'bdf', ctx%u, ierr))
     PetscCall(set_tolerances(ctx, srcx, srcv, ierr))
 
+    PetscCall(say_solver(ctx, adapt, dt_namelist, t_end_namelist, srcx, srcv, ierr))
+  end subroutine effective_time_integration
+
+  !> The start-up lines (rank 0) of the time integration in force: the
+  !> scheme, its steps and tolerances (where the namelist's dt and t_end,
+  !> dt_namelist and t_end_namelist [time], were overridden, both; srcx and
+  !> srcv: where the tolerances came from), the Newton step and the inner
+  !> solve. Collective (the descriptions are gathered on every rank).
+  subroutine say_solver(ctx, adapt, dt_namelist, t_end_namelist, srcx, srcv, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    type(tTSAdapt), intent(in) :: adapt
+    real(rp), intent(in) :: dt_namelist, t_end_namelist
+    character(len=*), intent(in) :: srcx, srcv
+    PetscErrorCode, intent(out) :: ierr
+    character(len=64) :: adtype, sntype
+    character(len=:), allocatable :: scheme
+    character(len=512) :: line, inner
+    type(tSNES) :: snes
+
     PetscCall(ts_scheme(ctx%ts, scheme, ierr))
     inner = ''
     if (ctx%use_reduced) then
@@ -357,7 +429,7 @@ contains
       if (ctx%use_reduced) write(output_unit, '(a)') 'inner     : '//trim(inner)
       flush(output_unit)
     end if
-  end subroutine effective_time_integration
+  end subroutine say_solver
 
   !> The inner initial guess (-nuno_inner_guess, module inner_guess): the
   !> first Newton corrections of successive steps form a smooth sequence

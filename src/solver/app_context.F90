@@ -1,11 +1,15 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> The solver's context, passed to every PETSc callback as the user
 !> context, and the C functions of the time loop (src/solver/nuno_signals.c).
-!> The context's records are defined here and written only by the module
-!> that owns each (named at its type; its routines set, restore and free
-!> the record): every other module reads them or calls those routines
-!> (docs/design.md, "Records and their owners";
-!> tests/python/test_record_owners.py).
+!> The context holds the shared objects (DMDA, TS, state, lattice,
+!> constraints, the reduced solver) and one record per concern; each
+!> record's type has private components and lives in the module that
+!> writes it (model_state, newton_state, newton_start, step_settings,
+!> energy_integrals, run_progress, run_error; contact_forces, reduced), so
+!> that the compiler keeps every write in its owner (docs/design.md,
+!> "Records and their owners"). The configuration is the caller's, read
+!> only (tests/python/test_record_owners.py checks that nothing writes
+!> through the pointer).
 module app_context
 #include "petsc/finclude/petscts.h"
   use petscts
@@ -59,9 +63,9 @@ module app_context
 
   !> Everything the callbacks need; passed to PETSc as the user context.
   type :: app_ctx
-    !> the run's one configuration: the caller's (main program), which
-    !> solver_create points to and completes with the effective dt and
-    !> t_end; identify's fitted values and a restart's patch land there too
+    !> the run's configuration, read only: the caller's (main program's),
+    !> which solver_create points to (identification points it to its own
+    !> trial configuration); the effective dt and t_end are step's
     type(nuno_config), pointer :: cfg => null()
     type(lattice_t) :: lat
     type(constraint_set_t) :: cs
@@ -74,13 +78,13 @@ module app_context
     real(rp), allocatable :: xout(:, :, :)      !< (3, 0:nx-1, ys:ye) output buffer
     real(rp), allocatable :: vout(:, :, :)      !< (3, 0:nx-1, ys:ye) output buffer
     type(run_error_t) :: error                  !< the (collective) error that ended the run (module run_error)
-    type(model_state_t) :: model
-    type(assembly_t) :: asm
-    type(newton_state_t) :: newton
+    type(model_state_t) :: model                !< work arrays, the window's constrained nodes (module model_state)
+    type(assembly_t) :: asm                     !< the 6-dof Jacobian, -nuno_jacobian full (module model_state)
+    type(newton_state_t) :: newton              !< Newton's policy state (module newton_state)
     type(newton_start_t) :: start               !< beuler's Newton start and its kept states (module newton_start)
-    type(step_settings_t) :: step
-    type(energy_integrals_t) :: energy
-    type(progress_t) :: progress
+    type(step_settings_t) :: step               !< the time integration as used (module step_settings)
+    type(energy_integrals_t) :: energy          !< dissipated energy, constraint work (module energy_integrals)
+    type(progress_t) :: progress                !< wall clock, output steps, stall check (module run_progress)
     type(contact_state_t) :: contact            !< obstacles and friction lag (module contact_forces; empty without)
   end type app_ctx
 
