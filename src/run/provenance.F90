@@ -10,7 +10,7 @@ module provenance
   use config, only: nuno_config, unset_real
   use output, only: output_file, run_info, output_write_run_info, output_config_key
   use app_context, only: app_ctx
-  use step_settings, only: step_dt, step_t_end, step_max_steps, step_rtol, step_atol_x, step_atol_v
+  use step_settings, only: step_dt, step_t_end, step_max_steps, step_tolerances
   use failure_text, only: report_io_error
   implicit none
   private
@@ -42,9 +42,7 @@ contains
     info%dt = step_dt(ctx%step)
     info%t_end = step_t_end(ctx%step)
     info%max_steps = int(min(step_max_steps(ctx%step), int(huge(1), kind(step_max_steps(ctx%step)))))
-    info%rtol = step_rtol(ctx%step)
-    info%atol_position = step_atol_x(ctx%step)
-    info%atol_velocity = step_atol_v(ctx%step)
+    call step_tolerances(ctx%step, info%rtol, info%atol_position, info%atol_velocity)
     info%units = ctx%cfg%scene%units
     info%contact = ctx%cfg%contact%n_obstacles > 0
     ! Rank 0's host and clock, broadcast: attributes must be equal on all ranks.
@@ -195,15 +193,15 @@ contains
     end associate
   end subroutine config_contact
 
-  !> The obstacles' shapes as one comma-separated string ('plane, sphere').
+  !> The obstacles' shapes (at least one) as one comma-separated string
+  !> ('plane, sphere').
   function contact_shapes(shapes) result(t)
     character(*), intent(in) :: shapes(:)
     character(:), allocatable :: t
     integer :: k
-    t = ''
-    do k = 1, size(shapes)
-      if (k > 1) t = t//', '
-      t = t//trim(shapes(k))
+    t = trim(shapes(1))
+    do k = 2, size(shapes)
+      t = t//', '//trim(shapes(k))
     end do
   end function contact_shapes
 

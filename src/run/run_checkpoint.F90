@@ -16,7 +16,7 @@ module run_checkpoint
   use output, only: output_file, checkpoint_t, output_write_checkpoint, output_steps
   use app_context, only: app_ctx
   use step_settings, only: step_max_steps
-  use energy_integrals, only: energy_integrals_restore, energy_dissipated, energy_work_constraints, energy_mgx0
+  use energy_integrals, only: energy_integrals_restore, energy_totals
   use run_progress, only: progress_restore, progress_wall, progress_t_written, progress_stretch_warned
   use reduced, only: reduced_restore_floor
   use contact_forces, only: contact_on, contact_restore
@@ -29,7 +29,7 @@ module run_checkpoint
   public :: run_counts, solver_restore, take_checkpoint, keep_restart_point
   public :: restart_state_t, restart_state_init, restart_output_written, restart_state_free
   public :: state_to_strips
-  public :: restart_file, restart_wall_before, restart_walltime, restart_continues, restart_time, restart_step, restart_t_checkpoint, &
+  public :: restart_file, restart_wall_before, restart_walltime, restart_from, restart_t_checkpoint, &
             restart_current
 
   !> Checkpoints and restarts (docs/design.md, "Checkpoints").
@@ -201,9 +201,7 @@ contains
 
     ck%time = t
     ck%dt_next = h
-    ck%dissipated = energy_dissipated(ctx%energy)
-    ck%work_constraints = energy_work_constraints(ctx%energy)
-    ck%mgx0 = energy_mgx0(ctx%energy)
+    call energy_totals(ctx%energy, ck%dissipated, ck%work_constraints, ck%mgx0)
     if (contact_on(ctx%contact)) then
       ck%contact = 1
       ck%friction_work = ctx%contact%friction_work
@@ -371,23 +369,16 @@ contains
     restart_walltime = r%checkpoint_walltime
   end function restart_walltime
 
-  !> The run continues a checkpoint (solver_restore).
-  pure logical function restart_continues(r)
+  !> restarted: the run continues a checkpoint (solver_restore), at time t
+  !> with the step h its run took next [time].
+  pure subroutine restart_from(r, restarted, t, h)
     type(restart_state_t), intent(in) :: r
-    restart_continues = r%restarted
-  end function restart_continues
-
-  !> The time of the checkpoint the run continues [time].
-  pure real(rp) function restart_time(r)
-    type(restart_state_t), intent(in) :: r
-    restart_time = r%t_restart
-  end function restart_time
-
-  !> The step the checkpoint's run took next [time].
-  pure real(rp) function restart_step(r)
-    type(restart_state_t), intent(in) :: r
-    restart_step = r%h_restart
-  end function restart_step
+    logical, intent(out) :: restarted
+    real(rp), intent(out) :: t, h
+    restarted = r%restarted
+    t = r%t_restart
+    h = r%h_restart
+  end subroutine restart_from
 
   !> The time of the last checkpoint written or restarted from [time].
   pure real(rp) function restart_t_checkpoint(r)

@@ -29,7 +29,7 @@ module solver_setup
   use contact_solver, only: contact_solver_options, contact_setup
   use step_monitor, only: ts_monitor
   use step_settings, only: step_settings_init, step_set_tolerances, step_dt, step_t_end, step_fixed, step_max_steps, &
-                           step_rtol, step_atol_x, step_atol_v, step_adaptive_default
+                           step_tolerances, step_adaptive_default
   use energy_integrals, only: energy_integrals_init, energy_integrals_free
   implicit none
   private
@@ -97,7 +97,7 @@ contains
     PetscCall(DMDACreate2d(ctx%comm, DM_BOUNDARY_NONE, DM_BOUNDARY_NONE, DMDA_STENCIL_BOX, nxp, nyp, one, PETSC_DECIDE, six, w, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, ctx%da, ierr))
     PetscCall(resolve_options(ctx, cfg, opt, ierr))
     PetscCall(setup_strips(ctx, cfg, opt, ierr))
-    PetscCall(create_jacobian(ctx, cfg, opt, int(w), ierr))
+    PetscCall(create_jacobian(ctx, cfg, opt, ierr))
     PetscCall(create_ts(ctx, cfg, ierr))
     ! An adaptive run without -ts_type: the method that won the
     ! work-precision measurement at moderate tolerance (module solver_options).
@@ -228,19 +228,17 @@ contains
 
   !> The Newton step's matrices: S and the inner solver of the reduced
   !> solve (module reduced), or the assembled 6-dof Jacobian with the
-  !> DMDA's exact box-stencil preallocation (w: the halo width).
-  !> Collective.
-  subroutine create_jacobian(ctx, cfg, opt, w, ierr)
+  !> DMDA's exact box-stencil preallocation. Collective.
+  subroutine create_jacobian(ctx, cfg, opt, ierr)
     type(app_ctx), intent(inout) :: ctx
     type(nuno_config), intent(in) :: cfg
     type(nuno_options_t), intent(in) :: opt
-    integer, intent(in) :: w
     PetscErrorCode, intent(out) :: ierr
     logical :: symmetric, constant, damping
 
     ierr = 0
     if (.not. ctx%use_reduced) then
-      PetscCall(assembly_create(ctx%asm, ctx%da, ctx%lat, w, ierr))
+      PetscCall(assembly_create(ctx%asm, ctx%da, ctx%lat, halo_width(cfg), ierr))
       return
     end if
     ! S is symmetric when K and C are: no moving dampers (linear springs
@@ -395,6 +393,7 @@ contains
     character(len=:), allocatable :: scheme
     character(len=512) :: line, inner
     type(tSNES) :: snes
+    real(rp) :: rtol, atol_x, atol_v
 
     PetscCall(ts_scheme(ctx%ts, scheme, ierr))
     inner = ''
@@ -421,8 +420,9 @@ contains
         line = trim(line)//' (-ts_max_time; namelist '//num(t_end_namelist)//')'
       if (step_max_steps(ctx%step) < huge(step_max_steps(ctx%step))) &
         line = trim(line)//', at most '//inum(step_max_steps(ctx%step))//' steps (-ts_max_steps)'
-      if (.not. step_fixed(ctx%step)) line = trim(line)//', rtol '//num(step_rtol(ctx%step))//', atol position '// &
-        num(step_atol_x(ctx%step))//' ('//trim(srcx)//'), velocity '//num(step_atol_v(ctx%step))//' ('//trim(srcv)//')'
+      call step_tolerances(ctx%step, rtol, atol_x, atol_v)
+      if (.not. step_fixed(ctx%step)) line = trim(line)//', rtol '//num(rtol)//', atol position '// &
+        num(atol_x)//' ('//trim(srcx)//'), velocity '//num(atol_v)//' ('//trim(srcv)//')'
       line = trim(line)//', Newton step '//trim(merge('reduced', 'full   ', ctx%use_reduced))
       if (newton_start_order(ctx%start) == 3) line = trim(line)//', started cubic (-nuno_newton_start)'
       write(output_unit, '(a)') trim(line)

@@ -19,6 +19,7 @@ module timestepping
   use, intrinsic :: iso_c_binding, only: c_double
   use, intrinsic :: iso_fortran_env, only: output_unit, error_unit
   use kinds, only: rp
+  use ghosted_state, only: ghosted_get, ghosted_restore
   use lattice, only: link_dir
   use forces, only: link_stretch_extremes
   use constraints, only: constraints_set_window, constraint_target, constraint_events
@@ -26,8 +27,7 @@ module timestepping
   use output, only: output_file, output_record, output_write_step, output_write_wall_time
   use app_context, only: app_ctx, nuno_walltime_arm, nuno_checkpoint_due, nuno_signal_agreed
   use step_settings, only: step_enter_window, step_dt, step_t_end, step_fixed, step_max_steps
-  use energy_integrals, only: energy_add_work, energy_integrals_start, energy_set_mgx0, energy_dissipated, &
-                              energy_work_constraints, energy_mgx0
+  use energy_integrals, only: energy_add_work, energy_integrals_start, energy_set_mgx0, energy_totals
   use run_progress, only: progress_start, progress_output_written, progress_said, progress_warn_stretch, progress_wall, &
                           progress_t_written, progress_stretch_warned
   use run_error, only: run_error_first, run_error_any, run_error_text
@@ -40,7 +40,7 @@ module timestepping
   use strings, only: num => real_brief, inum => itoa
   use run_checkpoint, only: restart_state_t, run_counts, take_checkpoint, keep_restart_point, solver_restore, &
                             restart_state_init, restart_state_free, restart_output_written, restart_wall_before, &
-                            restart_walltime, restart_continues, restart_time, restart_step, restart_t_checkpoint, &
+                            restart_walltime, restart_from, restart_t_checkpoint, &
                             restart_current, restart_file, state_to_strips
   use provenance, only: write_run_info
   use solver_setup, only: check_decomposition, solver_create, solver_destroy
@@ -147,25 +147,24 @@ contains
     end do
   end subroutine advance_window
 
-  !> advance_window for the run: the wall-clock checkpoints
-  !> (-nuno_checkpoint_walltime) due inside the window are written into out
-  !> between steps; a failed write ends the window early with the run's
-  !> error set (module run_error). Collective.
-  subroutine run_window(ctx, r, out, t, tb, h, enter, reason, ierr)
+  !> advance_window for the run, which enters every window but its first
+  !> (entered before the output step at t = 0: run_start): the wall-clock
+  !> checkpoints (-nuno_checkpoint_walltime) due inside the window are
+  !> written into out between steps; a failed write ends the window early
+  !> with the run's error set (module run_error). Collective.
+  subroutine run_window(ctx, r, out, t, tb, h, reason, ierr)
     type(app_ctx), intent(inout) :: ctx
     type(restart_state_t), intent(inout) :: r
     type(output_file), intent(inout) :: out
-    real(rp), intent(inout) :: t
+    real(rp), intent(inout) :: t, h
     real(rp), intent(in) :: tb
-    real(rp), intent(inout) :: h
-    logical, intent(in) :: enter
     TSConvergedReason, intent(out) :: reason
     PetscErrorCode, intent(out) :: ierr
     real(rp) :: hnext
     integer :: due
     logical :: taken
 
-    PetscCall(window_start(ctx, t, tb, h, enter, ierr))
+    PetscCall(window_start(ctx, t, tb, h, t > 0.0_rp, ierr))
     do
       PetscCall(window_solve(ctx, t, reason, ierr))
       ! -nuno_checkpoint_walltime, due after the step just taken (agreed by
@@ -263,8 +262,7 @@ contains
     next = GO_ON
     do while (t < sc%t_end - sc%eps .and. next == GO_ON)
       tstop = next_stop(sc, t)
-      ! The first window was entered by run_start, before the output step at t = 0.
-      call run_window(ctx, r, out, t, tstop, h, t > 0.0_rp, reason, ierr)
+      call run_window(ctx, r, out, t, tstop, h, reason, ierr)
       if (ierr /= 0) return
       call window_end(ctx, r, out, sc, reason, tstop, t, h, status, next, ierr)
       if (ierr /= 0 .or. next == LOST) return
@@ -285,10 +283,12 @@ contains
     real(rp), intent(inout) :: t, h
     character(len=*), intent(inout) :: status
     PetscErrorCode, intent(out) :: ierr
-    real(rp) :: tstop, dke
+    real(rp) :: tstop, dke, t_ck, h_ck
+    logical :: restarted
 
     ierr = 0
-    if (.not. restart_continues(r)) then
+    call restart_from(r, restarted, t_ck, h_ck)
+    if (.not. restarted) then
       sc%iout = 0
       tstop = next_stop(sc, t)
       call enter_window(ctx, t, tstop, dke, ierr)
@@ -302,8 +302,8 @@ contains
     ! Go on from the checkpoint: its state, time and step number are in
     ! the TS (solver_restore); the next output step is the first after the
     ! last one written.
-    t = restart_time(r)
-    if (.not. step_fixed(ctx%step)) h = restart_step(r)
+    t = t_ck
+    if (.not. step_fixed(ctx%step)) h = h_ck
     sc%iout = 1
     do while (output_time(sc, sc%iout) <= progress_t_written(ctx%progress) + sc%eps .and. &
               real(sc%iout, rp) * sc%interval < sc%t_end)
@@ -587,14 +587,10 @@ contains
     type(tVec) :: uloc
     PetscScalar, pointer :: u(:, :, :)
 
-    PetscCall(DMGetLocalVector(ctx%da, uloc, ierr))
-    PetscCall(DMGlobalToLocalBegin(ctx%da, ctx%u, INSERT_VALUES, uloc, ierr))
-    PetscCall(DMGlobalToLocalEnd(ctx%da, ctx%u, INSERT_VALUES, uloc, ierr))
-    PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
+    PetscCall(ghosted_get(ctx%da, ctx%u, uloc, u, ierr))
     call state_diagnostics(ctx%lat, u, model_gravity(ctx%model), ctx%comm, d, ierr)
     if (.not. progress_stretch_warned(ctx%progress) .and. ctx%cfg%output%stretch_limit > 0.0_rp) call check_stretch(ctx, u, t)
-    PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, uloc, u, ierr))
-    PetscCall(DMRestoreLocalVector(ctx%da, uloc, ierr))
+    PetscCall(ghosted_restore(ctx%da, uloc, u, ierr))
     PetscCall(state_to_strips(ctx, ctx%u, ctx%xout, ctx%vout, ierr))
   end subroutine output_state
 
@@ -606,13 +602,15 @@ contains
     real(rp), intent(in) :: t, c(5)
     type(state_diagnostics_t), intent(in) :: d
     type(output_record), intent(out) :: rec
+    real(rp) :: dissipated, work_constraints, mgx0
 
     rec%time = t
     rec%kinetic = d%kinetic
     rec%stretch = d%stretch
     rec%bend = d%bend
-    rec%dissipated = energy_dissipated(ctx%energy)
-    rec%external_work = energy_work_constraints(ctx%energy) + (d%mgx - energy_mgx0(ctx%energy))
+    call energy_totals(ctx%energy, dissipated, work_constraints, mgx0)
+    rec%dissipated = dissipated
+    rec%external_work = work_constraints + (d%mgx - mgx0)
     rec%momentum = d%momentum
     rec%angular_momentum = d%angular_momentum
     rec%length = d%length

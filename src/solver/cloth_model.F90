@@ -19,6 +19,7 @@ module cloth_model
   use petscdmda
   use mpi
   use kinds, only: rp
+  use ghosted_state, only: ghosted_get, ghosted_restore
   use newton_control, only: floor_estimate
   use reduced, only: reduced_assemble
   use app_context, only: app_ctx
@@ -42,17 +43,13 @@ contains
     type(tVec) :: uloc
     PetscScalar, pointer :: u(:, :, :), ud(:, :, :), fv(:, :, :)
 
-    PetscCall(DMGetLocalVector(ctx%da, uloc, ierr))
-    PetscCall(DMGlobalToLocalBegin(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
-    PetscCall(DMGlobalToLocalEnd(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
-    PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
+    PetscCall(ghosted_get(ctx%da, uvec, uloc, u, ierr))
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, udotvec, ud, ierr))
     PetscCall(DMDAVecGetArrayF90(ctx%da, fvec, fv, ierr))
     call model_residual(ctx%model, ctx%lat, ctx%cs, ctx%contact, t, u, ud, fv)
     PetscCall(DMDAVecRestoreArrayF90(ctx%da, fvec, fv, ierr))
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, udotvec, ud, ierr))
-    PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, uloc, u, ierr))
-    PetscCall(DMRestoreLocalVector(ctx%da, uloc, ierr))
+    PetscCall(ghosted_restore(ctx%da, uloc, u, ierr))
   end subroutine form_ifunction
 
   !> dF/dU + a dF/dUdot: S of the reduced solve (module reduced), or the
@@ -69,29 +66,20 @@ contains
     PetscScalar, pointer :: u(:, :, :), ud(:, :, :)
     real(rp) :: sums(2), gsums(2)
 
-    PetscCall(DMGetLocalVector(ctx%da, uloc, ierr))
-    PetscCall(DMGlobalToLocalBegin(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
-    PetscCall(DMGlobalToLocalEnd(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
-    PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
+    PetscCall(ghosted_get(ctx%da, uvec, uloc, u, ierr))
     ! contact's diagonal blocks at this state, which both assemblies add (lattice_t's nodal)
     if (contact_on(ctx%contact)) call model_contact_blocks(ctx%model, ctx%contact, ctx%lat, t, u, ctx%lat%nodal)
     if (ctx%use_reduced) then
-      PetscCall(DMGetLocalVector(ctx%da, udloc, ierr))
-      PetscCall(DMGlobalToLocalBegin(ctx%da, udotvec, INSERT_VALUES, udloc, ierr))
-      PetscCall(DMGlobalToLocalEnd(ctx%da, udotvec, INSERT_VALUES, udloc, ierr))
-      PetscCall(DMDAVecGetArrayReadF90(ctx%da, udloc, ud, ierr))
+      PetscCall(ghosted_get(ctx%da, udotvec, udloc, ud, ierr))
       PetscCall(reduced_assemble(ctx%red, u, ud, a, ierr))
-      PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, udloc, ud, ierr))
-      PetscCall(DMRestoreLocalVector(ctx%da, udloc, ierr))
-      PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, uloc, u, ierr))
-      PetscCall(DMRestoreLocalVector(ctx%da, uloc, ierr))
+      PetscCall(ghosted_restore(ctx%da, udloc, ud, ierr))
+      PetscCall(ghosted_restore(ctx%da, uloc, u, ierr))
       PetscCall(MatAssemblyBegin(jmat, MAT_FINAL_ASSEMBLY, ierr))
       PetscCall(MatAssemblyEnd(jmat, MAT_FINAL_ASSEMBLY, ierr))
       return
     end if
     PetscCall(model_assemble_full(ctx%model, ctx%asm, ctx%lat, u, a, pmat, sums, ierr))
-    PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, uloc, u, ierr))
-    PetscCall(DMRestoreLocalVector(ctx%da, uloc, ierr))
+    PetscCall(ghosted_restore(ctx%da, uloc, u, ierr))
     call MPI_Allreduce(sums(1), gsums(1), 1, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, ierr)
     call MPI_Allreduce(sums(2), gsums(2), 1, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
     call newton_set_floor(ctx%newton, floor_estimate(gsums))

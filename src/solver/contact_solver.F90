@@ -30,6 +30,7 @@ module contact_solver
   use mpi
   use, intrinsic :: iso_c_binding, only: c_int, c_intptr_t, c_ptr, c_loc, c_f_pointer
   use kinds, only: rp
+  use ghosted_state, only: ghosted_get, ghosted_restore
   use app_context, only: app_ctx
   use newton_start, only: newton_start_order
   use contact_forces, only: contact_init, contact_record, contact_seen, contact_count_limited, contact_move, contact_moving
@@ -238,13 +239,9 @@ contains
     ! TSSolve calls its monitors at every window's start too, with the state
     ! its last step accepted: checked already
     if (contact_seen(ctx%contact, t)) return
-    PetscCall(DMGetLocalVector(ctx%da, uloc, ierr))
-    PetscCall(DMGlobalToLocalBegin(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
-    PetscCall(DMGlobalToLocalEnd(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
-    PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
+    PetscCall(ghosted_get(ctx%da, uvec, uloc, u, ierr))
     call model_contact_state(ctx%model, ctx%contact, ctx%lat, t, u, gmin, nact, ftot, fnrm, ebar, pfric, pobs, pstart, ostart)
-    PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, uloc, u, ierr))
-    PetscCall(DMRestoreLocalVector(ctx%da, uloc, ierr))
+    PetscCall(ghosted_restore(ctx%da, uloc, u, ierr))
     call MPI_Allreduce(gmin, r, 1, MPI_DOUBLE_PRECISION, MPI_MIN, ctx%comm, ierr)
     gmin = r
     loc = [ftot, fnrm, ebar, pfric, pstart, pobs, ostart]

@@ -13,7 +13,7 @@ module energy_integrals
   public :: energy_integrals_t, energy_integrals_init, energy_integrals_free, energy_integrals_reset, &
             energy_integrals_start, energy_integrals_restore, energy_add_work, energy_set_mgx0
   public :: energy_gauss_time, energy_gauss_add, energy_trapezoid_add
-  public :: energy_gauss, energy_t_prev, energy_work_vector, energy_dissipated, energy_work_constraints, energy_mgx0
+  public :: energy_gauss, energy_t_prev, energy_work_vector, energy_totals
 
   !> Gauss-Legendre points (on [0, 1]) and weights, 3 points: exact to
   !> degree 5, so the error is that of the interpolant, the method's order.
@@ -152,19 +152,15 @@ contains
     uq = e%uq
   end function energy_work_vector
 
-  pure real(rp) function energy_dissipated(e)
+  !> The integrals so far [energy]: the dissipated energy, the work of the
+  !> constraint reactions, and sum m g . x at t = 0 (for a checkpoint, the
+  !> output step's balance).
+  pure subroutine energy_totals(e, dissipated, work_constraints, mgx0)
     type(energy_integrals_t), intent(in) :: e
-    energy_dissipated = e%dissipated
-  end function energy_dissipated
-
-  pure real(rp) function energy_work_constraints(e)
-    type(energy_integrals_t), intent(in) :: e
-    energy_work_constraints = e%work_constraints
-  end function energy_work_constraints
-
-  pure real(rp) function energy_mgx0(e)
-    type(energy_integrals_t), intent(in) :: e
-    energy_mgx0 = e%mgx0
-  end function energy_mgx0
+    real(rp), intent(out) :: dissipated, work_constraints, mgx0
+    dissipated = e%dissipated
+    work_constraints = e%work_constraints
+    mgx0 = e%mgx0
+  end subroutine energy_totals
 
 end module energy_integrals

@@ -20,7 +20,7 @@ module newton_policy
   use newton_start, only: newton_start_setup
   use reduced, only: reduced_set_forcing
   use solver_choices, only: FALLBACK_NAMES
-  use step_settings, only: step_fixed, step_rtol, step_atol_x, step_atol_v
+  use step_settings, only: step_fixed, step_tolerances
   use strings, only: num => real_brief
   implicit none
   private
@@ -187,9 +187,7 @@ contains
     integer :: mpierr, k
 
     wnorm = huge(1.0_rp)
-    atol_x = step_atol_x(ctx%step)
-    atol_v = step_atol_v(ctx%step)
-    rtol = step_rtol(ctx%step)
+    call step_tolerances(ctx%step, rtol, atol_x, atol_v)
     PetscCall(SNESGetSolution(snes, x, ierr))
     PetscCall(SNESGetSolutionUpdate(snes, y, ierr))
     PetscCall(VecGetArrayReadF90(x, xa, ierr))

@@ -17,6 +17,7 @@ module step_monitor
   use mpi
   use, intrinsic :: iso_fortran_env, only: output_unit, error_unit
   use kinds, only: rp
+  use ghosted_state, only: ghosted_get, ghosted_restore
   use forces, only: dissipated_power
   use model_state, only: model_moving, model_constraint_power
   use reduced, only: reduced_step_accepted
@@ -193,14 +194,10 @@ contains
     p = 0.0_rp
     ierr = 0
     if (.not. ctx%cfg%material%has_damping .and. ctx%cfg%material%eta_b == 0.0_rp .and. .not. model_moving(ctx%model)) return
-    PetscCall(DMGetLocalVector(ctx%da, uloc, ierr))
-    PetscCall(DMGlobalToLocalBegin(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
-    PetscCall(DMGlobalToLocalEnd(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
-    PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
+    PetscCall(ghosted_get(ctx%da, uvec, uloc, u, ierr))
     call dissipated_power(ctx%lat, u, loc(1))
     if (model_moving(ctx%model)) loc(2) = model_constraint_power(ctx%model, ctx%lat, ctx%cs, u, t)
-    PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, uloc, u, ierr))
-    PetscCall(DMRestoreLocalVector(ctx%da, uloc, ierr))
+    PetscCall(ghosted_restore(ctx%da, uloc, u, ierr))
     call MPI_Allreduce(loc, p, 2, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, ierr)
   end subroutine powers
 

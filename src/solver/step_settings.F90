@@ -13,7 +13,7 @@ module step_settings
   private
   public :: step_settings_t, step_settings_init, step_set_tolerances, step_enter_window, step_rejections, &
             step_back_to_dt
-  public :: step_dt, step_t_end, step_fixed, step_adaptive_default, step_max_steps, step_rtol, step_atol_x, step_atol_v
+  public :: step_dt, step_t_end, step_fixed, step_adaptive_default, step_max_steps, step_tolerances
 
   type :: step_settings_t
     private
@@ -128,19 +128,14 @@ contains
     step_max_steps = s%max_steps
   end function step_max_steps
 
-  pure real(rp) function step_rtol(s)
+  !> The error tolerances of adaptive steps: rtol [1], atol_x [length],
+  !> atol_v [length/time] (step_set_tolerances).
+  pure subroutine step_tolerances(s, rtol, atol_x, atol_v)
     type(step_settings_t), intent(in) :: s
-    step_rtol = s%rtol
-  end function step_rtol
-
-  pure real(rp) function step_atol_x(s)
-    type(step_settings_t), intent(in) :: s
-    step_atol_x = s%atol_x
-  end function step_atol_x
-
-  pure real(rp) function step_atol_v(s)
-    type(step_settings_t), intent(in) :: s
-    step_atol_v = s%atol_v
-  end function step_atol_v
+    real(rp), intent(out) :: rtol, atol_x, atol_v
+    rtol = s%rtol
+    atol_x = s%atol_x
+    atol_v = s%atol_v
+  end subroutine step_tolerances
 
 end module step_settings
