@@ -355,7 +355,7 @@ contains
     real(rp), intent(out) :: k                           ! [1]
     real(rp), intent(out) :: gk(12)                      ! [1/length]
     real(rp), intent(out) :: hk(12, 12)                  ! [1/length^2]
-    real(rp) :: a(3), b(3), aa, bb, ab, cc, dk, d2k, ga(3), gb(3), haa(3, 3), hbb(3, 3), hab(3, 3)
+    real(rp) :: a(3), b(3), aa, bb, ab, cc, dk, d2k, ga(3), gb(3), haa(3, 3), hbb(3, 3), hab(3, 3), hba(3, 3)
     real(rp) :: gc(12), hc(12, 12)
     integer :: i, j
 
@@ -387,7 +387,8 @@ contains
     call put_pm(hc, 1, 1, haa)
     call put_pm(hc, 3, 3, hbb)
     call put_pm(hc, 1, 3, hab)
-    call put_pm(hc, 3, 1, transpose(hab))
+    hba = transpose(hab)
+    call put_pm(hc, 3, 1, hba)
     do j = 1, 12
       do i = 1, 12
         hk(i, j) = d2k * gc(i) * gc(j) + dk * hc(i, j)
