@@ -28,7 +28,7 @@ module contact_faces
   use contact, only: obstacle_t, contact_params_t, barrier, signed_distance, SHAPE_PLANE, SHAPE_SPHERE, SHAPE_BOX, &
                      SHAPE_CAPSULE
   use contact_primitives, only: point_triangle_distance, edge_edge_distance, point_triangle_d2, edge_edge_d2, &
-                                edge_edge_mollifier, psd_project
+                                edge_edge_mollifier, psd_project, point_triangle_range
   implicit none
   private
   public :: SPLIT_MAIN, SPLIT_ANTI, EE_MOLLIFY_REL
@@ -191,7 +191,8 @@ contains
       lo = huge(1.0_rp)
       hi = -huge(1.0_rp)
       do k = 1, size(pts, 2)
-        y = matmul(transpose(o%axes), pts(:, k) - o%p)
+        q = pts(:, k) - o%p
+        y = [dot_product(o%axes(:, 1), q), dot_product(o%axes(:, 2), q), dot_product(o%axes(:, 3), q)]
         lo = min(lo, y)
         hi = max(hi, y)
       end do
@@ -235,20 +236,13 @@ contains
     end do
   end subroutine pair_barrier
 
-  !> Adds one pair's energy, force -ge and blocks -he (projected if asked) on the nn nodes.
-  pure subroutine add_pair(ep, ge, he, project, e, f, kx)
-    real(rp), intent(in) :: ep, ge(:)
-    real(rp), intent(inout) :: he(:, :)
-    logical, intent(in) :: project
+  !> Adds one pair's energy, force -ge and blocks -he on the nn nodes.
+  pure subroutine add_pair(ep, ge, he, e, f, kx)
+    real(rp), intent(in) :: ep, ge(:), he(:, :)
     real(rp), intent(inout) :: e, f(:, :), kx(:, :, :, :)
     integer :: a, b
 
-    if (ep >= huge(1.0_rp) .or. e >= huge(1.0_rp)) then
-      e = huge(1.0_rp)
-    else
-      e = e + ep
-    end if
-    if (project) call psd_project(he)
+    call add_energy(e, ep)
     do b = 1, size(f, 2)
       f(:, b) = f(:, b) - ge(3 * b - 2:3 * b)
       do a = 1, size(f, 2)
@@ -256,6 +250,41 @@ contains
       end do
     end do
   end subroutine add_pair
+
+  !> he <- its positive semidefinite part, where he's range lies in the span of the columns
+  !> of v (n <= 12 rows, at most 5 columns): orthonormalised (modified Gram-Schmidt, dependent ones dropped) into q, then
+  !> he = q psd(q^T he q) q^T, an nv x nv eigenproblem instead of an n x n one.
+  pure subroutine psd_project_in_span(he, v)
+    real(rp), intent(inout) :: he(:, :)
+    real(rp), intent(in) :: v(:, :)
+    real(rp) :: q(12, 5), rr(5, 5), nrm, vmax
+    integer :: j, i, k, n
+
+    n = size(v, 1)
+
+    vmax = maxval(abs(v))
+    if (vmax == 0.0_rp) then
+      he = 0.0_rp
+      return
+    end if
+    k = 0
+    do j = 1, min(size(v, 2), 5)
+      k = k + 1
+      q(1:n, k) = v(:, j)
+      do i = 1, k - 1
+        q(1:n, k) = q(1:n, k) - dot_product(q(1:n, i), q(1:n, k)) * q(1:n, i)
+      end do
+      nrm = norm2(q(1:n, k))
+      if (nrm <= 1.0e-10_rp * vmax) then
+        k = k - 1
+      else
+        q(1:n, k) = q(1:n, k) / nrm
+      end if
+    end do
+    rr(1:k, 1:k) = matmul(transpose(q(1:n, 1:k)), matmul(he, q(1:n, 1:k)))
+    call psd_project(rr(1:k, 1:k))
+    he = matmul(q(1:n, 1:k), matmul(rr(1:k, 1:k), transpose(q(1:n, 1:k))))
+  end subroutine psd_project_in_span
 
   ! ------------------------------------------------------------------------
   ! Cloth triangle and cloth edge against one obstacle
@@ -274,8 +303,8 @@ contains
     real(rp), intent(out) :: f(3, 3)          ! [force]
     real(rp), intent(out) :: kx(3, 3, 3, 3)   ! [force/length]
     integer, intent(out) :: nact
-    real(rp) :: pts(3, 8), xi, lo(3), hi(3), d2, g(12), h(12, 12), ep, ge(9), he(9, 9), gk(9), hk(9, 9)
-    integer :: np, k, ty
+    real(rp) :: pts(3, 8), xi, lo(3), hi(3), d2, g(12), h(12, 12), ep, ge(9), he(9, 9), gk(9), hk(9, 9), vr(12, 5)
+    integer :: np, k, ty, nv
 
     e = 0.0_rp
     f = 0.0_rp
@@ -295,7 +324,11 @@ contains
       nact = nact + 1
       call point_triangle_distance(pts(:, k), xt(:, 1), xt(:, 2), xt(:, 3), d2, g, h, ty)
       call pair_barrier(cp, xi, d2, g(4:12), h(4:12, 4:12), 1.0_rp, gk, hk, ep, ge, he)
-      call add_pair(ep, ge, he, project, e, f, kx)
+      if (project) then
+        call point_triangle_range(pts(:, k), xt(:, 1), xt(:, 2), xt(:, 3), vr, nv)
+        call psd_project_in_span(he, vr(4:12, 1:nv))
+      end if
+      call add_pair(ep, ge, he, e, f, kx)
     end do
   end subroutine contact_triangle
 
@@ -335,7 +368,8 @@ contains
       eps_x = EE_MOLLIFY_REL * rest_len**2 * sum((eb(:, k) - ea(:, k))**2)
       call edge_edge_mollifier(xe(:, 1), xe(:, 2), ea(:, k), eb(:, k), eps_x, mk, gk, hk)
       call pair_barrier(cp, xi, d2, g(1:6), h(1:6, 1:6), mk, gk(1:6), hk(1:6, 1:6), ep, ge, he)
-      call add_pair(ep, ge, he, project, e, f, kx)
+      if (project) call psd_project(he)
+      call add_pair(ep, ge, he, e, f, kx)
     end do
   end subroutine contact_edge
 

@@ -26,7 +26,7 @@ module contact_primitives
   private
   public :: point_triangle_distance, edge_edge_distance, point_triangle_d2, edge_edge_d2
   public :: point_triangle_type, edge_edge_type, point_triangle_closest, edge_edge_closest
-  public :: edge_edge_mollifier, psd_project
+  public :: edge_edge_mollifier, psd_project, point_triangle_range
   public :: PT_P_T0, PT_P_T1, PT_P_T2, PT_P_E01, PT_P_E12, PT_P_E20, PT_P_PLANE
   public :: EE_A0_B0, EE_A0_B1, EE_A1_B0, EE_A1_B1, EE_A0_EB, EE_A1_EB, EE_EA_B0, EE_EA_B1, EE_LINES
   public :: PARALLEL_REL
@@ -275,6 +275,38 @@ contains
     d2 = dot_product(r, r)
     call form_derivatives(x, c, dc, m, r, g, h)
   end subroutine point_triangle_distance
+
+  !> Vectors v(:, 1:nv) (nv <= 5) that span the range of point_triangle_distance's Hessian
+  !> (and hold its gradient): c (x) e_i for i = 1..3 and the columns of B (module header).
+  !> A projection on the PSD cone can then work in that subspace (a 5 x 5 problem, not 12 x 12).
+  pure subroutine point_triangle_range(p, t0, t1, t2, v, nv)
+    real(rp), intent(in) :: p(3), t0(3), t1(3), t2(3)
+    real(rp), intent(out) :: v(12, 5)
+    integer, intent(out) :: nv
+    real(rp) :: x(3, 4), c(4), dc(4, 2), r(3), dd(3, 2)
+    integer :: m, ty, i, j, k
+
+    call point_triangle_closest(p, t0, t1, t2, ty, c, dc, m)
+    x(:, 1) = p
+    x(:, 2) = t0
+    x(:, 3) = t1
+    x(:, 4) = t2
+    r = closest_difference(x, c, m, p - t0, cross(t1 - t0, t2 - t0))
+    v = 0.0_rp
+    do i = 1, 3
+      do k = 1, 4
+        v(3 * k - 3 + i, i) = c(k)
+      end do
+    end do
+    nv = 3 + m
+    if (m == 0) return
+    dd(:, 1:m) = matmul(x, dc(:, 1:m))
+    do j = 1, m
+      do k = 1, 4
+        v(3 * k - 2:3 * k, 3 + j) = c(k) * dd(:, j) + dc(k, j) * r
+      end do
+    end do
+  end subroutine point_triangle_range
 
   !> Squared distance d2 of edges a0-a1 and b0-b1, its gradient g and Hessian h with
   !> respect to (a0, a1, b0, b1), and the type ty (EE_*).

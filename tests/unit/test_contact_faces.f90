@@ -16,7 +16,7 @@ program test_contact_faces
                      SHAPE_CAPSULE
   use contact_faces, only: SPLIT_MAIN, SPLIT_ANTI, quad_triangles, quad_diagonal, obstacle_points, obstacle_edges, &
                            near_obstacle, contact_triangle, contact_edge, contact_quad, triangle_gap
-  use contact_primitives, only: point_triangle_d2
+  use contact_primitives, only: point_triangle_d2, psd_project
   use check, only: check_true, check_close, check_close_array, check_report, seed_random
   implicit none
   type(obstacle_t) :: ob(4)
@@ -310,6 +310,13 @@ contains
     call contact_triangle(o, cp, xt, .true., ep, fp, kp, dum)
     call check_true(all(fp == f) .and. ep == e, 'triangle: projection leaves e and f alone')
     call check_true(min_eig_ok(-blocks(kp, 3)), 'triangle: projected -kx PSD')
+    if (na == 1) then
+      ! one pair: the projection in the Hessian's range = the full 9 x 9 projection
+      kfd = -blocks(kx, 3)
+      call psd_project(kfd)
+      call check_close_array(reshape(-blocks(kp, 3), [81]), reshape(kfd, [81]), 1.0e-10_rp, 0.0_rp, &
+                             'triangle: projection in the range = full projection')
+    end if
   end function fd_triangle
 
   !> Smallest gap of the obstacle's points against triangle xt.
