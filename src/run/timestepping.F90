@@ -2,15 +2,13 @@
 !> The run driver of the time integration with PETSc TS on a DMDA of 1 x P
 !> strips (docs/model.md sections 5 and 6): the loop over time windows that
 !> stops exactly at output, keyframe and release times, the output steps
-!> and the run's end. The rest of the solver has one module per concern:
-!> app_context (the context passed to every callback), cloth_model (the
-!> IFunction and IJacobian callbacks), newton_policy (the convergence
-!> test, forcing, line-search fallback, Newton start), solver_setup
-!> (option resolution, solver_create and solver_destroy), step_monitor
-!> (the TS monitor), run_checkpoint (checkpoints and restarts),
-!> provenance (run information and configuration in the output) and
-!> failure_text (failure messages, string helpers). The state and the
-!> form of F are described in module cloth_model.
+!> and the run's end. Beside it in src/run: solver_setup (option
+!> resolution, solver_create and solver_destroy), run_checkpoint
+!> (checkpoints and restarts), provenance (run information and
+!> configuration in the output) and failure_text (failure messages); the
+!> solver it drives is src/solver, one module per concern
+!> (docs/design.md, "Module layout"). The state and the form of F are
+!> described in module cloth_model.
 module timestepping
 #include "petsc/finclude/petscts.h"
   use petscts
