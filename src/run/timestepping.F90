@@ -1,8 +1,10 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> The run driver of the time integration with PETSc TS on a DMDA of 1 x P
 !> strips (docs/model.md sections 5 and 6): the loop over time windows that
-!> stops exactly at output, keyframe and release times, the output steps
-!> and the run's end. Beside it in src/run: solver_setup (option
+!> stops exactly at keyframe and release times (and at the output times
+!> that fixed steps land on, or that the method cannot interpolate to), the
+!> output steps (between stops: from the step's state or the TS's
+!> interpolant, the integration untouched) and the run's end. Beside it in src/run: solver_setup (option
 !> resolution, solver_create and solver_destroy), run_checkpoint
 !> (checkpoints and restarts), provenance (run information and
 !> configuration in the output) and failure_text (failure messages); the
@@ -14,7 +16,7 @@ module timestepping
   use petscts
   use petscdmda
   use mpi
-  use, intrinsic :: iso_c_binding, only: c_double
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
   use, intrinsic :: iso_fortran_env, only: output_unit, error_unit
   use kinds, only: rp
   use ghosted_state, only: ghosted_get, ghosted_restore
@@ -24,7 +26,8 @@ module timestepping
                          constraint_count, constraint_node
   use diagnostics, only: state_diagnostics_t, state_diagnostics
   use output, only: output_file, output_record, output_write_step, output_write_wall_time
-  use app_context, only: app_ctx, nuno_walltime_arm, nuno_checkpoint_due, nuno_signal_agreed
+  use app_context, only: app_ctx, nuno_walltime_arm, nuno_checkpoint_due, nuno_signal_agreed, nuno_output_arm, &
+                         nuno_ts_interpolates
   use step_settings, only: step_enter_window, step_dt, step_t_end, step_fixed, step_max_steps
   use energy_integrals, only: energy_add_work, energy_integrals_start, energy_set_mgx0, energy_totals
   use run_progress, only: progress_start, progress_output_written, progress_said, progress_warn_stretch, progress_wall, &
@@ -35,6 +38,7 @@ module timestepping
   use newton_start, only: newton_start_reset
   use contact_forces, only: contact_on, contact_summary
   use contact_solver, only: contact_observe
+  use step_monitor, only: integrals_after
   use failure_text, only: signal_name, failure_reason, report_io_error
   use strings, only: num => real_brief, inum => itoa
   use run_checkpoint, only: restart_state_t, run_counts, take_checkpoint, keep_restart_point, solver_restore, &
@@ -50,15 +54,33 @@ module timestepping
   public :: advance_window          ! module identify_adjoint: its forward run's windows
   public :: enter_window            ! module identify_adjoint: the constraint state of an adjoint window
 
-  !> The run's stop times: its output steps (multiples of output_interval,
-  !> and t_end) and the constraints' events (keyframes, releases).
+  !> The run's output steps (multiples of output_interval, and t_end) and
+  !> its stop times: the constraints' events (keyframes, releases), t_end,
+  !> and the output times that are stops (output_is_stop).
   type :: schedule_t
     real(rp), allocatable :: events(:)          !< the constraints' event times [time]
     real(rp) :: interval = 0                    !< output_interval [time]
     real(rp) :: t_end = 0                       !< [time]
     real(rp) :: eps = 0                         !< times closer than this are the same [time]
     integer :: iout = 0                         !< the next output step's number (output_time)
+    !> output times between stops are written from the TS's interpolant
+    !> (nuno_ts_interpolates); else every output time is a stop
+    logical :: interpolate = .false.
+    logical :: fixed = .false.                  !< fixed steps
+    real(rp) :: dt = 0                          !< their step [time]
+    !> the next window restarts the integrator (TSRestartStep): after an
+    !> event, a restart's first window, and after any other stop but for a
+    !> multistep method
+    logical :: restart_next = .false.
+    logical :: multistep = .false.              !< bdf: its history is its accuracy
   end type schedule_t
+
+  !> TS_CONVERGED_USER (TSSolve ended by nuno's post-step or monitor), which
+  !> the Fortran interface of PETSc 3.18 does not define (petscts.h).
+  integer, parameter :: TS_STOPPED_BY_US = 3
+
+  !> No energy integrals to take off an output step's (the solver's own state).
+  real(rp), parameter :: AT_STEP(2) = 0.0_rp
 
   !> What the run does after a window (window_end): the next window, its
   !> end (status says why; the final checkpoint and summary), or its end
@@ -137,7 +159,7 @@ contains
     TSConvergedReason, intent(out) :: reason
     PetscErrorCode, intent(out) :: ierr
 
-    PetscCall(window_start(ctx, t, tb, h, enter, ierr))
+    PetscCall(window_start(ctx, t, tb, h, enter, enter, ierr))
     do
       PetscCall(window_solve(ctx, t, reason, ierr))
       ! (a wall-clock checkpoint's end of TSSolve, due = 2: the window goes on)
@@ -146,14 +168,18 @@ contains
   end subroutine advance_window
 
   !> advance_window for the run, which enters every window but its first
-  !> (entered before the output step at t = 0: run_start): the wall-clock
+  !> (entered before the output step at t = 0: run_start) and restarts the
+  !> integrator only after an event (sc%restart_next): the output steps
+  !> between the window's ends (outputs_passed) and the wall-clock
   !> checkpoints (-nuno_checkpoint_walltime) due inside the window are
-  !> written into out between steps; a failed write ends the window early
-  !> with the run's error set (module run_error). Collective.
-  subroutine run_window(ctx, r, out, t, tb, h, reason, ierr)
+  !> written into out between steps, TSSolve going on after them as if
+  !> nothing happened; a failed write ends the window early with the run's
+  !> error set (module run_error). Collective.
+  subroutine run_window(ctx, r, out, sc, t, tb, h, reason, ierr)
     type(app_ctx), intent(inout) :: ctx
     type(restart_state_t), intent(inout) :: r
     type(output_file), intent(inout) :: out
+    type(schedule_t), intent(inout) :: sc
     real(rp), intent(inout) :: t, h
     real(rp), intent(in) :: tb
     TSConvergedReason, intent(out) :: reason
@@ -162,38 +188,118 @@ contains
     integer :: due
     logical :: taken
 
-    PetscCall(window_start(ctx, t, tb, h, t > 0.0_rp, ierr))
+    PetscCall(window_start(ctx, t, tb, h, t > 0.0_rp, sc%restart_next, ierr))
+    sc%restart_next = .false.
     do
+      call arm_output(sc, tb)
       PetscCall(window_solve(ctx, t, reason, ierr))
+      call nuno_output_arm(0_c_int, 0.0_c_double)
+      ! The output steps the last step reached or passed, before a
+      ! checkpoint takes the restart point they keep. After a failed step
+      ! the TS's interpolant is the failed attempt's: none.
+      if (reason >= 0) then
+        call outputs_passed(ctx, r, out, sc, t, tb, ierr)
+        if (ierr /= 0) then
+          ! a failed write ends the run (window_end reads the run's error)
+          if (run_error_any(ctx%error)) ierr = 0
+          return
+        end if
+      end if
       ! -nuno_checkpoint_walltime, due after the step just taken (agreed by
       ! the post-step, src/solver/nuno_signals.c): the restart point of the last
       ! output step (keep_restart_point; before the first one, this step's
       ! state with its energy integrals), h the step the TS takes next.
-      ! Where the post-step ended TSSolve for it (due = 2), the window goes
-      ! on with the same TS: no new window, the step the TS chose.
+      ! Where the post-step ended TSSolve for it (due = 2), or for an output
+      ! step, the window goes on with the same TS: no new window, the step
+      ! the TS chose.
       due = int(nuno_checkpoint_due())
-      if (due == 0) exit
-      PetscCall(TSGetTimeStep(ctx%ts, hnext, ierr))
-      call take_checkpoint(ctx, r, out, t, hnext, 'wall time', .true., ierr)
-      if (ierr /= 0) then
-        ! a failed write ends the run (solver_run reads the run's error)
-        ierr = 0
-        call run_error_first(ctx%error, 'the wall-clock checkpoint at t = '//num(t)//' failed', taken)
-        exit
+      if (due /= 0) then
+        PetscCall(TSGetTimeStep(ctx%ts, hnext, ierr))
+        call take_checkpoint(ctx, r, out, t, hnext, 'wall time', .true., ierr)
+        if (ierr /= 0) then
+          ! a failed write ends the run (solver_run reads the run's error)
+          ierr = 0
+          call run_error_first(ctx%error, 'the wall-clock checkpoint at t = '//num(t)//' failed', taken)
+          exit
+        end if
       end if
-      if (due /= 2) exit
+      if (reason /= TS_STOPPED_BY_US .or. nuno_signal_agreed() /= 0 .or. run_error_any(ctx%error) .or. &
+          t >= tb - 1.0e3_rp * sc%eps) exit
     end do
   end subroutine run_window
 
+  !> The post-step ends TSSolve after the step that reaches the next
+  !> output time inside the window [t, tb] that is no stop (none where
+  !> there is none). Not collective.
+  subroutine arm_output(sc, tb)
+    type(schedule_t), intent(in) :: sc
+    real(rp), intent(in) :: tb
+    real(rp) :: tout
+    tout = output_time(sc, sc%iout)
+    if (tout < tb - 1.0e3_rp * sc%eps) then
+      call nuno_output_arm(1_c_int, real(tout - sc%eps, c_double))
+    else
+      call nuno_output_arm(0_c_int, 0.0_c_double)
+    end if
+  end subroutine arm_output
+
+  !> The output steps inside the window that ends at tb which the step
+  !> that ended at t has reached or passed (tb's own is window_end's): the
+  !> step's state where it ends on one, else the TS's interpolant there
+  !> (TSInterpolate; the energy integrals taken back to it,
+  !> integrals_after); nothing in the integration changes. Then, as at a
+  !> window's end, the restart point (the state at t) and a
+  !> checkpoint_interval checkpoint. Collective.
+  subroutine outputs_passed(ctx, r, out, sc, t, tb, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    type(restart_state_t), intent(inout) :: r
+    type(output_file), intent(inout) :: out
+    type(schedule_t), intent(inout) :: sc
+    real(rp), intent(in) :: t, tb
+    PetscErrorCode, intent(out) :: ierr
+    real(rp) :: tout, tlast, hnext, de(2)
+    type(tVec) :: w
+    PetscErrorCode :: err
+
+    ierr = 0
+    tlast = -1.0_rp
+    do
+      tout = output_time(sc, sc%iout)
+      if (tout > t + sc%eps .or. tout >= tb - 1.0e3_rp * sc%eps) exit
+      if (abs(t - tout) <= sc%eps) then
+        call write_output(ctx, r, out, tout, ierr)
+      else
+        PetscCall(DMGetGlobalVector(ctx%da, w, ierr))
+        PetscCall(TSInterpolate(ctx%ts, tout, w, ierr))
+        PetscCall(integrals_after(ctx%ts, ctx, tout, w, de, ierr))
+        call write_state(ctx, r, out, tout, w, de, ierr)
+        call DMRestoreGlobalVector(ctx%da, w, err)
+        if (ierr == 0) ierr = err
+      end if
+      if (ierr /= 0) return
+      sc%iout = sc%iout + 1
+      tlast = tout
+    end do
+    if (tlast < 0.0_rp .or. t >= sc%t_end - sc%eps) return
+    PetscCall(TSGetTimeStep(ctx%ts, hnext, ierr))
+    call keep_restart_point(ctx, r, out, t, hnext, ierr)
+    if (ierr /= 0) return
+    if (ctx%cfg%output%checkpoint_interval > 0.0_rp .and. &
+        tlast >= restart_t_checkpoint(r) + ctx%cfg%output%checkpoint_interval - sc%eps) then
+      call take_checkpoint(ctx, r, out, t, hnext, 'checkpoint_interval', .false., ierr)
+    end if
+  end subroutine outputs_passed
+
   !> A window's start (advance_window): the monitor's window end, with
-  !> enter the constraint state and a fresh start of the integrator, the
-  !> TS's stop time tb and its first step h (dt for fixed steps), clipped
-  !> to end on tb. Collective.
-  subroutine window_start(ctx, t, tb, h, enter, ierr)
+  !> enter the constraint state and the solver's fresh start (enter_window),
+  !> with restart also the integrator's (TSRestartStep: a multistep method
+  !> begins again at first order), the TS's stop time tb and its first step
+  !> h (dt for fixed steps), clipped to end on tb. Collective.
+  subroutine window_start(ctx, t, tb, h, enter, restart, ierr)
     type(app_ctx), intent(inout) :: ctx
     real(rp), intent(in) :: t, tb
     real(rp), intent(inout) :: h
-    logical, intent(in) :: enter
+    logical, intent(in) :: enter, restart
     PetscErrorCode, intent(out) :: ierr
     real(rp) :: dke
 
@@ -203,7 +309,9 @@ contains
       call enter_window(ctx, t, tb, dke, ierr)
       if (ierr /= 0) return
       call energy_add_work(ctx%energy, dke)
-      PetscCall(TSRestartStep(ctx%ts, ierr))
+      if (restart) then
+        PetscCall(TSRestartStep(ctx%ts, ierr))
+      end if
     end if
     PetscCall(TSSetMaxTime(ctx%ts, tb, ierr))
     if (step_fixed(ctx%step)) h = step_dt(ctx%step)
@@ -242,6 +350,7 @@ contains
     type(schedule_t) :: sc
     real(rp) :: t, tstop, h
     integer :: next
+    integer(c_int) :: interpolates
     TSConvergedReason :: reason
 
     status = 'complete'
@@ -253,6 +362,12 @@ contains
     sc%t_end = step_t_end(ctx%step)
     sc%interval = ctx%cfg%output%output_interval
     sc%eps = 1.0e-12_rp * max(1.0_rp, sc%t_end)
+    ierr = nuno_ts_interpolates(ctx%ts%v, interpolates)
+    if (ierr /= 0) return
+    sc%interpolate = interpolates /= 0
+    sc%fixed = step_fixed(ctx%step)
+    PetscCall(PetscObjectTypeCompare(ctx%ts, 'bdf', sc%multistep, ierr))       ! (TSBDF: not in 3.18's Fortran)
+    sc%dt = step_dt(ctx%step)
     h = step_dt(ctx%step)
     t = 0.0_rp
     call run_start(ctx, r, out, sc, t, h, status, ierr)
@@ -260,7 +375,7 @@ contains
     next = GO_ON
     do while (t < sc%t_end - sc%eps .and. next == GO_ON)
       tstop = next_stop(sc, t)
-      call run_window(ctx, r, out, t, tstop, h, reason, ierr)
+      call run_window(ctx, r, out, sc, t, tstop, h, reason, ierr)
       if (ierr /= 0) return
       call window_end(ctx, r, out, sc, reason, tstop, t, h, status, next, ierr)
       if (ierr /= 0 .or. next == LOST) return
@@ -302,6 +417,8 @@ contains
     ! last one written.
     t = t_ck
     if (.not. step_fixed(ctx%step)) h = h_ck
+    ! (the TS holds no history of the run it continues)
+    sc%restart_next = .true.
     sc%iout = 1
     do while (output_time(sc, sc%iout) <= progress_t_written(ctx%progress) + sc%eps .and. &
               real(sc%iout, rp) * sc%interval < sc%t_end)
@@ -396,6 +513,13 @@ contains
       if (io_failed(ctx, status, ierr)) return
     end if
     next = merge(ENDS, GO_ON, at_max_steps)
+    ! After an event the integrator starts afresh. After a stop at an
+    ! output time (output_is_stop) the run does what a restart from its
+    ! checkpoint will do, so that the restart repeats it bit for bit: a
+    ! one-step method starts afresh too (its first Newton start is x, not
+    ! x + dt xdot: round-off); a multistep method keeps its history, which
+    ! no checkpoint holds (its restart begins again at first order).
+    sc%restart_next = at_event(sc, t) .or. .not. sc%multistep
     if (at_max_steps .and. t < sc%t_end - sc%eps .and. ctx%rank == 0) &
       write(output_unit, '(a,es13.5e2,a)') 'nuno: -ts_max_steps '//inum(step_max_steps(ctx%step))// &
         ' reached at t =', t, ': the run ends here, complete, with this state written'
@@ -494,17 +618,48 @@ contains
     output_time = min(real(k, rp) * sc%interval, sc%t_end)
   end function output_time
 
-  !> Next time at which the integrator must stop after tt: the next output
-  !> time or an earlier constraint event.
+  !> Next time at which the integrator must stop after tt: the next
+  !> constraint event, t_end, or the next output time where it is a stop
+  !> (output_is_stop).
   pure real(rp) function next_stop(sc, tt)
     type(schedule_t), intent(in) :: sc
     real(rp), intent(in) :: tt
     integer :: m
-    next_stop = output_time(sc, sc%iout)
+    next_stop = sc%t_end
+    if (output_is_stop(sc, tt, output_time(sc, sc%iout))) next_stop = output_time(sc, sc%iout)
     do m = 1, size(sc%events)
       if (sc%events(m) > tt + sc%eps) next_stop = min(next_stop, sc%events(m))
     end do
   end function next_stop
+
+  !> The output time tout is a stop of a window that starts at tt: where
+  !> the method has no interpolant (nuno_ts_interpolates), and where fixed
+  !> steps of dt from tt end on it anyway. There the window ends as it
+  !> always did (the TS's time put onto tout, the solver's fresh start at
+  !> the next window: enter_window), so that a restart from its checkpoint
+  !> repeats the run bit for bit; the integrator goes on (no
+  !> TSRestartStep). Other output times are written between steps
+  !> (outputs_passed).
+  pure logical function output_is_stop(sc, tt, tout)
+    type(schedule_t), intent(in) :: sc
+    real(rp), intent(in) :: tt, tout
+    real(rp) :: n
+    if (.not. sc%interpolate) then
+      output_is_stop = .true.
+    else if (sc%fixed) then
+      n = (tout - tt) / sc%dt
+      output_is_stop = abs(n - anint(n)) <= 1.0e-6_rp
+    else
+      output_is_stop = .false.
+    end if
+  end function output_is_stop
+
+  !> t is a constraint event's time (a keyframe, a release).
+  pure logical function at_event(sc, t)
+    type(schedule_t), intent(in) :: sc
+    real(rp), intent(in) :: t
+    at_event = any(abs(sc%events - t) <= 1.0e3_rp * sc%eps)
+  end function at_event
 
   !> One closing line on rank 0 (stdout; a failure's reason is already on
   !> stderr) with the totals, the retries and the wall time.
@@ -538,28 +693,50 @@ contains
 
   ! ------------------------------------------------------------ output steps
 
-  !> Diagnostics and one output step; a one-line summary on rank 0.
+  !> The output step at t of the solver's state (the TS's, at its time,
+  !> which t is or is within round-off of): write_state; with contact, the
+  !> state's contact record first (the monitor's after a step; at t = 0,
+  !> before any step, made here: the barrier energy of the start).
+  !> Collective.
   subroutine write_output(ctx, r, out, t, ierr)
     type(app_ctx), intent(inout) :: ctx
     type(restart_state_t), intent(inout) :: r
     type(output_file), intent(inout) :: out
     real(rp), intent(in) :: t
     PetscErrorCode, intent(out) :: ierr
+    real(rp) :: t_ts
+
+    if (contact_on(ctx%contact)) then
+      PetscCall(TSGetTime(ctx%ts, t_ts, ierr))
+      PetscCall(contact_observe(ctx, t_ts, ctx%u, ierr))
+    end if
+    call write_state(ctx, r, out, t, ctx%u, AT_STEP, ierr)
+  end subroutine write_output
+
+  !> Diagnostics and one output step at t of the state u, de the energy
+  !> integrals [energy] from t to the last step's end, which the output
+  !> step's leave out (integrals_after; AT_STEP for the solver's own
+  !> state); a one-line summary on rank 0. The contact columns are the
+  !> last accepted state's. Collective.
+  subroutine write_state(ctx, r, out, t, u, de, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    type(restart_state_t), intent(inout) :: r
+    type(output_file), intent(inout) :: out
+    real(rp), intent(in) :: t, de(2)
+    type(tVec), intent(in) :: u
+    PetscErrorCode, intent(out) :: ierr
     type(state_diagnostics_t) :: d
     type(output_record) :: rec
     character(len=512) :: errmsg
     real(rp) :: c(5)
 
-    PetscCall(output_state(ctx, t, d, ierr))
+    PetscCall(output_state(ctx, t, u, d, ierr))
     if (t == 0.0_rp) call energy_set_mgx0(ctx%energy, d%mgx)
-    ! the state's contact record (the monitor's after a step; at t = 0,
-    ! before any step, made here: the barrier energy of the start)
-    if (contact_on(ctx%contact)) then
-      PetscCall(contact_observe(ctx, t, ctx%u, ierr))
-    end if
     call run_counts(ctx, r, c, ierr)
     if (ierr /= 0) return
     call fill_record(ctx, t, d, c, rec)
+    rec%dissipated = rec%dissipated - de(1)
+    rec%external_work = rec%external_work - de(2)
     if (ctx%cfg%output%write_velocity) then
       call output_write_step(out, rec, ctx%xout, ierr, errmsg, v=ctx%vout)
     else
@@ -572,24 +749,25 @@ contains
     call progress_output_written(ctx%progress, t)
     call restart_output_written(r)
     if (ctx%rank == 0) call progress_line(ctx, rec, d, int(c(5)))
-  end subroutine write_output
+  end subroutine write_state
 
-  !> The state at t for an output step: its diagnostics d (collective), the
-  !> stretch check (warned once), its positions and velocities into the
-  !> output buffers ctx%xout, ctx%vout. Collective.
-  subroutine output_state(ctx, t, d, ierr)
+  !> The state uvec at t for an output step: its diagnostics d
+  !> (collective), the stretch check (warned once), its positions and
+  !> velocities into the output buffers ctx%xout, ctx%vout. Collective.
+  subroutine output_state(ctx, t, uvec, d, ierr)
     type(app_ctx), intent(inout) :: ctx
     real(rp), intent(in) :: t
+    type(tVec), intent(in) :: uvec
     type(state_diagnostics_t), intent(out) :: d
     PetscErrorCode, intent(out) :: ierr
     type(tVec) :: uloc
     PetscScalar, pointer :: u(:, :, :)
 
-    PetscCall(ghosted_get(ctx%da, ctx%u, uloc, u, ierr))
+    PetscCall(ghosted_get(ctx%da, uvec, uloc, u, ierr))
     call state_diagnostics(ctx%lat, u, model_gravity(ctx%model), ctx%comm, d, ierr)
     if (.not. progress_stretch_warned(ctx%progress) .and. ctx%cfg%output%stretch_limit > 0.0_rp) call check_stretch(ctx, u, t)
     PetscCall(ghosted_restore(ctx%da, uloc, u, ierr))
-    PetscCall(state_to_strips(ctx, ctx%u, ctx%xout, ctx%vout, ierr))
+    PetscCall(state_to_strips(ctx, uvec, ctx%xout, ctx%vout, ierr))
   end subroutine output_state
 
   !> The output step's record at t: the state's diagnostics d, the energy
