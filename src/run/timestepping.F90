@@ -367,6 +367,7 @@ contains
     sc%interpolate = interpolates /= 0
     sc%fixed = step_fixed(ctx%step)
     PetscCall(PetscObjectTypeCompare(ctx%ts, 'bdf', sc%multistep, ierr))       ! (TSBDF: not in 3.18's Fortran)
+    if (ctx%rank == 0) call say_outputs(sc)
     sc%dt = step_dt(ctx%step)
     h = step_dt(ctx%step)
     t = 0.0_rp
@@ -610,6 +611,24 @@ contains
       ierr = 0
     end if
   end function io_failed
+
+  !> One start-up line (rank 0): how the output steps are reached, and so
+  !> whether output_interval can change the solution.
+  subroutine say_outputs(sc)
+    type(schedule_t), intent(in) :: sc
+    character(len=*), parameter :: head = 'outputs   : '
+    if (.not. sc%interpolate) then
+      write(output_unit, '(a)') head//'the integrator stops at every output time (this method has no usable '// &
+        'interpolant in PETSc 3.18), so output_interval changes its steps, within the tolerance'
+    else if (sc%fixed) then
+      write(output_unit, '(a)') head//'from the TS''s interpolant between steps, the step''s own state where a '// &
+        'step ends on the output time (then a restart point); output_interval does not change the steps'
+    else
+      write(output_unit, '(a)') head//'from the TS''s interpolant between steps; the integrator stops only at '// &
+        'keyframes, releases and t_end: output_interval does not change the solution'
+    end if
+    flush(output_unit)
+  end subroutine say_outputs
 
   !> Output time k: a multiple of output_interval, or t_end.
   pure real(rp) function output_time(sc, k)

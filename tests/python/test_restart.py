@@ -84,9 +84,13 @@ def test_restart_on_other_ranks_and_adaptive_bdf_agrees_to_tolerance(tmp_path):
     a, _ = series(full)
     b, _ = series(half)
     assert np.array_equal(a["time"], b["time"])
-    # Up to t = 0.1 the same steps were taken (other ranks: other
+    # Up to t = 0.05 the same steps were taken (other ranks: other
     # preconditioner blocks, so the same solution to the solver's tolerance).
-    assert np.abs(a["position"][:3] - b["position"][:3]).max() < 1e-8
+    assert np.abs(a["position"][:2] - b["position"][:2]).max() < 1e-8
+    # At t = 0.1 the half run's last step ends (t_end), where the full run's
+    # output step is bdf's interpolant between its steps: the same solution
+    # to the integrator's tolerance.
+    assert np.abs(a["position"][2] - b["position"][2]).max() < 1e-6
     # After it the restarted bdf starts again at first order: the same
     # solution to the integrator's tolerance (cloth size 1).
     err = np.abs(a["position"] - b["position"]).max()
