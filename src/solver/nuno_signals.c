@@ -7,6 +7,9 @@
  * finishes the same step, writes the last state and marks the file
  * 'interrupted: ...' (module timestepping). A second signal while the
  * first is being handled ends the process at once (default action).
+ * The same post-step ends TSSolve after the step that reaches the next
+ * output time between stops (nuno_output_arm), for the run driver to write
+ * it; nuno_ts_interpolates says for which methods it can.
  * C because the Fortran interface has no sigaction, and TSSetPostStep's
  * Fortran stub takes no context. */
 #include <petscts.h>
