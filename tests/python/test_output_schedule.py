@@ -103,6 +103,28 @@ def test_interpolated_output_steps_are_as_accurate_as_the_steps(tmp_path):
     assert err.max() < 20 * max(err[-1], 1e-6), err
 
 
+@pytest.mark.parametrize("method", [("rosw", t) for t in ("ra34pw2", "ra3pw", "assp3p3s1c", "theta1", "theta2")] +
+                         [("arkimex", t) for t in ("a2", "ars122", "2c", "2d", "2e", "3", "4", "5")])
+def test_every_interpolant_nuno_uses_is_right(tmp_path, method):
+    """The tableaus whose dense output nuno uses (nuno_ts_interpolates,
+    from a probe of PETSc 3.18.5, where rosw lassp3p4s2c's was 300 times
+    off): every output step of an adaptive run (of fixed steps of 3 ms,
+    which do not land on the output times, for theta1 and theta2, which
+    have no error estimate) within 20 times its final error of the tight
+    reference's."""
+    ts, sub = method
+    _, _, x, _ = ends(tmp_path, "ref", ("-ts_type", "bdf", "-ts_bdf_order", "5", "-ts_adapt_type", "basic",
+                                        "-ts_rtol", "1e-10"), 1e-3, 0.02)
+    fixed = sub in ("theta1", "theta2")
+    opts = ("-ts_type", ts, f"-ts_{ts}_type", sub, *(("-ts_arkimex_fully_implicit",) if ts == "arkimex" else ()),
+            *(() if fixed else ADAPT))
+    proc, _, xm, _ = ends(tmp_path, "m", opts, 3e-3 if fixed else 1e-3, 0.02)
+    assert "outputs   : from the TS's interpolant" in proc.stdout, proc.stdout
+    err = np.linalg.norm(xm - x, axis=-1).max(axis=(1, 2))
+    print(method, "error at the output steps", err)
+    assert err.max() < 20 * max(err[-1], 1e-6), err
+
+
 def test_a_method_without_an_interpolant_stops_at_the_output_times(tmp_path):
     """rosw rodas3 has no interpolant in PETSc 3.18: its output times stay
     stops of the integrator (said at the start); the run ends within the
@@ -112,3 +134,36 @@ def test_a_method_without_an_interpolant_stops_at_the_output_times(tmp_path):
     assert "outputs   : the integrator stops at every output time" in many[0].stdout, many[0].stdout
     err = np.abs(one[2][-1] - many[2][-1]).max()
     assert 0 < err < 1e-3, err
+
+
+def test_a_checkpoint_at_an_interpolated_output_step_continues_the_run(tmp_path):
+    """Adaptive steps: the checkpoint_interval checkpoint of an output step
+    between two steps holds the state of the step that passed it (its time
+    after the output time, its restart point); a run killed after it and
+    continued from it writes the same output times and ends within the
+    tolerance of the run that went through (the restart starts bdf
+    afresh)."""
+    from nunorun import run, series
+    import h5py
+    opts = ADAPTIVE["bdf4"]
+    groups = dict(HANG, time=f"t_end={T_END} dt=1e-3", output=HANG["output"] + " output_interval=0.02")
+    _, full = run(tmp_path, "full", options=opts, **groups)
+    half = dict(groups, output=groups["output"] + " checkpoint_interval=0.1")
+    proc, h5 = run(tmp_path, "half", options=opts, **half)
+    with h5py.File(h5, "r+") as f:
+        cks = {float(g.attrs["time"]): g for g in f["checkpoint"].values()}
+        mid = [t for t in cks if 0.1 < t < 0.11]
+        assert mid, sorted(cks)              # after the output time 0.1, before the next step's end
+        assert float(cks[mid[0]].attrs["t_written"]) == pytest.approx(0.1, abs=1e-12)
+        for t, g in cks.items():             # as if killed before its end
+            if t == pytest.approx(T_END):
+                g.attrs["sequence"] = np.int32(0)
+    proc, _ = run(tmp_path, "half", options=["-nuno_restart", str(h5), *opts], **half)
+    assert "(checkpoint_interval)" in proc.stdout, proc.stdout
+    a, _ = series(full)
+    b, status = series(h5)
+    assert status == "complete"
+    assert np.array_equal(a["time"], b["time"])
+    assert np.array_equal(a["position"][:6], b["position"][:6])
+    err = np.abs(a["position"] - b["position"]).max()
+    assert 0 < err < 1e-4, err
