@@ -20,6 +20,11 @@ CASES = {
                         ["continuum", "paper"]),
     "too_many_ranks_for_ny": ("&lattice nx=5 ny=5 /", ["ny = 5", "ranks"]),
     "bad_petsc_option_string": ("&output petsc_options='ts_type cn' /", ["petsc_options", "ts_type"]),
+    # Outside the key table's bounds (issue 48 item 4: e_s = 1e308 ran and
+    # ended with "try a smaller step").
+    "stiffness_beyond_bound": ("&material e_s=1e308 /", ["e_s", "<= 1e30"]),
+    "damping_beyond_bound": ("&material eta_b=1e31 /", ["eta_b", "<= 1e30"]),
+    "mass_beyond_bound": ("&lattice total_mass=1e-300 /", ["total_mass", ">= 1e-30"]),
 }
 
 
