@@ -228,8 +228,8 @@ contains
     end do
     write(unit, '(a)') 'The scene sets the defaults of every other key. Every key, its unit and its', &
       'default: nuno --list-keys, input/README.md; ready-made inputs: input/*.nml. Real', &
-      'keys must be finite (no NaN, Inf), the mass and the material constants within', &
-      'their bounds (at most 1e30, the mass at least 1e-30); a lattice beyond the index range or the memory', &
+      'keys must be finite (no NaN, Inf), the mass and the material constants at most', &
+      '1e30 (the mass at least 1e-30); a lattice beyond the index range or the memory', &
       'of the ranks'' hosts (at least '//kb_text(bytes_per_node_bending)//' KB a node with bending, '// &
       kb_text(bytes_per_node_plain)//' KB without) is refused.'
   end subroutine usage_keys
