@@ -28,7 +28,7 @@ program nuno
   use build_info, only: nuno_version, nuno_commit
   use errors, only: help_requested, version_requested, list_keys_requested, fatal_collective, fatal_local, input_path_argument, apply_namelist_options, &
                     petsc_options_text, quiet_exit, &
-                    read_input_options, quiet_petsc_errors
+                    read_input_options, quiet_petsc_errors, stray_argument, options_file_refusal
   implicit none
 
   type(nuno_config), target :: cfg     !< the input's configuration (the solver's ctx%cfg points to it, or to identify's trial copy)
@@ -70,10 +70,12 @@ program nuno
     end function nuno_file_options_read
   end interface
 
-  ! 1. --help, --version and --list-keys need no input and no PETSc.
+  ! 1. --help, --version and --list-keys need no input and no PETSc; the
+  !    command line's words and options files are checked before PETSc
+  !    reads them (MPI first, so PETSc leaves its finalisation to us).
+  call MPI_Init(ierr)
+  call MPI_Comm_rank(MPI_COMM_WORLD, rank, ierr)
   if (help_requested() .or. version_requested() .or. list_keys_requested()) then
-    call MPI_Init(ierr)
-    call MPI_Comm_rank(MPI_COMM_WORLD, rank, ierr)
     if (rank == 0) then
       if (help_requested()) then
         call usage_text(6)
@@ -86,6 +88,10 @@ program nuno
     call MPI_Finalize(ierr)
     stop
   end if
+  call stray_argument(errmsg)
+  if (len_trim(errmsg) > 0) call fatal_collective(errmsg)
+  call options_file_refusal(MPI_COMM_WORLD, errmsg)
+  if (len_trim(errmsg) > 0) call fatal_collective(errmsg)
 
   ! 2. PETSc, then the namelist (read on rank 0, parsed by every rank alike).
   PetscCallA(PetscInitialize(ierr))
@@ -176,6 +182,7 @@ program nuno
       call solver_destroy(ctx, ierr)
       call identify_scratch_remove(id)
       PetscCallA(PetscFinalize(ierr))
+      call MPI_Finalize(ierr)
       stop
     end if
     ! ctx%cfg is identify's trial configuration now, with the fitted parameters
@@ -241,6 +248,7 @@ program nuno
   call solver_destroy(ctx, ierr)
   if (cfg%identify%active .or. cfg%control%active) call identify_scratch_remove(id)
   PetscCallA(PetscFinalize(ierr))
+  call MPI_Finalize(ierr)
   ! Quiet: the failure was reported in one line already (no ERROR STOP, no backtrace).
   if (status /= 'complete') call quiet_exit(1)
 end program nuno
