@@ -22,6 +22,14 @@ contains
       '       nuno --version                          the version and the git commit of the build', &
       '       nuno --list-keys                        every namelist key, one a line, tab-separated: name,', &
       '                                               group, type, unit, default, allowed values, meaning', &
+      '       nuno INPUT.nml -help                    the PETSc and nuno options of that run''s set-up; runs', &
+      '                                               nothing, writes nothing', &
+      '', &
+      'The options are checked before the first step: one that nothing read (misspelt,', &
+      'or not for this solver) is refused naming the nearest known one, and so are an', &
+      'integer beyond PETSc''s and a TS type nuno cannot run (input/README.md, "Options', &
+      'are honoured or refused"); a few that PETSc reads later (viewers, the solvers of', &
+      'the first solve) are reported at the end if nothing read them.', &
       '', &
       'An error is one line on stderr, and every rank exits with status 1; the banner', &
       'that follows is Open MPI''s, for any non-zero exit (mpirun -q hides it).', &
@@ -81,7 +89,8 @@ contains
     write(unit, '(a)') '', &
       'PETSc options (petsc_options in &output; the command line overrides them):', &
       '  -ts_type beuler|theta|cn|bdf|arkimex|rosw   integrator (default: backward Euler, the report''s, with', &
-      '                                               the namelist''s fixed dt)', &
+      '                                               the namelist''s fixed dt); also alpha, eimex, glle;', &
+      '                                               explicit methods (euler, rk, ...) are refused', &
       '  -ts_adapt_type basic -ts_rtol R -ts_atol A  adaptive steps with error control; without -ts_type they', &
       '                                               use rosw (Rosenbrock-W ra34pw2, the fastest at moderate', &
       '                                               tolerance in docs/workprecision.md)', &
