@@ -118,9 +118,12 @@ contains
       '                                               steps: the Baraff-Witkin mode, one linear solve a step,', &
       '                                               first order', &
       '  reproducible runs                            fixed steps (no -ts_adapt_type) with -ts_dt DT: the same', &
-      '                                               steps whatever the solution; beuler (default) is order 1,', &
-      '                                               -ts_type cn order 2, -ts_type rosw order 3 at about the', &
-      '                                               cost of cn (fixed-step bdf 3-5: order 2, see docs)'
+      '                                               steps whatever the solution, unless a Newton solve fails:', &
+      '                                               its step is retried at dt/4 (with contact an impact can', &
+      '                                               do it), which the closing line and /run retried_steps', &
+      '                                               count; beuler (default) is order 1, -ts_type cn order 2,', &
+      '                                               -ts_type rosw order 3 at about the cost of cn', &
+      '                                               (fixed-step bdf 3-5: order 2, see docs)'
   end subroutine usage_petsc_options
 
   !> The --help lines on the Newton step and its linear solves.

@@ -24,7 +24,7 @@ module timestepping
   use constraints, only: constraints_set_window, constraint_target, constraint_events, constraints_active, &
                          constraint_count, constraint_node
   use diagnostics, only: state_diagnostics_t, state_diagnostics
-  use output, only: output_file, output_record, output_write_step, output_write_wall_time
+  use output, only: output_file, output_record, output_write_step, output_write_wall_time, output_write_retried_steps
   use reduced, only: reduced_set_fixed
   use app_context, only: app_ctx, nuno_walltime_arm, nuno_checkpoint_due, nuno_signal_agreed
   use step_monitor, only: energy_add_work, energy_integrals_start, energy_set_mgx0, step_enter_window, progress_start, &
@@ -175,7 +175,7 @@ contains
     character(len=*), intent(out) :: status
     PetscErrorCode, intent(out) :: ierr
     real(rp), allocatable :: events(:)
-    real(rp) :: t, tstop, h, dke, eps, unorm, wall
+    real(rp) :: t, tstop, h, dke, eps, unorm, wall, counts(5)
     integer :: iout, ie
     logical :: at_max_steps
     TSConvergedReason :: reason
@@ -313,6 +313,9 @@ contains
     wall = MPI_Wtime() - ctx%progress%wall0
     call MPI_Allreduce(MPI_IN_PLACE, wall, 1, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
     call output_write_wall_time(out, wall, ierr, errmsg)
+    ! and the steps retried smaller (rejected): with fixed steps, those not dt
+    if (ierr == 0) call run_counts(ctx, counts, ierr)
+    if (ierr == 0) call output_write_retried_steps(out, nint(counts(2)), ierr, errmsg)
     if (ierr /= 0) then
       call report_io_error(ctx, errmsg)
       if (io_failed()) return
@@ -372,9 +375,13 @@ contains
     kw = index(status, ':') - 1
     if (kw < 1) kw = len_trim(status)
     if (ctx%rank == 0) then
-      write(output_unit, '(a,es13.5e2,a,i0,a,i0,a,i0,a,es11.3e2,a)') 'nuno: '// &
+      write(output_unit, '(a,es13.5e2,a,i0,a,i0,a,i0,a,es11.3e2,a)', advance='no') 'nuno: '// &
         status(1:kw)//' at t =', t, ': ', steps, ' steps, ', rejects, ' rejected (', fails, &
         ' retried after a failed Newton solve), wall time', wall, ' s'
+      ! Fixed steps are dt but where a step was retried smaller (dt/4).
+      if (ctx%step%fixed_step .and. rejects > 0) write(output_unit, '(a,i0,a)', advance='no') &
+        '; fixed steps: ', rejects, ' retried smaller, so not every step was dt (/run retried_steps)'
+      write(output_unit, '(a)') ''
       flush(output_unit)
     end if
   end subroutine final_summary
