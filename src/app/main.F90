@@ -15,7 +15,7 @@ program nuno
   use input, only: input_read, input_summary, input_check_run
   use input_usage, only: usage_text, list_keys
   use timestepping, only: app_ctx, solver_create, solver_destroy, solver_run, check_decomposition, solver_restore, &
-                          restart_state_init
+                          restart_state_t, restart_state_init, restart_state_free
   use output, only: output_file, output_open, output_close, output_reopen, checkpoint_t, output_write_identify, &
                     output_write_control
   use identify, only: ident_t, identify_prepare_options, identify_run, identify_result, control_result, &
@@ -24,6 +24,8 @@ program nuno
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_positive_inf
   use safe_files, only: same_file, check_output_name, sidecar_path
   use kinds, only: rp
+  use step_settings, only: step_t_end
+  use run_error, only: run_error_any
   use input_text, only: command_line_overrides
   use build_info, only: nuno_version, nuno_commit
   use option_check, only: help_before_petsc, option_names_begin, options_before_run
@@ -34,6 +36,7 @@ program nuno
 
   type(nuno_config), target :: cfg     !< the input's configuration (the solver's ctx%cfg points to it, or to identify's trial copy)
   type(app_ctx), target :: ctx
+  type(restart_state_t) :: restart       !< the run's checkpoints (module run_checkpoint)
   type(output_file), target :: out
   type(checkpoint_t) :: ck
   type(ident_t), target :: id
@@ -208,13 +211,13 @@ program nuno
   petsc_opts = petsc_options_text()
   if (len_trim(cfg%output%petsc_options) > 0) &
     petsc_opts = trim(petsc_opts//' [namelist, overridden by the above: '//trim(cfg%output%petsc_options)//']')
-  call restart_state_init(ctx%restart, checkpoint_walltime=walltime)
+  call restart_state_init(restart, output_file=wname, checkpoint_walltime=walltime)
   if (len_trim(restart_file) > 0) then
     if (len_trim(restart_file) > len(cfg%output%output_file)) &
       call fatal_collective('-nuno_restart: the file name is longer than '//trim(adjustl(itoa(len(cfg%output%output_file))))// &
                             ' characters')
     call output_reopen(out, trim(restart_file), PETSC_COMM_WORLD, cfg%lattice%nx, cfg%lattice%ny, ctx%lat%ys, &
-                       ctx%lat%ye - ctx%lat%ys + 1, cfg%output%write_velocity, ctx%step%t_end, cfg%namelist_text, petsc_opts, &
+                       ctx%lat%ye - ctx%lat%ys + 1, cfg%output%write_velocity, step_t_end(ctx%step), cfg%namelist_text, petsc_opts, &
                        ck, ctx%xout, ctx%vout, ierr, errmsg, protect=trim(path), overwrite=overwrite /= 0, cfg=cfg)
     if (ierr /= 0) call fatal_collective(errmsg)
     if (rank == 0 .and. trim(restart_file) /= trim(cfg%output%output_file) .and. &
@@ -222,8 +225,7 @@ program nuno
         .not. same_file(trim(restart_file), trim(cfg%output%output_file))) &
       write(*, '(a)') 'nuno: -nuno_restart: the run goes on in '//trim(restart_file)//"; the input's output_file = '"// &
                       trim(cfg%output%output_file)//"' is not used"
-    cfg%output%output_file = restart_file(1:len(cfg%output%output_file))
-    call solver_restore(ctx, ck, ctx%xout, ctx%vout, ierr)
+    call solver_restore(ctx, restart, ck, ctx%xout, ctx%vout, ierr)
     if (ierr /= 0) call fatal_local('could not restore the checkpoint')
     if (rank == 0) write(*, '(a,i0,a,es12.5e2,a)') 'nuno: restart from checkpoint ', ck%sequence, ' at t =', ck%time, &
       ' ('//trim(ck%reason)//') in '//trim(restart_file)
@@ -237,7 +239,7 @@ program nuno
   ! A failed step ends the run collectively (status 'failed: ...', ierr = 0);
   ! a PETSc or HDF5 error (ierr /= 0) may be local to some ranks: abort,
   ! leaving the file marked 'running', never 'complete'.
-  call solver_run(ctx, out, status, ierr)
+  call solver_run(ctx, restart, out, status, ierr)
   if (ierr /= 0) call fatal_local('PETSc or HDF5 error during the run; output not marked complete')
   if (cfg%identify%active .and. status == 'complete') then
     call identify_result(id, id_names, id_values, id_unc, id_initial, id_objective, id_hist)
@@ -253,10 +255,11 @@ program nuno
   end if
   call output_close(out, trim(status), ierr, errmsg)
   ! After a failed write (a full disk) the close fails too: that was said.
-  if (ierr /= 0) call fatal_collective(errmsg, reported=status /= 'complete' .and. len_trim(ctx%io_error) > 0)
+  if (ierr /= 0) call fatal_collective(errmsg, reported=status /= 'complete' .and. run_error_any(ctx%error))
 
   ! 5. Clean up; a failed run exits non-zero on every rank.
   call solver_destroy(ctx, ierr)
+  call restart_state_free(restart)
   if (cfg%identify%active .or. cfg%control%active) call identify_scratch_remove(id)
   PetscCallA(PetscFinalize(ierr))
   call MPI_Finalize(ierr)

@@ -1,6 +1,7 @@
 ! SPDX-License-Identifier: BSD-2-Clause
-!> Contact with rigid static obstacles on a rank's strip (plain arrays: no
-!> PETSc, no MPI; the kernel of one node is module contact). Each free
+!> Contact with rigid obstacles, static or moving on keyframes, on a rank's
+!> strip (plain arrays: no PETSc, no MPI; the kernel of one node is module
+!> contact, an obstacle's motion module obstacle_motion). Each free
 !> owned node meets each obstacle through contact_node: an IPC barrier on
 !> the gap plus smoothed Coulomb friction whose normal force lam and normal
 !> nlag are lagged: taken at the last accepted state (the step's start,

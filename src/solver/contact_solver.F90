@@ -30,11 +30,12 @@ module contact_solver
   use mpi
   use, intrinsic :: iso_c_binding, only: c_int, c_intptr_t, c_ptr, c_loc, c_f_pointer
   use kinds, only: rp
+  use ghosted_state, only: ghosted_get, ghosted_restore
   use app_context, only: app_ctx
   use newton_start, only: newton_start_order
-  use contact_forces, only: contact_init, contact_on, contact_lag, contact_step_limit, contact_stats, contact_record, &
-                            contact_seen, contact_count_limited, contact_move, contact_moving, contact_swept, &
+  use contact_forces, only: contact_init, contact_record, contact_seen, contact_count_limited, contact_move, contact_moving, &
                             contact_keyframed, contact_summary
+  use model_state, only: model_step_limit, model_swept, model_contact_state
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use strings, only: real_es, itoa
   implicit none
@@ -108,7 +109,7 @@ contains
       ierr = PETSC_ERR_SUP
       SETERRQ(ctx%comm, ierr, 'nuno: &contact: obstacles need -ts_type beuler (its Newton solve starts from the last accepted, feasible state), not -ts_type '//trim(tstype))
     end if
-    if (newton_start_order(ctx%newton%start) == 3) then
+    if (newton_start_order(ctx%start) == 3) then
       ierr = PETSC_ERR_SUP
       SETERRQ(ctx%comm, ierr, 'nuno: &contact: -nuno_newton_start cubic is refused with obstacles: its start may lie inside an obstacle')
     end if
@@ -191,7 +192,7 @@ contains
     allocate(dx(0:5, 0:ctx%lat%nx - 1, ctx%lat%ys:ctx%lat%ye))
     dx = -y
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, yvec, y, ierr))
-    alpha = contact_step_limit(ctx%contact, ctx%lat, ctx%model%fixed, x, dx)
+    alpha = model_step_limit(ctx%model, ctx%contact, ctx%lat, x, dx)
     call MPI_Allreduce(alpha, galpha, 1, MPI_DOUBLE_PRECISION, MPI_MIN, ctx%comm, ierr)
     s = 1.0_rp
     if (galpha < 1.0_rp) s = 0.8_rp * galpha
@@ -201,7 +202,7 @@ contains
       PetscCall(TSGetSolution(ctx%ts, x0vec, ierr))
       PetscCall(DMDAVecGetArrayReadF90(ctx%da, x0vec, x0, ierr))
       do try = 0, 10
-        ncross = contact_swept(ctx%contact, ctx%lat, ctx%model%fixed, t0, t0 + dt, x0, x, s * dx)
+        ncross = model_swept(ctx%model, ctx%contact, ctx%lat, t0, t0 + dt, x0, x, s * dx)
         call MPI_Allreduce(ncross, gcross, 1, MPI_INTEGER, MPI_SUM, ctx%comm, ierr)
         if (gcross == 0) exit
         s = 0.5_rp * s
@@ -239,15 +240,9 @@ contains
     ! TSSolve calls its monitors at every window's start too, with the state
     ! its last step accepted: checked already
     if (contact_seen(ctx%contact, t)) return
-    PetscCall(DMGetLocalVector(ctx%da, uloc, ierr))
-    PetscCall(DMGlobalToLocalBegin(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
-    PetscCall(DMGlobalToLocalEnd(ctx%da, uvec, INSERT_VALUES, uloc, ierr))
-    PetscCall(DMDAVecGetArrayReadF90(ctx%da, uloc, u, ierr))
-    call contact_move(ctx%contact, t)
-    call contact_stats(ctx%contact, ctx%lat, ctx%model%fixed, u, gmin, nact, ftot, fnrm, ebar, pfric, pobs)
-    call contact_lag(ctx%contact, ctx%lat, ctx%model%fixed, u, pstart, ostart)
-    PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, uloc, u, ierr))
-    PetscCall(DMRestoreLocalVector(ctx%da, uloc, ierr))
+    PetscCall(ghosted_get(ctx%da, uvec, uloc, u, ierr))
+    call model_contact_state(ctx%model, ctx%contact, ctx%lat, t, u, gmin, nact, ftot, fnrm, ebar, pfric, pobs, pstart, ostart)
+    PetscCall(ghosted_restore(ctx%da, uloc, u, ierr))
     call MPI_Allreduce(gmin, r, 1, MPI_DOUBLE_PRECISION, MPI_MIN, ctx%comm, ierr)
     gmin = r
     loc = [ftot, fnrm, ebar, pfric, pstart, pobs, ostart]
