@@ -106,19 +106,10 @@ def contact_dhat(run) -> float:
     return float(np.ravel(np.asarray(value, dtype=float))[0])
 
 
-def gravity(run):
-    """The gravity vector [3] of the run's &scene, or None where the file does not say."""
-    value = _key(run, "gravity")
-    if value is None:
-        return None
-    g = np.ravel(np.asarray(value, dtype=float))
-    return g[:3] if g.size >= 3 else None
-
-
 def weight(run):
     """(up, m |g|): the unit vector against gravity and the cloth's weight, or
     (None, None) without gravity or node masses."""
-    g = gravity(run)
+    g = cli.gravity(run)
     if g is None or run.mass is None or not np.linalg.norm(g) > 0.0:
         return None, None
     size = float(np.linalg.norm(g))
