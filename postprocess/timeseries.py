@@ -327,7 +327,7 @@ def build_overlay(runs, names):
         ax.set_xlabel("t [s]")
         ax.grid(True, alpha=0.3)
     if any(r.diagnostics.get("linear_iterations") is not None for r in runs):
-        axes[-1].set_yscale("symlog", linthresh=10)
+        axes[N_PANELS - 1].set_yscale("symlog", linthresh=10)    # the linear iterations (OVERLAY's last)
     handles, texts = axes[0].get_legend_handles_labels()
     fig.legend(handles, texts, loc="outside lower center", ncols=min(len(runs), 6),
                fontsize="small")

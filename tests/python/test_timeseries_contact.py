@@ -120,6 +120,8 @@ def test_overlay_adds_contact_panels_with_dhat_and_weight(tmp_path, make_run):
     fig = timeseries.build_overlay(runs, ["a", "b"])
     axes = plotting.panels(fig)
     assert len(axes) == 12
+    # the cumulative linear iterations keep their symlog axis; the friction work is linear
+    assert axes[7].get_yscale() == "symlog" and axes[11].get_yscale() == "linear"
     gap, force = axes[9], axes[10]
     (line,) = data_lines(gap)                      # the contact-free run has no line there
     assert np.array_equal(line.get_ydata(), c["min_gap"]) and horizontal_lines(gap) == [0.5]
