@@ -25,7 +25,7 @@ module timestepping
   use constraints, only: constraints_set_window, constraint_target, constraint_events, constraints_active, &
                          constraint_count, constraint_node
   use diagnostics, only: state_diagnostics_t, state_diagnostics
-  use output, only: output_file, output_record, output_write_step, output_write_wall_time
+  use output, only: output_file, output_record, output_write_step, output_write_wall_time, output_write_retried_steps
   use app_context, only: app_ctx, nuno_walltime_arm, nuno_checkpoint_due, nuno_signal_agreed, nuno_output_arm, &
                          nuno_ts_interpolates
   use step_settings, only: step_enter_window, step_dt, step_t_end, step_fixed, step_max_steps
@@ -579,7 +579,7 @@ contains
     character(len=*), intent(inout) :: status
     PetscErrorCode, intent(out) :: ierr
     character(len=512) :: errmsg
-    real(rp) :: wall
+    real(rp) :: wall, counts(5)
 
     ierr = 0
     if (status == 'complete' .and. .not. restart_current(r)) then
@@ -590,6 +590,9 @@ contains
     wall = progress_wall(ctx%progress)
     call MPI_Allreduce(MPI_IN_PLACE, wall, 1, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
     call output_write_wall_time(out, wall, ierr, errmsg)
+    ! and the steps retried smaller (rejected): with fixed steps, those not dt
+    if (ierr == 0) call run_counts(ctx, r, counts, ierr)
+    if (ierr == 0) call output_write_retried_steps(out, nint(counts(2)), ierr, errmsg)
     if (ierr /= 0) then
       call report_io_error(ctx, errmsg)
       if (io_failed(ctx, status, ierr)) return
@@ -703,9 +706,13 @@ contains
     kw = index(status, ':') - 1
     if (kw < 1) kw = len_trim(status)
     if (ctx%rank == 0) then
-      write(output_unit, '(a,es13.5e2,a,i0,a,i0,a,i0,a,es11.3e2,a)') 'nuno: '// &
+      write(output_unit, '(a,es13.5e2,a,i0,a,i0,a,i0,a,es11.3e2,a)', advance='no') 'nuno: '// &
         status(1:kw)//' at t =', t, ': ', steps, ' steps, ', rejects, ' rejected (', fails, &
         ' retried after a failed Newton solve), wall time', wall, ' s'
+      ! Fixed steps are dt but where a step was retried smaller (dt/4).
+      if (step_fixed(ctx%step) .and. rejects > 0) write(output_unit, '(a,i0,a)', advance='no') &
+        '; fixed steps: ', rejects, ' retried smaller, so not every step was dt (/run retried_steps)'
+      write(output_unit, '(a)') ''
       flush(output_unit)
     end if
   end subroutine final_summary
