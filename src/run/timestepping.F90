@@ -1,10 +1,10 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> The run driver of the time integration with PETSc TS on a DMDA of 1 x P
 !> strips (docs/model.md sections 5 and 6): the loop over time windows that
-!> stops exactly at keyframe and release times (and at the output times
-!> that fixed steps land on, or that the method cannot interpolate to), the
-!> output steps (between stops: from the step's state or the TS's
-!> interpolant, the integration untouched) and the run's end. Beside it in src/run: solver_setup (option
+!> stops exactly at keyframe and release times and t_end (and at output
+!> times only where the method cannot interpolate to them), the output
+!> steps (between stops: the state of the step that ends on one, or the
+!> TS's interpolant; the integration untouched) and the run's end. Beside it in src/run: solver_setup (option
 !> resolution, solver_create and solver_destroy), run_checkpoint
 !> (checkpoints and restarts), provenance (run information and
 !> configuration in the output) and failure_text (failure messages); the
@@ -56,23 +56,23 @@ module timestepping
 
   !> The run's output steps (multiples of output_interval, and t_end) and
   !> its stop times: the constraints' events (keyframes, releases), t_end,
-  !> and the output times that are stops (output_is_stop).
+  !> and, for a method without an interpolant, the output times.
   type :: schedule_t
     real(rp), allocatable :: events(:)          !< the constraints' event times [time]
     real(rp) :: interval = 0                    !< output_interval [time]
     real(rp) :: t_end = 0                       !< [time]
     real(rp) :: eps = 0                         !< times closer than this are the same [time]
+    !> a step that ends this close to an output time ends on it (its own
+    !> state is written): eps, and for fixed steps 1e-3 dt, as t sums the
+    !> steps' rounding [time]
+    real(rp) :: eps_on = 0
     integer :: iout = 0                         !< the next output step's number (output_time)
     !> output times between stops are written from the TS's interpolant
     !> (nuno_ts_interpolates); else every output time is a stop
     logical :: interpolate = .false.
-    logical :: fixed = .false.                  !< fixed steps
-    real(rp) :: dt = 0                          !< their step [time]
-    !> the next window restarts the integrator (TSRestartStep): after an
-    !> event, a restart's first window, and after any other stop but for a
-    !> multistep method
-    logical :: restart_next = .false.
-    logical :: multistep = .false.              !< bdf: its history is its accuracy
+    !> the next window starts the solver afresh (enter_window,
+    !> TSRestartStep): after an event, and a restart's first window
+    logical :: enter_next = .false.
   end type schedule_t
 
   !> TS_CONVERGED_USER (TSSolve ended by nuno's post-step or monitor), which
@@ -167,10 +167,11 @@ contains
     end do
   end subroutine advance_window
 
-  !> advance_window for the run, which enters every window but its first
-  !> (entered before the output step at t = 0: run_start) and restarts the
-  !> integrator only after an event (sc%restart_next): the output steps
-  !> between the window's ends (outputs_passed) and the wall-clock
+  !> advance_window for the run, which enters a window (the solver's and
+  !> the integrator's fresh start) only after an event and at a restart
+  !> (sc%enter_next; the first window is entered before the output step at
+  !> t = 0: run_start): the output steps between the window's ends
+  !> (outputs_passed) and the wall-clock
   !> checkpoints (-nuno_checkpoint_walltime) due inside the window are
   !> written into out between steps, TSSolve going on after them as if
   !> nothing happened; a failed write ends the window early with the run's
@@ -188,8 +189,8 @@ contains
     integer :: due
     logical :: taken
 
-    PetscCall(window_start(ctx, t, tb, h, t > 0.0_rp, sc%restart_next, ierr))
-    sc%restart_next = .false.
+    PetscCall(window_start(ctx, t, tb, h, sc%enter_next, sc%enter_next, ierr))
+    sc%enter_next = .false.
     do
       call arm_output(sc, tb)
       PetscCall(window_solve(ctx, t, reason, ierr))
@@ -237,7 +238,7 @@ contains
     real(rp) :: tout
     tout = output_time(sc, sc%iout)
     if (tout < tb - 1.0e3_rp * sc%eps) then
-      call nuno_output_arm(1_c_int, real(tout - sc%eps, c_double))
+      call nuno_output_arm(1_c_int, real(tout - sc%eps_on, c_double))
     else
       call nuno_output_arm(0_c_int, 0.0_c_double)
     end if
@@ -265,8 +266,8 @@ contains
     tlast = -1.0_rp
     do
       tout = output_time(sc, sc%iout)
-      if (tout > t + sc%eps .or. tout >= tb - 1.0e3_rp * sc%eps) exit
-      if (abs(t - tout) <= sc%eps) then
+      if (tout > t + sc%eps_on .or. tout >= tb - 1.0e3_rp * sc%eps) exit
+      if (abs(t - tout) <= sc%eps_on) then
         call write_output(ctx, r, out, tout, ierr)
       else
         PetscCall(DMGetGlobalVector(ctx%da, w, ierr))
@@ -362,13 +363,12 @@ contains
     sc%t_end = step_t_end(ctx%step)
     sc%interval = ctx%cfg%output%output_interval
     sc%eps = 1.0e-12_rp * max(1.0_rp, sc%t_end)
+    sc%eps_on = sc%eps
+    if (step_fixed(ctx%step)) sc%eps_on = max(sc%eps, 1.0e-3_rp * step_dt(ctx%step))
     ierr = nuno_ts_interpolates(ctx%ts%v, interpolates)
     if (ierr /= 0) return
     sc%interpolate = interpolates /= 0
-    sc%fixed = step_fixed(ctx%step)
-    PetscCall(PetscObjectTypeCompare(ctx%ts, 'bdf', sc%multistep, ierr))       ! (TSBDF: not in 3.18's Fortran)
     if (ctx%rank == 0) call say_outputs(sc)
-    sc%dt = step_dt(ctx%step)
     h = step_dt(ctx%step)
     t = 0.0_rp
     call run_start(ctx, r, out, sc, t, h, status, ierr)
@@ -419,7 +419,7 @@ contains
     t = t_ck
     if (.not. step_fixed(ctx%step)) h = h_ck
     ! (the TS holds no history of the run it continues)
-    sc%restart_next = .true.
+    sc%enter_next = .true.
     sc%iout = 1
     do while (output_time(sc, sc%iout) <= progress_t_written(ctx%progress) + sc%eps .and. &
               real(sc%iout, rp) * sc%interval < sc%t_end)
@@ -514,13 +514,10 @@ contains
       if (io_failed(ctx, status, ierr)) return
     end if
     next = merge(ENDS, GO_ON, at_max_steps)
-    ! After an event the integrator starts afresh. After a stop at an
-    ! output time (output_is_stop) the run does what a restart from its
-    ! checkpoint will do, so that the restart repeats it bit for bit: a
-    ! one-step method starts afresh too (its first Newton start is x, not
-    ! x + dt xdot: round-off); a multistep method keeps its history, which
-    ! no checkpoint holds (its restart begins again at first order).
-    sc%restart_next = at_event(sc, t) .or. .not. sc%multistep
+    ! After an event the solver and the integrator start afresh; after a
+    ! stop at an output time (a method without an interpolant) they go on
+    ! as if it had been none.
+    sc%enter_next = at_event(sc, t)
     if (at_max_steps .and. t < sc%t_end - sc%eps .and. ctx%rank == 0) &
       write(output_unit, '(a,es13.5e2,a)') 'nuno: -ts_max_steps '//inum(step_max_steps(ctx%step))// &
         ' reached at t =', t, ': the run ends here, complete, with this state written'
@@ -623,12 +620,10 @@ contains
     if (.not. sc%interpolate) then
       write(output_unit, '(a)') head//'the integrator stops at every output time (this method has no usable '// &
         'interpolant in PETSc 3.18), so output_interval changes its steps, within the tolerance'
-    else if (sc%fixed) then
-      write(output_unit, '(a)') head//'from the TS''s interpolant between steps, the step''s own state where a '// &
-        'step ends on the output time (then a restart point); output_interval does not change the steps'
     else
-      write(output_unit, '(a)') head//'from the TS''s interpolant between steps; the integrator stops only at '// &
-        'keyframes, releases and t_end: output_interval does not change the solution'
+      write(output_unit, '(a)') head//'the state of a step that ends on the output time, else the TS''s '// &
+        'interpolant; the integrator stops only at keyframes, releases and t_end: output_interval does not '// &
+        'change the solution'
     end if
     flush(output_unit)
   end subroutine say_outputs
@@ -641,40 +636,20 @@ contains
   end function output_time
 
   !> Next time at which the integrator must stop after tt: the next
-  !> constraint event, t_end, or the next output time where it is a stop
-  !> (output_is_stop).
+  !> constraint event or t_end, and the next output time for a method
+  !> without an interpolant (nuno_ts_interpolates: there the steps are cut
+  !> to end on it, as they always were). Other output times are written
+  !> between steps (outputs_passed), the integration untouched.
   pure real(rp) function next_stop(sc, tt)
     type(schedule_t), intent(in) :: sc
     real(rp), intent(in) :: tt
     integer :: m
     next_stop = sc%t_end
-    if (output_is_stop(sc, tt, output_time(sc, sc%iout))) next_stop = output_time(sc, sc%iout)
+    if (.not. sc%interpolate) next_stop = output_time(sc, sc%iout)
     do m = 1, size(sc%events)
       if (sc%events(m) > tt + sc%eps) next_stop = min(next_stop, sc%events(m))
     end do
   end function next_stop
-
-  !> The output time tout is a stop of a window that starts at tt: where
-  !> the method has no interpolant (nuno_ts_interpolates), and where fixed
-  !> steps of dt from tt end on it anyway. There the window ends as it
-  !> always did (the TS's time put onto tout, the solver's fresh start at
-  !> the next window: enter_window), so that a restart from its checkpoint
-  !> repeats the run bit for bit; the integrator goes on (no
-  !> TSRestartStep). Other output times are written between steps
-  !> (outputs_passed).
-  pure logical function output_is_stop(sc, tt, tout)
-    type(schedule_t), intent(in) :: sc
-    real(rp), intent(in) :: tt, tout
-    real(rp) :: n
-    if (.not. sc%interpolate) then
-      output_is_stop = .true.
-    else if (sc%fixed) then
-      n = (tout - tt) / sc%dt
-      output_is_stop = abs(n - anint(n)) <= 1.0e-6_rp
-    else
-      output_is_stop = .false.
-    end if
-  end function output_is_stop
 
   !> t is a constraint event's time (a keyframe, a release).
   pure logical function at_event(sc, t)
