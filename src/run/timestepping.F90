@@ -473,7 +473,7 @@ contains
     end if
     PetscCall(VecNorm(ctx%u, NORM_INFINITY, unorm, ierr))
     if (reason >= 0 .and. nuno_signal_agreed() /= 0) then
-      call interrupted(ctx, r, out, t, h, status, next, ierr)
+      call interrupted(ctx, r, out, t, sc%eps_on, h, status, next, ierr)
       return
     end if
     if (reason < 0 .or. unorm /= unorm .or. unorm > huge(1.0_rp)) then
@@ -508,7 +508,7 @@ contains
         call take_checkpoint(ctx, r, out, t, h, 'checkpoint_interval', .false., ierr)
         if (io_failed(ctx, status, ierr)) return
       end if
-    else if (at_max_steps .and. t > progress_t_written(ctx%progress)) then
+    else if (at_max_steps .and. t > progress_t_written(ctx%progress) + sc%eps_on) then
       ! Off the output grid (inside a window, or at a keyframe): the last state.
       call write_output(ctx, r, out, t, ierr)
       if (io_failed(ctx, status, ierr)) return
@@ -523,15 +523,16 @@ contains
         ' reached at t =', t, ': the run ends here, complete, with this state written'
   end subroutine window_end
 
-  !> SIGTERM/SIGINT: every rank finished the same step; keep its state and
+  !> SIGTERM/SIGINT: every rank finished the same step; keep its state
+  !> (unless it was the output step just written: within eps_on of it) and
   !> a checkpoint to continue from (the restart point of the last output
   !> step: keep_restart_point), and say so (next = ENDS). A failed write:
   !> status says why (io_failed; next = LOST). Collective.
-  subroutine interrupted(ctx, r, out, t, h, status, next, ierr)
+  subroutine interrupted(ctx, r, out, t, eps_on, h, status, next, ierr)
     type(app_ctx), intent(inout) :: ctx
     type(restart_state_t), intent(inout) :: r
     type(output_file), intent(inout) :: out
-    real(rp), intent(in) :: t
+    real(rp), intent(in) :: t, eps_on                !< [time]
     real(rp), intent(out) :: h
     character(len=*), intent(inout) :: status
     integer, intent(out) :: next
@@ -540,7 +541,7 @@ contains
 
     ierr = 0
     next = LOST
-    if (t > progress_t_written(ctx%progress)) then
+    if (t > progress_t_written(ctx%progress) + eps_on) then
       call write_output(ctx, r, out, t, ierr)
       if (io_failed(ctx, status, ierr)) return
     end if
