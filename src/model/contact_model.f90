@@ -45,12 +45,16 @@ module contact_model
   public :: contact_summary_t, contact_summary, contact_obstacle_at, contact_swept
 
   !> The acceptance floor of the gap, as a fraction of contact_dhat: a
-  !> state with a gap below FLOOR_FRACTION * dhat is never accepted. At
-  !> 1e-3 the barrier's force there is about 1000 kappa dhat (4e8 times
-  !> its force at dhat/2... see contact_force_bound); the rest gap of a
-  !> node carrying its weight lies far above it for the stiffnesses
-  !> input_checks allows (input/README.md, "&contact").
-  real(rp), parameter :: FLOOR_FRACTION = 1.0e-3_rp
+  !> state with a gap below FLOOR_FRACTION * dhat is never accepted
+  !> (docs/contact.md, "Acceptance"). Below it the barrier's force, about
+  !> kappa dhat^2 / gap, exceeds a million times its scale kappa dhat and
+  !> is set by the round-off of the gap rather than by the state (a gap of
+  !> 1.7e-17 m is below one ulp of a coordinate of 1 m). Not higher:
+  !> backward Euler stops a node that hits an obstacle within one step, at
+  !> a gap of about kappa dhat^2 dt / (m v), which is 1e-4 dhat for a
+  !> sheet of 2.8 g nodes dropped 0.45 m at dt = 1 ms (kappa = 1 N/m,
+  !> dhat = 1 mm), and a smaller step only makes it smaller.
+  real(rp), parameter :: FLOOR_FRACTION = 1.0e-6_rp
 
   !> The keyframes of the obstacles (&contact's obstacle_time,
   !> obstacle_offset, obstacle_close): poses_at evaluates them.
@@ -301,9 +305,9 @@ contains
 
   !> The acceptance of a step's end state u at t (issue 47 item 5): its
   !> smallest gap over the free nodes and the obstacles at t must be at
-  !> least the floor (FLOOR_FRACTION contact_dhat); else PM_INFEASIBLE and
-  !> the step is retried smaller. Collective.
-  subroutine contact_accept(this, lat, fixed, t, u, comm, status)
+  !> least the floor (FLOOR_FRACTION contact_dhat); else PM_INFEASIBLE (the
+  !> step is retried smaller) and why. Collective.
+  subroutine contact_accept(this, lat, fixed, t, u, comm, status, why)
     class(contact_model_t), intent(in) :: this
     type(lattice_t), intent(in) :: lat
     logical, intent(in) :: fixed(0:, lat%ys:)
@@ -311,11 +315,18 @@ contains
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)
     integer, intent(in) :: comm
     integer, intent(out) :: status
+    character(*), intent(out) :: why
     real(rp) :: gmin, g
     integer :: mpierr
     gmin = smallest_gap(this, lat, fixed, t, u)
     call MPI_Allreduce(gmin, g, 1, MPI_DOUBLE_PRECISION, MPI_MIN, comm, mpierr)
     status = merge(PM_FEASIBLE, PM_INFEASIBLE, g >= this%floor)
+    why = ''
+    if (status == PM_FEASIBLE) return
+    why = 'the state at t = '//real_es(t)//' has a gap of '//real_es(g)//', below the acceptance floor '// &
+          real_es(this%floor)//' (1e-6 contact_dhat; docs/contact.md, "Acceptance"): backward Euler stops an '// &
+          'impact within one step at a gap of about kappa dhat^2 dt / (m v), smaller with a smaller step; '// &
+          'a stiffer barrier (contact_stiffness) or a larger contact_dhat keeps it above the floor'
   end subroutine contact_accept
 
   !> An accepted state u at t (after each accepted step and at each
@@ -819,7 +830,7 @@ contains
     end do
     call refusal(this, lat, comm, cnt, first, .false., [(0.0_rp, k = 1, this%n_obs)], head//what//': ', &
                  ' nodes lie inside obstacle ', ' or within its contact_thickness (a gap below '//real_es(this%floor)// &
-                 ', the acceptance floor 1e-3 contact_dhat), the first node ', hint, ierr, errmsg)
+                 ', the acceptance floor 1e-6 contact_dhat), the first node ', hint, ierr, errmsg)
   end subroutine check_nodes
 
   !> No prescribed node's path (each owned constrained node of cs, pinned
@@ -979,7 +990,7 @@ contains
 
   !> The barrier's force on one node-obstacle pair at the acceptance floor,
   !> kappa |b'(FLOOR_FRACTION dhat)| [force]: the largest barrier force of
-  !> a pair in an accepted state (about 1012 kappa dhat).
+  !> a pair in an accepted state (about 1e6 kappa dhat).
   pure real(rp) function contact_force_bound(kappa, dhat) result(f)
     real(rp), intent(in) :: kappa, dhat
     real(rp) :: e, de, d2e

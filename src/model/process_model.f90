@@ -28,7 +28,8 @@
 !>               collective
 !>   accept      the check of a step's end state before the integrator
 !>               accepts it (the TS's stage check): PM_INFEASIBLE rejects
-!>               it, and the step is retried smaller; collective
+!>               it, and the step is retried smaller, with why (one line,
+!>               which the run's failure message quotes); collective
 !>   accepted    after an accepted step (and at the run's start): lags,
 !>               statistics, records; collective
 !>   output      its series (named, with units and values) and its terms
@@ -210,7 +211,7 @@ contains
   end subroutine no_limit
 
   !> Every state is accepted.
-  subroutine accept_all(this, lat, fixed, t, u, comm, status)
+  subroutine accept_all(this, lat, fixed, t, u, comm, status, why)
     class(process_model_t), intent(in) :: this
     type(lattice_t), intent(in) :: lat
     logical, intent(in) :: fixed(0:, lat%ys:)
@@ -218,7 +219,9 @@ contains
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)
     integer, intent(in) :: comm
     integer, intent(out) :: status
+    character(*), intent(out) :: why
     status = PM_FEASIBLE
+    why = ''
   end subroutine accept_all
 
   !> Nothing to do after an accepted step.

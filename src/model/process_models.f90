@@ -31,7 +31,7 @@ module process_models
   public :: pm_list_t, pm_list_add, pm_list_on, pm_list_count, pm_list_name, pm_list_hints, pm_list_ts_refusal
   public :: pm_list_setup, pm_list_forces, pm_list_infeasible, pm_list_jacobian, pm_list_step_limit, pm_list_accept
   public :: pm_list_accepted, pm_list_output, pm_list_checkpoint, pm_list_restore, pm_list_check_state, pm_list_destroy
-  public :: pm_list_nodal
+  public :: pm_list_nodal, pm_list_rejection, pm_list_take
 
   !> One process model of the list.
   type :: pm_slot_t
@@ -53,6 +53,10 @@ module process_models
     !> the current stage's last candidate is infeasible (a residual's or
     !> a step limit's verdict), the same on every rank
     logical :: infeasible = .false.
+    !> why a model rejected a step's end state last (its accept hook; ''
+    !> when none) and that state's time: the run's failure message quotes it
+    character(len=512) :: rejection = ''
+    real(rp) :: t_rejection = -huge(1.0_rp)
   end type pm_list_t
 
 contains
@@ -71,6 +75,17 @@ contains
     call move_alloc(grown, list%m)
     list%n = list%n + 1
   end subroutine pm_list_add
+
+  !> Every model of src appended to list, in src's order (src is left empty).
+  subroutine pm_list_take(list, src)
+    type(pm_list_t), intent(inout) :: list, src
+    integer :: k
+    do k = 1, src%n
+      call pm_list_add(list, src%m(k)%pm)
+    end do
+    if (allocated(src%m)) deallocate(src%m)
+    src%n = 0
+  end subroutine pm_list_take
 
   !> Some process model is in the list.
   pure logical function pm_list_on(list)
@@ -234,27 +249,42 @@ contains
     end if
   end subroutine pm_list_step_limit
 
-  !> A step's end state u at t, before the integrator accepts it: false
+  !> A step's end state u at t, before the integrator accepts it: ok false
   !> when the stage's last candidate was infeasible or a model rejects it
-  !> (the step is retried smaller). Collective.
-  logical function pm_list_accept(list, lat, fixed, t, u, comm) result(ok)
-    type(pm_list_t), intent(in) :: list
+  !> (the step is retried smaller; the model's reason kept for the run's
+  !> failure message, pm_list_rejection). Collective.
+  subroutine pm_list_accept(list, lat, fixed, t, u, comm, ok)
+    type(pm_list_t), intent(inout) :: list
     type(lattice_t), intent(in) :: lat
     logical, intent(in) :: fixed(0:, lat%ys:)
     real(rp), intent(in) :: t
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)
     integer, intent(in) :: comm
+    logical, intent(out) :: ok
     integer :: k, status
+    character(len=512) :: why
     ok = .not. list%infeasible
     if (.not. ok) return
     do k = 1, list%n
-      call list%m(k)%pm%accept(lat, fixed, t, u, comm, status)
+      call list%m(k)%pm%accept(lat, fixed, t, u, comm, status, why)
       if (status /= PM_FEASIBLE) then
         ok = .false.
+        list%rejection = list%m(k)%pm%name()//': '//trim(why)
+        list%t_rejection = t
         return
       end if
     end do
-  end function pm_list_accept
+  end subroutine pm_list_accept
+
+  !> Why a model last rejected a step's end state, if that state's time is
+  !> after t_after ('' otherwise): the same on every rank.
+  function pm_list_rejection(list, t_after) result(s)
+    type(pm_list_t), intent(in) :: list
+    real(rp), intent(in) :: t_after
+    character(len=:), allocatable :: s
+    s = ''
+    if (list%t_rejection > t_after) s = trim(list%rejection)
+  end function pm_list_rejection
 
   !> After an accepted step (and at the run's start): each model's
   !> accepted hook; the first error (the same on every rank) ends it.

@@ -29,7 +29,8 @@ module solver_setup
                           newton_forcing_on
   use process_solver, only: pm_solver_options, pm_solver_setup
   use process_model, only: process_model_t, pm_hints_t
-  use process_models, only: pm_list_add, pm_list_hints, pm_list_on, pm_list_setup, pm_list_nodal, pm_list_destroy
+  use process_models, only: pm_list_t, pm_list_add, pm_list_hints, pm_list_on, pm_list_setup, pm_list_nodal, &
+                            pm_list_destroy, pm_list_take
   use contact_model, only: contact_model_t
   use ghosted_state, only: ghosted_get, ghosted_restore
   use step_monitor, only: ts_monitor
@@ -80,9 +81,11 @@ contains
   !> Create the DMDA, the lattice strip, the initial state, the process
   !> models, the Jacobian matrix and the TS. refusal: a process model's
   !> refusal of the scene (one line, the same on every rank: the caller
-  !> ends the run collectively; '' when none); ierr: a PETSc error.
-  !> Collective.
-  subroutine solver_create(ctx, cfg, ierr, refusal)
+  !> ends the run collectively; '' when none); ierr: a PETSc error. extra:
+  !> process models of the caller's, after the scene's (a new force tried
+  !> out before it has a key; tests/mpi/test_process_models.F90), moved
+  !> into the solver's list. Collective.
+  subroutine solver_create(ctx, cfg, ierr, refusal, extra)
     type(app_ctx), intent(inout), target :: ctx
     !> the run's configuration: the context points to it from here on (one
     !> configuration for the caller and the solver; the effective dt and
@@ -90,6 +93,7 @@ contains
     type(nuno_config), intent(in), target :: cfg
     PetscErrorCode, intent(out) :: ierr
     character(*), intent(out) :: refusal
+    type(pm_list_t), intent(inout), optional :: extra
     PetscInt :: w, nxp, nyp
     PetscInt, parameter :: one = 1, six = 6
     type(nuno_options_t) :: opt
@@ -106,6 +110,7 @@ contains
     ! 1 x P processes: each rank owns whole rows, ghost width 2 with bending.
     PetscCall(DMDACreate2d(ctx%comm, DM_BOUNDARY_NONE, DM_BOUNDARY_NONE, DMDA_STENCIL_BOX, nxp, nyp, one, PETSC_DECIDE, six, w, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, ctx%da, ierr))
     call add_process_models(ctx, cfg)
+    if (present(extra)) call pm_list_take(ctx%pms, extra)
     PetscCall(resolve_options(ctx, cfg, opt, ierr))
     PetscCall(setup_strips(ctx, cfg, opt, ierr))
     PetscCall(setup_process_models(ctx, cfg, refusal, ierr))

@@ -257,15 +257,16 @@ contains
 
   !> A step's end state u at t accepted by every process model (module
   !> process_models' pm_list_accept). Collective.
-  logical function model_pm_accept(m, pms, lat, t, u, comm) result(ok)
+  subroutine model_pm_accept(m, pms, lat, t, u, comm, ok)
     type(model_state_t), intent(in) :: m
-    type(pm_list_t), intent(in) :: pms
+    type(pm_list_t), intent(inout) :: pms
     type(lattice_t), intent(in) :: lat
     real(rp), intent(in) :: t
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)
     integer, intent(in) :: comm
-    ok = pm_list_accept(pms, lat, m%fixed, t, u, comm)
-  end function model_pm_accept
+    logical, intent(out) :: ok
+    call pm_list_accept(pms, lat, m%fixed, t, u, comm, ok)
+  end subroutine model_pm_accept
 
   !> An accepted state u at t: the process models' accepted hooks (module
   !> process_models' pm_list_accepted). Collective.

@@ -228,7 +228,7 @@ contains
     call c_f_pointer(cp, ctx)
     y%v = y_h
     PetscCall(ghosted_get(ctx%da, y, yloc, u, ierr))
-    ok = model_pm_accept(ctx%model, ctx%pms, ctx%lat, real(t, rp), u, ctx%comm)
+    call model_pm_accept(ctx%model, ctx%pms, ctx%lat, real(t, rp), u, ctx%comm, ok)
     PetscCall(ghosted_restore(ctx%da, yloc, u, ierr))
     accept = merge(1_c_int, 0_c_int, ok)
   end subroutine pm_stage_check_c
