@@ -38,7 +38,7 @@ module contact_model
   use obstacle_motion, only: obstacle_at
   use process_model, only: process_model_t, pm_hints_t, pm_series_t, pm_group_t, pm_energy_t, PM_FEASIBLE, &
                            PM_INFEASIBLE
-  use strings, only: itoa, real_es
+  use strings, only: itoa, real_es, real_brief
   implicit none
   private
   public :: contact_model_t, contact_init, obstacle_from_config, contact_force_bound, FLOOR_FRACTION
@@ -323,8 +323,8 @@ contains
     status = merge(PM_FEASIBLE, PM_INFEASIBLE, g >= this%floor)
     why = ''
     if (status == PM_FEASIBLE) return
-    why = 'the state at t = '//real_es(t)//' has a gap of '//real_es(g)//', below the acceptance floor '// &
-          real_es(this%floor)//' (1e-6 contact_dhat; docs/contact.md, "Acceptance"): backward Euler stops an '// &
+    why = 'the state at t = '//real_brief(t)//' has a gap of '//real_brief(g)//', below the acceptance floor '// &
+          real_brief(this%floor)//' (1e-6 contact_dhat; docs/contact.md, "Acceptance"): backward Euler stops an '// &
           'impact within one step at a gap of about kappa dhat^2 dt / (m v), smaller with a smaller step; '// &
           'a stiffer barrier (contact_stiffness) or a larger contact_dhat keeps it above the floor'
   end subroutine contact_accept
@@ -458,7 +458,7 @@ contains
     integer, intent(in) :: comm
     integer, intent(out) :: ierr
     character(*), intent(out) :: errmsg
-    call check_nodes(this, lat, t, x, comm, '-nuno_restart: &contact: ', 'the checkpoint''s state at t = '//real_es(t), &
+    call check_nodes(this, lat, t, x, comm, '-nuno_restart: &contact: ', 'the checkpoint''s state at t = '//real_brief(t), &
                      ': the obstacles are not those of the run that wrote it', ierr, errmsg)
   end subroutine contact_check_state
 
@@ -829,7 +829,7 @@ contains
       end do
     end do
     call refusal(this, lat, comm, cnt, first, .false., [(0.0_rp, k = 1, this%n_obs)], head//what//': ', &
-                 ' nodes lie inside obstacle ', ' or within its contact_thickness (a gap below '//real_es(this%floor)// &
+                 ' nodes lie inside obstacle ', ' or within its contact_thickness (a gap below '//real_brief(this%floor)// &
                  ', the acceptance floor 1e-6 contact_dhat), the first node ', hint, ierr, errmsg)
   end subroutine check_nodes
 
@@ -980,7 +980,7 @@ contains
       errmsg = head//itoa(gcnt(k))//what1//itoa(k)//' ('''// &
                trim(SHAPE_NAMES(this%keys%base(k)%shape))//''')'//what2//'('//itoa(mod(gfirst(k), lat%nx))//', '// &
                itoa(gfirst(k) / lat%nx)//')'
-      if (timed) errmsg = trim(errmsg)//' at t = '//real_es(tg(k))
+      if (timed) errmsg = trim(errmsg)//' at t = '//real_brief(tg(k))
       errmsg = trim(errmsg)//tail
       return
     end do
