@@ -21,7 +21,7 @@
 !> the floor FLOOR_FRACTION * contact_dhat (the accept hook rejects it,
 !> and the step is retried smaller); the barrier force of a node-obstacle
 !> pair of an accepted state is then at most kappa |b'(floor)|, the
-!> barrier's force at the floor (contact_force_bound), and friction's at
+!> barrier's force at the floor (about 1e6 kappa dhat), and friction's at
 !> most mu times that.
 module contact_model
   use mpi
@@ -34,26 +34,27 @@ module contact_model
   use pair_blocks, only: pair_blocks_t
   use checkpoint_record, only: named_value_t, named_value
   use contact, only: obstacle_t, contact_params_t, contact_node, time_of_impact, signed_distance, friction_power, &
-                     time_of_impact_moving, barrier, SHAPE_BOX, SHAPE_CAPSULE
+                     time_of_impact_moving, SHAPE_BOX, SHAPE_CAPSULE
   use obstacle_motion, only: obstacle_at
   use process_model, only: process_model_t, pm_hints_t, pm_series_t, pm_group_t, pm_energy_t, PM_FEASIBLE, &
                            PM_INFEASIBLE
   use strings, only: itoa, real_es, real_brief
   implicit none
   private
-  public :: contact_model_t, contact_init, obstacle_from_config, contact_force_bound, FLOOR_FRACTION
-  public :: contact_summary_t, contact_summary, contact_obstacle_at, contact_swept
+  public :: contact_model_t, contact_init, obstacle_from_config, FLOOR_FRACTION
+  public :: contact_obstacle_at, contact_swept
 
   !> The acceptance floor of the gap, as a fraction of contact_dhat: a
   !> state with a gap below FLOOR_FRACTION * dhat is never accepted
-  !> (docs/contact.md, "Acceptance"). Below it the barrier's force, about
-  !> kappa dhat^2 / gap, exceeds a million times its scale kappa dhat and
-  !> is set by the round-off of the gap rather than by the state (a gap of
-  !> 1.7e-17 m is below one ulp of a coordinate of 1 m). Not higher:
-  !> backward Euler stops a node that hits an obstacle within one step, at
-  !> a gap of about kappa dhat^2 dt / (m v), which is 1e-4 dhat for a
-  !> sheet of 2.8 g nodes dropped 0.45 m at dt = 1 ms (kappa = 1 N/m,
-  !> dhat = 1 mm), and a smaller step only makes it smaller.
+  !> (docs/contact.md, "Acceptance"). At the floor the barrier's force,
+  !> about kappa dhat^2 / gap, is a million times its scale kappa dhat, and
+  !> the gap (1 nm with dhat = 1 mm) still some 4e6 rounding units of a
+  !> coordinate of 1 m, so the force is known to six digits; a gap of
+  !> 1.7e-17 m, accepted before, was less than one. Not higher: backward
+  !> Euler stops a node that hits an obstacle within one step, at a gap of
+  !> about kappa dhat^2 dt / (m v), which is 1e-4 dhat for a sheet of
+  !> 2.8 g nodes dropped 0.45 m at dt = 1 ms (kappa = 1 N/m, dhat = 1 mm),
+  !> and a smaller step only makes it smaller.
   real(rp), parameter :: FLOOR_FRACTION = 1.0e-6_rp
 
   !> The keyframes of the obstacles (&contact's obstacle_time,
@@ -68,7 +69,8 @@ module contact_model
   end type obstacle_keys_t
 
   !> The contact diagnostics of the last accepted state and of the run so
-  !> far, over all ranks (a value record: contact_summary hands out a copy).
+  !> far, over all ranks (the record of the accepted hook, which its
+  !> output and checkpoint hooks read).
   type :: contact_summary_t
     real(rp) :: min_gap_run = huge(1.0_rp)          !< smallest gap over every accepted state [length]
     integer :: states_checked = 0                   !< accepted states checked (the start included)
@@ -788,12 +790,6 @@ contains
     this%pobs_last = ostart
   end subroutine contact_record
 
-  !> The contact diagnostics of the last accepted state and of the run.
-  pure function contact_summary(this) result(r)
-    type(contact_model_t), intent(in) :: this
-    type(contact_summary_t) :: r
-    r = this%rec
-  end function contact_summary
 
   ! ------------------------------------------- the scene's start (item 7)
 
@@ -988,15 +984,6 @@ contains
 
   ! --------------------------------------------------------------- helpers
 
-  !> The barrier's force on one node-obstacle pair at the acceptance floor,
-  !> kappa |b'(FLOOR_FRACTION dhat)| [force]: the largest barrier force of
-  !> a pair in an accepted state (about 1e6 kappa dhat).
-  pure real(rp) function contact_force_bound(kappa, dhat) result(f)
-    real(rp), intent(in) :: kappa, dhat
-    real(rp) :: e, de, d2e
-    call barrier(FLOOR_FRACTION * dhat, dhat, e, de, d2e)
-    f = kappa * abs(de)
-  end function contact_force_bound
 
   !> A float64 series of a process model.
   pure function real_series(name, description, units, v) result(s)
