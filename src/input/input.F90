@@ -369,6 +369,9 @@ contains
       if (ios /= 0) then
         ierr = 1
         msg = 'input: -nuno_set: &'//trim(group_names(g))//': '//trim(iomsg)//' (in: '//items(k)%text//')'
+        if (len(obstacle_index_error(group_names(g), items(k)%key)) > 0) &
+          msg = 'input: -nuno_set: &'//trim(group_names(g))//': '//items(k)%text//': '// &
+                obstacle_index_error(group_names(g), items(k)%key)
         call unrename_scene(msg)
         return
       end if

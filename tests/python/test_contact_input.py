@@ -92,8 +92,15 @@ def test_obstacle_beyond_n_obstacles_is_refused(tmp_path):
 
 
 def test_obstacle_index_beyond_8_is_named(tmp_path):
+    """In the namelist file and in -nuno_set alike."""
     line = refused(tmp_path, plane_below(1.0) + " obstacle_radius(9)=0.1")
     assert "obstacle_radius(9)" in line and "obstacle 9 is beyond the last one nuno takes, obstacle 8" in line, line
+    g = contact_sheet(plane_below(1.0), 0.01, 0.01, units="SI")
+    proc, _ = run(tmp_path, "set", nranks=2, options=["-nuno_set", "obstacle_shape(9)='sphere'"], check=False,
+                  timeout=120, **g)
+    line = one_error(proc)
+    assert "-nuno_set" in line and "obstacle 9 is beyond the last one nuno takes, obstacle 8" in line, line
+    nothing_written(tmp_path)
 
 
 def test_barrier_and_friction_outside_their_ranges_are_refused(tmp_path):
