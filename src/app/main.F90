@@ -29,9 +29,10 @@ program nuno
   use run_error, only: run_error_any
   use input_text, only: command_line_overrides
   use build_info, only: nuno_version, nuno_commit
+  use option_check, only: help_before_petsc, option_names_begin, options_before_run
   use errors, only: help_requested, version_requested, list_keys_requested, fatal_collective, fatal_local, input_path_argument, apply_namelist_options, &
                     petsc_options_text, quiet_exit, &
-                    read_input_options, quiet_petsc_errors
+                    read_input_options, quiet_petsc_errors, stray_argument, options_file_refusal, petsc_help_given
   implicit none
 
   type(nuno_config), target :: cfg     !< the input's configuration (the solver's ctx%cfg points to it, or to identify's trial copy)
@@ -53,7 +54,7 @@ program nuno
   character(len=512) :: path, errmsg
   character(len=1024) :: status
   character(len=:), allocatable :: petsc_opts
-  logical :: allow_long, ts_dt_set
+  logical :: allow_long, ts_dt_set, petsc_help
   character(len=4096) :: petsc_set
   character(len=:), allocatable :: overrides
   integer :: n_set
@@ -77,10 +78,12 @@ program nuno
     end function nuno_file_options_read
   end interface
 
-  ! 1. --help, --version and --list-keys need no input and no PETSc.
+  ! 1. --help, --version and --list-keys need no input and no PETSc; the
+  !    command line's words and options files are checked before PETSc
+  !    reads them (MPI first, so PETSc leaves its finalisation to us).
+  call MPI_Init(ierr)
+  call MPI_Comm_rank(MPI_COMM_WORLD, rank, ierr)
   if (help_requested() .or. version_requested() .or. list_keys_requested()) then
-    call MPI_Init(ierr)
-    call MPI_Comm_rank(MPI_COMM_WORLD, rank, ierr)
     if (rank == 0) then
       if (help_requested()) then
         call usage_text(6)
@@ -93,12 +96,21 @@ program nuno
     call MPI_Finalize(ierr)
     stop
   end if
+  call stray_argument(errmsg)
+  if (len_trim(errmsg) > 0) call fatal_collective(errmsg)
+  call options_file_refusal(MPI_COMM_WORLD, errmsg)
+  if (len_trim(errmsg) > 0) call fatal_collective(errmsg)
+  if (petsc_help_given()) call help_before_petsc(ierr)
 
   ! 2. PETSc, then the namelist (read on rank 0, parsed by every rank alike).
   PetscCallA(PetscInitialize(ierr))
   ! PETSc errors become part of our one error line (module errors), not a
   ! 30-line report from every rank.
   call quiet_petsc_errors(ierr)
+  ! The names of the options the set-up reads, for their check before the
+  ! first step (module option_check); with -help, PETSc prints them.
+  call option_names_begin(petsc_help, ierr)
+  if (ierr /= 0) call fatal_local('could not start the option check')
   call MPI_Comm_rank(PETSC_COMM_WORLD, rank, ierr)
   call MPI_Comm_size(PETSC_COMM_WORLD, nranks, ierr)
   if (.not. input_path_argument(path)) &
@@ -178,6 +190,11 @@ program nuno
   call solver_create(ctx, cfg, ierr, refusal)
   if (ierr /= 0) call fatal_local('could not set up the solver')
   if (len_trim(refusal) > 0) call fatal_collective(refusal)
+  ! Options nothing read, integers out of range, a TS type nuno cannot run:
+  ! refused before the first step; -help ends the run here.
+  call options_before_run(ctx%ts, PETSC_COMM_WORLD, cfg%identify%active .or. cfg%control%active, petsc_help, ierr, errmsg)
+  if (ierr == 1) call fatal_collective(errmsg)
+  if (ierr /= 0) call fatal_local('could not check the options')
   if (cfg%identify%active .or. cfg%control%active) then
     call identify_run(id, ctx, id_done, ierr, errmsg)
     if (ierr == 1) call fatal_collective(errmsg)
@@ -186,6 +203,7 @@ program nuno
       call solver_destroy(ctx, ierr)
       call identify_scratch_remove(id)
       PetscCallA(PetscFinalize(ierr))
+      call MPI_Finalize(ierr)
       stop
     end if
     ! ctx%cfg is identify's trial configuration now, with the fitted parameters
@@ -255,6 +273,7 @@ program nuno
   call restart_state_free(restart)
   if (cfg%identify%active .or. cfg%control%active) call identify_scratch_remove(id)
   PetscCallA(PetscFinalize(ierr))
+  call MPI_Finalize(ierr)
   ! Quiet: the failure was reported in one line already (no ERROR STOP, no backtrace).
   if (status /= 'complete') call quiet_exit(1)
 end program nuno

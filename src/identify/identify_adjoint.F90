@@ -14,7 +14,7 @@
 !> dF/dtheta (TSSetIJacobianP, through src/identify/nuno_adjoint.c). Identification:
 !> every force is linear in each of e_s, e_d, eta_s, eta_d, k_b, eta_b, so
 !> dF_v/d(ln p) = -f_p/m with f_p the force of the elements computed with
-!> only p non-zero (the kernels of module forces on a lattice copy); for
+!> only p non-zero (model_state's model_force_rows on a lattice copy); for
 !> total_mass (every node mass is proportional to it) dF_v/d(ln M) = +f/m.
 !> Control: only the x-rows of the driven nodes depend on theta, F_x =
 !> xdot - vb with vb the slope of the window's segment, so dF_x/dd =
@@ -41,6 +41,7 @@ module identify_adjoint
   use config, only: nuno_config
   use lattice, only: lattice_t, lattice_init
   use model_state, only: model_force_rows
+  use ghosted_state, only: ghosted_get, ghosted_restore
   use scenes, only: scene_setup
   use constraints, only: PATH_KEYFRAMES, constraints_active, constraint_count, constraint_node, constraint_path
   use timestepping, only: app_ctx, enter_window, advance_window
@@ -500,10 +501,7 @@ contains
     real(rp) :: sgn
 
     app => id%app
-    PetscCall(DMGetLocalVector(app%da, uloc, ierr))
-    PetscCall(DMGlobalToLocalBegin(app%da, uvec, INSERT_VALUES, uloc, ierr))
-    PetscCall(DMGlobalToLocalEnd(app%da, uvec, INSERT_VALUES, uloc, ierr))
-    PetscCall(DMDAVecGetArrayReadF90(app%da, uloc, u, ierr))
+    PetscCall(ghosted_get(app%da, uvec, uloc, u, ierr))
     do k = 1, params_np(id%par)
       lp = app%lat
       sgn = -1.0_rp
@@ -522,8 +520,7 @@ contains
       end if
       call model_force_rows(app%model, lp, u, sgn, a(:, k), nbad, bad)
     end do
-    PetscCall(DMDAVecRestoreArrayReadF90(app%da, uloc, u, ierr))
-    PetscCall(DMRestoreLocalVector(app%da, uloc, ierr))
+    PetscCall(ghosted_restore(app%da, uloc, u, ierr))
   end subroutine fit_jacobianp
 
   ! ----------------------------------------------------------------- readers

@@ -207,7 +207,8 @@ contains
     iomsg = ''
     call namelist_read(g, pt%lines, cfg, ios, iomsg)
     if (ios == 0) then
-      call check_repeated_keys(g, body, ierr, msg)
+      call check_values_given(g, body, ierr, msg)
+      if (ierr == 0) call check_repeated_keys(g, body, ierr, msg)
       return
     end if
     ierr = 1
@@ -277,6 +278,84 @@ contains
     why = 'obstacle '//itoa(n)//' is beyond the last one nuno takes, obstacle '//itoa(obstacle_max)// &
           ' (n_obstacles <= '//itoa(obstacle_max)//')'
   end function obstacle_index_error
+  !> An assignment without a value (`nx = ,`, `nx =` before the next key or
+  !> the group's end) or with an empty item in its list (`gravity = 0, , -9.81`)
+  !> is refused by name: the namelist reader takes an empty value as "keep
+  !> the default" and would run with it silently.
+  subroutine check_values_given(g, body, ierr, msg)
+    integer, intent(in) :: g
+    character(*), intent(in) :: body
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    integer :: p, q, e
+    character(:), allocatable :: a, value
+
+    ierr = 0
+    msg = ''
+    p = next_assignment(body, 1)
+    do while (p <= len(body))
+      q = next_assignment(body, p + 1)
+      a = blanks_to_spaces(body(p:q - 1))
+      e = index(a, '=')
+      value = strip_commas(a(e + 1:))
+      if (len(value) == 0) then
+        ierr = 1
+        msg = 'input: &'//trim(group_names(g))//': '//assignment_key(a)//' has no value (in: '// &
+              trim(adjustl(a))//'): give a value or leave the key out (an empty value would keep '// &
+              'the default silently)'
+      else if (has_empty_item(value)) then
+        ierr = 1
+        msg = 'input: &'//trim(group_names(g))//': '//assignment_key(a)//' = '//value// &
+              ': an empty item in the list (it would keep that element''s default silently): give every value'
+      end if
+      if (ierr /= 0) then
+        if (g == G_SCENE) call unrename_scene(msg)
+        return
+      end if
+      p = q
+    end do
+  contains
+    !> Tabs and line ends as blanks (a group's body keeps its lines).
+    function blanks_to_spaces(s) result(r)
+      character(*), intent(in) :: s
+      character(len(s)) :: r
+      integer :: i
+      r = s
+      do i = 1, len(r)
+        if (r(i:i) == achar(9) .or. r(i:i) == achar(10) .or. r(i:i) == achar(13)) r(i:i) = ' '
+      end do
+    end function blanks_to_spaces
+    !> Two commas with only blanks between them, outside quotes.
+    logical function has_empty_item(v)
+      character(*), intent(in) :: v
+      character(1) :: quote
+      integer :: i
+      logical :: after_comma
+      has_empty_item = .false.
+      quote = ' '
+      after_comma = .false.
+      do i = 1, len(v)
+        if (quote /= ' ') then
+          if (v(i:i) == quote) quote = ' '
+          cycle
+        end if
+        select case (v(i:i))
+        case ("'", '"')
+          quote = v(i:i)
+          after_comma = .false.
+        case (',')
+          if (after_comma) then
+            has_empty_item = .true.
+            return
+          end if
+          after_comma = .true.
+        case (' ')
+        case default
+          after_comma = .false.
+        end select
+      end do
+    end function has_empty_item
+  end subroutine check_values_given
 
   !> A key given twice in group g's body (the namelist reader would keep the
   !> last value silently) is refused by name; an array's element and the

@@ -108,13 +108,18 @@ contains
     character(*), intent(out) :: msg
     integer :: code
     associate (ma => cfg%material, sc => cfg%scene)
-      call need_positive('lattice', 'total_mass', cfg%lattice%total_mass, ierr, msg); if (ierr /= 0) return
-      call need_nonnegative('material', 'e_s', ma%e_s, ierr, msg);     if (ierr /= 0) return
-      call need_nonnegative('material', 'eta_s', ma%eta_s, ierr, msg); if (ierr /= 0) return
-      call need_nonnegative('material', 'e_d', ma%e_d, ierr, msg);     if (ierr /= 0) return
-      call need_nonnegative('material', 'eta_d', ma%eta_d, ierr, msg); if (ierr /= 0) return
-      call need_nonnegative('material', 'k_b', ma%k_b, ierr, msg);     if (ierr /= 0) return
-      call need_nonnegative('material', 'eta_b', ma%eta_b, ierr, msg); if (ierr /= 0) return
+      ! The mass and the material constants within the key table's bounds
+      ! (need_in_range): far beyond any cloth in either unit system, and
+      ! such that no product of the model (forces, energies, their squares
+      ! in the norms, K/m in the Newton matrix) can overflow: e_s = 1e308
+      ! ran and failed every step ("try a smaller step").
+      call need_in_range('lattice', 'total_mass', cfg%lattice%total_mass, ierr, msg); if (ierr /= 0) return
+      call need_in_range('material', 'e_s', ma%e_s, ierr, msg);     if (ierr /= 0) return
+      call need_in_range('material', 'eta_s', ma%eta_s, ierr, msg); if (ierr /= 0) return
+      call need_in_range('material', 'e_d', ma%e_d, ierr, msg);     if (ierr /= 0) return
+      call need_in_range('material', 'eta_d', ma%eta_d, ierr, msg); if (ierr /= 0) return
+      call need_in_range('material', 'k_b', ma%k_b, ierr, msg);     if (ierr /= 0) return
+      call need_in_range('material', 'eta_b', ma%eta_b, ierr, msg); if (ierr /= 0) return
       call check_scaling_bending(cfg, ierr, msg); if (ierr /= 0) return
       call check_scene_geometry(cfg, ierr, msg);  if (ierr /= 0) return
       call check_keyframes(cfg, ierr, msg);       if (ierr /= 0) return
@@ -773,6 +778,49 @@ contains
       msg = 'input: &'//group//': '//key//' = '//trim(a)//' must be >= '//trim(b)
     end if
   end subroutine need_int_ge
+
+  !> value within the bounds of key's `allowed` in the key table ('>= A',
+  !> '> A', '<= B', '< B', separated by ', '); NaN fails too. The message
+  !> gives the range as the table (and input/README.md) writes it.
+  subroutine need_in_range(group, key, value, ierr, msg)
+    character(*), intent(in) :: group, key
+    real(rp), intent(in) :: value
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    character(:), allocatable :: allowed, part
+    real(rp) :: bound
+    integer :: p, q, ios, w
+    logical :: ok
+
+    ierr = 0
+    msg = ''
+    allowed = trim(keys(key_index(key))%allowed)
+    ok = value == value
+    p = 1
+    do while (p <= len(allowed) .and. ok)
+      q = item_end(allowed, p, ', ')
+      part = allowed(p:q - 1)
+      w = merge(2, 1, part(2:2) == '=')
+      read(part(w + 1:), *, iostat=ios) bound
+      if (ios /= 0) part = '?'
+      select case (part(1:w))
+      case ('>=');  ok = value >= bound
+      case ('>');   ok = value > bound
+      case ('<=');  ok = value <= bound
+      case ('<');   ok = value < bound
+      case default
+        ierr = 1
+        msg = 'input: the key table''s range of '//key//' is not bounds: '//allowed   ! (test_input_text)
+        return
+      end select
+      p = q + 2
+    end do
+    if (.not. ok) then
+      ierr = 1
+      msg = 'input: &'//group//': '//key//' = '//real_short(value)//' must be '//allowed// &
+            ' (input/README.md, &'//group//')'
+    end if
+  end subroutine need_in_range
 
   !> value > 0 (NaN fails too).
   subroutine need_positive(group, key, value, ierr, msg)

@@ -2,7 +2,8 @@
 !> What a checkpoint holds besides the state (checkpoint_t): a plain
 !> record that the run's checkpoints fill (module run_checkpoint) and the
 !> output file writes and reads (module output, checkpoint_check), so that
-!> the solver's context can keep a restart point without knowing HDF5.
+!> the run driver keeps its restart point (run_checkpoint's
+!> restart_state_t) without knowing HDF5.
 module checkpoint_record
   use kinds, only: rp
   implicit none

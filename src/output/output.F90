@@ -49,6 +49,7 @@ module output
   private
 
   public :: output_open, output_write_step, output_close, output_write_run_info, output_write_wall_time
+  public :: output_write_retried_steps
   public :: output_config_key
   public :: output_write_checkpoint, output_reopen, output_steps
   public :: output_write_identify, output_write_control
@@ -356,6 +357,13 @@ module output
       integer, intent(out) :: ierr
       character(*), intent(out) :: errmsg
     end subroutine output_write_wall_time
+
+    module subroutine output_write_retried_steps(out, steps, ierr, errmsg)
+      type(output_file), intent(inout) :: out
+      integer, intent(in) :: steps
+      integer, intent(out) :: ierr
+      character(*), intent(out) :: errmsg
+    end subroutine output_write_retried_steps
 
     module subroutine open_local(out, filename, rest, mass, namelist, petsc_options, version, ierr, errmsg)
       type(output_file), intent(inout) :: out

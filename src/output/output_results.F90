@@ -219,4 +219,26 @@ contains
     call agree(out%comm, 'output_write_wall_time', ierr, errmsg)
   end procedure output_write_wall_time
 
+  !> The attribute /run/retried_steps: the steps the run rejected and
+  !> retried with a smaller step (a failed Newton solve, a stage outside
+  !> the domain, the error control), since t = 0 (a restart's included);
+  !> with fixed steps, each is a step that was not dt (input/README.md,
+  !> "Retried steps"). Written at the end of the run. Collective.
+  module procedure output_write_retried_steps
+    integer(hid_t) :: grp
+    integer :: h
+
+    call require_open(out, 'output_write_retried_steps', ierr, errmsg)
+    if (ierr /= 0) return
+    call h5gopen_f(out%file, 'run', grp, h)
+    if (h < 0) then
+      call fail('h5gopen_f (output_write_run_info first)', '/run', ierr, errmsg)
+    else
+      call set_attr_int(grp, 'retried_steps', steps, '/run', ierr, errmsg)
+      call h5gclose_f(grp, h)
+      if (h < 0) call fail('h5gclose_f', '/run', ierr, errmsg)
+    end if
+    call agree(out%comm, 'output_write_retried_steps', ierr, errmsg)
+  end procedure output_write_retried_steps
+
 end submodule output_results

@@ -1,7 +1,8 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> The text of a run's end: what failed and what to try (failure_reason,
-!> failure_hints), signal names, the collective output error, and the
-!> number-to-string helpers of the solver's messages.
+!> failure_hints), signal names, and the collective output error
+!> (report_io_error, which sets the run's error). Numbers as text are
+!> module strings'.
 module failure_text
 #include "petsc/finclude/petscts.h"
   use process_models, only: pm_list_rejection

@@ -2,15 +2,13 @@
 !> The run driver of the time integration with PETSc TS on a DMDA of 1 x P
 !> strips (docs/model.md sections 5 and 6): the loop over time windows that
 !> stops exactly at output, keyframe and release times, the output steps
-!> and the run's end. The rest of the solver has one module per concern:
-!> app_context (the context passed to every callback), cloth_model (the
-!> IFunction and IJacobian callbacks), newton_policy (the convergence
-!> test, forcing, line-search fallback, Newton start), solver_setup
-!> (option resolution, solver_create and solver_destroy), step_monitor
-!> (the TS monitor), run_checkpoint (checkpoints and restarts),
-!> provenance (run information and configuration in the output) and
-!> failure_text (failure messages, string helpers). The state and the
-!> form of F are described in module cloth_model.
+!> and the run's end. Beside it in src/run: solver_setup (option
+!> resolution, solver_create and solver_destroy), run_checkpoint
+!> (checkpoints and restarts), provenance (run information and
+!> configuration in the output) and failure_text (failure messages); the
+!> solver it drives is src/solver, one module per concern
+!> (docs/design.md, "Module layout"). The state and the form of F are
+!> described in module cloth_model.
 module timestepping
 #include "petsc/finclude/petscts.h"
   use petscts
@@ -25,7 +23,7 @@ module timestepping
   use constraints, only: constraints_set_window, constraint_target, constraint_events, constraints_active, &
                          constraint_count, constraint_node
   use diagnostics, only: state_diagnostics_t, state_diagnostics
-  use output, only: output_file, output_record, output_write_step, output_write_wall_time
+  use output, only: output_file, output_record, output_write_step, output_write_wall_time, output_write_retried_steps
   use app_context, only: app_ctx, nuno_walltime_arm, nuno_checkpoint_due, nuno_signal_agreed
   use step_settings, only: step_enter_window, step_dt, step_t_end, step_fixed, step_max_steps
   use energy_integrals, only: energy_add_work, energy_integrals_start, energy_set_mgx0, energy_totals
@@ -459,7 +457,7 @@ contains
     character(len=*), intent(inout) :: status
     PetscErrorCode, intent(out) :: ierr
     character(len=512) :: errmsg
-    real(rp) :: wall
+    real(rp) :: wall, counts(5)
 
     ierr = 0
     if (status == 'complete' .and. .not. restart_current(r)) then
@@ -470,6 +468,9 @@ contains
     wall = progress_wall(ctx%progress)
     call MPI_Allreduce(MPI_IN_PLACE, wall, 1, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)
     call output_write_wall_time(out, wall, ierr, errmsg)
+    ! and the steps retried smaller (rejected): with fixed steps, those not dt
+    if (ierr == 0) call run_counts(ctx, r, counts, ierr)
+    if (ierr == 0) call output_write_retried_steps(out, nint(counts(2)), ierr, errmsg)
     if (ierr /= 0) then
       call report_io_error(ctx, errmsg)
       if (io_failed(ctx, status, ierr)) return
@@ -534,9 +535,13 @@ contains
     kw = index(status, ':') - 1
     if (kw < 1) kw = len_trim(status)
     if (ctx%rank == 0) then
-      write(output_unit, '(a,es13.5e2,a,i0,a,i0,a,i0,a,es11.3e2,a)') 'nuno: '// &
+      write(output_unit, '(a,es13.5e2,a,i0,a,i0,a,i0,a,es11.3e2,a)', advance='no') 'nuno: '// &
         status(1:kw)//' at t =', t, ': ', steps, ' steps, ', rejects, ' rejected (', fails, &
         ' retried after a failed Newton solve), wall time', wall, ' s'
+      ! Fixed steps are dt but where a step was retried smaller (dt/4).
+      if (step_fixed(ctx%step) .and. rejects > 0) write(output_unit, '(a,i0,a)', advance='no') &
+        '; fixed steps: ', rejects, ' retried smaller, so not every step was dt (/run retried_steps)'
+      write(output_unit, '(a)') ''
       flush(output_unit)
     end if
   end subroutine final_summary

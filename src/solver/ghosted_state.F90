@@ -2,8 +2,10 @@
 !> A global vector of the DMDA read with its halo: its local copy (the
 !> ghost rows of the neighbouring strips updated) and that copy's array,
 !> read only, for the plain-array kernels (the residual, the Jacobian's
-!> assembly, the monitor's powers, contact's check, the output step), and
-!> their release. The one place of the four calls each such read takes.
+!> assembly, the monitor's powers, contact's check, the output step, the
+!> reduced solve's right-hand side, 6-dof product and constrained marks,
+!> identification's dF/dp), and their release. The one place of the four
+!> calls each such read takes.
 module ghosted_state
 #include "petsc/finclude/petscdmda.h"
   use petscdmda

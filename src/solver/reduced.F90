@@ -35,6 +35,7 @@ module reduced
                         true_residual_defaults, mg_options_t, mg_options_read, &
                         INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
   use shell_context, only: PCShellSetContext, PCShellGetContext, MatShellSetContext, MatShellGetContext
+  use ghosted_state, only: ghosted_get, ghosted_restore
   implicit none
   private
   public :: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach, reduced_describe
@@ -488,13 +489,9 @@ contains
       end do
     end do
     PetscCall(DMDAVecRestoreArrayF90(red%da3, red%dv, fa, ierr))
-    PetscCall(DMGetLocalVector(red%da3, loc, ierr))
-    PetscCall(DMGlobalToLocalBegin(red%da3, red%dv, INSERT_VALUES, loc, ierr))
-    PetscCall(DMGlobalToLocalEnd(red%da3, red%dv, INSERT_VALUES, loc, ierr))
-    PetscCall(DMDAVecGetArrayReadF90(red%da3, loc, fl, ierr))
+    PetscCall(ghosted_get(red%da3, red%dv, loc, fl, ierr))
     red%el%fixedg = fl(0, :, :) > 0.5_rp
-    PetscCall(DMDAVecRestoreArrayReadF90(red%da3, loc, fl, ierr))
-    PetscCall(DMRestoreLocalVector(red%da3, loc, ierr))
+    PetscCall(ghosted_restore(red%da3, loc, fl, ierr))
     red%dirty = .true.
     ! The preconditioner is built afresh at the window's first assembly, so
     ! that a run restarted at a window's start (a checkpoint) takes the same
