@@ -1,0 +1,476 @@
+! SPDX-License-Identifier: BSD-2-Clause
+!> Broad phase of the cloth's self-contact on a set of lattice rows (issue 49
+!> item 1; docs/self-contact.md): the candidate point-triangle and edge-edge
+!> pairs of IPC (module contact_primitives) among the primitives of the rows
+!> a rank holds, found with a uniform spatial hash in O(N).
+!>
+!> Primitives, each with a global number that every rank computes alike
+!> (node g = i + nx j, 0-based, as the DMDA's):
+!>   points     every node of a present row;
+!>   triangles  the two of quad (i, j) (contact_faces' quad_triangles with the
+!>              split given), number 2 g(i,j) + t - 1, t = 1, 2;
+!>   edges      x-link (i,j)-(i+1,j) 3 g, y-link (i,j)-(i,j+1) 3 g + 1, the
+!>              split's diagonal 3 g + 2 (g = g(i,j), the anchor).
+!> A quad, its y-link and its diagonal exist where rows j and j+1 are both
+!> present; an x-link where row j is.
+!>
+!> A candidate pair is a point and a triangle, or two edges, that
+!>   - share no node;
+!>   - are not neighbours at rest: their distance in the rest lattice
+!>     (X = (i ax, j ay, 0)) is at least rest_reach (dhat + thickness: a
+!>     flat cloth at rest has no active pair; such pairs are left to the
+!>     elastic elements and are not protected by the step limit);
+!>   - belong to this rank: the row of the pair's lowest global node number
+!>     lies in own_lo..own_hi (each pair is counted on one rank only);
+!>   - are near: the distance is below reach (self_candidates), or the two
+!>     paths from x to x + dx may come within margin of each other
+!>     (self_candidates_swept: boxes of both ends overlap and the start
+!>     distance minus ACCD's rate bound is below margin).
+!> Point-triangle pairs are (p, t0, t1, t2) with the triangle's corners in
+!> quad_triangles' order; edge-edge pairs (a0, a1, b0, b1) with the edge of
+!> the smaller number first, each edge's nodes in anchor order.
+!>
+!> The hash: cells of size h = the largest extent of any primitive's box
+!> (triangles and edges grown by reach, so that each box covers at most 2 x 2
+!> x 2 cells), keys hashed into a table of a power of 2 at least the number
+!> of entries, filled by a counting sort. Each triangle and edge goes into
+!> the cells of its grown box; each point (its box over the path) and edge
+!> asks the cells of its own box and takes a hit only in the cell that holds
+!> the lowest corner of the two boxes' intersection, so a pair is met once.
+!> Plain arrays, no PETSc, no MPI; it allocates (the tables, the pair list).
+module self_broad
+  use, intrinsic :: iso_fortran_env, only: int64
+  use kinds, only: rp
+  use contact_faces, only: quad_triangles, quad_diagonal, SPLIT_MAIN, SPLIT_ANTI
+  use contact_primitives, only: point_triangle_d2, edge_edge_d2
+  use contact_ccd, only: accd_rate_bound
+  implicit none
+  private
+  public :: self_lattice_t, self_pairs_t, PAIR_PT, PAIR_EE
+  public :: self_row_slots, self_candidates, self_candidates_swept
+  public :: self_pair_positions, self_pair_rest, self_pairs_clear, self_pair_owner_row
+  public :: self_pair_distance2
+
+  !> Pair kinds (the same codes as contact_ccd's rate bound).
+  integer, parameter :: PAIR_PT = 1, PAIR_EE = 2
+
+  !> The lattice that the global numbers refer to.
+  type :: self_lattice_t
+    integer :: nx = 0, ny = 0              !< nodes along x and y
+    integer :: split = SPLIT_MAIN          !< quad split: contact_faces' SPLIT_MAIN or SPLIT_ANTI
+    real(rp) :: ax = 0.0_rp, ay = 0.0_rp   !< rest spacing along x and y [length]
+  end type self_lattice_t
+
+  !> Candidate pairs: kind(k) PAIR_PT or PAIR_EE, node(:, k) their 4 global node numbers.
+  type :: self_pairs_t
+    integer :: n = 0
+    integer, allocatable :: kind(:)
+    integer, allocatable :: node(:, :)     !< (4, n)
+  end type self_pairs_t
+
+  !> The spatial hash of one set of boxes.
+  type :: grid_t
+    integer :: nbucket = 0                 ! a power of 2
+    integer, allocatable :: first(:)       ! (0:nbucket) start of each bucket in item
+    integer, allocatable :: item(:)        ! box number of each entry
+    integer(int64), allocatable :: cell(:, :)   ! (3, entries) the entry's cell
+  end type grid_t
+
+  integer(int64), parameter :: P1 = 73856093_int64, P2 = 19349663_int64, P3 = 83492791_int64
+
+contains
+
+  ! ------------------------------------------------------------------------
+  ! Rows, nodes, pairs
+  ! ------------------------------------------------------------------------
+
+  !> slot(j) = the position of global row j in rows (1..nr), 0 where absent.
+  pure subroutine self_row_slots(lat, rows, slot)
+    type(self_lattice_t), intent(in) :: lat
+    integer, intent(in) :: rows(:)                 ! present global rows, each once
+    integer, intent(out) :: slot(0:lat%ny - 1)
+    integer :: r
+
+    slot = 0
+    do r = 1, size(rows)
+      slot(rows(r)) = r
+    end do
+  end subroutine self_row_slots
+
+  !> Positions of a pair's 4 nodes from the rows' array x(3, 0:nx-1, nr) (slot: self_row_slots).
+  pure function self_pair_positions(lat, slot, x, node) result(xp)
+    type(self_lattice_t), intent(in) :: lat
+    integer, intent(in) :: slot(0:), node(4)
+    real(rp), intent(in) :: x(:, 0:, :)
+    real(rp) :: xp(3, 4)
+    integer :: k
+
+    do k = 1, 4
+      xp(:, k) = x(1:3, mod(node(k), lat%nx), slot(node(k) / lat%nx))
+    end do
+  end function self_pair_positions
+
+  !> Rest positions (i ax, j ay, 0) of a pair's 4 nodes.
+  pure function self_pair_rest(lat, node) result(xr)
+    type(self_lattice_t), intent(in) :: lat
+    integer, intent(in) :: node(4)
+    real(rp) :: xr(3, 4)
+    integer :: k
+
+    do k = 1, 4
+      xr(:, k) = [mod(node(k), lat%nx) * lat%ax, (node(k) / lat%nx) * lat%ay, 0.0_rp]
+    end do
+  end function self_pair_rest
+
+  !> The row whose owner counts the pair: that of its lowest global node number.
+  pure integer function self_pair_owner_row(lat, node) result(j)
+    type(self_lattice_t), intent(in) :: lat
+    integer, intent(in) :: node(4)
+
+    j = minval(node) / lat%nx
+  end function self_pair_owner_row
+
+  !> Squared distance of a pair at positions xp(3, 4) [length^2].
+  pure real(rp) function self_pair_distance2(kind, xp) result(d2)
+    integer, intent(in) :: kind
+    real(rp), intent(in) :: xp(3, 4)
+
+    if (kind == PAIR_PT) then
+      d2 = point_triangle_d2(xp(:, 1), xp(:, 2), xp(:, 3), xp(:, 4))
+    else
+      d2 = edge_edge_d2(xp(:, 1), xp(:, 2), xp(:, 3), xp(:, 4))
+    end if
+  end function self_pair_distance2
+
+  !> Empty the list (keeps its storage).
+  pure subroutine self_pairs_clear(pairs)
+    type(self_pairs_t), intent(inout) :: pairs
+
+    pairs%n = 0
+  end subroutine self_pairs_clear
+
+  pure subroutine add_pair(pairs, kind, node)
+    type(self_pairs_t), intent(inout) :: pairs
+    integer, intent(in) :: kind, node(4)
+    integer, allocatable :: k2(:), n2(:, :)
+    integer :: cap
+
+    cap = 0
+    if (allocated(pairs%kind)) cap = size(pairs%kind)
+    if (pairs%n == cap) then
+      cap = max(64, 2 * cap)
+      allocate(k2(cap), n2(4, cap))
+      if (pairs%n > 0) then
+        k2(1:pairs%n) = pairs%kind(1:pairs%n)
+        n2(:, 1:pairs%n) = pairs%node(:, 1:pairs%n)
+      end if
+      call move_alloc(k2, pairs%kind)
+      call move_alloc(n2, pairs%node)
+    end if
+    pairs%n = pairs%n + 1
+    pairs%kind(pairs%n) = kind
+    pairs%node(:, pairs%n) = node
+  end subroutine add_pair
+
+  ! ------------------------------------------------------------------------
+  ! Candidates
+  ! ------------------------------------------------------------------------
+
+  !> Candidate pairs (module header) at positions x whose distance is below reach; pairs
+  !> is emptied first.
+  subroutine self_candidates(lat, rows, x, own_lo, own_hi, reach, rest_reach, pairs)
+    type(self_lattice_t), intent(in) :: lat
+    integer, intent(in) :: rows(:)                  ! present global rows, each once
+    real(rp), intent(in) :: x(:, 0:, :)             ! (3, 0:nx-1, size(rows)) positions [length]
+    integer, intent(in) :: own_lo, own_hi           ! this rank's rows (pair ownership)
+    real(rp), intent(in) :: reach                   ! e.g. dhat + thickness [length]
+    real(rp), intent(in) :: rest_reach              ! pairs nearer than this at rest are left out [length]
+    type(self_pairs_t), intent(inout) :: pairs
+
+    call find_pairs(lat, rows, x, x, .false., own_lo, own_hi, reach, rest_reach, pairs)
+  end subroutine self_candidates
+
+  !> Candidate pairs (module header) for the straight paths from x to x + dx that may come
+  !> within margin of each other (for a step's CCD: margin = the thickness); pairs is emptied.
+  subroutine self_candidates_swept(lat, rows, x, dx, own_lo, own_hi, margin, rest_reach, pairs)
+    type(self_lattice_t), intent(in) :: lat
+    integer, intent(in) :: rows(:)
+    real(rp), intent(in) :: x(:, 0:, :)             ! (3, 0:nx-1, nr) start [length]
+    real(rp), intent(in) :: dx(:, 0:, :)            ! (3, 0:nx-1, nr) displacement [length]
+    integer, intent(in) :: own_lo, own_hi
+    real(rp), intent(in) :: margin                  ! [length]
+    real(rp), intent(in) :: rest_reach              ! [length]
+    type(self_pairs_t), intent(inout) :: pairs
+    real(rp), allocatable :: x1(:, :, :)
+
+    x1 = x(1:3, :, :) + dx(1:3, :, :)
+    call find_pairs(lat, rows, x, x1, .true., own_lo, own_hi, margin, rest_reach, pairs)
+  end subroutine self_candidates_swept
+
+  !> The broad phase proper: boxes over the start x0 and the end x1 of each primitive.
+  subroutine find_pairs(lat, rows, x0, x1, swept, own_lo, own_hi, reach, rest_reach, pairs)
+    type(self_lattice_t), intent(in) :: lat
+    integer, intent(in) :: rows(:)
+    real(rp), intent(in) :: x0(:, 0:, :), x1(:, 0:, :)
+    logical, intent(in) :: swept
+    integer, intent(in) :: own_lo, own_hi
+    real(rp), intent(in) :: reach, rest_reach
+    type(self_pairs_t), intent(inout) :: pairs
+    integer, allocatable :: slot(:), tri(:, :), tid(:), edg(:, :), eid(:), pts(:)
+    real(rp), allocatable :: tlo(:, :), thi(:, :), elo(:, :), ehi(:, :), plo(:, :), phi(:, :)
+    type(grid_t) :: gt, ge
+    real(rp) :: origin(3), h
+    integer :: ntri, ned, npt, k
+
+    pairs%n = 0
+    allocate(slot(0:lat%ny - 1))
+    call self_row_slots(lat, rows, slot)
+    call list_primitives(lat, rows, slot, tri, tid, ntri, edg, eid, ned, pts, npt)
+    allocate(tlo(3, ntri), thi(3, ntri), elo(3, ned), ehi(3, ned), plo(3, npt), phi(3, npt))
+    do k = 1, ntri
+      call node_box(lat, slot, x0, x1, tri(:, k), tlo(:, k), thi(:, k))
+    end do
+    do k = 1, ned
+      call node_box(lat, slot, x0, x1, edg(:, k), elo(:, k), ehi(:, k))
+    end do
+    do k = 1, npt
+      call node_box(lat, slot, x0, x1, pts(k:k), plo(:, k), phi(:, k))
+    end do
+    if (npt == 0) return
+    ! Cells: each grown box spans at most 2 cells an axis.
+    h = 0.0_rp
+    if (ntri > 0) h = max(h, maxval(thi - tlo) + 2.0_rp * reach)
+    if (ned > 0) h = max(h, maxval(ehi - elo) + 2.0_rp * reach)
+    h = max(h, maxval(phi - plo))
+    if (h <= 0.0_rp) h = 1.0_rp
+    origin = minval(plo, dim=2) - 2.0_rp * reach - h
+    call build_grid(gt, tlo - reach, thi + reach, origin, h)
+    call build_grid(ge, elo - reach, ehi + reach, origin, h)
+    call point_triangle_pairs()
+    call edge_edge_pairs()
+
+  contains
+
+    subroutine point_triangle_pairs()
+      integer(int64) :: c(3), clo(3), chi(3), cm(3)
+      integer :: p, e, t, b, node(4), cx, cy, cz
+      real(rp) :: glo(3), ghi(3)
+
+      do p = 1, npt
+        clo = cell_of(plo(:, p), origin, h)
+        chi = cell_of(phi(:, p), origin, h)
+        do cz = 0, int(chi(3) - clo(3))
+          do cy = 0, int(chi(2) - clo(2))
+            do cx = 0, int(chi(1) - clo(1))
+              c = clo + [cx, cy, cz]
+              b = bucket(gt, c)
+              do e = gt%first(b), gt%first(b + 1) - 1
+                if (any(gt%cell(:, e) /= c)) cycle
+                t = gt%item(e)
+                if (any(tri(:, t) == pts(p))) cycle
+                glo = tlo(:, t) - reach
+                ghi = thi(:, t) + reach
+                if (any(plo(:, p) > ghi .or. glo > phi(:, p))) cycle
+                cm = cell_of(max(plo(:, p), glo), origin, h)
+                if (any(cm /= c)) cycle
+                node = [pts(p), tri(:, t)]
+                call consider(PAIR_PT, node)
+              end do
+            end do
+          end do
+        end do
+      end do
+    end subroutine point_triangle_pairs
+
+    subroutine edge_edge_pairs()
+      integer(int64) :: c(3), clo(3), chi(3), cm(3)
+      integer :: a, e, f, b, node(4), cx, cy, cz
+      real(rp) :: glo(3), ghi(3)
+
+      do a = 1, ned
+        clo = cell_of(elo(:, a), origin, h)
+        chi = cell_of(ehi(:, a), origin, h)
+        do cz = 0, int(chi(3) - clo(3))
+          do cy = 0, int(chi(2) - clo(2))
+            do cx = 0, int(chi(1) - clo(1))
+              c = clo + [cx, cy, cz]
+              b = bucket(ge, c)
+              do e = ge%first(b), ge%first(b + 1) - 1
+                if (any(ge%cell(:, e) /= c)) cycle
+                f = ge%item(e)
+                if (eid(f) <= eid(a)) cycle
+                if (any(edg(:, f) == edg(1, a) .or. edg(:, f) == edg(2, a))) cycle
+                glo = elo(:, f) - reach
+                ghi = ehi(:, f) + reach
+                if (any(elo(:, a) > ghi .or. glo > ehi(:, a))) cycle
+                cm = cell_of(max(elo(:, a), glo), origin, h)
+                if (any(cm /= c)) cycle
+                node = [edg(:, a), edg(:, f)]
+                call consider(PAIR_EE, node)
+              end do
+            end do
+          end do
+        end do
+      end do
+    end subroutine edge_edge_pairs
+
+    !> The narrow tests: ownership, rest distance, distance (or the path's bound).
+    subroutine consider(kind, node)
+      integer, intent(in) :: kind, node(4)
+      real(rp) :: xa(3, 4), xb(3, 4), d2
+      integer :: jown
+
+      jown = self_pair_owner_row(lat, node)
+      if (jown < own_lo .or. jown > own_hi) return
+      if (rest_reach > 0.0_rp) then
+        if (self_pair_distance2(kind, self_pair_rest(lat, node)) < rest_reach**2) return
+      end if
+      xa = self_pair_positions(lat, slot, x0, node)
+      d2 = self_pair_distance2(kind, xa)
+      if (swept) then
+        xb = self_pair_positions(lat, slot, x1, node)
+        if (sqrt(d2) - accd_rate_bound(kind, xb - xa) >= reach) return
+      else
+        if (d2 >= reach**2) return
+      end if
+      call add_pair(pairs, kind, node)
+    end subroutine consider
+
+  end subroutine find_pairs
+
+  !> The primitives of the present rows (module header), as global node numbers.
+  subroutine list_primitives(lat, rows, slot, tri, tid, ntri, edg, eid, ned, pts, npt)
+    type(self_lattice_t), intent(in) :: lat
+    integer, intent(in) :: rows(:), slot(0:)
+    integer, allocatable, intent(out) :: tri(:, :), tid(:), edg(:, :), eid(:), pts(:)
+    integer, intent(out) :: ntri, ned, npt
+    integer :: r, i, j, g, t, c(4), qt(3, 2), ca, cb, nx
+
+    nx = lat%nx
+    allocate(tri(3, 2 * nx * size(rows)), tid(2 * nx * size(rows)))
+    allocate(edg(2, 3 * nx * size(rows)), eid(3 * nx * size(rows)), pts(nx * size(rows)))
+    call quad_triangles(lat%split, qt)
+    call quad_diagonal(lat%split, ca, cb)
+    ntri = 0
+    ned = 0
+    npt = 0
+    do r = 1, size(rows)
+      j = rows(r)
+      do i = 0, nx - 1
+        g = i + nx * j
+        npt = npt + 1
+        pts(npt) = g
+        if (i < nx - 1) call put_edge([g, g + 1], 3 * g)
+        if (j + 1 > lat%ny - 1) cycle
+        if (slot(j + 1) == 0) cycle
+        call put_edge([g, g + nx], 3 * g + 1)
+        if (i == nx - 1) cycle
+        c = [g, g + 1, g + nx, g + nx + 1]
+        do t = 1, 2
+          ntri = ntri + 1
+          tri(:, ntri) = c(qt(:, t))
+          tid(ntri) = 2 * g + t - 1
+        end do
+        call put_edge([c(ca), c(cb)], 3 * g + 2)
+      end do
+    end do
+
+  contains
+
+    subroutine put_edge(nodes, id)
+      integer, intent(in) :: nodes(2), id
+
+      ned = ned + 1
+      edg(:, ned) = nodes
+      eid(ned) = id
+    end subroutine put_edge
+
+  end subroutine list_primitives
+
+  !> Box of the nodes' positions at x0 and x1.
+  pure subroutine node_box(lat, slot, x0, x1, nodes, lo, hi)
+    type(self_lattice_t), intent(in) :: lat
+    integer, intent(in) :: slot(0:), nodes(:)
+    real(rp), intent(in) :: x0(:, 0:, :), x1(:, 0:, :)
+    real(rp), intent(out) :: lo(3), hi(3)
+    integer :: k, i, s
+
+    lo = huge(1.0_rp)
+    hi = -huge(1.0_rp)
+    do k = 1, size(nodes)
+      i = mod(nodes(k), lat%nx)
+      s = slot(nodes(k) / lat%nx)
+      lo = min(lo, x0(1:3, i, s), x1(1:3, i, s))
+      hi = max(hi, x0(1:3, i, s), x1(1:3, i, s))
+    end do
+  end subroutine node_box
+
+  ! ------------------------------------------------------------------------
+  ! The spatial hash
+  ! ------------------------------------------------------------------------
+
+  pure function cell_of(y, origin, h) result(c)
+    real(rp), intent(in) :: y(3), origin(3), h
+    integer(int64) :: c(3)
+
+    c = floor((y - origin) / h, kind=int64)
+  end function cell_of
+
+  pure integer function bucket(g, c) result(b)
+    type(grid_t), intent(in) :: g
+    integer(int64), intent(in) :: c(3)
+
+    b = int(iand(ieor(ieor(c(1) * P1, c(2) * P2), c(3) * P3), int(g%nbucket - 1, int64)))
+  end function bucket
+
+  !> The hash of boxes lo(:, k)..hi(:, k): each box in every cell it overlaps (counting sort).
+  pure subroutine build_grid(g, lo, hi, origin, h)
+    type(grid_t), intent(out) :: g
+    real(rp), intent(in) :: lo(:, :), hi(:, :), origin(3), h
+    integer(int64) :: clo(3), chi(3), c(3)
+    integer :: k, n, b, cx, cy, cz, pass
+    integer, allocatable :: fill(:)
+
+    n = 0
+    do k = 1, size(lo, 2)
+      clo = cell_of(lo(:, k), origin, h)
+      chi = cell_of(hi(:, k), origin, h)
+      n = n + int(product(chi - clo + 1))
+    end do
+    g%nbucket = 1
+    do while (g%nbucket < n)
+      g%nbucket = 2 * g%nbucket
+    end do
+    allocate(g%first(0:g%nbucket), g%item(n), g%cell(3, n), fill(0:g%nbucket - 1))
+    fill = 0
+    do pass = 1, 2
+      do k = 1, size(lo, 2)
+        clo = cell_of(lo(:, k), origin, h)
+        chi = cell_of(hi(:, k), origin, h)
+        do cz = 0, int(chi(3) - clo(3))
+          do cy = 0, int(chi(2) - clo(2))
+            do cx = 0, int(chi(1) - clo(1))
+              c = clo + [cx, cy, cz]
+              b = bucket(g, c)
+              if (pass == 1) then
+                fill(b) = fill(b) + 1
+              else
+                g%item(fill(b)) = k
+                g%cell(:, fill(b)) = c
+                fill(b) = fill(b) + 1
+              end if
+            end do
+          end do
+        end do
+      end do
+      if (pass == 1) then
+        g%first(0) = 1
+        do b = 0, g%nbucket - 1
+          g%first(b + 1) = g%first(b) + fill(b)
+        end do
+        fill = g%first(0:g%nbucket - 1)
+      end if
+    end do
+  end subroutine build_grid
+
+end module self_broad
