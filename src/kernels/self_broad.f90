@@ -68,14 +68,25 @@ module self_broad
     integer, allocatable :: node(:, :)     !< (4, n)
   end type self_pairs_t
 
+  !> The rest rule by index offsets: pt(t, di, dj) for a point at (di, dj) from the anchor of
+  !> a triangle t, ee(ka, kb, di, dj) for edge kb anchored (di, dj) from edge ka (ka's number
+  !> the smaller): .true. where the pair is nearer than rest_reach at rest; .false. beyond
+  !> the offsets held (ri, rj).
+  type :: rest_table_t
+    integer :: ri = -1, rj = -1
+    logical, allocatable :: pt(:, :, :)        ! (2, -ri:ri, -rj:rj)
+    logical, allocatable :: ee(:, :, :, :)     ! (0:2, 0:2, -ri:ri, -rj:rj)
+  end type rest_table_t
+
   !> The spatial hash of one set of boxes.
   type :: grid_t
     integer :: nbucket = 0                 ! a power of 2
     integer, allocatable :: first(:)       ! (0:nbucket) start of each bucket in item
     integer, allocatable :: item(:)        ! box number of each entry
-    integer(int64), allocatable :: cell(:, :)   ! (3, entries) the entry's cell
+    integer(int64), allocatable :: key(:)       ! the entry's cell, packed (cell_key)
   end type grid_t
 
+  real(rp), parameter :: CELL_FACTOR = 1.0_rp
   integer(int64), parameter :: P1 = 73856093_int64, P2 = 19349663_int64, P3 = 83492791_int64
 
 contains
@@ -110,15 +121,19 @@ contains
     end do
   end function self_pair_positions
 
-  !> Rest positions (i ax, j ay, 0) of a pair's 4 nodes.
+  !> Rest positions of a pair's 4 nodes, ((i - imin) ax, (j - jmin) ay, 0) with imin, jmin
+  !> the pair's smallest indices: a function of the index offsets alone, so that the same
+  !> pattern anywhere on the lattice gives the same numbers (the rest rule's table).
   pure function self_pair_rest(lat, node) result(xr)
     type(self_lattice_t), intent(in) :: lat
     integer, intent(in) :: node(4)
     real(rp) :: xr(3, 4)
-    integer :: k
+    integer :: k, i(4), j(4)
 
+    i = mod(node, lat%nx)
+    j = node / lat%nx
     do k = 1, 4
-      xr(:, k) = [mod(node(k), lat%nx) * lat%ax, (node(k) / lat%nx) * lat%ay, 0.0_rp]
+      xr(:, k) = [(i(k) - minval(i)) * lat%ax, (j(k) - minval(j)) * lat%ay, 0.0_rp]
     end do
   end function self_pair_rest
 
@@ -219,6 +234,7 @@ contains
     integer, allocatable :: slot(:), tri(:, :), tid(:), edg(:, :), eid(:), pts(:)
     real(rp), allocatable :: tlo(:, :), thi(:, :), elo(:, :), ehi(:, :), plo(:, :), phi(:, :)
     type(grid_t) :: gt, ge
+    type(rest_table_t) :: rt
     real(rp) :: origin(3), h
     integer :: ntri, ned, npt, k
 
@@ -237,22 +253,18 @@ contains
       call node_box(lat, slot, x0, x1, pts(k:k), plo(:, k), phi(:, k))
     end do
     if (npt == 0) return
-    ! Cells: each grown box spans at most 2 cells an axis.
-    h = 0.0_rp
-    if (ntri > 0) h = max(h, maxval(thi - tlo) + 2.0_rp * reach)
-    if (ned > 0) h = max(h, maxval(ehi - elo) + 2.0_rp * reach)
-    h = max(h, maxval(phi - plo))
-    if (h <= 0.0_rp) h = 1.0_rp
+    h = cell_size(tlo, thi, elo, ehi, plo, phi, reach)
     origin = minval(plo, dim=2) - 2.0_rp * reach - h
     call build_grid(gt, tlo - reach, thi + reach, origin, h)
     call build_grid(ge, elo - reach, ehi + reach, origin, h)
+    call build_rest_table(lat, rest_reach, rt)
     call point_triangle_pairs()
     call edge_edge_pairs()
 
   contains
 
     subroutine point_triangle_pairs()
-      integer(int64) :: c(3), clo(3), chi(3), cm(3)
+      integer(int64) :: c(3), clo(3), chi(3), cm(3), kc
       integer :: p, e, t, b, node(4), cx, cy, cz
       real(rp) :: glo(3), ghi(3)
 
@@ -264,8 +276,9 @@ contains
             do cx = 0, int(chi(1) - clo(1))
               c = clo + [cx, cy, cz]
               b = bucket(gt, c)
+              kc = cell_key(c)
               do e = gt%first(b), gt%first(b + 1) - 1
-                if (any(gt%cell(:, e) /= c)) cycle
+                if (gt%key(e) /= kc) cycle
                 t = gt%item(e)
                 if (any(tri(:, t) == pts(p))) cycle
                 glo = tlo(:, t) - reach
@@ -274,7 +287,7 @@ contains
                 cm = cell_of(max(plo(:, p), glo), origin, h)
                 if (any(cm /= c)) cycle
                 node = [pts(p), tri(:, t)]
-                call consider(PAIR_PT, node)
+                call consider(PAIR_PT, node, pts(p), tid(t))
               end do
             end do
           end do
@@ -283,7 +296,7 @@ contains
     end subroutine point_triangle_pairs
 
     subroutine edge_edge_pairs()
-      integer(int64) :: c(3), clo(3), chi(3), cm(3)
+      integer(int64) :: c(3), clo(3), chi(3), cm(3), kc
       integer :: a, e, f, b, node(4), cx, cy, cz
       real(rp) :: glo(3), ghi(3)
 
@@ -295,8 +308,9 @@ contains
             do cx = 0, int(chi(1) - clo(1))
               c = clo + [cx, cy, cz]
               b = bucket(ge, c)
+              kc = cell_key(c)
               do e = ge%first(b), ge%first(b + 1) - 1
-                if (any(ge%cell(:, e) /= c)) cycle
+                if (ge%key(e) /= kc) cycle
                 f = ge%item(e)
                 if (eid(f) <= eid(a)) cycle
                 if (any(edg(:, f) == edg(1, a) .or. edg(:, f) == edg(2, a))) cycle
@@ -306,7 +320,7 @@ contains
                 cm = cell_of(max(elo(:, a), glo), origin, h)
                 if (any(cm /= c)) cycle
                 node = [edg(:, a), edg(:, f)]
-                call consider(PAIR_EE, node)
+                call consider(PAIR_EE, node, eid(a), eid(f))
               end do
             end do
           end do
@@ -314,16 +328,17 @@ contains
       end do
     end subroutine edge_edge_pairs
 
-    !> The narrow tests: ownership, rest distance, distance (or the path's bound).
-    subroutine consider(kind, node)
-      integer, intent(in) :: kind, node(4)
+    !> The narrow tests: ownership, rest distance, distance (or the path's bound). ida, idb:
+    !> the point's node and the triangle's number, or the two edges' numbers.
+    subroutine consider(kind, node, ida, idb)
+      integer, intent(in) :: kind, node(4), ida, idb
       real(rp) :: xa(3, 4), xb(3, 4), d2
       integer :: jown
 
       jown = self_pair_owner_row(lat, node)
       if (jown < own_lo .or. jown > own_hi) return
       if (rest_reach > 0.0_rp) then
-        if (self_pair_distance2(kind, self_pair_rest(lat, node)) < rest_reach**2) return
+        if (rest_near(lat, rt, kind, ida, idb)) return
       end if
       xa = self_pair_positions(lat, slot, x0, node)
       d2 = self_pair_distance2(kind, xa)
@@ -337,6 +352,123 @@ contains
     end subroutine consider
 
   end subroutine find_pairs
+
+  !> The hash's cell: CELL_FACTOR times the mean over triangles and edges of the largest
+  !> side of the grown box (a typical box spans 2 cells an axis; one stretched element
+  !> takes more cells instead of making every cell large).
+  pure real(rp) function cell_size(tlo, thi, elo, ehi, plo, phi, reach) result(h)
+    real(rp), intent(in) :: tlo(:, :), thi(:, :), elo(:, :), ehi(:, :), plo(:, :), phi(:, :), reach
+    real(rp) :: s
+    integer :: k, n
+
+    s = 0.0_rp
+    do k = 1, size(tlo, 2)
+      s = s + maxval(thi(:, k) - tlo(:, k))
+    end do
+    do k = 1, size(elo, 2)
+      s = s + maxval(ehi(:, k) - elo(:, k))
+    end do
+    n = size(tlo, 2) + size(elo, 2)
+    if (n > 0) then
+      h = CELL_FACTOR * (s / n + 2.0_rp * reach)
+    else
+      h = maxval(phi - plo) + 2.0_rp * reach
+    end if
+    if (.not. h > 0.0_rp) h = 1.0_rp
+    ! At most 2^20 cells an axis over the points' span (plus the margin of origin):
+    ! cell_key packs 21 bits a coordinate.
+    h = max(h, (maxval(maxval(phi, dim=2) - minval(plo, dim=2)) + 4.0_rp * reach) / 2.0_rp**20)
+  end function cell_size
+
+  !> The rest rule (module header) for a point and a triangle (ida: the node, idb: the
+  !> triangle's number) or two edges (their numbers, ida < idb), by rt's offsets.
+  pure logical function rest_near(lat, rt, kind, ida, idb) result(near)
+    type(self_lattice_t), intent(in) :: lat
+    type(rest_table_t), intent(in) :: rt
+    integer, intent(in) :: kind, ida, idb
+    integer :: ga, gb, di, dj
+
+    if (kind == PAIR_PT) then
+      ga = idb / 2
+      gb = ida
+    else
+      ga = ida / 3
+      gb = idb / 3
+    end if
+    di = mod(gb, lat%nx) - mod(ga, lat%nx)
+    dj = gb / lat%nx - ga / lat%nx
+    near = .false.
+    if (abs(di) > rt%ri .or. abs(dj) > rt%rj) return
+    if (kind == PAIR_PT) then
+      near = rt%pt(mod(idb, 2) + 1, di, dj)
+    else
+      near = rt%ee(mod(ida, 3), mod(idb, 3), di, dj)
+    end if
+  end function rest_near
+
+  !> The rest rule's table: each offset's pair placed on a lattice of its own (the same
+  !> split and spacing) and measured with self_pair_rest, as the pair itself would be.
+  !> A primitive spans one index, so offsets beyond rest_reach / spacing + 1 are never near.
+  subroutine build_rest_table(lat, rest_reach, rt)
+    type(self_lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: rest_reach
+    type(rest_table_t), intent(out) :: rt
+    type(self_lattice_t) :: lv
+    integer :: qt(3, 2), ca, cb, t, ka, kb, di, dj, ga, gb, ea(2), eb(2)
+
+    if (.not. rest_reach > 0.0_rp) return
+    rt%ri = min(int(rest_reach / lat%ax) + 2, lat%nx)
+    rt%rj = min(int(rest_reach / lat%ay) + 2, lat%ny)
+    allocate(rt%pt(2, -rt%ri:rt%ri, -rt%rj:rt%rj), rt%ee(0:2, 0:2, -rt%ri:rt%ri, -rt%rj:rt%rj))
+    lv = lat
+    lv%nx = 2 * rt%ri + 4
+    call quad_triangles(lat%split, qt)
+    call quad_diagonal(lat%split, ca, cb)
+    ga = (rt%ri + 1) + lv%nx * (rt%rj + 1)
+    do dj = -rt%rj, rt%rj
+      do di = -rt%ri, rt%ri
+        gb = ga + di + lv%nx * dj
+        do t = 1, 2
+          rt%pt(t, di, dj) = self_pair_distance2(PAIR_PT, self_pair_rest(lv, [gb, quad_node(ga, qt(:, t))])) &
+                             < rest_reach**2
+        end do
+        do kb = 0, 2
+          eb = edge_nodes(gb, kb)
+          do ka = 0, 2
+            ea = edge_nodes(ga, ka)
+            rt%ee(ka, kb, di, dj) = self_pair_distance2(PAIR_EE, self_pair_rest(lv, [ea, eb])) < rest_reach**2
+          end do
+        end do
+      end do
+    end do
+
+  contains
+
+    pure function quad_node(g, corners) result(nd)
+      integer, intent(in) :: g, corners(:)
+      integer :: nd(size(corners))
+      integer :: k
+
+      do k = 1, size(corners)
+        nd(k) = g + merge(1, 0, corners(k) == 2 .or. corners(k) == 4) + merge(lv%nx, 0, corners(k) >= 3)
+      end do
+    end function quad_node
+
+    pure function edge_nodes(g, k) result(nd)
+      integer, intent(in) :: g, k
+      integer :: nd(2)
+
+      select case (k)
+      case (0)
+        nd = [g, g + 1]
+      case (1)
+        nd = [g, g + lv%nx]
+      case default
+        nd = quad_node(g, [ca, cb])
+      end select
+    end function edge_nodes
+
+  end subroutine build_rest_table
 
   !> The primitives of the present rows (module header), as global node numbers.
   subroutine list_primitives(lat, rows, slot, tri, tid, ntri, edg, eid, ned, pts, npt)
@@ -416,6 +548,13 @@ contains
     c = floor((y - origin) / h, kind=int64)
   end function cell_of
 
+  !> A cell's coordinates (each in 0..2^21-1: cell_size keeps them there) in one integer.
+  pure integer(int64) function cell_key(c) result(k)
+    integer(int64), intent(in) :: c(3)
+
+    k = c(1) + ishft(c(2), 21) + ishft(c(3), 42)
+  end function cell_key
+
   pure integer function bucket(g, c) result(b)
     type(grid_t), intent(in) :: g
     integer(int64), intent(in) :: c(3)
@@ -441,7 +580,7 @@ contains
     do while (g%nbucket < n)
       g%nbucket = 2 * g%nbucket
     end do
-    allocate(g%first(0:g%nbucket), g%item(n), g%cell(3, n), fill(0:g%nbucket - 1))
+    allocate(g%first(0:g%nbucket), g%item(n), g%key(n), fill(0:g%nbucket - 1))
     fill = 0
     do pass = 1, 2
       do k = 1, size(lo, 2)
@@ -456,7 +595,7 @@ contains
                 fill(b) = fill(b) + 1
               else
                 g%item(fill(b)) = k
-                g%cell(:, fill(b)) = c
+                g%key(fill(b)) = cell_key(c)
                 fill(b) = fill(b) + 1
               end if
             end do
