@@ -100,8 +100,8 @@ contains
     end do
   end subroutine crumple_shape
 
-  !> Every point-triangle and edge-edge pair of the present rows that shares no node and is
-  !> not nearer than rest_reach at rest (no ownership, no distance test), in broad phase order.
+  !> Every point-triangle and edge-edge pair of the present rows that shares no node (no
+  !> rest rule, no ownership, no distance test), in broad phase order.
   subroutine all_pairs(lat, rows, pairs)
     type(self_lattice_t), intent(in) :: lat
     integer, intent(in) :: rows(:)
