@@ -30,10 +30,11 @@
 !> quad_triangles' order; edge-edge pairs (a0, a1, b0, b1) with the edge of
 !> the smaller number first, each edge's nodes in anchor order.
 !>
-!> The hash: cells of size h = the largest extent of any primitive's box
-!> (triangles and edges grown by reach, so that each box covers at most 2 x 2
-!> x 2 cells), keys hashed into a table of a power of 2 at least the number
-!> of entries, filled by a counting sort. Each triangle and edge goes into
+!> The hash: cells of size h = the mean largest side of the triangles' and
+!> edges' boxes grown by reach (a typical box covers 2 x 2 x 2 cells; a
+!> stretched element more cells, rather than every cell larger), keys hashed
+!> into a table of a power of 2 at least the number of entries, filled by a
+!> counting sort. Each triangle and edge goes into
 !> the cells of its grown box; each point (its box over the path) and edge
 !> asks the cells of its own box and takes a hit only in the cell that holds
 !> the lowest corner of the two boxes' intersection, so a pair is met once.
@@ -236,23 +237,16 @@ contains
     type(grid_t) :: gt, ge
     type(rest_table_t) :: rt
     real(rp) :: origin(3), h
-    integer :: ntri, ned, npt, k
+    integer :: ntri, ned, npt
 
     pairs%n = 0
     allocate(slot(0:lat%ny - 1))
     call self_row_slots(lat, rows, slot)
     call list_primitives(lat, rows, slot, tri, tid, ntri, edg, eid, ned, pts, npt)
-    allocate(tlo(3, ntri), thi(3, ntri), elo(3, ned), ehi(3, ned), plo(3, npt), phi(3, npt))
-    do k = 1, ntri
-      call node_box(lat, slot, x0, x1, tri(:, k), tlo(:, k), thi(:, k))
-    end do
-    do k = 1, ned
-      call node_box(lat, slot, x0, x1, edg(:, k), elo(:, k), ehi(:, k))
-    end do
-    do k = 1, npt
-      call node_box(lat, slot, x0, x1, pts(k:k), plo(:, k), phi(:, k))
-    end do
     if (npt == 0) return
+    call boxes(lat, slot, x0, x1, tri(:, 1:ntri), tlo, thi)
+    call boxes(lat, slot, x0, x1, edg(:, 1:ned), elo, ehi)
+    call boxes(lat, slot, x0, x1, reshape(pts(1:npt), [1, npt]), plo, phi)
     h = cell_size(tlo, thi, elo, ehi, plo, phi, reach)
     origin = minval(plo, dim=2) - 2.0_rp * reach - h
     call build_grid(gt, tlo - reach, thi + reach, origin, h)
@@ -518,6 +512,20 @@ contains
     end subroutine put_edge
 
   end subroutine list_primitives
+
+  !> Boxes of primitives (a column of nodes each) over their nodes' positions at x0 and x1.
+  pure subroutine boxes(lat, slot, x0, x1, nodes, lo, hi)
+    type(self_lattice_t), intent(in) :: lat
+    integer, intent(in) :: slot(0:), nodes(:, :)
+    real(rp), intent(in) :: x0(:, 0:, :), x1(:, 0:, :)
+    real(rp), allocatable, intent(out) :: lo(:, :), hi(:, :)
+    integer :: k
+
+    allocate(lo(3, size(nodes, 2)), hi(3, size(nodes, 2)))
+    do k = 1, size(nodes, 2)
+      call node_box(lat, slot, x0, x1, nodes(:, k), lo(:, k), hi(:, k))
+    end do
+  end subroutine boxes
 
   !> Box of the nodes' positions at x0 and x1.
   pure subroutine node_box(lat, slot, x0, x1, nodes, lo, hi)
