@@ -166,6 +166,7 @@ contains
     integer, allocatable :: rows(:)
     real(rp) :: alpha, r, scale, keep_a(2), keep_b(2, 2), u
     integer :: j, trial, kind, ncl, nmove, ir, fewer(2), more(2), stall_a, stall_b(2), ntrial, ntot
+    integer :: tot_trials, tot_fewer(2), tot_more(2)
     real(rp), parameter :: SCALES(4) = [0.1_rp, 0.3_rp, 1.0_rp, 2.0_rp]
     character(len=13), parameter :: LABEL(3) = ['per node     ', 'smooth       ', 'small + push ']
 
@@ -182,6 +183,9 @@ contains
     write(output_unit, '(a)') 'step limit, '//title//':'
     write(output_unit, '(a)') '  update, size: % of nodes stalled by (a), (b) r = 3 mm, (b) r = 6 mm; ' // &
       'trials where (b) stalls fewer / more than (a) (r = 3 mm, 6 mm); share of the update kept (a), (b)'
+    tot_trials = 0
+    tot_fewer = 0
+    tot_more = 0
     do kind = 1, 3
       do j = 1, size(SCALES)
         scale = SCALES(j)
@@ -222,8 +226,14 @@ contains
           LABEL(kind), scale, ': stalled %', 100.0_rp * stall_a / (ntrial * ntot), &
           100.0_rp * stall_b / (ntrial * ntot), '; fewer ', fewer(1), ',', fewer(2), ' more ', more(1), ',', more(2), &
           ' of ', ntrial, '; kept', keep_a(1) / ntrial, keep_b(:, 1) / ntrial
+        tot_trials = tot_trials + ntrial
+        tot_fewer = tot_fewer + fewer
+        tot_more = tot_more + more
       end do
     end do
+    write(output_unit, '(a,i0,a,i0,a,i0,a,i0,a,i0,a)') '  in all: (b) stalls fewer nodes than (a) in ', tot_fewer(1), &
+      ' (r = 3 mm) and ', tot_fewer(2), ' (r = 6 mm) of ', tot_trials, ' updates, more in ', tot_more(1), ' and ', &
+      tot_more(2), ', as many in the others'
   end subroutine compare
 
 end program test_self_step
