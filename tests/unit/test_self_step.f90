@@ -34,7 +34,7 @@ program test_self_step
     call guarantee(kind, SPLIT_ANTI)
   end do
   call compare('rolled 16 x 48, turns 4 mm apart', 1)
-  call compare('folded 16 x 48, layers 2.5 mm apart', 2)
+  call compare('folded 16 x 48, layers 3.5 mm apart', 2)
   call check_report()
 
 contains
