@@ -431,8 +431,8 @@ contains
     if (h < 0) call fail('h5fflush_f', filename, ierr, errmsg)
   end procedure open_local
 
-  !> The time series of a new file, empty (those of /run and contact come
-  !> with output_write_run_info).
+  !> The time series of a new file, empty (/wall_time and the process
+  !> models' come with output_write_run_info).
   subroutine create_all_series(out, ierr, errmsg)
     type(output_file), intent(inout) :: out
     integer, intent(inout) :: ierr
@@ -481,11 +481,11 @@ contains
     do i = 1, n_dsets
       if (ierr /= 0) exit
       if (i == d_velocity .and. .not. out%series%write_velocity) cycle
-      if (i >= d_contact_first .and. .not. out%series%contact) cycle
       name = trim(dset_names(i))
       call has_link(out%file, name, name, exists, ierr, errmsg)
       if (exists) call open_dset(out%file, name, out%series%dset(i), ierr, errmsg)
     end do
+    call pm_series_reopen(out, ierr, errmsg)
     if (ierr /= 0) out%is_open = out%file >= 0
   end procedure refresh_library
 
@@ -500,6 +500,7 @@ contains
       if (out%series%dset(i) >= 0) call close_dset(out%series%dset(i), trim(dset_names(i)), ierr, errmsg)
       out%series%dset(i) = -1
     end do
+    call pm_series_close(out, ierr, errmsg)
     if (out%dxpl >= 0) then
       call h5pclose_f(out%dxpl, h)
       if (h < 0) call fail('h5pclose_f(dataset transfer)', 'the output file', ierr, errmsg)

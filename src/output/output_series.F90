@@ -286,10 +286,12 @@ contains
       if (h < 0) call fail('h5dset_extent_f', trim(dset_names(i)), ierr, errmsg)
       if (.not. all_agree(out%comm, STEP, ierr, errmsg)) return
     end do
+    call pm_series_extend(out, t, ierr, errmsg)
   end subroutine extend_series
 
-  !> The step's scalars, series by series in their order: rank 0 writes,
-  !> the others join with an empty selection; each write is agreed on.
+  !> The step's scalars, series by series in their order, then the
+  !> process models' (output_pm): rank 0 writes, the others join with an
+  !> empty selection; each write is agreed on.
   subroutine write_scalars(out, rec, ierr, errmsg)
     type(output_file), intent(in) :: out
     type(output_record), intent(in) :: rec
@@ -302,8 +304,6 @@ contains
       if (i == d_position .or. i == d_velocity) cycle
       ! Created by output_write_run_info; absent for callers that never call it.
       if (i == d_wall_time .and. out%series%dset(i) < 0) cycle
-      ! Contact: scenes with obstacles only (output_contact).
-      if (i >= d_contact_first .and. .not. out%series%contact) exit
       if (any(count_series == i)) then
         call write_int(out, i, record_count(rec, i), ierr, errmsg)
       else
@@ -312,6 +312,11 @@ contains
       end if
       if (.not. all_agree(out%comm, STEP, ierr, errmsg)) return
     end do
+    if (allocated(rec%pm_series)) then
+      call pm_series_write(out, rec%pm_series, ierr, errmsg)
+    else
+      call pm_series_write(out, [pm_series_t ::], ierr, errmsg)
+    end if
   end subroutine write_scalars
 
   !> The record's values v(1:n) for the float64 series idx.
@@ -333,14 +338,8 @@ contains
     case (d_length); v(1) = rec%length
     case (d_flatness); v(1) = rec%flatness
     case (d_wall_time); v(1) = rec%wall_time
-    case (d_barrier, d_barrier_energy); v(1) = rec%barrier   ! the same value in both
-    case (d_friction_work); v(1) = rec%friction_work
-    case (d_min_gap); v(1) = rec%min_gap
-    case (d_min_gap_run); v(1) = rec%min_gap_run
     case (d_momentum); n = 3; v = rec%momentum
     case (d_angular_momentum); n = 3; v = rec%angular_momentum
-    case (d_contact_force); n = 3; v = rec%contact_force
-    case (d_normal_force); n = 3; v = rec%normal_force
     end select
   end subroutine record_reals
 
@@ -353,9 +352,7 @@ contains
     case (d_steps); c = rec%steps
     case (d_rejected_steps); c = rec%rejected_steps
     case (d_newton_iterations); c = rec%newton_iterations
-    case (d_linear_iterations); c = rec%linear_iterations
-    case (d_contact_active); c = rec%contact_active
-    case default; c = rec%states_checked
+    case default; c = rec%linear_iterations
     end select
   end function record_count
 
@@ -464,9 +461,6 @@ contains
     extent = 0
     call get_attr_int(out%file, 'n_output_steps', '/', have, ierr, errmsg)
     if (ierr /= 0) return
-    ! the contact series, where the file has them (a scene with obstacles)
-    call has_link(out%file, '/contact', '/contact', out%series%contact, ierr, errmsg)
-    if (ierr /= 0) return
     if (nt > have .or. nt < 1) then
       ierr = 1
       errmsg = '-nuno_restart: the checkpoint counts '//itoa(nt)//' output steps, the file holds '//itoa(have)
@@ -474,13 +468,11 @@ contains
     end if
     do i = 1, n_dsets
       if (i == d_velocity .and. .not. out%series%write_velocity) cycle
-      if (i >= d_contact_first .and. .not. out%series%contact) cycle
       name = trim(dset_names(i))
       call has_link(out%file, name, name, exists, ierr, errmsg)
       if (ierr /= 0) return
       if (.not. exists) then
         if (i == d_wall_time) cycle   ! files of callers that never wrote /run
-        if (i >= d_contact_first) cycle   ! made by contact_series (output_write_run_info)
         ierr = 1
         errmsg = '-nuno_restart: the file has no '//name
         return

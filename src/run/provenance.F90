@@ -10,6 +10,8 @@ module provenance
   use config, only: nuno_config, unset_real
   use output, only: output_file, run_info, output_write_run_info, output_config_key
   use app_context, only: app_ctx
+  use process_model, only: pm_energy_t
+  use process_models, only: pm_list_output
   use step_settings, only: step_dt, step_t_end, step_max_steps, step_tolerances
   use failure_text, only: report_io_error
   implicit none
@@ -34,6 +36,7 @@ contains
     character(len=10) :: clock
     character(len=5) :: zone
     integer :: hlen
+    type(pm_energy_t) :: energy
 
     PetscCall(TSGetType(ctx%ts, info%ts_type, ierr))
     PetscCall(TSGetAdapt(ctx%ts, adapt, ierr))
@@ -44,7 +47,8 @@ contains
     info%max_steps = int(min(step_max_steps(ctx%step), int(huge(1), kind(step_max_steps(ctx%step)))))
     call step_tolerances(ctx%step, info%rtol, info%atol_position, info%atol_velocity)
     info%units = ctx%cfg%scene%units
-    info%contact = ctx%cfg%contact%n_obstacles > 0
+    ! the process models' series (headers: their values do not matter here)
+    call pm_list_output(ctx%pms, info%pm_series, info%pm_groups, energy)
     ! Rank 0's host and clock, broadcast: attributes must be equal on all ranks.
     if (ctx%rank == 0) then
       PetscCall(PetscGetHostName(info%host, ierr))
