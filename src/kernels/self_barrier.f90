@@ -12,10 +12,15 @@
 !> whole 12 x 12, the mollifier's terms leave that range).
 !>
 !> For the solver, the pairs of a rank's list give forces on the present
-!> rows (owned and fetched: the fetched rows' forces go back to their owners,
-!> module self_exchange's self_exchange_add) and a list of pair blocks
-!> (node a, node b, df_a/dx_b) by global node number: the nodes of a pair
-!> are not stencil neighbours in general. Forces depend on positions only:
+!> rows and a list of pair blocks (node a, node b, df_a/dx_b) by global
+!> node number: the nodes of a pair are not stencil neighbours in general.
+!> With self_broad's OWN_LOWEST the fetched rows' forces go back to their
+!> owners (module self_exchange's self_exchange_add); with OWN_TOUCH each
+!> rank keeps its own rows' forces and blocks (those with node a owned,
+!> each one entry (a, b) of pair_blocks' list) and drops the rest.
+!> The energy and the count of active pairs are those of the pairs whose
+!> lowest node's row is in own_lo..own_hi, so that sums over ranks count
+!> each pair once under either rule. Forces depend on positions only:
 !> each pair's forces sum to zero and each block row of a pair sums to zero.
 !> Plain arrays, no PETSc, no MPI; the block list grows as needed.
 module self_barrier
@@ -25,18 +30,18 @@ module self_barrier
   use contact_primitives, only: point_triangle_distance, edge_edge_distance, edge_edge_mollifier, &
                                 point_triangle_range, psd_project
   use self_broad, only: self_lattice_t, self_pairs_t, PAIR_PT, PAIR_EE, self_row_slots, self_pair_positions, &
-                        self_pair_rest
+                        self_pair_rest, self_pair_owner_row
   implicit none
   private
-  public :: pair_blocks_t, self_pair_barrier, self_barrier_forces, self_pair_gap
+  public :: self_blocks_t, self_pair_barrier, self_barrier_forces, self_pair_gap
 
   !> Pair blocks: k(:, :, m) = df_a/dx_b [force/length] of nodes a(m), b(m) (global numbers).
   !> The same (a, b) may come several times (one entry a pair): the solver sums them.
-  type :: pair_blocks_t
+  type :: self_blocks_t
     integer :: n = 0
     integer, allocatable :: a(:), b(:)
     real(rp), allocatable :: k(:, :, :)   !< (3, 3, n)
-  end type pair_blocks_t
+  end type self_blocks_t
 
 contains
 
@@ -108,24 +113,25 @@ contains
   end subroutine self_pair_barrier
 
   !> The barrier of every pair of the list at positions x of the present rows: adds the
-  !> forces to f (same layout as x), returns the summed energy e (huge where a gap is
-  !> <= 0), the blocks of the active pairs (16 a pair; the list is emptied first) and
-  !> the number of active pairs nact.
-  subroutine self_barrier_forces(lat, rows, x, pairs, cp, project, e, f, blocks, nact)
+  !> forces to f (same layout as x), returns the energy e of the pairs owned by their
+  !> lowest node (huge where a gap is <= 0), the blocks of the active pairs (16 a pair;
+  !> the list is emptied first) and the number nact of active pairs owned so.
+  subroutine self_barrier_forces(lat, rows, x, pairs, own_lo, own_hi, cp, project, e, f, blocks, nact)
     type(self_lattice_t), intent(in) :: lat
     integer, intent(in) :: rows(:)                   ! present global rows
     real(rp), intent(in) :: x(:, 0:, :)              ! (3, 0:nx-1, size(rows)) [length]
     type(self_pairs_t), intent(in) :: pairs
+    integer, intent(in) :: own_lo, own_hi            ! this rank's rows
     type(contact_params_t), intent(in) :: cp
     logical, intent(in) :: project
     real(rp), intent(out) :: e                       ! [energy]
     real(rp), intent(inout) :: f(:, 0:, :)           ! (3, 0:nx-1, size(rows)) [force]
-    type(pair_blocks_t), intent(inout) :: blocks
+    type(self_blocks_t), intent(inout) :: blocks
     integer, intent(out) :: nact
     integer, allocatable :: slot(:)
     real(rp) :: ep, fp(3, 4), kp(3, 3, 4, 4)
     logical :: active
-    integer :: m, a, b, node(4)
+    integer :: m, a, b, j, node(4)
 
     allocate(slot(0:lat%ny - 1))
     call self_row_slots(lat, rows, slot)
@@ -137,11 +143,14 @@ contains
       call self_pair_barrier(pairs%kind(m), self_pair_positions(lat, slot, x, node), self_pair_rest(lat, node), &
                              cp, project, ep, fp, kp, active)
       if (.not. active) cycle
-      nact = nact + 1
-      if (ep >= huge(1.0_rp) .or. e >= huge(1.0_rp)) then
-        e = huge(1.0_rp)
-      else
-        e = e + ep
+      j = self_pair_owner_row(lat, node)
+      if (j >= own_lo .and. j <= own_hi) then
+        nact = nact + 1
+        if (ep >= huge(1.0_rp) .or. e >= huge(1.0_rp)) then
+          e = huge(1.0_rp)
+        else
+          e = e + ep
+        end if
       end if
       do a = 1, 4
         associate (fa => f(1:3, mod(node(a), lat%nx), slot(node(a) / lat%nx)))
@@ -155,7 +164,7 @@ contains
   end subroutine self_barrier_forces
 
   pure subroutine add_block(blocks, a, b, k)
-    type(pair_blocks_t), intent(inout) :: blocks
+    type(self_blocks_t), intent(inout) :: blocks
     integer, intent(in) :: a, b
     real(rp), intent(in) :: k(3, 3)
     integer, allocatable :: a2(:), b2(:)

@@ -20,8 +20,13 @@
 !>     (X = (i ax, j ay, 0)) is at least rest_reach (dhat + thickness: a
 !>     flat cloth at rest has no active pair; such pairs are left to the
 !>     elastic elements and are not protected by the step limit);
-!>   - belong to this rank: the row of the pair's lowest global node number
-!>     lies in own_lo..own_hi (each pair is counted on one rank only);
+!>   - belong to this rank, by one of two rules: OWN_LOWEST, the row of the
+!>     pair's lowest global node number lies in own_lo..own_hi (each pair on
+!>     one rank only: energies, counts, the CCD's alpha; forces on the other
+!>     ranks' nodes go back to them), or OWN_TOUCH, a node of the pair lies
+!>     in own_lo..own_hi (a pair on every rank it touches: each rank adds
+!>     the forces and blocks of its own nodes, nothing goes back; the
+!>     present rows must then include the row below the strip);
 !>   - are near: the distance is below reach (self_candidates), or the two
 !>     paths from x to x + dx may come within margin of each other
 !>     (self_candidates_swept: boxes of both ends overlap and the start
@@ -47,13 +52,15 @@ module self_broad
   use contact_ccd, only: accd_rate_bound
   implicit none
   private
-  public :: self_lattice_t, self_pairs_t, PAIR_PT, PAIR_EE
+  public :: self_lattice_t, self_pairs_t, PAIR_PT, PAIR_EE, OWN_LOWEST, OWN_TOUCH
   public :: self_row_slots, self_candidates, self_candidates_swept
   public :: self_pair_positions, self_pair_rest, self_pairs_clear, self_pair_owner_row
   public :: self_pair_distance2
 
   !> Pair kinds (the same codes as contact_ccd's rate bound).
   integer, parameter :: PAIR_PT = 1, PAIR_EE = 2
+  !> Pair ownership (module header): the lowest node's row owned, or any node's.
+  integer, parameter :: OWN_LOWEST = 1, OWN_TOUCH = 2
 
   !> The lattice that the global numbers refer to.
   type :: self_lattice_t
@@ -194,42 +201,43 @@ contains
 
   !> Candidate pairs (module header) at positions x whose distance is below reach; pairs
   !> is emptied first.
-  subroutine self_candidates(lat, rows, x, own_lo, own_hi, reach, rest_reach, pairs)
+  subroutine self_candidates(lat, rows, x, own_lo, own_hi, own_rule, reach, rest_reach, pairs)
     type(self_lattice_t), intent(in) :: lat
     integer, intent(in) :: rows(:)                  ! present global rows, each once
     real(rp), intent(in) :: x(:, 0:, :)             ! (3, 0:nx-1, size(rows)) positions [length]
     integer, intent(in) :: own_lo, own_hi           ! this rank's rows (pair ownership)
+    integer, intent(in) :: own_rule                 ! OWN_LOWEST or OWN_TOUCH
     real(rp), intent(in) :: reach                   ! e.g. dhat + thickness [length]
     real(rp), intent(in) :: rest_reach              ! pairs nearer than this at rest are left out [length]
     type(self_pairs_t), intent(inout) :: pairs
 
-    call find_pairs(lat, rows, x, x, .false., own_lo, own_hi, reach, rest_reach, pairs)
+    call find_pairs(lat, rows, x, x, .false., own_lo, own_hi, own_rule, reach, rest_reach, pairs)
   end subroutine self_candidates
 
   !> Candidate pairs (module header) for the straight paths from x to x + dx that may come
   !> within margin of each other (for a step's CCD: margin = the thickness); pairs is emptied.
-  subroutine self_candidates_swept(lat, rows, x, dx, own_lo, own_hi, margin, rest_reach, pairs)
+  subroutine self_candidates_swept(lat, rows, x, dx, own_lo, own_hi, own_rule, margin, rest_reach, pairs)
     type(self_lattice_t), intent(in) :: lat
     integer, intent(in) :: rows(:)
     real(rp), intent(in) :: x(:, 0:, :)             ! (3, 0:nx-1, nr) start [length]
     real(rp), intent(in) :: dx(:, 0:, :)            ! (3, 0:nx-1, nr) displacement [length]
-    integer, intent(in) :: own_lo, own_hi
+    integer, intent(in) :: own_lo, own_hi, own_rule
     real(rp), intent(in) :: margin                  ! [length]
     real(rp), intent(in) :: rest_reach              ! [length]
     type(self_pairs_t), intent(inout) :: pairs
     real(rp), allocatable :: x1(:, :, :)
 
     x1 = x(1:3, :, :) + dx(1:3, :, :)
-    call find_pairs(lat, rows, x, x1, .true., own_lo, own_hi, margin, rest_reach, pairs)
+    call find_pairs(lat, rows, x, x1, .true., own_lo, own_hi, own_rule, margin, rest_reach, pairs)
   end subroutine self_candidates_swept
 
   !> The broad phase proper: boxes over the start x0 and the end x1 of each primitive.
-  subroutine find_pairs(lat, rows, x0, x1, swept, own_lo, own_hi, reach, rest_reach, pairs)
+  subroutine find_pairs(lat, rows, x0, x1, swept, own_lo, own_hi, own_rule, reach, rest_reach, pairs)
     type(self_lattice_t), intent(in) :: lat
     integer, intent(in) :: rows(:)
     real(rp), intent(in) :: x0(:, 0:, :), x1(:, 0:, :)
     logical, intent(in) :: swept
-    integer, intent(in) :: own_lo, own_hi
+    integer, intent(in) :: own_lo, own_hi, own_rule
     real(rp), intent(in) :: reach, rest_reach
     type(self_pairs_t), intent(inout) :: pairs
     integer, allocatable :: slot(:), tri(:, :), tid(:), edg(:, :), eid(:), pts(:)
@@ -329,8 +337,12 @@ contains
       real(rp) :: xa(3, 4), xb(3, 4), d2
       integer :: jown
 
-      jown = self_pair_owner_row(lat, node)
-      if (jown < own_lo .or. jown > own_hi) return
+      if (own_rule == OWN_TOUCH) then
+        if (.not. any(node / lat%nx >= own_lo .and. node / lat%nx <= own_hi)) return
+      else
+        jown = self_pair_owner_row(lat, node)
+        if (jown < own_lo .or. jown > own_hi) return
+      end if
       if (rest_reach > 0.0_rp) then
         if (rest_near(lat, rt, kind, ida, idb)) return
       end if

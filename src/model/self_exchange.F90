@@ -9,7 +9,9 @@
 !> patch_rows anchor rows r0..r1; a patch's box holds the nodes of rows
 !> r0..r1+1 (the primitives anchored at its rows: self_broad's quads, links
 !> and diagonals need the row above), so every primitive lies in the box of
-!> the patch of its anchor row. The boxes of all ranks are gathered
+!> the patch of its anchor row; the first patch's box also holds row ys-1,
+!> so that the primitives anchored there, which touch owned nodes, are in
+!> an own box too (self_broad's OWN_TOUCH; the row is then fetched). The boxes of all ranks are gathered
 !> (MPI_Allgather of the counts, MPI_Allgatherv of the boxes: a few numbers
 !> a patch). Rank p needs the rows r0..r1+1 of every patch Q (its own
 !> included: the row above its strip) whose box meets one of p's boxes grown
@@ -19,11 +21,11 @@
 !> agree without asking). Swept plans take boxes over the start and end of
 !> an update (for the CCD's candidates).
 !>
-!> Why it is complete: a pair belongs to the rank owning its lowest node
-!> (self_broad); that node's primitive is anchored at an owned row, so in an
-!> own patch; the other primitive lies in the box of its anchor's patch Q;
-!> both within reach means the grown box meets Q's, so Q's rows r0..r1+1
-!> are present. Messages: per neighbour in space, one message each way per
+!> Why it is complete: a pair of a rank (self_broad's OWN_LOWEST: its lowest
+!> node owned; OWN_TOUCH: any node owned) has a primitive with an owned
+!> node, anchored at an owned row or at ys-1, so in an own box; the other
+!> primitive lies in the box of its anchor's patch Q; both within reach
+!> means the grown box meets Q's, so Q's rows r0..r1+1 are present. Messages: per neighbour in space, one message each way per
 !> fetch (positions) and per return (forces, bounds); the rows fetched are
 !> those of the patches in reach, not the whole strip of the other rank.
 module self_exchange
@@ -51,12 +53,13 @@ module self_exchange
 
 contains
 
-  !> Plan the exchange for the positions x of the owned rows ys..ye and the row above
-  !> (x(:, :, ys:min(ye + 1, ny - 1)), the DMDA's ghost row): boxes grown by reach. Collective.
+  !> Plan the exchange for the positions x of the owned rows ys..ye and the rows below
+  !> and above (x(:, :, max(ys - 1, 0):min(ye + 1, ny - 1)), the DMDA's ghost rows): boxes
+  !> grown by reach. Collective.
   subroutine self_exchange_plan(xch, comm, nx, ny, ys, ye, x, reach, patch_rows, ierr)
     type(self_exchange_t), intent(out) :: xch
     integer, intent(in) :: comm, nx, ny, ys, ye
-    real(rp), intent(in) :: x(:, 0:, ys:)            ! (3+, 0:nx-1, ys:min(ye+1, ny-1)) [length]
+    real(rp), intent(in) :: x(:, 0:, max(ys - 1, 0):)   ! (3+, 0:nx-1, max(ys-1,0):min(ye+1,ny-1)) [length]
     real(rp), intent(in) :: reach                    ! [length], the same on every rank
     integer, intent(in) :: patch_rows                ! anchor rows a patch, >= 1
     integer, intent(out) :: ierr
@@ -70,7 +73,7 @@ contains
   subroutine self_exchange_plan_swept(xch, comm, nx, ny, ys, ye, x, dx, margin, patch_rows, ierr)
     type(self_exchange_t), intent(out) :: xch
     integer, intent(in) :: comm, nx, ny, ys, ye
-    real(rp), intent(in) :: x(:, 0:, ys:), dx(:, 0:, ys:)   ! as x of self_exchange_plan [length]
+    real(rp), intent(in) :: x(:, 0:, max(ys - 1, 0):), dx(:, 0:, max(ys - 1, 0):)   ! as x of self_exchange_plan
     real(rp), intent(in) :: margin
     integer, intent(in) :: patch_rows
     integer, intent(out) :: ierr
@@ -177,10 +180,11 @@ contains
   ! Plan
   ! ------------------------------------------------------------------------
 
-  !> Boxes of the own patches over the positions x0 and x1 (rows r0..r1+1).
+  !> Boxes of the own patches over the positions x0 and x1 (rows r0..r1+1, the first
+  !> patch from ys-1).
   subroutine local_boxes(nx, ny, ys, ye, x0, x1, patch_rows, lo, hi)
     integer, intent(in) :: nx, ny, ys, ye, patch_rows
-    real(rp), intent(in) :: x0(:, 0:, ys:), x1(:, 0:, ys:)
+    real(rp), intent(in) :: x0(:, 0:, max(ys - 1, 0):), x1(:, 0:, max(ys - 1, 0):)
     real(rp), allocatable, intent(out) :: lo(:, :), hi(:, :)
     integer :: np, k, r0, r1, j, i
 
@@ -191,7 +195,7 @@ contains
       r1 = min(r0 + patch_rows - 1, ye)
       lo(:, k) = huge(1.0_rp)
       hi(:, k) = -huge(1.0_rp)
-      do j = r0, min(r1 + 1, ny - 1)
+      do j = merge(max(r0 - 1, 0), r0, k == 1), min(r1 + 1, ny - 1)
         do i = 0, nx - 1
           lo(:, k) = min(lo(:, k), x0(1:3, i, j), x1(1:3, i, j))
           hi(:, k) = max(hi(:, k), x0(1:3, i, j), x1(1:3, i, j))

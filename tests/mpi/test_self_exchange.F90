@@ -24,8 +24,8 @@ program test_self_exchange
   use contact, only: contact_params_t
   use contact_ccd, only: ACCD_S
   use contact_faces, only: SPLIT_MAIN, SPLIT_ANTI
-  use self_broad, only: self_lattice_t, self_pairs_t, self_candidates, self_candidates_swept
-  use self_barrier, only: pair_blocks_t, self_barrier_forces
+  use self_broad, only: self_lattice_t, self_pairs_t, self_candidates, self_candidates_swept, OWN_LOWEST, OWN_TOUCH
+  use self_barrier, only: self_blocks_t, self_barrier_forces
   use self_step, only: self_alpha_ccd, self_vertex_dmin
   use self_exchange, only: self_exchange_t, self_exchange_plan, self_exchange_plan_swept, self_exchange_rows, &
                            self_exchange_gather, self_exchange_add, self_exchange_min, self_exchange_free, &
@@ -71,13 +71,13 @@ contains
     type(self_lattice_t) :: lat
     type(self_exchange_t) :: xch
     type(self_pairs_t) :: pairs
-    type(pair_blocks_t) :: blocks
+    type(self_blocks_t) :: blocks
     real(rp), allocatable :: xg(:, :, :), dxg(:, :, :), x6(:, :, :), xall(:, :, :), fall(:, :, :), f(:, :, :)
     real(rp), allocatable :: fser(:, :, :), dall(:, :, :), d(:, :, :), dser(:, :, :)
     integer, allocatable :: rows(:), allrows(:)
     integer(int64), allocatable :: keys(:), kser(:)
     real(rp) :: reach, alpha, alpha_ser, e, eser, esum, r
-    integer :: j, i, ye1, nact, nact_ser, nb, nbsum, nf, ns, np
+    integer :: j, i, ys0, ye1, nact, nact_ser, nb, nbsum, nf, ns, np, k0
     character(len=48) :: what
 
     reach = cp%dhat + cp%thickness
@@ -100,11 +100,12 @@ contains
       end do
     end do
     call strip(lat%ny, rank, ys, ye)
+    ys0 = max(ys - 1, 0)
     ye1 = min(ye + 1, lat%ny - 1)
     allrows = [(j, j = 0, lat%ny - 1)]
 
     ! 1. candidates at positions
-    call self_exchange_plan(xch, MPI_COMM_WORLD, lat%nx, lat%ny, ys, ye, xg(:, :, ys:ye1), reach, patch_rows, ierr)
+    call self_exchange_plan(xch, MPI_COMM_WORLD, lat%nx, lat%ny, ys, ye, xg(:, :, ys0:ye1), reach, patch_rows, ierr)
     call check_true(ierr == 0, trim(what)//': plan')
     call self_exchange_rows(xch, rows)
     allocate(xall(3, 0:lat%nx - 1, size(rows)))
@@ -113,15 +114,15 @@ contains
     call self_exchange_counts(xch, nf, ns, np)
     if (patch_rows == 4) write(output_unit, '(a,i0,a,i0,a,i0,a,i0,a,i0,a)') trim(what)//': rank ', rank, ' owns ', &
       ye - ys + 1, ' rows, fetched ', nf, ' from ', ns, ' ranks (', np, ' patches in all)'
-    call self_candidates(lat, rows, xall, ys, ye, reach, reach, pairs)
+    call self_candidates(lat, rows, xall, ys, ye, OWN_LOWEST, reach, reach, pairs)
     call pair_keys(lat, pairs, keys)
-    call self_candidates(lat, allrows, xg, 0, lat%ny - 1, reach, reach, pairs)
+    call self_candidates(lat, allrows, xg, 0, lat%ny - 1, OWN_LOWEST, reach, reach, pairs)
     call pair_keys(lat, pairs, kser)
     call check_true(same_set(keys, kser, what), trim(what)//': candidates on P ranks = on one')
     ! Without the exchange (the strip and its row above only) the layers on other ranks
     ! are missed: the comparison above sees it.
     if (shape == 1 .and. nranks > 1) then
-      call self_candidates(lat, [(j, j = ys, ye1)], xg(:, :, ys:ye1), ys, ye, reach, reach, pairs)
+      call self_candidates(lat, [(j, j = ys, ye1)], xg(:, :, ys:ye1), ys, ye, OWN_LOWEST, reach, reach, pairs)
       call pair_keys(lat, pairs, keys)
       call check_true(.not. same_set(keys, kser, what), trim(what)//': without the exchange pairs are missed')
     end if
@@ -130,46 +131,56 @@ contains
     allocate(fall(3, 0:lat%nx - 1, size(rows)), f(3, 0:lat%nx - 1, ys:ye))
     fall = 0.0_rp
     f = 0.0_rp
-    call self_candidates(lat, rows, xall, ys, ye, reach, reach, pairs)
-    call self_barrier_forces(lat, rows, xall, pairs, cp, .false., e, fall, blocks, nact)
+    call self_candidates(lat, rows, xall, ys, ye, OWN_LOWEST, reach, reach, pairs)
+    call self_barrier_forces(lat, rows, xall, pairs, ys, ye, cp, .false., e, fall, blocks, nact)
     nb = blocks%n
     call self_exchange_add(xch, fall, f, ierr)
     call check_true(ierr == 0, trim(what)//': forces returned')
     allocate(fser(3, 0:lat%nx - 1, 0:lat%ny - 1))
     fser = 0.0_rp
-    call self_candidates(lat, allrows, xg, 0, lat%ny - 1, reach, reach, pairs)
-    call self_barrier_forces(lat, allrows, xg, pairs, cp, .false., eser, fser, blocks, nact_ser)
+    call self_candidates(lat, allrows, xg, 0, lat%ny - 1, OWN_LOWEST, reach, reach, pairs)
+    call self_barrier_forces(lat, allrows, xg, pairs, 0, lat%ny - 1, cp, .false., eser, fser, blocks, nact_ser)
     call check_close_array(reshape(f, [size(f)]), reshape(fser(:, :, ys:ye), [size(f)]), 0.0_rp, &
                            1.0e-12_rp * maxval(abs(fser)), trim(what)//': forces on owned nodes = one rank''s')
     call MPI_Allreduce(e, esum, 1, MPI_DOUBLE_PRECISION, MPI_SUM, MPI_COMM_WORLD, ierr)
     call check_close_array([esum], [eser], 1.0e-12_rp, 0.0_rp, trim(what)//': energies add up')
     call MPI_Allreduce(nb, nbsum, 1, MPI_INTEGER, MPI_SUM, MPI_COMM_WORLD, ierr)
     call check_true(nbsum == blocks%n .and. nact_ser > 0, trim(what)//': pair blocks counted once')
+    ! The other rule: each rank takes every pair that touches its rows and keeps its own
+    ! rows' forces, nothing sent back; the energy counts each pair once all the same.
+    call self_candidates(lat, rows, xall, ys, ye, OWN_TOUCH, reach, reach, pairs)
+    fall = 0.0_rp
+    call self_barrier_forces(lat, rows, xall, pairs, ys, ye, cp, .false., e, fall, blocks, nact)
+    k0 = findloc(rows, ys, dim=1)
+    call check_close_array(reshape(fall(:, :, k0:k0 + ye - ys), [size(f)]), reshape(fser(:, :, ys:ye), [size(f)]), &
+                           0.0_rp, 1.0e-12_rp * maxval(abs(fser)), trim(what)//': pairs touching the rows: own forces = one rank''s')
+    call MPI_Allreduce(e, esum, 1, MPI_DOUBLE_PRECISION, MPI_SUM, MPI_COMM_WORLD, ierr)
+    call check_close_array([esum], [eser], 1.0e-12_rp, 0.0_rp, trim(what)//': pairs touching the rows: energies add up')
 
     ! 4. OGC's per-vertex distances (search radius 2 reach)
     call self_exchange_free(xch)
     r = 2.0_rp * reach
-    call self_exchange_plan(xch, MPI_COMM_WORLD, lat%nx, lat%ny, ys, ye, xg(:, :, ys:ye1), r, patch_rows, ierr)
+    call self_exchange_plan(xch, MPI_COMM_WORLD, lat%nx, lat%ny, ys, ye, xg(:, :, ys0:ye1), r, patch_rows, ierr)
     call self_exchange_rows(xch, rows)
     deallocate(xall)
     allocate(xall(3, 0:lat%nx - 1, size(rows)), dall(1, 0:lat%nx - 1, size(rows)), d(1, 0:lat%nx - 1, ys:ye))
     call self_exchange_gather(xch, xg(:, :, ys:ye), xall, ierr)
-    call self_candidates(lat, rows, xall, ys, ye, r, reach, pairs)
+    call self_candidates(lat, rows, xall, ys, ye, OWN_LOWEST, r, reach, pairs)
     dall = r
     d = r
     call self_vertex_dmin(lat, rows, xall, pairs, dall(1, :, :))
     call self_exchange_min(xch, dall, d, ierr)
     allocate(dser(1, 0:lat%nx - 1, 0:lat%ny - 1))
     dser = r
-    call self_candidates(lat, allrows, xg, 0, lat%ny - 1, r, reach, pairs)
+    call self_candidates(lat, allrows, xg, 0, lat%ny - 1, OWN_LOWEST, r, reach, pairs)
     call self_vertex_dmin(lat, allrows, xg, pairs, dser(1, :, :))
     call check_true(all(d(1, :, :) == dser(1, :, ys:ye)), trim(what)//': per-vertex distances = one rank''s')
     call check_true(any(d < r), trim(what)//': some vertices have a near pair')
 
     ! 2. swept candidates and the global alpha
     call self_exchange_free(xch)
-    call self_exchange_plan_swept(xch, MPI_COMM_WORLD, lat%nx, lat%ny, ys, ye, xg(:, :, ys:ye1), &
-                                  dxg(:, :, ys:ye1), cp%thickness, patch_rows, ierr)
+    call self_exchange_plan_swept(xch, MPI_COMM_WORLD, lat%nx, lat%ny, ys, ye, xg(:, :, ys0:ye1), &
+                                  dxg(:, :, ys0:ye1), cp%thickness, patch_rows, ierr)
     call self_exchange_rows(xch, rows)
     allocate(x6(6, 0:lat%nx - 1, ys:ye))
     x6(1:3, :, :) = xg(:, :, ys:ye)
@@ -177,11 +188,11 @@ contains
     deallocate(xall)
     allocate(xall(6, 0:lat%nx - 1, size(rows)))
     call self_exchange_gather(xch, x6, xall, ierr)
-    call self_candidates_swept(lat, rows, xall(1:3, :, :), xall(4:6, :, :), ys, ye, cp%thickness, reach, pairs)
+    call self_candidates_swept(lat, rows, xall(1:3, :, :), xall(4:6, :, :), ys, ye, OWN_LOWEST, cp%thickness, reach, pairs)
     call pair_keys(lat, pairs, keys)
     alpha = self_alpha_ccd(lat, rows, xall(1:3, :, :), xall(4:6, :, :), pairs, cp%thickness, ACCD_S)
     call MPI_Allreduce(MPI_IN_PLACE, alpha, 1, MPI_DOUBLE_PRECISION, MPI_MIN, MPI_COMM_WORLD, ierr)
-    call self_candidates_swept(lat, allrows, xg, dxg, 0, lat%ny - 1, cp%thickness, reach, pairs)
+    call self_candidates_swept(lat, allrows, xg, dxg, 0, lat%ny - 1, OWN_LOWEST, cp%thickness, reach, pairs)
     call pair_keys(lat, pairs, kser)
     call check_true(same_set(keys, kser, what), trim(what)//': swept candidates on P ranks = on one')
     alpha_ser = self_alpha_ccd(lat, allrows, xg, dxg, pairs, cp%thickness, ACCD_S)

@@ -10,7 +10,7 @@ module self_shapes
   use kinds, only: rp
   use contact_faces, only: quad_triangles, quad_diagonal
   use contact_ccd, only: accd_rate_bound
-  use self_broad, only: self_lattice_t, self_pairs_t, PAIR_PT, PAIR_EE, self_row_slots, self_pair_positions, &
+  use self_broad, only: self_lattice_t, self_pairs_t, PAIR_PT, PAIR_EE, OWN_TOUCH, self_row_slots, self_pair_positions, &
                         self_pair_rest, self_pair_distance2, self_pair_owner_row
   implicit none
   private
@@ -143,9 +143,9 @@ contains
 
   !> The brute-force reference of self_candidates (swept false: x1 unused) or
   !> self_candidates_swept (x1 = x0 + dx), as sorted keys.
-  subroutine brute_keys(lat, rows, x0, x1, swept, own_lo, own_hi, reach, rest_reach, keys)
+  subroutine brute_keys(lat, rows, x0, x1, swept, own_lo, own_hi, own_rule, reach, rest_reach, keys)
     type(self_lattice_t), intent(in) :: lat
-    integer, intent(in) :: rows(:), own_lo, own_hi
+    integer, intent(in) :: rows(:), own_lo, own_hi, own_rule
     real(rp), intent(in) :: x0(:, 0:, :), x1(:, 0:, :), reach, rest_reach
     logical, intent(in) :: swept
     integer(int64), allocatable, intent(out) :: keys(:)
@@ -161,8 +161,12 @@ contains
     allocate(kept%kind(every%n), kept%node(4, every%n))
     do m = 1, every%n
       nd = every%node(:, m)
-      j = self_pair_owner_row(lat, nd)
-      if (j < own_lo .or. j > own_hi) cycle
+      if (own_rule == OWN_TOUCH) then
+        if (.not. any(nd / lat%nx >= own_lo .and. nd / lat%nx <= own_hi)) cycle
+      else
+        j = self_pair_owner_row(lat, nd)
+        if (j < own_lo .or. j > own_hi) cycle
+      end if
       if (rest_reach > 0.0_rp) then
         if (self_pair_distance2(every%kind(m), self_pair_rest(lat, nd)) < rest_reach**2) cycle
       end if

@@ -14,8 +14,8 @@ program test_self_barrier
   use contact, only: contact_params_t
   use contact_primitives, only: psd_project
   use contact_faces, only: SPLIT_ANTI
-  use self_broad, only: self_lattice_t, self_pairs_t, self_candidates, PAIR_PT, PAIR_EE
-  use self_barrier, only: pair_blocks_t, self_pair_barrier, self_barrier_forces, self_pair_gap
+  use self_broad, only: self_lattice_t, self_pairs_t, self_candidates, PAIR_PT, PAIR_EE, OWN_LOWEST
+  use self_barrier, only: self_blocks_t, self_pair_barrier, self_barrier_forces, self_pair_gap
   use self_shapes, only: fold_shape
   use check, only: check_true, check_close_array, check_report, seed_random
   implicit none
@@ -168,7 +168,7 @@ contains
   subroutine strip_case()
     type(self_lattice_t) :: lat
     type(self_pairs_t) :: pairs
-    type(pair_blocks_t) :: blocks
+    type(self_blocks_t) :: blocks
     real(rp), allocatable :: x(:, :, :), f(:, :, :), y(:, :, :), fp(:, :, :), fm(:, :, :), kd(:, :), kfd(:, :)
     integer, allocatable :: rows(:)
     real(rp) :: e, ep, em, h, fe(3)
@@ -179,10 +179,10 @@ contains
     allocate(x(3, 0:lat%nx - 1, 0:lat%ny - 1))
     call fold_shape(lat, 5, cp%thickness + 0.6_rp * cp%dhat, x)
     rows = [(j, j = 0, lat%ny - 1)]
-    call self_candidates(lat, rows, x, 0, lat%ny - 1, cp%dhat + cp%thickness, cp%dhat + cp%thickness, pairs)
+    call self_candidates(lat, rows, x, 0, lat%ny - 1, OWN_LOWEST, cp%dhat + cp%thickness, cp%dhat + cp%thickness, pairs)
     allocate(f, fp, fm, y, mold=x)
     f = 0.0_rp
-    call self_barrier_forces(lat, rows, x, pairs, cp, .false., e, f, blocks, nact)
+    call self_barrier_forces(lat, rows, x, pairs, 0, lat%ny - 1, cp, .false., e, f, blocks, nact)
     write(*, '(a,i0,a,i0,a)') 'folded sheet: ', pairs%n, ' candidate pairs, ', nact, ' active'
     call check_true(nact > 10 .and. e > 0.0_rp .and. e < huge(1.0_rp), 'folded sheet: active pairs, finite energy')
     call check_true(blocks%n == 16 * nact, 'folded sheet: 16 blocks an active pair')
@@ -204,10 +204,10 @@ contains
           y = x
           y(c, i, j) = x(c, i, j) + h
           fp = 0.0_rp
-          call self_barrier_forces(lat, rows, y, pairs, cp, .false., ep, fp, blocks, nact)
+          call self_barrier_forces(lat, rows, y, pairs, 0, lat%ny - 1, cp, .false., ep, fp, blocks, nact)
           y(c, i, j) = x(c, i, j) - h
           fm = 0.0_rp
-          call self_barrier_forces(lat, rows, y, pairs, cp, .false., em, fm, blocks, nact)
+          call self_barrier_forces(lat, rows, y, pairs, 0, lat%ny - 1, cp, .false., em, fm, blocks, nact)
           kfd(:, 3 * (i + lat%nx * j) + c) = reshape((fp - fm) / (2.0_rp * h), [3 * nn])
           fe(c) = -(ep - em) / (2.0_rp * h)
         end do

@@ -15,7 +15,8 @@ program test_self_broad
   use, intrinsic :: iso_fortran_env, only: int64, output_unit
   use kinds, only: rp
   use contact_faces, only: SPLIT_MAIN, SPLIT_ANTI
-  use self_broad, only: self_lattice_t, self_pairs_t, self_candidates, self_candidates_swept, PAIR_PT
+  use self_broad, only: self_lattice_t, self_pairs_t, self_candidates, self_candidates_swept, PAIR_PT, &
+                        OWN_LOWEST, OWN_TOUCH
   use self_shapes, only: roll_shape, fold_shape, crumple_shape, brute_keys, pair_keys
   use check, only: check_true, check_report, seed_random
   implicit none
@@ -63,9 +64,9 @@ contains
     write(what, '(a,a,i0)') trim(what), ', split ', lat%split
     rows = [(j, j = 0, lat%ny - 1)]
 
-    call self_candidates(lat, rows, x, 0, lat%ny - 1, reach, reach, pairs)
+    call self_candidates(lat, rows, x, 0, lat%ny - 1, OWN_LOWEST, reach, reach, pairs)
     call pair_keys(lat, pairs, kh)
-    call brute_keys(lat, rows, x, x, .false., 0, lat%ny - 1, reach, reach, kb)
+    call brute_keys(lat, rows, x, x, .false., 0, lat%ny - 1, OWN_LOWEST, reach, reach, kb)
     call check_true(size(kb) > 20, trim(what)//': the shape has pairs in reach')
     call check_true(same(kh, kb), trim(what)//': candidates = brute force')
     call check_true(all(kh(2:) > kh(:size(kh) - 1)), trim(what)//': each pair once')
@@ -73,26 +74,26 @@ contains
 
     call random_number(dx)
     dx = 0.008_rp * (2.0_rp * dx - 1.0_rp)
-    call self_candidates_swept(lat, rows, x, dx, 0, lat%ny - 1, 0.001_rp, reach, pairs)
+    call self_candidates_swept(lat, rows, x, dx, 0, lat%ny - 1, OWN_LOWEST, 0.001_rp, reach, pairs)
     call pair_keys(lat, pairs, kh)
-    call brute_keys(lat, rows, x, x + dx, .true., 0, lat%ny - 1, 0.001_rp, reach, kb)
+    call brute_keys(lat, rows, x, x + dx, .true., 0, lat%ny - 1, OWN_LOWEST, 0.001_rp, reach, kb)
     call check_true(size(kb) > 20, trim(what)//': paths come near')
     call check_true(same(kh, kb), trim(what)//': swept candidates = brute force')
 
     ! Reach and rest rule beyond the spacing: the rule's table of index offsets against
     ! the rest distance of each pair.
-    call self_candidates(lat, rows, x, 0, lat%ny - 1, 0.016_rp, 0.016_rp, pairs)
+    call self_candidates(lat, rows, x, 0, lat%ny - 1, OWN_LOWEST, 0.016_rp, 0.016_rp, pairs)
     call pair_keys(lat, pairs, kh)
-    call brute_keys(lat, rows, x, x, .false., 0, lat%ny - 1, 0.016_rp, 0.016_rp, kb)
+    call brute_keys(lat, rows, x, x, .false., 0, lat%ny - 1, OWN_LOWEST, 0.016_rp, 0.016_rp, kb)
     call check_true(same(kh, kb), trim(what)//': reach and rest rule 1.6 spacings = brute force')
-    call brute_keys(lat, rows, x, x, .false., 0, lat%ny - 1, 0.016_rp, 0.0_rp, kh)
+    call brute_keys(lat, rows, x, x, .false., 0, lat%ny - 1, OWN_LOWEST, 0.016_rp, 0.0_rp, kh)
     call check_true(size(kh) > size(kb) + 50, trim(what)//': the rest rule leaves out pairs')
 
     ! A subset of rows: rows 3..9 present, the primitives of 9 without their row above.
     rows = [(j, j = 3, 9)]
-    call self_candidates(lat, rows, x(:, :, 3:9), 0, lat%ny - 1, reach, reach, pairs)
+    call self_candidates(lat, rows, x(:, :, 3:9), 0, lat%ny - 1, OWN_LOWEST, reach, reach, pairs)
     call pair_keys(lat, pairs, kh)
-    call brute_keys(lat, rows, x(:, :, 3:9), x(:, :, 3:9), .false., 0, lat%ny - 1, reach, reach, kb)
+    call brute_keys(lat, rows, x(:, :, 3:9), x(:, :, 3:9), .false., 0, lat%ny - 1, OWN_LOWEST, reach, reach, kb)
     call check_true(same(kh, kb), trim(what)//': rows 3..9 alone = brute force')
   end subroutine against_brute
 
@@ -103,19 +104,19 @@ contains
     real(rp), allocatable :: x(:, :, :)
     integer(int64), allocatable :: kall(:), kband(:), kunion(:)
     integer, allocatable :: rows(:)
-    integer :: j, b, lo(3), hi(3)
+    integer :: j, b, lo(3), hi(3), ntouch
 
     lat = self_lattice_t(nx=8, ny=20, split=SPLIT_MAIN, ax=0.01_rp, ay=0.01_rp)
     allocate(x(3, 0:lat%nx - 1, 0:lat%ny - 1))
     call fold_shape(lat, 10, 0.003_rp, x)
     rows = [(j, j = 0, lat%ny - 1)]
-    call self_candidates(lat, rows, x, 0, lat%ny - 1, 0.004_rp, 0.004_rp, pairs)
+    call self_candidates(lat, rows, x, 0, lat%ny - 1, OWN_LOWEST, 0.004_rp, 0.004_rp, pairs)
     call pair_keys(lat, pairs, kall)
     lo = [0, 6, 13]
     hi = [5, 12, 19]
     allocate(kunion(0))
     do b = 1, 3
-      call self_candidates(lat, rows, x, lo(b), hi(b), 0.004_rp, 0.004_rp, pairs)
+      call self_candidates(lat, rows, x, lo(b), hi(b), OWN_LOWEST, 0.004_rp, 0.004_rp, pairs)
       call pair_keys(lat, pairs, kband)
       kunion = [kunion, kband]
     end do
@@ -123,6 +124,17 @@ contains
     call sort_local(kunion)
     call check_true(same(kunion, kall), 'bands: their union is the whole list')
     call check_true(size(kall) > 50, 'bands: the fold has pairs across its layers')
+    ! The other rule: the pairs that touch a band's rows, against the brute force; the
+    ! layers' pairs between the first and the last band are on both.
+    ntouch = 0
+    do b = 1, 3
+      call self_candidates(lat, rows, x, lo(b), hi(b), OWN_TOUCH, 0.004_rp, 0.004_rp, pairs)
+      call pair_keys(lat, pairs, kband)
+      ntouch = ntouch + size(kband)
+      call brute_keys(lat, rows, x, x, .false., lo(b), hi(b), OWN_TOUCH, 0.004_rp, 0.004_rp, kunion)
+      call check_true(same(kband, kunion), 'bands, pairs touching a band = brute force')
+    end do
+    call check_true(ntouch > size(kall), 'bands: pairs across bands touch both')
   end subroutine ownership_bands
 
   !> The rest-distance rule on a flat sheet at rest.
@@ -141,12 +153,12 @@ contains
       end do
     end do
     rows = [(j, j = 0, lat%ny - 1)]
-    call self_candidates(lat, rows, x, 0, lat%ny - 1, 0.015_rp, 0.015_rp, pairs)
+    call self_candidates(lat, rows, x, 0, lat%ny - 1, OWN_LOWEST, 0.015_rp, 0.015_rp, pairs)
     call check_true(pairs%n == 0, 'flat at rest, rest_reach = reach > spacing: no pair')
-    call self_candidates(lat, rows, x, 0, lat%ny - 1, 0.008_rp, 0.0_rp, pairs)
+    call self_candidates(lat, rows, x, 0, lat%ny - 1, OWN_LOWEST, 0.008_rp, 0.0_rp, pairs)
     call check_true(pairs%n > 0 .and. count(pairs%kind(1:pairs%n) == PAIR_PT) > 0, &
                     'flat at rest, no rest rule, reach 0.8 spacing: the lattice neighbours are pairs')
-    call self_candidates(lat, rows, x, 0, lat%ny - 1, 0.006_rp, 0.0_rp, pairs)
+    call self_candidates(lat, rows, x, 0, lat%ny - 1, OWN_LOWEST, 0.006_rp, 0.0_rp, pairs)
     call check_true(pairs%n == 0, 'flat at rest, reach 0.6 spacing: nothing nearer than 0.707 spacing')
   end subroutine rest_rule
 
@@ -169,7 +181,7 @@ contains
     best = huge(1.0_rp)
     do rep = 1, 3
       call system_clock(c0, rate)
-      call self_candidates(lat, rows, x, 0, n - 1, 0.5_rp * lat%ax, 0.5_rp * lat%ax, pairs)
+      call self_candidates(lat, rows, x, 0, n - 1, OWN_LOWEST, 0.5_rp * lat%ax, 0.5_rp * lat%ax, pairs)
       call system_clock(c1)
       best = min(best, real(c1 - c0, rp) / rate)
     end do

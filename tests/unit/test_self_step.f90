@@ -19,7 +19,7 @@ program test_self_step
   use kinds, only: rp
   use contact_ccd, only: ACCD_S
   use contact_faces, only: SPLIT_MAIN, SPLIT_ANTI
-  use self_broad, only: self_lattice_t, self_pairs_t, self_candidates, self_candidates_swept, self_row_slots, &
+  use self_broad, only: self_lattice_t, self_pairs_t, self_candidates, self_candidates_swept, self_row_slots, OWN_LOWEST, &
                         self_pair_positions, self_pair_distance2
   use self_step, only: self_alpha_ccd, self_vertex_dmin, self_vertex_bounds, self_clamp, OGC_GAMMA
   use self_shapes, only: roll_shape, fold_shape, all_pairs
@@ -134,7 +134,7 @@ contains
     call check_true(gfree < 0.0_rp, trim(what)//': the update unlimited crosses')
 
     ! (a) global alpha
-    call self_candidates_swept(lat, rows, x, dx, 0, lat%ny - 1, XI, DHAT + XI, pairs)
+    call self_candidates_swept(lat, rows, x, dx, 0, lat%ny - 1, OWN_LOWEST, XI, DHAT + XI, pairs)
     alpha = self_alpha_ccd(lat, rows, x, dx, pairs, XI, ACCD_S)
     call path_gaps(lat, rows, allp, x, alpha * dx, 0.0_rp, gmin, margin)
     call check_true(alpha > 0.0_rp .and. alpha < 1.0_rp, trim(what)//': (a) 0 < alpha < 1')
@@ -142,7 +142,7 @@ contains
 
     ! (b) per-vertex bounds, search radius r
     r = 2.0_rp * (DHAT + XI)
-    call self_candidates(lat, rows, x, 0, lat%ny - 1, r, DHAT + XI, pairs)
+    call self_candidates(lat, rows, x, 0, lat%ny - 1, OWN_LOWEST, r, DHAT + XI, pairs)
     allocate(dmin(0:lat%nx - 1, size(rows)), b(0:lat%nx - 1, size(rows)))
     dmin = r
     call self_vertex_dmin(lat, rows, x, pairs, dmin)
@@ -204,13 +204,13 @@ contains
             dx(3, int(u * lat%nx), 36) = dx(3, int(u * lat%nx), 36) - 0.006_rp * scale
           end if
           nmove = count(norm2(dx, dim=1) > 0.0_rp)
-          call self_candidates_swept(lat, rows, x, dx, 0, lat%ny - 1, XI, DHAT + XI, pairs)
+          call self_candidates_swept(lat, rows, x, dx, 0, lat%ny - 1, OWN_LOWEST, XI, DHAT + XI, pairs)
           alpha = self_alpha_ccd(lat, rows, x, dx, pairs, XI, ACCD_S)
           if (alpha < 1.0_rp) stall_a = stall_a + nmove
           keep_a(1) = keep_a(1) + alpha
           do ir = 1, 2
             r = ir * (DHAT + XI)
-            call self_candidates(lat, rows, x, 0, lat%ny - 1, r, DHAT + XI, pairs)
+            call self_candidates(lat, rows, x, 0, lat%ny - 1, OWN_LOWEST, r, DHAT + XI, pairs)
             dmin = r
             call self_vertex_dmin(lat, rows, x, pairs, dmin)
             call self_vertex_bounds(dmin, XI, OGC_GAMMA, b)
