@@ -185,8 +185,10 @@ contains
     if (.not. all_agree(out%comm, WHO, ierr, errmsg)) return
     call write_mesh(out, k, ierr, errmsg)
     if (.not. all_agree(out%comm, WHO, ierr, errmsg)) return
-    ! views: of the steps after the file's (a kept one), or all of an old layout's
-    if (out%obst%moving(k)) call sync_obstacle_views(out, k, merge(out%series%nt, 0, kept), extent, ierr, errmsg)
+    ! views: of the steps after the file's (a kept one), or all of an old
+    ! layout's (a moving one made static keeps none)
+    if (out%obst%moving(k) .or. .not. kept) &
+      call sync_obstacle_views(out, k, merge(out%series%nt, 0, kept), extent, ierr, errmsg)
   end subroutine obstacle_made
 
   !> kept: the file has obstacle k's group in the layout of this run (its
@@ -347,9 +349,9 @@ contains
     call close_dset(dset, vertices_path(k), ierr, errmsg)
   end subroutine step_vertices
 
-  !> Moving obstacle k's views: those of steps first.. deleted (up to
-  !> extent, and on while there are more), those of the file's steps
-  !> made where missing. Collective; each change agreed on before the next.
+  !> Obstacle k's views: those of steps first.. deleted (up to extent, and
+  !> on while there are more); a moving one's of the file's steps made
+  !> where missing. Collective; each change agreed on before the next.
   subroutine sync_obstacle_views(out, k, first, extent, ierr, errmsg)
     type(output_file), intent(in) :: out
     integer, intent(in) :: k, first, extent
@@ -370,6 +372,7 @@ contains
       if (.not. all_agree(out%comm, WHO, ierr, errmsg)) return
       t = t + 1
     end do
+    if (.not. out%obst%moving(k)) return
     do t = 0, out%series%nt - 1
       view = obstacle_view(k, t)
       call has_link(out%file, '/xdmf/'//view, '/xdmf/'//view, exists, ierr, errmsg)
