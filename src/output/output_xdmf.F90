@@ -16,8 +16,10 @@ submodule (output) output_xdmf
     integer :: u = -1, nbuf = 0
     logical :: good = .false.
     character(len=:), allocatable :: path, tmp, h5   ! the sidecar, its new file, the HDF5 file's name in XML text
-    character(len=65536) :: buf
+    character(len=:), allocatable :: buf             ! BUF_LEN characters
   end type xml_file
+
+  integer, parameter :: BUF_LEN = 65536
 
 contains
 
@@ -159,6 +161,7 @@ contains
 
     x%path = path
     x%h5 = xml_escape(h5_base)
+    allocate(character(len=BUF_LEN) :: x%buf)
     x%nbuf = 0
     call tmp_open(path, x%tmp, x%u, x%good, iom)
     if (.not. x%good) then
