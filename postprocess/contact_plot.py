@@ -45,7 +45,7 @@ KEY_NORMAL = "obstacle_normal"    # plane: outward normal
 KEY_RADIUS = "obstacle_radius"    # sphere, capsule
 KEY_HALF = "obstacle_half_size"    # box: half extents along its local x, y, z
 KEY_AXIS = "obstacle_axis"        # box: its local x (made orthogonal to obstacle_normal, its local z;
-#                                   local y = z x x, as src/model/contact_forces.f90 builds it)
+#                                   local y = z x x, as src/model/contact_model.f90 builds it)
 KEY_END = "obstacle_end"          # capsule: the second end
 # Keyframed motion (input/README.md, "&contact", Motion); /config holds the
 # n_keyframes(k) keyframes in use of each obstacle one after the other.

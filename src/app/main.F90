@@ -15,14 +15,15 @@ program nuno
   use input, only: input_read, input_summary, input_check_run
   use input_usage, only: usage_text, list_keys
   use timestepping, only: app_ctx, solver_create, solver_destroy, solver_run, check_decomposition, solver_restore, &
-                          restart_state_t, restart_state_init, restart_state_free
+                          restart_state_t, restart_state_init, restart_state_free, restart_judge_t, restart_judge, &
+                          checkpoint_pm_names
   use output, only: output_file, output_open, output_close, output_reopen, checkpoint_t, output_write_identify, &
-                    output_write_control
+                    output_write_control, named_value_t
   use identify, only: ident_t, identify_prepare_options, identify_run, identify_result, control_result, &
                       identify_scratch_remove
   use config, only: unset_real
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_positive_inf
-  use safe_files, only: same_file, check_output_name, sidecar_path
+  use safe_files, only: same_file, check_output_name, sidecar_path, obstacles_sidecar_path
   use kinds, only: rp
   use step_settings, only: step_t_end
   use run_error, only: run_error_any
@@ -39,6 +40,9 @@ program nuno
   type(restart_state_t) :: restart       !< the run's checkpoints (module run_checkpoint)
   type(output_file), target :: out
   type(checkpoint_t) :: ck
+  type(restart_judge_t) :: judge         !< a restart's check of the checkpoint's state (the process models')
+  type(named_value_t), allocatable :: pm_names(:)   !< the process models' named values in a checkpoint
+  character(len=512) :: refusal
   type(ident_t), target :: id
   logical :: id_done
   character(len=16), allocatable :: id_names(:)
@@ -64,7 +68,7 @@ program nuno
   integer(c_int) :: overwrite
   character(len=:), allocatable :: wname
   character(len=1024) :: inputs(3)       ! the input files: namelist, observed, target
-  character(len=1100) :: derived(3)      ! the side files of the name written
+  character(len=1100) :: derived(4)      ! the side files of the name written
   interface
     !> src/app/nuno_file_options.c: -nuno_overwrite (in -help).
     integer(c_int) function nuno_file_options_read(fcomm, overwrite) bind(C, name='nuno_file_options_read')
@@ -153,6 +157,7 @@ program nuno
   derived(1) = wname//'.partial'
   derived(2) = wname//'.lock'
   derived(3) = sidecar_path(wname)
+  derived(4) = obstacles_sidecar_path(wname)
   if (len_trim(restart_file) > 0) then
     call check_output_name(PETSC_COMM_WORLD, '-nuno_restart', wname, len_trim(restart_file) >= len(restart_file) - 1, &
                            inputs, derived, ierr, errmsg)
@@ -181,8 +186,11 @@ program nuno
     call identify_prepare_options(ierr)
     if (ierr /= 0) call fatal_local('could not set the options of the identification or control')
   end if
-  call solver_create(ctx, cfg, ierr)
+  ! A process model's refusal of the scene (an obstacle containing the
+  ! cloth; one line, found by every rank alike) before any output exists.
+  call solver_create(ctx, cfg, ierr, refusal)
   if (ierr /= 0) call fatal_local('could not set up the solver')
+  if (len_trim(refusal) > 0) call fatal_collective(refusal)
   ! Options nothing read, integers out of range, a TS type nuno cannot run:
   ! refused before the first step; -help ends the run here.
   call options_before_run(ctx%ts, PETSC_COMM_WORLD, cfg%identify%active .or. cfg%control%active, petsc_help, ierr, errmsg)
@@ -216,9 +224,13 @@ program nuno
     if (len_trim(restart_file) > len(cfg%output%output_file)) &
       call fatal_collective('-nuno_restart: the file name is longer than '//trim(adjustl(itoa(len(cfg%output%output_file))))// &
                             ' characters')
+    ! the process models judge the checkpoint's state before the file changes
+    judge = restart_judge(ctx)
+    call checkpoint_pm_names(ctx, pm_names)
     call output_reopen(out, trim(restart_file), PETSC_COMM_WORLD, cfg%lattice%nx, cfg%lattice%ny, ctx%lat%ys, &
                        ctx%lat%ye - ctx%lat%ys + 1, cfg%output%write_velocity, step_t_end(ctx%step), cfg%namelist_text, petsc_opts, &
-                       ck, ctx%xout, ctx%vout, ierr, errmsg, protect=trim(path), overwrite=overwrite /= 0, cfg=cfg)
+                       ck, ctx%xout, ctx%vout, ierr, errmsg, protect=trim(path), overwrite=overwrite /= 0, cfg=cfg, &
+                       pm_names=pm_names, judge=judge)
     if (ierr /= 0) call fatal_collective(errmsg)
     if (rank == 0 .and. trim(restart_file) /= trim(cfg%output%output_file) .and. &
         trim(restart_file) /= trim(cfg%output%output_file)//'.partial' .and. &

@@ -169,11 +169,11 @@ module input_keys
              'Coulomb friction coefficient of obstacle k'), &
     key_info('contact_thickness', 'contact', KEY_REAL, 1, 'length', '0', '>= 0', &
              'contact distance: the gap is the distance to the surface minus this'), &
-    key_info('contact_dhat', 'contact', KEY_REAL, 1, 'length', '1e-3', '> 0', &
+    key_info('contact_dhat', 'contact', KEY_REAL, 1, 'length', '1e-3', '> 0, with obstacles 1e-4 .. 1 lattice spacing', &
              'the barrier acts on gaps below this'), &
-    key_info('contact_stiffness', 'contact', KEY_REAL, 1, 'force/length', '1', '> 0', &
+    key_info('contact_stiffness', 'contact', KEY_REAL, 1, 'force/length', '1', '> 0, with obstacles at most 100 m/dt^2 and holding m g', &
              'barrier stiffness kappa: energy kappa b(gap)'), &
-    key_info('friction_eps_v', 'contact', KEY_REAL, 1, 'length/time', '1e-3', '> 0', &
+    key_info('friction_eps_v', 'contact', KEY_REAL, 1, 'length/time', '1e-3', '> 0, with friction 1e-7 .. 1 lattice spacing/dt', &
              'friction: sliding speed below which friction is smoothed (sticking)')]
 
 contains

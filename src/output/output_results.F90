@@ -6,7 +6,8 @@ submodule (output) output_results
 contains
 
   !> The group /run (provenance: versions, git commit, solver as used, date,
-  !> host), the root attribute units (and each dataset's), and the /wall_time series. Call once,
+  !> host), the root attribute units (and each dataset's), the /wall_time
+  !> series and the process models' (info%pm_series). Call once,
   !> after output_open and before the first output_write_step. Collective.
   module procedure output_write_run_info
     ! git_commit: the build's commit (cmake/git_commit.cmake, rewritten at every build)
@@ -56,8 +57,11 @@ contains
     end if
     if (ierr == 0 .and. out%series%dset(d_wall_time) < 0) &
       call create_series(out, d_wall_time, ierr, errmsg)
-    ! /energy/barrier and /contact: scenes with obstacles only
-    if (info%contact) call contact_series(out, ierr, errmsg)
+    ! the process models' series (contact's /energy/barrier and /contact:
+    ! scenes with obstacles only)
+    if (allocated(info%pm_series) .and. allocated(info%pm_groups)) then
+      call pm_series_register(out, info%pm_series, info%pm_groups, ierr, errmsg)
+    end if
     ! /wall_time's axis, and those of a file continued from an earlier version.
     call netcdf_dims(out, ierr, errmsg)
     call write_units(out, trim(info%units), ierr, errmsg)

@@ -5,6 +5,8 @@
 !> module strings'.
 module failure_text
 #include "petsc/finclude/petscts.h"
+  use process_models, only: pm_list_rejection
+  use run_progress, only: progress_t_written
   use petscts
   use petscdmda
   use mpi
@@ -108,6 +110,11 @@ contains
       write(msg, '(a,es12.5,a,i0,a,i0,a)') 'singular element at t = ', t_bad, &
         ' (zero-length link or bending triple folded back to theta = pi) anchored at node (', &
         glob(1), ', ', glob(2), ')'
+    else if (len(pm_list_rejection(ctx%pms, progress_t_written(ctx%progress))) > 0 .and. reason < 0) then
+      ! a process model rejected end states since the last output step (and
+      ! the retries with smaller steps did not get the run past): its reason
+      write(msg, '(a,es12.5,a)') 'time step from t = ', t, ' failed after step end states were rejected '// &
+        '(each retried with a smaller step), the last: '//pm_list_rejection(ctx%pms, progress_t_written(ctx%progress))
     else if (reason == TS_DIVERGED_NONLINEAR_SOLVE) then
       write(msg, '(a,es12.5,a)') 'time step from t = ', t, ' failed: nonlinear solve diverged '// &
         '(TS_DIVERGED_NONLINEAR_SOLVE): the run''s failed Newton solves reached -ts_max_snes_failures '// &

@@ -8,8 +8,10 @@ module provenance
   use mpi
   use kinds, only: rp
   use config, only: nuno_config, unset_real
-  use output, only: output_file, run_info, output_write_run_info, output_config_key
+  use output, only: output_file, run_info, output_write_run_info, output_config_key, output_write_obstacles
   use app_context, only: app_ctx
+  use process_model, only: pm_energy_t
+  use process_models, only: pm_list_output
   use step_settings, only: step_dt, step_t_end, step_max_steps, step_tolerances
   use failure_text, only: report_io_error
   implicit none
@@ -19,9 +21,9 @@ module provenance
 contains
 
   !> The provenance of the run (/run in the output file): the time
-  !> integration as used after the options, versions, date and host; and
-  !> the configuration as used (/config), file_name the file the run
-  !> writes (the one a restart continues).
+  !> integration as used after the options, versions, date and host; the
+  !> configuration as used (/config), file_name the file the run writes
+  !> (the one a restart continues); and its obstacles (/obstacles).
   subroutine write_run_info(ctx, out, file_name, ierr)
     type(app_ctx), intent(inout) :: ctx
     type(output_file), intent(inout) :: out
@@ -34,6 +36,7 @@ contains
     character(len=10) :: clock
     character(len=5) :: zone
     integer :: hlen
+    type(pm_energy_t) :: energy
 
     PetscCall(TSGetType(ctx%ts, info%ts_type, ierr))
     PetscCall(TSGetAdapt(ctx%ts, adapt, ierr))
@@ -44,7 +47,8 @@ contains
     info%max_steps = int(min(step_max_steps(ctx%step), int(huge(1), kind(step_max_steps(ctx%step)))))
     call step_tolerances(ctx%step, info%rtol, info%atol_position, info%atol_velocity)
     info%units = ctx%cfg%scene%units
-    info%contact = ctx%cfg%contact%n_obstacles > 0
+    ! the process models' series (headers: their values do not matter here)
+    call pm_list_output(ctx%pms, info%pm_series, info%pm_groups, energy)
     ! Rank 0's host and clock, broadcast: attributes must be equal on all ranks.
     if (ctx%rank == 0) then
       PetscCall(PetscGetHostName(info%host, ierr))
@@ -58,6 +62,8 @@ contains
     call MPI_Bcast(info%start_date, hlen, MPI_CHARACTER, 0, ctx%comm, ierr)
     call output_write_run_info(out, info, ierr, errmsg)
     if (ierr == 0) call write_config(ctx%cfg, step_dt(ctx%step), step_t_end(ctx%step), file_name, ctx%comm, out, ierr, errmsg)
+    ! the obstacles' surfaces and their sidecar (a scene with &contact; none: nothing)
+    if (ierr == 0) call output_write_obstacles(out, ctx%cfg, ierr, errmsg)
     if (ierr /= 0) then
       call report_io_error(ctx, errmsg)
     end if

@@ -13,13 +13,13 @@ module run_checkpoint
   use, intrinsic :: iso_c_binding, only: c_int, c_double
   use, intrinsic :: iso_fortran_env, only: output_unit
   use kinds, only: rp
-  use output, only: output_file, checkpoint_t, output_write_checkpoint, output_steps
+  use output, only: output_file, checkpoint_t, output_write_checkpoint, output_steps, checkpoint_judge_t, named_value_t
   use app_context, only: app_ctx
   use step_settings, only: step_max_steps
   use energy_integrals, only: energy_integrals_restore, energy_totals
   use run_progress, only: progress_restore, progress_wall, progress_t_written, progress_stretch_warned
   use reduced, only: reduced_restore_floor, reduced_its, reduced_floor_est
-  use contact_forces, only: contact_on, contact_restore, contact_summary
+  use process_models, only: pm_list_checkpoint, pm_list_restore, pm_list_check_state
   use newton_state, only: newton_set_failures_before
   use newton_start, only: newton_start_count, newton_start_get, newton_start_put
   use failure_text, only: report_io_error
@@ -29,6 +29,7 @@ module run_checkpoint
   public :: run_counts, solver_restore, take_checkpoint, keep_restart_point
   public :: restart_state_t, restart_state_init, restart_output_written, restart_state_free
   public :: state_to_strips
+  public :: restart_judge_t, restart_judge, checkpoint_pm_names
   public :: restart_file, restart_wall_before, restart_walltime, restart_from, restart_t_checkpoint, &
             restart_current
 
@@ -58,7 +59,45 @@ module run_checkpoint
     real(rp) :: counts_before(5) = 0
   end type restart_state_t
 
+  !> A restart's judgement of the checkpoint's state before the file
+  !> changes (module output's output_reopen): the process models'
+  !> check_state hooks (contact: no node inside an obstacle as the input
+  !> now describes them). Made by restart_judge.
+  type, extends(checkpoint_judge_t) :: restart_judge_t
+    private
+    type(app_ctx), pointer :: ctx => null()
+  contains
+    procedure :: judge => judge_restart
+  end type restart_judge_t
+
 contains
+
+  !> The judge of a restart's checkpoint for the solver ctx.
+  function restart_judge(ctx) result(j)
+    type(app_ctx), intent(in), target :: ctx
+    type(restart_judge_t) :: j
+    j%ctx => ctx
+  end function restart_judge
+
+  !> The checkpoint's state at t, this rank's strips x, v (3, nx, ym): the
+  !> process models' refusal (one line, the same on every rank) or none.
+  !> Collective.
+  subroutine judge_restart(this, t, x, v, ierr, errmsg)
+    class(restart_judge_t), intent(inout) :: this
+    real(rp), intent(in) :: t
+    real(rp), intent(in) :: x(:, :, :), v(:, :, :)
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: errmsg
+    call pm_list_check_state(this%ctx%pms, this%ctx%lat, t, x, this%ctx%comm, ierr, errmsg)
+  end subroutine judge_restart
+
+  !> The names and kinds of the process models' named values a checkpoint
+  !> holds (module output reads them where the file has them).
+  subroutine checkpoint_pm_names(ctx, names)
+    type(app_ctx), intent(in) :: ctx
+    type(named_value_t), allocatable, intent(out) :: names(:)
+    call pm_list_checkpoint(ctx%pms, names)
+  end subroutine checkpoint_pm_names
 
   !> Accepted steps, rejected steps, Newton iterations, linear iterations
   !> and retried Newton solves since t = 0, a restart's earlier runs
@@ -104,8 +143,8 @@ contains
     r%counts_before = [0.0_rp, ck%counters(2:5)]
     call newton_set_failures_before(ctx%newton, nint(ck%counters(5)))
     call energy_integrals_restore(ctx%energy, ck%dissipated, ck%work_constraints, ck%mgx0)
-    if (ck%contact /= 0 .and. contact_on(ctx%contact)) &
-      call contact_restore(ctx%contact, ck%friction_work, ck%obstacle_work, ck%min_gap_run, ck%states_checked, ck%limited_steps)
+    ! the process models' state (each takes its own named values)
+    if (allocated(ck%pm_values)) call pm_list_restore(ctx%pms, ck%pm_values)
     call progress_restore(ctx%progress, t_written=ck%t_written, stretch_warned=ck%stretch_warned /= 0)
     ! The first Newton iteration's inner tolerance takes the round-off floor
     ! of the last step's assembly (set_newton_forcing): without it the
@@ -203,16 +242,8 @@ contains
     ck%time = t
     ck%dt_next = h
     call energy_totals(ctx%energy, ck%dissipated, ck%work_constraints, ck%mgx0)
-    if (contact_on(ctx%contact)) then
-      ck%contact = 1
-      associate (c => contact_summary(ctx%contact))
-        ck%friction_work = c%friction_work
-        ck%obstacle_work = c%obstacle_work
-        ck%min_gap_run = c%min_gap_run
-        ck%states_checked = c%states_checked
-        ck%limited_steps = c%limited_steps
-      end associate
-    end if
+    ! the process models' state as named values (module process_models)
+    call pm_list_checkpoint(ctx%pms, ck%pm_values)
     ck%t_written = progress_t_written(ctx%progress)
     call run_counts(ctx, r, ck%counters, ierr)
     if (ierr /= 0) return

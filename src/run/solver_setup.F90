@@ -27,7 +27,12 @@ module solver_setup
   use newton_policy, only: set_newton_start, snes_converged
   use newton_state, only: SNES_FLOOR_DEFAULT, newton_state_init, newton_set_inner_guess, newton_guess, newton_guess_given, &
                           newton_forcing_on
-  use contact_solver, only: contact_solver_options, contact_setup
+  use process_solver, only: pm_solver_options, pm_solver_setup
+  use process_model, only: process_model_t, pm_hints_t
+  use process_models, only: pm_list_t, pm_list_add, pm_list_hints, pm_list_on, pm_list_setup, pm_list_nodal, &
+                            pm_list_destroy, pm_list_take
+  use contact_model, only: contact_model_t
+  use ghosted_state, only: ghosted_get, ghosted_restore
   use step_monitor, only: ts_monitor
   use step_settings, only: step_settings_init, step_set_tolerances, step_dt, step_t_end, step_fixed, step_max_steps, &
                            step_tolerances, step_adaptive_default
@@ -73,20 +78,28 @@ contains
     end if
   end subroutine check_decomposition
 
-  !> Create the DMDA, the lattice strip, the initial state, the Jacobian
-  !> matrix and the TS. Collective.
-  subroutine solver_create(ctx, cfg, ierr)
+  !> Create the DMDA, the lattice strip, the initial state, the process
+  !> models, the Jacobian matrix and the TS. refusal: a process model's
+  !> refusal of the scene (one line, the same on every rank: the caller
+  !> ends the run collectively; '' when none); ierr: a PETSc error. extra:
+  !> process models of the caller's, after the scene's (a new force tried
+  !> out before it has a key; tests/mpi/test_process_models.F90), moved
+  !> into the solver's list. Collective.
+  subroutine solver_create(ctx, cfg, ierr, refusal, extra)
     type(app_ctx), intent(inout), target :: ctx
     !> the run's configuration: the context points to it from here on (one
     !> configuration for the caller and the solver; the effective dt and
     !> t_end are the step record's, module step_settings)
     type(nuno_config), intent(in), target :: cfg
     PetscErrorCode, intent(out) :: ierr
+    character(*), intent(out) :: refusal
+    type(pm_list_t), intent(inout), optional :: extra
     PetscInt :: w, nxp, nyp
     PetscInt, parameter :: one = 1, six = 6
     type(nuno_options_t) :: opt
     logical :: applied
 
+    refusal = ''
     ctx%cfg => cfg
     ctx%comm = PETSC_COMM_WORLD
     call MPI_Comm_rank(ctx%comm, ctx%rank, ierr)
@@ -96,8 +109,12 @@ contains
     nyp = cfg%lattice%ny
     ! 1 x P processes: each rank owns whole rows, ghost width 2 with bending.
     PetscCall(DMDACreate2d(ctx%comm, DM_BOUNDARY_NONE, DM_BOUNDARY_NONE, DMDA_STENCIL_BOX, nxp, nyp, one, PETSC_DECIDE, six, w, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, ctx%da, ierr))
+    call add_process_models(ctx, cfg)
+    if (present(extra)) call pm_list_take(ctx%pms, extra)
     PetscCall(resolve_options(ctx, cfg, opt, ierr))
     PetscCall(setup_strips(ctx, cfg, opt, ierr))
+    PetscCall(setup_process_models(ctx, cfg, refusal, ierr))
+    if (len_trim(refusal) > 0) return
     PetscCall(create_jacobian(ctx, cfg, opt, ierr))
     PetscCall(create_ts(ctx, cfg, ierr))
     ! An adaptive run without -ts_type: the method that won the
@@ -107,12 +124,47 @@ contains
     if (.not. (cfg%identify%active .or. cfg%control%active)) then
       PetscCall(adaptive_default(ctx%ts, ctx%comm, applied, ierr))
     end if
-    PetscCall(contact_solver_options(ctx, ierr))
+    PetscCall(pm_solver_options(ctx, ierr))
     PetscCall(step_defaults(ctx%ts, ctx%use_reduced, ierr))
     PetscCall(TSSetFromOptions(ctx%ts, ierr))
     PetscCall(effective_time_integration(ctx, applied, ierr))
-    PetscCall(contact_setup(ctx, ierr))
+    PetscCall(pm_solver_setup(ctx, ierr))
   end subroutine solver_create
+
+  !> The scene's process models into the list (module process_models),
+  !> before anything reads their hints: contact with &contact's obstacles
+  !> (none without). The one place that names the physics: a new force is
+  !> added here (docs/design.md, "Process models").
+  subroutine add_process_models(ctx, cfg)
+    type(app_ctx), intent(inout) :: ctx
+    type(nuno_config), intent(in) :: cfg
+    class(process_model_t), allocatable :: pm
+    if (cfg%contact%n_obstacles > 0) then
+      allocate(contact_model_t :: pm)
+      call pm_list_add(ctx%pms, pm)
+    end if
+  end subroutine add_process_models
+
+  !> The process models' set-up hooks with the lattice strip, the initial
+  !> state and the constraints (module process_models' pm_list_setup);
+  !> refusal: the first model's refusal of the scene, the same on every
+  !> rank ('' when none). Nothing without process models. Collective.
+  subroutine setup_process_models(ctx, cfg, refusal, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    type(nuno_config), intent(in) :: cfg
+    character(*), intent(out) :: refusal
+    PetscErrorCode, intent(out) :: ierr
+    type(tVec) :: uloc
+    PetscScalar, pointer :: u(:, :, :)
+    integer :: err
+    ierr = 0
+    refusal = ''
+    if (.not. pm_list_on(ctx%pms)) return
+    PetscCall(ghosted_get(ctx%da, ctx%u, uloc, u, ierr))
+    call pm_list_setup(ctx%pms, cfg, ctx%lat, ctx%comm, u, ctx%cs, err, refusal)
+    PetscCall(ghosted_restore(ctx%da, uloc, u, ierr))
+    if (err == 0) refusal = ''
+  end subroutine setup_process_models
 
   !> nuno's own options, in an options block (so in -help), resolved into
   !> opt and Newton's record: the Newton step, reduced 3-dof elimination
@@ -130,6 +182,7 @@ contains
     integer(c_int) :: jac, nfail, forcing, ls_fallback, ls_given, guess, guess_given
     real(c_double) :: snes_floor
     PetscBool :: ls_type_given
+    type(pm_hints_t) :: hints
 
     jac = JACOBIAN_REDUCED
     opt%pc_lag = 0                 ! the default: 3 with the multigrid, 1 otherwise (module reduced)
@@ -138,11 +191,13 @@ contains
     opt%cl = 0
     nfail = 0
     cmattype = MATBAIJ//c_null_char
-    ! With obstacles the inner rtol stays -reduced_ksp_rtol: the forcing
-    ! term's quadratic model of Newton's convergence does not hold at a
-    ! contact's onset, and its loose inner solves (up to 0.1) failed
-    ! drop_table's impact step (4 retries) where a fixed 1e-6 takes none.
-    forcing = merge(0, 1, cfg%contact%n_obstacles > 0)
+    ! A process model may need the inner rtol to stay -reduced_ksp_rtol
+    ! (contact: the forcing term's quadratic model of Newton's convergence
+    ! does not hold at a contact's onset, and its loose inner solves (up to
+    ! 0.1) failed drop_table's impact step (4 retries) where a fixed 1e-6
+    ! takes none).
+    hints = pm_list_hints(ctx%pms)
+    forcing = merge(0, 1, hints%forcing_off)
     guess = GUESS_AUTO
     snes_floor = SNES_FLOOR_DEFAULT
     ierr = nuno_options_read(ctx%comm, JACOBIAN_NAMES, size(JACOBIAN_NAMES), len(JACOBIAN_NAMES), jac, opt%pc_lag, &
@@ -236,6 +291,7 @@ contains
     type(nuno_options_t), intent(in) :: opt
     PetscErrorCode, intent(out) :: ierr
     logical :: symmetric, constant, damping
+    type(pm_hints_t) :: hints
 
     ierr = 0
     if (.not. ctx%use_reduced) then
@@ -244,13 +300,14 @@ contains
     end if
     ! S is symmetric when K and C are: no moving dampers (linear springs
     ! have constant ones), no paper bending, no bending damping.
+    hints = pm_list_hints(ctx%pms)
     damping = cfg%material%has_damping .or. (cfg%material%bending_code == BEND_ENERGY .and. cfg%material%eta_b /= 0.0_rp) .or. &
-              cfg%contact%n_obstacles > 0   ! friction's df/dv
+              hints%velocity_blocks   ! a process model's df/dv (contact's friction)
     symmetric = (cfg%material%spring_code == SPRING_LINEAR .or. .not. cfg%material%has_damping) .and. &
                 (cfg%material%bending_code == BEND_NONE .or. (cfg%material%bending_code == BEND_ENERGY .and. &
                  (cfg%material%eta_b == 0.0_rp .or. opt%gn /= 0)))
-    constant = cfg%material%spring_code == SPRING_LINEAR .and. cfg%material%bending_code == BEND_NONE .and. cfg%contact%n_obstacles == 0
-    PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, ctx%nodal, symmetric, constant, damping, opt%cl /= 0, opt%gn /= 0, opt%pc_lag, opt%mg_interp, ierr))
+    constant = cfg%material%spring_code == SPRING_LINEAR .and. cfg%material%bending_code == BEND_NONE .and. .not. hints%state_blocks
+    PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, pm_list_nodal(ctx%pms), symmetric, constant, damping, opt%cl /= 0, opt%gn /= 0, opt%pc_lag, opt%mg_interp, ierr))
   end subroutine create_jacobian
 
   !> The TS: the report's scheme by default, backward Euler with the
@@ -265,6 +322,7 @@ contains
     type(tSNES) :: snes
     type(tTSAdapt) :: adapt
     SNESLineSearch :: linesearch
+    type(pm_hints_t) :: hints
 
     PetscCall(TSCreate(ctx%comm, ctx%ts, ierr))
     PetscCall(TSSetDM(ctx%ts, ctx%da, ierr))
@@ -301,6 +359,7 @@ contains
     ! default, 1, fails the solve before the test: the 6-dof path's bt
     ! failed the shipped hang scene so).
     PetscCall(SNESSetMaxNonlinearStepFailures(snes, two, ierr))
+    hints = pm_list_hints(ctx%pms)
     if (ctx%use_reduced) then
       PetscCall(reduced_attach(ctx%red, snes, ierr))
       ! The full step is exact in x and Newton-exact in v: no backtracking by
@@ -308,11 +367,12 @@ contains
       ! elements, for every Newton iteration); -snes_linesearch_type bt works.
       PetscCall(SNESGetLineSearch(snes, linesearch, ierr))
       PetscCall(SNESLineSearchSetType(linesearch, SNESLINESEARCHBASIC, ierr))
-    else if (cfg%contact%n_obstacles > 0) then
-      ! With obstacles the update is already limited by the time of impact
-      ! (module contact_solver's pre-check); bt's cubic model of ||F||^2
-      ! does not hold across the barrier's log, and failed the 6-dof path at
-      ! a drop's impact (drop_table to 0.15 s). -snes_linesearch_type bt works.
+    else if (hints%basic_line_search) then
+      ! A process model that limits the update itself (contact: by the
+      ! time of impact, module process_solver's pre-check; bt's cubic model
+      ! of ||F||^2 does not hold across the barrier's log, and failed the
+      ! 6-dof path at a drop's impact, drop_table to 0.15 s).
+      ! -snes_linesearch_type bt works.
       PetscCall(SNESGetLineSearch(snes, linesearch, ierr))
       PetscCall(SNESLineSearchSetType(linesearch, SNESLINESEARCHBASIC, ierr))
     end if
@@ -569,6 +629,7 @@ contains
     PetscCall(energy_integrals_free(ctx%energy, ierr))
     PetscCall(DMDestroy(ctx%da, ierr))
     call model_state_free(ctx%model)
+    call pm_list_destroy(ctx%pms)
   end subroutine solver_destroy
 
 end module solver_setup

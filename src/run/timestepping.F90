@@ -36,21 +36,24 @@ module timestepping
   use model_state, only: model_enter_window, model_fixed_to_reduced, model_gravity
   use newton_state, only: newton_enter_window
   use newton_start, only: newton_start_reset
-  use contact_forces, only: contact_on, contact_summary
-  use contact_solver, only: contact_observe
+  use process_model, only: pm_energy_t, pm_group_t
+  use process_models, only: pm_list_on, pm_list_output
+  use process_solver, only: pm_observe
   use step_monitor, only: integrals_after
   use failure_text, only: signal_name, failure_reason, report_io_error
   use strings, only: num => real_brief, inum => itoa
   use run_checkpoint, only: restart_state_t, run_counts, take_checkpoint, keep_restart_point, solver_restore, &
                             restart_state_init, restart_state_free, restart_output_written, restart_wall_before, &
                             restart_walltime, restart_from, restart_t_checkpoint, &
-                            restart_current, restart_file, state_to_strips
+                            restart_current, restart_file, state_to_strips, restart_judge_t, restart_judge, &
+                            checkpoint_pm_names
   use provenance, only: write_run_info
   use solver_setup, only: check_decomposition, solver_create, solver_destroy
   implicit none
   private
   public :: app_ctx, solver_create, solver_destroy, solver_run, check_decomposition, solver_restore
   public :: restart_state_t, restart_state_init, restart_state_free  ! module run_checkpoint: main's record of them
+  public :: restart_judge_t, restart_judge, checkpoint_pm_names      ! module run_checkpoint: a restart's checks
   public :: advance_window          ! module identify_adjoint: its forward run's windows
   public :: enter_window            ! module identify_adjoint: the constraint state of an adjoint window
 
@@ -696,10 +699,10 @@ contains
   ! ------------------------------------------------------------ output steps
 
   !> The output step at t of the solver's state (the TS's, at its time,
-  !> which t is or is within round-off of): write_state; with contact, the
-  !> state's contact record first (the monitor's after a step; at t = 0,
-  !> before any step, made here: the barrier energy of the start).
-  !> Collective.
+  !> which t is or is within eps_on of): write_state; first the process
+  !> models' record of the state at the TS's time (the monitor's after a
+  !> step, so nothing is recorded twice; at t = 0, before any step, made
+  !> here: contact's barrier energy of the start). Collective.
   subroutine write_output(ctx, r, out, t, ierr)
     type(app_ctx), intent(inout) :: ctx
     type(restart_state_t), intent(inout) :: r
@@ -708,18 +711,16 @@ contains
     PetscErrorCode, intent(out) :: ierr
     real(rp) :: t_ts
 
-    if (contact_on(ctx%contact)) then
-      PetscCall(TSGetTime(ctx%ts, t_ts, ierr))
-      PetscCall(contact_observe(ctx, t_ts, ctx%u, ierr))
-    end if
+    PetscCall(TSGetTime(ctx%ts, t_ts, ierr))
+    PetscCall(pm_observe(ctx, t_ts, ctx%u, ierr))
     call write_state(ctx, r, out, t, ctx%u, AT_STEP, ierr)
   end subroutine write_output
 
   !> Diagnostics and one output step at t of the state u, de the energy
   !> integrals [energy] from t to the last step's end, which the output
   !> step's leave out (integrals_after; AT_STEP for the solver's own
-  !> state); a one-line summary on rank 0. The contact columns are the
-  !> last accepted state's. Collective.
+  !> state); a one-line summary on rank 0. The process models' columns
+  !> (contact's) are the last accepted state's. Collective.
   subroutine write_state(ctx, r, out, t, u, de, ierr)
     type(app_ctx), intent(inout) :: ctx
     type(restart_state_t), intent(inout) :: r
@@ -730,13 +731,13 @@ contains
     type(state_diagnostics_t) :: d
     type(output_record) :: rec
     character(len=512) :: errmsg
-    real(rp) :: c(5)
+    real(rp) :: c(5), potential
 
     PetscCall(output_state(ctx, t, u, d, ierr))
     if (t == 0.0_rp) call energy_set_mgx0(ctx%energy, d%mgx)
     call run_counts(ctx, r, c, ierr)
     if (ierr /= 0) return
-    call fill_record(ctx, t, d, c, rec)
+    call fill_record(ctx, t, d, c, rec, potential)
     rec%dissipated = rec%dissipated - de(1)
     rec%external_work = rec%external_work - de(2)
     if (ctx%cfg%output%write_velocity) then
@@ -750,7 +751,7 @@ contains
     end if
     call progress_output_written(ctx%progress, t)
     call restart_output_written(r)
-    if (ctx%rank == 0) call progress_line(ctx, rec, d, int(c(5)))
+    if (ctx%rank == 0) call progress_line(ctx, rec, d, int(c(5)), potential)
   end subroutine write_state
 
   !> The state uvec at t for an output step: its diagnostics d
@@ -773,14 +774,18 @@ contains
   end subroutine output_state
 
   !> The output step's record at t: the state's diagnostics d, the energy
-  !> integrals, contact's record, the run's counts c (run_counts), the
-  !> wall time.
-  subroutine fill_record(ctx, t, d, c, rec)
+  !> integrals, the process models' series and terms of the energy balance
+  !> (potential: their potential energy, for the progress line), the run's
+  !> counts c (run_counts), the wall time.
+  subroutine fill_record(ctx, t, d, c, rec, potential)
     type(app_ctx), intent(in) :: ctx
     real(rp), intent(in) :: t, c(5)
     type(state_diagnostics_t), intent(in) :: d
     type(output_record), intent(out) :: rec
+    real(rp), intent(out) :: potential
     real(rp) :: dissipated, work_constraints, mgx0
+    type(pm_energy_t) :: pe
+    type(pm_group_t), allocatable :: groups(:)
 
     rec%time = t
     rec%kinetic = d%kinetic
@@ -793,23 +798,16 @@ contains
     rec%angular_momentum = d%angular_momentum
     rec%length = d%length
     rec%flatness = d%flatness
-    if (contact_on(ctx%contact)) then
-      ! The barrier energy is a potential energy of the balance, the
-      ! friction work a dissipation and the moving obstacles' work an
-      ! external work (docs/model.md section 10): the state's record of the
-      ! contact monitor (module contact_solver).
-      associate (c => contact_summary(ctx%contact))
-        rec%barrier = c%energy
-        rec%dissipated = rec%dissipated + c%friction_work
-        rec%external_work = rec%external_work + c%obstacle_work
-        rec%contact_active = c%active
-        rec%contact_force = c%force
-        rec%normal_force = c%normal_force
-        rec%friction_work = c%friction_work
-        rec%min_gap = c%min_gap
-        rec%min_gap_run = c%min_gap_run
-        rec%states_checked = c%states_checked
-      end associate
+    ! The process models' series and their terms of the energy balance
+    ! (docs/model.md section 10; contact's: the barrier energy a potential
+    ! energy, the friction work a dissipation, the moving obstacles' work
+    ! an external work), as their accepted hooks recorded the state.
+    potential = 0.0_rp
+    if (pm_list_on(ctx%pms)) then
+      call pm_list_output(ctx%pms, rec%pm_series, groups, pe)
+      potential = pe%potential
+      rec%dissipated = rec%dissipated + pe%dissipated
+      rec%external_work = rec%external_work + pe%external_work
     end if
     rec%steps = int(c(1), kind(rec%steps))
     rec%rejected_steps = int(c(2), kind(rec%rejected_steps))
@@ -825,11 +823,12 @@ contains
   !> keeps it when killed. The order up to 'linear' is the one
   !> bench/solver.py parses. Before any step (t = 0) there is no rate yet:
   !> '-' for the rate and the ETA (same fields, so awk's columns stay).
-  subroutine progress_line(ctx, rec, d, retries)
+  subroutine progress_line(ctx, rec, d, retries, potential)
     type(app_ctx), intent(inout) :: ctx
     type(output_record), intent(in) :: rec
     type(state_diagnostics_t), intent(in) :: d
     integer, intent(in) :: retries               !< Newton solves retried with a smaller step
+    real(rp), intent(in) :: potential            !< the process models' potential energy [energy]
     real(rp) :: t, wall, rate, eta
 
     t = rec%time
@@ -837,7 +836,7 @@ contains
     write(output_unit, '(a,es12.5e2, a,i9, a,i6, a,i9, a,i11, a,i6, 2(a,es13.5e2), a,es10.3e2)', advance='no') &
       't =', t, '  steps', rec%steps, '  rejected', rec%rejected_steps, '  newton', rec%newton_iterations, &
       '  linear', rec%linear_iterations, '  retries', retries, '  E_kin', d%kinetic, &
-      '  E_total', d%kinetic + d%stretch + d%bend + rec%barrier + rec%dissipated - rec%external_work, &
+      '  E_total', d%kinetic + d%stretch + d%bend + potential + rec%dissipated - rec%external_work, &
       '  wall_s', wall
     if (t > 0.0_rp .and. wall > 0.0_rp) then
       rate = t / wall

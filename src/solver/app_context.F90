@@ -5,7 +5,7 @@
 !> constraints, the reduced solver) and one record per concern; each
 !> record's type has private components and lives in the module that
 !> writes it (model_state, newton_state, newton_start, step_settings,
-!> energy_integrals, run_progress, run_error; contact_forces, reduced), so
+!> energy_integrals, run_progress, run_error; process_models, reduced), so
 !> that the compiler keeps every write in its owner (docs/design.md,
 !> "Records and their owners"). The configuration is the caller's, read
 !> only (tests/python/test_record_owners.py checks that nothing writes
@@ -19,8 +19,7 @@ module app_context
   use kinds, only: rp
   use config, only: nuno_config
   use lattice, only: lattice_t
-  use contact_forces, only: contact_state_t
-  use node_blocks, only: node_blocks_t
+  use process_models, only: pm_list_t
   use forces, only: jac_buffer_t
   use constraints, only: constraint_set_t
   use newton_start, only: newton_start_t
@@ -102,10 +101,10 @@ module app_context
     type(step_settings_t) :: step               !< the time integration as used (module step_settings)
     type(energy_integrals_t) :: energy          !< dissipated energy, constraint work (module energy_integrals)
     type(progress_t) :: progress                !< wall clock, output steps, stall check (module run_progress)
-    type(contact_state_t) :: contact            !< obstacles and friction lag (module contact_forces; empty without)
-    !> contact's diagonal blocks at the last Jacobian's state, which every
-    !> assembly adds (written by contact_forces' contact_blocks alone)
-    type(node_blocks_t) :: nodal
+    !> the process models (contact with obstacles; module process_models:
+    !> their hooks' loops, and the node blocks every assembly adds); empty
+    !> in a scene without obstacles
+    type(pm_list_t) :: pms
   end type app_ctx
 
 end module app_context

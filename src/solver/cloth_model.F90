@@ -24,8 +24,9 @@ module cloth_model
   use reduced, only: reduced_assemble
   use app_context, only: app_ctx
   use newton_state, only: newton_set_floor
-  use model_state, only: model_residual, model_contact_blocks, model_assemble_full
-  use contact_forces, only: contact_on
+  use model_state, only: model_residual, model_pm_jacobian, model_assemble_full
+  use process_models, only: pm_list_on, pm_list_nodal
+  use process_solver, only: pm_domain_error
   implicit none
   private
   public :: form_ifunction, form_ijacobian
@@ -33,7 +34,9 @@ module cloth_model
 contains
 
   !> F(t, U, Udot) (see the module header; module model_state's
-  !> model_residual on the arrays).
+  !> model_residual on the arrays, with the process models' forces); a
+  !> state outside a process model's domain is SNES's domain error
+  !> (module process_solver's pm_domain_error).
   subroutine form_ifunction(ts, t, uvec, udotvec, fvec, ctx, ierr)
     type(tTS) :: ts
     PetscReal :: t
@@ -46,10 +49,13 @@ contains
     PetscCall(ghosted_get(ctx%da, uvec, uloc, u, ierr))
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, udotvec, ud, ierr))
     PetscCall(DMDAVecGetArrayF90(ctx%da, fvec, fv, ierr))
-    call model_residual(ctx%model, ctx%lat, ctx%cs, ctx%contact, t, u, ud, fv)
+    call model_residual(ctx%model, ctx%lat, ctx%cs, ctx%pms, ctx%comm, t, u, ud, fv)
     PetscCall(DMDAVecRestoreArrayF90(ctx%da, fvec, fv, ierr))
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, udotvec, ud, ierr))
     PetscCall(ghosted_restore(ctx%da, uloc, u, ierr))
+    if (pm_list_on(ctx%pms)) then
+      PetscCall(pm_domain_error(ts, ctx, ierr))
+    end if
   end subroutine form_ifunction
 
   !> dF/dU + a dF/dUdot: S of the reduced solve (module reduced), or the
@@ -65,10 +71,17 @@ contains
     type(tVec) :: uloc, udloc
     PetscScalar, pointer :: u(:, :, :), ud(:, :, :)
     real(rp) :: sums(2), gsums(2)
+    logical :: pairs
 
     PetscCall(ghosted_get(ctx%da, uvec, uloc, u, ierr))
-    ! contact's diagonal blocks at this state, which both assemblies add (app_ctx's nodal)
-    if (contact_on(ctx%contact)) call model_contact_blocks(ctx%model, ctx%contact, ctx%lat, t, u, ctx%nodal)
+    ! the process models' blocks at this state, which both assemblies add
+    if (pm_list_on(ctx%pms)) then
+      call model_pm_jacobian(ctx%model, ctx%pms, ctx%lat, t, u, pairs)
+      if (pairs) then
+        ierr = PETSC_ERR_SUP
+        SETERRQ(PETSC_COMM_SELF, ierr, 'nuno: a process model gave blocks of node pairs, which no assembly takes yet (src/kernels/pair_blocks.f90)')
+      end if
+    end if
     if (ctx%use_reduced) then
       PetscCall(ghosted_get(ctx%da, udotvec, udloc, ud, ierr))
       PetscCall(reduced_assemble(ctx%red, u, ud, a, ierr))
@@ -78,7 +91,7 @@ contains
       PetscCall(MatAssemblyEnd(jmat, MAT_FINAL_ASSEMBLY, ierr))
       return
     end if
-    PetscCall(model_assemble_full(ctx%model, ctx%asm, ctx%lat, ctx%nodal, u, a, pmat, sums, ierr))
+    PetscCall(model_assemble_full(ctx%model, ctx%asm, ctx%lat, pm_list_nodal(ctx%pms), u, a, pmat, sums, ierr))
     PetscCall(ghosted_restore(ctx%da, uloc, u, ierr))
     call MPI_Allreduce(sums(1), gsums(1), 1, MPI_DOUBLE_PRECISION, MPI_SUM, ctx%comm, ierr)
     call MPI_Allreduce(sums(2), gsums(2), 1, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, ierr)

@@ -6,8 +6,9 @@
 !> full). This module is the records' only writer: the residual on plain
 !> arrays (model_residual), the 6-dof assembly (model_assemble_full), the
 !> window's constraint state; and it hands the window's constrained nodes
-!> to the kernels that skip them (contact, the reduced solve's elimination,
-!> identification's dF/dp), so that no other module holds the mask.
+!> to the process models' hooks (module process_models' loops), the
+!> reduced solve's elimination and identification's dF/dp, so that no
+!> other module holds the mask.
 module model_state
 #include "petsc/finclude/petscdm.h"
   use petscdm
@@ -19,15 +20,15 @@ module model_state
   use reduced_storage, only: set_block_row
   use reduced, only: reduced_t, reduced_set_fixed
   use node_blocks, only: node_blocks_t
-  use contact_forces, only: contact_state_t, contact_on, contact_move, contact_add_forces, contact_blocks, &
-                            contact_step_limit, contact_swept, contact_stats, contact_lag
+  use process_models, only: pm_list_t, pm_list_on, pm_list_forces, pm_list_jacobian, pm_list_step_limit, pm_list_accept, &
+                            pm_list_accepted
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   implicit none
   private
   public :: model_state_t, model_state_init, model_state_free, model_enter_window, model_residual, model_constraint_power, &
             model_force_rows
   public :: model_gravity, model_moving, model_singular
-  public :: model_fixed_to_reduced, model_contact_blocks, model_step_limit, model_swept, model_contact_state
+  public :: model_fixed_to_reduced, model_pm_jacobian, model_pm_step_limit, model_pm_accept, model_pm_accepted
   public :: assembly_t, assembly_create, assembly_free, assembly_matrix, model_assemble_full
 
   !> The model's state within a time window and its work arrays.
@@ -105,27 +106,26 @@ contains
   !> header): u the ghosted state (0:5, 0:nx-1, gys:gye), ud its time
   !> derivative and fv the residual on the owned rows. A singular element
   !> (zero-length link, bending triple at pi) makes the residual NaN, so
-  !> that SNES fails the step collectively (model_singular says why); so
-  !> does a state inside an obstacle (module contact_solver: the step
-  !> fails and is retried smaller). contact: the obstacles, moved to t.
-  subroutine model_residual(m, lat, cs, contact, t, u, ud, fv)
+  !> that SNES fails the step collectively (model_singular says why). The
+  !> process models' forces (pms, module process_models) are added to f;
+  !> a state outside a model's domain is the list's flag
+  !> (pm_list_infeasible: module process_solver makes it PETSc's domain
+  !> error), agreed over comm. Collective when pms has models.
+  subroutine model_residual(m, lat, cs, pms, comm, t, u, ud, fv)
     type(model_state_t), intent(inout) :: m
     type(lattice_t), intent(in) :: lat
     type(constraint_set_t), intent(in) :: cs
-    type(contact_state_t), intent(inout) :: contact
+    type(pm_list_t), intent(inout) :: pms
+    integer, intent(in) :: comm
     real(rp), intent(in) :: t
     real(rp), intent(in) :: u(0:5, 0:lat%nx - 1, lat%gys:lat%gye)
     real(rp), intent(in) :: ud(0:5, 0:lat%nx - 1, lat%ys:lat%ye)
     real(rp), intent(out) :: fv(0:5, 0:lat%nx - 1, lat%ys:lat%ye)
-    integer :: i, j, k, nbad, bad(2), ncross
+    integer :: i, j, k, nbad, bad(2)
     real(rp) :: xb(3), vb(3)
 
     call internal_forces(lat, u, m%f, nbad, bad)
-    ncross = 0
-    if (contact_on(contact)) then
-      call contact_move(contact, t)    ! the obstacles at the stage time
-      call contact_add_forces(contact, lat, m%fixed, u, m%f(:, :, lat%ys:lat%ye), ncross)
-    end if
+    if (pm_list_on(pms)) call pm_list_forces(pms, lat, m%fixed, t, u, m%f(:, :, lat%ys:lat%ye), comm)
     do j = lat%ys, lat%ye
       do i = 0, lat%nx - 1
         fv(0:2, i, j) = ud(0:2, i, j) - u(3:5, i, j)
@@ -146,7 +146,6 @@ contains
       m%t_bad = t
       fv(0, 0, lat%ys) = ieee_value(1.0_rp, ieee_quiet_nan)
     end if
-    if (ncross > 0) fv(0, 0, lat%ys) = ieee_value(1.0_rp, ieee_quiet_nan)
   end subroutine model_residual
 
   !> This rank's power of the constraint reactions at the ghosted state u
@@ -228,57 +227,60 @@ contains
     PetscCall(reduced_set_fixed(red, m%fixed, ierr))
   end subroutine model_fixed_to_reduced
 
-  !> Contact's diagonal blocks at the ghosted state u at time t into nb
-  !> (module contact_forces' contact_blocks, the obstacles moved to t).
-  subroutine model_contact_blocks(m, contact, lat, t, u, nb)
+  !> The process models' blocks at the ghosted state u at time t (module
+  !> process_models' pm_list_jacobian, which the assemblies then add);
+  !> pairs_given: a model gave pair blocks (not assembled yet).
+  subroutine model_pm_jacobian(m, pms, lat, t, u, pairs_given)
     type(model_state_t), intent(in) :: m
-    type(contact_state_t), intent(inout) :: contact
+    type(pm_list_t), intent(inout) :: pms
     type(lattice_t), intent(in) :: lat
     real(rp), intent(in) :: t
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)
-    type(node_blocks_t), intent(inout) :: nb
-    call contact_move(contact, t)
-    call contact_blocks(contact, lat, m%fixed, u, nb)
-  end subroutine model_contact_blocks
+    logical, intent(out) :: pairs_given
+    call pm_list_jacobian(pms, lat, m%fixed, t, u, pairs_given)
+  end subroutine model_pm_jacobian
 
-  !> Contact's step limit along x + s dx, s < alpha, over the free nodes
-  !> (module contact_forces' contact_step_limit; this rank).
-  real(rp) function model_step_limit(m, contact, lat, x, dx) result(alpha)
+  !> The fraction alpha of the Newton update x -> x + dx (from x0 at t0 to
+  !> the step's end t1) that the process models allow, and infeasible:
+  !> none (module process_models' pm_list_step_limit). Collective.
+  subroutine model_pm_step_limit(m, pms, lat, t0, t1, x0, x, dx, comm, alpha, infeasible)
     type(model_state_t), intent(in) :: m
-    type(contact_state_t), intent(in) :: contact
-    type(lattice_t), intent(in) :: lat
-    real(rp), intent(in) :: x(0:, 0:, lat%ys:), dx(0:, 0:, lat%ys:)
-    alpha = contact_step_limit(contact, lat, m%fixed, x, dx)
-  end function model_step_limit
-
-  !> The free nodes whose path from x0 to x + dx over [t0, t1] crosses a
-  !> moving obstacle (module contact_forces' contact_swept; this rank).
-  integer function model_swept(m, contact, lat, t0, t1, x0, x, dx) result(n)
-    type(model_state_t), intent(in) :: m
-    type(contact_state_t), intent(in) :: contact
+    type(pm_list_t), intent(inout) :: pms
     type(lattice_t), intent(in) :: lat
     real(rp), intent(in) :: t0, t1
     real(rp), intent(in) :: x0(0:, 0:, lat%ys:), x(0:, 0:, lat%ys:), dx(0:, 0:, lat%ys:)
-    n = contact_swept(contact, lat, m%fixed, t0, t1, x0, x, dx)
-  end function model_swept
+    integer, intent(in) :: comm
+    real(rp), intent(out) :: alpha
+    logical, intent(out) :: infeasible
+    call pm_list_step_limit(pms, lat, m%fixed, t0, t1, x0, x, dx, comm, alpha, infeasible)
+  end subroutine model_pm_step_limit
 
-  !> An accepted state u at time t (module contact_solver's
-  !> contact_observe): the obstacles moved to t, this rank's contact
-  !> statistics (module contact_forces' contact_stats: gmin, nact, ftot,
-  !> fnrm, ebar, pfric, pobs) and friction's lag for the next step
-  !> (contact_lag: pstart, ostart).
-  subroutine model_contact_state(m, contact, lat, t, u, gmin, nact, ftot, fnrm, ebar, pfric, pobs, pstart, ostart)
+  !> A step's end state u at t accepted by every process model (module
+  !> process_models' pm_list_accept). Collective.
+  subroutine model_pm_accept(m, pms, lat, t, u, comm, ok)
     type(model_state_t), intent(in) :: m
-    type(contact_state_t), intent(inout) :: contact
+    type(pm_list_t), intent(inout) :: pms
     type(lattice_t), intent(in) :: lat
     real(rp), intent(in) :: t
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)
-    real(rp), intent(out) :: gmin, ftot(3), fnrm(3), ebar, pfric, pobs, pstart, ostart
-    integer, intent(out) :: nact
-    call contact_move(contact, t)
-    call contact_stats(contact, lat, m%fixed, u, gmin, nact, ftot, fnrm, ebar, pfric, pobs)
-    call contact_lag(contact, lat, m%fixed, u, pstart, ostart)
-  end subroutine model_contact_state
+    integer, intent(in) :: comm
+    logical, intent(out) :: ok
+    call pm_list_accept(pms, lat, m%fixed, t, u, comm, ok)
+  end subroutine model_pm_accept
+
+  !> An accepted state u at t: the process models' accepted hooks (module
+  !> process_models' pm_list_accepted). Collective.
+  subroutine model_pm_accepted(m, pms, lat, t, u, comm, ierr, errmsg)
+    type(model_state_t), intent(in) :: m
+    type(pm_list_t), intent(inout) :: pms
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: t
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    integer, intent(in) :: comm
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: errmsg
+    call pm_list_accepted(pms, lat, m%fixed, t, u, comm, ierr, errmsg)
+  end subroutine model_pm_accepted
 
   ! ------------------------------------------ the assembled 6-dof Jacobian
 
@@ -328,7 +330,7 @@ contains
     type(model_state_t), intent(in) :: m
     type(assembly_t), intent(inout) :: a
     type(lattice_t), intent(in) :: lat
-    type(node_blocks_t), intent(in) :: nodal     !< contact's node blocks (app_ctx's)
+    type(node_blocks_t), intent(in) :: nodal     !< the process models' node blocks (module process_models)
     real(rp), intent(in) :: u(0:5, 0:lat%nx - 1, lat%gys:lat%gye)
     real(rp), intent(in) :: shift
     type(tMat) :: pmat

@@ -18,6 +18,8 @@ module newton_policy
                           newton_inner_rtol, newton_fallback_switched, newton_forcing_on, newton_floor_est, &
                           newton_snorm_prev, newton_fallback
   use newton_start, only: newton_start_setup
+  use process_models, only: pm_list_hints
+  use process_model, only: pm_hints_t
   use reduced, only: reduced_set_forcing, reduced_floor_est, reduced_lin_rel, reduced_rtol0
   use solver_choices, only: FALLBACK_NAMES
   use step_settings, only: step_fixed, step_tolerances
@@ -44,18 +46,22 @@ contains
   !> elsewhere: in the Baraff-Witkin mode (-snes_type ksponly) the start
   !> is the point of the one linearisation and its residual the scale of
   !> the solve's tolerance (163 -> 189 inner iterations over 30 steps
-  !> there), adaptive steps change dt, and identification and control
-  !> runs keep their trajectories as they were.
+  !> there), adaptive steps change dt, identification and control
+  !> runs keep their trajectories as they were, and a process model that
+  !> needs a feasible start (contact) takes the last accepted state.
   subroutine set_newton_start(ctx, ierr)
     type(app_ctx), intent(inout), target :: ctx
     PetscErrorCode, intent(out) :: ierr
     type(tSNES) :: snes
     character(len=64) :: sntype
-    logical :: auto_cubic
+    logical :: auto_cubic, feasible_start
+    type(pm_hints_t) :: h
     PetscCall(TSGetSNES(ctx%ts, snes, ierr))
     PetscCall(SNESGetType(snes, sntype, ierr))
+    h = pm_list_hints(ctx%pms)
+    feasible_start = h%feasible_start
     auto_cubic = step_fixed(ctx%step) .and. trim(sntype) /= SNESKSPONLY .and. &
-                 .not. (ctx%cfg%identify%active .or. ctx%cfg%control%active) .and. ctx%cfg%contact%n_obstacles == 0
+                 .not. (ctx%cfg%identify%active .or. ctx%cfg%control%active) .and. .not. feasible_start
     PetscCall(newton_start_setup(ctx%start, ctx%ts, ctx%comm, auto_cubic, ierr))
   end subroutine set_newton_start
 

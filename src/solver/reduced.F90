@@ -89,7 +89,7 @@ module reduced
     type(elements_t) :: el                 !< the element model and its products (this module)
     type(inner_pc_t) :: pcc                !< the inner preconditioner in use and its reuse (this module)
     type(lattice_t), pointer :: lat => null()
-    type(node_blocks_t), pointer :: nodal => null()  !< forces on single nodes (contact), written by contact_forces
+    type(node_blocks_t), pointer :: nodal => null()  !< forces on single nodes (contact), written by the process models' Jacobian hooks
     type(tDM) :: da6                       !< the state's DMDA (dof 6; not owned)
     type(tDM) :: da3                       !< dof 3, same strips and halo
     type(tMat) :: s                        !< S = a M - C - K/a, block size 3 (AIJ for multigrid, else BAIJ)

@@ -1,7 +1,7 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> The TS monitor, run after every accepted step: the progress line, the
 !> energy integrals (dissipated power, constraint work), the step-stall
-!> checks and, with obstacles, the contact check. Checkpoints are the run
+!> checks and the process models' accepted hooks (contact). Checkpoints are the run
 !> driver's (module timestepping). The records it advances are written by
 !> their own modules' routines: step_settings (the return to the fixed
 !> step), energy_integrals, run_progress (the stall check, the heartbeat).
@@ -9,7 +9,8 @@
 !> It is the run's only Fortran TS monitor: PETSc 3.18's Fortran
 !> TSMonitorSet keeps one Fortran callback per TS, and a second call
 !> silently replaces the first (TSMonitorSet finds its C wrapper set
-!> already). Other per-step work, as the contact check, is called from here.
+!> already). Other per-step work, as the process models' accepted hooks,
+!> is called from here.
 module step_monitor
 #include "petsc/finclude/petscts.h"
   use petscts
@@ -26,7 +27,7 @@ module step_monitor
   use strings, only: num => real_brief
   use newton_policy, only: linesearch_fallback
   use newton_state, only: newton_fallback_pending, newton_has_failed
-  use contact_solver, only: contact_observe
+  use process_solver, only: pm_observe
   use step_settings, only: step_rejections, step_back_to_dt, step_t_end
   use energy_integrals, only: energy_gauss, energy_t_prev, energy_gauss_time, energy_gauss_add, energy_trapezoid_add, &
                               energy_integrals_start, energy_work_vector, energy_gauss_at, energy_gauss_share, &
@@ -43,8 +44,8 @@ contains
   !> stall check, keep its first Newton correction for the inner guesses
   !> and its state for the Newton start, after a retried step go back to
   !> the fixed step, advance the integrals of dissipated power and
-  !> constraint power, the heartbeat, and with obstacles check the state
-  !> (module contact_solver).
+  !> constraint power, the heartbeat, and the process models' accepted
+  !> hooks (module process_solver; none without obstacles).
   subroutine ts_monitor(ts, step, t, uvec, ctx, ierr)
     type(tTS) :: ts
     PetscInt :: step
@@ -89,10 +90,8 @@ contains
     end if
     PetscCall(advance_integrals(ts, step, t, uvec, ctx, ierr))
     PetscCall(heartbeat(ts, step, t, ctx, ierr))
-    ! no node inside an obstacle, and friction's lag for the next step
-    if (ctx%cfg%contact%n_obstacles > 0) then
-      PetscCall(contact_observe(ctx, t, uvec, ierr))
-    end if
+    ! the process models' accepted hooks (contact: friction's lag for the next step, its record)
+    PetscCall(pm_observe(ctx, t, uvec, ierr))
   end subroutine ts_monitor
 
   !> Ten accepted steps in a row that did not advance t (module
