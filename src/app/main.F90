@@ -183,7 +183,7 @@ program nuno
   if (cfg%identify%active .or. cfg%control%active) then
     if (len_trim(restart_file) > 0) &
       call fatal_collective('-nuno_restart cannot continue an identification or a control run (&identify, &control)')
-    call identify_prepare_options(ierr)
+    call identify_prepare_options(PETSC_COMM_WORLD, petsc_help, ierr)
     if (ierr /= 0) call fatal_local('could not set the options of the identification or control')
   end if
   ! A process model's refusal of the scene (an obstacle containing the
