@@ -1,11 +1,11 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> Unit tests of &contact's obstacles as the run builds them (module
-!> contact_model): a tilted box's frame (orthonormal, right-handed, local
+!> obstacle_set): a tilted box's frame (orthonormal, right-handed, local
 !> z the given normal) and its signed distance at hand-placed points; a
 !> capsule's ends; a keyframed obstacle's pose and velocity at a time (a
-!> pure function of t: contact_obstacle_at) against the hand-interpolated
+!> pure function of t: obstacle_set_pose) against the hand-interpolated
 !> offset, the same whatever was asked before; and the swept
-!> check of a step (contact_swept): a thin finger that passes through a
+!> check of a step (obstacle_set_swept): a thin finger that passes through a
 !> node over one step is caught although both ends of the step are outside
 !> it, one that stops short is not.
 program test_contact_shapes
@@ -13,11 +13,11 @@ program test_contact_shapes
   use config, only: contact_config
   use lattice, only: lattice_t
   use contact, only: obstacle_t, signed_distance, SHAPE_BOX, SHAPE_CAPSULE
-  use contact_model, only: contact_model_t, contact_init, contact_swept, obstacle_from_config, contact_obstacle_at
+  use obstacle_set, only: obstacle_set_t, obstacle_set_init, obstacle_set_swept, obstacle_from_config, obstacle_set_pose
   use check, only: check_true, check_close, check_close_array, check_report
   implicit none
   type(contact_config) :: cc
-  type(contact_model_t) :: cs
+  type(obstacle_set_t) :: cs
   type(obstacle_t) :: o
   type(lattice_t) :: lat
   real(rp) :: ax(3, 3), eye(3, 3), d, g(3), hd(3, 3), c(3), n(3), e1(3), s, o15(3)
@@ -84,18 +84,18 @@ program test_contact_shapes
   lat%ye = 0
   lat%gys = 0
   lat%gye = 0
-  call contact_init(cs, cc, lat)
-  o = contact_obstacle_at(cs, 1, 1.5_rp)
+  call obstacle_set_init(cs, cc)
+  o = obstacle_set_pose(cs, 1, 1.5_rp)
   o15 = o%p
   ! halfway: 0.1 - 0.025 along x, velocity 0.2 - 0.05
   call check_close_array(o%p, [0.075_rp, 0.0_rp, 0.0_rp], 0.0_rp, 1.0e-15_rp, 'moved: first end')
   call check_close_array(o%q, [0.075_rp, 1.0_rp, 0.0_rp], 0.0_rp, 1.0e-15_rp, 'moved: second end')
   call check_close_array(o%vel, [0.15_rp, 0.0_rp, 0.0_rp], 0.0_rp, 1.0e-15_rp, 'moved: velocity')
-  o = contact_obstacle_at(cs, 1, 5.0_rp)
+  o = obstacle_set_pose(cs, 1, 5.0_rp)
   call check_close_array(o%p, [0.15_rp, 0.0_rp, 0.0_rp], 0.0_rp, 1.0e-15_rp, 'held after the last keyframe')
   call check_true(all(o%vel == 0.0_rp), 'held: at rest')
   ! a pure function of t: the pose at 1.5 is the same after the one at 5 was asked
-  o = contact_obstacle_at(cs, 1, 1.5_rp)
+  o = obstacle_set_pose(cs, 1, 1.5_rp)
   call check_close_array(o%p, o15, 0.0_rp, 0.0_rp, 'the pose at t whatever was asked before')
 
   ! ---- the swept check: the finger (radius 1 cm, travelling +0.15 in x over [1, 2]) and one node
@@ -107,16 +107,16 @@ program test_contact_shapes
   ! while the node is outside the finger at both ends of the step
   x0(0:2, 0, 0) = [0.1_rp, 0.5_rp, 0.0_rp]
   x = x0
-  call check_true(contact_swept(cs, lat, fixed, 1.0_rp, 2.0_rp, x0, x, dx) == 1, 'swept: a finger through a node')
+  call check_true(obstacle_set_swept(cs, 0.0_rp, lat, fixed, 1.0_rp, 2.0_rp, x0, x, dx) == 1, 'swept: a finger through a node')
   ! over [1, 1.5] the finger's axis ends at x = 0.075: 1.5 cm short of the node's gap
-  call check_true(contact_swept(cs, lat, fixed, 1.0_rp, 1.5_rp, x0, x, dx) == 0, 'swept: a finger that stops short')
+  call check_true(obstacle_set_swept(cs, 0.0_rp, lat, fixed, 1.0_rp, 1.5_rp, x0, x, dx) == 0, 'swept: a finger that stops short')
   ! the node carried along ahead of the finger: no crossing
   dx(0:2, 0, 0) = [0.15_rp, 0.0_rp, 0.0_rp]
-  call check_true(contact_swept(cs, lat, fixed, 1.0_rp, 2.0_rp, x0, x, dx) == 0, 'swept: a node pushed ahead')
+  call check_true(obstacle_set_swept(cs, 0.0_rp, lat, fixed, 1.0_rp, 2.0_rp, x0, x, dx) == 0, 'swept: a node pushed ahead')
   ! a fixed node is not the obstacle's concern
   dx = 0.0_rp
   fixed = .true.
-  call check_true(contact_swept(cs, lat, fixed, 1.0_rp, 2.0_rp, x0, x, dx) == 0, 'swept: fixed nodes skipped')
+  call check_true(obstacle_set_swept(cs, 0.0_rp, lat, fixed, 1.0_rp, 2.0_rp, x0, x, dx) == 0, 'swept: fixed nodes skipped')
 
   call check_report()
 
