@@ -28,7 +28,8 @@ module contact_model
   use pair_blocks, only: pair_blocks_t
   use checkpoint_record, only: named_value_t
   use contact, only: contact_params_t
-  use obstacle_set, only: obstacle_set_t, obstacle_set_init, obstacle_set_count, obstacle_set_moves, obstacle_set_swept
+  use obstacle_set, only: obstacle_set_t, obstacle_set_init, obstacle_set_count, obstacle_set_moves, obstacle_set_swept, &
+                          obstacle_set_carry
   use contact_nodes, only: contact_lag_t, lag_init, lag_free, lag_take, strip_forces, strip_blocks, strip_toi, &
                            strip_smallest_gap, strip_stats
   use contact_record, only: contact_record_t, record_state, record_limited, record_seen, &
@@ -74,6 +75,7 @@ module contact_model
     procedure :: setup => contact_setup
     procedure :: forces => contact_forces
     procedure :: jacobian => contact_jacobian
+    procedure :: start => contact_start
     procedure :: step_limit => contact_step_limit
     procedure :: accept => contact_accept
     procedure :: accepted => contact_accepted
@@ -163,6 +165,24 @@ contains
     type(pair_blocks_t), intent(inout) :: pairs
     call strip_blocks(this%obstacles, this%cp, this%lag, lat, fixed, t, u, nodal)
   end subroutine contact_jacobian
+
+  !> Newton's start x of a step from the accepted state x0 at t0 to t1,
+  !> carried by the obstacles that move into the cloth (obstacle_set's
+  !> obstacle_set_carry: a node an obstacle reaches within its barrier's
+  !> reach, or sweeps over, starts where it sat relative to the obstacle at
+  !> t0, with its velocity), so that Newton starts feasible where the
+  !> obstacle's pose at t1 contains the node's last position (docs/design.md,
+  !> "Contact", moving obstacles). Nothing with static obstacles.
+  subroutine contact_start(this, lat, fixed, t0, t1, x0, x, moved)
+    class(contact_model_t), intent(inout) :: this
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t0, t1
+    real(rp), intent(in) :: x0(0:, 0:, lat%ys:)
+    real(rp), intent(inout) :: x(0:, 0:, lat%ys:)
+    integer, intent(out) :: moved
+    moved = obstacle_set_carry(this%obstacles, this%cp%thickness, this%cp%dhat, lat, fixed, t0, t1, x0, x)
+  end subroutine contact_start
 
   !> The Newton update from x toward x + dx limited (IPC): where a free node
   !> would reach an obstacle (its pose at t1, the step's end) along dx,

@@ -17,7 +17,8 @@ module contact_nodes
   use kinds, only: rp
   use lattice, only: lattice_t
   use node_blocks, only: node_blocks_t, node_blocks_add
-  use contact, only: obstacle_t, contact_params_t, contact_node, time_of_impact, signed_distance, friction_power
+  use contact, only: obstacle_t, contact_params_t, contact_node, time_of_impact, signed_distance, friction_power, &
+                     SHAPE_SPHERE, SHAPE_BOX, SHAPE_CAPSULE
   use obstacle_set, only: obstacle_set_t, obstacle_set_count, obstacle_set_poses, obstacle_set_moving
   implicit none
   private
@@ -86,7 +87,12 @@ contains
   end subroutine strip_forces
 
   !> The diagonal blocks df/dx, df/dv of the nodes in contact (or with
-  !> friction) at state u, the obstacles at t, into nodal.
+  !> friction) at state u, the obstacles at t, into nodal. The barrier's
+  !> block is its exact Jacobian, whose tangential part on a curved
+  !> surface is negative (-f_n / R: a node pressed onto a sphere of radius
+  !> R is pushed off it as it slides), except against a sharp feature
+  !> (sharp): there it is projected (the negative eigenvalues of the
+  !> energy Hessian set to zero), docs/design.md, "Contact".
   subroutine strip_blocks(set, cp, lag, lat, fixed, t, u, nodal)
     type(obstacle_set_t), intent(in) :: set
     type(contact_params_t), intent(in) :: cp
@@ -99,8 +105,11 @@ contains
     integer :: i, j, k
     real(rp) :: fc(3), kx(3, 3), kv(3, 3), e, fn, bx(3, 3), bv(3, 3)
     type(obstacle_t) :: obs(obstacle_set_count(set))
-    logical :: act, any_blk
+    logical :: act, any_blk, proj(obstacle_set_count(set))
     call obstacle_set_poses(set, t, obs)
+    do k = 1, size(obs)
+      proj(k) = sharp(obs(k), cp)
+    end do
     do j = lat%ys, lat%ye
       do i = 0, lat%nx - 1
         if (fixed(i, j)) cycle
@@ -108,10 +117,8 @@ contains
         bv = 0.0_rp
         any_blk = .false.
         do k = 1, size(obs)
-          ! project: the barrier's stiffness with the negative eigenvalues of
-          ! its energy Hessian set to zero (curved shapes), so that S stays SPD.
           call contact_node(obs(k), cp, u(0:2, i, j), u(3:5, i, j), lag%lam(k, i, j), lag%nlag(:, k, i, j), &
-                            fc, kx, kv, e, fn, act, project=.true.)
+                            fc, kx, kv, e, fn, act, project=proj(k))
           if (.not. (act .or. lag%lam(k, i, j) > 0.0_rp)) cycle
           any_blk = .true.
           bx = bx + kx
@@ -121,6 +128,27 @@ contains
       end do
     end do
   end subroutine strip_blocks
+
+  !> Whether obstacle o has a feature sharper than the barrier's reach:
+  !> a curvature radius (a sphere's or capsule's radius, a box's edges and
+  !> corners, rounded by contact_thickness) plus the thickness below
+  !> contact_dhat. There the barrier's tangential stiffness, about
+  !> -kappa |b'(gap)| / (R + gap), rivals its normal stiffness: a node on
+  !> a knife edge is an unstable equilibrium, and the exact block would
+  !> make S indefinite. Elsewhere it is at most gap / R of the normal one,
+  !> and the node's inertia, its links and friction outweigh it.
+  pure logical function sharp(o, cp)
+    type(obstacle_t), intent(in) :: o
+    type(contact_params_t), intent(in) :: cp
+    select case (o%shape)
+    case (SHAPE_SPHERE, SHAPE_CAPSULE)
+      sharp = o%r + cp%thickness < cp%dhat
+    case (SHAPE_BOX)
+      sharp = cp%thickness < cp%dhat
+    case default
+      sharp = .false.
+    end select
+  end function sharp
 
   !> The first time of impact (in [0, 1]) of the free owned nodes moving
   !> from x by dx against the obstacles at t (static: their pose there),

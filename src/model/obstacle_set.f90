@@ -5,7 +5,8 @@
 !> function of t: nothing caches a "current" pose; kernel
 !> obstacle_motion), its translation over a step, and the continuous
 !> collision check of nodes' paths over a step against the obstacles'
-!> motion (the swept check). No barrier, no friction, no MPI: the
+!> motion (the swept check), and Newton's start of a step carried along
+!> by the obstacles that move into the cloth. No barrier, no friction, no MPI: the
 !> contact model (module contact_model) and any later user of the same
 !> obstacles (cloth faces and edges against them) build on it. Its
 !> components are private: only obstacle_set_init writes them.
@@ -13,13 +14,13 @@ module obstacle_set
   use kinds, only: rp
   use config, only: contact_config
   use lattice, only: lattice_t
-  use contact, only: obstacle_t, time_of_impact_moving, SHAPE_BOX, SHAPE_CAPSULE
+  use contact, only: obstacle_t, time_of_impact_moving, signed_distance, SHAPE_SPHERE, SHAPE_BOX, SHAPE_CAPSULE
   use obstacle_motion, only: obstacle_at
   implicit none
   private
   public :: obstacle_set_t, obstacle_set_init, obstacle_from_config, obstacle_set_count, obstacle_set_moving
   public :: obstacle_set_poses, obstacle_set_pose, obstacle_set_moves, obstacle_set_pair, obstacle_set_keyframed
-  public :: obstacle_set_key_times, obstacle_set_shape_name, obstacle_set_swept
+  public :: obstacle_set_key_times, obstacle_set_shape_name, obstacle_set_swept, obstacle_set_carry
 
   character(len=*), parameter :: SHAPE_NAMES(4) = [character(len=8) :: 'plane', 'sphere', 'box', 'capsule']
 
@@ -177,13 +178,11 @@ contains
   end function obstacle_set_shape_name
 
   !> Free owned nodes whose path over the step, from x0 (the accepted
-  !> state at t0) to x + dx (a Newton candidate at t1), meets an obstacle
-  !> (grown by thickness) that moves over the step (continuous collision
-  !> detection of the motion relative to the obstacle,
-  !> time_of_impact_moving: exact for a translation linear over the step).
-  !> A candidate outside every obstacle at t1 can still have crossed a
-  !> thin or fast one on the way: this counts such nodes (this rank; the
-  !> caller sums).
+  !> state at t0) to x + dx (a Newton candidate at t1), passes through an
+  !> obstacle that moves over the step (crosses: the motion relative to
+  !> the obstacle against its core). A candidate outside every obstacle at
+  !> t1 can still have crossed a thin or fast one on the way: this counts
+  !> such nodes (this rank; the caller sums).
   integer function obstacle_set_swept(set, thickness, lat, fixed, t0, t1, x0, x, dx) result(n)
     type(obstacle_set_t), intent(in) :: set
     real(rp), intent(in) :: thickness
@@ -203,11 +202,127 @@ contains
       do j = lat%ys, lat%ye
         do i = 0, lat%nx - 1
           if (fixed(i, j)) cycle
-          if (time_of_impact_moving(o0, thickness, x0(0:2, i, j), &
-                                    x(0:2, i, j) + dx(0:2, i, j) - x0(0:2, i, j), d) < 1.0_rp) n = n + 1
+          if (crosses(o0, thickness, x0(0:2, i, j), x(0:2, i, j) + dx(0:2, i, j) - x0(0:2, i, j), d)) n = n + 1
         end do
       end do
     end do
   end function obstacle_set_swept
+
+
+  !> Newton's start of a step from t0 to t1 carried by the moving
+  !> obstacles (docs/design.md, "Contact", moving obstacles): the start
+  !> x (0:5, 0:nx-1, ys:ye) of each free owned node that an obstacle k
+  !> reaches over the step is put where the node sat relative to the
+  !> obstacle at t0, x0 + d_k (d_k: k's translation over the step, its
+  !> velocity d_k / (t1 - t0)), so that its gap to k at t1 is its gap at
+  !> t0, which the step before accepted. Obstacle k reaches the node when
+  !> the start's gap to k at t1 is below both reach and the node's gap at
+  !> t0 (k approaches it: a node resting on a rising plane), or when k
+  !> sweeps over the path from x0 to the start (a fast or thin obstacle
+  !> that passes it within the step). Several obstacles that reach a node
+  !> are tried nearest first, and the first whose carried start lies
+  !> outside every obstacle at t1 and crosses none on its way from x0 is
+  !> taken; without one the start is left as it was (the step then fails
+  !> and is retried smaller, as before). n: the nodes carried (this rank).
+  !> Gaps are signed distances less thickness. No communication.
+  integer function obstacle_set_carry(set, thickness, reach, lat, fixed, t0, t1, x0, x) result(n)
+    type(obstacle_set_t), intent(in) :: set
+    real(rp), intent(in) :: thickness, reach
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t0, t1
+    real(rp), intent(in) :: x0(0:, 0:, lat%ys:)
+    real(rp), intent(inout) :: x(0:, 0:, lat%ys:)
+    integer :: i, j, k, m, try
+    real(rp) :: d(3, set%n), g1(set%n), xc(3)
+    type(obstacle_t) :: o0(set%n), o1(set%n)
+    logical :: mv(set%n), reached(set%n)
+    n = 0
+    if (.not. set%moving .or. .not. t1 > t0) return
+    do k = 1, set%n
+      call obstacle_set_pair(set, k, t0, t1, o0(k), o1(k), d(:, k))
+      mv(k) = any(d(:, k) /= 0.0_rp)
+    end do
+    if (.not. any(mv)) return
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
+        if (fixed(i, j)) cycle
+        do k = 1, set%n
+          reached(k) = .false.
+          if (.not. mv(k)) cycle
+          g1(k) = gap(o1(k), thickness, x(0:2, i, j))
+          reached(k) = g1(k) < min(reach, gap(o0(k), thickness, x0(0:2, i, j))) .or. &
+                       crosses(o0(k), thickness, x0(0:2, i, j), x(0:2, i, j) - x0(0:2, i, j), d(:, k))
+        end do
+        do try = 1, count(reached)
+          k = minloc(g1, 1, mask=reached)
+          reached(k) = .false.
+          xc = x0(0:2, i, j) + d(:, k)
+          if (.not. clear(xc)) cycle
+          x(0:2, i, j) = xc
+          x(3:5, i, j) = d(:, k) / (t1 - t0)
+          n = n + 1
+          exit
+        end do
+      end do
+    end do
+
+  contains
+
+    !> xc, a node's carried start, is outside every obstacle at t1 and its
+    !> path from x0 crosses none that moves.
+    logical function clear(xc)
+      real(rp), intent(in) :: xc(3)
+      clear = .false.
+      do m = 1, set%n
+        if (.not. gap(o1(m), thickness, xc) > 0.0_rp) return
+        if (.not. mv(m)) cycle
+        if (crosses(o0(m), thickness, x0(0:2, i, j), xc - x0(0:2, i, j), d(:, m))) return
+      end do
+      clear = .true.
+    end function clear
+  end function obstacle_set_carry
+
+  !> Whether a node that moves from xa by dx over a step, while obstacle o
+  !> (its pose at the step's start, grown by thickness) translates by d,
+  !> passes through the obstacle's core: its relative path, a straight
+  !> segment (time_of_impact_moving: exact for a translation linear over
+  !> the step), enters the shape shrunk by half its smallest half-extent
+  !> (a sphere's or capsule's radius halved, a box's half-sizes less half
+  !> the smallest). Not the whole shape: a node that slides along a
+  !> curved surface over the step (carried by a rising sphere, at a gap of
+  !> a micrometre) has a chord that cuts the surface's cap though the
+  !> node never was inside; the cap of a chord over a quarter turn is 0.3
+  !> of the radius deep, while a node that an obstacle passes over, or
+  !> that passes over a finger, crosses the core. A half-space has none:
+  !> a segment between two points outside it stays outside.
+  pure logical function crosses(o, thickness, xa, dx, d)
+    type(obstacle_t), intent(in) :: o
+    real(rp), intent(in) :: thickness, xa(3), dx(3), d(3)
+    type(obstacle_t) :: core
+    real(rp) :: th
+    core = o
+    th = thickness
+    select case (o%shape)
+    case (SHAPE_SPHERE, SHAPE_CAPSULE)
+      core%r = 0.5_rp * (o%r + thickness)
+      th = 0.0_rp
+    case (SHAPE_BOX)
+      core%h = o%h - 0.5_rp * minval(o%h)
+    case default
+      crosses = .false.
+      return
+    end select
+    crosses = time_of_impact_moving(core, th, xa, dx, d) < 1.0_rp
+  end function crosses
+
+  !> The gap of point x to obstacle o: its signed distance less thickness [length].
+  real(rp) function gap(o, thickness, x)
+    type(obstacle_t), intent(in) :: o
+    real(rp), intent(in) :: thickness, x(3)
+    real(rp) :: d, g(3), hd(3, 3)
+    call signed_distance(o, x, d, g, hd)
+    gap = d - thickness
+  end function gap
 
 end module obstacle_set

@@ -7,13 +7,17 @@
 !> offset, the same whatever was asked before; and the swept
 !> check of a step (obstacle_set_swept): a thin finger that passes through a
 !> node over one step is caught although both ends of the step are outside
-!> it, one that stops short is not.
+!> it, one that stops short is not, one that slides a quarter turn around
+!> it is not; and the carried start of a step (obstacle_set_carry): a node
+!> the finger reaches or passes over starts where it sat relative to the
+!> finger, with its velocity, the others as they were.
 program test_contact_shapes
   use kinds, only: rp
   use config, only: contact_config
   use lattice, only: lattice_t
   use contact, only: obstacle_t, signed_distance, SHAPE_BOX, SHAPE_CAPSULE
-  use obstacle_set, only: obstacle_set_t, obstacle_set_init, obstacle_set_swept, obstacle_from_config, obstacle_set_pose
+  use obstacle_set, only: obstacle_set_t, obstacle_set_init, obstacle_set_swept, obstacle_from_config, obstacle_set_pose, &
+                          obstacle_set_carry
   use check, only: check_true, check_close, check_close_array, check_report
   implicit none
   type(contact_config) :: cc
@@ -117,6 +121,39 @@ program test_contact_shapes
   dx = 0.0_rp
   fixed = .true.
   call check_true(obstacle_set_swept(cs, 0.0_rp, lat, fixed, 1.0_rp, 2.0_rp, x0, x, dx) == 0, 'swept: fixed nodes skipped')
+
+  ! ---- the carried start (obstacle_set_carry): three nodes and the finger over [1, 2]
+  deallocate(x0, x, fixed)
+  lat%nx = 3
+  allocate(x0(0:5, 0:2, 0:0), x(0:5, 0:2, 0:0), fixed(0:2, 0:0))
+  fixed = .false.
+  x0 = 0.0_rp
+  x0(0:2, 0, 0) = [0.0101_rp, 0.5_rp, 0.0_rp]    ! 0.1 mm ahead of the finger: reached
+  x0(0:2, 1, 0) = [-0.05_rp, 0.5_rp, 0.0_rp]     ! behind it: the finger moves away
+  x0(0:2, 2, 0) = [0.5_rp, 0.5_rp, 0.0_rp]       ! far ahead: 34 cm from it at t = 2
+  x = x0
+  call check_true(obstacle_set_carry(cs, 0.0_rp, 1.0e-3_rp, lat, fixed, 1.0_rp, 2.0_rp, x0, x) == 1, 'carry: one node')
+  call check_close_array(x(0:2, 0, 0), x0(0:2, 0, 0) + [0.15_rp, 0.0_rp, 0.0_rp], 0.0_rp, 1.0e-15_rp, &
+                         'carry: the reached node where it sat relative to the finger')
+  call check_close_array(x(3:5, 0, 0), [0.15_rp, 0.0_rp, 0.0_rp], 0.0_rp, 1.0e-15_rp, 'carry: at the finger''s velocity')
+  call check_close_array(reshape(x(:, 1:2, 0), [12]), reshape(x0(:, 1:2, 0), [12]), 0.0_rp, 0.0_rp, &
+                         'carry: the others as they were')
+  ! a node the finger passes over within the step (3 cm ahead, the finger travels 15 cm): carried
+  x0(0:2, 0, 0) = [0.04_rp, 0.5_rp, 0.0_rp]
+  x = x0
+  call check_true(obstacle_set_carry(cs, 0.0_rp, 1.0e-3_rp, lat, fixed, 1.0_rp, 2.0_rp, x0, x) == 1, &
+                  'carry: a node swept over')
+  ! a node sliding on the finger's surface a quarter turn over the step crosses no core: the swept check passes
+  ! it; one the finger passes over is counted
+  x0(0:2, 0, 0) = [0.0101_rp, 0.5_rp, 0.0_rp]
+  x = x0
+  dx = 0.0_rp
+  dx(0:2, 0, 0) = [0.15_rp - 0.0101_rp + 0.0101_rp * cos(acos(-1.0_rp) / 2), 0.0_rp, 0.0101_rp]
+  call check_true(obstacle_set_swept(cs, 0.0_rp, lat, fixed, 1.0_rp, 2.0_rp, x0, x, dx) == 0, &
+                  'swept: sliding a quarter turn around the finger')
+  dx = 0.0_rp
+  call check_true(obstacle_set_swept(cs, 0.0_rp, lat, fixed, 1.0_rp, 2.0_rp, x0, x, dx) == 1, &
+                  'swept: the finger passes over a node left behind')
 
   call check_report()
 
