@@ -31,7 +31,7 @@ module contact_model
   use obstacle_set, only: obstacle_set_t, obstacle_set_init, obstacle_set_count, obstacle_set_moves, obstacle_set_swept, &
                           obstacle_set_carry
   use contact_nodes, only: contact_lag_t, lag_init, lag_free, lag_take, strip_forces, strip_blocks, strip_toi, &
-                           strip_smallest_gap, strip_stats
+                           strip_slip_limit, strip_smallest_gap, strip_stats
   use contact_record, only: contact_record_t, record_state, record_limited, record_seen, &
                             record_series, record_checkpoint, record_restore, record_line
   use contact_checks, only: check_nodes, check_paths
@@ -187,7 +187,9 @@ contains
   !> The Newton update from x toward x + dx limited (IPC): where a free node
   !> would reach an obstacle (its pose at t1, the step's end) along dx,
   !> alpha = 0.8 times the first time of impact over all nodes and
-  !> obstacles; where obstacles move over [t0, t1], alpha is halved (at
+  !> obstacles; where it would reverse a node's sliding through friction's
+  !> sticking band, at most the fraction that ends in the band
+  !> (strip_slip_limit); where obstacles move over [t0, t1], alpha is halved (at
   !> most 10 times) until no node's path from x0 (the step's start) to
   !> x + alpha dx crosses them (contact_swept), and status PM_INFEASIBLE
   !> when halving does not help (the step is retried smaller). A limited
@@ -202,11 +204,13 @@ contains
     real(rp), intent(out) :: alpha
     integer, intent(out) :: status
     integer :: try, ncross, gcross, mpierr
-    real(rp) :: a, ga, s
-    a = strip_toi(this%obstacles, this%cp%thickness, lat, fixed, t1, x, dx)
-    call MPI_Allreduce(a, ga, 1, MPI_DOUBLE_PRECISION, MPI_MIN, comm, mpierr)
+    real(rp) :: a(2), ga(2), s
+    a(1) = strip_toi(this%obstacles, this%cp%thickness, lat, fixed, t1, x, dx)
+    a(2) = strip_slip_limit(this%obstacles, this%cp, this%lag, lat, fixed, t1, x, dx)
+    call MPI_Allreduce(a, ga, 2, MPI_DOUBLE_PRECISION, MPI_MIN, comm, mpierr)
     s = 1.0_rp
-    if (ga < 1.0_rp) s = 0.8_rp * ga
+    if (ga(1) < 1.0_rp) s = 0.8_rp * ga(1)
+    s = min(s, ga(2))
     gcross = 0
     if (obstacle_set_moves(this%obstacles, t0, t1)) then
       do try = 0, 10

@@ -23,7 +23,7 @@ module contact_nodes
   implicit none
   private
   public :: contact_lag_t, lag_init, lag_free, lag_take
-  public :: strip_forces, strip_blocks, strip_toi, strip_smallest_gap, strip_stats
+  public :: strip_forces, strip_blocks, strip_toi, strip_slip_limit, strip_smallest_gap, strip_stats
 
   !> Friction's lag on a rank's strip.
   type :: contact_lag_t
@@ -173,6 +173,48 @@ contains
       end do
     end do
   end function strip_toi
+
+  !> The largest fraction a <= 1 of the Newton update dx from x (6 dofs a
+  !> node) that reverses no node's sliding through friction's sticking band:
+  !> where a node slides on obstacle k (lagged normal force > 0) faster than
+  !> eps_v relative to it, and the update would carry its tangential
+  !> relative velocity u through |u| < eps_v to sliding the other way, a is
+  !> the fraction where |u| is smallest. Sliding, friction's size is
+  !> constant and its exact block has no stiffness along u, so Newton from
+  !> a node that must stop overshoots to the other side and back: a 2-cycle
+  !> (box_on_table's corners landing on the table while sliding at
+  !> 0.5 m/s). From inside the band its block is friction's full stiffness.
+  !> The obstacles' velocities at t (the step's end); 1 when none (this rank).
+  real(rp) function strip_slip_limit(set, cp, lag, lat, fixed, t, x, dx) result(a)
+    type(obstacle_set_t), intent(in) :: set
+    type(contact_params_t), intent(in) :: cp
+    type(contact_lag_t), intent(in) :: lag
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t
+    real(rp), intent(in) :: x(0:, 0:, lat%ys:), dx(0:, 0:, lat%ys:)
+    integer :: i, j, k
+    real(rp) :: n(3), u0(3), du(3), s
+    type(obstacle_t) :: obs(obstacle_set_count(set))
+    a = 1.0_rp
+    if (cp%eps_v <= 0.0_rp) return
+    call obstacle_set_poses(set, t, obs)
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
+        if (fixed(i, j)) cycle
+        do k = 1, size(obs)
+          if (obs(k)%mu <= 0.0_rp .or. lag%lam(k, i, j) <= 0.0_rp) cycle
+          n = lag%nlag(:, k, i, j)
+          u0 = x(3:5, i, j) - obs(k)%vel
+          u0 = u0 - dot_product(u0, n) * n
+          du = dx(3:5, i, j) - dot_product(dx(3:5, i, j), n) * n
+          if (norm2(u0) < cp%eps_v .or. norm2(u0 + du) < cp%eps_v) cycle
+          s = -dot_product(u0, du) / max(dot_product(du, du), tiny(1.0_rp))
+          if (s > 0.0_rp .and. s < 1.0_rp .and. norm2(u0 + s * du) < cp%eps_v) a = min(a, s)
+        end do
+      end do
+    end do
+  end function strip_slip_limit
 
   !> This rank's smallest gap over the free nodes of u and the obstacles at t.
   real(rp) function strip_smallest_gap(set, cp, lat, fixed, t, u) result(gmin)
