@@ -202,7 +202,10 @@ contains
     real(rp), intent(in) :: t
     real(rp), intent(in) :: x(0:, 0:, lat%ys:), dx(0:, 0:, lat%ys:)
     integer :: i, j, k
-    real(rp) :: n(3), u0(3), du(3), s
+    real(rp) :: n(3)        ! the lagged normal [1]
+    real(rp) :: u0(3)       ! the tangential velocity relative to the obstacle at x [length/time]
+    real(rp) :: du(3)       ! its change over the whole update [length/time]
+    real(rp) :: s           ! the fraction of the update where |u| is smallest [1]
     type(obstacle_t) :: obs(obstacle_set_count(set))
     a = 1.0_rp
     if (cp%eps_v <= 0.0_rp) return
