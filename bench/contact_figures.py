@@ -1,15 +1,18 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: BSD-2-Clause
 """The figures and animations of docs/contact.md: each contact scene of
-input/ (drop_table, drape_sphere, table_edge, gripper, fold_table) run as
-shipped on 2 ranks into runs/contact/ (drop_table with output every 5 ms,
-for the instants around its impact), then drawn by postprocess.contact_plot:
-docs/figures/contact-<scene>.png and contact-<scene>.gif (at most 60
-frames, 400 px; 40 for the gripper and the fold, slow motions: each GIF
-below 0.5 MB). drop_table and the gripper are drawn as side sections
-(contact_plot --view side: a 5 cm drop onto a 1 m table and a pinch
-between 1 cm fingers do not show in a 3-D box at equal scales); the
-gripper also zoomed on its fingers (contact-gripper-pinch.png).
+input/ (drop_table, drape_sphere, table_edge, gripper, fold_table, lift,
+box_on_table, gripper_lift) run as shipped on 2 ranks into runs/contact/
+(drop_table with output every 5 ms, for the instants around its impact),
+then drawn by postprocess.contact_plot: docs/figures/contact-<scene>.png
+and contact-<scene>.gif (at most 60 frames, 400 px; 40 for the slow
+motions: the grippers, the fold and the lift: each GIF below 0.5 MB).
+drop_table, the grippers and the lift are drawn as side sections
+(contact_plot --view side: a 5 cm drop onto a 1 m table, a pinch between
+1 cm fingers and a bar's section under the cloth do not show in a 3-D box
+at equal scales), and so is the box on the table; the grippers also
+zoomed on their fingers (contact-gripper-pinch.png,
+contact-gripper_lift-pinch.png).
 
 impact_energy: drop_table's energy balance across its impact
 (contact-drop_table-energy.png), with output at every step: as shipped at
@@ -19,7 +22,7 @@ ms; prints what each run lost (docs/contact.md, "Where the impact's energy
 goes").
 
     source tools/env.sh
-    python3 bench/contact_figures.py                 # some 10 minutes
+    python3 bench/contact_figures.py                 # some 15 minutes
     python3 bench/contact_figures.py --skip-run      # re-draw from runs/contact/
     python3 bench/contact_figures.py --scenes drop_table impact_energy --outdir /tmp/fig
 """
@@ -59,6 +62,20 @@ SCENES = {
     # along the fold line, from the far half's side
     "fold_table": {"figures": [("", (0.0, 0.9, 1.6, 2.2), ("--elev", "20", "--azim", "-105"))],
                    "gif": ("--elev", "20", "--azim", "-105", "--frames", "40")},
+    # along the bar (y): the bar's section rising under the cloth's middle, the tent, the
+    # cloth hanging from the bar off the table, the bar stopped
+    "lift": {"figures": [("", (0.0, 0.5, 1.0, 1.5, 2.0), SIDE_XZ)],
+             "gif": (*SIDE_XZ, "--frames", "40")},
+    # from the side (along y), the vertical stretched: the box's section under the cloth,
+    # the flaps folded over its edges onto the table (a 10 cm box under a 1 m cloth is
+    # flat in a 3-D box at equal scales)
+    "box_on_table": {"figures": [("", (0.0, 0.1, 0.2, 0.6, 1.5), (*SIDE_XZ, "--aspect", "auto"))],
+                     "gif": (*SIDE_XZ, "--aspect", "auto")},
+    # along the fingers (y): closing on the cloth lying on the table, the pinched line
+    # rising, the cloth dragged over the table and then hanging from the fingers
+    "gripper_lift": {"figures": [("", (0.0, 0.5, 1.2, 2.0, 2.5), SIDE_XZ),
+                                 ("-pinch", (0.0, 0.2, 0.5, 1.0), (*SIDE_XZ, "--zoom", "obstacles"))],
+                     "gif": (*SIDE_XZ, "--frames", "40")},
 }
 IMPACT = "impact_energy"
 # (label, -nuno_set of drop_table, time steps [s], t_end [s])

@@ -1,7 +1,8 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> The process models on the PETSc side (module process_models holds
 !> their loops; docs/design.md, "Process models"): the solver's options
-!> from their hints, the Newton update's limit (a line-search pre-check;
+!> from their hints, Newton's start of a step moved into their domains
+!> (the SNES's initial guess), the Newton update's limit (a line-search pre-check;
 !> in the Baraff-Witkin mode the post-solve of the SNES's KSP), the check
 !> of a step's end state before the TS accepts it (the TS's stage check),
 !> the accepted states (called by the TS monitor of module step_monitor
@@ -29,7 +30,7 @@ module process_solver
   use ghosted_state, only: ghosted_get, ghosted_restore
   use app_context, only: app_ctx
   use newton_start, only: newton_start_order
-  use model_state, only: model_pm_step_limit, model_pm_accept, model_pm_accepted
+  use model_state, only: model_pm_step_limit, model_pm_accept, model_pm_accepted, model_pm_start
   use process_model, only: pm_hints_t
   use process_models, only: pm_list_on, pm_list_hints, pm_list_ts_refusal, pm_list_name, pm_list_infeasible
   implicit none
@@ -51,6 +52,13 @@ module process_solver
       integer(c_intptr_t) :: ts                  !< TS*
       type(c_ptr), value :: ctx
     end function nuno_ts_set_pm_stage_check
+    !> src/solver/nuno_pm_checks.c: SNESSetComputeInitialGuess with the C
+    !> trampoline that calls pm_start_guess_c(snes, x, ctx, ierr).
+    integer(c_int) function nuno_snes_set_pm_start(snes, ctx) bind(C, name='nuno_snes_set_pm_start')
+      import :: c_int, c_intptr_t, c_ptr
+      integer(c_intptr_t) :: snes                !< SNES*
+      type(c_ptr), value :: ctx
+    end function nuno_snes_set_pm_start
   end interface
 
 contains
@@ -82,7 +90,9 @@ contains
 
   !> After the TS and SNES are set up: the TS type every model allows, the
   !> Newton start a feasible start needs (the cubic start is refused: it
-  !> may lie outside a model's domain), the step limit as the line
+  !> may lie outside a model's domain; the start from the last accepted
+  !> state is handed to the models' start hooks, pm_start_guess_c, which
+  !> move it into their domains), the step limit as the line
   !> search's pre-check (and in the Baraff-Witkin mode, -snes_type
   !> ksponly, which has no line search, as the post-solve of the SNES's
   !> KSP, on the update SNES KSPONLY then takes in full, x - y), and the
@@ -111,6 +121,10 @@ contains
       SETERRQ(ctx%comm, ierr, 'nuno: -nuno_newton_start cubic is refused with '//pm_list_name(ctx%pms, 1)//': its start may lie outside the feasible states')
     end if
     PetscCall(TSGetSNES(ctx%ts, snes, ierr))
+    if (newton_start_order(ctx%start) == 1) then
+      ierr = nuno_snes_set_pm_start(snes%v, c_loc(ctx))
+      if (ierr /= 0) return
+    end if
     PetscCall(SNESGetLineSearch(snes, ls, ierr))
     PetscCall(SNESLineSearchSetPreCheck(ls, pm_precheck, ctx, ierr))
     PetscCall(SNESGetType(snes, sntype, ierr))
@@ -208,6 +222,33 @@ contains
       changed = .true.
     end if
   end subroutine limit_update
+
+  !> Newton's start x of the step from the TS's solution x_n at t_n to
+  !> t_n + dt (src/solver/nuno_pm_checks.c: the SNES's initial guess),
+  !> moved into the process models' domains by their start hooks (module
+  !> model_state's model_pm_start; moving obstacles carry the nodes they
+  !> reach). No communication.
+  subroutine pm_start_guess_c(snes_h, x_h, cp, ierr) bind(C, name='nuno_pm_start_guess')
+    integer(c_intptr_t), intent(in) :: snes_h, x_h   !< SNES, Vec
+    type(c_ptr), value :: cp                         !< the app_ctx
+    integer(c_int), intent(out) :: ierr              !< PetscErrorCode, as C's int
+    type(app_ctx), pointer :: ctx
+    type(tVec) :: xvec, x0vec
+    PetscScalar, pointer :: x(:, :, :), x0(:, :, :)
+    real(rp) :: t0, dt
+    integer :: moved
+    ierr = 0
+    call c_f_pointer(cp, ctx)
+    xvec%v = x_h
+    PetscCall(TSGetTime(ctx%ts, t0, ierr))
+    PetscCall(TSGetTimeStep(ctx%ts, dt, ierr))
+    PetscCall(TSGetSolution(ctx%ts, x0vec, ierr))
+    PetscCall(DMDAVecGetArrayF90(ctx%da, xvec, x, ierr))
+    PetscCall(DMDAVecGetArrayReadF90(ctx%da, x0vec, x0, ierr))
+    call model_pm_start(ctx%model, ctx%pms, ctx%lat, t0, t0 + dt, x0, x, moved)
+    PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, x0vec, x0, ierr))
+    PetscCall(DMDAVecRestoreArrayF90(ctx%da, xvec, x, ierr))
+  end subroutine pm_start_guess_c
 
   !> The TS's stage check (src/solver/nuno_pm_checks.c, TSSetFunctionDomainError):
   !> the stage's state y at t is accepted unless its candidate was
