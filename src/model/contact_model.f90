@@ -122,6 +122,7 @@ module contact_model
     procedure :: jacobian => contact_jacobian
     procedure :: step_limit => contact_step_limit
     procedure :: accept => contact_accept
+    procedure :: unresolved => contact_unresolved
     procedure :: accepted => contact_accepted
     procedure :: output => contact_output
     procedure :: checkpoint => contact_checkpoint
@@ -148,14 +149,22 @@ contains
   !> no inexact-Newton forcing (its loose inner solves failed a drop's
   !> impact), full steps on the 6-dof path too (the update is limited
   !> already; bt's model of ||F||^2 does not hold across the barrier's
-  !> log), Newton from the last accepted, feasible state, blocks with
-  !> velocity parts (friction) that change with the state, and beuler
-  !> alone (its Newton solve starts from the accepted state).
+  !> log), Newton starts outside the obstacles (the solver limits every
+  !> predictor by the step limit), blocks with velocity parts (friction)
+  !> that change with the state, and an L-stable integrator every state of
+  !> which is a Newton iterate the step limit kept outside the obstacles:
+  !> beuler or bdf of order 1 or 2 (issue 47 item 4; theta's end state is
+  !> extrapolated from its stage, unchecked, cn and bdf3-6 are not
+  !> L-stable: an impact's unresolved barrier mode rings instead of being
+  !> damped).
   pure function contact_hints(this) result(h)
     class(contact_model_t), intent(in) :: this
     type(pm_hints_t) :: h
     h = pm_hints_t(jacobian_every_iteration=.true., forcing_off=.true., basic_line_search=.true., &
-                   feasible_start=.true., velocity_blocks=.true., state_blocks=.true., ts_types='beuler')
+                   feasible_start=.true., velocity_blocks=.true., state_blocks=.true., ts_types='beuler,bdf1,bdf2', &
+                   ts_why='beuler, or bdf with -ts_bdf_order 1 or 2 (L-stable, and every state they evaluate is a '// &
+                   'Newton iterate the step limit keeps outside the obstacles; docs/contact.md, "Adaptive and '// &
+                   'second-order steps")')
   end function contact_hints
 
   !> Set-up: the obstacles and parameters (contact_init), the contact
@@ -330,6 +339,49 @@ contains
           'impact within one step at a gap of about kappa dhat^2 dt / (m v), smaller with a smaller step; '// &
           'a stiffer barrier (contact_stiffness) or a larger contact_dhat keeps it above the floor'
   end subroutine contact_accept
+
+  !> Adaptive steps and bdf2 (issue 47 item 4): the free nodes whose
+  !> barrier a step of dt does not resolve at u, the obstacles at t: a
+  !> node in the barrier's reach that closes its gap within dt (relative
+  !> normal speed times dt above the gap: it hits within the step), or
+  !> whose normal stiffness k (|K_c|, the projected block of the Jacobian
+  !> hook) has k dt^2 > m, the node's mass (omega dt > 1). Such a node is
+  !> in an impact: the exact motion stops it at a gap far below what any
+  !> step resolves (docs/contact.md, "Where the impact's energy goes"), and
+  !> an error estimate of it only shrinks the step, until the impact's
+  !> gap, about kappa dhat^2 dt / (m v), falls below the acceptance floor
+  !> (drape_sphere at -ts_rtol 1e-6 so went down to dt = 1e-15 s); the
+  !> estimate leaves it out (module step_errors) and weighs the rest.
+  subroutine contact_unresolved(this, lat, fixed, t, u, dt, mask)
+    class(contact_model_t), intent(in) :: this
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t, dt
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    logical, intent(inout) :: mask(0:, lat%ys:)
+    integer :: i, j, k
+    real(rp) :: fc(3), kx(3, 3), kv(3, 3), e, fn, stiff, d, g(3), hd(3, 3), gap, vn
+    type(obstacle_t) :: obs(this%n_obs)
+    logical :: act
+    call poses_at(this, t, obs)
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
+        if (fixed(i, j)) cycle
+        stiff = 0.0_rp
+        do k = 1, this%n_obs
+          call signed_distance(obs(k), u(0:2, i, j), d, g, hd)
+          gap = d - this%cp%thickness
+          if (.not. (gap < this%cp%dhat)) cycle
+          vn = dot_product(u(3:5, i, j) - obs(k)%vel, g)
+          if (-vn * dt > gap) mask(i, j) = .true.
+          call contact_node(obs(k), this%cp, u(0:2, i, j), u(3:5, i, j), this%lam(k, i, j), this%nlag(:, k, i, j), &
+                            fc, kx, kv, e, fn, act, project=.true.)
+          stiff = stiff + norm2(kx)
+        end do
+        if (stiff * dt**2 > lat%mass(i, j)) mask(i, j) = .true.
+      end do
+    end do
+  end subroutine contact_unresolved
 
   !> An accepted state u at t (after each accepted step and at each
   !> TSSolve's start, and at t = 0 before the first step): the smallest

@@ -15,6 +15,15 @@
 !> then 100-150 times smaller than from the linear start, and Newton takes
 !> one iteration a step instead of two (measured with commit 9f1bf04).
 !>
+!> A limited start (process models that need a feasible start: contact;
+!> issue 47 items 4 and 6): whatever the start, x_n + alpha (x - x_n)
+!> with the largest alpha <= 1 their step limit allows from x_n (module
+!> process_solver's limiter), so that it is feasible by construction and
+!> as close to the predictor as the obstacles let it be; any TS type
+!> (beuler's extrapolated or cubic start, bdf's extrapolated history). A
+!> retried step starts from x_n itself (its predictor may be a failed
+!> iterate's).
+!>
 !> PETSc 3.18's Fortran interface has no SNESSetComputeInitialGuess (a C
 !> function pointer) nor SNESSetInitialFunction: src/solver/nuno_newton_start.c
 !> registers a C trampoline that calls newton_start_guess with this
@@ -28,7 +37,8 @@ module newton_start
   use start_predictor, only: START_KEPT, start_spaced, start_weights, start_linear_weights, start_needs_linear, start_pick
   implicit none
   private
-  public :: newton_start_t, newton_start_setup, newton_start_free, newton_start_order
+  public :: newton_start_t, newton_start_setup, newton_start_free, newton_start_order, newton_start_limited, &
+            start_limit_i
   public :: newton_start_push, newton_start_reset, newton_start_count, newton_start_get, newton_start_put
 
   !> The kept states and the safeguard's state. Written only by this
@@ -47,7 +57,24 @@ module newton_start
     type(tVec) :: xl, fl, fc                    !< the linear start, its residual; the polynomial start's residual
     logical :: compare = .true.                 !< evaluate the linear start too (start_needs_linear)
     real(rp) :: nc_prev = 0                     !< ||F|| of the last polynomial start
+    logical :: installed = .false.              !< the SNES's initial-guess callback is this module's
+    !> the limiter of a feasible start (newton_start_limited), with its context
+    procedure(start_limit_i), pointer, nopass :: limit => null()
+    type(c_ptr) :: limit_ctx
+    PetscInt :: last_step = -1, last_rejects = -1   !< the TS's step and rejections at the last start
   end type newton_start_t
+
+  abstract interface
+    !> A limited start: x becomes x0 + alpha (x - x0), x0 the step's start
+    !> (the TS's solution), alpha the largest fraction the limiter's
+    !> owner allows (0 when none). Collective.
+    subroutine start_limit_i(ctx, x, ierr)
+      import :: c_ptr, tVec
+      type(c_ptr), value :: ctx
+      type(tVec) :: x
+      PetscErrorCode, intent(out) :: ierr
+    end subroutine start_limit_i
+  end interface
 
   interface
     !> src/solver/nuno_newton_start.c: SNESSetComputeInitialGuess with the C
@@ -105,11 +132,38 @@ contains
     s%n = 0
     s%compare = .true.
     s%nc_prev = 0.0_rp
+    PetscCall(install(s, ts, ierr))
+    s%order = 3
+  end subroutine newton_start_setup
+
+  !> Every Newton start from now on limited by limit (with its context
+  !> ctx): feasible for the process models (module process_solver). Any TS
+  !> type. s must stay at its address while the TS lives. Collective.
+  subroutine newton_start_limited(s, ts, limit, ctx, ierr)
+    type(newton_start_t), intent(inout), target :: s
+    type(tTS), intent(in) :: ts
+    procedure(start_limit_i) :: limit
+    type(c_ptr), intent(in) :: ctx
+    PetscErrorCode, intent(out) :: ierr
+    s%limit => limit
+    s%limit_ctx = ctx
+    PetscCall(install(s, ts, ierr))
+  end subroutine newton_start_limited
+
+  !> This module's callback as the SNES's initial guess (once).
+  subroutine install(s, ts, ierr)
+    type(newton_start_t), intent(inout), target :: s
+    type(tTS), intent(in) :: ts
+    PetscErrorCode, intent(out) :: ierr
+    type(tSNES) :: snes
+    ierr = 0
+    s%ts = ts
+    if (s%installed) return
     PetscCall(TSGetSNES(ts, snes, ierr))
     ierr = nuno_snes_set_initial_guess(snes%v, c_loc(s))
     if (ierr /= 0) return
-    s%order = 3
-  end subroutine newton_start_setup
+    s%installed = .true.
+  end subroutine install
 
   !> 1 (PETSc's linear start) or 3 (the cubic start).
   pure integer function newton_start_order(s)
@@ -177,7 +231,7 @@ contains
     type(tVec) :: x
     real(rp) :: t, dt, nc, nl, w2(2)
     integer :: m, p
-    logical :: take_linear
+    logical :: take_linear, retry
 
     ierr = 0
     call c_f_pointer(sp, s)
@@ -185,16 +239,27 @@ contains
     x%v = x_h
     PetscCall(TSGetTime(s%ts, t, ierr))
     PetscCall(TSGetTimeStep(s%ts, dt, ierr))
-    if (s%n < 2 .or. abs(s%t(1) - t) > 1.0e-9_rp * abs(dt)) return
+    PetscCall(retried(s, retry, ierr))
+    if (retry .and. associated(s%limit)) then
+      ! a retried step with a limited start: from x_n itself
+      PetscCall(limited(s, x, 0.0_rp, ierr))
+      return
+    end if
+    if (.not. s%on .or. s%n < 2 .or. abs(s%t(1) - t) > 1.0e-9_rp * abs(dt)) then
+      PetscCall(limited(s, x, 1.0_rp, ierr))
+      return
+    end if
     m = start_spaced(s%t, s%n, dt)
     if (m == 1) then
       w2 = start_linear_weights(s%t(1), s%t(2), dt)
-    PetscCall(VecAXPBYPCZ(x, w2(1), w2(2), 0.0_rp, s%h(1), s%h(2), ierr))
+      PetscCall(VecAXPBYPCZ(x, w2(1), w2(2), 0.0_rp, s%h(1), s%h(2), ierr))
+      PetscCall(limited(s, x, 1.0_rp, ierr))
       return
     end if
     p = m - 1                                    ! at most 3: four states are kept
     if (p == 1) then
       PetscCall(combine(s, start_weights(1), x, ierr))
+      PetscCall(limited(s, x, 1.0_rp, ierr))
       return
     end if
     if (.not. s%work) then
@@ -204,10 +269,12 @@ contains
       s%work = .true.
     end if
     PetscCall(combine(s, start_weights(p), x, ierr))
+    PetscCall(limited(s, x, 1.0_rp, ierr))
     PetscCall(SNESComputeFunction(snes, x, s%fc, ierr))
     PetscCall(VecNorm(s%fc, NORM_2, nc, ierr))
     if (start_needs_linear(s%compare, nc, s%nc_prev)) then
       PetscCall(combine(s, start_weights(1), s%xl, ierr))
+      PetscCall(limited(s, s%xl, 1.0_rp, ierr))
       PetscCall(SNESComputeFunction(snes, s%xl, s%fl, ierr))
       PetscCall(VecNorm(s%fl, NORM_2, nl, ierr))
       call start_pick(nc, nl, take_linear, s%compare)
@@ -227,6 +294,39 @@ contains
     end if
     s%nc_prev = nc
   end subroutine newton_start_guess
+
+  !> The start x limited (newton_start_limited; nothing without a
+  !> limiter): scale 0 puts it at the step's start x_n, 1 leaves the
+  !> limiter to find how far toward x it may go. Collective.
+  subroutine limited(s, x, scale, ierr)
+    type(newton_start_t), intent(in) :: s
+    type(tVec), intent(inout) :: x
+    real(rp), intent(in) :: scale
+    PetscErrorCode, intent(out) :: ierr
+    type(tVec) :: x0
+    ierr = 0
+    if (.not. associated(s%limit)) return
+    if (scale == 0.0_rp) then
+      PetscCall(TSGetSolution(s%ts, x0, ierr))
+      PetscCall(VecCopy(x0, x, ierr))
+      return
+    end if
+    call s%limit(s%limit_ctx, x, ierr)
+  end subroutine limited
+
+  !> This start is a retried step's (the TS rejected a step since the last
+  !> start of the same step): its predictor may be a failed iterate's.
+  subroutine retried(s, retry, ierr)
+    type(newton_start_t), intent(inout) :: s
+    logical, intent(out) :: retry
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt :: step, rejects
+    PetscCall(TSGetStepNumber(s%ts, step, ierr))
+    PetscCall(TSGetStepRejections(s%ts, rejects, ierr))
+    retry = step == s%last_step .and. rejects > s%last_rejects
+    s%last_step = step
+    s%last_rejects = rejects
+  end subroutine retried
 
   !> Keep the accepted state u at time t (module step_monitor; nothing
   !> without the cubic start). The vectors change places, the oldest is
