@@ -144,10 +144,12 @@ contains
   end function contact_name
 
   !> What contact needs of the solver (docs/design.md, "Contact"): the
-  !> Jacobian at every Newton iteration (a lagged one's friction blocks
-  !> belong to the iterate before: a two-cycle across the smoothing band),
-  !> no inexact-Newton forcing (its loose inner solves failed a drop's
-  !> impact), full steps on the 6-dof path too (the update is limited
+  !> Jacobian at every Newton iteration unless Newton contracts fast (a
+  !> lagged one's friction blocks belong to the iterate before: a
+  !> two-cycle across the smoothing band),
+  !> the inexact-Newton forcing only where Newton contracts (its loose
+  !> inner solves failed a drop's impact, and stalled at drape_sphere's
+  !> landing at 129 x 129), full steps on the 6-dof path too (the update is limited
   !> already; bt's model of ||F||^2 does not hold across the barrier's
   !> log), Newton starts outside the obstacles (the solver limits every
   !> predictor by the step limit), blocks with velocity parts (friction)
@@ -160,7 +162,7 @@ contains
   pure function contact_hints(this) result(h)
     class(contact_model_t), intent(in) :: this
     type(pm_hints_t) :: h
-    h = pm_hints_t(jacobian_every_iteration=.true., forcing_off=.true., basic_line_search=.true., &
+    h = pm_hints_t(jacobian_guarded=.true., forcing_guarded=.true., basic_line_search=.true., &
                    feasible_start=.true., velocity_blocks=.true., state_blocks=.true., ts_types='beuler,bdf1,bdf2', &
                    ts_why='beuler, or bdf with -ts_bdf_order 1 or 2 (L-stable, and every state they evaluate is a '// &
                    'Newton iterate the step limit keeps outside the obstacles; docs/contact.md, "Adaptive and '// &

@@ -62,16 +62,22 @@ module newton_start
     procedure(start_limit_i), pointer, nopass :: limit => null()
     type(c_ptr) :: limit_ctx
     PetscInt :: last_step = -1, last_rejects = -1   !< the TS's step and rejections at the last start
+    logical :: lwork = .false.                  !< x0w, f0w created
+    type(tVec) :: x0w, f0w                      !< the step's start x_n and its residual (limited_pick)
+    integer :: starts_at_xn = 0                 !< limited starts that took x_n (its residual the smaller)
+    logical :: cut = .false.                    !< the limiter cut this step's start
+    real(rp) :: nstart_prev = 0                 !< ||F|| at the last step's limited start
   end type newton_start_t
 
   abstract interface
     !> A limited start: x becomes x0 + alpha (x - x0), x0 the step's start
     !> (the TS's solution), alpha the largest fraction the limiter's
-    !> owner allows (0 when none). Collective.
-    subroutine start_limit_i(ctx, x, ierr)
+    !> owner allows (0 when none); cut: alpha < 1. Collective.
+    subroutine start_limit_i(ctx, x, cut, ierr)
       import :: c_ptr, tVec
       type(c_ptr), value :: ctx
       type(tVec) :: x
+      logical, intent(out) :: cut
       PetscErrorCode, intent(out) :: ierr
     end subroutine start_limit_i
   end interface
@@ -188,8 +194,13 @@ contains
       PetscCall(VecDestroy(s%fl, ierr))
       PetscCall(VecDestroy(s%fc, ierr))
     end if
+    if (s%lwork) then
+      PetscCall(VecDestroy(s%x0w, ierr))
+      PetscCall(VecDestroy(s%f0w, ierr))
+    end if
     s%made = .false.
     s%work = .false.
+    s%lwork = .false.
     s%on = .false.
     s%n = 0
   end subroutine newton_start_free
@@ -214,14 +225,16 @@ contains
   end subroutine combine
 
   !> SNESSetComputeInitialGuess's callback (through the C trampoline): x is
-  !> the start TS set (x_n, or x_n + dt xdot_n). When the kept states end at
-  !> this step's start and are spaced by its dt, x becomes the polynomial
-  !> through them (cubic when four are kept). Its residual is handed to
-  !> SNES (no evaluation more); where start_needs_linear says so the
-  !> linear start's is evaluated too and the smaller taken (start_pick). A
-  !> step of another dt (a retry after a failed solve, a sliver before a
-  !> stop time) starts from the last two accepted states extrapolated
-  !> linearly to it (TS's xdot may then be a failed iterate's).
+  !> the start TS set (x_n, or x_n + dt xdot_n, or bdf's extrapolated
+  !> history). With the cubic start, when the kept states end at this
+  !> step's start and are spaced by its dt, x becomes the polynomial
+  !> through them (polynomial_start). A step of another dt (a retry after a
+  !> failed solve, a sliver before a stop time) starts from the last two
+  !> accepted states extrapolated linearly to it (TS's xdot may then be a
+  !> failed iterate's). With a limiter (newton_start_limited) every start
+  !> is limited, and the one whose residual is smaller of it and the
+  !> step's start x_n is taken (limited_pick); a retried step starts from
+  !> x_n.
   subroutine newton_start_guess(snes_h, x_h, sp, ierr) bind(C, name='nuno_newton_start_guess')
     integer(c_intptr_t), intent(in) :: snes_h, x_h   !< SNES, Vec
     type(c_ptr), value :: sp                         !< the newton_start_t
@@ -229,9 +242,9 @@ contains
     type(newton_start_t), pointer :: s
     type(tSNES) :: snes
     type(tVec) :: x
-    real(rp) :: t, dt, nc, nl, w2(2)
-    integer :: m, p
-    logical :: take_linear, retry
+    real(rp) :: t, dt, nx, w2(2)
+    integer :: m
+    logical :: retry, known
 
     ierr = 0
     call c_f_pointer(sp, s)
@@ -245,23 +258,46 @@ contains
       PetscCall(limited(s, x, 0.0_rp, ierr))
       return
     end if
+    s%cut = .false.
+    known = .false.
+    nx = 0.0_rp
     if (.not. s%on .or. s%n < 2 .or. abs(s%t(1) - t) > 1.0e-9_rp * abs(dt)) then
       PetscCall(limited(s, x, 1.0_rp, ierr))
-      return
+    else
+      m = start_spaced(s%t, s%n, dt)
+      if (m == 1) then
+        w2 = start_linear_weights(s%t(1), s%t(2), dt)
+        PetscCall(VecAXPBYPCZ(x, w2(1), w2(2), 0.0_rp, s%h(1), s%h(2), ierr))
+        PetscCall(limited(s, x, 1.0_rp, ierr))
+      else if (m == 2) then
+        PetscCall(combine(s, start_weights(1), x, ierr))
+        PetscCall(limited(s, x, 1.0_rp, ierr))
+      else
+        PetscCall(polynomial_start(s, snes, x, m - 1, known, nx, ierr))
+      end if
     end if
-    m = start_spaced(s%t, s%n, dt)
-    if (m == 1) then
-      w2 = start_linear_weights(s%t(1), s%t(2), dt)
-      PetscCall(VecAXPBYPCZ(x, w2(1), w2(2), 0.0_rp, s%h(1), s%h(2), ierr))
-      PetscCall(limited(s, x, 1.0_rp, ierr))
-      return
+    if (associated(s%limit)) then
+      PetscCall(limited_pick(s, snes, x, known, nx, ierr))
     end if
-    p = m - 1                                    ! at most 3: four states are kept
-    if (p == 1) then
-      PetscCall(combine(s, start_weights(1), x, ierr))
-      PetscCall(limited(s, x, 1.0_rp, ierr))
-      return
-    end if
+  end subroutine newton_start_guess
+
+  !> The cubic (p = 3) or quadratic (p = 2) start through the kept states
+  !> into x, limited, and its residual handed to SNES (known: set, its norm
+  !> nx), unless the linear start's residual is smaller (start_pick: then
+  !> x is that, with its residual); both evaluated until the polynomial
+  !> has won by a factor 2 (start_needs_linear). Collective.
+  subroutine polynomial_start(s, snes, x, p, known, nx, ierr)
+    type(newton_start_t), intent(inout) :: s
+    type(tSNES), intent(in) :: snes
+    type(tVec), intent(inout) :: x
+    integer, intent(in) :: p
+    logical, intent(out) :: known
+    real(rp), intent(out) :: nx
+    PetscErrorCode, intent(out) :: ierr
+    real(rp) :: nc, nl
+    logical :: take_linear
+    known = .false.
+    nx = 0.0_rp
     if (.not. s%work) then
       PetscCall(VecDuplicate(x, s%xl, ierr))
       PetscCall(VecDuplicate(x, s%fl, ierr))
@@ -282,6 +318,8 @@ contains
         PetscCall(VecCopy(s%xl, x, ierr))
         ierr = nuno_snes_set_initial_function(snes%v, s%fl%v)
         if (ierr /= 0) return
+        known = .true.
+        nx = nl
       end if
       ! else SNES evaluates the polynomial start's residual again: TS's
       ! Jacobian takes xdot from the last residual evaluated, which must be
@@ -291,19 +329,91 @@ contains
     else
       ierr = nuno_snes_set_initial_function(snes%v, s%fc%v)
       if (ierr /= 0) return
+      known = .true.
+      nx = nc
     end if
     s%nc_prev = nc
-  end subroutine newton_start_guess
+  end subroutine polynomial_start
+
+  !> The residual's norm n0 at the step's start x_n (the TS's solution),
+  !> kept with x_n for limited_pick (x: a vector like the state). Collective.
+  subroutine start_residual(s, snes, x, n0, ierr)
+    type(newton_start_t), intent(inout) :: s
+    type(tSNES), intent(in) :: snes
+    type(tVec), intent(in) :: x
+    real(rp), intent(out) :: n0
+    PetscErrorCode, intent(out) :: ierr
+    type(tVec) :: x0
+    if (.not. s%lwork) then
+      PetscCall(VecDuplicate(x, s%x0w, ierr))
+      PetscCall(VecDuplicate(x, s%f0w, ierr))
+      s%lwork = .true.
+    end if
+    PetscCall(TSGetSolution(s%ts, x0, ierr))
+    PetscCall(VecCopy(x0, s%x0w, ierr))
+    PetscCall(SNESComputeFunction(snes, s%x0w, s%f0w, ierr))
+    PetscCall(VecNorm(s%f0w, NORM_2, n0, ierr))
+  end subroutine start_residual
+
+  !> A limited start x against the step's start x_n: x's residual (known:
+  !> handed to SNES already, its norm nx; else evaluated here), and where
+  !> the limiter cut the start or its residual is over 4 times the last
+  !> step's, x_n's too, and x_n taken where it is the smaller. A
+  !> predictor that puts a node deep into a barrier (limited short of an
+  !> obstacle it would cross, or landing just above one) starts Newton
+  !> where the barrier's force is far off, and Newton stalled there
+  !> (drape_sphere at 129 x 129 from the linear start: ||F|| 4800 for 50
+  !> iterations); x_n is the state the step began from, feasible, and the
+  !> start of every solve before limited starts. Elsewhere the predictor's
+  !> residual is handed to SNES (no evaluation more than without the
+  !> check). Collective.
+  subroutine limited_pick(s, snes, x, known, nx, ierr)
+    type(newton_start_t), intent(inout) :: s
+    type(tSNES), intent(in) :: snes
+    type(tVec), intent(inout) :: x
+    logical, intent(in) :: known
+    real(rp), intent(in) :: nx
+    PetscErrorCode, intent(out) :: ierr
+    real(rp) :: nn, n0
+    ierr = 0
+    nn = nx
+    if (.not. known) then
+      if (.not. s%work) then
+        PetscCall(VecDuplicate(x, s%xl, ierr))
+        PetscCall(VecDuplicate(x, s%fl, ierr))
+        PetscCall(VecDuplicate(x, s%fc, ierr))
+        s%work = .true.
+      end if
+      PetscCall(SNESComputeFunction(snes, x, s%fc, ierr))
+      PetscCall(VecNorm(s%fc, NORM_2, nn, ierr))
+    end if
+    if (.not. (s%cut .or. nn > 4.0_rp * s%nstart_prev)) then
+      s%nstart_prev = nn
+      if (.not. known) ierr = nuno_snes_set_initial_function(snes%v, s%fc%v)
+      return
+    end if
+    PetscCall(start_residual(s, snes, x, n0, ierr))
+    ! (SNES evaluates the residual of the start taken again: the last
+    ! evaluated, which TS's Jacobian takes its xdot from, is x_n's)
+    if (n0 < nn) then
+      PetscCall(VecCopy(s%x0w, x, ierr))
+      s%starts_at_xn = s%starts_at_xn + 1
+      s%nstart_prev = n0
+    else
+      s%nstart_prev = nn
+    end if
+  end subroutine limited_pick
 
   !> The start x limited (newton_start_limited; nothing without a
   !> limiter): scale 0 puts it at the step's start x_n, 1 leaves the
   !> limiter to find how far toward x it may go. Collective.
   subroutine limited(s, x, scale, ierr)
-    type(newton_start_t), intent(in) :: s
+    type(newton_start_t), intent(inout) :: s
     type(tVec), intent(inout) :: x
     real(rp), intent(in) :: scale
     PetscErrorCode, intent(out) :: ierr
     type(tVec) :: x0
+    logical :: cut
     ierr = 0
     if (.not. associated(s%limit)) return
     if (scale == 0.0_rp) then
@@ -311,7 +421,8 @@ contains
       PetscCall(VecCopy(x0, x, ierr))
       return
     end if
-    call s%limit(s%limit_ctx, x, ierr)
+    call s%limit(s%limit_ctx, x, cut, ierr)
+    s%cut = s%cut .or. cut
   end subroutine limited
 
   !> This start is a retried step's (the TS rejected a step since the last

@@ -16,9 +16,10 @@ module newton_state
   public :: newton_state_t, SNES_FLOOR_DEFAULT
   public :: newton_state_init, newton_set_inner_guess, newton_enter_window, newton_set_floor, newton_set_failures_before
   public :: newton_take_injected_failure, newton_first_residual, newton_iterated, newton_verdict, newton_inner_rtol, &
-            newton_fallback_switched, newton_update_limited
+            newton_fallback_switched, newton_update_limited, newton_set_lag_guarded
   public :: newton_guess, newton_guess_given, newton_forcing_on, newton_floor_est, newton_snorm_prev, newton_fallback, &
-            newton_fallback_pending, newton_has_failed, newton_rate_usable, newton_limited_lately
+            newton_fallback_pending, newton_has_failed, newton_rate_usable, newton_limited_lately, newton_reuse_jacobian, &
+            newton_lag_guarded
 
   !> -nuno_snes_floor's default: stagnation below this relative residual is convergence
   real(rp), parameter :: SNES_FLOOR_DEFAULT = 1.0e-6_rp
@@ -37,6 +38,12 @@ module newton_state
     !> converged), and their inexact solves are no guide for the next one
     logical :: limited = .false., limited_prev = .false.
     logical :: newton_forcing = .true.          !< inner tolerance from the step's needs (reduced path)
+    !> the forcing only where Newton contracts (a process model's hint:
+    !> contact), newton_inner_rtol
+    logical :: forcing_guarded = .false.
+    !> the Jacobian at every iteration but after one that contracted ||F||
+    !> tenfold (a process model's hint: contact), newton_reuse_jacobian
+    logical :: lag_guarded = .false.
     integer(c_int) :: guess = GUESS_AUTO        !< -nuno_inner_guess (module inner_guess)
     integer(c_int) :: guess_given = 0           !< 1: set on the command line
     real(rp) :: cquad = 0                       !< estimate of C in ||F_k+1|| ~ C ||F_k||^2; 0 at every window start
@@ -53,15 +60,17 @@ contains
   !> Newton's policy as the options resolved it (solver_create):
   !> snes_floor (-nuno_snes_floor, relative residual), guess and
   !> guess_given (-nuno_inner_guess and whether it was given), forcing
-  !> (-nuno_newton_forcing), fail_newton (-nuno_fail_newton, tests),
+  !> (-nuno_newton_forcing), forcing_guarded (only where Newton contracts:
+  !> newton_inner_rtol), fail_newton (-nuno_fail_newton, tests),
   !> ls_fallback (-nuno_linesearch_fallback's code; 0: none).
-  subroutine newton_state_init(n, snes_floor, guess, guess_given, forcing, fail_newton, ls_fallback)
+  subroutine newton_state_init(n, snes_floor, guess, guess_given, forcing, forcing_guarded, fail_newton, ls_fallback)
     type(newton_state_t), intent(inout) :: n
     real(rp), intent(in) :: snes_floor
     integer(c_int), intent(in) :: guess, guess_given
-    logical, intent(in) :: forcing
+    logical, intent(in) :: forcing, forcing_guarded
     integer, intent(in) :: fail_newton, ls_fallback
     n%snes_floor = snes_floor
+    n%forcing_guarded = forcing_guarded
     n%guess = guess
     n%guess_given = guess_given
     n%newton_forcing = forcing
@@ -120,6 +129,13 @@ contains
     n%limited_prev = .false.
   end subroutine newton_first_residual
 
+  !> The Jacobian's lag is guarded (newton_reuse_jacobian): the options
+  !> asked for it at every iteration (a process model's hint).
+  subroutine newton_set_lag_guarded(n)
+    type(newton_state_t), intent(inout) :: n
+    n%lag_guarded = .true.
+  end subroutine newton_set_lag_guarded
+
   !> A process model's step limit (module process_solver) has scaled the
   !> coming update (limited), or let it be.
   subroutine newton_update_limited(n, limited)
@@ -147,6 +163,27 @@ contains
     newton_rate_usable = n%snorm_prev > 0.0_rp .and. .not. (n%limited .or. n%limited_prev)
   end function newton_rate_usable
 
+  !> With the guarded lag, the coming iteration reuses the Jacobian (a
+  !> chord step): the one just seen (its residual norm fnorm, it >= 1)
+  !> contracted ||F|| at least tenfold and no step limit cut it. Newton is
+  !> then deep in its quadratic region, where the Jacobian of the iterate
+  !> before serves (the free sheet's -snes_lag_jacobian 2); where it is not,
+  !> a lagged Jacobian made friction's slip cycle across its smoothing band
+  !> (docs/design.md, "Contact"). Call before newton_iterated.
+  pure logical function newton_reuse_jacobian(n, it, fnorm)
+    type(newton_state_t), intent(in) :: n
+    integer, intent(in) :: it
+    real(rp), intent(in) :: fnorm
+    newton_reuse_jacobian = n%lag_guarded .and. it >= 1 .and. fnorm <= 0.1_rp * n%fnorm_prev .and. &
+                            .not. (n%limited .or. n%limited_prev)
+  end function newton_reuse_jacobian
+
+  !> The Jacobian's lag is guarded (newton_set_lag_guarded).
+  pure logical function newton_lag_guarded(n)
+    type(newton_state_t), intent(in) :: n
+    newton_lag_guarded = n%lag_guarded
+  end function newton_lag_guarded
+
   !> A step limit scaled this iteration's update or the one before.
   pure logical function newton_limited_lately(n)
     type(newton_state_t), intent(in) :: n
@@ -171,13 +208,26 @@ contains
   !> floor_est, the round-off floor of the last assembly). C comes from the
   !> iterations before (lin_rel: the last inner solve's relative residual),
   !> in this window; the bounds are the inner solver's own rtol0 (never
-  !> tighter than without this) and ETA_MAX.
+  !> tighter than without this) and ETA_MAX. Guarded, rtol0 after an update
+  !> a process model's step limit cut (newton_update_limited) and after an
+  !> iteration that did not halve ||F||.
   subroutine newton_inner_rtol(n, it, fnorm, lin_rel, atol, rtol, floor_est, rtol0, eta)
     type(newton_state_t), intent(inout) :: n
     integer, intent(in) :: it
     real(rp), intent(in) :: fnorm, lin_rel, atol, rtol, floor_est, rtol0
     real(rp), intent(out) :: eta
     real(rp) :: target
+    ! Guarded (contact): an update a step limit cut (an obstacle in the
+    ! way), or an iteration that did not halve ||F|| (a contact's onset),
+    ! is outside Newton's quadratic region: the next inner solve is tight,
+    ! and the model is not learnt from it. Loose solves there made Newton
+    ! diverge at a drop's impact (4 retried steps) and stall at
+    ! drape_sphere's landing at 129 x 129 (||F|| 4800 for 50 iterations,
+    ! inner solves of 0 to 2 iterations).
+    if (n%forcing_guarded .and. (n%limited .or. n%limited_prev .or. (it >= 1 .and. fnorm > 0.5_rp * n%fnorm_prev))) then
+      eta = rtol0
+      return
+    end if
     if (it >= 1) n%cquad = quadratic_constant(n%fnorm_prev, fnorm, lin_rel)
     target = max(atol, rtol * n%fnorm0)
     if (n%snes_floor > 0.0_rp) target = max(target, FLOOR_FACTOR * floor_est)

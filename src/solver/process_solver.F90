@@ -29,7 +29,7 @@ module process_solver
   use ghosted_state, only: ghosted_get, ghosted_restore
   use app_context, only: app_ctx
   use newton_start, only: newton_start_limited
-  use newton_state, only: newton_update_limited
+  use newton_state, only: newton_update_limited, newton_set_lag_guarded
   use model_state, only: model_pm_step_limit, model_pm_accept, model_pm_accepted, model_pm_unresolved, &
                          model_pm_start_limit
   use step_errors, only: step_errors_on, step_errors_weighs, step_errors_stage, step_errors_tolerances, &
@@ -65,7 +65,8 @@ contains
   !> Before TSSetFromOptions, the process models' hints that are options:
   !> the Jacobian at every Newton iteration (-snes_lag_jacobian 1 unless
   !> given; module solver_options' step_defaults lags it to every other
-  !> iteration otherwise). (A feasible start needs no option: every start
+  !> iteration otherwise), guarded (module newton_policy: a chord step
+  !> after an iteration that contracted tenfold). (A feasible start needs no option: every start
   !> is limited, pm_solver_setup.) Nothing without process models.
   !> Collective.
   subroutine pm_solver_options(ctx, ierr)
@@ -76,10 +77,11 @@ contains
     ierr = 0
     if (.not. pm_list_on(ctx%pms)) return
     h = pm_list_hints(ctx%pms)
-    if (h%jacobian_every_iteration) then
+    if (h%jacobian_guarded) then
       PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-snes_lag_jacobian', given, ierr))
       if (.not. given) then
         PetscCall(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-snes_lag_jacobian', '1', ierr))
+        call newton_set_lag_guarded(ctx%newton)
       end if
     end if
   end subroutine pm_solver_options
@@ -158,9 +160,10 @@ contains
   !> allow none. So the start is feasible by construction and as near the
   !> predictor as the obstacles let it be (issue 47 items 4 and 6).
   !> Collective.
-  subroutine pm_limit_start(cp, xvec, ierr)
+  subroutine pm_limit_start(cp, xvec, cut, ierr)
     type(c_ptr), value :: cp
     type(tVec) :: xvec
+    logical, intent(out) :: cut
     PetscErrorCode, intent(out) :: ierr
     type(app_ctx), pointer :: ctx
     type(tVec) :: x0vec
@@ -177,7 +180,8 @@ contains
     dx = x - x0
     call model_pm_start_limit(ctx%model, ctx%pms, ctx%lat, t0, t0 + dt, x0, dx, ctx%comm, alpha, infeasible)
     if (infeasible) alpha = 0.0_rp
-    if (alpha < 1.0_rp) x = x0 + alpha * dx
+    cut = alpha < 1.0_rp
+    if (cut) x = x0 + alpha * dx
     PetscCall(DMDAVecRestoreArrayF90(ctx%da, xvec, x, ierr))
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, x0vec, x0, ierr))
   end subroutine pm_limit_start
@@ -304,9 +308,10 @@ contains
     PetscErrorCode, intent(out) :: ierr
     type(tVec) :: vatol, vrtol
     type(tTSAdapt) :: adapt
-    PetscReal :: atol, rtol, dt, scale, hmin, hmax
-    PetscScalar, pointer :: va(:, :, :), vr(:, :, :)
-    logical, allocatable :: mask(:, :)
+    PetscReal :: atol, rtol, dt, scale, hmin, hmax, t0
+    PetscScalar, pointer :: va(:, :, :), vr(:, :, :), x0(:, :, :)
+    type(tVec) :: x0vec, x0loc
+    logical, allocatable :: mask(:, :), start(:, :)
     integer :: nnew
     PetscInt, parameter :: one = 1
     ierr = 0
@@ -318,9 +323,15 @@ contains
     end if
     PetscCall(TSGetTimeStep(ctx%ts, dt, ierr))
     dt = max(dt, step_dt(ctx%step))
-    allocate(mask(0:ctx%lat%nx - 1, ctx%lat%ys:ctx%lat%ye))
+    allocate(mask(0:ctx%lat%nx - 1, ctx%lat%ys:ctx%lat%ye), start(0:ctx%lat%nx - 1, ctx%lat%ys:ctx%lat%ye))
     call model_pm_unresolved(ctx%model, ctx%pms, ctx%lat, t, u, dt, mask)
-    call step_errors_stage(ctx%errw, t, mask, ctx%comm, nnew)
+    ! and at the step's start x_n (the TS's solution until it accepts)
+    PetscCall(TSGetSolution(ctx%ts, x0vec, ierr))
+    PetscCall(TSGetTime(ctx%ts, t0, ierr))
+    PetscCall(ghosted_get(ctx%da, x0vec, x0loc, x0, ierr))
+    call model_pm_unresolved(ctx%model, ctx%pms, ctx%lat, t0, x0, dt, start)
+    PetscCall(ghosted_restore(ctx%da, x0loc, x0, ierr))
+    call step_errors_stage(ctx%errw, t, mask, start, ctx%comm, nnew)
     if (step_errors_weighs(ctx%errw)) then
       PetscCall(TSGetTolerances(ctx%ts, atol, vatol, rtol, vrtol, ierr))
       PetscCall(DMDAVecGetArrayF90(ctx%da, vatol, va, ierr))

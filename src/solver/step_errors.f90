@@ -145,18 +145,20 @@ contains
   end function step_errors_impacts
 
   !> A stage at t checked (the TS's stage check): mask(0:nx-1, ys:ye) its
-  !> unresolved nodes. n_new: those of them resolved at the step's start
-  !> x_n (an impact within the step), over all ranks of comm. Collective.
-  subroutine step_errors_stage(e, t, mask, comm, n_new)
+  !> unresolved nodes, at_start those of the step's start x_n (at the
+  !> same step). n_new: nodes unresolved at the stage and not at x_n (an
+  !> impact within the step), over all ranks of comm. Collective.
+  subroutine step_errors_stage(e, t, mask, at_start, comm, n_new)
     type(step_errors_t), intent(inout) :: e
     real(rp), intent(in) :: t
-    logical, intent(in) :: mask(0:, :)
+    logical, intent(in) :: mask(0:, :), at_start(0:, :)
     integer, intent(in) :: comm
     integer, intent(out) :: n_new
     integer :: loc(2), glob(2), mpierr
     e%stage = mask
+    e%at_n = at_start
     e%t_stage = t
-    loc(1) = count(mask .and. .not. e%at_n)
+    loc(1) = count(mask .and. .not. at_start)
     loc(2) = count(mask .or. e%at_n .or. e%at_nm1)
     call MPI_Allreduce(loc, glob, 2, MPI_INTEGER, MPI_SUM, comm, mpierr)
     n_new = glob(1)
