@@ -17,6 +17,9 @@
 !>   forces      f += its forces at the ghosted state u at time t (every
 !>               residual evaluation); status PM_INFEASIBLE where the state
 !>               is outside its domain (this rank's view: the list reduces)
+!>   start       Newton's start of a step (x0 accepted at t0, the start x
+!>               for the stage at t1): the model may move it into its
+!>               domain (moving obstacles carry the nodes they reach)
 !>   jacobian    its blocks at u, t: 3 x 3 diagonal blocks of single nodes
 !>               (node_blocks) and blocks of node pairs that need not be
 !>               stencil neighbours (pair_blocks; a later self-contact:
@@ -74,10 +77,6 @@ module process_model
     logical :: jacobian_guarded = .false.
     !> the inexact-Newton forcing off (inner solves to -reduced_ksp_rtol)
     logical :: forcing_off = .false.
-    !> the forcing only where Newton contracts: inner solves to
-    !> -reduced_ksp_rtol after an update a step limit cut and after an
-    !> iteration that did not halve ||F|| (module newton_state)
-    logical :: forcing_guarded = .false.
     !> full Newton steps on the 6-dof path too (-snes_linesearch_type basic)
     logical :: basic_line_search = .false.
     !> every Newton start must lie in its domain: the solver limits any
@@ -138,6 +137,7 @@ module process_model
     procedure(pm_forces_i), deferred :: forces
     procedure(pm_jacobian_i), deferred :: jacobian
     procedure :: hints => no_hints
+    procedure :: start => keep_start
     procedure :: step_limit => no_limit
     procedure :: accept => accept_all
     procedure :: unresolved => all_resolved
@@ -210,6 +210,20 @@ contains
     type(pm_hints_t) :: h
     h = pm_hints_t()
   end function no_hints
+
+  !> Newton's start x (0:5, 0:nx-1, ys:ye, owned rows) of a step from the
+  !> accepted state x0 at t0 to t1 is kept as it is; moved = 0 (the nodes
+  !> this rank's hook moved).
+  subroutine keep_start(this, lat, fixed, t0, t1, x0, x, moved)
+    class(process_model_t), intent(inout) :: this
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t0, t1
+    real(rp), intent(in) :: x0(0:, 0:, lat%ys:)
+    real(rp), intent(inout) :: x(0:, 0:, lat%ys:)
+    integer, intent(out) :: moved
+    moved = 0
+  end subroutine keep_start
 
   !> Any update is allowed in full.
   subroutine no_limit(this, lat, fixed, t0, t1, x0, x, dx, comm, alpha, status)

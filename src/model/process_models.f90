@@ -32,7 +32,7 @@ module process_models
   public :: pm_list_setup, pm_list_forces, pm_list_infeasible, pm_list_jacobian, pm_list_step_limit, pm_list_accept
   public :: pm_list_unresolved, pm_list_start_limit
   public :: pm_list_accepted, pm_list_output, pm_list_checkpoint, pm_list_restore, pm_list_check_state, pm_list_destroy
-  public :: pm_list_nodal, pm_list_rejection, pm_list_take
+  public :: pm_list_nodal, pm_list_rejection, pm_list_take, pm_list_start
 
   !> One process model of the list.
   type :: pm_slot_t
@@ -121,7 +121,6 @@ contains
       e = list%m(k)%pm%hints()
       h%jacobian_guarded = h%jacobian_guarded .or. e%jacobian_guarded
       h%forcing_off = h%forcing_off .or. e%forcing_off
-      h%forcing_guarded = h%forcing_guarded .or. e%forcing_guarded
       h%basic_line_search = h%basic_line_search .or. e%basic_line_search
       h%feasible_start = h%feasible_start .or. e%feasible_start
       h%velocity_blocks = h%velocity_blocks .or. e%velocity_blocks
@@ -225,6 +224,25 @@ contains
     call pair_blocks_end(list%pairs)
     pairs_given = pair_blocks_count(list%pairs) > 0
   end subroutine pm_list_jacobian
+
+  !> Newton's start x (owned rows) of a step from the accepted state x0 at
+  !> t0 to t1, moved by each model in the list's order (its start hook: a
+  !> model moves it into its domain); moved: the nodes moved on this rank.
+  subroutine pm_list_start(list, lat, fixed, t0, t1, x0, x, moved)
+    type(pm_list_t), intent(inout) :: list
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t0, t1
+    real(rp), intent(in) :: x0(0:, 0:, lat%ys:)
+    real(rp), intent(inout) :: x(0:, 0:, lat%ys:)
+    integer, intent(out) :: moved
+    integer :: k, m
+    moved = 0
+    do k = 1, list%n
+      call list%m(k)%pm%start(lat, fixed, t0, t1, x0, x, m)
+      moved = moved + m
+    end do
+  end subroutine pm_list_start
 
   !> The fraction alpha of the update x -> x + dx (from x0 at t0 to a
   !> candidate at t1) that every model allows (the smallest of their

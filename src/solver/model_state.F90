@@ -21,7 +21,7 @@ module model_state
   use reduced, only: reduced_t, reduced_set_fixed
   use node_blocks, only: node_blocks_t
   use process_models, only: pm_list_t, pm_list_on, pm_list_forces, pm_list_jacobian, pm_list_step_limit, pm_list_accept, &
-                            pm_list_accepted, pm_list_unresolved, pm_list_start_limit
+                            pm_list_accepted, pm_list_unresolved, pm_list_start_limit, pm_list_start
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   implicit none
   private
@@ -30,6 +30,7 @@ module model_state
   public :: model_gravity, model_moving, model_singular
   public :: model_fixed_to_reduced, model_pm_jacobian, model_pm_step_limit, model_pm_accept, model_pm_accepted, &
             model_pm_unresolved, model_pm_start_limit
+  public :: model_pm_start
   public :: assembly_t, assembly_create, assembly_free, assembly_matrix, model_assemble_full
 
   !> The model's state within a time window and its work arrays.
@@ -271,6 +272,20 @@ contains
     logical, intent(out) :: infeasible
     call pm_list_start_limit(pms, lat, m%fixed, t0, t1, x0, dx, comm, alpha, infeasible)
   end subroutine model_pm_start_limit
+
+  !> Newton's start x (owned rows) of a step from x0 at t0 to t1, moved
+  !> into the process models' domains (module process_models'
+  !> pm_list_start); moved: the nodes moved on this rank.
+  subroutine model_pm_start(m, pms, lat, t0, t1, x0, x, moved)
+    type(model_state_t), intent(in) :: m
+    type(pm_list_t), intent(inout) :: pms
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: t0, t1
+    real(rp), intent(in) :: x0(0:, 0:, lat%ys:)
+    real(rp), intent(inout) :: x(0:, 0:, lat%ys:)
+    integer, intent(out) :: moved
+    call pm_list_start(pms, lat, m%fixed, t0, t1, x0, x, moved)
+  end subroutine model_pm_start
 
   !> A step's end state u at t accepted by every process model (module
   !> process_models' pm_list_accept). Collective.

@@ -344,6 +344,7 @@ contains
     real(rp), intent(out) :: n0
     PetscErrorCode, intent(out) :: ierr
     type(tVec) :: x0
+    logical :: cut
     if (.not. s%lwork) then
       PetscCall(VecDuplicate(x, s%x0w, ierr))
       PetscCall(VecDuplicate(x, s%f0w, ierr))
@@ -351,6 +352,8 @@ contains
     end if
     PetscCall(TSGetSolution(s%ts, x0, ierr))
     PetscCall(VecCopy(x0, s%x0w, ierr))
+    call s%limit(s%limit_ctx, s%x0w, cut, ierr)     ! moved where an obstacle reaches it
+    if (ierr /= 0) return
     PetscCall(SNESComputeFunction(snes, s%x0w, s%f0w, ierr))
     PetscCall(VecNorm(s%f0w, NORM_2, n0, ierr))
   end subroutine start_residual
@@ -406,7 +409,9 @@ contains
 
   !> The start x limited (newton_start_limited; nothing without a
   !> limiter): scale 0 puts it at the step's start x_n, 1 leaves the
-  !> limiter to find how far toward x it may go. Collective.
+  !> limiter to find how far toward x it may go; either is then moved
+  !> into the limiter's owner's domain (process_solver's pm_limit_start).
+  !> Collective.
   subroutine limited(s, x, scale, ierr)
     type(newton_start_t), intent(inout) :: s
     type(tVec), intent(inout) :: x
@@ -419,8 +424,9 @@ contains
     if (scale == 0.0_rp) then
       PetscCall(TSGetSolution(s%ts, x0, ierr))
       PetscCall(VecCopy(x0, x, ierr))
-      return
     end if
+    ! (x_n too: the limiter's owner moves it into its domain, where a
+    ! moving obstacle reaches it over the step)
     call s%limit(s%limit_ctx, x, cut, ierr)
     s%cut = s%cut .or. cut
   end subroutine limited

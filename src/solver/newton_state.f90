@@ -38,9 +38,6 @@ module newton_state
     !> converged), and their inexact solves are no guide for the next one
     logical :: limited = .false., limited_prev = .false.
     logical :: newton_forcing = .true.          !< inner tolerance from the step's needs (reduced path)
-    !> the forcing only where Newton contracts (a process model's hint:
-    !> contact), newton_inner_rtol
-    logical :: forcing_guarded = .false.
     !> the Jacobian at every iteration but after one that contracted ||F||
     !> tenfold (a process model's hint: contact), newton_reuse_jacobian
     logical :: lag_guarded = .false.
@@ -60,17 +57,15 @@ contains
   !> Newton's policy as the options resolved it (solver_create):
   !> snes_floor (-nuno_snes_floor, relative residual), guess and
   !> guess_given (-nuno_inner_guess and whether it was given), forcing
-  !> (-nuno_newton_forcing), forcing_guarded (only where Newton contracts:
-  !> newton_inner_rtol), fail_newton (-nuno_fail_newton, tests),
+  !> (-nuno_newton_forcing), fail_newton (-nuno_fail_newton, tests),
   !> ls_fallback (-nuno_linesearch_fallback's code; 0: none).
-  subroutine newton_state_init(n, snes_floor, guess, guess_given, forcing, forcing_guarded, fail_newton, ls_fallback)
+  subroutine newton_state_init(n, snes_floor, guess, guess_given, forcing, fail_newton, ls_fallback)
     type(newton_state_t), intent(inout) :: n
     real(rp), intent(in) :: snes_floor
     integer(c_int), intent(in) :: guess, guess_given
-    logical, intent(in) :: forcing, forcing_guarded
+    logical, intent(in) :: forcing
     integer, intent(in) :: fail_newton, ls_fallback
     n%snes_floor = snes_floor
-    n%forcing_guarded = forcing_guarded
     n%guess = guess
     n%guess_given = guess_given
     n%newton_forcing = forcing
@@ -208,26 +203,13 @@ contains
   !> floor_est, the round-off floor of the last assembly). C comes from the
   !> iterations before (lin_rel: the last inner solve's relative residual),
   !> in this window; the bounds are the inner solver's own rtol0 (never
-  !> tighter than without this) and ETA_MAX. Guarded, rtol0 after an update
-  !> a process model's step limit cut (newton_update_limited) and after an
-  !> iteration that did not halve ||F||.
+  !> tighter than without this) and ETA_MAX.
   subroutine newton_inner_rtol(n, it, fnorm, lin_rel, atol, rtol, floor_est, rtol0, eta)
     type(newton_state_t), intent(inout) :: n
     integer, intent(in) :: it
     real(rp), intent(in) :: fnorm, lin_rel, atol, rtol, floor_est, rtol0
     real(rp), intent(out) :: eta
     real(rp) :: target
-    ! Guarded (contact): an update a step limit cut (an obstacle in the
-    ! way), or an iteration that did not halve ||F|| (a contact's onset),
-    ! is outside Newton's quadratic region: the next inner solve is tight,
-    ! and the model is not learnt from it. Loose solves there made Newton
-    ! diverge at a drop's impact (4 retried steps) and stall at
-    ! drape_sphere's landing at 129 x 129 (||F|| 4800 for 50 iterations,
-    ! inner solves of 0 to 2 iterations).
-    if (n%forcing_guarded .and. (n%limited .or. n%limited_prev .or. (it >= 1 .and. fnorm > 0.5_rp * n%fnorm_prev))) then
-      eta = rtol0
-      return
-    end if
     if (it >= 1) n%cquad = quadratic_constant(n%fnorm_prev, fnorm, lin_rel)
     target = max(atol, rtol * n%fnorm0)
     if (n%snes_floor > 0.0_rp) target = max(target, FLOOR_FACTOR * floor_est)

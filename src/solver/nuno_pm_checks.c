@@ -9,7 +9,9 @@
  * - the TS's stage check (TSSetFunctionDomainError; its Fortran binding
  *   crashed at the first step here): a stage the process models reject is
  *   a failed step, retried smaller. The context goes with the TS as its
- *   application context.
+ *   application context. (Newton's start of a step is moved into the
+ *   process models' domains by module newton_start's initial guess, whose
+ *   limiter is process_solver's pm_limit_start.)
  *
  * Each trampoline calls the Fortran callback with the context Fortran
  * registered (its app_ctx). */

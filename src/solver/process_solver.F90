@@ -1,7 +1,8 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> The process models on the PETSc side (module process_models holds
 !> their loops; docs/design.md, "Process models"): the solver's options
-!> from their hints, the Newton update's limit (a line-search pre-check;
+!> from their hints, Newton's start of a step moved into their domains
+!> (the SNES's initial guess), the Newton update's limit (a line-search pre-check;
 !> in the Baraff-Witkin mode the post-solve of the SNES's KSP), the check
 !> of a step's end state before the TS accepts it (the TS's stage check),
 !> the accepted states (called by the TS monitor of module step_monitor
@@ -31,7 +32,7 @@ module process_solver
   use newton_start, only: newton_start_limited
   use newton_state, only: newton_update_limited, newton_set_lag_guarded
   use model_state, only: model_pm_step_limit, model_pm_accept, model_pm_accepted, model_pm_unresolved, &
-                         model_pm_start_limit
+                         model_pm_start_limit, model_pm_start
   use step_errors, only: step_errors_on, step_errors_weighs, step_errors_stage, step_errors_tolerances, &
                          step_errors_accepted, step_errors_impacts, step_errors_order_dropped, step_errors_drop_order, &
                          step_errors_take_scale, step_errors_min_step
@@ -88,12 +89,13 @@ contains
 
   !> After the TS and SNES are set up: the TS scheme every model allows
   !> (bdf with its order), every Newton start limited by the step limit
-  !> where a model needs a feasible start (module newton_start; the
-  !> limiter pm_limit_start), the step limit as the line search's
-  !> pre-check (and in the Baraff-Witkin mode, -snes_type ksponly, which
-  !> has no line search, as the post-solve of the SNES's KSP, on the
-  !> update SNES KSPONLY then takes in full, x - y), and the TS's stage
-  !> check. Nothing without process models. Collective.
+  !> and moved into the models' domains by their start hooks where a
+  !> model needs a feasible start (module newton_start; the limiter
+  !> pm_limit_start), the step limit as the line search's pre-check (and
+  !> in the Baraff-Witkin mode, -snes_type ksponly, which has no line
+  !> search, as the post-solve of the SNES's KSP, on the update SNES
+  !> KSPONLY then takes in full, x - y), and the TS's stage check.
+  !> Nothing without process models. Collective.
   subroutine pm_solver_setup(ctx, ierr)
     type(app_ctx), intent(inout), target :: ctx
     PetscErrorCode, intent(out) :: ierr
@@ -157,9 +159,11 @@ contains
   !> alpha (x - x_n), x_n the step's start (the TS's solution), alpha the
   !> largest fraction the process models' step limits allow from x_n
   !> (their time of impact, as for every Newton update), 0 where they
-  !> allow none. So the start is feasible by construction and as near the
-  !> predictor as the obstacles let it be (issue 47 items 4 and 6).
-  !> Collective.
+  !> allow none; then moved into the models' domains by their start hooks
+  !> (model_pm_start: a moving obstacle carries the nodes it reaches over
+  !> the step, which x_n may lie inside at t_n + dt). So the start is
+  !> feasible by construction and as near the predictor as the obstacles
+  !> let it be (issue 47 items 2, 4 and 6). Collective.
   subroutine pm_limit_start(cp, xvec, cut, ierr)
     type(c_ptr), value :: cp
     type(tVec) :: xvec
@@ -171,6 +175,7 @@ contains
     real(rp), allocatable :: dx(:, :, :)
     real(rp) :: alpha, t0, dt
     logical :: infeasible
+    integer :: moved
     call c_f_pointer(cp, ctx)
     PetscCall(TSGetTime(ctx%ts, t0, ierr))
     PetscCall(TSGetTimeStep(ctx%ts, dt, ierr))
@@ -182,6 +187,7 @@ contains
     if (infeasible) alpha = 0.0_rp
     cut = alpha < 1.0_rp
     if (cut) x = x0 + alpha * dx
+    call model_pm_start(ctx%model, ctx%pms, ctx%lat, t0, t0 + dt, x0, x, moved)
     PetscCall(DMDAVecRestoreArrayF90(ctx%da, xvec, x, ierr))
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, x0vec, x0, ierr))
   end subroutine pm_limit_start

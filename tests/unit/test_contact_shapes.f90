@@ -1,23 +1,27 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> Unit tests of &contact's obstacles as the run builds them (module
-!> contact_model): a tilted box's frame (orthonormal, right-handed, local
+!> obstacle_set): a tilted box's frame (orthonormal, right-handed, local
 !> z the given normal) and its signed distance at hand-placed points; a
 !> capsule's ends; a keyframed obstacle's pose and velocity at a time (a
-!> pure function of t: contact_obstacle_at) against the hand-interpolated
+!> pure function of t: obstacle_set_pose) against the hand-interpolated
 !> offset, the same whatever was asked before; and the swept
-!> check of a step (contact_swept): a thin finger that passes through a
+!> check of a step (obstacle_set_swept): a thin finger that passes through a
 !> node over one step is caught although both ends of the step are outside
-!> it, one that stops short is not.
+!> it, one that stops short is not, one that slides a quarter turn around
+!> it is not; and the carried start of a step (obstacle_set_carry): a node
+!> the finger reaches or passes over starts where it sat relative to the
+!> finger, with its velocity, the others as they were.
 program test_contact_shapes
   use kinds, only: rp
   use config, only: contact_config
   use lattice, only: lattice_t
   use contact, only: obstacle_t, signed_distance, SHAPE_BOX, SHAPE_CAPSULE
-  use contact_model, only: contact_model_t, contact_init, contact_swept, obstacle_from_config, contact_obstacle_at
+  use obstacle_set, only: obstacle_set_t, obstacle_set_init, obstacle_set_swept, obstacle_from_config, obstacle_set_pose, &
+                          obstacle_set_carry
   use check, only: check_true, check_close, check_close_array, check_report
   implicit none
   type(contact_config) :: cc
-  type(contact_model_t) :: cs
+  type(obstacle_set_t) :: cs
   type(obstacle_t) :: o
   type(lattice_t) :: lat
   real(rp) :: ax(3, 3), eye(3, 3), d, g(3), hd(3, 3), c(3), n(3), e1(3), s, o15(3)
@@ -84,18 +88,18 @@ program test_contact_shapes
   lat%ye = 0
   lat%gys = 0
   lat%gye = 0
-  call contact_init(cs, cc, lat)
-  o = contact_obstacle_at(cs, 1, 1.5_rp)
+  call obstacle_set_init(cs, cc)
+  o = obstacle_set_pose(cs, 1, 1.5_rp)
   o15 = o%p
   ! halfway: 0.1 - 0.025 along x, velocity 0.2 - 0.05
   call check_close_array(o%p, [0.075_rp, 0.0_rp, 0.0_rp], 0.0_rp, 1.0e-15_rp, 'moved: first end')
   call check_close_array(o%q, [0.075_rp, 1.0_rp, 0.0_rp], 0.0_rp, 1.0e-15_rp, 'moved: second end')
   call check_close_array(o%vel, [0.15_rp, 0.0_rp, 0.0_rp], 0.0_rp, 1.0e-15_rp, 'moved: velocity')
-  o = contact_obstacle_at(cs, 1, 5.0_rp)
+  o = obstacle_set_pose(cs, 1, 5.0_rp)
   call check_close_array(o%p, [0.15_rp, 0.0_rp, 0.0_rp], 0.0_rp, 1.0e-15_rp, 'held after the last keyframe')
   call check_true(all(o%vel == 0.0_rp), 'held: at rest')
   ! a pure function of t: the pose at 1.5 is the same after the one at 5 was asked
-  o = contact_obstacle_at(cs, 1, 1.5_rp)
+  o = obstacle_set_pose(cs, 1, 1.5_rp)
   call check_close_array(o%p, o15, 0.0_rp, 0.0_rp, 'the pose at t whatever was asked before')
 
   ! ---- the swept check: the finger (radius 1 cm, travelling +0.15 in x over [1, 2]) and one node
@@ -107,16 +111,49 @@ program test_contact_shapes
   ! while the node is outside the finger at both ends of the step
   x0(0:2, 0, 0) = [0.1_rp, 0.5_rp, 0.0_rp]
   x = x0
-  call check_true(contact_swept(cs, lat, fixed, 1.0_rp, 2.0_rp, x0, x, dx) == 1, 'swept: a finger through a node')
+  call check_true(obstacle_set_swept(cs, 0.0_rp, lat, fixed, 1.0_rp, 2.0_rp, x0, x, dx) == 1, 'swept: a finger through a node')
   ! over [1, 1.5] the finger's axis ends at x = 0.075: 1.5 cm short of the node's gap
-  call check_true(contact_swept(cs, lat, fixed, 1.0_rp, 1.5_rp, x0, x, dx) == 0, 'swept: a finger that stops short')
+  call check_true(obstacle_set_swept(cs, 0.0_rp, lat, fixed, 1.0_rp, 1.5_rp, x0, x, dx) == 0, 'swept: a finger that stops short')
   ! the node carried along ahead of the finger: no crossing
   dx(0:2, 0, 0) = [0.15_rp, 0.0_rp, 0.0_rp]
-  call check_true(contact_swept(cs, lat, fixed, 1.0_rp, 2.0_rp, x0, x, dx) == 0, 'swept: a node pushed ahead')
+  call check_true(obstacle_set_swept(cs, 0.0_rp, lat, fixed, 1.0_rp, 2.0_rp, x0, x, dx) == 0, 'swept: a node pushed ahead')
   ! a fixed node is not the obstacle's concern
   dx = 0.0_rp
   fixed = .true.
-  call check_true(contact_swept(cs, lat, fixed, 1.0_rp, 2.0_rp, x0, x, dx) == 0, 'swept: fixed nodes skipped')
+  call check_true(obstacle_set_swept(cs, 0.0_rp, lat, fixed, 1.0_rp, 2.0_rp, x0, x, dx) == 0, 'swept: fixed nodes skipped')
+
+  ! ---- the carried start (obstacle_set_carry): three nodes and the finger over [1, 2]
+  deallocate(x0, x, fixed)
+  lat%nx = 3
+  allocate(x0(0:5, 0:2, 0:0), x(0:5, 0:2, 0:0), fixed(0:2, 0:0))
+  fixed = .false.
+  x0 = 0.0_rp
+  x0(0:2, 0, 0) = [0.0101_rp, 0.5_rp, 0.0_rp]    ! 0.1 mm ahead of the finger: reached
+  x0(0:2, 1, 0) = [-0.05_rp, 0.5_rp, 0.0_rp]     ! behind it: the finger moves away
+  x0(0:2, 2, 0) = [0.5_rp, 0.5_rp, 0.0_rp]       ! far ahead: 34 cm from it at t = 2
+  x = x0
+  call check_true(obstacle_set_carry(cs, 0.0_rp, 1.0e-3_rp, lat, fixed, 1.0_rp, 2.0_rp, x0, x) == 1, 'carry: one node')
+  call check_close_array(x(0:2, 0, 0), x0(0:2, 0, 0) + [0.15_rp, 0.0_rp, 0.0_rp], 0.0_rp, 1.0e-15_rp, &
+                         'carry: the reached node where it sat relative to the finger')
+  call check_close_array(x(3:5, 0, 0), [0.15_rp, 0.0_rp, 0.0_rp], 0.0_rp, 1.0e-15_rp, 'carry: at the finger''s velocity')
+  call check_close_array(reshape(x(:, 1:2, 0), [12]), reshape(x0(:, 1:2, 0), [12]), 0.0_rp, 0.0_rp, &
+                         'carry: the others as they were')
+  ! a node the finger passes over within the step (3 cm ahead, the finger travels 15 cm): carried
+  x0(0:2, 0, 0) = [0.04_rp, 0.5_rp, 0.0_rp]
+  x = x0
+  call check_true(obstacle_set_carry(cs, 0.0_rp, 1.0e-3_rp, lat, fixed, 1.0_rp, 2.0_rp, x0, x) == 1, &
+                  'carry: a node swept over')
+  ! a node sliding on the finger's surface a quarter turn over the step crosses no core: the swept check passes
+  ! it; one the finger passes over is counted
+  x0(0:2, 0, 0) = [0.0101_rp, 0.5_rp, 0.0_rp]
+  x = x0
+  dx = 0.0_rp
+  dx(0:2, 0, 0) = [0.15_rp - 0.0101_rp + 0.0101_rp * cos(acos(-1.0_rp) / 2), 0.0_rp, 0.0101_rp]
+  call check_true(obstacle_set_swept(cs, 0.0_rp, lat, fixed, 1.0_rp, 2.0_rp, x0, x, dx) == 0, &
+                  'swept: sliding a quarter turn around the finger')
+  dx = 0.0_rp
+  call check_true(obstacle_set_swept(cs, 0.0_rp, lat, fixed, 1.0_rp, 2.0_rp, x0, x, dx) == 1, &
+                  'swept: the finger passes over a node left behind')
 
   call check_report()
 
