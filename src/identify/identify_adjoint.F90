@@ -351,7 +351,6 @@ contains
     PetscScalar, pointer :: la(:, :, :), ma(:)
     PetscInt :: nsteps
     real(rp) :: dke, wall0, greset(params_np(id%par)), ta, tb
-    logical :: jumped                  ! (the adjoint restarts nothing: its windows are the forward run's)
     integer :: w, k, mpierr, np
     PetscInt, parameter :: one = 1
 
@@ -374,7 +373,7 @@ contains
         PetscCall(DMDAVecRestoreArrayF90(app%da, id%run%lam(1), la, ierr))
       end if
       ! The constraint state of this window for its Jacobians.
-      call enter_window(app, ta, tb, dke, jumped, ierr)
+      call enter_window(app, ta, tb, dke, ierr)
       if (ierr /= 0) return
       nsteps = id%run%wsteps(w) - id%run%wsteps(w - 1)
       PetscCall(TSAdjointSetSteps(app%ts, nsteps, ierr))
