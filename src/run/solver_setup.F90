@@ -30,7 +30,7 @@ module solver_setup
   use process_solver, only: pm_solver_options, pm_solver_setup
   use process_model, only: process_model_t, pm_hints_t
   use process_models, only: pm_list_t, pm_list_add, pm_list_hints, pm_list_on, pm_list_setup, pm_list_nodal, &
-                            pm_list_destroy, pm_list_take
+                            pm_list_destroy, pm_list_take, pm_list_ts_refusal
   use contact_model, only: contact_model_t
   use ghosted_state, only: ghosted_get, ghosted_restore
   use step_monitor, only: ts_monitor
@@ -124,13 +124,39 @@ contains
     applied = .false.
     if (.not. (cfg%identify%active .or. cfg%control%active)) then
       PetscCall(adaptive_default(ctx%ts, ctx%comm, applied, ierr))
+      PetscCall(adaptive_default_allowed(ctx, applied, ierr))
     end if
     PetscCall(pm_solver_options(ctx, ierr))
     PetscCall(step_defaults(ctx%ts, ctx%use_reduced, ierr))
     PetscCall(TSSetFromOptions(ctx%ts, ierr))
     PetscCall(effective_time_integration(ctx, applied, ierr))
-    PetscCall(pm_solver_setup(ctx, ierr))
+    PetscCall(pm_solver_setup(ctx, refusal, ierr))
   end subroutine solver_create
+
+  !> An adaptive run's default integrator that a process model refuses
+  !> (contact allows beuler and bdf of order 1 or 2, not the default rosw)
+  !> gives way to beuler, the type set before, unless
+  !> -nuno_adaptive_ts_type was given (then the refusal names it):
+  !> -ts_adapt_type basic alone runs a contact scene. applied: still the
+  !> default's. Collective.
+  subroutine adaptive_default_allowed(ctx, applied, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    logical, intent(inout) :: applied
+    PetscErrorCode, intent(out) :: ierr
+    character(len=64) :: tstype
+    character(len=:), allocatable :: allowed
+    PetscBool :: given
+    integer :: k
+    ierr = 0
+    if (.not. (applied .and. pm_list_on(ctx%pms))) return
+    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-nuno_adaptive_ts_type', given, ierr))
+    if (given) return
+    PetscCall(TSGetType(ctx%ts, tstype, ierr))
+    call pm_list_ts_refusal(ctx%pms, trim(tstype), k, allowed)
+    if (k == 0) return
+    PetscCall(TSSetType(ctx%ts, TSBEULER, ierr))
+    applied = .false.
+  end subroutine adaptive_default_allowed
 
   !> The scene's process models into the list (module process_models),
   !> before anything reads their hints: contact with &contact's obstacles

@@ -88,7 +88,8 @@ contains
   end subroutine pm_solver_options
 
   !> After the TS and SNES are set up: the TS scheme every model allows
-  !> (bdf with its order), every Newton start limited by the step limit
+  !> (bdf with its order; else refusal, one line naming -ts_type and what
+  !> the model allows, and nothing more is set up), every Newton start limited by the step limit
   !> and moved into the models' domains by their start hooks where a
   !> model needs a feasible start (module newton_start; the limiter
   !> pm_limit_start), the step limit as the line search's pre-check (and
@@ -96,8 +97,9 @@ contains
   !> search, as the post-solve of the SNES's KSP, on the update SNES
   !> KSPONLY then takes in full, x - y), and the TS's stage check.
   !> Nothing without process models. Collective.
-  subroutine pm_solver_setup(ctx, ierr)
+  subroutine pm_solver_setup(ctx, refusal, ierr)
     type(app_ctx), intent(inout), target :: ctx
+    character(*), intent(inout) :: refusal     !< a TS type a model refuses: one line, the same on every rank
     PetscErrorCode, intent(out) :: ierr
     type(tSNES) :: snes
     type(tKSP) :: ksp
@@ -120,8 +122,8 @@ contains
     call pm_list_ts_refusal(ctx%pms, scheme, k, allowed)
     if (k > 0) then
       if (bdf) scheme = 'bdf -ts_bdf_order '//scheme(4:)
-      ierr = PETSC_ERR_SUP
-      SETERRQ(ctx%comm, ierr, 'nuno: '//pm_list_name(ctx%pms, k)//' needs -ts_type '//allowed//', not -ts_type '//scheme)
+      refusal = '-ts_type '//scheme//': '//pm_list_name(ctx%pms, k)//' needs -ts_type '//allowed
+      return
     end if
     h = pm_list_hints(ctx%pms)
     if (h%feasible_start) then
