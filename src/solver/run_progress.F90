@@ -119,19 +119,21 @@ contains
   !> COLLAPSE_MAX steps in a row shorter than COLLAPSE_FRACTION t_end.
   !> Then t_normal is the end of the last step that was not (the collapse
   !> began there), and nfail, nreject the failed solves and rejected steps
-  !> since.
-  subroutine progress_collapse_check(p, step, t, h, t_end, fails, rejects, collapsed, t_normal, nfail, nreject)
+  !> since. fresh: the check had not seen this step (the monitor sees a
+  !> step again when TSSolve goes on after an output step).
+  subroutine progress_collapse_check(p, step, t, h, t_end, fails, rejects, collapsed, t_normal, nfail, nreject, fresh)
     type(progress_t), intent(inout) :: p
     PetscInt, intent(in) :: step, fails, rejects
     real(rp), intent(in) :: t, h, t_end
-    logical, intent(out) :: collapsed
+    logical, intent(out) :: collapsed, fresh
     real(rp), intent(out) :: t_normal
     integer, intent(out) :: nfail, nreject
     collapsed = .false.
     t_normal = p%t_normal
     nfail = int(fails - p%fails_normal)
     nreject = int(rejects - p%rejects_normal)
-    if (step <= p%collapse_step) return
+    fresh = step > p%collapse_step
+    if (.not. fresh) return
     p%collapse_step = step
     if (h >= COLLAPSE_FRACTION * t_end) then
       p%short_steps = 0
