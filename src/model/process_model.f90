@@ -71,10 +71,8 @@ module process_model
   !> any model in the list holds for the run (module solver_setup and
   !> process_solver apply them; options given explicitly win).
   type :: pm_hints_t
-    !> the Jacobian at every Newton iteration (-snes_lag_jacobian 1), but
-    !> after an iteration that contracted ||F|| tenfold with no update a
-    !> step limit cut (the next is then a chord step: module newton_policy)
-    logical :: jacobian_guarded = .false.
+    !> the Jacobian at every Newton iteration (-snes_lag_jacobian 1)
+    logical :: jacobian_every_iteration = .false.
     !> the inexact-Newton forcing off (inner solves to -reduced_ksp_rtol)
     logical :: forcing_off = .false.
     !> full Newton steps on the 6-dof path too (-snes_linesearch_type basic)

@@ -119,7 +119,7 @@ contains
     h = pm_hints_t()
     do k = 1, list%n
       e = list%m(k)%pm%hints()
-      h%jacobian_guarded = h%jacobian_guarded .or. e%jacobian_guarded
+      h%jacobian_every_iteration = h%jacobian_every_iteration .or. e%jacobian_every_iteration
       h%forcing_off = h%forcing_off .or. e%forcing_off
       h%basic_line_search = h%basic_line_search .or. e%basic_line_search
       h%feasible_start = h%feasible_start .or. e%feasible_start

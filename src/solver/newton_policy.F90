@@ -16,8 +16,7 @@ module newton_policy
   use app_context, only: app_ctx
   use newton_state, only: newton_take_injected_failure, newton_first_residual, newton_iterated, newton_verdict, &
                           newton_inner_rtol, newton_fallback_switched, newton_forcing_on, newton_floor_est, &
-                          newton_snorm_prev, newton_fallback, newton_rate_usable, newton_reuse_jacobian, &
-                          newton_lag_guarded
+                          newton_snorm_prev, newton_fallback, newton_rate_usable
   use newton_start, only: newton_start_setup
   use process_models, only: pm_list_hints
   use process_model, only: pm_hints_t
@@ -103,7 +102,6 @@ contains
     PetscErrorCode :: ierr
     real(rp) :: rate, wnorm, floor_est
     integer :: verdict
-    PetscInt, parameter :: one = 1, reuse = -1   ! SNESSetLagJacobian: every iteration; not the next
     logical :: fail
     SNESLineSearchReason :: lsreason
     call SNESConvergedDefault(snes, it, xnorm, snorm, fnorm, reason, PETSC_NULL_INTEGER, ierr)
@@ -140,11 +138,6 @@ contains
     end if
     if (reason == SNES_CONVERGED_ITERATING .and. ctx%use_reduced .and. newton_forcing_on(ctx%newton)) then
       PetscCall(set_newton_forcing(snes, it, fnorm, ctx, ierr))
-    end if
-    ! the guarded lag (process models): a chord step only after an
-    ! iteration that contracted tenfold
-    if (reason == SNES_CONVERGED_ITERATING .and. newton_lag_guarded(ctx%newton)) then
-      PetscCall(SNESSetLagJacobian(snes, merge(reuse, one, newton_reuse_jacobian(ctx%newton, int(it), fnorm)), ierr))
     end if
     call newton_iterated(ctx%newton, fnorm, snorm)
   end subroutine snes_converged

@@ -16,10 +16,9 @@ module newton_state
   public :: newton_state_t, SNES_FLOOR_DEFAULT
   public :: newton_state_init, newton_set_inner_guess, newton_enter_window, newton_set_floor, newton_set_failures_before
   public :: newton_take_injected_failure, newton_first_residual, newton_iterated, newton_verdict, newton_inner_rtol, &
-            newton_fallback_switched, newton_update_limited, newton_set_lag_guarded
+            newton_fallback_switched, newton_update_limited
   public :: newton_guess, newton_guess_given, newton_forcing_on, newton_floor_est, newton_snorm_prev, newton_fallback, &
-            newton_fallback_pending, newton_has_failed, newton_rate_usable, newton_limited_lately, newton_reuse_jacobian, &
-            newton_lag_guarded
+            newton_fallback_pending, newton_has_failed, newton_rate_usable, newton_limited_lately
 
   !> -nuno_snes_floor's default: stagnation below this relative residual is convergence
   real(rp), parameter :: SNES_FLOOR_DEFAULT = 1.0e-6_rp
@@ -38,9 +37,6 @@ module newton_state
     !> converged), and their inexact solves are no guide for the next one
     logical :: limited = .false., limited_prev = .false.
     logical :: newton_forcing = .true.          !< inner tolerance from the step's needs (reduced path)
-    !> the Jacobian at every iteration but after one that contracted ||F||
-    !> tenfold (a process model's hint: contact), newton_reuse_jacobian
-    logical :: lag_guarded = .false.
     integer(c_int) :: guess = GUESS_AUTO        !< -nuno_inner_guess (module inner_guess)
     integer(c_int) :: guess_given = 0           !< 1: set on the command line
     real(rp) :: cquad = 0                       !< estimate of C in ||F_k+1|| ~ C ||F_k||^2; 0 at every window start
@@ -124,13 +120,6 @@ contains
     n%limited_prev = .false.
   end subroutine newton_first_residual
 
-  !> The Jacobian's lag is guarded (newton_reuse_jacobian): the options
-  !> asked for it at every iteration (a process model's hint).
-  subroutine newton_set_lag_guarded(n)
-    type(newton_state_t), intent(inout) :: n
-    n%lag_guarded = .true.
-  end subroutine newton_set_lag_guarded
-
   !> A process model's step limit (module process_solver) has scaled the
   !> coming update (limited), or let it be.
   subroutine newton_update_limited(n, limited)
@@ -157,27 +146,6 @@ contains
     type(newton_state_t), intent(in) :: n
     newton_rate_usable = n%snorm_prev > 0.0_rp .and. .not. (n%limited .or. n%limited_prev)
   end function newton_rate_usable
-
-  !> With the guarded lag, the coming iteration reuses the Jacobian (a
-  !> chord step): the one just seen (its residual norm fnorm, it >= 1)
-  !> contracted ||F|| at least tenfold and no step limit cut it. Newton is
-  !> then deep in its quadratic region, where the Jacobian of the iterate
-  !> before serves (the free sheet's -snes_lag_jacobian 2); where it is not,
-  !> a lagged Jacobian made friction's slip cycle across its smoothing band
-  !> (docs/design.md, "Contact"). Call before newton_iterated.
-  pure logical function newton_reuse_jacobian(n, it, fnorm)
-    type(newton_state_t), intent(in) :: n
-    integer, intent(in) :: it
-    real(rp), intent(in) :: fnorm
-    newton_reuse_jacobian = n%lag_guarded .and. it >= 1 .and. fnorm <= 0.1_rp * n%fnorm_prev .and. &
-                            .not. (n%limited .or. n%limited_prev)
-  end function newton_reuse_jacobian
-
-  !> The Jacobian's lag is guarded (newton_set_lag_guarded).
-  pure logical function newton_lag_guarded(n)
-    type(newton_state_t), intent(in) :: n
-    newton_lag_guarded = n%lag_guarded
-  end function newton_lag_guarded
 
   !> A step limit scaled this iteration's update or the one before.
   pure logical function newton_limited_lately(n)
