@@ -646,7 +646,7 @@ contains
                           pm_list_on(ctx%pms) .and. order == 2, ctx%lat%nx, ctx%lat%ys, ctx%lat%ye, rtol, ax, av)
     PetscCall(TSGetAdapt(ctx%ts, adapt, ierr))
     PetscCall(TSAdaptGetStepLimits(adapt, hmin, hmax, ierr))
-    call step_errors_set_min_step(ctx%errw, hmin, step_dt(ctx%step))
+    call step_errors_set_min_step(ctx%errw, hmin, step_dt(ctx%step), hmax)
     PetscCall(DMCreateGlobalVector(ctx%da, vatol, ierr))
     PetscCall(DMDAVecGetArrayF90(ctx%da, vatol, va, ierr))
     va(0:2, :, :) = ax
