@@ -25,7 +25,11 @@
 !> drop of 0.05 m). So a stage with nodes unresolved that were resolved
 !> at the step's start is solved again at order 1 (backward Euler,
 !> L-stable, whose velocity is the step's own), and bdf2 starts anew
-!> after it (module process_solver).
+!> after the first step with no node unresolved (module process_solver).
+!> Such a stage of a step longer than the run's initial dt is first
+!> solved again with that dt, and while nodes are unresolved the step
+!> stays at most that dt (step_errors_max_step): where the estimate sees
+!> nothing, nothing else bounds the step.
 !>
 !> The record app_ctx%errw; this module is its only writer. PETSc-free:
 !> module process_solver hands it the stage's mask and the arrays of the
