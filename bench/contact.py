@@ -69,7 +69,8 @@ def scene_text(scene, n, mode, contact):
             z = -GAP0                                      # the table's top GAP0 below z = 0
         c["obstacle_point"] = [[x, y, z]]
     else:
-        c["n_obstacles"] = 0
+        # no &contact at all: obstacle keys beyond n_obstacles = 0 are refused
+        del nml["contact"]
     return str(nml) + "\n"
 
 

@@ -23,7 +23,7 @@ module contact_nodes
   implicit none
   private
   public :: contact_lag_t, lag_init, lag_free, lag_take
-  public :: strip_forces, strip_blocks, strip_toi, strip_slip_limit, strip_smallest_gap, strip_stats
+  public :: strip_forces, strip_blocks, strip_toi, strip_slip_limit, strip_smallest_gap, strip_stats, strip_unresolved
 
   !> Friction's lag on a rank's strip.
   type :: contact_lag_t
@@ -128,6 +128,46 @@ contains
       end do
     end do
   end subroutine strip_blocks
+
+  !> mask(i, j) set for the free nodes whose barrier a step of dt does
+  !> not resolve at u, the obstacles at t (module contact_model's
+  !> unresolved hook): in the barrier's reach and closing the gap within
+  !> dt (relative normal speed times dt above the gap), or with a normal
+  !> stiffness k (the Frobenius norm of the projected barrier blocks,
+  !> summed over the obstacles) with k dt^2 > m, the node's mass
+  !> (omega dt > 1).
+  subroutine strip_unresolved(set, cp, lag, lat, fixed, t, u, dt, mask)
+    type(obstacle_set_t), intent(in) :: set
+    type(contact_params_t), intent(in) :: cp
+    type(contact_lag_t), intent(in) :: lag
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t, dt
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    logical, intent(inout) :: mask(0:, lat%ys:)     !< (0:nx-1, ys:ye) .true.: unresolved
+    integer :: i, j, k
+    real(rp) :: fc(3), kx(3, 3), kv(3, 3), e, fn, stiff, d, g(3), hd(3, 3), gap, vn
+    type(obstacle_t) :: obs(obstacle_set_count(set))
+    logical :: act
+    call obstacle_set_poses(set, t, obs)
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
+        if (fixed(i, j)) cycle
+        stiff = 0.0_rp                               ! [force/length]
+        do k = 1, size(obs)
+          call signed_distance(obs(k), u(0:2, i, j), d, g, hd)
+          gap = d - cp%thickness
+          if (.not. (gap < cp%dhat)) cycle
+          vn = dot_product(u(3:5, i, j) - obs(k)%vel, g)
+          if (-vn * dt > gap) mask(i, j) = .true.
+          call contact_node(obs(k), cp, u(0:2, i, j), u(3:5, i, j), lag%lam(k, i, j), lag%nlag(:, k, i, j), &
+                            fc, kx, kv, e, fn, act, project=.true.)
+          stiff = stiff + norm2(kx)
+        end do
+        if (stiff * dt**2 > lat%mass(i, j)) mask(i, j) = .true.
+      end do
+    end do
+  end subroutine strip_unresolved
 
   !> Whether obstacle o has a feature sharper than the barrier's reach:
   !> a curvature radius (a sphere's or capsule's radius, a box's edges and

@@ -33,6 +33,10 @@
 !>               accepts it (the TS's stage check): PM_INFEASIBLE rejects
 !>               it, and the step is retried smaller, with why (one line,
 !>               which the run's failure message quotes); collective
+!>   unresolved  (adaptive steps) at the same check, the free nodes whose
+!>               forces of this model a step of dt does not resolve (a
+!>               stiffness k with k dt^2 > m: an impact on a barrier),
+!>               which the error estimate leaves out
 !>   accepted    after an accepted step (and at the run's start): lags,
 !>               statistics, records; collective
 !>   output      its series (named, with units and values) and its terms
@@ -73,15 +77,19 @@ module process_model
     logical :: forcing_off = .false.
     !> full Newton steps on the 6-dof path too (-snes_linesearch_type basic)
     logical :: basic_line_search = .false.
-    !> Newton starts from the last accepted state, which the model accepted
-    !> (no extrapolated or cubic start: they may lie outside its domain)
+    !> every Newton start must lie in its domain: the solver limits any
+    !> predictor (extrapolated, cubic, bdf's history) by the model's step
+    !> limit from the last accepted state
     logical :: feasible_start = .false.
     !> its blocks have velocity parts (S is not free of damping)
     logical :: velocity_blocks = .false.
     !> its blocks change with the state (S is never constant)
     logical :: state_blocks = .false.
-    !> the TS types it allows, separated by commas ('': any)
+    !> the TS schemes it allows, separated by commas ('': any): a TS type,
+    !> or bdf with its order ('bdf2': -ts_type bdf -ts_bdf_order 2)
     character(len=128) :: ts_types = ''
+    !> the allowed schemes in words and why (the refusal's text)
+    character(len=256) :: ts_why = ''
   end type pm_hints_t
 
   !> One time series of a process model in the output file: its path, a
@@ -130,6 +138,7 @@ module process_model
     procedure :: start => keep_start
     procedure :: step_limit => no_limit
     procedure :: accept => accept_all
+    procedure :: unresolved => all_resolved
     procedure :: accepted => nothing_after_step
     procedure :: output => no_output
     procedure :: checkpoint => no_state
@@ -241,6 +250,16 @@ contains
     status = PM_FEASIBLE
     why = ''
   end subroutine accept_all
+
+  !> Its forces are resolved by any step: no node marked.
+  subroutine all_resolved(this, lat, fixed, t, u, dt, mask)
+    class(process_model_t), intent(in) :: this
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t, dt
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    logical, intent(inout) :: mask(0:, lat%ys:)    !< (0:nx-1, ys:ye) .true.: unresolved
+  end subroutine all_resolved
 
   !> Nothing to do after an accepted step.
   subroutine nothing_after_step(this, lat, fixed, t, u, comm, ierr, errmsg)

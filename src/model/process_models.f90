@@ -30,6 +30,7 @@ module process_models
   private
   public :: pm_list_t, pm_list_add, pm_list_on, pm_list_count, pm_list_name, pm_list_hints, pm_list_ts_refusal
   public :: pm_list_setup, pm_list_forces, pm_list_infeasible, pm_list_jacobian, pm_list_step_limit, pm_list_accept
+  public :: pm_list_unresolved, pm_list_start_limit
   public :: pm_list_accepted, pm_list_output, pm_list_checkpoint, pm_list_restore, pm_list_check_state, pm_list_destroy
   public :: pm_list_nodal, pm_list_rejection, pm_list_take, pm_list_start
 
@@ -127,8 +128,10 @@ contains
     end do
   end function pm_list_hints
 
-  !> The first model that does not allow the TS type ts_type (its hints'
-  !> ts_types), and the types it allows; k = 0: every model allows it.
+  !> The first model that does not allow the TS scheme ts_type (a TS
+  !> type, or 'bdf' and its order: 'bdf2'; its hints' ts_types), and what
+  !> it allows in words (its ts_why, else its list); k = 0: every model
+  !> allows it.
   subroutine pm_list_ts_refusal(list, ts_type, k, allowed)
     type(pm_list_t), intent(in) :: list
     character(*), intent(in) :: ts_type
@@ -141,6 +144,7 @@ contains
       if (len_trim(e%ts_types) == 0) cycle
       if (index(','//trim(e%ts_types)//',', ','//trim(ts_type)//',') == 0) then
         allowed = trim(e%ts_types)
+        if (len_trim(e%ts_why) > 0) allowed = trim(e%ts_why)
         return
       end if
     end do
@@ -268,6 +272,31 @@ contains
     end if
   end subroutine pm_list_step_limit
 
+  !> The fraction alpha of the move from the step's start x0 to a Newton
+  !> start x0 + dx (a predictor) that every model allows, and infeasible:
+  !> some model allows none (the caller starts from x0). Unlike
+  !> pm_list_step_limit it leaves the stage's feasibility alone: no
+  !> residual has been evaluated at the start yet. Collective.
+  subroutine pm_list_start_limit(list, lat, fixed, t0, t1, x0, dx, comm, alpha, infeasible)
+    type(pm_list_t), intent(inout) :: list
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t0, t1
+    real(rp), intent(in) :: x0(0:, 0:, lat%ys:), dx(0:, 0:, lat%ys:)
+    integer, intent(in) :: comm
+    real(rp), intent(out) :: alpha
+    logical, intent(out) :: infeasible
+    integer :: k, status
+    real(rp) :: a
+    alpha = 1.0_rp
+    infeasible = .false.
+    do k = 1, list%n
+      call list%m(k)%pm%step_limit(lat, fixed, t0, t1, x0, x0, dx, comm, a, status)
+      alpha = min(alpha, a)
+      if (status /= PM_FEASIBLE) infeasible = .true.
+    end do
+  end subroutine pm_list_start_limit
+
   !> A step's end state u at t, before the integrator accepts it: ok false
   !> when the stage's last candidate was infeasible or a model rejects it
   !> (the step is retried smaller; the model's reason kept for the run's
@@ -294,6 +323,23 @@ contains
       end if
     end do
   end subroutine pm_list_accept
+
+  !> The free owned nodes whose forces some model's step of dt does not
+  !> resolve at the ghosted state u at t (mask(0:nx-1, ys:ye) .true.: the
+  !> adaptive steps' error estimate leaves them out, module step_errors).
+  subroutine pm_list_unresolved(list, lat, fixed, t, u, dt, mask)
+    type(pm_list_t), intent(in) :: list
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t, dt
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    logical, intent(out) :: mask(0:, lat%ys:)
+    integer :: k
+    mask = .false.
+    do k = 1, list%n
+      call list%m(k)%pm%unresolved(lat, fixed, t, u, dt, mask)
+    end do
+  end subroutine pm_list_unresolved
 
   !> Why a model last rejected a step's end state, if that state's time is
   !> after t_after ('' otherwise): the same on every rank.

@@ -30,13 +30,14 @@ module solver_setup
   use process_solver, only: pm_solver_options, pm_solver_setup
   use process_model, only: process_model_t, pm_hints_t
   use process_models, only: pm_list_t, pm_list_add, pm_list_hints, pm_list_on, pm_list_setup, pm_list_nodal, &
-                            pm_list_destroy, pm_list_take
+                            pm_list_destroy, pm_list_take, pm_list_ts_refusal
   use contact_model, only: contact_model_t
   use ghosted_state, only: ghosted_get, ghosted_restore
   use step_monitor, only: ts_monitor
   use step_settings, only: step_settings_init, step_set_tolerances, step_dt, step_t_end, step_fixed, step_max_steps, &
                            step_tolerances, step_adaptive_default
   use energy_integrals, only: energy_integrals_init, energy_integrals_free
+  use step_errors, only: step_errors_init, step_errors_free, step_errors_set_min_step
   implicit none
   private
   public :: check_decomposition, solver_create, solver_destroy
@@ -123,13 +124,39 @@ contains
     applied = .false.
     if (.not. (cfg%identify%active .or. cfg%control%active)) then
       PetscCall(adaptive_default(ctx%ts, ctx%comm, applied, ierr))
+      PetscCall(adaptive_default_allowed(ctx, applied, ierr))
     end if
     PetscCall(pm_solver_options(ctx, ierr))
     PetscCall(step_defaults(ctx%ts, ctx%use_reduced, ierr))
     PetscCall(TSSetFromOptions(ctx%ts, ierr))
     PetscCall(effective_time_integration(ctx, applied, ierr))
-    PetscCall(pm_solver_setup(ctx, ierr))
+    PetscCall(pm_solver_setup(ctx, refusal, ierr))
   end subroutine solver_create
+
+  !> An adaptive run's default integrator that a process model refuses
+  !> (contact allows beuler and bdf of order 1 or 2, not the default rosw)
+  !> gives way to beuler, the type set before, unless
+  !> -nuno_adaptive_ts_type was given (then the refusal names it):
+  !> -ts_adapt_type basic alone runs a contact scene. applied: still the
+  !> default's. Collective.
+  subroutine adaptive_default_allowed(ctx, applied, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    logical, intent(inout) :: applied
+    PetscErrorCode, intent(out) :: ierr
+    character(len=64) :: tstype
+    character(len=:), allocatable :: allowed
+    PetscBool :: given
+    integer :: k
+    ierr = 0
+    if (.not. (applied .and. pm_list_on(ctx%pms))) return
+    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-nuno_adaptive_ts_type', given, ierr))
+    if (given) return
+    PetscCall(TSGetType(ctx%ts, tstype, ierr))
+    call pm_list_ts_refusal(ctx%pms, trim(tstype), k, allowed)
+    if (k == 0) return
+    PetscCall(TSSetType(ctx%ts, TSBEULER, ierr))
+    applied = .false.
+  end subroutine adaptive_default_allowed
 
   !> The scene's process models into the list (module process_models),
   !> before anything reads their hints: contact with &contact's obstacles
@@ -391,9 +418,10 @@ contains
     PetscErrorCode, intent(out) :: ierr
     type(tTSAdapt) :: adapt
     TSExactFinalTimeOption :: eft
-    PetscBool :: match
+    PetscBool :: match, given
     character(len=64) :: tstype
     character(len=40) :: srcx, srcv
+    PetscInt, parameter :: unlimited = -1
     real(rp) :: dt_namelist, t_end_namelist, dt, t_end
     PetscInt :: max_steps
 
@@ -407,6 +435,16 @@ contains
     PetscCall(PetscObjectTypeCompare(adapt, TSADAPTNONE, match, ierr))
     call step_settings_init(ctx%step, dt=dt, t_end=t_end, max_steps=max_steps, fixed_step=logical(match), &
                             adaptive_default=adaptive)
+    ! Adaptive steps: a failed Newton solve is one more rejected step (its
+    ! step retried at a quarter), not a count towards the run's end: the
+    ! adaptor chooses the steps, at most -ts_max_reject rejections of one
+    ! step in a row end it, and the collapse check (module step_monitor)
+    ! a step that shrinks away. gripper with -ts_adapt_type basic spent its
+    ! 8 failures on steps that met the moving fingers before t = 1 s.
+    PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-ts_max_snes_failures', given, ierr))
+    if (.not. step_fixed(ctx%step) .and. .not. given) then
+      PetscCall(TSSetMaxSNESFailures(ctx%ts, unlimited, ierr))
+    end if
     ! The time loop stops exactly at output, keyframe and release times.
     if (eft /= TS_EXACTFINALTIME_MATCHSTEP) then
       ierr = PETSC_ERR_ARG_WRONG
@@ -567,6 +605,10 @@ contains
     type(tVec) :: vatol, vrtol
     real(c_double) :: ax, av
     integer(c_int) :: gx, gv
+    character(len=64) :: tstype
+    PetscInt :: order
+    type(tTSAdapt) :: adapt
+    PetscReal :: hmin, hmax
 
     PetscCall(TSGetTolerances(ctx%ts, atol, PETSC_NULL_VEC, rtol, PETSC_NULL_VEC, ierr))
     PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-ts_atol', atol_given, ierr))
@@ -592,6 +634,19 @@ contains
     srcv = 'position atol / 1 time unit'
     if (gv /= 0) srcv = '-nuno_atol_velocity'
     call step_set_tolerances(ctx%step, rtol=rtol, atol_x=ax, atol_v=av)
+    ! with process models: adaptive steps' error estimate leaves out the
+    ! nodes they make too stiff for the step, bdf2 takes impacts at order
+    ! 1 (module step_errors)
+    PetscCall(TSGetType(ctx%ts, tstype, ierr))
+    order = 0
+    if (tstype == 'bdf') then
+      PetscCall(TSBDFGetOrder(ctx%ts, order, ierr))
+    end if
+    call step_errors_init(ctx%errw, pm_list_on(ctx%pms) .and. .not. step_fixed(ctx%step), &
+                          pm_list_on(ctx%pms) .and. order == 2, ctx%lat%nx, ctx%lat%ys, ctx%lat%ye, rtol, ax, av)
+    PetscCall(TSGetAdapt(ctx%ts, adapt, ierr))
+    PetscCall(TSAdaptGetStepLimits(adapt, hmin, hmax, ierr))
+    call step_errors_set_min_step(ctx%errw, hmin, step_dt(ctx%step), hmax)
     PetscCall(DMCreateGlobalVector(ctx%da, vatol, ierr))
     PetscCall(DMDAVecGetArrayF90(ctx%da, vatol, va, ierr))
     va(0:2, :, :) = ax
@@ -629,6 +684,7 @@ contains
     PetscCall(energy_integrals_free(ctx%energy, ierr))
     PetscCall(DMDestroy(ctx%da, ierr))
     call model_state_free(ctx%model)
+    call step_errors_free(ctx%errw)
     call pm_list_destroy(ctx%pms)
   end subroutine solver_destroy
 

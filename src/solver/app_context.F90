@@ -4,7 +4,7 @@
 !> The context holds the shared objects (DMDA, TS, state, lattice,
 !> constraints, the reduced solver) and one record per concern; each
 !> record's type has private components and lives in the module that
-!> writes it (model_state, newton_state, newton_start, step_settings,
+!> writes it (model_state, newton_state, newton_start, step_settings, step_errors,
 !> energy_integrals, run_progress, run_error; process_models, reduced), so
 !> that the compiler keeps every write in its owner (docs/design.md,
 !> "Records and their owners"). The configuration is the caller's, read
@@ -27,6 +27,7 @@ module app_context
   use model_state, only: model_state_t, assembly_t
   use reduced, only: reduced_t
   use step_settings, only: step_settings_t
+  use step_errors, only: step_errors_t
   use energy_integrals, only: energy_integrals_t
   use run_progress, only: progress_t
   use run_error, only: run_error_t
@@ -99,6 +100,9 @@ module app_context
     type(newton_state_t) :: newton              !< Newton's policy state (module newton_state)
     type(newton_start_t) :: start               !< beuler's Newton start and its kept states (module newton_start)
     type(step_settings_t) :: step               !< the time integration as used (module step_settings)
+    !> adaptive steps with process models: the nodes the error estimate
+    !> leaves out (module step_errors)
+    type(step_errors_t) :: errw
     type(energy_integrals_t) :: energy          !< dissipated energy, constraint work (module energy_integrals)
     type(progress_t) :: progress                !< wall clock, output steps, stall check (module run_progress)
     !> the process models (contact with obstacles; module process_models:

@@ -21,14 +21,15 @@ module model_state
   use reduced, only: reduced_t, reduced_set_fixed
   use node_blocks, only: node_blocks_t
   use process_models, only: pm_list_t, pm_list_on, pm_list_forces, pm_list_jacobian, pm_list_step_limit, pm_list_accept, &
-                            pm_list_accepted, pm_list_start
+                            pm_list_accepted, pm_list_unresolved, pm_list_start_limit, pm_list_start
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   implicit none
   private
   public :: model_state_t, model_state_init, model_state_free, model_enter_window, model_residual, model_constraint_power, &
             model_force_rows
   public :: model_gravity, model_moving, model_singular
-  public :: model_fixed_to_reduced, model_pm_jacobian, model_pm_step_limit, model_pm_accept, model_pm_accepted
+  public :: model_fixed_to_reduced, model_pm_jacobian, model_pm_step_limit, model_pm_accept, model_pm_accepted, &
+            model_pm_unresolved, model_pm_start_limit
   public :: model_pm_start
   public :: assembly_t, assembly_create, assembly_free, assembly_matrix, model_assemble_full
 
@@ -256,6 +257,22 @@ contains
     call pm_list_step_limit(pms, lat, m%fixed, t0, t1, x0, x, dx, comm, alpha, infeasible)
   end subroutine model_pm_step_limit
 
+  !> The fraction alpha of the move from x0 (the step's start at t0) to a
+  !> Newton start x0 + dx for the step to t1 that the process models
+  !> allow, and infeasible: none (module process_models'
+  !> pm_list_start_limit). Collective.
+  subroutine model_pm_start_limit(m, pms, lat, t0, t1, x0, dx, comm, alpha, infeasible)
+    type(model_state_t), intent(in) :: m
+    type(pm_list_t), intent(inout) :: pms
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: t0, t1
+    real(rp), intent(in) :: x0(0:, 0:, lat%ys:), dx(0:, 0:, lat%ys:)
+    integer, intent(in) :: comm
+    real(rp), intent(out) :: alpha
+    logical, intent(out) :: infeasible
+    call pm_list_start_limit(pms, lat, m%fixed, t0, t1, x0, dx, comm, alpha, infeasible)
+  end subroutine model_pm_start_limit
+
   !> Newton's start x (owned rows) of a step from x0 at t0 to t1, moved
   !> into the process models' domains (module process_models'
   !> pm_list_start); moved: the nodes moved on this rank.
@@ -282,6 +299,18 @@ contains
     logical, intent(out) :: ok
     call pm_list_accept(pms, lat, m%fixed, t, u, comm, ok)
   end subroutine model_pm_accept
+
+  !> The free nodes whose process-model forces a step of dt does not
+  !> resolve at u, t (module process_models' pm_list_unresolved).
+  subroutine model_pm_unresolved(m, pms, lat, t, u, dt, mask)
+    type(model_state_t), intent(in) :: m
+    type(pm_list_t), intent(in) :: pms
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: t, dt
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    logical, intent(out) :: mask(0:, lat%ys:)
+    call pm_list_unresolved(pms, lat, m%fixed, t, u, dt, mask)
+  end subroutine model_pm_unresolved
 
   !> An accepted state u at t: the process models' accepted hooks (module
   !> process_models' pm_list_accepted). Collective.

@@ -16,7 +16,7 @@ module newton_policy
   use app_context, only: app_ctx
   use newton_state, only: newton_take_injected_failure, newton_first_residual, newton_iterated, newton_verdict, &
                           newton_inner_rtol, newton_fallback_switched, newton_forcing_on, newton_floor_est, &
-                          newton_snorm_prev, newton_fallback
+                          newton_snorm_prev, newton_fallback, newton_rate_usable
   use newton_start, only: newton_start_setup
   use process_models, only: pm_list_hints
   use process_model, only: pm_hints_t
@@ -87,7 +87,12 @@ contains
   !> (eps a |x|, a = 1/dt) grows past any residual test: (c) ties Newton to
   !> what the integrator asks for. It needs two iterations (a rate) and a
   !> rate below 0.9, so a stalled solve (a weak preconditioner, small but
-  !> not shrinking updates) is not mistaken for a converged one.
+  !> not shrinking updates) is not mistaken for a converged one, and two
+  !> updates that no step limit scaled: an update cut short at an obstacle
+  !> (process models, module process_solver) says nothing of the remaining
+  !> error (drop_table with -ts_adapt_type basic: "converged" at ||F|| = 16
+  !> after cut updates, a state the error estimate then rejected, 191
+  !> times the tolerance).
   subroutine snes_converged(snes, it, xnorm, snorm, fnorm, reason, ctx, ierr)
     type(tSNES) :: snes
     PetscInt :: it
@@ -123,7 +128,7 @@ contains
       end if
     end if
     if (it >= 2 .and. reason == SNES_CONVERGED_ITERATING .and. .not. step_fixed(ctx%step) .and. &
-        newton_snorm_prev(ctx%newton) > 0.0_rp) then
+        newton_rate_usable(ctx%newton)) then
       rate = snorm / newton_snorm_prev(ctx%newton)
       if (rate < 0.9_rp) then
         call update_wrms(snes, ctx, wnorm, ierr)

@@ -15,6 +15,15 @@
 !> then 100-150 times smaller than from the linear start, and Newton takes
 !> one iteration a step instead of two (measured with commit 9f1bf04).
 !>
+!> A limited start (process models that need a feasible start: contact;
+!> issue 47 items 4 and 6): whatever the start, x_n + alpha (x - x_n)
+!> with the largest alpha <= 1 their step limit allows from x_n (module
+!> process_solver's limiter), so that it is feasible by construction and
+!> as close to the predictor as the obstacles let it be; any TS type
+!> (beuler's extrapolated or cubic start, bdf's extrapolated history). A
+!> retried step starts from x_n itself (its predictor may be a failed
+!> iterate's).
+!>
 !> PETSc 3.18's Fortran interface has no SNESSetComputeInitialGuess (a C
 !> function pointer) nor SNESSetInitialFunction: src/solver/nuno_newton_start.c
 !> registers a C trampoline that calls newton_start_guess with this
@@ -28,7 +37,8 @@ module newton_start
   use start_predictor, only: START_KEPT, start_spaced, start_weights, start_linear_weights, start_needs_linear, start_pick
   implicit none
   private
-  public :: newton_start_t, newton_start_setup, newton_start_free, newton_start_order
+  public :: newton_start_t, newton_start_setup, newton_start_free, newton_start_order, newton_start_limited, &
+            start_limit_i
   public :: newton_start_push, newton_start_reset, newton_start_count, newton_start_get, newton_start_put
 
   !> The kept states and the safeguard's state. Written only by this
@@ -47,7 +57,30 @@ module newton_start
     type(tVec) :: xl, fl, fc                    !< the linear start, its residual; the polynomial start's residual
     logical :: compare = .true.                 !< evaluate the linear start too (start_needs_linear)
     real(rp) :: nc_prev = 0                     !< ||F|| of the last polynomial start
+    logical :: installed = .false.              !< the SNES's initial-guess callback is this module's
+    !> the limiter of a feasible start (newton_start_limited), with its context
+    procedure(start_limit_i), pointer, nopass :: limit => null()
+    type(c_ptr) :: limit_ctx
+    PetscInt :: last_step = -1, last_rejects = -1   !< the TS's step and rejections at the last start
+    logical :: lwork = .false.                  !< x0w, f0w created
+    type(tVec) :: x0w, f0w                      !< the step's start x_n and its residual (limited_pick)
+    integer :: starts_at_xn = 0                 !< limited starts that took x_n (its residual the smaller)
+    logical :: cut = .false.                    !< the limiter cut this step's start
+    real(rp) :: nstart_prev = 0                 !< ||F|| at the last step's limited start
   end type newton_start_t
+
+  abstract interface
+    !> A limited start: x becomes x0 + alpha (x - x0), x0 the step's start
+    !> (the TS's solution), alpha the largest fraction the limiter's
+    !> owner allows (0 when none); cut: alpha < 1. Collective.
+    subroutine start_limit_i(ctx, x, cut, ierr)
+      import :: c_ptr, tVec
+      type(c_ptr), value :: ctx
+      type(tVec) :: x
+      logical, intent(out) :: cut
+      PetscErrorCode, intent(out) :: ierr
+    end subroutine start_limit_i
+  end interface
 
   interface
     !> src/solver/nuno_newton_start.c: SNESSetComputeInitialGuess with the C
@@ -105,11 +138,38 @@ contains
     s%n = 0
     s%compare = .true.
     s%nc_prev = 0.0_rp
+    PetscCall(install(s, ts, ierr))
+    s%order = 3
+  end subroutine newton_start_setup
+
+  !> Every Newton start from now on limited by limit (with its context
+  !> ctx): feasible for the process models (module process_solver). Any TS
+  !> type. s must stay at its address while the TS lives. Collective.
+  subroutine newton_start_limited(s, ts, limit, ctx, ierr)
+    type(newton_start_t), intent(inout), target :: s
+    type(tTS), intent(in) :: ts
+    procedure(start_limit_i) :: limit
+    type(c_ptr), intent(in) :: ctx
+    PetscErrorCode, intent(out) :: ierr
+    s%limit => limit
+    s%limit_ctx = ctx
+    PetscCall(install(s, ts, ierr))
+  end subroutine newton_start_limited
+
+  !> This module's callback as the SNES's initial guess (once).
+  subroutine install(s, ts, ierr)
+    type(newton_start_t), intent(inout), target :: s
+    type(tTS), intent(in) :: ts
+    PetscErrorCode, intent(out) :: ierr
+    type(tSNES) :: snes
+    ierr = 0
+    s%ts = ts
+    if (s%installed) return
     PetscCall(TSGetSNES(ts, snes, ierr))
     ierr = nuno_snes_set_initial_guess(snes%v, c_loc(s))
     if (ierr /= 0) return
-    s%order = 3
-  end subroutine newton_start_setup
+    s%installed = .true.
+  end subroutine install
 
   !> 1 (PETSc's linear start) or 3 (the cubic start).
   pure integer function newton_start_order(s)
@@ -134,8 +194,13 @@ contains
       PetscCall(VecDestroy(s%fl, ierr))
       PetscCall(VecDestroy(s%fc, ierr))
     end if
+    if (s%lwork) then
+      PetscCall(VecDestroy(s%x0w, ierr))
+      PetscCall(VecDestroy(s%f0w, ierr))
+    end if
     s%made = .false.
     s%work = .false.
+    s%lwork = .false.
     s%on = .false.
     s%n = 0
   end subroutine newton_start_free
@@ -160,14 +225,16 @@ contains
   end subroutine combine
 
   !> SNESSetComputeInitialGuess's callback (through the C trampoline): x is
-  !> the start TS set (x_n, or x_n + dt xdot_n). When the kept states end at
-  !> this step's start and are spaced by its dt, x becomes the polynomial
-  !> through them (cubic when four are kept). Its residual is handed to
-  !> SNES (no evaluation more); where start_needs_linear says so the
-  !> linear start's is evaluated too and the smaller taken (start_pick). A
-  !> step of another dt (a retry after a failed solve, a sliver before a
-  !> stop time) starts from the last two accepted states extrapolated
-  !> linearly to it (TS's xdot may then be a failed iterate's).
+  !> the start TS set (x_n, or x_n + dt xdot_n, or bdf's extrapolated
+  !> history). With the cubic start, when the kept states end at this
+  !> step's start and are spaced by its dt, x becomes the polynomial
+  !> through them (polynomial_start). A step of another dt (a retry after a
+  !> failed solve, a sliver before a stop time) starts from the last two
+  !> accepted states extrapolated linearly to it (TS's xdot may then be a
+  !> failed iterate's). With a limiter (newton_start_limited) every start
+  !> is limited, and the one whose residual is smaller of it and the
+  !> step's start x_n is taken (limited_pick); a retried step starts from
+  !> x_n.
   subroutine newton_start_guess(snes_h, x_h, sp, ierr) bind(C, name='nuno_newton_start_guess')
     integer(c_intptr_t), intent(in) :: snes_h, x_h   !< SNES, Vec
     type(c_ptr), value :: sp                         !< the newton_start_t
@@ -175,9 +242,9 @@ contains
     type(newton_start_t), pointer :: s
     type(tSNES) :: snes
     type(tVec) :: x
-    real(rp) :: t, dt, nc, nl, w2(2)
-    integer :: m, p
-    logical :: take_linear
+    real(rp) :: t, dt, nx, w2(2)
+    integer :: m
+    logical :: retry, known
 
     ierr = 0
     call c_f_pointer(sp, s)
@@ -185,18 +252,52 @@ contains
     x%v = x_h
     PetscCall(TSGetTime(s%ts, t, ierr))
     PetscCall(TSGetTimeStep(s%ts, dt, ierr))
-    if (s%n < 2 .or. abs(s%t(1) - t) > 1.0e-9_rp * abs(dt)) return
-    m = start_spaced(s%t, s%n, dt)
-    if (m == 1) then
-      w2 = start_linear_weights(s%t(1), s%t(2), dt)
-    PetscCall(VecAXPBYPCZ(x, w2(1), w2(2), 0.0_rp, s%h(1), s%h(2), ierr))
+    PetscCall(retried(s, retry, ierr))
+    if (retry .and. associated(s%limit)) then
+      ! a retried step with a limited start: from x_n itself
+      PetscCall(limited(s, x, 0.0_rp, ierr))
       return
     end if
-    p = m - 1                                    ! at most 3: four states are kept
-    if (p == 1) then
-      PetscCall(combine(s, start_weights(1), x, ierr))
-      return
+    s%cut = .false.
+    known = .false.
+    nx = 0.0_rp
+    if (.not. s%on .or. s%n < 2 .or. abs(s%t(1) - t) > 1.0e-9_rp * abs(dt)) then
+      PetscCall(limited(s, x, 1.0_rp, ierr))
+    else
+      m = start_spaced(s%t, s%n, dt)
+      if (m == 1) then
+        w2 = start_linear_weights(s%t(1), s%t(2), dt)
+        PetscCall(VecAXPBYPCZ(x, w2(1), w2(2), 0.0_rp, s%h(1), s%h(2), ierr))
+        PetscCall(limited(s, x, 1.0_rp, ierr))
+      else if (m == 2) then
+        PetscCall(combine(s, start_weights(1), x, ierr))
+        PetscCall(limited(s, x, 1.0_rp, ierr))
+      else
+        PetscCall(polynomial_start(s, snes, x, m - 1, known, nx, ierr))
+      end if
     end if
+    if (associated(s%limit)) then
+      PetscCall(limited_pick(s, snes, x, known, nx, ierr))
+    end if
+  end subroutine newton_start_guess
+
+  !> The cubic (p = 3) or quadratic (p = 2) start through the kept states
+  !> into x, limited, and its residual handed to SNES (known: set, its norm
+  !> nx), unless the linear start's residual is smaller (start_pick: then
+  !> x is that, with its residual); both evaluated until the polynomial
+  !> has won by a factor 2 (start_needs_linear). Collective.
+  subroutine polynomial_start(s, snes, x, p, known, nx, ierr)
+    type(newton_start_t), intent(inout) :: s
+    type(tSNES), intent(in) :: snes
+    type(tVec), intent(inout) :: x
+    integer, intent(in) :: p
+    logical, intent(out) :: known
+    real(rp), intent(out) :: nx
+    PetscErrorCode, intent(out) :: ierr
+    real(rp) :: nc, nl
+    logical :: take_linear
+    known = .false.
+    nx = 0.0_rp
     if (.not. s%work) then
       PetscCall(VecDuplicate(x, s%xl, ierr))
       PetscCall(VecDuplicate(x, s%fl, ierr))
@@ -204,10 +305,12 @@ contains
       s%work = .true.
     end if
     PetscCall(combine(s, start_weights(p), x, ierr))
+    PetscCall(limited(s, x, 1.0_rp, ierr))
     PetscCall(SNESComputeFunction(snes, x, s%fc, ierr))
     PetscCall(VecNorm(s%fc, NORM_2, nc, ierr))
     if (start_needs_linear(s%compare, nc, s%nc_prev)) then
       PetscCall(combine(s, start_weights(1), s%xl, ierr))
+      PetscCall(limited(s, s%xl, 1.0_rp, ierr))
       PetscCall(SNESComputeFunction(snes, s%xl, s%fl, ierr))
       PetscCall(VecNorm(s%fl, NORM_2, nl, ierr))
       call start_pick(nc, nl, take_linear, s%compare)
@@ -215,6 +318,8 @@ contains
         PetscCall(VecCopy(s%xl, x, ierr))
         ierr = nuno_snes_set_initial_function(snes%v, s%fl%v)
         if (ierr /= 0) return
+        known = .true.
+        nx = nl
       end if
       ! else SNES evaluates the polynomial start's residual again: TS's
       ! Jacobian takes xdot from the last residual evaluated, which must be
@@ -224,9 +329,121 @@ contains
     else
       ierr = nuno_snes_set_initial_function(snes%v, s%fc%v)
       if (ierr /= 0) return
+      known = .true.
+      nx = nc
     end if
     s%nc_prev = nc
-  end subroutine newton_start_guess
+  end subroutine polynomial_start
+
+  !> The residual's norm n0 at the step's start x_n (the TS's solution),
+  !> kept with x_n for limited_pick (x: a vector like the state). Collective.
+  subroutine start_residual(s, snes, x, n0, ierr)
+    type(newton_start_t), intent(inout) :: s
+    type(tSNES), intent(in) :: snes
+    type(tVec), intent(in) :: x
+    real(rp), intent(out) :: n0
+    PetscErrorCode, intent(out) :: ierr
+    type(tVec) :: x0
+    logical :: cut
+    if (.not. s%lwork) then
+      PetscCall(VecDuplicate(x, s%x0w, ierr))
+      PetscCall(VecDuplicate(x, s%f0w, ierr))
+      s%lwork = .true.
+    end if
+    PetscCall(TSGetSolution(s%ts, x0, ierr))
+    PetscCall(VecCopy(x0, s%x0w, ierr))
+    call s%limit(s%limit_ctx, s%x0w, cut, ierr)     ! moved where an obstacle reaches it
+    if (ierr /= 0) return
+    PetscCall(SNESComputeFunction(snes, s%x0w, s%f0w, ierr))
+    PetscCall(VecNorm(s%f0w, NORM_2, n0, ierr))
+  end subroutine start_residual
+
+  !> A limited start x against the step's start x_n: x's residual (known:
+  !> handed to SNES already, its norm nx; else evaluated here), and where
+  !> the limiter cut the start or its residual is over 4 times the last
+  !> step's, x_n's too, and x_n taken where it is the smaller. A
+  !> predictor that puts a node deep into a barrier (limited short of an
+  !> obstacle it would cross, or landing just above one) starts Newton
+  !> where the barrier's force is far off, and Newton stalled there
+  !> (drape_sphere at 129 x 129 from the linear start: ||F|| 4800 for 50
+  !> iterations); x_n is the state the step began from, feasible, and the
+  !> start of every solve before limited starts. Elsewhere the predictor's
+  !> residual is handed to SNES (no evaluation more than without the
+  !> check). Collective.
+  subroutine limited_pick(s, snes, x, known, nx, ierr)
+    type(newton_start_t), intent(inout) :: s
+    type(tSNES), intent(in) :: snes
+    type(tVec), intent(inout) :: x
+    logical, intent(in) :: known
+    real(rp), intent(in) :: nx
+    PetscErrorCode, intent(out) :: ierr
+    real(rp) :: nn, n0
+    ierr = 0
+    nn = nx
+    if (.not. known) then
+      if (.not. s%work) then
+        PetscCall(VecDuplicate(x, s%xl, ierr))
+        PetscCall(VecDuplicate(x, s%fl, ierr))
+        PetscCall(VecDuplicate(x, s%fc, ierr))
+        s%work = .true.
+      end if
+      PetscCall(SNESComputeFunction(snes, x, s%fc, ierr))
+      PetscCall(VecNorm(s%fc, NORM_2, nn, ierr))
+    end if
+    if (.not. (s%cut .or. nn > 4.0_rp * s%nstart_prev)) then
+      s%nstart_prev = nn
+      if (.not. known) ierr = nuno_snes_set_initial_function(snes%v, s%fc%v)
+      return
+    end if
+    PetscCall(start_residual(s, snes, x, n0, ierr))
+    ! (SNES evaluates the residual of the start taken again: the last
+    ! evaluated, which TS's Jacobian takes its xdot from, is x_n's)
+    if (n0 < nn) then
+      PetscCall(VecCopy(s%x0w, x, ierr))
+      s%starts_at_xn = s%starts_at_xn + 1
+      s%nstart_prev = n0
+    else
+      s%nstart_prev = nn
+    end if
+  end subroutine limited_pick
+
+  !> The start x limited (newton_start_limited; nothing without a
+  !> limiter): scale 0 puts it at the step's start x_n, 1 leaves the
+  !> limiter to find how far toward x it may go; either is then moved
+  !> into the limiter's owner's domain (process_solver's pm_limit_start).
+  !> Collective.
+  subroutine limited(s, x, scale, ierr)
+    type(newton_start_t), intent(inout) :: s
+    type(tVec), intent(inout) :: x
+    real(rp), intent(in) :: scale
+    PetscErrorCode, intent(out) :: ierr
+    type(tVec) :: x0
+    logical :: cut
+    ierr = 0
+    if (.not. associated(s%limit)) return
+    if (scale == 0.0_rp) then
+      PetscCall(TSGetSolution(s%ts, x0, ierr))
+      PetscCall(VecCopy(x0, x, ierr))
+    end if
+    ! (x_n too: the limiter's owner moves it into its domain, where a
+    ! moving obstacle reaches it over the step)
+    call s%limit(s%limit_ctx, x, cut, ierr)
+    s%cut = s%cut .or. cut
+  end subroutine limited
+
+  !> This start is a retried step's (the TS rejected a step since the last
+  !> start of the same step): its predictor may be a failed iterate's.
+  subroutine retried(s, retry, ierr)
+    type(newton_start_t), intent(inout) :: s
+    logical, intent(out) :: retry
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt :: step, rejects
+    PetscCall(TSGetStepNumber(s%ts, step, ierr))
+    PetscCall(TSGetStepRejections(s%ts, rejects, ierr))
+    retry = step == s%last_step .and. rejects > s%last_rejects
+    s%last_step = step
+    s%last_rejects = rejects
+  end subroutine retried
 
   !> Keep the accepted state u at time t (module step_monitor; nothing
   !> without the cubic start). The vectors change places, the oldest is

@@ -16,9 +16,9 @@ module newton_state
   public :: newton_state_t, SNES_FLOOR_DEFAULT
   public :: newton_state_init, newton_set_inner_guess, newton_enter_window, newton_set_floor, newton_set_failures_before
   public :: newton_take_injected_failure, newton_first_residual, newton_iterated, newton_verdict, newton_inner_rtol, &
-            newton_fallback_switched
+            newton_fallback_switched, newton_update_limited
   public :: newton_guess, newton_guess_given, newton_forcing_on, newton_floor_est, newton_snorm_prev, newton_fallback, &
-            newton_fallback_pending, newton_has_failed
+            newton_fallback_pending, newton_has_failed, newton_rate_usable, newton_limited_lately
 
   !> -nuno_snes_floor's default: stagnation below this relative residual is convergence
   real(rp), parameter :: SNES_FLOOR_DEFAULT = 1.0e-6_rp
@@ -31,6 +31,11 @@ module newton_state
     real(rp) :: fnorm0 = 0, fnorm_prev = 0      !< ||F|| at this solve's start and at the last iteration
     real(rp) :: floor_est = 0                   !< round-off floor of ||F||_2 at the last 6-dof assembly (module newton_control)
     real(rp) :: snorm_prev = 0                  !< ||update|| of the previous Newton iteration
+    !> a process model's step limit scaled this iteration's update (limited)
+    !> or the previous one's (limited_prev): their lengths say nothing of
+    !> Newton's convergence (an update cut at an obstacle is short, not
+    !> converged), and their inexact solves are no guide for the next one
+    logical :: limited = .false., limited_prev = .false.
     logical :: newton_forcing = .true.          !< inner tolerance from the step's needs (reduced path)
     integer(c_int) :: guess = GUESS_AUTO        !< -nuno_inner_guess (module inner_guess)
     integer(c_int) :: guess_given = 0           !< 1: set on the command line
@@ -111,7 +116,17 @@ contains
     type(newton_state_t), intent(inout) :: n
     real(rp), intent(in) :: fnorm
     n%fnorm0 = fnorm
+    n%limited = .false.
+    n%limited_prev = .false.
   end subroutine newton_first_residual
+
+  !> A process model's step limit (module process_solver) has scaled the
+  !> coming update (limited), or let it be.
+  subroutine newton_update_limited(n, limited)
+    type(newton_state_t), intent(inout) :: n
+    logical, intent(in) :: limited
+    n%limited = n%limited .or. limited
+  end subroutine newton_update_limited
 
   !> The convergence test has seen an iteration's residual norm fnorm and
   !> update norm snorm.
@@ -120,7 +135,23 @@ contains
     real(rp), intent(in) :: fnorm, snorm
     n%fnorm_prev = fnorm
     n%snorm_prev = snorm
+    n%limited_prev = n%limited
+    n%limited = .false.
   end subroutine newton_iterated
+
+  !> The last two updates' lengths measure Newton's rate (neither was
+  !> scaled by a step limit): the adaptive steps' test of the remaining
+  !> Newton error (module newton_policy) may use them.
+  pure logical function newton_rate_usable(n)
+    type(newton_state_t), intent(in) :: n
+    newton_rate_usable = n%snorm_prev > 0.0_rp .and. .not. (n%limited .or. n%limited_prev)
+  end function newton_rate_usable
+
+  !> A step limit scaled this iteration's update or the one before.
+  pure logical function newton_limited_lately(n)
+    type(newton_state_t), intent(in) :: n
+    newton_limited_lately = n%limited .or. n%limited_prev
+  end function newton_limited_lately
 
   !> The round-off floor's verdict on the residual norm fnorm (module
   !> newton_control's floor_verdict; floor_est the floor estimated at the

@@ -9,10 +9,9 @@
  * - the TS's stage check (TSSetFunctionDomainError; its Fortran binding
  *   crashed at the first step here): a stage the process models reject is
  *   a failed step, retried smaller. The context goes with the TS as its
- *   application context;
- * - Newton's start of a step moved into the process models' domains
- *   (SNESSetComputeInitialGuess, no Fortran binding: it takes a C function
- *   pointer), where no other start (module newton_start's) is set.
+ *   application context. (Newton's start of a step is moved into the
+ *   process models' domains by module newton_start's initial guess, whose
+ *   limiter is process_solver's pm_limit_start.)
  *
  * Each trampoline calls the Fortran callback with the context Fortran
  * registered (its app_ctx). */
@@ -23,8 +22,6 @@
  * (1: accepted) and *ierr out */
 extern void nuno_pm_limit_update(Vec *y, void *ctx, PetscErrorCode *ierr);
 extern void nuno_pm_stage_check(PetscReal t, Vec *y, void *ctx, int *accept, PetscErrorCode *ierr);
-/* and the start: the SNES, its initial guess x by reference, the app_ctx, *ierr out */
-extern void nuno_pm_start_guess(SNES *snes, Vec *x, void *ctx, PetscErrorCode *ierr);
 
 static PetscErrorCode post_solve_trampoline(KSP ksp, Vec b, Vec y, void *ctx)
 {
@@ -68,23 +65,5 @@ PetscErrorCode nuno_ts_set_pm_stage_check(TS *ts, void *ctx)
   PetscFunctionBeginUser;
   PetscCall(TSSetApplicationContext(*ts, ctx));
   PetscCall(TSSetFunctionDomainError(*ts, stage_check));
-  PetscFunctionReturn(0);
-}
-
-static PetscErrorCode start_trampoline(SNES snes, Vec x, void *ctx)
-{
-  PetscErrorCode ierr = 0;
-  PetscFunctionBeginUser;
-  nuno_pm_start_guess(&snes, &x, ctx, &ierr);
-  PetscCall(ierr);
-  PetscFunctionReturn(0);
-}
-
-/* SNESSetComputeInitialGuess(*snes, the start's trampoline, ctx). Logically
- * collective. */
-PetscErrorCode nuno_snes_set_pm_start(SNES *snes, void *ctx)
-{
-  PetscFunctionBeginUser;
-  PetscCall(SNESSetComputeInitialGuess(*snes, start_trampoline, ctx));
   PetscFunctionReturn(0);
 }

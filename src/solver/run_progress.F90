@@ -11,13 +11,18 @@ module run_progress
   implicit none
   private
   public :: progress_t, progress_start, progress_output_written, progress_said, progress_warn_stretch, &
-            progress_restore, progress_reset, progress_stall_check
+            progress_restore, progress_reset, progress_stall_check, progress_collapse_check
   public :: progress_heartbeat_due, progress_wall, progress_t_written, progress_stretch_warned
 
   !> Wall seconds without a line on stdout after which the monitor prints one.
   real(rp), parameter :: HEARTBEAT_S = 10.0_rp
   !> Accepted steps in a row that do not advance t after which the run stops.
   integer, parameter :: STALLED_MAX = 10
+  !> Accepted steps in a row shorter than COLLAPSE_FRACTION t_end after
+  !> which the run stops: the step has collapsed (issue 47 item 4; at
+  !> 1e-13 s drop_table took 45 000 steps at t = 0.098 s and went on).
+  integer, parameter, public :: COLLAPSE_MAX = 10
+  real(rp), parameter, public :: COLLAPSE_FRACTION = 1.0e-10_rp
 
   type :: progress_t
     private
@@ -28,6 +33,12 @@ module run_progress
     real(rp) :: t_written = -1                  !< time of the last output step [time]
     real(rp) :: wall_said = 0                   !< MPI_Wtime of the last line on stdout (rank 0) [s]
     logical :: stretch_warned = .false.         !< the stretch_limit warning was given
+    integer :: short_steps = 0                  !< accepted steps in a row shorter than the collapse bound
+    PetscInt :: collapse_step = -1              !< the step number the collapse check saw last
+    !> at the last accepted step not that short: its time [time], the TS's
+    !> failed Newton solves and rejected steps so far
+    real(rp) :: t_normal = 0
+    PetscInt :: fails_normal = 0, rejects_normal = 0
   end type progress_t
 
 contains
@@ -101,6 +112,39 @@ contains
     p%monitor_seen = .true.
     p%monitor_step = step
   end subroutine progress_stall_check
+
+  !> The monitor's collapse check at accepted step number step, of length
+  !> h, ending at t [time] (t_end the run's end; fails and rejects, the TS's failed
+  !> Newton solves and rejected steps so far): collapsed after
+  !> COLLAPSE_MAX steps in a row shorter than COLLAPSE_FRACTION t_end.
+  !> Then t_normal is the end of the last step that was not (the collapse
+  !> began there), and nfail, nreject the failed solves and rejected steps
+  !> since. fresh: the check had not seen this step (the monitor sees a
+  !> step again when TSSolve goes on after an output step).
+  subroutine progress_collapse_check(p, step, t, h, t_end, fails, rejects, collapsed, t_normal, nfail, nreject, fresh)
+    type(progress_t), intent(inout) :: p
+    PetscInt, intent(in) :: step, fails, rejects
+    real(rp), intent(in) :: t, h, t_end
+    logical, intent(out) :: collapsed, fresh
+    real(rp), intent(out) :: t_normal
+    integer, intent(out) :: nfail, nreject
+    collapsed = .false.
+    t_normal = p%t_normal
+    nfail = int(fails - p%fails_normal)
+    nreject = int(rejects - p%rejects_normal)
+    fresh = step > p%collapse_step
+    if (.not. fresh) return
+    p%collapse_step = step
+    if (h >= COLLAPSE_FRACTION * t_end) then
+      p%short_steps = 0
+      p%t_normal = t
+      p%fails_normal = fails
+      p%rejects_normal = rejects
+      return
+    end if
+    p%short_steps = p%short_steps + 1
+    collapsed = p%short_steps >= COLLAPSE_MAX
+  end subroutine progress_collapse_check
 
   !> HEARTBEAT_S of wall time have passed without a line on stdout.
   logical function progress_heartbeat_due(p)

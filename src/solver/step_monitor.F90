@@ -24,15 +24,17 @@ module step_monitor
   use reduced, only: reduced_step_accepted
   use app_context, only: app_ctx, nuno_ts_stop
   use newton_start, only: newton_start_push
-  use strings, only: num => real_brief
+  use strings, only: num => real_brief, itoa
   use newton_policy, only: linesearch_fallback
   use newton_state, only: newton_fallback_pending, newton_has_failed
   use process_solver, only: pm_observe
-  use step_settings, only: step_rejections, step_back_to_dt, step_t_end
+  use step_settings, only: step_rejections, step_back_to_dt, step_t_end, step_fixed, step_tolerances
   use energy_integrals, only: energy_gauss, energy_t_prev, energy_gauss_time, energy_gauss_add, energy_trapezoid_add, &
                               energy_integrals_start, energy_work_vector, energy_gauss_at, energy_gauss_share, &
                               energy_powers_prev
-  use run_progress, only: progress_stall_check, progress_heartbeat_due, progress_wall, progress_said
+  use run_progress, only: progress_stall_check, progress_heartbeat_due, progress_wall, progress_said, &
+                          progress_collapse_check, COLLAPSE_MAX, COLLAPSE_FRACTION
+  use process_models, only: pm_list_on, pm_list_rejection
   use run_error, only: run_error_first, run_error_text
   implicit none
   private
@@ -58,6 +60,8 @@ contains
     logical :: stalled, retried, set
 
     PetscCall(stall_check(ts, step, t, ctx, stalled, ierr))
+    if (stalled) return
+    PetscCall(collapse_check(ts, step, t, ctx, stalled, ierr))
     if (stalled) return
     ! After a failed Newton solve (its step retried smaller and now
     ! accepted) the run's remaining steps take -nuno_linesearch_fallback
@@ -116,6 +120,71 @@ contains
     if (taken .and. ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//run_error_text(ctx%error)
     ierr = nuno_ts_stop(ts%v)
   end subroutine stall_check
+
+  !> COLLAPSE_MAX accepted steps in a row shorter than COLLAPSE_FRACTION
+  !> t_end (module run_progress): stop the TS after this step and say
+  !> where the step collapsed and why (the run's error, module run_error):
+  !> a process model's rejection of the states (its reason), failed Newton
+  !> solves, the error estimate's rejections, or -ts_adapt_dt_max. Each
+  !> would otherwise go on for as many steps as t_end takes (drop_table
+  !> with -ts_adapt_type basic -ts_rtol 1e-4 on e3c7ad0: 45 000 steps of
+  !> 1e-13 s at t = 0.098 s).
+  subroutine collapse_check(ts, step, t, ctx, collapsed, ierr)
+    type(tTS) :: ts
+    PetscInt, intent(in) :: step
+    real(rp), intent(in) :: t
+    type(app_ctx), intent(inout) :: ctx
+    logical, intent(out) :: collapsed
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt :: fails, rejects
+    type(tTSAdapt) :: adapt
+    real(rp) :: t0, h, hmin, hmax, rtol, atol_x, atol_v
+    integer :: nfail, nrej
+    character(len=:), allocatable :: cause
+    logical :: taken, fresh
+    ierr = 0
+    collapsed = .false.
+    if (step <= 0) return
+    PetscCall(TSGetSNESFailures(ts, fails, ierr))
+    PetscCall(TSGetStepRejections(ts, rejects, ierr))
+    h = t - energy_t_prev(ctx%energy)
+    call progress_collapse_check(ctx%progress, step, t, h, step_t_end(ctx%step), fails, rejects, collapsed, t0, nfail, nrej, &
+                                 fresh)
+    ! A step below t's resolution did not advance t: the next step's error
+    ! estimate (theta's, from t - t_prev) would divide by zero, so it gets
+    ! none (PETSc: "Infinite or not-a-number generated in norm"). Only a
+    ! new step: the monitor sees the last one again, h = 0, when TSSolve
+    ! goes on after an output step, and a restart there cost beuler its
+    ! extrapolated start (hang, Baraff-Witkin mode: 15 more inner
+    ! iterations in 30 steps, positions off by 6e-8 m).
+    if (fresh .and. .not. (h > 0.0_rp)) then
+      PetscCall(TSRestartStep(ts, ierr))
+    end if
+    if (.not. collapsed) return
+    cause = ''
+    if (pm_list_on(ctx%pms)) cause = pm_list_rejection(ctx%pms, t0)
+    if (len(cause) > 0) then
+      cause = 'the states were rejected: '//cause
+    else if (nfail > 0) then
+      cause = itoa(nfail)//' Newton solves failed (each retried with a quarter of the step)'
+    else if (nrej > 0 .and. .not. step_fixed(ctx%step)) then
+      call step_tolerances(ctx%step, rtol, atol_x, atol_v)
+      cause = 'the error estimate rejected '//itoa(nrej)//' longer steps: the tolerances (-ts_rtol '//num(rtol)// &
+              ', atol position '//num(atol_x)//', velocity '//num(atol_v)//') ask for steps that short'
+    else
+      PetscCall(TSGetAdapt(ts, adapt, ierr))
+      PetscCall(TSAdaptGetStepLimits(adapt, hmin, hmax, ierr))
+      if (hmax < COLLAPSE_FRACTION * step_t_end(ctx%step)) then
+        cause = '-ts_adapt_dt_max '//num(hmax)//' holds the step there'
+      else
+        cause = 'the integrator took them (-ts_dt, -ts_adapt_*)'
+      end if
+    end if
+    call run_error_first(ctx%error, 'the step collapsed at t = '//num(t)//': '//itoa(COLLAPSE_MAX)// &
+      ' steps in a row shorter than 1e-10 t_end (the last '//num(h)//'; since t = '//num(t0)//'): '//cause, taken)
+    if (taken .and. ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//run_error_text(ctx%error)
+    ierr = nuno_ts_stop(ts%v)
+  end subroutine collapse_check
 
   !> The energy integrals over the step that ended at t (module
   !> energy_integrals): three Gauss-Legendre points on [t_prev, t] on the
