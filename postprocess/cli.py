@@ -7,6 +7,8 @@ import argparse
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from .reader import Run, read_run
 
 
@@ -80,6 +82,17 @@ def run_value(run, key: str):
     except Exception:  # an unreadable echoed namelist: no value from it
         pass
     raise KeyError(f"{run.path}: no key {key!r} in /config or the namelist")
+
+
+def gravity(run):
+    """The gravity vector [3] of the run's &scene (/config, else the echoed
+    namelist), or None where the file does not say."""
+    try:
+        value = run_value(run, "gravity")
+    except KeyError:
+        return None
+    g = np.ravel(np.asarray(value, dtype=float))
+    return g[:3] if g.size >= 3 else None
 
 
 def text_value(value) -> str:

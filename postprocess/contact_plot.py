@@ -2,16 +2,30 @@
 """The cloth with its obstacles (&contact) at a few times, and an animation.
 
     nuno-contact-plot drape_sphere.h5 --times 0 0.3 0.6 1.0 -o drape.png --gif drape.gif
+    nuno-contact-plot drop_table.h5 --view side --zoom each --aspect auto -o drop.png
+    nuno-contact-plot gripper.h5 --view side --plane xz --times 0 0.2 0.7 1.5 2.5 -o grip.png
 
 The obstacles are read from the file's /config/contact group (the keys as
 resolved, -nuno_set overrides included), else from the namelist the file
 echoes: planes (a square patch under the cloth), spheres, boxes (centre,
-half extents, axes) and capsules (two ends, radius). A run without
-obstacles is drawn as the cloth alone.
+half extents, local axes) and capsules (two ends, radius), each where its
+keyframes (obstacle_time, obstacle_offset, obstacle_close) put it at the
+time drawn (from /config only: a file without it is drawn with its
+obstacles at rest). A run without obstacles is drawn as the cloth alone.
+
+--view side draws 2-D sections instead of the 3-D box: every lattice line
+projected onto a vertical plane (--plane xz or yz; default the plane of
+the largest motion), the obstacles as their outlines on it (filled), the
+barrier's reach (contact_thickness + contact_dhat) dashed around them, and
+"up" up (the plane's axis nearest to -g points up, reversed where gravity
+points along it). --zoom all (one range for every panel) or each (each
+panel its own) frames the cloth and the obstacle parts near it, so that a
+gap of a millimetre shows; --aspect auto stretches the vertical axis.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -29,11 +43,19 @@ KEY_SHAPE = "obstacle_shape"
 KEY_POINT = "obstacle_point"      # plane: a point on it; sphere, box: centre; capsule: first end
 KEY_NORMAL = "obstacle_normal"    # plane: outward normal
 KEY_RADIUS = "obstacle_radius"    # sphere, capsule
-KEY_HALF = "obstacle_half_size"    # box: half extents along its axes
-KEY_AXES = "obstacle_axes"        # box: its unit axes, 9 a box (default x, y, z; an oriented box whose
-#                                   file keys differ is drawn axis-aligned)
+KEY_HALF = "obstacle_half_size"    # box: half extents along its local x, y, z
+KEY_AXIS = "obstacle_axis"        # box: its local x (made orthogonal to obstacle_normal, its local z;
+#                                   local y = z x x, as src/model/contact_model.f90 builds it)
 KEY_END = "obstacle_end"          # capsule: the second end
+# Keyframed motion (input/README.md, "&contact", Motion); /config holds the
+# n_keyframes(k) keyframes in use of each obstacle one after the other.
+KEY_N_KEYFRAMES = "obstacle_n_keyframes"
+KEY_TIME = "obstacle_time"        # [time]
+KEY_OFFSET = "obstacle_offset"    # 3 a keyframe [length]
+KEY_CLOSE = "obstacle_close"      # a finger's closing offset along obstacle_close_dir [length]
+KEY_CLOSE_DIR = "obstacle_close_dir"
 SHAPES = ("plane", "sphere", "box", "capsule")
+DHAT_DEFAULT = 1.0e-3             # contact_dhat's default [length]
 
 CLOTH = colormaps[plotting.CMAP](0.62)   # one colour for the cloth (viridis, green)
 SOLID = (0.62, 0.62, 0.66, 1.0)           # obstacles: grey
@@ -52,6 +74,28 @@ class Obstacle:
     half: np.ndarray = field(default_factory=lambda: np.zeros(3))
     axes: np.ndarray = field(default_factory=lambda: np.eye(3))   # columns: the box's axes
     end: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    key_time: np.ndarray = field(default_factory=lambda: np.zeros(0))        # [m] keyframe times
+    key_offset: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # [m][3] translations
+    key_close: np.ndarray = field(default_factory=lambda: np.zeros(0))       # [m] closing offsets
+    close_dir: np.ndarray = field(default_factory=lambda: np.zeros(3))       # unit closing direction
+
+    def translation(self, t) -> np.ndarray:
+        """The obstacle's translation at time t [3]: offset plus closing
+        offset times close_dir, each linear between keyframes and held
+        before the first and after the last (obstacle_motion's rule); zero
+        for a static obstacle or t None."""
+        if t is None or len(self.key_time) == 0:
+            return np.zeros(3)
+        tk = self.key_time
+        d = np.array([np.interp(t, tk, self.key_offset[:, c]) for c in range(3)])
+        return d + float(np.interp(t, tk, self.key_close)) * self.close_dir
+
+    def at(self, t) -> "Obstacle":
+        """The obstacle at time t (its geometry keys give the pose at zero offset)."""
+        d = self.translation(t)
+        if not np.any(d):
+            return self
+        return dataclasses.replace(self, point=self.point + d, end=self.end + d)
 
 
 def _contact_keys(run) -> dict:
@@ -107,8 +151,46 @@ def _shapes(value, n: int) -> list[str]:
     return (names + ["plane"] * n)[:n]
 
 
+def _box_axes(normal, axis) -> np.ndarray:
+    """A box's local axes as columns: x = axis made orthogonal to the unit
+    normal (local z), y = z x x; the identity where axis is parallel to it."""
+    ex = np.asarray(axis, float) - np.dot(axis, normal) * normal
+    if np.linalg.norm(ex) < 1e-12:
+        return np.eye(3)
+    ex /= np.linalg.norm(ex)
+    return np.column_stack([ex, np.cross(normal, ex), normal])
+
+
+def _keyframes(keys: dict, n: int) -> list[tuple]:
+    """(times [m], offsets [m][3], closing [m], close_dir [3]) of each of the
+    n obstacles from /config's packed keyframe keys (m = 0: static). Read
+    from /config only: the echoed namelist's arrays of keyframes are not
+    unpacked here (obstacles drawn at rest)."""
+    none = [(np.zeros(0), np.zeros((0, 3)), np.zeros(0), np.zeros(3))] * n
+    if KEY_N_KEYFRAMES not in keys or KEY_TIME not in keys:
+        return none
+    m = [int(round(float(v))) for v in np.ravel(np.asarray(keys[KEY_N_KEYFRAMES], dtype=float))][:n]
+    m += [0] * (n - len(m))
+    time = np.ravel(np.asarray(keys[KEY_TIME], dtype=float))
+    offset = np.ravel(np.asarray(keys.get(KEY_OFFSET, np.zeros(3 * sum(m))), dtype=float))
+    close = np.ravel(np.asarray(keys.get(KEY_CLOSE, np.zeros(sum(m))), dtype=float))
+    close_dir = _floats(keys.get(KEY_CLOSE_DIR), n, 3, [0.0, 0.0, 0.0])
+    if len(time) < sum(m) or len(offset) < 3 * sum(m) or len(close) < sum(m):
+        return none           # not the layout this script knows: at rest
+    out, start = [], 0
+    for k in range(n):
+        sl = slice(start, start + m[k])
+        cd = close_dir[k]
+        cd = cd / np.linalg.norm(cd) if np.linalg.norm(cd) > 0 else cd
+        out.append((time[sl].copy(), offset[3 * start: 3 * (start + m[k])].reshape(-1, 3).copy(),
+                    close[sl].copy(), cd))
+        start += m[k]
+    return out
+
+
 def obstacles(run) -> list[Obstacle]:
-    """The run's obstacles, in the order of &contact (empty without any)."""
+    """The run's obstacles, in the order of &contact, at zero keyframe
+    offset (Obstacle.at(t) moves one to time t); empty without any."""
     keys = _contact_keys(run)
     n = int(np.asarray(keys.get("n_obstacles", 0)).ravel()[0]) if keys else 0
     if n <= 0:
@@ -118,14 +200,27 @@ def obstacles(run) -> list[Obstacle]:
     normal = _floats(keys.get(KEY_NORMAL), n, 3, [0.0, 0.0, 1.0])
     radius = _floats(keys.get(KEY_RADIUS), n, 1, [0.0])[:, 0]
     half = _floats(keys.get(KEY_HALF), n, 3, [0.0, 0.0, 0.0])
-    axes = _floats(keys.get(KEY_AXES), n, 9, np.eye(3).T.ravel())
+    axis = _floats(keys.get(KEY_AXIS), n, 3, [1.0, 0.0, 0.0])
     end = _floats(keys.get(KEY_END), n, 3, [0.0, 0.0, 0.0])
+    frames = _keyframes(keys, n)
     out = []
     for k in range(n):
         nrm = normal[k] / max(np.linalg.norm(normal[k]), 1e-300)
+        tk, off, close, cdir = frames[k]
         out.append(Obstacle(shapes[k], point[k], nrm, float(radius[k]), half[k],
-                            axes[k].reshape(3, 3).T, end[k]))
+                            _box_axes(nrm, axis[k]), end[k], tk, off, close, cdir))
     return out
+
+
+def reach(run) -> float:
+    """How far from an obstacle the barrier acts: contact_thickness + contact_dhat [length]."""
+    keys = _contact_keys(run)
+
+    def value(key, default):
+        v = keys.get(key, default)
+        return float(np.ravel(np.asarray(v if v is not None else default, dtype=float))[0])
+
+    return value("contact_thickness", 0.0) + value("contact_dhat", DHAT_DEFAULT)
 
 
 # ---------------------------------------------------------------- geometry as quads
@@ -246,27 +341,39 @@ class Scene:
         self.solids_first = solids_first
         lo, hi = plotting.bounds(*(run.position[k] for k in steps))
         self.cloth_lo, self.cloth_hi = lo, hi
-        self.planes = [plane_quads(o, lo, hi) for o in self.obstacles if o.shape == "plane"]
-        solids = [solid_quads(o) for o in self.obstacles if o.shape != "plane"]
-        self.solids = [s for s in solids if s is not None]   # a shape not known: not drawn
-        parts = [np.stack([lo, hi])] + [np.asarray(quads_bounds(q)) for q in self.planes + self.solids]
+        times = [float(run.time[k]) for k in steps] or [None]
+        self._planes = [o for o in self.obstacles if o.shape == "plane"]
+        self._solids = [(o, solid_quads(o)) for o in self.obstacles if o.shape != "plane"]
+        self._solids = [(o, q) for o, q in self._solids if q is not None]   # a shape not known: not drawn
+        # every pose the steps show: the box holds the obstacles wherever they move
+        parts = [np.stack([lo, hi])]
+        for t in times:
+            parts += [np.asarray(quads_bounds(q)) for q in self.planes(t) + self.solids(t)]
         allpts = np.concatenate(parts)
         self.lo, self.hi = allpts.min(axis=0), allpts.max(axis=0)
 
-    def draw(self, ax, pos, edges: bool = True):
+    def planes(self, t=None) -> list:
+        """The plane patches at time t (under the cloth's box of all steps)."""
+        return [plane_quads(o.at(t), self.cloth_lo, self.cloth_hi) for o in self._planes]
+
+    def solids(self, t=None) -> list:
+        """The solid obstacles' quads at time t (None: at zero offset)."""
+        return [q + o.translation(t) for o, q in self._solids]
+
+    def draw(self, ax, pos, t=None, edges: bool = True):
         """The plane patches (behind everything: the cloth cannot be below them)
         and one collection of cloth and solid quads, depth-sorted together;
         with solids_first the solids too are drawn before the cloth: a cloth
         resting 2 mm above a box's top is seen over it from above, while the
         sort by quad centroids put the box's large top quads over the cloth
-        (input/table_edge.nml)."""
+        (input/table_edge.nml). Obstacles where they are at time t."""
         artists = []
-        for q in self.planes:
+        for q in self.planes(t):
             pc = Poly3DCollection(q, facecolors=shaded(q, TABLE), edgecolors="none", zorder=1)
             ax.add_collection3d(pc)
             artists.append(pc)
         cloth = cloth_quads(pos, self.stride)
-        solids = self.solids
+        solids = self.solids(t)
         if self.solids_first and solids:
             pc = Poly3DCollection(np.concatenate(solids), facecolors=np.concatenate([shaded(s, SOLID) for s in solids]),
                                   edgecolors="none", zorder=1)
@@ -306,13 +413,54 @@ def build_figure(run, steps, units: str, view: str = "iso", elev=None, azim=None
     size = plotting.iso_panel_size(scene.lo, scene.hi)
     fig, axes = plotting.new_figure(n, ncols=ncols, projection="3d", panel_size=size)
     for ax, k in zip(axes, steps):
-        scene.draw(ax, run.position[k])
+        scene.draw(ax, run.position[k], float(run.time[k]))
         _axes(ax, scene, units, view, elev, azim, title=f"t = {run.time[k]:.3g} s")
         plotting.shrink_3d_box(ax, plotting.iso_zoom(scene.lo, scene.hi))
     plotting.room_for_3d_labels(fig)
     if title:
         fig.suptitle(title)
     return fig, scene
+
+
+def section(run, steps, plane=None, zoom: str = "all", hlim=None, vlim=None, max_lines: int = 64):
+    """The side sections (contact_section.Section) of the steps: on plane
+    ('xz', 'yz', 'xy'), default the vertical plane of the largest motion."""
+    from . import contact_section   # it builds on this module's shapes
+
+    if plane is None:
+        plane = plotting.side_plane([run.position[k] for k in steps], run.rest_position)
+    return contact_section.Section(run, steps, obstacles(run), plane, reach(run), zoom, hlim, vlim,
+                                   lattice_stride(run, max_lines))
+
+
+def panel_title(run, k, units: str) -> str:
+    """'t = 0.1 s' and, with /contact, the smallest gap of the step."""
+    from .contact_section import gap_text
+
+    title = f"t = {run.time[k]:.3g} s"
+    gaps = run.contact.get("min_gap")
+    if gaps is not None and np.isfinite(gaps[k]):
+        title += f"\nsmallest gap {gap_text(float(gaps[k]), units)}"
+    return title
+
+
+def build_side_figure(run, steps, units: str, plane=None, zoom: str = "all", aspect: str = "equal",
+                      hlim=None, vlim=None, title: str | None = None):
+    """One 2-D side section a step (contact_section): the cloth's lattice
+    lines and the obstacles' outlines, the barrier's reach dashed."""
+    sec = section(run, steps, plane, zoom, hlim, vlim)
+    n = len(steps)
+    ncols = grid_columns(n)
+    fig, axes = plotting.new_figure(n, ncols=ncols, panel_size=sec.panel_size(aspect))
+    for j, (ax, k) in enumerate(zip(axes, steps)):
+        # one vertical label a row where the panels share the range
+        sec.draw(ax, k, units, aspect, panel_title(run, k, units), ylabel=zoom != "all" or j % ncols == 0)
+    from .contact_section import legend_handles
+    fig.legend(handles=legend_handles(sec.obstacles, sec.reach, units), loc="outside lower center",
+               ncols=3, fontsize="small")
+    if title:
+        fig.suptitle(title)
+    return fig, sec
 
 
 def frame_steps(run, frames: int) -> list[int]:
@@ -342,8 +490,10 @@ def animation_figure(run, steps, units: str, size_px: int = 400, view: str = "is
 
 def write_animation(run, output: str, units: str, frames: int = 60, size_px: int = 400,
                     fps: float = 12.0, view: str = "iso", elev=None, azim=None,
-                    max_lines: int = 40, colors: int = 64, solids_first: bool = False) -> int:
-    """A GIF of the run (Pillow): the cloth and obstacles in one fixed box.
+                    max_lines: int = 40, colors: int = 64, solids_first: bool = False,
+                    plane=None, aspect: str = "equal", hlim=None, vlim=None) -> int:
+    """A GIF of the run (Pillow): the cloth and obstacles in one fixed box
+    (view 'side': one fixed 2-D section, contact_section, of every frame).
     Each frame is reduced to `colors` colours without dithering (flat
     shading compresses well that way: a 400 px frame of 60 takes some
     10-30 KB). Returns the number of frames."""
@@ -354,8 +504,13 @@ def write_animation(run, output: str, units: str, frames: int = 60, size_px: int
         raise cli.UsageError(f"--gif {output}: the animation is a .gif")
     steps = frame_steps(run, frames)
     dpi = 100
-    fig, ax, scene = animation_figure(run, steps, units, size_px, view, elev, azim, max_lines,
-                                      solids_first, dpi)
+    if view == "side":
+        sec = section(run, steps, plane, "all", hlim, vlim, max_lines)
+        fig, (ax,) = plotting.new_figure(1, ncols=1, panel_size=(size_px / dpi, size_px / dpi))
+        fig.set_dpi(dpi)
+    else:
+        fig, ax, scene = animation_figure(run, steps, units, size_px, view, elev, azim, max_lines,
+                                          solids_first, dpi)
 
     class Quantized(PillowWriter):
         """PillowWriter whose frames are reduced to a few colours, undithered."""
@@ -370,10 +525,15 @@ def write_animation(run, output: str, units: str, frames: int = 60, size_px: int
     artists = []
     with writer.saving(fig, output, dpi):
         for k in steps:
-            for a in artists:
-                a.remove()
-            artists = scene.draw(ax, run.position[k])
-            ax.set_title(f"t = {run.time[k]:.2f} s", fontsize="medium")
+            if view == "side":
+                ax.cla()
+                sec.draw(ax, k, units, aspect, f"t = {run.time[k]:.2f} s")
+                plotting.finish(fig)
+            else:
+                for a in artists:
+                    a.remove()
+                artists = scene.draw(ax, run.position[k], float(run.time[k]))
+                ax.set_title(f"t = {run.time[k]:.2f} s", fontsize="medium")
             writer.grab_frame()
     return len(steps)
 
@@ -383,9 +543,23 @@ def _parser():
     p.add_argument("run", help="nuno output file (.h5)")
     p.add_argument("--times", type=float, nargs="+", default=None,
                    help="times to show (nearest output step); default: 4 evenly spaced steps")
-    p.add_argument("--view", choices=tuple(plotting.VIEWS), default="iso")
-    p.add_argument("--elev", type=float, default=None, help="view elevation [degree] (default: the view's)")
-    p.add_argument("--azim", type=float, default=None, help="view azimuth [degree] (default: the view's)")
+    p.add_argument("--view", choices=("iso", "side"), default="iso",
+                   help="iso: the 3-D box; side: 2-D sections on a vertical plane (--plane), "
+                        "obstacles as outlines, the barrier's reach dashed, up up")
+    p.add_argument("--elev", type=float, default=None, help="iso: view elevation [degree] (default: the view's)")
+    p.add_argument("--azim", type=float, default=None, help="iso: view azimuth [degree] (default: the view's)")
+    p.add_argument("--plane", choices=("xz", "yz", "xy"), default=None,
+                   help="side: the plane (default: the vertical plane of the largest motion)")
+    p.add_argument("--zoom", choices=("all", "each", "obstacles"), default="all",
+                   help="side: one range for every panel (all), or each panel its own (each): "
+                        "the cloth and the obstacle parts near it; obstacles: each panel on the "
+                        "solid obstacles where they are (a gripper's fingers; default all)")
+    p.add_argument("--aspect", choices=("equal", "auto"), default="equal",
+                   help="side: equal scales, or the vertical stretched to the panel (auto)")
+    p.add_argument("--hlim", type=float, nargs=2, default=None, metavar=("LOW", "HIGH"),
+                   help="side: the horizontal axis's range (length unit), for every panel")
+    p.add_argument("--vlim", type=float, nargs=2, default=None, metavar=("LOW", "HIGH"),
+                   help="side: the vertical axis's range (length unit), for every panel")
     p.add_argument("--units", default=None,
                    help="length unit of the labels (default: the file's units attribute)")
     p.add_argument("--title", default=None, help="a title over the panels")
@@ -408,6 +582,17 @@ def _body(args):
         raise cli.UsageError(f"--size {args.size}: at least 100 pixels")
     if args.frames < 2:
         raise cli.UsageError(f"--frames {args.frames}: at least 2")
+    if args.view != "side":
+        given = [o for o, v in (("--plane", args.plane), ("--hlim", args.hlim), ("--vlim", args.vlim),
+                                ("--zoom", args.zoom != "all" or None),
+                                ("--aspect", args.aspect != "equal" or None)) if v is not None]
+        if given:
+            raise cli.UsageError(f"{given[0]} goes with --view side")
+    elif args.elev is not None or args.azim is not None or args.solids_first:
+        raise cli.UsageError("--elev, --azim and --solids-first go with --view iso")
+    for name, lim in (("--hlim", args.hlim), ("--vlim", args.vlim)):
+        if lim is not None and not lim[0] < lim[1]:
+            raise cli.UsageError(f"{name} {lim[0]:g} {lim[1]:g}: LOW < HIGH")
     run = cli.load_run(args.run)
     units = args.units or run.units()
     steps = choose_steps(run, args.times)
@@ -415,12 +600,17 @@ def _body(args):
     if unknown:
         raise ValueError(f"{args.run}: obstacle shape {', '.join(unknown)}: not one this script draws "
                          f"({', '.join(SHAPES)})")
-    fig, _ = build_figure(run, steps, units, args.view, args.elev, args.azim, title=args.title,
-                          solids_first=args.solids_first)
+    if args.view == "side":
+        fig, _ = build_side_figure(run, steps, units, args.plane, args.zoom, args.aspect, args.hlim, args.vlim,
+                                   title=args.title)
+    else:
+        fig, _ = build_figure(run, steps, units, args.view, args.elev, args.azim, title=args.title,
+                              solids_first=args.solids_first)
     plotting.save(fig, args.output or cli.default_output(args.run, "contact"), args.dpi)
     if args.gif:
         write_animation(run, args.gif, units, args.frames, args.size, args.fps, args.view, args.elev, args.azim,
-                        solids_first=args.solids_first)
+                        solids_first=args.solids_first, plane=args.plane, aspect=args.aspect,
+                        hlim=args.hlim, vlim=args.vlim)
 
 
 def main(argv=None) -> int:

@@ -274,7 +274,7 @@ def length_label(axis: str, units: str) -> str:
 
 
 def quantity_label(kind: str, units: str) -> str:
-    """Axis label for energy, momentum or angular momentum in the run's units."""
+    """Axis label for energy, momentum, angular momentum or force in the run's units."""
     mass, time = ("g", "s") if units == "mm" else ("kg", "s")
     if units not in ("mm", "m"):
         return kind
@@ -284,6 +284,8 @@ def quantity_label(kind: str, units: str) -> str:
         return f"momentum [{mass} {units}/{time}]"
     if kind == "angular momentum":
         return f"angular momentum [{mass} {units}$^2$/{time}]"
+    if kind == "force":
+        return "force [N]" if units == "m" else f"force [{mass} {units}/{time}$^2$]"
     return kind
 
 

@@ -11,6 +11,14 @@ same quantities overlaid, one line a run coloured in order and labelled by
 the file name, by --labels, or by the value of a swept namelist key
 (--label e_s): kinetic and elastic energy, balance drift, |p|, |L|,
 length, flatness and the cumulative linear iterations (the cost).
+
+A run with obstacles (a file with /contact, docs/model.md section 9) gets
+four panels more: the active contacts (node-obstacle pairs with a gap below
+contact_dhat), the smallest gap (log scale, contact_dhat marked), the
+contact force along -g (the barrier's normal force, and with friction)
+against the cloth's weight m |g| (where the cloth rests on an obstacle the
+force carries it), and the friction work. Files without /contact (no
+obstacles, or written before it) are drawn as before.
 """
 
 from __future__ import annotations
@@ -20,6 +28,8 @@ import numpy as np
 from . import cli, plotting
 
 N_PANELS = 8
+N_CONTACT_PANELS = 4     # with /contact: active pairs, smallest gap, force along -g, friction work
+DHAT_DEFAULT = 1.0e-3    # contact_dhat's default (input/README.md, &contact), in the file's length unit
 
 
 def balance_drift(run) -> np.ndarray:
@@ -82,13 +92,109 @@ def _vector(ax, t, data, name, ylabel):
     ax.set_ylabel(ylabel)
 
 
+def _key(run, key, default=None):
+    """A namelist key of the run (/config, else the echoed namelist), or default."""
+    try:
+        return cli.run_value(run, key)
+    except KeyError:
+        return default
+
+
+def contact_dhat(run) -> float:
+    """The barrier's reach contact_dhat [length] (its default where the file has none)."""
+    value = _key(run, "contact_dhat", DHAT_DEFAULT)
+    return float(np.ravel(np.asarray(value, dtype=float))[0])
+
+
+def weight(run):
+    """(up, m |g|): the unit vector against gravity and the cloth's weight, or
+    (None, None) without gravity or node masses."""
+    g = cli.gravity(run)
+    if g is None or run.mass is None or not np.linalg.norm(g) > 0.0:
+        return None, None
+    size = float(np.linalg.norm(g))
+    return -g / size, float(np.sum(run.mass)) * size
+
+
+def force_up(run, name: str = "normal_force"):
+    """/contact's force series `name` [nt][3] along -g (its magnitude where
+    the file has no gravity), [nt]; None without it."""
+    f = run.contact.get(name)
+    if f is None:
+        return None
+    up, _ = weight(run)
+    f = np.asarray(f, dtype=float)
+    return f @ up if up is not None else np.linalg.norm(f, axis=-1)
+
+
+def _positive(y):
+    """y with values <= 0 (none in a sound file; NaN in a restart of an older one) masked for a log axis."""
+    y = np.asarray(y, dtype=float)
+    return np.where(y > 0.0, y, np.nan)
+
+
+def contact_panels(run, axes, units: str) -> None:
+    """The four contact panels of a file with /contact on axes (active pairs,
+    smallest gap, force along -g against the weight, friction work). Each
+    axes gets a label 'contact:<what>' (tests find the panels by it)."""
+    t = run.time
+    c = run.contact
+    ax_act, ax_gap, ax_f, ax_fw = axes
+    dhat = contact_dhat(run)
+    ax_act.set_label("contact:active")
+    if "active" in c:
+        ax_act.step(t, c["active"], where="post", color="C0")
+    else:
+        _absent(ax_act, "active")
+    ax_act.set_ylabel("active contacts")
+    ax_act.set_title(f"node-obstacle pairs with gap < contact_dhat = {dhat:g} {units}", fontsize="small")
+
+    ax_gap.set_label("contact:gap")
+    if "min_gap" in c:
+        ax_gap.semilogy(t, _positive(c["min_gap"]), color="C0", label="smallest gap")
+    if "min_gap_run" in c:
+        ax_gap.semilogy(t, _positive(c["min_gap_run"]), color="C1", ls=":",
+                        label="smallest of every accepted state so far")
+    if ax_gap.lines:
+        ax_gap.axhline(dhat, color="k", ls="--", lw=0.8, label=f"contact_dhat = {dhat:g} {units}")
+        ax_gap.legend(fontsize="small")
+    else:
+        _absent(ax_gap, "min_gap")
+    ax_gap.set_ylabel(plotting.length_label("gap", units))
+
+    ax_f.set_label("contact:force")
+    up, w = weight(run)
+    along = "along −g" if up is not None else "magnitude"
+    normal, total = force_up(run, "normal_force"), force_up(run, "force")
+    if normal is not None:
+        ax_f.plot(t, normal, color="C0", label=f"normal (barrier) force, {along}")
+    if total is not None:
+        ax_f.plot(t, total, color="C2", ls="--", lw=0.9, label=f"with friction, {along}")
+    if w is not None:
+        ax_f.axhline(w, color="k", ls=":", lw=0.9, label=f"weight m |g| = {w:.4g}")
+    if ax_f.lines:
+        ax_f.legend(fontsize="small")
+    else:
+        _absent(ax_f, "normal_force")
+    ax_f.set_ylabel(plotting.quantity_label("force", units).replace("force", "contact force", 1))
+
+    ax_fw.set_label("contact:friction_work")
+    if "friction_work" in c:
+        ax_fw.plot(t, c["friction_work"], color="C0")
+    else:
+        _absent(ax_fw, "friction_work")
+    ax_fw.set_ylabel(plotting.quantity_label("energy", units).replace("energy", "friction work", 1))
+
+
 def build_figure(run):
-    """An 8-panel figure (4 rows x 2 columns) of the run's diagnostics."""
+    """An 8-panel figure (4 rows x 2 columns) of the run's diagnostics; 12
+    panels (6 rows) for a run with obstacles (/contact)."""
     units = run.units()
     t = run.time
     d = run.diagnostics
-    fig, axes = plotting.new_figure(N_PANELS, ncols=2, panel_size=(5.5, 2.8))
-    ax_e, ax_b, ax_p, ax_l, ax_len, ax_flat, ax_steps, ax_it = axes
+    n_contact = N_CONTACT_PANELS if run.contact else 0
+    fig, axes = plotting.new_figure(N_PANELS + n_contact, ncols=2, panel_size=(5.5, 2.8))
+    ax_e, ax_b, ax_p, ax_l, ax_len, ax_flat, ax_steps, ax_it = axes[:N_PANELS]
 
     for name, label in (("kinetic", "kinetic"), ("stretch", "stretch"), ("bend", "bend"),
                         ("barrier", "barrier (contact)"), ("dissipated", "dissipated"),
@@ -103,7 +209,8 @@ def build_figure(run):
     ax_e.set_ylabel(plotting.quantity_label("energy", units))
     ax_e.legend(fontsize="small")
     ax_b.set_ylabel("balance drift / max energy")
-    ax_b.set_title(r"$(E_{kin}+E_s+E_b+E_{diss}-W_{ext})(t) - (\cdot)(0)$", fontsize="small")
+    barrier = "+E_{bar}" if "barrier" in run.energy else ""
+    ax_b.set_title(rf"$(E_{{kin}}+E_s+E_b{barrier}+E_{{diss}}-W_{{ext}})(t) - (\cdot)(0)$", fontsize="small")
 
     _vector(ax_p, t, d.get("momentum"), "p", plotting.quantity_label("momentum", units))
     _vector(ax_l, t, d.get("angular_momentum"), "L",
@@ -133,6 +240,8 @@ def build_figure(run):
             _absent(ax, " and ".join(names))
         ax.set_ylabel("cumulative count")
     ax_it.set_yscale("symlog", linthresh=10)
+    if n_contact:
+        contact_panels(run, axes[N_PANELS:], units)
 
     for ax in axes:
         ax.set_xlabel("t [s]")
@@ -157,6 +266,15 @@ OVERLAY = (  # (panel, y label kind, function run -> [nt] or None)
 )
 
 
+# With /contact in any of the runs (the others' lines are left out there).
+OVERLAY_CONTACT = (
+    ("active contacts", None, lambda r: r.contact.get("active")),
+    ("smallest gap", "gap", lambda r: _positive(r.contact["min_gap"]) if "min_gap" in r.contact else None),
+    ("normal force along −g", "force", force_up),
+    ("friction work", "energy", lambda r: r.contact.get("friction_work")),
+)
+
+
 def _norm(v):
     return None if v is None else np.linalg.norm(np.asarray(v), axis=-1)
 
@@ -169,13 +287,15 @@ def _drift_or_none(run):
 
 
 def build_overlay(runs, names):
-    """8 panels, each a quantity of every run against time, one colour a run."""
+    """8 panels, each a quantity of every run against time, one colour a
+    run; 12 when a run has obstacles (/contact): OVERLAY_CONTACT's too."""
     from .compare import run_colors  # the same colours as nuno-compare's overlay
 
     units = runs[0].units()
     colors = run_colors(len(runs), overlay=True)
-    fig, axes = plotting.new_figure(N_PANELS, ncols=2, panel_size=(5.5, 2.8))
-    for ax, (title, kind, fn) in zip(axes, OVERLAY):
+    table = OVERLAY + (OVERLAY_CONTACT if any(r.contact for r in runs) else ())
+    fig, axes = plotting.new_figure(len(table), ncols=2, panel_size=(5.5, 2.8))
+    for ax, (title, kind, fn) in zip(axes, table):
         drawn = False
         for run, name, c in zip(runs, names, colors):
             y = fn(run)
@@ -189,6 +309,17 @@ def build_overlay(runs, names):
             _plain_numbers(ax)
         elif kind == "length":
             ax.set_ylabel(plotting.length_label(title, units))
+        elif kind == "gap":
+            ax.set_yscale("log")
+            for dhat in sorted({contact_dhat(r) for r in runs if r.contact}):
+                ax.axhline(dhat, color="k", ls="--", lw=0.8)
+            ax.set_ylabel(plotting.length_label(title, units))
+            ax.set_title("contact_dhat dashed", fontsize="small")
+        elif kind == "force":
+            for w in sorted({weight(r)[1] for r in runs if r.contact} - {None}):
+                ax.axhline(w, color="k", ls=":", lw=0.9)
+            ax.set_ylabel(plotting.quantity_label(kind, units).replace(kind, title, 1))
+            ax.set_title("weight m |g| dotted", fontsize="small")
         elif kind:
             ax.set_ylabel(plotting.quantity_label(kind, units).replace(kind, title, 1))
         else:
@@ -196,7 +327,7 @@ def build_overlay(runs, names):
         ax.set_xlabel("t [s]")
         ax.grid(True, alpha=0.3)
     if any(r.diagnostics.get("linear_iterations") is not None for r in runs):
-        axes[-1].set_yscale("symlog", linthresh=10)
+        axes[N_PANELS - 1].set_yscale("symlog", linthresh=10)    # the linear iterations (OVERLAY's last)
     handles, texts = axes[0].get_legend_handles_labels()
     fig.legend(handles, texts, loc="outside lower center", ncols=min(len(runs), 6),
                fontsize="small")

@@ -22,6 +22,7 @@ module errors
   private
   public :: help_requested, version_requested, list_keys_requested, input_path_argument, fatal_collective, fatal_local, apply_namelist_options
   public :: petsc_options_text, quiet_exit, read_input_options, quiet_petsc_errors
+  public :: stray_argument, options_file_refusal, petsc_help_given
 
   interface
     !> src/app/nuno_errors.c: PETSc errors kept as text instead of printed.
@@ -58,10 +59,20 @@ module errors
 
 contains
 
-  !> True when an argument is --help or -h.
+  !> True when an argument is --help or -h, or PETSc's -help without an
+  !> input file (with one, -help lists the options of that run's set-up:
+  !> petsc_help_given).
   logical function help_requested()
+    character(len=512) :: path
     help_requested = argument_given([character(len=6) :: '--help', '-h'])
+    if (.not. help_requested .and. petsc_help_given()) help_requested = .not. input_path_argument(path)
   end function help_requested
+
+  !> True when an argument is PETSc's -help (or --help's PETSc spelling
+  !> -help intro).
+  logical function petsc_help_given()
+    petsc_help_given = argument_given(['-help'])
+  end function petsc_help_given
 
   !> True when an argument is --version.
   logical function version_requested()
@@ -95,6 +106,132 @@ contains
     input_path_argument = len_trim(path) > 0 .and. path(1:1) /= '-'
   end function input_path_argument
 
+  !> The command line's words after the input file, as PETSc reads them
+  !> (src/sys/objects/options.c, PetscOptionsInsertArgs): an option name
+  !> takes the next word as its value unless that is an option name too;
+  !> -options_file, -options_file_yaml, -options_string_yaml, -prefix_push
+  !> (and nuno's -nuno_set, module input_text) take the next word always.
+  !> PETSc skips any other word silently, so `nuno in.nml ts_max_steps 1`
+  !> or a second namelist file ran the whole scene: msg is the one-line
+  !> refusal of the first such word ('' when none), with a hint.
+  subroutine stray_argument(msg)
+    character(len=*), intent(out) :: msg
+    character(len=:), allocatable :: arg, hint
+    integer :: k, n
+
+    msg = ''
+    n = command_argument_count()
+    k = 2
+    do while (k <= n)
+      arg = argument_text(k)
+      if (.not. option_name(arg)) exit
+      select case (arg)
+      case ('-prefix_pop')
+        k = k + 1
+      case ('-nuno_set', '-options_file', '-options_file_yaml', '-options_string_yaml', '-prefix_push')
+        k = k + 2
+      case default
+        k = k + 1
+        if (k <= n) then
+          if (.not. option_name(argument_text(k))) k = k + 1
+        end if
+      end select
+    end do
+    if (k > n) return
+    if (index(arg, '=') > 0) then
+      hint = ': a namelist key goes in -nuno_set, with the whole list quoted when it has blanks '// &
+             '(-nuno_set "nx=33 ny=33")'
+    else if (verify(arg, 'abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_') == 0 .and. &
+             scan(arg(1:1), '0123456789') == 0) then
+      hint = ' (an option is written -'//arg//')'
+    else if (k == 2 .or. index(arg, '.nml') > 0) then
+      hint = ': nuno reads one input file, the first argument'
+    else
+      hint = ''
+    end if
+    write(msg, '(a,i0,a)') "command line: '"//arg//"' (argument ", k, ') is neither the input file, an option '// &
+      '(options start with -) nor an option''s value'//hint
+  end subroutine stray_argument
+
+  !> Whether word is an option name as PETSc decides it
+  !> (PetscOptionsValidKey): -name or --name whose first letter is a letter
+  !> and which is not a number (-inf, -nan).
+  logical function option_name(word)
+    character(len=*), intent(in) :: word
+    character(len=:), allocatable :: w
+    option_name = .false.
+    if (len(word) < 2) return
+    if (word(1:1) /= '-') return
+    w = word(2:)
+    if (w(1:1) == '-') w = w(2:)
+    if (len(w) < 1) return
+    if (scan(w(1:1), 'abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ') == 0) return
+    select case (lower_case(w))
+    case ('inf', 'infinity', 'nan')
+      return
+    end select
+    option_name = .true.
+  end function option_name
+
+  !> Argument k of the command line, whole.
+  function argument_text(k) result(arg)
+    integer, intent(in) :: k
+    character(len=:), allocatable :: arg
+    integer :: n
+    call get_command_argument(k, length=n)
+    allocate(character(len=n) :: arg)
+    if (n > 0) call get_command_argument(k, arg)
+  end function argument_text
+
+  pure function lower_case(s) result(r)
+    character(len=*), intent(in) :: s
+    character(len=len(s)) :: r
+    integer :: i
+    r = s
+    do i = 1, len(s)
+      if (s(i:i) >= 'A' .and. s(i:i) <= 'Z') r(i:i) = achar(iachar(s(i:i)) + 32)
+    end do
+  end function lower_case
+
+  !> An options file of the command line (-options_file FILE,
+  !> -options_file_yaml FILE) that rank 0 cannot read, or that has no file
+  !> name: the one-line refusal ('' when none; the same on every rank).
+  !> PETSc reads these files inside PetscInitialize, and its failure was a
+  !> 15-line report from every rank and an abort; so this runs before
+  !> PETSc, with MPI alone. Collective.
+  subroutine options_file_refusal(comm, msg)
+    integer, intent(in) :: comm
+    character(len=*), intent(out) :: msg
+    character(len=:), allocatable :: arg, file
+    character(len=512) :: iomsg
+    integer :: k, n, rank, ios, u, mpierr
+
+    msg = ''
+    call MPI_Comm_rank(comm, rank, mpierr)
+    n = command_argument_count()
+    do k = 2, n
+      arg = argument_text(k)
+      if (arg /= '-options_file' .and. arg /= '-options_file_yaml') cycle
+      file = ''
+      if (k < n) file = argument_text(k + 1)
+      if (len(file) == 0 .or. option_name(file)) then
+        msg = 'command line: '//arg//' needs a file name ('//arg//' FILE)'
+        return
+      end if
+      ios = 0
+      if (rank == 0) then
+        open(newunit=u, file=file, status='old', action='read', iostat=ios, iomsg=iomsg)
+        if (ios == 0) close(u)
+      end if
+      call MPI_Bcast(ios, 1, MPI_INTEGER, 0, comm, mpierr)
+      if (ios /= 0) then
+        msg = 'command line: '//arg//' '//file//': cannot read it'
+        if (rank == 0) msg = trim(msg)//' ('//trim(iomsg)//')'
+        return
+      end if
+    end do
+  end subroutine options_file_refusal
+
   !> Collective error exit: one line on rank 0 (stderr), exit code 1
   !> everywhere; with reported, no line (the cause was reported already and
   !> this error follows from it, e.g. a full disk refusing the close).
@@ -103,7 +240,7 @@ contains
     logical, intent(in), optional :: reported
     integer :: rank, ierr
     PetscBool :: initialized
-    logical :: quiet
+    logical :: quiet, finalized
     quiet = .false.
     if (present(reported)) quiet = reported
     call MPI_Comm_rank(MPI_COMM_WORLD, rank, ierr)
@@ -117,6 +254,10 @@ contains
     call cleanup_run()
     call PetscInitialized(initialized, ierr)
     if (initialized) call PetscFinalize(ierr)
+    ! main starts MPI before PETSc (the command line's checks), so PETSc
+    ! leaves it to us
+    call MPI_Finalized(finalized, ierr)
+    if (.not. finalized) call MPI_Finalize(ierr)
     call quiet_exit(1)
   end subroutine fatal_collective
 

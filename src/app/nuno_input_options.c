@@ -68,16 +68,23 @@ PetscErrorCode nuno_input_options_read(MPI_Fint fcomm, int *allow_long, double *
                                  "nuno", buf, buf, sizeof(buf), &given));
   }
   restart[0] = '\0';
-  PetscCall(PetscOptionsString("-nuno_restart", "continue the run from the last checkpoint in this output file, appending to it (input/README.md, Checkpoints)",
-                               "nuno", restart, restart, (size_t)restart_len, NULL));
+  bad[0]     = '\0';
+  {
+    /* Without its file (-nuno_restart last, or before another option) it
+     * would read as no restart at all: the run would start afresh and, at
+     * its first output step, replace the file it was meant to continue. */
+    PetscBool given;
+    PetscCall(PetscOptionsString("-nuno_restart", "continue the run from the last checkpoint in this output file, appending to it (input/README.md, Checkpoints)",
+                                 "nuno", restart, restart, (size_t)restart_len, &given));
+    if (given && !restart[0]) PetscCall(PetscSNPrintf(bad, (size_t)bad_len, "-nuno_restart needs the file to continue: -nuno_restart FILE (the output file of the run that wrote the checkpoint)"));
+  }
   {
     char      wt[256] = "";
     PetscBool given;
     *walltime = 0.0;
-    bad[0]    = '\0';
     PetscCall(PetscOptionsString("-nuno_checkpoint_walltime", "write a checkpoint after each such wall-clock time: seconds, or 90m, 23h, 1d, or H:MM:SS",
                                  "nuno", wt, wt, sizeof(wt), &given));
-    if (given && parse_duration(wt, walltime)) {
+    if (given && parse_duration(wt, walltime) && !bad[0]) {
       PetscCall(PetscSNPrintf(bad, (size_t)bad_len, "-nuno_checkpoint_walltime %s: not a wall-clock duration > 0 (seconds, or 90m, 23h, 1d, or H:MM:SS)", wt));
       *walltime = 0.0;
     }

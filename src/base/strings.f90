@@ -1,7 +1,7 @@
 ! SPDX-License-Identifier: BSD-2-Clause
-!> Numbers as text, for messages, attributes and the XDMF sidecar. No PETSc,
-!> no MPI: every room may use it (built into the input-text library, the
-!> lowest one above the kernels).
+!> Numbers as text, for messages, attributes and the XDMF sidecar: the
+!> program's only number-to-string helpers. No PETSc, no MPI: in the base
+!> layer (src/base), which every other layer may use.
 module strings
   use kinds, only: rp
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite

@@ -14,7 +14,7 @@
 !> dF/dtheta (TSSetIJacobianP, through src/identify/nuno_adjoint.c). Identification:
 !> every force is linear in each of e_s, e_d, eta_s, eta_d, k_b, eta_b, so
 !> dF_v/d(ln p) = -f_p/m with f_p the force of the elements computed with
-!> only p non-zero (the kernels of module forces on a lattice copy); for
+!> only p non-zero (model_state's model_force_rows on a lattice copy); for
 !> total_mass (every node mass is proportional to it) dF_v/d(ln M) = +f/m.
 !> Control: only the x-rows of the driven nodes depend on theta, F_x =
 !> xdot - vb with vb the slope of the window's segment, so dF_x/dd =
@@ -40,11 +40,14 @@ module identify_adjoint
   use kinds, only: rp
   use config, only: nuno_config
   use lattice, only: lattice_t, lattice_init
-  use cloth_model, only: model_internal_forces
+  use model_state, only: model_force_rows
+  use ghosted_state, only: ghosted_get, ghosted_restore
   use scenes, only: scene_setup
   use constraints, only: PATH_KEYFRAMES, constraints_active, constraint_count, constraint_node, constraint_path
   use timestepping, only: app_ctx, enter_window, advance_window
-  use step_monitor, only: energy_integrals_reset, progress_reset
+  use energy_integrals, only: energy_integrals_reset
+  use run_progress, only: progress_reset
+  use step_settings, only: step_dt
   use safe_files, only: make_scratch_dir, remove_scratch
   use identify_params, only: ident_params_t, MODE_CONTROL, params_setup_identify, params_setup_control, &
                              apply_theta, values_text, params_mode, params_tag, params_np, params_nk, params_code, &
@@ -219,8 +222,8 @@ contains
     ! Room for the whole run: its steps, one more per window, retries.
     nw = obs_n_windows(id%obs)
     call obs_window(id%obs, int(nw), ta, tend, k)
-    horizon = 2.0_rp * (tend + real(nw + 1, rp) * app%step%dt)
-    call nuno_ts_trajectory_fresh(app%ts, horizon, app%step%dt, nw, trim(id%run%traj_dir)//c_null_char, ierr)
+    horizon = 2.0_rp * (tend + real(nw + 1, rp) * step_dt(app%step))
+    call nuno_ts_trajectory_fresh(app%ts, horizon, step_dt(app%step), nw, trim(id%run%traj_dir)//c_null_char, ierr)
     if (ierr == -1) then
       ierr = 1
       id%run%failed = .true.
@@ -303,7 +306,7 @@ contains
       ! saves it; otherwise the adjoint of the previous window pops the
       ! wrong checkpoint.
       PetscCall(TSSetConvergedReason(app%ts, TS_CONVERGED_ITERATING, ierr))
-      h = app%step%dt
+      h = step_dt(app%step)
       call advance_window(app, t, tb, h, .true., reason, ierr)
       if (ierr /= 0) return
       if (reason < 0 .or. abs(t - tb) > 1.0e3_rp * eps) then
@@ -498,10 +501,7 @@ contains
     real(rp) :: sgn
 
     app => id%app
-    PetscCall(DMGetLocalVector(app%da, uloc, ierr))
-    PetscCall(DMGlobalToLocalBegin(app%da, uvec, INSERT_VALUES, uloc, ierr))
-    PetscCall(DMGlobalToLocalEnd(app%da, uvec, INSERT_VALUES, uloc, ierr))
-    PetscCall(DMDAVecGetArrayReadF90(app%da, uloc, u, ierr))
+    PetscCall(ghosted_get(app%da, uvec, uloc, u, ierr))
     do k = 1, params_np(id%par)
       lp = app%lat
       sgn = -1.0_rp
@@ -518,17 +518,9 @@ contains
         case (6); lp%eta_b = app%lat%eta_b
         end select
       end if
-      call model_internal_forces(app%model, lp, u, nbad, bad)
-      do j = app%lat%ys, app%lat%ye
-        do i = 0, app%lat%nx - 1
-          if (app%model%fixed(i, j)) cycle
-          r = 6 * (i + app%lat%nx * (j - app%lat%ys))
-          a(r + 4:r + 6, k) = sgn * app%model%f(:, i, j) / app%lat%mass(i, j)
-        end do
-      end do
+      call model_force_rows(app%model, lp, u, sgn, a(:, k), nbad, bad)
     end do
-    PetscCall(DMDAVecRestoreArrayReadF90(app%da, uloc, u, ierr))
-    PetscCall(DMRestoreLocalVector(app%da, uloc, ierr))
+    PetscCall(ghosted_restore(app%da, uloc, u, ierr))
   end subroutine fit_jacobianp
 
   ! ----------------------------------------------------------------- readers

@@ -13,10 +13,10 @@ module input
   use mpi
   use kinds, only: rp
   use config, only: nuno_config, keyframe_max, unset_real, &
-                    BEND_NONE, BEND_PAPER, BEND_ENERGY, SCENE_WAVE_POINT, SCENE_HANG, SCENE_LIFT_RELEASE
+                    BEND_NONE, BEND_PAPER, BEND_ENERGY, SCENE_WAVE_POINT, SCENE_HANG, SCENE_LIFT_RELEASE, obstacle_max
   use input_text, only: assignment_t, lex_overrides, value_error, next_assignment, lower, &
                         strip_commas, overrides_record, key_default, namelist_value, assignment_lhs
-  use strings, only: real_short
+  use strings, only: real_short, itoa
   use input_keys, only: keys, n_keys, n_groups, group_names, KEY_REAL, G_LATTICE, G_MATERIAL, G_SCENE, G_TIME, G_OUTPUT, &
                         G_IDENTIFY, G_CONTROL, G_CONTACT
   use input_scan, only: parsed_text, scan_text, group_index
@@ -207,7 +207,8 @@ contains
     iomsg = ''
     call namelist_read(g, pt%lines, cfg, ios, iomsg)
     if (ios == 0) then
-      call check_repeated_keys(g, body, ierr, msg)
+      call check_values_given(g, body, ierr, msg)
+      if (ierr == 0) call check_repeated_keys(g, body, ierr, msg)
       return
     end if
     ierr = 1
@@ -230,7 +231,8 @@ contains
         ! name .5" for nx = 33.5, names neither).
         a = strip_commas(body(p:q - 1))
         e = index(a, '=')
-        why = value_error(assignment_key(a), a(e + 1:))
+        why = obstacle_index_error(group_names(g), assignment_key(a))
+        if (len(why) == 0) why = value_error(assignment_key(a), a(e + 1:))
         if (len(why) > 0) then
           msg = 'input: &'//trim(group_names(g))//': '//trim(adjustl(a(1:e - 1)))//' = '// &
                 strip_commas(a(e + 1:))//': '//why
@@ -243,6 +245,117 @@ contains
       p = q
     end do
   end subroutine read_group
+
+  !> An &contact key of an obstacle (obstacle_*) whose obstacle index, its
+  !> last subscript, is beyond obstacle_max: the reader's own message
+  !> ("Index 1 out of range") names neither the obstacle nor the limit.
+  !> '' for any other key.
+  function obstacle_index_error(group, key) result(why)
+    character(*), intent(in) :: group, key
+    character(:), allocatable :: why
+    integer :: b, c, e, k, n, ios
+    character(:), allocatable :: sub
+    why = ''
+    if (trim(group) /= 'contact' .or. len(key) < 10) return
+    if (key(1:9) /= 'obstacle_') return
+    b = index(key, '(')
+    e = index(key, ')', back=.true.)
+    if (b == 0 .or. e <= b) return
+    sub = key(b + 1:e - 1)
+    c = index(sub, ',', back=.true.)
+    sub = sub(c + 1:)
+    ! an index or a range lo:hi: its largest number
+    n = 0
+    do while (len(sub) > 0)
+      c = index(sub, ':')
+      if (c == 0) c = len(sub) + 1
+      read(sub(1:c - 1), *, iostat=ios) k
+      if (ios == 0) n = max(n, k)
+      if (c > len(sub)) exit
+      sub = sub(c + 1:)
+    end do
+    if (n <= obstacle_max) return
+    why = 'obstacle '//itoa(n)//' is beyond the last one nuno takes, obstacle '//itoa(obstacle_max)// &
+          ' (n_obstacles <= '//itoa(obstacle_max)//')'
+  end function obstacle_index_error
+  !> An assignment without a value (`nx = ,`, `nx =` before the next key or
+  !> the group's end) or with an empty item in its list (`gravity = 0, , -9.81`)
+  !> is refused by name: the namelist reader takes an empty value as "keep
+  !> the default" and would run with it silently.
+  subroutine check_values_given(g, body, ierr, msg)
+    integer, intent(in) :: g
+    character(*), intent(in) :: body
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    integer :: p, q, e
+    character(:), allocatable :: a, value
+
+    ierr = 0
+    msg = ''
+    p = next_assignment(body, 1)
+    do while (p <= len(body))
+      q = next_assignment(body, p + 1)
+      a = blanks_to_spaces(body(p:q - 1))
+      e = index(a, '=')
+      value = strip_commas(a(e + 1:))
+      if (len(value) == 0) then
+        ierr = 1
+        msg = 'input: &'//trim(group_names(g))//': '//assignment_key(a)//' has no value (in: '// &
+              trim(adjustl(a))//'): give a value or leave the key out (an empty value would keep '// &
+              'the default silently)'
+      else if (has_empty_item(value)) then
+        ierr = 1
+        msg = 'input: &'//trim(group_names(g))//': '//assignment_key(a)//' = '//value// &
+              ': an empty item in the list (it would keep that element''s default silently): give every value'
+      end if
+      if (ierr /= 0) then
+        if (g == G_SCENE) call unrename_scene(msg)
+        return
+      end if
+      p = q
+    end do
+  contains
+    !> Tabs and line ends as blanks (a group's body keeps its lines).
+    function blanks_to_spaces(s) result(r)
+      character(*), intent(in) :: s
+      character(len(s)) :: r
+      integer :: i
+      r = s
+      do i = 1, len(r)
+        if (r(i:i) == achar(9) .or. r(i:i) == achar(10) .or. r(i:i) == achar(13)) r(i:i) = ' '
+      end do
+    end function blanks_to_spaces
+    !> Two commas with only blanks between them, outside quotes.
+    logical function has_empty_item(v)
+      character(*), intent(in) :: v
+      character(1) :: quote
+      integer :: i
+      logical :: after_comma
+      has_empty_item = .false.
+      quote = ' '
+      after_comma = .false.
+      do i = 1, len(v)
+        if (quote /= ' ') then
+          if (v(i:i) == quote) quote = ' '
+          cycle
+        end if
+        select case (v(i:i))
+        case ("'", '"')
+          quote = v(i:i)
+          after_comma = .false.
+        case (',')
+          if (after_comma) then
+            has_empty_item = .true.
+            return
+          end if
+          after_comma = .true.
+        case (' ')
+        case default
+          after_comma = .false.
+        end select
+      end do
+    end function has_empty_item
+  end subroutine check_values_given
 
   !> A key given twice in group g's body (the namelist reader would keep the
   !> last value silently) is refused by name; an array's element and the
@@ -335,6 +448,9 @@ contains
       if (ios /= 0) then
         ierr = 1
         msg = 'input: -nuno_set: &'//trim(group_names(g))//': '//trim(iomsg)//' (in: '//items(k)%text//')'
+        if (len(obstacle_index_error(group_names(g), items(k)%key)) > 0) &
+          msg = 'input: -nuno_set: &'//trim(group_names(g))//': '//items(k)%text//': '// &
+                obstacle_index_error(group_names(g), items(k)%key)
         call unrename_scene(msg)
         return
       end if

@@ -7,13 +7,14 @@
 !> No MPI, no PETSc: every rank reaches the same result alone.
 module input_checks
   use kinds, only: rp
-  use config, only: nuno_config, keyframe_max, unset_real, contact_config, obstacle_keyframe_max, &
+  use config, only: nuno_config, keyframe_max, unset_real, contact_config, obstacle_keyframe_max, obstacle_max, &
                     BEND_NONE, BEND_PAPER, BEND_ENERGY, SCALING_CONTINUUM, MASS_AREA, &
                     SCENE_LIFT_RELEASE, SCENE_BEND_RELEASE, SCENE_WAVE_POINT, SCENE_HANG, &
                     n_fit_kinds, fit_kind_names
   use input_keys, only: keys, key_index
   use input_text, only: lower, item_end
-  use strings, only: real_short
+  use strings, only: real_short, itoa
+  use contact, only: barrier
   implicit none
   private
   public :: derive_codes, resolve_unset, validate, check_choice, choices
@@ -107,13 +108,18 @@ contains
     character(*), intent(out) :: msg
     integer :: code
     associate (ma => cfg%material, sc => cfg%scene)
-      call need_positive('lattice', 'total_mass', cfg%lattice%total_mass, ierr, msg); if (ierr /= 0) return
-      call need_nonnegative('material', 'e_s', ma%e_s, ierr, msg);     if (ierr /= 0) return
-      call need_nonnegative('material', 'eta_s', ma%eta_s, ierr, msg); if (ierr /= 0) return
-      call need_nonnegative('material', 'e_d', ma%e_d, ierr, msg);     if (ierr /= 0) return
-      call need_nonnegative('material', 'eta_d', ma%eta_d, ierr, msg); if (ierr /= 0) return
-      call need_nonnegative('material', 'k_b', ma%k_b, ierr, msg);     if (ierr /= 0) return
-      call need_nonnegative('material', 'eta_b', ma%eta_b, ierr, msg); if (ierr /= 0) return
+      ! The mass and the material constants within the key table's bounds
+      ! (need_in_range): far beyond any cloth in either unit system, and
+      ! such that no product of the model (forces, energies, their squares
+      ! in the norms, K/m in the Newton matrix) can overflow: e_s = 1e308
+      ! ran and failed every step ("try a smaller step").
+      call need_in_range('lattice', 'total_mass', cfg%lattice%total_mass, ierr, msg); if (ierr /= 0) return
+      call need_in_range('material', 'e_s', ma%e_s, ierr, msg);     if (ierr /= 0) return
+      call need_in_range('material', 'eta_s', ma%eta_s, ierr, msg); if (ierr /= 0) return
+      call need_in_range('material', 'e_d', ma%e_d, ierr, msg);     if (ierr /= 0) return
+      call need_in_range('material', 'eta_d', ma%eta_d, ierr, msg); if (ierr /= 0) return
+      call need_in_range('material', 'k_b', ma%k_b, ierr, msg);     if (ierr /= 0) return
+      call need_in_range('material', 'eta_b', ma%eta_b, ierr, msg); if (ierr /= 0) return
       call check_scaling_bending(cfg, ierr, msg); if (ierr /= 0) return
       call check_scene_geometry(cfg, ierr, msg);  if (ierr /= 0) return
       call check_keyframes(cfg, ierr, msg);       if (ierr /= 0) return
@@ -166,6 +172,11 @@ contains
         call check_obstacle_motion(c, k, ierr, msg); if (ierr /= 0) return
         ierr = 1
       end do
+      call check_unused_obstacles(c, ierr, msg); if (ierr /= 0) return
+      if (c%n_obstacles > 0) then
+        call check_contact_scales(cfg, ierr, msg); if (ierr /= 0) return
+      end if
+      ierr = 1
       ! The adjoint would be inexact with contact (docs/identification.md,
       ! "Contact"): friction's lagged normal force is not differentiated, the
       ! curved obstacles' Jacobian is PSD-projected, and the step limit's
@@ -180,6 +191,125 @@ contains
       msg = ''
     end associate
   end subroutine check_contact
+
+  !> Obstacles described beyond n_obstacles: a key of an obstacle k >
+  !> n_obstacles with a value other than its default is refused by name,
+  !> rather than ignored (the obstacle would not be there).
+  subroutine check_unused_obstacles(c, ierr, msg)
+    type(contact_config), intent(in) :: c
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    type(contact_config) :: d
+    integer :: k
+    character(12) :: sub, sub3, sub2
+    character(:), allocatable :: what
+    ierr = 0
+    msg = ''
+    do k = max(c%n_obstacles, 0) + 1, obstacle_max
+      write(sub, '(a,i0,a)') '(', k, ')'
+      write(sub3, '(a,i0,a)') '(:, ', k, ')'
+      write(sub2, '(a,i0,a)') '(:, ', k, ')'
+      what = ''
+      if (lower(adjustl(c%shape(k))) /= lower(adjustl(d%shape(k)))) then
+        what = 'obstacle_shape'//trim(sub)//' = '''//trim(adjustl(c%shape(k)))//''''
+      else if (any(c%point(:, k) /= d%point(:, k))) then
+        what = 'obstacle_point'//trim(sub3)//' = '//vec_text(c%point(:, k))
+      else if (any(c%normal(:, k) /= d%normal(:, k))) then
+        what = 'obstacle_normal'//trim(sub3)//' = '//vec_text(c%normal(:, k))
+      else if (any(c%axis(:, k) /= d%axis(:, k))) then
+        what = 'obstacle_axis'//trim(sub3)//' = '//vec_text(c%axis(:, k))
+      else if (any(c%half_size(:, k) /= d%half_size(:, k))) then
+        what = 'obstacle_half_size'//trim(sub3)//' = '//vec_text(c%half_size(:, k))
+      else if (any(c%end_pt(:, k) /= d%end_pt(:, k))) then
+        what = 'obstacle_end'//trim(sub3)//' = '//vec_text(c%end_pt(:, k))
+      else if (c%radius(k) /= d%radius(k)) then
+        what = 'obstacle_radius'//trim(sub)//' = '//real_short(c%radius(k))
+      else if (c%mu(k) /= d%mu(k)) then
+        what = 'obstacle_mu'//trim(sub)//' = '//real_short(c%mu(k))
+      else if (c%n_keyframes(k) /= d%n_keyframes(k)) then
+        what = 'obstacle_n_keyframes'//trim(sub)//' = '//itoa(c%n_keyframes(k))
+      else if (any(c%key_time(:, k) /= d%key_time(:, k))) then
+        what = 'obstacle_time'//trim(sub2)
+      else if (any(c%key_offset(:, :, k) /= d%key_offset(:, :, k))) then
+        what = 'obstacle_offset(:, :, '//itoa(k)//')'
+      else if (any(c%key_close(:, k) /= d%key_close(:, k))) then
+        what = 'obstacle_close'//trim(sub2)
+      else if (any(c%close_dir(:, k) /= d%close_dir(:, k))) then
+        what = 'obstacle_close_dir'//trim(sub3)//' = '//vec_text(c%close_dir(:, k))
+      end if
+      if (len(what) == 0) cycle
+      ierr = 1
+      msg = 'input: &contact: '//what//' describes obstacle '//itoa(k)//', beyond n_obstacles = '// &
+            itoa(c%n_obstacles)//': set n_obstacles = '//itoa(k)//' (or more), or leave the key out'
+      return
+    end do
+  end subroutine check_unused_obstacles
+
+  !> The barrier's and friction's parameters against the scene's scales
+  !> (input/README.md, "&contact", where the reasons are), a the smaller
+  !> lattice spacing, m_max and m_min the heaviest and the lightest node,
+  !> g0 = |gravity|, dt the step:
+  !>   contact_dhat in [1e-4 a, a];
+  !>   contact_stiffness at most 100 m_min / dt^2, and with gravity at
+  !>     least the stiffness whose barrier holds m_max g0 at a gap of
+  !>     1e-5 contact_dhat (ten times the acceptance floor);
+  !>   friction_eps_v in [1e-7, 1] a / dt where some obstacle has friction.
+  subroutine check_contact_scales(cfg, ierr, msg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    real(rp) :: a, mmax, mmin, g0, dt, lo, hi, e, de, d2e
+    ierr = 1
+    associate (c => cfg%contact, l => cfg%lattice)
+      a = min(l%ax, l%ay)
+      if (l%mass_code == MASS_AREA) then
+        mmax = l%total_mass / real((l%nx - 1) * (l%ny - 1), rp)
+        mmin = 0.25_rp * mmax
+      else
+        mmax = l%total_mass / real(l%nx * l%ny, rp)
+        mmin = mmax
+      end if
+      g0 = norm2(cfg%scene%gravity)
+      dt = cfg%time%dt
+      lo = 1.0e-4_rp * a
+      hi = a
+      if (.not. (c%dhat >= lo .and. c%dhat <= hi)) then
+        msg = 'input: &contact: contact_dhat = '//real_short(c%dhat)//' must be between 1e-4 and 1 times the '// &
+              'lattice spacing '//real_short(a)//' ('//real_short(lo)//' .. '//real_short(hi)// &
+              '): the barrier acts on the nodes, within a link of an obstacle (input/README.md, "&contact")'
+        return
+      end if
+      hi = 100.0_rp * mmin / dt**2
+      if (.not. (c%stiffness <= hi)) then
+        msg = 'input: &contact: contact_stiffness = '//real_short(c%stiffness)//' must be at most 100 m/dt^2 = '// &
+              real_short(hi)//' (m = '//real_short(mmin)//' the lightest node, dt = '//real_short(dt)// &
+              '): a stiffer barrier stops Newton at every impact (input/README.md, "&contact")'
+        return
+      end if
+      if (g0 > 0.0_rp) then
+        call barrier(1.0e-5_rp * c%dhat, c%dhat, e, de, d2e)
+        lo = mmax * g0 / abs(de)
+        if (.not. (c%stiffness >= lo)) then
+          msg = 'input: &contact: contact_stiffness = '//real_short(c%stiffness)//' must be at least '// &
+                real_short(lo)//': the barrier must hold the heaviest node''s weight (m g = '//real_short(mmax * g0)// &
+                ') at a gap of at least 1e-5 contact_dhat, ten times the acceptance floor (input/README.md, "&contact")'
+          return
+        end if
+      end if
+      if (any(c%mu(1:c%n_obstacles) > 0.0_rp)) then
+        lo = 1.0e-7_rp * a / dt
+        hi = a / dt
+        if (.not. (c%eps_v >= lo .and. c%eps_v <= hi)) then
+          msg = 'input: &contact: friction_eps_v = '//real_short(c%eps_v)//' must be between 1e-7 and 1 times a/dt = '// &
+                real_short(a / dt)//' (the lattice spacing '//real_short(a)//' a step, dt = '//real_short(dt)//'; '// &
+                real_short(lo)//' .. '//real_short(hi)//'): friction''s smoothing band (input/README.md, "&contact")'
+          return
+        end if
+      end if
+    end associate
+    ierr = 0
+    msg = ''
+  end subroutine check_contact_scales
 
   !> Obstacle k's geometry by its shape (code: 1 plane, 2 sphere, 3 box,
   !> 4 capsule): a plane's normal and a box's axes normalised (the box's x
@@ -648,6 +778,49 @@ contains
       msg = 'input: &'//group//': '//key//' = '//trim(a)//' must be >= '//trim(b)
     end if
   end subroutine need_int_ge
+
+  !> value within the bounds of key's `allowed` in the key table ('>= A',
+  !> '> A', '<= B', '< B', separated by ', '); NaN fails too. The message
+  !> gives the range as the table (and input/README.md) writes it.
+  subroutine need_in_range(group, key, value, ierr, msg)
+    character(*), intent(in) :: group, key
+    real(rp), intent(in) :: value
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    character(:), allocatable :: allowed, part
+    real(rp) :: bound
+    integer :: p, q, ios, w
+    logical :: ok
+
+    ierr = 0
+    msg = ''
+    allowed = trim(keys(key_index(key))%allowed)
+    ok = value == value
+    p = 1
+    do while (p <= len(allowed) .and. ok)
+      q = item_end(allowed, p, ', ')
+      part = allowed(p:q - 1)
+      w = merge(2, 1, part(2:2) == '=')
+      read(part(w + 1:), *, iostat=ios) bound
+      if (ios /= 0) part = '?'
+      select case (part(1:w))
+      case ('>=');  ok = value >= bound
+      case ('>');   ok = value > bound
+      case ('<=');  ok = value <= bound
+      case ('<');   ok = value < bound
+      case default
+        ierr = 1
+        msg = 'input: the key table''s range of '//key//' is not bounds: '//allowed   ! (test_input_text)
+        return
+      end select
+      p = q + 2
+    end do
+    if (.not. ok) then
+      ierr = 1
+      msg = 'input: &'//group//': '//key//' = '//real_short(value)//' must be '//allowed// &
+            ' (input/README.md, &'//group//')'
+    end if
+  end subroutine need_in_range
 
   !> value > 0 (NaN fails too).
   subroutine need_positive(group, key, value, ierr, msg)

@@ -40,7 +40,9 @@ module input_keys
     integer :: size            !< 1: a scalar; n: an array of n values
     character(36) :: unit      !< unit in the scene's units ('' for none)
     character(56) :: default   !< as input/README.md writes it (see above)
-    character(64) :: allowed   !< range or choices; a choice list's order is its code order
+    character(64) :: allowed   !< range or choices; a choice list's order is its code order; a range
+                               !< of bounds '>= A, <= B' ('>' and '<' too) is the one module
+                               !< input_checks' need_in_range enforces
     character(96) :: meaning   !< one line
   end type key_info
 
@@ -51,7 +53,7 @@ module input_keys
     key_info('ny', 'lattice', KEY_INTEGER, 1, '', '11; hang 21', '>= 3', 'nodes along y (the rows are split over the ranks)'), &
     key_info('lx', 'lattice', KEY_REAL, 1, 'length', '100; bend_release 50; hang 1', '> 0', 'rest size along x'), &
     key_info('ly', 'lattice', KEY_REAL, 1, 'length', '100; bend_release 50; hang 1', '> 0', 'rest size along y'), &
-    key_info('total_mass', 'lattice', KEY_REAL, 1, 'mass', '1; bend_release 0.25; hang 0.1', '> 0', &
+    key_info('total_mass', 'lattice', KEY_REAL, 1, 'mass', '1; bend_release 0.25; hang 0.1', '>= 1e-30, <= 1e30', &
              'mass of the whole cloth'), &
     key_info('mass_distribution', 'lattice', KEY_STRING, 1, '', "'uniform'; hang 'area'", 'uniform, area', &
              'node masses: equal, or Voronoi cells (continuum scaling: area)'), &
@@ -60,17 +62,17 @@ module input_keys
     ! &material
     key_info('spring_model', 'material', KEY_STRING, 1, '', "'axial'", 'axial, linear', &
              'exact Voigt element about the rest length, or the report''s linear element'), &
-    key_info('e_s', 'material', KEY_REAL, 1, 'force/length', '1; hang 100', '>= 0', 'stiffness of structural links'), &
-    key_info('eta_s', 'material', KEY_REAL, 1, 'force time/length', '1; hang 0.1', '>= 0', &
+    key_info('e_s', 'material', KEY_REAL, 1, 'force/length', '1; hang 100', '>= 0, <= 1e30', 'stiffness of structural links'), &
+    key_info('eta_s', 'material', KEY_REAL, 1, 'force time/length', '1; hang 0.1', '>= 0, <= 1e30', &
              'damping of structural links'), &
-    key_info('e_d', 'material', KEY_REAL, 1, 'force/length', '1; hang 100', '>= 0', &
+    key_info('e_d', 'material', KEY_REAL, 1, 'force/length', '1; hang 100', '>= 0, <= 1e30', &
              'stiffness of shear (diagonal) links'), &
-    key_info('eta_d', 'material', KEY_REAL, 1, 'force time/length', '1; hang 0.1', '>= 0', 'damping of shear links'), &
+    key_info('eta_d', 'material', KEY_REAL, 1, 'force time/length', '1; hang 0.1', '>= 0, <= 1e30', 'damping of shear links'), &
     key_info('bending_model', 'material', KEY_STRING, 1, '', "'paper'; wave_point 'none'; hang 'energy'", &
              'none, paper, energy', 'bending: none, the report''s force, or discrete-curvature energy'), &
     key_info('k_b', 'material', KEY_REAL, 1, 'paper: force/rad; energy: energy', 'from the scene (see above)', &
-             '>= 0', 'bending constant'), &
-    key_info('eta_b', 'material', KEY_REAL, 1, 'energy time', '0; hang 1e-4', '>= 0', &
+             '>= 0, <= 1e30', 'bending constant'), &
+    key_info('eta_b', 'material', KEY_REAL, 1, 'energy time', '0; hang 1e-4', '>= 0, <= 1e30', &
              'bending damping of the energy model'), &
     ! &scene
     key_info('scene', 'scene', KEY_STRING, 1, '', "'lift_release'", &
@@ -167,11 +169,11 @@ module input_keys
              'Coulomb friction coefficient of obstacle k'), &
     key_info('contact_thickness', 'contact', KEY_REAL, 1, 'length', '0', '>= 0', &
              'contact distance: the gap is the distance to the surface minus this'), &
-    key_info('contact_dhat', 'contact', KEY_REAL, 1, 'length', '1e-3', '> 0', &
+    key_info('contact_dhat', 'contact', KEY_REAL, 1, 'length', '1e-3', '> 0, with obstacles 1e-4 .. 1 lattice spacing', &
              'the barrier acts on gaps below this'), &
-    key_info('contact_stiffness', 'contact', KEY_REAL, 1, 'force/length', '1', '> 0', &
+    key_info('contact_stiffness', 'contact', KEY_REAL, 1, 'force/length', '1', '> 0, with obstacles at most 100 m/dt^2 and holding m g', &
              'barrier stiffness kappa: energy kappa b(gap)'), &
-    key_info('friction_eps_v', 'contact', KEY_REAL, 1, 'length/time', '1e-3', '> 0', &
+    key_info('friction_eps_v', 'contact', KEY_REAL, 1, 'length/time', '1e-3', '> 0, with friction 1e-7 .. 1 lattice spacing/dt', &
              'friction: sliding speed below which friction is smoothed (sticking)')]
 
 contains

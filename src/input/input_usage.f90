@@ -22,6 +22,14 @@ contains
       '       nuno --version                          the version and the git commit of the build', &
       '       nuno --list-keys                        every namelist key, one a line, tab-separated: name,', &
       '                                               group, type, unit, default, allowed values, meaning', &
+      '       nuno INPUT.nml -help                    the PETSc and nuno options of that run''s set-up; runs', &
+      '                                               nothing, writes nothing', &
+      '', &
+      'The options are checked before the first step: one that nothing read (misspelt,', &
+      'or not for this solver) is refused naming the nearest known one, and so are an', &
+      'integer beyond PETSc''s and a TS type nuno cannot run (input/README.md, "Options', &
+      'are honoured or refused"); a few that PETSc reads later (viewers, the solvers of', &
+      'the first solve) are reported at the end if nothing read them.', &
       '', &
       'An error is one line on stderr, and every rank exits with status 1; the banner', &
       'that follows is Open MPI''s, for any non-zero exit (mpirun -q hides it).', &
@@ -81,7 +89,8 @@ contains
     write(unit, '(a)') '', &
       'PETSc options (petsc_options in &output; the command line overrides them):', &
       '  -ts_type beuler|theta|cn|bdf|arkimex|rosw   integrator (default: backward Euler, the report''s, with', &
-      '                                               the namelist''s fixed dt)', &
+      '                                               the namelist''s fixed dt); also alpha, eimex, glle;', &
+      '                                               explicit methods (euler, rk, ...) are refused', &
       '  -ts_adapt_type basic -ts_rtol R -ts_atol A  adaptive steps with error control; without -ts_type they', &
       '                                               use rosw (Rosenbrock-W ra34pw2, the fastest at moderate', &
       '                                               tolerance in docs/workprecision.md)', &
@@ -109,9 +118,12 @@ contains
       '                                               steps: the Baraff-Witkin mode, one linear solve a step,', &
       '                                               first order', &
       '  reproducible runs                            fixed steps (no -ts_adapt_type) with -ts_dt DT: the same', &
-      '                                               steps whatever the solution; beuler (default) is order 1,', &
-      '                                               -ts_type cn order 2, -ts_type rosw order 3 at about the', &
-      '                                               cost of cn (fixed-step bdf 3-5: order 2, see docs)'
+      '                                               steps whatever the solution, unless a Newton solve fails:', &
+      '                                               its step is retried at dt/4 (with contact an impact can', &
+      '                                               do it), which the closing line and /run retried_steps', &
+      '                                               count; beuler (default) is order 1, -ts_type cn order 2,', &
+      '                                               -ts_type rosw order 3 at about the cost of cn', &
+      '                                               (fixed-step bdf 3-5: order 2, see docs)'
   end subroutine usage_petsc_options
 
   !> The --help lines on the Newton step and its linear solves.
@@ -228,7 +240,8 @@ contains
     end do
     write(unit, '(a)') 'The scene sets the defaults of every other key. Every key, its unit and its', &
       'default: nuno --list-keys, input/README.md; ready-made inputs: input/*.nml. Real', &
-      'keys must be finite (no NaN, Inf); a lattice beyond the index range or the memory', &
+      'keys must be finite (no NaN, Inf), the mass and the material constants at most', &
+      '1e30 (the mass at least 1e-30); a lattice beyond the index range or the memory', &
       'of the ranks'' hosts (at least '//kb_text(bytes_per_node_bending)//' KB a node with bending, '// &
       kb_text(bytes_per_node_plain)//' KB without) is refused.'
   end subroutine usage_keys

@@ -1,6 +1,7 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> The inner solve's initial guess at the first Newton iteration of a step
-!> (-nuno_inner_guess; docs/design.md, "The inner initial guess"). Plain
+!> (-nuno_inner_guess; docs/design.md, "the extrapolated inner start" and
+!> "the projected inner start"). Plain
 !> numbers in and out: unit-tested alone (tests/unit/test_inner_guess.f90).
 !>
 !> The first Newton correction of the velocities of a one-stage implicit

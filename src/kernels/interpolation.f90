@@ -1,6 +1,7 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> One-dimensional weights of the multigrid's cubic interpolation (module
-!> reduced builds the 2-D tensor product from them). Vertex-centred 2:1
+!> mg_transfer builds the 2-D tensor product from them, and module
+!> reduced_mg PETSc's PCMG interpolation). Vertex-centred 2:1
 !> coarsening: fine point f lies on coarse point f/2 when f is even, and
 !> midway between (f-1)/2 and (f+1)/2 when odd. An odd point gets the
 !> 4-point Lagrange weights of the coarse points around it, one-sided at

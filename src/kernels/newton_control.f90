@@ -1,8 +1,10 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> When a Newton solve of a time step has converged at the round-off floor
 !> of its residual: one rule for both Newton steps, the reduced 3-dof
-!> elimination and the assembled 6-dof Jacobian (module timestepping's
-!> snes_converged calls it). Plain numbers in and out: unit-tested alone
+!> elimination and the assembled 6-dof Jacobian (both assemblies estimate
+!> the floor with floor_node_add and floor_estimate; module newton_state
+!> applies floor_verdict in the convergence test, newton_policy's
+!> snes_converged). Plain numbers in and out: unit-tested alone
 !> (tests/unit/test_newton_control.f90).
 !>
 !> The residual F = [xdot - v ; vdot - f/m - g] (per unit mass) cannot go

@@ -1,14 +1,19 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> Forces that act on single nodes (contact with obstacles) enter the
 !> Jacobians as 3 x 3 blocks on the node's diagonal: this is their sparse
-!> list, by owned row, and what the assemblies do with it. Its writer
-!> (contact_forces' contact_blocks) fills it row by row
-!> (node_blocks_begin, node_blocks_add, node_blocks_end); the assemblies of
-!> S (reduced_assembly) and of the 6-dof Jacobian (forces' jac_buffer_row)
-!> take it intent(in) and add it (node_blocks_products, node_blocks_sub_row,
-!> node_blocks_sub_node, node_blocks_sub_diagonal). Empty (node_blocks_count
-!> 0) in a scene without such forces: then no assembly loop looks at it.
-!> The components are private: only this module's procedures write them.
+!> list, by owned row, and what the assemblies do with it. The process
+!> models' Jacobian hooks (module process_model) fill it between
+!> node_blocks_begin and node_blocks_end (module process_models calls
+!> those two around the hooks), each with node_blocks_add, in any order of
+!> the rows: node_blocks_end orders the entries by row, keeping the order
+!> of the entries within a row (so a node with blocks from two models
+!> has two entries, added in the models' order). The assemblies of S
+!> (reduced_assembly) and of the 6-dof Jacobian (forces' jac_buffer_row)
+!> take it intent(in) and add it (node_blocks_products,
+!> node_blocks_sub_row, node_blocks_sub_node, node_blocks_sub_diagonal).
+!> Empty (node_blocks_count 0) in a scene without such forces: then no
+!> assembly loop looks at it. The components are private: only this
+!> module's procedures write them.
 module node_blocks
   use kinds, only: rp
   implicit none
@@ -20,9 +25,10 @@ module node_blocks
     private
     integer :: n = 0                        !< nodes with a block
     integer :: ys = 0, ye = -1              !< the owned rows
-    integer :: jnext = 0                    !< while filled: the first row whose start is not set yet
+    logical :: ordered = .true.             !< while filled: the entries so far are in the order of the rows
     integer, allocatable :: row_start(:)    !< (ys:ye+1): entries of row j are row_start(j) .. row_start(j+1)-1
     integer, allocatable :: col(:)          !< (capacity) column i of each entry
+    integer, allocatable :: row(:)          !< (capacity) row j of each entry
     real(rp), allocatable :: kx(:, :, :)    !< (3, 3, capacity) df/dx of the node's force [force/length]
     real(rp), allocatable :: kv(:, :, :)    !< (3, 3, capacity) df/dv [force time/length]
   end type node_blocks_t
@@ -38,53 +44,75 @@ contains
       if (lbound(nb%row_start, 1) /= ys .or. ubound(nb%row_start, 1) /= ye + 1) deallocate(nb%row_start)
     end if
     if (.not. allocated(nb%row_start)) allocate(nb%row_start(ys:ye + 1))
-    if (.not. allocated(nb%col)) allocate(nb%col(64), nb%kx(3, 3, 64), nb%kv(3, 3, 64))
+    if (.not. allocated(nb%col)) allocate(nb%col(64), nb%row(64), nb%kx(3, 3, 64), nb%kv(3, 3, 64))
     nb%ys = ys
     nb%ye = ye
-    nb%jnext = ys
+    nb%ordered = .true.
     nb%n = 0
   end subroutine node_blocks_begin
 
-  !> Append the blocks kx = df/dx, kv = df/dv of node (i, j); nodes come
-  !> in the order of the rows (j never less than the last node's).
+  !> Append the blocks kx = df/dx, kv = df/dv of node (i, j), an owned
+  !> node (ys <= j <= ye); the rows may come in any order.
   subroutine node_blocks_add(nb, i, j, kx, kv)
     type(node_blocks_t), intent(inout) :: nb
     integer, intent(in) :: i, j
     real(rp), intent(in) :: kx(3, 3), kv(3, 3)
-    call set_row_starts(nb, j)
+    if (nb%n > 0) then
+      if (j < nb%row(nb%n)) nb%ordered = .false.
+    end if
     nb%n = nb%n + 1
     if (nb%n > size(nb%col)) call grow(nb, 2 * nb%n)
     nb%col(nb%n) = i
+    nb%row(nb%n) = j
     nb%kx(:, :, nb%n) = kx
     nb%kv(:, :, nb%n) = kv
   end subroutine node_blocks_add
 
-  !> The list is complete.
+  !> The list is complete: each row's entries found by row_start, the
+  !> entries ordered by row first where they came in another order (a
+  !> stable counting sort: within a row, the order in which they came).
   subroutine node_blocks_end(nb)
     type(node_blocks_t), intent(inout) :: nb
-    call set_row_starts(nb, nb%ye + 1)
-  end subroutine node_blocks_end
-
-  !> The rows before j that have no start yet end at the current entry.
-  pure subroutine set_row_starts(nb, j)
-    type(node_blocks_t), intent(inout) :: nb
-    integer, intent(in) :: j
-    do while (nb%jnext <= j)
-      nb%row_start(nb%jnext) = nb%n + 1
-      nb%jnext = nb%jnext + 1
+    integer :: m, j, c
+    integer, allocatable :: at(:), perm(:)
+    nb%row_start = 0
+    do m = 1, nb%n
+      nb%row_start(nb%row(m)) = nb%row_start(nb%row(m)) + 1
     end do
-  end subroutine set_row_starts
+    ! counts into starts: row j's entries begin after those of the rows before
+    m = 1
+    do j = nb%ys, nb%ye + 1
+      c = nb%row_start(j)
+      nb%row_start(j) = m
+      m = m + c
+    end do
+    if (nb%ordered) return
+    at = nb%row_start(nb%ys:nb%ye)
+    allocate(perm(nb%n))
+    do m = 1, nb%n
+      j = nb%row(m)
+      perm(at(j - nb%ys + 1)) = m
+      at(j - nb%ys + 1) = at(j - nb%ys + 1) + 1
+    end do
+    nb%col(1:nb%n) = nb%col(perm)
+    nb%row(1:nb%n) = nb%row(perm)
+    nb%kx(:, :, 1:nb%n) = nb%kx(:, :, perm)
+    nb%kv(:, :, 1:nb%n) = nb%kv(:, :, perm)
+    nb%ordered = .true.
+  end subroutine node_blocks_end
 
   subroutine grow(nb, m)
     type(node_blocks_t), intent(inout) :: nb
     integer, intent(in) :: m
-    integer, allocatable :: c(:)
+    integer, allocatable :: c(:), r(:)
     real(rp), allocatable :: a(:, :, :), b(:, :, :)
-    allocate(c(m), a(3, 3, m), b(3, 3, m))
+    allocate(c(m), r(m), a(3, 3, m), b(3, 3, m))
     c(1:size(nb%col)) = nb%col
+    r(1:size(nb%row)) = nb%row
     a(:, :, 1:size(nb%col)) = nb%kx
     b(:, :, 1:size(nb%col)) = nb%kv
     call move_alloc(c, nb%col)
+    call move_alloc(r, nb%row)
     call move_alloc(a, nb%kx)
     call move_alloc(b, nb%kv)
   end subroutine grow

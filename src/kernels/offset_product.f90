@@ -1,7 +1,8 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> S stored by stencil offset, nodes fastest, in double precision: the
 !> layout the assembly writes (module reduced_assembly), the product
-!> y = S x the Krylov method uses (module reduced), and what the
+!> y = S x the Krylov method uses in double precision (module reduced_mg,
+!> -nuno_mg_product double), and what the
 !> multigrid's finest level is made from (module mg_kernels). Plain arrays;
 !> no PETSc, no MPI (unit-tested alone: tests/unit/test_offset_product.f90).
 !>
@@ -14,7 +15,7 @@
 !> st(i, :, :, k, j) = S(p, p + (di, dj)) counts the stored offsets in
 !> lexicographic order, dj slowest (offset_slot); blocks pointing outside
 !> the lattice are zero and never read. The nodes of a row are fastest
-!> (not node by node, st(3, 3, k, i, j), as first written): the
+!> (not node by node, st(3, 3, k, i, j)): the
 !> assembly's element kernels form their blocks for many nodes at once
 !> (lanes), and the multigrid's finest level keeps its blocks so too, so
 !> both write and read S in vector loops, without transposing.

@@ -2,12 +2,23 @@
 !> What a checkpoint holds besides the state (checkpoint_t): a plain
 !> record that the run's checkpoints fill (module run_checkpoint) and the
 !> output file writes and reads (module output, checkpoint_check), so that
-!> the solver's context can keep a restart point without knowing HDF5.
+!> the run driver keeps its restart point (run_checkpoint's
+!> restart_state_t) without knowing HDF5.
 module checkpoint_record
   use kinds, only: rp
   implicit none
   private
-  public :: checkpoint_t
+  public :: checkpoint_t, named_value_t, named_value
+
+  !> One named value of a process model's state in a checkpoint (module
+  !> process_model's checkpoint and restore hooks): written as the
+  !> attribute `name` of the checkpoint's slot, an integer one when
+  !> is_int (v holds whole numbers then), float64 otherwise.
+  type :: named_value_t
+    character(len=48) :: name = ''
+    logical :: is_int = .false.
+    real(rp), allocatable :: v(:)
+  end type named_value_t
 
   !> Everything a run needs, besides its state (positions and velocities),
   !> to continue from a checkpoint (docs/design.md, "Checkpoints"). The
@@ -45,16 +56,25 @@ module checkpoint_record
     !> (set_newton_forcing), so a restart needs it to repeat that step bit
     !> for bit (0: unknown, files written before 5 Dec 2026)
     real(rp) :: newton_floor = 0
-    !> Contact's run diagnostics (module contact_forces; scenes with
-    !> obstacles: contact = 1, else 0, as in files written before them):
-    !> the friction work and the moving obstacles' work so far [energy],
-    !> the smallest gap over every accepted state [length], the states
-    !> checked, the limited Newton updates
-    integer :: contact = 0
-    real(rp) :: friction_work = 0
-    real(rp) :: obstacle_work = 0
-    real(rp) :: min_gap_run = huge(1.0_rp)
-    integer :: states_checked = 0, limited_steps = 0
+    !> The process models' state (module process_model's checkpoint hook),
+    !> each value an attribute of the slot named as the value (contact's:
+    !> contact_friction_work, contact_obstacle_work, contact_min_gap_run,
+    !> contact_states_checked, contact_limited_steps, as files written
+    !> before the process models have them); none without process models
+    type(named_value_t), allocatable :: pm_values(:)
   end type checkpoint_t
+
+contains
+
+  !> A named value: name, the values v, is_int: stored as integers.
+  pure function named_value(name, v, is_int) result(nv)
+    character(*), intent(in) :: name
+    real(rp), intent(in) :: v(:)
+    logical, intent(in) :: is_int
+    type(named_value_t) :: nv
+    nv%name = name
+    nv%v = v
+    nv%is_int = is_int
+  end function named_value
 
 end module checkpoint_record

@@ -23,6 +23,12 @@
 !> only, no data is copied. They let the sidecar name every array by a plain
 !> HDF DataItem, which all of ParaView's XDMF readers read (write_xdmf).
 !>
+!> Obstacles (a scene with &contact, submodule output_obstacles): each
+!> obstacle's surface as triangles in /obstacles/obstacle_<k>, its
+!> vertices written once (static) or at every output step (moving, with a
+!> view /xdmf/obstacle_<k>_vertices_<t> a step), and a second sidecar,
+!> <file>-obstacles.xdmf, that opens them in ParaView beside <file>.xdmf.
+!>
 !> Errors: every h5*_f code is checked; a failure sets ierr /= 0 and a one-line
 !> errmsg naming the call and the dataset. The collective routines end with an
 !> MPI_Allreduce of the error flag, so all ranks return the same ierr and the
@@ -35,22 +41,25 @@ module output
   use hdf5
   use mpi
   use kinds, only: rp
-  use config, only: nuno_config
-  use checkpoint_record, only: checkpoint_t
+  use config, only: nuno_config, contact_config
+  use checkpoint_record, only: checkpoint_t, named_value_t
+  use process_model, only: pm_series_t, pm_group_t
   use checkpoint_check, only: checkpoint_refusal, scene_refusal
   use safe_files, only: lock_acquire, lock_release, same_file, file_exists, rename_file, free_bytes, &
                         path_kind, kind_none, kind_file, kind_link, kind_dir, kind_unknown, remove_file, &
-                        is_nuno_output, is_nuno_sidecar, sidecar_path, tmp_open, tmp_write, tmp_commit, cleanup_add, &
-                        cleanup_drop, cleanup_file
+                        is_nuno_output, is_nuno_sidecar, sidecar_path, obstacles_sidecar_path, tmp_open, tmp_write, &
+                        tmp_commit, cleanup_add, cleanup_drop, cleanup_file
   use output_h5
   use strings, only: itoa, real_es
   implicit none
   private
 
   public :: output_open, output_write_step, output_close, output_write_run_info, output_write_wall_time
+  public :: output_write_retried_steps
   public :: output_config_key
   public :: output_write_checkpoint, output_reopen, output_steps
   public :: output_write_identify, output_write_control
+  public :: output_write_obstacles
 
   !> One key of the resolved configuration, as an attribute of /config/<group>.
   interface output_config_key
@@ -65,18 +74,10 @@ module output
     real(rp) :: length = 0, flatness = 0
     integer :: steps = 0, rejected_steps = 0, newton_iterations = 0, linear_iterations = 0
     real(rp) :: wall_time = 0            !< wall-clock seconds since the run started (rank 0's clock) [s]
-    !> contact with obstacles (written only where the file has /contact:
-    !> run_info%contact): the barrier energy (also /energy/barrier) [energy],
-    !> node-obstacle pairs with gap < dhat, the total contact force and its
-    !> barrier (normal) part [force], the friction work since the start
-    !> [energy], the smallest gap at this state and over every accepted
-    !> state so far [length], the accepted states checked
-    real(rp) :: barrier = 0
-    integer :: contact_active = 0
-    real(rp) :: contact_force(3) = 0, normal_force(3) = 0
-    real(rp) :: friction_work = 0
-    real(rp) :: min_gap = 0, min_gap_run = 0
-    integer :: states_checked = 0
+    !> the process models' series at this step (module process_model's
+    !> output hook: contact's /energy/barrier and /contact), in the order
+    !> of run_info%pm_series; none without process models
+    type(pm_series_t), allocatable :: pm_series(:)
   end type output_record
 
   !> Provenance of a run for the /run group: what a reader needs to
@@ -93,26 +94,50 @@ module output
     real(rp) :: atol_velocity = 0                !< absolute tolerance of velocities [length/time]
     character(len=32) :: start_date = ''         !< ISO 8601, local time with offset
     character(len=256) :: host = ''              !< host of rank 0
-    logical :: contact = .false.                 !< the scene has obstacles: /energy/barrier and /contact
+    !> the process models' series (names, descriptions, units, shapes:
+    !> their values do not matter here) and the groups they live in, made
+    !> by output_write_run_info (a restarted file's cut back); none
+    !> without process models
+    type(pm_series_t), allocatable :: pm_series(:)
+    type(pm_group_t), allocatable :: pm_groups(:)
   end type run_info
 
   ! checkpoint_t (what a checkpoint holds) is module checkpoint_record's.
-  public :: checkpoint_t
+  public :: checkpoint_t, named_value_t
+
+  !> A restart's judgement of a checkpoint's state before the file changes
+  !> (output_reopen): the caller extends it (the run's: the process
+  !> models' check_state hooks); judge gives ierr /= 0 and a one-line
+  !> errmsg, the same on every rank, to refuse the restart. Collective.
+  type, abstract, public :: checkpoint_judge_t
+  contains
+    procedure(judge_i), deferred :: judge
+  end type checkpoint_judge_t
+
+  abstract interface
+    !> The checkpoint's state at t: this rank's strips x, v (3, nx, ym).
+    subroutine judge_i(this, t, x, v, ierr, errmsg)
+      import :: checkpoint_judge_t, rp
+      class(checkpoint_judge_t), intent(inout) :: this
+      real(rp), intent(in) :: t
+      real(rp), intent(in) :: x(:, :, :), v(:, :, :)
+      integer, intent(out) :: ierr
+      character(*), intent(out) :: errmsg
+    end subroutine judge_i
+  end interface
 
   ! Time-dependent datasets, in the order they are extended and written.
   integer, parameter :: d_time = 1, d_position = 2, d_velocity = 3, d_kinetic = 4, &
     d_stretch = 5, d_bend = 6, d_dissipated = 7, d_external_work = 8, d_momentum = 9, &
     d_angular_momentum = 10, d_length = 11, d_flatness = 12, d_steps = 13, &
-    d_rejected_steps = 14, d_newton_iterations = 15, d_linear_iterations = 16, d_wall_time = 17, &
-    d_barrier = 18, d_contact_active = 19, d_contact_force = 20, d_normal_force = 21, d_friction_work = 22, &
-    d_barrier_energy = 23, d_min_gap = 24, d_min_gap_run = 25, d_states_checked = 26
-  !> the series of contact (d_barrier .. d_states_checked): only in the files of scenes with obstacles
-  integer, parameter :: d_contact_first = 18, n_dsets = 26
+    d_rejected_steps = 14, d_newton_iterations = 15, d_linear_iterations = 16, d_wall_time = 17
+  !> the series every file has; the process models' come after them
+  !> (run_info%pm_series, submodule output_pm)
+  integer, parameter :: n_dsets = 17
   !> the series of counts, stored as 64-bit integers (the others are float64)
-  integer, parameter :: count_series(6) = [d_steps, d_rejected_steps, d_newton_iterations, d_linear_iterations, &
-                                           d_contact_active, d_states_checked]
+  integer, parameter :: count_series(4) = [d_steps, d_rejected_steps, d_newton_iterations, d_linear_iterations]
   !> the series of 3-vectors [t][xyz] (besides the strips /position and /velocity)
-  integer, parameter :: vector_series(4) = [d_momentum, d_angular_momentum, d_contact_force, d_normal_force]
+  integer, parameter :: vector_series(2) = [d_momentum, d_angular_momentum]
   character(len=*), parameter :: slot_names(0:1) = [character(len=24) :: '/checkpoint/slot_0', '/checkpoint/slot_1']
   character(len=*), parameter :: dset_names(n_dsets) = [character(len=32) :: &
     '/time', '/position', '/velocity', &
@@ -120,9 +145,7 @@ module output
     '/energy/external_work', '/diagnostics/momentum', '/diagnostics/angular_momentum', &
     '/diagnostics/length', '/diagnostics/flatness', '/diagnostics/steps', &
     '/diagnostics/rejected_steps', '/diagnostics/newton_iterations', &
-    '/diagnostics/linear_iterations', '/wall_time', &
-    '/energy/barrier', '/contact/active', '/contact/force', '/contact/normal_force', '/contact/friction_work', &
-    '/contact/barrier_energy', '/contact/min_gap', '/contact/min_gap_run', '/contact/states_checked']
+    '/diagnostics/linear_iterations', '/wall_time']
   character(len=*), parameter :: dset_descriptions(n_dsets) = [character(len=96) :: &
     'simulation time of each output step', &
     'node positions [t][j][i][xyz] of the ny-by-nx lattice', &
@@ -140,16 +163,7 @@ module output
     'rejected time steps since the start (cumulative)', &
     'Newton iterations since the start (cumulative)', &
     'linear solver iterations since the start (cumulative)', &
-    'wall-clock seconds from the start of the run to this output step', &
-    'barrier (contact) energy, sum of kappa b(gap) over node-obstacle pairs', &
-    'node-obstacle pairs with a gap below contact_dhat', &
-    'total contact force on the cloth, barrier and friction, sum over nodes, [t][xyz]', &
-    'normal (barrier) contact force on the cloth, sum of f_n n over nodes, [t][xyz]', &
-    'friction work since the start (dissipated, >= 0; part of /energy/dissipated)', &
-    'barrier energy, sum of kappa b(gap) over node-obstacle pairs (the same as /energy/barrier)', &
-    'smallest gap (signed distance - contact_thickness) over free nodes and obstacles', &
-    'smallest gap over every accepted state since the start', &
-    'accepted states checked for penetration since the start (the initial state included)']
+    'wall-clock seconds from the start of the run to this output step']
   ! Output steps per chunk of the small datasets (one step per chunk would make
   ! thousands of tiny chunks; a crash still leaves complete steps readable).
   integer(hsize_t), parameter :: scalar_chunk = 256
@@ -162,18 +176,23 @@ module output
   type :: series_state
     private
     logical :: write_velocity = .false.
-    logical :: contact = .false.                ! the file has the contact series (output_contact)
     integer :: nt = 0                           ! output steps completely written
     integer(hid_t) :: dset(n_dsets) = -1
     integer :: drank(n_dsets) = 0
     integer(hsize_t) :: ddims(4, n_dsets) = 0   ! Fortran dims, the last one is t
     real(rp), allocatable :: times(:)           ! output times, for the XDMF file
+    ! The process models' series (output_pm): their headers, datasets, ranks, dims
+    type(pm_series_t), allocatable :: pm(:)
+    integer(hid_t), allocatable :: pm_dset(:)
+    integer, allocatable :: pm_rank(:)
+    integer(hsize_t), allocatable :: pm_dims(:, :)
   end type series_state
 
   !> The file names, the lock and the commit of the safety rules (submodule output_files).
   type :: safe_state
     private
     character(len=:), allocatable :: xmf_path, h5_base
+    character(len=:), allocatable :: obst_path   ! <file>-obstacles.xdmf: the obstacles' sidecar
     character(len=:), allocatable :: final_path  ! the output file's name
     character(len=:), allocatable :: work_path   ! <final>.partial: written until committed
     character(len=:), allocatable :: lock_path   ! <final>.lock: flock'd by rank 0
@@ -193,6 +212,20 @@ module output
     integer :: ck_slot = -1                     ! its slot, /checkpoint/slot_0 or slot_1 (-1: none)
   end type checkpoint_state
 
+  !> The obstacles of a scene with contact (submodule output_obstacles):
+  !> their surfaces in /obstacles and the sidecar <file>-obstacles.xdmf.
+  !> n = 0 (no obstacles, or output_write_obstacles not called): nothing of them.
+  type :: obstacles_state
+    private
+    integer :: n = 0                            ! obstacles
+    type(contact_config) :: cc                  ! &contact: their shapes, poses and keyframes
+    real(rp) :: centre(3) = 0, side = 0         ! a plane's patch: under this point, this side [length]
+    character(len=16) :: units = ''             ! the vertices' unit ('m', 'mm'; '': none written)
+    character(len=8), allocatable :: shape(:)   ! each one's shape: 'plane', 'sphere', 'box', 'capsule'
+    integer, allocatable :: nv(:), nf(:)        ! each one's vertices and triangles
+    logical, allocatable :: moving(:)           ! on keyframes: its vertices at every output step
+  end type obstacles_state
+
   !> Opaque handle of an open output file: the open file itself, and one
   !> record per concern.
   type, public :: output_file
@@ -204,14 +237,16 @@ module output
     type(series_state) :: series
     type(safe_state) :: safe
     type(checkpoint_state) :: ckpt
+    type(obstacles_state) :: obst
   end type output_file
 
   ! The procedures, by concern, in submodules: output_files (lifecycle and the
   ! safety rules), output_series (lattice, time series and views),
   ! output_results (run info, config, identify, control), output_checkpoint
   ! (checkpoint write, reopen, read), output_xdmf (the sidecar),
-  ! output_dims (dimension scales and units for netCDF-4 readers) and
-  ! output_contact (the series of contact, for scenes with obstacles).
+  ! output_dims (dimension scales and units for netCDF-4 readers),
+  ! output_pm (the process models' series: contact's, for scenes with
+  ! obstacles) and output_obstacles (the obstacles' surfaces).
   interface
     module subroutine output_open(out, filename, comm, nx, ny, ys, ym, rest, mass, write_velocity, &
                            attrs_namelist, attrs_petsc_options, ierr, errmsg, version, protect, overwrite)
@@ -347,6 +382,13 @@ module output
       character(*), intent(out) :: errmsg
     end subroutine output_write_wall_time
 
+    module subroutine output_write_retried_steps(out, steps, ierr, errmsg)
+      type(output_file), intent(inout) :: out
+      integer, intent(in) :: steps
+      integer, intent(out) :: ierr
+      character(*), intent(out) :: errmsg
+    end subroutine output_write_retried_steps
+
     module subroutine open_local(out, filename, rest, mass, namelist, petsc_options, version, ierr, errmsg)
       type(output_file), intent(inout) :: out
       character(*), intent(in) :: filename
@@ -377,6 +419,22 @@ module output
       character(*), intent(inout) :: errmsg
     end subroutine make_view
 
+    module subroutine make_view_dims(out, name, src, start, count, vdims, ierr, errmsg)
+      type(output_file), intent(in) :: out
+      character(*), intent(in) :: name, src
+      integer(hsize_t), intent(in) :: start(:), count(:)
+      integer(hsize_t), intent(in) :: vdims(:)      ! the view's Fortran dims (C order reversed)
+      integer, intent(inout) :: ierr
+      character(*), intent(inout) :: errmsg
+    end subroutine make_view_dims
+
+    module subroutine drop_view(out, name, ierr, errmsg)
+      type(output_file), intent(in) :: out
+      character(*), intent(in) :: name
+      integer, intent(inout) :: ierr
+      character(*), intent(inout) :: errmsg
+    end subroutine drop_view
+
     module function step_view(idx, k) result(name)
       integer, intent(in) :: idx, k
       character(len=:), allocatable :: name
@@ -395,9 +453,9 @@ module output
       character(*), intent(inout) :: errmsg
     end subroutine close_ids
 
-    module subroutine sidecar_names(filename, xmf_path, h5_base)
+    module subroutine sidecar_names(filename, xmf_path, h5_base, obst_path)
       character(*), intent(in) :: filename
-      character(len=:), allocatable, intent(out) :: xmf_path, h5_base
+      character(len=:), allocatable, intent(out) :: xmf_path, h5_base, obst_path
     end subroutine sidecar_names
 
     module subroutine output_write_checkpoint(out, ck, x, v, ierr, errmsg)
@@ -419,7 +477,7 @@ module output
     end function output_steps
 
     module subroutine output_reopen(out, filename, comm, nx, ny, ys, ym, write_velocity, t_end, attrs_namelist, &
-                                    attrs_petsc_options, ck, x, v, ierr, errmsg, protect, overwrite, cfg)
+                                    attrs_petsc_options, ck, x, v, ierr, errmsg, protect, overwrite, cfg, pm_names, judge)
       type(output_file), intent(inout) :: out
       character(*), intent(in) :: filename
       integer, intent(in) :: comm, nx, ny, ys, ym
@@ -433,6 +491,12 @@ module output
       character(*), intent(in) :: protect             ! a file that must not be written (the input; '': none)
       logical, intent(in) :: overwrite                ! -nuno_overwrite
       type(nuno_config), intent(in) :: cfg            !< the input's: its scene and model must be the file's
+      !> the process models' named values a checkpoint may hold (their
+      !> names and kinds: read into ck%pm_values where the slot has them)
+      type(named_value_t), intent(in), optional :: pm_names(:)
+      !> the run's judgement of the checkpoint's state before the file
+      !> changes (the process models' check_state hooks)
+      class(checkpoint_judge_t), intent(inout), optional :: judge
     end subroutine output_reopen
 
     module subroutine open_series(out, nt, extent, ierr, errmsg)
@@ -469,17 +533,70 @@ module output
       character(*), intent(inout) :: errmsg
     end subroutine write_units
 
-    module subroutine contact_series(out, ierr, errmsg)
+    module subroutine pm_series_register(out, series, groups, ierr, errmsg)
+      type(output_file), intent(inout) :: out
+      type(pm_series_t), intent(in) :: series(:)
+      type(pm_group_t), intent(in) :: groups(:)
+      integer, intent(inout) :: ierr
+      character(*), intent(inout) :: errmsg
+    end subroutine pm_series_register
+
+    module subroutine pm_series_extend(out, t, ierr, errmsg)
+      type(output_file), intent(inout) :: out
+      integer(hsize_t), intent(in) :: t
+      integer, intent(inout) :: ierr
+      character(*), intent(inout) :: errmsg
+    end subroutine pm_series_extend
+
+    module subroutine pm_series_write(out, series, ierr, errmsg)
+      type(output_file), intent(in) :: out
+      type(pm_series_t), intent(in) :: series(:)
+      integer, intent(inout) :: ierr
+      character(*), intent(inout) :: errmsg
+    end subroutine pm_series_write
+
+    module subroutine pm_series_close(out, ierr, errmsg)
       type(output_file), intent(inout) :: out
       integer, intent(inout) :: ierr
       character(*), intent(inout) :: errmsg
-    end subroutine contact_series
+    end subroutine pm_series_close
+
+    module subroutine pm_series_reopen(out, ierr, errmsg)
+      type(output_file), intent(inout) :: out
+      integer, intent(inout) :: ierr
+      character(*), intent(inout) :: errmsg
+    end subroutine pm_series_reopen
 
     module subroutine write_xdmf(out, ierr, errmsg)
       type(output_file), intent(in) :: out
       integer, intent(inout) :: ierr
       character(*), intent(inout) :: errmsg
     end subroutine write_xdmf
+
+    module subroutine output_write_obstacles(out, cfg, ierr, errmsg)
+      type(output_file), intent(inout) :: out
+      type(nuno_config), intent(in) :: cfg        !< its &contact, &lattice (a plane's patch) and &scene units
+      integer, intent(out) :: ierr
+      character(*), intent(out) :: errmsg
+    end subroutine output_write_obstacles
+
+    module subroutine obstacles_step(out, time, ierr, errmsg)
+      type(output_file), intent(in) :: out
+      real(rp), intent(in) :: time
+      integer, intent(inout) :: ierr
+      character(*), intent(inout) :: errmsg
+    end subroutine obstacles_step
+
+    module function obstacle_view(k, t) result(name)
+      integer, intent(in) :: k, t
+      character(len=:), allocatable :: name
+    end function obstacle_view
+
+    module subroutine drop_obstacles_sidecar(out, ierr, errmsg)
+      type(output_file), intent(in) :: out
+      integer, intent(inout) :: ierr
+      character(*), intent(inout) :: errmsg
+    end subroutine drop_obstacles_sidecar
   end interface
 
 end module output

@@ -111,6 +111,7 @@ contains
     type(checkpoint_t), intent(in) :: ck
     integer, intent(inout) :: ierr
     character(*), intent(inout) :: errmsg
+    integer :: k
 
     call set_attr_reals(grp, 'time', [ck%time], where, ierr, errmsg)
     call set_attr_reals(grp, 'dt_next', [ck%dt_next], where, ierr, errmsg)
@@ -129,12 +130,17 @@ contains
     call set_attr_int(grp, 'start_compare', ck%start_compare, where, ierr, errmsg)
     call set_attr_reals(grp, 'start_nc_prev', [ck%start_nc_prev], where, ierr, errmsg)
     call set_attr_reals(grp, 'newton_floor', [ck%newton_floor], where, ierr, errmsg)
-    if (ck%contact /= 0) then
-      call set_attr_reals(grp, 'contact_friction_work', [ck%friction_work], where, ierr, errmsg)
-      call set_attr_reals(grp, 'contact_obstacle_work', [ck%obstacle_work], where, ierr, errmsg)
-      call set_attr_reals(grp, 'contact_min_gap_run', [ck%min_gap_run], where, ierr, errmsg)
-      call set_attr_int(grp, 'contact_states_checked', ck%states_checked, where, ierr, errmsg)
-      call set_attr_int(grp, 'contact_limited_steps', ck%limited_steps, where, ierr, errmsg)
+    ! the process models' state: each named value an attribute of its name
+    if (allocated(ck%pm_values)) then
+      do k = 1, size(ck%pm_values)
+        associate (nv => ck%pm_values(k))
+          if (nv%is_int) then
+            call set_attr_int(grp, trim(nv%name), nint(nv%v(1)), where, ierr, errmsg)
+          else
+            call set_attr_reals(grp, trim(nv%name), nv%v, where, ierr, errmsg)
+          end if
+        end associate
+      end do
     end if
   end subroutine write_checkpoint_attrs
 
@@ -149,7 +155,8 @@ contains
 
   !> Open an earlier run's file to continue it from its last valid
   !> checkpoint: lock it, check the lattice and that the checkpoint is
-  !> before t_end, read ck and the state strips, cut the series back to the
+  !> before t_end, read ck and the state strips, let the run judge the
+  !> state (judge: the process models' check), cut the series back to the
   !> checkpoint's output steps, mark it running. Nothing is changed in the
   !> file when a check fails. Collective.
   module procedure output_reopen
@@ -175,7 +182,17 @@ contains
       errmsg = '-nuno_restart '//filename//': no valid checkpoint in it (one is written at the end of a run, '// &
                'on SIGTERM/SIGINT, every checkpoint_interval and every -nuno_checkpoint_walltime)'
     end if
-    if (ierr == 0) call load_checkpoint(out, filename, seq, t_end, ck, x, v, ierr, errmsg)
+    if (ierr == 0) then
+      if (present(pm_names)) then
+        call load_checkpoint(out, filename, seq, t_end, pm_names, ck, x, v, ierr, errmsg)
+      else
+        call load_checkpoint(out, filename, seq, t_end, [named_value_t ::], ck, x, v, ierr, errmsg)
+      end if
+    end if
+    ! the run's judgement of the checkpoint's state (the process models'),
+    ! before anything in the file changes
+    call agree(comm, RESTART, ierr, errmsg)
+    if (ierr == 0 .and. present(judge)) call judge%judge(ck%time, x, v, ierr, errmsg)
 
     ! The series, cut back to the checkpoint's output steps: what a run
     ! wrote after its last checkpoint is computed again (the same way).
@@ -225,7 +242,7 @@ contains
       out%safe%work_path = filename
       if (attempt) out%safe%work_path = filename//'.partial'
     end if
-    call sidecar_names(out%safe%final_path, out%safe%xmf_path, out%safe%h5_base)
+    call sidecar_names(out%safe%final_path, out%safe%xmf_path, out%safe%h5_base, out%safe%obst_path)
     out%safe%lock_path = out%safe%final_path//'.lock'
     ! In place: the checkpoint is in it already.
     out%safe%committed = out%safe%work_path == out%safe%final_path
@@ -342,14 +359,15 @@ contains
     end do
   end subroutine slot_sequences
 
-  !> Read the checkpoint of the slot with the largest sequence seq and
-  !> refuse it unless it is sound (checkpoint_check) and before t_end.
-  !> Collective.
-  subroutine load_checkpoint(out, filename, seq, t_end, ck, x, v, ierr, errmsg)
+  !> Read the checkpoint of the slot with the largest sequence seq (with
+  !> the process models' named values of pm_names) and refuse it unless it
+  !> is sound (checkpoint_check) and before t_end. Collective.
+  subroutine load_checkpoint(out, filename, seq, t_end, pm_names, ck, x, v, ierr, errmsg)
     type(output_file), intent(inout) :: out
     character(*), intent(in) :: filename
     integer, intent(in) :: seq(0:1)
     real(rp), intent(in) :: t_end
+    type(named_value_t), intent(in) :: pm_names(:)
     type(checkpoint_t), intent(out) :: ck
     real(rp), intent(out) :: x(:, :, :), v(:, :, :)
     integer, intent(inout) :: ierr
@@ -359,7 +377,7 @@ contains
 
     slot = maxloc(seq, 1) - 1
     where = trim(slot_names(slot))
-    call read_checkpoint(out, where, ck, x, v, ierr, errmsg)
+    call read_checkpoint(out, where, pm_names, ck, x, v, ierr, errmsg)
     ck%sequence = seq(slot)
     out%ckpt%ck_seq = seq(slot)
     out%ckpt%ck_slot = slot
@@ -411,10 +429,12 @@ contains
   ! ---------------------------------------------------------------------------
   ! Checkpoint read.
 
-  !> The attributes and state strips of the checkpoint slot `where`.
-  subroutine read_checkpoint(out, where, ck, x, v, ierr, errmsg)
+  !> The attributes and state strips of the checkpoint slot `where` (the
+  !> process models' values of pm_names that it has).
+  subroutine read_checkpoint(out, where, pm_names, ck, x, v, ierr, errmsg)
     type(output_file), intent(inout) :: out
     character(*), intent(in) :: where
+    type(named_value_t), intent(in) :: pm_names(:)
     type(checkpoint_t), intent(out) :: ck
     real(rp), intent(out) :: x(:, :, :), v(:, :, :)
     integer, intent(inout) :: ierr
@@ -426,7 +446,7 @@ contains
     if (h < 0) then
       call fail('h5gopen_f', where, ierr, errmsg); return
     end if
-    call read_checkpoint_attrs(grp, where, ck, ierr, errmsg)
+    call read_checkpoint_attrs(grp, where, pm_names, ck, ierr, errmsg)
     call close_group(grp, where, ierr, errmsg)
     if (ierr /= 0) return
     call read_rows3(out, where//'/position', x, ierr, errmsg)
@@ -440,14 +460,19 @@ contains
   end subroutine read_checkpoint
 
   !> checkpoint_t from the attributes of the slot's group grp (at where);
-  !> those that files of earlier versions lack take their neutral values.
-  subroutine read_checkpoint_attrs(grp, where, ck, ierr, errmsg)
+  !> those that files of earlier versions lack take their neutral values;
+  !> the process models' named values of pm_names that the slot has (with
+  !> the sizes pm_names gives) into ck%pm_values.
+  subroutine read_checkpoint_attrs(grp, where, pm_names, ck, ierr, errmsg)
     integer(hid_t), intent(in) :: grp
     character(*), intent(in) :: where
+    type(named_value_t), intent(in) :: pm_names(:)     !< the process models' values, their names and kinds
     type(checkpoint_t), intent(inout) :: ck
     integer, intent(inout) :: ierr
     character(*), intent(inout) :: errmsg
     real(rp) :: r(1)
+    integer :: k, iv
+    type(named_value_t) :: nv
 
     call get_attr_reals(grp, 'time', where, r, ierr, errmsg); ck%time = r(1)
     call get_attr_reals(grp, 'dt_next', where, r, ierr, errmsg); ck%dt_next = r(1)
@@ -478,22 +503,20 @@ contains
     if (has_attr(grp, 'newton_floor', where, ierr, errmsg)) then
       call get_attr_reals(grp, 'newton_floor', where, r, ierr, errmsg); ck%newton_floor = r(1)
     end if
-    ! contact's run diagnostics: scenes with obstacles (none in files written before /contact)
-    ck%contact = 0
-    if (has_attr(grp, 'contact_friction_work', where, ierr, errmsg)) then
-      ck%contact = 1
-      call get_attr_reals(grp, 'contact_friction_work', where, r, ierr, errmsg); ck%friction_work = r(1)
-      call get_attr_reals(grp, 'contact_min_gap_run', where, r, ierr, errmsg); ck%min_gap_run = r(1)
-      call get_attr_int(grp, 'contact_states_checked', where, ck%states_checked, ierr, errmsg)
-      call get_attr_int(grp, 'contact_limited_steps', where, ck%limited_steps, ierr, errmsg)
-    end if
-    ! the moving obstacles' work: not in files written before it (static obstacles: 0)
-    ck%obstacle_work = 0
-    if (ierr == 0 .and. ck%contact /= 0) then
-      if (has_attr(grp, 'contact_obstacle_work', where, ierr, errmsg)) then
-        call get_attr_reals(grp, 'contact_obstacle_work', where, r, ierr, errmsg); ck%obstacle_work = r(1)
+    ! the process models' named values: those of pm_names the slot has
+    ! (a model restores what it finds: files of earlier versions lack some)
+    allocate(ck%pm_values(0))
+    do k = 1, size(pm_names)
+      if (.not. has_attr(grp, trim(pm_names(k)%name), where, ierr, errmsg)) cycle
+      nv = pm_names(k)
+      if (nv%is_int) then
+        call get_attr_int(grp, trim(nv%name), where, iv, ierr, errmsg)
+        nv%v = [real(iv, rp)]
+      else
+        call get_attr_reals(grp, trim(nv%name), where, nv%v, ierr, errmsg)
       end if
-    end if
+      ck%pm_values = [ck%pm_values, nv]
+    end do
   end subroutine read_checkpoint_attrs
 
   !> Whether grp (at where) has the attribute `name`: .false. when it has

@@ -8,8 +8,9 @@
 !>
 !> Layout (C order, as readers see it): /position and /velocity
 !> (time, j, i, xyz), /lattice/rest_position (j, i, xyz), /lattice/mass
-!> (j, i), /diagnostics/momentum and angular_momentum and /contact/force and
-!> normal_force (time, xyz), every other series (time). /time is the scale "time"; /j, /i and /xyz are scales
+!> (j, i), /diagnostics/momentum and angular_momentum and the process
+!> models' 3-vectors (contact's /contact/force and normal_force) (time,
+!> xyz), every other series (time). /time is the scale "time"; /j, /i and /xyz are scales
 !> without values, marked as netCDF-4 marks a dimension that is not a
 !> variable (its NAME attribute), so readers list them as dimensions only.
 !> All of it is metadata written once, at the open (or at a restart of a
@@ -54,10 +55,19 @@ contains
         call attach(out%series%dset(k), sj, 2, name, ierr, errmsg)
         call attach(out%series%dset(k), si, 3, name, ierr, errmsg)
         call attach(out%series%dset(k), sxyz, 4, name, ierr, errmsg)
-      case (d_momentum, d_angular_momentum, d_contact_force, d_normal_force)
+      case (d_momentum, d_angular_momentum)
         call attach(out%series%dset(k), sxyz, 2, name, ierr, errmsg)
       end select
     end do
+    if (allocated(out%series%pm_dset)) then
+      do k = 1, size(out%series%pm_dset)
+        if (ierr /= 0) exit
+        if (out%series%pm_dset(k) < 0) cycle
+        name = trim(out%series%pm(k)%name)
+        call attach(out%series%pm_dset(k), time, 1, name, ierr, errmsg)
+        if (out%series%pm_rank(k) == 2) call attach(out%series%pm_dset(k), sxyz, 2, name, ierr, errmsg)
+      end do
+    end if
     call attach_static(out, '/lattice/rest_position', [sj, si, sxyz], ierr, errmsg)
     call attach_static(out, '/lattice/mass', [sj, si], ierr, errmsg)
     call close_dset(sj, '/j', ierr, errmsg)
@@ -138,7 +148,7 @@ contains
   !> unit system ('SI' or 'mm g s'; another value: none written), as UDUNITS
   !> strings. Collective.
   module procedure write_units
-    character(len=16) :: length, velocity, mass, energy, momentum, angular, force
+    character(len=16) :: length, velocity, mass, energy, momentum, angular, force, unit
     integer :: k
 
     if (ierr /= 0) return
@@ -157,15 +167,12 @@ contains
       select case (k)
       case (d_time, d_wall_time)
         call put(out%series%dset(k), 's')
-      case (d_position, d_length, d_flatness, d_min_gap, d_min_gap_run)
+      case (d_position, d_length, d_flatness)
         call put(out%series%dset(k), length)
       case (d_velocity)
         call put(out%series%dset(k), velocity)
-      case (d_kinetic, d_stretch, d_bend, d_dissipated, d_external_work, d_barrier, d_friction_work, &
-            d_barrier_energy)
+      case (d_kinetic, d_stretch, d_bend, d_dissipated, d_external_work)
         call put(out%series%dset(k), energy)
-      case (d_contact_force, d_normal_force)
-        call put(out%series%dset(k), force)
       case (d_momentum)
         call put(out%series%dset(k), momentum)
       case (d_angular_momentum)
@@ -174,6 +181,25 @@ contains
         call put(out%series%dset(k), '1')   ! counts
       end select
     end do
+    ! the process models' series: their units' quantity in this system
+    if (allocated(out%series%pm_dset)) then
+      do k = 1, size(out%series%pm_dset)
+        if (out%series%pm_dset(k) < 0 .or. ierr /= 0) cycle
+        select case (trim(out%series%pm(k)%units))
+        case ('length')
+          unit = length
+        case ('velocity')
+          unit = velocity
+        case ('energy')
+          unit = energy
+        case ('force')
+          unit = force
+        case default
+          unit = '1'
+        end select
+        call set_attr_str(out%series%pm_dset(k), 'units', trim(unit), trim(out%series%pm(k)%name), ierr, errmsg)
+      end do
+    end if
     call put_lattice('/lattice/rest_position', length)
     call put_lattice('/lattice/mass', mass)
   contains

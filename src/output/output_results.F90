@@ -6,7 +6,8 @@ submodule (output) output_results
 contains
 
   !> The group /run (provenance: versions, git commit, solver as used, date,
-  !> host), the root attribute units (and each dataset's), and the /wall_time series. Call once,
+  !> host), the root attribute units (and each dataset's), the /wall_time
+  !> series and the process models' (info%pm_series). Call once,
   !> after output_open and before the first output_write_step. Collective.
   module procedure output_write_run_info
     ! git_commit: the build's commit (cmake/git_commit.cmake, rewritten at every build)
@@ -56,8 +57,11 @@ contains
     end if
     if (ierr == 0 .and. out%series%dset(d_wall_time) < 0) &
       call create_series(out, d_wall_time, ierr, errmsg)
-    ! /energy/barrier and /contact: scenes with obstacles only
-    if (info%contact) call contact_series(out, ierr, errmsg)
+    ! the process models' series (contact's /energy/barrier and /contact:
+    ! scenes with obstacles only)
+    if (allocated(info%pm_series) .and. allocated(info%pm_groups)) then
+      call pm_series_register(out, info%pm_series, info%pm_groups, ierr, errmsg)
+    end if
     ! /wall_time's axis, and those of a file continued from an earlier version.
     call netcdf_dims(out, ierr, errmsg)
     call write_units(out, trim(info%units), ierr, errmsg)
@@ -214,5 +218,27 @@ contains
     end if
     call agree(out%comm, 'output_write_wall_time', ierr, errmsg)
   end procedure output_write_wall_time
+
+  !> The attribute /run/retried_steps: the steps the run rejected and
+  !> retried with a smaller step (a failed Newton solve, a stage outside
+  !> the domain, the error control), since t = 0 (a restart's included);
+  !> with fixed steps, each is a step that was not dt (input/README.md,
+  !> "Retried steps"). Written at the end of the run. Collective.
+  module procedure output_write_retried_steps
+    integer(hid_t) :: grp
+    integer :: h
+
+    call require_open(out, 'output_write_retried_steps', ierr, errmsg)
+    if (ierr /= 0) return
+    call h5gopen_f(out%file, 'run', grp, h)
+    if (h < 0) then
+      call fail('h5gopen_f (output_write_run_info first)', '/run', ierr, errmsg)
+    else
+      call set_attr_int(grp, 'retried_steps', steps, '/run', ierr, errmsg)
+      call h5gclose_f(grp, h)
+      if (h < 0) call fail('h5gclose_f', '/run', ierr, errmsg)
+    end if
+    call agree(out%comm, 'output_write_retried_steps', ierr, errmsg)
+  end procedure output_write_retried_steps
 
 end submodule output_results

@@ -121,18 +121,27 @@ contains
   !> [1][...]) that maps the hyperslab (start, count) of the dataset src of
   !> this file, counted the source's way (a t index stays in count as 1).
   module procedure make_view
-    integer(hid_t) :: sdset, sspace, vspace
     integer(hsize_t) :: vdims(4)
-    integer :: h, r
-    character(len=:), allocatable :: path
+    integer :: r
 
-    if (ierr /= 0) return
-    path = '/xdmf/'//name
     ! The view's dims: the source's selection without its t index, then 1.
     r = size(count)
     if (size(count) == 4) r = 3
     vdims(1:r) = count(1:r)
     vdims(r + 1) = 1
+    call make_view_dims(out, name, src, start, count, vdims(1:r + 1), ierr, errmsg)
+  end procedure make_view
+
+  !> /xdmf/<name>: a virtual dataset of Fortran dims vdims that maps the
+  !> hyperslab (start, count) of the dataset src of this file (as many
+  !> values).
+  module procedure make_view_dims
+    integer(hid_t) :: sdset, sspace, vspace
+    integer :: h
+    character(len=:), allocatable :: path
+
+    if (ierr /= 0) return
+    path = '/xdmf/'//name
     sspace = -1
     call open_dset(out%file, src, sdset, ierr, errmsg)
     if (ierr /= 0) return
@@ -144,11 +153,11 @@ contains
       call h5sselect_hyperslab_f(sspace, H5S_SELECT_SET_F, start, count, h)
       if (h < 0) call fail('h5sselect_hyperslab_f', src//' for '//path, ierr, errmsg)
     end if
-    call new_space(vdims(1:r + 1), path, vspace, ierr, errmsg)
+    call new_space(vdims, path, vspace, ierr, errmsg)
     if (ierr == 0) call create_virtual(out, path, vspace, src, sspace, ierr, errmsg)
     call close_spaces(sspace, vspace, path, ierr, errmsg)
     call close_dset(sdset, src, ierr, errmsg)
-  end procedure make_view
+  end procedure make_view_dims
 
   !> The virtual dataset `path` of space vspace that maps the selection of
   !> sspace of the dataset src of this file (source file '.').
@@ -181,11 +190,7 @@ contains
 
   !> Delete /xdmf/<name> if it is there (its link; the few bytes of its
   !> header stay in the file).
-  subroutine drop_view(out, name, ierr, errmsg)
-    type(output_file), intent(in) :: out
-    character(*), intent(in) :: name
-    integer, intent(inout) :: ierr
-    character(*), intent(inout) :: errmsg
+  module procedure drop_view
     logical :: exists
     integer :: h
 
@@ -195,7 +200,7 @@ contains
       call h5ldelete_f(out%file, '/xdmf/'//name, h)
       if (h < 0) call fail('h5ldelete_f', '/xdmf/'//name, ierr, errmsg)
     end if
-  end subroutine drop_view
+  end procedure drop_view
 
   !> The name in /xdmf of the view of step k (0-based) of /position or /velocity.
   module procedure step_view
@@ -268,6 +273,8 @@ contains
     end if
     call write_scalars(out, rec, ierr, errmsg)
     if (ierr == 0) call write_step_views(out, t, ierr, errmsg)
+    ! the moving obstacles' vertices at this step (none without obstacles)
+    if (ierr == 0) call obstacles_step(out, rec%time, ierr, errmsg)
     if (ierr == 0) call count_step(out, rec%time, ierr, errmsg)
   end subroutine write_step_local
 
@@ -286,10 +293,12 @@ contains
       if (h < 0) call fail('h5dset_extent_f', trim(dset_names(i)), ierr, errmsg)
       if (.not. all_agree(out%comm, STEP, ierr, errmsg)) return
     end do
+    call pm_series_extend(out, t, ierr, errmsg)
   end subroutine extend_series
 
-  !> The step's scalars, series by series in their order: rank 0 writes,
-  !> the others join with an empty selection; each write is agreed on.
+  !> The step's scalars, series by series in their order, then the
+  !> process models' (output_pm): rank 0 writes, the others join with an
+  !> empty selection; each write is agreed on.
   subroutine write_scalars(out, rec, ierr, errmsg)
     type(output_file), intent(in) :: out
     type(output_record), intent(in) :: rec
@@ -302,8 +311,6 @@ contains
       if (i == d_position .or. i == d_velocity) cycle
       ! Created by output_write_run_info; absent for callers that never call it.
       if (i == d_wall_time .and. out%series%dset(i) < 0) cycle
-      ! Contact: scenes with obstacles only (output_contact).
-      if (i >= d_contact_first .and. .not. out%series%contact) exit
       if (any(count_series == i)) then
         call write_int(out, i, record_count(rec, i), ierr, errmsg)
       else
@@ -312,6 +319,11 @@ contains
       end if
       if (.not. all_agree(out%comm, STEP, ierr, errmsg)) return
     end do
+    if (allocated(rec%pm_series)) then
+      call pm_series_write(out, rec%pm_series, ierr, errmsg)
+    else
+      call pm_series_write(out, [pm_series_t ::], ierr, errmsg)
+    end if
   end subroutine write_scalars
 
   !> The record's values v(1:n) for the float64 series idx.
@@ -333,14 +345,8 @@ contains
     case (d_length); v(1) = rec%length
     case (d_flatness); v(1) = rec%flatness
     case (d_wall_time); v(1) = rec%wall_time
-    case (d_barrier, d_barrier_energy); v(1) = rec%barrier   ! the same value in both
-    case (d_friction_work); v(1) = rec%friction_work
-    case (d_min_gap); v(1) = rec%min_gap
-    case (d_min_gap_run); v(1) = rec%min_gap_run
     case (d_momentum); n = 3; v = rec%momentum
     case (d_angular_momentum); n = 3; v = rec%angular_momentum
-    case (d_contact_force); n = 3; v = rec%contact_force
-    case (d_normal_force); n = 3; v = rec%normal_force
     end select
   end subroutine record_reals
 
@@ -353,9 +359,7 @@ contains
     case (d_steps); c = rec%steps
     case (d_rejected_steps); c = rec%rejected_steps
     case (d_newton_iterations); c = rec%newton_iterations
-    case (d_linear_iterations); c = rec%linear_iterations
-    case (d_contact_active); c = rec%contact_active
-    case default; c = rec%states_checked
+    case default; c = rec%linear_iterations
     end select
   end function record_count
 
@@ -464,9 +468,6 @@ contains
     extent = 0
     call get_attr_int(out%file, 'n_output_steps', '/', have, ierr, errmsg)
     if (ierr /= 0) return
-    ! the contact series, where the file has them (a scene with obstacles)
-    call has_link(out%file, '/contact', '/contact', out%series%contact, ierr, errmsg)
-    if (ierr /= 0) return
     if (nt > have .or. nt < 1) then
       ierr = 1
       errmsg = '-nuno_restart: the checkpoint counts '//itoa(nt)//' output steps, the file holds '//itoa(have)
@@ -474,13 +475,11 @@ contains
     end if
     do i = 1, n_dsets
       if (i == d_velocity .and. .not. out%series%write_velocity) cycle
-      if (i >= d_contact_first .and. .not. out%series%contact) cycle
       name = trim(dset_names(i))
       call has_link(out%file, name, name, exists, ierr, errmsg)
       if (ierr /= 0) return
       if (.not. exists) then
         if (i == d_wall_time) cycle   ! files of callers that never wrote /run
-        if (i >= d_contact_first) cycle   ! made by contact_series (output_write_run_info)
         ierr = 1
         errmsg = '-nuno_restart: the file has no '//name
         return

@@ -1,9 +1,12 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> The text of a run's end: what failed and what to try (failure_reason,
-!> failure_hints), signal names, the collective output error, and the
-!> number-to-string helpers of the solver's messages.
+!> failure_hints), signal names, and the collective output error
+!> (report_io_error, which sets the run's error). Numbers as text are
+!> module strings'.
 module failure_text
 #include "petsc/finclude/petscts.h"
+  use process_models, only: pm_list_rejection
+  use run_progress, only: progress_t_written
   use petscts
   use petscdmda
   use mpi
@@ -12,6 +15,9 @@ module failure_text
   use kinds, only: rp
   use app_context, only: app_ctx
   use reduced, only: reduced_inner_ksp
+  use step_settings, only: step_fixed, step_dt
+  use run_error, only: run_error_set
+  use model_state, only: model_singular
   implicit none
   private
   public :: signal_name, failure_reason, report_io_error
@@ -31,8 +37,8 @@ contains
     type(tSNES) :: snes
     PetscErrorCode :: ierr
     h = 'try'
-    if (ctx%step%fixed_step) then
-      write(dtq, '(es10.3)') 0.25_rp * ctx%step%dt
+    if (step_fixed(ctx%step)) then
+      write(dtq, '(es10.3)') 0.25_rp * step_dt(ctx%step)
       h = trim(h)//' a smaller step (-ts_dt '//trim(adjustl(dtq))//'), adaptive steps (-ts_adapt_type basic),'
     else if (.not. given('-ts_max_snes_failures')) then
       h = trim(h)//' more retries (-ts_max_snes_failures -1),'
@@ -92,17 +98,23 @@ contains
     TSConvergedReason, intent(in) :: reason
     real(rp), intent(in) :: t
     character(len=*), intent(out) :: msg
-    integer :: nbad(1), gbad(1), ierr, loc(3), glob(3)
+    integer :: nbad(1), gbad(1), ierr, loc(3), glob(3), bad(2)
+    real(rp) :: t_bad
 
-    nbad(1) = ctx%model%nbad
+    call model_singular(ctx%model, nbad(1), bad, t_bad)
     call MPI_Allreduce(nbad, gbad, 1, MPI_INTEGER, MPI_MAX, ctx%comm, ierr)
     if (gbad(1) > 0) then
       loc = -1
-      if (ctx%model%nbad > 0) loc = [ctx%model%bad(1), ctx%model%bad(2), 1]
+      if (nbad(1) > 0) loc = [bad(1), bad(2), 1]
       call MPI_Allreduce(loc, glob, 3, MPI_INTEGER, MPI_MAX, ctx%comm, ierr)
-      write(msg, '(a,es12.5,a,i0,a,i0,a)') 'singular element at t = ', ctx%model%t_bad, &
+      write(msg, '(a,es12.5,a,i0,a,i0,a)') 'singular element at t = ', t_bad, &
         ' (zero-length link or bending triple folded back to theta = pi) anchored at node (', &
         glob(1), ', ', glob(2), ')'
+    else if (len(pm_list_rejection(ctx%pms, progress_t_written(ctx%progress))) > 0 .and. reason < 0) then
+      ! a process model rejected end states since the last output step (and
+      ! the retries with smaller steps did not get the run past): its reason
+      write(msg, '(a,es12.5,a)') 'time step from t = ', t, ' failed after step end states were rejected '// &
+        '(each retried with a smaller step), the last: '//pm_list_rejection(ctx%pms, progress_t_written(ctx%progress))
     else if (reason == TS_DIVERGED_NONLINEAR_SOLVE) then
       write(msg, '(a,es12.5,a)') 'time step from t = ', t, ' failed: nonlinear solve diverged '// &
         '(TS_DIVERGED_NONLINEAR_SOLVE): the run''s failed Newton solves reached -ts_max_snes_failures '// &
@@ -116,12 +128,13 @@ contains
   end subroutine failure_reason
 
   !> An output write failed (agreed by every rank): its one line on stderr
-  !> (rank 0), and the reason kept, so that solver_run ends the run as failed.
+  !> (rank 0), and the run's error (module run_error), so that solver_run
+  !> ends the run as failed.
   subroutine report_io_error(ctx, errmsg)
     type(app_ctx), intent(inout) :: ctx
     character(*), intent(in) :: errmsg
     if (ctx%rank == 0) write(error_unit, '(a)') 'nuno: error: '//trim(errmsg)
-    ctx%io_error = errmsg
+    call run_error_set(ctx%error, errmsg)
   end subroutine report_io_error
 
 end module failure_text

@@ -22,11 +22,21 @@ module solver_setup
                             nuno_options_report_unused, adaptive_default, step_defaults, ts_scheme, petsc_habits
   use newton_start, only: newton_start_free, newton_start_order
   use strings, only: itoa, real_g0, num => real_brief, inum => itoa
-  use cloth_model, only: form_ifunction, form_ijacobian, model_state_init, model_state_free, assembly_create, assembly_free
-  use newton_policy, only: set_newton_start, snes_converged, newton_state_init, newton_set_inner_guess
-  use contact_solver, only: contact_solver_options, contact_setup
-  use step_monitor, only: ts_monitor, step_settings_init, step_set_tolerances, energy_integrals_init, energy_integrals_free
-  use run_checkpoint, only: restart_state_free
+  use cloth_model, only: form_ifunction, form_ijacobian
+  use model_state, only: model_state_init, model_state_free, assembly_create, assembly_free, assembly_matrix
+  use newton_policy, only: set_newton_start, snes_converged
+  use newton_state, only: SNES_FLOOR_DEFAULT, newton_state_init, newton_set_inner_guess, newton_guess, newton_guess_given, &
+                          newton_forcing_on
+  use process_solver, only: pm_solver_options, pm_solver_setup
+  use process_model, only: process_model_t, pm_hints_t
+  use process_models, only: pm_list_t, pm_list_add, pm_list_hints, pm_list_on, pm_list_setup, pm_list_nodal, &
+                            pm_list_destroy, pm_list_take
+  use contact_model, only: contact_model_t
+  use ghosted_state, only: ghosted_get, ghosted_restore
+  use step_monitor, only: ts_monitor
+  use step_settings, only: step_settings_init, step_set_tolerances, step_dt, step_t_end, step_fixed, step_max_steps, &
+                           step_tolerances, step_adaptive_default
+  use energy_integrals, only: energy_integrals_init, energy_integrals_free
   implicit none
   private
   public :: check_decomposition, solver_create, solver_destroy
@@ -37,6 +47,15 @@ module solver_setup
   !> takes the steps of a run to 1 s over its first second, and a restart
   !> to a later t_end keeps them; docs/workprecision.md, "Tolerances").
   real(rp), parameter :: TOLERANCE_TIME = 1.0_rp
+
+  !> nuno's own options of the Newton step as read (resolve_options), for
+  !> the set-up that follows.
+  type :: nuno_options_t
+    integer(c_int) :: pc_lag = 0                !< -nuno_pc_lag (0: the default)
+    integer(c_int) :: mg_interp = 0             !< -nuno_mg_interpolation's code (module reduced)
+    integer(c_int) :: gn = 0, cl = 0            !< -nuno_gauss_newton, -nuno_clamp (1: on)
+    character(len=64) :: mattype = ''           !< the 6-dof matrix type (-dm_mat_type)
+  end type nuno_options_t
 
 contains
 
@@ -59,28 +78,28 @@ contains
     end if
   end subroutine check_decomposition
 
-  !> Create the DMDA, the lattice strip, the initial state, the Jacobian
-  !> matrix and the TS. Collective.
-  subroutine solver_create(ctx, cfg, ierr)
+  !> Create the DMDA, the lattice strip, the initial state, the process
+  !> models, the Jacobian matrix and the TS. refusal: a process model's
+  !> refusal of the scene (one line, the same on every rank: the caller
+  !> ends the run collectively; '' when none); ierr: a PETSc error. extra:
+  !> process models of the caller's, after the scene's (a new force tried
+  !> out before it has a key; tests/mpi/test_process_models.F90), moved
+  !> into the solver's list. Collective.
+  subroutine solver_create(ctx, cfg, ierr, refusal, extra)
     type(app_ctx), intent(inout), target :: ctx
     !> the run's configuration: the context points to it from here on (one
-    !> configuration for the caller and the solver), and the effective dt
-    !> and t_end are written into it
-    type(nuno_config), intent(inout), target :: cfg
+    !> configuration for the caller and the solver; the effective dt and
+    !> t_end are the step record's, module step_settings)
+    type(nuno_config), intent(in), target :: cfg
     PetscErrorCode, intent(out) :: ierr
-    PetscInt :: xs, ys, zs, xm, ym, zm, gxs, gys, gzs, gxm, gym, gzm, w, nxp, nyp
-    PetscInt, parameter :: one = 1, two = 2, six = 6, eight = 8
-    type(tSNES) :: snes
-    type(tTSAdapt) :: adapt
-    SNESLineSearch :: linesearch
-    PetscScalar, pointer :: ua(:, :, :)
-    character(len=64) :: mattype
-    character(len=64, kind=c_char) :: cmattype
-    integer(c_int) :: jac, pc_lag, gn, cl, nfail, mg_interp, forcing, ls_fallback, ls_given, guess, guess_given
-    real(c_double) :: snes_floor
-    PetscBool :: ls_type_given
-    logical :: symmetric, constant, damping, applied
+    character(*), intent(out) :: refusal
+    type(pm_list_t), intent(inout), optional :: extra
+    PetscInt :: w, nxp, nyp
+    PetscInt, parameter :: one = 1, six = 6
+    type(nuno_options_t) :: opt
+    logical :: applied
 
+    refusal = ''
     ctx%cfg => cfg
     ctx%comm = PETSC_COMM_WORLD
     call MPI_Comm_rank(ctx%comm, ctx%rank, ierr)
@@ -88,36 +107,107 @@ contains
     w = halo_width(cfg)
     nxp = cfg%lattice%nx
     nyp = cfg%lattice%ny
-
     ! 1 x P processes: each rank owns whole rows, ghost width 2 with bending.
     PetscCall(DMDACreate2d(ctx%comm, DM_BOUNDARY_NONE, DM_BOUNDARY_NONE, DMDA_STENCIL_BOX, nxp, nyp, one, PETSC_DECIDE, six, w, PETSC_NULL_INTEGER, PETSC_NULL_INTEGER, ctx%da, ierr))
-    ! nuno's own options, in an options block (so in -help): the Newton
-    ! step, reduced 3-dof elimination (default) or the assembled 6-dof
-    ! Jacobian (the reference for -snes_test_jacobian and small scenes),
-    ! and the storage of that Jacobian: BAIJ (6 x 6 blocks) assembles and
-    ! multiplies fastest; -dm_mat_type aij for field splits.
+    call add_process_models(ctx, cfg)
+    if (present(extra)) call pm_list_take(ctx%pms, extra)
+    PetscCall(resolve_options(ctx, cfg, opt, ierr))
+    PetscCall(setup_strips(ctx, cfg, opt, ierr))
+    PetscCall(setup_process_models(ctx, cfg, refusal, ierr))
+    if (len_trim(refusal) > 0) return
+    PetscCall(create_jacobian(ctx, cfg, opt, ierr))
+    PetscCall(create_ts(ctx, cfg, ierr))
+    ! An adaptive run without -ts_type: the method that won the
+    ! work-precision measurement at moderate tolerance (module solver_options).
+    ! The identification and the control keep beuler: their adjoint needs a theta method.
+    applied = .false.
+    if (.not. (cfg%identify%active .or. cfg%control%active)) then
+      PetscCall(adaptive_default(ctx%ts, ctx%comm, applied, ierr))
+    end if
+    PetscCall(pm_solver_options(ctx, ierr))
+    PetscCall(step_defaults(ctx%ts, ctx%use_reduced, ierr))
+    PetscCall(TSSetFromOptions(ctx%ts, ierr))
+    PetscCall(effective_time_integration(ctx, applied, ierr))
+    PetscCall(pm_solver_setup(ctx, ierr))
+  end subroutine solver_create
+
+  !> The scene's process models into the list (module process_models),
+  !> before anything reads their hints: contact with &contact's obstacles
+  !> (none without). The one place that names the physics: a new force is
+  !> added here (docs/design.md, "Process models").
+  subroutine add_process_models(ctx, cfg)
+    type(app_ctx), intent(inout) :: ctx
+    type(nuno_config), intent(in) :: cfg
+    class(process_model_t), allocatable :: pm
+    if (cfg%contact%n_obstacles > 0) then
+      allocate(contact_model_t :: pm)
+      call pm_list_add(ctx%pms, pm)
+    end if
+  end subroutine add_process_models
+
+  !> The process models' set-up hooks with the lattice strip, the initial
+  !> state and the constraints (module process_models' pm_list_setup);
+  !> refusal: the first model's refusal of the scene, the same on every
+  !> rank ('' when none). Nothing without process models. Collective.
+  subroutine setup_process_models(ctx, cfg, refusal, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    type(nuno_config), intent(in) :: cfg
+    character(*), intent(out) :: refusal
+    PetscErrorCode, intent(out) :: ierr
+    type(tVec) :: uloc
+    PetscScalar, pointer :: u(:, :, :)
+    integer :: err
+    ierr = 0
+    refusal = ''
+    if (.not. pm_list_on(ctx%pms)) return
+    PetscCall(ghosted_get(ctx%da, ctx%u, uloc, u, ierr))
+    call pm_list_setup(ctx%pms, cfg, ctx%lat, ctx%comm, u, ctx%cs, err, refusal)
+    PetscCall(ghosted_restore(ctx%da, uloc, u, ierr))
+    if (err == 0) refusal = ''
+  end subroutine setup_process_models
+
+  !> nuno's own options, in an options block (so in -help), resolved into
+  !> opt and Newton's record: the Newton step, reduced 3-dof elimination
+  !> (default) or the assembled 6-dof Jacobian (the reference for
+  !> -snes_test_jacobian and small scenes), and the storage of that
+  !> Jacobian: BAIJ (6 x 6 blocks) assembles and multiplies fastest;
+  !> -dm_mat_type aij for field splits. Refuses values and combinations
+  !> the run cannot honour. Collective.
+  subroutine resolve_options(ctx, cfg, opt, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    type(nuno_config), intent(in) :: cfg
+    type(nuno_options_t), intent(out) :: opt
+    PetscErrorCode, intent(out) :: ierr
+    character(len=64, kind=c_char) :: cmattype
+    integer(c_int) :: jac, nfail, forcing, ls_fallback, ls_given, guess, guess_given
+    real(c_double) :: snes_floor
+    PetscBool :: ls_type_given
+    type(pm_hints_t) :: hints
+
     jac = JACOBIAN_REDUCED
-    pc_lag = 0                     ! the default: 3 with the multigrid, 1 otherwise (module reduced)
-    mg_interp = INTERP_AUTO        ! cubic with bending, linear without (module reduced)
-    gn = 0
-    cl = 0
+    opt%pc_lag = 0                 ! the default: 3 with the multigrid, 1 otherwise (module reduced)
+    opt%mg_interp = INTERP_AUTO    ! cubic with bending, linear without (module reduced)
+    opt%gn = 0
+    opt%cl = 0
     nfail = 0
     cmattype = MATBAIJ//c_null_char
-    ! With obstacles the inner rtol stays -reduced_ksp_rtol: the forcing
-    ! term's quadratic model of Newton's convergence does not hold at a
-    ! contact's onset, and its loose inner solves (up to 0.1) failed
-    ! drop_table's impact step (4 retries) where a fixed 1e-6 takes none.
-    forcing = merge(0, 1, cfg%contact%n_obstacles > 0)
+    ! A process model may need the inner rtol to stay -reduced_ksp_rtol
+    ! (contact: the forcing term's quadratic model of Newton's convergence
+    ! does not hold at a contact's onset, and its loose inner solves (up to
+    ! 0.1) failed drop_table's impact step (4 retries) where a fixed 1e-6
+    ! takes none).
+    hints = pm_list_hints(ctx%pms)
+    forcing = merge(0, 1, hints%forcing_off)
     guess = GUESS_AUTO
-    snes_floor = ctx%newton%snes_floor             ! the default (module newton_policy's record)
-    ierr = nuno_options_read(ctx%comm, JACOBIAN_NAMES, size(JACOBIAN_NAMES), len(JACOBIAN_NAMES), jac, pc_lag, &
-                             INTERP_NAMES, size(INTERP_NAMES), len(INTERP_NAMES), mg_interp, snes_floor, gn, cl, &
+    snes_floor = SNES_FLOOR_DEFAULT
+    ierr = nuno_options_read(ctx%comm, JACOBIAN_NAMES, size(JACOBIAN_NAMES), len(JACOBIAN_NAMES), jac, opt%pc_lag, &
+                             INTERP_NAMES, size(INTERP_NAMES), len(INTERP_NAMES), opt%mg_interp, snes_floor, opt%gn, opt%cl, &
                              cmattype, len(cmattype), nfail, forcing, &
                              GUESS_NAMES, size(GUESS_NAMES), len(GUESS_NAMES), guess, guess_given)
     if (ierr /= 0) return
-    if (pc_lag < 0) then
+    if (opt%pc_lag < 0) then
       ierr = PETSC_ERR_ARG_OUTOFRANGE
-      SETERRQ(ctx%comm, ierr, '-nuno_pc_lag '//itoa(int(pc_lag))//' must be >= 1 (or 0: the default)')
+      SETERRQ(ctx%comm, ierr, '-nuno_pc_lag '//itoa(int(opt%pc_lag))//' must be >= 1 (or 0: the default)')
     end if
     if (.not. (snes_floor >= 0.0_rp .and. snes_floor < 1.0_rp)) then
       ierr = PETSC_ERR_ARG_OUTOFRANGE
@@ -130,7 +220,7 @@ contains
     ctx%use_reduced = jac == JACOBIAN_REDUCED
     ! -pc_type lu and friends on the path in use (before anything reads them)
     PetscCall(petsc_habits(ctx%comm, ctx%use_reduced, cmattype, ierr))
-    if (.not. ctx%use_reduced .and. mg_interp > 0) then
+    if (.not. ctx%use_reduced .and. opt%mg_interp > 0) then
       ierr = PETSC_ERR_ARG_INCOMP
       SETERRQ(ctx%comm, ierr, 'nuno: -nuno_mg_interpolation is for the reduced solve, not -nuno_jacobian full')
     end if
@@ -150,8 +240,22 @@ contains
     if (.not. ctx%use_reduced .or. ls_type_given) ls_fallback = 0
     call newton_state_init(ctx%newton, snes_floor=snes_floor, guess=guess, guess_given=guess_given, &
                            forcing=forcing /= 0, fail_newton=nfail, ls_fallback=ls_fallback)
-    mattype = cmattype(1:index(cmattype, c_null_char) - 1)
-    PetscCall(DMSetMatType(ctx%da, mattype, ierr))
+    opt%mattype = cmattype(1:index(cmattype, c_null_char) - 1)
+  end subroutine resolve_options
+
+  !> The DMDA's strips set up (matrix type opt%mattype, field names), this
+  !> rank's lattice strip (refused unless the DMDA's strips are whole rows),
+  !> the model's work arrays, the output buffers, and the scene's initial
+  !> state and constraints. Collective.
+  subroutine setup_strips(ctx, cfg, opt, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    type(nuno_config), intent(in) :: cfg
+    type(nuno_options_t), intent(in) :: opt
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt :: xs, ys, zs, xm, ym, zm, gxs, gys, gzs, gxm, gym, gzm
+    PetscScalar, pointer :: ua(:, :, :)
+
+    PetscCall(DMSetMatType(ctx%da, opt%mattype, ierr))
     PetscCall(DMSetUp(ctx%da, ierr))
     PetscCall(DMDASetFieldName(ctx%da, 0, 'x', ierr))
     PetscCall(DMDASetFieldName(ctx%da, 1, 'y', ierr))
@@ -168,7 +272,7 @@ contains
       SETERRQ(ctx%comm, ierr, 'nuno: the DMDA is not split into strips of whole rows')
     end if
     call model_state_init(ctx%model, ctx%lat, gravity=merge(cfg%scene%gravity, [0.0_rp, 0.0_rp, 0.0_rp], cfg%scene%has_gravity), &
-                          clamp=cl /= 0, gauss_newton=gn /= 0)
+                          clamp=opt%cl /= 0, gauss_newton=opt%gn /= 0)
     allocate(ctx%xout(3, 0:cfg%lattice%nx - 1, ys:ys + ym - 1), ctx%vout(3, 0:cfg%lattice%nx - 1, ys:ys + ym - 1))
 
     ! Initial state and constraints of the scene.
@@ -176,24 +280,50 @@ contains
     PetscCall(DMDAVecGetArrayF90(ctx%da, ctx%u, ua, ierr))
     call scene_setup(cfg, ctx%lat, ua, ctx%cs)
     PetscCall(DMDAVecRestoreArrayF90(ctx%da, ctx%u, ua, ierr))
+  end subroutine setup_strips
 
-    if (ctx%use_reduced) then
-      ! S is symmetric when K and C are: no moving dampers (linear springs
-      ! have constant ones), no paper bending, no bending damping.
-      damping = cfg%material%has_damping .or. (cfg%material%bending_code == BEND_ENERGY .and. cfg%material%eta_b /= 0.0_rp) .or. &
-                cfg%contact%n_obstacles > 0   ! friction's df/dv
-      symmetric = (cfg%material%spring_code == SPRING_LINEAR .or. .not. cfg%material%has_damping) .and. &
-                  (cfg%material%bending_code == BEND_NONE .or. (cfg%material%bending_code == BEND_ENERGY .and. &
-                   (cfg%material%eta_b == 0.0_rp .or. ctx%model%gauss_newton)))
-      constant = cfg%material%spring_code == SPRING_LINEAR .and. cfg%material%bending_code == BEND_NONE .and. cfg%contact%n_obstacles == 0
-      PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, ctx%nodal, symmetric, constant, damping, ctx%model%clamp, ctx%model%gauss_newton, pc_lag, mg_interp, ierr))
-    else
-      ! Jacobian with the DMDA's exact box-stencil preallocation.
-      PetscCall(assembly_create(ctx%asm, ctx%da, ctx%lat, int(w), ierr))
+  !> The Newton step's matrices: S and the inner solver of the reduced
+  !> solve (module reduced), or the assembled 6-dof Jacobian with the
+  !> DMDA's exact box-stencil preallocation. Collective.
+  subroutine create_jacobian(ctx, cfg, opt, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    type(nuno_config), intent(in) :: cfg
+    type(nuno_options_t), intent(in) :: opt
+    PetscErrorCode, intent(out) :: ierr
+    logical :: symmetric, constant, damping
+    type(pm_hints_t) :: hints
+
+    ierr = 0
+    if (.not. ctx%use_reduced) then
+      PetscCall(assembly_create(ctx%asm, ctx%da, ctx%lat, halo_width(cfg), ierr))
+      return
     end if
+    ! S is symmetric when K and C are: no moving dampers (linear springs
+    ! have constant ones), no paper bending, no bending damping.
+    hints = pm_list_hints(ctx%pms)
+    damping = cfg%material%has_damping .or. (cfg%material%bending_code == BEND_ENERGY .and. cfg%material%eta_b /= 0.0_rp) .or. &
+              hints%velocity_blocks   ! a process model's df/dv (contact's friction)
+    symmetric = (cfg%material%spring_code == SPRING_LINEAR .or. .not. cfg%material%has_damping) .and. &
+                (cfg%material%bending_code == BEND_NONE .or. (cfg%material%bending_code == BEND_ENERGY .and. &
+                 (cfg%material%eta_b == 0.0_rp .or. opt%gn /= 0)))
+    constant = cfg%material%spring_code == SPRING_LINEAR .and. cfg%material%bending_code == BEND_NONE .and. .not. hints%state_blocks
+    PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, pm_list_nodal(ctx%pms), symmetric, constant, damping, opt%cl /= 0, opt%gn /= 0, opt%pc_lag, opt%mg_interp, ierr))
+  end subroutine create_jacobian
 
-    ! The report's scheme by default: backward Euler with the namelist's
-    ! fixed step; any implicit TS type and adaptivity through the options.
+  !> The TS: the report's scheme by default, backward Euler with the
+  !> namelist's fixed step (any implicit TS type and adaptivity through the
+  !> options), nuno's callbacks, the retries of a failed step, and the
+  !> SNES's convergence test and line search. Collective.
+  subroutine create_ts(ctx, cfg, ierr)
+    type(app_ctx), intent(inout), target :: ctx
+    type(nuno_config), intent(in) :: cfg
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt, parameter :: two = 2, eight = 8
+    type(tSNES) :: snes
+    type(tTSAdapt) :: adapt
+    SNESLineSearch :: linesearch
+    type(pm_hints_t) :: hints
+
     PetscCall(TSCreate(ctx%comm, ctx%ts, ierr))
     PetscCall(TSSetDM(ctx%ts, ctx%da, ierr))
     PetscCall(TSSetProblemType(ctx%ts, TS_NONLINEAR, ierr))
@@ -202,7 +332,7 @@ contains
     if (ctx%use_reduced) then
       PetscCall(TSSetIJacobian(ctx%ts, reduced_jacobian(ctx%red), reduced_jacobian(ctx%red), form_ijacobian, ctx, ierr))
     else
-      PetscCall(TSSetIJacobian(ctx%ts, ctx%asm%p, ctx%asm%p, form_ijacobian, ctx, ierr))
+      PetscCall(TSSetIJacobian(ctx%ts, assembly_matrix(ctx%asm), assembly_matrix(ctx%asm), form_ijacobian, ctx, ierr))
     end if
     PetscCall(TSSetTime(ctx%ts, 0.0_rp, ierr))
     PetscCall(TSSetTimeStep(ctx%ts, cfg%time%dt, ierr))
@@ -229,6 +359,7 @@ contains
     ! default, 1, fails the solve before the test: the 6-dof path's bt
     ! failed the shipped hang scene so).
     PetscCall(SNESSetMaxNonlinearStepFailures(snes, two, ierr))
+    hints = pm_list_hints(ctx%pms)
     if (ctx%use_reduced) then
       PetscCall(reduced_attach(ctx%red, snes, ierr))
       ! The full step is exact in x and Newton-exact in v: no backtracking by
@@ -236,27 +367,16 @@ contains
       ! elements, for every Newton iteration); -snes_linesearch_type bt works.
       PetscCall(SNESGetLineSearch(snes, linesearch, ierr))
       PetscCall(SNESLineSearchSetType(linesearch, SNESLINESEARCHBASIC, ierr))
-    else if (cfg%contact%n_obstacles > 0) then
-      ! With obstacles the update is already limited by the time of impact
-      ! (module contact_solver's pre-check); bt's cubic model of ||F||^2
-      ! does not hold across the barrier's log, and failed the 6-dof path at
-      ! a drop's impact (drop_table to 0.15 s). -snes_linesearch_type bt works.
+    else if (hints%basic_line_search) then
+      ! A process model that limits the update itself (contact: by the
+      ! time of impact, module process_solver's pre-check; bt's cubic model
+      ! of ||F||^2 does not hold across the barrier's log, and failed the
+      ! 6-dof path at a drop's impact, drop_table to 0.15 s).
+      ! -snes_linesearch_type bt works.
       PetscCall(SNESGetLineSearch(snes, linesearch, ierr))
       PetscCall(SNESLineSearchSetType(linesearch, SNESLINESEARCHBASIC, ierr))
     end if
-    ! An adaptive run without -ts_type: the method that won the
-    ! work-precision measurement at moderate tolerance (module solver_options).
-    ! The identification and the control keep beuler: their adjoint needs a theta method.
-    applied = .false.
-    if (.not. (cfg%identify%active .or. cfg%control%active)) then
-      PetscCall(adaptive_default(ctx%ts, ctx%comm, applied, ierr))
-    end if
-    PetscCall(contact_solver_options(ctx, ierr))
-    PetscCall(step_defaults(ctx%ts, ctx%use_reduced, ierr))
-    PetscCall(TSSetFromOptions(ctx%ts, ierr))
-    PetscCall(effective_time_integration(ctx, applied, ierr))
-    PetscCall(contact_setup(ctx, ierr))
-  end subroutine solver_create
+  end subroutine create_ts
 
   !> Read back what the options made of the time integration, so that the
   !> run, the start-up line and the output file use the values actually in
@@ -272,11 +392,7 @@ contains
     type(tTSAdapt) :: adapt
     TSExactFinalTimeOption :: eft
     PetscBool :: match
-    character(len=64) :: tstype, adtype
-    character(len=:), allocatable :: scheme
-    character(len=512) :: line, inner
-    character(len=64) :: sntype
-    type(tSNES) :: snes
+    character(len=64) :: tstype
     character(len=40) :: srcx, srcv
     real(rp) :: dt_namelist, t_end_namelist, dt, t_end
     PetscInt :: max_steps
@@ -296,21 +412,18 @@ contains
       ierr = PETSC_ERR_ARG_WRONG
       SETERRQ(ctx%comm, ierr, 'nuno: -ts_exact_final_time must be matchstep: the run stops exactly at every output, keyframe and release time')
     end if
-    if (.not. (ctx%step%dt > 0.0_rp)) then
+    if (.not. (step_dt(ctx%step) > 0.0_rp)) then
       ierr = PETSC_ERR_ARG_OUTOFRANGE
       SETERRQ(ctx%comm, ierr, 'nuno: -ts_dt must be > 0')
     end if
-    if (.not. (ctx%step%t_end > 0.0_rp) .or. ctx%step%t_end > huge(1.0_rp)) then
+    if (.not. (step_t_end(ctx%step) > 0.0_rp) .or. step_t_end(ctx%step) > huge(1.0_rp)) then
       ierr = PETSC_ERR_ARG_OUTOFRANGE
       SETERRQ(ctx%comm, ierr, 'nuno: -ts_max_time must be > 0 and finite')
     end if
-    if (ctx%step%max_steps < 0) then
+    if (step_max_steps(ctx%step) < 0) then
       ierr = PETSC_ERR_ARG_OUTOFRANGE
       SETERRQ(ctx%comm, ierr, 'nuno: -ts_max_steps must be >= 0')
     end if
-    ! From here on the effective values are the run's configuration.
-    ctx%cfg%time%dt = ctx%step%dt
-    ctx%cfg%time%t_end = ctx%step%t_end
     ! The energy integrals close at the method's order: the trapezoid rule
     ! over each step (one power pass a step) is second order, enough for
     ! beuler, theta and cn (order <= 2); bdf (up to order 6) gets three
@@ -323,40 +436,61 @@ contains
     PetscCall(energy_integrals_init(ctx%energy, trim(tstype) == 'bdf', ctx%u, ierr))
     PetscCall(set_tolerances(ctx, srcx, srcv, ierr))
 
+    PetscCall(say_solver(ctx, adapt, dt_namelist, t_end_namelist, srcx, srcv, ierr))
+  end subroutine effective_time_integration
+
+  !> The start-up lines (rank 0) of the time integration in force: the
+  !> scheme, its steps and tolerances (where the namelist's dt and t_end,
+  !> dt_namelist and t_end_namelist [time], were overridden, both; srcx and
+  !> srcv: where the tolerances came from), the Newton step and the inner
+  !> solve. Collective (the descriptions are gathered on every rank).
+  subroutine say_solver(ctx, adapt, dt_namelist, t_end_namelist, srcx, srcv, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    type(tTSAdapt), intent(in) :: adapt
+    real(rp), intent(in) :: dt_namelist, t_end_namelist
+    character(len=*), intent(in) :: srcx, srcv
+    PetscErrorCode, intent(out) :: ierr
+    character(len=64) :: adtype, sntype
+    character(len=:), allocatable :: scheme
+    character(len=512) :: line, inner
+    type(tSNES) :: snes
+    real(rp) :: rtol, atol_x, atol_v
+
     PetscCall(ts_scheme(ctx%ts, scheme, ierr))
     inner = ''
     if (ctx%use_reduced) then
       PetscCall(reduced_describe(ctx%red, inner, ierr))
       PetscCall(TSGetSNES(ctx%ts, snes, ierr))
       PetscCall(SNESGetType(snes, sntype, ierr))
-      if (trim(sntype) == SNESNEWTONLS .and. ctx%newton%newton_forcing .and. reduced_forward_ew(ctx%red)) &
+      if (trim(sntype) == SNESNEWTONLS .and. newton_forcing_on(ctx%newton) .and. reduced_forward_ew(ctx%red)) &
         inner = trim(inner)//'; Newton: inner rtol from the step''s needs (-nuno_newton_forcing)'
     end if
     if (ctx%rank == 0) then
       PetscCall(TSAdaptGetType(adapt, adtype, ierr))
       line = 'solver    : TS '//scheme
-      if (ctx%step%adaptive_default) line = trim(line)//' (the default of adaptive runs, -nuno_adaptive_ts_type)'
+      if (step_adaptive_default(ctx%step)) line = trim(line)//' (the default of adaptive runs, -nuno_adaptive_ts_type)'
       line = trim(line)//', adapt '//trim(adtype)
-      if (ctx%step%fixed_step) then
-        line = trim(line)//', dt = '//num(ctx%step%dt)
+      if (step_fixed(ctx%step)) then
+        line = trim(line)//', dt = '//num(step_dt(ctx%step))
       else
-        line = trim(line)//', initial dt = '//num(ctx%step%dt)
+        line = trim(line)//', initial dt = '//num(step_dt(ctx%step))
       end if
-      if (ctx%step%dt /= dt_namelist) line = trim(line)//' (-ts_dt; namelist '//num(dt_namelist)//')'
-      line = trim(line)//', t_end = '//num(ctx%step%t_end)
-      if (ctx%step%t_end /= t_end_namelist) &
+      if (step_dt(ctx%step) /= dt_namelist) line = trim(line)//' (-ts_dt; namelist '//num(dt_namelist)//')'
+      line = trim(line)//', t_end = '//num(step_t_end(ctx%step))
+      if (step_t_end(ctx%step) /= t_end_namelist) &
         line = trim(line)//' (-ts_max_time; namelist '//num(t_end_namelist)//')'
-      if (ctx%step%max_steps < huge(ctx%step%max_steps)) &
-        line = trim(line)//', at most '//inum(ctx%step%max_steps)//' steps (-ts_max_steps)'
-      if (.not. ctx%step%fixed_step) line = trim(line)//', rtol '//num(ctx%step%rtol)//', atol position '// &
-        num(ctx%step%atol_x)//' ('//trim(srcx)//'), velocity '//num(ctx%step%atol_v)//' ('//trim(srcv)//')'
+      if (step_max_steps(ctx%step) < huge(step_max_steps(ctx%step))) &
+        line = trim(line)//', at most '//inum(step_max_steps(ctx%step))//' steps (-ts_max_steps)'
+      call step_tolerances(ctx%step, rtol, atol_x, atol_v)
+      if (.not. step_fixed(ctx%step)) line = trim(line)//', rtol '//num(rtol)//', atol position '// &
+        num(atol_x)//' ('//trim(srcx)//'), velocity '//num(atol_v)//' ('//trim(srcv)//')'
       line = trim(line)//', Newton step '//trim(merge('reduced', 'full   ', ctx%use_reduced))
-      if (newton_start_order(ctx%newton%start) == 3) line = trim(line)//', started cubic (-nuno_newton_start)'
+      if (newton_start_order(ctx%start) == 3) line = trim(line)//', started cubic (-nuno_newton_start)'
       write(output_unit, '(a)') trim(line)
       if (ctx%use_reduced) write(output_unit, '(a)') 'inner     : '//trim(inner)
       flush(output_unit)
     end if
-  end subroutine effective_time_integration
+  end subroutine say_solver
 
   !> The inner initial guess (-nuno_inner_guess, module inner_guess): the
   !> first Newton corrections of successive steps form a smooth sequence
@@ -386,7 +520,7 @@ contains
       PetscCall(KSPGetType(reduced_inner_ksp(ctx%red), ktype, ierr))
       direct = ktype == KSPPREONLY
     end if
-    if (ctx%newton%guess_given /= 0 .and. ctx%newton%guess /= GUESS_NONE .and. ctx%newton%guess /= GUESS_AUTO) then
+    if (newton_guess_given(ctx%newton) .and. newton_guess(ctx%newton) /= GUESS_NONE .and. newton_guess(ctx%newton) /= GUESS_AUTO) then
       if (.not. ctx%use_reduced) then
         ierr = PETSC_ERR_ARG_INCOMP
         SETERRQ(ctx%comm, ierr, 'nuno: -nuno_inner_guess is for the reduced solve, not -nuno_jacobian full')
@@ -401,13 +535,13 @@ contains
       end if
     end if
     if (.not. ctx%use_reduced) return
-    mode = ctx%newton%guess
+    mode = newton_guess(ctx%newton)
     ! (auto leaves the fits alone: their finite-difference checks compare
     ! runs whose inexact solves would otherwise start from other guesses)
     ! The projection drops its kept solves whenever dt changes, so with
     ! adaptive steps it would rarely have any: the extrapolation, which
     ! scales across steps of other sizes, there.
-    if (mode == GUESS_AUTO) mode = merge(merge(GUESS_PROJECT, GUESS_EXTRAPOLATE, ctx%step%fixed_step), GUESS_NONE, one_stage .and. &
+    if (mode == GUESS_AUTO) mode = merge(merge(GUESS_PROJECT, GUESS_EXTRAPOLATE, step_fixed(ctx%step)), GUESS_NONE, one_stage .and. &
                                          ctx%cfg%material%bending_code /= BEND_NONE .and. .not. (ctx%cfg%identify%active .or. ctx%cfg%control%active))
     if (.not. one_stage .or. direct) mode = GUESS_NONE
     call newton_set_inner_guess(ctx%newton, mode)
@@ -484,7 +618,7 @@ contains
     integer(c_int) :: nunused
     ierr = nuno_options_report_unused(ctx%comm, nunused)
     if (ierr /= 0) return
-    PetscCall(newton_start_free(ctx%newton%start, ierr))
+    PetscCall(newton_start_free(ctx%start, ierr))
     PetscCall(TSDestroy(ctx%ts, ierr))
     if (ctx%use_reduced) then
       PetscCall(reduced_destroy(ctx%red, ierr))
@@ -495,7 +629,7 @@ contains
     PetscCall(energy_integrals_free(ctx%energy, ierr))
     PetscCall(DMDestroy(ctx%da, ierr))
     call model_state_free(ctx%model)
-    call restart_state_free(ctx%restart)
+    call pm_list_destroy(ctx%pms)
   end subroutine solver_destroy
 
 end module solver_setup

@@ -1,11 +1,15 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> The solver's context, passed to every PETSc callback as the user
 !> context, and the C functions of the time loop (src/solver/nuno_signals.c).
-!> The context's records are defined here and written only by the module
-!> that owns each (named at its type; its routines set, restore and free
-!> the record): every other module reads them or calls those routines
-!> (docs/design.md, "Records and their owners";
-!> tests/python/test_record_owners.py).
+!> The context holds the shared objects (DMDA, TS, state, lattice,
+!> constraints, the reduced solver) and one record per concern; each
+!> record's type has private components and lives in the module that
+!> writes it (model_state, newton_state, newton_start, step_settings,
+!> energy_integrals, run_progress, run_error; process_models, reduced), so
+!> that the compiler keeps every write in its owner (docs/design.md,
+!> "Records and their owners"). The configuration is the caller's, read
+!> only (tests/python/test_record_owners.py checks that nothing writes
+!> through the pointer).
 module app_context
 #include "petsc/finclude/petscts.h"
   use petscts
@@ -15,18 +19,20 @@ module app_context
   use kinds, only: rp
   use config, only: nuno_config
   use lattice, only: lattice_t
-  use contact_forces, only: contact_state_t
-  use node_blocks, only: node_blocks_t
+  use process_models, only: pm_list_t
   use forces, only: jac_buffer_t
   use constraints, only: constraint_set_t
-  use checkpoint_record, only: checkpoint_t
-  use inner_guess, only: GUESS_AUTO
   use newton_start, only: newton_start_t
+  use newton_state, only: newton_state_t
+  use model_state, only: model_state_t, assembly_t
   use reduced, only: reduced_t
+  use step_settings, only: step_settings_t
+  use energy_integrals, only: energy_integrals_t
+  use run_progress, only: progress_t
+  use run_error, only: run_error_t
   implicit none
   private
-  public :: app_ctx, model_state_t, assembly_t, newton_state_t, step_settings_t, energy_integrals_t, progress_t, &
-            restart_state_t
+  public :: app_ctx
   public :: nuno_walltime_arm, nuno_checkpoint_due, nuno_signal_agreed, nuno_signals_install, nuno_ts_stop
 
   interface
@@ -56,122 +62,11 @@ module app_context
   end interface
 
 
-  !> The model's state within a time window and its work arrays (owner:
-  !> module cloth_model; model_state_init, model_enter_window).
-  type :: model_state_t
-    real(rp), allocatable :: f(:, :, :)         !< (3, 0:nx-1, gys:gye) force work array
-    logical, allocatable :: fixed(:, :)         !< (0:nx-1, ys:ye) constrained in the current window
-    real(rp) :: gravity(3) = 0
-    logical :: clamp = .false.                  !< drop indefinite spring compression terms in P
-    logical :: gauss_newton = .false.           !< Gauss-Newton energy-bending blocks in P
-    logical :: moving_constraints = .false.     !< a constrained node moves in this window
-    !> the singular element seen by the last residual evaluation: how many,
-    !> one of them (link end nodes) and the time
-    integer :: nbad = 0, bad(2) = -1
-    real(rp) :: t_bad = 0
-  end type model_state_t
-
-  !> The assembled 6-dof Jacobian and its work buffers (-nuno_jacobian full;
-  !> owner: module cloth_model; assembly_create).
-  type :: assembly_t
-    type(jac_buffer_t) :: jbuf
-    type(tMat) :: p                             !< assembled 6-dof Jacobian (-nuno_jacobian full only)
-    real(rp), allocatable :: vals(:, :, :)      !< (6, 6, ncol) one block row of the Jacobian
-    integer, allocatable :: cols(:)             !< (ncol) its local block columns
-  end type assembly_t
-
-  !> Newton's policy state: the round-off floor, inexact Newton, the line-
-  !> search fallback and the Newton start (owner: module newton_policy,
-  !> newton_state_init and its setters; the Newton start's kept states:
-  !> module newton_start).
-  type :: newton_state_t
-    real(rp) :: snes_floor = 1.0e-6_rp          !< -nuno_snes_floor: stagnation below this relative residual is convergence
-    real(rp) :: fnorm0 = 0, fnorm_prev = 0
-    real(rp) :: floor_est = 0                   !< round-off floor of ||F||_2 at the last 6-dof assembly (module newton_control)
-    real(rp) :: snorm_prev = 0                  !< ||update|| of the previous Newton iteration
-    logical :: newton_forcing = .true.          !< inner tolerance from the step's needs (reduced path)
-    integer(c_int) :: guess = GUESS_AUTO        !< -nuno_inner_guess (module inner_guess)
-    integer(c_int) :: guess_given = 0           !< 1: set on the command line
-    real(rp) :: cquad = 0                       !< estimate of C in ||F_k+1|| ~ C ||F_k||^2; 0 at every window start
-    type(newton_start_t) :: start               !< beuler's Newton start and its kept states (module newton_start)
-    integer :: fail_newton = 0                  !< -nuno_fail_newton: Newton solves still to be declared failed
-    !> -nuno_linesearch_fallback: 0 none, 1 bt, 2 l2 (the line search once a
-    !> Newton solve has failed); ls_switched once it has been put in place
-    integer :: ls_fallback = 0
-    logical :: ls_switched = .false.
-  end type newton_state_t
-
-  !> The time integration as used: the namelist's values after the PETSc
-  !> options (resolved by module solver_setup), and the current time window
-  !> (owner: module step_monitor; step_settings_init, step_set_tolerances,
-  !> step_enter_window).
-  type :: step_settings_t
-    real(rp) :: dt = 0                          !< fixed (or initial) step [time]: -ts_dt, else the namelist's
-    real(rp) :: t_end = 0                       !< end time [time]: -ts_max_time, else the namelist's
-    logical :: fixed_step = .true.              !< -ts_adapt_type none: every step is dt unless retried
-    logical :: adaptive_default = .false.       !< the TS type is -nuno_adaptive_ts_type's (no -ts_type given)
-    PetscInt :: max_steps = 0                   !< -ts_max_steps: a clean end after this many steps
-    !> error tolerances of adaptive steps (TSSetTolerances: scalar rtol, vector atol)
-    real(rp) :: rtol = 0                        !< -ts_rtol [1]
-    real(rp) :: atol_x = 0                      !< absolute tolerance of positions [length]
-    real(rp) :: atol_v = 0                      !< absolute tolerance of velocities [length/time]
-    real(rp) :: tstop = 0                       !< end of the current time window [time]
-    PetscInt :: rejects_seen = 0                !< step rejections already answered by the monitor
-  end type step_settings_t
-
-  !> Time integrals, advanced by the monitor over each accepted step so that
-  !> they close at the method's order: Gauss-Legendre on the interpolant of bdf
-  !> (order up to 6), the trapezoid rule otherwise (owner: module step_monitor).
-  type :: energy_integrals_t
-    logical :: gauss = .false.
-    type(tVec) :: uq                            !< interpolated state (Gauss points)
-    real(rp) :: t_prev = 0, pdiss_prev = 0, pcon_prev = 0
-    real(rp) :: dissipated = 0                  !< dissipated energy [energy]
-    real(rp) :: work_constraints = 0            !< work of the constraint reactions [energy]
-    real(rp) :: mgx0 = 0                        !< sum m g . x at t = 0
-  end type energy_integrals_t
-
-  !> Progress of the run: wall clock, output steps, the monitor's stall check
-  !> (owner: module step_monitor).
-  type :: progress_t
-    logical :: monitor_seen = .false.           !< ts_monitor has run (its stall check)
-    PetscInt :: monitor_step = 0                !< the step number it saw last
-    integer :: stalled_steps = 0                !< accepted steps in a row that did not advance t
-    real(rp) :: wall0 = 0                       !< MPI_Wtime at the start of solver_run [s]
-    real(rp) :: t_written = -1                  !< time of the last output step [time]
-    real(rp) :: wall_said = 0                   !< MPI_Wtime of the last line on stdout (rank 0) [s]
-    logical :: stretch_warned = .false.         !< the stretch_limit warning was given
-  end type progress_t
-
-  !> Checkpoints and restarts (docs/design.md, "Checkpoints"; owner: module
-  !> run_checkpoint).
-  type :: restart_state_t
-    real(rp) :: checkpoint_walltime = 0         !< -nuno_checkpoint_walltime: a checkpoint after each [s]; 0: none
-    !> time of the last checkpoint written or restarted from [time]; the
-    !> run's start at first, so that the first checkpoint_interval
-    !> checkpoint comes one interval after it
-    real(rp) :: t_checkpoint = 0
-    logical :: restarted = .false.              !< continues a checkpoint (solver_restore)
-    logical :: checkpoint_current = .false.     !< the last checkpoint was written after the last output step
-    real(rp) :: t_restart = 0, h_restart = 0    !< its time and next step [time]
-    real(rp) :: wall_before = 0                 !< wall-clock seconds of the runs before this one [s]
-    !> The restart point: the state at the last output step and what a
-    !> checkpoint of it holds (keep_restart_point), written by the
-    !> checkpoints that come between output steps (SIGTERM, SIGINT, the wall
-    !> clock), so that their restarts repeat the run bit for bit.
-    logical :: rp_valid = .false.
-    type(checkpoint_t) :: rp_ck
-    real(rp), allocatable :: rp_x(:, :, :), rp_v(:, :, :)  !< (3, 0:nx-1, ys:ye) [length], [length/time]
-    !> rejected steps, Newton and linear iterations and retries of the runs
-    !> before this one (the step count goes on in the TS itself)
-    real(rp) :: counts_before(5) = 0
-  end type restart_state_t
-
   !> Everything the callbacks need; passed to PETSc as the user context.
   type :: app_ctx
-    !> the run's one configuration: the caller's (main program), which
-    !> solver_create points to and completes with the effective dt and
-    !> t_end; identify's fitted values and a restart's patch land there too
+    !> the run's configuration, read only: the caller's (main program's),
+    !> which solver_create points to (identification points it to its own
+    !> trial configuration); the effective dt and t_end are step's
     type(nuno_config), pointer :: cfg => null()
     type(lattice_t) :: lat
     type(constraint_set_t) :: cs
@@ -183,19 +78,18 @@ module app_context
     integer :: comm = MPI_COMM_NULL, rank = 0, size = 1
     real(rp), allocatable :: xout(:, :, :)      !< (3, 0:nx-1, ys:ye) output buffer
     real(rp), allocatable :: vout(:, :, :)      !< (3, 0:nx-1, ys:ye) output buffer
-    !> the (collective) output error that ended the run, '' if none
-    character(len=512) :: io_error = ''
-    type(model_state_t) :: model
-    type(assembly_t) :: asm
-    type(newton_state_t) :: newton
-    type(step_settings_t) :: step
-    type(energy_integrals_t) :: energy
-    type(progress_t) :: progress
-    type(restart_state_t) :: restart
-    type(contact_state_t) :: contact            !< obstacles and friction lag (module contact_forces; empty without)
-    !> contact's diagonal blocks at the last Jacobian's state, which every
-    !> assembly adds (written by contact_forces' contact_blocks alone)
-    type(node_blocks_t) :: nodal
+    type(run_error_t) :: error                  !< the (collective) error that ended the run (module run_error)
+    type(model_state_t) :: model                !< work arrays, the window's constrained nodes (module model_state)
+    type(assembly_t) :: asm                     !< the 6-dof Jacobian, -nuno_jacobian full (module model_state)
+    type(newton_state_t) :: newton              !< Newton's policy state (module newton_state)
+    type(newton_start_t) :: start               !< beuler's Newton start and its kept states (module newton_start)
+    type(step_settings_t) :: step               !< the time integration as used (module step_settings)
+    type(energy_integrals_t) :: energy          !< dissipated energy, constraint work (module energy_integrals)
+    type(progress_t) :: progress                !< wall clock, output steps, stall check (module run_progress)
+    !> the process models (contact with obstacles; module process_models:
+    !> their hooks' loops, and the node blocks every assembly adds); empty
+    !> in a scene without obstacles
+    type(pm_list_t) :: pms
   end type app_ctx
 
 end module app_context

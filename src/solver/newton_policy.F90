@@ -1,7 +1,8 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> Newton's policy on the PETSc side: the convergence test (round-off
 !> floor, forcing, the integrator's error estimate), the line-search
-!> fallback and the Newton start of beuler. The PETSc-free rules are in
+!> fallback and the Newton start of beuler. Its record, app_ctx%newton, is
+!> written by module newton_state's routines; the PETSc-free rules are in
 !> src/kernels/newton_control.f90 and newton_forcing.f90.
 module newton_policy
 #include "petsc/finclude/petscts.h"
@@ -11,19 +12,21 @@ module newton_policy
   use, intrinsic :: iso_c_binding, only: c_int
   use, intrinsic :: iso_fortran_env, only: output_unit
   use kinds, only: rp
-  use newton_forcing, only: forcing_term, quadratic_constant
-  use newton_control, only: FLOOR_FACTOR, NEWTON_CONVERGED, NEWTON_DIVERGED, floor_verdict
-  use app_context, only: app_ctx, newton_state_t
+  use newton_control, only: NEWTON_CONVERGED, NEWTON_DIVERGED
+  use app_context, only: app_ctx
+  use newton_state, only: newton_take_injected_failure, newton_first_residual, newton_iterated, newton_verdict, &
+                          newton_inner_rtol, newton_fallback_switched, newton_forcing_on, newton_floor_est, &
+                          newton_snorm_prev, newton_fallback
   use newton_start, only: newton_start_setup
+  use process_models, only: pm_list_hints
+  use process_model, only: pm_hints_t
   use reduced, only: reduced_set_forcing, reduced_floor_est, reduced_lin_rel, reduced_rtol0
   use solver_choices, only: FALLBACK_NAMES
+  use step_settings, only: step_fixed, step_tolerances
   use strings, only: num => real_brief
   implicit none
   private
   public :: set_newton_start, snes_converged, linesearch_fallback
-  ! the newton record of app_ctx: written only here (its Newton start's
-  ! kept states by module newton_start)
-  public :: newton_state_init, newton_set_inner_guess, newton_enter_window, newton_set_floor
 
   !> Adaptive steps: Newton has converged when its estimated remaining error
   !> is below this fraction of the time integrator's tolerance (the
@@ -43,19 +46,23 @@ contains
   !> elsewhere: in the Baraff-Witkin mode (-snes_type ksponly) the start
   !> is the point of the one linearisation and its residual the scale of
   !> the solve's tolerance (163 -> 189 inner iterations over 30 steps
-  !> there), adaptive steps change dt, and identification and control
-  !> runs keep their trajectories as they were.
+  !> there), adaptive steps change dt, identification and control
+  !> runs keep their trajectories as they were, and a process model that
+  !> needs a feasible start (contact) takes the last accepted state.
   subroutine set_newton_start(ctx, ierr)
     type(app_ctx), intent(inout), target :: ctx
     PetscErrorCode, intent(out) :: ierr
     type(tSNES) :: snes
     character(len=64) :: sntype
-    logical :: auto_cubic
+    logical :: auto_cubic, feasible_start
+    type(pm_hints_t) :: h
     PetscCall(TSGetSNES(ctx%ts, snes, ierr))
     PetscCall(SNESGetType(snes, sntype, ierr))
-    auto_cubic = ctx%step%fixed_step .and. trim(sntype) /= SNESKSPONLY .and. &
-                 .not. (ctx%cfg%identify%active .or. ctx%cfg%control%active) .and. ctx%cfg%contact%n_obstacles == 0
-    PetscCall(newton_start_setup(ctx%newton%start, ctx%ts, ctx%comm, auto_cubic, ierr))
+    h = pm_list_hints(ctx%pms)
+    feasible_start = h%feasible_start
+    auto_cubic = step_fixed(ctx%step) .and. trim(sntype) /= SNESKSPONLY .and. &
+                 .not. (ctx%cfg%identify%active .or. ctx%cfg%control%active) .and. .not. feasible_start
+    PetscCall(newton_start_setup(ctx%start, ctx%ts, ctx%comm, auto_cubic, ierr))
   end subroutine set_newton_start
 
   !> PETSc's residual test, plus the round-off floor of the residual, which
@@ -90,23 +97,24 @@ contains
     PetscErrorCode :: ierr
     real(rp) :: rate, wnorm, floor_est
     integer :: verdict
+    logical :: fail
     SNESLineSearchReason :: lsreason
     call SNESConvergedDefault(snes, it, xnorm, snorm, fnorm, reason, PETSC_NULL_INTEGER, ierr)
     if (ierr /= 0) return
-    if (it == 0 .and. ctx%newton%fail_newton > 0) then
-      ! -nuno_fail_newton (tests): the same decision on every rank.
-      ctx%newton%fail_newton = ctx%newton%fail_newton - 1
+    fail = .false.
+    ! -nuno_fail_newton (tests): the same decision on every rank.
+    if (it == 0) call newton_take_injected_failure(ctx%newton, fail)
+    if (fail) then
       reason = SNES_DIVERGED_FUNCTION_DOMAIN
     else if (it == 0) then
-      ctx%newton%fnorm0 = fnorm
+      call newton_first_residual(ctx%newton, fnorm)
     else if (reason == SNES_CONVERGED_ITERATING) then
       PetscCall(line_search_reason(snes, lsreason, ierr))
       if (lsreason /= LS_SUCCEEDED .and. lsreason /= LS_FAILED_REDUCT) then
         reason = SNES_DIVERGED_LINE_SEARCH        ! NaN, domain error: PETSc's own verdict
       else
-        floor_est = merge(reduced_floor_est(ctx%red), ctx%newton%floor_est, ctx%use_reduced)
-        verdict = floor_verdict(fnorm, ctx%newton%fnorm_prev, ctx%newton%fnorm0, ctx%newton%snes_floor, floor_est, &
-                                lsreason == LS_FAILED_REDUCT)
+        floor_est = merge(reduced_floor_est(ctx%red), newton_floor_est(ctx%newton), ctx%use_reduced)
+        verdict = newton_verdict(ctx%newton, fnorm, floor_est, lsreason == LS_FAILED_REDUCT)
         if (verdict == NEWTON_CONVERGED) then
           reason = SNES_CONVERGED_FNORM_ABS
         else if (verdict == NEWTON_DIVERGED) then
@@ -114,19 +122,19 @@ contains
         end if
       end if
     end if
-    if (it >= 2 .and. reason == SNES_CONVERGED_ITERATING .and. .not. ctx%step%fixed_step .and. ctx%newton%snorm_prev > 0.0_rp) then
-      rate = snorm / ctx%newton%snorm_prev
+    if (it >= 2 .and. reason == SNES_CONVERGED_ITERATING .and. .not. step_fixed(ctx%step) .and. &
+        newton_snorm_prev(ctx%newton) > 0.0_rp) then
+      rate = snorm / newton_snorm_prev(ctx%newton)
       if (rate < 0.9_rp) then
         call update_wrms(snes, ctx, wnorm, ierr)
         if (ierr /= 0) return
         if (wnorm * rate / (1.0_rp - rate) <= NEWTON_TS_FRACTION) reason = SNES_CONVERGED_SNORM_RELATIVE
       end if
     end if
-    if (reason == SNES_CONVERGED_ITERATING .and. ctx%use_reduced .and. ctx%newton%newton_forcing) then
+    if (reason == SNES_CONVERGED_ITERATING .and. ctx%use_reduced .and. newton_forcing_on(ctx%newton)) then
       PetscCall(set_newton_forcing(snes, it, fnorm, ctx, ierr))
     end if
-    ctx%newton%fnorm_prev = fnorm
-    ctx%newton%snorm_prev = snorm
+    call newton_iterated(ctx%newton, fnorm, snorm)
   end subroutine snes_converged
 
   !> The reason of this Newton iteration's line search (LS_SUCCEEDED for a
@@ -148,30 +156,27 @@ contains
   end subroutine line_search_reason
 
   !> The inner tolerance of the coming Newton iteration's solve (module
-  !> newton_forcing): no tighter than the Newton remainder C ||F||^2 that
-  !> the step leaves anyway, nor than half the residual at which
-  !> snes_converged stops: max(snes_atol, snes_rtol ||F_0||, and on this
-  !> path FLOOR_FACTOR times the round-off floor of the last assembly). C
-  !> comes from the iterations before that did not converge (at the floor
-  !> ||F|| says nothing about it), in this window; the bounds are the inner
-  !> solver's own rtol (never tighter than without this) and 0.1. The
-  !> reduced solve uses it unless -snes_ksp_ew or -reduced_ksp_rtol is given.
+  !> newton_state's newton_inner_rtol): no tighter than the Newton
+  !> remainder C ||F||^2 that the step leaves anyway, nor than half the
+  !> residual at which snes_converged stops: max(snes_atol, snes_rtol
+  !> ||F_0||, and on this path FLOOR_FACTOR times the round-off floor of the
+  !> last assembly). C comes from the iterations before that did not
+  !> converge (at the floor ||F|| says nothing about it), in this window.
+  !> The reduced solve uses it unless -snes_ksp_ew or -reduced_ksp_rtol is given.
   subroutine set_newton_forcing(snes, it, fnorm, ctx, ierr)
     type(tSNES) :: snes
     PetscInt, intent(in) :: it
     PetscReal, intent(in) :: fnorm
     type(app_ctx), intent(inout) :: ctx
     PetscErrorCode, intent(out) :: ierr
-    real(rp), parameter :: ETA_MAX = 0.1_rp
     PetscReal :: atol, rtol, stol
     PetscInt :: maxit, maxf
-    real(rp) :: target
+    real(rp) :: eta
 
     PetscCall(SNESGetTolerances(snes, atol, rtol, stol, maxit, maxf, ierr))
-    if (it >= 1) ctx%newton%cquad = quadratic_constant(ctx%newton%fnorm_prev, fnorm, reduced_lin_rel(ctx%red))
-    target = max(atol, rtol * ctx%newton%fnorm0)
-    if (ctx%newton%snes_floor > 0.0_rp) target = max(target, FLOOR_FACTOR * reduced_floor_est(ctx%red))
-    call reduced_set_forcing(ctx%red, forcing_term(fnorm, target, ctx%newton%cquad, reduced_rtol0(ctx%red), ETA_MAX))
+    call newton_inner_rtol(ctx%newton, int(it), fnorm, reduced_lin_rel(ctx%red), atol, rtol, reduced_floor_est(ctx%red), &
+                           reduced_rtol0(ctx%red), eta)
+    call reduced_set_forcing(ctx%red, eta)
   end subroutine set_newton_forcing
 
   !> The last Newton update in the weighted RMS norm of the time integrator:
@@ -185,10 +190,11 @@ contains
     PetscErrorCode, intent(out) :: ierr
     type(tVec) :: x, y
     PetscScalar, pointer :: xa(:), ya(:)
-    real(rp) :: loc(2), glob(2)
+    real(rp) :: loc(2), glob(2), atol_x, atol_v, rtol
     integer :: mpierr, k
 
     wnorm = huge(1.0_rp)
+    call step_tolerances(ctx%step, rtol, atol_x, atol_v)
     PetscCall(SNESGetSolution(snes, x, ierr))
     PetscCall(SNESGetSolutionUpdate(snes, y, ierr))
     PetscCall(VecGetArrayReadF90(x, xa, ierr))
@@ -198,9 +204,9 @@ contains
     loc(1) = 0.0_rp
     do k = 1, size(xa)
       if (mod(k - 1, 6) < 3) then
-        loc(1) = loc(1) + (ya(k) / ctx%step%atol_x)**2
+        loc(1) = loc(1) + (ya(k) / atol_x)**2
       else
-        loc(1) = loc(1) + (ya(k) / (ctx%step%atol_v + ctx%step%rtol * abs(xa(k))))**2
+        loc(1) = loc(1) + (ya(k) / (atol_v + rtol * abs(xa(k))))**2
       end if
     end do
     loc(2) = real(size(xa), rp)
@@ -221,59 +227,14 @@ contains
     type(tSNES) :: snes
     SNESLineSearch :: linesearch
     character(len=:), allocatable :: kind
-    kind = trim(FALLBACK_NAMES(ctx%newton%ls_fallback))
+    kind = trim(FALLBACK_NAMES(newton_fallback(ctx%newton)))
     PetscCall(TSGetSNES(ts, snes, ierr))
     PetscCall(SNESGetLineSearch(snes, linesearch, ierr))
     PetscCall(SNESLineSearchSetType(linesearch, kind, ierr))
     PetscCall(SNESLineSearchSetFromOptions(linesearch, ierr))
-    ctx%newton%ls_switched = .true.
+    call newton_fallback_switched(ctx%newton)
     if (ctx%rank == 0) write(output_unit, '(a)') 'nuno: after a failed Newton solve (its step retried smaller), line search '// &
       kind//' from t = '//num(t)//' on (-nuno_linesearch_fallback)'
   end subroutine linesearch_fallback
-
-  ! ------------------------------------------ the newton record (owner)
-
-  !> Newton's policy as the options resolved it (solver_create):
-  !> snes_floor (-nuno_snes_floor, relative residual), guess and
-  !> guess_given (-nuno_inner_guess and whether it was given), forcing
-  !> (-nuno_newton_forcing), fail_newton (-nuno_fail_newton, tests),
-  !> ls_fallback (-nuno_linesearch_fallback's code; 0: none).
-  subroutine newton_state_init(n, snes_floor, guess, guess_given, forcing, fail_newton, ls_fallback)
-    type(newton_state_t), intent(inout) :: n
-    real(rp), intent(in) :: snes_floor
-    integer(c_int), intent(in) :: guess, guess_given
-    logical, intent(in) :: forcing
-    integer, intent(in) :: fail_newton, ls_fallback
-    n%snes_floor = snes_floor
-    n%guess = guess
-    n%guess_given = guess_given
-    n%newton_forcing = forcing
-    n%fail_newton = fail_newton
-    n%ls_fallback = ls_fallback
-  end subroutine newton_state_init
-
-  !> The inner guess the run uses (auto resolved, or none where the run
-  !> cannot use one: module solver_setup's set_inner_guess).
-  subroutine newton_set_inner_guess(n, guess)
-    type(newton_state_t), intent(inout) :: n
-    integer(c_int), intent(in) :: guess
-    n%guess = guess
-  end subroutine newton_set_inner_guess
-
-  !> A time window's start (enter_window): the Newton remainder is learnt
-  !> anew in each window, so that a run restarted at a window's start takes
-  !> the same iterations as the run that went through it.
-  subroutine newton_enter_window(n)
-    type(newton_state_t), intent(inout) :: n
-    n%cquad = 0.0_rp
-  end subroutine newton_enter_window
-
-  !> The round-off floor of ||F||_2 estimated at the last 6-dof assembly
-  !> (module cloth_model; the reduced path keeps its own in reduced_t).
-  subroutine newton_set_floor(n, floor_est)
-    type(newton_state_t), intent(inout) :: n
-    real(rp), intent(in) :: floor_est
-    n%floor_est = floor_est
-  end subroutine newton_set_floor
 
 end module newton_policy

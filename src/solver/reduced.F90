@@ -35,6 +35,7 @@ module reduced
                         true_residual_defaults, mg_options_t, mg_options_read, &
                         INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
   use shell_context, only: PCShellSetContext, PCShellGetContext, MatShellSetContext, MatShellGetContext
+  use ghosted_state, only: ghosted_get, ghosted_restore
   implicit none
   private
   public :: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach, reduced_describe
@@ -88,7 +89,7 @@ module reduced
     type(elements_t) :: el                 !< the element model and its products (this module)
     type(inner_pc_t) :: pcc                !< the inner preconditioner in use and its reuse (this module)
     type(lattice_t), pointer :: lat => null()
-    type(node_blocks_t), pointer :: nodal => null()  !< forces on single nodes (contact), written by contact_forces
+    type(node_blocks_t), pointer :: nodal => null()  !< forces on single nodes (contact), written by the process models' Jacobian hooks
     type(tDM) :: da6                       !< the state's DMDA (dof 6; not owned)
     type(tDM) :: da3                       !< dof 3, same strips and halo
     type(tMat) :: s                        !< S = a M - C - K/a, block size 3 (AIJ for multigrid, else BAIJ)
@@ -488,13 +489,9 @@ contains
       end do
     end do
     PetscCall(DMDAVecRestoreArrayF90(red%da3, red%dv, fa, ierr))
-    PetscCall(DMGetLocalVector(red%da3, loc, ierr))
-    PetscCall(DMGlobalToLocalBegin(red%da3, red%dv, INSERT_VALUES, loc, ierr))
-    PetscCall(DMGlobalToLocalEnd(red%da3, red%dv, INSERT_VALUES, loc, ierr))
-    PetscCall(DMDAVecGetArrayReadF90(red%da3, loc, fl, ierr))
+    PetscCall(ghosted_get(red%da3, red%dv, loc, fl, ierr))
     red%el%fixedg = fl(0, :, :) > 0.5_rp
-    PetscCall(DMDAVecRestoreArrayReadF90(red%da3, loc, fl, ierr))
-    PetscCall(DMRestoreLocalVector(red%da3, loc, ierr))
+    PetscCall(ghosted_restore(red%da3, loc, fl, ierr))
     red%dirty = .true.
     ! The preconditioner is built afresh at the window's first assembly, so
     ! that a run restarted at a window's start (a checkpoint) takes the same

@@ -22,6 +22,7 @@
 submodule (reduced) reduced_elim
 #include "petsc/finclude/petscsnes.h"
 #include "petsc/finclude/petscdmda.h"
+  use ghosted_state, only: ghosted_get, ghosted_restore
   implicit none
 
 contains
@@ -40,31 +41,6 @@ contains
                      red%el%lb, red%el%g, red%el%kd)
   end subroutine element_products
 
-  !> The ghosted array v(0:5, 0:nx-1, gys:gye) of the 6-dof global vector
-  !> vg: one halo exchange into vloc, a local vector of the state's DMDA.
-  !> Give both back with ghosted_restore. Collective.
-  subroutine ghosted_get(red, vg, vloc, v, ierr)
-    type(reduced_t), intent(in) :: red
-    type(tVec), intent(in) :: vg
-    type(tVec), intent(out) :: vloc
-    PetscScalar, pointer, intent(out) :: v(:, :, :)
-    PetscErrorCode, intent(out) :: ierr
-    PetscCall(DMGetLocalVector(red%da6, vloc, ierr))
-    PetscCall(DMGlobalToLocalBegin(red%da6, vg, INSERT_VALUES, vloc, ierr))
-    PetscCall(DMGlobalToLocalEnd(red%da6, vg, INSERT_VALUES, vloc, ierr))
-    PetscCall(DMDAVecGetArrayReadF90(red%da6, vloc, v, ierr))
-  end subroutine ghosted_get
-
-  !> Give back a ghosted array and its local vector (ghosted_get).
-  subroutine ghosted_restore(red, vloc, v, ierr)
-    type(reduced_t), intent(in) :: red
-    type(tVec), intent(inout) :: vloc
-    PetscScalar, pointer, intent(inout) :: v(:, :, :)
-    PetscErrorCode, intent(out) :: ierr
-    PetscCall(DMDAVecRestoreArrayReadF90(red%da6, vloc, v, ierr))
-    PetscCall(DMRestoreLocalVector(red%da6, vloc, ierr))
-  end subroutine ghosted_restore
-
   !> The right-hand side of S dv = rhs for the 6-dof right-hand side b
   !> (global, dof 6): rhs = m b_v + K b_x/a + C z (see the header above).
   !> Collective (one halo exchange of b).
@@ -80,7 +56,7 @@ contains
 
     ainv = 1.0_rp / red%a
     any_w = .false.
-    PetscCall(ghosted_get(red, b, bloc, bl, ierr))
+    PetscCall(ghosted_get(red%da6, b, bloc, bl, ierr))
     do j = red%lat%gys, red%lat%gye
       do i = 0, red%lat%nx - 1
         ! After a Newton update the x-rows are solved exactly: what is left
@@ -122,7 +98,7 @@ contains
       end do
     end do
     PetscCall(DMDAVecRestoreArrayF90(red%da3, rhs, r, ierr))
-    PetscCall(ghosted_restore(red, bloc, bl, ierr))
+    PetscCall(ghosted_restore(red%da6, bloc, bl, ierr))
   end subroutine reduced_rhs
 
   !> x = sgn y up to round-off (both come from the same expressions); no
@@ -315,7 +291,7 @@ contains
     PetscCall(MatShellGetContext(mat, ctx, ierr))
     call c_f_pointer(ctx, red)
     a = red%a
-    PetscCall(ghosted_get(red, du, dloc, d, ierr))
+    PetscCall(ghosted_get(red%da6, du, dloc, d, ierr))
     call element_products(red, d)
     PetscCall(DMDAVecGetArrayF90(red%da6, yv, y, ierr))
     do j = red%lat%ys, red%lat%ye
@@ -329,7 +305,7 @@ contains
       end do
     end do
     PetscCall(DMDAVecRestoreArrayF90(red%da6, yv, y, ierr))
-    PetscCall(ghosted_restore(red, dloc, d, ierr))
+    PetscCall(ghosted_restore(red%da6, dloc, d, ierr))
   end subroutine reduced_jac_mult
 
 end submodule reduced_elim

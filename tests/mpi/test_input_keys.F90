@@ -6,8 +6,9 @@
 !>   WRITE of the group, input_namelist_dump);
 !> - each default of the table that is a value, in every scene, is the
 !>   reader's: setting the key to it changes nothing;
-!> - each simple range (> X, >= X) and choice list of the table is what the
-!>   checks refuse and accept; every real key is refused as NaN.
+!> - each simple range (> X, >= X, and lists of bounds such as
+!>   ">= 0, <= 1e30") and choice list of the table is what the checks
+!>   refuse and accept; every real key is refused as NaN.
 !> Run on 1 and 3 ranks (the parsing itself uses no MPI).
 program test_input_keys
   use mpi
@@ -206,14 +207,15 @@ contains
     end do
   end function dump_all
 
-  !> A range "> X" or ">= X" of a scalar number: a value beyond it is
-  !> refused naming the key, the bound of ">=" accepted. A choice list:
+  !> A range of bounds of a scalar number ("> X", ">= X", "<= Y", "< Y",
+  !> separated by ', '): a value beyond each is refused naming the key, the
+  !> bound of ">=" and "<=" accepted. A choice list:
   !> each listed value accepted as a choice, another refused with the list.
   subroutine check_range(k)
     integer, intent(in) :: k
-    character(:), allocatable :: r, nm, bad, good, words(:), sc
+    character(:), allocatable :: r, nm, bad, good, words(:), sc, part, op
     real(8) :: x
-    integer :: ios, i
+    integer :: ios, i, p, q
     r = trim(keys(k)%allowed)
     nm = trim(keys(k)%name)
     bad = ''
@@ -222,26 +224,39 @@ contains
     if (trim(keys(k)%group) == 'control') sc = 'wave_point'
     if (keys(k)%size /= 1) return
     if (keys(k)%kind == KEY_INTEGER .or. keys(k)%kind == KEY_REAL) then
-      if (r(1:min(3, len(r))) == '>= ') then
-        read(r(4:), *, iostat=ios) x
-        if (ios /= 0) return
-        good = r(4:)
-        bad = num(x - 1.0d0)
-      else if (r(1:min(2, len(r))) == '> ') then
-        read(r(3:), *, iostat=ios) x
-        if (ios /= 0) return
-        bad = r(3:)
-      else
-        return
-      end if
-      if (keys(k)%kind == KEY_REAL .and. index(bad, '.') == 0) bad = bad//'.0'
-      call input_parse(input_with(k, sc, nm//' = '//bad), cfg1, ierr, msg)
-      call check_true(ierr /= 0 .and. index(msg, nm) > 0, nm//' = '//bad//' is refused by name ('// &
-                      r//'): '//trim(msg))
-      if (len(good) > 0) then
-        call input_parse(input_with(k, sc, nm//' = '//good), cfg1, ierr, msg)
-        call check_true(ierr == 0, nm//' = '//good//' is accepted ('//r//'): '//trim(msg))
-      end if
+      ! Each leading bound of the list (">= A, <= B"; a text after them,
+      ! "or 0: no check", ends it): a value beyond it refused by name, the
+      ! bound of ">=" and "<=" itself accepted.
+      p = 1
+      do while (p <= len(r))
+        q = index(r(p:)//', ', ', ') + p - 1
+        part = r(p:q - 1)
+        op = part(1:verify(part, '<>=') - 1)
+        read(part(len(op) + 1:), *, iostat=ios) x
+        if (len(op) == 0 .or. ios /= 0) exit
+        good = ''
+        select case (op)
+        case ('>=')
+          good = adjustl(part(3:))
+          bad = num(x - 1.0d0)
+        case ('>')
+          bad = adjustl(part(2:))
+        case ('<=')
+          good = adjustl(part(3:))
+          bad = num(merge(x * 10.0d0, x + 1.0d0, x > 0.0d0))
+        case default
+          bad = adjustl(part(2:))
+        end select
+        if (keys(k)%kind == KEY_REAL .and. verify(bad, '-0123456789') == 0) bad = bad//'.0'
+        call input_parse(input_with(k, sc, nm//' = '//bad), cfg1, ierr, msg)
+        call check_true(ierr /= 0 .and. index(msg, nm) > 0, nm//' = '//bad//' is refused by name ('// &
+                        r//'): '//trim(msg))
+        if (len(good) > 0) then
+          call input_parse(input_with(k, sc, nm//' = '//good), cfg1, ierr, msg)
+          call check_true(ierr == 0, nm//' = '//good//' is accepted ('//r//'): '//trim(msg))
+        end if
+        p = q + 2
+      end do
     else if (keys(k)%kind == KEY_STRING .and. index(r, ', ') > 0 .and. &
              verify(r, 'abcdefghijklmnopqrstuvwxyz_, ') == 0 .and. nm /= 'fit') then
       words = split(r)

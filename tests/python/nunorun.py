@@ -112,8 +112,8 @@ def jacobian_ratios(text):
     return [float(m) for m in re.findall(r"\|\|J - Jfd\|\|_F/\|\|J\|\|_F = ([0-9.eE+-]+)", text)]
 
 
-# The line contact's check prints at each output time (module contact_solver,
-# contact_observe): t, active pairs, total force (3), smallest gap now and over
+# The line contact's check prints at each output time (module contact_model,
+# its accepted hook): t, active pairs, total force (3), smallest gap now and over
 # the run, states checked.
 CONTACT_LINE = re.compile(r"contact: t = (\S+), active = (\d+), force = (\S+) (\S+) (\S+), min gap = (\S+), "
                           r"min gap of all accepted states = (\S+), states checked = (\d+)")

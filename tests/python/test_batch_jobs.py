@@ -95,11 +95,22 @@ def test_non_matchstep_final_time_is_refused(tmp_path):
 
 # ------------------------------------------------------------- unused options
 
-def test_a_misspelt_option_is_reported(tmp_path):
-    proc, r = run_and_read(tmp_path, "typo", nranks=2, options=("-ts_tpye", "cn"), **lift(0.002, 0.002))
-    assert r.complete and r.run_info["ts_type"] == "beuler"   # not applied, and...
+def test_a_misspelt_option_is_refused_before_the_run(tmp_path):
+    """Said once, before the first step (issue 48 item 4; it was a warning
+    at the end of the run): tests/python/test_input_options.py."""
+    proc, h5 = run(tmp_path, "typo", nranks=2, options=("-ts_tpye", "cn"), check=False, **lift(0.002, 0.002))
+    assert proc.returncode != 0 and not h5.exists()
+    errors = [ln for ln in proc.stderr.splitlines() if ln.startswith("nuno: error")]
+    assert len(errors) == 1 and "-ts_tpye cn" in errors[0] and "-ts_type" in errors[0], proc.stderr
+
+
+def test_an_option_read_late_is_still_reported_at_the_end(tmp_path):
+    """An option of a kind PETSc reads only during the run (here a viewer of
+    a solver this run does not have) is reported at the end, once."""
+    proc, r = run_and_read(tmp_path, "late", nranks=2, options=("-fieldsplit_0_ksp_view",), **lift(0.002, 0.002))
+    assert r.complete
     warnings = [ln for ln in proc.stderr.splitlines() if ln.startswith("nuno: warning:")]
-    assert len(warnings) == 1 and "-ts_tpye" in warnings[0] and "cn" in warnings[0], proc.stderr  # ...said, once
+    assert len(warnings) == 1 and "-fieldsplit_0_ksp_view" in warnings[0], proc.stderr
 
 
 def test_used_options_are_not_reported(tmp_path):
@@ -122,10 +133,32 @@ def test_fixed_step_returns_to_dt_after_a_retry(tmp_path):
     last = fields(progress_lines(proc.stdout)[-1])
     assert last["retries"] == 1 and last["rejected"] == 1 and last["steps"] == 11
     assert "1 retried after a failed Newton solve" in proc.stdout
+    # the closing line and /run say that the fixed steps were not all dt
+    # (issue 48 item 5)
+    closing = [ln for ln in proc.stdout.splitlines() if ln.startswith("nuno: complete")]
+    assert len(closing) == 1 and "fixed steps: 1 retried smaller, so not every step was dt" in closing[0], closing
+    assert r.run_info["retried_steps"] == 1
     # Two windows: 0.25 + 1 + 1 + 1, then PETSc's matchstep halves the rest
     # (0.875 + 0.875); the second window is back to 5 steps of dt.
     _, r2 = run_and_read(tmp_path, "retry2", options=("-nuno_fail_newton", "1"), **lift(10 * DT, 5 * DT))
     assert list(r2.diagnostics["steps"]) == [0, 6, 11]
+    assert r2.run_info["retried_steps"] == 1
+
+
+def test_fixed_steps_without_a_retry_say_nothing_of_it(tmp_path):
+    proc, r = run_and_read(tmp_path, "plain", options=(), **lift(10 * DT, 10 * DT))
+    assert r.run_info["retried_steps"] == 0 and r.diagnostics["steps"][-1] == 10
+    assert "fixed steps:" not in proc.stdout
+
+
+def test_help_says_what_fixed_steps_mean_when_a_step_is_retried(tmp_path):
+    """--help said fixed steps are "the same whatever the solution", which a
+    failed Newton solve (an impact with contact) breaks (issue 48 item 5)."""
+    from nunorun import exe
+    text = subprocess.run([exe(), "--help"], capture_output=True, text=True, timeout=60).stdout
+    block = " ".join(text[text.index("reproducible runs"):].split())
+    assert "unless a Newton solve fails" in block and "retried at dt/4" in block, block[:400]
+    assert "/run retried_steps" in block
 
 
 def test_line_search_falls_back_after_a_failed_newton_solve(tmp_path):

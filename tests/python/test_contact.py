@@ -85,10 +85,13 @@ def test_fixed_step_returns_to_dt_after_a_retry_with_obstacles(tmp_path):
     10 steps of at most dt (the last ones shortened to end on the window's
     end): 11 steps, 1 rejected. A step left at dt/4 until the window's end
     would take 40 (as it did while contact's TS monitor replaced nuno's)."""
-    _, r = run_and_read(tmp_path, "retry", options=["-nuno_fail_newton", "1"], **groups(0.05, 0.01, 0.01))
+    proc, r = run_and_read(tmp_path, "retry", options=["-nuno_fail_newton", "1"], **groups(0.05, 0.01, 0.01))
     assert r.complete
     assert int(r.diagnostics["steps"][-1]) == 11
     assert int(r.diagnostics["rejected_steps"][-1]) == 1
+    # counted where a user looks (issue 48 item 5): the closing line and /run
+    assert "fixed steps: 1 retried smaller" in proc.stdout
+    assert r.run_info["retried_steps"] == 1
 
 
 def final_positions(h5):

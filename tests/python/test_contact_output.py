@@ -5,7 +5,7 @@ through the users' reader, against independent expectations (the gap
 computed from /position, the sheet's weight, the run's step count, a
 conservation law whose error falls at backward Euler's first order, the
 run that went through a restart); none of it without obstacles; and the
-house rule that module contact_forces alone writes contact_state_t.
+house rule that module contact_model alone writes contact_model_t.
 Small lattices, seconds a run."""
 import re
 from pathlib import Path
@@ -216,13 +216,14 @@ def test_a_restart_with_other_obstacles_is_refused(tmp_path, before, after):
     assert h5.read_bytes() == data
 
 
-def test_only_contact_forces_writes_the_contact_state():
+def test_only_contact_model_writes_the_contact_state():
     """House rule: a context's fields are written only by its own module
-    (contact_state_t's: module contact_forces)."""
-    assign = re.compile(r"\bctx%contact%\w+(\([^)]*\))?\s*=(?!=)")
+    (contact_model_t's: module contact_model; the list of process models,
+    pm_list_t's: module process_models)."""
+    assign = re.compile(r"\bctx%pms%\w+(\([^)]*\))?\s*=(?!=)")
     offenders = []
     for path in sorted((Path(ROOT) / "src").rglob("*.[fF]90")):
-        if path.name == "contact_forces.f90":
+        if path.name in ("contact_model.f90", "process_models.f90"):
             continue
         for no, line in enumerate(path.read_text().splitlines(), 1):
             code = line.split("!")[0]

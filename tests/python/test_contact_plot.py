@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from postprocess import contact_plot
+from postprocess import contact_plot, plotting
 from postprocess.reader import read_run
 
 REPO = Path(__file__).resolve().parents[2]
@@ -127,7 +127,6 @@ def test_solids_first_draws_the_obstacles_under_the_cloth(tmp_path, make_run):
     drawn after the plane and before the cloth, which is then alone in its
     own; by default the cloth and the solids are depth-sorted together. The
     script takes the option."""
-    from postprocess import plotting
     make_run(tmp_path / "a.h5", nx=6, ny=5, nt=3)
     add_contact_config(tmp_path / "a.h5")
     run = read_run(str(tmp_path / "a.h5"))
@@ -192,3 +191,199 @@ def test_a_real_drop_onto_a_table(tmp_path):
     proc = cli(tmp_path / "d.h5", "-o", tmp_path / "d.png", "--units", "m")
     assert proc.returncode == 0, proc.stderr
     assert_image(tmp_path / "d.png", "PNG")
+
+
+# ---------------------------------------------------------------- moving obstacles, box axes, side sections
+
+# input/gripper.nml's fingers as /config/contact packs them (src/run/provenance.F90):
+# each obstacle's n_keyframes(k) keyframes one after the other.
+FINGER_TIME = [0.0, 0.2, 0.7, 2.2]
+FINGER_CLOSE = [0.0, 0.035, 0.0399, 0.0399]
+FINGER_PULL = 0.05        # offset along +z at the last keyframe
+
+
+def add_fingers(path, gravity=(9.81, 0.0, 0.0)):
+    with h5py.File(path, "a") as f:
+        f.attrs["units"] = "SI"
+        f.require_group("config").require_group("scene").attrs["gravity"] = np.asarray(gravity, float)
+        g = f["config"].require_group("contact")
+        g.attrs["n_obstacles"] = np.int32(2)
+        g.attrs["obstacle_shape"] = "capsule, capsule"
+        g.attrs["obstacle_point"] = np.array([0.5, -0.1, 0.05, 0.5, -0.1, -0.05])
+        g.attrs["obstacle_end"] = np.array([0.5, 1.1, 0.05, 0.5, 1.1, -0.05])
+        g.attrs["obstacle_radius"] = np.array([0.01, 0.01])
+        g.attrs["obstacle_n_keyframes"] = np.array([4.0, 4.0])
+        g.attrs["obstacle_time"] = np.array(FINGER_TIME * 2)
+        g.attrs["obstacle_close"] = np.array(FINGER_CLOSE * 2)
+        offset = np.zeros((4, 3))
+        offset[3, 2] = FINGER_PULL
+        g.attrs["obstacle_offset"] = np.concatenate([offset.ravel(), offset.ravel()])
+        g.attrs["obstacle_close_dir"] = np.array([0.0, 0.0, -1.0, 0.0, 0.0, 1.0])
+        g.attrs["contact_dhat"] = 1e-3
+
+
+def finger_z(t, k):
+    """Finger k's axis z at time t, worked out by hand from the keyframes:
+    start -+0.05, closing offset along -+z, pull along +z (linear between
+    keyframes, held after the last)."""
+    close = np.interp(t, FINGER_TIME, FINGER_CLOSE)
+    pull = np.interp(t, FINGER_TIME, [0.0, 0.0, 0.0, FINGER_PULL])
+    return (0.05 - close if k == 0 else -0.05 + close) + pull
+
+
+def set_positions(path, z_of_step, lx=1.0, ly=0.8):
+    """Positions of a make_run file replaced by the flat rest sheet at heights z_of_step [nt]
+    (or a function of the rest position (x, y) and the step)."""
+    with h5py.File(path, "a") as f:
+        pos = f["position"][()]
+        ny, nx = pos.shape[1:3]
+        xs, ys = np.meshgrid(np.linspace(0.0, lx, nx), np.linspace(0.0, ly, ny))
+        for k in range(pos.shape[0]):
+            pos[k, ..., 0], pos[k, ..., 1] = xs, ys
+            pos[k, ..., 2] = z_of_step(xs, ys, k)
+        f["position"][...] = pos
+
+
+def test_keyframed_fingers_are_where_their_keyframes_put_them(tmp_path, make_run):
+    make_run(tmp_path / "g.h5", nt=3)
+    add_fingers(tmp_path / "g.h5")
+    with read_run(tmp_path / "g.h5") as run:
+        obs = contact_plot.obstacles(run)
+    assert [o.shape for o in obs] == ["capsule", "capsule"]
+    for t in (0.0, 0.1, 0.45, 0.7, 1.45, 2.2, 3.0):
+        for k, o in enumerate(obs):
+            moved = o.at(t)
+            assert moved.point == pytest.approx([0.5, -0.1, finger_z(t, k)], abs=1e-15), (t, k)
+            assert moved.end == pytest.approx([0.5, 1.1, finger_z(t, k)], abs=1e-15), (t, k)
+    assert finger_z(0.45, 0) == pytest.approx(0.05 - 0.03745) and finger_z(3.0, 0) == pytest.approx(0.0601)
+
+
+def test_side_view_draws_the_fingers_where_they_are(tmp_path, make_run):
+    """--view side on the x-z plane of a cloth hanging along +x (gravity +x):
+    x points down (the vertical axis reversed), and each finger's outline
+    is a circle of its radius about its axis at the panel's time."""
+    make_run(tmp_path / "g.h5", nt=4, dt=0.5)                       # t = 0, 0.5, 1.0, 1.5
+    add_fingers(tmp_path / "g.h5")
+    set_positions(tmp_path / "g.h5", lambda x, y, k: 0.0 * x)
+    run = read_run(tmp_path / "g.h5")
+    fig, sec = contact_plot.build_side_figure(run, [0, 1, 3], "m", plane="xz")
+    for ax, k in zip(plotting.panels(fig), [0, 1, 3]):
+        lo, hi = ax.get_ylim()
+        assert lo > hi                                   # x grows downwards: gravity is +x
+        assert ax.get_xlabel() == "z [m]"
+        fills = [p for p in ax.patches]                  # the two finger outlines (ax.fill)
+        assert len(fills) == 2
+        t = float(run.time[k])
+        for finger, patch in enumerate(fills):
+            xy = patch.get_xy()                          # (z, x) data coordinates
+            centre = np.array([finger_z(t, finger), 0.5])
+            r = np.linalg.norm(xy - centre, axis=1)
+            assert r.max() == pytest.approx(0.01, rel=1e-9) and r.min() > 0.0099, (t, finger)
+    out = tmp_path / "g.png"
+    proc = cli(tmp_path / "g.h5", "-o", out, "--view", "side", "--plane", "xz", "--zoom", "obstacles",
+               "--gif", tmp_path / "g.gif", "--frames", "3", "--size", "200")
+    assert proc.returncode == 0, proc.stderr
+    assert_image(out, "PNG")
+    assert assert_image(tmp_path / "g.gif", "GIF") == (3, (200, 200))
+
+
+def test_side_view_zooms_on_a_millimetre_gap(tmp_path, make_run):
+    """A sheet resting 0.3 mm above a table (a plane, z = 0) with contact_dhat
+    = 1 mm, and 5 cm above it at the first step: --zoom each frames each
+    panel on the cloth and the table near it, so the 0.3 mm gap is a tenth
+    of the resting panel's height or more; the table's top and the
+    barrier's reach (dashed, 1 mm above it) are in the frame."""
+    make_run(tmp_path / "d.h5", nt=2)
+    heights = [0.05, 3e-4]
+    set_positions(tmp_path / "d.h5", lambda x, y, k: 0.0 * x + heights[k])
+    with h5py.File(tmp_path / "d.h5", "a") as f:
+        f.attrs["units"] = "SI"
+        f.require_group("config").require_group("scene").attrs["gravity"] = np.array([0.0, 0.0, -9.81])
+        g = f["config"].require_group("contact")
+        g.attrs["n_obstacles"] = np.int32(1)
+        g.attrs["obstacle_shape"] = "plane"
+        g.attrs["obstacle_point"] = np.zeros(3)
+        g.attrs["obstacle_normal"] = np.array([0.0, 0.0, 1.0])
+        g.attrs["contact_dhat"] = 1e-3
+    run = read_run(tmp_path / "d.h5")
+    fig, _ = contact_plot.build_side_figure(run, [0, 1], "m", plane="xz", zoom="each", aspect="auto")
+    for ax, z in zip(plotting.panels(fig), heights):
+        lo, hi = ax.get_ylim()
+        assert lo < 0.0 < 1e-3 < hi and lo < z < hi          # table, reach and cloth in view
+        assert z / (hi - lo) >= 0.1, (z, lo, hi)
+        dashed = [ln for ln in ax.lines if ln.get_linestyle() == "--"]
+        assert [ln.get_ydata()[0] for ln in dashed] == [pytest.approx(1e-3)]
+    assert not (plotting.panels(fig)[1].get_ylim()[1] > 0.01)   # the resting panel: zoomed in
+    # one range for all (the default): the 5 cm drop sets it
+    fig, _ = contact_plot.build_side_figure(run, [0, 1], "m", plane="xz", aspect="auto")
+    assert all(ax.get_ylim()[1] > 0.05 for ax in plotting.panels(fig))
+
+
+def test_view_axes_and_hull():
+    from postprocess import contact_section as cs
+    assert cs.view_axes("xz", np.array([0.0, 0.0, -9.81])) == (0, 2, False)
+    assert cs.view_axes("xz", np.array([9.81, 0.0, 0.0])) == (2, 0, True)
+    assert cs.view_axes("yz", None) == (1, 2, False)
+    rng = np.random.default_rng(1)
+    pts = rng.normal(size=(200, 2))
+    hull = cs.convex_hull(pts)
+    edges = np.roll(hull, -1, axis=0) - hull
+    rel = pts[:, None, :] - hull[None, :, :]
+    assert np.all(edges[None, :, 0] * rel[..., 1] - edges[None, :, 1] * rel[..., 0] >= -1e-12)  # all inside
+    # a half-plane clip of the unit square
+    sq = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    part = cs.clip_halfplane(sq, np.array([0.0, 1.0]), 0.25)
+    assert part[:, 1].max() == pytest.approx(0.25) and len(part) == 4
+
+
+def test_box_axes_follow_obstacle_axis_and_normal(tmp_path, make_run):
+    """A box turned 45 degrees about z (obstacle_axis = 1, 1, 0): its corners
+    lie on its local axes (x along (1, 1)/sqrt 2), not on the world's."""
+    make_run(tmp_path / "b.h5", nt=2)
+    with h5py.File(tmp_path / "b.h5", "a") as f:
+        g = f.require_group("config").require_group("contact")
+        g.attrs["n_obstacles"] = np.int32(1)
+        g.attrs["obstacle_shape"] = "box"
+        g.attrs["obstacle_point"] = np.array([1.0, 2.0, 3.0])
+        g.attrs["obstacle_half_size"] = np.array([2.0, 1.0, 0.5])
+        g.attrs["obstacle_normal"] = np.array([0.0, 0.0, 1.0])
+        g.attrs["obstacle_axis"] = np.array([1.0, 1.0, 0.0])
+    with read_run(tmp_path / "b.h5") as run:
+        (box,) = contact_plot.obstacles(run)
+    ex, ey = np.array([1.0, 1.0, 0.0]) / np.sqrt(2.0), np.array([-1.0, 1.0, 0.0]) / np.sqrt(2.0)
+    v = contact_plot.box_quads(box).reshape(-1, 3) - [1.0, 2.0, 3.0]
+    local = np.abs(np.column_stack([v @ ex, v @ ey, v[:, 2]])) / [2.0, 1.0, 0.5]
+    assert local.max() <= 1.0 + 1e-12 and np.allclose(local.max(axis=1), 1.0)
+
+
+def test_side_options_need_the_side_view(tmp_path, make_run):
+    make_run(tmp_path / "a.h5", nt=3)
+    for args, message in ((("--plane", "xz"), "--plane goes with --view side"),
+                          (("--view", "side", "--hlim", "1", "0"), "--hlim 1 0"),
+                          (("--view", "side", "--elev", "10"), "go with --view iso")):
+        proc = cli(tmp_path / "a.h5", "-o", tmp_path / "x.png", *args)
+        assert proc.returncode == 1 and message in proc.stderr, (args, proc.stderr)
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_a_real_gripper_pinch_seen_from_the_side(tmp_path):
+    """input/gripper.nml on 11 x 11 nodes to t = 0.3 s (2 ranks): the real
+    file's keyframes put the fingers at z = +-(0.05 - 0.03598) at 0.3 s
+    (closing 0.035 m by 0.2 s, then 0.0049 m over 0.5 s), the cloth between
+    them, and the section shows it."""
+    from nunorun import exe, mpiexec
+    cmd = [mpiexec(), "-n", "2", "--oversubscribe", exe(), str(REPO / "input" / "gripper.nml"),
+           "-nuno_set", "nx=11,ny=11,t_end=0.3,output_interval=0.1,output_file='g.h5'"]
+    proc = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    run = read_run(tmp_path / "g.h5")
+    k = run.step_index(0.3)
+    z = 0.05 - (0.035 + 0.0049 * 0.1 / 0.5)
+    fig, _ = contact_plot.build_side_figure(run, [k], "m", plane="xz", zoom="obstacles")
+    (ax,) = plotting.panels(fig)
+    centres = sorted(0.5 * (p.get_xy()[:, 0].min() + p.get_xy()[:, 0].max()) for p in ax.patches)
+    assert centres == [pytest.approx(-z, abs=1e-4), pytest.approx(z, abs=1e-4)]
+    cloth_z = np.asarray(run.position[k])[..., 2]
+    assert -z + 0.01 < cloth_z.min() and cloth_z.max() < z - 0.01       # between the fingers
+    zlo, zhi = ax.get_xlim()
+    assert zlo < -z - 0.01 and z + 0.01 < zhi                            # both in the zoomed frame

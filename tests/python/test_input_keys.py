@@ -41,6 +41,42 @@ def cells(row):
     return [p.strip().replace("\\|", "|") for p in parts]
 
 
+def program_allowed():
+    """{key: allowed} of the key table (`nuno --list-keys`)."""
+    proc = subprocess.run([exe(), "--list-keys"], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    return {ln.split("\t")[0]: ln.split("\t")[5] for ln in proc.stdout.splitlines()[1:]}
+
+
+def readme_meanings():
+    """{key: its meaning cell} of input/README.md's key tables."""
+    out, in_table = {}, False
+    for ln in README.read_text().splitlines():
+        if ln.strip() == HEADER:
+            in_table = True
+            continue
+        if in_table and not ln.startswith("|"):
+            in_table = False
+        if in_table:
+            c = cells(ln)
+            for n in re.findall(r"`([a-z_0-9]+)`", c[0]):
+                out[n] = c[4]
+    return out
+
+
+def test_readme_states_the_tables_bounds():
+    """A key whose allowed values are bounds with an upper one (">= 0, <= 1e30",
+    the material constants and the mass: issue 48 item 4) says so in
+    input/README.md in the table's words, the range the program checks
+    (module input_checks' need_in_range reads it from the table)."""
+    doc = readme_meanings()
+    bounded = {k: a for k, a in program_allowed().items() if re.fullmatch(r"(>=?|<=?) \S+(, (>=?|<=?) \S+)*", a)
+               and "<" in a}
+    assert {"e_s", "eta_s", "e_d", "eta_d", "k_b", "eta_b", "total_mass"} <= set(bounded), bounded
+    missing = [f"{k}: {a!r} not in {doc.get(k)!r}" for k, a in sorted(bounded.items()) if a not in doc.get(k, "")]
+    assert not missing, "input/README.md does not state these bounds:\n" + "\n".join(missing)
+
+
 def readme_keys():
     """{key: {group, type, unit, default}} from the key tables under each
     '## &group' heading; a row may document several keys (`a`, `b`)."""

@@ -36,6 +36,10 @@ FILE_CASES = {
     # The old code took the last value silently.
     "repeated_key": ("&lattice nx=5 ny=5 nx=7 /", ["&lattice: nx is given twice", "nx=5", "nx=7"]),
     "repeated_scene": ("&scene scene='hang', gravity=0,0,-1, scene='flat' /", ["&scene: scene is given twice"]),
+    # The old code kept the default silently (issue 48 item 4).
+    "empty_value": ("&lattice nx = , ny=5 /", ["&lattice: nx has no value", "nx = ,"]),
+    "empty_value_at_end": ("&lattice nx=5 ny= /", ["&lattice: ny has no value"]),
+    "empty_list_item": ("&scene scene='hang' gravity = 0, , -9.81 /", ["&scene: gravity = 0, , -9.81", "empty item"]),
 }
 
 

@@ -194,3 +194,20 @@ def test_the_first_interval_checkpoint_comes_one_interval_after_the_start(tmp_pa
     times = [float(ln.split("at t =")[1].split()[0]) for ln in proc.stdout.splitlines()
              if ln.startswith("nuno: checkpoint") and "(checkpoint_interval)" in ln]
     assert np.allclose(times, [0.1, 0.2]), proc.stdout
+
+
+# --- issue 48 item 4: -nuno_restart needs its file --------------------------
+
+@pytest.mark.parametrize("options", [["-nuno_restart"], ["-nuno_restart", "-ts_monitor"]])
+def test_a_restart_without_its_file_is_refused_and_the_file_kept(tmp_path, options):
+    """-nuno_restart with no file name (last on the line, or before another
+    option) started a fresh run, which replaced the file it was meant to
+    continue; it is refused on every rank before anything is written."""
+    _, h5 = run(tmp_path, "s", nranks=2, **SMALL)
+    before = md5(h5)
+    proc, _ = run(tmp_path, "s", nranks=2, options=options, check=False, timeout=120, **SMALL)
+    assert proc.returncode != 0
+    line = one_error(proc)
+    assert "-nuno_restart needs the file" in line, line
+    assert md5(h5) == before
+    assert not (tmp_path / "s.h5.partial").exists()

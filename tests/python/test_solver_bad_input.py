@@ -20,6 +20,11 @@ CASES = {
                         ["continuum", "paper"]),
     "too_many_ranks_for_ny": ("&lattice nx=5 ny=5 /", ["ny = 5", "ranks"]),
     "bad_petsc_option_string": ("&output petsc_options='ts_type cn' /", ["petsc_options", "ts_type"]),
+    # Outside the key table's bounds (issue 48 item 4: e_s = 1e308 ran and
+    # ended with "try a smaller step").
+    "stiffness_beyond_bound": ("&material e_s=1e308 /", ["e_s", "<= 1e30"]),
+    "damping_beyond_bound": ("&material eta_b=1e31 /", ["eta_b", "<= 1e30"]),
+    "mass_beyond_bound": ("&lattice total_mass=1e-300 /", ["total_mass", ">= 1e-30"]),
 }
 
 
@@ -67,4 +72,73 @@ def test_unknown_ts_type_stops_every_rank(tmp_path):
 def test_help(tmp_path):
     proc = launch(tmp_path, ["--help"], nranks=1)
     assert proc.returncode == 0
+    assert "usage" in proc.stdout.lower() and "&lattice" in proc.stdout
+
+
+# --- issue 48 item 4: the command line checked before the run ---------------
+
+OK_NML = "&scene scene='hang' /\n&lattice nx=5 ny=6 /\n&time t_end=0.004 dt=1e-3 /\n&output output_file='x.h5' /\n"
+
+
+def one_error(proc):
+    errors = [ln for ln in proc.stderr.splitlines() if ln.startswith("nuno: error")]
+    assert len(errors) == 1, proc.stderr
+    return errors[0]
+
+
+@pytest.mark.parametrize("args,words", [
+    (["ts_max_steps", "1"], ["'ts_max_steps' (argument 2)", "-ts_max_steps"]),
+    (["ok.nml"], ["'ok.nml' (argument 2)", "one input file"]),
+    (["-ts_monitor", "ascii", "extra"], ["'extra' (argument 4)"]),
+    (["-nuno_set", "nx=5", "ny=6"], ["'ny=6' (argument 4)", "-nuno_set"]),
+])
+def test_a_stray_word_is_refused_before_the_run(tmp_path, args, words):
+    """PETSc skips a word that is neither an option nor an option's value:
+    `nuno in.nml ts_max_steps 1` ran the whole scene, a second namelist file
+    was ignored. Now one line names the word, on 3 ranks, nothing written."""
+    (tmp_path / "ok.nml").write_text(OK_NML)
+    proc = launch(tmp_path, ["ok.nml", *args])
+    assert proc.returncode != 0
+    line = one_error(proc)
+    for w in words:
+        assert w in line, line
+    assert not list(tmp_path.glob("x.h5*"))
+
+
+def test_option_values_and_negative_numbers_are_not_stray(tmp_path):
+    (tmp_path / "ok.nml").write_text(OK_NML)
+    proc = launch(tmp_path, ["ok.nml", "-ts_monitor", "-ts_max_steps", "2", "-snes_rtol", "1e-9",
+                             "-nuno_set", "gravity=0,0,-9.81", "-ts_dt", "1e-3"])
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "x.h5").exists()
+
+
+@pytest.mark.parametrize("args,words", [
+    (["-options_file", "no_such.opts"], ["-options_file no_such.opts", "cannot read it", "No such file"]),
+    (["-options_file"], ["-options_file needs a file name"]),
+])
+def test_a_missing_options_file_is_one_line_of_ours(tmp_path, args, words):
+    """PETSc's failure to read an options file was its 15-line report from
+    every rank inside PetscInitialize and an abort."""
+    (tmp_path / "ok.nml").write_text(OK_NML)
+    proc = launch(tmp_path, ["ok.nml", *args])
+    assert proc.returncode != 0
+    line = one_error(proc)
+    for w in words:
+        assert w in line, line
+    assert "PETSC ERROR" not in proc.stderr + proc.stdout
+    assert not list(tmp_path.glob("x.h5*"))
+
+
+def test_an_options_file_that_exists_is_read(tmp_path):
+    (tmp_path / "ok.nml").write_text(OK_NML)
+    (tmp_path / "run.opts").write_text("-ts_max_steps 2\n")
+    proc = launch(tmp_path, ["ok.nml", "-options_file", "run.opts"])
+    assert proc.returncode == 0, proc.stderr
+    assert "-ts_max_steps 2 reached" in proc.stdout
+
+
+def test_petsc_help_without_an_input_prints_the_usage(tmp_path):
+    proc = launch(tmp_path, ["-help"], nranks=1)
+    assert proc.returncode == 0, proc.stderr
     assert "usage" in proc.stdout.lower() and "&lattice" in proc.stdout

@@ -1,9 +1,10 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> Unit tests of &contact's obstacles as the run builds them (module
-!> contact_forces): a tilted box's frame (orthonormal, right-handed, local
+!> contact_model): a tilted box's frame (orthonormal, right-handed, local
 !> z the given normal) and its signed distance at hand-placed points; a
-!> capsule's ends; a keyframed obstacle's pose and velocity at the stage
-!> time (contact_move) against the hand-interpolated offset; and the swept
+!> capsule's ends; a keyframed obstacle's pose and velocity at a time (a
+!> pure function of t: contact_obstacle_at) against the hand-interpolated
+!> offset, the same whatever was asked before; and the swept
 !> check of a step (contact_swept): a thin finger that passes through a
 !> node over one step is caught although both ends of the step are outside
 !> it, one that stops short is not.
@@ -12,15 +13,14 @@ program test_contact_shapes
   use config, only: contact_config
   use lattice, only: lattice_t
   use contact, only: obstacle_t, signed_distance, SHAPE_BOX, SHAPE_CAPSULE
-  use contact_forces, only: contact_state_t, contact_init, contact_move, contact_swept, obstacle_from_config, &
-                            contact_obstacle
+  use contact_model, only: contact_model_t, contact_init, contact_swept, obstacle_from_config, contact_obstacle_at
   use check, only: check_true, check_close, check_close_array, check_report
   implicit none
   type(contact_config) :: cc
-  type(contact_state_t) :: cs
+  type(contact_model_t) :: cs
   type(obstacle_t) :: o
   type(lattice_t) :: lat
-  real(rp) :: ax(3, 3), eye(3, 3), d, g(3), hd(3, 3), c(3), n(3), e1(3), s
+  real(rp) :: ax(3, 3), eye(3, 3), d, g(3), hd(3, 3), c(3), n(3), e1(3), s, o15(3)
   real(rp), allocatable :: x0(:, :, :), x(:, :, :), dx(:, :, :)
   logical, allocatable :: fixed(:, :)
   integer :: i
@@ -85,16 +85,18 @@ program test_contact_shapes
   lat%gys = 0
   lat%gye = 0
   call contact_init(cs, cc, lat)
-  call contact_move(cs, 1.5_rp)
-  o = contact_obstacle(cs, 1)
+  o = contact_obstacle_at(cs, 1, 1.5_rp)
+  o15 = o%p
   ! halfway: 0.1 - 0.025 along x, velocity 0.2 - 0.05
   call check_close_array(o%p, [0.075_rp, 0.0_rp, 0.0_rp], 0.0_rp, 1.0e-15_rp, 'moved: first end')
   call check_close_array(o%q, [0.075_rp, 1.0_rp, 0.0_rp], 0.0_rp, 1.0e-15_rp, 'moved: second end')
   call check_close_array(o%vel, [0.15_rp, 0.0_rp, 0.0_rp], 0.0_rp, 1.0e-15_rp, 'moved: velocity')
-  call contact_move(cs, 5.0_rp)
-  o = contact_obstacle(cs, 1)
+  o = contact_obstacle_at(cs, 1, 5.0_rp)
   call check_close_array(o%p, [0.15_rp, 0.0_rp, 0.0_rp], 0.0_rp, 1.0e-15_rp, 'held after the last keyframe')
   call check_true(all(o%vel == 0.0_rp), 'held: at rest')
+  ! a pure function of t: the pose at 1.5 is the same after the one at 5 was asked
+  o = contact_obstacle_at(cs, 1, 1.5_rp)
+  call check_close_array(o%p, o15, 0.0_rp, 0.0_rp, 'the pose at t whatever was asked before')
 
   ! ---- the swept check: the finger (radius 1 cm, travelling +0.15 in x over [1, 2]) and one node
   allocate(x0(0:5, 0:0, 0:0), x(0:5, 0:0, 0:0), dx(0:5, 0:0, 0:0), fixed(0:0, 0:0))

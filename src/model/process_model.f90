@@ -1,0 +1,282 @@
+! SPDX-License-Identifier: BSD-2-Clause
+!> A force as a process model (docs/design.md, "Process models"; the
+!> pattern of PFLOTRAN's pm_base): one type whose hooks the time stepper
+!> calls in a fixed order, on plain arrays, knowing no physics. Contact
+!> with obstacles (module contact_model) is the first; a new force
+!> extends process_model_t, is added to the list (module process_models)
+!> where the solver is set up, and needs nothing else: the residual, the
+!> assemblies, the step's checks, the monitor, the output and the
+!> checkpoints loop over the list.
+!>
+!> The hooks, in the order the stepper calls them:
+!>   hints       before the solver's options are resolved: what the model
+!>               needs of Newton and the integrator (pm_hints_t)
+!>   setup       once, with the configuration, the lattice strip, the
+!>               initial state and the constraints; it refuses a scene it
+!>               cannot start from (one line, the same on every rank)
+!>   forces      f += its forces at the ghosted state u at time t (every
+!>               residual evaluation); status PM_INFEASIBLE where the state
+!>               is outside its domain (this rank's view: the list reduces)
+!>   jacobian    its blocks at u, t: 3 x 3 diagonal blocks of single nodes
+!>               (node_blocks) and blocks of node pairs that need not be
+!>               stencil neighbours (pair_blocks; a later self-contact:
+!>               not yet assembled, refused)
+!>   step_limit  the fraction alpha of a Newton update x -> x + dx (from
+!>               the step's start x0 at t0 to a candidate at t1) that it
+!>               allows, and a status: PM_FEASIBLE, or PM_INFEASIBLE when
+!>               no fraction is (the step fails and is retried smaller);
+!>               collective
+!>   accept      the check of a step's end state before the integrator
+!>               accepts it (the TS's stage check): PM_INFEASIBLE rejects
+!>               it, and the step is retried smaller, with why (one line,
+!>               which the run's failure message quotes); collective
+!>   accepted    after an accepted step (and at the run's start): lags,
+!>               statistics, records; collective
+!>   output      its series (named, with units and values) and its terms
+!>               of the energy balance at an output step
+!>   checkpoint, restore
+!>               its state as named values (checkpoint_record's
+!>               named_value_t), the attributes of a checkpoint
+!>   check_state a restart's state (positions at t) before the file
+!>               changes; collective
+!>   destroy     at the end
+!> Only setup, forces and jacobian must be written; the others default to
+!> "nothing" (no hints, alpha = 1, feasible, no series, no state).
+!> Status flags, never NaN: an infeasible state is PM_INFEASIBLE, and the
+!> solver (module process_solver) alone turns it into PETSc's domain
+!> error.
+module process_model
+  use kinds, only: rp
+  use config, only: nuno_config
+  use lattice, only: lattice_t
+  use constraints, only: constraint_set_t
+  use node_blocks, only: node_blocks_t
+  use pair_blocks, only: pair_blocks_t
+  use checkpoint_record, only: named_value_t
+  implicit none
+  private
+  public :: process_model_t, pm_hints_t, pm_series_t, pm_group_t, pm_energy_t
+  public :: PM_FEASIBLE, PM_INFEASIBLE
+
+  integer, parameter :: PM_FEASIBLE = 0, PM_INFEASIBLE = 1
+
+  !> What a process model needs of the solver (hints): each true entry of
+  !> any model in the list holds for the run (module solver_setup and
+  !> process_solver apply them; options given explicitly win).
+  type :: pm_hints_t
+    !> the Jacobian at every Newton iteration (-snes_lag_jacobian 1)
+    logical :: jacobian_every_iteration = .false.
+    !> the inexact-Newton forcing off (inner solves to -reduced_ksp_rtol)
+    logical :: forcing_off = .false.
+    !> full Newton steps on the 6-dof path too (-snes_linesearch_type basic)
+    logical :: basic_line_search = .false.
+    !> Newton starts from the last accepted state, which the model accepted
+    !> (no extrapolated or cubic start: they may lie outside its domain)
+    logical :: feasible_start = .false.
+    !> its blocks have velocity parts (S is not free of damping)
+    logical :: velocity_blocks = .false.
+    !> its blocks change with the state (S is never constant)
+    logical :: state_blocks = .false.
+    !> the TS types it allows, separated by commas ('': any)
+    character(len=128) :: ts_types = ''
+  end type pm_hints_t
+
+  !> One time series of a process model in the output file: its path, a
+  !> description, the quantity of its units ('length', 'energy', 'force',
+  !> or '1'), its components (1, or 3: [t][xyz]), a count (int64) or a
+  !> float64, and the value at the output step at hand.
+  type :: pm_series_t
+    character(len=48) :: name = ''
+    character(len=128) :: description = ''
+    character(len=16) :: units = '1'
+    integer :: ncomp = 1
+    logical :: is_count = .false.
+    real(rp) :: values(3) = 0
+    integer :: count = 0
+  end type pm_series_t
+
+  !> A group of the output file that a process model's series live in,
+  !> with its description.
+  type :: pm_group_t
+    character(len=48) :: name = ''
+    character(len=128) :: description = ''
+  end type pm_group_t
+
+  !> A process model's terms of the energy balance at an output step
+  !> (docs/model.md section 10) [energy]: a potential energy, the energy
+  !> it dissipated since the start and the work done on the cloth by
+  !> what it prescribes (moving obstacles) since the start.
+  type :: pm_energy_t
+    real(rp) :: potential = 0
+    real(rp) :: dissipated = 0
+    real(rp) :: external_work = 0
+  end type pm_energy_t
+
+  !> A force as a process model: the hooks above. fixed(0:nx-1, ys:ye):
+  !> the nodes constrained in the current time window (their rows are the
+  !> constraints'; a force skips them). States: u(0:5, 0:nx-1, gys:gye)
+  !> ghosted (position 0:2, velocity 3:5), f(3, 0:nx-1, ys:ye), the
+  !> updates' x, x0, dx (0:5, 0:nx-1, ys:ye) owned rows.
+  type, abstract :: process_model_t
+  contains
+    procedure(pm_name_i), deferred :: name
+    procedure(pm_setup_i), deferred :: setup
+    procedure(pm_forces_i), deferred :: forces
+    procedure(pm_jacobian_i), deferred :: jacobian
+    procedure :: hints => no_hints
+    procedure :: step_limit => no_limit
+    procedure :: accept => accept_all
+    procedure :: accepted => nothing_after_step
+    procedure :: output => no_output
+    procedure :: checkpoint => no_state
+    procedure :: restore => restore_nothing
+    procedure :: check_state => state_ok
+    procedure :: destroy => nothing_to_destroy
+  end type process_model_t
+
+  abstract interface
+    !> The model's name, for messages ('contact').
+    function pm_name_i(this) result(s)
+      import :: process_model_t
+      class(process_model_t), intent(in) :: this
+      character(len=:), allocatable :: s
+    end function pm_name_i
+
+    !> Set-up from the configuration, the lattice strip lat, the initial
+    !> ghosted state u and the constraints cs; collective over comm: a
+    !> scene the model cannot start from gives ierr /= 0 and errmsg (one
+    !> line) on every rank.
+    subroutine pm_setup_i(this, cfg, lat, comm, u, cs, ierr, errmsg)
+      import :: process_model_t, nuno_config, lattice_t, constraint_set_t, rp
+      class(process_model_t), intent(inout) :: this
+      type(nuno_config), intent(in) :: cfg
+      type(lattice_t), intent(in) :: lat
+      integer, intent(in) :: comm
+      real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+      type(constraint_set_t), intent(in) :: cs
+      integer, intent(out) :: ierr
+      character(*), intent(out) :: errmsg
+    end subroutine pm_setup_i
+
+    !> f += the model's forces on the owned rows at the ghosted state u at
+    !> time t; status PM_INFEASIBLE where u is outside its domain on this
+    !> rank (f is then not to be used).
+    subroutine pm_forces_i(this, lat, fixed, t, u, f, status)
+      import :: process_model_t, lattice_t, rp
+      class(process_model_t), intent(in) :: this
+      type(lattice_t), intent(in) :: lat
+      logical, intent(in) :: fixed(0:, lat%ys:)
+      real(rp), intent(in) :: t
+      real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+      real(rp), intent(inout) :: f(:, 0:, lat%ys:)
+      integer, intent(out) :: status
+    end subroutine pm_forces_i
+
+    !> The blocks df/dx, df/dv of its forces at u, t: of single owned
+    !> nodes into nodal (node_blocks_add), of node pairs into pairs
+    !> (pair_blocks_add). The lists are opened and closed by the caller.
+    subroutine pm_jacobian_i(this, lat, fixed, t, u, nodal, pairs)
+      import :: process_model_t, lattice_t, node_blocks_t, pair_blocks_t, rp
+      class(process_model_t), intent(in) :: this
+      type(lattice_t), intent(in) :: lat
+      logical, intent(in) :: fixed(0:, lat%ys:)
+      real(rp), intent(in) :: t
+      real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+      type(node_blocks_t), intent(inout) :: nodal
+      type(pair_blocks_t), intent(inout) :: pairs
+    end subroutine pm_jacobian_i
+  end interface
+
+contains
+
+  !> No hints: the solver as without the model.
+  pure function no_hints(this) result(h)
+    class(process_model_t), intent(in) :: this
+    type(pm_hints_t) :: h
+    h = pm_hints_t()
+  end function no_hints
+
+  !> Any update is allowed in full.
+  subroutine no_limit(this, lat, fixed, t0, t1, x0, x, dx, comm, alpha, status)
+    class(process_model_t), intent(inout) :: this
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t0, t1
+    real(rp), intent(in) :: x0(0:, 0:, lat%ys:), x(0:, 0:, lat%ys:), dx(0:, 0:, lat%ys:)
+    integer, intent(in) :: comm
+    real(rp), intent(out) :: alpha
+    integer, intent(out) :: status
+    alpha = 1.0_rp
+    status = PM_FEASIBLE
+  end subroutine no_limit
+
+  !> Every state is accepted.
+  subroutine accept_all(this, lat, fixed, t, u, comm, status, why)
+    class(process_model_t), intent(in) :: this
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    integer, intent(in) :: comm
+    integer, intent(out) :: status
+    character(*), intent(out) :: why
+    status = PM_FEASIBLE
+    why = ''
+  end subroutine accept_all
+
+  !> Nothing to do after an accepted step.
+  subroutine nothing_after_step(this, lat, fixed, t, u, comm, ierr, errmsg)
+    class(process_model_t), intent(inout) :: this
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    integer, intent(in) :: comm
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: errmsg
+    ierr = 0
+    errmsg = ''
+  end subroutine nothing_after_step
+
+  !> No series, no group, no energy.
+  subroutine no_output(this, series, groups, energy)
+    class(process_model_t), intent(in) :: this
+    type(pm_series_t), allocatable, intent(out) :: series(:)
+    type(pm_group_t), allocatable, intent(out) :: groups(:)
+    type(pm_energy_t), intent(out) :: energy
+    allocate(series(0), groups(0))
+    energy = pm_energy_t()
+  end subroutine no_output
+
+  !> No state in a checkpoint.
+  subroutine no_state(this, values)
+    class(process_model_t), intent(in) :: this
+    type(named_value_t), allocatable, intent(out) :: values(:)
+    allocate(values(0))
+  end subroutine no_state
+
+  !> Nothing to restore (values: a checkpoint's named values, every model's).
+  subroutine restore_nothing(this, values)
+    class(process_model_t), intent(inout) :: this
+    type(named_value_t), intent(in) :: values(:)
+  end subroutine restore_nothing
+
+  !> Any state to restart from: positions x(3, 0:nx-1, ys:ye) at t.
+  subroutine state_ok(this, lat, t, x, comm, ierr, errmsg)
+    class(process_model_t), intent(in) :: this
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: t
+    real(rp), intent(in) :: x(:, 0:, lat%ys:)
+    integer, intent(in) :: comm
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: errmsg
+    ierr = 0
+    errmsg = ''
+  end subroutine state_ok
+
+  !> Nothing to free.
+  subroutine nothing_to_destroy(this)
+    class(process_model_t), intent(inout) :: this
+  end subroutine nothing_to_destroy
+
+end module process_model

@@ -1,0 +1,212 @@
+! SPDX-License-Identifier: BSD-2-Clause
+!> Newton's policy state within a run (the record app_ctx%newton): the
+!> round-off floor's test and its residuals, the inexact-Newton forcing's
+!> constant, the inner guess in use, the line-search fallback, the
+!> failures to inject (tests). This module is the record's only writer;
+!> module newton_policy (the SNES callbacks) calls it. The PETSc-free
+!> rules it applies are newton_control and newton_forcing.
+module newton_state
+  use, intrinsic :: iso_c_binding, only: c_int
+  use kinds, only: rp
+  use newton_control, only: FLOOR_FACTOR, floor_verdict
+  use newton_forcing, only: forcing_term, quadratic_constant
+  use inner_guess, only: GUESS_AUTO
+  implicit none
+  private
+  public :: newton_state_t, SNES_FLOOR_DEFAULT
+  public :: newton_state_init, newton_set_inner_guess, newton_enter_window, newton_set_floor, newton_set_failures_before
+  public :: newton_take_injected_failure, newton_first_residual, newton_iterated, newton_verdict, newton_inner_rtol, &
+            newton_fallback_switched
+  public :: newton_guess, newton_guess_given, newton_forcing_on, newton_floor_est, newton_snorm_prev, newton_fallback, &
+            newton_fallback_pending, newton_has_failed
+
+  !> -nuno_snes_floor's default: stagnation below this relative residual is convergence
+  real(rp), parameter :: SNES_FLOOR_DEFAULT = 1.0e-6_rp
+  !> The inexact Newton's loosest inner tolerance.
+  real(rp), parameter :: ETA_MAX = 0.1_rp
+
+  type :: newton_state_t
+    private
+    real(rp) :: snes_floor = SNES_FLOOR_DEFAULT !< -nuno_snes_floor [1]
+    real(rp) :: fnorm0 = 0, fnorm_prev = 0      !< ||F|| at this solve's start and at the last iteration
+    real(rp) :: floor_est = 0                   !< round-off floor of ||F||_2 at the last 6-dof assembly (module newton_control)
+    real(rp) :: snorm_prev = 0                  !< ||update|| of the previous Newton iteration
+    logical :: newton_forcing = .true.          !< inner tolerance from the step's needs (reduced path)
+    integer(c_int) :: guess = GUESS_AUTO        !< -nuno_inner_guess (module inner_guess)
+    integer(c_int) :: guess_given = 0           !< 1: set on the command line
+    real(rp) :: cquad = 0                       !< estimate of C in ||F_k+1|| ~ C ||F_k||^2; 0 at every window start
+    integer :: fail_newton = 0                  !< -nuno_fail_newton: Newton solves still to be declared failed
+    !> -nuno_linesearch_fallback: 0 none, 1 bt, 2 l2 (the line search once a
+    !> Newton solve has failed); ls_switched once it has been put in place
+    integer :: ls_fallback = 0
+    logical :: ls_switched = .false.
+    integer :: fails_before = 0                 !< failed Newton solves of the runs a restart continues
+  end type newton_state_t
+
+contains
+
+  !> Newton's policy as the options resolved it (solver_create):
+  !> snes_floor (-nuno_snes_floor, relative residual), guess and
+  !> guess_given (-nuno_inner_guess and whether it was given), forcing
+  !> (-nuno_newton_forcing), fail_newton (-nuno_fail_newton, tests),
+  !> ls_fallback (-nuno_linesearch_fallback's code; 0: none).
+  subroutine newton_state_init(n, snes_floor, guess, guess_given, forcing, fail_newton, ls_fallback)
+    type(newton_state_t), intent(inout) :: n
+    real(rp), intent(in) :: snes_floor
+    integer(c_int), intent(in) :: guess, guess_given
+    logical, intent(in) :: forcing
+    integer, intent(in) :: fail_newton, ls_fallback
+    n%snes_floor = snes_floor
+    n%guess = guess
+    n%guess_given = guess_given
+    n%newton_forcing = forcing
+    n%fail_newton = fail_newton
+    n%ls_fallback = ls_fallback
+  end subroutine newton_state_init
+
+  !> The inner guess the run uses (auto resolved, or none where the run
+  !> cannot use one: module solver_setup's set_inner_guess).
+  subroutine newton_set_inner_guess(n, guess)
+    type(newton_state_t), intent(inout) :: n
+    integer(c_int), intent(in) :: guess
+    n%guess = guess
+  end subroutine newton_set_inner_guess
+
+  !> A time window's start (enter_window): the Newton remainder is learnt
+  !> anew in each window, so that a run restarted at a window's start takes
+  !> the same iterations as the run that went through it.
+  subroutine newton_enter_window(n)
+    type(newton_state_t), intent(inout) :: n
+    n%cquad = 0.0_rp
+  end subroutine newton_enter_window
+
+  !> The round-off floor of ||F||_2 estimated at the last 6-dof assembly
+  !> (module cloth_model; the reduced path keeps its own in reduced_t).
+  subroutine newton_set_floor(n, floor_est)
+    type(newton_state_t), intent(inout) :: n
+    real(rp), intent(in) :: floor_est
+    n%floor_est = floor_est
+  end subroutine newton_set_floor
+
+  !> A restart (module run_checkpoint): fails Newton solves failed in the
+  !> runs it continues, so that it backtracks from its first step as they
+  !> did (-nuno_linesearch_fallback).
+  subroutine newton_set_failures_before(n, fails)
+    type(newton_state_t), intent(inout) :: n
+    integer, intent(in) :: fails
+    n%fails_before = fails
+  end subroutine newton_set_failures_before
+
+  !> -nuno_fail_newton (tests): fail, this Newton solve is to be declared
+  !> failed (one fewer left). The same decision on every rank.
+  subroutine newton_take_injected_failure(n, fail)
+    type(newton_state_t), intent(inout) :: n
+    logical, intent(out) :: fail
+    fail = n%fail_newton > 0
+    if (fail) n%fail_newton = n%fail_newton - 1
+  end subroutine newton_take_injected_failure
+
+  !> A Newton solve starts with the residual norm fnorm.
+  subroutine newton_first_residual(n, fnorm)
+    type(newton_state_t), intent(inout) :: n
+    real(rp), intent(in) :: fnorm
+    n%fnorm0 = fnorm
+  end subroutine newton_first_residual
+
+  !> The convergence test has seen an iteration's residual norm fnorm and
+  !> update norm snorm.
+  subroutine newton_iterated(n, fnorm, snorm)
+    type(newton_state_t), intent(inout) :: n
+    real(rp), intent(in) :: fnorm, snorm
+    n%fnorm_prev = fnorm
+    n%snorm_prev = snorm
+  end subroutine newton_iterated
+
+  !> The round-off floor's verdict on the residual norm fnorm (module
+  !> newton_control's floor_verdict; floor_est the floor estimated at the
+  !> last assembly, ls_failed a line search that found no decrease).
+  pure integer function newton_verdict(n, fnorm, floor_est, ls_failed)
+    type(newton_state_t), intent(in) :: n
+    real(rp), intent(in) :: fnorm, floor_est
+    logical, intent(in) :: ls_failed
+    newton_verdict = floor_verdict(fnorm, n%fnorm_prev, n%fnorm0, n%snes_floor, floor_est, ls_failed)
+  end function newton_verdict
+
+  !> The inner tolerance eta of the coming Newton iteration's solve (module
+  !> newton_forcing) after iteration it with residual norm fnorm: no tighter
+  !> than the Newton remainder C ||F||^2 that the step leaves anyway, nor
+  !> than half the residual at which the convergence test stops:
+  !> max(atol, rtol ||F_0||, and with the floor test FLOOR_FACTOR times
+  !> floor_est, the round-off floor of the last assembly). C comes from the
+  !> iterations before (lin_rel: the last inner solve's relative residual),
+  !> in this window; the bounds are the inner solver's own rtol0 (never
+  !> tighter than without this) and ETA_MAX.
+  subroutine newton_inner_rtol(n, it, fnorm, lin_rel, atol, rtol, floor_est, rtol0, eta)
+    type(newton_state_t), intent(inout) :: n
+    integer, intent(in) :: it
+    real(rp), intent(in) :: fnorm, lin_rel, atol, rtol, floor_est, rtol0
+    real(rp), intent(out) :: eta
+    real(rp) :: target
+    if (it >= 1) n%cquad = quadratic_constant(n%fnorm_prev, fnorm, lin_rel)
+    target = max(atol, rtol * n%fnorm0)
+    if (n%snes_floor > 0.0_rp) target = max(target, FLOOR_FACTOR * floor_est)
+    eta = forcing_term(fnorm, target, n%cquad, rtol0, ETA_MAX)
+  end subroutine newton_inner_rtol
+
+  !> The fallback line search is in place.
+  subroutine newton_fallback_switched(n)
+    type(newton_state_t), intent(inout) :: n
+    n%ls_switched = .true.
+  end subroutine newton_fallback_switched
+
+  !> The inner guess (-nuno_inner_guess's code, module inner_guess).
+  pure integer(c_int) function newton_guess(n)
+    type(newton_state_t), intent(in) :: n
+    newton_guess = n%guess
+  end function newton_guess
+
+  !> -nuno_inner_guess was given.
+  pure logical function newton_guess_given(n)
+    type(newton_state_t), intent(in) :: n
+    newton_guess_given = n%guess_given /= 0
+  end function newton_guess_given
+
+  !> The inexact-Newton forcing is on (-nuno_newton_forcing).
+  pure logical function newton_forcing_on(n)
+    type(newton_state_t), intent(in) :: n
+    newton_forcing_on = n%newton_forcing
+  end function newton_forcing_on
+
+  !> The round-off floor of the last 6-dof assembly.
+  pure real(rp) function newton_floor_est(n)
+    type(newton_state_t), intent(in) :: n
+    newton_floor_est = n%floor_est
+  end function newton_floor_est
+
+  !> ||update|| of the previous Newton iteration.
+  pure real(rp) function newton_snorm_prev(n)
+    type(newton_state_t), intent(in) :: n
+    newton_snorm_prev = n%snorm_prev
+  end function newton_snorm_prev
+
+  !> -nuno_linesearch_fallback's code (0: none).
+  pure integer function newton_fallback(n)
+    type(newton_state_t), intent(in) :: n
+    newton_fallback = n%ls_fallback
+  end function newton_fallback
+
+  !> A fallback line search is chosen and not yet in place.
+  pure logical function newton_fallback_pending(n)
+    type(newton_state_t), intent(in) :: n
+    newton_fallback_pending = n%ls_fallback > 0 .and. .not. n%ls_switched
+  end function newton_fallback_pending
+
+  !> A Newton solve has failed in this run (nfails: the TS's count) or in
+  !> the runs a restart continues.
+  pure logical function newton_has_failed(n, nfails)
+    type(newton_state_t), intent(in) :: n
+    integer, intent(in) :: nfails
+    newton_has_failed = nfails + n%fails_before > 0
+  end function newton_has_failed
+
+end module newton_state
