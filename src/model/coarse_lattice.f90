@@ -7,6 +7,8 @@
 !> which the Galerkin product of bilinear transfers is not
 !> (docs/performance.md, "Why the cycles grew with N"). No PETSc, no MPI.
 !>
+!> The coarse lattice itself is built by module lattice (lattice_coarsened,
+!> the lattice's only builder); this module gives it its masses and state.
 !> Constants from the consistency of the energy of a smooth field on the
 !> two lattices: the total mass kept, every coarse node's mass the sum of
 !> the finer masses with the bilinear weights (exactly the area masses of
@@ -20,11 +22,10 @@
 !> lattice), which is the same rule.
 module coarse_lattice
   use kinds, only: rp
-  use config, only: BEND_PAPER
   use lattice, only: lattice_t
   implicit none
   private
-  public :: coarse_lattice_init, mass_factors, restrict_factors, inject_rows
+  public :: mass_factors, restrict_factors, inject_rows
 
 contains
 
@@ -66,50 +67,6 @@ contains
       if (2 * k + 1 <= n - 1) c(k) = c(k) + 0.5_rp * f(2 * k + 1)
     end do
   end subroutine restrict_factors
-
-  !> The lattice coarsened by 2 from fine (nx - 1 and ny - 1 even), rows
-  !> ys..ye of it on this rank (the ghost rows as fine's halo), its masses
-  !> scale mx(i) my(j) (the coarse factors: restrict_factors of the fine
-  !> ones). What the element kernels read: sizes, spacings, models and
-  !> constants, masses.
-  subroutine coarse_lattice_init(fine, lat, ys, ye, mx, my, scale)
-    type(lattice_t), intent(in) :: fine
-    type(lattice_t), intent(out) :: lat
-    integer, intent(in) :: ys, ye
-    real(rp), intent(in) :: mx(0:), my(0:), scale
-    integer :: i, j
-    lat%nx = (fine%nx - 1) / 2 + 1
-    lat%ny = (fine%ny - 1) / 2 + 1
-    lat%ys = ys
-    lat%ye = ye
-    lat%halo = fine%halo
-    lat%gys = max(0, ys - lat%halo)
-    lat%gye = min(lat%ny - 1, ye + lat%halo)
-    lat%ax = 2.0_rp * fine%ax
-    lat%ay = 2.0_rp * fine%ay
-    lat%spring_model = fine%spring_model
-    lat%bending_model = fine%bending_model
-    lat%continuum = fine%continuum
-    lat%e_s = fine%e_s
-    lat%eta_s = fine%eta_s
-    lat%e_d = fine%e_d
-    lat%eta_d = fine%eta_d
-    lat%k_b = fine%k_b
-    lat%eta_b = fine%eta_b
-    ! the paper model's force per radian: its stiffness k_b / h kept
-    ! (no continuum mode for it: input_checks rejects the pair)
-    if (fine%bending_model == BEND_PAPER .and. .not. fine%continuum) lat%k_b = 0.5_rp * fine%k_b
-    lat%total_mass = fine%total_mass
-    lat%lx = fine%lx
-    lat%ly = fine%ly
-    lat%area_mass = fine%area_mass
-    allocate(lat%mass(0:lat%nx - 1, lat%gys:lat%gye))
-    do j = lat%gys, lat%gye
-      do i = 0, lat%nx - 1
-        lat%mass(i, j) = scale * mx(i) * my(j)
-      end do
-    end do
-  end subroutine coarse_lattice_init
 
   !> The rows jc0..jc1 of a coarse state uc(0:ncomp-1, 0:nxc-1, rows) from
   !> the fine uf(0:ncomp-1, 0:nxf-1, rows): node (i, j) of the lattice

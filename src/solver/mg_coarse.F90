@@ -18,8 +18,8 @@
 module mg_coarse
   use mpi
   use kinds, only: rp
-  use lattice, only: lattice_t
-  use coarse_lattice, only: coarse_lattice_init, mass_factors, restrict_factors, inject_rows
+  use lattice, only: lattice_t, lattice_coarsened
+  use coarse_lattice, only: mass_factors, restrict_factors, inject_rows
   use node_blocks, only: node_blocks_t
   use reduced_assembly, only: assemble_stencil
   use offset_product, only: offset_count
@@ -80,9 +80,9 @@ contains
       call restrict_factors(myf, myc)
       associate (c => mc%lev(l))
         if (l == 2) then
-          call coarse_lattice_init(fine, c%lat, ys, ye, mxc, myc, scale)
+          call lattice_coarsened(fine, c%lat, ys, ye, mxc, myc, scale)
         else
-          call coarse_lattice_init(mc%lev(l - 1)%lat, c%lat, ys, ye, mxc, myc, scale)
+          call lattice_coarsened(mc%lev(l - 1)%lat, c%lat, ys, ye, mxc, myc, scale)
         end if
         c%stride = 2**(l - 1)
         c%replicated = rep

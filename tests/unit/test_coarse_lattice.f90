@@ -12,8 +12,8 @@ program test_coarse_lattice
   use kinds, only: rp
   use config, only: nuno_config, BEND_NONE, BEND_PAPER, BEND_ENERGY, SPRING_AXIAL, SCALING_ELEMENT, SCALING_CONTINUUM, &
                     MASS_AREA, MASS_UNIFORM
-  use lattice, only: lattice_t, lattice_init, rest_position, link_constants, triple_constants
-  use coarse_lattice, only: coarse_lattice_init, mass_factors, restrict_factors, inject_rows
+  use lattice, only: lattice_t, lattice_init, lattice_coarsened, rest_position, link_constants, triple_constants
+  use coarse_lattice, only: mass_factors, restrict_factors, inject_rows
   use reduced_assembly, only: assemble_stencil
   use node_blocks, only: node_blocks_t
   use offset_product, only: offset_count, offset_slot
@@ -58,7 +58,7 @@ contains
     call restrict_factors(mx, mxc)
     call restrict_factors(my, myc)
     call check_close(sum(mxc), sum(mx), 1.0e-14_rp, 0.0_rp, what//': the factors along x summed keep their sum')
-    call coarse_lattice_init(fine, coarse, 0, 3, mxc, myc, scale)
+    call lattice_coarsened(fine, coarse, 0, 3, mxc, myc, scale)
     call check_true(coarse%nx == 5 .and. coarse%ny == 4 .and. abs(coarse%ax - direct%ax) < 1.0e-15_rp, &
                     what//': the coarse lattice''s size and spacing')
     call check_close(sum(coarse%mass), sum(fine%mass), 1.0e-14_rp, 0.0_rp, what//': the total mass kept')
@@ -118,7 +118,7 @@ contains
     allocate(mxc(0:nc - 1), myc(0:nc - 1))
     call restrict_factors(mx, mxc)
     call restrict_factors(my, myc)
-    call coarse_lattice_init(fine, coarse, 0, nc - 1, mxc, myc, scale)
+    call lattice_coarsened(fine, coarse, 0, nc - 1, mxc, myc, scale)
     call flat_s(fine, sf)
     call flat_s(coarse, sc)
     allocate(xc(3, 0:nc - 1, 0:nc - 1), xf(3, 0:nf - 1, 0:nf - 1), xl(3, 0:nf - 1, 0:nf - 1))
