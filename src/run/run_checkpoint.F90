@@ -49,7 +49,8 @@ module run_checkpoint
     !> The restart point: the state at the last output step and what a
     !> checkpoint of it holds (keep_restart_point), written by the
     !> checkpoints that come between output steps (SIGTERM, SIGINT, the wall
-    !> clock), so that their restarts repeat the run bit for bit.
+    !> clock), so that the file's series and the checkpoint go on from the
+    !> same step.
     logical :: rp_valid = .false.
     type(checkpoint_t) :: rp_ck
     real(rp), allocatable :: rp_x(:, :, :), rp_v(:, :, :)  !< (3, 0:nx-1, ys:ye) [length], [length/time]
@@ -254,14 +255,16 @@ contains
   end subroutine fill_checkpoint
 
   !> Keep the restart point: the state at the output step just written
-  !> (t, h the next step) and its checkpoint, for the checkpoints written
-  !> between output steps. Between output steps the reduced solve carries
-  !> state a checkpoint cannot hold (a preconditioner kept for pc_lag
-  !> assemblies, the inner guesses' last solves); at an output step the
-  !> next window starts them afresh (enter_window), in the run and in its
-  !> restart alike, so a restart from this point repeats the run bit for
-  !> bit. Costs a copy of the state and the Newton start's kept states an
-  !> output step. Collective.
+  !> (of the step that reached or passed it: t, h the next step) and its
+  !> checkpoint, for the checkpoints written between output steps. A
+  !> restart from it starts afresh what the reduced solve carries across
+  !> output steps and no checkpoint holds (a preconditioner kept for pc_lag
+  !> assemblies, the inner guesses' last solves, the Newton remainder):
+  !> the run that went through to round-off (until issue 48 the run
+  !> started them afresh at every output step too, and the restart was
+  !> bitwise, but output_interval changed the solution). Costs a copy of
+  !> the state and the Newton start's kept states an output step.
+  !> Collective.
   subroutine keep_restart_point(ctx, r, out, t, h, ierr)
     type(app_ctx), intent(inout) :: ctx
     type(restart_state_t), intent(inout) :: r

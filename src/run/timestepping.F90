@@ -1,49 +1,46 @@
 ! SPDX-License-Identifier: BSD-2-Clause
 !> The run driver of the time integration with PETSc TS on a DMDA of 1 x P
 !> strips (docs/model.md sections 5 and 6): the loop over time windows that
-!> stops exactly at output, keyframe and release times, the output steps
-!> and the run's end. Beside it in src/run: solver_setup (option
-!> resolution, solver_create and solver_destroy), run_checkpoint
-!> (checkpoints and restarts), provenance (run information and
-!> configuration in the output) and failure_text (failure messages); the
-!> solver it drives is src/solver, one module per concern
-!> (docs/design.md, "Module layout"). The state and the form of F are
-!> described in module cloth_model.
+!> stops exactly at keyframe and release times and t_end (and at output
+!> times only where the method cannot interpolate to them), when the
+!> output steps are written (between stops: the state of the step that
+!> ends on one, or the TS's interpolant; the integration untouched; what
+!> they hold: module output_steps) and the run's end. Beside it in
+!> src/run: solver_setup (option resolution, solver_create and
+!> solver_destroy), run_checkpoint (checkpoints and restarts), provenance
+!> (run information and configuration in the output) and failure_text
+!> (failure messages); the solver it drives is src/solver, one module per
+!> concern (docs/design.md, "Module layout"). The state and the form of F
+!> are described in module cloth_model.
 module timestepping
 #include "petsc/finclude/petscts.h"
   use petscts
   use petscdmda
   use mpi
-  use, intrinsic :: iso_c_binding, only: c_double
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
   use, intrinsic :: iso_fortran_env, only: output_unit, error_unit
   use kinds, only: rp
-  use ghosted_state, only: ghosted_get, ghosted_restore
-  use lattice, only: link_dir
-  use forces, only: link_stretch_extremes
   use constraints, only: constraints_set_window, constraint_target, constraint_events, constraints_active, &
                          constraint_count, constraint_node
-  use diagnostics, only: state_diagnostics_t, state_diagnostics
-  use output, only: output_file, output_record, output_write_step, output_write_wall_time, output_write_retried_steps
-  use app_context, only: app_ctx, nuno_walltime_arm, nuno_checkpoint_due, nuno_signal_agreed
+  use output, only: output_file, output_write_wall_time, output_write_retried_steps
+  use app_context, only: app_ctx, nuno_walltime_arm, nuno_checkpoint_due, nuno_signal_agreed, nuno_output_arm, &
+                         nuno_ts_interpolates
   use step_settings, only: step_enter_window, step_dt, step_t_end, step_fixed, step_max_steps
-  use energy_integrals, only: energy_add_work, energy_integrals_start, energy_set_mgx0, energy_totals
-  use run_progress, only: progress_start, progress_output_written, progress_said, progress_warn_stretch, progress_wall, &
-                          progress_t_written, progress_stretch_warned
+  use energy_integrals, only: energy_add_work, energy_integrals_start
+  use run_progress, only: progress_start, progress_wall, progress_t_written
   use run_error, only: run_error_first, run_error_any, run_error_text
-  use model_state, only: model_enter_window, model_fixed_to_reduced, model_gravity
+  use model_state, only: model_enter_window, model_fixed_to_reduced
   use newton_state, only: newton_enter_window
   use newton_start, only: newton_start_reset
-  use process_model, only: pm_energy_t, pm_group_t
-  use process_models, only: pm_list_on, pm_list_output
-  use process_solver, only: pm_observe
+  use step_monitor, only: integrals_after
   use failure_text, only: signal_name, failure_reason, report_io_error
   use strings, only: num => real_brief, inum => itoa
   use run_checkpoint, only: restart_state_t, run_counts, take_checkpoint, keep_restart_point, solver_restore, &
-                            restart_state_init, restart_state_free, restart_output_written, restart_wall_before, &
-                            restart_walltime, restart_from, restart_t_checkpoint, &
-                            restart_current, restart_file, state_to_strips, restart_judge_t, restart_judge, &
-                            checkpoint_pm_names
+                            restart_state_init, restart_state_free, restart_wall_before, restart_walltime, &
+                            restart_from, restart_t_checkpoint, restart_current, restart_file, &
+                            restart_judge_t, restart_judge, checkpoint_pm_names
   use provenance, only: write_run_info
+  use output_steps, only: write_output, write_state
   use solver_setup, only: check_decomposition, solver_create, solver_destroy
   implicit none
   private
@@ -53,15 +50,30 @@ module timestepping
   public :: advance_window          ! module identify_adjoint: its forward run's windows
   public :: enter_window            ! module identify_adjoint: the constraint state of an adjoint window
 
-  !> The run's stop times: its output steps (multiples of output_interval,
-  !> and t_end) and the constraints' events (keyframes, releases).
+  !> The run's output steps (multiples of output_interval, and t_end) and
+  !> its stop times: the constraints' events (keyframes, releases), t_end,
+  !> and, for a method without an interpolant, the output times.
   type :: schedule_t
     real(rp), allocatable :: events(:)          !< the constraints' event times [time]
     real(rp) :: interval = 0                    !< output_interval [time]
     real(rp) :: t_end = 0                       !< [time]
     real(rp) :: eps = 0                         !< times closer than this are the same [time]
+    !> a step that ends this close to an output time ends on it (its own
+    !> state is written): eps, and for fixed steps 1e-3 dt, as t sums the
+    !> steps' rounding [time]
+    real(rp) :: eps_on = 0
     integer :: iout = 0                         !< the next output step's number (output_time)
+    !> output times between stops are written from the TS's interpolant
+    !> (nuno_ts_interpolates); else every output time is a stop
+    logical :: interpolate = .false.
+    !> the next window starts the solver afresh (enter_window,
+    !> TSRestartStep): after an event, and a restart's first window
+    logical :: enter_next = .false.
   end type schedule_t
+
+  !> TS_CONVERGED_USER (TSSolve ended by nuno's post-step or monitor), which
+  !> the Fortran interface of PETSc 3.18 does not define (petscts.h).
+  integer, parameter :: TS_STOPPED_BY_US = 3
 
   !> What the run does after a window (window_end): the next window, its
   !> end (status says why; the final checkpoint and summary), or its end
@@ -140,7 +152,7 @@ contains
     TSConvergedReason, intent(out) :: reason
     PetscErrorCode, intent(out) :: ierr
 
-    PetscCall(window_start(ctx, t, tb, h, enter, ierr))
+    PetscCall(window_start(ctx, t, tb, h, enter, enter, ierr))
     do
       PetscCall(window_solve(ctx, t, reason, ierr))
       ! (a wall-clock checkpoint's end of TSSolve, due = 2: the window goes on)
@@ -148,15 +160,20 @@ contains
     end do
   end subroutine advance_window
 
-  !> advance_window for the run, which enters every window but its first
-  !> (entered before the output step at t = 0: run_start): the wall-clock
+  !> advance_window for the run, which enters a window (the solver's and
+  !> the integrator's fresh start) only after an event and at a restart
+  !> (sc%enter_next; the first window is entered before the output step at
+  !> t = 0: run_start): the output steps between the window's ends
+  !> (outputs_passed) and the wall-clock
   !> checkpoints (-nuno_checkpoint_walltime) due inside the window are
-  !> written into out between steps; a failed write ends the window early
-  !> with the run's error set (module run_error). Collective.
-  subroutine run_window(ctx, r, out, t, tb, h, reason, ierr)
+  !> written into out between steps, TSSolve going on after them as if
+  !> nothing happened; a failed write ends the window early with the run's
+  !> error set (module run_error). Collective.
+  subroutine run_window(ctx, r, out, sc, t, tb, h, reason, ierr)
     type(app_ctx), intent(inout) :: ctx
     type(restart_state_t), intent(inout) :: r
     type(output_file), intent(inout) :: out
+    type(schedule_t), intent(inout) :: sc
     real(rp), intent(inout) :: t, h
     real(rp), intent(in) :: tb
     TSConvergedReason, intent(out) :: reason
@@ -165,38 +182,118 @@ contains
     integer :: due
     logical :: taken
 
-    PetscCall(window_start(ctx, t, tb, h, t > 0.0_rp, ierr))
+    PetscCall(window_start(ctx, t, tb, h, sc%enter_next, sc%enter_next, ierr))
+    sc%enter_next = .false.
     do
+      call arm_output(sc, tb)
       PetscCall(window_solve(ctx, t, reason, ierr))
+      call nuno_output_arm(0_c_int, 0.0_c_double)
+      ! The output steps the last step reached or passed, before a
+      ! checkpoint takes the restart point they keep. After a failed step
+      ! the TS's interpolant is the failed attempt's: none.
+      if (reason >= 0) then
+        call outputs_passed(ctx, r, out, sc, t, tb, ierr)
+        if (ierr /= 0) then
+          ! a failed write ends the run (window_end reads the run's error)
+          if (run_error_any(ctx%error)) ierr = 0
+          return
+        end if
+      end if
       ! -nuno_checkpoint_walltime, due after the step just taken (agreed by
       ! the post-step, src/solver/nuno_signals.c): the restart point of the last
       ! output step (keep_restart_point; before the first one, this step's
       ! state with its energy integrals), h the step the TS takes next.
-      ! Where the post-step ended TSSolve for it (due = 2), the window goes
-      ! on with the same TS: no new window, the step the TS chose.
+      ! Where the post-step ended TSSolve for it (due = 2), or for an output
+      ! step, the window goes on with the same TS: no new window, the step
+      ! the TS chose.
       due = int(nuno_checkpoint_due())
-      if (due == 0) exit
-      PetscCall(TSGetTimeStep(ctx%ts, hnext, ierr))
-      call take_checkpoint(ctx, r, out, t, hnext, 'wall time', .true., ierr)
-      if (ierr /= 0) then
-        ! a failed write ends the run (solver_run reads the run's error)
-        ierr = 0
-        call run_error_first(ctx%error, 'the wall-clock checkpoint at t = '//num(t)//' failed', taken)
-        exit
+      if (due /= 0) then
+        PetscCall(TSGetTimeStep(ctx%ts, hnext, ierr))
+        call take_checkpoint(ctx, r, out, t, hnext, 'wall time', .true., ierr)
+        if (ierr /= 0) then
+          ! a failed write ends the run (solver_run reads the run's error)
+          ierr = 0
+          call run_error_first(ctx%error, 'the wall-clock checkpoint at t = '//num(t)//' failed', taken)
+          exit
+        end if
       end if
-      if (due /= 2) exit
+      if (reason /= TS_STOPPED_BY_US .or. nuno_signal_agreed() /= 0 .or. run_error_any(ctx%error) .or. &
+          t >= tb - 1.0e3_rp * sc%eps) exit
     end do
   end subroutine run_window
 
+  !> The post-step ends TSSolve after the step that reaches the next
+  !> output time inside the window [t, tb] that is no stop (none where
+  !> there is none). Not collective.
+  subroutine arm_output(sc, tb)
+    type(schedule_t), intent(in) :: sc
+    real(rp), intent(in) :: tb
+    real(rp) :: tout
+    tout = output_time(sc, sc%iout)
+    if (tout < tb - 1.0e3_rp * sc%eps) then
+      call nuno_output_arm(1_c_int, real(tout - sc%eps_on, c_double))
+    else
+      call nuno_output_arm(0_c_int, 0.0_c_double)
+    end if
+  end subroutine arm_output
+
+  !> The output steps inside the window that ends at tb which the step
+  !> that ended at t has reached or passed (tb's own is window_end's): the
+  !> step's state where it ends on one, else the TS's interpolant there
+  !> (TSInterpolate; the energy integrals taken back to it,
+  !> integrals_after); nothing in the integration changes. Then, as at a
+  !> window's end, the restart point (the state at t) and a
+  !> checkpoint_interval checkpoint. Collective.
+  subroutine outputs_passed(ctx, r, out, sc, t, tb, ierr)
+    type(app_ctx), intent(inout) :: ctx
+    type(restart_state_t), intent(inout) :: r
+    type(output_file), intent(inout) :: out
+    type(schedule_t), intent(inout) :: sc
+    real(rp), intent(in) :: t, tb
+    PetscErrorCode, intent(out) :: ierr
+    real(rp) :: tout, tlast, hnext, de(2)
+    type(tVec) :: w
+    PetscErrorCode :: err
+
+    ierr = 0
+    tlast = -1.0_rp
+    do
+      tout = output_time(sc, sc%iout)
+      if (tout > t + sc%eps_on .or. tout >= tb - 1.0e3_rp * sc%eps) exit
+      if (abs(t - tout) <= sc%eps_on) then
+        call write_output(ctx, r, out, tout, ierr)
+      else
+        PetscCall(DMGetGlobalVector(ctx%da, w, ierr))
+        PetscCall(TSInterpolate(ctx%ts, tout, w, ierr))
+        PetscCall(integrals_after(ctx%ts, ctx, tout, w, de, ierr))
+        call write_state(ctx, r, out, tout, w, de, ierr)
+        call DMRestoreGlobalVector(ctx%da, w, err)
+        if (ierr == 0) ierr = err
+      end if
+      if (ierr /= 0) return
+      sc%iout = sc%iout + 1
+      tlast = tout
+    end do
+    if (tlast < 0.0_rp .or. t >= sc%t_end - sc%eps) return
+    PetscCall(TSGetTimeStep(ctx%ts, hnext, ierr))
+    call keep_restart_point(ctx, r, out, t, hnext, ierr)
+    if (ierr /= 0) return
+    if (ctx%cfg%output%checkpoint_interval > 0.0_rp .and. &
+        tlast >= restart_t_checkpoint(r) + ctx%cfg%output%checkpoint_interval - sc%eps) then
+      call take_checkpoint(ctx, r, out, t, hnext, 'checkpoint_interval', .false., ierr)
+    end if
+  end subroutine outputs_passed
+
   !> A window's start (advance_window): the monitor's window end, with
-  !> enter the constraint state and a fresh start of the integrator, the
-  !> TS's stop time tb and its first step h (dt for fixed steps), clipped
-  !> to end on tb. Collective.
-  subroutine window_start(ctx, t, tb, h, enter, ierr)
+  !> enter the constraint state and the solver's fresh start (enter_window),
+  !> with restart also the integrator's (TSRestartStep: a multistep method
+  !> begins again at first order), the TS's stop time tb and its first step
+  !> h (dt for fixed steps), clipped to end on tb. Collective.
+  subroutine window_start(ctx, t, tb, h, enter, restart, ierr)
     type(app_ctx), intent(inout) :: ctx
     real(rp), intent(in) :: t, tb
     real(rp), intent(inout) :: h
-    logical, intent(in) :: enter
+    logical, intent(in) :: enter, restart
     PetscErrorCode, intent(out) :: ierr
     real(rp) :: dke
 
@@ -206,7 +303,9 @@ contains
       call enter_window(ctx, t, tb, dke, ierr)
       if (ierr /= 0) return
       call energy_add_work(ctx%energy, dke)
-      PetscCall(TSRestartStep(ctx%ts, ierr))
+      if (restart) then
+        PetscCall(TSRestartStep(ctx%ts, ierr))
+      end if
     end if
     PetscCall(TSSetMaxTime(ctx%ts, tb, ierr))
     if (step_fixed(ctx%step)) h = step_dt(ctx%step)
@@ -245,6 +344,7 @@ contains
     type(schedule_t) :: sc
     real(rp) :: t, tstop, h
     integer :: next
+    integer(c_int) :: interpolates
     TSConvergedReason :: reason
 
     status = 'complete'
@@ -256,6 +356,12 @@ contains
     sc%t_end = step_t_end(ctx%step)
     sc%interval = ctx%cfg%output%output_interval
     sc%eps = 1.0e-12_rp * max(1.0_rp, sc%t_end)
+    sc%eps_on = sc%eps
+    if (step_fixed(ctx%step)) sc%eps_on = max(sc%eps, 1.0e-3_rp * step_dt(ctx%step))
+    ierr = nuno_ts_interpolates(ctx%ts%v, interpolates)
+    if (ierr /= 0) return
+    sc%interpolate = interpolates /= 0
+    if (ctx%rank == 0) call say_outputs(sc)
     h = step_dt(ctx%step)
     t = 0.0_rp
     call run_start(ctx, r, out, sc, t, h, status, ierr)
@@ -263,7 +369,7 @@ contains
     next = GO_ON
     do while (t < sc%t_end - sc%eps .and. next == GO_ON)
       tstop = next_stop(sc, t)
-      call run_window(ctx, r, out, t, tstop, h, reason, ierr)
+      call run_window(ctx, r, out, sc, t, tstop, h, reason, ierr)
       if (ierr /= 0) return
       call window_end(ctx, r, out, sc, reason, tstop, t, h, status, next, ierr)
       if (ierr /= 0 .or. next == LOST) return
@@ -305,6 +411,8 @@ contains
     ! last one written.
     t = t_ck
     if (.not. step_fixed(ctx%step)) h = h_ck
+    ! (the TS holds no history of the run it continues)
+    sc%enter_next = .true.
     sc%iout = 1
     do while (output_time(sc, sc%iout) <= progress_t_written(ctx%progress) + sc%eps .and. &
               real(sc%iout, rp) * sc%interval < sc%t_end)
@@ -358,7 +466,7 @@ contains
     end if
     PetscCall(VecNorm(ctx%u, NORM_INFINITY, unorm, ierr))
     if (reason >= 0 .and. nuno_signal_agreed() /= 0) then
-      call interrupted(ctx, r, out, t, h, status, next, ierr)
+      call interrupted(ctx, r, out, t, sc%eps_on, h, status, next, ierr)
       return
     end if
     if (reason < 0 .or. unorm /= unorm .or. unorm > huge(1.0_rp)) then
@@ -393,26 +501,31 @@ contains
         call take_checkpoint(ctx, r, out, t, h, 'checkpoint_interval', .false., ierr)
         if (io_failed(ctx, status, ierr)) return
       end if
-    else if (at_max_steps .and. t > progress_t_written(ctx%progress)) then
+    else if (at_max_steps .and. t > progress_t_written(ctx%progress) + sc%eps_on) then
       ! Off the output grid (inside a window, or at a keyframe): the last state.
       call write_output(ctx, r, out, t, ierr)
       if (io_failed(ctx, status, ierr)) return
     end if
     next = merge(ENDS, GO_ON, at_max_steps)
+    ! After an event the solver and the integrator start afresh; after a
+    ! stop at an output time (a method without an interpolant) they go on
+    ! as if it had been none.
+    sc%enter_next = at_event(sc, t)
     if (at_max_steps .and. t < sc%t_end - sc%eps .and. ctx%rank == 0) &
       write(output_unit, '(a,es13.5e2,a)') 'nuno: -ts_max_steps '//inum(step_max_steps(ctx%step))// &
         ' reached at t =', t, ': the run ends here, complete, with this state written'
   end subroutine window_end
 
-  !> SIGTERM/SIGINT: every rank finished the same step; keep its state and
+  !> SIGTERM/SIGINT: every rank finished the same step; keep its state
+  !> (unless it was the output step just written: within eps_on of it) and
   !> a checkpoint to continue from (the restart point of the last output
   !> step: keep_restart_point), and say so (next = ENDS). A failed write:
   !> status says why (io_failed; next = LOST). Collective.
-  subroutine interrupted(ctx, r, out, t, h, status, next, ierr)
+  subroutine interrupted(ctx, r, out, t, eps_on, h, status, next, ierr)
     type(app_ctx), intent(inout) :: ctx
     type(restart_state_t), intent(inout) :: r
     type(output_file), intent(inout) :: out
-    real(rp), intent(in) :: t
+    real(rp), intent(in) :: t, eps_on                !< [time]
     real(rp), intent(out) :: h
     character(len=*), intent(inout) :: status
     integer, intent(out) :: next
@@ -421,7 +534,7 @@ contains
 
     ierr = 0
     next = LOST
-    if (t > progress_t_written(ctx%progress)) then
+    if (t > progress_t_written(ctx%progress) + eps_on) then
       call write_output(ctx, r, out, t, ierr)
       if (io_failed(ctx, status, ierr)) return
     end if
@@ -493,6 +606,22 @@ contains
     end if
   end function io_failed
 
+  !> One start-up line (rank 0): how the output steps are reached, and so
+  !> whether output_interval can change the solution.
+  subroutine say_outputs(sc)
+    type(schedule_t), intent(in) :: sc
+    character(len=*), parameter :: head = 'outputs   : '
+    if (.not. sc%interpolate) then
+      write(output_unit, '(a)') head//'the integrator stops at every output time (this method has no usable '// &
+        'interpolant in PETSc 3.18), so output_interval changes its steps, within the tolerance'
+    else
+      write(output_unit, '(a)') head//'the state of a step that ends on the output time, else the TS''s '// &
+        'interpolant; the integrator stops only at keyframes, releases and t_end: output_interval does not '// &
+        'change the solution'
+    end if
+    flush(output_unit)
+  end subroutine say_outputs
+
   !> Output time k: a multiple of output_interval, or t_end.
   pure real(rp) function output_time(sc, k)
     type(schedule_t), intent(in) :: sc
@@ -500,17 +629,28 @@ contains
     output_time = min(real(k, rp) * sc%interval, sc%t_end)
   end function output_time
 
-  !> Next time at which the integrator must stop after tt: the next output
-  !> time or an earlier constraint event.
+  !> Next time at which the integrator must stop after tt: the next
+  !> constraint event or t_end, and the next output time for a method
+  !> without an interpolant (nuno_ts_interpolates: there the steps are cut
+  !> to end on it, as they always were). Other output times are written
+  !> between steps (outputs_passed), the integration untouched.
   pure real(rp) function next_stop(sc, tt)
     type(schedule_t), intent(in) :: sc
     real(rp), intent(in) :: tt
     integer :: m
-    next_stop = output_time(sc, sc%iout)
+    next_stop = sc%t_end
+    if (.not. sc%interpolate) next_stop = output_time(sc, sc%iout)
     do m = 1, size(sc%events)
       if (sc%events(m) > tt + sc%eps) next_stop = min(next_stop, sc%events(m))
     end do
   end function next_stop
+
+  !> t is a constraint event's time (a keyframe, a release).
+  pure logical function at_event(sc, t)
+    type(schedule_t), intent(in) :: sc
+    real(rp), intent(in) :: t
+    at_event = any(abs(sc%events - t) <= 1.0e3_rp * sc%eps)
+  end function at_event
 
   !> One closing line on rank 0 (stdout; a failure's reason is already on
   !> stderr) with the totals, the retries and the wall time.
@@ -545,173 +685,5 @@ contains
       flush(output_unit)
     end if
   end subroutine final_summary
-
-  ! ------------------------------------------------------------ output steps
-
-  !> Diagnostics and one output step; a one-line summary on rank 0.
-  subroutine write_output(ctx, r, out, t, ierr)
-    type(app_ctx), intent(inout) :: ctx
-    type(restart_state_t), intent(inout) :: r
-    type(output_file), intent(inout) :: out
-    real(rp), intent(in) :: t
-    PetscErrorCode, intent(out) :: ierr
-    type(state_diagnostics_t) :: d
-    type(output_record) :: rec
-    character(len=512) :: errmsg
-    real(rp) :: c(5), potential
-
-    PetscCall(output_state(ctx, t, d, ierr))
-    if (t == 0.0_rp) call energy_set_mgx0(ctx%energy, d%mgx)
-    ! the process models' record of the state (the monitor's after a step;
-    ! at t = 0, before any step, made here: contact's barrier energy of the start)
-    PetscCall(pm_observe(ctx, t, ctx%u, ierr))
-    call run_counts(ctx, r, c, ierr)
-    if (ierr /= 0) return
-    call fill_record(ctx, t, d, c, rec, potential)
-    if (ctx%cfg%output%write_velocity) then
-      call output_write_step(out, rec, ctx%xout, ierr, errmsg, v=ctx%vout)
-    else
-      call output_write_step(out, rec, ctx%xout, ierr, errmsg)
-    end if
-    if (ierr /= 0) then
-      call report_io_error(ctx, errmsg)
-      return
-    end if
-    call progress_output_written(ctx%progress, t)
-    call restart_output_written(r)
-    if (ctx%rank == 0) call progress_line(ctx, rec, d, int(c(5)), potential)
-  end subroutine write_output
-
-  !> The state at t for an output step: its diagnostics d (collective), the
-  !> stretch check (warned once), its positions and velocities into the
-  !> output buffers ctx%xout, ctx%vout. Collective.
-  subroutine output_state(ctx, t, d, ierr)
-    type(app_ctx), intent(inout) :: ctx
-    real(rp), intent(in) :: t
-    type(state_diagnostics_t), intent(out) :: d
-    PetscErrorCode, intent(out) :: ierr
-    type(tVec) :: uloc
-    PetscScalar, pointer :: u(:, :, :)
-
-    PetscCall(ghosted_get(ctx%da, ctx%u, uloc, u, ierr))
-    call state_diagnostics(ctx%lat, u, model_gravity(ctx%model), ctx%comm, d, ierr)
-    if (.not. progress_stretch_warned(ctx%progress) .and. ctx%cfg%output%stretch_limit > 0.0_rp) call check_stretch(ctx, u, t)
-    PetscCall(ghosted_restore(ctx%da, uloc, u, ierr))
-    PetscCall(state_to_strips(ctx, ctx%u, ctx%xout, ctx%vout, ierr))
-  end subroutine output_state
-
-  !> The output step's record at t: the state's diagnostics d, the energy
-  !> integrals, the process models' series and terms of the energy balance
-  !> (potential: their potential energy, for the progress line), the run's
-  !> counts c (run_counts), the wall time.
-  subroutine fill_record(ctx, t, d, c, rec, potential)
-    type(app_ctx), intent(in) :: ctx
-    real(rp), intent(in) :: t, c(5)
-    type(state_diagnostics_t), intent(in) :: d
-    type(output_record), intent(out) :: rec
-    real(rp), intent(out) :: potential
-    real(rp) :: dissipated, work_constraints, mgx0
-    type(pm_energy_t) :: pe
-    type(pm_group_t), allocatable :: groups(:)
-
-    rec%time = t
-    rec%kinetic = d%kinetic
-    rec%stretch = d%stretch
-    rec%bend = d%bend
-    call energy_totals(ctx%energy, dissipated, work_constraints, mgx0)
-    rec%dissipated = dissipated
-    rec%external_work = work_constraints + (d%mgx - mgx0)
-    rec%momentum = d%momentum
-    rec%angular_momentum = d%angular_momentum
-    rec%length = d%length
-    rec%flatness = d%flatness
-    ! The process models' series and their terms of the energy balance
-    ! (docs/model.md section 10; contact's: the barrier energy a potential
-    ! energy, the friction work a dissipation, the moving obstacles' work
-    ! an external work), as their accepted hooks recorded the state.
-    potential = 0.0_rp
-    if (pm_list_on(ctx%pms)) then
-      call pm_list_output(ctx%pms, rec%pm_series, groups, pe)
-      potential = pe%potential
-      rec%dissipated = rec%dissipated + pe%dissipated
-      rec%external_work = rec%external_work + pe%external_work
-    end if
-    rec%steps = int(c(1), kind(rec%steps))
-    rec%rejected_steps = int(c(2), kind(rec%rejected_steps))
-    rec%newton_iterations = int(c(3), kind(rec%newton_iterations))
-    rec%linear_iterations = int(c(4), kind(rec%linear_iterations))
-    rec%wall_time = progress_wall(ctx%progress)
-  end subroutine fill_record
-
-  !> The output step's line on stdout (rank 0), for a person and for awk:
-  !> every field has a blank before it (es13.5e2 of a negative value still
-  !> starts with one; the integer widths hold 10^8 steps), rates from the
-  !> start of the run. Flushed: a redirected run shows its progress and
-  !> keeps it when killed. The order up to 'linear' is the one
-  !> bench/solver.py parses. Before any step (t = 0) there is no rate yet:
-  !> '-' for the rate and the ETA (same fields, so awk's columns stay).
-  subroutine progress_line(ctx, rec, d, retries, potential)
-    type(app_ctx), intent(inout) :: ctx
-    type(output_record), intent(in) :: rec
-    type(state_diagnostics_t), intent(in) :: d
-    integer, intent(in) :: retries               !< Newton solves retried with a smaller step
-    real(rp), intent(in) :: potential            !< the process models' potential energy [energy]
-    real(rp) :: t, wall, rate, eta
-
-    t = rec%time
-    wall = rec%wall_time
-    write(output_unit, '(a,es12.5e2, a,i9, a,i6, a,i9, a,i11, a,i6, 2(a,es13.5e2), a,es10.3e2)', advance='no') &
-      't =', t, '  steps', rec%steps, '  rejected', rec%rejected_steps, '  newton', rec%newton_iterations, &
-      '  linear', rec%linear_iterations, '  retries', retries, '  E_kin', d%kinetic, &
-      '  E_total', d%kinetic + d%stretch + d%bend + potential + rec%dissipated - rec%external_work, &
-      '  wall_s', wall
-    if (t > 0.0_rp .and. wall > 0.0_rp) then
-      rate = t / wall
-      eta = (step_t_end(ctx%step) - t) / rate
-      write(output_unit, '(2(a,es10.3e2))') '  sim_per_wall_s', rate, '  eta_s', eta
-    else
-      write(output_unit, '(a)') '  sim_per_wall_s -  eta_s -'
-    end if
-    flush(output_unit)
-    call progress_said(ctx%progress)
-  end subroutine progress_line
-
-  !> Warn once (stderr, rank 0) when a link has stretched or shrunk beyond
-  !> stretch_limit times its rest length: a model far outside its regime
-  !> (a spun sheet, a step too large) that would otherwise complete silently.
-  !> At output steps only. Collective.
-  subroutine check_stretch(ctx, u, t)
-    type(app_ctx), intent(inout) :: ctx
-    real(rp), intent(in) :: u(0:, 0:, ctx%lat%gys:)
-    real(rp), intent(in) :: t
-    real(rp) :: r(2), g(2), lim
-    integer :: atmax(3), atmin(3), loc(3), glob(3), mpierr, iq, jq
-    character(len=16) :: what
-
-    call link_stretch_extremes(ctx%lat, u, r(1), atmax, r(2), atmin)
-    r(2) = 1.0_rp / max(r(2), tiny(1.0_rp))      ! shrink as a factor > 1
-    call MPI_Allreduce(r, g, 2, MPI_DOUBLE_PRECISION, MPI_MAX, ctx%comm, mpierr)
-    lim = ctx%cfg%output%stretch_limit
-    if (g(1) <= lim .and. g(2) <= lim) return
-    call progress_warn_stretch(ctx%progress)
-    loc = -1
-    if (g(1) > lim) then
-      if (r(1) == g(1)) loc = atmax
-      what = 'stretched'
-    else
-      if (r(2) == g(2)) loc = atmin
-      what = 'compressed'
-    end if
-    call MPI_Allreduce(loc, glob, 3, MPI_INTEGER, MPI_MAX, ctx%comm, mpierr)
-    iq = glob(1) + link_dir(1, glob(3))
-    jq = glob(2) + link_dir(2, glob(3))
-    if (ctx%rank == 0) then
-      write(error_unit, '(a)') 'nuno: warning: at t = '//num(t)//' the link from node ('//inum(glob(1))//', '// &
-        inum(glob(2))//') to ('//inum(iq)//', '//inum(jq)//') is '//trim(what)//' by a factor '// &
-        num(merge(g(1), g(2), g(1) > lim))//', beyond stretch_limit = '//num(lim)// &
-        ' (&output); the model is far outside its regime: check dt and the scene (warned once)'
-      flush(error_unit)
-    end if
-  end subroutine check_stretch
 
 end module timestepping

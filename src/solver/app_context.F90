@@ -34,6 +34,7 @@ module app_context
   private
   public :: app_ctx
   public :: nuno_walltime_arm, nuno_checkpoint_due, nuno_signal_agreed, nuno_signals_install, nuno_ts_stop
+  public :: nuno_output_arm, nuno_ts_interpolates
 
   interface
     !> src/solver/nuno_signals.c: SIGTERM/SIGINT end the run after the current step.
@@ -54,6 +55,20 @@ module app_context
     integer(c_int) function nuno_checkpoint_due() bind(C, name='nuno_checkpoint_due')
       import :: c_int
     end function nuno_checkpoint_due
+    !> src/solver/nuno_signals.c: end TSSolve after the step that reaches t
+    !> (an output time inside the window, less its tolerance); armed = 0: none.
+    subroutine nuno_output_arm(armed, t) bind(C, name='nuno_output_arm')
+      import :: c_int, c_double
+      integer(c_int), value :: armed
+      real(c_double), value :: t
+    end subroutine nuno_output_arm
+    !> yes = 1 where TSInterpolate of the TS's method gives its solution
+    !> between the last two steps (measured on PETSc 3.18.5), else 0.
+    integer(c_int) function nuno_ts_interpolates(ts, yes) bind(C, name='nuno_ts_interpolates')
+      import :: c_int, c_intptr_t
+      integer(c_intptr_t) :: ts             !< the TS handle (tTS%v), passed as TS*
+      integer(c_int) :: yes
+    end function nuno_ts_interpolates
     !> Stop TSSolve after this step (TS_CONVERGED_USER).
     integer(c_int) function nuno_ts_stop(ts) bind(C, name='nuno_ts_stop')
       import :: c_int, c_intptr_t

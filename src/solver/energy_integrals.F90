@@ -13,7 +13,8 @@ module energy_integrals
   public :: energy_integrals_t, energy_integrals_init, energy_integrals_free, energy_integrals_reset, &
             energy_integrals_start, energy_integrals_restore, energy_add_work, energy_set_mgx0
   public :: energy_gauss_time, energy_gauss_add, energy_trapezoid_add
-  public :: energy_gauss, energy_t_prev, energy_work_vector, energy_totals
+  public :: energy_gauss, energy_t_prev, energy_work_vector, energy_totals, energy_powers_prev
+  public :: energy_gauss_share, energy_gauss_at
 
   !> Gauss-Legendre points (on [0, 1]) and weights, 3 points: exact to
   !> degree 5, so the error is that of the interpolant, the method's order.
@@ -131,6 +132,32 @@ contains
     e%pdiss_prev = p(1)
     e%pcon_prev = p(2)
   end subroutine energy_trapezoid_add
+
+  !> The share of Gauss point q (1..3) of an interval of length h [time]
+  !> (the interval from an output time to the step's end: module
+  !> step_monitor's integrals_after): [time].
+  pure real(rp) function energy_gauss_share(h, q)
+    real(rp), intent(in) :: h
+    integer, intent(in) :: q
+    energy_gauss_share = h * GAUSS_W(q)
+  end function energy_gauss_share
+
+  !> The time [time] of Gauss point q (1..3) of the interval of length h
+  !> that starts at ta [time].
+  pure real(rp) function energy_gauss_at(ta, h, q)
+    real(rp), intent(in) :: ta, h
+    integer, intent(in) :: q
+    energy_gauss_at = ta + h * GAUSS_X(q)
+  end function energy_gauss_at
+
+  !> The powers at the time the integrals have reached (the trapezoid
+  !> rule's last point): dissipated power and the constraints' power
+  !> [energy/time].
+  pure function energy_powers_prev(e) result(p)
+    type(energy_integrals_t), intent(in) :: e
+    real(rp) :: p(2)
+    p = [e%pdiss_prev, e%pcon_prev]
+  end function energy_powers_prev
 
   !> Gauss-Legendre on the interpolant (else the trapezoid rule).
   pure logical function energy_gauss(e)

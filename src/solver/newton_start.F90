@@ -253,7 +253,7 @@ contains
     s%n = min(s%n + 1, START_KEPT)
   end subroutine newton_start_push
 
-  !> Forget the kept states (an output window's start where the state jumps).
+  !> Forget the kept states (a window's start where the state jumps: a keyframe).
   subroutine newton_start_reset(s)
     type(newton_start_t), intent(inout) :: s
     if (.not. s%on) return

@@ -30,12 +30,13 @@ module step_monitor
   use process_solver, only: pm_observe
   use step_settings, only: step_rejections, step_back_to_dt, step_t_end
   use energy_integrals, only: energy_gauss, energy_t_prev, energy_gauss_time, energy_gauss_add, energy_trapezoid_add, &
-                              energy_integrals_start, energy_work_vector
+                              energy_integrals_start, energy_work_vector, energy_gauss_at, energy_gauss_share, &
+                              energy_powers_prev
   use run_progress, only: progress_stall_check, progress_heartbeat_due, progress_wall, progress_said
   use run_error, only: run_error_first, run_error_text
   implicit none
   private
-  public :: ts_monitor
+  public :: ts_monitor, integrals_after
 
 contains
 
@@ -151,6 +152,45 @@ contains
     end if
     call energy_integrals_start(ctx%energy, t)
   end subroutine advance_integrals
+
+  !> The energy integrals over [ta, t] [energy], t the last accepted step's
+  !> end, which the monitor has integrated to, ta inside that step (an
+  !> output time the run driver writes from the TS's interpolant, module
+  !> timestepping), ua the interpolated state at ta: de(1) dissipated
+  !> energy, de(2) the constraints' work, by the monitor's rule (Gauss-Legendre
+  !> on the interpolant, or the trapezoid rule with the powers at t the
+  !> monitor kept), so that the output step's integrals, those to t less
+  !> de, close at the method's order as at a step's end. Collective.
+  subroutine integrals_after(ts, ctx, ta, ua, de, ierr)
+    type(tTS) :: ts
+    type(app_ctx), intent(inout) :: ctx
+    real(rp), intent(in) :: ta
+    type(tVec) :: ua
+    real(rp), intent(out) :: de(2)
+    PetscErrorCode, intent(out) :: ierr
+    real(rp) :: p(2), h, tq
+    type(tVec) :: uq
+    integer :: q
+
+    de = 0.0_rp
+    ierr = 0
+    h = energy_t_prev(ctx%energy) - ta
+    if (.not. h > 0.0_rp) return
+    if (energy_gauss(ctx%energy)) then
+      uq = energy_work_vector(ctx%energy)
+      do q = 1, 3
+        tq = energy_gauss_at(ta, h, q)
+        PetscCall(TSInterpolate(ts, tq, uq, ierr))
+        call powers(ctx, uq, tq, p, ierr)
+        if (ierr /= 0) return
+        de = de + energy_gauss_share(h, q) * p
+      end do
+    else
+      call powers(ctx, ua, ta, p, ierr)
+      if (ierr /= 0) return
+      de = 0.5_rp * (p + energy_powers_prev(ctx%energy)) * h
+    end if
+  end subroutine integrals_after
 
   !> A long output interval (tiny adaptive steps on a stiff scene) must not
   !> look like a hang: rank 0 says where it is every HEARTBEAT_S of wall

@@ -163,10 +163,17 @@ def test_energy_balance_with_a_rising_plane_falls_at_first_order(tmp_path):
 @pytest.mark.parametrize("moving", [False, True])
 def test_restart_continues_the_contact_series(tmp_path, moving):
     """A run continued from its checkpoint at t = 0.05 equals the run that
-    went through, bit for bit (fixed-step backward Euler, same ranks),
+    went through (fixed-step backward Euler, same ranks; to the solver's
+    round-off, as the restart starts the solver's aids afresh: issue 48),
     /contact and /energy included: the friction work, the moving plane's
     work (a plane rising from t = 0.02) and the run's smallest gap and
-    counts go on from the checkpoint."""
+    counts go on from the checkpoint. With the rising plane a step at
+    t = 0.03125 is retried smaller, and the steps after it no longer end on
+    the output times: the run that ends at 0.05 cuts its last one short, so
+    its continuation takes other steps than the run that went through, the
+    same motion to the integrator's error (measured 1.8e-5 of the largest
+    position; before issue 48 every output time was a stop that put the
+    steps back onto it)."""
     full = groups(0.02, 0.1, 0.025, mu=0.3, dhat=1e-2, omega=0.5)
     if moving:
         # the rising plane of the balance test below
@@ -184,9 +191,23 @@ def test_restart_continues_the_contact_series(tmp_path, moving):
         assert int(fb["run"].attrs["restarts"]) == 1
         n = int(fa.attrs["n_output_steps"])
         assert n == int(fb.attrs["n_output_steps"]) == 5
+        # moving: the same steps before the checkpoint (the first two
+        # output steps; the third, at t_end = 0.05 of the first leg, ends
+        # its cut step), other steps after it
+        m = 2 if moving else n
         for k in names:
             assert fa[k].shape == fb[k].shape, k
-            np.testing.assert_array_equal(fa[k][:n], fb[k][:n], err_msg=k)
+            x, y = fa[k][:m], fb[k][:m]
+            if x.dtype.kind in "iu":                    # counts
+                np.testing.assert_array_equal(x, y, err_msg=k)
+            else:
+                scale = max(float(np.abs(x).max()), 1e-300)
+                assert float(np.abs(x - y).max()) <= 1e-9 * scale, (k, float(np.abs(x - y).max()), scale)
+        if moving:
+            err = np.abs(fa["position"][:n] - fb["position"][:n]).max()
+            assert err < 1e-3 * np.abs(fa["position"][:n]).max(), err
+            assert np.all(np.diff(fb["contact/friction_work"][:n]) >= 0)
+            assert np.all(np.diff(fb["contact/states_checked"][:n]) > 0)
         assert fa["contact/friction_work"][-1] > fa["contact/friction_work"][2] > 0.0
 
 

@@ -34,7 +34,7 @@ SRC = ROOT / "src"
 # The value records' types -> the modules that build them: only there may
 # a procedure take one as a dummy argument it can write.
 BUILDERS = {
-    "nuno_config": {"config", "input", "input_namelist", "input_checks", "identify_params"},
+    "nuno_config": {"config", "input", "input_namelist", "input_checks", "input_contact_checks", "identify_params"},
     "lattice_t": {"lattice"},
 }
 # The components of app_ctx that hold a value record, and the modules that

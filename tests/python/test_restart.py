@@ -1,8 +1,10 @@
 # SPDX-License-Identifier: BSD-2-Clause
 """Checkpoint and restart (issue 8 item 2): a run continued from a checkpoint
-with -nuno_restart must equal the run that went through, bitwise for
-fixed-step backward Euler on the same ranks, to solver tolerance for
-adaptive methods and other rank counts; SIGTERM leaves a file that can be
+with -nuno_restart must equal the run that went through, to the solver's
+round-off for fixed-step backward Euler (the restart starts the solver's
+aids afresh, where the run went on with them through its output steps:
+issue 48), to the integrator's tolerance for adaptive and multistep
+methods and other rank counts; SIGTERM leaves a file that can be
 continued; the wall-clock trigger changes nothing in the result; a
 half-written (invalid) checkpoint slot is never used; a restart that cannot
 be done says why in one line and leaves the file as it was. A step too
@@ -19,7 +21,7 @@ import h5py
 import numpy as np
 import pytest
 
-from nunorun import SERIES, run, series, start_running
+from nunorun import SERIES, assert_same_run, run, series, start_running
 
 HANG = dict(scene="scene='hang'", lattice="nx=9 ny=7", time="t_end=0.2 dt=0.005",
             output="output_interval=0.05 write_velocity=.true.")
@@ -34,7 +36,12 @@ def checkpoints(h5):
                       for g in f["checkpoint"].values())
 
 
-def test_restart_equals_the_continuous_run_bitwise(tmp_path):
+# A restart of fixed-step backward Euler: the run that went through to
+# round-off (measured: 1e-15 here, 1e-12 on hang 65 x 65).
+ROUND_OFF = 1e-11
+
+
+def test_restart_equals_the_continuous_run_to_round_off(tmp_path):
     _, full = run(tmp_path, "full", nranks=2, **HANG)
     half_groups = dict(HANG, time="t_end=0.1 dt=0.005")
     _, half = run(tmp_path, "half", nranks=2, **half_groups)
@@ -45,8 +52,7 @@ def test_restart_equals_the_continuous_run_bitwise(tmp_path):
     b, sb = series(half)
     assert sa == sb == "complete"
     assert a.keys() == b.keys() == set(SERIES)
-    for k in SERIES:
-        assert a[k].shape == b[k].shape and np.array_equal(a[k], b[k]), k
+    assert_same_run(a, b, ROUND_OFF)
     with h5py.File(half, "r") as f:
         assert int(f["run"].attrs["restarts"]) == 1
         assert float(f["run/restart_1"].attrs["from_time"]) == 0.1
@@ -61,7 +67,11 @@ def test_a_restart_after_a_failed_newton_solve_backtracks_from_its_first_step(tm
     and so does its continuation from the checkpoint at t = 0.1, from its
     first step (PETSc's line search monitor prints a line per Newton
     iteration only where a line search runs); it ends where the continuous
-    run ends."""
+    run ends, to the integrator's error: after the retried step (dt/4) the
+    steps no longer end on the output times, so the run that ends at 0.1
+    cuts its last step short and its continuation takes other steps than
+    the run that went through (before issue 48 every output time was a stop
+    that put the steps back onto it)."""
     mon = ["-snes_linesearch_monitor"]
     proc_full, full = run(tmp_path, "full", nranks=2, options=["-nuno_fail_newton", "1", *mon], **HANG)
     assert "line search bt from t = " in proc_full.stdout
@@ -73,7 +83,10 @@ def test_a_restart_after_a_failed_newton_solve_backtracks_from_its_first_step(tm
     b, _ = series(half)
     newton_after = int(b["diagnostics/newton_iterations"][-1] - b["diagnostics/newton_iterations"][2])
     assert proc.stdout.count("Line search:") == newton_after > 0
-    np.testing.assert_array_equal(a["position"], b["position"])
+    np.testing.assert_array_equal(a["time"], b["time"])
+    assert np.array_equal(a["position"][:2], b["position"][:2])              # the same steps to t = 0.05
+    err = np.abs(a["position"] - b["position"]).max()
+    assert err < 1e-3, err                                                   # measured 9.7e-5 (dt = 5 ms)
 
 
 def test_restart_on_other_ranks_and_adaptive_bdf_agrees_to_tolerance(tmp_path):
@@ -84,9 +97,13 @@ def test_restart_on_other_ranks_and_adaptive_bdf_agrees_to_tolerance(tmp_path):
     a, _ = series(full)
     b, _ = series(half)
     assert np.array_equal(a["time"], b["time"])
-    # Up to t = 0.1 the same steps were taken (other ranks: other
+    # Up to t = 0.05 the same steps were taken (other ranks: other
     # preconditioner blocks, so the same solution to the solver's tolerance).
-    assert np.abs(a["position"][:3] - b["position"][:3]).max() < 1e-8
+    assert np.abs(a["position"][:2] - b["position"][:2]).max() < 1e-8
+    # At t = 0.1 the half run's last step ends (t_end), where the full run's
+    # output step is bdf's interpolant between its steps: the same solution
+    # to the integrator's tolerance.
+    assert np.abs(a["position"][2] - b["position"][2]).max() < 1e-6
     # After it the restarted bdf starts again at first order: the same
     # solution to the integrator's tolerance (cloth size 1).
     err = np.abs(a["position"] - b["position"]).max()
@@ -127,16 +144,19 @@ def test_wall_clock_checkpoints_change_nothing(tmp_path):
     # the driver writes it and goes on in the same window; the run must be
     # the same bit for bit.
     short = dict(groups, time="t_end=0.2 dt=0.002")
+    _, plain_short = run(tmp_path, "plain_short", nranks=2, **short)
     proc, often = run(tmp_path, "often", nranks=2, options=["-nuno_checkpoint_walltime", "1e-4s"], **short)
     assert proc.stdout.count("(wall time)") >= 50, proc.stdout
     ck = checkpoints(often)
     assert ck[-1][2] == "end" and ck[-2][2] == "wall time"
-    a, _ = series(plain)
+    a, _ = series(plain_short)
     b, _ = series(often)
-    for k in b:
-        assert np.array_equal(a[k][:len(b[k])], b[k]), k
+    for k in a:
+        assert np.array_equal(a[k], b[k]), k
+    a, _ = series(plain)
     # Continue from the wall-clock one, taken after the last step but
-    # before that step's output was written: the same run again.
+    # before that step's output was written: the same run again, to the
+    # solver's round-off (ROUND_OFF).
     with h5py.File(often, "r+") as f:
         for g in f["checkpoint"].values():
             if g.attrs["reason"] == b"end":
@@ -145,8 +165,7 @@ def test_wall_clock_checkpoints_change_nothing(tmp_path):
     assert "(wall time) in" in proc.stdout
     b, status = series(often)
     assert status == "complete"
-    for k in a:
-        assert np.array_equal(a[k], b[k]), k
+    assert_same_run(a, b, ROUND_OFF)
 
 
 def test_wall_clock_checkpoints_change_no_adaptive_multistep_run(tmp_path):

@@ -25,7 +25,7 @@ import h5py
 import numpy as np
 import pytest
 
-from nunorun import SERIES, exe, mpiexec, namelist, run, series
+from nunorun import SERIES, assert_same_run, exe, mpiexec, namelist, run, series
 
 def checkpoints(h5):
     with h5py.File(h5, "r") as f:
@@ -43,7 +43,7 @@ def one_error(proc):
     return errors[0]
 
 
-# --- item 7: bitwise with the default options ------------------------------
+# --- item 7: with the default options, the run that went through ----------
 
 BIG = dict(scene="scene='hang'", lattice="nx=65 ny=65", time="t_end=0.24 dt=0.002",
            output="output_interval=0.02 write_velocity=.true.")
@@ -78,7 +78,12 @@ def restart_sigterm(tmp_path, name, groups, after_lines=3):
     return "".join(out) + rest, err, proc.returncode
 
 
-def test_restart_with_the_default_options_is_bitwise_at_65(tmp_path):
+def test_restart_with_the_default_options_is_the_same_run_at_65(tmp_path):
+    """Continued three times (from an end-of-run, a SIGTERM and another
+    end-of-run checkpoint): the run that went through, to the solver's
+    round-off (measured 1.1e-12 of the largest value; bit for bit before
+    issue 48, when every output step started the solver's aids afresh as a
+    restart does, and so changed the solution with output_interval)."""
     _, full = run(tmp_path, "full", nranks=2, **BIG)
     # 1. an end-of-run checkpoint at t = 0.06
     _, h5 = run(tmp_path, "leg", nranks=2, **dict(BIG, time="t_end=0.06 dt=0.002"))
@@ -107,7 +112,7 @@ def test_restart_with_the_default_options_is_bitwise_at_65(tmp_path):
     assert sa == sb == "complete"
     for k in SERIES:
         assert a[k].shape == b[k].shape, (k, points)
-        assert np.array_equal(a[k], b[k]), (k, points, np.abs(a[k] - b[k]).max())
+    assert_same_run(a, b, 1e-10)
     assert len(points) >= 2, "SIGTERM did not find the run running"
 
 
