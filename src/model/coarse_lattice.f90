@@ -5,7 +5,7 @@
 !> (module reduced_assembly), is a coarse operator of the finest one's
 !> reach and storage shape with a consistent fourth-order (bending) part,
 !> which the Galerkin product of bilinear transfers is not
-!> (docs/performance.md, "Why the cycles grew with N"). No PETSc, no MPI.
+!> (docs/performance.md, "The multigrid with bending"). No PETSc, no MPI.
 !>
 !> The coarse lattice itself is built by module lattice (lattice_coarsened,
 !> the lattice's only builder); this module gives it its masses and state.
