@@ -166,7 +166,7 @@ contains
     ! auto: rediscretised with bending (paired: no bending), where the
     ! bilinear Galerkin product doubles the bending on every level (hang
     ! 257: 0.87x the time a step); Galerkin without, where the
-    ! rediscretised levels took 14-30 % more cycles for the same time
+    ! rediscretised levels took 8-30 % more cycles for the same time
     ! within the noise (docs/performance.md, "The multigrid with bending")
     gl%rediscretize = coarse == COARSE_REDISCRETIZE .or. (coarse == COARSE_AUTO .and. .not. paired)
     ! Transfer l joins level l + 1 to level l (1 = the lattice).
