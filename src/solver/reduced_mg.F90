@@ -165,7 +165,7 @@ contains
     MPI_Comm :: comm
     ! auto: rediscretised with bending (paired: no bending), where the
     ! bilinear Galerkin product doubles the bending on every level (hang
-    ! 257: 0.87x the time a step); Galerkin without, where the
+    ! 257: 0.82x the time a step); Galerkin without, where the
     ! rediscretised levels took 8-30 % more cycles for the same time
     ! within the noise (docs/performance.md, "The multigrid with bending")
     gl%rediscretize = coarse == COARSE_REDISCRETIZE .or. (coarse == COARSE_AUTO .and. .not. paired)
