@@ -1,10 +1,12 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: BSD-2-Clause
-"""Behaviour pinned: two nuno builds must write the same positions, bit for bit.
+"""Behaviour pinned: two nuno builds must write the same positions, bit for bit
+(or, with --tolerance, to the solver's tolerance).
 
     source tools/env.sh
     python3 bench/pinned.py OLD/build/nuno build/nuno
     python3 bench/pinned.py OLD/build/nuno build/nuno --intended hang.np3=1e-12
+    python3 bench/pinned.py OLD/build/nuno build/nuno --tolerance 1e-6
 
 Every scene of input/*.nml runs as a short fixed-step run (40 steps of
 1 ms, output every 10) on 1 and 3 ranks with each build, plus a few cases
@@ -18,6 +20,12 @@ length unit] and whether the files agree bitwise. The exit status is 1
 when a case differs, unless it is listed with --intended CASE=SIZE (a
 defect fix that changes results on purpose) and differs by at most SIZE;
 2 when a run fails.
+
+--tolerance T judges a change of the solver itself (a preconditioner, an
+inner tolerance), whose positions agree only to the solver's tolerance:
+a case passes when max |difference| / size <= T, size the scene's extent
+(the largest range of a coordinate over the old run's positions, all
+output steps); the table prints that ratio for every case.
 
 A scene the old build cannot run (a key it does not know) is no comparison:
 leave it out with --skip (e.g. scenes newer than the old build).
@@ -96,11 +104,12 @@ def run(exe: str, np_: int, nml: Path, sets: str, opts: list[str], out: Path, ti
     return None
 
 
-def compare(a: Path, b: Path) -> tuple[int, float, bool, str]:
-    """(output steps, max |position difference|, bitwise, note)."""
+def compare(a: Path, b: Path) -> tuple[int, float, float, bool, str]:
+    """(output steps, max |position difference|, the scene's extent (a's
+    largest coordinate range over all outputs), bitwise, note)."""
     with read_run(a, load_velocity=False) as ra, read_run(b, load_velocity=False) as rb:
         if not (ra.complete and rb.complete):
-            return 0, float("nan"), False, f"status {ra.status!r} / {rb.status!r}"
+            return 0, float("nan"), float("nan"), False, f"status {ra.status!r} / {rb.status!r}"
         pa = np.asarray(ra.position)
         pb = np.asarray(rb.position)
         note = ""
@@ -109,11 +118,13 @@ def compare(a: Path, b: Path) -> tuple[int, float, bool, str]:
             note = f"output steps {len(pa)} / {len(pb)}"
             pa, pb = pa[:n], pb[:n]
         diff = float(np.max(np.abs(pa - pb))) if pa.size else 0.0
+        # positions (outputs, ..., 3): the range of each coordinate
+        size = float(np.max(np.ptp(pa.reshape(-1, pa.shape[-1]), axis=0))) if pa.size else float("nan")
         same = pa.shape == pb.shape and pa.tobytes() == pb.tobytes() and not note
         if ra.time.tobytes() != rb.time.tobytes():
             same = False
             note = (note + "; " if note else "") + "output times differ"
-        return len(pa), diff, same, note
+        return len(pa), diff, size, same, note
 
 
 def main() -> int:
@@ -123,6 +134,9 @@ def main() -> int:
     ap.add_argument("--intended", action="append", default=[], metavar="CASE=SIZE",
                     help="a difference made on purpose: CASE (as in the table, e.g. hang.np3, or a scene for "
                          "both rank counts) may differ by at most SIZE; repeatable")
+    ap.add_argument("--tolerance", type=float, default=None, metavar="T",
+                    help="pass a case whose max |diff| / the scene's extent is at most T (a solver change judged "
+                         "against the solver's tolerance); default: bitwise")
     ap.add_argument("--only", nargs="*", default=None, help="run only these cases (names as in the table, no .npN)")
     ap.add_argument("--skip", nargs="*", default=[], help="leave these cases out (names as in the table, no .npN)")
     ap.add_argument("--new-set", default="", help="-nuno_set keys added to NEW's runs only (a check that it can fail)")
@@ -159,7 +173,10 @@ def main() -> int:
     print(f"old: {exes['old']}\nnew: {exes['new']}")
     if args.new_set or args.new_options:
         print("NEW runs only:" + (f" -nuno_set +'{args.new_set}'" if args.new_set else "") + f" {args.new_options}")
-    print(f"{'case':<28} {'ranks':>5} {'steps':>5} {'max |diff|':>11}  bitwise")
+    if args.tolerance is not None:
+        print(f"tolerance: max |diff| / extent <= {args.tolerance:g}")
+    print(f"{'case':<28} {'ranks':>5} {'steps':>5} {'max |diff|':>11} {'/ extent':>10}  bitwise")
+    worst = (0.0, "")
     failed = differ = 0
     start = time.time()
     try:
@@ -177,22 +194,28 @@ def main() -> int:
                     err = err or run(exe, np_, nml, s, o, files[tag], args.timeout)
                 if err:
                     failed += 1
-                    print(f"{name:<28} {np_:>5} {'-':>5} {'-':>11}  RUN FAILED: {err}")
+                    print(f"{name:<28} {np_:>5} {'-':>5} {'-':>11} {'-':>10}  RUN FAILED: {err}")
                     continue
-                steps, diff, same, note = compare(files["old"], files["new"])
+                steps, diff, size, same, note = compare(files["old"], files["new"])
+                rel = diff / size if size > 0 else (0.0 if diff == 0 else float("inf"))
+                if rel >= worst[0]:   # (False for a NaN: an incomplete run, reported by its note)
+                    worst = (rel, label)
                 verdict = "yes" if same else "NO"
                 allowed = intended.get(label, intended.get(name))
                 if not same:
                     if allowed is not None and diff <= allowed:
                         verdict = f"no, intended (<= {allowed:g})"
+                    elif args.tolerance is not None and not note and rel <= args.tolerance:
+                        verdict = "no, within tolerance"
                     else:
                         differ += 1
                 if note:
                     verdict += f" ({note})"
-                print(f"{name:<28} {np_:>5} {steps:>5} {diff:>11.3e}  {verdict}", flush=True)
+                print(f"{name:<28} {np_:>5} {steps:>5} {diff:>11.3e} {rel:>10.2e}  {verdict}", flush=True)
     finally:
         if not args.keep:
             shutil.rmtree(work, ignore_errors=True)
+    print(f"largest max |diff| / extent: {worst[0]:.2e} ({worst[1] or '-'})")
     print(f"{differ} case(s) differ, {failed} run(s) failed; {time.time() - start:.0f} s")
     if failed:
         return 2

@@ -15,8 +15,9 @@ module solver_choices
   public :: FALLBACK_NONE, FALLBACK_BT, FALLBACK_L2, FALLBACK_NAMES
   public :: START_AUTO, START_LINEAR, START_CUBIC, START_NAMES
   public :: MG_STENCIL, MG_PETSC, MG_NAMES
-  public :: CYCLE_V, CYCLE_KASKADE, CYCLE_NAMES
+  public :: CYCLE_V, CYCLE_KASKADE, CYCLE_W, CYCLE_NAMES
   public :: PRODUCT_MIXED, PRODUCT_DOUBLE, PRODUCT_FUSED, PRODUCT_NAMES
+  public :: COARSE_AUTO, COARSE_REDISCRETIZE, COARSE_GALERKIN, COARSE_NAMES
 
   !> -nuno_jacobian: the reduced 3-dof elimination (module reduced) or the
   !> assembled 6-dof Jacobian.
@@ -50,9 +51,10 @@ module solver_choices
   character(len=*), parameter :: MG_NAMES(0:1) = [character(len=7) :: 'stencil', 'petsc']
 
   !> -nuno_mg_cycle: the cycle of nuno's multigrid (module stencil_mg): a
-  !> V-cycle (multiplicative) or kaskade (only upwards).
-  integer, parameter :: CYCLE_V = 0, CYCLE_KASKADE = 1
-  character(len=*), parameter :: CYCLE_NAMES(0:1) = [character(len=7) :: 'v', 'kaskade']
+  !> V-cycle (multiplicative), kaskade (only upwards) or a W-cycle (two
+  !> cycles on each coarser level per visit).
+  integer, parameter :: CYCLE_V = 0, CYCLE_KASKADE = 1, CYCLE_W = 2
+  character(len=*), parameter :: CYCLE_NAMES(0:2) = [character(len=7) :: 'v', 'kaskade', 'w']
 
   !> -nuno_mg_product: the Krylov method's product with S where nuno's
   !> multigrid is used (module reduced_mg): from the multigrid's
@@ -60,5 +62,12 @@ module solver_choices
   !> mixed and formed in each cycle's last sweep (fused).
   integer, parameter :: PRODUCT_MIXED = 0, PRODUCT_DOUBLE = 1, PRODUCT_FUSED = 2
   character(len=*), parameter :: PRODUCT_NAMES(0:2) = [character(len=6) :: 'mixed', 'double', 'fused']
+
+  !> -nuno_mg_coarse: how nuno's multigrid makes its coarse levels (module
+  !> reduced_mg): the cloth rediscretised on the coarse lattice (module
+  !> mg_coarse) or Galerkin products P^T A P (module stencil_mg); auto:
+  !> rediscretised with bending, Galerkin without.
+  integer, parameter :: COARSE_AUTO = 0, COARSE_REDISCRETIZE = 1, COARSE_GALERKIN = 2
+  character(len=*), parameter :: COARSE_NAMES(0:2) = [character(len=12) :: 'auto', 'rediscretize', 'galerkin']
 
 end module solver_choices

@@ -16,10 +16,10 @@
 !> global sums count each element once.
 module lattice
   use kinds, only: rp
-  use config, only: nuno_config, SCALING_CONTINUUM, MASS_AREA, BEND_NONE, BEND_ENERGY
+  use config, only: nuno_config, SCALING_CONTINUUM, MASS_AREA, BEND_NONE, BEND_ENERGY, BEND_PAPER
   implicit none
   private
-  public :: lattice_t, lattice_init, link_dir, line_dir, link_constants, link_lane_constants, triple_constants
+  public :: lattice_t, lattice_init, lattice_coarsened, link_dir, line_dir, link_constants, link_lane_constants, triple_constants
   public :: rest_position, node_mass, rest_strip, halo_width, stencil_box
 
   !> Link directions from the anchor: +x, +y, +x+y, -x+y (each link once).
@@ -82,6 +82,51 @@ contains
       end do
     end do
   end subroutine lattice_init
+
+  !> The lattice coarsened by 2 from fine (nx - 1 and ny - 1 even) for the
+  !> multigrid's rediscretised coarse levels (module mg_coarse; the rule
+  !> for its constants: module coarse_lattice), rows ys..ye of it on this rank (the ghost rows as fine's halo), its masses
+  !> scale mx(i) my(j) (the coarse factors: restrict_factors of the fine
+  !> ones). What the element kernels read: sizes, spacings, models and
+  !> constants, masses.
+  subroutine lattice_coarsened(fine, lat, ys, ye, mx, my, scale)
+    type(lattice_t), intent(in) :: fine
+    type(lattice_t), intent(out) :: lat
+    integer, intent(in) :: ys, ye
+    real(rp), intent(in) :: mx(0:), my(0:), scale
+    integer :: i, j
+    lat%nx = (fine%nx - 1) / 2 + 1
+    lat%ny = (fine%ny - 1) / 2 + 1
+    lat%ys = ys
+    lat%ye = ye
+    lat%halo = fine%halo
+    lat%gys = max(0, ys - lat%halo)
+    lat%gye = min(lat%ny - 1, ye + lat%halo)
+    lat%ax = 2.0_rp * fine%ax
+    lat%ay = 2.0_rp * fine%ay
+    lat%spring_model = fine%spring_model
+    lat%bending_model = fine%bending_model
+    lat%continuum = fine%continuum
+    lat%e_s = fine%e_s
+    lat%eta_s = fine%eta_s
+    lat%e_d = fine%e_d
+    lat%eta_d = fine%eta_d
+    lat%k_b = fine%k_b
+    lat%eta_b = fine%eta_b
+    ! the paper model's force per radian: its stiffness k_b / h kept
+    ! (no continuum mode for it: input_checks rejects the pair)
+    if (fine%bending_model == BEND_PAPER .and. .not. fine%continuum) lat%k_b = 0.5_rp * fine%k_b
+    lat%total_mass = fine%total_mass
+    lat%lx = fine%lx
+    lat%ly = fine%ly
+    lat%area_mass = fine%area_mass
+    allocate(lat%mass(0:lat%nx - 1, lat%gys:lat%gye))
+    do j = lat%gys, lat%gye
+      do i = 0, lat%nx - 1
+        lat%mass(i, j) = scale * mx(i) * my(j)
+      end do
+    end do
+  end subroutine lattice_coarsened
 
   !> Ghost width of the strips: bending triples reach two rows, links one.
   pure integer function halo_width(cfg)

@@ -127,38 +127,45 @@ PetscErrorCode nuno_linesearch_options_read(MPI_Fint fcomm, const char *names, i
  * in/out codes of the lists impl_names (-nuno_mg), cycle_names
  * (-nuno_mg_cycle) and product_names (-nuno_mg_product: the Krylov
  * method's product with S); sweeps in/out symmetric Gauss-Seidel sweeps
- * per smoothing; levels in/out (0: as many as fit); *given: 1 when
- * -nuno_mg_cycle, -nuno_mg_sweeps, -nuno_mg_levels or -nuno_mg_product is
- * set (they are refused where nuno's multigrid is not used). Collective. */
+ * per smoothing; levels in/out (0: as many as fit); coarse in/out code
+ * of coarse_names (-nuno_mg_coarse: how the coarse levels are made);
+ * *given: 1 when -nuno_mg_cycle, -nuno_mg_sweeps, -nuno_mg_levels,
+ * -nuno_mg_product or -nuno_mg_coarse is set (they are refused where
+ * nuno's multigrid is not used). Collective. */
 PetscErrorCode nuno_mg_options_read(MPI_Fint fcomm, const char *impl_names, int impl_n, int impl_len, int *impl,
                                     const char *cycle_names, int cycle_n, int cycle_len, int *cycle, int *sweeps, int *levels,
-                                    const char *product_names, int product_n, int product_len, int *product, int *given)
+                                    const char *product_names, int product_n, int product_len, int *product,
+                                    const char *coarse_names, int coarse_n, int coarse_len, int *coarse, int *given)
 {
-  Choices   impls, cycles, products;
+  Choices   impls, cycles, products, coarses;
   MPI_Comm  comm = MPI_Comm_f2c(fcomm);
-  PetscInt  im = *impl, cy = *cycle, sw = *sweeps, lv = *levels, pr = *product;
-  PetscBool s1 = PETSC_FALSE, s2 = PETSC_FALSE, s3 = PETSC_FALSE, s4 = PETSC_FALSE;
+  PetscInt  im = *impl, cy = *cycle, sw = *sweeps, lv = *levels, pr = *product, co = *coarse;
+  PetscBool s1 = PETSC_FALSE, s2 = PETSC_FALSE, s3 = PETSC_FALSE, s4 = PETSC_FALSE, s5 = PETSC_FALSE;
 
   PetscFunctionBeginUser;
   PetscCall(choices_from_fortran(impl_names, impl_n, impl_len, &impls));
   PetscCall(choices_from_fortran(cycle_names, cycle_n, cycle_len, &cycles));
   PetscCall(choices_from_fortran(product_names, product_n, product_len, &products));
+  PetscCall(choices_from_fortran(coarse_names, coarse_n, coarse_len, &coarses));
   PetscOptionsBegin(comm, NULL, "nuno: the inner multigrid (docs/design.md, docs/performance.md)", "nuno");
   PetscCall(PetscOptionsEList("-nuno_mg", "inner multigrid where 3 levels fit and -reduced_pc_type is not given: stencil (nuno's, single precision, no index arrays) or petsc (PCMG, Galerkin, SOR)",
                               "nuno", impls.name, impls.n, impls.name[im], &im, NULL));
-  PetscCall(PetscOptionsEList("-nuno_mg_cycle", "cycle of nuno's multigrid: v (smooth, restrict the residual, correct, smooth) or kaskade (restrict the right-hand side, then only upwards)",
+  PetscCall(PetscOptionsEList("-nuno_mg_cycle", "cycle of nuno's multigrid: kaskade (restrict the right-hand side, then only upwards: the least time a step), v (smooth, restrict the residual, correct, smooth) or w (the same with two cycles on each coarser level: the fewest cycles, 3.9x a kaskade cycle's bytes)",
                               "nuno", cycles.name, cycles.n, cycles.name[cy], &cy, &s1));
   PetscCall(PetscOptionsInt("-nuno_mg_sweeps", "symmetric Gauss-Seidel sweeps of nuno's multigrid per smoothing", "nuno", sw, &sw, &s2));
   PetscCall(PetscOptionsInt("-nuno_mg_levels", "levels of nuno's multigrid (0: as many as fit, down to 5 nodes a side)", "nuno", lv, &lv, &s3));
   PetscCall(PetscOptionsEList("-nuno_mg_product", "the Krylov method's product with S where nuno's multigrid is used: mixed (from the multigrid's single-precision copy of S in difference form, double-precision vectors, each offset's products in single and their sum in double; half the bytes), fused (mixed, and the product of each cycle's output formed in the cycle's last sweep, from the rows it has just finished: the Krylov method's product of that output is a copy; right preconditioning only, else mixed) or double (S in double precision)",
                               "nuno", products.name, products.n, products.name[pr], &pr, &s4));
+  PetscCall(PetscOptionsEList("-nuno_mg_coarse", "coarse levels of nuno's multigrid: auto (rediscretize with bending, galerkin without: the least time a step of each), rediscretize (the same cloth on the lattice coarsened by 2, assembled by the same element kernels at the injected state: the finest level's reach, a consistent bending) or galerkin (P^T A P)",
+                              "nuno", coarses.name, coarses.n, coarses.name[co], &co, &s5));
   PetscOptionsEnd();
   *impl = (int)im;
   *cycle = (int)cy;
   *sweeps = (int)sw;
   *levels = (int)lv;
   *product = (int)pr;
-  *given = (s1 || s2 || s3 || s4) ? 1 : 0;
+  *coarse = (int)co;
+  *given = (s1 || s2 || s3 || s4 || s5) ? 1 : 0;
   PetscFunctionReturn(0);
 }
 

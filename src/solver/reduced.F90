@@ -273,7 +273,7 @@ contains
     red%pcc%use_mg = levels_that_fit(nx, ny, izero, ione) >= 3 .and. .not. found .and. mgo%impl == MG_STENCIL
     if (mgo%given .and. .not. red%pcc%use_mg) then
       ierr = PETSC_ERR_ARG_INCOMP
-      SETERRQ(comm, ierr, 'nuno: -nuno_mg_cycle, -nuno_mg_sweeps, -nuno_mg_levels and -nuno_mg_product are for nuno''s multigrid (-nuno_mg stencil, the default from 3 levels on, no -reduced_pc_type)')
+      SETERRQ(comm, ierr, 'nuno: -nuno_mg_cycle, -nuno_mg_sweeps, -nuno_mg_levels, -nuno_mg_product and -nuno_mg_coarse are for nuno''s multigrid (-nuno_mg stencil, the default from 3 levels on, no -reduced_pc_type)')
     end if
     if (red%pcc%use_mg) then
       ! FGMRES even where S is symmetric: the kaskade cycle is not, and
@@ -343,7 +343,7 @@ contains
       ! without bending every element of S is a link, so S(p, q) = S(q, p)
       ! block for block (mg_stencil's stencil_t, paired): the sweeps and
       ! products read the blocks to the row below from that row
-      PetscCall(mg_glue_pc(red%mgg, pc, nx, ny, ys, n, w, red%pcc%interp, merge(mgo%levels, 10, mgo%levels > 0), mgo%cycle, mgo%sweeps, red%lat%bending_model == BEND_NONE, ierr))
+      PetscCall(mg_glue_pc(red%mgg, pc, nx, ny, ys, n, w, red%pcc%interp, merge(mgo%levels, 10, mgo%levels > 0), mgo%cycle, mgo%sweeps, mgo%coarse, red%lat%bending_model == BEND_NONE, ierr))
     else
       PetscCall(mg_interpolations(red%da3, red%pcc%interp, pc, ierr))
     end if
@@ -609,7 +609,7 @@ contains
       red%pcc%since_pc = 0
       PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_FALSE, ierr))
       if (red%pcc%use_mg) then
-        PetscCall(mg_coarse_levels(red%mgg, ierr))
+        PetscCall(mg_coarse_levels(red%mgg, u, red%el%fixedg, red%a, red%el%damping, red%el%clamp, red%el%gauss_newton, ierr))
       end if
       if (red%pcc%use_nullspace) then
         PetscCall(set_rigid_body_modes(red, u, ierr))
@@ -617,7 +617,7 @@ contains
     else
       PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_TRUE, ierr))
       if (red%pcc%use_mg .and. .not. mg_glue_built(red%mgg)) then
-        PetscCall(mg_coarse_levels(red%mgg, ierr))
+        PetscCall(mg_coarse_levels(red%mgg, u, red%el%fixedg, red%a, red%el%damping, red%el%clamp, red%el%gauss_newton, ierr))
       end if
     end if
   end subroutine reuse_or_rebuild_pc

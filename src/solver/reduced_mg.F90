@@ -18,7 +18,7 @@ module reduced_mg
   use kinds, only: rp
   use strings, only: itoa
   use solver_choices, only: INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC, MG_NAMES, MG_STENCIL, CYCLE_NAMES, &
-                            CYCLE_KASKADE, PRODUCT_NAMES, PRODUCT_DOUBLE, PRODUCT_FUSED
+                            CYCLE_KASKADE, PRODUCT_NAMES, PRODUCT_DOUBLE, PRODUCT_FUSED, COARSE_NAMES, COARSE_AUTO, COARSE_REDISCRETIZE
   use shell_context, only: PCShellSetContext, PCShellGetContext, MatShellSetContext, MatShellGetContext
   use lattice, only: lattice_t
   use reduced_assembly, only: assemble_stencil
@@ -28,6 +28,7 @@ module reduced_mg
   use mg_kernels, only: stencil_t
   use stencil_mg, only: stencil_mg_t, mg_create, mg_destroy, mg_build_coarse, mg_apply, mg_describe, mg_product, &
                         mg_fine_level
+  use mg_coarse, only: mg_coarse_t, mg_coarse_init, mg_coarse_build, mg_coarse_free
   implicit none
   private
   public :: mg_glue_t, mg_glue_matrix, mg_glue_pc, mg_glue_free, mg_glue_assemble, mg_glue_built, mg_glue_describe
@@ -36,14 +37,15 @@ module reduced_mg
   public :: INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
 
   !> The options of nuno's multigrid as read (-nuno_mg, -nuno_mg_cycle,
-  !> -nuno_mg_sweeps, -nuno_mg_levels, -nuno_mg_product): a value record,
-  !> the choices as module solver_choices' codes.
+  !> -nuno_mg_sweeps, -nuno_mg_levels, -nuno_mg_product, -nuno_mg_coarse):
+  !> a value record, the choices as module solver_choices' codes.
   type :: mg_options_t
     integer :: impl = MG_STENCIL           !< MG_STENCIL (nuno's) or PETSc's PCMG
     integer :: cycle = CYCLE_KASKADE       !< module stencil_mg's cycle
     integer :: sweeps = 1                  !< symmetric Gauss-Seidel sweeps per smoothing (>= 1)
     integer :: levels = 0                  !< most levels (0: as many as fit)
     integer :: product = PRODUCT_FUSED     !< the product with S: PRODUCT_DOUBLE, _MIXED or _FUSED
+    integer :: coarse = COARSE_AUTO        !< the coarse levels: COARSE_AUTO, _REDISCRETIZE or _GALERKIN
     logical :: given = .false.             !< one of the cycle's options was given
   end type mg_options_t
 
@@ -55,6 +57,8 @@ module reduced_mg
     type(tKSP) :: ksp                      !< the inner solver (not owned)
     type(stencil_mg_t) :: mg
     logical :: built = .false.             !< its coarse levels exist
+    logical :: rediscretize = .false.      !< the coarse levels are the cloth on the coarse lattices (mc), not Galerkin products
+    type(mg_coarse_t) :: mc                !< those lattices and states (module mg_coarse)
     PetscLogEvent :: ev_galerkin = 0       !< the multigrid's coarse levels and coarsest factorisation
     PetscLogEvent :: ev_cycle = 0          !< one multigrid cycle
     real(rp), allocatable :: st(:, :, :, :, :) !< (0:nx-1, 3, 3, offset_count(w), 0:nrow-1) S by stencil offset, nodes fastest (module offset_product): rows ys..ye, or with the mixed product a ring of 2w - 1 rows (module reduced_assembly)
@@ -86,12 +90,13 @@ module reduced_mg
     !> the choices as codes of the lists passed (module solver_choices).
     integer(c_int) function nuno_mg_options_read(fcomm, impl_names, impl_n, impl_len, impl, &
                                                  cycle_names, cycle_n, cycle_len, cycle, sweeps, levels, &
-                                                 product_names, product_n, product_len, product, given) &
+                                                 product_names, product_n, product_len, product, &
+                                                 coarse_names, coarse_n, coarse_len, coarse, given) &
         bind(C, name='nuno_mg_options_read')
       import :: c_int, c_char
-      integer(c_int), value :: fcomm, impl_n, impl_len, cycle_n, cycle_len, product_n, product_len
-      character(kind=c_char), intent(in) :: impl_names(*), cycle_names(*), product_names(*)
-      integer(c_int), intent(inout) :: impl, cycle, sweeps, levels, product
+      integer(c_int), value :: fcomm, impl_n, impl_len, cycle_n, cycle_len, product_n, product_len, coarse_n, coarse_len
+      character(kind=c_char), intent(in) :: impl_names(*), cycle_names(*), product_names(*), coarse_names(*)
+      integer(c_int), intent(inout) :: impl, cycle, sweeps, levels, product, coarse
       integer(c_int), intent(out) :: given
     end function nuno_mg_options_read
   end interface
@@ -147,16 +152,23 @@ contains
   !> max_levels, interpolation interp (INTERP_*), cycle and sweeps of
   !> module stencil_mg; rows ys..ys+n-1 of the nx x ny lattice, halo w;
   !> paired: S(p, q) = S(q, p) block for block. Collective.
-  subroutine mg_glue_pc(gl, pc, nx, ny, ys, n, w, interp, max_levels, cycle, sweeps, paired, ierr)
+  subroutine mg_glue_pc(gl, pc, nx, ny, ys, n, w, interp, max_levels, cycle, sweeps, coarse, paired, ierr)
     type(mg_glue_t), intent(inout), target :: gl
     type(tPC), intent(inout) :: pc
     PetscInt, intent(in) :: nx, ny, ys, n, w
     integer, intent(in) :: interp, max_levels, cycle, sweeps
+    integer, intent(in) :: coarse                  !< the coarse levels (-nuno_mg_coarse): COARSE_AUTO, _REDISCRETIZE or _GALERKIN
     logical, intent(in) :: paired
     PetscErrorCode, intent(out) :: ierr
     logical :: cubic(10), cubic_up(10)
     integer :: l
     MPI_Comm :: comm
+    ! auto: rediscretised with bending (paired: no bending), where the
+    ! bilinear Galerkin product doubles the bending on every level (hang
+    ! 257: 0.82x the time a step); Galerkin without, where the
+    ! rediscretised levels took 8-30 % more cycles for the same time
+    ! within the noise (docs/performance.md, "The multigrid with bending")
+    gl%rediscretize = coarse == COARSE_REDISCRETIZE .or. (coarse == COARSE_AUTO .and. .not. paired)
     ! Transfer l joins level l + 1 to level l (1 = the lattice).
     ! coarse_cubic: the finest level's coarse correction interpolated
     ! cubic too, its restriction and Galerkin product bilinear (module
@@ -165,8 +177,14 @@ contains
       cubic(l) = interp == INTERP_CUBIC .or. (interp == INTERP_COARSE_CUBIC .and. l > 1)
       cubic_up(l) = interp == INTERP_CUBIC .or. interp == INTERP_COARSE_CUBIC
     end do
+    ! rediscretised: coarse_cubic is the restriction bilinear and the
+    ! interpolation cubic on every level (a cubic restriction took 15-30 %
+    ! more cycles on hang 129..513: docs/performance.md)
+    if (gl%rediscretize) cubic = interp == INTERP_CUBIC
     PetscCall(PetscObjectGetComm(gl%da3, comm, ierr))
-    call mg_create(gl%mg, comm, nx, ny, ys, ys + n - 1, w, cubic, max_levels, cycle, sweeps, cubic_up, paired=paired)
+    call mg_create(gl%mg, comm, nx, ny, ys, ys + n - 1, w, cubic, max_levels, cycle, sweeps, cubic_up, paired=paired, &
+                   rediscretize=gl%rediscretize)
+    if (gl%rediscretize) call mg_coarse_init(gl%mc, gl%mg, gl%lat, comm)
     PetscCall(PCShellSetContext(pc, gl, ierr))
     PetscCall(PCShellSetApply(pc, mg_pc_apply, ierr))
     PetscCall(PCShellSetName(pc, 'nuno structured multigrid (module stencil_mg)', ierr))
@@ -178,6 +196,7 @@ contains
     type(mg_glue_t), intent(inout) :: gl
     PetscErrorCode, intent(out) :: ierr
     ierr = 0
+    call mg_coarse_free(gl%mc)
     call mg_destroy(gl%mg)
     if (gl%fused_product .and. gl%pax_checked) then
       PetscCall(VecDestroy(gl%pax, ierr))
@@ -237,15 +256,17 @@ contains
     MPI_Comm, intent(in) :: comm
     type(mg_options_t), intent(out) :: opt
     PetscErrorCode, intent(out) :: ierr
-    integer(c_int) :: impl, cycle, sweeps, levels, product, given
+    integer(c_int) :: impl, cycle, sweeps, levels, product, coarse, given
     impl = opt%impl
     cycle = opt%cycle
     sweeps = opt%sweeps
     levels = opt%levels
     product = opt%product
+    coarse = opt%coarse
     ierr = nuno_mg_options_read(comm, MG_NAMES, size(MG_NAMES), len(MG_NAMES), impl, &
                                 CYCLE_NAMES, size(CYCLE_NAMES), len(CYCLE_NAMES), cycle, sweeps, levels, &
-                                PRODUCT_NAMES, size(PRODUCT_NAMES), len(PRODUCT_NAMES), product, given)
+                                PRODUCT_NAMES, size(PRODUCT_NAMES), len(PRODUCT_NAMES), product, &
+                                COARSE_NAMES, size(COARSE_NAMES), len(COARSE_NAMES), coarse, given)
     if (ierr /= 0) return
     if (sweeps < 1) then
       ierr = PETSC_ERR_ARG_OUTOFRANGE
@@ -256,7 +277,7 @@ contains
       SETERRQ(comm, ierr, '-nuno_mg_levels '//itoa(int(levels))//' must be >= 1 (or 0: as many as fit)')
     end if
     opt = mg_options_t(impl=int(impl), cycle=int(cycle), sweeps=int(sweeps), levels=int(levels), &
-                       product=int(product), given=given /= 0)
+                       product=int(product), coarse=int(coarse), given=given /= 0)
   end subroutine mg_options_read
 
   !> Multigrid levels of the lattice: as many as it halves into with at
@@ -310,14 +331,27 @@ contains
     end subroutine set_default
   end subroutine default_preconditioner
 
-  !> The multigrid's coarse operators (Galerkin) and coarsest factorisation.
-  subroutine mg_coarse_levels(gl, ierr)
+  !> The multigrid's coarse operators and coarsest factorisation: the
+  !> cloth rediscretised on the coarse lattices at the ghosted state
+  !> u(0:5, 0:nx-1, gys:gye) with the constrained nodes fixedg, the shift
+  !> a and the element flags of the finest level's assembly (module
+  !> mg_coarse), or Galerkin products of the finest level (module
+  !> stencil_mg). Collective.
+  subroutine mg_coarse_levels(gl, u, fixedg, a, damping, clamp, gauss_newton, ierr)
     type(mg_glue_t), intent(inout) :: gl
+    real(rp), intent(in) :: u(0:, 0:, gl%lat%gys:)
+    logical, intent(in) :: fixedg(0:, gl%lat%gys:)
+    real(rp), intent(in) :: a
+    logical, intent(in) :: damping, clamp, gauss_newton
     PetscErrorCode, intent(out) :: ierr
     integer :: info
     MPI_Comm :: comm
     PetscCall(PetscLogEventBegin(gl%ev_galerkin, ierr))
-    call mg_build_coarse(gl%mg, info)
+    if (gl%rediscretize) then
+      call mg_coarse_build(gl%mc, gl%mg, gl%lat, u, fixedg, a, damping, clamp, gauss_newton, info)
+    else
+      call mg_build_coarse(gl%mg, info)
+    end if
     PetscCall(PetscLogEventEnd(gl%ev_galerkin, ierr))
     gl%built = .true.
     ierr = 0

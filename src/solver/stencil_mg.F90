@@ -25,7 +25,7 @@
 module stencil_mg
   use mpi
   use kinds, only: rp
-  use solver_choices, only: CYCLE_V, CYCLE_KASKADE
+  use solver_choices, only: CYCLE_V, CYCLE_W, CYCLE_KASKADE
   use mg_kernels, only: mp, stencil_t, transfer_t, stencil_init, stencil_put_row, stencil_finish, stencil_from_full, transfer_init, offset_index, &
                         stencil_block, diagonal_block, &
                         coarse_reach, gs_sweep, residual, interpolate, restrict_add, galerkin_add, level_product_rows, &
@@ -33,7 +33,7 @@ module stencil_mg
   implicit none
   private
   public :: stencil_mg_t, mg_create, mg_destroy, mg_set_fine_row, mg_set_fine, mg_fine_level, mg_build_coarse, mg_apply, mg_describe, &
-            mg_product
+            mg_product, mg_levels, mg_level_rows, mg_level_op, mg_set_level_fixed, mg_factor_coarsest
   type :: mg_level_t
     type(stencil_t) :: a                         !< the operator (rows ys..ye)
     integer :: h = 0                             !< padding rows and columns of the vectors
@@ -47,6 +47,11 @@ module stencil_mg
     type(transfer_t) :: tx, ty                   !< from the next coarser level to this one: restriction, Galerkin product
     type(transfer_t) :: ux, uy                   !< the same, for the interpolation of the coarse correction (tx, ty unless cubic_correction)
     logical :: cubic = .false., cubic_up = .false. !< tx, ty cubic; ux, uy cubic
+    !> (2, n) the owned constrained nodes (i, j) of a rediscretised coarse
+    !> level (mg_set_level_fixed): their restricted right-hand side is
+    !> zeroed, so the coarse correction is zero there, as the fine one is
+    !> (an interpolation without their columns)
+    integer, allocatable :: fixed(:, :)
     !> (0:nx-1, 3, 3, -r:r, -r:r, ys-h:ye+h) Galerkin sums of this level:
     !> during mg_build_coarse only, over the hierarchy's work array acw
     real(rp), pointer, contiguous :: ac(:, :, :, :, :, :) => null()
@@ -63,7 +68,12 @@ module stencil_mg
     integer :: comm = MPI_COMM_NULL, rank = 0, nranks = 1, below = MPI_PROC_NULL, above = MPI_PROC_NULL
     integer :: nlev = 0
     integer :: cycle_type = CYCLE_V
-    integer :: nu = 1                            !< symmetric Gauss-Seidel sweeps per smoothing
+    integer :: nu = 1                            !< symmetric Gauss-Seidel sweeps per smoothing (the finest level)
+    integer :: gamma = 1                         !< cycles on the next level per visit (1: V-cycle, 2: W-cycle)
+    !> coarse levels rediscretised (set by the caller, module mg_coarse:
+    !> the lattice's reach and offsets, mg_level_op) instead of Galerkin
+    !> products (mg_build_coarse)
+    logical :: rediscretize = .false.
     type(mg_level_t), allocatable :: lev(:)
     ! the coarsest level's banded LU (LAPACK dgbtrf), same on every rank
     integer :: n = 0, kl = 0
@@ -93,8 +103,11 @@ contains
   !> Krylov iterations on hang 129..513 for a bilinear level 2 (a cubic
   !> Galerkin product widens it to reach 3 and costs as many as it saves;
   !> measured with commit e284754). At most max_levels levels;
-  !> coarsening stops at 5 points a side. Collective.
-  subroutine mg_create(mg, comm, nx, ny, ys, ye, r, cubic, max_levels, cycle_type, nu, cubic_correction, paired)
+  !> coarsening stops at 5 points a side. rediscretize: the coarse levels
+  !> are the caller's (the cloth on the coarse lattice: module mg_coarse),
+  !> of the finest level's reach and offsets, set through mg_level_op,
+  !> and mg_factor_coarsest; no Galerkin sums are kept. Collective.
+  subroutine mg_create(mg, comm, nx, ny, ys, ye, r, cubic, max_levels, cycle_type, nu, cubic_correction, paired, rediscretize)
     type(stencil_mg_t), intent(inout) :: mg
     integer, intent(in) :: comm, nx, ny, ys, ye, r, max_levels, cycle_type, nu
     logical, intent(in) :: cubic(:)
@@ -102,6 +115,7 @@ contains
     !> the operators the caller will set are paired (stencil_t; S without
     !> bending): every level's, as a Galerkin product keeps it so
     logical, intent(in), optional :: paired
+    logical, intent(in), optional :: rediscretize
     type(mg_level_t), allocatable :: tmp(:)
     integer :: ierr, l, nxc, nyc, ysc, yec, rc, hc, need, fewest, k
     logical :: last
@@ -112,7 +126,10 @@ contains
     mg%below = merge(mg%rank - 1, MPI_PROC_NULL, mg%rank > 0)
     mg%above = merge(mg%rank + 1, MPI_PROC_NULL, mg%rank < mg%nranks - 1)
     mg%cycle_type = cycle_type
+    mg%gamma = merge(2, 1, cycle_type == CYCLE_W)
     mg%nu = max(nu, 1)
+    mg%rediscretize = .false.
+    if (present(rediscretize)) mg%rediscretize = rediscretize
 
     allocate(mg%lev(max(max_levels, 1)))
     call stencil_init(mg%lev(1)%a, nx, ny, ys, ye, r, lines=.true.)
@@ -134,7 +151,11 @@ contains
         call transfer_init(f%ty, f%a%ny, f%cubic)
         call transfer_init(f%ux, f%a%nx, f%cubic_up)
         call transfer_init(f%uy, f%a%ny, f%cubic_up)
-        rc = max(coarse_reach(f%tx, f%a%r), coarse_reach(f%ty, f%a%r))
+        if (mg%rediscretize) then
+          rc = r
+        else
+          rc = max(coarse_reach(f%tx, f%a%r), coarse_reach(f%ty, f%a%r))
+        end if
         ! Coarse rows of this rank, and how far its fine rows' parents
         ! reach beyond them (restriction and interpolation cross that far).
         ysc = (f%a%ys + 1) / 2
@@ -156,7 +177,7 @@ contains
         end if
       end associate
       l = l + 1
-      call stencil_init(mg%lev(l)%a, nxc, nyc, ysc, yec, rc)
+      call stencil_init(mg%lev(l)%a, nxc, nyc, ysc, yec, rc, lines=mg%rediscretize)
       mg%lev(l)%h = hc
       mg%lev(l)%replicated = last .or. mg%nranks == 1
     end do
@@ -171,6 +192,7 @@ contains
       if (present(paired)) mg%lev(l)%a%paired = paired
     end do
     do l = 2, mg%nlev
+      if (mg%rediscretize) exit
       call level_sums(mg%lev(l))
       associate (c => mg%lev(l)%a)
         allocate(mg%lev(l)%bx(0:c%nx - 1, 3, 3, -c%r:c%r, -mg%lev(l - 1)%a%r:mg%lev(l - 1)%a%r))
@@ -259,14 +281,73 @@ contains
     fine => mg%lev(1)%a
   end function mg_fine_level
 
+  !> The number of levels.
+  pure integer function mg_levels(mg)
+    type(stencil_mg_t), intent(in) :: mg
+    mg_levels = mg%nlev
+  end function mg_levels
+
+  !> Level l's lattice (nx x ny), the rows ys..ye it holds on this rank
+  !> and whether it is replicated (every rank holds every row: the
+  !> coarsest level on several ranks, every level on one).
+  subroutine mg_level_rows(mg, l, nx, ny, ys, ye, replicated)
+    type(stencil_mg_t), intent(in) :: mg
+    integer, intent(in) :: l
+    integer, intent(out) :: nx, ny, ys, ye
+    logical, intent(out) :: replicated
+    nx = mg%lev(l)%a%nx
+    ny = mg%lev(l)%a%ny
+    ys = mg%lev(l)%a%ys
+    ye = mg%lev(l)%a%ye
+    replicated = mg%lev(l)%replicated
+  end subroutine mg_level_rows
+
+  !> Level l's operator, for a caller that writes it (the finest level:
+  !> mg_fine_level; rediscretised coarse levels: module mg_coarse), valid
+  !> while mg lives.
+  function mg_level_op(mg, l) result(op)
+    type(stencil_mg_t), intent(inout), target :: mg
+    integer, intent(in) :: l
+    type(stencil_t), pointer :: op
+    op => mg%lev(l)%a
+  end function mg_level_op
+
+  !> The constrained nodes of rediscretised coarse level l, fixed(0:nx-1,
+  !> ys:ye) of its rows on this rank: the restriction gives them no
+  !> right-hand side (their rows are a m I alone, so their correction is
+  !> zero, as on the finest level; with the restricted residual there,
+  !> the coarse solve returned r / (a m), which the interpolation spread
+  !> over the free fine nodes around: the scalar model's two-grid factor
+  !> grew 0.64 -> 9.5 -> 152 at 33, 65, 129; bench/mg46/redisc.py).
+  subroutine mg_set_level_fixed(mg, l, fixed)
+    type(stencil_mg_t), intent(inout) :: mg
+    integer, intent(in) :: l
+    logical, intent(in) :: fixed(0:, mg%lev(l)%a%ys:)
+    integer :: i, j, n
+    associate (lv => mg%lev(l))
+      if (allocated(lv%fixed)) deallocate(lv%fixed)
+      allocate(lv%fixed(2, count(fixed)))
+      n = 0
+      do j = lv%a%ys, lv%a%ye
+        do i = 0, lv%a%nx - 1
+          if (.not. fixed(i, j)) cycle
+          n = n + 1
+          lv%fixed(:, n) = [i, j]
+        end do
+      end do
+    end associate
+  end subroutine mg_set_level_fixed
+
   !> The coarse operators from the finest one (Galerkin, level by level)
   !> and the coarsest level's factorisation. ierr /= 0: the coarsest
   !> matrix is singular (LAPACK's info). Collective.
   subroutine mg_build_coarse(mg, ierr)
     type(stencil_mg_t), intent(inout) :: mg
     integer, intent(out) :: ierr
-    integer :: l, j, i, di, dj, c1, c2, row, col, n
+    integer :: l
     ierr = 0
+    ! (an internal invariant: the caller makes rediscretised levels, module mg_coarse)
+    if (mg%rediscretize) error stop 'mg_build_coarse: the coarse levels are rediscretised'
     do l = 2, mg%nlev
       associate (f => mg%lev(l - 1), c => mg%lev(l))
         c%ac(0:c%a%nx - 1, 1:3, 1:3, -c%a%r:c%a%r, -c%a%r:c%a%r, c%a%ys - c%h:c%a%ye + c%h) => mg%acw(1:c%nac)
@@ -277,8 +358,18 @@ contains
         nullify(c%ac)
       end associate
     end do
-    ! Banded LU of the coarsest level (full blocks from its Galerkin sums,
-    ! or the finest level's rows on one level).
+    call mg_factor_coarsest(mg, ierr)
+  end subroutine mg_build_coarse
+
+  !> The coarsest level's banded LU (LAPACK dgbtrf) from its operator as
+  !> stored (made by mg_build_coarse, or set by the caller: mg_level_op).
+  !> ierr /= 0: the matrix is singular (LAPACK's info). Every rank alike.
+  subroutine mg_factor_coarsest(mg, ierr)
+    type(stencil_mg_t), intent(inout) :: mg
+    integer, intent(out) :: ierr
+    integer :: j, i, di, dj, c1, c2, row, col, n
+    ! Banded LU of the coarsest level (full blocks from its stored
+    ! difference form, or the finest level's rows on one level).
     associate (c => mg%lev(mg%nlev))
       mg%ab = 0.0_rp
       n = mg%n
@@ -321,7 +412,7 @@ contains
         end if
       end if
     end function block_entry
-  end subroutine mg_build_coarse
+  end subroutine mg_factor_coarsest
 
   !> The Galerkin sums of level c as every rank's partial sums added where
   !> they belong: over all ranks for a replicated level, else the rows
@@ -431,6 +522,7 @@ contains
     type(stencil_mg_t), intent(inout) :: mg
     integer, intent(in) :: l
     logical, intent(in) :: from_rhs
+    integer :: k
     associate (f => mg%lev(l), c => mg%lev(l + 1))
       c%w = 0.0_mp
       if (from_rhs) then
@@ -439,6 +531,11 @@ contains
         call restrict_add(f%tx, f%ty, f%a%ys, f%a%ye, f%res, c%h, c%a%ys, c%w, c%t)
       end if
       call finish_sums_w(mg, c)
+      if (allocated(c%fixed)) then
+        do k = 1, size(c%fixed, 2)
+          c%rhs(c%fixed(1, k), :, c%fixed(2, k)) = 0.0_mp
+        end do
+      end if
     end associate
   end subroutine restrict_level
 
@@ -465,18 +562,25 @@ contains
     end associate
   end subroutine coarse_solve
 
-  !> One V-cycle on level l and below, x from zero.
-  recursive subroutine vcycle(mg, l, ax)
+  !> One V-cycle on level l and below, x from zero (from_zero absent or
+  !> true) or from the x there (a W-cycle's second visit); gamma cycles
+  !> on the next level (1: V, 2: W).
+  recursive subroutine vcycle(mg, l, ax, from_zero)
     type(stencil_mg_t), intent(inout) :: mg
     integer, intent(in) :: l
     real(rp), intent(inout), optional :: ax(:, 0:, mg%lev(1)%a%ys:)   !< (3, 0:nx-1, ys:ye) A x of the result (smooth)
+    logical, intent(in), optional :: from_zero
     integer :: k
     if (l == mg%nlev) then
       call coarse_solve(mg)
       return
     end if
     associate (f => mg%lev(l))
-      f%x = 0.0_mp
+      if (.not. present(from_zero)) then
+        f%x = 0.0_mp
+      else if (from_zero) then
+        f%x = 0.0_mp
+      end if
       do k = 1, mg%nu
         call smooth(mg, f)
       end do
@@ -484,6 +588,7 @@ contains
       call residual(f%a, f%h, f%x, f%rhs, f%res)
       call restrict_level(mg, l, .false.)
       call vcycle(mg, l + 1)
+      if (mg%gamma > 1 .and. l + 1 < mg%nlev) call vcycle(mg, l + 1, from_zero=.false.)
     end associate
     call correct_and_smooth(mg, l, .true., ax)
   end subroutine vcycle
@@ -590,8 +695,8 @@ contains
     real(rp) :: per_node, sweep, cycle_bytes, mp_bytes
     mp_bytes = real(storage_size(1.0_mp) / 8, rp)
     n = 1
-    write(text(1), '(a, i0, a, a, a, i0, a)') 'levels ', mg%nlev, ', ', trim(merge('kaskade cycle', 'V-cycle      ', &
-      mg%cycle_type == CYCLE_KASKADE)), ', ', mg%nu, ' symmetric Gauss-Seidel sweep(s) a smoothing, single precision'
+    write(text(1), '(a, i0, a, a, a, i0, a)') 'levels ', mg%nlev, ', ', trim(cycle_name()), ', ', mg%nu, &
+      ' symmetric Gauss-Seidel sweep(s) a smoothing, single precision'
     cycle_bytes = 0.0_rp
     do l = 1, mg%nlev
       associate (a => mg%lev(l)%a)
@@ -612,20 +717,34 @@ contains
           if (mg%cycle_type == CYCLE_KASKADE) then
             cycle_bytes = cycle_bytes + real(nodes8, rp) * mg%nu * sweep
           else
-            ! 2 nu smoothings and a residual (operator, row sums, x, rhs, res)
-            cycle_bytes = cycle_bytes + real(nodes8, rp) * (2.0_rp * mg%nu * sweep + per_node + 9.0_rp * mp_bytes)
+            ! 2 nu smoothings and a residual (operator, row sums, x, rhs,
+            ! res), on each visit: once a cycle, or 2^(l-1) times in a W-cycle
+            cycle_bytes = cycle_bytes + real(nodes8, rp) * real(mg%gamma, rp)**(l - 1) &
+                          * (2.0_rp * mg%nu * sweep + per_node + 9.0_rp * mp_bytes)
           end if
         end if
         n = n + 1
-        write(text(n), '(a, i0, a, i0, a, i0, a, i0, a, i0, a, f0.0, a, a, a)') 'level ', l, ': ', a%nx, ' x ', a%ny, &
+        write(text(n), '(a, i0, a, i0, a, i0, a, i0, a, i0, a, f0.0, a, a, a, a)') 'level ', l, ': ', a%nx, ' x ', a%ny, &
           ', reach ', a%r, ', ', a%nb, ' blocks a node, ', per_node, ' B a node', &
           trim(merge(' (coarsest: banded LU on every rank)', '                                    ', l == mg%nlev)), &
-          trim(transfers(mg%lev(l)))
+          trim(merge(' (rediscretised)', '                ', l > 1 .and. mg%rediscretize)), trim(transfers(mg%lev(l)))
       end associate
     end do
     n = n + 1
     write(text(n), '(a, f0.1, a)') 'one cycle reads about ', cycle_bytes / 1.0e6_rp, ' MB over all ranks (levels above the coarsest)'
   contains
+    !> The cycle, for the first line.
+    function cycle_name() result(t)
+      character(len=16) :: t
+      select case (mg%cycle_type)
+      case (CYCLE_KASKADE)
+        t = 'kaskade cycle'
+      case (CYCLE_W)
+        t = 'W-cycle'
+      case default
+        t = 'V-cycle'
+      end select
+    end function cycle_name
     !> The transfers from the next coarser level, for the level's line.
     function transfers(lv) result(t)
       type(mg_level_t), intent(in) :: lv
@@ -634,6 +753,8 @@ contains
       if (lv%tx%nf == 0) return
       if (lv%cubic) then
         t = '; transfers from below cubic'
+      else if (lv%cubic_up .and. mg%rediscretize) then
+        t = '; restriction bilinear, interpolation cubic'
       else if (lv%cubic_up) then
         t = '; transfers from below bilinear, the correction cubic'
       else

@@ -30,7 +30,7 @@ def documented():
 def test_help_lists_every_choice_as_documented(tmp_path):
     rows = documented()
     # the multigrid's three among them (they were the last lists kept in C)
-    assert {"-nuno_mg", "-nuno_mg_cycle", "-nuno_mg_product"} <= rows.keys(), sorted(rows)
+    assert {"-nuno_mg", "-nuno_mg_cycle", "-nuno_mg_product", "-nuno_mg_coarse"} <= rows.keys(), sorted(rows)
     assert len(rows) >= 8, sorted(rows)
     h5 = Path(tmp_path) / "help.h5"
     cmd = [mpiexec(), "-n", "1", "--oversubscribe", exe(), str(ROOT / "input" / "hang.nml"),

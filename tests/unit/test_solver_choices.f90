@@ -21,7 +21,10 @@ program test_solver_choices
   call check_true(START_NAMES(START_AUTO) == 'auto' .and. START_NAMES(START_LINEAR) == 'linear' .and. &
                   START_NAMES(START_CUBIC) == 'cubic', '-nuno_newton_start')
   call check_true(MG_NAMES(MG_STENCIL) == 'stencil' .and. MG_NAMES(MG_PETSC) == 'petsc', '-nuno_mg')
-  call check_true(CYCLE_NAMES(CYCLE_V) == 'v' .and. CYCLE_NAMES(CYCLE_KASKADE) == 'kaskade', '-nuno_mg_cycle')
+  call check_true(CYCLE_NAMES(CYCLE_V) == 'v' .and. CYCLE_NAMES(CYCLE_KASKADE) == 'kaskade' .and. CYCLE_NAMES(CYCLE_W) == 'w', &
+                  '-nuno_mg_cycle')
+  call check_true(COARSE_NAMES(COARSE_AUTO) == 'auto' .and. COARSE_NAMES(COARSE_REDISCRETIZE) == 'rediscretize' .and. &
+                  COARSE_NAMES(COARSE_GALERKIN) == 'galerkin', '-nuno_mg_coarse')
   call check_true(PRODUCT_NAMES(PRODUCT_MIXED) == 'mixed' .and. PRODUCT_NAMES(PRODUCT_DOUBLE) == 'double' .and. &
                   PRODUCT_NAMES(PRODUCT_FUSED) == 'fused', '-nuno_mg_product')
   call check_list(JACOBIAN_NAMES, 'JACOBIAN_NAMES')
@@ -32,6 +35,7 @@ program test_solver_choices
   call check_list(MG_NAMES, 'MG_NAMES')
   call check_list(CYCLE_NAMES, 'CYCLE_NAMES')
   call check_list(PRODUCT_NAMES, 'PRODUCT_NAMES')
+  call check_list(COARSE_NAMES, 'COARSE_NAMES')
   call check_report()
 
 contains
