@@ -23,7 +23,7 @@ program nuno
                       identify_scratch_remove
   use config, only: unset_real
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_positive_inf
-  use safe_files, only: same_file, check_output_name, sidecar_path
+  use safe_files, only: same_file, check_output_name, sidecar_path, obstacles_sidecar_path
   use kinds, only: rp
   use step_settings, only: step_t_end
   use run_error, only: run_error_any
@@ -68,7 +68,7 @@ program nuno
   integer(c_int) :: overwrite
   character(len=:), allocatable :: wname
   character(len=1024) :: inputs(3)       ! the input files: namelist, observed, target
-  character(len=1100) :: derived(3)      ! the side files of the name written
+  character(len=1100) :: derived(4)      ! the side files of the name written
   interface
     !> src/app/nuno_file_options.c: -nuno_overwrite (in -help).
     integer(c_int) function nuno_file_options_read(fcomm, overwrite) bind(C, name='nuno_file_options_read')
@@ -157,6 +157,7 @@ program nuno
   derived(1) = wname//'.partial'
   derived(2) = wname//'.lock'
   derived(3) = sidecar_path(wname)
+  derived(4) = obstacles_sidecar_path(wname)
   if (len_trim(restart_file) > 0) then
     call check_output_name(PETSC_COMM_WORLD, '-nuno_restart', wname, len_trim(restart_file) >= len(restart_file) - 1, &
                            inputs, derived, ierr, errmsg)
@@ -182,7 +183,7 @@ program nuno
   if (cfg%identify%active .or. cfg%control%active) then
     if (len_trim(restart_file) > 0) &
       call fatal_collective('-nuno_restart cannot continue an identification or a control run (&identify, &control)')
-    call identify_prepare_options(ierr)
+    call identify_prepare_options(PETSC_COMM_WORLD, petsc_help, ierr)
     if (ierr /= 0) call fatal_local('could not set the options of the identification or control')
   end if
   ! A process model's refusal of the scene (an obstacle containing the

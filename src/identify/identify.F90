@@ -71,8 +71,17 @@ contains
   !> Before solver_create: the adjoint needs the assembled Jacobian, and
   !> exact gradients need tight linear solves (the same KSP solves the
   !> transposed systems). Options the user gave win, except the Jacobian.
-  subroutine identify_prepare_options(ierr)
+  !> help: -help was given; the run ends before identify_run, so the
+  !> options of the identification and control are shown here.
+  subroutine identify_prepare_options(comm, help, ierr)
+    integer, intent(in) :: comm
+    logical, intent(in) :: help
     PetscErrorCode, intent(out) :: ierr
+    integer(c_int) :: check_identify, check_control
+    if (help) then
+      ierr = nuno_adjoint_options_read(comm, check_identify, check_control)
+      if (ierr /= 0) return
+    end if
     PetscCall(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-nuno_jacobian', 'full', ierr))
     call default_option('-ksp_rtol', '1e-12', ierr); if (ierr /= 0) return
     call default_option('-ksp_atol', '1e-50', ierr); if (ierr /= 0) return

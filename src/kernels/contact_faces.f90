@@ -34,6 +34,8 @@ module contact_faces
   public :: SPLIT_MAIN, SPLIT_ANTI, EE_MOLLIFY_REL
   public :: quad_triangles, quad_diagonal, obstacle_points, obstacle_edges, obstacle_radius
   public :: near_obstacle, contact_triangle, contact_edge, contact_quad, triangle_gap, edge_gap
+  ! One pair's barrier and the projection in a span: self-contact's pairs (module self_barrier) too.
+  public :: pair_barrier, psd_project_in_span
 
   !> Quad split: SPLIT_MAIN along (i,j)-(i+1,j+1), triangles (1,2,4) and (1,4,3);
   !> SPLIT_ANTI along (i+1,j)-(i,j+1), triangles (1,2,3) and (2,4,3) (both counter-clockwise

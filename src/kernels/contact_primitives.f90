@@ -140,7 +140,11 @@ contains
     aa = dot_product(a, a)
     ab = dot_product(a, b)
     bb = dot_product(b, b)
-    det = aa * bb - ab * ab
+    ! det = |a x b|^2 from the cross product: aa bb - ab^2 (Lagrange) cancels to a
+    ! round-off of ~1e-16 aa bb, far above PARALLEL_REL, and two parallel edges whose
+    ! coordinates are rounded differences (lattice diagonals) passed as lines with the
+    ! normal's round-off for n: distance 0 (found by self-contact's broad phase).
+    det = sum(cross(a, b)**2)
     if (det > PARALLEL_REL * aa * bb .and. det > 0.0_rp) then
       aw = dot_product(a, w)
       bw = dot_product(b, w)

@@ -23,6 +23,12 @@
 !> only, no data is copied. They let the sidecar name every array by a plain
 !> HDF DataItem, which all of ParaView's XDMF readers read (write_xdmf).
 !>
+!> Obstacles (a scene with &contact, submodule output_obstacles): each
+!> obstacle's surface as triangles in /obstacles/obstacle_<k>, its
+!> vertices written once (static) or at every output step (moving, with a
+!> view /xdmf/obstacle_<k>_vertices_<t> a step), and a second sidecar,
+!> <file>-obstacles.xdmf, that opens them in ParaView beside <file>.xdmf.
+!>
 !> Errors: every h5*_f code is checked; a failure sets ierr /= 0 and a one-line
 !> errmsg naming the call and the dataset. The collective routines end with an
 !> MPI_Allreduce of the error flag, so all ranks return the same ierr and the
@@ -35,14 +41,14 @@ module output
   use hdf5
   use mpi
   use kinds, only: rp
-  use config, only: nuno_config
+  use config, only: nuno_config, contact_config
   use checkpoint_record, only: checkpoint_t, named_value_t
   use process_model, only: pm_series_t, pm_group_t
   use checkpoint_check, only: checkpoint_refusal, scene_refusal
   use safe_files, only: lock_acquire, lock_release, same_file, file_exists, rename_file, free_bytes, &
                         path_kind, kind_none, kind_file, kind_link, kind_dir, kind_unknown, remove_file, &
-                        is_nuno_output, is_nuno_sidecar, sidecar_path, tmp_open, tmp_write, tmp_commit, cleanup_add, &
-                        cleanup_drop, cleanup_file
+                        is_nuno_output, is_nuno_sidecar, sidecar_path, obstacles_sidecar_path, tmp_open, tmp_write, &
+                        tmp_commit, cleanup_add, cleanup_drop, cleanup_file
   use output_h5
   use strings, only: itoa, real_es
   implicit none
@@ -53,6 +59,7 @@ module output
   public :: output_config_key
   public :: output_write_checkpoint, output_reopen, output_steps
   public :: output_write_identify, output_write_control
+  public :: output_write_obstacles
 
   !> One key of the resolved configuration, as an attribute of /config/<group>.
   interface output_config_key
@@ -185,6 +192,7 @@ module output
   type :: safe_state
     private
     character(len=:), allocatable :: xmf_path, h5_base
+    character(len=:), allocatable :: obst_path   ! <file>-obstacles.xdmf: the obstacles' sidecar
     character(len=:), allocatable :: final_path  ! the output file's name
     character(len=:), allocatable :: work_path   ! <final>.partial: written until committed
     character(len=:), allocatable :: lock_path   ! <final>.lock: flock'd by rank 0
@@ -204,6 +212,20 @@ module output
     integer :: ck_slot = -1                     ! its slot, /checkpoint/slot_0 or slot_1 (-1: none)
   end type checkpoint_state
 
+  !> The obstacles of a scene with contact (submodule output_obstacles):
+  !> their surfaces in /obstacles and the sidecar <file>-obstacles.xdmf.
+  !> n = 0 (no obstacles, or output_write_obstacles not called): nothing of them.
+  type :: obstacles_state
+    private
+    integer :: n = 0                            ! obstacles
+    type(contact_config) :: cc                  ! &contact: their shapes, poses and keyframes
+    real(rp) :: centre(3) = 0, side = 0         ! a plane's patch: under this point, this side [length]
+    character(len=16) :: units = ''             ! the vertices' unit ('m', 'mm'; '': none written)
+    character(len=8), allocatable :: shape(:)   ! each one's shape: 'plane', 'sphere', 'box', 'capsule'
+    integer, allocatable :: nv(:), nf(:)        ! each one's vertices and triangles
+    logical, allocatable :: moving(:)           ! on keyframes: its vertices at every output step
+  end type obstacles_state
+
   !> Opaque handle of an open output file: the open file itself, and one
   !> record per concern.
   type, public :: output_file
@@ -215,14 +237,16 @@ module output
     type(series_state) :: series
     type(safe_state) :: safe
     type(checkpoint_state) :: ckpt
+    type(obstacles_state) :: obst
   end type output_file
 
   ! The procedures, by concern, in submodules: output_files (lifecycle and the
   ! safety rules), output_series (lattice, time series and views),
   ! output_results (run info, config, identify, control), output_checkpoint
   ! (checkpoint write, reopen, read), output_xdmf (the sidecar),
-  ! output_dims (dimension scales and units for netCDF-4 readers) and
-  ! output_pm (the process models' series: contact's, for scenes with obstacles).
+  ! output_dims (dimension scales and units for netCDF-4 readers),
+  ! output_pm (the process models' series: contact's, for scenes with
+  ! obstacles) and output_obstacles (the obstacles' surfaces).
   interface
     module subroutine output_open(out, filename, comm, nx, ny, ys, ym, rest, mass, write_velocity, &
                            attrs_namelist, attrs_petsc_options, ierr, errmsg, version, protect, overwrite)
@@ -395,6 +419,22 @@ module output
       character(*), intent(inout) :: errmsg
     end subroutine make_view
 
+    module subroutine make_view_dims(out, name, src, start, count, vdims, ierr, errmsg)
+      type(output_file), intent(in) :: out
+      character(*), intent(in) :: name, src
+      integer(hsize_t), intent(in) :: start(:), count(:)
+      integer(hsize_t), intent(in) :: vdims(:)      ! the view's Fortran dims (C order reversed)
+      integer, intent(inout) :: ierr
+      character(*), intent(inout) :: errmsg
+    end subroutine make_view_dims
+
+    module subroutine drop_view(out, name, ierr, errmsg)
+      type(output_file), intent(in) :: out
+      character(*), intent(in) :: name
+      integer, intent(inout) :: ierr
+      character(*), intent(inout) :: errmsg
+    end subroutine drop_view
+
     module function step_view(idx, k) result(name)
       integer, intent(in) :: idx, k
       character(len=:), allocatable :: name
@@ -413,9 +453,9 @@ module output
       character(*), intent(inout) :: errmsg
     end subroutine close_ids
 
-    module subroutine sidecar_names(filename, xmf_path, h5_base)
+    module subroutine sidecar_names(filename, xmf_path, h5_base, obst_path)
       character(*), intent(in) :: filename
-      character(len=:), allocatable, intent(out) :: xmf_path, h5_base
+      character(len=:), allocatable, intent(out) :: xmf_path, h5_base, obst_path
     end subroutine sidecar_names
 
     module subroutine output_write_checkpoint(out, ck, x, v, ierr, errmsg)
@@ -532,6 +572,31 @@ module output
       integer, intent(inout) :: ierr
       character(*), intent(inout) :: errmsg
     end subroutine write_xdmf
+
+    module subroutine output_write_obstacles(out, cfg, ierr, errmsg)
+      type(output_file), intent(inout) :: out
+      type(nuno_config), intent(in) :: cfg        !< its &contact, &lattice (a plane's patch) and &scene units
+      integer, intent(out) :: ierr
+      character(*), intent(out) :: errmsg
+    end subroutine output_write_obstacles
+
+    module subroutine obstacles_step(out, time, ierr, errmsg)
+      type(output_file), intent(in) :: out
+      real(rp), intent(in) :: time
+      integer, intent(inout) :: ierr
+      character(*), intent(inout) :: errmsg
+    end subroutine obstacles_step
+
+    module function obstacle_view(k, t) result(name)
+      integer, intent(in) :: k, t
+      character(len=:), allocatable :: name
+    end function obstacle_view
+
+    module subroutine drop_obstacles_sidecar(out, ierr, errmsg)
+      type(output_file), intent(in) :: out
+      integer, intent(inout) :: ierr
+      character(*), intent(inout) :: errmsg
+    end subroutine drop_obstacles_sidecar
   end interface
 
 end module output

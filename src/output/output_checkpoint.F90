@@ -242,7 +242,7 @@ contains
       out%safe%work_path = filename
       if (attempt) out%safe%work_path = filename//'.partial'
     end if
-    call sidecar_names(out%safe%final_path, out%safe%xmf_path, out%safe%h5_base)
+    call sidecar_names(out%safe%final_path, out%safe%xmf_path, out%safe%h5_base, out%safe%obst_path)
     out%safe%lock_path = out%safe%final_path//'.lock'
     ! In place: the checkpoint is in it already.
     out%safe%committed = out%safe%work_path == out%safe%final_path

@@ -45,7 +45,7 @@ contains
     if (ierr /= 0) return
 
     out%series%nt = 0
-    call sidecar_names(filename, out%safe%xmf_path, out%safe%h5_base)
+    call sidecar_names(filename, out%safe%xmf_path, out%safe%h5_base, out%safe%obst_path)
     if (allocated(out%series%times)) deallocate(out%series%times)
     allocate(out%series%times(16))
     out%safe%final_path = filename
@@ -140,7 +140,8 @@ contains
   module procedure claim_files
     if (len(protect) > 0) then
       if (same_file(protect, out%safe%final_path) .or. same_file(protect, out%safe%work_path) .or. &
-          same_file(protect, out%safe%lock_path) .or. same_file(protect, out%safe%xmf_path)) then
+          same_file(protect, out%safe%lock_path) .or. same_file(protect, out%safe%xmf_path) .or. &
+          same_file(protect, out%safe%obst_path)) then
         ierr = 1
         errmsg = "input: &output: output_file = '"//out%safe%final_path//"' would overwrite the input file "// &
                  protect//': choose another output_file'
@@ -214,6 +215,9 @@ contains
       end if
     end if
     if (ierr == 0) call own_or_free(out%safe%xmf_path, 'XDMF sidecar', .true., stale, ierr, errmsg)
+    ! written with obstacles, removed without them (an earlier run's):
+    ! either way nuno's, or free
+    if (ierr == 0) call own_or_free(out%safe%obst_path, 'XDMF sidecar of the obstacles', .true., stale, ierr, errmsg)
   end subroutine claim_names
 
   !> ierr = 1 unless path is free or a regular file of nuno's (exists: it
@@ -253,8 +257,10 @@ contains
   end subroutine own_or_free
 
   !> Rename `<file>.partial` onto `<file>` (rank 0), then write the XDMF
-  !> sidecar, which names `<file>`. Collective; from here on an earlier
-  !> `<file>` is replaced, atomically.
+  !> sidecar, which names `<file>` (and the obstacles' sidecar; without
+  !> obstacles, an earlier run's is removed: it would name what `<file>`
+  !> no longer has). Collective; from here on an earlier `<file>` is
+  !> replaced, atomically.
   module procedure commit
     character(len=256) :: detail
     logical :: ok
@@ -272,6 +278,7 @@ contains
     call agree(out%comm, 'output: rename', ierr, errmsg)
     if (ierr /= 0) return
     out%safe%committed = .true.
+    if (out%rank == 0 .and. out%obst%n == 0) call drop_obstacles_sidecar(out, ierr, errmsg)
     if (out%rank == 0) call write_xdmf(out, ierr, errmsg)
   end procedure commit
 
@@ -513,12 +520,15 @@ contains
     end if
   end procedure close_ids
 
-  !> run.h5 -> run.xdmf beside it (safe_files' sidecar_path); the sidecar names the h5 file by its base name.
+  !> run.h5 -> run.xdmf and run-obstacles.xdmf beside it (safe_files'
+  !> sidecar_path, obstacles_sidecar_path); the sidecars name the h5 file by
+  !> its base name.
   module procedure sidecar_names
     integer :: n, slash
 
     n = len_trim(filename)
     xmf_path = sidecar_path(filename(1:n))
+    obst_path = obstacles_sidecar_path(filename(1:n))
     slash = index(filename(1:n), '/', back=.true.)
     h5_base = filename(slash+1:n)
   end procedure sidecar_names

@@ -121,18 +121,27 @@ contains
   !> [1][...]) that maps the hyperslab (start, count) of the dataset src of
   !> this file, counted the source's way (a t index stays in count as 1).
   module procedure make_view
-    integer(hid_t) :: sdset, sspace, vspace
     integer(hsize_t) :: vdims(4)
-    integer :: h, r
-    character(len=:), allocatable :: path
+    integer :: r
 
-    if (ierr /= 0) return
-    path = '/xdmf/'//name
     ! The view's dims: the source's selection without its t index, then 1.
     r = size(count)
     if (size(count) == 4) r = 3
     vdims(1:r) = count(1:r)
     vdims(r + 1) = 1
+    call make_view_dims(out, name, src, start, count, vdims(1:r + 1), ierr, errmsg)
+  end procedure make_view
+
+  !> /xdmf/<name>: a virtual dataset of Fortran dims vdims that maps the
+  !> hyperslab (start, count) of the dataset src of this file (as many
+  !> values).
+  module procedure make_view_dims
+    integer(hid_t) :: sdset, sspace, vspace
+    integer :: h
+    character(len=:), allocatable :: path
+
+    if (ierr /= 0) return
+    path = '/xdmf/'//name
     sspace = -1
     call open_dset(out%file, src, sdset, ierr, errmsg)
     if (ierr /= 0) return
@@ -144,11 +153,11 @@ contains
       call h5sselect_hyperslab_f(sspace, H5S_SELECT_SET_F, start, count, h)
       if (h < 0) call fail('h5sselect_hyperslab_f', src//' for '//path, ierr, errmsg)
     end if
-    call new_space(vdims(1:r + 1), path, vspace, ierr, errmsg)
+    call new_space(vdims, path, vspace, ierr, errmsg)
     if (ierr == 0) call create_virtual(out, path, vspace, src, sspace, ierr, errmsg)
     call close_spaces(sspace, vspace, path, ierr, errmsg)
     call close_dset(sdset, src, ierr, errmsg)
-  end procedure make_view
+  end procedure make_view_dims
 
   !> The virtual dataset `path` of space vspace that maps the selection of
   !> sspace of the dataset src of this file (source file '.').
@@ -181,11 +190,7 @@ contains
 
   !> Delete /xdmf/<name> if it is there (its link; the few bytes of its
   !> header stay in the file).
-  subroutine drop_view(out, name, ierr, errmsg)
-    type(output_file), intent(in) :: out
-    character(*), intent(in) :: name
-    integer, intent(inout) :: ierr
-    character(*), intent(inout) :: errmsg
+  module procedure drop_view
     logical :: exists
     integer :: h
 
@@ -195,7 +200,7 @@ contains
       call h5ldelete_f(out%file, '/xdmf/'//name, h)
       if (h < 0) call fail('h5ldelete_f', '/xdmf/'//name, ierr, errmsg)
     end if
-  end subroutine drop_view
+  end procedure drop_view
 
   !> The name in /xdmf of the view of step k (0-based) of /position or /velocity.
   module procedure step_view
@@ -268,6 +273,8 @@ contains
     end if
     call write_scalars(out, rec, ierr, errmsg)
     if (ierr == 0) call write_step_views(out, t, ierr, errmsg)
+    ! the moving obstacles' vertices at this step (none without obstacles)
+    if (ierr == 0) call obstacles_step(out, rec%time, ierr, errmsg)
     if (ierr == 0) call count_step(out, rec%time, ierr, errmsg)
   end subroutine write_step_local
 

@@ -15,7 +15,7 @@ module safe_files
   private
   public :: lock_acquire, lock_release, same_file, file_exists, rename_file, free_bytes
   public :: path_kind, kind_none, kind_file, kind_link, kind_dir, kind_other, kind_unknown
-  public :: sidecar_path, remove_file, is_nuno_output, is_nuno_sidecar, check_output_name, output_name_max
+  public :: sidecar_path, obstacles_sidecar_path, remove_file, is_nuno_output, is_nuno_sidecar, check_output_name, output_name_max
   public :: tmp_open, tmp_write, tmp_commit, make_scratch_dir, remove_scratch
   public :: cleanup_add, cleanup_drop, cleanup_run, cleanup_file, cleanup_dir, cleanup_lock
 
@@ -438,6 +438,17 @@ contains
     end if
     xmf = filename//'.xdmf'
   end function sidecar_path
+
+  !> The XDMF sidecar of the obstacles of an output file (a scene with
+  !> contact): run.h5 -> run-obstacles.xdmf, other -> other-obstacles.xdmf.
+  !> Its own file, not a grid of run.xdmf: pyvista.read("run.xdmf") stays
+  !> one StructuredGrid (postprocess/README.md, "ParaView").
+  function obstacles_sidecar_path(filename) result(xmf)
+    character(*), intent(in) :: filename
+    character(len=:), allocatable :: xmf
+    xmf = sidecar_path(filename)
+    xmf = xmf(1:len(xmf) - 5)//'-obstacles.xdmf'
+  end function obstacles_sidecar_path
 
   !> The text of a NUL-terminated C buffer.
   function c_text(buf) result(s)

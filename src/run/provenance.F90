@@ -8,7 +8,7 @@ module provenance
   use mpi
   use kinds, only: rp
   use config, only: nuno_config, unset_real
-  use output, only: output_file, run_info, output_write_run_info, output_config_key
+  use output, only: output_file, run_info, output_write_run_info, output_config_key, output_write_obstacles
   use app_context, only: app_ctx
   use process_model, only: pm_energy_t
   use process_models, only: pm_list_output
@@ -21,9 +21,9 @@ module provenance
 contains
 
   !> The provenance of the run (/run in the output file): the time
-  !> integration as used after the options, versions, date and host; and
-  !> the configuration as used (/config), file_name the file the run
-  !> writes (the one a restart continues).
+  !> integration as used after the options, versions, date and host; the
+  !> configuration as used (/config), file_name the file the run writes
+  !> (the one a restart continues); and its obstacles (/obstacles).
   subroutine write_run_info(ctx, out, file_name, ierr)
     type(app_ctx), intent(inout) :: ctx
     type(output_file), intent(inout) :: out
@@ -62,6 +62,8 @@ contains
     call MPI_Bcast(info%start_date, hlen, MPI_CHARACTER, 0, ctx%comm, ierr)
     call output_write_run_info(out, info, ierr, errmsg)
     if (ierr == 0) call write_config(ctx%cfg, step_dt(ctx%step), step_t_end(ctx%step), file_name, ctx%comm, out, ierr, errmsg)
+    ! the obstacles' surfaces and their sidecar (a scene with &contact; none: nothing)
+    if (ierr == 0) call output_write_obstacles(out, ctx%cfg, ierr, errmsg)
     if (ierr /= 0) then
       call report_io_error(ctx, errmsg)
     end if

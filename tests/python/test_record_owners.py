@@ -71,6 +71,7 @@ PRIVATE_RECORDS = {
     "series_state": "output",
     "safe_state": "output",
     "checkpoint_state": "output",
+    "obstacles_state": "output",
     "ident_params_t": "identify_params",
     "ident_obs_t": "identify_objective",
     "ident_run_t": "identify_adjoint",

@@ -75,6 +75,11 @@ program test_contact_primitives
   call check_true(ty /= EE_LINES, 'parallel edges: not the line-line type')
   call check_close(d2, 1.0_rp, 1.0e-15_rp, 0.0_rp, 'parallel edges: d2')
   call check_true(all(abs(h) < 10.0_rp) .and. all(abs(g) <= 2.0_rp), 'parallel edges: bounded derivatives')
+  ! parallel up to round-off: two lattice diagonals of spacing 0.01 made of rounded
+  ! differences, sqrt(2) spacings apart (Lagrange's aa bb - ab^2 took them for lines at 0)
+  call edge_edge_distance([0.01_rp, 0.01_rp, 0.0_rp], [0.0_rp, 0.02_rp, 0.0_rp], [0.02_rp, 0.02_rp, 0.0_rp], &
+                          [0.01_rp, 0.03_rp, 0.0_rp], d2, g, h, ty)
+  call check_close(d2, 2.0e-4_rp, 1.0e-12_rp, 0.0_rp, 'parallel lattice diagonals: d2 = (sqrt 2 spacing)^2')
 
   ! ---- every type: random configurations -----------------------------------
   call random_types_pt()

@@ -1,0 +1,635 @@
+! SPDX-License-Identifier: BSD-2-Clause
+!> Broad phase of the cloth's self-contact on a set of lattice rows (issue 49
+!> item 1; docs/self-contact.md): the candidate point-triangle and edge-edge
+!> pairs of IPC (module contact_primitives) among the primitives of the rows
+!> a rank holds, found with a uniform spatial hash in O(N).
+!>
+!> Primitives, each with a global number that every rank computes alike
+!> (node g = i + nx j, 0-based, as the DMDA's):
+!>   points     every node of a present row;
+!>   triangles  the two of quad (i, j) (contact_faces' quad_triangles with the
+!>              split given), number 2 g(i,j) + t - 1, t = 1, 2;
+!>   edges      x-link (i,j)-(i+1,j) 3 g, y-link (i,j)-(i,j+1) 3 g + 1, the
+!>              split's diagonal 3 g + 2 (g = g(i,j), the anchor).
+!> A quad, its y-link and its diagonal exist where rows j and j+1 are both
+!> present; an x-link where row j is.
+!>
+!> A candidate pair is a point and a triangle, or two edges, that
+!>   - share no node;
+!>   - are not neighbours at rest: their distance in the rest lattice
+!>     (X = (i ax, j ay, 0)) is at least rest_reach (dhat + thickness: a
+!>     flat cloth at rest has no active pair; such pairs are left to the
+!>     elastic elements and are not protected by the step limit);
+!>   - belong to this rank, by one of two rules: OWN_LOWEST, the row of the
+!>     pair's lowest global node number lies in own_lo..own_hi (each pair on
+!>     one rank only: energies, counts, the CCD's alpha; forces on the other
+!>     ranks' nodes go back to them), or OWN_TOUCH, a node of the pair lies
+!>     in own_lo..own_hi (a pair on every rank it touches: each rank adds
+!>     the forces and blocks of its own nodes, nothing goes back; the
+!>     present rows must then include the row below the strip);
+!>   - are near: the distance is below reach (self_candidates), or the two
+!>     paths from x to x + dx may come within margin of each other
+!>     (self_candidates_swept: boxes of both ends overlap and the start
+!>     distance minus ACCD's rate bound is below margin).
+!> Point-triangle pairs are (p, t0, t1, t2) with the triangle's corners in
+!> quad_triangles' order; edge-edge pairs (a0, a1, b0, b1) with the edge of
+!> the smaller number first, each edge's nodes in anchor order.
+!>
+!> The hash: cells of size h = the mean largest side of the triangles' and
+!> edges' boxes grown by reach (a typical box covers 2 x 2 x 2 cells; a
+!> stretched element more cells, rather than every cell larger), keys hashed
+!> into a table of a power of 2 at least the number of entries, filled by a
+!> counting sort. Each triangle and edge goes into
+!> the cells of its grown box; each point (its box over the path) and edge
+!> asks the cells of its own box and takes a hit only in the cell that holds
+!> the lowest corner of the two boxes' intersection, so a pair is met once.
+!> Plain arrays, no PETSc, no MPI; it allocates (the tables, the pair list).
+module self_broad
+  use, intrinsic :: iso_fortran_env, only: int64
+  use kinds, only: rp
+  use contact_faces, only: quad_triangles, quad_diagonal, SPLIT_MAIN, SPLIT_ANTI
+  use contact_primitives, only: point_triangle_d2, edge_edge_d2
+  use contact_ccd, only: accd_rate_bound
+  implicit none
+  private
+  public :: self_lattice_t, self_pairs_t, PAIR_PT, PAIR_EE, OWN_LOWEST, OWN_TOUCH
+  public :: self_row_slots, self_candidates, self_candidates_swept
+  public :: self_pair_positions, self_pair_rest, self_pairs_clear, self_pair_owner_row
+  public :: self_pair_distance2
+
+  !> Pair kinds (the same codes as contact_ccd's rate bound).
+  integer, parameter :: PAIR_PT = 1, PAIR_EE = 2
+  !> Pair ownership (module header): the lowest node's row owned, or any node's.
+  integer, parameter :: OWN_LOWEST = 1, OWN_TOUCH = 2
+
+  !> The lattice that the global numbers refer to.
+  type :: self_lattice_t
+    integer :: nx = 0, ny = 0              !< nodes along x and y
+    integer :: split = SPLIT_MAIN          !< quad split: contact_faces' SPLIT_MAIN or SPLIT_ANTI
+    real(rp) :: ax = 0.0_rp, ay = 0.0_rp   !< rest spacing along x and y [length]
+  end type self_lattice_t
+
+  !> Candidate pairs: kind(k) PAIR_PT or PAIR_EE, node(:, k) their 4 global node numbers.
+  type :: self_pairs_t
+    integer :: n = 0
+    integer, allocatable :: kind(:)
+    integer, allocatable :: node(:, :)     !< (4, n)
+  end type self_pairs_t
+
+  !> The rest rule by index offsets: pt(t, di, dj) for a point at (di, dj) from the anchor of
+  !> a triangle t, ee(ka, kb, di, dj) for edge kb anchored (di, dj) from edge ka (ka's number
+  !> the smaller): .true. where the pair is nearer than rest_reach at rest; .false. beyond
+  !> the offsets held (ri, rj).
+  type :: rest_table_t
+    integer :: ri = -1, rj = -1
+    logical, allocatable :: pt(:, :, :)        ! (2, -ri:ri, -rj:rj)
+    logical, allocatable :: ee(:, :, :, :)     ! (0:2, 0:2, -ri:ri, -rj:rj)
+  end type rest_table_t
+
+  !> The spatial hash of one set of boxes.
+  type :: grid_t
+    integer :: nbucket = 0                 ! a power of 2
+    integer, allocatable :: first(:)       ! (0:nbucket) start of each bucket in item
+    integer, allocatable :: item(:)        ! box number of each entry
+    integer(int64), allocatable :: key(:)       ! the entry's cell, packed (cell_key)
+  end type grid_t
+
+  real(rp), parameter :: CELL_FACTOR = 1.0_rp
+  integer(int64), parameter :: P1 = 73856093_int64, P2 = 19349663_int64, P3 = 83492791_int64
+
+contains
+
+  ! ------------------------------------------------------------------------
+  ! Rows, nodes, pairs
+  ! ------------------------------------------------------------------------
+
+  !> slot(j) = the position of global row j in rows (1..nr), 0 where absent.
+  pure subroutine self_row_slots(lat, rows, slot)
+    type(self_lattice_t), intent(in) :: lat
+    integer, intent(in) :: rows(:)                 ! present global rows, each once
+    integer, intent(out) :: slot(0:lat%ny - 1)
+    integer :: r
+
+    slot = 0
+    do r = 1, size(rows)
+      slot(rows(r)) = r
+    end do
+  end subroutine self_row_slots
+
+  !> Positions of a pair's 4 nodes from the rows' array x(3, 0:nx-1, nr) (slot: self_row_slots).
+  pure function self_pair_positions(lat, slot, x, node) result(xp)
+    type(self_lattice_t), intent(in) :: lat
+    integer, intent(in) :: slot(0:), node(4)
+    real(rp), intent(in) :: x(:, 0:, :)
+    real(rp) :: xp(3, 4)
+    integer :: k
+
+    do k = 1, 4
+      xp(:, k) = x(1:3, mod(node(k), lat%nx), slot(node(k) / lat%nx))
+    end do
+  end function self_pair_positions
+
+  !> Rest positions of a pair's 4 nodes, ((i - imin) ax, (j - jmin) ay, 0) with imin, jmin
+  !> the pair's smallest indices: a function of the index offsets alone, so that the same
+  !> pattern anywhere on the lattice gives the same numbers (the rest rule's table).
+  pure function self_pair_rest(lat, node) result(xr)
+    type(self_lattice_t), intent(in) :: lat
+    integer, intent(in) :: node(4)
+    real(rp) :: xr(3, 4)
+    integer :: k, i(4), j(4)
+
+    i = mod(node, lat%nx)
+    j = node / lat%nx
+    do k = 1, 4
+      xr(:, k) = [(i(k) - minval(i)) * lat%ax, (j(k) - minval(j)) * lat%ay, 0.0_rp]
+    end do
+  end function self_pair_rest
+
+  !> The row whose owner counts the pair: that of its lowest global node number.
+  pure integer function self_pair_owner_row(lat, node) result(j)
+    type(self_lattice_t), intent(in) :: lat
+    integer, intent(in) :: node(4)
+
+    j = minval(node) / lat%nx
+  end function self_pair_owner_row
+
+  !> Squared distance of a pair at positions xp(3, 4) [length^2].
+  pure real(rp) function self_pair_distance2(kind, xp) result(d2)
+    integer, intent(in) :: kind
+    real(rp), intent(in) :: xp(3, 4)
+
+    if (kind == PAIR_PT) then
+      d2 = point_triangle_d2(xp(:, 1), xp(:, 2), xp(:, 3), xp(:, 4))
+    else
+      d2 = edge_edge_d2(xp(:, 1), xp(:, 2), xp(:, 3), xp(:, 4))
+    end if
+  end function self_pair_distance2
+
+  !> Empty the list (keeps its storage).
+  pure subroutine self_pairs_clear(pairs)
+    type(self_pairs_t), intent(inout) :: pairs
+
+    pairs%n = 0
+  end subroutine self_pairs_clear
+
+  pure subroutine add_pair(pairs, kind, node)
+    type(self_pairs_t), intent(inout) :: pairs
+    integer, intent(in) :: kind, node(4)
+    integer, allocatable :: k2(:), n2(:, :)
+    integer :: cap
+
+    cap = 0
+    if (allocated(pairs%kind)) cap = size(pairs%kind)
+    if (pairs%n == cap) then
+      cap = max(64, 2 * cap)
+      allocate(k2(cap), n2(4, cap))
+      if (pairs%n > 0) then
+        k2(1:pairs%n) = pairs%kind(1:pairs%n)
+        n2(:, 1:pairs%n) = pairs%node(:, 1:pairs%n)
+      end if
+      call move_alloc(k2, pairs%kind)
+      call move_alloc(n2, pairs%node)
+    end if
+    pairs%n = pairs%n + 1
+    pairs%kind(pairs%n) = kind
+    pairs%node(:, pairs%n) = node
+  end subroutine add_pair
+
+  ! ------------------------------------------------------------------------
+  ! Candidates
+  ! ------------------------------------------------------------------------
+
+  !> Candidate pairs (module header) at positions x whose distance is below reach; pairs
+  !> is emptied first.
+  subroutine self_candidates(lat, rows, x, own_lo, own_hi, own_rule, reach, rest_reach, pairs)
+    type(self_lattice_t), intent(in) :: lat
+    integer, intent(in) :: rows(:)                  ! present global rows, each once
+    real(rp), intent(in) :: x(:, 0:, :)             ! (3, 0:nx-1, size(rows)) positions [length]
+    integer, intent(in) :: own_lo, own_hi           ! this rank's rows (pair ownership)
+    integer, intent(in) :: own_rule                 ! OWN_LOWEST or OWN_TOUCH
+    real(rp), intent(in) :: reach                   ! e.g. dhat + thickness [length]
+    real(rp), intent(in) :: rest_reach              ! pairs nearer than this at rest are left out [length]
+    type(self_pairs_t), intent(inout) :: pairs
+
+    call find_pairs(lat, rows, x, x, .false., own_lo, own_hi, own_rule, reach, rest_reach, pairs)
+  end subroutine self_candidates
+
+  !> Candidate pairs (module header) for the straight paths from x to x + dx that may come
+  !> within margin of each other (for a step's CCD: margin = the thickness); pairs is emptied.
+  subroutine self_candidates_swept(lat, rows, x, dx, own_lo, own_hi, own_rule, margin, rest_reach, pairs)
+    type(self_lattice_t), intent(in) :: lat
+    integer, intent(in) :: rows(:)
+    real(rp), intent(in) :: x(:, 0:, :)             ! (3, 0:nx-1, nr) start [length]
+    real(rp), intent(in) :: dx(:, 0:, :)            ! (3, 0:nx-1, nr) displacement [length]
+    integer, intent(in) :: own_lo, own_hi, own_rule
+    real(rp), intent(in) :: margin                  ! [length]
+    real(rp), intent(in) :: rest_reach              ! [length]
+    type(self_pairs_t), intent(inout) :: pairs
+    real(rp), allocatable :: x1(:, :, :)
+
+    x1 = x(1:3, :, :) + dx(1:3, :, :)
+    call find_pairs(lat, rows, x, x1, .true., own_lo, own_hi, own_rule, margin, rest_reach, pairs)
+  end subroutine self_candidates_swept
+
+  !> The broad phase proper: boxes over the start x0 and the end x1 of each primitive.
+  subroutine find_pairs(lat, rows, x0, x1, swept, own_lo, own_hi, own_rule, reach, rest_reach, pairs)
+    type(self_lattice_t), intent(in) :: lat
+    integer, intent(in) :: rows(:)
+    real(rp), intent(in) :: x0(:, 0:, :), x1(:, 0:, :)
+    logical, intent(in) :: swept
+    integer, intent(in) :: own_lo, own_hi, own_rule
+    real(rp), intent(in) :: reach, rest_reach
+    type(self_pairs_t), intent(inout) :: pairs
+    integer, allocatable :: slot(:), tri(:, :), tid(:), edg(:, :), eid(:), pts(:)
+    real(rp), allocatable :: tlo(:, :), thi(:, :), elo(:, :), ehi(:, :), plo(:, :), phi(:, :)
+    type(grid_t) :: gt, ge
+    type(rest_table_t) :: rt
+    real(rp) :: origin(3), h
+    integer :: ntri, ned, npt
+
+    pairs%n = 0
+    allocate(slot(0:lat%ny - 1))
+    call self_row_slots(lat, rows, slot)
+    call list_primitives(lat, rows, slot, tri, tid, ntri, edg, eid, ned, pts, npt)
+    if (npt == 0) return
+    call boxes(lat, slot, x0, x1, tri(:, 1:ntri), tlo, thi)
+    call boxes(lat, slot, x0, x1, edg(:, 1:ned), elo, ehi)
+    call boxes(lat, slot, x0, x1, reshape(pts(1:npt), [1, npt]), plo, phi)
+    h = cell_size(tlo, thi, elo, ehi, plo, phi, reach)
+    origin = minval(plo, dim=2) - 2.0_rp * reach - h
+    call build_grid(gt, tlo - reach, thi + reach, origin, h)
+    call build_grid(ge, elo - reach, ehi + reach, origin, h)
+    call build_rest_table(lat, rest_reach, rt)
+    call point_triangle_pairs()
+    call edge_edge_pairs()
+
+  contains
+
+    subroutine point_triangle_pairs()
+      integer(int64) :: c(3), clo(3), chi(3), cm(3), kc
+      integer :: p, e, t, b, node(4), cx, cy, cz
+      real(rp) :: glo(3), ghi(3)
+
+      do p = 1, npt
+        clo = cell_of(plo(:, p), origin, h)
+        chi = cell_of(phi(:, p), origin, h)
+        do cz = 0, int(chi(3) - clo(3))
+          do cy = 0, int(chi(2) - clo(2))
+            do cx = 0, int(chi(1) - clo(1))
+              c = clo + [cx, cy, cz]
+              b = bucket(gt, c)
+              kc = cell_key(c)
+              do e = gt%first(b), gt%first(b + 1) - 1
+                if (gt%key(e) /= kc) cycle
+                t = gt%item(e)
+                if (any(tri(:, t) == pts(p))) cycle
+                glo = tlo(:, t) - reach
+                ghi = thi(:, t) + reach
+                if (any(plo(:, p) > ghi .or. glo > phi(:, p))) cycle
+                cm = cell_of(max(plo(:, p), glo), origin, h)
+                if (any(cm /= c)) cycle
+                node = [pts(p), tri(:, t)]
+                call consider(PAIR_PT, node, pts(p), tid(t))
+              end do
+            end do
+          end do
+        end do
+      end do
+    end subroutine point_triangle_pairs
+
+    subroutine edge_edge_pairs()
+      integer(int64) :: c(3), clo(3), chi(3), cm(3), kc
+      integer :: a, e, f, b, node(4), cx, cy, cz
+      real(rp) :: glo(3), ghi(3)
+
+      do a = 1, ned
+        clo = cell_of(elo(:, a), origin, h)
+        chi = cell_of(ehi(:, a), origin, h)
+        do cz = 0, int(chi(3) - clo(3))
+          do cy = 0, int(chi(2) - clo(2))
+            do cx = 0, int(chi(1) - clo(1))
+              c = clo + [cx, cy, cz]
+              b = bucket(ge, c)
+              kc = cell_key(c)
+              do e = ge%first(b), ge%first(b + 1) - 1
+                if (ge%key(e) /= kc) cycle
+                f = ge%item(e)
+                if (eid(f) <= eid(a)) cycle
+                if (any(edg(:, f) == edg(1, a) .or. edg(:, f) == edg(2, a))) cycle
+                glo = elo(:, f) - reach
+                ghi = ehi(:, f) + reach
+                if (any(elo(:, a) > ghi .or. glo > ehi(:, a))) cycle
+                cm = cell_of(max(elo(:, a), glo), origin, h)
+                if (any(cm /= c)) cycle
+                node = [edg(:, a), edg(:, f)]
+                call consider(PAIR_EE, node, eid(a), eid(f))
+              end do
+            end do
+          end do
+        end do
+      end do
+    end subroutine edge_edge_pairs
+
+    !> The narrow tests: ownership, rest distance, distance (or the path's bound). ida, idb:
+    !> the point's node and the triangle's number, or the two edges' numbers.
+    subroutine consider(kind, node, ida, idb)
+      integer, intent(in) :: kind, node(4), ida, idb
+      real(rp) :: xa(3, 4), xb(3, 4), d2
+      integer :: jown
+
+      if (own_rule == OWN_TOUCH) then
+        if (.not. any(node / lat%nx >= own_lo .and. node / lat%nx <= own_hi)) return
+      else
+        jown = self_pair_owner_row(lat, node)
+        if (jown < own_lo .or. jown > own_hi) return
+      end if
+      if (rest_reach > 0.0_rp) then
+        if (rest_near(lat, rt, kind, ida, idb)) return
+      end if
+      xa = self_pair_positions(lat, slot, x0, node)
+      d2 = self_pair_distance2(kind, xa)
+      if (swept) then
+        xb = self_pair_positions(lat, slot, x1, node)
+        if (sqrt(d2) - accd_rate_bound(kind, xb - xa) >= reach) return
+      else
+        if (d2 >= reach**2) return
+      end if
+      call add_pair(pairs, kind, node)
+    end subroutine consider
+
+  end subroutine find_pairs
+
+  !> The hash's cell: CELL_FACTOR times the mean over triangles and edges of the largest
+  !> side of the grown box (a typical box spans 2 cells an axis; one stretched element
+  !> takes more cells instead of making every cell large).
+  pure real(rp) function cell_size(tlo, thi, elo, ehi, plo, phi, reach) result(h)
+    real(rp), intent(in) :: tlo(:, :), thi(:, :), elo(:, :), ehi(:, :), plo(:, :), phi(:, :), reach
+    real(rp) :: s
+    integer :: k, n
+
+    s = 0.0_rp
+    do k = 1, size(tlo, 2)
+      s = s + maxval(thi(:, k) - tlo(:, k))
+    end do
+    do k = 1, size(elo, 2)
+      s = s + maxval(ehi(:, k) - elo(:, k))
+    end do
+    n = size(tlo, 2) + size(elo, 2)
+    if (n > 0) then
+      h = CELL_FACTOR * (s / n + 2.0_rp * reach)
+    else
+      h = maxval(phi - plo) + 2.0_rp * reach
+    end if
+    if (.not. h > 0.0_rp) h = 1.0_rp
+    ! At most 2^20 cells an axis over the points' span (plus the margin of origin):
+    ! cell_key packs 21 bits a coordinate.
+    h = max(h, (maxval(maxval(phi, dim=2) - minval(plo, dim=2)) + 4.0_rp * reach) / 2.0_rp**20)
+  end function cell_size
+
+  !> The rest rule (module header) for a point and a triangle (ida: the node, idb: the
+  !> triangle's number) or two edges (their numbers, ida < idb), by rt's offsets.
+  pure logical function rest_near(lat, rt, kind, ida, idb) result(near)
+    type(self_lattice_t), intent(in) :: lat
+    type(rest_table_t), intent(in) :: rt
+    integer, intent(in) :: kind, ida, idb
+    integer :: ga, gb, di, dj
+
+    if (kind == PAIR_PT) then
+      ga = idb / 2
+      gb = ida
+    else
+      ga = ida / 3
+      gb = idb / 3
+    end if
+    di = mod(gb, lat%nx) - mod(ga, lat%nx)
+    dj = gb / lat%nx - ga / lat%nx
+    near = .false.
+    if (abs(di) > rt%ri .or. abs(dj) > rt%rj) return
+    if (kind == PAIR_PT) then
+      near = rt%pt(mod(idb, 2) + 1, di, dj)
+    else
+      near = rt%ee(mod(ida, 3), mod(idb, 3), di, dj)
+    end if
+  end function rest_near
+
+  !> The rest rule's table: each offset's pair placed on a lattice of its own (the same
+  !> split and spacing) and measured with self_pair_rest, as the pair itself would be.
+  !> A primitive spans one index, so offsets beyond rest_reach / spacing + 1 are never near.
+  subroutine build_rest_table(lat, rest_reach, rt)
+    type(self_lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: rest_reach
+    type(rest_table_t), intent(out) :: rt
+    type(self_lattice_t) :: lv
+    integer :: qt(3, 2), ca, cb, t, ka, kb, di, dj, ga, gb, ea(2), eb(2)
+
+    if (.not. rest_reach > 0.0_rp) return
+    rt%ri = min(int(rest_reach / lat%ax) + 2, lat%nx)
+    rt%rj = min(int(rest_reach / lat%ay) + 2, lat%ny)
+    allocate(rt%pt(2, -rt%ri:rt%ri, -rt%rj:rt%rj), rt%ee(0:2, 0:2, -rt%ri:rt%ri, -rt%rj:rt%rj))
+    lv = lat
+    lv%nx = 2 * rt%ri + 4
+    call quad_triangles(lat%split, qt)
+    call quad_diagonal(lat%split, ca, cb)
+    ga = (rt%ri + 1) + lv%nx * (rt%rj + 1)
+    do dj = -rt%rj, rt%rj
+      do di = -rt%ri, rt%ri
+        gb = ga + di + lv%nx * dj
+        do t = 1, 2
+          rt%pt(t, di, dj) = self_pair_distance2(PAIR_PT, self_pair_rest(lv, [gb, quad_node(ga, qt(:, t))])) &
+                             < rest_reach**2
+        end do
+        do kb = 0, 2
+          eb = edge_nodes(gb, kb)
+          do ka = 0, 2
+            ea = edge_nodes(ga, ka)
+            rt%ee(ka, kb, di, dj) = self_pair_distance2(PAIR_EE, self_pair_rest(lv, [ea, eb])) < rest_reach**2
+          end do
+        end do
+      end do
+    end do
+
+  contains
+
+    pure function quad_node(g, corners) result(nd)
+      integer, intent(in) :: g, corners(:)
+      integer :: nd(size(corners))
+      integer :: k
+
+      do k = 1, size(corners)
+        nd(k) = g + merge(1, 0, corners(k) == 2 .or. corners(k) == 4) + merge(lv%nx, 0, corners(k) >= 3)
+      end do
+    end function quad_node
+
+    pure function edge_nodes(g, k) result(nd)
+      integer, intent(in) :: g, k
+      integer :: nd(2)
+
+      select case (k)
+      case (0)
+        nd = [g, g + 1]
+      case (1)
+        nd = [g, g + lv%nx]
+      case default
+        nd = quad_node(g, [ca, cb])
+      end select
+    end function edge_nodes
+
+  end subroutine build_rest_table
+
+  !> The primitives of the present rows (module header), as global node numbers.
+  subroutine list_primitives(lat, rows, slot, tri, tid, ntri, edg, eid, ned, pts, npt)
+    type(self_lattice_t), intent(in) :: lat
+    integer, intent(in) :: rows(:), slot(0:)
+    integer, allocatable, intent(out) :: tri(:, :), tid(:), edg(:, :), eid(:), pts(:)
+    integer, intent(out) :: ntri, ned, npt
+    integer :: r, i, j, g, t, c(4), qt(3, 2), ca, cb, nx
+
+    nx = lat%nx
+    allocate(tri(3, 2 * nx * size(rows)), tid(2 * nx * size(rows)))
+    allocate(edg(2, 3 * nx * size(rows)), eid(3 * nx * size(rows)), pts(nx * size(rows)))
+    call quad_triangles(lat%split, qt)
+    call quad_diagonal(lat%split, ca, cb)
+    ntri = 0
+    ned = 0
+    npt = 0
+    do r = 1, size(rows)
+      j = rows(r)
+      do i = 0, nx - 1
+        g = i + nx * j
+        npt = npt + 1
+        pts(npt) = g
+        if (i < nx - 1) call put_edge([g, g + 1], 3 * g)
+        if (j + 1 > lat%ny - 1) cycle
+        if (slot(j + 1) == 0) cycle
+        call put_edge([g, g + nx], 3 * g + 1)
+        if (i == nx - 1) cycle
+        c = [g, g + 1, g + nx, g + nx + 1]
+        do t = 1, 2
+          ntri = ntri + 1
+          tri(:, ntri) = c(qt(:, t))
+          tid(ntri) = 2 * g + t - 1
+        end do
+        call put_edge([c(ca), c(cb)], 3 * g + 2)
+      end do
+    end do
+
+  contains
+
+    subroutine put_edge(nodes, id)
+      integer, intent(in) :: nodes(2), id
+
+      ned = ned + 1
+      edg(:, ned) = nodes
+      eid(ned) = id
+    end subroutine put_edge
+
+  end subroutine list_primitives
+
+  !> Boxes of primitives (a column of nodes each) over their nodes' positions at x0 and x1.
+  pure subroutine boxes(lat, slot, x0, x1, nodes, lo, hi)
+    type(self_lattice_t), intent(in) :: lat
+    integer, intent(in) :: slot(0:), nodes(:, :)
+    real(rp), intent(in) :: x0(:, 0:, :), x1(:, 0:, :)
+    real(rp), allocatable, intent(out) :: lo(:, :), hi(:, :)
+    integer :: k
+
+    allocate(lo(3, size(nodes, 2)), hi(3, size(nodes, 2)))
+    do k = 1, size(nodes, 2)
+      call node_box(lat, slot, x0, x1, nodes(:, k), lo(:, k), hi(:, k))
+    end do
+  end subroutine boxes
+
+  !> Box of the nodes' positions at x0 and x1.
+  pure subroutine node_box(lat, slot, x0, x1, nodes, lo, hi)
+    type(self_lattice_t), intent(in) :: lat
+    integer, intent(in) :: slot(0:), nodes(:)
+    real(rp), intent(in) :: x0(:, 0:, :), x1(:, 0:, :)
+    real(rp), intent(out) :: lo(3), hi(3)
+    integer :: k, i, s
+
+    lo = huge(1.0_rp)
+    hi = -huge(1.0_rp)
+    do k = 1, size(nodes)
+      i = mod(nodes(k), lat%nx)
+      s = slot(nodes(k) / lat%nx)
+      lo = min(lo, x0(1:3, i, s), x1(1:3, i, s))
+      hi = max(hi, x0(1:3, i, s), x1(1:3, i, s))
+    end do
+  end subroutine node_box
+
+  ! ------------------------------------------------------------------------
+  ! The spatial hash
+  ! ------------------------------------------------------------------------
+
+  pure function cell_of(y, origin, h) result(c)
+    real(rp), intent(in) :: y(3), origin(3), h
+    integer(int64) :: c(3)
+
+    c = floor((y - origin) / h, kind=int64)
+  end function cell_of
+
+  !> A cell's coordinates (each in 0..2^21-1: cell_size keeps them there) in one integer.
+  pure integer(int64) function cell_key(c) result(k)
+    integer(int64), intent(in) :: c(3)
+
+    k = c(1) + ishft(c(2), 21) + ishft(c(3), 42)
+  end function cell_key
+
+  pure integer function bucket(g, c) result(b)
+    type(grid_t), intent(in) :: g
+    integer(int64), intent(in) :: c(3)
+
+    b = int(iand(ieor(ieor(c(1) * P1, c(2) * P2), c(3) * P3), int(g%nbucket - 1, int64)))
+  end function bucket
+
+  !> The hash of boxes lo(:, k)..hi(:, k): each box in every cell it overlaps (counting sort).
+  pure subroutine build_grid(g, lo, hi, origin, h)
+    type(grid_t), intent(out) :: g
+    real(rp), intent(in) :: lo(:, :), hi(:, :), origin(3), h
+    integer(int64) :: clo(3), chi(3), c(3)
+    integer :: k, n, b, cx, cy, cz, pass
+    integer, allocatable :: fill(:)
+
+    n = 0
+    do k = 1, size(lo, 2)
+      clo = cell_of(lo(:, k), origin, h)
+      chi = cell_of(hi(:, k), origin, h)
+      n = n + int(product(chi - clo + 1))
+    end do
+    g%nbucket = 1
+    do while (g%nbucket < n)
+      g%nbucket = 2 * g%nbucket
+    end do
+    allocate(g%first(0:g%nbucket), g%item(n), g%key(n), fill(0:g%nbucket - 1))
+    fill = 0
+    do pass = 1, 2
+      do k = 1, size(lo, 2)
+        clo = cell_of(lo(:, k), origin, h)
+        chi = cell_of(hi(:, k), origin, h)
+        do cz = 0, int(chi(3) - clo(3))
+          do cy = 0, int(chi(2) - clo(2))
+            do cx = 0, int(chi(1) - clo(1))
+              c = clo + [cx, cy, cz]
+              b = bucket(g, c)
+              if (pass == 1) then
+                fill(b) = fill(b) + 1
+              else
+                g%item(fill(b)) = k
+                g%key(fill(b)) = cell_key(c)
+                fill(b) = fill(b) + 1
+              end if
+            end do
+          end do
+        end do
+      end do
+      if (pass == 1) then
+        g%first(0) = 1
+        do b = 0, g%nbucket - 1
+          g%first(b + 1) = g%first(b) + fill(b)
+        end do
+        fill = g%first(0:g%nbucket - 1)
+      end if
+    end do
+  end subroutine build_grid
+
+end module self_broad
