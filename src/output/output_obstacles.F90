@@ -26,7 +26,7 @@
 !> obstacles of its /config/contact at every output time.
 submodule (output) output_obstacles
   use contact, only: obstacle_t
-  use contact_model, only: obstacle_from_config
+  use obstacle_set, only: obstacle_from_config
   use obstacle_motion, only: obstacle_at
   use obstacle_mesh, only: mesh_size, mesh_make
   implicit none
@@ -105,7 +105,7 @@ contains
   ! ------------------------------------------------------------ the poses
 
   !> Obstacle k of cc at time t: its pose at zero offset
-  !> (contact_model's obstacle_from_config) moved by its keyframes
+  !> (obstacle_set's obstacle_from_config) moved by its keyframes
   !> (obstacle_motion's obstacle_at), as contact evaluates it. The one
   !> place that asks contact for an obstacle's pose.
   pure function obstacle_pose(cc, k, t) result(o)
