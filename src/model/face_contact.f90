@@ -22,6 +22,7 @@ module face_contact
   use constraints, only: constraint_set_t
   use node_blocks, only: node_blocks_t
   use pair_blocks, only: pair_blocks_t
+  use checkpoint_record, only: named_value_t, named_value
   use contact, only: obstacle_t, contact_params_t
   use contact_ccd, only: ACCD_S
   use obstacle_set, only: obstacle_set_t, obstacle_set_init, obstacle_set_count, obstacle_set_pose, obstacle_set_moves, &
@@ -57,6 +58,11 @@ module face_contact
     real(rp) :: min_gap = huge(1.0_rp)          !< smallest gap of a triangle or edge [length]
     real(rp) :: energy = 0.0_rp                 !< barrier energy of the face and edge pairs [energy]
     integer :: active = 0                       !< pairs within contact_dhat
+    !> the moving obstacles' work on the cloth through these pairs since
+    !> the start (trapezoid rule over each step) [energy]
+    real(rp) :: obstacle_work = 0.0_rp
+    real(rp) :: pstart_last = 0.0_rp            !< their power at the last state, the next step's velocities [energy/time]
+    logical :: have_last = .false.              !< t_seen, pstart_last hold the last accepted state's
   contains
     procedure :: name => faces_name
     procedure :: hints => faces_hints
@@ -68,6 +74,8 @@ module face_contact
     procedure :: accept => faces_accept
     procedure :: accepted => faces_accepted
     procedure :: output => faces_output
+    procedure :: checkpoint => faces_checkpoint
+    procedure :: restore => faces_restore
   end type face_contact_t
 
 contains
@@ -325,8 +333,10 @@ contains
 
   !> An accepted state u at t: the smallest gap of a triangle or edge,
   !> the face and edge pairs within contact_dhat and their barrier energy
-  !> (each element once: by its anchor row's rank), for the output; a gap
-  !> <= 0 is an error (the accept hook lets none through). Collective.
+  !> (each element once: by its anchor row's rank), and the moving
+  !> obstacles' work through them (trapezoid rule over the step), for the
+  !> output; a gap <= 0 is an error (the accept hook lets none through).
+  !> A state recorded already is left alone. Collective.
   subroutine faces_accepted(this, lat, fixed, t, u, comm, ierr, errmsg)
     class(face_contact_t), intent(inout) :: this
     type(lattice_t), intent(in) :: lat
@@ -336,12 +346,12 @@ contains
     integer, intent(in) :: comm
     integer, intent(out) :: ierr
     character(*), intent(out) :: errmsg
-    real(rp) :: gmin, g, e, ge
+    real(rp) :: gmin, g, e, ge, p(2), gp(2)
     integer :: k, nact, gnact, mpierr
     type(obstacle_t) :: o
     ierr = 0
     errmsg = ''
-    if (t == this%t_seen) return
+    if (this%have_last .and. t == this%t_seen) return
     gmin = huge(1.0_rp)
     e = 0.0_rp
     nact = 0
@@ -354,6 +364,11 @@ contains
     call MPI_Allreduce(gmin, g, 1, MPI_DOUBLE_PRECISION, MPI_MIN, comm, mpierr)
     call MPI_Allreduce(e, ge, 1, MPI_DOUBLE_PRECISION, MPI_SUM, comm, mpierr)
     call MPI_Allreduce(nact, gnact, 1, MPI_INTEGER, MPI_SUM, comm, mpierr)
+    p = obstacle_power(this, lat, fixed, t, u)
+    call MPI_Allreduce(p, gp, 2, MPI_DOUBLE_PRECISION, MPI_SUM, comm, mpierr)
+    if (this%have_last) this%obstacle_work = this%obstacle_work + 0.5_rp * (t - this%t_seen) * (this%pstart_last + gp(1))
+    this%pstart_last = gp(2)
+    this%have_last = .true.
     this%t_seen = t
     this%min_gap = g
     this%energy = ge
@@ -364,8 +379,60 @@ contains
              real_brief(t)//': smallest gap '//real_brief(g)
   end subroutine faces_accepted
 
-  !> The series of the last accepted state: /contact_faces; the face and
-  !> edge pairs' barrier energy a potential energy of the balance.
+  !> The power of the moving obstacles' forces on the free owned nodes
+  !> through the faces' and edges' pairs at u, t: with each obstacle's
+  !> velocity of the keyframe segment that ends at t (the step before: p(1))
+  !> and of the one that starts there (the step after: p(2)) [energy/time].
+  function obstacle_power(this, lat, fixed, t, u) result(p)
+    class(face_contact_t), intent(in) :: this
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    real(rp) :: p(2)
+    real(rp) :: f(3, 0:lat%nx - 1, lat%ys:lat%ye), ftot(3)
+    integer :: k, nbad
+    type(obstacle_t) :: o, onext
+    p = 0.0_rp
+    do k = 1, obstacle_set_count(this%obstacles)
+      o = obstacle_set_pose(this%obstacles, k, t)
+      onext = obstacle_set_pose(this%obstacles, k, t, right=.true.)
+      if (.not. has_features(o) .or. (all(o%vel == 0.0_rp) .and. all(onext%vel == 0.0_rp))) cycle
+      f = 0.0_rp
+      nbad = 0
+      call elements_forces(o, this%cp, lat, fixed, u, f, nbad)
+      ftot = sum(sum(f, dim=3), dim=2)
+      p = p + [dot_product(ftot, o%vel), dot_product(ftot, onext%vel)]
+    end do
+  end function obstacle_power
+
+  !> The run's state that goes on across a restart: the moving obstacles'
+  !> work through these pairs [energy].
+  subroutine faces_checkpoint(this, values)
+    class(face_contact_t), intent(in) :: this
+    type(named_value_t), allocatable, intent(out) :: values(:)
+    values = [named_value('contact_faces_obstacle_work', [this%obstacle_work], .false.)]
+  end subroutine faces_checkpoint
+
+  !> A restart's obstacle work from its checkpoint (0 in a file written
+  !> before it); the checkpoint's state, recorded again at the restart's
+  !> first accepted hook, adds no work.
+  subroutine faces_restore(this, values)
+    class(face_contact_t), intent(inout) :: this
+    type(named_value_t), intent(in) :: values(:)
+    integer :: k
+    this%obstacle_work = 0.0_rp
+    do k = 1, size(values)
+      if (trim(values(k)%name) == 'contact_faces_obstacle_work' .and. size(values(k)%v) > 0) &
+        this%obstacle_work = values(k)%v(1)
+    end do
+    this%have_last = .false.
+  end subroutine faces_restore
+
+  !> The series of the last accepted state: /contact_faces and
+  !> /energy/barrier_faces, the face and edge pairs' barrier energy, a
+  !> potential energy of the balance; the moving obstacles' work through
+  !> them an external work.
   subroutine faces_output(this, series, groups, energy)
     class(face_contact_t), intent(in) :: this
     type(pm_series_t), allocatable, intent(out) :: series(:)
@@ -379,12 +446,12 @@ contains
       pm_series_t(name='/contact_faces/min_gap', description='smallest gap of a cloth triangle or edge (its nodes '// &
                   'included) to an obstacle with features (not a plane; contact_dhat where none is within it)', units='length', &
                   values=[g, 0.0_rp, 0.0_rp]), &
-      pm_series_t(name='/contact_faces/barrier_energy', description='barrier energy of the triangle- and edge-obstacle '// &
+      pm_series_t(name='/energy/barrier_faces', description='barrier energy of the triangle- and edge-obstacle '// &
                   'pairs (a potential energy of the balance, beside /energy/barrier)', units='energy', &
                   values=[this%energy, 0.0_rp, 0.0_rp])]
     groups = [pm_group_t(name='/contact_faces', description='contact of the cloth''s triangles and edges with the '// &
                          'obstacles of &contact, per output step')]
-    energy = pm_energy_t(potential=this%energy)
+    energy = pm_energy_t(potential=this%energy, external_work=this%obstacle_work)
   end subroutine faces_output
 
 end module face_contact
