@@ -147,8 +147,8 @@ contains
     end if
     ! the cloth's triangles and edges against obstacles with features
     ! between the nodes (sphere, box, capsule: shape codes above 1); a
-    ! scene of planes only is as before
-    if (any(cfg%contact%shape_code(1:cfg%contact%n_obstacles) > 1)) then
+    ! scene of planes only, or with contact_faces = .false., is as before
+    if (cfg%contact%faces .and. any(cfg%contact%shape_code(1:cfg%contact%n_obstacles) > 1)) then
       allocate(face_contact_t :: pm)
       call pm_list_add(ctx%pms, pm)
     end if

@@ -187,3 +187,17 @@ def test_thin_obstacle_lifts_the_cloth(tmp_path, case):
     x1 = lift(tmp_path / "one", case, 1)
     x2 = lift(tmp_path / "two", case, 2)
     assert np.abs(x1 - x2).max() < 1e-9, np.abs(x1 - x2).max()      # 1 and 2 ranks agree
+
+
+def test_without_faces_the_capsule_passes_through(tmp_path):
+    """contact_faces = .false. (input/README.md): the nodes alone, as before;
+    the capsule between two columns then passes through the cloth's edges,
+    and the cloth never moves."""
+    g = groups(CAPSULE)
+    g["contact"] += " contact_faces=.false."
+    _, h5 = run(tmp_path, "nodes", **g)
+    with read_run(str(h5)) as r:
+        t = np.asarray(r.time)
+        x = np.asarray(r.position)
+    assert np.abs(x[-1] - x[0]).max() < 1e-12
+    assert min(capsule_gap(x[k], Z0 + V * t[k]) for k in range(len(t))) < 0.0    # through the edges
