@@ -9,8 +9,8 @@
 !> the triangles and its edges (capsule axis, box edges) against the
 !> cloth's edges, through the kernels contact_faces and contact_ccd over
 !> the strip's elements (module face_elements). The barrier is the node
-!> contact's (contact_dhat, contact_stiffness, contact_thickness); no
-!> friction on these pairs (the nodes' friction is contact_model's).
+!> contact's (contact_dhat, contact_stiffness, contact_thickness), and
+!> friction on these pairs lagged as the nodes' (module face_lags).
 !> Obstacles' poses are a pure function of time (module obstacle_set), as
 !> in contact_model. The model is in the list only when an obstacle other
 !> than a plane exists (solver_setup), so a scene of planes is as before.
@@ -27,6 +27,7 @@ module face_contact
   use contact_ccd, only: ACCD_S
   use obstacle_set, only: obstacle_set_t, obstacle_set_init, obstacle_set_count, obstacle_set_pose, obstacle_set_moves, &
                           obstacle_set_pair
+  use face_lags, only: face_lag_list_t, lags_clear, lags_take, lags_forces, lags_blocks, lags_power
   use face_elements, only: has_features, elements_forces, elements_blocks, elements_stats, elements_gap, elements_ccd, &
                            elements_mark
   use process_model, only: process_model_t, pm_hints_t, pm_series_t, pm_group_t, pm_energy_t, PM_FEASIBLE, &
@@ -58,6 +59,10 @@ module face_contact
     real(rp) :: min_gap = huge(1.0_rp)          !< smallest gap of a triangle or edge [length]
     real(rp) :: energy = 0.0_rp                 !< barrier energy of the face and edge pairs [energy]
     integer :: active = 0                       !< pairs within contact_dhat
+    real(rp) :: force(3) = 0.0_rp               !< total force of these pairs on the cloth, barrier and friction [force]
+    type(face_lag_list_t) :: lags               !< friction's lag: the pairs of the last accepted state
+    real(rp) :: friction_work = 0.0_rp          !< friction work of these pairs since the start [energy]
+    real(rp) :: pfric_last = 0.0_rp             !< friction power at the last state with its own lag [energy/time]
     !> the moving obstacles' work on the cloth through these pairs since
     !> the start (trapezoid rule over each step) [energy]
     real(rp) :: obstacle_work = 0.0_rp
@@ -93,7 +98,7 @@ contains
     class(face_contact_t), intent(in) :: this
     type(pm_hints_t) :: h
     h = pm_hints_t(jacobian_every_iteration=.true., forcing_off=.true., basic_line_search=.true., &
-                   feasible_start=.true., state_blocks=.true., ts_types='beuler')
+                   feasible_start=.true., velocity_blocks=.true., state_blocks=.true., ts_types='beuler')
   end function faces_hints
 
   !> Set-up: the obstacles and the barrier's parameters from &contact, the
@@ -148,18 +153,20 @@ contains
     real(rp), intent(inout) :: f(:, 0:, lat%ys:)
     integer, intent(out) :: status
     integer :: k, nbad
-    type(obstacle_t) :: o
+    type(obstacle_t) :: obs(obstacle_set_count(this%obstacles))
     nbad = 0
-    do k = 1, obstacle_set_count(this%obstacles)
-      o = obstacle_set_pose(this%obstacles, k, t)
-      if (has_features(o)) call elements_forces(o, this%cp, lat, fixed, u, f, nbad)
+    do k = 1, size(obs)
+      obs(k) = obstacle_set_pose(this%obstacles, k, t)
+      if (has_features(obs(k))) call elements_forces(obs(k), this%cp, lat, fixed, u, f, nbad)
     end do
+    call lags_forces(this%lags, obs, this%cp, lat, fixed, u, 0, f)
     status = merge(PM_INFEASIBLE, PM_FEASIBLE, nbad > 0)
   end subroutine faces_forces
 
-  !> The blocks df/dx of the triangles' and edges' barrier at u, t into
-  !> nodal: each node's own and those to its stencil neighbours in the
-  !> element (node_blocks_add_pair; no pair blocks).
+  !> The blocks df/dx of the triangles' and edges' barrier and df/dv of
+  !> their lagged friction at u, t into nodal: each node's own and those
+  !> to its stencil neighbours in the element (node_blocks_add_pair; no
+  !> pair blocks).
   subroutine faces_jacobian(this, lat, fixed, t, u, nodal, pairs)
     class(face_contact_t), intent(in) :: this
     type(lattice_t), intent(in) :: lat
@@ -169,11 +176,12 @@ contains
     type(node_blocks_t), intent(inout) :: nodal
     type(pair_blocks_t), intent(inout) :: pairs
     integer :: k
-    type(obstacle_t) :: o
-    do k = 1, obstacle_set_count(this%obstacles)
-      o = obstacle_set_pose(this%obstacles, k, t)
-      if (has_features(o)) call elements_blocks(o, this%cp, lat, fixed, u, nodal)
+    type(obstacle_t) :: obs(obstacle_set_count(this%obstacles))
+    do k = 1, size(obs)
+      obs(k) = obstacle_set_pose(this%obstacles, k, t)
+      if (has_features(obs(k))) call elements_blocks(obs(k), this%cp, lat, fixed, u, nodal)
     end do
+    call lags_blocks(this%lags, obs, this%cp, lat, fixed, u, nodal)
   end subroutine faces_jacobian
 
   !> Newton's start of a step from x0 at t0 to t1: the free nodes of the
@@ -346,72 +354,95 @@ contains
     integer, intent(in) :: comm
     integer, intent(out) :: ierr
     character(*), intent(out) :: errmsg
-    real(rp) :: gmin, g, e, ge, p(2), gp(2)
+    real(rp) :: gmin, g, e, ge, loc(8), glob(8), pend, pstart
     integer :: k, nact, gnact, mpierr
-    type(obstacle_t) :: o
+    type(obstacle_t) :: obs(obstacle_set_count(this%obstacles))
     ierr = 0
     errmsg = ''
     if (this%have_last .and. t == this%t_seen) return
     gmin = huge(1.0_rp)
     e = 0.0_rp
     nact = 0
-    do k = 1, obstacle_set_count(this%obstacles)
-      o = obstacle_set_pose(this%obstacles, k, t)
-      if (.not. has_features(o)) cycle
-      gmin = min(gmin, elements_gap(o, this%cp, lat, lat%gys, u(0:2, :, :), lat%ys, lat%ye))
-      call elements_stats(o, this%cp, lat, u, nact, e)
+    do k = 1, size(obs)
+      obs(k) = obstacle_set_pose(this%obstacles, k, t)
+      if (.not. has_features(obs(k))) cycle
+      gmin = min(gmin, elements_gap(obs(k), this%cp, lat, lat%gys, u(0:2, :, :), lat%ys, lat%ye))
+      call elements_stats(obs(k), this%cp, lat, u, nact, e)
     end do
+    ! the step's end with the step's own lag (friction power, forces), then
+    ! the lag of this state for the next step and its power here
+    loc(1:2) = [e, lags_power(this%lags, obs, this%cp, lat, u)]
+    call forces_and_power(this, lat, fixed, t, u, loc(3:5), loc(6:7))
+    call lags_clear(this%lags)
+    do k = 1, size(obs)
+      if (has_features(obs(k))) call lags_take(this%lags, k, obs(k), this%cp, lat, u)
+    end do
+    loc(8) = lags_power(this%lags, obs, this%cp, lat, u)
     call MPI_Allreduce(gmin, g, 1, MPI_DOUBLE_PRECISION, MPI_MIN, comm, mpierr)
-    call MPI_Allreduce(e, ge, 1, MPI_DOUBLE_PRECISION, MPI_SUM, comm, mpierr)
+    call MPI_Allreduce(loc, glob, 8, MPI_DOUBLE_PRECISION, MPI_SUM, comm, mpierr)
     call MPI_Allreduce(nact, gnact, 1, MPI_INTEGER, MPI_SUM, comm, mpierr)
-    p = obstacle_power(this, lat, fixed, t, u)
-    call MPI_Allreduce(p, gp, 2, MPI_DOUBLE_PRECISION, MPI_SUM, comm, mpierr)
-    if (this%have_last) this%obstacle_work = this%obstacle_work + 0.5_rp * (t - this%t_seen) * (this%pstart_last + gp(1))
-    this%pstart_last = gp(2)
+    ge = glob(1)
+    pend = glob(2)
+    pstart = glob(8)
+    if (this%have_last) then
+      this%friction_work = this%friction_work + 0.5_rp * (t - this%t_seen) * (this%pfric_last + pend)
+      this%obstacle_work = this%obstacle_work + 0.5_rp * (t - this%t_seen) * (this%pstart_last + glob(6))
+    end if
+    this%pfric_last = pstart
+    this%pstart_last = glob(7)
     this%have_last = .true.
     this%t_seen = t
     this%min_gap = g
     this%energy = ge
     this%active = gnact
+    this%force = glob(3:5)
     if (g > 0.0_rp) return
     ierr = 1
     errmsg = 'nuno: contact_faces: an accepted state has a cloth triangle or edge inside an obstacle at t = '// &
              real_brief(t)//': smallest gap '//real_brief(g)
   end subroutine faces_accepted
 
-  !> The power of the moving obstacles' forces on the free owned nodes
-  !> through the faces' and edges' pairs at u, t: with each obstacle's
-  !> velocity of the keyframe segment that ends at t (the step before: p(1))
-  !> and of the one that starts there (the step after: p(2)) [energy/time].
-  function obstacle_power(this, lat, fixed, t, u) result(p)
+  !> The forces of the faces' and edges' pairs (barrier and lagged
+  !> friction) on the free owned nodes at u, t: their sum ftot [force] and
+  !> the moving obstacles' power through them, with each obstacle's
+  !> velocity of the keyframe segment that ends at t (the step before:
+  !> p(1)) and of the one that starts there (the step after: p(2))
+  !> [energy/time].
+  subroutine forces_and_power(this, lat, fixed, t, u, ftot, p)
     class(face_contact_t), intent(in) :: this
     type(lattice_t), intent(in) :: lat
     logical, intent(in) :: fixed(0:, lat%ys:)
     real(rp), intent(in) :: t
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)
-    real(rp) :: p(2)
-    real(rp) :: f(3, 0:lat%nx - 1, lat%ys:lat%ye), ftot(3)
+    real(rp), intent(out) :: ftot(3), p(2)
+    real(rp) :: f(3, 0:lat%nx - 1, lat%ys:lat%ye), fk(3)
     integer :: k, nbad
-    type(obstacle_t) :: o, onext
+    type(obstacle_t) :: obs(obstacle_set_count(this%obstacles)), onext
     p = 0.0_rp
-    do k = 1, obstacle_set_count(this%obstacles)
-      o = obstacle_set_pose(this%obstacles, k, t)
+    ftot = 0.0_rp
+    do k = 1, size(obs)
+      obs(k) = obstacle_set_pose(this%obstacles, k, t)
+    end do
+    do k = 1, size(obs)
+      if (.not. has_features(obs(k))) cycle
       onext = obstacle_set_pose(this%obstacles, k, t, right=.true.)
-      if (.not. has_features(o) .or. (all(o%vel == 0.0_rp) .and. all(onext%vel == 0.0_rp))) cycle
       f = 0.0_rp
       nbad = 0
-      call elements_forces(o, this%cp, lat, fixed, u, f, nbad)
-      ftot = sum(sum(f, dim=3), dim=2)
-      p = p + [dot_product(ftot, o%vel), dot_product(ftot, onext%vel)]
+      call elements_forces(obs(k), this%cp, lat, fixed, u, f, nbad)
+      call lags_forces(this%lags, obs, this%cp, lat, fixed, u, k, f)
+      fk = sum(sum(f, dim=3), dim=2)
+      ftot = ftot + fk
+      p = p + [dot_product(fk, obs(k)%vel), dot_product(fk, onext%vel)]
     end do
-  end function obstacle_power
+  end subroutine forces_and_power
 
   !> The run's state that goes on across a restart: the moving obstacles'
-  !> work through these pairs [energy].
+  !> work through these pairs and their friction work [energy].
   subroutine faces_checkpoint(this, values)
     class(face_contact_t), intent(in) :: this
     type(named_value_t), allocatable, intent(out) :: values(:)
-    values = [named_value('contact_faces_obstacle_work', [this%obstacle_work], .false.)]
+    values = [named_value('contact_faces_obstacle_work', [this%obstacle_work], .false.), &
+              named_value('contact_faces_friction_work', [this%friction_work], .false.)]
   end subroutine faces_checkpoint
 
   !> A restart's obstacle work from its checkpoint (0 in a file written
@@ -422,9 +453,11 @@ contains
     type(named_value_t), intent(in) :: values(:)
     integer :: k
     this%obstacle_work = 0.0_rp
+    this%friction_work = 0.0_rp
     do k = 1, size(values)
-      if (trim(values(k)%name) == 'contact_faces_obstacle_work' .and. size(values(k)%v) > 0) &
-        this%obstacle_work = values(k)%v(1)
+      if (size(values(k)%v) < 1) cycle
+      if (trim(values(k)%name) == 'contact_faces_obstacle_work') this%obstacle_work = values(k)%v(1)
+      if (trim(values(k)%name) == 'contact_faces_friction_work') this%friction_work = values(k)%v(1)
     end do
     this%have_last = .false.
   end subroutine faces_restore
@@ -446,12 +479,16 @@ contains
       pm_series_t(name='/contact_faces/min_gap', description='smallest gap of a cloth triangle or edge (its nodes '// &
                   'included) to an obstacle with features (not a plane; contact_dhat where none is within it)', units='length', &
                   values=[g, 0.0_rp, 0.0_rp]), &
+      pm_series_t(name='/contact_faces/force', description='total force of the triangle- and edge-obstacle pairs '// &
+                  'on the cloth, barrier and friction, [t][xyz]', units='force', ncomp=3, values=this%force), &
+      pm_series_t(name='/contact_faces/friction_work', description='friction work of these pairs since the start '// &
+                  '(dissipated, >= 0; part of /energy/dissipated)', units='energy', values=[this%friction_work, 0.0_rp, 0.0_rp]), &
       pm_series_t(name='/energy/barrier_faces', description='barrier energy of the triangle- and edge-obstacle '// &
                   'pairs (a potential energy of the balance, beside /energy/barrier)', units='energy', &
                   values=[this%energy, 0.0_rp, 0.0_rp])]
     groups = [pm_group_t(name='/contact_faces', description='contact of the cloth''s triangles and edges with the '// &
                          'obstacles of &contact, per output step')]
-    energy = pm_energy_t(potential=this%energy, external_work=this%obstacle_work)
+    energy = pm_energy_t(potential=this%energy, dissipated=this%friction_work, external_work=this%obstacle_work)
   end subroutine faces_output
 
 end module face_contact
