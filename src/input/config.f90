@@ -61,8 +61,9 @@ module config
     real(rp) :: stiffness = 1.0_rp        !< barrier stiffness kappa [force/length]
     real(rp) :: eps_v = 1.0e-3_rp         !< friction smoothing velocity [length/time]
     !> the cloth's triangles and edges, not only its nodes, kept outside the
-    !> obstacles that are not planes (module face_contact)
-    logical :: faces = .true.
+    !> obstacles that are not planes (module face_contact); off by default
+    !> until fast obstacles take it without retried steps (docs/contact.md)
+    logical :: faces = .false.
     integer :: shape_code(obstacle_max) = 1   !< derived: 1 plane, 2 sphere, 3 box, 4 capsule (the kernel's SHAPE_*)
   end type contact_config
 

@@ -175,7 +175,7 @@ module input_keys
              'barrier stiffness kappa: energy kappa b(gap)'), &
     key_info('friction_eps_v', 'contact', KEY_REAL, 1, 'length/time', '1e-3', '> 0, with friction 1e-7 .. 1 lattice spacing/dt', &
              'friction: sliding speed below which friction is smoothed (sticking)'), &
-    key_info('contact_faces', 'contact', KEY_LOGICAL, 1, '', '.true.', '', &
+    key_info('contact_faces', 'contact', KEY_LOGICAL, 1, '', '.false.', '', &
              'the cloth''s triangles and edges, not only its nodes, kept outside spheres, boxes and capsules')]
 
 contains

@@ -154,16 +154,11 @@ def test_contact_jacobian_against_finite_differences(tmp_path):
 def test_drape_over_a_sphere_never_penetrates(tmp_path):
     """input/drape_sphere.nml's scene on 11 x 11 nodes (2 ranks): the cloth
     lands on the sphere's top and folds down; the smallest gap over every
-    accepted state stays > 0, and the sphere carries a load: through the
-    nodes (/contact/force) and the triangles and edges (/contact_faces/force,
-    which carry most of it where the sheet's triangles, 10 cm wide, lie on
-    a sphere of radius 25 cm)."""
+    accepted state stays > 0, and the sphere carries a load."""
     g = groups(0.0, 0.3, 0.1, mu=0.3, n=11)
     g["contact"] = ("n_obstacles=1 obstacle_shape(1)='sphere' obstacle_point(:,1)=0.5,0.5,-0.3 "
                     "obstacle_radius(1)=0.25 obstacle_mu(1)=0.3 contact_dhat=1e-3 contact_stiffness=1.0")
-    proc, h5 = run(tmp_path, "drape", nranks=2, **g)
+    proc, _ = run(tmp_path, "drape", nranks=2, **g)
     rows = lines(proc.stdout)
     assert rows[-1][6] > 0.0
-    with h5py.File(h5, "r") as f:
-        fz = f["contact/force"][:, 2] + f["contact_faces/force"][:, 2]
-    assert fz.max() > 0.1 * MASS * G, fz
+    assert max(r[4] for r in rows) > 0.1 * MASS * G

@@ -3,7 +3,7 @@
 docs/design.md, "Contact", faces and edges): obstacles thinner than the
 lattice spacing, rising at 0.1 m/s into a free 11 x 11 cloth of spacing
 1 cm at rest (no gravity), between its nodes, where no node comes within
-the barrier's reach:
+the barrier's reach, with contact_faces = .true.:
 
 - a capsule of radius 1 mm along y, halfway between two node columns;
 - a box turned 45 degrees about x, its top edge along x halfway between two
@@ -41,14 +41,15 @@ RISE = 0.012      # its travel [m]
 T_END = RISE / V
 
 
-def groups(obstacle):
+def groups(obstacle, faces=True):
     keys = (f"obstacle_n_keyframes(1)=2 obstacle_time(1:2,1)=0.0,{T_END!r} "
             f"obstacle_offset(:,2,1)=0.0,0.0,{RISE!r}")
     return dict(
         scene="scene='flat' gravity=0.0,0.0,0.0 units='SI'",
         lattice="nx=11 ny=11 lx=0.1 ly=0.1 total_mass=0.001 mass_distribution='area'",
         material="e_s=100.0 eta_s=0.1 e_d=100.0 eta_d=0.1 bending_model='energy' k_b=1e-3 eta_b=1e-6",
-        contact=f"n_obstacles=1 {obstacle} {keys} contact_dhat={DHAT} contact_stiffness=1.0",
+        contact=(f"n_obstacles=1 {obstacle} {keys} contact_dhat={DHAT} contact_stiffness=1.0 "
+                 f"contact_faces={'.true.' if faces else '.false.'}"),
         time=f"t_end={T_END!r} dt=1e-3",
         output=f"output_interval={T_END / 24!r}",
     )
@@ -190,11 +191,10 @@ def test_thin_obstacle_lifts_the_cloth(tmp_path, case):
 
 
 def test_without_faces_the_capsule_passes_through(tmp_path):
-    """contact_faces = .false. (input/README.md): the nodes alone, as before;
+    """contact_faces = .false. (input/README.md, the default): the nodes alone;
     the capsule between two columns then passes through the cloth's edges,
     and the cloth never moves."""
-    g = groups(CAPSULE)
-    g["contact"] += " contact_faces=.false."
+    g = groups(CAPSULE, faces=False)
     _, h5 = run(tmp_path, "nodes", **g)
     with read_run(str(h5)) as r:
         t = np.asarray(r.time)

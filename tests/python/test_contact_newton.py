@@ -30,10 +30,8 @@ def test_drape_sphere_lands_without_a_retried_step(tmp_path):
     """The shipped scene (21 x 21, dt = 1 ms) through its landing and the
     first folds (t = 0.209 s: with S lagged to every other Newton iteration
     the friction of the four nodes next to the sphere's top made Newton
-    two-cycle, ||F|| stuck at 80, and the step was retried). The nodes'
-    contact alone (contact_faces = .false.): with the triangles' pairs the
-    landing step is retried once (docs/contact.md, "Faces and edges")."""
-    _, r = run_input(tmp_path, "drape_sphere", "t_end=0.22,output_interval=0.01,contact_faces=.false.")
+    two-cycle, ||F|| stuck at 80, and the step was retried)."""
+    _, r = run_input(tmp_path, "drape_sphere", "t_end=0.22,output_interval=0.01")
     assert r.complete
     assert int(r.diagnostics["steps"][-1]) == 220               # t_end / dt, none cut
     assert int(r.diagnostics["rejected_steps"][-1]) == 0

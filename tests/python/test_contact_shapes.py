@@ -32,11 +32,8 @@ def test_box_table_edge_holds_the_cloth_and_lets_the_overhang_fall(tmp_path):
     quarter of the cloth beyond it) on 11 x 11 nodes (2 ranks), a softer
     cloth (k_b = 0.01 J) for 0.3 s: no node over the table is ever below its
     top (z = -0.05 plus the 2 mm thickness) and the box carries the cloth,
-    while the part beyond the edge x = 0.75 falls well below the top, 3 cm
-    in 0.3 s (a plane would hold it up; the link across the edge pivots on
-    it rather than cutting its corner, as it did before the cloth's edges
-    met the box's, when the overhang fell 5 cm); no accepted state
-    penetrates."""
+    while the part beyond the edge x = 0.75 falls well below the top (a
+    plane would hold it up); no accepted state penetrates."""
     box = ("n_obstacles=1 obstacle_shape(1)='box' obstacle_point(:,1)=0.25,0.5,-0.45 "
            "obstacle_half_size(:,1)=0.5,0.75,0.4 obstacle_normal(:,1)=0.0,0.0,1.0 "
            "obstacle_axis(:,1)=1.0,0.0,0.0 obstacle_mu(1)=0.5 contact_thickness=2e-3 friction_eps_v=1e-2")
@@ -52,7 +49,7 @@ def test_box_table_edge_holds_the_cloth_and_lets_the_overhang_fall(tmp_path):
     assert np.all(x[..., 2][over] > top), x[..., 2][over].min()
     last = x[-1]
     beyond = last[:, :, 0] > 0.85
-    assert beyond.any() and np.all(last[beyond][:, 2] < top - 0.03), last[beyond][:, 2]
+    assert beyond.any() and np.all(last[beyond][:, 2] < top - 0.05), last[beyond][:, 2]
 
 
 def test_table_edge_slides_without_friction_and_sticks_with_it(tmp_path):
