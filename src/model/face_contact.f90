@@ -227,7 +227,8 @@ contains
   !> pair's gap: IPC's CCD); where obstacles move over [t0, t1], alpha is
   !> halved (at most 10 times) until no element's path from x0 to the
   !> candidate, the obstacle translating, comes within SWEPT_S of its
-  !> start's gap, and PM_INFEASIBLE when halving does not help.
+  !> start's gap to the obstacle's core (core), and PM_INFEASIBLE when
+  !> halving does not help.
   !> Collective: the row above the strip comes from the rank above.
   subroutine faces_step_limit(this, lat, fixed, t0, t1, x0, x, dx, comm, alpha, status)
     class(face_contact_t), intent(inout) :: this
@@ -262,7 +263,7 @@ contains
       a = 1.0_rp
       do k = 1, obstacle_set_count(this%obstacles)
         call obstacle_set_pair(this%obstacles, k, t0, t1, o0, o1, d)
-        if (has_features(o0)) a = min(a, elements_ccd(o0, this%cp%thickness, lat, x0a, path, d, SWEPT_S))
+        if (has_features(o0)) a = min(a, elements_ccd(core(o0), 0.0_rp, lat, x0a, path, d, SWEPT_S))
       end do
       call MPI_Allreduce(a, ga, 1, MPI_DOUBLE_PRECISION, MPI_MIN, comm, mpierr)
       if (ga >= 1.0_rp) exit
@@ -271,6 +272,19 @@ contains
     end do
     alpha = s
   end subroutine faces_step_limit
+
+  !> The obstacle's core, the shape shrunk by half its smallest radius or
+  !> half-extent (as the node contact's swept check, module obstacle_set):
+  !> an element carried along a curved surface over a step slides on it,
+  !> and its relative path, a chord, cuts the surface's cap though it never
+  !> was inside; an obstacle that passes through the cloth crosses the core.
+  pure function core(o) result(c)
+    type(obstacle_t), intent(in) :: o
+    type(obstacle_t) :: c
+    c = o
+    c%r = 0.5_rp * o%r
+    c%h = o%h - 0.5_rp * minval(o%h)
+  end function core
 
   !> The positions of x0, x and the update dx (0:5, 0:nx-1, ys:ye) on the
   !> owned rows and the row ye+1 (the rank above's first row; zero at the
