@@ -35,8 +35,9 @@ from numpy.lib.mixins import NDArrayOperatorsMixin
 
 ENERGY_NAMES = ("kinetic", "stretch", "bend", "dissipated", "external_work")
 # Energies of a scene with obstacles only (docs/model.md section 10): the
-# barrier energy, a potential energy of the balance.
-CONTACT_ENERGY_NAMES = ("barrier",)
+# barrier energy of the nodes and, with an obstacle other than a plane, of
+# the cloth's triangles and edges, potential energies of the balance.
+CONTACT_ENERGY_NAMES = ("barrier", "barrier_faces")
 # /contact: scenes with obstacles only.
 CONTACT_NAMES = ("active", "force", "normal_force", "friction_work", "barrier_energy",
                  "min_gap", "min_gap_run", "states_checked")
@@ -225,16 +226,18 @@ class Run:
 
     def energy_balance(self) -> np.ndarray:
         """E_kin + E_stretch + E_bend (+ E_barrier) + E_dissipated - W_external
-        per step. With obstacles the barrier energy is a potential energy and
-        the friction work is part of E_dissipated (docs/model.md section 10)."""
+        per step. With obstacles the barrier energy (the nodes' and the
+        faces' and edges') is a potential energy and the friction work is
+        part of E_dissipated (docs/model.md section 10)."""
         missing = [n for n in ENERGY_NAMES if n not in self.energy]
         if missing:
             raise ValueError(f"{self.path}: energy datasets missing: {', '.join(missing)}")
         e = self.energy
         b = (e["kinetic"] + e["stretch"] + e["bend"] + e["dissipated"]
              - e["external_work"])
-        if "barrier" in e:
-            b = b + e["barrier"]
+        for n in CONTACT_ENERGY_NAMES:
+            if n in e:
+                b = b + e[n]
         return b
 
     def scene(self) -> str | None:

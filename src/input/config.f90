@@ -60,6 +60,10 @@ module config
     real(rp) :: dhat = 1.0e-3_rp          !< barrier active for gap < dhat [length]
     real(rp) :: stiffness = 1.0_rp        !< barrier stiffness kappa [force/length]
     real(rp) :: eps_v = 1.0e-3_rp         !< friction smoothing velocity [length/time]
+    !> the cloth's triangles and edges, not only its nodes, kept outside the
+    !> obstacles that are not planes (module face_contact); off by default
+    !> until fast obstacles take it without retried steps (docs/contact.md)
+    logical :: faces = .false.
     integer :: shape_code(obstacle_max) = 1   !< derived: 1 plane, 2 sphere, 3 box, 4 capsule (the kernel's SHAPE_*)
   end type contact_config
 

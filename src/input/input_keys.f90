@@ -46,7 +46,7 @@ module input_keys
     character(96) :: meaning   !< one line
   end type key_info
 
-  integer, parameter :: n_keys = 65
+  integer, parameter :: n_keys = 66
   type(key_info), parameter :: keys(n_keys) = [ &
     ! &lattice
     key_info('nx', 'lattice', KEY_INTEGER, 1, '', '11; hang 21', '>= 3', 'nodes along x'), &
@@ -174,7 +174,9 @@ module input_keys
     key_info('contact_stiffness', 'contact', KEY_REAL, 1, 'force/length', '1', '> 0, with obstacles at most 100 m/dt^2 and holding m g', &
              'barrier stiffness kappa: energy kappa b(gap)'), &
     key_info('friction_eps_v', 'contact', KEY_REAL, 1, 'length/time', '1e-3', '> 0, with friction 1e-7 .. 1 lattice spacing/dt', &
-             'friction: sliding speed below which friction is smoothed (sticking)')]
+             'friction: sliding speed below which friction is smoothed (sticking)'), &
+    key_info('contact_faces', 'contact', KEY_LOGICAL, 1, '', '.false.', '', &
+             'the cloth''s triangles and edges, not only its nodes, kept outside spheres, boxes and capsules')]
 
 contains
 

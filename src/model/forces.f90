@@ -476,7 +476,7 @@ contains
   subroutine jac_buffer_row(buf, lat, nodal, u, ja, clamp, gauss_newton)
     type(jac_buffer_t), intent(inout) :: buf
     type(lattice_t), intent(in) :: lat
-    type(node_blocks_t), intent(in) :: nodal      !< forces on single nodes (contact): their diagonal blocks
+    type(node_blocks_t), intent(in) :: nodal      !< forces on single nodes and quads (contact): their blocks
     real(rp), intent(in) :: u(0:5, 0:lat%nx - 1, lat%gys:lat%gye)
     integer, intent(in) :: ja
     logical, intent(in) :: clamp, gauss_newton
@@ -520,9 +520,10 @@ contains
         end do
       end do
     end do
-    ! forces on single nodes (contact): -df/dx, -df/dv on the node's diagonal
+    ! forces on single nodes and on a quad's nodes (contact): -df/dx, -df/dv
+    ! on the node's diagonal and at its stencil neighbours
     if (node_blocks_count(nodal) > 0 .and. ja >= lat%ys) &
-      call node_blocks_sub_diagonal(nodal, ja, buf%k(:, :, 0, 0, :, slot_of(ja)), buf%c(:, :, 0, 0, :, slot_of(ja)))
+      call node_blocks_sub_diagonal(nodal, ja, buf%w, buf%k(:, :, :, :, :, slot_of(ja)), buf%c(:, :, :, :, :, slot_of(ja)))
 
   contains
 

@@ -69,7 +69,7 @@ contains
   !> ghost rows filled.
   subroutine assemble_csr(lat, nodal, u, fixedg, a, with_damping, clamp, gauss_newton, w, lb, g, kd, ia, av, ib, bv)
     type(lattice_t), intent(in) :: lat
-    type(node_blocks_t), intent(in) :: nodal       !< forces on single nodes (contact): their diagonal blocks
+    type(node_blocks_t), intent(in) :: nodal       !< forces on single nodes and quads (contact): their blocks
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)    !< (0:5, 0:nx-1, gys:gye) state
     logical, intent(in) :: fixedg(0:, lat%gys:)    !< (0:nx-1, gys:gye) constrained nodes
     real(rp), intent(in) :: a                      !< TS shift [1/time]
@@ -92,7 +92,7 @@ contains
   !> still in the cache.
   subroutine assemble_stencil(lat, nodal, u, fixedg, a, with_damping, clamp, gauss_newton, w, lb, g, kd, st, fine)
     type(lattice_t), intent(in) :: lat
-    type(node_blocks_t), intent(in) :: nodal       !< forces on single nodes (contact): their diagonal blocks
+    type(node_blocks_t), intent(in) :: nodal       !< forces on single nodes and quads (contact): their blocks
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)    !< (0:5, 0:nx-1, gys:gye) state
     logical, intent(in) :: fixedg(0:, lat%gys:)    !< (0:nx-1, gys:gye) constrained nodes
     real(rp), intent(in) :: a                      !< TS shift [1/time]
@@ -127,7 +127,7 @@ contains
   !> 0.4 % of its instructions).
   subroutine kc_products(lat, nodal, u, fixedg, with_damping, clamp, gauss_newton, w, lb, g, kd)
     type(lattice_t), intent(in) :: lat
-    type(node_blocks_t), intent(in) :: nodal       !< forces on single nodes (contact): their diagonal blocks
+    type(node_blocks_t), intent(in) :: nodal       !< forces on single nodes and quads (contact): their blocks
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)    !< (0:5, 0:nx-1, gys:gye) state
     logical, intent(in) :: fixedg(0:, lat%gys:)    !< (0:nx-1, gys:gye) constrained nodes
     logical, intent(in) :: with_damping, clamp, gauss_newton
@@ -230,8 +230,8 @@ contains
       if (p%mode == S_STENCIL .and. jt >= lat%ys) call stencil_row_from_full(fine, st(:, :, :, :, srow(lat, st, jt)), jt)
     end do
     ! the forces on single nodes (contact, module node_blocks): their
-    ! products in g and diagonals in kd (S's diagonal: put_rows_st, put_row)
-    if (node_blocks_count(nodal) > 0) call node_blocks_products(nodal, w(:, :, lat%ys:lat%ye), g, kd)
+    ! products in g and diagonals in kd (S's blocks: put_rows_st, put_row)
+    if (node_blocks_count(nodal) > 0) call node_blocks_products(nodal, lat%gys, w, g, kd)
   end subroutine assemble_rows
 
   !> Slot of owned row j in st.
@@ -344,7 +344,7 @@ contains
         st(i, r, r, sd, s0) = st(i, r, r, sd, s0) + p%a * lat%mass(i, j0)
       end do
     end do
-    if (node_blocks_count(nodal) > 0) call node_blocks_sub_row(nodal, j0, p%rinv, st(:, :, :, sd, s0))
+    if (node_blocks_count(nodal) > 0) call node_blocks_sub_row(nodal, j0, p%rinv, p%kof, lat%gys, fixedg, st(:, :, :, :, s0))
   end subroutine put_rows_st
 
   !> Where lb keeps the link from a node of row j0 to its neighbour
@@ -403,7 +403,7 @@ contains
     do r = 1, 3
       vals(r, r, m) = vals(r, r, m) + p%a * lat%mass(i0, j0)
     end do
-    if (node_blocks_count(nodal) > 0) call node_blocks_sub_node(nodal, i0, j0, p%rinv, vals(:, :, m))
+    if (node_blocks_count(nodal) > 0) call node_blocks_sub_node(nodal, i0, j0, p%rinv, di0, di1, dj0, lat%gys, fixedg, vals)
     call csr_put_block_row(lat, ia, av, ib, bv, i0, j0, nc, owned_blk, vals)
   end subroutine put_row
 

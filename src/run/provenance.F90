@@ -181,6 +181,7 @@ contains
       call output_config_key(out, 'contact', 'contact_dhat', [c%dhat], e, errmsg)
       call output_config_key(out, 'contact', 'contact_stiffness', [c%stiffness], e, errmsg)
       call output_config_key(out, 'contact', 'friction_eps_v', [c%eps_v], e, errmsg)
+      call output_config_key(out, 'contact', 'contact_faces', merge(1, 0, c%faces), e, errmsg)
       call output_config_key(out, 'contact', 'obstacle_half_size', reshape(c%half_size(:, 1:n), [3 * n]), e, errmsg)
       call output_config_key(out, 'contact', 'obstacle_axis', reshape(c%axis(:, 1:n), [3 * n]), e, errmsg)
       call output_config_key(out, 'contact', 'obstacle_end', reshape(c%end_pt(:, 1:n), [3 * n]), e, errmsg)

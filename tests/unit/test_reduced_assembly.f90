@@ -24,7 +24,7 @@ program test_reduced_assembly
   use reduced_blocks, only: reduced_row_blocks, buffer_row_apply
   use reduced_assembly, only: assemble_csr, assemble_stencil, kc_products
   use csr_layout, only: csr_row_blocks
-  use node_blocks, only: node_blocks_t, node_blocks_begin, node_blocks_add, node_blocks_end
+  use node_blocks, only: node_blocks_t, node_blocks_begin, node_blocks_add, node_blocks_add_pair, node_blocks_end
   use offset_product, only: offset_count, offset_slot
   use mg_kernels, only: stencil_t, stencil_init, stencil_row_from_full
   use check, only: check_true, check_report
@@ -123,6 +123,15 @@ contains
           call random_number(bx)
           call random_number(bv3)
           call node_blocks_add(nb, i, j, -50.0_rp * bx, -0.2_rp * bv3)
+          ! and blocks to two stencil neighbours (a quad's contact, module
+          ! face_contact): across the row above and below (ghost rows at the
+          ! strip's ends), to a constrained node where one is near
+          do k = -1, 1, 2
+            if (i + k < 0 .or. i + k > nx - 1 .or. j + k < 0 .or. j + k > ny - 1) cycle
+            call random_number(bx)
+            call random_number(bv3)
+            call node_blocks_add_pair(nb, i, j, k, k, -30.0_rp * bx, -0.1_rp * bv3)
+          end do
         end do
       end do
     end if

@@ -1,0 +1,508 @@
+! SPDX-License-Identifier: BSD-2-Clause
+!> Contact of the cloth's triangles and edges with the rigid obstacles as
+!> a process model of its own (issue 47 item 3; module process_model;
+!> docs/design.md, "Contact", faces and edges): beside the node contact
+!> (module contact_model), each lattice quad's two triangles, its diagonal
+!> and the x- and y-links stay outside every obstacle that has features
+!> between the nodes (sphere, capsule, box; a plane has none): the
+!> obstacle's points (sphere centre, capsule ends, box corners) against
+!> the triangles and its edges (capsule axis, box edges) against the
+!> cloth's edges, through the kernels contact_faces and contact_ccd over
+!> the strip's elements (module face_elements). The barrier is the node
+!> contact's (contact_dhat, contact_stiffness, contact_thickness), and
+!> friction on these pairs lagged as the nodes' (module face_lags).
+!> Obstacles' poses are a pure function of time (module obstacle_set), as
+!> in contact_model. The model is in the list only when an obstacle other
+!> than a plane exists (solver_setup), so a scene of planes is as before.
+module face_contact
+  use mpi
+  use kinds, only: rp
+  use config, only: nuno_config
+  use lattice, only: lattice_t
+  use constraints, only: constraint_set_t
+  use node_blocks, only: node_blocks_t
+  use pair_blocks, only: pair_blocks_t
+  use checkpoint_record, only: named_value_t, named_value
+  use contact, only: obstacle_t, contact_params_t
+  use contact_ccd, only: ACCD_S
+  use obstacle_set, only: obstacle_set_t, obstacle_set_init, obstacle_set_count, obstacle_set_pose, obstacle_set_moves, &
+                          obstacle_set_pair
+  use face_lags, only: face_lag_list_t, lags_clear, lags_take, lags_forces, lags_blocks, lags_power
+  use face_elements, only: has_features, elements_forces, elements_blocks, elements_stats, elements_gap, elements_ccd, &
+                           elements_mark
+  use process_model, only: process_model_t, pm_hints_t, pm_series_t, pm_group_t, pm_energy_t, PM_FEASIBLE, &
+                           PM_INFEASIBLE
+  use strings, only: real_brief
+  implicit none
+  private
+  public :: face_contact_t
+
+  !> The acceptance floor as a fraction of contact_dhat: contact_model's
+  !> FLOOR_FRACTION (docs/contact.md, "Acceptance"), the same for faces.
+  real(rp), parameter :: FLOOR_FRACTION = 1.0e-6_rp
+  !> The fraction of a pair's gap that the swept check of a step (the
+  !> path from the step's start, the obstacle moving) must keep: only a
+  !> path that crosses the obstacle, or nearly, is refused [1].
+  real(rp), parameter :: SWEPT_S = 1.0e-6_rp
+
+  !> Faces and edges against the obstacles on a rank's strip; written by
+  !> this module's procedures alone.
+  type, extends(process_model_t) :: face_contact_t
+    private
+    type(obstacle_set_t) :: obstacles           !< the obstacles of &contact (shapes, poses, keyframes)
+    type(contact_params_t) :: cp
+    real(rp) :: floor = 0.0_rp                  !< the acceptance floor of a gap [length]
+    integer :: rank_up = MPI_PROC_NULL          !< the rank owning row ye+1 (none at the top)
+    integer :: rank_down = MPI_PROC_NULL        !< the rank owning row ys-1 (none at the bottom)
+    ! the last accepted state's record (the accepted hook alone writes it)
+    real(rp) :: t_seen = -huge(1.0_rp)          !< its time [time]
+    real(rp) :: min_gap = huge(1.0_rp)          !< smallest gap of a triangle or edge [length]
+    real(rp) :: energy = 0.0_rp                 !< barrier energy of the face and edge pairs [energy]
+    integer :: active = 0                       !< pairs within contact_dhat
+    real(rp) :: force(3) = 0.0_rp               !< total force of these pairs on the cloth, barrier and friction [force]
+    type(face_lag_list_t) :: lags               !< friction's lag: the pairs of the last accepted state
+    real(rp) :: friction_work = 0.0_rp          !< friction work of these pairs since the start [energy]
+    real(rp) :: pfric_last = 0.0_rp             !< friction power at the last state with its own lag [energy/time]
+    !> the moving obstacles' work on the cloth through these pairs since
+    !> the start (trapezoid rule over each step) [energy]
+    real(rp) :: obstacle_work = 0.0_rp
+    real(rp) :: pstart_last = 0.0_rp            !< their power at the last state, the next step's velocities [energy/time]
+    logical :: have_last = .false.              !< t_seen, pstart_last hold the last accepted state's
+  contains
+    procedure :: name => faces_name
+    procedure :: hints => faces_hints
+    procedure :: setup => faces_setup
+    procedure :: forces => faces_forces
+    procedure :: jacobian => faces_jacobian
+    procedure :: start => faces_start
+    procedure :: step_limit => faces_step_limit
+    procedure :: accept => faces_accept
+    procedure :: accepted => faces_accepted
+    procedure :: output => faces_output
+    procedure :: checkpoint => faces_checkpoint
+    procedure :: restore => faces_restore
+  end type face_contact_t
+
+contains
+
+  function faces_name(this) result(s)
+    class(face_contact_t), intent(in) :: this
+    character(len=:), allocatable :: s
+    s = 'contact_faces'
+  end function faces_name
+
+  !> What the node contact asks (contact_model's contact_hints): a barrier
+  !> needs a feasible start, limited updates and the Jacobian at every
+  !> iteration, whichever of the two models holds a node.
+  pure function faces_hints(this) result(h)
+    class(face_contact_t), intent(in) :: this
+    type(pm_hints_t) :: h
+    h = pm_hints_t(jacobian_every_iteration=.true., forcing_off=.true., basic_line_search=.true., &
+                   feasible_start=.true., velocity_blocks=.true., state_blocks=.true., ts_types='beuler')
+  end function faces_hints
+
+  !> Set-up: the obstacles and the barrier's parameters from &contact, the
+  !> ranks of the strips above and below (the step limit's row ye+1), and
+  !> the initial state's triangles outside every obstacle (a gap of at
+  !> least the floor: else one line naming the obstacle). Collective.
+  subroutine faces_setup(this, cfg, lat, comm, u, cs, ierr, errmsg)
+    class(face_contact_t), intent(inout) :: this
+    type(nuno_config), intent(in) :: cfg
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: comm
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    type(constraint_set_t), intent(in) :: cs
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: errmsg
+    integer :: nrank, r, mpierr, k
+    integer, allocatable :: rows(:, :)
+    real(rp) :: g, gk
+    call obstacle_set_init(this%obstacles, cfg%contact)
+    this%cp = contact_params_t(thickness=cfg%contact%thickness, dhat=cfg%contact%dhat, kappa=cfg%contact%stiffness, &
+                               eps_v=cfg%contact%eps_v)
+    this%floor = FLOOR_FRACTION * this%cp%dhat
+    call MPI_Comm_size(comm, nrank, mpierr)
+    allocate(rows(2, 0:nrank - 1))
+    call MPI_Allgather([lat%ys, lat%ye], 2, MPI_INTEGER, rows, 2, MPI_INTEGER, comm, mpierr)
+    do r = 0, nrank - 1
+      if (rows(1, r) <= rows(2, r) .and. rows(1, r) == lat%ye + 1) this%rank_up = r
+      if (rows(1, r) <= rows(2, r) .and. rows(2, r) == lat%ys - 1) this%rank_down = r
+    end do
+    ierr = 0
+    errmsg = ''
+    do k = 1, obstacle_set_count(this%obstacles)
+      gk = smallest_gap(this, lat, 0.0_rp, k, u(0:2, :, :))
+      call MPI_Allreduce(gk, g, 1, MPI_DOUBLE_PRECISION, MPI_MIN, comm, mpierr)
+      if (g >= this%floor) cycle
+      ierr = 1
+      write(errmsg, '(a,i0,a)') 'input: &contact: the initial state: a cloth triangle or edge lies inside obstacle ', k, &
+        ' or within its contact_thickness (a gap of '//real_brief(g)//', below the acceptance floor '// &
+        real_brief(this%floor)//'): move the cloth, the obstacle or contact_thickness'
+      return
+    end do
+  end subroutine faces_setup
+
+  !> f += the barrier forces of the triangles and edges on the free owned
+  !> nodes, the obstacles at t; PM_INFEASIBLE where a pair has gap <= 0.
+  subroutine faces_forces(this, lat, fixed, t, u, f, status)
+    class(face_contact_t), intent(in) :: this
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    real(rp), intent(inout) :: f(:, 0:, lat%ys:)
+    integer, intent(out) :: status
+    integer :: k, nbad
+    type(obstacle_t) :: obs(obstacle_set_count(this%obstacles))
+    nbad = 0
+    do k = 1, size(obs)
+      obs(k) = obstacle_set_pose(this%obstacles, k, t)
+      if (has_features(obs(k))) call elements_forces(obs(k), this%cp, lat, fixed, u, f, nbad)
+    end do
+    call lags_forces(this%lags, obs, this%cp, lat, fixed, u, 0, f)
+    status = merge(PM_INFEASIBLE, PM_FEASIBLE, nbad > 0)
+  end subroutine faces_forces
+
+  !> The blocks df/dx of the triangles' and edges' barrier and df/dv of
+  !> their lagged friction at u, t into nodal: each node's own and those
+  !> to its stencil neighbours in the element (node_blocks_add_pair; no
+  !> pair blocks).
+  subroutine faces_jacobian(this, lat, fixed, t, u, nodal, pairs)
+    class(face_contact_t), intent(in) :: this
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    type(node_blocks_t), intent(inout) :: nodal
+    type(pair_blocks_t), intent(inout) :: pairs
+    integer :: k
+    type(obstacle_t) :: obs(obstacle_set_count(this%obstacles))
+    do k = 1, size(obs)
+      obs(k) = obstacle_set_pose(this%obstacles, k, t)
+      if (has_features(obs(k))) call elements_blocks(obs(k), this%cp, lat, fixed, u, nodal)
+    end do
+    call lags_blocks(this%lags, obs, this%cp, lat, fixed, u, nodal)
+  end subroutine faces_jacobian
+
+  !> Newton's start of a step from x0 at t0 to t1: the free nodes of the
+  !> quads that a moving obstacle reaches (a triangle's gap to its pose at
+  !> t1 below contact_dhat and below the gap at t0) start where they sat
+  !> relative to it, x0 + d with velocity d/(t1 - t0) (d: its translation
+  !> over the step), as contact_model carries single nodes: a thin
+  !> obstacle between two node columns reaches the edges but no node. The
+  !> quads within the owned rows (no communication): a quad that straddles
+  !> two strips is carried only through its links on each side.
+  subroutine faces_start(this, lat, fixed, t0, t1, x0, x, moved)
+    class(face_contact_t), intent(inout) :: this
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t0, t1
+    real(rp), intent(in) :: x0(0:, 0:, lat%ys:)
+    real(rp), intent(inout) :: x(0:, 0:, lat%ys:)
+    integer, intent(out) :: moved
+    integer :: k, i, j
+    real(rp) :: d(3)
+    type(obstacle_t) :: o0, o1
+    logical :: mark(0:lat%nx - 1, lat%ys:lat%ye)
+    moved = 0
+    if (.not. obstacle_set_moves(this%obstacles, t0, t1) .or. t1 <= t0) return
+    do k = 1, obstacle_set_count(this%obstacles)
+      call obstacle_set_pair(this%obstacles, k, t0, t1, o0, o1, d)
+      if (.not. has_features(o1) .or. all(d == 0.0_rp)) cycle
+      mark = .false.
+      call elements_mark(o0, o1, this%cp, lat, x0, mark)
+      do j = lat%ys, lat%ye
+        do i = 0, lat%nx - 1
+          if (.not. mark(i, j) .or. fixed(i, j)) cycle
+          x(0:2, i, j) = x0(0:2, i, j) + d
+          x(3:5, i, j) = d / (t1 - t0)
+          moved = moved + 1
+        end do
+      end do
+    end do
+  end subroutine faces_start
+
+  !> The Newton update x -> x + dx limited so that no triangle or edge
+  !> reaches an obstacle at its pose at t1 (ACCD, keeping a tenth of each
+  !> pair's gap: IPC's CCD); where obstacles move over [t0, t1], alpha is
+  !> halved (at most 10 times) until no element's path from x0 to the
+  !> candidate, the obstacle translating, comes within SWEPT_S of its
+  !> start's gap to the obstacle's core (core), and PM_INFEASIBLE when
+  !> halving does not help.
+  !> Collective: the row above the strip comes from the rank above.
+  subroutine faces_step_limit(this, lat, fixed, t0, t1, x0, x, dx, comm, alpha, status)
+    class(face_contact_t), intent(inout) :: this
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t0, t1
+    real(rp), intent(in) :: x0(0:, 0:, lat%ys:), x(0:, 0:, lat%ys:), dx(0:, 0:, lat%ys:)
+    integer, intent(in) :: comm
+    real(rp), intent(out) :: alpha
+    integer, intent(out) :: status
+    ! positions and updates of the owned rows and the row above [length]
+    real(rp) :: xa(3, 0:lat%nx - 1, lat%ys:lat%ye + 1), da(3, 0:lat%nx - 1, lat%ys:lat%ye + 1)
+    real(rp) :: x0a(3, 0:lat%nx - 1, lat%ys:lat%ye + 1), path(3, 0:lat%nx - 1, lat%ys:lat%ye + 1)
+    real(rp) :: a, ga, s, d(3), zero(3)
+    integer :: k, try, mpierr
+    type(obstacle_t) :: o0, o1
+    logical :: moving
+    call with_row_above(this, lat, comm, x0, x, dx, x0a, xa, da)
+    zero = 0.0_rp
+    a = 1.0_rp
+    do k = 1, obstacle_set_count(this%obstacles)
+      o1 = obstacle_set_pose(this%obstacles, k, t1)
+      if (has_features(o1)) a = min(a, elements_ccd(o1, this%cp%thickness, lat, xa, da, zero, ACCD_S))
+    end do
+    call MPI_Allreduce(a, ga, 1, MPI_DOUBLE_PRECISION, MPI_MIN, comm, mpierr)
+    s = ga
+    status = PM_FEASIBLE
+    moving = obstacle_set_moves(this%obstacles, t0, t1)
+    do try = 0, 10
+      if (.not. moving) exit
+      path = xa + s * da - x0a
+      a = 1.0_rp
+      do k = 1, obstacle_set_count(this%obstacles)
+        call obstacle_set_pair(this%obstacles, k, t0, t1, o0, o1, d)
+        if (has_features(o0)) a = min(a, elements_ccd(core(o0), 0.0_rp, lat, x0a, path, d, SWEPT_S))
+      end do
+      call MPI_Allreduce(a, ga, 1, MPI_DOUBLE_PRECISION, MPI_MIN, comm, mpierr)
+      if (ga >= 1.0_rp) exit
+      s = 0.5_rp * s
+      if (try == 10) status = PM_INFEASIBLE
+    end do
+    alpha = s
+  end subroutine faces_step_limit
+
+  !> The obstacle's core, the shape shrunk by half its smallest radius or
+  !> half-extent (as the node contact's swept check, module obstacle_set):
+  !> an element carried along a curved surface over a step slides on it,
+  !> and its relative path, a chord, cuts the surface's cap though it never
+  !> was inside; an obstacle that passes through the cloth crosses the core.
+  pure function core(o) result(c)
+    type(obstacle_t), intent(in) :: o
+    type(obstacle_t) :: c
+    c = o
+    c%r = 0.5_rp * o%r
+    c%h = o%h - 0.5_rp * minval(o%h)
+  end function core
+
+  !> The positions of x0, x and the update dx (0:5, 0:nx-1, ys:ye) on the
+  !> owned rows and the row ye+1 (the rank above's first row; zero at the
+  !> lattice's top, where no element reads it). Collective.
+  subroutine with_row_above(this, lat, comm, x0, x, dx, x0a, xa, da)
+    class(face_contact_t), intent(in) :: this
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: comm
+    real(rp), intent(in) :: x0(0:, 0:, lat%ys:), x(0:, 0:, lat%ys:), dx(0:, 0:, lat%ys:)
+    real(rp), intent(out) :: x0a(:, 0:, lat%ys:), xa(:, 0:, lat%ys:), da(:, 0:, lat%ys:)
+    real(rp) :: snd(9, 0:lat%nx - 1), rcv(9, 0:lat%nx - 1)
+    integer :: mpierr
+    x0a(:, :, lat%ys:lat%ye) = x0(0:2, :, lat%ys:lat%ye)
+    xa(:, :, lat%ys:lat%ye) = x(0:2, :, lat%ys:lat%ye)
+    da(:, :, lat%ys:lat%ye) = dx(0:2, :, lat%ys:lat%ye)
+    snd(1:3, :) = x0(0:2, :, lat%ys)
+    snd(4:6, :) = x(0:2, :, lat%ys)
+    snd(7:9, :) = dx(0:2, :, lat%ys)
+    rcv = 0.0_rp
+    call MPI_Sendrecv(snd, size(snd), MPI_DOUBLE_PRECISION, this%rank_down, 47, rcv, size(rcv), MPI_DOUBLE_PRECISION, &
+                      this%rank_up, 47, comm, MPI_STATUS_IGNORE, mpierr)
+    x0a(:, :, lat%ye + 1) = rcv(1:3, :)
+    xa(:, :, lat%ye + 1) = rcv(4:6, :)
+    da(:, :, lat%ye + 1) = rcv(7:9, :)
+  end subroutine with_row_above
+
+  !> A step's end state u at t: the smallest gap of the triangles and
+  !> edges (the nodes included) must be at least the floor; else
+  !> PM_INFEASIBLE and why (the step is retried smaller). Collective.
+  subroutine faces_accept(this, lat, fixed, t, u, comm, status, why)
+    class(face_contact_t), intent(in) :: this
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    integer, intent(in) :: comm
+    integer, intent(out) :: status
+    character(*), intent(out) :: why
+    real(rp) :: g, gmin
+    integer :: k, mpierr
+    gmin = huge(1.0_rp)
+    do k = 1, obstacle_set_count(this%obstacles)
+      gmin = min(gmin, smallest_gap(this, lat, t, k, u(0:2, :, :)))
+    end do
+    call MPI_Allreduce(gmin, g, 1, MPI_DOUBLE_PRECISION, MPI_MIN, comm, mpierr)
+    status = merge(PM_FEASIBLE, PM_INFEASIBLE, g >= this%floor)
+    why = ''
+    if (status == PM_FEASIBLE) return
+    why = 'the state at t = '//real_brief(t)//' has a cloth triangle or edge at a gap of '//real_brief(g)// &
+          ', below the acceptance floor '//real_brief(this%floor)//' (1e-6 contact_dhat; docs/contact.md, '// &
+          '"Acceptance"): a stiffer barrier (contact_stiffness) or a larger contact_dhat keeps it above the floor'
+  end subroutine faces_accept
+
+  !> The smallest gap of the triangles (their edges and nodes included)
+  !> of the quads anchored on the owned rows to obstacle k at t, from the
+  !> ghosted positions x(3, 0:nx-1, gys:gye) [length] (huge: none near).
+  real(rp) function smallest_gap(this, lat, t, k, x) result(g)
+    class(face_contact_t), intent(in) :: this
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: t
+    integer, intent(in) :: k
+    real(rp), intent(in) :: x(:, 0:, lat%gys:)
+    type(obstacle_t) :: o
+    g = huge(1.0_rp)
+    o = obstacle_set_pose(this%obstacles, k, t)
+    if (has_features(o)) g = elements_gap(o, this%cp, lat, lat%gys, x, lat%ys, lat%ye)
+  end function smallest_gap
+
+  !> An accepted state u at t: the smallest gap of a triangle or edge,
+  !> the face and edge pairs within contact_dhat and their barrier energy
+  !> (each element once: by its anchor row's rank), and the moving
+  !> obstacles' work through them (trapezoid rule over the step), for the
+  !> output; a gap <= 0 is an error (the accept hook lets none through).
+  !> A state recorded already is left alone. Collective.
+  subroutine faces_accepted(this, lat, fixed, t, u, comm, ierr, errmsg)
+    class(face_contact_t), intent(inout) :: this
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    integer, intent(in) :: comm
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: errmsg
+    real(rp) :: gmin, g, e, ge, loc(8), glob(8), pend, pstart
+    integer :: k, nact, gnact, mpierr
+    type(obstacle_t) :: obs(obstacle_set_count(this%obstacles))
+    ierr = 0
+    errmsg = ''
+    if (this%have_last .and. t == this%t_seen) return
+    gmin = huge(1.0_rp)
+    e = 0.0_rp
+    nact = 0
+    do k = 1, size(obs)
+      obs(k) = obstacle_set_pose(this%obstacles, k, t)
+      if (.not. has_features(obs(k))) cycle
+      gmin = min(gmin, elements_gap(obs(k), this%cp, lat, lat%gys, u(0:2, :, :), lat%ys, lat%ye))
+      call elements_stats(obs(k), this%cp, lat, u, nact, e)
+    end do
+    ! the step's end with the step's own lag (friction power, forces), then
+    ! the lag of this state for the next step and its power here
+    loc(1:2) = [e, lags_power(this%lags, obs, this%cp, lat, u)]
+    call forces_and_power(this, lat, fixed, t, u, loc(3:5), loc(6:7))
+    call lags_clear(this%lags)
+    do k = 1, size(obs)
+      if (has_features(obs(k))) call lags_take(this%lags, k, obs(k), this%cp, lat, u)
+    end do
+    loc(8) = lags_power(this%lags, obs, this%cp, lat, u)
+    call MPI_Allreduce(gmin, g, 1, MPI_DOUBLE_PRECISION, MPI_MIN, comm, mpierr)
+    call MPI_Allreduce(loc, glob, 8, MPI_DOUBLE_PRECISION, MPI_SUM, comm, mpierr)
+    call MPI_Allreduce(nact, gnact, 1, MPI_INTEGER, MPI_SUM, comm, mpierr)
+    ge = glob(1)
+    pend = glob(2)
+    pstart = glob(8)
+    if (this%have_last) then
+      this%friction_work = this%friction_work + 0.5_rp * (t - this%t_seen) * (this%pfric_last + pend)
+      this%obstacle_work = this%obstacle_work + 0.5_rp * (t - this%t_seen) * (this%pstart_last + glob(6))
+    end if
+    this%pfric_last = pstart
+    this%pstart_last = glob(7)
+    this%have_last = .true.
+    this%t_seen = t
+    this%min_gap = g
+    this%energy = ge
+    this%active = gnact
+    this%force = glob(3:5)
+    if (g > 0.0_rp) return
+    ierr = 1
+    errmsg = 'nuno: contact_faces: an accepted state has a cloth triangle or edge inside an obstacle at t = '// &
+             real_brief(t)//': smallest gap '//real_brief(g)
+  end subroutine faces_accepted
+
+  !> The forces of the faces' and edges' pairs (barrier and lagged
+  !> friction) on the free owned nodes at u, t: their sum ftot [force] and
+  !> the moving obstacles' power through them, with each obstacle's
+  !> velocity of the keyframe segment that ends at t (the step before:
+  !> p(1)) and of the one that starts there (the step after: p(2))
+  !> [energy/time].
+  subroutine forces_and_power(this, lat, fixed, t, u, ftot, p)
+    class(face_contact_t), intent(in) :: this
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    real(rp), intent(out) :: ftot(3), p(2)
+    real(rp) :: f(3, 0:lat%nx - 1, lat%ys:lat%ye), fk(3)
+    integer :: k, nbad
+    type(obstacle_t) :: obs(obstacle_set_count(this%obstacles)), onext
+    p = 0.0_rp
+    ftot = 0.0_rp
+    do k = 1, size(obs)
+      obs(k) = obstacle_set_pose(this%obstacles, k, t)
+    end do
+    do k = 1, size(obs)
+      if (.not. has_features(obs(k))) cycle
+      onext = obstacle_set_pose(this%obstacles, k, t, right=.true.)
+      f = 0.0_rp
+      nbad = 0
+      call elements_forces(obs(k), this%cp, lat, fixed, u, f, nbad)
+      call lags_forces(this%lags, obs, this%cp, lat, fixed, u, k, f)
+      fk = sum(sum(f, dim=3), dim=2)
+      ftot = ftot + fk
+      p = p + [dot_product(fk, obs(k)%vel), dot_product(fk, onext%vel)]
+    end do
+  end subroutine forces_and_power
+
+  !> The run's state that goes on across a restart: the moving obstacles'
+  !> work through these pairs and their friction work [energy].
+  subroutine faces_checkpoint(this, values)
+    class(face_contact_t), intent(in) :: this
+    type(named_value_t), allocatable, intent(out) :: values(:)
+    values = [named_value('contact_faces_obstacle_work', [this%obstacle_work], .false.), &
+              named_value('contact_faces_friction_work', [this%friction_work], .false.)]
+  end subroutine faces_checkpoint
+
+  !> A restart's obstacle work from its checkpoint (0 in a file written
+  !> before it); the checkpoint's state, recorded again at the restart's
+  !> first accepted hook, adds no work.
+  subroutine faces_restore(this, values)
+    class(face_contact_t), intent(inout) :: this
+    type(named_value_t), intent(in) :: values(:)
+    integer :: k
+    this%obstacle_work = 0.0_rp
+    this%friction_work = 0.0_rp
+    do k = 1, size(values)
+      if (size(values(k)%v) < 1) cycle
+      if (trim(values(k)%name) == 'contact_faces_obstacle_work') this%obstacle_work = values(k)%v(1)
+      if (trim(values(k)%name) == 'contact_faces_friction_work') this%friction_work = values(k)%v(1)
+    end do
+    this%have_last = .false.
+  end subroutine faces_restore
+
+  !> The series of the last accepted state: /contact_faces and
+  !> /energy/barrier_faces, the face and edge pairs' barrier energy, a
+  !> potential energy of the balance; the moving obstacles' work through
+  !> them an external work.
+  subroutine faces_output(this, series, groups, energy)
+    class(face_contact_t), intent(in) :: this
+    type(pm_series_t), allocatable, intent(out) :: series(:)
+    type(pm_group_t), allocatable, intent(out) :: groups(:)
+    type(pm_energy_t), intent(out) :: energy
+    real(rp) :: g
+    g = min(this%min_gap, this%cp%dhat)
+    series = [ &
+      pm_series_t(name='/contact_faces/active', description='triangle- and edge-obstacle pairs with a gap below contact_dhat', &
+                  is_count=.true., count=this%active), &
+      pm_series_t(name='/contact_faces/min_gap', description='smallest gap of a cloth triangle or edge (its nodes '// &
+                  'included) to an obstacle with features (not a plane; contact_dhat where none is within it)', units='length', &
+                  values=[g, 0.0_rp, 0.0_rp]), &
+      pm_series_t(name='/contact_faces/force', description='total force of the triangle- and edge-obstacle pairs '// &
+                  'on the cloth, barrier and friction, [t][xyz]', units='force', ncomp=3, values=this%force), &
+      pm_series_t(name='/contact_faces/friction_work', description='friction work of these pairs since the start '// &
+                  '(dissipated, >= 0; part of /energy/dissipated)', units='energy', values=[this%friction_work, 0.0_rp, 0.0_rp]), &
+      pm_series_t(name='/energy/barrier_faces', description='barrier energy of the triangle- and edge-obstacle '// &
+                  'pairs (a potential energy of the balance, beside /energy/barrier)', units='energy', &
+                  values=[this%energy, 0.0_rp, 0.0_rp])]
+    groups = [pm_group_t(name='/contact_faces', description='contact of the cloth''s triangles and edges with the '// &
+                         'obstacles of &contact, per output step')]
+    energy = pm_energy_t(potential=this%energy, dissipated=this%friction_work, external_work=this%obstacle_work)
+  end subroutine faces_output
+
+end module face_contact
