@@ -171,9 +171,8 @@ contains
     logical, intent(out) :: cut
     PetscErrorCode, intent(out) :: ierr
     type(app_ctx), pointer :: ctx
-    type(tVec) :: x0vec
-    PetscScalar, pointer :: x(:, :, :), x0(:, :, :)
-    real(rp), allocatable :: dx(:, :, :)
+    type(tVec) :: x0vec, dxvec
+    PetscScalar, pointer :: x(:, :, :), x0(:, :, :), dx(:, :, :)
     real(rp) :: alpha, t0, dt
     logical :: infeasible
     integer :: moved
@@ -181,16 +180,21 @@ contains
     PetscCall(TSGetTime(ctx%ts, t0, ierr))
     PetscCall(TSGetTimeStep(ctx%ts, dt, ierr))
     PetscCall(TSGetSolution(ctx%ts, x0vec, ierr))
+    ! dx = x - x0 in a vector of the DM's pool (no allocation a step)
+    PetscCall(DMGetGlobalVector(ctx%da, dxvec, ierr))
+    PetscCall(VecWAXPY(dxvec, -1.0_rp, x0vec, xvec, ierr))
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, x0vec, x0, ierr))
+    PetscCall(DMDAVecGetArrayReadF90(ctx%da, dxvec, dx, ierr))
     PetscCall(DMDAVecGetArrayF90(ctx%da, xvec, x, ierr))
-    dx = x - x0
     call model_pm_start_limit(ctx%model, ctx%pms, ctx%lat, t0, t0 + dt, x0, dx, ctx%comm, alpha, infeasible)
     if (infeasible) alpha = 0.0_rp
     cut = alpha < 1.0_rp
     if (cut) x = x0 + alpha * dx
     call model_pm_start(ctx%model, ctx%pms, ctx%lat, t0, t0 + dt, x0, x, moved)
     PetscCall(DMDAVecRestoreArrayF90(ctx%da, xvec, x, ierr))
+    PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, dxvec, dx, ierr))
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, x0vec, x0, ierr))
+    PetscCall(DMRestoreGlobalVector(ctx%da, dxvec, ierr))
   end subroutine pm_limit_start
 
   !> The Baraff-Witkin mode's step limit (src/solver/nuno_pm_checks.c: the
