@@ -18,6 +18,7 @@ module errors
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_char, c_null_char
   use kinds, only: rp
   use safe_files, only: cleanup_run
+  use input_text, only: lower
   implicit none
   private
   public :: help_requested, version_requested, list_keys_requested, input_path_argument, fatal_collective, fatal_local, apply_namelist_options
@@ -166,7 +167,7 @@ contains
     if (w(1:1) == '-') w = w(2:)
     if (len(w) < 1) return
     if (scan(w(1:1), 'abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ') == 0) return
-    select case (lower_case(w))
+    select case (lower(w))
     case ('inf', 'infinity', 'nan')
       return
     end select
@@ -182,16 +183,6 @@ contains
     allocate(character(len=n) :: arg)
     if (n > 0) call get_command_argument(k, arg)
   end function argument_text
-
-  pure function lower_case(s) result(r)
-    character(len=*), intent(in) :: s
-    character(len=len(s)) :: r
-    integer :: i
-    r = s
-    do i = 1, len(s)
-      if (s(i:i) >= 'A' .and. s(i:i) <= 'Z') r(i:i) = achar(iachar(s(i:i)) + 32)
-    end do
-  end function lower_case
 
   !> An options file of the command line (-options_file FILE,
   !> -options_file_yaml FILE) that rank 0 cannot read, or that has no file

@@ -14,6 +14,7 @@ module identify_objective
   use hdf5
   use kinds, only: rp
   use strings, only: itoa
+  use small_sort, only: insertion_sort
   use lattice, only: lattice_t
   use constraints, only: constraint_set_t, constraint_events
   implicit none
@@ -183,18 +184,8 @@ contains
     real(rp), allocatable, intent(inout) :: a(:)
     real(rp), intent(in) :: eps
     real(rp), allocatable :: b(:)
-    real(rp) :: x
-    integer :: i, j
-    do i = 2, size(a)
-      x = a(i)
-      j = i - 1
-      do while (j >= 1)
-        if (a(j) <= x) exit
-        a(j + 1) = a(j)
-        j = j - 1
-      end do
-      a(j + 1) = x
-    end do
+    integer :: i
+    call insertion_sort(a)
     allocate(b(0))
     do i = 1, size(a)
       if (size(b) > 0) then

@@ -15,6 +15,7 @@ module contact_checks
   use obstacle_set, only: obstacle_set_t, obstacle_set_count, obstacle_set_poses, obstacle_set_pair, &
                           obstacle_set_key_times, obstacle_set_shape_name
   use strings, only: itoa, real_brief
+  use small_sort, only: insertion_sort
   implicit none
   private
   public :: check_nodes, check_paths
@@ -124,23 +125,13 @@ contains
     real(rp), intent(in) :: kt(:), t_stop
     real(rp), allocatable :: tev(:)
     real(rp), allocatable :: ts(:)
-    real(rp) :: tmp
-    integer :: k, a, b, n
+    integer :: k, a, n
     ts = [0.0_rp, t_stop, kt]
     do k = 1, obstacle_set_count(set)
       ts = [ts, obstacle_set_key_times(set, k)]
     end do
     ts = pack(ts, ts >= 0.0_rp .and. ts <= t_stop)
-    do a = 2, size(ts)          ! a few dozen times: insertion sort
-      tmp = ts(a)
-      b = a - 1
-      do while (b >= 1)
-        if (ts(b) <= tmp) exit
-        ts(b + 1) = ts(b)
-        b = b - 1
-      end do
-      ts(b + 1) = tmp
-    end do
+    call insertion_sort(ts)     ! a few dozen times
     n = 0
     allocate(tev(size(ts)))
     do a = 1, size(ts)

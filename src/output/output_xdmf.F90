@@ -56,12 +56,8 @@ contains
     if (ierr /= 0) return
     plane = itoa(out%ny)//' '//itoa(out%nx)        ! /lattice/mass [ny][nx]
     surf = '1 '//plane                            ! the topology, one layer of points; the views
-    call xml_open(x, out%safe%xmf_path, out%safe%h5_base, ierr, errmsg)
+    call xml_open(x, out%safe%xmf_path, out%safe%h5_base, 'cloth', ierr, errmsg)
     if (ierr /= 0) return
-    call put(x, '<?xml version="1.0" ?>')
-    call put(x, '<Xdmf Version="3.0">')
-    call put(x, ' <Domain>')
-    call put(x, '  <Grid Name="cloth" GridType="Collection" CollectionType="Temporal">')
     do k = 1, out%series%nt
       call put(x, '   <Grid Name="step_'//itoa(k - 1)//'" GridType="Uniform">')
       call put(x, '    <Time Value="'//real_es(out%series%times(k))//'"/>')
@@ -88,9 +84,6 @@ contains
       call put(x, '    </Attribute>')
       call put(x, '   </Grid>')
     end do
-    call put(x, '  </Grid>')
-    call put(x, ' </Domain>')
-    call put(x, '</Xdmf>')
     call xml_close(x, ierr, errmsg)
     if (out%obst%n > 0) call write_obstacles(out, ierr, errmsg)
   end procedure write_xdmf
@@ -115,12 +108,8 @@ contains
     type(xml_file) :: x
     character(len=:), allocatable :: pre, vertices
 
-    call xml_open(x, out%safe%obst_path, out%safe%h5_base, ierr, errmsg)
+    call xml_open(x, out%safe%obst_path, out%safe%h5_base, 'obstacles', ierr, errmsg)
     if (ierr /= 0) return
-    call put(x, '<?xml version="1.0" ?>')
-    call put(x, '<Xdmf Version="3.0">')
-    call put(x, ' <Domain>')
-    call put(x, '  <Grid Name="obstacles" GridType="Collection" CollectionType="Temporal">')
     do k = 1, out%series%nt
       call put(x, '   <Grid Name="step_'//itoa(k - 1)//'" GridType="Collection" CollectionType="Spatial">')
       call put(x, '    <Time Value="'//real_es(out%series%times(k))//'"/>')
@@ -142,19 +131,18 @@ contains
       end do
       call put(x, '   </Grid>')
     end do
-    call put(x, '  </Grid>')
-    call put(x, ' </Domain>')
-    call put(x, '</Xdmf>')
     call xml_close(x, ierr, errmsg)
   end subroutine write_obstacles
 
   ! ---------------------------------------------------------------------------
   ! Writing a sidecar.
 
-  !> Start the sidecar path of the HDF5 file h5_base (its base name).
-  subroutine xml_open(x, path, h5_base, ierr, errmsg)
+  !> Start the sidecar path of the HDF5 file h5_base (its base name): its
+  !> head, up to the opening of the temporal collection named grid (both
+  !> sidecars are one; xml_close closes it).
+  subroutine xml_open(x, path, h5_base, grid, ierr, errmsg)
     type(xml_file), intent(out) :: x
-    character(*), intent(in) :: path, h5_base
+    character(*), intent(in) :: path, h5_base, grid
     integer, intent(inout) :: ierr
     character(*), intent(inout) :: errmsg
     character(len=256) :: iom
@@ -168,16 +156,24 @@ contains
       ierr = 1
       errmsg = 'output: cannot write '//path//': '//trim(iom)
     end if
+    if (ierr /= 0) return
+    call put(x, '<?xml version="1.0" ?>')
+    call put(x, '<Xdmf Version="3.0">')
+    call put(x, ' <Domain>')
+    call put(x, '  <Grid Name="'//grid//'" GridType="Collection" CollectionType="Temporal">')
   end subroutine xml_open
 
-  !> Put the sidecar of xml_open in place (or remove its new file after a
-  !> failed write).
+  !> Close the temporal collection of xml_open and put the sidecar in place
+  !> (or remove its new file after a failed write).
   subroutine xml_close(x, ierr, errmsg)
     type(xml_file), intent(inout) :: x
     integer, intent(inout) :: ierr
     character(*), intent(inout) :: errmsg
     character(len=256) :: iom
 
+    call put(x, '  </Grid>')
+    call put(x, ' </Domain>')
+    call put(x, '</Xdmf>')
     call flush_buf(x)
     if (.not. x%good) then
       ierr = 1
