@@ -22,6 +22,7 @@
 !> Plain arrays only: no PETSc, no MPI, no allocation.
 module contact_primitives
   use kinds, only: rp
+  use vec3, only: cross
   implicit none
   private
   public :: point_triangle_distance, edge_edge_distance, point_triangle_d2, edge_edge_d2
@@ -509,12 +510,5 @@ contains
       end do
     end do
   end subroutine psd_project
-
-  pure function cross(a, b) result(r)
-    real(rp), intent(in) :: a(3), b(3)
-    real(rp) :: r(3)
-
-    r = [a(2) * b(3) - a(3) * b(2), a(3) * b(1) - a(1) * b(3), a(1) * b(2) - a(2) * b(1)]
-  end function cross
 
 end module contact_primitives

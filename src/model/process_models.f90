@@ -257,15 +257,7 @@ contains
     integer, intent(in) :: comm
     real(rp), intent(out) :: alpha
     logical, intent(out) :: infeasible
-    integer :: k, status
-    real(rp) :: a
-    alpha = 1.0_rp
-    infeasible = .false.
-    do k = 1, list%n
-      call list%m(k)%pm%step_limit(lat, fixed, t0, t1, x0, x, dx, comm, a, status)
-      alpha = min(alpha, a)
-      if (status /= PM_FEASIBLE) infeasible = .true.
-    end do
+    call limit_all(list, lat, fixed, t0, t1, x0, x, dx, comm, alpha, infeasible)
     if (infeasible) then
       list%limit_failed = .true.
       list%infeasible = .true.
@@ -286,16 +278,30 @@ contains
     integer, intent(in) :: comm
     real(rp), intent(out) :: alpha
     logical, intent(out) :: infeasible
+    call limit_all(list, lat, fixed, t0, t1, x0, x0, dx, comm, alpha, infeasible)
+  end subroutine pm_list_start_limit
+
+  !> Every model's step limit of the update dx at x: the smallest fraction
+  !> alpha, and infeasible where some model allows none. Collective.
+  subroutine limit_all(list, lat, fixed, t0, t1, x0, x, dx, comm, alpha, infeasible)
+    type(pm_list_t), intent(inout) :: list
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t0, t1
+    real(rp), intent(in) :: x0(0:, 0:, lat%ys:), x(0:, 0:, lat%ys:), dx(0:, 0:, lat%ys:)
+    integer, intent(in) :: comm
+    real(rp), intent(out) :: alpha
+    logical, intent(out) :: infeasible
     integer :: k, status
     real(rp) :: a
     alpha = 1.0_rp
     infeasible = .false.
     do k = 1, list%n
-      call list%m(k)%pm%step_limit(lat, fixed, t0, t1, x0, x0, dx, comm, a, status)
+      call list%m(k)%pm%step_limit(lat, fixed, t0, t1, x0, x, dx, comm, a, status)
       alpha = min(alpha, a)
       if (status /= PM_FEASIBLE) infeasible = .true.
     end do
-  end subroutine pm_list_start_limit
+  end subroutine limit_all
 
   !> A step's end state u at t, before the integrator accepts it: ok false
   !> when the stage's last candidate was infeasible or a model rejects it
