@@ -33,7 +33,7 @@ module process_solver
   use newton_state, only: newton_update_limited
   use model_state, only: model_pm_step_limit, model_pm_accept, model_pm_accepted, model_pm_unresolved, &
                          model_pm_start_limit, model_pm_start
-  use step_errors, only: step_errors_on, step_errors_weighs, step_errors_stage, step_errors_tolerances, &
+  use step_errors, only: step_errors_on, step_errors_weighs, step_errors_stage, step_errors_stage_masks, step_errors_tolerances, &
                          step_errors_accepted, step_errors_impacts, step_errors_order_dropped, step_errors_drop_order, &
                          step_errors_take_scale, step_errors_min_step, step_errors_save_scale, &
                          step_errors_max_step, step_errors_unresolved
@@ -312,7 +312,7 @@ contains
   !> start (an impact) is rejected once and solved again at order 1, at
   !> the same step (ok false). Collective.
   subroutine stage_unresolved(ctx, t, u, ok, ierr)
-    type(app_ctx), intent(inout) :: ctx
+    type(app_ctx), intent(inout), target :: ctx      ! (target: step_errors_stage_masks)
     real(rp), intent(in) :: t
     real(rp), intent(in) :: u(0:, 0:, ctx%lat%gys:)
     logical, intent(inout) :: ok
@@ -322,7 +322,7 @@ contains
     PetscReal :: atol, rtol, dt, scale, t0, hstep
     PetscScalar, pointer :: va(:, :, :), vr(:, :, :), x0(:, :, :)
     type(tVec) :: x0vec, x0loc
-    logical, allocatable :: mask(:, :), start(:, :)
+    logical, pointer :: mask(:, :), start(:, :)
     integer :: nnew
     PetscInt, parameter :: one = 1
     ierr = 0
@@ -334,7 +334,7 @@ contains
     end if
     PetscCall(TSGetTimeStep(ctx%ts, dt, ierr))
     dt = max(dt, step_dt(ctx%step))
-    allocate(mask(0:ctx%lat%nx - 1, ctx%lat%ys:ctx%lat%ye), start(0:ctx%lat%nx - 1, ctx%lat%ys:ctx%lat%ye))
+    call step_errors_stage_masks(ctx%errw, mask, start)
     call model_pm_unresolved(ctx%model, ctx%pms, ctx%lat, t, u, dt, mask)
     ! and at the step's start x_n (the TS's solution until it accepts)
     PetscCall(TSGetSolution(ctx%ts, x0vec, ierr))
@@ -342,7 +342,7 @@ contains
     PetscCall(ghosted_get(ctx%da, x0vec, x0loc, x0, ierr))
     call model_pm_unresolved(ctx%model, ctx%pms, ctx%lat, t0, x0, dt, start)
     PetscCall(ghosted_restore(ctx%da, x0loc, x0, ierr))
-    call step_errors_stage(ctx%errw, t, mask, start, ctx%comm, nnew)
+    call step_errors_stage(ctx%errw, t, ctx%comm, nnew)
     if (step_errors_weighs(ctx%errw)) then
       PetscCall(TSGetTolerances(ctx%ts, atol, vatol, rtol, vrtol, ierr))
       PetscCall(DMDAVecGetArrayF90(ctx%da, vatol, va, ierr))

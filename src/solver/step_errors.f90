@@ -40,6 +40,7 @@ module step_errors
   implicit none
   private
   public :: step_errors_t, step_errors_init, step_errors_free, step_errors_on, step_errors_weighs, step_errors_stage, &
+            step_errors_stage_masks, &
             step_errors_tolerances, step_errors_accepted, step_errors_left_out, step_errors_drop_order, &
             step_errors_order_dropped, step_errors_impacts, step_errors_take_scale, step_errors_set_min_step, &
             step_errors_min_step, step_errors_save_scale, step_errors_max_step, step_errors_unresolved
@@ -165,22 +166,31 @@ contains
     step_errors_impacts = e%impacts
   end function step_errors_impacts
 
-  !> A stage at t checked (the TS's stage check): mask(0:nx-1, ys:ye) its
-  !> unresolved nodes, at_start those of the step's start x_n (at the
-  !> same step). n_new: nodes unresolved at the stage and not at x_n (an
-  !> impact within the step), over all ranks of comm. Collective.
-  subroutine step_errors_stage(e, t, mask, at_start, comm, n_new)
+  !> The masks (0:nx-1, ys:ye) a stage check fills before
+  !> step_errors_stage: stage, the stage's unresolved nodes, and at_start,
+  !> those of the step's start x_n. They are the record's own arrays (no
+  !> allocation a stage); e must be a target (a component of the solver's
+  !> context), and the pointers are used until step_errors_stage only.
+  subroutine step_errors_stage_masks(e, stage, at_start)
+    type(step_errors_t), intent(inout), target :: e
+    logical, pointer, intent(out) :: stage(:, :), at_start(:, :)
+    stage => e%stage
+    at_start => e%at_n
+  end subroutine step_errors_stage_masks
+
+  !> A stage at t checked (the TS's stage check), its masks filled
+  !> (step_errors_stage_masks). n_new: nodes unresolved at the stage and
+  !> not at x_n (an impact within the step), over all ranks of comm.
+  !> Collective.
+  subroutine step_errors_stage(e, t, comm, n_new)
     type(step_errors_t), intent(inout) :: e
     real(rp), intent(in) :: t
-    logical, intent(in) :: mask(0:, :), at_start(0:, :)
     integer, intent(in) :: comm
     integer, intent(out) :: n_new
     integer :: loc(2), glob(2), mpierr
-    e%stage = mask
-    e%at_n = at_start
     e%t_stage = t
-    loc(1) = count(mask .and. .not. at_start)
-    loc(2) = count(mask .or. e%at_n .or. e%at_nm1)
+    loc(1) = count(e%stage .and. .not. e%at_n)
+    loc(2) = count(e%stage .or. e%at_n .or. e%at_nm1)
     call MPI_Allreduce(loc, glob, 2, MPI_INTEGER, MPI_SUM, comm, mpierr)
     n_new = glob(1)
     e%stage_new = glob(1)
