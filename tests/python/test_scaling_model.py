@@ -66,6 +66,9 @@ def test_strip_laws():
             assert hi["reductions"] > lo["reductions"]
             assert hi["compute"] <= lo["compute"] * (1 + 1e-12)
         for r in ok:
+            # the breakdown is the whole step
+            parts = r["compute"] + r["halo"] + r["reductions"] + r["coarse"]
+            assert parts == pytest.approx(r["total"], rel=1e-12)
             t1 = sm.model(n, 1, a)["total"]
             assert t1 / (r["p"] * r["total"]) <= 1.0     # never better than perfect
         # strips stop at 2 rows a rank (DMDA's stencil width)
