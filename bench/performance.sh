@@ -67,10 +67,8 @@ elif [ $# -ge 2 ]; then
   dw_log=${!#}
 else
   # the logs behind docs/performance.md's table until the next full run
-  # (a later log wins for the same case: the Newton rows of ff7f09b)
-  bench_logs=("$res/performance-bench-9108eb5-bending.log" "$res/performance-bench-9108eb5-nobend-bw.log"
-              "$res/performance-bench-ff7f09b-newton.log")
-  dw_log=$res/performance-donewhen-9dc4da2.log
+  bench_logs=("$res/performance-bench-0ff048a.log")
+  dw_log=$res/performance-donewhen-0ff048a.log
 fi
 
 python3 bench/solver.py --replot "${bench_logs[@]}" --donewhen "$dw_log" \

@@ -173,8 +173,8 @@ def plot(rows, path):
                      if r["ok"] and (r["mode"], r["bending"], r["nranks"]) == (mode, bending, nranks))
         ax.loglog(*zip(*pts), ("o-" if nranks == 1 else "s--"), color=colors[(mode, bending)],
                   label=f"{mode}, {'bending' if bending else 'no bending'}, {nranks} rank(s)")
-    ax.axhline(6e5, color="k", lw=0.8, ls=":")
-    ax.text(70, 6.6e5, "peer: 0.6 M per core (256 x 256, no bending)", fontsize=8)
+    ax.axhline(1.0e5, color="k", lw=0.8, ls=":")   # bench/peer.sh, docs/performance.md "The peer"
+    ax.text(70, 1.1e5, "peer (bench/peer_taichi.py): 0.1 M per core (257 x 257, 2-hop springs)", fontsize=8)
     ax.set_xlabel("N (lattice N x N)")
     ax.set_ylabel("node-steps / s (TSStep)")
     ax.axhline(1.2e6, color="k", lw=0.8, ls="--")
