@@ -22,6 +22,10 @@ module failure_text
   private
   public :: signal_name, failure_reason, report_io_error
 
+  !> TS_DIVERGED_STEP_REJECTED, which PETSc 3.18's Fortran interface does
+  !> not define (petscts.h): -ts_max_reject rejections of one step in a row.
+  integer, parameter :: TS_STEP_REJECTED = -2
+
 contains
 
   !> What is known to help a failed Newton solve, leaving out what the user
@@ -40,8 +44,10 @@ contains
     if (step_fixed(ctx%step)) then
       write(dtq, '(es10.3)') 0.25_rp * step_dt(ctx%step)
       h = trim(h)//' a smaller step (-ts_dt '//trim(adjustl(dtq))//'), adaptive steps (-ts_adapt_type basic),'
-    else if (.not. given('-ts_max_snes_failures')) then
-      h = trim(h)//' more retries (-ts_max_snes_failures -1),'
+    else if (.not. (given('-ts_max_snes_failures') .or. given('-ts_max_reject'))) then
+      ! (adaptive steps: failed solves are rejected steps, unlimited in
+      ! number, but at most -ts_max_reject of one step in a row)
+      h = trim(h)//' more retries of a step (-ts_max_reject 100),'
     end if
     ! Each path names its own linear solve: the inner 3-dof one (reduced_
     ! prefix) or the 6-dof Krylov solve (no prefix).
@@ -119,6 +125,9 @@ contains
       write(msg, '(a,es12.5,a)') 'time step from t = ', t, ' failed: nonlinear solve diverged '// &
         '(TS_DIVERGED_NONLINEAR_SOLVE): the run''s failed Newton solves reached -ts_max_snes_failures '// &
         '(each retried with a smaller step); '//trim(failure_hints(ctx))
+    else if (reason == TS_STEP_REJECTED .and. last_solve_failed(ctx)) then
+      write(msg, '(a,es12.5,a)') 'time step from t = ', t, ' failed: its Newton solves failed -ts_max_reject '// &
+        'times in a row (each retried with a quarter of the step); '//trim(failure_hints(ctx))
     else if (reason < 0) then
       write(msg, '(a,es12.5,a,i0,a)') 'time step from t = ', t, ' failed (TSConvergedReason ', reason, &
         ', e.g. -2 = step rejected too often by the error controller)'
@@ -126,6 +135,20 @@ contains
       write(msg, '(a,es12.5)') 'state became NaN or infinite at t = ', t
     end if
   end subroutine failure_reason
+
+  !> The last Newton solve failed (adaptive steps: the rejected step that
+  !> ended the run was a failed solve, not the error estimate's).
+  logical function last_solve_failed(ctx)
+    type(app_ctx), intent(in) :: ctx
+    type(tSNES) :: snes
+    SNESConvergedReason :: r
+    PetscErrorCode :: ierr
+    last_solve_failed = .false.
+    call TSGetSNES(ctx%ts, snes, ierr)
+    if (ierr /= 0) return
+    call SNESGetConvergedReason(snes, r, ierr)
+    last_solve_failed = ierr == 0 .and. r < 0
+  end function last_solve_failed
 
   !> An output write failed (agreed by every rank): its one line on stderr
   !> (rank 0), and the run's error (module run_error), so that solver_run

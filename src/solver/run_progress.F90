@@ -135,6 +135,9 @@ contains
     fresh = step > p%collapse_step
     if (.not. fresh) return
     p%collapse_step = step
+    ! a step that did not advance t is the stall check's (step_monitor's
+    ! stall_check names that cause: t's resolution)
+    if (.not. (h > 0.0_rp)) return
     if (h >= COLLAPSE_FRACTION * t_end) then
       p%short_steps = 0
       p%t_normal = t

@@ -90,4 +90,7 @@ def test_failure_hints_leave_out_what_was_set(tmp_path):
     assert len(line) == 1, err
     for already in ("-ts_adapt_type basic", "-reduced_pc_type lu", "-snes_monitor -", "-ts_dt"):
         assert already not in line[0], line[0]
-    assert "-ts_max_snes_failures -1" in line[0]
+    # adaptive steps: failed solves are rejected steps, at most
+    # -ts_max_reject of one step in a row (not -ts_max_snes_failures)
+    assert "failed -ts_max_reject times in a row" in line[0]
+    assert "-ts_max_reject 100" in line[0]
