@@ -148,9 +148,11 @@ contains
       '  -reduced_dm_mat_type aij|baij|sbaij          storage of S with -reduced_pc_type (default: aij for', &
       '                                               multigrid, baij else); nuno''s multigrid needs none', &
       '  -nuno_pc_lag N                               rebuild the inner preconditioner every N assemblies', &
-      '                                               (default 3 with the multigrid, 10 with its cubic', &
-      '                                               interpolation, 1 otherwise; and at every output step;', &
-      '                                               a failed solve rebuilds it and retries)', &
+      '                                               (default 3 with the multigrid, 20 with its cubic', &
+      '                                               interpolation, 1 otherwise; and after a keyframe or', &
+      '                                               release; a failed solve rebuilds it and retries)', &
+      '  -nuno_pc_rebuild_growth R                    and when a solve''s cycles per decade pass R times', &
+      '                                               those of the first solve after a rebuild (1.5; 0: off)', &
       '  -nuno_mg_interpolation auto|linear|cubic|coarse_cubic  interpolation of the inner multigrid', &
       '                                               (auto: with bending, whose fourth-order modes', &
       '                                               bilinear transfer does not carry, cubic on every', &

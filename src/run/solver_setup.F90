@@ -25,6 +25,7 @@ module solver_setup
   use cloth_model, only: form_ifunction, form_ijacobian
   use model_state, only: model_state_init, model_state_free, assembly_create, assembly_free, assembly_matrix
   use newton_policy, only: set_newton_start, snes_converged
+  use pc_reuse, only: PC_GROWTH_DEFAULT
   use newton_state, only: SNES_FLOOR_DEFAULT, newton_state_init, newton_set_inner_guess, newton_guess, newton_guess_given, &
                           newton_forcing_on
   use process_solver, only: pm_solver_options, pm_solver_setup
@@ -54,6 +55,7 @@ module solver_setup
   !> the set-up that follows.
   type :: nuno_options_t
     integer(c_int) :: pc_lag = 0                !< -nuno_pc_lag (0: the default)
+    real(c_double) :: pc_growth = 0.0_c_double  !< -nuno_pc_rebuild_growth (0: off)
     integer(c_int) :: mg_interp = 0             !< -nuno_mg_interpolation's code (module reduced)
     integer(c_int) :: gn = 0, cl = 0            !< -nuno_gauss_newton, -nuno_clamp (1: on)
     character(len=64) :: mattype = ''           !< the 6-dof matrix type (-dm_mat_type)
@@ -222,6 +224,7 @@ contains
 
     jac = JACOBIAN_REDUCED
     opt%pc_lag = 0                 ! the default: 3 with the multigrid, 1 otherwise (module reduced)
+    opt%pc_growth = PC_GROWTH_DEFAULT
     opt%mg_interp = INTERP_AUTO    ! cubic with bending, linear without (module reduced)
     opt%gn = 0
     opt%cl = 0
@@ -236,7 +239,7 @@ contains
     forcing = merge(0, 1, hints%forcing_off)
     guess = GUESS_AUTO
     snes_floor = SNES_FLOOR_DEFAULT
-    ierr = nuno_options_read(ctx%comm, JACOBIAN_NAMES, size(JACOBIAN_NAMES), len(JACOBIAN_NAMES), jac, opt%pc_lag, &
+    ierr = nuno_options_read(ctx%comm, JACOBIAN_NAMES, size(JACOBIAN_NAMES), len(JACOBIAN_NAMES), jac, opt%pc_lag, opt%pc_growth, &
                              INTERP_NAMES, size(INTERP_NAMES), len(INTERP_NAMES), opt%mg_interp, snes_floor, opt%gn, opt%cl, &
                              cmattype, len(cmattype), nfail, forcing, &
                              GUESS_NAMES, size(GUESS_NAMES), len(GUESS_NAMES), guess, guess_given)
@@ -244,6 +247,10 @@ contains
     if (opt%pc_lag < 0) then
       ierr = PETSC_ERR_ARG_OUTOFRANGE
       SETERRQ(ctx%comm, ierr, '-nuno_pc_lag '//itoa(int(opt%pc_lag))//' must be >= 1 (or 0: the default)')
+    end if
+    if (.not. (opt%pc_growth == 0.0_rp .or. opt%pc_growth > 1.0_rp)) then
+      ierr = PETSC_ERR_ARG_OUTOFRANGE
+      SETERRQ(ctx%comm, ierr, '-nuno_pc_rebuild_growth '//real_g0(opt%pc_growth)//' must be 0 (off) or > 1')
     end if
     if (.not. (snes_floor >= 0.0_rp .and. snes_floor < 1.0_rp)) then
       ierr = PETSC_ERR_ARG_OUTOFRANGE
@@ -343,7 +350,7 @@ contains
                 (cfg%material%bending_code == BEND_NONE .or. (cfg%material%bending_code == BEND_ENERGY .and. &
                  (cfg%material%eta_b == 0.0_rp .or. opt%gn /= 0)))
     constant = cfg%material%spring_code == SPRING_LINEAR .and. cfg%material%bending_code == BEND_NONE .and. .not. hints%state_blocks
-    PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, pm_list_nodal(ctx%pms), symmetric, constant, damping, opt%cl /= 0, opt%gn /= 0, opt%pc_lag, opt%mg_interp, ierr))
+    PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, pm_list_nodal(ctx%pms), symmetric, constant, damping, opt%cl /= 0, opt%gn /= 0, opt%pc_lag, opt%pc_growth, opt%mg_interp, ierr))
   end subroutine create_jacobian
 
   !> The TS: the report's scheme by default, backward Euler with the

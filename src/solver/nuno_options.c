@@ -41,11 +41,11 @@ static PetscErrorCode choices_from_fortran(const char *names, int n, int len, Ch
 }
 
 /* jacobian, mg_interp, guess: in/out codes of the lists jac_names, interp_names,
- * guess_names (n names of len characters each); pc_lag, snes_floor,
+ * guess_names (n names of len characters each); pc_lag, pc_growth, snes_floor,
  * fail_newton: in/out (checked by the caller); gauss_newton, clamp, forcing:
  * in/out 0/1; mattype: in/out NUL-terminated, mattype_len bytes;
  * *guess_given 1 when -nuno_inner_guess is set. Returns a PETSc error code. */
-PetscErrorCode nuno_options_read(MPI_Fint fcomm, const char *jac_names, int jac_n, int jac_len, int *jacobian, int *pc_lag,
+PetscErrorCode nuno_options_read(MPI_Fint fcomm, const char *jac_names, int jac_n, int jac_len, int *jacobian, int *pc_lag, double *pc_growth,
                                  const char *interp_names, int interp_n, int interp_len, int *mg_interp, double *snes_floor,
                                  int *gauss_newton, int *clamp, char *mattype, int mattype_len, int *fail_newton, int *forcing,
                                  const char *guess_names, int guess_n, int guess_len, int *guess, int *guess_given)
@@ -54,7 +54,7 @@ PetscErrorCode nuno_options_read(MPI_Fint fcomm, const char *jac_names, int jac_
   MPI_Comm  comm = MPI_Comm_f2c(fcomm);
   PetscInt  jac = *jacobian, lag = *pc_lag, nfail = *fail_newton, interp = *mg_interp, gs = *guess;
   PetscBool gset = PETSC_FALSE;
-  PetscReal floor = *snes_floor;
+  PetscReal floor = *snes_floor, growth = *pc_growth;
   PetscBool gn = *gauss_newton ? PETSC_TRUE : PETSC_FALSE, cl = *clamp ? PETSC_TRUE : PETSC_FALSE;
   PetscBool fc = *forcing ? PETSC_TRUE : PETSC_FALSE;
   char      mt[64];
@@ -68,6 +68,8 @@ PetscErrorCode nuno_options_read(MPI_Fint fcomm, const char *jac_names, int jac_
   PetscCall(PetscOptionsEList("-nuno_jacobian", "reduced: assemble only the 3-dof velocity system and eliminate around it; full: the 6-dof Jacobian",
                               "nuno", jacobians.name, jacobians.n, jacobians.name[jac], &jac, NULL));
   PetscCall(PetscOptionsInt("-nuno_pc_lag", "rebuild the inner (reduced_) preconditioner every N assemblies (0: with the default multigrid 3, or 20 with cubic interpolation; 1 otherwise)", "nuno", lag, &lag, NULL));
+  PetscCall(PetscOptionsReal("-nuno_pc_rebuild_growth", "also rebuild a reused inner preconditioner at the next assembly when a solve's cycles per decade of residual reduction pass this factor times those of the first solve after its last rebuild (0: only every -nuno_pc_lag assemblies)",
+                             "nuno", growth, &growth, NULL));
   PetscCall(PetscOptionsEList("-nuno_mg_interpolation", "interpolation of the inner multigrid: auto (coarse_cubic with bending, linear without), linear, cubic (every level), coarse_cubic (every level but the finest; nuno's multigrid interpolates the finest level's correction cubic too)",
                               "nuno", interps.name, interps.n, interps.name[interp], &interp, NULL));
   PetscCall(PetscOptionsReal("-nuno_snes_floor", "Newton: converged when a residual below this fraction of its start or below the round-off floor estimated from the assembled matrix (S or the 6-dof Jacobian) stops decreasing or finds no decrease in the line search, or is below half that floor (0: off)",
@@ -88,6 +90,7 @@ PetscErrorCode nuno_options_read(MPI_Fint fcomm, const char *jac_names, int jac_
   PetscOptionsEnd();
   *jacobian = (int)jac;
   *pc_lag = (int)lag;
+  *pc_growth = growth;
   *mg_interp = (int)interp;
   *snes_floor = floor;
   *gauss_newton = gn ? 1 : 0;

@@ -26,6 +26,7 @@ module reduced
   use reduced_storage, only: s_store_t, store_init, store_matrix, store_assemble, check_direct, set_block_row, &
                              store_use_buffer, store_direct
   use newton_control, only: floor_node_add, floor_estimate
+  use pc_reuse, only: pc_reuse_t, reuse_init, reuse_due, reuse_rebuilt, reuse_force, reuse_watch, reuse_grown
   use inner_guess, only: GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, GUESS_PROJECT, PROJECT_PAIRS
   use reduced_guess, only: guess_t, guess_use, guess_free, guess_restart, guess_set, guess_keep, guess_push, &
                            guess_accepted, guess_mode
@@ -79,8 +80,7 @@ module reduced
     logical :: use_nullspace = .false.     !< inner PC is GAMG: give it the rigid-body modes
     logical :: use_mg = .false.            !< inner PC is nuno's structured multigrid (module stencil_mg)
     integer :: interp = 1                  !< multigrid interpolation: INTERP_LINEAR, _CUBIC, _COARSE_CUBIC
-    integer :: pc_lag = 1                  !< rebuild the inner preconditioner every pc_lag assemblies
-    integer :: since_pc = 0                !< assemblies since the last rebuild
+    type(pc_reuse_t) :: reuse              !< when to rebuild it (module pc_reuse)
   end type inner_pc_t
 
   !> Context of the reduced solve (PCSHELL and MATSHELL context).
@@ -138,13 +138,14 @@ contains
   !> preallocation (or by stencil offset for nuno's multigrid), the 6-dof
   !> MATSHELL and the element model's arrays. symmetric selects the
   !> default inner Krylov method (CG or GMRES). Collective.
-  subroutine reduced_create(red, da6, lat, nodal, symmetric, constant, damping, clamp, gauss_newton, pc_lag, mg_interpolation, ierr)
+  subroutine reduced_create(red, da6, lat, nodal, symmetric, constant, damping, clamp, gauss_newton, pc_lag, pc_growth, mg_interpolation, ierr)
     type(reduced_t), intent(inout), target :: red
     type(tDM), intent(in) :: da6
     type(lattice_t), intent(in), target :: lat
     type(node_blocks_t), intent(in), target :: nodal   !< the node blocks every assembly adds (app_ctx's)
     logical, intent(in) :: symmetric, constant, damping, clamp, gauss_newton
     integer, intent(in) :: pc_lag                  !< rebuild the inner preconditioner every pc_lag assemblies (>= 1; 0: default)
+    real(rp), intent(in) :: pc_growth              !< and when a solve's cycles a decade grow past pc_growth x (0: never; module pc_reuse)
     integer, intent(in) :: mg_interpolation        !< multigrid interpolation: 0 auto, else an INTERP_ code
     PetscErrorCode, intent(out) :: ierr
     type(mg_options_t) :: mgo
@@ -181,7 +182,7 @@ contains
     ! An explicit -reduced_ksp_rtol wins over the outer forcing term.
     PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_ksp_rtol', found, ierr))
     red%forward_ew = .not. found
-    red%pcc%pc_lag = default_pc_lag(pc_lag, pctype == PCMG .or. red%pcc%use_mg, red%pcc%interp)
+    call reuse_init(red%pcc%reuse, default_pc_lag(pc_lag, pctype == PCMG .or. red%pcc%use_mg, red%pcc%interp), pc_growth)
   end subroutine reduced_create
 
   !> The -log_view events of the reduced solve's own work (class nuno):
@@ -496,7 +497,7 @@ contains
     ! The preconditioner is built afresh at the window's first assembly, so
     ! that a run restarted at a window's start (a checkpoint) takes the same
     ! iterations as the run that went through it.
-    red%pcc%since_pc = red%pcc%pc_lag
+    call reuse_force(red%pcc%reuse)
     ! and the inner guesses too start afresh (module inner_guess)
     call guess_restart(red%gs)
   end subroutine reduced_set_fixed
@@ -596,7 +597,8 @@ contains
   end subroutine estimate_floor
 
   !> Preconditioner reuse after an assembly at the state u: rebuild every
-  !> pc_lag assemblies (and after a failed inner solve, see
+  !> pc_lag assemblies, when a solve's cycles a decade grew (module
+  !> pc_reuse; watched in solve_s) and after a failed inner solve (see
   !> reduced_pc_apply), nuno's multigrid's coarse levels and GAMG's
   !> rigid-body modes with it; else keep it (the coarse levels made if they
   !> do not exist yet). Collective.
@@ -604,9 +606,10 @@ contains
     type(reduced_t), intent(inout) :: red
     real(rp), intent(in) :: u(0:, 0:, red%lat%gys:)
     PetscErrorCode, intent(out) :: ierr
-    red%pcc%since_pc = red%pcc%since_pc + 1
-    if (red%pcc%since_pc >= red%pcc%pc_lag) then
-      red%pcc%since_pc = 0
+    logical :: due
+    call reuse_due(red%pcc%reuse, due)
+    if (due) then
+      call reuse_rebuilt(red%pcc%reuse)
       PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_FALSE, ierr))
       if (red%pcc%use_mg) then
         PetscCall(mg_coarse_levels(red%mgg, u, red%el%fixedg, red%a, red%el%damping, red%el%clamp, red%el%gauss_newton, ierr))

@@ -220,6 +220,7 @@ contains
     if (reason > 0) then
       ! (a failed solve's correction is no guess)
       PetscCall(guess_keep(red%gs, red%a, int(nit), red%rhs, bnorm, red%dv, ierr))
+      PetscCall(watch_cycles(red, reason, ierr))
     end if
     PetscCall(KSPGetResidualNorm(red%ksp, rnorm, ierr))
     red%lin_rel = 0.0_rp
@@ -227,7 +228,7 @@ contains
     if (reason < 0) then
       PetscCall(KSPGetReusePreconditioner(red%ksp, reused, ierr))
       if (reused) then
-        red%pcc%since_pc = 0
+        call reuse_rebuilt(red%pcc%reuse)
         PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_FALSE, ierr))
         PetscCall(KSPSetOperators(red%ksp, red%s, red%s, ierr))
         if (red%pcc%use_mg) then
@@ -241,6 +242,19 @@ contains
       PetscCall(guess_push(red%gs, red%a, red%rhs, bnorm, red%dv, ierr))
     end if
   end subroutine solve_s
+
+  !> The converged solve's cycles a decade to the reuse safeguard (module
+  !> pc_reuse): it asks for a rebuild at the next assembly when they grew.
+  subroutine watch_cycles(red, reason, ierr)
+    type(reduced_t), intent(inout) :: red
+    KSPConvergedReason, intent(in) :: reason
+    PetscErrorCode, intent(out) :: ierr
+    PetscInt :: its, maxit
+    real(rp) :: rtol, atol, dtol
+    PetscCall(KSPGetIterationNumber(red%ksp, its, ierr))
+    PetscCall(KSPGetTolerances(red%ksp, rtol, atol, dtol, maxit, ierr))
+    call reuse_watch(red%pcc%reuse, int(its), rtol, reason == KSP_CONVERGED_RTOL)
+  end subroutine watch_cycles
 
   !> The back-substitution: du from the inner solution dv and the 6-dof
   !> right-hand side b (global, dof 6): dv and dx = (dv + b_x)/a on free

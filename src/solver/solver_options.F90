@@ -26,7 +26,7 @@ module solver_options
   interface
     !> src/solver/nuno_options.c: the Newton step's options in a PETSc options
     !> block; the choices as codes of the lists passed (module solver_choices).
-    integer(c_int) function nuno_options_read(fcomm, jac_names, jac_n, jac_len, jacobian, pc_lag, &
+    integer(c_int) function nuno_options_read(fcomm, jac_names, jac_n, jac_len, jacobian, pc_lag, pc_growth, &
                                               interp_names, interp_n, interp_len, mg_interp, snes_floor, gauss_newton, clamp, &
                                               mattype, mattype_len, fail_newton, forcing, guess_names, guess_n, guess_len, &
                                               guess, guess_given) bind(C, name='nuno_options_read')
@@ -35,7 +35,7 @@ module solver_options
       character(kind=c_char), intent(in) :: jac_names(*), interp_names(*), guess_names(*)
       integer(c_int), intent(inout) :: jacobian, pc_lag, mg_interp, gauss_newton, clamp, fail_newton, forcing, guess
       integer(c_int), intent(out) :: guess_given
-      real(c_double), intent(inout) :: snes_floor
+      real(c_double), intent(inout) :: snes_floor, pc_growth
       character(kind=c_char), intent(inout) :: mattype(*)
       integer(c_int), value :: mattype_len
     end function nuno_options_read
