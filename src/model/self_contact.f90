@@ -248,10 +248,13 @@ contains
   end subroutine self_jacobian
 
   !> Flavour (a): the update x -> x + dx scaled by the smallest ACCD alpha
-  !> (a tenth of each gap kept) over the candidates of its swept paths
-  !> (their own plan of rows: the update may reach beyond the list's
-  !> reach), the minimum over the ranks; the list made again at the
-  !> limited candidate where a node has moved skin/2 since it was made.
+  !> (a tenth of each gap kept) over the pairs its paths may bring within
+  !> xi, the minimum over the ranks. Where every node's path stays within
+  !> skin/2 of the list's positions (both ends: the path is a segment) the
+  !> list holds every such pair (they were within xi + skin of each other
+  !> at its positions) and its pairs serve; else a swept broad phase with
+  !> a plan of rows of its own (swept_alpha), and the list made again at
+  !> the limited candidate where a node has moved skin/2 from it.
   !> PM_INFEASIBLE where no fraction is allowed. Collective.
   subroutine self_step_limit(this, lat, fixed, t0, t1, x0, x, dx, comm, alpha, status)
     class(self_contact_model_t), intent(inout) :: this
@@ -262,6 +265,37 @@ contains
     integer, intent(in) :: comm
     real(rp), intent(out) :: alpha
     integer, intent(out) :: status
+    real(rp) :: xd(6, 0:lat%nx - 1, lat%ys:lat%ye), xall(6, 0:lat%nx - 1, size(this%rows)), a, far, gfar
+    integer :: ierr, mpierr
+    xd(1:3, :, :) = x(0:2, :, lat%ys:lat%ye)
+    xd(4:6, :, :) = dx(0:2, :, lat%ys:lat%ye)
+    far = 0.0_rp
+    if (lat%ye >= lat%ys) far = max(maxval(norm2(xd(1:3, :, :) - this%x_list, dim=1)), &
+                                    maxval(norm2(xd(1:3, :, :) + xd(4:6, :, :) - this%x_list, dim=1)))
+    call MPI_Allreduce(far, gfar, 1, MPI_DOUBLE_PRECISION, MPI_MAX, comm, mpierr)
+    if (gfar <= 0.5_rp * this%skin) then
+      call self_exchange_gather(this%xch, xd, xall, ierr)
+      a = self_alpha_ccd(this%sl, this%rows, xall(1:3, :, :), xall(4:6, :, :), this%pairs, this%cp%thickness, ACCD_S)
+      call MPI_Allreduce(a, alpha, 1, MPI_DOUBLE_PRECISION, MPI_MIN, comm, mpierr)
+    else
+      call swept_alpha(this, lat, comm, x, dx, alpha, ierr)
+    end if
+    status = merge(PM_INFEASIBLE, PM_FEASIBLE, alpha <= 0.0_rp .or. ierr /= 0)
+    if (alpha < 1.0_rp) this%limited = this%limited + 1
+  end subroutine self_step_limit
+
+  !> Flavour (a) beyond the list's skin: the rows ys-1 and ye+1 of x and
+  !> dx from the neighbours, a swept plan of rows (margin xi), the swept
+  !> candidates (OWN_LOWEST: each pair once), the smallest ACCD alpha over
+  !> the ranks, and the list made again at x + alpha dx where a node is
+  !> skin/2 from the list's positions there. Collective.
+  subroutine swept_alpha(this, lat, comm, x, dx, alpha, ierr)
+    class(self_contact_model_t), intent(inout) :: this
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: comm
+    real(rp), intent(in) :: x(0:, 0:, lat%ys:), dx(0:, 0:, lat%ys:)
+    real(rp), intent(out) :: alpha
+    integer, intent(out) :: ierr
     ! positions and updates of the owned rows and the rows below and above [length]
     real(rp) :: xd(6, 0:lat%nx - 1, max(lat%ys - 1, 0):min(lat%ye + 1, lat%ny - 1))
     type(self_exchange_t) :: swept
@@ -269,7 +303,7 @@ contains
     integer, allocatable :: rows(:)
     real(rp), allocatable :: xall(:, :, :)
     real(rp) :: a, moved, gmoved
-    integer :: ierr, mpierr
+    integer :: mpierr
     call with_neighbour_rows(this, lat, comm, x, dx, xd)
     call self_exchange_plan_swept(swept, comm, lat%nx, lat%ny, lat%ys, lat%ye, xd(1:3, :, :), xd(4:6, :, :), &
                                   this%cp%thickness, PATCH_ROWS, ierr)
@@ -280,9 +314,6 @@ contains
                                this%cp%thickness, this%rest_reach, cand)
     a = self_alpha_ccd(this%sl, rows, xall(1:3, :, :), xall(4:6, :, :), cand, this%cp%thickness, ACCD_S)
     call MPI_Allreduce(a, alpha, 1, MPI_DOUBLE_PRECISION, MPI_MIN, comm, mpierr)
-    status = merge(PM_INFEASIBLE, PM_FEASIBLE, alpha <= 0.0_rp)
-    if (alpha < 1.0_rp) this%limited = this%limited + 1
-    ! the Verlet list: still valid at the limited candidate?
     moved = 0.0_rp
     if (lat%ye >= lat%ys) moved = maxval(norm2(xd(1:3, :, lat%ys:lat%ye) + alpha * xd(4:6, :, lat%ys:lat%ye) - &
                                                this%x_list, dim=1))
@@ -290,8 +321,7 @@ contains
     if (gmoved <= 0.5_rp * this%skin) return
     call make_list(this, lat, comm, xd(1:3, :, :) + alpha * xd(4:6, :, :), ierr)
     this%rebuilt = this%rebuilt + 1
-    if (ierr /= 0) status = PM_INFEASIBLE
-  end subroutine self_step_limit
+  end subroutine swept_alpha
 
   !> The positions and updates (x, dx: 0:2 of (0:5, 0:nx-1, ys:ye)) of
   !> the owned rows and of the rows ys-1 and ye+1 from the ranks below and
