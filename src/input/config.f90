@@ -64,6 +64,10 @@ module config
     !> obstacles that are not planes (module face_contact); off by default
     !> until fast obstacles take it without retried steps (docs/contact.md)
     logical :: faces = .false.
+    !> the cloth against itself (module self_contact): its triangles and
+    !> edges kept apart, the barrier above at distance 2 contact_thickness;
+    !> off by default (nothing allocated, nothing run)
+    logical :: self_contact = .false.
     integer :: shape_code(obstacle_max) = 1   !< derived: 1 plane, 2 sphere, 3 box, 4 capsule (the kernel's SHAPE_*)
   end type contact_config
 

@@ -57,6 +57,9 @@ contains
       if (c%n_obstacles > 0) then
         call check_contact_scales(cfg, ierr, msg); if (ierr /= 0) return
       end if
+      if (c%self_contact) then
+        call check_self_contact(cfg, ierr, msg); if (ierr /= 0) return
+      end if
       ierr = 1
       ! The adjoint would be inexact with contact (docs/identification.md,
       ! "Contact"): friction's lagged normal force is not differentiated, the
@@ -72,6 +75,34 @@ contains
       msg = ''
     end associate
   end subroutine check_contact
+
+  !> self_contact = .true.: the barrier's reach between two pieces of the
+  !> cloth, contact_dhat + 2 contact_thickness, below 0.7 of the smaller
+  !> lattice spacing (a reach of at least that leaves pairs of lattice
+  !> neighbours out of the contact and unprotected: docs/self-contact.md,
+  !> "Candidate pairs"); refused with &identify and &control (the adjoint
+  !> knows no self-contact).
+  subroutine check_self_contact(cfg, ierr, msg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    real(rp) :: a, reach
+    ierr = 1
+    a = min(cfg%lattice%ax, cfg%lattice%ay)
+    reach = cfg%contact%dhat + 2.0_rp * cfg%contact%thickness
+    if (reach >= 0.7_rp * a) then
+      msg = 'input: &contact: self_contact = .true. needs contact_dhat + 2 contact_thickness = '//real_short(reach)// &
+            ' below 0.7 of the lattice spacing '//real_short(a)//': a smaller contact_dhat or contact_thickness, or a coarser lattice'
+      return
+    end if
+    if (cfg%identify%active .or. cfg%control%active) then
+      msg = 'input: &contact: self_contact = .true. is refused with '// &
+            trim(merge('&identify', '&control ', cfg%identify%active))//': the adjoint gradient knows no self-contact'
+      return
+    end if
+    ierr = 0
+    msg = ''
+  end subroutine check_self_contact
 
   !> Obstacles described beyond n_obstacles: a key of an obstacle k >
   !> n_obstacles with a value other than its default is refused by name,

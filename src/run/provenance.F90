@@ -112,6 +112,7 @@ contains
       call output_config_key(out, 'control', 'keyframe_tikhonov', [cfg%control%keyframe_tikhonov], e, errmsg)
     end if
     if (cfg%contact%n_obstacles > 0) call config_contact(cfg, out, e, errmsg)
+    if (cfg%contact%self_contact) call config_self_contact(cfg, out, e, errmsg)
     ! One error flag for all ranks (each call above is local HDF5 metadata).
     call MPI_Allreduce(MPI_IN_PLACE, e, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
     ierr = e
@@ -199,6 +200,21 @@ contains
       end if
     end associate
   end subroutine config_contact
+
+  !> /config's contact group with self_contact on (write_config; e, errmsg
+  !> as there): the key, and the barrier's keys where no obstacle wrote them.
+  subroutine config_self_contact(cfg, out, e, errmsg)
+    type(nuno_config), intent(in) :: cfg
+    type(output_file), intent(inout) :: out
+    integer, intent(inout) :: e
+    character(len=*), intent(inout) :: errmsg
+    call output_config_key(out, 'contact', 'self_contact', 1, e, errmsg)
+    if (cfg%contact%n_obstacles > 0) return
+    call output_config_key(out, 'contact', 'n_obstacles', 0, e, errmsg)
+    call output_config_key(out, 'contact', 'contact_thickness', [cfg%contact%thickness], e, errmsg)
+    call output_config_key(out, 'contact', 'contact_dhat', [cfg%contact%dhat], e, errmsg)
+    call output_config_key(out, 'contact', 'contact_stiffness', [cfg%contact%stiffness], e, errmsg)
+  end subroutine config_self_contact
 
   !> The obstacles' shapes (at least one) as one comma-separated string
   !> ('plane, sphere').

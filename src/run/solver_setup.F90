@@ -34,6 +34,7 @@ module solver_setup
                             pm_list_destroy, pm_list_take, pm_list_ts_refusal
   use contact_model, only: contact_model_t
   use face_contact, only: face_contact_t
+  use self_contact, only: self_contact_model_t
   use ghosted_state, only: ghosted_get, ghosted_restore
   use step_monitor, only: ts_monitor
   use step_settings, only: step_settings_init, step_set_tolerances, step_dt, step_t_end, step_fixed, step_max_steps, &
@@ -163,9 +164,10 @@ contains
 
   !> The scene's process models into the list (module process_models),
   !> before anything reads their hints: contact with &contact's obstacles
-  !> (none without), and of the cloth's faces and edges with those that
-  !> are not planes. The one place that names the physics: a new force is
-  !> added here (docs/design.md, "Process models").
+  !> (none without), of the cloth's faces and edges with those that are
+  !> not planes, and of the cloth with itself (self_contact). The one
+  !> place that names the physics: a new force is added here
+  !> (docs/design.md, "Process models").
   subroutine add_process_models(ctx, cfg)
     type(app_ctx), intent(inout) :: ctx
     type(nuno_config), intent(in) :: cfg
@@ -179,6 +181,11 @@ contains
     ! scene of planes only, or with contact_faces = .false., is as before
     if (cfg%contact%faces .and. any(cfg%contact%shape_code(1:cfg%contact%n_obstacles) > 1)) then
       allocate(face_contact_t :: pm)
+      call pm_list_add(ctx%pms, pm)
+    end if
+    ! the cloth against itself: only with &contact's self_contact
+    if (cfg%contact%self_contact) then
+      allocate(self_contact_model_t :: pm)
       call pm_list_add(ctx%pms, pm)
     end if
   end subroutine add_process_models

@@ -1,0 +1,536 @@
+! SPDX-License-Identifier: BSD-2-Clause
+!> The cloth against itself as a process model (issue 49; module
+!> process_model; docs/self-contact.md, "The wiring"): the lattice's
+!> point-triangle and edge-edge pairs (module self_broad) kept apart by
+!> the barrier of module self_barrier, on any number of ranks without
+!> gathering the cloth (module self_exchange fetches the rows of the other
+!> ranks' strips whose patches come within reach). On when &contact's
+!> self_contact is (module solver_setup adds it to the list); off, it is
+!> not in the list: nothing allocated, nothing run.
+!>
+!> Pairs and ranks: self_broad's OWN_TOUCH, each rank finds every pair
+!> with an owned node and adds the forces and blocks of its own nodes
+!> (nothing goes back); counts and energies are those of the pairs whose
+!> lowest node it owns, so sums over ranks count each pair once.
+!> The candidate list (and the plan of rows to fetch) is a Verlet list:
+!> made from the accepted state with the reach dhat + xi + skin (skin:
+!> twice the last step's largest node motion, at least dhat), valid while
+!> no node has moved skin/2 from where it was made, and made again by the
+!> step limit, at the limited candidate, when one has (the residual is
+!> then the same function of the state: every pair within dhat + xi is in
+!> the list). The distance of zero gap is xi = 2 contact_thickness (two
+!> surfaces, each contact_thickness from its mid-surface), the barrier's
+!> dhat and kappa those of &contact.
+!>
+!> The step guarantee is flavour (a) of docs/self-contact.md: every
+!> Newton update (and every predictor) is scaled by the smallest ACCD
+!> alpha over the candidates of its swept paths on all ranks, so no gap
+!> closes along an accepted path; the accept hook checks the end state's
+!> smallest gap once more, naming the pair where it is <= 0. The Jacobian
+!> takes each pair's diagonal blocks df_a/dx_a alone (node_blocks): the
+!> blocks between a pair's different nodes (pair_blocks) need S x to add
+!> products with a gathered Krylov vector, not done yet, so Newton is a
+!> quasi-Newton method where pairs are active.
+!> The kernels allocate their tables at each call (the broad phase, the
+!> block list): the one place the time loop allocates, with self_contact on.
+module self_contact
+  use mpi
+  use kinds, only: rp
+  use config, only: nuno_config
+  use lattice, only: lattice_t
+  use constraints, only: constraint_set_t
+  use node_blocks, only: node_blocks_t, node_blocks_add
+  use pair_blocks, only: pair_blocks_t
+  use checkpoint_record, only: named_value_t, named_value
+  use contact, only: contact_params_t
+  use contact_ccd, only: ACCD_S
+  use contact_faces, only: SPLIT_MAIN
+  use self_broad, only: self_lattice_t, self_pairs_t, OWN_TOUCH, OWN_LOWEST, self_candidates, self_candidates_swept, &
+                        self_row_slots, self_pair_positions, self_pair_owner_row
+  use self_barrier, only: self_blocks_t, self_barrier_forces, self_pair_gap
+  use self_step, only: self_alpha_ccd
+  use self_exchange, only: self_exchange_t, self_exchange_plan, self_exchange_plan_swept, self_exchange_rows, &
+                           self_exchange_gather, self_exchange_counts
+  use process_model, only: process_model_t, pm_hints_t, pm_series_t, pm_group_t, pm_energy_t, PM_FEASIBLE, &
+                           PM_INFEASIBLE
+  use strings, only: real_brief, itoa
+  implicit none
+  private
+  public :: self_contact_model_t
+
+  !> Anchor rows of a patch of module self_exchange: its boxes are a few
+  !> rows tall, so a fold fetches the rows near it, not whole strips.
+  integer, parameter :: PATCH_ROWS = 4
+
+  !> The cloth's self-contact on a rank's strip; written by this module's
+  !> procedures alone.
+  type, extends(process_model_t) :: self_contact_model_t
+    private
+    type(self_lattice_t) :: sl                  !< the lattice as the kernels number it
+    type(contact_params_t) :: cp                !< thickness = xi, dhat, kappa
+    real(rp) :: rest_reach = 0.0_rp             !< pairs nearer at rest are left out: dhat + xi [length]
+    real(rp) :: skin = 0.0_rp                   !< the Verlet list's margin beyond dhat + xi [length]
+    integer :: rank_up = MPI_PROC_NULL          !< the rank owning row ye+1 (none at the top)
+    integer :: rank_down = MPI_PROC_NULL        !< the rank owning row ys-1 (none at the bottom)
+    ! the candidate list: written at set-up, after an accepted step and by
+    ! the step limit when a node has moved skin/2 since it was made
+    type(self_exchange_t) :: xch                !< the rows fetched from the other ranks
+    integer, allocatable :: rows(:)             !< the present rows, ascending (owned and fetched)
+    type(self_pairs_t) :: pairs                 !< candidates within dhat + xi + skin (OWN_TOUCH)
+    real(rp), allocatable :: x_list(:, :, :)    !< (3, 0:nx-1, ys:ye) positions the list was made at [length]
+    ! the last accepted state's record, over all ranks (the accepted hook)
+    real(rp) :: t_seen = -huge(1.0_rp)          !< its time [time]
+    logical :: have_last = .false.
+    real(rp) :: min_gap = huge(1.0_rp)          !< smallest gap of a candidate pair [length]
+    real(rp) :: energy = 0.0_rp                 !< barrier energy of the pairs [energy]
+    integer :: active = 0                       !< pairs with a gap below dhat
+    integer :: fetched = 0                      !< rows fetched from other ranks, summed over ranks
+    ! counts since the start (checkpointed)
+    integer :: limited = 0                      !< updates the step limit shortened (alpha < 1)
+    integer :: rebuilt = 0                      !< lists made again within a step (a node moved skin/2)
+  contains
+    procedure :: name => self_name
+    procedure :: hints => self_hints
+    procedure :: setup => self_setup
+    procedure :: forces => self_forces
+    procedure :: jacobian => self_jacobian
+    procedure :: step_limit => self_step_limit
+    procedure :: accept => self_accept
+    procedure :: accepted => self_accepted
+    procedure :: output => self_output
+    procedure :: checkpoint => self_checkpoint
+    procedure :: restore => self_restore
+  end type self_contact_model_t
+
+contains
+
+  function self_name(this) result(s)
+    class(self_contact_model_t), intent(in) :: this
+    character(len=:), allocatable :: s
+    s = 'self_contact'
+  end function self_name
+
+  !> As the obstacles' barrier (contact_model's hints): a feasible start,
+  !> limited updates, the Jacobian at every iteration, backward Euler.
+  pure function self_hints(this) result(h)
+    class(self_contact_model_t), intent(in) :: this
+    type(pm_hints_t) :: h
+    h = pm_hints_t(jacobian_every_iteration=.true., forcing_off=.true., basic_line_search=.true., &
+                   feasible_start=.true., state_blocks=.true., ts_types='beuler')
+  end function self_hints
+
+  !> Set-up: the barrier from &contact (xi = 2 contact_thickness), the
+  !> ranks above and below, the first candidate list from the initial
+  !> state, and a refusal naming the pair where a gap is <= 0. Collective.
+  subroutine self_setup(this, cfg, lat, comm, u, cs, ierr, errmsg)
+    class(self_contact_model_t), intent(inout) :: this
+    type(nuno_config), intent(in) :: cfg
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: comm
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    type(constraint_set_t), intent(in) :: cs
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: errmsg
+    integer :: nrank, r, mpierr, node(4)
+    integer, allocatable :: strips(:, :)
+    real(rp) :: g
+    this%sl = self_lattice_t(nx=lat%nx, ny=lat%ny, split=SPLIT_MAIN, ax=lat%ax, ay=lat%ay)
+    this%cp = contact_params_t(thickness=2.0_rp * cfg%contact%thickness, dhat=cfg%contact%dhat, &
+                               kappa=cfg%contact%stiffness, eps_v=cfg%contact%eps_v)
+    this%rest_reach = this%cp%dhat + this%cp%thickness
+    this%skin = this%cp%dhat
+    call MPI_Comm_size(comm, nrank, mpierr)
+    allocate(strips(2, 0:nrank - 1))
+    call MPI_Allgather([lat%ys, lat%ye], 2, MPI_INTEGER, strips, 2, MPI_INTEGER, comm, mpierr)
+    do r = 0, nrank - 1
+      if (strips(1, r) <= strips(2, r) .and. strips(1, r) == lat%ye + 1) this%rank_up = r
+      if (strips(1, r) <= strips(2, r) .and. strips(2, r) == lat%ys - 1) this%rank_down = r
+    end do
+    allocate(this%x_list(3, 0:lat%nx - 1, lat%ys:lat%ye))
+    call make_list(this, lat, comm, u(0:2, :, max(lat%ys - 1, 0):min(lat%ye + 1, lat%ny - 1)), ierr)
+    errmsg = ''
+    if (ierr /= 0) then
+      errmsg = 'nuno: self_contact: the exchange of rows between ranks failed at set-up'
+      return
+    end if
+    call smallest_gap(this, lat, comm, u, g, node, ierr)
+    if (ierr /= 0 .or. g > 0.0_rp) return
+    ierr = 1
+    errmsg = 'input: &contact: self_contact: the initial state has the cloth at a gap of '//real_brief(g)// &
+             ' <= 0 between '//pair_text(this, node)//': it starts self-intersecting (or within 2 contact_thickness); '// &
+             'move the cloth apart or lower contact_thickness'
+  end subroutine self_setup
+
+  !> f += the barrier forces of the candidate pairs on the free owned
+  !> nodes at u (positions of the fetched rows gathered); PM_INFEASIBLE
+  !> where a pair that this rank counts has a gap <= 0. Collective.
+  subroutine self_forces(this, lat, fixed, t, u, f, status)
+    class(self_contact_model_t), intent(in) :: this
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    real(rp), intent(inout) :: f(:, 0:, lat%ys:)
+    integer, intent(out) :: status
+    real(rp) :: xall(3, 0:lat%nx - 1, size(this%rows)), fall(3, 0:lat%nx - 1, size(this%rows)), e
+    type(self_blocks_t) :: blocks
+    integer :: nact, ierr, i, j
+    call narrow_phase(this, lat, u, .false., xall, fall, e, blocks, nact, ierr)
+    status = merge(PM_INFEASIBLE, PM_FEASIBLE, ierr /= 0 .or. e >= huge(1.0_rp))
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
+        if (.not. fixed(i, j)) f(1:3, i, j) = f(1:3, i, j) + fall(:, i, j - lat%ys + 1 + row_offset(this, lat))
+      end do
+    end do
+  end subroutine self_forces
+
+  !> The slot of row ys in the present rows, less one (the owned rows are
+  !> consecutive there: slot(j) = j - ys + 1 + row_offset).
+  pure integer function row_offset(this, lat)
+    class(self_contact_model_t), intent(in) :: this
+    type(lattice_t), intent(in) :: lat
+    integer :: k
+    row_offset = 0
+    do k = 1, size(this%rows)
+      if (this%rows(k) == lat%ys) then
+        row_offset = k - 1
+        return
+      end if
+    end do
+  end function row_offset
+
+  !> The candidates' barrier at the ghosted state u: positions of the
+  !> present rows xall (the fetched rows gathered), the forces fall on
+  !> them, the energy e of the pairs counted here (huge: a gap <= 0), the
+  !> blocks (projected: minus the PSD part) and the active pairs counted
+  !> here. Collective (the gather).
+  subroutine narrow_phase(this, lat, u, project, xall, fall, e, blocks, nact, ierr)
+    class(self_contact_model_t), intent(in) :: this
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    logical, intent(in) :: project
+    real(rp), intent(out) :: xall(:, 0:, :), fall(:, 0:, :), e
+    type(self_blocks_t), intent(inout) :: blocks
+    integer, intent(out) :: nact, ierr
+    call self_exchange_gather(this%xch, u(0:2, :, lat%ys:lat%ye), xall, ierr)
+    fall = 0.0_rp
+    e = 0.0_rp
+    nact = 0
+    if (ierr /= 0) return
+    call self_barrier_forces(this%sl, this%rows, xall, this%pairs, lat%ys, lat%ye, this%cp, project, e, fall, &
+                             blocks, nact)
+  end subroutine narrow_phase
+
+  !> The blocks df_a/dx_a of each active pair on its free owned nodes a
+  !> into nodal (the projected Hessian's diagonal blocks; the blocks
+  !> between a pair's nodes are left out: module header). Collective.
+  subroutine self_jacobian(this, lat, fixed, t, u, nodal, pairs)
+    class(self_contact_model_t), intent(in) :: this
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    type(node_blocks_t), intent(inout) :: nodal
+    type(pair_blocks_t), intent(inout) :: pairs
+    real(rp) :: xall(3, 0:lat%nx - 1, size(this%rows)), fall(3, 0:lat%nx - 1, size(this%rows)), e, zero(3, 3)
+    type(self_blocks_t) :: blocks
+    integer :: nact, ierr, m, i, j
+    call narrow_phase(this, lat, u, .true., xall, fall, e, blocks, nact, ierr)
+    zero = 0.0_rp
+    do m = 1, blocks%n
+      if (blocks%a(m) /= blocks%b(m)) cycle
+      i = mod(blocks%a(m), lat%nx)
+      j = blocks%a(m) / lat%nx
+      if (j < lat%ys .or. j > lat%ye) cycle
+      if (fixed(i, j)) cycle
+      call node_blocks_add(nodal, i, j, blocks%k(:, :, m), zero)
+    end do
+  end subroutine self_jacobian
+
+  !> Flavour (a): the update x -> x + dx scaled by the smallest ACCD alpha
+  !> (a tenth of each gap kept) over the pairs its paths may bring within
+  !> xi, the minimum over the ranks. Where every node's path stays within
+  !> skin/2 of the list's positions (both ends: the path is a segment) the
+  !> list holds every such pair (they were within xi + skin of each other
+  !> at its positions) and its pairs serve; else a swept broad phase with
+  !> a plan of rows of its own (swept_alpha), and the list made again at
+  !> the limited candidate where a node has moved skin/2 from it.
+  !> PM_INFEASIBLE where no fraction is allowed. Collective.
+  subroutine self_step_limit(this, lat, fixed, t0, t1, x0, x, dx, comm, alpha, status)
+    class(self_contact_model_t), intent(inout) :: this
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t0, t1
+    real(rp), intent(in) :: x0(0:, 0:, lat%ys:), x(0:, 0:, lat%ys:), dx(0:, 0:, lat%ys:)
+    integer, intent(in) :: comm
+    real(rp), intent(out) :: alpha
+    integer, intent(out) :: status
+    real(rp) :: xd(6, 0:lat%nx - 1, lat%ys:lat%ye), xall(6, 0:lat%nx - 1, size(this%rows)), a, far, gfar
+    integer :: ierr, mpierr
+    xd(1:3, :, :) = x(0:2, :, lat%ys:lat%ye)
+    xd(4:6, :, :) = dx(0:2, :, lat%ys:lat%ye)
+    far = 0.0_rp
+    if (lat%ye >= lat%ys) far = max(maxval(norm2(xd(1:3, :, :) - this%x_list, dim=1)), &
+                                    maxval(norm2(xd(1:3, :, :) + xd(4:6, :, :) - this%x_list, dim=1)))
+    call MPI_Allreduce(far, gfar, 1, MPI_DOUBLE_PRECISION, MPI_MAX, comm, mpierr)
+    if (gfar <= 0.5_rp * this%skin) then
+      call self_exchange_gather(this%xch, xd, xall, ierr)
+      a = self_alpha_ccd(this%sl, this%rows, xall(1:3, :, :), xall(4:6, :, :), this%pairs, this%cp%thickness, ACCD_S)
+      call MPI_Allreduce(a, alpha, 1, MPI_DOUBLE_PRECISION, MPI_MIN, comm, mpierr)
+    else
+      call swept_alpha(this, lat, comm, x, dx, alpha, ierr)
+    end if
+    status = merge(PM_INFEASIBLE, PM_FEASIBLE, alpha <= 0.0_rp .or. ierr /= 0)
+    if (alpha < 1.0_rp) this%limited = this%limited + 1
+  end subroutine self_step_limit
+
+  !> Flavour (a) beyond the list's skin: the rows ys-1 and ye+1 of x and
+  !> dx from the neighbours, a swept plan of rows (margin xi), the swept
+  !> candidates (OWN_LOWEST: each pair once), the smallest ACCD alpha over
+  !> the ranks, and the list made again at x + alpha dx where a node is
+  !> skin/2 from the list's positions there. Collective.
+  subroutine swept_alpha(this, lat, comm, x, dx, alpha, ierr)
+    class(self_contact_model_t), intent(inout) :: this
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: comm
+    real(rp), intent(in) :: x(0:, 0:, lat%ys:), dx(0:, 0:, lat%ys:)
+    real(rp), intent(out) :: alpha
+    integer, intent(out) :: ierr
+    ! positions and updates of the owned rows and the rows below and above [length]
+    real(rp) :: xd(6, 0:lat%nx - 1, max(lat%ys - 1, 0):min(lat%ye + 1, lat%ny - 1))
+    type(self_exchange_t) :: swept
+    type(self_pairs_t) :: cand
+    integer, allocatable :: rows(:)
+    real(rp), allocatable :: xall(:, :, :)
+    real(rp) :: a, moved, gmoved
+    integer :: mpierr
+    call with_neighbour_rows(this, lat, comm, x, dx, xd)
+    call self_exchange_plan_swept(swept, comm, lat%nx, lat%ny, lat%ys, lat%ye, xd(1:3, :, :), xd(4:6, :, :), &
+                                  this%cp%thickness, PATCH_ROWS, ierr)
+    call self_exchange_rows(swept, rows)
+    allocate(xall(6, 0:lat%nx - 1, size(rows)))
+    call self_exchange_gather(swept, xd(:, :, lat%ys:lat%ye), xall, ierr)
+    call self_candidates_swept(this%sl, rows, xall(1:3, :, :), xall(4:6, :, :), lat%ys, lat%ye, OWN_LOWEST, &
+                               this%cp%thickness, this%rest_reach, cand)
+    a = self_alpha_ccd(this%sl, rows, xall(1:3, :, :), xall(4:6, :, :), cand, this%cp%thickness, ACCD_S)
+    call MPI_Allreduce(a, alpha, 1, MPI_DOUBLE_PRECISION, MPI_MIN, comm, mpierr)
+    moved = 0.0_rp
+    if (lat%ye >= lat%ys) moved = maxval(norm2(xd(1:3, :, lat%ys:lat%ye) + alpha * xd(4:6, :, lat%ys:lat%ye) - &
+                                               this%x_list, dim=1))
+    call MPI_Allreduce(moved, gmoved, 1, MPI_DOUBLE_PRECISION, MPI_MAX, comm, mpierr)
+    if (gmoved <= 0.5_rp * this%skin) return
+    call make_list(this, lat, comm, xd(1:3, :, :) + alpha * xd(4:6, :, :), ierr)
+    this%rebuilt = this%rebuilt + 1
+  end subroutine swept_alpha
+
+  !> The positions and updates (x, dx: 0:2 of (0:5, 0:nx-1, ys:ye)) of
+  !> the owned rows and of the rows ys-1 and ye+1 from the ranks below and
+  !> above, into xd(1:3, ...) and xd(4:6, ...). Collective.
+  subroutine with_neighbour_rows(this, lat, comm, x, dx, xd)
+    class(self_contact_model_t), intent(in) :: this
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: comm
+    real(rp), intent(in) :: x(0:, 0:, lat%ys:), dx(0:, 0:, lat%ys:)
+    real(rp), intent(out) :: xd(:, 0:, max(lat%ys - 1, 0):)
+    real(rp) :: snd(6, 0:lat%nx - 1), rcv(6, 0:lat%nx - 1)
+    integer :: mpierr
+    xd(1:3, :, lat%ys:lat%ye) = x(0:2, :, lat%ys:lat%ye)
+    xd(4:6, :, lat%ys:lat%ye) = dx(0:2, :, lat%ys:lat%ye)
+    ! row ys down (the row above of the rank below), row ye up
+    snd = xd(:, :, lat%ys)
+    call MPI_Sendrecv(snd, size(snd), MPI_DOUBLE_PRECISION, this%rank_down, 4903, rcv, size(rcv), &
+                      MPI_DOUBLE_PRECISION, this%rank_up, 4903, comm, MPI_STATUS_IGNORE, mpierr)
+    if (this%rank_up /= MPI_PROC_NULL) xd(:, :, lat%ye + 1) = rcv
+    snd = xd(:, :, lat%ye)
+    call MPI_Sendrecv(snd, size(snd), MPI_DOUBLE_PRECISION, this%rank_up, 4904, rcv, size(rcv), &
+                      MPI_DOUBLE_PRECISION, this%rank_down, 4904, comm, MPI_STATUS_IGNORE, mpierr)
+    if (this%rank_down /= MPI_PROC_NULL) xd(:, :, lat%ys - 1) = rcv
+  end subroutine with_neighbour_rows
+
+  !> The plan of rows and the candidate list at positions x (3, 0:nx-1,
+  !> max(ys-1,0):min(ye+1,ny-1)) with the reach dhat + xi + skin, and
+  !> the positions it was made at. Collective.
+  subroutine make_list(this, lat, comm, x, ierr)
+    class(self_contact_model_t), intent(inout) :: this
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: comm
+    real(rp), intent(in) :: x(:, 0:, max(lat%ys - 1, 0):)
+    integer, intent(out) :: ierr
+    real(rp), allocatable :: xall(:, :, :)
+    call self_exchange_plan(this%xch, comm, lat%nx, lat%ny, lat%ys, lat%ye, x, this%rest_reach + this%skin, &
+                            PATCH_ROWS, ierr)
+    if (ierr /= 0) return
+    call self_exchange_rows(this%xch, this%rows)
+    allocate(xall(3, 0:lat%nx - 1, size(this%rows)))
+    call self_exchange_gather(this%xch, x(1:3, :, lat%ys:lat%ye), xall, ierr)
+    if (ierr /= 0) return
+    call self_candidates(this%sl, this%rows, xall, lat%ys, lat%ye, OWN_TOUCH, this%rest_reach + this%skin, &
+                         this%rest_reach, this%pairs)
+    this%x_list = x(1:3, :, lat%ys:lat%ye)
+  end subroutine make_list
+
+  !> The smallest gap g over the candidate pairs at u, the same on every
+  !> rank, and that pair's nodes (global numbers; huge and 0 where there
+  !> is none). Collective.
+  subroutine smallest_gap(this, lat, comm, u, g, node, ierr)
+    class(self_contact_model_t), intent(in) :: this
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: comm
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    real(rp), intent(out) :: g
+    integer, intent(out) :: node(4), ierr
+    real(rp) :: xall(3, 0:lat%nx - 1, size(this%rows)), gm, loc(2), glob(2)
+    integer :: slot(0:lat%ny - 1), m, mpierr
+    call self_exchange_gather(this%xch, u(0:2, :, lat%ys:lat%ye), xall, ierr)
+    call self_row_slots(this%sl, this%rows, slot)
+    g = huge(1.0_rp)
+    node = 0
+    do m = 1, this%pairs%n
+      gm = self_pair_gap(this%pairs%kind(m), self_pair_positions(this%sl, slot, xall, this%pairs%node(:, m)), &
+                         this%cp%thickness)
+      if (gm < g) then
+        g = gm
+        node = this%pairs%node(:, m)
+      end if
+    end do
+    loc = [g, 0.0_rp]
+    call MPI_Comm_rank(comm, m, mpierr)
+    loc(2) = real(m, rp)
+    call MPI_Allreduce(loc, glob, 1, MPI_2DOUBLE_PRECISION, MPI_MINLOC, comm, mpierr)
+    g = glob(1)
+    call MPI_Bcast(node, 4, MPI_INTEGER, nint(glob(2)), comm, mpierr)
+  end subroutine smallest_gap
+
+  !> A pair's nodes as text: (i, j) of each of its 4 global numbers.
+  function pair_text(this, node) result(s)
+    class(self_contact_model_t), intent(in) :: this
+    integer, intent(in) :: node(4)
+    character(len=:), allocatable :: s
+    integer :: k
+    s = 'nodes'
+    do k = 1, 4
+      s = s//' ('//itoa(mod(node(k), this%sl%nx))//', '//itoa(node(k) / this%sl%nx)//')'
+    end do
+  end function pair_text
+
+  !> A step's end state u at t: its smallest gap over the candidates must
+  !> be > 0; else PM_INFEASIBLE and why, naming the pair. Collective.
+  subroutine self_accept(this, lat, fixed, t, u, comm, status, why)
+    class(self_contact_model_t), intent(in) :: this
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    integer, intent(in) :: comm
+    integer, intent(out) :: status
+    character(*), intent(out) :: why
+    real(rp) :: g
+    integer :: node(4), ierr
+    call smallest_gap(this, lat, comm, u, g, node, ierr)
+    status = merge(PM_FEASIBLE, PM_INFEASIBLE, g > 0.0_rp .and. ierr == 0)
+    why = ''
+    if (status == PM_FEASIBLE) return
+    why = 'the state at t = '//real_brief(t)//' has the cloth at a gap of '//real_brief(g)//' <= 0 between '// &
+          pair_text(this, node)
+  end subroutine self_accept
+
+  !> An accepted state u at t: the skin from the step's largest node
+  !> motion, a new list, and the record (active pairs, energy, smallest
+  !> gap, rows fetched) over all ranks. A state recorded already is left
+  !> alone. Collective.
+  subroutine self_accepted(this, lat, fixed, t, u, comm, ierr, errmsg)
+    class(self_contact_model_t), intent(inout) :: this
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t
+    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
+    integer, intent(in) :: comm
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: errmsg
+    real(rp), allocatable :: xall(:, :, :), fall(:, :, :)
+    type(self_blocks_t) :: blocks
+    real(rp) :: moved, gmoved, e, ge, g
+    integer :: nact, counts(2), gcounts(2), nsrc, npatch, node(4), mpierr
+    ierr = 0
+    errmsg = ''
+    if (this%have_last .and. t == this%t_seen) return
+    moved = 0.0_rp
+    if (this%have_last .and. lat%ye >= lat%ys) moved = maxval(norm2(u(0:2, :, lat%ys:lat%ye) - this%x_list, dim=1))
+    call MPI_Allreduce(moved, gmoved, 1, MPI_DOUBLE_PRECISION, MPI_MAX, comm, mpierr)
+    this%skin = max(this%cp%dhat, 2.0_rp * gmoved)
+    call make_list(this, lat, comm, u(0:2, :, max(lat%ys - 1, 0):min(lat%ye + 1, lat%ny - 1)), ierr)
+    if (ierr /= 0) then
+      errmsg = 'nuno: self_contact: the exchange of rows between ranks failed at t = '//real_brief(t)
+      return
+    end if
+    allocate(xall(3, 0:lat%nx - 1, size(this%rows)), fall(3, 0:lat%nx - 1, size(this%rows)))
+    call narrow_phase(this, lat, u, .false., xall, fall, e, blocks, nact, ierr)
+    call self_exchange_counts(this%xch, counts(2), nsrc, npatch)
+    counts(1) = nact
+    call MPI_Allreduce(e, ge, 1, MPI_DOUBLE_PRECISION, MPI_SUM, comm, mpierr)
+    call MPI_Allreduce(counts, gcounts, 2, MPI_INTEGER, MPI_SUM, comm, mpierr)
+    call smallest_gap(this, lat, comm, u, g, node, ierr)
+    this%t_seen = t
+    this%have_last = .true.
+    this%energy = ge
+    this%active = gcounts(1)
+    this%fetched = gcounts(2)
+    this%min_gap = g
+    if (g > 0.0_rp) return
+    ierr = 1
+    errmsg = 'nuno: self_contact: an accepted state has the cloth at a gap of '//real_brief(g)//' <= 0 at t = '// &
+             real_brief(t)//' between '//pair_text(this, node)
+  end subroutine self_accepted
+
+  !> The series of the last accepted state (/self_contact) and the
+  !> barrier energy (/energy/barrier_self, a potential energy of the
+  !> balance).
+  subroutine self_output(this, series, groups, energy)
+    class(self_contact_model_t), intent(in) :: this
+    type(pm_series_t), allocatable, intent(out) :: series(:)
+    type(pm_group_t), allocatable, intent(out) :: groups(:)
+    type(pm_energy_t), intent(out) :: energy
+    real(rp) :: g
+    g = min(this%min_gap, this%rest_reach + this%skin)
+    series = [ &
+      pm_series_t(name='/self_contact/active', description='point-triangle and edge-edge pairs of the cloth with '// &
+                  'a gap below contact_dhat', is_count=.true., count=this%active), &
+      pm_series_t(name='/self_contact/min_gap', description='smallest gap (distance - 2 contact_thickness) of a '// &
+                  'candidate pair of the cloth (the candidates'' reach where none is nearer)', units='length', &
+                  values=[g, 0.0_rp, 0.0_rp]), &
+      pm_series_t(name='/self_contact/rows_fetched', description='lattice rows fetched from other ranks for the '// &
+                  'broad phase, summed over the ranks', is_count=.true., count=this%fetched), &
+      pm_series_t(name='/self_contact/limited', description='Newton updates and predictors shortened by the '// &
+                  'self-contact step limit since the start', is_count=.true., count=this%limited), &
+      pm_series_t(name='/energy/barrier_self', description='barrier energy of the cloth''s self-contact pairs '// &
+                  '(a potential energy of the balance)', units='energy', values=[this%energy, 0.0_rp, 0.0_rp])]
+    groups = [pm_group_t(name='/self_contact', description='the cloth''s contact with itself (&contact''s '// &
+                         'self_contact), per output step')]
+    energy = pm_energy_t(potential=this%energy)
+  end subroutine self_output
+
+  !> The counts that go on across a restart (the list is made again from
+  !> the restart's state).
+  subroutine self_checkpoint(this, values)
+    class(self_contact_model_t), intent(in) :: this
+    type(named_value_t), allocatable, intent(out) :: values(:)
+    values = [named_value('self_contact_limited', [real(this%limited, rp)], .true.), &
+              named_value('self_contact_rebuilt', [real(this%rebuilt, rp)], .true.)]
+  end subroutine self_checkpoint
+
+  !> A restart's counts from its checkpoint (0 in a file without them).
+  subroutine self_restore(this, values)
+    class(self_contact_model_t), intent(inout) :: this
+    type(named_value_t), intent(in) :: values(:)
+    integer :: k
+    this%limited = 0
+    this%rebuilt = 0
+    do k = 1, size(values)
+      if (size(values(k)%v) < 1) cycle
+      if (trim(values(k)%name) == 'self_contact_limited') this%limited = nint(values(k)%v(1))
+      if (trim(values(k)%name) == 'self_contact_rebuilt') this%rebuilt = nint(values(k)%v(1))
+    end do
+    this%have_last = .false.
+  end subroutine self_restore
+
+end module self_contact

@@ -1,0 +1,96 @@
+# SPDX-License-Identifier: BSD-2-Clause
+"""The cloth's self-contact (issue 49; docs/self-contact.md, "The wiring"):
+a 15 x 15 cloth of 0.5 m dropped flat onto a thin capsule (radius 2 cm,
+along y near the middle): its two halves fall about the capsule like
+pendulums, swing under it and meet below it at about t = 0.29 s, at about
+1 m/s. Without self-contact they pass through each other; with
+`self_contact = .true.` they must not.
+
+The guarantee is checked by tests/python/crossings.py, numpy of its own
+over the output positions (independent of nuno's kernels): output at every
+time step, and between consecutive steps no node changes the side of a
+nearby triangle it lies over. With self_contact off the check finds the
+crossings (the check can fail); with it on it finds none, in Newton mode
+(the default) on 1, 2 and 3 ranks and in Baraff-Witkin mode
+(-snes_type ksponly) on 1 and 3 ranks, every accepted state's smallest gap
+(/self_contact/min_gap) is > 0, and the positions on 2 and 3 ranks agree
+with one rank's to the solver's tolerance (1e-8 of the cloth's size in
+Newton mode, 1e-6 in bw: one linear solve a step, whose block-Jacobi
+preconditioner changes with the ranks).
+A start within 2 contact_thickness of itself is refused before the run,
+naming the pair, and a barrier reach of a lattice spacing is refused by
+name. About 2.5 minutes on the shared 2-core machine."""
+import numpy as np
+import pytest
+
+from crossings import crossings
+from nunorun import run
+from postprocess.reader import read_run
+import h5py
+
+L = 0.5                       # cloth size [m]
+N = 15                        # nodes a side
+NEAR = 0.5 * L / (N - 1)      # the crossing check's reach: half a lattice spacing [m]
+T_END = 0.34                  # [s]; the halves meet at about 0.29 s
+
+GROUPS = dict(
+    scene="scene='flat' units='SI' gravity=0.0,0.0,-9.81",
+    lattice=f"nx={N} ny={N} lx={L} ly={L} total_mass=0.05 mass_distribution='area'",
+    material="e_s=100.0 eta_s=0.1 e_d=100.0 eta_d=0.1 bending_model='energy' k_b=1.0e-3 eta_b=1.0e-5",
+    time=f"t_end={T_END} dt=1.0e-3",
+    output="output_interval=1.0e-3 write_velocity=.false.",
+)
+CAPSULE = ("n_obstacles=1 obstacle_shape(1)='capsule' obstacle_point(:,1)=0.26,-0.1,-0.0255 "
+           "obstacle_end(:,1)=0.26,0.6,-0.0255 obstacle_radius(1)=0.02 contact_dhat=5.0e-3 contact_stiffness=1.0")
+
+
+def drop(tmp_path, name, on, nranks=1, options=()):
+    """The scene with self_contact on or off; the run's positions [nt][ny][nx][3] and file."""
+    contact = CAPSULE + (" self_contact=.true." if on else "")
+    _, h5 = run(tmp_path, name, nranks=nranks, options=options, timeout=600, contact=contact, **GROUPS)
+    r = read_run(str(h5))
+    assert r.complete and abs(r.time[-1] - T_END) < 1e-12
+    return np.asarray(r.position), h5
+
+
+@pytest.mark.parametrize("mode", ["newton", "bw"])
+def test_halves_that_cross_without_self_contact_do_not_cross_with_it(tmp_path, mode):
+    options = ("-snes_type", "ksponly") if mode == "bw" else ()
+    ranks = (1, 2, 3) if mode == "newton" else (1, 3)
+
+    off, _ = drop(tmp_path, f"{mode}_off", False, options=options)
+    assert len(crossings(off, NEAR)) > 10            # the check fails where the cloth crosses itself
+
+    on = {}
+    for n in ranks:
+        on[n], h5 = drop(tmp_path, f"{mode}_on_{n}", True, nranks=n, options=options)
+        found = crossings(on[n], NEAR)
+        assert not found, (n, found[:5])
+        with h5py.File(h5, "r") as f:
+            assert (f["self_contact/min_gap"][:] > 0).all()
+            assert f["self_contact/active"][:].max() > 0      # the halves did meet
+    # the solver's tolerance: Newton's (-snes_rtol 1e-8), or in bw the one
+    # linear solve's a step (its preconditioner, block Jacobi, changes with
+    # the ranks: 1.8e-8 of the size measured on 3 ranks)
+    tol = 1e-8 if mode == "newton" else 1e-6
+    size = np.ptp(on[1].reshape(-1, 3), axis=0).max()
+    for n in ranks[1:]:
+        assert np.abs(on[n] - on[1]).max() <= tol * size, n
+
+
+def test_a_start_within_the_contact_distance_of_itself_is_refused_naming_the_pair(tmp_path):
+    # bend_release's arc closed to 350 degrees (mm): its two ends 1.4 mm
+    # apart, less than 2 contact_thickness = 2 mm
+    proc, _ = run(tmp_path, "closed", check=False, scene="scene='bend_release' bend_angle=350.0",
+                  time="t_end=0.01", contact="contact_thickness=1.0 self_contact=.true.")
+    assert proc.returncode != 0
+    line = [s for s in proc.stdout.splitlines() + proc.stderr.splitlines() if "self_contact" in s]
+    assert line and "gap of" in line[0] and "nodes (" in line[0], proc.stdout[-2000:] + proc.stderr[-2000:]
+
+
+def test_a_reach_of_a_lattice_spacing_is_refused_by_name(tmp_path):
+    proc, _ = run(tmp_path, "reach", check=False, scene="scene='flat'", time="t_end=0.01",
+                  contact="contact_dhat=8.0 self_contact=.true.")
+    assert proc.returncode != 0
+    text = proc.stdout + proc.stderr
+    assert "self_contact = .true. needs contact_dhat + 2 contact_thickness" in text, text[-2000:]
