@@ -485,10 +485,13 @@ contains
   !> triples at once (vector loops over l), then added to nl consecutive
   !> nodes of a row (no two the same). With T = [[-I, I, 0], [0, -I, I]]
   !> the nine node blocks of T^T m T are sums of m's 3 x 3 quarters m_ab
-  !> (edges a, b) with weights -1, 0, 1, spelled out (triple_node_blocks)
-  !> rather than formed as products with T's entries (fewer operations,
-  !> 1.7 % of the assembly: what this routine's time goes to is its adds
-  !> into S's ring of rows, past the L2 cache). S_NONE: g and kd alone.
+  !> (edges a, b) with weights -1, 0, 1, spelled out (add_triple_block_row)
+  !> rather than formed as products with T's entries. Each node's three
+  !> blocks are formed and added in one loop (add_triple_block_row): kept
+  !> as an array of the nine blocks (ld x 81 doubles, 20 KB) between
+  !> forming and adding them, they filled the L1 cache with ke and ce, and
+  !> the adds into S's ring of rows (past the L2 cache) waited on them.
+  !> S_NONE: g and kd alone.
   subroutine add_triple_lanes(p, lat, ws, fixedg, j0, kdir, i0, nl, ld, ke, ce, g, kd, st)
     type(pass_t), intent(in) :: p
     type(lattice_t), intent(in) :: lat
@@ -500,24 +503,27 @@ contains
     real(rp), intent(inout), contiguous :: st(0:, :, :, :, 0:)
     ! t(a, P): the factor of node P in edge a (T above)
     real(rp), parameter :: t(2, 3) = reshape([-1.0_rp, 0.0_rp, 1.0_rp, -1.0_rp, 0.0_rp, 1.0_rp], [2, 3])
-    real(rp) :: blk(ld, 3, 3, 9), ewx(ld, 6), ewv(ld, 6), h(ld, 6), free(ld)
-    integer :: l, pp, qq, ip0, jp, iq0, jq2, c1, c2, sl, sp, dx, dy
-    logical :: masked, fixed_run(3), write_s
+    real(rp) :: ewx(ld, 6), ewv(ld, 6), h(ld, 6), free(ld, 3), s
+    integer :: l, pp, qq, ip0, jp, iq0, jq2, c1, c2, sl(3), sp, dx, dy
+    logical :: fixed_run(3), write_s
     write_s = p%mode /= S_NONE
     dx = line_dir(1, kdir)
     dy = line_dir(2, kdir)
     ! the edges' differences of w, as ring_triple_edges forms them of u
     call ring_triple_edges(lat%nx, ws, j0, kdir, i0, nl, ld, ewx(:, 1:3), ewx(:, 4:6), ewv)
-    h(1:nl, :) = 0.0_rp
-    do c2 = 1, 6
-      do c1 = 1, 6
-        do l = 1, nl
-          h(l, c1) = h(l, c1) + ke(l, c1, c2) * ewx(l, c2) + ce(l, c1, c2) * ewv(l, c2)
+    ! h = ke ewx + ce ewv, each entry summed in registers (as a sum into
+    ! h(l, c1) over c2, h was loaded and stored 36 times)
+    do c1 = 1, 6
+      do l = 1, nl
+        s = 0.0_rp
+        !GCC$ unroll 6
+        do c2 = 1, 6
+          s = s + ke(l, c1, c2) * ewx(l, c2) + ce(l, c1, c2) * ewv(l, c2)
         end do
+        h(l, c1) = s
       end do
     end do
     if (write_s) then
-      call triple_node_blocks(nl, ld, p%rinv, ke, ce, blk)
       ! whether node P's run of nl nodes holds a constrained one, once
       ! for the nine blocks (scanned for each, 9 % of triple_row)
       do pp = 1, 3
@@ -531,20 +537,21 @@ contains
       call sub_lane_forces(nl, ld, t(1, pp), t(2, pp), h, ke, g(:, ip0:ip0 + nl - 1, jp), kd(:, ip0:ip0 + nl - 1, jp))
       if (.not. write_s) cycle
       sp = srow(lat, st, jp)
+      ! constrained rows and columns get nothing (as add_triple_edges): a
+      ! factor 0 there, 1 elsewhere (b + 1 x exactly b: the same sums)
       do qq = 1, 3
         iq0 = i0 + (qq - 1) * dx
         jq2 = j0 + (qq - 1) * dy
-        sl = p%kof((qq - pp) * dx, (qq - pp) * dy)
-        ! constrained rows and columns get nothing (as add_triple_edges)
-        masked = fixed_run(pp) .or. fixed_run(qq)
-        if (masked) then
+        sl(qq) = p%kof((qq - pp) * dx, (qq - pp) * dy)
+        if (fixed_run(pp) .or. fixed_run(qq)) then
           do l = 1, nl
-            free(l) = merge(0.0_rp, 1.0_rp, fixedg(ip0 + l - 1, jp) .or. fixedg(iq0 + l - 1, jq2))
+            free(l, qq) = merge(0.0_rp, 1.0_rp, fixedg(ip0 + l - 1, jp) .or. fixedg(iq0 + l - 1, jq2))
           end do
+        else
+          free(1:nl, qq) = 1.0_rp
         end if
-        call add_lane_blocks(nl, ld, lat%nx, size(st, 4), sl, ip0, blk(:, :, :, 3 * (pp - 1) + qq), masked, free, &
-                             st(:, :, :, :, sp))
       end do
+      call add_triple_block_row(nl, ld, lat%nx, size(st, 4), pp, sl, ip0, p%rinv, ke, ce, free, st(:, :, :, :, sp))
     end do
   end subroutine add_triple_lanes
 
@@ -679,67 +686,58 @@ contains
   ! Here rather than in module reduced_lanes: inlined into add_triple_lanes
   ! (ld = TRIPLE_LANES known there) their short loops are vector loops.
 
-  !> The nine node blocks B(P, Q) = sum_ab t(a, P) t(b, Q) m_ab of nl
+  !> Node P's three blocks B(P, Q) = sum_ab t(a, P) t(b, Q) m_ab of nl
   !> bending triples (T = [[-I, I, 0], [0, -I, I]], m = -(ce + ke/a), m_ab
-  !> its 3 x 3 quarter of edges a, b), by lanes: blk(:, :, :, 3 (P - 1) + Q).
-  !> T's entries are -1, 0 and 1, so each block is a sum of one to four
+  !> its 3 x 3 quarter of edges a, b), times free(l, Q), added to slot
+  !> sl(Q) of nl consecutive nodes ip0.. of a row of S by stencil offset,
+  !> nodes fastest, as S keeps them: one vector loop for each entry. T's
+  !> entries are -1, 0 and 1, so each block is a sum of one to four
   !> quarters: B11 = m11, B12 = m12 - m11, B13 = -m12, B21 = m21 - m11,
   !> B22 = m11 - m12 - m21 + m22, B23 = m12 - m22, B31 = -m21,
-  !> B32 = m21 - m22, B33 = m22.
-  pure subroutine triple_node_blocks(nl, ld, rinv, ke, ce, blk)
-    integer, intent(in) :: nl, ld
+  !> B32 = m21 - m22, B33 = m22. Explicit shapes, as put_link_blocks.
+  pure subroutine add_triple_block_row(nl, ld, nx, nslot, pp, sl, ip0, rinv, ke, ce, free, dst)
+    integer, intent(in) :: nl, ld, nx, nslot, pp, sl(3), ip0
     real(rp), intent(in) :: rinv                   ! 1/a [time]
-    real(rp), intent(in) :: ke(ld, 6, 6), ce(ld, 6, 6)
-    real(rp), intent(out) :: blk(ld, 3, 3, 9)
-    integer :: l, c1, c2
+    real(rp), intent(in) :: ke(ld, 6, 6), ce(ld, 6, 6), free(ld, 3)
+    real(rp), intent(inout) :: dst(0:nx - 1, 3, 3, nslot)
+    integer :: l, c1, c2, i
     real(rp) :: m11, m12, m21, m22
     do c2 = 1, 3
       do c1 = 1, 3
-        do l = 1, nl
-          m11 = -(ce(l, c1, c2) + rinv * ke(l, c1, c2))
-          m12 = -(ce(l, c1, 3 + c2) + rinv * ke(l, c1, 3 + c2))
-          m21 = -(ce(l, 3 + c1, c2) + rinv * ke(l, 3 + c1, c2))
-          m22 = -(ce(l, 3 + c1, 3 + c2) + rinv * ke(l, 3 + c1, 3 + c2))
-          blk(l, c1, c2, 1) = m11
-          blk(l, c1, c2, 2) = m12 - m11
-          blk(l, c1, c2, 3) = -m12
-          blk(l, c1, c2, 4) = m21 - m11
-          blk(l, c1, c2, 5) = (m11 - m12) + (m22 - m21)
-          blk(l, c1, c2, 6) = m12 - m22
-          blk(l, c1, c2, 7) = -m21
-          blk(l, c1, c2, 8) = m21 - m22
-          blk(l, c1, c2, 9) = m22
-        end do
+        select case (pp)
+        case (1)
+          do l = 1, nl
+            i = ip0 + l - 1
+            m11 = -(ce(l, c1, c2) + rinv * ke(l, c1, c2))
+            m12 = -(ce(l, c1, 3 + c2) + rinv * ke(l, c1, 3 + c2))
+            dst(i, c1, c2, sl(1)) = dst(i, c1, c2, sl(1)) + free(l, 1) * m11
+            dst(i, c1, c2, sl(2)) = dst(i, c1, c2, sl(2)) + free(l, 2) * (m12 - m11)
+            dst(i, c1, c2, sl(3)) = dst(i, c1, c2, sl(3)) + free(l, 3) * (-m12)
+          end do
+        case (2)
+          do l = 1, nl
+            i = ip0 + l - 1
+            m11 = -(ce(l, c1, c2) + rinv * ke(l, c1, c2))
+            m12 = -(ce(l, c1, 3 + c2) + rinv * ke(l, c1, 3 + c2))
+            m21 = -(ce(l, 3 + c1, c2) + rinv * ke(l, 3 + c1, c2))
+            m22 = -(ce(l, 3 + c1, 3 + c2) + rinv * ke(l, 3 + c1, 3 + c2))
+            dst(i, c1, c2, sl(1)) = dst(i, c1, c2, sl(1)) + free(l, 1) * (m21 - m11)
+            dst(i, c1, c2, sl(2)) = dst(i, c1, c2, sl(2)) + free(l, 2) * ((m11 - m12) + (m22 - m21))
+            dst(i, c1, c2, sl(3)) = dst(i, c1, c2, sl(3)) + free(l, 3) * (m12 - m22)
+          end do
+        case default
+          do l = 1, nl
+            i = ip0 + l - 1
+            m21 = -(ce(l, 3 + c1, c2) + rinv * ke(l, 3 + c1, c2))
+            m22 = -(ce(l, 3 + c1, 3 + c2) + rinv * ke(l, 3 + c1, 3 + c2))
+            dst(i, c1, c2, sl(1)) = dst(i, c1, c2, sl(1)) + free(l, 1) * (-m21)
+            dst(i, c1, c2, sl(2)) = dst(i, c1, c2, sl(2)) + free(l, 2) * (m21 - m22)
+            dst(i, c1, c2, sl(3)) = dst(i, c1, c2, sl(3)) + free(l, 3) * m22
+          end do
+        end select
       end do
     end do
-  end subroutine triple_node_blocks
-
-  !> Add the blocks b(l, :, :) (times free(l) where masked) to slot sl of
-  !> nl consecutive nodes ip0.. of a row of S by stencil offset (node
-  !> blocks of nl bending triples), nodes fastest, as S keeps them: one
-  !> vector loop for each entry; with S node by node these adds were
-  !> scalar, 3 % of a bw step with bending. Explicit shapes, as
-  !> put_link_blocks.
-  pure subroutine add_lane_blocks(nl, ld, nx, nslot, sl, ip0, b, masked, free, dst)
-    integer, intent(in) :: nl, ld, nx, nslot, sl, ip0
-    real(rp), intent(in) :: b(ld, 3, 3), free(ld)
-    logical, intent(in) :: masked
-    real(rp), intent(inout) :: dst(0:nx - 1, 3, 3, nslot)
-    integer :: l, c1, c2
-    do c2 = 1, 3
-      do c1 = 1, 3
-        if (masked) then
-          do l = 1, nl
-            dst(ip0 + l - 1, c1, c2, sl) = dst(ip0 + l - 1, c1, c2, sl) + free(l) * b(l, c1, c2)
-          end do
-        else
-          do l = 1, nl
-            dst(ip0 + l - 1, c1, c2, sl) = dst(ip0 + l - 1, c1, c2, sl) + b(l, c1, c2)
-          end do
-        end if
-      end do
-    end do
-  end subroutine add_lane_blocks
+  end subroutine add_triple_block_row
 
   !> add_triple_lanes' products and diagonals for node P of nl triples
   !> (t1, t2: its factors in the two edges): g -= t1 h(1:3) + t2 h(4:6) and
