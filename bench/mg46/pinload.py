@@ -24,25 +24,46 @@ inverse).
 With --where: the residual one kaskade cycle leaves, and how much of it
 lies near the pins.
 
-  python3 pinload.py [--load gravity|random] [--eig | --where] SIZES
+With --pins edge the whole edge j = ny-1 is pinned instead of its corners.
+
+  python3 pinload.py [--load gravity|random] [--pins corners|edge] [--eig | --where] SIZES
 """
 import argparse
 import numpy as np
 import scipy.linalg as sl
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from model import bending, prolong, Level, ETA_B, K_B, A_SHIFT
+from model import bending, prolong, Level, ETA_B, K_B, A_SHIFT, MASS
 
 COEF = ETA_B + K_B / A_SHIFT
 
 
+PINS = 'corners'
+
+
 def pins(n):
+    """hang's two pinned corners of row n-1, or (PINS = 'edge') all of it."""
+    if PINS == 'edge':
+        return [i + n * (n - 1) for i in range(n)]
     return [0 + n * (n - 1), (n - 1) + n * (n - 1)]
+
+
+def operator(n):
+    """S_z of model.py with the nodes pins(n) constrained (rows a m I)."""
+    S = bending(n, COEF, pins=False).tolil()
+    m = np.full((n, n), MASS / (n - 1) ** 2)
+    m[0, :] *= 0.5; m[-1, :] *= 0.5; m[:, 0] *= 0.5; m[:, -1] *= 0.5
+    m = m.T.reshape(-1)
+    for p in pins(n):
+        S[p, :] = 0.0
+        S[:, p] = 0.0
+        S[p, p] = A_SHIFT * m[p]
+    return S.tocsr()
 
 
 def hierarchy(n, galerkin, levels=None):
     levels = levels or int(np.log2(n - 1)) - 1
-    levs, Ps, Rs = [Level(bending(n, COEF))], [], []
+    levs, Ps, Rs = [Level(operator(n))], [], []
     for _ in range(levels - 1):
         nc = (n - 1) // 2 + 1
         P = prolong(n, True).tolil()
@@ -51,7 +72,7 @@ def hierarchy(n, galerkin, levels=None):
         R = prolong(n, False).T.tolil()
         R[pins(nc), :] = 0.0
         R = R.tocsr()
-        Ac = bending(nc, COEF)
+        Ac = operator(nc)
         if galerkin:
             G = (P.T @ levs[-1].A @ P).tolil()
             for p in pins(nc):
@@ -107,7 +128,10 @@ def where(n, b):
     levs, Ps, Rs = hierarchy(n, False)
     r = b - levs[0].A @ cycle(levs, Ps, Rs, b, 0, 'K')
     jj, ii = np.mgrid[0:n, 0:n]
-    near = (np.minimum(np.hypot(ii, n - 1 - jj), np.hypot(n - 1 - ii, n - 1 - jj)) < 8).reshape(-1)
+    near = np.zeros((n, n), dtype=bool)
+    for p in pins(n):
+        near |= np.hypot(ii - p % n, jj - p // n) < 8
+    near = near.reshape(-1)
     return np.linalg.norm(r) / np.linalg.norm(b), (r[near] ** 2).sum() / (r ** 2).sum()
 
 
@@ -128,8 +152,11 @@ def main():
     ap.add_argument('sizes', type=int, nargs='*', default=[33, 65, 129, 257])
     ap.add_argument('--load', choices=['gravity', 'random'], default='gravity')
     ap.add_argument('--eig', action='store_true', help='level 2 against P^T A P (dense: sizes up to 129)')
+    ap.add_argument('--pins', choices=['corners', 'edge'], default='corners', help="hang's two corners or the whole edge")
     ap.add_argument('--where', action='store_true', help='where one kaskade cycle leaves the residual')
     args = ap.parse_args()
+    global PINS
+    PINS = args.pins
     for n in args.sizes:
         if args.eig:
             lo, hi, at = level2_eigs(n)
