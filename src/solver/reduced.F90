@@ -118,9 +118,7 @@ module reduced
     type(guess_t) :: gs                    !< the inner initial guesses (module reduced_guess)
     ! the process models' pair blocks (self-contact), which S's product and the right-hand side add
     type(pm_list_t), pointer :: pms => null()  !< the run's process models (null: no pair blocks)
-    type(pair_op_t) :: pop                 !< with S a PETSc matrix: the MATSHELL sop's context (module reduced_pairs)
-    type(tMat) :: sop                      !< S + pair blocks, the inner KSP's operator (S alone its preconditioner's)
-    logical :: have_sop = .false.
+    type(pair_op_t) :: pop                 !< with S a PETSc matrix: S + pair blocks, the inner KSP's operator (module reduced_pairs)
   end type reduced_t
 
   ! The elimination (submodule reduced_elim)
@@ -464,10 +462,8 @@ contains
     PetscCall(PCShellSetName(pc, 'nuno reduced elimination (inner solver: -reduced_ksp_view)', ierr))
   end subroutine reduced_attach
 
-  !> The process models pms give pair blocks (their hints' pair_blocks):
-  !> S's product (nuno's multigrid's MATSHELL, or a MATSHELL over the PETSc
-  !> matrix as the inner KSP's operator) and the right-hand side add them
-  !> wherever some rank has any. Collective.
+  !> The process models pms give pair blocks (hint pair_blocks): S's
+  !> product and the right-hand side add them. Collective.
   subroutine reduced_set_pairs(red, pms, ierr)
     type(reduced_t), intent(inout), target :: red
     type(pm_list_t), intent(in), target :: pms
@@ -478,9 +474,7 @@ contains
       call mg_glue_set_pairs(red%mgg, pms)
       return
     end if
-    PetscCall(pair_op_create(red%pop, red%s, red%da3, red%lat, pms, red%sop, ierr))
-    red%have_sop = .true.
-    PetscCall(KSPSetOperators(red%ksp, red%sop, red%s, ierr))
+    PetscCall(pair_op_create(red%pop, red%s, red%da3, red%lat, pms, red%ksp, ierr))
   end subroutine reduced_set_pairs
 
   !> Destroy what reduced_create made (the DMDA dof 6 and the lattice are
@@ -493,10 +487,7 @@ contains
       PetscCall(mg_glue_free(red%mgg, ierr))
     end if
     PetscCall(MatDestroy(red%jac, ierr))
-    if (red%have_sop) then
-      PetscCall(MatDestroy(red%sop, ierr))
-      call pair_op_destroy(red%pop)
-    end if
+    PetscCall(pair_op_destroy(red%pop, ierr))
     PetscCall(VecDestroy(red%pcc%coords, ierr))
     PetscCall(VecDestroy(red%dv, ierr))
     PetscCall(guess_free(red%gs, ierr))
@@ -567,7 +558,7 @@ contains
     PetscCall(MatAssemblyEnd(red%s, MAT_FINAL_ASSEMBLY, ierr))
     PetscCall(PetscLogEventEnd(red%ev_assemble, ierr))
     PetscCall(estimate_floor(red, u, a, ierr))
-    if (red%have_sop) call pair_op_set_shift(red%pop, a)
+    call pair_op_set_shift(red%pop, a)
     red%a = a
     red%assembled = .true.
     red%dirty = .false.

@@ -33,19 +33,21 @@ module reduced_pairs
     type(lattice_t), pointer :: lat => null()
     type(pm_list_t), pointer :: pms => null()
     real(rp) :: a = 0.0_rp                 !< shift of the assembled S [1/time]
+    type(tMat) :: op                       !< the MATSHELL (made by pair_op_create)
+    logical :: made = .false.
   end type pair_op_t
 
 contains
 
-  !> The MATSHELL op over s (same sizes) adding the pair blocks of pms.
-  !> Collective.
-  subroutine pair_op_create(po, s, da3, lat, pms, op, ierr)
+  !> The MATSHELL over s (same sizes) adding the pair blocks of pms, made
+  !> the operator of ksp, s its preconditioner's matrix. Collective.
+  subroutine pair_op_create(po, s, da3, lat, pms, ksp, ierr)
     type(pair_op_t), intent(inout), target :: po
     type(tMat), intent(in) :: s
     type(tDM), intent(in) :: da3
     type(lattice_t), intent(in), target :: lat
     type(pm_list_t), intent(in), target :: pms
-    type(tMat), intent(out) :: op
+    type(tKSP), intent(in) :: ksp
     PetscErrorCode, intent(out) :: ierr
     PetscInt :: m, n, mg, ng
     MPI_Comm :: comm
@@ -56,9 +58,11 @@ contains
     PetscCall(PetscObjectGetComm(da3, comm, ierr))
     PetscCall(MatGetLocalSize(s, m, n, ierr))
     PetscCall(MatGetSize(s, mg, ng, ierr))
-    PetscCall(MatCreateShell(comm, m, n, mg, ng, PETSC_NULL_INTEGER, op, ierr))
-    PetscCall(MatShellSetContext(op, po, ierr))
-    PetscCall(MatShellSetOperation(op, MATOP_MULT, pair_op_mult, ierr))
+    PetscCall(MatCreateShell(comm, m, n, mg, ng, PETSC_NULL_INTEGER, po%op, ierr))
+    PetscCall(MatShellSetContext(po%op, po, ierr))
+    PetscCall(MatShellSetOperation(po%op, MATOP_MULT, pair_op_mult, ierr))
+    PetscCall(KSPSetOperators(ksp, po%op, s, ierr))
+    po%made = .true.
   end subroutine pair_op_create
 
   !> The shift of the S just assembled.
@@ -68,9 +72,14 @@ contains
     po%a = a
   end subroutine pair_op_set_shift
 
-  !> Forget the matrix and the list (the MATSHELL is the caller's).
-  subroutine pair_op_destroy(po)
+  !> Destroy the MATSHELL, if made (the matrix and the list are the caller's).
+  subroutine pair_op_destroy(po, ierr)
     type(pair_op_t), intent(inout) :: po
+    PetscErrorCode, intent(out) :: ierr
+    ierr = 0
+    if (.not. po%made) return
+    PetscCall(MatDestroy(po%op, ierr))
+    po%made = .false.
     po%lat => null()
     po%pms => null()
   end subroutine pair_op_destroy
