@@ -22,8 +22,12 @@
 !>               domain (moving obstacles carry the nodes they reach)
 !>   jacobian    its blocks at u, t: 3 x 3 diagonal blocks of single nodes
 !>               (node_blocks) and blocks of node pairs that need not be
-!>               stencil neighbours (pair_blocks; a later self-contact:
-!>               not yet assembled, refused)
+!>               stencil neighbours (pair_blocks: self-contact), S's
+!>               product adds them on the rows the model gathers:
+!>   pair_rows   after jacobian: the lattice rows its pair blocks reach
+!>   pair_gather each product with S (and each right-hand side): those
+!>               rows of a vector, owned rows from their owners;
+!>               collective
 !>   step_limit  the fraction alpha of a Newton update x -> x + dx (from
 !>               the step's start x0 at t0 to a candidate at t1) that it
 !>               allows, and a status: PM_FEASIBLE, or PM_INFEASIBLE when
@@ -85,6 +89,9 @@ module process_model
     logical :: velocity_blocks = .false.
     !> its blocks change with the state (S is never constant)
     logical :: state_blocks = .false.
+    !> it gives pair blocks (nodes that are not stencil neighbours): S's
+    !> product and the reduced right-hand side add them (module reduced)
+    logical :: pair_blocks = .false.
     !> the TS schemes it allows, separated by commas ('': any): a TS type,
     !> or bdf with its order ('bdf2': -ts_type bdf -ts_bdf_order 2)
     character(len=128) :: ts_types = ''
@@ -135,6 +142,8 @@ module process_model
     procedure(pm_forces_i), deferred :: forces
     procedure(pm_jacobian_i), deferred :: jacobian
     procedure :: hints => no_hints
+    procedure :: pair_rows => no_pair_rows
+    procedure :: pair_gather => no_pair_gather
     procedure :: start => keep_start
     procedure :: step_limit => no_limit
     procedure :: accept => accept_all
@@ -310,6 +319,25 @@ contains
     ierr = 0
     errmsg = ''
   end subroutine state_ok
+
+  !> No pair blocks: no rows (rows: ascending global row numbers).
+  subroutine no_pair_rows(this, rows)
+    class(process_model_t), intent(in) :: this
+    integer, allocatable, intent(out) :: rows(:)
+    allocate(rows(0))
+  end subroutine no_pair_rows
+
+  !> No pair blocks: nothing to gather (v (nv, 0:nx-1, ys:ye) owned rows,
+  !> vall (nv, 0:nx-1, :) the rows of pair_rows, in its order).
+  subroutine no_pair_gather(this, lat, comm, v, vall, ierr)
+    class(process_model_t), intent(in) :: this
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: comm
+    real(rp), intent(in) :: v(:, 0:, lat%ys:)
+    real(rp), intent(inout) :: vall(:, 0:, :)
+    integer, intent(out) :: ierr
+    ierr = 0
+  end subroutine no_pair_gather
 
   !> Nothing to free.
   subroutine nothing_to_destroy(this)

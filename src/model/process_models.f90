@@ -8,8 +8,9 @@
 !>
 !> The list also holds what the hooks fill for the solver: the node
 !> blocks of the last Jacobian (node_blocks_t, which every assembly adds:
-!> module reduced keeps a pointer to it), the pair blocks (empty: not yet
-!> assembled), and the stage's feasibility: a step limit that found no
+!> module reduced keeps a pointer to it), the pair blocks (S's product
+!> and the reduced right-hand side add them: pm_list_pair_product,
+!> pm_list_pair_rhs, on the rows the model that gave them gathers), and the stage's feasibility: a step limit that found no
 !> feasible update makes the next residual infeasible (pm_list_forces),
 !> and a residual's or a limit's infeasibility is the stage's
 !> (pm_list_infeasible), which the solver turns into PETSc's domain error
@@ -22,7 +23,7 @@ module process_models
   use lattice, only: lattice_t
   use constraints, only: constraint_set_t
   use node_blocks, only: node_blocks_t, node_blocks_begin, node_blocks_end
-  use pair_blocks, only: pair_blocks_t, pair_blocks_begin, pair_blocks_end, pair_blocks_count
+  use pair_blocks, only: pair_blocks_t, pair_blocks_begin, pair_blocks_end, pair_blocks_count, pair_blocks_apply
   use checkpoint_record, only: named_value_t
   use process_model, only: process_model_t, pm_hints_t, pm_series_t, pm_group_t, pm_energy_t, PM_FEASIBLE, &
                            PM_INFEASIBLE
@@ -33,6 +34,7 @@ module process_models
   public :: pm_list_unresolved, pm_list_start_limit
   public :: pm_list_accepted, pm_list_output, pm_list_checkpoint, pm_list_restore, pm_list_check_state, pm_list_destroy
   public :: pm_list_nodal, pm_list_rejection, pm_list_take, pm_list_start
+  public :: pm_list_pairs_on, pm_list_pair_product, pm_list_pair_rhs
 
   !> One process model of the list.
   type :: pm_slot_t
@@ -46,8 +48,14 @@ module process_models
     type(pm_slot_t), allocatable :: m(:)
     !> the diagonal blocks of single nodes at the last Jacobian's state
     type(node_blocks_t) :: nodal
-    !> blocks of node pairs (not yet assembled: pm_list_jacobian refuses them)
+    !> blocks of node pairs at the last Jacobian's state (one model gives them)
     type(pair_blocks_t) :: pairs
+    logical :: pairs_on = .false.          !< some rank has pair blocks: the products gather (every rank)
+    integer :: pair_model = 0              !< the model that gave them, whose pair_gather serves
+    integer, allocatable :: pair_slot(:)   !< (0:ny-1) position of row j in that model's pair rows (0: absent)
+    integer :: pair_nrows = 0              !< how many pair rows
+    !> (6, 0:nx-1, capacity) a vector on the pair rows (grown, never shrunk)
+    real(rp), allocatable :: pair_v(:, :, :)
     !> a step limit found no feasible update: the next residual (at the
     !> candidate it left) is infeasible
     logical :: limit_failed = .false.
@@ -125,6 +133,7 @@ contains
       h%feasible_start = h%feasible_start .or. e%feasible_start
       h%velocity_blocks = h%velocity_blocks .or. e%velocity_blocks
       h%state_blocks = h%state_blocks .or. e%state_blocks
+      h%pair_blocks = h%pair_blocks .or. e%pair_blocks
     end do
   end function pm_list_hints
 
@@ -205,25 +214,105 @@ contains
   end function pm_list_infeasible
 
   !> Every model's blocks at u, t into the list's node blocks (which the
-  !> assemblies add) and pair blocks; pairs_given: a model gave pair
-  !> blocks, which no assembly takes yet (the caller refuses the run).
-  subroutine pm_list_jacobian(list, lat, fixed, t, u, pairs_given)
+  !> assemblies add) and pair blocks (which S's product and the reduced
+  !> right-hand side add); then, where some rank has pair blocks, the rows
+  !> they reach (the model's pair_rows). two_models: more than one model
+  !> gave pair blocks (not handled: the caller refuses the run).
+  !> Collective over comm.
+  subroutine pm_list_jacobian(list, lat, fixed, t, u, comm, two_models)
     type(pm_list_t), intent(inout) :: list
     type(lattice_t), intent(in) :: lat
     logical, intent(in) :: fixed(0:, lat%ys:)
     real(rp), intent(in) :: t
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)
-    logical, intent(out) :: pairs_given
-    integer :: k
+    integer, intent(in) :: comm
+    logical, intent(out) :: two_models
+    integer :: k, n0, loc(2), glob(2), mpierr
+    integer, allocatable :: rows(:)
     call node_blocks_begin(list%nodal, lat%ys, lat%ye)
     call pair_blocks_begin(list%pairs)
+    two_models = .false.
+    loc = 0
     do k = 1, list%n
+      n0 = pair_blocks_count(list%pairs)
       call list%m(k)%pm%jacobian(lat, fixed, t, u, list%nodal, list%pairs)
+      if (pair_blocks_count(list%pairs) == n0) cycle
+      if (loc(1) /= 0) two_models = .true.
+      loc(1) = k
     end do
     call node_blocks_end(list%nodal)
     call pair_blocks_end(list%pairs)
-    pairs_given = pair_blocks_count(list%pairs) > 0
+    loc(2) = merge(1, 0, two_models)
+    call MPI_Allreduce(loc, glob, 2, MPI_INTEGER, MPI_MAX, comm, mpierr)
+    two_models = glob(2) > 0
+    list%pair_model = glob(1)
+    list%pairs_on = glob(1) > 0
+    if (.not. list%pairs_on) return
+    call list%m(list%pair_model)%pm%pair_rows(rows)
+    if (.not. allocated(list%pair_slot)) allocate(list%pair_slot(0:lat%ny - 1))
+    list%pair_slot = 0
+    do k = 1, size(rows)
+      list%pair_slot(rows(k)) = k
+    end do
+    list%pair_nrows = size(rows)
+    if (allocated(list%pair_v)) then
+      if (size(list%pair_v, 3) < size(rows)) deallocate(list%pair_v)
+    end if
+    if (.not. allocated(list%pair_v)) allocate(list%pair_v(6, 0:lat%nx - 1, max(size(rows), 1)))
   end subroutine pm_list_jacobian
+
+  !> Some rank has pair blocks at the last Jacobian: pm_list_pair_product
+  !> and pm_list_pair_rhs gather (the same on every rank).
+  pure logical function pm_list_pairs_on(list)
+    type(pm_list_t), intent(in) :: list
+    pm_list_pairs_on = list%pairs_on
+  end function pm_list_pairs_on
+
+  !> y += the pair blocks' part of S = a M - C - K/a times x, -(K_ab/a +
+  !> C_ab) x_b over the entries whose node b is free (S has no constrained
+  !> columns); x, y (3, 0:nx-1, ys:ye) owned rows, x's rows that the
+  !> blocks reach gathered by the model that gave them. ierr /= 0: the
+  !> gather failed, or a row is missing (its plan changed since the
+  !> Jacobian). Collective (with pm_list_pairs_on).
+  subroutine pm_list_pair_product(list, lat, comm, a, x, y, ierr)
+    type(pm_list_t), intent(inout) :: list
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: comm
+    real(rp), intent(in) :: a
+    real(rp), intent(in) :: x(:, 0:, lat%ys:)
+    real(rp), intent(inout) :: y(:, 0:, lat%ys:)
+    integer, intent(out) :: ierr
+    integer :: err, gerr, mpierr
+    associate (v => list%pair_v(1:3, :, 1:list%pair_nrows))
+      call list%m(list%pair_model)%pm%pair_gather(lat, comm, x, v, ierr)
+      call pair_blocks_apply(list%pairs, list%pair_slot, v, v, -1.0_rp / a, -1.0_rp, .true., lat%ys, y, err)
+    end associate
+    err = max(err, abs(ierr))
+    call MPI_Allreduce(err, gerr, 1, MPI_INTEGER, MPI_MAX, comm, mpierr)
+    ierr = gerr
+  end subroutine pm_list_pair_product
+
+  !> g += -(K_ab w_x,b + C_ab w_v,b) over every entry (the reduced
+  !> right-hand side's products, module reduced's g = -(K w_x + C w_v):
+  !> constrained nodes b included); w (0:5, 0:nx-1, ys:ye) and g (3,
+  !> 0:nx-1, ys:ye) owned rows. ierr as pm_list_pair_product. Collective.
+  subroutine pm_list_pair_rhs(list, lat, comm, w, g, ierr)
+    type(pm_list_t), intent(inout) :: list
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: comm
+    real(rp), intent(in) :: w(0:, 0:, lat%ys:)
+    real(rp), intent(inout) :: g(:, 0:, lat%ys:)
+    integer, intent(out) :: ierr
+    integer :: err, gerr, mpierr
+    associate (v => list%pair_v(:, :, 1:list%pair_nrows))
+      call list%m(list%pair_model)%pm%pair_gather(lat, comm, w, v, ierr)
+      call pair_blocks_apply(list%pairs, list%pair_slot, v(1:3, :, :), v(4:6, :, :), -1.0_rp, -1.0_rp, .false., &
+                             lat%ys, g, err)
+    end associate
+    err = max(err, abs(ierr))
+    call MPI_Allreduce(err, gerr, 1, MPI_INTEGER, MPI_MAX, comm, mpierr)
+    ierr = gerr
+  end subroutine pm_list_pair_rhs
 
   !> Newton's start x (owned rows) of a step from the accepted state x0 at
   !> t0 to t1, moved by each model in the list's order (its start hook: a

@@ -27,10 +27,11 @@
 !> alpha over the candidates of its swept paths on all ranks, so no gap
 !> closes along an accepted path; the accept hook checks the end state's
 !> smallest gap once more, naming the pair where it is <= 0. The Jacobian
-!> takes each pair's diagonal blocks df_a/dx_a alone (node_blocks): the
-!> blocks between a pair's different nodes (pair_blocks) need S x to add
-!> products with a gathered Krylov vector, not done yet, so Newton is a
-!> quasi-Newton method where pairs are active.
+!> gives each pair's diagonal blocks df_a/dx_a as node blocks and the
+!> blocks between its different nodes df_a/dx_b as pair blocks, which
+!> S's product adds with the Krylov vector's rows gathered by the list's
+!> plan (pair_gather: the plan does not change between a Jacobian and the
+!> solves with it; the step limit, which may make it again, runs after).
 !> The kernels allocate their tables at each call (the broad phase, the
 !> block list): the one place the time loop allocates, with self_contact on.
 module self_contact
@@ -40,7 +41,7 @@ module self_contact
   use lattice, only: lattice_t
   use constraints, only: constraint_set_t
   use node_blocks, only: node_blocks_t, node_blocks_add
-  use pair_blocks, only: pair_blocks_t
+  use pair_blocks, only: pair_blocks_t, pair_blocks_add
   use checkpoint_record, only: named_value_t, named_value
   use contact, only: contact_params_t
   use contact_ccd, only: ACCD_S
@@ -94,6 +95,8 @@ module self_contact
     procedure :: setup => self_setup
     procedure :: forces => self_forces
     procedure :: jacobian => self_jacobian
+    procedure :: pair_rows => self_pair_rows
+    procedure :: pair_gather => self_pair_gather
     procedure :: step_limit => self_step_limit
     procedure :: accept => self_accept
     procedure :: accepted => self_accepted
@@ -111,12 +114,13 @@ contains
   end function self_name
 
   !> As the obstacles' barrier (contact_model's hints): a feasible start,
-  !> limited updates, the Jacobian at every iteration, backward Euler.
+  !> limited updates, the Jacobian at every iteration, backward Euler;
+  !> and pair blocks.
   pure function self_hints(this) result(h)
     class(self_contact_model_t), intent(in) :: this
     type(pm_hints_t) :: h
     h = pm_hints_t(jacobian_every_iteration=.true., forcing_off=.true., basic_line_search=.true., &
-                   feasible_start=.true., state_blocks=.true., ts_types='beuler')
+                   feasible_start=.true., state_blocks=.true., pair_blocks=.true., ts_types='beuler')
   end function self_hints
 
   !> Set-up: the barrier from &contact (xi = 2 contact_thickness), the
@@ -221,9 +225,11 @@ contains
                              blocks, nact)
   end subroutine narrow_phase
 
-  !> The blocks df_a/dx_a of each active pair on its free owned nodes a
-  !> into nodal (the projected Hessian's diagonal blocks; the blocks
-  !> between a pair's nodes are left out: module header). Collective.
+  !> The blocks of each active pair on its free owned nodes a (the
+  !> projected Hessian's): df_a/dx_a into nodal, df_a/dx_b of its other
+  !> nodes b into pairs (b anywhere; whether b is constrained from the
+  !> fetched rows' masks), which S's product adds with the Krylov vector's
+  !> rows gathered by this list's plan (pair_gather). Collective.
   subroutine self_jacobian(this, lat, fixed, t, u, nodal, pairs)
     class(self_contact_model_t), intent(in) :: this
     type(lattice_t), intent(in) :: lat
@@ -233,19 +239,53 @@ contains
     type(node_blocks_t), intent(inout) :: nodal
     type(pair_blocks_t), intent(inout) :: pairs
     real(rp) :: xall(3, 0:lat%nx - 1, size(this%rows)), fall(3, 0:lat%nx - 1, size(this%rows)), e, zero(3, 3)
+    ! 1 on a constrained node, owned rows and the fetched ones
+    real(rp) :: mask(1, 0:lat%nx - 1, lat%ys:lat%ye), mall(1, 0:lat%nx - 1, size(this%rows))
     type(self_blocks_t) :: blocks
-    integer :: nact, ierr, m, i, j
+    integer :: nact, ierr, m, i, j, ib, jb, slot(0:lat%ny - 1)
     call narrow_phase(this, lat, u, .true., xall, fall, e, blocks, nact, ierr)
+    mask(1, :, :) = merge(1.0_rp, 0.0_rp, fixed(:, lat%ys:lat%ye))
+    call self_exchange_gather(this%xch, mask, mall, ierr)
+    call self_row_slots(this%sl, this%rows, slot)
     zero = 0.0_rp
     do m = 1, blocks%n
-      if (blocks%a(m) /= blocks%b(m)) cycle
       i = mod(blocks%a(m), lat%nx)
       j = blocks%a(m) / lat%nx
       if (j < lat%ys .or. j > lat%ye) cycle
       if (fixed(i, j)) cycle
-      call node_blocks_add(nodal, i, j, blocks%k(:, :, m), zero)
+      if (blocks%a(m) == blocks%b(m)) then
+        call node_blocks_add(nodal, i, j, blocks%k(:, :, m), zero)
+      else
+        ib = mod(blocks%b(m), lat%nx)
+        jb = blocks%b(m) / lat%nx
+        call pair_blocks_add(pairs, i, j, ib, jb, mall(1, ib, slot(jb)) > 0.0_rp, blocks%k(:, :, m), zero)
+      end if
     end do
   end subroutine self_jacobian
+
+  !> The rows the pair blocks reach: the list's present rows, ascending.
+  subroutine self_pair_rows(this, rows)
+    class(self_contact_model_t), intent(in) :: this
+    integer, allocatable, intent(out) :: rows(:)
+    rows = this%rows
+  end subroutine self_pair_rows
+
+  !> A vector's present rows vall (nv, 0:nx-1, size(rows)) from its owned
+  !> rows v (nv, 0:nx-1, ys:ye), by the list's plan. Collective.
+  subroutine self_pair_gather(this, lat, comm, v, vall, ierr)
+    class(self_contact_model_t), intent(in) :: this
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: comm
+    real(rp), intent(in) :: v(:, 0:, lat%ys:)
+    real(rp), intent(inout) :: vall(:, 0:, :)
+    integer, intent(out) :: ierr
+    ierr = 0
+    if (size(vall, 3) /= size(this%rows)) then
+      ierr = 1
+      return
+    end if
+    call self_exchange_gather(this%xch, v, vall, ierr)
+  end subroutine self_pair_gather
 
   !> Flavour (a): the update x -> x + dx scaled by the smallest ACCD alpha
   !> (a tenth of each gap kept) over the pairs its paths may bring within

@@ -15,7 +15,7 @@ module solver_setup
   use scenes, only: scene_setup
   use solver_choices, only: JACOBIAN_NAMES, JACOBIAN_REDUCED, INTERP_AUTO, INTERP_NAMES, GUESS_AUTO, GUESS_NONE, &
                             GUESS_EXTRAPOLATE, GUESS_PROJECT, GUESS_NAMES, FALLBACK_BT, FALLBACK_NAMES
-  use reduced, only: reduced_create, reduced_destroy, reduced_attach, reduced_set_guess, reduced_describe, &
+  use reduced, only: reduced_create, reduced_set_pairs, reduced_destroy, reduced_attach, reduced_set_guess, reduced_describe, &
                      reduced_jacobian, reduced_forward_ew, reduced_inner_ksp
   use app_context, only: app_ctx, nuno_signals_install
   use solver_options, only: nuno_options_read, nuno_linesearch_options_read, nuno_tolerance_options_read, &
@@ -358,6 +358,10 @@ contains
                  (cfg%material%eta_b == 0.0_rp .or. opt%gn /= 0)))
     constant = cfg%material%spring_code == SPRING_LINEAR .and. cfg%material%bending_code == BEND_NONE .and. .not. hints%state_blocks
     PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, pm_list_nodal(ctx%pms), symmetric, constant, damping, opt%cl /= 0, opt%gn /= 0, opt%pc_lag, opt%pc_growth, opt%mg_interp, ierr))
+    ! blocks of nodes that are not stencil neighbours (self-contact): S's product adds them
+    if (hints%pair_blocks) then
+      PetscCall(reduced_set_pairs(ctx%red, ctx%pms, ierr))
+    end if
   end subroutine create_jacobian
 
   !> The TS: the report's scheme by default, backward Euler with the

@@ -76,10 +76,13 @@ contains
     PetscCall(ghosted_get(ctx%da, uvec, uloc, u, ierr))
     ! the process models' blocks at this state, which both assemblies add
     if (pm_list_on(ctx%pms)) then
-      call model_pm_jacobian(ctx%model, ctx%pms, ctx%lat, t, u, pairs)
+      ! pair blocks (self-contact) enter the reduced solve's S and
+      ! right-hand side; the 6-dof assembly leaves them out (Newton is a
+      ! quasi-Newton method there where pairs are active)
+      call model_pm_jacobian(ctx%model, ctx%pms, ctx%lat, t, u, ctx%comm, pairs)
       if (pairs) then
         ierr = PETSC_ERR_SUP
-        SETERRQ(PETSC_COMM_SELF, ierr, 'nuno: a process model gave blocks of node pairs, which no assembly takes yet (src/kernels/pair_blocks.f90)')
+        SETERRQ(ctx%comm, ierr, 'nuno: two process models gave blocks of node pairs; one can (src/model/process_models.f90)')
       end if
     end if
     if (ctx%use_reduced) then

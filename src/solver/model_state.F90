@@ -231,15 +231,16 @@ contains
 
   !> The process models' blocks at the ghosted state u at time t (module
   !> process_models' pm_list_jacobian, which the assemblies then add);
-  !> pairs_given: a model gave pair blocks (not assembled yet).
-  subroutine model_pm_jacobian(m, pms, lat, t, u, pairs_given)
+  !> two_models: more than one model gave pair blocks. Collective over comm.
+  subroutine model_pm_jacobian(m, pms, lat, t, u, comm, two_models)
     type(model_state_t), intent(in) :: m
     type(pm_list_t), intent(inout) :: pms
     type(lattice_t), intent(in) :: lat
     real(rp), intent(in) :: t
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)
-    logical, intent(out) :: pairs_given
-    call pm_list_jacobian(pms, lat, m%fixed, t, u, pairs_given)
+    integer, intent(in) :: comm
+    logical, intent(out) :: two_models
+    call pm_list_jacobian(pms, lat, m%fixed, t, u, comm, two_models)
   end subroutine model_pm_jacobian
 
   !> The fraction alpha of the Newton update x -> x + dx (from x0 at t0 to

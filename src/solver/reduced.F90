@@ -36,12 +36,15 @@ module reduced
                         true_residual_defaults, mg_options_t, mg_options_read, &
                         INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
   use shell_context, only: PCShellSetContext, PCShellGetContext, MatShellSetContext, MatShellGetContext
+  use process_models, only: pm_list_t, pm_list_pairs_on, pm_list_pair_rhs
+  use reduced_mg, only: mg_glue_set_pairs
+  use reduced_pairs, only: pair_op_t, pair_op_create, pair_op_set_shift, pair_op_destroy
   use ghosted_state, only: ghosted_get, ghosted_restore
   implicit none
   private
   public :: reduced_t, reduced_create, reduced_destroy, reduced_assemble, reduced_set_fixed, reduced_attach, reduced_describe
   public :: set_block_row, reduced_set_guess, reduced_step_accepted
-  public :: reduced_set_forcing, reduced_restore_floor
+  public :: reduced_set_forcing, reduced_restore_floor, reduced_set_pairs
   ! read accessors
   public :: reduced_inner_ksp, reduced_jacobian, reduced_forward_ew, reduced_its, reduced_floor_est, reduced_lin_rel, &
             reduced_rtol0
@@ -113,6 +116,9 @@ module reduced
     real(rp) :: eta = 0                    !< inner rtol of the next Newton solve; 0: rtol0
     real(rp) :: lin_rel = 0                !< relative residual the last inner solve left
     type(guess_t) :: gs                    !< the inner initial guesses (module reduced_guess)
+    ! the process models' pair blocks (self-contact), which S's product and the right-hand side add
+    type(pm_list_t), pointer :: pms => null()  !< the run's process models (null: no pair blocks)
+    type(pair_op_t) :: pop                 !< with S a PETSc matrix: S + pair blocks, the inner KSP's operator (module reduced_pairs)
   end type reduced_t
 
   ! The elimination (submodule reduced_elim)
@@ -456,6 +462,21 @@ contains
     PetscCall(PCShellSetName(pc, 'nuno reduced elimination (inner solver: -reduced_ksp_view)', ierr))
   end subroutine reduced_attach
 
+  !> The process models pms give pair blocks (hint pair_blocks): S's
+  !> product and the right-hand side add them. Collective.
+  subroutine reduced_set_pairs(red, pms, ierr)
+    type(reduced_t), intent(inout), target :: red
+    type(pm_list_t), intent(in), target :: pms
+    PetscErrorCode, intent(out) :: ierr
+    ierr = 0
+    red%pms => pms
+    if (red%pcc%use_mg) then
+      call mg_glue_set_pairs(red%mgg, pms)
+      return
+    end if
+    PetscCall(pair_op_create(red%pop, red%s, red%da3, red%lat, pms, red%ksp, ierr))
+  end subroutine reduced_set_pairs
+
   !> Destroy what reduced_create made (the DMDA dof 6 and the lattice are
   !> the caller's). Collective.
   subroutine reduced_destroy(red, ierr)
@@ -466,6 +487,7 @@ contains
       PetscCall(mg_glue_free(red%mgg, ierr))
     end if
     PetscCall(MatDestroy(red%jac, ierr))
+    PetscCall(pair_op_destroy(red%pop, ierr))
     PetscCall(VecDestroy(red%pcc%coords, ierr))
     PetscCall(VecDestroy(red%dv, ierr))
     PetscCall(guess_free(red%gs, ierr))
@@ -536,6 +558,7 @@ contains
     PetscCall(MatAssemblyEnd(red%s, MAT_FINAL_ASSEMBLY, ierr))
     PetscCall(PetscLogEventEnd(red%ev_assemble, ierr))
     PetscCall(estimate_floor(red, u, a, ierr))
+    call pair_op_set_shift(red%pop, a)
     red%a = a
     red%assembled = .true.
     red%dirty = .false.

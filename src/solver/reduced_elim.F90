@@ -41,6 +41,26 @@ contains
                      red%el%lb, red%el%g, red%el%kd)
   end subroutine element_products
 
+  !> g -= K_ab w_x,b + C_ab w_v,b of the process models' pair blocks
+  !> (self-contact: nodes b anywhere, constrained ones too), where some
+  !> rank has any; w (0:5, 0:nx-1, gys:gye) ghosted. Collective.
+  subroutine pair_products(red, w, ierr)
+    type(reduced_t), intent(inout) :: red
+    real(rp), intent(in) :: w(0:, 0:, red%lat%gys:)
+    PetscErrorCode, intent(out) :: ierr
+    integer :: err
+    MPI_Comm :: comm
+    ierr = 0
+    if (.not. associated(red%pms)) return
+    if (.not. pm_list_pairs_on(red%pms)) return
+    PetscCall(PetscObjectGetComm(red%da3, comm, ierr))
+    call pm_list_pair_rhs(red%pms, red%lat, comm, w(:, :, red%lat%ys:red%lat%ye), red%el%g, err)
+    if (err /= 0) then
+      ierr = PETSC_ERR_PLIB
+      SETERRQ(comm, ierr, 'nuno: the pair blocks'' rows could not be gathered for the reduced products (their plan changed since the Jacobian)')
+    end if
+  end subroutine pair_products
+
   !> The right-hand side of S dv = rhs for the 6-dof right-hand side b
   !> (global, dof 6): rhs = m b_v + K b_x/a + C z (see the header above).
   !> Collective (one halo exchange of b).
@@ -89,6 +109,7 @@ contains
     else
       call element_products(red, red%el%w)
     end if
+    PetscCall(pair_products(red, red%el%w, ierr))
     ! A constrained node's row takes no element products (its row of S is
     ! a m I): m b_v - 0 there, which is m b_v to the bit.
     PetscCall(DMDAVecGetArrayF90(red%da3, rhs, r, ierr))
@@ -307,6 +328,7 @@ contains
     a = red%a
     PetscCall(ghosted_get(red%da6, du, dloc, d, ierr))
     call element_products(red, d)
+    PetscCall(pair_products(red, d, ierr))
     PetscCall(DMDAVecGetArrayF90(red%da6, yv, y, ierr))
     do j = red%lat%ys, red%lat%ye
       do i = 0, red%lat%nx - 1

@@ -23,6 +23,7 @@ module reduced_mg
   use lattice, only: lattice_t
   use reduced_assembly, only: assemble_stencil
   use node_blocks, only: node_blocks_t
+  use process_models, only: pm_list_t, pm_list_pairs_on, pm_list_pair_product
   use offset_product, only: stencil_product, offset_count
   use interpolation, only: cubic_weights
   use mg_kernels, only: stencil_t
@@ -31,7 +32,7 @@ module reduced_mg
   use mg_coarse, only: mg_coarse_t, mg_coarse_init, mg_coarse_build, mg_coarse_free
   implicit none
   private
-  public :: mg_glue_t, mg_glue_matrix, mg_glue_pc, mg_glue_free, mg_glue_assemble, mg_glue_built, mg_glue_describe
+  public :: mg_glue_t, mg_glue_matrix, mg_glue_set_pairs, mg_glue_pc, mg_glue_free, mg_glue_assemble, mg_glue_built, mg_glue_describe
   public :: mg_coarse_levels, levels_that_fit, default_preconditioner, mg_interpolations, true_residual_defaults
   public :: mg_options_t, mg_options_read
   public :: INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC
@@ -77,6 +78,10 @@ module reduced_mg
     logical :: pax_valid = .false.         !< pax is S z for the current S
     logical :: pax_checked = .false.       !< the Krylov method's side checked (at the first cycle), pax made
     integer :: pax_used = 0                !< products returned from pax (-reduced_ksp_view)
+    ! The process models' pair blocks (self-contact: nodes that are not
+    ! stencil neighbours), which every product adds after the stencil's
+    type(pm_list_t), pointer :: pms => null()  !< the run's process models (not owned; null: none)
+    real(rp) :: a = 0.0_rp                 !< shift of the assembled S [1/time]
   end type mg_glue_t
 
   interface
@@ -203,6 +208,14 @@ contains
     end if
   end subroutine mg_glue_free
 
+  !> The process models whose pair blocks S's product adds (module
+  !> process_models' pm_list_pair_product, where some rank has any).
+  subroutine mg_glue_set_pairs(gl, pms)
+    type(mg_glue_t), intent(inout) :: gl
+    type(pm_list_t), intent(in), target :: pms
+    gl%pms => pms
+  end subroutine mg_glue_set_pairs
+
   !> S by stencil offset at the ghosted state u (module reduced_assembly's
   !> assemble_stencil, which takes the products g of w and the diagonal kd
   !> on the way), and the multigrid's finest level made from it row by row
@@ -221,6 +234,7 @@ contains
     real(rp), intent(out) :: kd(:, 0:, gl%lat%ys:)
     type(stencil_t), pointer :: fine
     gl%pax_valid = .false.
+    gl%a = a
     fine => mg_fine_level(gl%mg)
     call assemble_stencil(gl%lat, nodal, u, fixedg, a, damping, clamp, gauss_newton, w, lb, g, kd, gl%st, fine)
   end subroutine mg_glue_assemble
@@ -369,20 +383,38 @@ contains
   !> single precision and their sum in double: kernel
   !> stencil_product_mixed, half the bytes), or with -nuno_mg_product double
   !> over S in double precision, one vector loop per offset (kernel
-  !> offset_product).
+  !> offset_product); then, where a process model gave pair blocks
+  !> (self-contact), their part (pair_part: x's rows they reach gathered).
+  !> The fused product is the stencil's part alone, so it is kept and the
+  !> pair part added after it (a cycle's sweeps take no pair blocks).
   !> Collective.
   subroutine stencil_mult(mat, x, y, ierr)
     type(tMat) :: mat
     type(tVec) :: x, y
     PetscErrorCode :: ierr
     type(mg_glue_t), pointer :: gl
+    type(c_ptr) :: ctx                     !< the shell's context: the record's address
+    PetscCall(MatShellGetContext(mat, ctx, ierr))
+    call c_f_pointer(ctx, gl)
+    PetscCall(stencil_part(gl, x, y, ierr))
+    if (associated(gl%pms)) then
+      if (pm_list_pairs_on(gl%pms)) then
+        PetscCall(pair_part(gl, x, y, ierr))
+      end if
+    end if
+  end subroutine stencil_mult
+
+  !> y = the stencil's part of S x (stencil_mult without the pair blocks).
+  !> Collective.
+  subroutine stencil_part(gl, x, y, ierr)
+    type(mg_glue_t), intent(inout) :: gl
+    type(tVec) :: x, y
+    PetscErrorCode, intent(out) :: ierr
     type(tVec) :: xloc
     PetscScalar, pointer :: xl(:), ya(:)
     logical :: whole
     integer(c_int64_t) :: state
-    type(c_ptr) :: ctx                     !< the shell's context: the record's address
-    PetscCall(MatShellGetContext(mat, ctx, ierr))
-    call c_f_pointer(ctx, gl)
+    ierr = 0
     if (gl%pax_valid) then
       ! x the last cycle's output, unchanged: its product is formed
       if (x%v == gl%pax_of%v) then
@@ -422,7 +454,29 @@ contains
       PetscCall(VecRestoreArrayReadF90(xloc, xl, ierr))
       PetscCall(DMRestoreLocalVector(gl%da3, xloc, ierr))
     end if
-  end subroutine stencil_mult
+  end subroutine stencil_part
+
+  !> y += the pair blocks' part of S x (module process_models'
+  !> pm_list_pair_product: x's rows that the blocks reach gathered by the
+  !> model that gave them). Collective.
+  subroutine pair_part(gl, x, y, ierr)
+    type(mg_glue_t), intent(inout) :: gl
+    type(tVec) :: x, y
+    PetscErrorCode, intent(out) :: ierr
+    PetscScalar, pointer :: xa(:, :, :), ya(:, :, :)
+    MPI_Comm :: comm
+    integer :: err
+    PetscCall(PetscObjectGetComm(gl%da3, comm, ierr))
+    PetscCall(DMDAVecGetArrayReadF90(gl%da3, x, xa, ierr))
+    PetscCall(DMDAVecGetArrayF90(gl%da3, y, ya, ierr))
+    call pm_list_pair_product(gl%pms, gl%lat, comm, gl%a, xa(:, :, gl%lat%ys:gl%lat%ye), ya(:, :, gl%lat%ys:gl%lat%ye), err)
+    PetscCall(DMDAVecRestoreArrayF90(gl%da3, y, ya, ierr))
+    PetscCall(DMDAVecRestoreArrayReadF90(gl%da3, x, xa, ierr))
+    if (err /= 0) then
+      ierr = PETSC_ERR_PLIB
+      SETERRQ(comm, ierr, 'nuno: the pair blocks'' rows could not be gathered for S''s product (their plan changed since the Jacobian)')
+    end if
+  end subroutine pair_part
 
   !> PCSHELL view (-reduced_ksp_view): the hierarchy of nuno's multigrid.
   subroutine mg_pc_view(pc, viewer, ierr)
