@@ -16,10 +16,11 @@
 !> cycle more or less is not already a large ratio.
 module pc_reuse
   use kinds, only: rp
+  use solver_choices, only: INTERP_LINEAR
   implicit none
   private
   public :: pc_reuse_t, reuse_init, reuse_due, reuse_rebuilt, reuse_force, reuse_watch, reuse_grown
-  public :: cycles_per_decade, MIN_DECADES, PC_GROWTH_DEFAULT
+  public :: cycles_per_decade, default_pc_lag, MIN_DECADES, PC_GROWTH_DEFAULT
 
   !> -nuno_pc_rebuild_growth's default (docs/performance.md, "Reuse across steps")
   real(rp), parameter :: PC_GROWTH_DEFAULT = 1.5_rp
@@ -104,5 +105,29 @@ contains
     real(rp), intent(in) :: rtol
     c = real(its, rp) / log10(1.0_rp / rtol)
   end function cycles_per_decade
+
+  !> The inner preconditioner's rebuild interval: pc_lag where given (> 0),
+  !> else the default, measured (commits e0d6262, 458d4d3 and 53c2cdd):
+  !> a multigrid's (mg: nuno's or PCMG) Galerkin coarse operators kept
+  !> for 3 assemblies, 20 with the cubic interpolation, whose products
+  !> cost about five times more (its fine-level smoother and residual
+  !> always use the current S, so only the coarse correction ages; 20
+  !> against 10: the same inner iterations on hang's 1 s, 1-4 % more on
+  !> the release scenes, half the rebuilds), any other preconditioner
+  !> rebuilt each time.
+  pure integer function default_pc_lag(pc_lag, mg, interp) result(lag)
+    integer, intent(in) :: pc_lag
+    logical, intent(in) :: mg
+    integer, intent(in) :: interp          !< the multigrid's interpolation (INTERP_*)
+    if (pc_lag > 0) then
+      lag = pc_lag
+    else if (mg .and. interp /= INTERP_LINEAR) then
+      lag = 20
+    else if (mg) then
+      lag = 3
+    else
+      lag = 1
+    end if
+  end function default_pc_lag
 
 end module pc_reuse

@@ -26,7 +26,7 @@ module reduced
   use reduced_storage, only: s_store_t, store_init, store_matrix, store_assemble, check_direct, set_block_row, &
                              store_use_buffer, store_direct
   use newton_control, only: floor_node_add, floor_estimate
-  use pc_reuse, only: pc_reuse_t, reuse_init, reuse_due, reuse_rebuilt, reuse_force, reuse_watch, reuse_grown
+  use pc_reuse, only: pc_reuse_t, default_pc_lag, reuse_init, reuse_due, reuse_rebuilt, reuse_force, reuse_watch, reuse_grown
   use inner_guess, only: GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, GUESS_PROJECT, PROJECT_PAIRS
   use reduced_guess, only: guess_t, guess_use, guess_free, guess_restart, guess_set, guess_keep, guess_push, &
                            guess_accepted, guess_mode
@@ -390,30 +390,6 @@ contains
     el%fixedg = .false.
     el%ujac = 0.0_rp
   end subroutine elements_init
-
-  !> The inner preconditioner's rebuild interval: pc_lag where given (> 0),
-  !> else the default, measured (commits e0d6262, 458d4d3 and 53c2cdd):
-  !> a multigrid's (mg: nuno's or PCMG) Galerkin coarse operators kept
-  !> for 3 assemblies, 20 with the cubic interpolation, whose products
-  !> cost about five times more (its fine-level smoother and residual
-  !> always use the current S, so only the coarse correction ages; 20
-  !> against 10: the same inner iterations on hang's 1 s, 1-4 % more on
-  !> the release scenes, half the rebuilds), any other preconditioner
-  !> rebuilt each time.
-  pure integer function default_pc_lag(pc_lag, mg, interp) result(lag)
-    integer, intent(in) :: pc_lag
-    logical, intent(in) :: mg
-    integer, intent(in) :: interp          !< the multigrid's interpolation (INTERP_*)
-    if (pc_lag > 0) then
-      lag = pc_lag
-    else if (mg .and. interp /= INTERP_LINEAR) then
-      lag = 20
-    else if (mg) then
-      lag = 3
-    else
-      lag = 1
-    end if
-  end function default_pc_lag
 
   !> One line on the inner solver for the start-up summary: Krylov method,
   !> tolerance, preconditioner; for nuno's multigrid its levels, cycle and
