@@ -97,7 +97,7 @@ contains
   pure function faces_hints(this) result(h)
     class(face_contact_t), intent(in) :: this
     type(pm_hints_t) :: h
-    h = pm_hints_t(jacobian_every_iteration=.true., forcing_off=.true., basic_line_search=.true., &
+    h = pm_hints_t(jacobian_every_iteration=.true., forcing_guarded=.true., basic_line_search=.true., &
                    feasible_start=.true., velocity_blocks=.true., state_blocks=.true., ts_types='beuler')
   end function faces_hints
 
