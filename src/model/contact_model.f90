@@ -102,9 +102,12 @@ contains
   !> belong to the iterate before: a two-cycle across the smoothing band;
   !> lagged only after an iteration that contracted ||F|| tenfold, Newton
   !> took 21-40 % more iterations on drop_table and drape_sphere at
-  !> 65 x 65), no inexact-Newton forcing (its loose inner solves failed a
-  !> drop's impact; loose only after iterations that halved ||F||, they
-  !> still failed steps of a sphere pushing at 5 m/s, dt = 10 ms), full
+  !> 65 x 65), the inexact-Newton forcing guarded (tight wherever the
+  !> step limit cut the start or an update, or a moving obstacle carried
+  !> the start, and in the next solve's first iteration: its loose inner
+  !> solves failed a drop's impact; loose only after iterations that
+  !> halved ||F||, they still failed steps of a sphere pushing at 5 m/s,
+  !> dt = 10 ms), full
   !> steps on the 6-dof path too (the update is limited already; bt's
   !> model of ||F||^2 does not hold across the barrier's
   !> log), Newton starts outside the obstacles (the solver limits every
@@ -118,7 +121,7 @@ contains
   pure function contact_hints(this) result(h)
     class(contact_model_t), intent(in) :: this
     type(pm_hints_t) :: h
-    h = pm_hints_t(jacobian_every_iteration=.true., forcing_off=.true., basic_line_search=.true., &
+    h = pm_hints_t(jacobian_every_iteration=.true., forcing_guarded=.true., basic_line_search=.true., &
                    feasible_start=.true., velocity_blocks=.true., state_blocks=.true., ts_types='beuler,bdf1,bdf2', &
                    ts_why='beuler, or bdf with -ts_bdf_order 1 or 2 (L-stable, and every state they evaluate is a '// &
                    'Newton iterate the step limit keeps outside the obstacles; docs/contact.md, "Adaptive and '// &

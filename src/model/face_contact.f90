@@ -27,8 +27,8 @@ module face_contact
   use contact_ccd, only: ACCD_S
   use obstacle_set, only: obstacle_set_t, obstacle_set_init, obstacle_set_count, obstacle_set_pose, obstacle_set_moves, &
                           obstacle_set_pair
-  use face_lags, only: face_lag_list_t, lags_clear, lags_take, lags_forces, lags_blocks, lags_power
-  use face_elements, only: has_features, elements_forces, elements_blocks, elements_stats, elements_gap, elements_ccd, &
+  use face_lags, only: face_lag_list_t, lags_clear, lags_take, lags_walk, lags_power
+  use face_elements, only: WALK_FORCES, WALK_BLOCKS, WALK_STATS, has_features, elements_walk, elements_gap, elements_ccd, &
                            elements_mark
   use process_model, only: process_model_t, pm_hints_t, pm_series_t, pm_group_t, pm_energy_t, PM_FEASIBLE, &
                            PM_INFEASIBLE
@@ -97,7 +97,7 @@ contains
   pure function faces_hints(this) result(h)
     class(face_contact_t), intent(in) :: this
     type(pm_hints_t) :: h
-    h = pm_hints_t(jacobian_every_iteration=.true., forcing_off=.true., basic_line_search=.true., &
+    h = pm_hints_t(jacobian_every_iteration=.true., forcing_guarded=.true., basic_line_search=.true., &
                    feasible_start=.true., velocity_blocks=.true., state_blocks=.true., ts_types='beuler')
   end function faces_hints
 
@@ -154,12 +154,14 @@ contains
     integer, intent(out) :: status
     integer :: k, nbad
     type(obstacle_t) :: obs(obstacle_set_count(this%obstacles))
+    type(node_blocks_t) :: none               ! (the walks' blocks: untouched here)
+    real(rp) :: unused                        ! (the walk's energy: untouched here)
     nbad = 0
     do k = 1, size(obs)
       obs(k) = obstacle_set_pose(this%obstacles, k, t)
-      if (has_features(obs(k))) call elements_forces(obs(k), this%cp, lat, fixed, u, f, nbad)
+      if (has_features(obs(k))) call elements_walk(WALK_FORCES, obs(k), this%cp, lat, fixed, u, f, none, nbad, unused)
     end do
-    call lags_forces(this%lags, obs, this%cp, lat, fixed, u, 0, f)
+    call lags_walk(WALK_FORCES, this%lags, obs, this%cp, lat, fixed, u, 0, f, none)
     status = merge(PM_INFEASIBLE, PM_FEASIBLE, nbad > 0)
   end subroutine faces_forces
 
@@ -175,13 +177,15 @@ contains
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)
     type(node_blocks_t), intent(inout) :: nodal
     type(pair_blocks_t), intent(inout) :: pairs
-    integer :: k
+    integer :: k, unused_count
     type(obstacle_t) :: obs(obstacle_set_count(this%obstacles))
+    real(rp) :: none(3, 0, 0), unused         ! (the walks' forces and energy: untouched here)
+    unused_count = 0
     do k = 1, size(obs)
       obs(k) = obstacle_set_pose(this%obstacles, k, t)
-      if (has_features(obs(k))) call elements_blocks(obs(k), this%cp, lat, fixed, u, nodal)
+      if (has_features(obs(k))) call elements_walk(WALK_BLOCKS, obs(k), this%cp, lat, fixed, u, none, nodal, unused_count, unused)
     end do
-    call lags_blocks(this%lags, obs, this%cp, lat, fixed, u, nodal)
+    call lags_walk(WALK_BLOCKS, this%lags, obs, this%cp, lat, fixed, u, 0, none, nodal)
   end subroutine faces_jacobian
 
   !> Newton's start of a step from x0 at t0 to t1: the free nodes of the
@@ -371,6 +375,8 @@ contains
     real(rp) :: gmin, g, e, ge, loc(8), glob(8), pend, pstart
     integer :: k, nact, gnact, mpierr
     type(obstacle_t) :: obs(obstacle_set_count(this%obstacles))
+    real(rp) :: unused_f(3, 0, 0)             ! (the walk's forces and blocks: untouched here)
+    type(node_blocks_t) :: unused_blocks
     ierr = 0
     errmsg = ''
     if (this%have_last .and. t == this%t_seen) return
@@ -381,7 +387,7 @@ contains
       obs(k) = obstacle_set_pose(this%obstacles, k, t)
       if (.not. has_features(obs(k))) cycle
       gmin = min(gmin, elements_gap(obs(k), this%cp, lat, lat%gys, u(0:2, :, :), lat%ys, lat%ye))
-      call elements_stats(obs(k), this%cp, lat, u, nact, e)
+      call elements_walk(WALK_STATS, obs(k), this%cp, lat, fixed, u, unused_f, unused_blocks, nact, e)
     end do
     ! the step's end with the step's own lag (friction power, forces), then
     ! the lag of this state for the next step and its power here
@@ -432,6 +438,8 @@ contains
     real(rp) :: f(3, 0:lat%nx - 1, lat%ys:lat%ye), fk(3)
     integer :: k, nbad
     type(obstacle_t) :: obs(obstacle_set_count(this%obstacles)), onext
+    type(node_blocks_t) :: none               ! (the walks' blocks: untouched here)
+    real(rp) :: unused                        ! (the walk's energy: untouched here)
     p = 0.0_rp
     ftot = 0.0_rp
     do k = 1, size(obs)
@@ -442,8 +450,8 @@ contains
       onext = obstacle_set_pose(this%obstacles, k, t, right=.true.)
       f = 0.0_rp
       nbad = 0
-      call elements_forces(obs(k), this%cp, lat, fixed, u, f, nbad)
-      call lags_forces(this%lags, obs, this%cp, lat, fixed, u, k, f)
+      call elements_walk(WALK_FORCES, obs(k), this%cp, lat, fixed, u, f, none, nbad, unused)
+      call lags_walk(WALK_FORCES, this%lags, obs, this%cp, lat, fixed, u, k, f, none)
       fk = sum(sum(f, dim=3), dim=2)
       ftot = ftot + fk
       p = p + [dot_product(fk, obs(k)%vel), dot_product(fk, onext%vel)]

@@ -29,9 +29,11 @@ module face_elements
   use node_blocks, only: node_blocks_t, node_blocks_add_pair
   implicit none
   private
-  public :: has_features, elements_forces, elements_blocks, elements_stats, elements_gap, elements_ccd, elements_mark
+  public :: has_features, elements_walk, elements_gap, elements_ccd, elements_mark
 
   integer, parameter :: EL_QUAD = 1, EL_XLINK = 2, EL_YLINK = 3
+  !> elements_walk's modes (face_lags' lags_walk takes the same)
+  integer, parameter, public :: WALK_FORCES = 1, WALK_BLOCKS = 2, WALK_STATS = 3
   real(rp), parameter :: ZERO33(3, 3) = 0.0_rp
 
 contains
@@ -117,21 +119,35 @@ contains
     end select
   end subroutine element_barrier
 
-  !> f(3, 0:nx-1, ys:ye) += the barrier forces of the elements touching
-  !> the owned rows against o on the free owned nodes, at the ghosted
-  !> state u; nbad += the elements with a pair at gap <= 0.
-  subroutine elements_forces(o, cp, lat, fixed, u, f, nbad)
+  !> The walk over the elements near o at the ghosted state u, by mode:
+  !> WALK_FORCES, of the elements touching the owned rows,
+  !> f(3, 0:nx-1, ys:ye) += their barrier forces on the free owned nodes
+  !> and count += the elements with a pair at gap <= 0; WALK_BLOCKS, of
+  !> the same elements, their blocks df/dx into nodal, on each free owned
+  !> node's row its own block and those to the element's other nodes
+  !> (stencil neighbours), each pair's Hessian projected on the PSD cone
+  !> so that S stays positive definite whatever the shape's curvature
+  !> (the residual, evaluated far more often, does not pay for blocks);
+  !> WALK_STATS, of the elements anchored on the owned rows (each once
+  !> over the ranks), count += the pairs within the barrier's reach and
+  !> energy += their energy [energy]. What a mode does not name is left
+  !> untouched.
+  subroutine elements_walk(mode, o, cp, lat, fixed, u, f, nodal, count, energy)
+    integer, intent(in) :: mode
     type(obstacle_t), intent(in) :: o
     type(contact_params_t), intent(in) :: cp
     type(lattice_t), intent(in) :: lat
     logical, intent(in) :: fixed(0:, lat%ys:)
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)
     real(rp), intent(inout) :: f(:, 0:, lat%ys:)
-    integer, intent(inout) :: nbad
-    integer :: kind, i, j, j0, j1, i1, a, nn, nact, ni(4), nj(4)
+    type(node_blocks_t), intent(inout) :: nodal
+    integer, intent(inout) :: count
+    real(rp), intent(inout) :: energy
+    integer :: kind, i, j, j0, j1, i1, a, b, nn, nact, ni(4), nj(4), jq0
     real(rp) :: x(3, 4), e, fe(3, 4), ke(3, 3, 4, 4)
+    jq0 = merge(lat%ys, lat%ys - 1, mode == WALK_STATS)
     do kind = EL_QUAD, EL_YLINK
-      call kind_range(lat, kind, lat%ys - 1, lat%ye, lat%ys, lat%ye, j0, j1, i1)
+      call kind_range(lat, kind, jq0, lat%ye, lat%ys, lat%ye, j0, j1, i1)
       do j = j0, j1
         do i = 0, i1
           call element_nodes(kind, i, j, ni, nj, nn)
@@ -139,47 +155,23 @@ contains
             x(:, a) = u(0:2, ni(a), nj(a))
           end do
           if (.not. near_obstacle(o, cp%dhat + cp%thickness, x(:, 1:nn))) cycle
-          call element_barrier(o, cp, lat, kind, x(:, 1:nn), .false., e, fe, ke, nact)
+          call element_barrier(o, cp, lat, kind, x(:, 1:nn), mode == WALK_BLOCKS, e, fe, ke, nact)
           if (nact == 0) cycle
+          if (mode == WALK_STATS) then
+            count = count + nact
+            energy = energy + e
+            cycle
+          end if
           if (e >= huge(1.0_rp)) then
-            nbad = nbad + 1
+            if (mode == WALK_FORCES) count = count + 1
             cycle
           end if
           do a = 1, nn
-            if (owned_free(lat, fixed, ni(a), nj(a))) f(:, ni(a), nj(a)) = f(:, ni(a), nj(a)) + fe(:, a)
-          end do
-        end do
-      end do
-    end do
-  end subroutine elements_forces
-
-  !> The blocks df/dx of the elements touching the owned rows against o
-  !> at the ghosted state u into nodal: on each free owned node's row, its
-  !> own block and those to the element's other nodes (stencil
-  !> neighbours), each pair's Hessian projected on the PSD cone (S stays
-  !> positive definite whatever the shape's curvature).
-  subroutine elements_blocks(o, cp, lat, fixed, u, nodal)
-    type(obstacle_t), intent(in) :: o
-    type(contact_params_t), intent(in) :: cp
-    type(lattice_t), intent(in) :: lat
-    logical, intent(in) :: fixed(0:, lat%ys:)
-    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
-    type(node_blocks_t), intent(inout) :: nodal
-    integer :: kind, i, j, j0, j1, i1, a, b, nn, nact, ni(4), nj(4)
-    real(rp) :: x(3, 4), e, fe(3, 4), ke(3, 3, 4, 4)
-    do kind = EL_QUAD, EL_YLINK
-      call kind_range(lat, kind, lat%ys - 1, lat%ye, lat%ys, lat%ye, j0, j1, i1)
-      do j = j0, j1
-        do i = 0, i1
-          call element_nodes(kind, i, j, ni, nj, nn)
-          do a = 1, nn
-            x(:, a) = u(0:2, ni(a), nj(a))
-          end do
-          if (.not. near_obstacle(o, cp%dhat + cp%thickness, x(:, 1:nn))) cycle
-          call element_barrier(o, cp, lat, kind, x(:, 1:nn), .true., e, fe, ke, nact)
-          if (nact == 0 .or. e >= huge(1.0_rp)) cycle
-          do a = 1, nn
             if (.not. owned_free(lat, fixed, ni(a), nj(a))) cycle
+            if (mode == WALK_FORCES) then
+              f(:, ni(a), nj(a)) = f(:, ni(a), nj(a)) + fe(:, a)
+              cycle
+            end if
             do b = 1, nn
               call node_blocks_add_pair(nodal, ni(a), nj(a), ni(b) - ni(a), nj(b) - nj(a), ke(:, :, a, b), ZERO33)
             end do
@@ -187,37 +179,7 @@ contains
         end do
       end do
     end do
-  end subroutine elements_blocks
-
-  !> Of the elements anchored on the owned rows (each once over the
-  !> ranks), against o at the ghosted state u: the pairs within the
-  !> barrier's reach (nact +=) and their energy (e +=) [energy].
-  subroutine elements_stats(o, cp, lat, u, nact, e)
-    type(obstacle_t), intent(in) :: o
-    type(contact_params_t), intent(in) :: cp
-    type(lattice_t), intent(in) :: lat
-    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
-    integer, intent(inout) :: nact
-    real(rp), intent(inout) :: e
-    integer :: kind, i, j, j0, j1, i1, a, nn, na, ni(4), nj(4)
-    real(rp) :: x(3, 4), ee, fe(3, 4), ke(3, 3, 4, 4)
-    do kind = EL_QUAD, EL_YLINK
-      call kind_range(lat, kind, lat%ys, lat%ye, lat%ys, lat%ye, j0, j1, i1)
-      do j = j0, j1
-        do i = 0, i1
-          call element_nodes(kind, i, j, ni, nj, nn)
-          do a = 1, nn
-            x(:, a) = u(0:2, ni(a), nj(a))
-          end do
-          if (.not. near_obstacle(o, cp%dhat + cp%thickness, x(:, 1:nn))) cycle
-          call element_barrier(o, cp, lat, kind, x(:, 1:nn), .false., ee, fe, ke, na)
-          if (na == 0) cycle
-          nact = nact + na
-          e = e + ee
-        end do
-      end do
-    end do
-  end subroutine elements_stats
+  end subroutine elements_walk
 
   !> The smallest gap (distance - radius - thickness) of the cloth's
   !> triangles, their edges and nodes included, to o over the quads

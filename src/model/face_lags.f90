@@ -17,9 +17,10 @@ module face_lags
   use contact_faces, only: SPLIT_MAIN, near_obstacle, quad_triangles, quad_diagonal
   use contact_face_friction, only: face_lag_t, triangle_lag, edge_lag, pair_friction, pair_friction_power
   use node_blocks, only: node_blocks_t, node_blocks_add_pair
+  use face_elements, only: WALK_BLOCKS
   implicit none
   private
-  public :: face_lag_list_t, lags_clear, lags_take, lags_forces, lags_blocks, lags_power, lags_count
+  public :: face_lag_list_t, lags_clear, lags_take, lags_walk, lags_power, lags_count
 
   !> The lagged pairs of a strip.
   type :: face_lag_list_t
@@ -152,11 +153,16 @@ contains
     call move_alloc(lg, lst%lag)
   end subroutine grow
 
-  !> f(3, 0:nx-1, ys:ye) += the lagged friction forces on the free owned
-  !> nodes at the ghosted velocities of u, the obstacles obs (their poses
-  !> at the state's time: velocity and mu); of obstacle only's pairs
-  !> alone (only = 0: every obstacle's).
-  subroutine lags_forces(lst, obs, cp, lat, fixed, u, only, f)
+  !> The walk over the lagged pairs at the ghosted velocities of u, the
+  !> obstacles obs (their poses at the state's time: velocity and mu), by
+  !> mode (face_elements' WALK_*): WALK_FORCES, f(3, 0:nx-1, ys:ye) += the
+  !> friction forces on the free owned nodes, of obstacle only's pairs
+  !> alone (only = 0: every obstacle's; nodal untouched); WALK_BLOCKS,
+  !> their velocity blocks df/dv into nodal on each free owned node's row,
+  !> its own and those to the pair's other nodes, every obstacle's (only
+  !> and f untouched).
+  subroutine lags_walk(mode, lst, obs, cp, lat, fixed, u, only, f, nodal)
+    integer, intent(in) :: mode
     type(face_lag_list_t), intent(in) :: lst
     type(obstacle_t), intent(in) :: obs(:)
     type(contact_params_t), intent(in) :: cp
@@ -165,38 +171,13 @@ contains
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)
     integer, intent(in) :: only
     real(rp), intent(inout) :: f(:, 0:, lat%ys:)
-    integer :: m, a, nn, i, j
-    real(rp) :: v(3, 3), fp(3, 3), kv(3, 3, 3, 3)
-    do m = 1, lst%n
-      if (only /= 0 .and. lst%obs(m) /= only) cycle
-      if (obs(lst%obs(m))%mu <= 0.0_rp) cycle
-      nn = lst%nn(m)
-      do a = 1, nn
-        v(:, a) = u(3:5, lst%node(1, a, m), lst%node(2, a, m))
-      end do
-      call pair_friction(obs(lst%obs(m)), cp, lst%lag(m), v(:, 1:nn), fp(:, 1:nn), kv(:, :, 1:nn, 1:nn))
-      do a = 1, nn
-        i = lst%node(1, a, m)
-        j = lst%node(2, a, m)
-        if (j < lat%ys .or. j > lat%ye) cycle
-        if (.not. fixed(i, j)) f(:, i, j) = f(:, i, j) + fp(:, a)
-      end do
-    end do
-  end subroutine lags_forces
-
-  !> Their velocity blocks df/dv at u into nodal, on each free owned
-  !> node's row: its own and those to the pair's other nodes.
-  subroutine lags_blocks(lst, obs, cp, lat, fixed, u, nodal)
-    type(face_lag_list_t), intent(in) :: lst
-    type(obstacle_t), intent(in) :: obs(:)
-    type(contact_params_t), intent(in) :: cp
-    type(lattice_t), intent(in) :: lat
-    logical, intent(in) :: fixed(0:, lat%ys:)
-    real(rp), intent(in) :: u(0:, 0:, lat%gys:)
     type(node_blocks_t), intent(inout) :: nodal
     integer :: m, a, b, nn, i, j
     real(rp) :: v(3, 3), fp(3, 3), kv(3, 3, 3, 3)
+    logical :: blocks
+    blocks = mode == WALK_BLOCKS
     do m = 1, lst%n
+      if (.not. blocks .and. only /= 0 .and. lst%obs(m) /= only) cycle
       if (obs(lst%obs(m))%mu <= 0.0_rp) cycle
       nn = lst%nn(m)
       do a = 1, nn
@@ -208,12 +189,16 @@ contains
         j = lst%node(2, a, m)
         if (j < lat%ys .or. j > lat%ye) cycle
         if (fixed(i, j)) cycle
+        if (.not. blocks) then
+          f(:, i, j) = f(:, i, j) + fp(:, a)
+          cycle
+        end if
         do b = 1, nn
           call node_blocks_add_pair(nodal, i, j, lst%node(1, b, m) - i, lst%node(2, b, m) - j, ZERO33, kv(:, :, a, b))
         end do
       end do
     end do
-  end subroutine lags_blocks
+  end subroutine lags_walk
 
   !> The power friction dissipates at the ghosted velocities of u (each
   !> pair once over the ranks: by its element's anchor row) [energy/time].

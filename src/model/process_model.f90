@@ -77,8 +77,12 @@ module process_model
   type :: pm_hints_t
     !> the Jacobian at every Newton iteration (-snes_lag_jacobian 1)
     logical :: jacobian_every_iteration = .false.
-    !> the inexact-Newton forcing off (inner solves to -reduced_ksp_rtol)
-    logical :: forcing_off = .false.
+    !> the inexact-Newton forcing only where the model's state has settled:
+    !> inner solves to -reduced_ksp_rtol in a Newton solve whose start or
+    !> an update a step limit cut or a start hook moved, in the next
+    !> solve's first iteration, and after an iteration that reduced ||F||
+    !> by less than a tenth (module newton_state)
+    logical :: forcing_guarded = .false.
     !> full Newton steps on the 6-dof path too (-snes_linesearch_type basic)
     logical :: basic_line_search = .false.
     !> every Newton start must lie in its domain: the solver limits any

@@ -128,7 +128,7 @@ contains
     do k = 1, list%n
       e = list%m(k)%pm%hints()
       h%jacobian_every_iteration = h%jacobian_every_iteration .or. e%jacobian_every_iteration
-      h%forcing_off = h%forcing_off .or. e%forcing_off
+      h%forcing_guarded = h%forcing_guarded .or. e%forcing_guarded
       h%basic_line_search = h%basic_line_search .or. e%basic_line_search
       h%feasible_start = h%feasible_start .or. e%feasible_start
       h%velocity_blocks = h%velocity_blocks .or. e%velocity_blocks

@@ -119,7 +119,7 @@ contains
   pure function self_hints(this) result(h)
     class(self_contact_model_t), intent(in) :: this
     type(pm_hints_t) :: h
-    h = pm_hints_t(jacobian_every_iteration=.true., forcing_off=.true., basic_line_search=.true., &
+    h = pm_hints_t(jacobian_every_iteration=.true., forcing_guarded=.true., basic_line_search=.true., &
                    feasible_start=.true., state_blocks=.true., pair_blocks=.true., ts_types='beuler')
   end function self_hints
 

@@ -237,13 +237,13 @@ contains
     opt%cl = 0
     nfail = 0
     cmattype = MATBAIJ//c_null_char
-    ! A process model may need the inner rtol to stay -reduced_ksp_rtol
-    ! (contact: the forcing term's quadratic model of Newton's convergence
-    ! does not hold at a contact's onset, and its loose inner solves (up to
-    ! 0.1) failed drop_table's impact step (4 retries) where a fixed 1e-6
-    ! takes none).
+    ! A process model may need the forcing guarded (contact: the forcing
+    ! term's quadratic model of Newton's convergence does not hold at a
+    ! contact's onset, and its loose inner solves (up to 0.1) failed
+    ! drop_table's impact step (4 retries) where a fixed 1e-6 takes none:
+    ! module newton_state keeps them tight there).
     hints = pm_list_hints(ctx%pms)
-    forcing = merge(0, 1, hints%forcing_off)
+    forcing = 1
     guess = GUESS_AUTO
     snes_floor = SNES_FLOOR_DEFAULT
     ierr = nuno_options_read(ctx%comm, JACOBIAN_NAMES, size(JACOBIAN_NAMES), len(JACOBIAN_NAMES), jac, opt%pc_lag, opt%pc_growth, &
@@ -289,7 +289,8 @@ contains
     end if
     if (.not. ctx%use_reduced .or. ls_type_given) ls_fallback = 0
     call newton_state_init(ctx%newton, snes_floor=snes_floor, guess=guess, guess_given=guess_given, &
-                           forcing=forcing /= 0, fail_newton=nfail, ls_fallback=ls_fallback)
+                           forcing=forcing /= 0, guarded=hints%forcing_guarded, fail_newton=nfail, &
+                           ls_fallback=ls_fallback)
     opt%mattype = cmattype(1:index(cmattype, c_null_char) - 1)
   end subroutine resolve_options
 

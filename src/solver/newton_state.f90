@@ -16,7 +16,7 @@ module newton_state
   public :: newton_state_t, SNES_FLOOR_DEFAULT
   public :: newton_state_init, newton_set_inner_guess, newton_enter_window, newton_set_floor, newton_set_failures_before
   public :: newton_take_injected_failure, newton_first_residual, newton_iterated, newton_verdict, newton_inner_rtol, &
-            newton_fallback_switched, newton_update_limited
+            newton_fallback_switched, newton_update_limited, newton_start_moved
   public :: newton_guess, newton_guess_given, newton_forcing_on, newton_floor_est, newton_snorm_prev, newton_fallback, &
             newton_fallback_pending, newton_has_failed, newton_rate_usable, newton_limited_lately
 
@@ -36,7 +36,18 @@ module newton_state
     !> Newton's convergence (an update cut at an obstacle is short, not
     !> converged), and their inexact solves are no guide for the next one
     logical :: limited = .false., limited_prev = .false.
+    !> an update of this Newton solve was scaled by a step limit
+    !> (limited_solve), or one of the solve before (limited_solve_prev): a
+    !> contact's onset, where the forcing's loose inner solves failed
+    !> steps (a sphere pushing cloth at 5 m/s, dt = 10 ms): the inner
+    !> solves stay at rtol0 for the rest of such a solve and the next
+    !> solve's first iteration (newton_inner_rtol)
+    logical :: limited_solve = .false., limited_solve_prev = .false.
+    !> the coming solve's start was cut by a step limit or carried by a
+    !> moving obstacle (newton_start_moved): limited_solve from its start
+    logical :: limited_start = .false.
     logical :: newton_forcing = .true.          !< inner tolerance from the step's needs (reduced path)
+    logical :: forcing_guarded = .false.        !< the forcing only where the process models' state settled
     integer(c_int) :: guess = GUESS_AUTO        !< -nuno_inner_guess (module inner_guess)
     integer(c_int) :: guess_given = 0           !< 1: set on the command line
     real(rp) :: cquad = 0                       !< estimate of C in ||F_k+1|| ~ C ||F_k||^2; 0 at every window start
@@ -53,18 +64,20 @@ contains
   !> Newton's policy as the options resolved it (solver_create):
   !> snes_floor (-nuno_snes_floor, relative residual), guess and
   !> guess_given (-nuno_inner_guess and whether it was given), forcing
-  !> (-nuno_newton_forcing), fail_newton (-nuno_fail_newton, tests),
-  !> ls_fallback (-nuno_linesearch_fallback's code; 0: none).
-  subroutine newton_state_init(n, snes_floor, guess, guess_given, forcing, fail_newton, ls_fallback)
+  !> (-nuno_newton_forcing), guarded (a process model's hint
+  !> forcing_guarded: newton_inner_rtol), fail_newton (-nuno_fail_newton,
+  !> tests), ls_fallback (-nuno_linesearch_fallback's code; 0: none).
+  subroutine newton_state_init(n, snes_floor, guess, guess_given, forcing, guarded, fail_newton, ls_fallback)
     type(newton_state_t), intent(inout) :: n
     real(rp), intent(in) :: snes_floor
     integer(c_int), intent(in) :: guess, guess_given
-    logical, intent(in) :: forcing
+    logical, intent(in) :: forcing, guarded
     integer, intent(in) :: fail_newton, ls_fallback
     n%snes_floor = snes_floor
     n%guess = guess
     n%guess_given = guess_given
     n%newton_forcing = forcing
+    n%forcing_guarded = guarded
     n%fail_newton = fail_newton
     n%ls_fallback = ls_fallback
   end subroutine newton_state_init
@@ -79,10 +92,13 @@ contains
 
   !> A time window's start (enter_window): the Newton remainder is learnt
   !> anew in each window, so that a run restarted at a window's start takes
-  !> the same iterations as the run that went through it.
+  !> the same iterations as the run that went through it; so is whether
+  !> the solve before had a limited update.
   subroutine newton_enter_window(n)
     type(newton_state_t), intent(inout) :: n
     n%cquad = 0.0_rp
+    n%limited_solve = .false.
+    n%limited_start = .false.
   end subroutine newton_enter_window
 
   !> The round-off floor of ||F||_2 estimated at the last 6-dof assembly
@@ -118,7 +134,19 @@ contains
     n%fnorm0 = fnorm
     n%limited = .false.
     n%limited_prev = .false.
+    n%limited_solve_prev = n%limited_solve
+    n%limited_solve = n%limited_start
+    n%limited_start = .false.
   end subroutine newton_first_residual
+
+  !> The coming Newton solve's start was cut by a process model's step
+  !> limit or moved by its start hook (module process_solver), or not
+  !> (limited: the same on every rank).
+  subroutine newton_start_moved(n, limited)
+    type(newton_state_t), intent(inout) :: n
+    logical, intent(in) :: limited
+    n%limited_start = n%limited_start .or. limited
+  end subroutine newton_start_moved
 
   !> A process model's step limit (module process_solver) has scaled the
   !> coming update (limited), or let it be.
@@ -126,6 +154,7 @@ contains
     type(newton_state_t), intent(inout) :: n
     logical, intent(in) :: limited
     n%limited = n%limited .or. limited
+    n%limited_solve = n%limited_solve .or. limited
   end subroutine newton_update_limited
 
   !> The convergence test has seen an iteration's residual norm fnorm and
@@ -171,7 +200,14 @@ contains
   !> floor_est, the round-off floor of the last assembly). C comes from the
   !> iterations before (lin_rel: the last inner solve's relative residual),
   !> in this window; the bounds are the inner solver's own rtol0 (never
-  !> tighter than without this) and ETA_MAX.
+  !> tighter than without this) and ETA_MAX. Guarded (a process model's
+  !> hint), rtol0 itself where a step limit cut the start or an update of
+  !> this solve or a start hook moved its start, in the next solve's first
+  !> iteration (limited_solve: a contact's onset; a sphere pushing cloth
+  !> at 5 m/s, dt = 10 ms, retried steps without this), and after an
+  !> iteration that reduced ||F|| by less than a tenth (near the round-off
+  !> floor a loose solve from the projected guess took no cycle and
+  !> Newton stalled: a 7 x 7 sheet falling after a retried step).
   subroutine newton_inner_rtol(n, it, fnorm, lin_rel, atol, rtol, floor_est, rtol0, eta)
     type(newton_state_t), intent(inout) :: n
     integer, intent(in) :: it
@@ -182,6 +218,9 @@ contains
     target = max(atol, rtol * n%fnorm0)
     if (n%snes_floor > 0.0_rp) target = max(target, FLOOR_FACTOR * floor_est)
     eta = forcing_term(fnorm, target, n%cquad, rtol0, ETA_MAX)
+    if (.not. n%forcing_guarded) return
+    if (n%limited_solve .or. (it == 0 .and. n%limited_solve_prev)) eta = rtol0
+    if (it >= 1 .and. fnorm > 0.9_rp * n%fnorm_prev) eta = rtol0
   end subroutine newton_inner_rtol
 
   !> The fallback line search is in place.

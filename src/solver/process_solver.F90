@@ -30,7 +30,7 @@ module process_solver
   use ghosted_state, only: ghosted_get, ghosted_restore
   use app_context, only: app_ctx
   use newton_start, only: newton_start_limited
-  use newton_state, only: newton_update_limited
+  use newton_state, only: newton_update_limited, newton_start_moved
   use model_state, only: model_pm_step_limit, model_pm_accept, model_pm_accepted, model_pm_unresolved, &
                          model_pm_start_limit, model_pm_start
   use step_errors, only: step_errors_on, step_errors_weighs, step_errors_stage, step_errors_stage_masks, step_errors_tolerances, &
@@ -175,7 +175,7 @@ contains
     PetscScalar, pointer :: x(:, :, :), x0(:, :, :), dx(:, :, :)
     real(rp) :: alpha, t0, dt
     logical :: infeasible
-    integer :: moved
+    integer :: moved, mpierr
     call c_f_pointer(cp, ctx)
     PetscCall(TSGetTime(ctx%ts, t0, ierr))
     PetscCall(TSGetTimeStep(ctx%ts, dt, ierr))
@@ -191,6 +191,10 @@ contains
     cut = alpha < 1.0_rp
     if (cut) x = x0 + alpha * dx
     call model_pm_start(ctx%model, ctx%pms, ctx%lat, t0, t0 + dt, x0, x, moved)
+    ! (a start cut short or carried by an obstacle is a contact's onset:
+    ! the Newton solve's inner rtol stays tight, module newton_state)
+    call MPI_Allreduce(MPI_IN_PLACE, moved, 1, MPI_INTEGER, MPI_MAX, ctx%comm, mpierr)
+    call newton_start_moved(ctx%newton, cut .or. moved > 0)
     PetscCall(DMDAVecRestoreArrayF90(ctx%da, xvec, x, ierr))
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, dxvec, dx, ierr))
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, x0vec, x0, ierr))
