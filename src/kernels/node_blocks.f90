@@ -26,7 +26,7 @@ module node_blocks
   implicit none
   private
   public :: node_blocks_t, node_blocks_begin, node_blocks_add, node_blocks_add_pair, node_blocks_end, node_blocks_count
-  public :: node_blocks_products, node_blocks_sub_row, node_blocks_sub_node, node_blocks_sub_diagonal
+  public :: node_blocks_products, node_blocks_sub_row, node_blocks_sub_node, node_blocks_sub_diagonal, node_blocks_lumped
 
   type :: node_blocks_t
     private
@@ -228,5 +228,27 @@ contains
       dc(:, :, di, dj, i) = dc(:, :, di, dj, i) - nb%kv(:, :, m)
     end do
   end subroutine node_blocks_sub_diagonal
+
+  !> Each row's blocks summed onto its node (lumped, for the rediscretised
+  !> coarse levels of nuno's multigrid, module mg_coarse): d(1:9, i, j) +=
+  !> kx, d(10:18, i, j) += kv (column-major 3 x 3) of every entry of owned
+  !> row j whose node (i, j) and neighbour are free (fixedg false: the
+  !> assemblies drop the others). A smooth coarse mode sees the blocks
+  !> between neighbours only through their sum.
+  pure subroutine node_blocks_lumped(nb, gys, fixedg, d)
+    type(node_blocks_t), intent(in) :: nb
+    integer, intent(in) :: gys                       !< first row of fixedg and d
+    logical, intent(in) :: fixedg(0:, gys:)
+    real(rp), intent(inout) :: d(:, 0:, gys:)        !< (18, 0:nx-1, gys:gye)
+    integer :: m, i, j
+    do j = nb%ys, nb%ye
+      do m = nb%row_start(j), nb%row_start(j + 1) - 1
+        i = nb%col(m)
+        if (fixedg(i, j) .or. fixedg(i + nb%off(1, m), j + nb%off(2, m))) cycle
+        d(1:9, i, j) = d(1:9, i, j) + reshape(nb%kx(:, :, m), [9])
+        d(10:18, i, j) = d(10:18, i, j) + reshape(nb%kv(:, :, m), [9])
+      end do
+    end do
+  end subroutine node_blocks_lumped
 
 end module node_blocks

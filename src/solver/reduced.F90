@@ -611,7 +611,7 @@ contains
       call reuse_rebuilt(red%pcc%reuse)
       PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_FALSE, ierr))
       if (red%pcc%use_mg) then
-        PetscCall(mg_coarse_levels(red%mgg, u, red%el%fixedg, red%a, red%el%damping, red%el%clamp, red%el%gauss_newton, ierr))
+        PetscCall(mg_coarse_levels(red%mgg, red%nodal, u, red%el%fixedg, red%a, red%el%damping, red%el%clamp, red%el%gauss_newton, ierr))
       end if
       if (red%pcc%use_nullspace) then
         PetscCall(set_rigid_body_modes(red, u, ierr))
@@ -619,7 +619,7 @@ contains
     else
       PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_TRUE, ierr))
       if (red%pcc%use_mg .and. .not. mg_glue_built(red%mgg)) then
-        PetscCall(mg_coarse_levels(red%mgg, u, red%el%fixedg, red%a, red%el%damping, red%el%clamp, red%el%gauss_newton, ierr))
+        PetscCall(mg_coarse_levels(red%mgg, red%nodal, u, red%el%fixedg, red%a, red%el%damping, red%el%clamp, red%el%gauss_newton, ierr))
       end if
     end if
   end subroutine reuse_or_rebuild_pc

@@ -253,7 +253,7 @@ contains
         PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_FALSE, ierr))
         PetscCall(KSPSetOperators(red%ksp, red%s, red%s, ierr))
         if (red%pcc%use_mg) then
-          PetscCall(mg_coarse_levels(red%mgg, red%el%ujac, red%el%fixedg, red%a, red%el%damping, red%el%clamp, red%el%gauss_newton, ierr))
+          PetscCall(mg_coarse_levels(red%mgg, red%nodal, red%el%ujac, red%el%fixedg, red%a, red%el%damping, red%el%clamp, red%el%gauss_newton, ierr))
         end if
         PetscCall(inner_solve(red, .true., reason, ierr))
       end if

@@ -348,11 +348,12 @@ contains
   !> The multigrid's coarse operators and coarsest factorisation: the
   !> cloth rediscretised on the coarse lattices at the ghosted state
   !> u(0:5, 0:nx-1, gys:gye) with the constrained nodes fixedg, the shift
-  !> a and the element flags of the finest level's assembly (module
-  !> mg_coarse), or Galerkin products of the finest level (module
-  !> stencil_mg). Collective.
-  subroutine mg_coarse_levels(gl, u, fixedg, a, damping, clamp, gauss_newton, ierr)
+  !> a and the element flags of the finest level's assembly, with the
+  !> node blocks nodal restricted (module mg_coarse), or Galerkin products
+  !> of the finest level (module stencil_mg). Collective.
+  subroutine mg_coarse_levels(gl, nodal, u, fixedg, a, damping, clamp, gauss_newton, ierr)
     type(mg_glue_t), intent(inout) :: gl
+    type(node_blocks_t), intent(in) :: nodal
     real(rp), intent(in) :: u(0:, 0:, gl%lat%gys:)
     logical, intent(in) :: fixedg(0:, gl%lat%gys:)
     real(rp), intent(in) :: a
@@ -362,7 +363,7 @@ contains
     MPI_Comm :: comm
     PetscCall(PetscLogEventBegin(gl%ev_galerkin, ierr))
     if (gl%rediscretize) then
-      call mg_coarse_build(gl%mc, gl%mg, gl%lat, u, fixedg, a, damping, clamp, gauss_newton, info)
+      call mg_coarse_build(gl%mc, gl%mg, gl%lat, nodal, u, fixedg, a, damping, clamp, gauss_newton, info)
     else
       call mg_build_coarse(gl%mg, info)
     end if
