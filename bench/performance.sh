@@ -67,8 +67,8 @@ elif [ $# -ge 2 ]; then
   dw_log=${!#}
 else
   # the logs behind docs/performance.md's table until the next full run
-  bench_logs=("$res/performance-bench-0ff048a.log")
-  dw_log=$res/performance-donewhen-0ff048a.log
+  bench_logs=("$res/performance-bench-202e62f.log")
+  dw_log=$res/performance-donewhen-202e62f.log
 fi
 
 python3 bench/solver.py --replot "${bench_logs[@]}" --donewhen "$dw_log" \
