@@ -189,7 +189,7 @@ contains
     type(lattice_t), intent(in) :: fine
     logical, intent(in) :: blocks
     real(rp), pointer :: src(:, :, :)
-    integer :: i, j, ia, jb, nxs, ierr
+    integer :: i, j, ia, jb, nxs
     real(rp) :: wgt
     associate (c => mc%lev(l))
       call node_blocks_begin(c%nodal, c%lat%ys, c%lat%ye)
@@ -217,13 +217,7 @@ contains
           end do
         end do
       end do
-      if (mc%nranks > 1) then
-        if (c%replicated) then
-          call MPI_Allreduce(MPI_IN_PLACE, c%d, size(c%d), MPI_DOUBLE_PRECISION, MPI_SUM, mc%comm, ierr)
-        else
-          call exchange_ghosts(mc, c%d, c%lat%gys, c%lat%ys, c%lat%ye, c%lat%halo)
-        end if
-      end if
+      call share_rows(mc, c, c%d)
       do j = c%lat%ys, c%lat%ye
         do i = 0, c%lat%nx - 1
           if (any(c%d(:, i, j) /= 0.0_rp)) then
@@ -243,7 +237,7 @@ contains
     type(lattice_t), intent(in) :: fine
     real(rp), intent(in) :: u(0:, 0:, fine%gys:)
     logical, intent(in) :: fixedg(0:, fine%gys:)
-    integer :: i, j, ierr
+    integer :: i, j
     if (c%replicated .and. mc%nranks > 1) c%u = 0.0_rp
     call inject_rows(c%stride, u(0:5, :, :), fine%gys, c%u(0:5, :, :), c%lat%gys, c%j0, c%j1)
     do j = c%j0, c%j1
@@ -251,24 +245,27 @@ contains
         c%u(6, i, j) = merge(1.0_rp, 0.0_rp, fixedg(c%stride * i, c%stride * j))
       end do
     end do
-    if (mc%nranks > 1) then
-      if (c%replicated) then
-        call MPI_Allreduce(MPI_IN_PLACE, c%u, size(c%u), MPI_DOUBLE_PRECISION, MPI_SUM, mc%comm, ierr)
-      else
-        call exchange_rows(mc, c)
-      end if
-    end if
+    call share_rows(mc, c, c%u)
     c%fixed = c%u(6, :, :) > 0.5_rp
   end subroutine inject
 
-  !> The ghost rows of a distributed level's state from the neighbours
+  !> Level c's rows of a(:, 0:nx-1, gys:gye) where this rank computed only
+  !> its own (j0..j1, the rest zero): on a replicated level summed from
+  !> every rank, on a distributed one its ghost rows from the neighbours
   !> (each owns at least halo rows of it: module stencil_mg keeps a level
-  !> distributed only then).
-  subroutine exchange_rows(mc, c)
+  !> distributed only then). Collective.
+  subroutine share_rows(mc, c, a)
     type(mg_coarse_t), intent(in) :: mc
-    type(coarse_level_t), intent(inout) :: c
-    call exchange_ghosts(mc, c%u, c%lat%gys, c%lat%ys, c%lat%ye, c%lat%halo)
-  end subroutine exchange_rows
+    type(coarse_level_t), intent(in) :: c
+    real(rp), intent(inout) :: a(:, 0:, c%lat%gys:)
+    integer :: ierr
+    if (mc%nranks == 1) return
+    if (c%replicated) then
+      call MPI_Allreduce(MPI_IN_PLACE, a, size(a), MPI_DOUBLE_PRECISION, MPI_SUM, mc%comm, ierr)
+    else
+      call exchange_ghosts(mc, a, c%lat%gys, c%lat%ys, c%lat%ye, c%lat%halo)
+    end if
+  end subroutine share_rows
 
   !> The h ghost rows on each side of a(:, 0:nx-1, gys:gye) (none beyond
   !> the lattice's ends), rows ys..ye this rank's, from the neighbours' rows.
