@@ -14,17 +14,8 @@
 set -euo pipefail
 old=$(realpath "$1"); new=$(realpath "$2"); N=$3; bend=$4; mode=$5; steps=$6; reps=$7
 source "$(dirname "$0")/../tools/env.sh"
-dt=0.001; [ "$mode" = bw ] && dt=0.0016666666666666668
-tend=$(python3 -c "print($steps*$dt)")
-d=$(mktemp -d); trap 'rm -rf "$d"' EXIT; cd "$d"
-cat > m.nml <<EON
-&scene scene_name='hang' /
-&lattice nx=$N, ny=$N /
-&material bending_model='$bend' /
-&time t_end=$tend, dt=$dt /
-&output output_interval=$tend, output_file='m.h5' /
-EON
-mo=(); [ "$mode" = bw ] && mo=(-snes_type ksponly -reduced_ksp_rtol 1e-3)
+source "$(dirname "$0")/hang_case.sh"
+hang_case "$N" "$bend" "$mode" "$steps"
 for r in $(seq "$reps"); do
   for b in "$old" "$new"; do
     perf record -q -g -F 4000 -o p.data -- mpiexec -n 1 "$b" m.nml "${mo[@]}" -log_view > run.txt 2>&1

@@ -36,7 +36,7 @@ module pc_reuse
     real(rp) :: growth = 0.0_rp        !< rebuild when cycles per decade pass growth x the reference (0: off)
     real(rp) :: ref = 0.0_rp           !< cycles per decade of the first counted solve after the last rebuild (0: none yet)
     logical :: grown = .false.         !< a solve since the last rebuild passed growth x ref
-    integer :: n_grown = 0             !< rebuilds the safeguard asked for (for the run's summary)
+    integer :: n_grown = 0             !< rebuilds the safeguard asked for (reuse_grown; read by tests/unit/test_pc_reuse only, no run report prints it)
   end type pc_reuse_t
 
 contains

@@ -46,7 +46,7 @@ module mg_coarse
     real(rp), allocatable :: lb(:, :, :, :, :)     !< (0:nx-1, 3, 3, 4, 0:1) link blocks of two rows
     real(rp), allocatable :: g(:, :, :), kd(:, :, :) !< (3, 0:nx-1, ys:ye) the assembly's products (not used)
     !> (18, 0:nx-1, gys:gye) the process models' node blocks restricted to
-    !> this level (kx 1:9, kv 10:18; allocated only while there are any)
+    !> this level (kx 1:9, kv 10:18; allocated at the first rebuild with any, then kept)
     real(rp), allocatable :: d(:, :, :)
     type(node_blocks_t) :: nodal                   !< d as this level's node blocks, for its assembly
   end type coarse_level_t
@@ -56,7 +56,7 @@ module mg_coarse
     integer :: comm = MPI_COMM_NULL, nranks = 1, below = MPI_PROC_NULL, above = MPI_PROC_NULL
     type(coarse_level_t), allocatable :: lev(:)    !< (2:nlev)
     !> (18, 0:nx-1, gys:gye) the finest level's node blocks lumped onto
-    !> their nodes, with ghost rows (allocated only while there are any)
+    !> their nodes, with ghost rows (allocated at the first rebuild with any, then kept)
     real(rp), allocatable :: df(:, :, :)
   end type mg_coarse_t
 
@@ -182,7 +182,7 @@ contains
   !> stiffness is kept, as the levels' masses are), a barrier's stiffness
   !> being, like the mass, of order zero (the bilinear Galerkin product is
   !> consistent there). Without blocks (blocks false) the level's list is
-  !> emptied and its array freed. Collective.
+  !> emptied. Collective.
   subroutine level_blocks(mc, l, fine, blocks)
     type(mg_coarse_t), intent(inout), target :: mc
     integer, intent(in) :: l
@@ -192,12 +192,16 @@ contains
     integer :: i, j, ia, jb, nxs
     real(rp) :: wgt
     associate (c => mc%lev(l))
-      call node_blocks_begin(c%nodal, c%lat%ys, c%lat%ye)
       if (.not. blocks) then
-        if (allocated(c%d)) deallocate(c%d)
-        call node_blocks_end(c%nodal)
+        ! (a scene without node blocks never fills the list: nothing
+        ! allocated; d is kept for the next blocks, no allocation in the loop)
+        if (node_blocks_count(c%nodal) > 0) then
+          call node_blocks_begin(c%nodal, c%lat%ys, c%lat%ye)
+          call node_blocks_end(c%nodal)
+        end if
         return
       end if
+      call node_blocks_begin(c%nodal, c%lat%ys, c%lat%ye)
       if (.not. allocated(c%d)) allocate(c%d(18, 0:c%lat%nx - 1, c%lat%gys:c%lat%gye))
       if (l == 2) then
         src(1:, 0:, fine%gys:) => mc%df

@@ -26,7 +26,7 @@ module reduced
   use reduced_storage, only: s_store_t, store_init, store_matrix, store_assemble, check_direct, set_block_row, &
                              store_use_buffer, store_direct
   use newton_control, only: floor_node_add, floor_estimate
-  use pc_reuse, only: pc_reuse_t, default_pc_lag, reuse_init, reuse_due, reuse_rebuilt, reuse_force, reuse_watch, reuse_grown
+  use pc_reuse, only: pc_reuse_t, default_pc_lag, reuse_init, reuse_due, reuse_rebuilt, reuse_force, reuse_watch
   use inner_guess, only: GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, GUESS_PROJECT, PROJECT_PAIRS
   use reduced_guess, only: guess_t, guess_use, guess_free, guess_restart, guess_set, guess_keep, guess_push, &
                            guess_accepted, guess_mode

@@ -23,7 +23,8 @@ module reduced_mg
   use lattice, only: lattice_t
   use reduced_assembly, only: assemble_stencil
   use node_blocks, only: node_blocks_t
-  use process_models, only: pm_list_t, pm_list_pairs_on, pm_list_pair_product
+  use process_models, only: pm_list_t, pm_list_pairs_on
+  use reduced_pairs, only: pair_product_add
   use offset_product, only: stencil_product, offset_count
   use interpolation, only: cubic_weights
   use mg_kernels, only: stencil_t
@@ -385,7 +386,7 @@ contains
   !> stencil_product_mixed, half the bytes), or with -nuno_mg_product double
   !> over S in double precision, one vector loop per offset (kernel
   !> offset_product); then, where a process model gave pair blocks
-  !> (self-contact), their part (pair_part: x's rows they reach gathered).
+  !> (self-contact), their part (module reduced_pairs' pair_product_add).
   !> The fused product is the stencil's part alone, so it is kept and the
   !> pair part added after it (a cycle's sweeps take no pair blocks).
   !> Collective.
@@ -400,7 +401,7 @@ contains
     PetscCall(stencil_part(gl, x, y, ierr))
     if (associated(gl%pms)) then
       if (pm_list_pairs_on(gl%pms)) then
-        PetscCall(pair_part(gl, x, y, ierr))
+        PetscCall(pair_product_add(gl%pms, gl%lat, gl%da3, gl%a, x, y, ierr))
       end if
     end if
   end subroutine stencil_mult
@@ -456,28 +457,6 @@ contains
       PetscCall(DMRestoreLocalVector(gl%da3, xloc, ierr))
     end if
   end subroutine stencil_part
-
-  !> y += the pair blocks' part of S x (module process_models'
-  !> pm_list_pair_product: x's rows that the blocks reach gathered by the
-  !> model that gave them). Collective.
-  subroutine pair_part(gl, x, y, ierr)
-    type(mg_glue_t), intent(inout) :: gl
-    type(tVec) :: x, y
-    PetscErrorCode, intent(out) :: ierr
-    PetscScalar, pointer :: xa(:, :, :), ya(:, :, :)
-    MPI_Comm :: comm
-    integer :: err
-    PetscCall(PetscObjectGetComm(gl%da3, comm, ierr))
-    PetscCall(DMDAVecGetArrayReadF90(gl%da3, x, xa, ierr))
-    PetscCall(DMDAVecGetArrayF90(gl%da3, y, ya, ierr))
-    call pm_list_pair_product(gl%pms, gl%lat, comm, gl%a, xa(:, :, gl%lat%ys:gl%lat%ye), ya(:, :, gl%lat%ys:gl%lat%ye), err)
-    PetscCall(DMDAVecRestoreArrayF90(gl%da3, y, ya, ierr))
-    PetscCall(DMDAVecRestoreArrayReadF90(gl%da3, x, xa, ierr))
-    if (err /= 0) then
-      ierr = PETSC_ERR_PLIB
-      SETERRQ(comm, ierr, 'nuno: the pair blocks'' rows could not be gathered for S''s product (their plan changed since the Jacobian)')
-    end if
-  end subroutine pair_part
 
   !> PCSHELL view (-reduced_ksp_view): the hierarchy of nuno's multigrid.
   subroutine mg_pc_view(pc, viewer, ierr)

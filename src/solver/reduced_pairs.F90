@@ -23,7 +23,7 @@ module reduced_pairs
   use shell_context, only: MatShellSetContext, MatShellGetContext
   implicit none
   private
-  public :: pair_op_t, pair_op_create, pair_op_set_shift, pair_op_destroy
+  public :: pair_op_t, pair_op_create, pair_op_set_shift, pair_op_destroy, pair_product_add
 
   !> The MATSHELL S + pair blocks over the PETSc matrix s.
   type :: pair_op_t
@@ -91,25 +91,38 @@ contains
     PetscErrorCode :: ierr
     type(pair_op_t), pointer :: po
     type(c_ptr) :: ctx                     !< the shell's context: the record's address
-    PetscScalar, pointer :: xa(:, :, :), ya(:, :, :)
-    MPI_Comm :: comm
-    integer :: err
     PetscCall(MatShellGetContext(mat, ctx, ierr))
     call c_f_pointer(ctx, po)
     PetscCall(MatMult(po%s, x, y, ierr))
     if (.not. pm_list_pairs_on(po%pms)) return
-    PetscCall(PetscObjectGetComm(po%da3, comm, ierr))
-    PetscCall(DMDAVecGetArrayReadF90(po%da3, x, xa, ierr))
-    PetscCall(DMDAVecGetArrayF90(po%da3, y, ya, ierr))
-    associate (ys => po%lat%ys, ye => po%lat%ye)
-      call pm_list_pair_product(po%pms, po%lat, comm, po%a, xa(:, :, ys:ye), ya(:, :, ys:ye), err)
-    end associate
-    PetscCall(DMDAVecRestoreArrayF90(po%da3, y, ya, ierr))
-    PetscCall(DMDAVecRestoreArrayReadF90(po%da3, x, xa, ierr))
+    PetscCall(pair_product_add(po%pms, po%lat, po%da3, po%a, x, y, ierr))
+  end subroutine pair_op_mult
+
+  !> y += the pair blocks' part of S x at shift a (module process_models'
+  !> pm_list_pair_product: x's rows that the blocks reach gathered by the
+  !> model that gave them); x, y 3-dof vectors of da3. Both products with
+  !> pair blocks end here: this MATSHELL's and nuno's multigrid's (module
+  !> reduced_mg). Collective.
+  subroutine pair_product_add(pms, lat, da3, a, x, y, ierr)
+    type(pm_list_t), intent(inout) :: pms
+    type(lattice_t), intent(in) :: lat
+    type(tDM), intent(in) :: da3
+    real(rp), intent(in) :: a
+    type(tVec) :: x, y
+    PetscErrorCode, intent(out) :: ierr
+    PetscScalar, pointer :: xa(:, :, :), ya(:, :, :)
+    MPI_Comm :: comm
+    integer :: err
+    PetscCall(PetscObjectGetComm(da3, comm, ierr))
+    PetscCall(DMDAVecGetArrayReadF90(da3, x, xa, ierr))
+    PetscCall(DMDAVecGetArrayF90(da3, y, ya, ierr))
+    call pm_list_pair_product(pms, lat, comm, a, xa(:, :, lat%ys:lat%ye), ya(:, :, lat%ys:lat%ye), err)
+    PetscCall(DMDAVecRestoreArrayF90(da3, y, ya, ierr))
+    PetscCall(DMDAVecRestoreArrayReadF90(da3, x, xa, ierr))
     if (err /= 0) then
       ierr = PETSC_ERR_PLIB
       SETERRQ(comm, ierr, 'nuno: the pair blocks'' rows could not be gathered for S''s product (their plan changed since the Jacobian)')
     end if
-  end subroutine pair_op_mult
+  end subroutine pair_product_add
 
 end module reduced_pairs
