@@ -15,7 +15,7 @@ module solver_choices
   public :: FALLBACK_NONE, FALLBACK_BT, FALLBACK_L2, FALLBACK_NAMES
   public :: START_AUTO, START_LINEAR, START_CUBIC, START_NAMES
   public :: MG_STENCIL, MG_PETSC, MG_NAMES
-  public :: CYCLE_V, CYCLE_KASKADE, CYCLE_W, CYCLE_KV, CYCLE_KKASKADE, CYCLE_NAMES
+  public :: CYCLE_V, CYCLE_KASKADE, CYCLE_W, CYCLE_NAMES
   public :: PRODUCT_MIXED, PRODUCT_DOUBLE, PRODUCT_FUSED, PRODUCT_NAMES
   public :: COARSE_AUTO, COARSE_REDISCRETIZE, COARSE_GALERKIN, COARSE_NAMES
 
@@ -51,13 +51,10 @@ module solver_choices
   character(len=*), parameter :: MG_NAMES(0:1) = [character(len=7) :: 'stencil', 'petsc']
 
   !> -nuno_mg_cycle: the cycle of nuno's multigrid (module stencil_mg): a
-  !> V-cycle (multiplicative), kaskade (only upwards), a W-cycle (two
-  !> cycles on each coarser level per visit), or the K-cycles of the V-cycle
-  !> or of kaskade (each coarse level but the coarsest solved by up to two
-  !> flexible CG iterations preconditioned by its own cycle: submodule
-  !> stencil_mg_krylov).
-  integer, parameter :: CYCLE_V = 0, CYCLE_KASKADE = 1, CYCLE_W = 2, CYCLE_KV = 3, CYCLE_KKASKADE = 4
-  character(len=*), parameter :: CYCLE_NAMES(0:4) = [character(len=8) :: 'v', 'kaskade', 'w', 'kv', 'kkaskade']
+  !> V-cycle (multiplicative), kaskade (only upwards) or a W-cycle (two
+  !> cycles on each coarser level per visit).
+  integer, parameter :: CYCLE_V = 0, CYCLE_KASKADE = 1, CYCLE_W = 2
+  character(len=*), parameter :: CYCLE_NAMES(0:2) = [character(len=7) :: 'v', 'kaskade', 'w']
 
   !> -nuno_mg_product: the Krylov method's product with S where nuno's
   !> multigrid is used (module reduced_mg): from the multigrid's

@@ -25,7 +25,7 @@
 module stencil_mg
   use mpi
   use kinds, only: rp
-  use solver_choices, only: CYCLE_V, CYCLE_W, CYCLE_KASKADE, CYCLE_KV, CYCLE_KKASKADE
+  use solver_choices, only: CYCLE_V, CYCLE_W, CYCLE_KASKADE
   use mg_kernels, only: mp, stencil_t, transfer_t, stencil_init, stencil_put_row, stencil_finish, stencil_from_full, transfer_init, offset_index, &
                         stencil_block, diagonal_block, &
                         coarse_reach, gs_sweep, residual, interpolate, restrict_add, galerkin_add, level_product_rows, &
@@ -61,9 +61,6 @@ module stencil_mg
     !> (0:nx-1, 3, 3, -r:r, -r:r, h) the neighbour rank's Galerkin sums of
     !> this rank's rows, received (finish_sums_ac; a level split over ranks)
     real(rp), allocatable :: acbuf(:, :, :, :, :, :)
-    !> (0:nx-1, 3, ys:ye, 3) a K-cycle's vectors on this level (a coarse one
-    !> but the coarsest): its right-hand side b, the first iterate c and A c
-    real(mp), allocatable :: kw(:, :, :, :)
   end type mg_level_t
 
   !> The hierarchy: lev(1) is the lattice itself.
@@ -92,29 +89,7 @@ module stencil_mg
     real(rp), allocatable :: pxs(:, :, :)        !< (-r:nx-1+r, 3, 0:2r)
     real(rp), allocatable :: pacc(:, :)          !< (0:nx-1, 4)
     real(mp), allocatable :: pds(:, :)           !< (0:nx-1, 3)
-    !> a K-cycle's second inner iteration only where the first leaves more
-    !> than kt of the level's residual (Notay and Vassilevski's 0.25)
-    real(rp) :: kt = 0.25_rp
   end type stencil_mg_t
-
-  abstract interface
-    !> Level l's cycle from zero, then its residual res = rhs - A x.
-    recursive subroutine level_step(mg, l)
-      import :: stencil_mg_t
-      type(stencil_mg_t), intent(inout) :: mg
-      integer, intent(in) :: l
-    end subroutine level_step
-  end interface
-  interface
-    !> A K-cycle's solve of coarse level l (submodule stencil_mg_krylov),
-    !> each iteration by cycle_and_residual (an argument: gfortran gives
-    !> this module's private procedures no symbol a submodule could call).
-    module recursive subroutine krylov_level(mg, l, cycle_and_residual)
-      type(stencil_mg_t), intent(inout) :: mg
-      integer, intent(in) :: l
-      procedure(level_step) :: cycle_and_residual
-    end subroutine krylov_level
-  end interface
 
 contains
 
@@ -153,12 +128,6 @@ contains
     mg%cycle_type = cycle_type
     mg%gamma = merge(2, 1, cycle_type == CYCLE_W)
     mg%nu = max(nu, 1)
-    block ! the experiment's switch: NUNO_KT, the K-cycle's threshold (0: always two iterations)
-      character(len=16) :: e
-      integer :: st
-      call get_environment_variable('NUNO_KT', e, status=st)
-      if (st == 0) read(e, *) mg%kt
-    end block
     mg%rediscretize = .false.
     if (present(rediscretize)) mg%rediscretize = rediscretize
 
@@ -221,8 +190,6 @@ contains
     do l = 1, mg%nlev
       call level_arrays(mg%lev(l))
       if (present(paired)) mg%lev(l)%a%paired = paired
-      if (krylov(mg) .and. l > 1 .and. l < mg%nlev) &
-        allocate(mg%lev(l)%kw(0:mg%lev(l)%a%nx - 1, 3, mg%lev(l)%a%ys:mg%lev(l)%a%ye, 3))
     end do
     do l = 2, mg%nlev
       if (mg%rediscretize) exit
@@ -620,55 +587,26 @@ contains
       call exchange(mg, f)
       call residual(f%a, f%h, f%x, f%rhs, f%res)
       call restrict_level(mg, l, .false.)
-      if (krylov(mg) .and. l + 1 < mg%nlev) then
-        call krylov_level(mg, l + 1, cycle_and_residual)
-      else
-        call vcycle(mg, l + 1)
-      end if
+      call vcycle(mg, l + 1)
       if (mg%gamma > 1 .and. l + 1 < mg%nlev) call vcycle(mg, l + 1, from_zero=.false.)
     end associate
     call correct_and_smooth(mg, l, .true., ax)
   end subroutine vcycle
 
-  !> Kaskade from level l: rhs restricted to the coarsest level, solved,
-  !> then up level by level: interpolated, smoothed, never back down (its
-  !> K-cycle: each coarse level but the coarsest solved by krylov_level).
-  recursive subroutine kaskade(mg, l, ax)
+  !> Kaskade: rhs restricted to the coarsest level, solved, then up level by
+  !> level: interpolated, smoothed, never back down.
+  subroutine kcycle(mg, ax)
     type(stencil_mg_t), intent(inout) :: mg
-    integer, intent(in) :: l
     real(rp), intent(inout), optional :: ax(:, 0:, mg%lev(1)%a%ys:)   !< (3, 0:nx-1, ys:ye) A x of the result (smooth)
-    if (l == mg%nlev) then
-      call coarse_solve(mg)
-      return
-    end if
-    call restrict_level(mg, l, .true.)
-    if (krylov(mg) .and. l + 1 < mg%nlev) then
-      call krylov_level(mg, l + 1, cycle_and_residual)
-    else
-      call kaskade(mg, l + 1)
-    end if
-    call correct_and_smooth(mg, l, .false., ax)
-  end subroutine kaskade
-
-  !> Level l's cycle from zero (V-cycle or kaskade), then its residual:
-  !> an iteration of the K-cycle's Krylov method on level l.
-  recursive subroutine cycle_and_residual(mg, l)
-    type(stencil_mg_t), intent(inout) :: mg
-    integer, intent(in) :: l
-    if (mg%cycle_type == CYCLE_KKASKADE) then
-      call kaskade(mg, l)
-    else
-      call vcycle(mg, l)
-    end if
-    call exchange(mg, mg%lev(l))
-    call residual(mg%lev(l)%a, mg%lev(l)%h, mg%lev(l)%x, mg%lev(l)%rhs, mg%lev(l)%res)
-  end subroutine cycle_and_residual
-
-  !> The cycle is a K-cycle.
-  pure logical function krylov(mg)
-    type(stencil_mg_t), intent(in) :: mg
-    krylov = mg%cycle_type == CYCLE_KV .or. mg%cycle_type == CYCLE_KKASKADE
-  end function krylov
+    integer :: l
+    do l = 1, mg%nlev - 1
+      call restrict_level(mg, l, .true.)
+    end do
+    call coarse_solve(mg)
+    do l = mg%nlev - 1, 1, -1
+      call correct_and_smooth(mg, l, .false., ax)
+    end do
+  end subroutine kcycle
 
   !> Level l's x from level l + 1's, interpolated (added to x: the V-cycle's
   !> correction; or x itself: kaskade), then nu symmetric sweeps on level l,
@@ -717,8 +655,8 @@ contains
       if (present(formed)) formed = present(ax) .and. mg%nlev > 1
       if (mg%nlev == 1) then
         call coarse_solve(mg)
-      else if (mg%cycle_type == CYCLE_KASKADE .or. mg%cycle_type == CYCLE_KKASKADE) then
-        call kaskade(mg, 1, ax)
+      else if (mg%cycle_type == CYCLE_KASKADE) then
+        call kcycle(mg, ax)
       else
         call vcycle(mg, 1, ax)
       end if
