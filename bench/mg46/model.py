@@ -23,8 +23,9 @@ A_SHIFT = 600.0
 K_B, ETA_B, MASS = 0.1, 1e-4, 0.1
 
 
-def bending(n, coef, mass_scale=1.0, periodic=False, pins=True, lines=((1, 0), (0, 1), (1, 1), (1, -1)), h=None):
-    """S_z on an n x n lattice, node p = i + n j."""
+def bending(n, coef, mass_scale=1.0, periodic=False, pins=True, lines=((1, 0), (0, 1), (1, 1), (1, -1)), h=None, end_scale=1.0):
+    """S_z on an n x n lattice, node p = i + n j; end_scale: the triples that
+    reach an edge along their line scaled by it (per edge reached)."""
     L = 1.0 / (n - 1) if h is None else h
     rows, cols, vals = [], [], []
     idx = lambda i, j: (i % n) + n * (j % n)
@@ -38,9 +39,14 @@ def bending(n, coef, mass_scale=1.0, periodic=False, pins=True, lines=((1, 0), (
                     continue
                 p = [idx(a, b) for a, b in zip(ii, jj)]
                 d = [1.0, -2.0, 1.0]
+                f = 1.0
+                if si and (min(ii) == 0 or max(ii) == n - 1):
+                    f *= end_scale
+                if sj and (min(jj) == 0 or max(jj) == n - 1):
+                    f *= end_scale
                 for x in range(3):
                     for y in range(3):
-                        rows.append(p[x]); cols.append(p[y]); vals.append(w * d[x] * d[y])
+                        rows.append(p[x]); cols.append(p[y]); vals.append(w * f * d[x] * d[y])
     K = sp.csr_matrix((vals, (rows, cols)), shape=(n * n, n * n))
     m = np.full((n, n), MASS / (n - 1) ** 2)
     if not periodic:

@@ -6,8 +6,10 @@ The growth of the cycles with N that is left after the rediscretised
 coarse levels shows only under the load of hang's first step (gravity on
 the area masses, zero at the two pinned corners), not under a random
 right-hand side (redisc_gmres.py: 6 iterations at 33..257). This script
-counts right-preconditioned GMRES iterations to 1e-3 (the bw mode's
-tolerance) with one cycle as the preconditioner, for two hierarchies on
+counts flexible GMRES iterations to 1e-3 (nuno's outer method, the bw
+mode's tolerance) with one cycle as the preconditioner, and the level
+visits an iteration in finest-level sizes (in brackets), for two
+hierarchies on
 the same transfers (P cubic, its columns at the pinned coarse nodes zero;
 R bilinear, no right-hand side at the pinned coarse nodes; one symmetric
 Gauss-Seidel sweep a smoothing):
@@ -15,7 +17,13 @@ Gauss-Seidel sweep a smoothing):
   r  the rediscretised coarse levels (nuno's default with bending),
   g  the Galerkin products P^T A P of the same P (pinned rows a m I),
 
-and the cycles K (kaskade), V and W. With --eig it prints the extreme
+and the cycles (--cycles) K (kaskade), V, W, and the K-cycles of Notay and
+Vassilevski: C (each coarse level but the coarsest solved by at most two
+flexible CG iterations preconditioned by its V-cycle, the second only if
+the first leaves more than --threshold of the level's residual) and J
+(the same on kaskade). --ends F: the rediscretised levels' bending
+triples that reach an edge scaled by F (a boundary correction). --band W: every level's smoothing followed by an
+exact solve of the band W nodes wide along its edges. With --eig it prints the extreme
 generalised eigenvalues of the rediscretised level 2 against P^T A P and
 where the smallest one's vector peaks (the free nodes; < 1: the
 rediscretised operator is softer there, its correction overshoots by the
@@ -26,7 +34,8 @@ lies near the pins.
 
 With --pins edge the whole edge j = ny-1 is pinned instead of its corners.
 
-  python3 pinload.py [--load gravity|random] [--pins corners|edge] [--eig | --where] SIZES
+  python3 pinload.py [--load gravity|random] [--pins corners|edge] [--cycles KVWCJ]
+      [--levels rg] [--threshold T] [--ends F] [--band W] [--eig | --where] SIZES
 """
 import argparse
 import numpy as np
@@ -39,6 +48,25 @@ COEF = ETA_B + K_B / A_SHIFT
 
 
 PINS = 'corners'
+END_SCALE = 1.0   # the coarse levels' bending triples that reach an edge scaled by it (--ends)
+BAND = 0          # after each smoothing, the band this many nodes wide along the edges solved exactly (--band)
+
+
+class BandLevel(Level):
+    """A level whose smoothing ends with an exact solve of the band of BAND
+    nodes along its four edges (the boundary layer's share of the residual
+    removed on every level)."""
+    def __init__(self, A, n):
+        super().__init__(A)
+        jj, ii = np.mgrid[0:n, 0:n]
+        band = (ii < BAND) | (ii >= n - BAND) | (jj < BAND) | (jj >= n - BAND)
+        self.band = np.flatnonzero(band.reshape(-1))
+        self.blu = spla.splu(self.A[self.band][:, self.band].tocsc())
+
+    def sgs(self, x, b, sweeps=1):
+        x = super().sgs(x, b, sweeps)
+        x[self.band] += self.blu.solve((b - self.A @ x)[self.band])
+        return x
 
 
 def pins(n):
@@ -48,9 +76,10 @@ def pins(n):
     return [0 + n * (n - 1), (n - 1) + n * (n - 1)]
 
 
-def operator(n):
-    """S_z of model.py with the nodes pins(n) constrained (rows a m I)."""
-    S = bending(n, COEF, pins=False).tolil()
+def operator(n, end_scale=1.0):
+    """S_z of model.py with the nodes pins(n) constrained (rows a m I);
+    end_scale: its bending triples that reach an edge scaled by it."""
+    S = bending(n, COEF, pins=False, end_scale=end_scale).tolil()
     m = np.full((n, n), MASS / (n - 1) ** 2)
     m[0, :] *= 0.5; m[-1, :] *= 0.5; m[:, 0] *= 0.5; m[:, -1] *= 0.5
     m = m.T.reshape(-1)
@@ -63,7 +92,8 @@ def operator(n):
 
 def hierarchy(n, galerkin, levels=None):
     levels = levels or int(np.log2(n - 1)) - 1
-    levs, Ps, Rs = [Level(operator(n))], [], []
+    make = (lambda A, m: BandLevel(A, m)) if BAND else (lambda A, m: Level(A))
+    levs, Ps, Rs = [make(operator(n), n)], [], []
     for _ in range(levels - 1):
         nc = (n - 1) // 2 + 1
         P = prolong(n, True).tolil()
@@ -72,13 +102,13 @@ def hierarchy(n, galerkin, levels=None):
         R = prolong(n, False).T.tolil()
         R[pins(nc), :] = 0.0
         R = R.tocsr()
-        Ac = operator(nc)
+        Ac = operator(nc, END_SCALE)
         if galerkin:
             G = (P.T @ levs[-1].A @ P).tolil()
             for p in pins(nc):
                 G[p, p] = Ac[p, p]
             Ac = G.tocsr()
-        levs.append(Level(Ac))
+        levs.append(make(Ac, nc))
         Ps.append(P)
         Rs.append(R)
         n = nc
@@ -86,12 +116,40 @@ def hierarchy(n, galerkin, levels=None):
     return levs, Ps, Rs
 
 
+WORK = [0.0]     # level visits a preconditioner application, in finest-level sizes
+THRESHOLD = 0.25  # the adaptive K-cycle's second inner iteration only if ||r1|| > t ||r0||
+
+
+def krylov2(levs, Ps, Rs, b, l, kind):
+    """Notay and Vassilevski's K-cycle on level l: at most two iterations of
+    flexible CG preconditioned by the cycle of level l, the second only if
+    the first leaves more than THRESHOLD of the residual."""
+    A = levs[l].A
+    c = cycle(levs, Ps, Rs, b, l, kind)
+    v = A @ c
+    rho1, a1 = c @ v, c @ b
+    r1 = b - a1 / rho1 * v
+    if np.linalg.norm(r1) <= THRESHOLD * np.linalg.norm(b):
+        return a1 / rho1 * c
+    d = cycle(levs, Ps, Rs, r1, l, kind)
+    w = A @ d
+    gam, beta, a2 = d @ v, d @ w, d @ r1
+    rho2 = beta - gam * gam / rho1
+    return (a1 / rho1 - gam * a2 / (rho1 * rho2)) * c + a2 / rho2 * d
+
+
 def cycle(levs, Ps, Rs, b, l, kind):
     if l == len(levs) - 1:
         return levs[l].lu.solve(b)
     lv = levs[l]
-    if kind == 'K':
-        return lv.sgs(Ps[l] @ cycle(levs, Ps, Rs, Rs[l] @ b, l + 1, kind), b, 1)
+    WORK[0] += 4.0 ** -l
+    coarse = cycle if kind in 'KVW' or l + 2 >= len(levs) else krylov2
+    if kind in 'KJ':
+        return lv.sgs(Ps[l] @ coarse(levs, Ps, Rs, Rs[l] @ b, l + 1, kind), b, 1)
+    if kind == 'C':
+        x = lv.sgs(np.zeros_like(b), b, 1)
+        x = x + Ps[l] @ coarse(levs, Ps, Rs, Rs[l] @ (b - lv.A @ x), l + 1, kind)
+        return lv.sgs(x, b, 1)
     x = lv.sgs(np.zeros_like(b), b, 1)
     for _ in range(2 if kind == 'W' and l + 2 < len(levs) else 1):
         x = x + Ps[l] @ cycle(levs, Ps, Rs, Rs[l] @ (b - lv.A @ x), l + 1, kind)
@@ -109,17 +167,37 @@ def load(n, kind):
     return b
 
 
-def iterations(n, galerkin, kind, b, rtol=1e-3):
-    levs, Ps, Rs = hierarchy(n, galerkin)
-    A = levs[0].A
-    N = A.shape[0]
-    AM = spla.LinearOperator((N, N), matvec=lambda v: A @ cycle(levs, Ps, Rs, v, 0, kind))
-    its = [0]
+def fgmres(A, M, b, rtol, maxiter=100):
+    """Flexible GMRES (nuno's outer Krylov method, -reduced_ksp_type fgmres):
+    right-preconditioned by M, which may change from one iteration to the
+    next (a K-cycle does); the iterations to ||r|| <= rtol ||b||. (scipy's
+    gmres is not flexible: with a K-cycle its true residual misses.)"""
+    beta = np.linalg.norm(b)
+    V, Z = [b / beta], []
+    H = np.zeros((maxiter + 1, maxiter))
+    for k in range(maxiter):
+        Z.append(M(V[k]))
+        w = A @ Z[k]
+        for i in range(k + 1):
+            H[i, k] = w @ V[i]
+            w = w - H[i, k] * V[i]
+        H[k + 1, k] = np.linalg.norm(w)
+        V.append(w / H[k + 1, k])
+        e1 = np.zeros(k + 2)
+        e1[0] = beta
+        y = np.linalg.lstsq(H[:k + 2, :k + 1], e1, rcond=None)[0]
+        if np.linalg.norm(e1 - H[:k + 2, :k + 1] @ y) <= rtol * beta:
+            return k + 1
+    return maxiter
 
-    def count(_):
-        its[0] += 1
-    spla.gmres(AM, b, rtol=rtol, restart=50, maxiter=100, callback=count, callback_type='pr_norm')
-    return its[0]
+
+def iterations(n, galerkin, kind, b, rtol=1e-3):
+    """FGMRES iterations to rtol with one cycle as the preconditioner, and
+    the level visits an iteration (WORK)."""
+    levs, Ps, Rs = hierarchy(n, galerkin)
+    WORK[0] = 0.0
+    its = fgmres(levs[0].A, lambda v: cycle(levs, Ps, Rs, v, 0, kind), b, rtol)
+    return its, WORK[0] / its
 
 
 def where(n, b):
@@ -154,8 +232,19 @@ def main():
     ap.add_argument('--eig', action='store_true', help='level 2 against P^T A P (dense: sizes up to 129)')
     ap.add_argument('--pins', choices=['corners', 'edge'], default='corners', help="hang's two corners or the whole edge")
     ap.add_argument('--where', action='store_true', help='where one kaskade cycle leaves the residual')
+    ap.add_argument('--cycles', default='KVW',
+                    help='K kaskade, V, W, C K-cycle (V-cycle on each level, two flexible CG iterations on each coarse one), J K-cycle of kaskade')
+    ap.add_argument('--levels', default='rg', help='r rediscretised, g Galerkin')
+    ap.add_argument('--threshold', type=float, default=0.25, help="the K-cycle's second inner iteration only if ||r1|| > t ||r0|| (0: always)")
+    ap.add_argument('--ends', type=float, default=1.0,
+                    help="the rediscretised levels' bending triples that reach an edge scaled by it (per edge)")
+    ap.add_argument('--band', type=int, default=0,
+                    help='after each smoothing the band this many nodes wide along the edges solved exactly (0: none)')
     args = ap.parse_args()
-    global PINS
+    global PINS, THRESHOLD, END_SCALE, BAND
+    BAND = args.band
+    THRESHOLD = args.threshold
+    END_SCALE = args.ends
     PINS = args.pins
     for n in args.sizes:
         if args.eig:
@@ -167,7 +256,11 @@ def main():
             rel, share = where(n, b)
             print(f'N={n} {args.load}: one kaskade cycle leaves {rel:.3f} of the residual, {share:.3f} of its square within 8 nodes of the pins')
             continue
-        out = [f'{h}-{k} {iterations(n, h == "g", k, b)}' for h in 'rg' for k in 'KVW']
+        out = []
+        for h in args.levels:
+            for k in args.cycles:
+                its, work = iterations(n, h == 'g', k, b)
+                out.append(f'{h}-{k} {its} ({work:.2f})')
         print(f'N={n} {args.load}:', '  '.join(out), flush=True)
 
 
