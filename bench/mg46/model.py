@@ -23,9 +23,12 @@ A_SHIFT = 600.0
 K_B, ETA_B, MASS = 0.1, 1e-4, 0.1
 
 
-def bending(n, coef, mass_scale=1.0, periodic=False, pins=True, lines=((1, 0), (0, 1), (1, 1), (1, -1)), h=None, end_scale=1.0):
+def bending(n, coef, mass_scale=1.0, periodic=False, pins=True, lines=((1, 0), (0, 1), (1, 1), (1, -1)), h=None, end_scale=1.0,
+            corner_scale=1.0):
     """S_z on an n x n lattice, node p = i + n j; end_scale: the triples that
-    reach an edge along their line scaled by it (per edge reached)."""
+    reach an edge along their line scaled by it (per edge reached);
+    corner_scale: the diagonal triples with a node in a corner's 2 x 2
+    nodes scaled by it."""
     L = 1.0 / (n - 1) if h is None else h
     rows, cols, vals = [], [], []
     idx = lambda i, j: (i % n) + n * (j % n)
@@ -44,6 +47,8 @@ def bending(n, coef, mass_scale=1.0, periodic=False, pins=True, lines=((1, 0), (
                     f *= end_scale
                 if sj and (min(jj) == 0 or max(jj) == n - 1):
                     f *= end_scale
+                if si and sj and any(min(a, n - 1 - a) < 2 and min(b, n - 1 - b) < 2 for a, b in zip(ii, jj)):
+                    f *= corner_scale
                 for x in range(3):
                     for y in range(3):
                         rows.append(p[x]); cols.append(p[y]); vals.append(w * f * d[x] * d[y])

@@ -22,7 +22,8 @@ Vassilevski: C (each coarse level but the coarsest solved by at most two
 flexible CG iterations preconditioned by its V-cycle, the second only if
 the first leaves more than --threshold of the level's residual) and J
 (the same on kaskade). --ends F: the rediscretised levels' bending
-triples that reach an edge scaled by F (a boundary correction). --band W: every level's smoothing followed by an
+triples that reach an edge scaled by F (a boundary correction); --corners F: their diagonal triples at a
+corner's 2 x 2 nodes scaled by F. --band W: every level's smoothing followed by an
 exact solve of the band W nodes wide along its edges. With --eig it prints the extreme
 generalised eigenvalues of the rediscretised level 2 against P^T A P and
 where the smallest one's vector peaks (the free nodes; < 1: the
@@ -35,7 +36,7 @@ lies near the pins.
 With --pins edge the whole edge j = ny-1 is pinned instead of its corners.
 
   python3 pinload.py [--load gravity|random] [--pins corners|edge] [--cycles KVWCJ]
-      [--levels rg] [--threshold T] [--ends F] [--band W] [--eig | --where] SIZES
+      [--levels rg] [--threshold T] [--ends F] [--corners F] [--band W] [--eig | --where] SIZES
 """
 import argparse
 import numpy as np
@@ -49,6 +50,7 @@ COEF = ETA_B + K_B / A_SHIFT
 
 PINS = 'corners'
 END_SCALE = 1.0   # the coarse levels' bending triples that reach an edge scaled by it (--ends)
+CORNER_SCALE = 1.0   # the coarse levels' diagonal triples at a corner's 2 x 2 nodes scaled by it (--corners)
 BAND = 0          # after each smoothing, the band this many nodes wide along the edges solved exactly (--band)
 
 
@@ -76,10 +78,11 @@ def pins(n):
     return [0 + n * (n - 1), (n - 1) + n * (n - 1)]
 
 
-def operator(n, end_scale=1.0):
+def operator(n, end_scale=1.0, corner_scale=1.0):
     """S_z of model.py with the nodes pins(n) constrained (rows a m I);
-    end_scale: its bending triples that reach an edge scaled by it."""
-    S = bending(n, COEF, pins=False, end_scale=end_scale).tolil()
+    end_scale: its bending triples that reach an edge scaled by it;
+    corner_scale: its diagonal triples at a corner's 2 x 2 nodes."""
+    S = bending(n, COEF, pins=False, end_scale=end_scale, corner_scale=corner_scale).tolil()
     m = np.full((n, n), MASS / (n - 1) ** 2)
     m[0, :] *= 0.5; m[-1, :] *= 0.5; m[:, 0] *= 0.5; m[:, -1] *= 0.5
     m = m.T.reshape(-1)
@@ -102,7 +105,7 @@ def hierarchy(n, galerkin, levels=None):
         R = prolong(n, False).T.tolil()
         R[pins(nc), :] = 0.0
         R = R.tocsr()
-        Ac = operator(nc, END_SCALE)
+        Ac = operator(nc, END_SCALE, CORNER_SCALE)
         if galerkin:
             G = (P.T @ levs[-1].A @ P).tolil()
             for p in pins(nc):
@@ -240,8 +243,11 @@ def main():
                     help="the rediscretised levels' bending triples that reach an edge scaled by it (per edge)")
     ap.add_argument('--band', type=int, default=0,
                     help='after each smoothing the band this many nodes wide along the edges solved exactly (0: none)')
+    ap.add_argument('--corners', type=float, default=1.0,
+                    help="the rediscretised levels' diagonal triples at a corner's 2 x 2 nodes scaled by it")
     args = ap.parse_args()
-    global PINS, THRESHOLD, END_SCALE, BAND
+    global PINS, THRESHOLD, END_SCALE, BAND, CORNER_SCALE
+    CORNER_SCALE = args.corners
     BAND = args.band
     THRESHOLD = args.threshold
     END_SCALE = args.ends
