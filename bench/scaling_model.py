@@ -25,9 +25,12 @@ bandwidth, allreduce as 2 log2(P) latencies plus 2 (P-1)/P of the bytes
 for the banded LU. The distribution of the levels follows mg_create
 exactly: PETSc's split of N rows (N/P, the first N mod P ranks one more),
 coarse row J on the rank of fine row 2 J, a level distributed while every
-rank owns at least the halo (2 rows) of it, the first one that fails
-replicated on every rank and solved by LAPACK's banded LU (dgbtrf/dgbtrs,
-3 nx ny unknowns, kl = ku = 3 (r nx + r) + 2).
+rank owns at least its halo hc (2-3 rows: coarse_halo) of it; the first
+one that fails is, with --telescope (nuno's default, -nuno_mg_gather
+auto), on more than 4 ranks gathered on fewer (module mg_gather) and so on
+down to 5 x 5, else replicated on every rank; the last level is replicated
+and solved by LAPACK's banded LU (dgbtrf/dgbtrs, 3 nx ny unknowns,
+kl = ku = 3 (r nx + r) + 2).
 
   python3 bench/scaling_model.py                    # table, docs/figures/scaling-model.png
   python3 bench/scaling_model.py --json out.json    # the numbers too
@@ -52,8 +55,9 @@ MEASURED = {
 }
 
 REACH = 2          # stencil reach of every level (with bending; rediscretised levels)
-HALO = 2           # halo rows of every level (the reach; mg_create's hc)
+HALO = 2           # the finest level's halo rows (the reach), the strips' limit N/P >= 2
 MIN_SIDE = 5       # coarsening stops at 5 points a side
+GATHER_ABOVE = 4   # -nuno_mg_gather auto gathers a level too thin for more than this many ranks
 
 
 def level_sides(n):
@@ -74,25 +78,58 @@ def strip_rows(n, p):
     return out
 
 
+def parents(k, nc):
+    """Coarse rows of fine row k: the bilinear restriction's and the cubic
+    interpolation's (src/kernels/interpolation.f90; linear below 4 coarse
+    points), the transfers of the rediscretised levels with bending."""
+    if k % 2 == 0:
+        return [k // 2]
+    c0 = (k - 1) // 2
+    lin = [c0, c0 + 1]
+    if nc < 4:
+        return lin
+    s = 0 if c0 == 0 else (c0 - 2 if c0 + 1 == nc - 1 else c0 - 1)
+    return lin + [s, s + 3]
+
+
+def coarse_halo(nc, rows):
+    """mg_create's hc: the stencil reach, or how far the transfers of a
+    rank's fine rows reach beyond its natural coarse rows, the most of any
+    rank (rows: the (ys, ye) of the ranks that hold fine rows)."""
+    hc = REACH
+    for ys, ye in rows:
+        ysc, yec = (ys + 1) // 2, ye // 2
+        for k in {ys, min(ys + 1, ye), max(ye - 1, ys), ye}:
+            c = parents(k, nc)
+            hc = max(hc, ysc - min(c), max(c) - yec)
+    return hc
+
+
 def hierarchy(n, p, telescope=False):
     """The levels as mg_create makes them on p ranks: a list of
-    (side, rows of the rank with the most, distributed), the last replicated.
-    telescope (the remedy, not built): a level too thin for p strips goes
-    on the fewest ranks that keep 2 rows each, down to 5 x 5."""
+    (side, rows of the rank with the most, distributed, ranks that hold
+    rows), the last replicated. A level is distributed while every rank
+    of the level above owns at least its halo hc (coarse_halo) of it;
+    telescope (-nuno_mg_gather auto, src/solver/mg_gather.F90): a level
+    that fails, on more than GATHER_ABOVE ranks and not the last, goes on
+    the first min(ranks of the level above, side // hc) ranks (PETSc's
+    split), and so on down; else it is the coarsest, replicated."""
     sides = level_sides(n)
     rows = strip_rows(n, p)
-    levels = [(n, max(ye - ys + 1 for ys, ye in rows), p > 1)]
+    levels = [(n, max(ye - ys + 1 for ys, ye in rows), p > 1, p)]
     for side in sides[1:]:
+        hc = coarse_halo(side, rows)
         rows = [((ys + 1) // 2, ye // 2) for ys, ye in rows]
         fewest = min(ye - ys + 1 for ys, ye in rows)
-        if telescope and fewest < HALO and side != sides[-1] and p > 1:
-            rows = strip_rows(side, max(1, min(p, side // HALO)))
-            fewest = min(ye - ys + 1 for ys, ye in rows)
-        last = fewest < HALO or side == sides[-1]
+        short = side == sides[-1]
+        gathered = telescope and fewest < hc and not short and p > GATHER_ABOVE
+        if gathered:
+            rows = strip_rows(side, min(len(rows), side // hc))
+        last = short or (fewest < hc and not gathered)
         if last or p == 1:
-            levels.append((side, side, False))
+            levels.append((side, side, False, p))
         else:
-            levels.append((side, max(ye - ys + 1 for ys, ye in rows), True))
+            levels.append((side, max(ye - ys + 1 for ys, ye in rows), True, len(rows)))
         if last:
             break
     return levels
@@ -134,7 +171,7 @@ def model(n, p, a):
     cyc = cycles_a_step(n, a)
     fine_rows = levels[0][1]
     # compute a cycle: the rank's rows of every level kept distributed (all on one rank)
-    compute = sum(side * rows for side, rows, dist in levels[:-1]) * t_level_node
+    compute = sum(side * rows for side, rows, dist, _ in levels[:-1]) * t_level_node
     krylov = n * fine_rows * t_krylov_node
     halo = 0.0
     halo_fine = 0.0
@@ -148,7 +185,7 @@ def model(n, p, a):
         compute += coarse_side ** 2 * t_level_node   # the coarsest level is in the measurement
     else:
         row_b = 3 * 4 * HALO                       # single-precision 3-dof x, a halo row's node [B]
-        for l, (side, rows, dist) in enumerate(levels):
+        for l, (side, rows, dist, ranks) in enumerate(levels):
             if not dist:
                 continue
             # restriction into this level (finish_sums_w) and the exchange
@@ -158,7 +195,7 @@ def model(n, p, a):
             # one symmetric sweep: 2 exchanges; the finest's last forms A x: 3
             sweeps = 3 if l == 0 else 2
             k = into + out + 2 * sweeps
-            if a.telescope and l > 0 and rows > levels[l - 1][1]:
+            if l > 0 and ranks < levels[l - 1][3]:
                 k += 2                             # gathered onto fewer ranks and scattered back
             halo_msgs += k
             halo += k * message(row_b * side, a)
@@ -220,7 +257,7 @@ def parse(argv=None):
                     help="allreduces a step outside the cycles (residual norms, the guesses' projection, energy balance)")
     ap.add_argument("--rebuild", type=float, default=20, help="steps between rebuilds of the coarse levels")
     ap.add_argument("--telescope", action="store_true",
-                    help="the remedy, not built: levels too thin for P strips on fewer ranks (2 rows each) down to 5 x 5")
+                    help="-nuno_mg_gather auto (nuno's default): levels too thin for the strips of more than 4 ranks gathered on fewer (hc rows each) down to 5 x 5; without: -nuno_mg_gather never")
     ap.add_argument("--figure", default="docs/figures/scaling-model.png", help="the figure's file")
     ap.add_argument("--no-figure", action="store_true", help="no figure (no matplotlib needed)")
     ap.add_argument("--json", default=None, help="write every row as JSON to this file")
@@ -277,7 +314,7 @@ def figure(rows, remedy, a):
         tel = [r for r in remedy if r["n"] == n and r["allowed"]]
         ax[1].semilogx([r["p"] for r in tel], [r["efficiency"] for r in tel], "--", color=line.get_color())
     ax[0].set(xlabel="ranks P", ylabel="time a bw step [ms]", title="time a step (dotted: perfect scaling)")
-    ax[1].set(xlabel="ranks P", ylabel="parallel efficiency", title="efficiency T(1) / (P T(P))\n(dashed: coarse levels on fewer ranks, not built)",
+    ax[1].set(xlabel="ranks P", ylabel="parallel efficiency", title="efficiency T(1) / (P T(P))\n(dashed: coarse levels gathered on fewer ranks, -nuno_mg_gather auto)",
               ylim=(0, 1.05))
     for x in ax[:2]:
         x.legend()

@@ -18,6 +18,7 @@ module solver_choices
   public :: CYCLE_V, CYCLE_KASKADE, CYCLE_W, CYCLE_NAMES
   public :: PRODUCT_MIXED, PRODUCT_DOUBLE, PRODUCT_FUSED, PRODUCT_NAMES
   public :: COARSE_AUTO, COARSE_REDISCRETIZE, COARSE_GALERKIN, COARSE_NAMES
+  public :: GATHER_AUTO, GATHER_NEVER, GATHER_NAMES
 
   !> -nuno_jacobian: the reduced 3-dof elimination (module reduced) or the
   !> assembled 6-dof Jacobian.
@@ -69,5 +70,11 @@ module solver_choices
   !> rediscretised with bending, Galerkin without.
   integer, parameter :: COARSE_AUTO = 0, COARSE_REDISCRETIZE = 1, COARSE_GALERKIN = 2
   character(len=*), parameter :: COARSE_NAMES(0:2) = [character(len=12) :: 'auto', 'rediscretize', 'galerkin']
+
+  !> -nuno_mg_gather: where a level of nuno's multigrid is too thin for
+  !> the strips of more than 4 ranks, gather it on fewer (auto; module
+  !> mg_gather) or make it the coarsest, replicated on every rank (never).
+  integer, parameter :: GATHER_AUTO = 0, GATHER_NEVER = 1
+  character(len=*), parameter :: GATHER_NAMES(0:1) = [character(len=5) :: 'auto', 'never']
 
 end module solver_choices

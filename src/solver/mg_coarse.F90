@@ -12,11 +12,14 @@
 !> and a fourth-order part consistent with the finest one's, which the
 !> bilinear Galerkin product is not (docs/performance.md).
 !>
-!> Parallel: a distributed level's rows are injected on the rank that owns
-!> them (coarse row J's fine row 2^(l-1) J is the same rank's), and its
-!> ghost rows exchanged with the neighbours; the replicated coarsest level
-!> (several ranks) is summed from every rank's rows. Its record has private
-!> components: only this module writes it.
+!> Parallel: a level's rows are injected, level by level, on the rank that
+!> owns their parents (coarse row J's row 2 J on the level above: its
+!> "natural" rows); a distributed level owns just those, and its ghost
+!> rows are exchanged with the neighbours; a level gathered on fewer
+!> ranks (module mg_gather) receives its rows and ghost rows from the
+!> ranks that injected them, by a row plan made once; the replicated
+!> coarsest level (several ranks) is summed from every rank's rows. Its
+!> record has private components: only this module writes it.
 module mg_coarse
   use mpi
   use kinds, only: rp
@@ -27,7 +30,9 @@ module mg_coarse
   use reduced_assembly, only: assemble_stencil
   use offset_product, only: offset_count
   use mg_kernels, only: stencil_t
-  use stencil_mg, only: stencil_mg_t, mg_levels, mg_level_rows, mg_level_op, mg_set_level_fixed, mg_factor_coarsest
+  use stencil_mg, only: stencil_mg_t, mg_levels, mg_level_rows, mg_level_links, mg_level_op, mg_set_level_fixed, &
+                        mg_factor_coarsest
+  use mg_gather, only: row_plan_t, plan_create, plan_copy_dp, natural_rows
   implicit none
   private
   public :: mg_coarse_t, mg_coarse_init, mg_coarse_build, mg_coarse_free
@@ -35,9 +40,14 @@ module mg_coarse
   !> One coarse level's lattice, state and the assembly's work arrays.
   type :: coarse_level_t
     type(lattice_t) :: lat                         !< the cloth on this level's lattice (rows of this rank, ghosts)
-    integer :: stride = 1                          !< 2^(l-1): node (i, j) is the finest node (stride i, stride j)
-    integer :: j0 = 0, j1 = -1                     !< the rows injected on this rank (their finest rows are its own)
+    integer :: j0 = 0, j1 = -1                     !< the rows injected on this rank (their parents on the level above are its own)
     logical :: replicated = .false.                !< every rank holds every row (and assembles them)
+    integer :: below = MPI_PROC_NULL, above = MPI_PROC_NULL !< the neighbours in this level's strips
+    logical :: gathered = .false.                  !< on fewer ranks than the level above (module mg_gather)
+    logical :: active = .true.                     !< this rank holds rows of the level
+    type(row_plan_t) :: plan                       !< gathered: the injected rows j0..j1 to the owners' rows and ghosts
+    real(rp), allocatable :: un(:, :, :)           !< (0:6, 0:nx-1, j0:j1) gathered: the injected rows of u
+    real(rp), allocatable :: dn(:, :, :)           !< (18, 0:nx-1, j0:j1) gathered: the injected rows of d
     !> (0:6, 0:nx-1, gys:gye) the state (0:5) and the constraint mark (6: 1 or 0)
     real(rp), allocatable :: u(:, :, :)
     logical, allocatable :: fixed(:, :)            !< (0:nx-1, gys:gye) constrained nodes
@@ -72,8 +82,8 @@ contains
     integer, intent(in) :: comm
     real(rp), allocatable :: mxf(:), myf(:), mxc(:), myc(:)
     real(rp) :: scale
-    integer :: l, nx, ny, ys, ye, ierr, rank
-    logical :: rep
+    integer :: l, nx, ny, ys, ye, ierr, rank, pys, pye, nxp, nyp
+    logical :: rep, prep
     mc%comm = comm
     call MPI_Comm_rank(comm, rank, ierr)
     call MPI_Comm_size(comm, mc%nranks, ierr)
@@ -93,12 +103,18 @@ contains
         else
           call lattice_coarsened(mc%lev(l - 1)%lat, c%lat, ys, ye, mxc, myc, scale)
         end if
-        c%stride = 2**(l - 1)
         c%replicated = rep
-        ! the rows whose finest rows this rank owns
-        c%j0 = (fine%ys + c%stride - 1) / c%stride
-        c%j1 = fine%ye / c%stride
+        c%active = ys <= ye
+        call mg_level_links(mg, l, c%below, c%above, c%gathered)
+        ! the rows whose parents on the level above this rank owns
+        call mg_level_rows(mg, l - 1, nxp, nyp, pys, pye, prep)
+        call natural_rows(pys, pye, c%j0, c%j1)
         call level_arrays(c)
+        if (c%gathered) then
+          allocate(c%un(0:6, 0:nx - 1, c%j0:c%j1))
+          c%un = 0.0_rp
+          call plan_create(c%plan, comm, 34, c%j0, c%j1, merge(c%lat%gys, 0, c%active), merge(c%lat%gye, -1, c%active))
+        end if
       end associate
       call move_alloc(mxc, mxf)
       call move_alloc(myc, myf)
@@ -152,8 +168,9 @@ contains
     if (blocks) call lump_finest(mc, fine, nodal, fixedg)
     do l = 2, mg_levels(mg)
       associate (c => mc%lev(l))
-        call inject(mc, c, fine, u, fixedg)
+        call inject(mc, l, fine, u, fixedg)
         call level_blocks(mc, l, fine, blocks)
+        if (.not. c%active) cycle
         op => mg_level_op(mg, l)
         call assemble_stencil(c%lat, c%nodal, c%u, c%fixed, a, damping, clamp, gauss_newton, c%w, c%lb, c%g, c%kd, &
                               c%st, op)
@@ -173,7 +190,7 @@ contains
     if (.not. allocated(mc%df)) allocate(mc%df(18, 0:fine%nx - 1, fine%gys:fine%gye))
     mc%df = 0.0_rp
     if (node_blocks_count(nodal) > 0) call node_blocks_lumped(nodal, fine%gys, fixedg, mc%df)
-    if (mc%nranks > 1) call exchange_ghosts(mc, mc%df, fine%gys, fine%ys, fine%ye, fine%halo)
+    if (mc%nranks > 1) call exchange_ghosts(mc%comm, mc%below, mc%above, mc%df, fine%gys, fine%ys, fine%ye, fine%halo)
   end subroutine lump_finest
 
   !> Level l's node blocks: the level above's (df for l = 2) summed with
@@ -188,11 +205,11 @@ contains
     integer, intent(in) :: l
     type(lattice_t), intent(in) :: fine
     logical, intent(in) :: blocks
-    real(rp), pointer :: src(:, :, :)
+    real(rp), pointer :: src(:, :, :), dst(:, :, :)
     integer :: i, j, ia, jb, nxs
     real(rp) :: wgt
     associate (c => mc%lev(l))
-      if (.not. blocks) then
+      if (.not. blocks .and. c%active) then
         ! (a scene without node blocks never fills the list: nothing
         ! allocated; d is kept for the next blocks, no allocation in the loop)
         if (node_blocks_count(c%nodal) > 0) then
@@ -201,8 +218,16 @@ contains
         end if
         return
       end if
-      call node_blocks_begin(c%nodal, c%lat%ys, c%lat%ye)
+      if (.not. blocks) return
       if (.not. allocated(c%d)) allocate(c%d(18, 0:c%lat%nx - 1, c%lat%gys:c%lat%gye))
+      c%d = 0.0_rp
+      dst(1:, 0:, c%lat%gys:) => c%d
+      if (c%gathered) then
+        ! this rank's injected rows first, then to their owners
+        if (.not. allocated(c%dn)) allocate(c%dn(18, 0:c%lat%nx - 1, c%j0:c%j1))
+        c%dn = 0.0_rp
+        dst(1:, 0:, c%j0:) => c%dn
+      end if
       if (l == 2) then
         src(1:, 0:, fine%gys:) => mc%df
         nxs = fine%nx
@@ -210,18 +235,19 @@ contains
         src(1:, 0:, mc%lev(l - 1)%lat%gys:) => mc%lev(l - 1)%d
         nxs = mc%lev(l - 1)%lat%nx
       end if
-      c%d = 0.0_rp
       do j = c%j0, c%j1
         do jb = max(2 * j - 1, lbound(src, 3)), min(2 * j + 1, ubound(src, 3))
           do i = 0, c%lat%nx - 1
             do ia = max(2 * i - 1, 0), min(2 * i + 1, nxs - 1)
               wgt = (1.0_rp - 0.5_rp * abs(ia - 2 * i)) * (1.0_rp - 0.5_rp * abs(jb - 2 * j))
-              c%d(:, i, j) = c%d(:, i, j) + wgt * src(:, ia, jb)
+              dst(:, i, j) = dst(:, i, j) + wgt * src(:, ia, jb)
             end do
           end do
         end do
       end do
-      call share_rows(mc, c, c%d)
+      call share_rows(mc, c, c%d, c%dn)
+      if (.not. c%active) return
+      call node_blocks_begin(c%nodal, c%lat%ys, c%lat%ye)
       do j = c%lat%ys, c%lat%ye
         do i = 0, c%lat%nx - 1
           if (any(c%d(:, i, j) /= 0.0_rp)) then
@@ -233,48 +259,66 @@ contains
     end associate
   end subroutine level_blocks
 
-  !> Level c's state and constraint marks on its rows and ghost rows: its
-  !> own rows injected from the finest ones, the rest from the other ranks.
-  subroutine inject(mc, c, fine, u, fixedg)
-    type(mg_coarse_t), intent(in) :: mc
-    type(coarse_level_t), intent(inout) :: c
+  !> Level l's state and constraint marks on its rows and ghost rows: the
+  !> rows j0..j1 injected from the level above (level 2: from the finest
+  !> state u and marks fixedg; below, the level above's state and marks,
+  !> the same values), the rest from the other ranks. Collective.
+  subroutine inject(mc, l, fine, u, fixedg)
+    type(mg_coarse_t), intent(inout), target :: mc
+    integer, intent(in) :: l
     type(lattice_t), intent(in) :: fine
     real(rp), intent(in) :: u(0:, 0:, fine%gys:)
     logical, intent(in) :: fixedg(0:, fine%gys:)
+    real(rp), pointer :: dst(:, :, :)
     integer :: i, j
-    if (c%replicated .and. mc%nranks > 1) c%u = 0.0_rp
-    call inject_rows(c%stride, u(0:5, :, :), fine%gys, c%u(0:5, :, :), c%lat%gys, c%j0, c%j1)
-    do j = c%j0, c%j1
-      do i = 0, c%lat%nx - 1
-        c%u(6, i, j) = merge(1.0_rp, 0.0_rp, fixedg(c%stride * i, c%stride * j))
-      end do
-    end do
-    call share_rows(mc, c, c%u)
-    c%fixed = c%u(6, :, :) > 0.5_rp
+    associate (c => mc%lev(l))
+      if (c%replicated .and. mc%nranks > 1) c%u = 0.0_rp
+      dst(0:, 0:, c%lat%gys:) => c%u
+      if (c%gathered) dst(0:, 0:, c%j0:) => c%un
+      if (l == 2) then
+        call inject_rows(2, u(0:5, :, :), fine%gys, dst(0:5, :, :), lbound(dst, 3), c%j0, c%j1)
+        do j = c%j0, c%j1
+          do i = 0, c%lat%nx - 1
+            dst(6, i, j) = merge(1.0_rp, 0.0_rp, fixedg(2 * i, 2 * j))
+          end do
+        end do
+      else
+        call inject_rows(2, mc%lev(l - 1)%u, mc%lev(l - 1)%lat%gys, dst, lbound(dst, 3), c%j0, c%j1)
+      end if
+      call share_rows(mc, c, c%u, c%un)
+      if (c%active) c%fixed = c%u(6, :, :) > 0.5_rp
+    end associate
   end subroutine inject
 
   !> Level c's rows of a(:, 0:nx-1, gys:gye) where this rank computed only
-  !> its own (j0..j1, the rest zero): on a replicated level summed from
-  !> every rank, on a distributed one its ghost rows from the neighbours
-  !> (each owns at least halo rows of it: module stencil_mg keeps a level
-  !> distributed only then). Collective.
-  subroutine share_rows(mc, c, a)
+  !> its natural rows (j0..j1): on a replicated level (the rest zero)
+  !> summed from every rank, on a distributed one its ghost rows from the
+  !> neighbours (each owns at least halo rows of it: module stencil_mg
+  !> keeps a level distributed only then), on a gathered one (computed in
+  !> an(:, 0:nx-1, j0:j1) instead) its rows and ghost rows from the ranks
+  !> that computed them (c%plan). Collective.
+  subroutine share_rows(mc, c, a, an)
     type(mg_coarse_t), intent(in) :: mc
-    type(coarse_level_t), intent(in) :: c
+    type(coarse_level_t), intent(inout) :: c
     real(rp), intent(inout) :: a(:, 0:, c%lat%gys:)
+    real(rp), intent(in), allocatable :: an(:, :, :)   !< gathered levels only (else not allocated)
     integer :: ierr
-    if (mc%nranks == 1) return
-    if (c%replicated) then
+    if (c%gathered) then
+      call plan_copy_dp(c%plan, size(a, 1) * size(a, 2), an, c%j0, a, c%lat%gys)
+    else if (mc%nranks == 1) then
+      return
+    else if (c%replicated) then
       call MPI_Allreduce(MPI_IN_PLACE, a, size(a), MPI_DOUBLE_PRECISION, MPI_SUM, mc%comm, ierr)
-    else
-      call exchange_ghosts(mc, a, c%lat%gys, c%lat%ys, c%lat%ye, c%lat%halo)
+    else if (c%active) then
+      call exchange_ghosts(mc%comm, c%below, c%above, a, c%lat%gys, c%lat%ys, c%lat%ye, c%lat%halo)
     end if
   end subroutine share_rows
 
   !> The h ghost rows on each side of a(:, 0:nx-1, gys:gye) (none beyond
-  !> the lattice's ends), rows ys..ye this rank's, from the neighbours' rows.
-  subroutine exchange_ghosts(mc, a, gys, ys, ye, h)
-    type(mg_coarse_t), intent(in) :: mc
+  !> the lattice's ends), rows ys..ye this rank's, from the neighbours'
+  !> rows (ranks below and above on comm; MPI_PROC_NULL at the ends).
+  subroutine exchange_ghosts(comm, below, above, a, gys, ys, ye, h)
+    integer, intent(in) :: comm, below, above
     integer, intent(in) :: gys, ys, ye, h
     real(rp), intent(inout) :: a(:, 0:, gys:)
     real(rp), allocatable :: sbuf(:, :, :), rbuf(:, :, :)
@@ -283,14 +327,14 @@ contains
     cnt = size(sbuf)
     ! my first rows to the rank below, the rank above's first rows to my top ghosts
     sbuf = a(:, :, ys:ys + h - 1)
-    call MPI_Sendrecv(sbuf, cnt, MPI_DOUBLE_PRECISION, mc%below, 21, rbuf, cnt, MPI_DOUBLE_PRECISION, mc%above, 21, &
-                      mc%comm, MPI_STATUS_IGNORE, ierr)
-    if (mc%above /= MPI_PROC_NULL) a(:, :, ye + 1:ye + h) = rbuf
+    call MPI_Sendrecv(sbuf, cnt, MPI_DOUBLE_PRECISION, below, 21, rbuf, cnt, MPI_DOUBLE_PRECISION, above, 21, &
+                      comm, MPI_STATUS_IGNORE, ierr)
+    if (above /= MPI_PROC_NULL) a(:, :, ye + 1:ye + h) = rbuf
     ! my last rows to the rank above, the rank below's last rows to my bottom ghosts
     sbuf = a(:, :, ye - h + 1:ye)
-    call MPI_Sendrecv(sbuf, cnt, MPI_DOUBLE_PRECISION, mc%above, 22, rbuf, cnt, MPI_DOUBLE_PRECISION, mc%below, 22, &
-                      mc%comm, MPI_STATUS_IGNORE, ierr)
-    if (mc%below /= MPI_PROC_NULL) a(:, :, ys - h:ys - 1) = rbuf
+    call MPI_Sendrecv(sbuf, cnt, MPI_DOUBLE_PRECISION, above, 22, rbuf, cnt, MPI_DOUBLE_PRECISION, below, 22, &
+                      comm, MPI_STATUS_IGNORE, ierr)
+    if (below /= MPI_PROC_NULL) a(:, :, ys - h:ys - 1) = rbuf
   end subroutine exchange_ghosts
 
 end module mg_coarse

@@ -172,6 +172,28 @@ PetscErrorCode nuno_mg_options_read(MPI_Fint fcomm, const char *impl_names, int 
   PetscFunctionReturn(0);
 }
 
+/* -nuno_mg_gather (module stencil_mg, mg_create; module mg_gather): gather
+ * in/out code of names (auto: a level too thin for the strips of more than
+ * 4 ranks gathered on fewer; never: it is the replicated coarsest); *given:
+ * 1 when set (refused where nuno's multigrid is not used). Collective. */
+PetscErrorCode nuno_mg_gather_read(MPI_Fint fcomm, const char *names, int n, int len, int *gather, int *given)
+{
+  Choices   gathers;
+  MPI_Comm  comm = MPI_Comm_f2c(fcomm);
+  PetscInt  g = *gather;
+  PetscBool set = PETSC_FALSE;
+
+  PetscFunctionBeginUser;
+  PetscCall(choices_from_fortran(names, n, len, &gathers));
+  PetscOptionsBegin(comm, NULL, "nuno: the inner multigrid's coarse levels on many ranks (docs/performance.md, \"Scaling\")", "nuno");
+  PetscCall(PetscOptionsEList("-nuno_mg_gather", "nuno's multigrid on more than 4 ranks: auto (a level too thin for the ranks' strips is gathered on fewer ranks, 2 rows each at least, down to the coarsest level, replicated) or never (the first such level is the coarsest, replicated on every rank: its banded LU grows as the ranks cubed)",
+                              "nuno", gathers.name, gathers.n, gathers.name[g], &g, &set));
+  PetscOptionsEnd();
+  *gather = (int)g;
+  *given = set ? 1 : 0;
+  PetscFunctionReturn(0);
+}
+
 /* The absolute error tolerances of adaptive steps, per field (input/README.md,
  * "Error tolerances"): positions in the scene's length unit, velocities in
  * length/time; together they become TS's vector atol. Read after

@@ -30,7 +30,7 @@ module reduced
   use inner_guess, only: GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, GUESS_PROJECT, PROJECT_PAIRS
   use reduced_guess, only: guess_t, guess_use, guess_free, guess_restart, guess_set, guess_keep, guess_push, &
                            guess_accepted, guess_mode
-  use solver_choices, only: MG_STENCIL
+  use solver_choices, only: MG_STENCIL, GATHER_AUTO
   use reduced_mg, only: mg_glue_t, mg_glue_matrix, mg_glue_pc, mg_glue_free, mg_glue_assemble, mg_glue_built, &
                         mg_glue_describe, mg_coarse_levels, levels_that_fit, default_preconditioner, mg_interpolations, &
                         true_residual_defaults, mg_options_t, mg_options_read, &
@@ -280,7 +280,7 @@ contains
     red%pcc%use_mg = levels_that_fit(nx, ny, izero, ione) >= 3 .and. .not. found .and. mgo%impl == MG_STENCIL
     if (mgo%given .and. .not. red%pcc%use_mg) then
       ierr = PETSC_ERR_ARG_INCOMP
-      SETERRQ(comm, ierr, 'nuno: -nuno_mg_cycle, -nuno_mg_sweeps, -nuno_mg_levels, -nuno_mg_product and -nuno_mg_coarse are for nuno''s multigrid (-nuno_mg stencil, the default from 3 levels on, no -reduced_pc_type)')
+      SETERRQ(comm, ierr, 'nuno: -nuno_mg_cycle, -nuno_mg_sweeps, -nuno_mg_levels, -nuno_mg_product, -nuno_mg_coarse and -nuno_mg_gather are for nuno''s multigrid (-nuno_mg stencil, the default from 3 levels on, no -reduced_pc_type)')
     end if
     if (red%pcc%use_mg) then
       ! FGMRES even where S is symmetric: the kaskade cycle is not, and
@@ -350,7 +350,7 @@ contains
       ! without bending every element of S is a link, so S(p, q) = S(q, p)
       ! block for block (mg_stencil's stencil_t, paired): the sweeps and
       ! products read the blocks to the row below from that row
-      PetscCall(mg_glue_pc(red%mgg, pc, nx, ny, ys, n, w, red%pcc%interp, merge(mgo%levels, 10, mgo%levels > 0), mgo%cycle, mgo%sweeps, mgo%coarse, red%lat%bending_model == BEND_NONE, ierr))
+      PetscCall(mg_glue_pc(red%mgg, pc, nx, ny, ys, n, w, red%pcc%interp, merge(mgo%levels, 10, mgo%levels > 0), mgo%cycle, mgo%sweeps, mgo%coarse, red%lat%bending_model == BEND_NONE, mgo%gather == GATHER_AUTO, ierr))
     else
       PetscCall(mg_interpolations(red%da3, red%pcc%interp, pc, ierr))
     end if

@@ -18,7 +18,8 @@ module reduced_mg
   use kinds, only: rp
   use strings, only: itoa
   use solver_choices, only: INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC, MG_NAMES, MG_STENCIL, CYCLE_NAMES, &
-                            CYCLE_KASKADE, PRODUCT_NAMES, PRODUCT_DOUBLE, PRODUCT_FUSED, COARSE_NAMES, COARSE_AUTO, COARSE_REDISCRETIZE
+                            CYCLE_KASKADE, PRODUCT_NAMES, PRODUCT_DOUBLE, PRODUCT_FUSED, COARSE_NAMES, COARSE_AUTO, COARSE_REDISCRETIZE, &
+                            GATHER_NAMES, GATHER_AUTO
   use shell_context, only: PCShellSetContext, PCShellGetContext, MatShellSetContext, MatShellGetContext
   use lattice, only: lattice_t
   use reduced_assembly, only: assemble_stencil
@@ -48,6 +49,7 @@ module reduced_mg
     integer :: levels = 0                  !< most levels (0: as many as fit)
     integer :: product = PRODUCT_FUSED     !< the product with S: PRODUCT_DOUBLE, _MIXED or _FUSED
     integer :: coarse = COARSE_AUTO        !< the coarse levels: COARSE_AUTO, _REDISCRETIZE or _GALERKIN
+    integer :: gather = GATHER_AUTO        !< thin coarse levels on many ranks: GATHER_AUTO or GATHER_NEVER
     logical :: given = .false.             !< one of the cycle's options was given
   end type mg_options_t
 
@@ -105,6 +107,14 @@ module reduced_mg
       integer(c_int), intent(inout) :: impl, cycle, sweeps, levels, product, coarse
       integer(c_int), intent(out) :: given
     end function nuno_mg_options_read
+    !> src/solver/nuno_options.c: -nuno_mg_gather as a code of names.
+    integer(c_int) function nuno_mg_gather_read(fcomm, names, n, len, gather, given) bind(C, name='nuno_mg_gather_read')
+      import :: c_int, c_char
+      integer(c_int), value :: fcomm, n, len
+      character(kind=c_char), intent(in) :: names(*)
+      integer(c_int), intent(inout) :: gather
+      integer(c_int), intent(out) :: given
+    end function nuno_mg_gather_read
   end interface
 
 contains
@@ -158,13 +168,14 @@ contains
   !> max_levels, interpolation interp (INTERP_*), cycle and sweeps of
   !> module stencil_mg; rows ys..ys+n-1 of the nx x ny lattice, halo w;
   !> paired: S(p, q) = S(q, p) block for block. Collective.
-  subroutine mg_glue_pc(gl, pc, nx, ny, ys, n, w, interp, max_levels, cycle, sweeps, coarse, paired, ierr)
+  subroutine mg_glue_pc(gl, pc, nx, ny, ys, n, w, interp, max_levels, cycle, sweeps, coarse, paired, gather, ierr)
     type(mg_glue_t), intent(inout), target :: gl
     type(tPC), intent(inout) :: pc
     PetscInt, intent(in) :: nx, ny, ys, n, w
     integer, intent(in) :: interp, max_levels, cycle, sweeps
     integer, intent(in) :: coarse                  !< the coarse levels (-nuno_mg_coarse): COARSE_AUTO, _REDISCRETIZE or _GALERKIN
     logical, intent(in) :: paired
+    logical, intent(in) :: gather                  !< thin coarse levels gathered on fewer ranks (-nuno_mg_gather auto)
     PetscErrorCode, intent(out) :: ierr
     logical :: cubic(10), cubic_up(10)
     integer :: l
@@ -189,7 +200,7 @@ contains
     if (gl%rediscretize) cubic = interp == INTERP_CUBIC
     PetscCall(PetscObjectGetComm(gl%da3, comm, ierr))
     call mg_create(gl%mg, comm, nx, ny, ys, ys + n - 1, w, cubic, max_levels, cycle, sweeps, cubic_up, paired=paired, &
-                   rediscretize=gl%rediscretize)
+                   rediscretize=gl%rediscretize, gather=gather)
     if (gl%rediscretize) call mg_coarse_init(gl%mc, gl%mg, gl%lat, comm)
     PetscCall(PCShellSetContext(pc, gl, ierr))
     PetscCall(PCShellSetApply(pc, mg_pc_apply, ierr))
@@ -271,17 +282,20 @@ contains
     MPI_Comm, intent(in) :: comm
     type(mg_options_t), intent(out) :: opt
     PetscErrorCode, intent(out) :: ierr
-    integer(c_int) :: impl, cycle, sweeps, levels, product, coarse, given
+    integer(c_int) :: impl, cycle, sweeps, levels, product, coarse, given, gather, gather_given
     impl = opt%impl
     cycle = opt%cycle
     sweeps = opt%sweeps
     levels = opt%levels
     product = opt%product
     coarse = opt%coarse
+    gather = opt%gather
     ierr = nuno_mg_options_read(comm, MG_NAMES, size(MG_NAMES), len(MG_NAMES), impl, &
                                 CYCLE_NAMES, size(CYCLE_NAMES), len(CYCLE_NAMES), cycle, sweeps, levels, &
                                 PRODUCT_NAMES, size(PRODUCT_NAMES), len(PRODUCT_NAMES), product, &
                                 COARSE_NAMES, size(COARSE_NAMES), len(COARSE_NAMES), coarse, given)
+    if (ierr /= 0) return
+    ierr = nuno_mg_gather_read(comm, GATHER_NAMES, size(GATHER_NAMES), len(GATHER_NAMES), gather, gather_given)
     if (ierr /= 0) return
     if (sweeps < 1) then
       ierr = PETSC_ERR_ARG_OUTOFRANGE
@@ -292,7 +306,8 @@ contains
       SETERRQ(comm, ierr, '-nuno_mg_levels '//itoa(int(levels))//' must be >= 1 (or 0: as many as fit)')
     end if
     opt = mg_options_t(impl=int(impl), cycle=int(cycle), sweeps=int(sweeps), levels=int(levels), &
-                       product=int(product), coarse=int(coarse), given=given /= 0)
+                       product=int(product), coarse=int(coarse), gather=int(gather), &
+                       given=given /= 0 .or. gather_given /= 0)
   end subroutine mg_options_read
 
   !> Multigrid levels of the lattice: as many as it halves into with at

@@ -12,10 +12,15 @@
 !> Ownership: coarse row J belongs to the rank that owns fine row 2 J.
 !> A level is kept distributed while every rank owns at least its halo
 !> (the stencil reach, and the rows the transfers reach beyond the strip)
-!> of it; the first level where that fails, or the last one of the
-!> hierarchy, is the coarsest: replicated on every rank (each rank's
-!> partial sums of its right-hand side and Galerkin operator are summed
-!> over all ranks) and solved directly.
+!> of it. The first level where that fails is, on more than 4 ranks
+!> (-nuno_mg_gather auto), gathered on fewer: split over the first
+!> k ranks with hc rows each at least (module mg_gather: the transfers
+!> into and out of it exchange rows point to point), and so on down; the
+!> others idle on it and below. The last level of the hierarchy, or the
+!> first that fails on at most 4 ranks (or on any with
+!> -nuno_mg_gather never), is the coarsest: replicated on every rank
+!> (each rank's partial sums of its right-hand side and Galerkin operator
+!> are summed over all ranks) and solved directly.
 !>
 !> Cycles: multiplicative (a V-cycle: nu symmetric Gauss-Seidel sweeps
 !> before and after the coarse correction) or kaskade (the right-hand side
@@ -30,10 +35,13 @@ module stencil_mg
                         stencil_block, diagonal_block, &
                         coarse_reach, gs_sweep, residual, interpolate, restrict_add, galerkin_add, level_product_rows, &
                         stencil_product_mixed
+  use mg_strips, only: strip_exchange, strip_sums_w, strip_sums_ac
+  use mg_gather, only: level_gather_t, gather_init, gather_on, gather_restrict, gather_interpolate, gather_galerkin, coarse_layout, &
+                       natural_rows
   implicit none
   private
   public :: stencil_mg_t, mg_create, mg_destroy, mg_set_fine_row, mg_set_fine, mg_fine_level, mg_build_coarse, mg_apply, mg_describe, &
-            mg_product, mg_levels, mg_level_rows, mg_level_op, mg_set_level_fixed, mg_factor_coarsest
+            mg_product, mg_levels, mg_level_rows, mg_level_links, mg_level_op, mg_set_level_fixed, mg_factor_coarsest
   type :: mg_level_t
     type(stencil_t) :: a                         !< the operator (rows ys..ye)
     integer :: h = 0                             !< padding rows and columns of the vectors
@@ -61,6 +69,10 @@ module stencil_mg
     !> (0:nx-1, 3, 3, -r:r, -r:r, h) the neighbour rank's Galerkin sums of
     !> this rank's rows, received (finish_sums_ac; a level split over ranks)
     real(rp), allocatable :: acbuf(:, :, :, :, :, :)
+    !> this level's neighbours in its strips (MPI_PROC_NULL at the ends,
+    !> where replicated and where this rank holds none of its rows)
+    integer :: below = MPI_PROC_NULL, above = MPI_PROC_NULL
+    type(level_gather_t) :: gat                  !< gathered on fewer ranks: the link to the level above (module mg_gather)
   end type mg_level_t
 
   !> The hierarchy: lev(1) is the lattice itself.
@@ -106,8 +118,12 @@ contains
   !> coarsening stops at 5 points a side. rediscretize: the coarse levels
   !> are the caller's (the cloth on the coarse lattice: module mg_coarse),
   !> of the finest level's reach and offsets, set through mg_level_op,
-  !> and mg_factor_coarsest; no Galerkin sums are kept. Collective.
-  subroutine mg_create(mg, comm, nx, ny, ys, ye, r, cubic, max_levels, cycle_type, nu, cubic_correction, paired, rediscretize)
+  !> and mg_factor_coarsest; no Galerkin sums are kept. gather
+  !> (-nuno_mg_gather auto): a level too thin for the strips of more than
+  !> 4 ranks is gathered on fewer (module mg_gather, coarse_layout)
+  !> instead of being the replicated coarsest. Collective.
+  subroutine mg_create(mg, comm, nx, ny, ys, ye, r, cubic, max_levels, cycle_type, nu, cubic_correction, paired, rediscretize, &
+                       gather)
     type(stencil_mg_t), intent(inout) :: mg
     integer, intent(in) :: comm, nx, ny, ys, ye, r, max_levels, cycle_type, nu
     logical, intent(in) :: cubic(:)
@@ -116,9 +132,10 @@ contains
     !> bending): every level's, as a Galerkin product keeps it so
     logical, intent(in), optional :: paired
     logical, intent(in), optional :: rediscretize
+    logical, intent(in), optional :: gather
     type(mg_level_t), allocatable :: tmp(:)
-    integer :: ierr, l, nxc, nyc, ysc, yec, rc, hc, need, fewest, k
-    logical :: last
+    integer :: ierr, l, nxc, nyc, ysc, yec, rc, hc, k, below, above
+    logical :: last, gathered, may_gather, short
 
     mg%comm = comm
     call MPI_Comm_rank(comm, mg%rank, ierr)
@@ -130,11 +147,15 @@ contains
     mg%nu = max(nu, 1)
     mg%rediscretize = .false.
     if (present(rediscretize)) mg%rediscretize = rediscretize
+    may_gather = .false.
+    if (present(gather)) may_gather = gather
 
     allocate(mg%lev(max(max_levels, 1)))
     call stencil_init(mg%lev(1)%a, nx, ny, ys, ye, r, lines=.true.)
     mg%lev(1)%h = r
     mg%lev(1)%replicated = mg%nranks == 1
+    mg%lev(1)%below = mg%below
+    mg%lev(1)%above = mg%above
     allocate(mg%pxs(-r:nx - 1 + r, 3, 0:2 * r), mg%pacc(0:nx - 1, 4), mg%pds(0:nx - 1, 3))
     l = 1
     last = max_levels <= 1
@@ -157,29 +178,32 @@ contains
           rc = max(coarse_reach(f%tx, f%a%r), coarse_reach(f%ty, f%a%r))
         end if
         ! Coarse rows of this rank, and how far its fine rows' parents
-        ! reach beyond them (restriction and interpolation cross that far).
-        ysc = (f%a%ys + 1) / 2
-        yec = f%a%ye / 2
+        ! reach beyond them (restriction and interpolation cross that far);
+        ! none where this rank holds no row of f (idle below a gathering).
+        call natural_rows(f%a%ys, f%a%ye, ysc, yec)
+        below = f%below
+        above = f%above
         hc = rc
         do k = f%a%ys, f%a%ye
           hc = max(hc, ysc - minval(f%ty%c(1:f%ty%n(k), k)), maxval(f%ty%c(1:f%ty%n(k), k)) - yec, &
                    ysc - minval(f%uy%c(1:f%uy%n(k), k)), maxval(f%uy%c(1:f%uy%n(k), k)) - yec)
         end do
         call MPI_Allreduce(MPI_IN_PLACE, hc, 1, MPI_INTEGER, MPI_MAX, comm, ierr)
-        ! Distributed only if every rank owns at least hc rows of it.
-        need = yec - ysc + 1
-        call MPI_Allreduce(need, fewest, 1, MPI_INTEGER, MPI_MIN, comm, ierr)
-        last = fewest < max(hc, 1) .or. l + 1 >= max_levels .or. min((nxc - 1) / 2 + 1, (nyc - 1) / 2 + 1) < 5 &
-               .or. mod(nxc - 1, 2) /= 0 .or. mod(nyc - 1, 2) /= 0
-        if (last) then
-          ysc = 0
-          yec = nyc - 1
-        end if
+        short = l + 1 >= max_levels .or. min((nxc - 1) / 2 + 1, (nyc - 1) / 2 + 1) < 5 &
+                .or. mod(nxc - 1, 2) /= 0 .or. mod(nyc - 1, 2) /= 0
+        call coarse_layout(comm, f%a%ye >= f%a%ys, nyc, hc, short, may_gather, ysc, yec, below, above, gathered, last)
       end associate
       l = l + 1
       call stencil_init(mg%lev(l)%a, nxc, nyc, ysc, yec, rc, lines=mg%rediscretize)
       mg%lev(l)%h = hc
       mg%lev(l)%replicated = last .or. mg%nranks == 1
+      mg%lev(l)%below = merge(MPI_PROC_NULL, below, mg%lev(l)%replicated)
+      mg%lev(l)%above = merge(MPI_PROC_NULL, above, mg%lev(l)%replicated)
+      if (gathered) then
+        associate (f => mg%lev(l - 1), c => mg%lev(l))
+          call gather_init(c%gat, comm, nxc, nyc, hc, rc, f%a%ys, f%a%ye, ysc, yec, .not. mg%rediscretize)
+        end associate
+      end if
     end do
     mg%nlev = l
     if (mg%nlev < size(mg%lev)) then
@@ -240,7 +264,7 @@ contains
     h = lv%h
     r = lv%a%r
     lv%nac = int(nx, 8) * 9 * int(2 * r + 1, 8)**2 * int(ye - ys + 1 + 2 * h, 8)
-    if (.not. lv%replicated) allocate(lv%acbuf(0:nx - 1, 3, 3, -r:r, -r:r, h))
+    if (.not. lv%replicated .and. .not. gather_on(lv%gat)) allocate(lv%acbuf(0:nx - 1, 3, 3, -r:r, -r:r, h))
   end subroutine level_sums
 
   subroutine mg_destroy(mg)
@@ -302,6 +326,19 @@ contains
     replicated = mg%lev(l)%replicated
   end subroutine mg_level_rows
 
+  !> Level l's neighbours in its strips (MPI_PROC_NULL at the ends, where
+  !> replicated and where this rank holds none of its rows) and whether
+  !> it is gathered on fewer ranks than the level above (module mg_gather).
+  subroutine mg_level_links(mg, l, below, above, gathered)
+    type(stencil_mg_t), intent(in) :: mg
+    integer, intent(in) :: l
+    integer, intent(out) :: below, above
+    logical, intent(out) :: gathered
+    below = mg%lev(l)%below
+    above = mg%lev(l)%above
+    gathered = gather_on(mg%lev(l)%gat)
+  end subroutine mg_level_links
+
   !> Level l's operator, for a caller that writes it (the finest level:
   !> mg_fine_level; rediscretised coarse levels: module mg_coarse), valid
   !> while mg lives.
@@ -352,9 +389,13 @@ contains
       associate (f => mg%lev(l - 1), c => mg%lev(l))
         c%ac(0:c%a%nx - 1, 1:3, 1:3, -c%a%r:c%a%r, -c%a%r:c%a%r, c%a%ys - c%h:c%a%ye + c%h) => mg%acw(1:c%nac)
         c%ac = 0.0_rp
-        call galerkin_add(f%a, f%tx, f%ty, c%a%r, c%a%ys - c%h, c%ac, c%bx, f%rw)
-        call finish_sums_ac(mg, c)
-        call stencil_finish(c%a, c%ac(:, :, :, :, :, c%a%ys:c%a%ye))
+        if (gather_on(c%gat)) then
+          call gather_galerkin(c%gat, f%a, f%tx, f%ty, c%a%r, c%a%ys, c%ac, c%bx, f%rw)
+        else
+          if (f%a%ye >= f%a%ys) call galerkin_add(f%a, f%tx, f%ty, c%a%r, c%a%ys - c%h, c%ac, c%bx, f%rw)
+          call finish_sums_ac(mg, c)
+        end if
+        if (c%a%ye >= c%a%ys) call stencil_finish(c%a, c%ac(:, :, :, :, :, c%a%ys:c%a%ye))
         nullify(c%ac)
       end associate
     end do
@@ -420,25 +461,15 @@ contains
   subroutine finish_sums_ac(mg, c)
     type(stencil_mg_t), intent(inout) :: mg
     type(mg_level_t), intent(inout) :: c
-    integer :: ierr, cnt, h, ys, ye
+    integer :: ierr, cnt
     if (c%replicated) then
       if (mg%nranks > 1) then
         cnt = size(c%ac(:, :, :, :, :, c%a%ys:c%a%ye))
         call MPI_Allreduce(MPI_IN_PLACE, c%ac(0, 1, 1, -c%a%r, -c%a%r, c%a%ys), cnt, MPI_DOUBLE_PRECISION, MPI_SUM, mg%comm, ierr)
       end if
-      return
+    else if (c%a%ye >= c%a%ys) then
+      call strip_sums_ac(mg%comm, c%below, c%above, c%a%r, c%a%ys, c%a%ye, c%h, c%ac, c%acbuf)
     end if
-    h = c%h
-    ys = c%a%ys
-    ye = c%a%ye
-    cnt = size(c%ac(:, :, :, :, :, ys:ys + h - 1))
-    ! rows below my strip go to the rank below; the rank above sends me its rows below its strip
-    call MPI_Sendrecv(c%ac(0, 1, 1, -c%a%r, -c%a%r, ys - h), cnt, MPI_DOUBLE_PRECISION, mg%below, 11, &
-                      c%acbuf, cnt, MPI_DOUBLE_PRECISION, mg%above, 11, mg%comm, MPI_STATUS_IGNORE, ierr)
-    if (mg%above /= MPI_PROC_NULL) c%ac(:, :, :, :, :, ye - h + 1:ye) = c%ac(:, :, :, :, :, ye - h + 1:ye) + c%acbuf
-    call MPI_Sendrecv(c%ac(0, 1, 1, -c%a%r, -c%a%r, ye + 1), cnt, MPI_DOUBLE_PRECISION, mg%above, 12, &
-                      c%acbuf, cnt, MPI_DOUBLE_PRECISION, mg%below, 12, mg%comm, MPI_STATUS_IGNORE, ierr)
-    if (mg%below /= MPI_PROC_NULL) c%ac(:, :, :, :, :, ys:ys + h - 1) = c%ac(:, :, :, :, :, ys:ys + h - 1) + c%acbuf
   end subroutine finish_sums_ac
 
   !> The restriction sums of level c (in c%w) completed as in finish_sums_ac,
@@ -446,42 +477,21 @@ contains
   subroutine finish_sums_w(mg, c)
     type(stencil_mg_t), intent(inout) :: mg
     type(mg_level_t), intent(inout) :: c
-    integer :: ierr, cnt, h, ys, ye
-    h = c%h
-    ys = c%a%ys
-    ye = c%a%ye
+    integer :: ierr
     if (c%replicated) then
-      c%rhs = c%w(0:c%a%nx - 1, :, ys:ye)
+      c%rhs = c%w(0:c%a%nx - 1, :, c%a%ys:c%a%ye)
       if (mg%nranks > 1) call MPI_Allreduce(MPI_IN_PLACE, c%rhs, size(c%rhs), MPI_REAL, MPI_SUM, mg%comm, ierr)
-      return
+    else if (c%a%ye >= c%a%ys) then
+      call strip_sums_w(mg%comm, c%below, c%above, c%a%nx, c%a%ys, c%a%ye, c%h, c%w, c%x, c%rhs)
     end if
-    cnt = size(c%w(:, :, ys:ys + h - 1))
-    ! The padding rows of x serve as receive buffers (x is set afterwards).
-    c%x(:, :, ye + 1:ye + h) = 0.0_mp
-    c%x(:, :, ys - h:ys - 1) = 0.0_mp
-    call MPI_Sendrecv(c%w(-h, 1, ys - h), cnt, MPI_REAL, mg%below, 13, c%x(-h, 1, ye + 1), cnt, MPI_REAL, mg%above, 13, &
-                      mg%comm, MPI_STATUS_IGNORE, ierr)
-    call MPI_Sendrecv(c%w(-h, 1, ye + 1), cnt, MPI_REAL, mg%above, 14, c%x(-h, 1, ys - h), cnt, MPI_REAL, mg%below, 14, &
-                      mg%comm, MPI_STATUS_IGNORE, ierr)
-    c%rhs = c%w(0:c%a%nx - 1, :, ys:ye)
-    c%rhs(:, :, ye - h + 1:ye) = c%rhs(:, :, ye - h + 1:ye) + c%x(0:c%a%nx - 1, :, ye + 1:ye + h)
-    c%rhs(:, :, ys:ys + h - 1) = c%rhs(:, :, ys:ys + h - 1) + c%x(0:c%a%nx - 1, :, ys - h:ys - 1)
   end subroutine finish_sums_w
 
   !> Fill the ghost rows of a level's x from the neighbouring strips.
   subroutine exchange(mg, lv)
     type(stencil_mg_t), intent(inout) :: mg
     type(mg_level_t), intent(inout) :: lv
-    integer :: ierr, cnt, h, ys, ye
-    if (lv%replicated .or. mg%nranks == 1) return
-    h = lv%h
-    ys = lv%a%ys
-    ye = lv%a%ye
-    cnt = size(lv%x(:, :, ys:ys + h - 1))
-    call MPI_Sendrecv(lv%x(-h, 1, ys), cnt, MPI_REAL, mg%below, 15, lv%x(-h, 1, ye + 1), cnt, MPI_REAL, mg%above, 15, &
-                      mg%comm, MPI_STATUS_IGNORE, ierr)
-    call MPI_Sendrecv(lv%x(-h, 1, ye - h + 1), cnt, MPI_REAL, mg%above, 16, lv%x(-h, 1, ys - h), cnt, MPI_REAL, mg%below, 16, &
-                      mg%comm, MPI_STATUS_IGNORE, ierr)
+    if (lv%replicated .or. mg%nranks == 1 .or. lv%a%ye < lv%a%ys) return
+    call strip_exchange(mg%comm, lv%below, lv%above, lv%x, lv%a%ys, lv%a%ye, lv%h)
   end subroutine exchange
 
   !> One symmetric Gauss-Seidel smoothing (forward, then backward sweep),
@@ -500,6 +510,7 @@ contains
     type(mg_level_t), intent(inout) :: lv
     real(rp), intent(inout), optional :: ax(:, 0:, lv%a%ys:)
     integer :: ys, ye, r
+    if (lv%a%ye < lv%a%ys) return
     call exchange(mg, lv)
     call gs_sweep(lv%a, lv%h, lv%x, lv%rhs, .true., lv%t, lv%low)
     call exchange(mg, lv)
@@ -524,13 +535,21 @@ contains
     logical, intent(in) :: from_rhs
     integer :: k
     associate (f => mg%lev(l), c => mg%lev(l + 1))
-      c%w = 0.0_mp
-      if (from_rhs) then
-        call restrict_add(f%tx, f%ty, f%a%ys, f%a%ye, f%rhs, c%h, c%a%ys, c%w, c%t)
+      if (gather_on(c%gat)) then
+        if (from_rhs) then
+          call gather_restrict(c%gat, f%tx, f%ty, f%a%ys, f%a%ye, f%rhs, c%a%ys, c%a%ye, c%w, c%rhs, c%t)
+        else
+          call gather_restrict(c%gat, f%tx, f%ty, f%a%ys, f%a%ye, f%res, c%a%ys, c%a%ye, c%w, c%rhs, c%t)
+        end if
       else
-        call restrict_add(f%tx, f%ty, f%a%ys, f%a%ye, f%res, c%h, c%a%ys, c%w, c%t)
+        c%w = 0.0_mp
+        if (from_rhs) then
+          call restrict_add(f%tx, f%ty, f%a%ys, f%a%ye, f%rhs, c%h, c%a%ys, c%w, c%t)
+        else
+          call restrict_add(f%tx, f%ty, f%a%ys, f%a%ye, f%res, c%h, c%a%ys, c%w, c%t)
+        end if
+        call finish_sums_w(mg, c)
       end if
-      call finish_sums_w(mg, c)
       if (allocated(c%fixed)) then
         do k = 1, size(c%fixed, 2)
           c%rhs(c%fixed(1, k), :, c%fixed(2, k)) = 0.0_mp
@@ -585,7 +604,7 @@ contains
         call smooth(mg, f)
       end do
       call exchange(mg, f)
-      call residual(f%a, f%h, f%x, f%rhs, f%res)
+      if (f%a%ye >= f%a%ys) call residual(f%a, f%h, f%x, f%rhs, f%res)
       call restrict_level(mg, l, .false.)
       call vcycle(mg, l + 1)
       if (mg%gamma > 1 .and. l + 1 < mg%nlev) call vcycle(mg, l + 1, from_zero=.false.)
@@ -618,8 +637,13 @@ contains
     real(rp), intent(inout), optional :: ax(:, 0:, mg%lev(1)%a%ys:)   !< (3, 0:nx-1, ys:ye) A x of the result (smooth)
     integer :: k
     associate (f => mg%lev(l), c => mg%lev(l + 1))
-      call exchange(mg, c)
-      call interpolate(f%ux, f%uy, f%a%ys, f%a%ye, c%h, c%a%ys, c%x, f%h, f%x, add, c%t)
+      if (gather_on(c%gat)) then
+        call gather_interpolate(c%gat, f%ux, f%uy, c%a%ys, c%x, f%a%ys, f%a%ye, f%h, f%x, add, c%t)
+      else
+        if (f%a%ye < f%a%ys) return
+        call exchange(mg, c)
+        call interpolate(f%ux, f%uy, f%a%ys, f%a%ye, c%h, c%a%ys, c%x, f%h, f%x, add, c%t)
+      end if
       do k = 1, mg%nu - 1
         call smooth(mg, f)
       end do
@@ -690,9 +714,10 @@ contains
     type(stencil_mg_t), intent(in) :: mg
     character(len=*), intent(out) :: text(:)
     integer, intent(out) :: n
-    integer :: l, ierr
+    integer :: l, ierr, nact
     integer(kind=8) :: nodes8
     real(rp) :: per_node, sweep, cycle_bytes, mp_bytes
+    character(len=32) :: on
     mp_bytes = real(storage_size(1.0_mp) / 8, rp)
     n = 1
     write(text(1), '(a, i0, a, a, a, i0, a)') 'levels ', mg%nlev, ', ', trim(cycle_name()), ', ', mg%nu, &
@@ -723,9 +748,13 @@ contains
                           * (2.0_rp * mg%nu * sweep + per_node + 9.0_rp * mp_bytes)
           end if
         end if
+        ! the ranks that hold rows of it, where gathered on fewer
+        call MPI_Allreduce(merge(1, 0, a%ye >= a%ys), nact, 1, MPI_INTEGER, MPI_SUM, mg%comm, ierr)
+        on = ''
+        if (gather_on(mg%lev(l)%gat)) write(on, '(a, i0, a)') ' (gathered on ', nact, ' ranks)'
         n = n + 1
-        write(text(n), '(a, i0, a, i0, a, i0, a, i0, a, i0, a, f0.0, a, a, a, a)') 'level ', l, ': ', a%nx, ' x ', a%ny, &
-          ', reach ', a%r, ', ', a%nb, ' blocks a node, ', per_node, ' B a node', &
+        write(text(n), '(a, i0, a, i0, a, i0, a, i0, a, i0, a, f0.0, a, a, a, a, a)') 'level ', l, ': ', a%nx, ' x ', a%ny, &
+          ', reach ', a%r, ', ', a%nb, ' blocks a node, ', per_node, ' B a node', trim(on), &
           trim(merge(' (coarsest: banded LU on every rank)', '                                    ', l == mg%nlev)), &
           trim(merge(' (rediscretised)', '                ', l > 1 .and. mg%rediscretize)), trim(transfers(mg%lev(l)))
       end associate

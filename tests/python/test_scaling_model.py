@@ -101,18 +101,30 @@ def test_replicated_coarsest_grows_with_ranks_not_lattice():
                 assert p // 2 <= side <= 4 * p, (n, p, side)
 
 
-@pytest.mark.parametrize("n, p", [(65, 8), (129, 16)])
-def test_hierarchy_is_nunos(tmp_path, n, p):
-    # nuno's own levels on p ranks (oversubscribed): sides and which one
-    # is the replicated coarsest, against the model's
+@pytest.mark.parametrize("n, p, gather", [(65, 8, "auto"), (129, 16, "auto"), (65, 16, "auto"),
+                                           (65, 8, "never"), (129, 16, "never")])
+def test_hierarchy_is_nunos(tmp_path, n, p, gather):
+    # nuno's own levels on p ranks (oversubscribed): sides, which ones are
+    # gathered on how many ranks, and which one is the replicated coarsest,
+    # against the model's (--telescope: -nuno_mg_gather auto, nuno's
+    # default; without: never). Without the gathering nuno's levels stop
+    # at the replicated 9 x 9 (65 on 8 ranks) or 17 x 17 (16 ranks) and
+    # the auto cases fail.
     dt = 1.0 / 600
-    proc, _ = nunorun.run(tmp_path, f"h{n}", nranks=p, options=("-snes_type", "ksponly", "-reduced_ksp_view"),
+    proc, _ = nunorun.run(tmp_path, f"h{n}", nranks=p,
+                          options=("-snes_type", "ksponly", "-reduced_ksp_view", "-nuno_mg_gather", gather),
                           timeout=240, scene="scene='hang'", lattice=f"nx={n} ny={n}",
                           time=f"t_end={dt!r} dt={dt!r}", output=f"output_interval={dt!r}")
-    sides = [int(s) for s in re.findall(r"level \d+: (\d+) x \d+", proc.stdout)]
-    coarsest = [int(s) for s in re.findall(r"level \d+: (\d+) x \d+, [^\n]*coarsest: banded LU", proc.stdout)]
-    assert sides and coarsest
-    levels = sm.hierarchy(n, p)
-    nlev = len(levels)
-    assert sides[:nlev] == [s for s, _, _ in levels]
+    view = proc.stdout[:proc.stdout.index("one cycle reads")]    # the first solve's hierarchy
+    sides = [int(s) for s in re.findall(r"level \d+: (\d+) x \d+", view)]
+    gathered = {int(s): int(k) for s, k in re.findall(r"level \d+: (\d+) x \d+[^\n]*gathered on (\d+) ranks", view)}
+    coarsest = [int(s) for s in re.findall(r"level \d+: (\d+) x \d+, [^\n]*coarsest: banded LU", view)]
+    assert sides and len(coarsest) == 1
+    levels = sm.hierarchy(n, p, telescope=gather == "auto")
+    assert sides == [s for s, _, _, _ in levels]
     assert coarsest[0] == levels[-1][0]
+    assert gathered == {s: k for s, _, dist, k in levels if dist and k < p}
+    if gather == "auto":
+        # at least one level gathered, each rank of it with 2 rows or more
+        assert gathered and all(s // k >= 2 for s, k in gathered.items())
+        assert levels[-1][0] == 5
