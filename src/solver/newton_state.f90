@@ -8,7 +8,7 @@
 module newton_state
   use, intrinsic :: iso_c_binding, only: c_int
   use kinds, only: rp
-  use newton_control, only: FLOOR_FACTOR, floor_verdict
+  use newton_control, only: FLOOR_FACTOR, floor_verdict, update_at_floor
   use newton_forcing, only: forcing_term, quadratic_constant
   use inner_guess, only: GUESS_AUTO
   implicit none
@@ -18,7 +18,8 @@ module newton_state
   public :: newton_take_injected_failure, newton_first_residual, newton_iterated, newton_verdict, newton_inner_rtol, &
             newton_fallback_switched, newton_update_limited, newton_start_moved
   public :: newton_guess, newton_guess_given, newton_forcing_on, newton_floor_est, newton_snorm_prev, newton_fallback, &
-            newton_fallback_pending, newton_has_failed, newton_rate_usable, newton_limited_lately
+            newton_fallback_pending, newton_has_failed, newton_rate_usable, newton_limited_lately, &
+            newton_update_floor
 
   !> -nuno_snes_floor's default: stagnation below this relative residual is convergence
   real(rp), parameter :: SNES_FLOOR_DEFAULT = 1.0e-6_rp
@@ -181,6 +182,15 @@ contains
     type(newton_state_t), intent(in) :: n
     newton_limited_lately = n%limited .or. n%limited_prev
   end function newton_limited_lately
+
+  !> The update's floor (module newton_control's update_at_floor): this
+  !> iteration (residual fnorm, update snorm, state xnorm) stalled near
+  !> the floor's estimate floor_est with an update of round-off's size.
+  pure logical function newton_update_floor(n, fnorm, snorm, xnorm, floor_est)
+    type(newton_state_t), intent(in) :: n
+    real(rp), intent(in) :: fnorm, snorm, xnorm, floor_est
+    newton_update_floor = update_at_floor(fnorm, n%fnorm_prev, snorm, xnorm, floor_est)
+  end function newton_update_floor
 
   !> The round-off floor's verdict on the residual norm fnorm (module
   !> newton_control's floor_verdict; floor_est the floor estimated at the
