@@ -22,7 +22,7 @@ module newton_control
   implicit none
   private
   public :: FLOOR_FACTOR, STAGNATION, NEWTON_ITERATE, NEWTON_CONVERGED, NEWTON_DIVERGED
-  public :: floor_node_add, floor_estimate, floor_verdict
+  public :: floor_node_add, floor_estimate, floor_verdict, update_at_floor, UPDATE_FLOOR, FLOOR_SLACK
 
   !> Fraction of the estimated round-off floor of ||F|| below which Newton
   !> has converged. The estimate was 14 times the floor actually met early
@@ -32,6 +32,13 @@ module newton_control
   real(rp), parameter :: FLOOR_FACTOR = 0.5_rp
   !> An iteration that reduces ||F|| by less than 10 % has stagnated.
   real(rp), parameter :: STAGNATION = 0.9_rp
+  !> update_at_floor: an update shorter than UPDATE_FLOOR ||u|| (2-norms)
+  !> moves the state by no more than round-off amplified by the Jacobian's
+  !> inverse (a 7 x 7 sheet at its floor: full updates of 6e-12 ||u||),
+  !> and a residual within FLOOR_SLACK of the floor's estimate is at the
+  !> floor as far as that estimate can tell (it was 1/14 to 1.5 times the
+  !> floor met).
+  real(rp), parameter :: UPDATE_FLOOR = 1.0e-10_rp, FLOOR_SLACK = 100.0_rp
   !> floor_verdict's answers.
   integer, parameter :: NEWTON_ITERATE = 0, NEWTON_CONVERGED = 1, NEWTON_DIVERGED = -1
 
@@ -89,5 +96,23 @@ contains
       v = NEWTON_CONVERGED
     end if
   end function floor_verdict
+
+  !> Converged at the floor, by the update rather than the residual alone
+  !> (Newton iteration k >= 1): the iteration reduced ||F|| by less than
+  !> 10 % (fnorm > STAGNATION fnorm_prev) with an update snorm <=
+  !> UPDATE_FLOOR xnorm and a residual below FLOOR_SLACK floor_est. It
+  !> needs no line search: a start at the floor (the cubic start of a
+  !> sheet in free fall, exact up to round-off) is where floor_verdict's
+  !> test, which needs fnorm below floor_est, can miss the floor met (a
+  !> 7 x 7 sheet: ||F|| stalled at 5.9e-10 against the estimate 3.9e-10,
+  !> full updates of 6e-12 ||u||; the fallback line search bt crept on by
+  !> 1 % an iteration to the iteration limit).
+  pure logical function update_at_floor(fnorm, fnorm_prev, snorm, xnorm, floor_est)
+    real(rp), intent(in) :: fnorm, fnorm_prev   !< ||F|| now and at the iteration before [residual]
+    real(rp), intent(in) :: snorm, xnorm        !< ||update|| and ||state|| (2-norms, the same units)
+    real(rp), intent(in) :: floor_est           !< round-off floor's estimate (floor_estimate) [residual]
+    update_at_floor = fnorm > STAGNATION * fnorm_prev .and. snorm <= UPDATE_FLOOR * xnorm .and. &
+                      fnorm <= FLOOR_SLACK * floor_est
+  end function update_at_floor
 
 end module newton_control

@@ -122,7 +122,7 @@ contains
     class(contact_model_t), intent(in) :: this
     type(pm_hints_t) :: h
     h = pm_hints_t(jacobian_every_iteration=.true., forcing_guarded=.true., basic_line_search=.true., &
-                   feasible_start=.true., velocity_blocks=.true., state_blocks=.true., ts_types='beuler,bdf1,bdf2', &
+                   feasible_start=.true., smooth_start=.true., velocity_blocks=.true., state_blocks=.true., ts_types='beuler,bdf1,bdf2', &
                    ts_why='beuler, or bdf with -ts_bdf_order 1 or 2 (L-stable, and every state they evaluate is a '// &
                    'Newton iterate the step limit keeps outside the obstacles; docs/contact.md, "Adaptive and '// &
                    'second-order steps")')

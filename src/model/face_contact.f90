@@ -98,7 +98,7 @@ contains
     class(face_contact_t), intent(in) :: this
     type(pm_hints_t) :: h
     h = pm_hints_t(jacobian_every_iteration=.true., forcing_guarded=.true., basic_line_search=.true., &
-                   feasible_start=.true., velocity_blocks=.true., state_blocks=.true., ts_types='beuler')
+                   feasible_start=.true., smooth_start=.true., velocity_blocks=.true., state_blocks=.true., ts_types='beuler')
   end function faces_hints
 
   !> Set-up: the obstacles and the barrier's parameters from &contact, the

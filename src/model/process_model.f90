@@ -89,6 +89,12 @@ module process_model
     !> predictor (extrapolated, cubic, bdf's history) by the model's step
     !> limit from the last accepted state
     logical :: feasible_start = .false.
+    !> its state moves smoothly from step to step, so that with
+    !> feasible_start the limited cubic start fits it (module newton_start:
+    !> the polynomial through the last accepted states, limited by the
+    !> step limit); the solver takes it only where every model with
+    !> feasible_start says so
+    logical :: smooth_start = .false.
     !> its blocks have velocity parts (S is not free of damping)
     logical :: velocity_blocks = .false.
     !> its blocks change with the state (S is never constant)

@@ -118,19 +118,22 @@ contains
 
   !> What the models need of the solver, together: a hint that one model
   !> gives holds (module process_model's pm_hints_t; ts_types is left
-  !> empty: pm_list_ts_refusal asks each model).
+  !> empty: pm_list_ts_refusal asks each model), except smooth_start,
+  !> which holds where every model with feasible_start gives it.
   function pm_list_hints(list) result(h)
     type(pm_list_t), intent(in) :: list
     type(pm_hints_t) :: h
     type(pm_hints_t) :: e
     integer :: k
     h = pm_hints_t()
+    h%smooth_start = .true.
     do k = 1, list%n
       e = list%m(k)%pm%hints()
       h%jacobian_every_iteration = h%jacobian_every_iteration .or. e%jacobian_every_iteration
       h%forcing_guarded = h%forcing_guarded .or. e%forcing_guarded
       h%basic_line_search = h%basic_line_search .or. e%basic_line_search
       h%feasible_start = h%feasible_start .or. e%feasible_start
+      h%smooth_start = h%smooth_start .and. (e%smooth_start .or. .not. e%feasible_start)
       h%velocity_blocks = h%velocity_blocks .or. e%velocity_blocks
       h%state_blocks = h%state_blocks .or. e%state_blocks
       h%pair_blocks = h%pair_blocks .or. e%pair_blocks

@@ -16,8 +16,8 @@ module newton_policy
   use app_context, only: app_ctx
   use newton_state, only: newton_take_injected_failure, newton_first_residual, newton_iterated, newton_verdict, &
                           newton_inner_rtol, newton_fallback_switched, newton_forcing_on, newton_floor_est, &
-                          newton_snorm_prev, newton_fallback, newton_rate_usable
-  use newton_start, only: newton_start_setup
+                          newton_snorm_prev, newton_fallback, newton_rate_usable, newton_update_floor
+  use newton_start, only: newton_start_setup, newton_start_smooth_limited
   use process_models, only: pm_list_hints
   use process_model, only: pm_hints_t
   use reduced, only: reduced_set_forcing, reduced_floor_est, reduced_lin_rel, reduced_rtol0
@@ -48,7 +48,10 @@ contains
   !> the solve's tolerance (163 -> 189 inner iterations over 30 steps
   !> there), adaptive steps change dt, identification and control
   !> runs keep their trajectories as they were, and a process model that
-  !> needs a feasible start (contact) takes the last accepted state.
+  !> needs a feasible start takes the cubic start limited by its step
+  !> limit where its state moves smoothly (its hint smooth_start:
+  !> contact; drape_sphere 129: 2.0 Newton iterations a step instead of
+  !> 2.35), else the linear one limited.
   subroutine set_newton_start(ctx, ierr)
     type(app_ctx), intent(inout), target :: ctx
     PetscErrorCode, intent(out) :: ierr
@@ -61,7 +64,8 @@ contains
     h = pm_list_hints(ctx%pms)
     feasible_start = h%feasible_start
     auto_cubic = step_fixed(ctx%step) .and. trim(sntype) /= SNESKSPONLY .and. &
-                 .not. (ctx%cfg%identify%active .or. ctx%cfg%control%active) .and. .not. feasible_start
+                 .not. (ctx%cfg%identify%active .or. ctx%cfg%control%active) .and. &
+                 (.not. feasible_start .or. h%smooth_start)
     PetscCall(newton_start_setup(ctx%start, ctx%ts, ctx%comm, auto_cubic, ierr))
   end subroutine set_newton_start
 
@@ -79,6 +83,13 @@ contains
   !> no decrease (bt, the 6-dof path's default, or the reduced path's
   !> fallback) from a residual where (a) would stop: at the floor no step
   !> decreases ||F||. Any other failed line search diverges, as in PETSc.
+  !> With the limited cubic start (a process model's hint smooth_start)
+  !> also (d): an iteration that reduced ||F|| by less than 10 % with an
+  !> update below 1e-10 of the state and a residual below 100 times the
+  !> floor's estimate (newton_control's update_at_floor):
+  !> that start can begin at the floor, where the estimate of (a) fell
+  !> short of the floor met (a 7 x 7 sheet in free fall after a retried
+  !> step, bt creeping by 1 % an iteration to the iteration limit).
   !> With adaptive steps also (c): the Newton error estimated from the
   !> update and the convergence rate, |du_k| rate/(1 - rate) in the time
   !> integrator's weighted norm (atol + rtol |u|), is below
@@ -124,6 +135,10 @@ contains
           reason = SNES_CONVERGED_FNORM_ABS
         else if (verdict == NEWTON_DIVERGED) then
           reason = SNES_DIVERGED_LINE_SEARCH
+        else if (newton_start_smooth_limited(ctx%start)) then
+          ! (d) the limited cubic start: stalled with an update of
+          ! round-off's size (newton_control's update_at_floor)
+          if (newton_update_floor(ctx%newton, fnorm, snorm, xnorm, floor_est)) reason = SNES_CONVERGED_SNORM_RELATIVE
         end if
       end if
     end if

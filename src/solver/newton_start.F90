@@ -38,7 +38,7 @@ module newton_start
   implicit none
   private
   public :: newton_start_t, newton_start_setup, newton_start_free, newton_start_order, newton_start_limited, &
-            start_limit_i
+            start_limit_i, newton_start_smooth_limited
   public :: newton_start_push, newton_start_reset, newton_start_count, newton_start_get, newton_start_put
 
   !> The kept states and the safeguard's state. Written only by this
@@ -176,6 +176,15 @@ contains
     type(newton_start_t), intent(in) :: s
     newton_start_order = s%order
   end function newton_start_order
+
+  !> The cubic start limited by a process model's step limit is in use
+  !> (its hint smooth_start): the start can be at the residual's floor,
+  !> and Newton's convergence test takes the update's floor too (module
+  !> newton_policy).
+  pure logical function newton_start_smooth_limited(s)
+    type(newton_start_t), intent(in) :: s
+    newton_start_smooth_limited = s%on .and. associated(s%limit)
+  end function newton_start_smooth_limited
 
   !> Destroy the kept states and work vectors (before the TS: nothing
   !> calls the start afterwards). Collective.

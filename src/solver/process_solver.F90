@@ -192,9 +192,10 @@ contains
     if (cut) x = x0 + alpha * dx
     call model_pm_start(ctx%model, ctx%pms, ctx%lat, t0, t0 + dt, x0, x, moved)
     ! (a start cut short or carried by an obstacle is a contact's onset:
-    ! the Newton solve's inner rtol stays tight, module newton_state)
+    ! the Newton solve's inner rtol stays tight, tightest where carried,
+    ! module newton_state)
     call MPI_Allreduce(MPI_IN_PLACE, moved, 1, MPI_INTEGER, MPI_MAX, ctx%comm, mpierr)
-    call newton_start_moved(ctx%newton, cut .or. moved > 0)
+    call newton_start_moved(ctx%newton, cut, moved > 0)
     PetscCall(DMDAVecRestoreArrayF90(ctx%da, xvec, x, ierr))
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, dxvec, dx, ierr))
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, x0vec, x0, ierr))

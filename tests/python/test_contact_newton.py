@@ -9,8 +9,10 @@ import subprocess
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from nunorun import ROOT, exe, mpiexec
+from postprocess import namelist
 from postprocess.reader import read_run
 
 INPUT = ROOT / "input"
@@ -116,3 +118,52 @@ def test_rediscretised_coarse_levels_carry_the_contact(tmp_path):
     (redisc, x_r), (galerkin, x_g) = runs
     assert redisc <= 1.1 * galerkin, (redisc, galerkin)
     assert np.max(np.abs(x_r - x_g)) < 1e-5, np.max(np.abs(x_r - x_g))
+
+
+def newton_per_step(tmp_path, scene, contact):
+    """input/<scene>.nml at 65 x 65, 60 steps of 1 ms on 2 ranks, the
+    obstacle's top 0.9 mm below the flat sheet (inside the barrier's reach
+    from the first step, as bench/contact.py), or without obstacles (no
+    &contact: the sheet falls freely); Newton iterations a step."""
+    nml = namelist.read((INPUT / f"{scene}.nml").read_text())
+    nml["lattice"].update(nx=65, ny=65)
+    nml["time"].update(t_end=0.06, dt=1.0e-3)
+    nml["output"].update(output_interval=0.06, output_file="b.h5")
+    if contact:
+        c = nml["contact"]
+        x, y, _ = c["obstacle_point"][0]
+        top = float(c["obstacle_radius"][0]) if scene == "drape_sphere" else 0.0
+        c["obstacle_point"] = [[x, y, -(top + 9e-4)]]
+    else:
+        del nml["contact"]
+    d = Path(tmp_path) / f"{scene}-{contact}"
+    d.mkdir()
+    (d / "b.nml").write_text(str(nml) + "\n")
+    cmd = [mpiexec(), "-n", "2", "--oversubscribe", exe(), "b.nml"]
+    proc = subprocess.run(cmd, cwd=d, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    r = read_run(str(d / "b.h5"))
+    assert r.complete
+    assert int(r.diagnostics["steps"][-1]) == 60
+    assert int(r.diagnostics["rejected_steps"][-1]) == 0
+    if contact:
+        assert r.contact["min_gap_run"][-1] > 0.0
+        assert r.contact["active"].max() > 0
+    return int(r.diagnostics["newton_iterations"][-1]) / 60.0
+
+
+@pytest.mark.parametrize("scene,bound", [("drape_sphere", 1.2), ("drop_table", 1.15)])
+def test_contact_steps_take_nearly_the_free_steps_newton_iterations(tmp_path, scene, bound):
+    """Issue 47 item 6: with obstacles Newton starts from the cubic start
+    limited by the step limit (hint smooth_start), as the free sheet does
+    from the cubic start, and stops at the floor by its update where that
+    start is at the residual's floor. At 65 x 65 over 60 steps of contact
+    from the first step, Newton iterations a step with contact are at most
+    `bound` times those of the same sheet falling freely (1.2 for
+    drape_sphere, whose onset of a growing contact set takes 4-7 a step;
+    1.15 for drop_table): 2.07 and 2.03 against 1.85 measured. From the
+    limited linear start (2907dd0) they were 2.45 and 2.27 (1.32 and 1.23
+    times)."""
+    contact = newton_per_step(tmp_path, scene, True)
+    free = newton_per_step(tmp_path, scene, False)
+    assert contact <= bound * free, (contact, free)

@@ -10,7 +10,7 @@
 program test_newton_control
   use kinds, only: rp
   use newton_control, only: FLOOR_FACTOR, NEWTON_ITERATE, NEWTON_CONVERGED, NEWTON_DIVERGED, &
-                            floor_node_add, floor_estimate, floor_verdict
+                            floor_node_add, floor_estimate, floor_verdict, update_at_floor
   use check, only: check_true, check_close, check_report
   implicit none
   real(rp), parameter :: C = 1000.3_rp
@@ -75,6 +75,18 @@ program test_newton_control
                   'snes_floor 0: a failed line search diverges')
   call check_true(floor_verdict(0.1_rp, 0.1_rp, 1.0e3_rp, 0.0_rp, 1.0_rp, .false.) == NEWTON_ITERATE, &
                   'snes_floor 0: no floor rule')
+  ! the update's floor: a stalled iteration at the floor whose update moves
+  ! the state by round-off alone has converged (the 7 x 7 sheet's numbers);
+  ! a long update, a residual still falling by 10 % or one far above the
+  ! floor's estimate has not
+  call check_true(update_at_floor(5.89e-10_rp, 5.94e-10_rp, 3.5e-11_rp, 5.97_rp, 3.9e-10_rp), &
+                  'stalled at the floor, update 6e-12 of the state: converged')
+  call check_true(.not. update_at_floor(5.89e-10_rp, 5.94e-10_rp, 1.0e-8_rp, 5.97_rp, 3.9e-10_rp), &
+                  'stalled, update 2e-9 of the state: iterate')
+  call check_true(.not. update_at_floor(5.0e-10_rp, 5.94e-10_rp, 3.5e-11_rp, 5.97_rp, 3.9e-10_rp), &
+                  'reduced by 16 %: iterate')
+  call check_true(.not. update_at_floor(1.0e-6_rp, 1.0e-6_rp, 3.5e-11_rp, 5.97_rp, 3.9e-10_rp), &
+                  'stalled 2500 times above the floor estimate: iterate')
   call check_report()
 
 contains
