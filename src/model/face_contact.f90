@@ -44,6 +44,9 @@ module face_contact
   !> path from the step's start, the obstacle moving) must keep: only a
   !> path that crosses the obstacle, or nearly, is refused [1].
   real(rp), parameter :: SWEPT_S = 1.0e-6_rp
+  !> The lift of a carried quad's start off the obstacle, as a fraction of
+  !> contact_dhat (at most the obstacle's move over the step; faces_start).
+  real(rp), parameter :: LIFT_FRACTION = 0.5_rp
 
   !> Faces and edges against the obstacles on a rank's strip; written by
   !> this module's procedures alone.
@@ -54,6 +57,7 @@ module face_contact
     real(rp) :: floor = 0.0_rp                  !< the acceptance floor of a gap [length]
     integer :: rank_up = MPI_PROC_NULL          !< the rank owning row ye+1 (none at the top)
     integer :: rank_down = MPI_PROC_NULL        !< the rank owning row ys-1 (none at the bottom)
+    integer :: comm = MPI_COMM_NULL             !< the strips' communicator (the start hook's row exchange)
     ! the last accepted state's record (the accepted hook alone writes it)
     real(rp) :: t_seen = -huge(1.0_rp)          !< its time [time]
     real(rp) :: min_gap = huge(1.0_rp)          !< smallest gap of a triangle or edge [length]
@@ -121,6 +125,7 @@ contains
     this%cp = contact_params_t(thickness=cfg%contact%thickness, dhat=cfg%contact%dhat, kappa=cfg%contact%stiffness, &
                                eps_v=cfg%contact%eps_v)
     this%floor = FLOOR_FRACTION * this%cp%dhat
+    this%comm = comm
     call MPI_Comm_size(comm, nrank, mpierr)
     allocate(rows(2, 0:nrank - 1))
     call MPI_Allgather([lat%ys, lat%ye], 2, MPI_INTEGER, rows, 2, MPI_INTEGER, comm, mpierr)
@@ -191,11 +196,21 @@ contains
   !> Newton's start of a step from x0 at t0 to t1: the free nodes of the
   !> quads that a moving obstacle reaches (a triangle's gap to its pose at
   !> t1 below contact_dhat and below the gap at t0) start where they sat
-  !> relative to it, x0 + d with velocity d/(t1 - t0) (d: its translation
-  !> over the step), as contact_model carries single nodes: a thin
-  !> obstacle between two node columns reaches the edges but no node. The
-  !> quads within the owned rows (no communication): a quad that straddles
-  !> two strips is carried only through its links on each side.
+  !> relative to it, raised off it by a lift: x0 + d + l d/|d| with
+  !> velocity (d + l d/|d|)/(t1 - t0) (d: its translation over the step;
+  !> l = min(|d|, LIFT_FRACTION contact_dhat)), as contact_model carries
+  !> single nodes: a thin obstacle between two node columns reaches the
+  !> edges but no node. Carried along with the obstacle, a quad keeps the
+  !> gap of the state before, the barrier's equilibrium under the push
+  !> (a tenth of a micrometre at metres a second); the lift lets Newton
+  !> approach it from outside, where a cut update keeps a tenth of a gap
+  !> that is still large, instead of from a start already at it, where
+  !> the quad's other corners, carried too far, come back only as far as
+  !> the tiny gap lets them each iteration (docs/contact.md, "Faces and
+  !> edges"). The quads around the strip come from the ranks beside it
+  !> (rows ys-1 and ye+1), so a quad that straddles two strips is carried
+  !> on both, as on one rank.
+  !> Collective.
   subroutine faces_start(this, lat, fixed, t0, t1, x0, x, moved)
     class(face_contact_t), intent(inout) :: this
     type(lattice_t), intent(in) :: lat
@@ -205,26 +220,53 @@ contains
     real(rp), intent(inout) :: x(0:, 0:, lat%ys:)
     integer, intent(out) :: moved
     integer :: k, i, j
-    real(rp) :: d(3)
+    real(rp) :: d(3), dl(3)
+    ! positions of the owned rows and the rows around them at t0 [length]
+    real(rp) :: x0a(3, 0:lat%nx - 1, lat%ys - 1:lat%ye + 1)
     type(obstacle_t) :: o0, o1
     logical :: mark(0:lat%nx - 1, lat%ys:lat%ye)
     moved = 0
     if (.not. obstacle_set_moves(this%obstacles, t0, t1) .or. t1 <= t0) return
+    call rows_around(this, lat, x0, x0a)
     do k = 1, obstacle_set_count(this%obstacles)
       call obstacle_set_pair(this%obstacles, k, t0, t1, o0, o1, d)
       if (.not. has_features(o1) .or. all(d == 0.0_rp)) cycle
+      dl = d + min(norm2(d), LIFT_FRACTION * this%cp%dhat) * d / norm2(d)
       mark = .false.
-      call elements_mark(o0, o1, this%cp, lat, x0, mark)
+      call elements_mark(o0, o1, this%cp, lat, lat%ys - 1, x0a, lat%ys - 1, lat%ye, mark)
       do j = lat%ys, lat%ye
         do i = 0, lat%nx - 1
           if (.not. mark(i, j) .or. fixed(i, j)) cycle
-          x(0:2, i, j) = x0(0:2, i, j) + d
-          x(3:5, i, j) = d / (t1 - t0)
+          x(0:2, i, j) = x0(0:2, i, j) + dl
+          x(3:5, i, j) = dl / (t1 - t0)
           moved = moved + 1
         end do
       end do
     end do
   end subroutine faces_start
+
+  !> The positions of x0 (0:5, 0:nx-1, ys:ye) on the owned rows and the
+  !> rows ys-1 and ye+1 of the ranks beside (zero beyond the lattice,
+  !> where no quad reads them). Collective.
+  subroutine rows_around(this, lat, x0, x0a)
+    class(face_contact_t), intent(in) :: this
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: x0(0:, 0:, lat%ys:)
+    real(rp), intent(out) :: x0a(:, 0:, lat%ys - 1:)
+    real(rp) :: snd(3, 0:lat%nx - 1), rcv(3, 0:lat%nx - 1)
+    integer :: mpierr
+    x0a(:, :, lat%ys:lat%ye) = x0(0:2, :, lat%ys:lat%ye)
+    snd = x0(0:2, :, lat%ys)
+    rcv = 0.0_rp
+    call MPI_Sendrecv(snd, size(snd), MPI_DOUBLE_PRECISION, this%rank_down, 48, rcv, size(rcv), MPI_DOUBLE_PRECISION, &
+                      this%rank_up, 48, this%comm, MPI_STATUS_IGNORE, mpierr)
+    x0a(:, :, lat%ye + 1) = rcv
+    snd = x0(0:2, :, lat%ye)
+    rcv = 0.0_rp
+    call MPI_Sendrecv(snd, size(snd), MPI_DOUBLE_PRECISION, this%rank_up, 49, rcv, size(rcv), MPI_DOUBLE_PRECISION, &
+                      this%rank_down, 49, this%comm, MPI_STATUS_IGNORE, mpierr)
+    x0a(:, :, lat%ys - 1) = rcv
+  end subroutine rows_around
 
   !> The Newton update x -> x + dx limited so that no triangle or edge
   !> reaches an obstacle at its pose at t1 (ACCD, keeping a tenth of each

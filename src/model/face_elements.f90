@@ -252,27 +252,30 @@ contains
     end do
   end function elements_ccd
 
-  !> Marks (mark(i, j) = .true.) the nodes of the elements within the
-  !> owned rows of x0(0:5, 0:nx-1, ys:ye) that an obstacle moving from o0
-  !> to o1 reaches: the element's gap to o1 below contact_dhat and below
-  !> its gap to o0 (the obstacle approaches it). Quads anchored at
-  !> ys..ye-1, their gaps those of their triangles (edges and nodes
-  !> included); the links are their edges.
-  subroutine elements_mark(o0, o1, cp, lat, x0, mark)
+  !> Marks (mark(i, j) = .true.) the owned nodes (rows ys..ye) of the
+  !> quads anchored at rows jq0..jq1 of x0(3, 0:nx-1, xlo:) that an
+  !> obstacle moving from o0 to o1 reaches: the quad's gap to o1 below
+  !> contact_dhat and below its gap to o0 (the obstacle approaches it), its
+  !> gaps those of its triangles (edges and nodes included). A quad that
+  !> straddles two ranks' strips is marked on both (jq0 = ys-1, jq1 = ye,
+  !> with the rows around the strip), so the start is the same on any
+  !> number of ranks.
+  subroutine elements_mark(o0, o1, cp, lat, xlo, x0, jq0, jq1, mark)
     type(obstacle_t), intent(in) :: o0, o1
     type(contact_params_t), intent(in) :: cp
     type(lattice_t), intent(in) :: lat
-    real(rp), intent(in) :: x0(0:, 0:, lat%ys:)
+    integer, intent(in) :: xlo, jq0, jq1
+    real(rp), intent(in) :: x0(:, 0:, xlo:)
     logical, intent(inout) :: mark(0:, lat%ys:)
     integer :: i, j, j0, j1, i1, a, nn, ni(4), nj(4), tri(3, 2), t
     real(rp) :: xq(3, 4), g0, g1
     call quad_triangles(SPLIT_MAIN, tri)
-    call kind_range(lat, EL_QUAD, lat%ys, lat%ye - 1, lat%ys, lat%ye - 1, j0, j1, i1)
+    call kind_range(lat, EL_QUAD, jq0, jq1, jq0, jq1, j0, j1, i1)
     do j = j0, j1
       do i = 0, i1
         call element_nodes(EL_QUAD, i, j, ni, nj, nn)
         do a = 1, nn
-          xq(:, a) = x0(0:2, ni(a), nj(a))
+          xq(:, a) = x0(1:3, ni(a), nj(a))
         end do
         if (.not. near_obstacle(o1, cp%dhat + cp%thickness, xq)) cycle
         g0 = huge(1.0_rp)
@@ -283,7 +286,7 @@ contains
         end do
         if (g1 < cp%dhat .and. g1 < g0) then
           do a = 1, nn
-            mark(ni(a), nj(a)) = .true.
+            if (nj(a) >= lat%ys .and. nj(a) <= lat%ye) mark(ni(a), nj(a)) = .true.
           end do
         end if
       end do
