@@ -14,8 +14,10 @@
 !> lowest node it owns, so sums over ranks count each pair once.
 !> The candidate list (and the plan of rows to fetch) is a Verlet list:
 !> made from the accepted state with the reach dhat + xi + skin (skin:
-!> twice the last step's largest node motion, at least dhat), valid while
-!> no node has moved skin/2 from where it was made, and made again by the
+!> twice the last step's largest node motion apart from the cloth's mean
+!> translation, at least dhat), valid while no node has moved skin/2 from
+!> where it was made apart from the mean translation (relative_move: a
+!> pair's distance depends on differences of positions), made again by the
 !> step limit, at the limited candidate, when one has (the residual is
 !> then the same function of the state: every pair within dhat + xi is in
 !> the list). The distance of zero gap is xi = 2 contact_thickness (two
@@ -345,7 +347,8 @@ contains
   !> Flavour (a): the update x -> x + dx scaled by the smallest ACCD alpha
   !> (a tenth of each gap kept) over the pairs its paths may bring within
   !> xi, the minimum over the ranks. Where every node's path stays within
-  !> skin/2 of the list's positions (both ends: the path is a segment) the
+  !> skin/2 of the list's positions less the mean translation
+  !> (relative_move; both ends: the path is a segment) the
   !> list holds every such pair (they were within xi + skin of each other
   !> at its positions) and its pairs serve; else a swept broad phase with
   !> a plan of rows of its own (swept_alpha), and the list made again at
@@ -360,14 +363,13 @@ contains
     integer, intent(in) :: comm
     real(rp), intent(out) :: alpha
     integer, intent(out) :: status
-    real(rp) :: a, far, gfar
+    real(rp) :: a, gfar
     integer :: ierr, mpierr, n
     n = this%nrows
     associate (xd => this%w%xd(:, :, lat%ys:lat%ye), xall => this%w%xall(:, :, 1:n))
     xd(1:3, :, :) = x(0:2, :, lat%ys:lat%ye)
     xd(4:6, :, :) = dx(0:2, :, lat%ys:lat%ye)
-    far = max(largest_move(xd, 0.0_rp, this%x_list), largest_move(xd, 1.0_rp, this%x_list))
-    call MPI_Allreduce(far, gfar, 1, MPI_DOUBLE_PRECISION, MPI_MAX, comm, mpierr)
+    gfar = max(relative_move(this, lat, comm, xd, 0.0_rp), relative_move(this, lat, comm, xd, 1.0_rp))
     if (gfar <= 0.5_rp * this%skin) then
       call self_exchange_gather(this%w%xch, xd, xall, ierr)
       a = self_alpha_ccd(this%sl, this%rows(1:n), xall(1:3, :, :), xall(4:6, :, :), this%pairs, this%cp%thickness, &
@@ -393,7 +395,7 @@ contains
     real(rp), intent(in) :: x(0:, 0:, lat%ys:), dx(0:, 0:, lat%ys:)
     real(rp), intent(out) :: alpha
     integer, intent(out) :: ierr
-    real(rp) :: a, moved, gmoved
+    real(rp) :: a, gmoved
     integer :: mpierr, n
     associate (w => this%w, xd => this%w%xd)
     ! positions and updates of the owned rows and the rows below and above [length]
@@ -410,8 +412,7 @@ contains
     a = self_alpha_ccd(this%sl, w%srows(1:n), w%xall(1:3, :, 1:n), w%xall(4:6, :, 1:n), w%cand, this%cp%thickness, &
                        ACCD_S)
     call MPI_Allreduce(a, alpha, 1, MPI_DOUBLE_PRECISION, MPI_MIN, comm, mpierr)
-    moved = largest_move(xd(:, :, lat%ys:lat%ye), alpha, this%x_list)
-    call MPI_Allreduce(moved, gmoved, 1, MPI_DOUBLE_PRECISION, MPI_MAX, comm, mpierr)
+    gmoved = relative_move(this, lat, comm, xd(:, :, lat%ys:lat%ye), alpha)
     if (gmoved <= 0.5_rp * this%skin) return
     ! the limited candidate, in place of the positions (xd is scratch)
     xd(1:3, :, :) = xd(1:3, :, :) + alpha * xd(4:6, :, :)
@@ -420,20 +421,39 @@ contains
     end associate
   end subroutine swept_alpha
 
-  !> The largest distance over the owned nodes between xd(1:3) + alpha
-  !> xd(4:6) (a point on the update's path) and the list's positions xl.
-  pure real(rp) function largest_move(xd, alpha, xl) result(far)
+  !> How far the nodes have moved from the list's positions xl apart from
+  !> a common translation: the largest |d_i - T| over all nodes, d_i =
+  !> xd(1:3) + alpha xd(4:6) - xl (a point on the update's path) and T
+  !> the mean of d over the lattice. A pair's distance depends on the
+  !> difference of its nodes' positions, so it has changed by at most
+  !> twice this since the list was made: the Verlet list's test. (The
+  !> largest |d_i| itself made a falling sheet's skin, and its list, grow
+  !> with its speed.) Collective.
+  real(rp) function relative_move(this, lat, comm, xd, alpha) result(gfar)
+    class(self_contact_model_t), intent(in) :: this
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: comm
     real(rp), intent(in) :: xd(:, 0:, :)         ! (6, 0:nx-1, ys:ye) positions, update [length]
     real(rp), intent(in) :: alpha                ! [1]
-    real(rp), intent(in) :: xl(:, 0:, :)         ! (3, 0:nx-1, ys:ye) [length]
-    integer :: i, j
+    real(rp) :: sums(3), gsums(3), d(3), far
+    integer :: i, j, mpierr
+    sums = 0.0_rp
+    do j = 1, size(xd, 3)
+      do i = 0, size(xd, 2) - 1
+        sums = sums + (xd(1:3, i, j) + alpha * xd(4:6, i, j) - this%x_list(:, i, lat%ys + j - 1))
+      end do
+    end do
+    call MPI_Allreduce(sums, gsums, 3, MPI_DOUBLE_PRECISION, MPI_SUM, comm, mpierr)
+    gsums = gsums / real(lat%nx * lat%ny, rp)
     far = 0.0_rp
     do j = 1, size(xd, 3)
       do i = 0, size(xd, 2) - 1
-        far = max(far, norm2(xd(1:3, i, j) + alpha * xd(4:6, i, j) - xl(:, i, j)))
+        d = xd(1:3, i, j) + alpha * xd(4:6, i, j) - this%x_list(:, i, lat%ys + j - 1)
+        far = max(far, norm2(d - gsums))
       end do
     end do
-  end function largest_move
+    call MPI_Allreduce(far, gfar, 1, MPI_DOUBLE_PRECISION, MPI_MAX, comm, mpierr)
+  end function relative_move
 
   !> The work arrays of the present rows at least nrows long.
   subroutine work_rows(w, nx, nrows)
@@ -574,22 +594,21 @@ contains
     integer, intent(in) :: comm
     integer, intent(out) :: ierr
     character(*), intent(out) :: errmsg
-    real(rp) :: moved, gmoved, e, ge, g
+    real(rp) :: gmoved, e, ge, g
     integer :: nact, counts(3), gcounts(3), nsrc, npatch, node(4), mpierr, j
     ierr = 0
     errmsg = ''
     if (this%have_last .and. t == this%t_seen) return
-    moved = 0.0_rp
+    gmoved = 0.0_rp
     if (this%have_last) then
       associate (xd => this%w%xd(:, :, lat%ys:lat%ye))
         do j = lat%ys, lat%ye
           xd(1:3, :, j - lat%ys + 1) = u(0:2, :, j)
         end do
         xd(4:6, :, :) = 0.0_rp
-        moved = largest_move(xd, 0.0_rp, this%x_list)
+        gmoved = relative_move(this, lat, comm, xd, 0.0_rp)
       end associate
     end if
-    call MPI_Allreduce(moved, gmoved, 1, MPI_DOUBLE_PRECISION, MPI_MAX, comm, mpierr)
     this%skin = max(this%cp%dhat, 2.0_rp * gmoved)
     call make_list(this, lat, comm, u(0:2, :, max(lat%ys - 1, 0):min(lat%ye + 1, lat%ny - 1)), ierr)
     if (ierr /= 0) then
