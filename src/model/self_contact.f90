@@ -100,8 +100,8 @@ module self_contact
     integer :: rank_up = MPI_PROC_NULL          !< the rank owning row ye+1 (none at the top)
     integer :: rank_down = MPI_PROC_NULL        !< the rank owning row ys-1 (none at the bottom)
     ! the candidate list: written at set-up, after an accepted step and by
-    ! the step limit when a node has moved skin/2 since it was made
-    type(self_exchange_t) :: xch                !< the rows fetched from the other ranks
+    ! the step limit when a node has moved skin/2 since it was made (its
+    ! plan of rows, w%xch, is in the work arrays: the gathers write buffers)
     integer, allocatable :: rows(:)             !< (nrows+) the present rows, ascending (owned and fetched)
     integer :: nrows = 0                        !< their number
     type(self_pairs_t) :: pairs                 !< candidates within dhat + xi + skin (OWN_TOUCH)
