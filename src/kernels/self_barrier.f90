@@ -33,14 +33,15 @@ module self_barrier
                         self_pair_rest, self_pair_owner_row
   implicit none
   private
-  public :: self_blocks_t, self_pair_barrier, self_barrier_forces, self_pair_gap
+  public :: self_blocks_t, self_pair_barrier, self_barrier_forces, self_pair_gap, self_blocks_reserve, self_blocks_regrown
 
   !> Pair blocks: k(:, :, m) = df_a/dx_b [force/length] of nodes a(m), b(m) (global numbers).
   !> The same (a, b) may come several times (one entry a pair): the solver sums them.
   type :: self_blocks_t
     integer :: n = 0
     integer, allocatable :: a(:), b(:)
-    real(rp), allocatable :: k(:, :, :)   !< (3, 3, n)
+    real(rp), allocatable :: k(:, :, :)   !< (3, 3, n+)
+    integer :: regrown = 0                !< times the arrays were reallocated larger (self_blocks_regrown)
   end type self_blocks_t
 
 contains
@@ -128,12 +129,11 @@ contains
     real(rp), intent(inout) :: f(:, 0:, :)           ! (3, 0:nx-1, size(rows)) [force]
     type(self_blocks_t), intent(inout) :: blocks
     integer, intent(out) :: nact
-    integer, allocatable :: slot(:)
+    integer :: slot(0:lat%ny - 1)
     real(rp) :: ep, fp(3, 4), kp(3, 3, 4, 4)
     logical :: active
     integer :: m, a, b, j, node(4)
 
-    allocate(slot(0:lat%ny - 1))
     call self_row_slots(lat, rows, slot)
     e = 0.0_rp
     nact = 0
@@ -163,32 +163,58 @@ contains
     end do
   end subroutine self_barrier_forces
 
+  !> Room for at least n blocks (a size estimate made at set-up: the list then grows only
+  !> past it).
+  pure subroutine self_blocks_reserve(blocks, n)
+    type(self_blocks_t), intent(inout) :: blocks
+    integer, intent(in) :: n
+
+    call grow_blocks(blocks, n)
+  end subroutine self_blocks_reserve
+
+  !> Times the list's arrays were reallocated larger since it was made.
+  pure integer function self_blocks_regrown(blocks) result(n)
+    type(self_blocks_t), intent(in) :: blocks
+
+    n = blocks%regrown
+  end function self_blocks_regrown
+
   pure subroutine add_block(blocks, a, b, k)
     type(self_blocks_t), intent(inout) :: blocks
     integer, intent(in) :: a, b
     real(rp), intent(in) :: k(3, 3)
-    integer, allocatable :: a2(:), b2(:)
-    real(rp), allocatable :: k2(:, :, :)
-    integer :: cap
 
-    cap = 0
-    if (allocated(blocks%a)) cap = size(blocks%a)
-    if (blocks%n == cap) then
-      cap = max(256, 2 * cap)
-      allocate(a2(cap), b2(cap), k2(3, 3, cap))
-      if (blocks%n > 0) then
-        a2(1:blocks%n) = blocks%a(1:blocks%n)
-        b2(1:blocks%n) = blocks%b(1:blocks%n)
-        k2(:, :, 1:blocks%n) = blocks%k(:, :, 1:blocks%n)
-      end if
-      call move_alloc(a2, blocks%a)
-      call move_alloc(b2, blocks%b)
-      call move_alloc(k2, blocks%k)
+    if (.not. allocated(blocks%a)) then
+      call grow_blocks(blocks, 256)
+    else if (blocks%n == size(blocks%a)) then
+      call grow_blocks(blocks, 2 * blocks%n)
     end if
     blocks%n = blocks%n + 1
     blocks%a(blocks%n) = a
     blocks%b(blocks%n) = b
     blocks%k(:, :, blocks%n) = k
   end subroutine add_block
+
+  !> The list's arrays at least cap long, its blocks kept.
+  pure subroutine grow_blocks(blocks, cap)
+    type(self_blocks_t), intent(inout) :: blocks
+    integer, intent(in) :: cap
+    integer, allocatable :: a2(:), b2(:)
+    real(rp), allocatable :: k2(:, :, :)
+
+    if (allocated(blocks%a)) then
+      if (size(blocks%a) >= cap) return
+    end if
+    allocate(a2(cap), b2(cap), k2(3, 3, cap))
+    if (blocks%n > 0) then
+      a2(1:blocks%n) = blocks%a(1:blocks%n)
+      b2(1:blocks%n) = blocks%b(1:blocks%n)
+      k2(:, :, 1:blocks%n) = blocks%k(:, :, 1:blocks%n)
+    end if
+    call move_alloc(a2, blocks%a)
+    call move_alloc(b2, blocks%b)
+    call move_alloc(k2, blocks%k)
+    blocks%regrown = blocks%regrown + 1
+  end subroutine grow_blocks
 
 end module self_barrier

@@ -43,19 +43,23 @@
 !> the cells of its grown box; each point (its box over the path) and edge
 !> asks the cells of its own box and takes a hit only in the cell that holds
 !> the lowest corner of the two boxes' intersection, so a pair is met once.
-!> Plain arrays, no PETSc, no MPI; it allocates (the tables, the pair list).
+!> Plain arrays, no PETSc, no MPI. The tables (primitives, boxes, the two
+!> grids, the rest rule's table) are kept in the pair list between calls and
+!> reallocated only when too small (self_pairs_regrown counts that), so a
+!> caller that keeps its list allocates nothing once the sizes have settled.
 module self_broad
   use, intrinsic :: iso_fortran_env, only: int64
   use kinds, only: rp
   use contact_faces, only: quad_triangles, quad_diagonal, SPLIT_MAIN, SPLIT_ANTI
   use contact_primitives, only: point_triangle_d2, edge_edge_d2
   use contact_ccd, only: accd_rate_bound
+  use work_arrays, only: grow, grow_from0
   implicit none
   private
   public :: self_lattice_t, self_pairs_t, PAIR_PT, PAIR_EE, OWN_LOWEST, OWN_TOUCH
   public :: self_row_slots, self_candidates, self_candidates_swept
   public :: self_pair_positions, self_pair_rest, self_pairs_clear, self_pair_owner_row
-  public :: self_pair_distance2
+  public :: self_pair_distance2, self_pairs_reserve, self_pairs_regrown
 
   !> Pair kinds (the same codes as contact_ccd's rate bound).
   integer, parameter :: PAIR_PT = 1, PAIR_EE = 2
@@ -69,12 +73,6 @@ module self_broad
     real(rp) :: ax = 0.0_rp, ay = 0.0_rp   !< rest spacing along x and y [length]
   end type self_lattice_t
 
-  !> Candidate pairs: kind(k) PAIR_PT or PAIR_EE, node(:, k) their 4 global node numbers.
-  type :: self_pairs_t
-    integer :: n = 0
-    integer, allocatable :: kind(:)
-    integer, allocatable :: node(:, :)     !< (4, n)
-  end type self_pairs_t
 
   !> The rest rule by index offsets: pt(t, di, dj) for a point at (di, dj) from the anchor of
   !> a triangle t, ee(ka, kb, di, dj) for edge kb anchored (di, dj) from edge ka (ka's number
@@ -86,13 +84,41 @@ module self_broad
     logical, allocatable :: ee(:, :, :, :)     ! (0:2, 0:2, -ri:ri, -rj:rj)
   end type rest_table_t
 
-  !> The spatial hash of one set of boxes.
+  !> The spatial hash of one set of boxes (arrays at least as long as used).
   type :: grid_t
     integer :: nbucket = 0                 ! a power of 2
-    integer, allocatable :: first(:)       ! (0:nbucket) start of each bucket in item
-    integer, allocatable :: item(:)        ! box number of each entry
-    integer(int64), allocatable :: key(:)       ! the entry's cell, packed (cell_key)
+    integer, allocatable :: first(:)       ! (0:nbucket+) start of each bucket in item
+    integer, allocatable :: item(:)        ! (n+) box number of each entry
+    integer(int64), allocatable :: key(:)  ! (n+) the entry's cell, packed (cell_key)
+    integer, allocatable :: fill(:)        ! (0:nbucket-1+) the counting sort's counters
   end type grid_t
+
+  !> The broad phase's tables, kept between calls (each array at least as long as the
+  !> last call needed; the first ntri, ned, npt columns used).
+  type :: broad_work_t
+    integer, allocatable :: slot(:)                    ! (0:ny-1) self_row_slots
+    integer, allocatable :: tri(:, :), tid(:)          ! (3, ntri+), (ntri+) triangles' nodes and numbers
+    integer, allocatable :: edg(:, :), eid(:)          ! (2, ned+), (ned+) edges' nodes and numbers
+    integer, allocatable :: pts(:)                     ! (npt+) points' nodes
+    real(rp), allocatable :: tlo(:, :), thi(:, :)      ! (3, ntri+) triangles' boxes [length]
+    real(rp), allocatable :: elo(:, :), ehi(:, :)      ! (3, ned+) edges' boxes [length]
+    real(rp), allocatable :: plo(:, :), phi(:, :)      ! (3, npt+) points' boxes [length]
+    type(grid_t) :: gt, ge                             ! the hashes of triangles and edges
+    type(rest_table_t) :: rt                           ! the rest rule's table, for rt_reach
+    real(rp) :: rt_reach = -1.0_rp                     ! the rest_reach rt was built for [length]
+    type(self_lattice_t) :: rt_lat                     ! and the lattice
+  end type broad_work_t
+
+  !> Candidate pairs: kind(k) PAIR_PT or PAIR_EE, node(:, k) their 4 global node numbers
+  !> (k = 1..n; the arrays may be longer), and the tables that found them.
+  type :: self_pairs_t
+    integer :: n = 0
+    integer, allocatable :: kind(:)
+    integer, allocatable :: node(:, :)     !< (4, n+)
+    integer :: regrown = 0                 !< times an array here was reallocated larger (self_pairs_regrown)
+    type(broad_work_t), allocatable, private :: work
+    real(rp), allocatable, private :: x1(:, :, :)   !< (3, 0:nx-1, nr+) a swept call's end positions [length]
+  end type self_pairs_t
 
   real(rp), parameter :: CELL_FACTOR = 1.0_rp
   integer(int64), parameter :: P1 = 73856093_int64, P2 = 19349663_int64, P3 = 83492791_int64
@@ -172,28 +198,54 @@ contains
     pairs%n = 0
   end subroutine self_pairs_clear
 
+  !> Room for at least n pairs (a size estimate made at set-up: the list then grows
+  !> only past it).
+  pure subroutine self_pairs_reserve(pairs, n)
+    type(self_pairs_t), intent(inout) :: pairs
+    integer, intent(in) :: n
+
+    call grow_list(pairs, n)
+  end subroutine self_pairs_reserve
+
+  !> Times the list's arrays or its tables were reallocated larger since it was made.
+  pure integer function self_pairs_regrown(pairs) result(n)
+    type(self_pairs_t), intent(in) :: pairs
+
+    n = pairs%regrown
+  end function self_pairs_regrown
+
   pure subroutine add_pair(pairs, kind, node)
     type(self_pairs_t), intent(inout) :: pairs
     integer, intent(in) :: kind, node(4)
-    integer, allocatable :: k2(:), n2(:, :)
-    integer :: cap
 
-    cap = 0
-    if (allocated(pairs%kind)) cap = size(pairs%kind)
-    if (pairs%n == cap) then
-      cap = max(64, 2 * cap)
-      allocate(k2(cap), n2(4, cap))
-      if (pairs%n > 0) then
-        k2(1:pairs%n) = pairs%kind(1:pairs%n)
-        n2(:, 1:pairs%n) = pairs%node(:, 1:pairs%n)
-      end if
-      call move_alloc(k2, pairs%kind)
-      call move_alloc(n2, pairs%node)
+    if (.not. allocated(pairs%kind)) then
+      call grow_list(pairs, 64)
+    else if (pairs%n == size(pairs%kind)) then
+      call grow_list(pairs, 2 * pairs%n)
     end if
     pairs%n = pairs%n + 1
     pairs%kind(pairs%n) = kind
     pairs%node(:, pairs%n) = node
   end subroutine add_pair
+
+  !> The list's arrays at least cap long, its pairs kept.
+  pure subroutine grow_list(pairs, cap)
+    type(self_pairs_t), intent(inout) :: pairs
+    integer, intent(in) :: cap
+    integer, allocatable :: k2(:), n2(:, :)
+
+    if (allocated(pairs%kind)) then
+      if (size(pairs%kind) >= cap) return
+    end if
+    allocate(k2(cap), n2(4, cap))
+    if (pairs%n > 0) then
+      k2(1:pairs%n) = pairs%kind(1:pairs%n)
+      n2(:, 1:pairs%n) = pairs%node(:, 1:pairs%n)
+    end if
+    call move_alloc(k2, pairs%kind)
+    call move_alloc(n2, pairs%node)
+    pairs%regrown = pairs%regrown + 1
+  end subroutine grow_list
 
   ! ------------------------------------------------------------------------
   ! Candidates
@@ -225,13 +277,18 @@ contains
     real(rp), intent(in) :: margin                  ! [length]
     real(rp), intent(in) :: rest_reach              ! [length]
     type(self_pairs_t), intent(inout) :: pairs
-    real(rp), allocatable :: x1(:, :, :)
+    integer :: nr
 
-    x1 = x(1:3, :, :) + dx(1:3, :, :)
-    call find_pairs(lat, rows, x, x1, .true., own_lo, own_hi, own_rule, margin, rest_reach, pairs)
+    nr = size(rows)
+    call grow(pairs%x1, 3, lat%nx, nr, pairs%regrown)
+    associate (x1 => pairs%x1(:, :, 1:nr))
+      x1 = x(1:3, :, 1:nr) + dx(1:3, :, 1:nr)
+      call find_pairs(lat, rows, x, x1, .true., own_lo, own_hi, own_rule, margin, rest_reach, pairs)
+    end associate
   end subroutine self_candidates_swept
 
-  !> The broad phase proper: boxes over the start x0 and the end x1 of each primitive.
+  !> The broad phase proper: boxes over the start x0 and the end x1 of each primitive. The
+  !> tables are pairs' own, moved out for the call (move_alloc: no copy) and back.
   subroutine find_pairs(lat, rows, x0, x1, swept, own_lo, own_hi, own_rule, reach, rest_reach, pairs)
     type(self_lattice_t), intent(in) :: lat
     integer, intent(in) :: rows(:)
@@ -240,28 +297,22 @@ contains
     integer, intent(in) :: own_lo, own_hi, own_rule
     real(rp), intent(in) :: reach, rest_reach
     type(self_pairs_t), intent(inout) :: pairs
-    integer, allocatable :: slot(:), tri(:, :), tid(:), edg(:, :), eid(:), pts(:)
-    real(rp), allocatable :: tlo(:, :), thi(:, :), elo(:, :), ehi(:, :), plo(:, :), phi(:, :)
-    type(grid_t) :: gt, ge
-    type(rest_table_t) :: rt
+    type(broad_work_t), allocatable :: w
     real(rp) :: origin(3), h
     integer :: ntri, ned, npt
 
     pairs%n = 0
-    allocate(slot(0:lat%ny - 1))
-    call self_row_slots(lat, rows, slot)
-    call list_primitives(lat, rows, slot, tri, tid, ntri, edg, eid, ned, pts, npt)
-    if (npt == 0) return
-    call boxes(lat, slot, x0, x1, tri(:, 1:ntri), tlo, thi)
-    call boxes(lat, slot, x0, x1, edg(:, 1:ned), elo, ehi)
-    call boxes(lat, slot, x0, x1, reshape(pts(1:npt), [1, npt]), plo, phi)
-    h = cell_size(tlo, thi, elo, ehi, plo, phi, reach)
-    origin = minval(plo, dim=2) - 2.0_rp * reach - h
-    call build_grid(gt, tlo - reach, thi + reach, origin, h)
-    call build_grid(ge, elo - reach, ehi + reach, origin, h)
-    call build_rest_table(lat, rest_reach, rt)
-    call point_triangle_pairs()
-    call edge_edge_pairs()
+    if (.not. allocated(pairs%work)) then
+      allocate(pairs%work)
+      pairs%regrown = pairs%regrown + 1
+    end if
+    call move_alloc(pairs%work, w)
+    call prepare_tables(w, lat, rows, x0, x1, reach, rest_reach, pairs%regrown, ntri, ned, npt, origin, h)
+    if (npt > 0) then
+      call point_triangle_pairs()
+      call edge_edge_pairs()
+    end if
+    call move_alloc(w, pairs%work)
 
   contains
 
@@ -271,25 +322,25 @@ contains
       real(rp) :: glo(3), ghi(3)
 
       do p = 1, npt
-        clo = cell_of(plo(:, p), origin, h)
-        chi = cell_of(phi(:, p), origin, h)
+        clo = cell_of(w%plo(:, p), origin, h)
+        chi = cell_of(w%phi(:, p), origin, h)
         do cz = 0, int(chi(3) - clo(3))
           do cy = 0, int(chi(2) - clo(2))
             do cx = 0, int(chi(1) - clo(1))
               c = clo + [cx, cy, cz]
-              b = bucket(gt, c)
+              b = bucket(w%gt, c)
               kc = cell_key(c)
-              do e = gt%first(b), gt%first(b + 1) - 1
-                if (gt%key(e) /= kc) cycle
-                t = gt%item(e)
-                if (any(tri(:, t) == pts(p))) cycle
-                glo = tlo(:, t) - reach
-                ghi = thi(:, t) + reach
-                if (any(plo(:, p) > ghi .or. glo > phi(:, p))) cycle
-                cm = cell_of(max(plo(:, p), glo), origin, h)
+              do e = w%gt%first(b), w%gt%first(b + 1) - 1
+                if (w%gt%key(e) /= kc) cycle
+                t = w%gt%item(e)
+                if (any(w%tri(:, t) == w%pts(p))) cycle
+                glo = w%tlo(:, t) - reach
+                ghi = w%thi(:, t) + reach
+                if (any(w%plo(:, p) > ghi .or. glo > w%phi(:, p))) cycle
+                cm = cell_of(max(w%plo(:, p), glo), origin, h)
                 if (any(cm /= c)) cycle
-                node = [pts(p), tri(:, t)]
-                call consider(PAIR_PT, node, pts(p), tid(t))
+                node = [w%pts(p), w%tri(:, t)]
+                call consider(PAIR_PT, node, w%pts(p), w%tid(t))
               end do
             end do
           end do
@@ -303,26 +354,26 @@ contains
       real(rp) :: glo(3), ghi(3)
 
       do a = 1, ned
-        clo = cell_of(elo(:, a), origin, h)
-        chi = cell_of(ehi(:, a), origin, h)
+        clo = cell_of(w%elo(:, a), origin, h)
+        chi = cell_of(w%ehi(:, a), origin, h)
         do cz = 0, int(chi(3) - clo(3))
           do cy = 0, int(chi(2) - clo(2))
             do cx = 0, int(chi(1) - clo(1))
               c = clo + [cx, cy, cz]
-              b = bucket(ge, c)
+              b = bucket(w%ge, c)
               kc = cell_key(c)
-              do e = ge%first(b), ge%first(b + 1) - 1
-                if (ge%key(e) /= kc) cycle
-                f = ge%item(e)
-                if (eid(f) <= eid(a)) cycle
-                if (any(edg(:, f) == edg(1, a) .or. edg(:, f) == edg(2, a))) cycle
-                glo = elo(:, f) - reach
-                ghi = ehi(:, f) + reach
-                if (any(elo(:, a) > ghi .or. glo > ehi(:, a))) cycle
-                cm = cell_of(max(elo(:, a), glo), origin, h)
+              do e = w%ge%first(b), w%ge%first(b + 1) - 1
+                if (w%ge%key(e) /= kc) cycle
+                f = w%ge%item(e)
+                if (w%eid(f) <= w%eid(a)) cycle
+                if (any(w%edg(:, f) == w%edg(1, a) .or. w%edg(:, f) == w%edg(2, a))) cycle
+                glo = w%elo(:, f) - reach
+                ghi = w%ehi(:, f) + reach
+                if (any(w%elo(:, a) > ghi .or. glo > w%ehi(:, a))) cycle
+                cm = cell_of(max(w%elo(:, a), glo), origin, h)
                 if (any(cm /= c)) cycle
-                node = [edg(:, a), edg(:, f)]
-                call consider(PAIR_EE, node, eid(a), eid(f))
+                node = [w%edg(:, a), w%edg(:, f)]
+                call consider(PAIR_EE, node, w%eid(a), w%eid(f))
               end do
             end do
           end do
@@ -344,12 +395,12 @@ contains
         if (jown < own_lo .or. jown > own_hi) return
       end if
       if (rest_reach > 0.0_rp) then
-        if (rest_near(lat, rt, kind, ida, idb)) return
+        if (rest_near(lat, w%rt, kind, ida, idb)) return
       end if
-      xa = self_pair_positions(lat, slot, x0, node)
+      xa = self_pair_positions(lat, w%slot, x0, node)
       d2 = self_pair_distance2(kind, xa)
       if (swept) then
-        xb = self_pair_positions(lat, slot, x1, node)
+        xb = self_pair_positions(lat, w%slot, x1, node)
         if (sqrt(d2) - accd_rate_bound(kind, xb - xa) >= reach) return
       else
         if (d2 >= reach**2) return
@@ -359,12 +410,49 @@ contains
 
   end subroutine find_pairs
 
+  !> The tables of one call in w (grown where too short): the present rows' slots, the
+  !> primitives and their boxes over x0 and x1, the hash's cell h and origin, the two grids
+  !> (boxes grown by reach) and the rest rule's table.
+  subroutine prepare_tables(w, lat, rows, x0, x1, reach, rest_reach, regrown, ntri, ned, npt, origin, h)
+    type(broad_work_t), intent(inout) :: w
+    type(self_lattice_t), intent(in) :: lat
+    integer, intent(in) :: rows(:)
+    real(rp), intent(in) :: x0(:, 0:, :), x1(:, 0:, :)
+    real(rp), intent(in) :: reach, rest_reach          ! [length]
+    integer, intent(inout) :: regrown
+    integer, intent(out) :: ntri, ned, npt
+    real(rp), intent(out) :: origin(3), h              ! [length]
+    integer :: p
+
+    call grow_from0(w%slot, lat%ny - 1, regrown)
+    call self_row_slots(lat, rows, w%slot)
+    call list_primitives(lat, rows, w%slot, w%tri, w%tid, ntri, w%edg, w%eid, ned, w%pts, npt, regrown)
+    if (npt == 0) return
+    call grow(w%tlo, 3, ntri, regrown)
+    call grow(w%thi, 3, ntri, regrown)
+    call grow(w%elo, 3, ned, regrown)
+    call grow(w%ehi, 3, ned, regrown)
+    call grow(w%plo, 3, npt, regrown)
+    call grow(w%phi, 3, npt, regrown)
+    call boxes(lat, w%slot, x0, x1, w%tri(:, 1:ntri), w%tlo, w%thi)
+    call boxes(lat, w%slot, x0, x1, w%edg(:, 1:ned), w%elo, w%ehi)
+    do p = 1, npt
+      call node_box(lat, w%slot, x0, x1, w%pts(p:p), w%plo(:, p), w%phi(:, p))
+    end do
+    h = cell_size(w%tlo(:, 1:ntri), w%thi(:, 1:ntri), w%elo(:, 1:ned), w%ehi(:, 1:ned), w%plo(:, 1:npt), &
+                  w%phi(:, 1:npt), reach)
+    origin = minval(w%plo(:, 1:npt), dim=2) - 2.0_rp * reach - h
+    call build_grid(w%gt, w%tlo(:, 1:ntri), w%thi(:, 1:ntri), reach, origin, h, regrown)
+    call build_grid(w%ge, w%elo(:, 1:ned), w%ehi(:, 1:ned), reach, origin, h, regrown)
+    call rest_table_for(w, lat, rest_reach, regrown)
+  end subroutine prepare_tables
+
   !> The hash's cell: CELL_FACTOR times the mean over triangles and edges of the largest
   !> side of the grown box (a typical box spans 2 cells an axis; one stretched element
   !> takes more cells instead of making every cell large).
   pure real(rp) function cell_size(tlo, thi, elo, ehi, plo, phi, reach) result(h)
     real(rp), intent(in) :: tlo(:, :), thi(:, :), elo(:, :), ehi(:, :), plo(:, :), phi(:, :), reach
-    real(rp) :: s
+    real(rp) :: s, span
     integer :: k, n
 
     s = 0.0_rp
@@ -383,7 +471,11 @@ contains
     if (.not. h > 0.0_rp) h = 1.0_rp
     ! At most 2^20 cells an axis over the points' span (plus the margin of origin):
     ! cell_key packs 21 bits a coordinate.
-    h = max(h, (maxval(maxval(phi, dim=2) - minval(plo, dim=2)) + 4.0_rp * reach) / 2.0_rp**20)
+    span = 0.0_rp
+    do k = 1, 3
+      span = max(span, maxval(phi(k, :)) - minval(plo(k, :)))
+    end do
+    h = max(h, (span + 4.0_rp * reach) / 2.0_rp**20)
   end function cell_size
 
   !> The rest rule (module header) for a point and a triangle (ida: the node, idb: the
@@ -476,17 +568,22 @@ contains
 
   end subroutine build_rest_table
 
-  !> The primitives of the present rows (module header), as global node numbers.
-  subroutine list_primitives(lat, rows, slot, tri, tid, ntri, edg, eid, ned, pts, npt)
+  !> The primitives of the present rows (module header), as global node numbers (the
+  !> arrays grown where too short).
+  subroutine list_primitives(lat, rows, slot, tri, tid, ntri, edg, eid, ned, pts, npt, regrown)
     type(self_lattice_t), intent(in) :: lat
     integer, intent(in) :: rows(:), slot(0:)
-    integer, allocatable, intent(out) :: tri(:, :), tid(:), edg(:, :), eid(:), pts(:)
+    integer, allocatable, intent(inout) :: tri(:, :), tid(:), edg(:, :), eid(:), pts(:)
     integer, intent(out) :: ntri, ned, npt
+    integer, intent(inout) :: regrown
     integer :: r, i, j, g, t, c(4), qt(3, 2), ca, cb, nx
 
     nx = lat%nx
-    allocate(tri(3, 2 * nx * size(rows)), tid(2 * nx * size(rows)))
-    allocate(edg(2, 3 * nx * size(rows)), eid(3 * nx * size(rows)), pts(nx * size(rows)))
+    call grow(tri, 3, 2 * nx * size(rows), regrown)
+    call grow(tid, 2 * nx * size(rows), regrown)
+    call grow(edg, 2, 3 * nx * size(rows), regrown)
+    call grow(eid, 3 * nx * size(rows), regrown)
+    call grow(pts, nx * size(rows), regrown)
     call quad_triangles(lat%split, qt)
     call quad_diagonal(lat%split, ca, cb)
     ntri = 0
@@ -525,15 +622,15 @@ contains
 
   end subroutine list_primitives
 
-  !> Boxes of primitives (a column of nodes each) over their nodes' positions at x0 and x1.
+  !> Boxes of primitives (a column of nodes each) over their nodes' positions at x0 and x1,
+  !> into the first size(nodes, 2) columns of lo and hi.
   pure subroutine boxes(lat, slot, x0, x1, nodes, lo, hi)
     type(self_lattice_t), intent(in) :: lat
     integer, intent(in) :: slot(0:), nodes(:, :)
     real(rp), intent(in) :: x0(:, 0:, :), x1(:, 0:, :)
-    real(rp), allocatable, intent(out) :: lo(:, :), hi(:, :)
+    real(rp), intent(inout) :: lo(:, :), hi(:, :)      ! (3, size(nodes, 2)+) [length]
     integer :: k
 
-    allocate(lo(3, size(nodes, 2)), hi(3, size(nodes, 2)))
     do k = 1, size(nodes, 2)
       call node_box(lat, slot, x0, x1, nodes(:, k), lo(:, k), hi(:, k))
     end do
@@ -582,54 +679,80 @@ contains
     b = int(iand(ieor(ieor(c(1) * P1, c(2) * P2), c(3) * P3), int(g%nbucket - 1, int64)))
   end function bucket
 
-  !> The hash of boxes lo(:, k)..hi(:, k): each box in every cell it overlaps (counting sort).
-  pure subroutine build_grid(g, lo, hi, origin, h)
-    type(grid_t), intent(out) :: g
-    real(rp), intent(in) :: lo(:, :), hi(:, :), origin(3), h
+  !> The hash of boxes lo(:, k) - pad..hi(:, k) + pad: each box in every cell it overlaps
+  !> (counting sort); g's arrays grown where too short.
+  pure subroutine build_grid(g, lo, hi, pad, origin, h, regrown)
+    type(grid_t), intent(inout) :: g
+    real(rp), intent(in) :: lo(:, :), hi(:, :), pad, origin(3), h
+    integer, intent(inout) :: regrown
     integer(int64) :: clo(3), chi(3), c(3)
     integer :: k, n, b, cx, cy, cz, pass
-    integer, allocatable :: fill(:)
 
     n = 0
     do k = 1, size(lo, 2)
-      clo = cell_of(lo(:, k), origin, h)
-      chi = cell_of(hi(:, k), origin, h)
+      clo = cell_of(lo(:, k) - pad, origin, h)
+      chi = cell_of(hi(:, k) + pad, origin, h)
       n = n + int(product(chi - clo + 1))
     end do
     g%nbucket = 1
     do while (g%nbucket < n)
       g%nbucket = 2 * g%nbucket
     end do
-    allocate(g%first(0:g%nbucket), g%item(n), g%key(n), fill(0:g%nbucket - 1))
-    fill = 0
-    do pass = 1, 2
-      do k = 1, size(lo, 2)
-        clo = cell_of(lo(:, k), origin, h)
-        chi = cell_of(hi(:, k), origin, h)
-        do cz = 0, int(chi(3) - clo(3))
-          do cy = 0, int(chi(2) - clo(2))
-            do cx = 0, int(chi(1) - clo(1))
-              c = clo + [cx, cy, cz]
-              b = bucket(g, c)
-              if (pass == 1) then
-                fill(b) = fill(b) + 1
-              else
-                g%item(fill(b)) = k
-                g%key(fill(b)) = cell_key(c)
-                fill(b) = fill(b) + 1
-              end if
+    call grow_from0(g%first, g%nbucket, regrown)
+    call grow_from0(g%fill, g%nbucket - 1, regrown)
+    call grow(g%item, n, regrown)
+    call grow(g%key, n, regrown)
+    associate (fill => g%fill)
+      fill(0:g%nbucket - 1) = 0
+      do pass = 1, 2
+        do k = 1, size(lo, 2)
+          clo = cell_of(lo(:, k) - pad, origin, h)
+          chi = cell_of(hi(:, k) + pad, origin, h)
+          do cz = 0, int(chi(3) - clo(3))
+            do cy = 0, int(chi(2) - clo(2))
+              do cx = 0, int(chi(1) - clo(1))
+                c = clo + [cx, cy, cz]
+                b = bucket(g, c)
+                if (pass == 1) then
+                  fill(b) = fill(b) + 1
+                else
+                  g%item(fill(b)) = k
+                  g%key(fill(b)) = cell_key(c)
+                  fill(b) = fill(b) + 1
+                end if
+              end do
             end do
           end do
         end do
+        if (pass == 1) then
+          g%first(0) = 1
+          do b = 0, g%nbucket - 1
+            g%first(b + 1) = g%first(b) + fill(b)
+          end do
+          fill(0:g%nbucket - 1) = g%first(0:g%nbucket - 1)
+        end if
       end do
-      if (pass == 1) then
-        g%first(0) = 1
-        do b = 0, g%nbucket - 1
-          g%first(b + 1) = g%first(b) + fill(b)
-        end do
-        fill = g%first(0:g%nbucket - 1)
-      end if
-    end do
+    end associate
   end subroutine build_grid
+
+  ! ------------------------------------------------------------------------
+  ! The tables kept between calls
+  ! ------------------------------------------------------------------------
+
+  !> w%rt: the rest rule's table for rest_reach on lat, made again only where it was
+  !> built for others (once for a list).
+  subroutine rest_table_for(w, lat, rest_reach, regrown)
+    type(broad_work_t), intent(inout) :: w
+    type(self_lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: rest_reach
+    integer, intent(inout) :: regrown
+
+    if (rest_reach == w%rt_reach .and. lat%nx == w%rt_lat%nx .and. lat%ny == w%rt_lat%ny .and. &
+        lat%split == w%rt_lat%split .and. lat%ax == w%rt_lat%ax .and. lat%ay == w%rt_lat%ay) return
+    call build_rest_table(lat, rest_reach, w%rt)
+    w%rt_reach = rest_reach
+    w%rt_lat = lat
+    regrown = regrown + 1
+  end subroutine rest_table_for
 
 end module self_broad

@@ -46,11 +46,10 @@ contains
     real(rp), intent(in) :: xi                     ! distance of zero gap [length]
     real(rp), intent(in) :: s                      ! fraction of each gap kept, e.g. ACCD_S [1]
     real(rp) :: alpha
-    integer, allocatable :: slot(:)
+    integer :: slot(0:lat%ny - 1)
     real(rp) :: xp(3, 4), dxp(3, 4)
     integer :: m
 
-    allocate(slot(0:lat%ny - 1))
     call self_row_slots(lat, rows, slot)
     alpha = 1.0_rp
     do m = 1, pairs%n
@@ -73,11 +72,10 @@ contains
     real(rp), intent(in) :: x(:, 0:, :)            ! (3, 0:nx-1, size(rows)) [length]
     type(self_pairs_t), intent(in) :: pairs
     real(rp), intent(inout) :: dmin(0:, :)         ! (0:nx-1, size(rows)) [length]
-    integer, allocatable :: slot(:)
+    integer :: slot(0:lat%ny - 1)
     real(rp) :: d
     integer :: m, k, g
 
-    allocate(slot(0:lat%ny - 1))
     call self_row_slots(lat, rows, slot)
     do m = 1, pairs%n
       d = sqrt(self_pair_distance2(pairs%kind(m), self_pair_positions(lat, slot, x, pairs%node(:, m))))

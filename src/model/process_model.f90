@@ -25,6 +25,7 @@
 !>               stencil neighbours (pair_blocks: self-contact), S's
 !>               product adds them on the rows the model gathers:
 !>   pair_rows   after jacobian: the lattice rows its pair blocks reach
+!>               (each row's position among them, into the caller's array)
 !>   pair_gather each product with S (and each right-hand side): those
 !>               rows of a vector, owned rows from their owners;
 !>               collective
@@ -330,11 +331,15 @@ contains
     errmsg = ''
   end subroutine state_ok
 
-  !> No pair blocks: no rows (rows: ascending global row numbers).
-  subroutine no_pair_rows(this, rows)
+  !> No pair blocks: no rows. (The rows they reach: slot(j) the position
+  !> of global row j among them, in ascending order, 0 where absent; n
+  !> their number. An array of the caller's: nothing is allocated.)
+  subroutine no_pair_rows(this, slot, n)
     class(process_model_t), intent(in) :: this
-    integer, allocatable, intent(out) :: rows(:)
-    allocate(rows(0))
+    integer, intent(out) :: slot(0:)
+    integer, intent(out) :: n
+    slot = 0
+    n = 0
   end subroutine no_pair_rows
 
   !> No pair blocks: nothing to gather (v (nv, 0:nx-1, ys:ye) owned rows,

@@ -231,7 +231,6 @@ contains
     integer, intent(in) :: comm
     logical, intent(out) :: two_models
     integer :: k, n0, loc(2), glob(2), mpierr
-    integer, allocatable :: rows(:)
     call node_blocks_begin(list%nodal, lat%ys, lat%ye)
     call pair_blocks_begin(list%pairs)
     two_models = .false.
@@ -251,17 +250,12 @@ contains
     list%pair_model = glob(1)
     list%pairs_on = glob(1) > 0
     if (.not. list%pairs_on) return
-    call list%m(list%pair_model)%pm%pair_rows(rows)
     if (.not. allocated(list%pair_slot)) allocate(list%pair_slot(0:lat%ny - 1))
-    list%pair_slot = 0
-    do k = 1, size(rows)
-      list%pair_slot(rows(k)) = k
-    end do
-    list%pair_nrows = size(rows)
+    call list%m(list%pair_model)%pm%pair_rows(list%pair_slot, list%pair_nrows)
     if (allocated(list%pair_v)) then
-      if (size(list%pair_v, 3) < size(rows)) deallocate(list%pair_v)
+      if (size(list%pair_v, 3) < list%pair_nrows) deallocate(list%pair_v)
     end if
-    if (.not. allocated(list%pair_v)) allocate(list%pair_v(6, 0:lat%nx - 1, max(size(rows), 1)))
+    if (.not. allocated(list%pair_v)) allocate(list%pair_v(6, 0:lat%nx - 1, max(list%pair_nrows, 1)))
   end subroutine pm_list_jacobian
 
   !> Some rank has pair blocks at the last Jacobian: pm_list_pair_product

@@ -14,8 +14,10 @@
 !> lowest node it owns, so sums over ranks count each pair once.
 !> The candidate list (and the plan of rows to fetch) is a Verlet list:
 !> made from the accepted state with the reach dhat + xi + skin (skin:
-!> twice the last step's largest node motion, at least dhat), valid while
-!> no node has moved skin/2 from where it was made, and made again by the
+!> twice the last step's largest node motion apart from the cloth's mean
+!> translation, at least dhat), valid while no node has moved skin/2 from
+!> where it was made apart from the mean translation (relative_move: a
+!> pair's distance depends on differences of positions), made again by the
 !> step limit, at the limited candidate, when one has (the residual is
 !> then the same function of the state: every pair within dhat + xi is in
 !> the list). The distance of zero gap is xi = 2 contact_thickness (two
@@ -32,8 +34,12 @@
 !> S's product adds with the Krylov vector's rows gathered by the list's
 !> plan (pair_gather: the plan does not change between a Jacobian and the
 !> solves with it; the step limit, which may make it again, runs after).
-!> The kernels allocate their tables at each call (the broad phase, the
-!> block list): the one place the time loop allocates, with self_contact on.
+!> No allocation in the time loop: the kernels' tables (the broad phase's
+!> in its pair lists, the block list, the exchange's plans and message
+!> buffers) and the hooks' work arrays are kept in the record, made at
+!> set-up (the block list with an estimate: a quarter of the strip's nodes
+!> in contact) and reallocated only when too small; /self_contact/regrown
+!> counts the reallocations after set-up.
 module self_contact
   use mpi
   use kinds, only: rp
@@ -47,14 +53,16 @@ module self_contact
   use contact_ccd, only: ACCD_S
   use contact_faces, only: SPLIT_MAIN
   use self_broad, only: self_lattice_t, self_pairs_t, OWN_TOUCH, OWN_LOWEST, self_candidates, self_candidates_swept, &
-                        self_row_slots, self_pair_positions, self_pair_owner_row
-  use self_barrier, only: self_blocks_t, self_barrier_forces, self_pair_gap
+                        self_row_slots, self_pair_positions, self_pair_owner_row, self_pairs_regrown
+  use self_barrier, only: self_blocks_t, self_barrier_forces, self_pair_gap, self_blocks_reserve, self_blocks_regrown
   use self_step, only: self_alpha_ccd
-  use self_exchange, only: self_exchange_t, self_exchange_plan, self_exchange_plan_swept, self_exchange_rows, &
-                           self_exchange_gather, self_exchange_counts
+  use self_exchange, only: self_exchange_t, self_exchange_plan, self_exchange_plan_swept, self_exchange_nrows, &
+                           self_exchange_rows_copy, self_exchange_gather, self_exchange_counts, self_exchange_regrown, &
+                           self_exchange_free
   use process_model, only: process_model_t, pm_hints_t, pm_series_t, pm_group_t, pm_energy_t, PM_FEASIBLE, &
                            PM_INFEASIBLE
   use strings, only: real_brief, itoa
+  use work_arrays, only: grow
   implicit none
   private
   public :: self_contact_model_t
@@ -63,10 +71,28 @@ module self_contact
   !> rows tall, so a fold fetches the rows near it, not whole strips.
   integer, parameter :: PATCH_ROWS = 4
 
+  !> The hooks' messages and scratch, kept from call to call (grown only
+  !> when too small). Reached through a pointer: the forces, Jacobian,
+  !> gather and accept hooks have `this` intent(in) (the residual is one
+  !> function of the state), yet their messages and scratch are written.
+  type :: self_work_t
+    type(self_exchange_t) :: xch                !< the list's plan of rows and its message buffers
+    type(self_exchange_t) :: swept              !< the step limit's plan beyond the skin
+    type(self_pairs_t) :: cand                  !< the step limit's swept candidates (OWN_LOWEST)
+    type(self_blocks_t) :: blocks               !< the narrow phase's blocks
+    integer, allocatable :: srows(:)            !< (nrows+) the swept plan's present rows
+    real(rp), allocatable :: xall(:, :, :)      !< (6, 0:nx-1, nrows+) present rows' positions (and update) [length]
+    real(rp), allocatable :: fall(:, :, :)      !< (3, 0:nx-1, nrows+) forces on them [force]; (1, ...) masks
+    real(rp), allocatable :: mask(:, :, :)      !< (1, 0:nx-1, ys:ye) 1 on a constrained node
+    real(rp), allocatable :: xd(:, :, :)        !< (6, 0:nx-1, max(ys-1,0):min(ye+1,ny-1)) positions, update [length]
+    integer :: regrown = 0                      !< reallocations of xall, fall, srows
+  end type self_work_t
+
   !> The cloth's self-contact on a rank's strip; written by this module's
   !> procedures alone.
   type, extends(process_model_t) :: self_contact_model_t
     private
+    type(self_work_t), pointer :: w => null()   !< messages and scratch (made at set-up, freed by destroy)
     type(self_lattice_t) :: sl                  !< the lattice as the kernels number it
     type(contact_params_t) :: cp                !< thickness = xi, dhat, kappa
     real(rp) :: rest_reach = 0.0_rp             !< pairs nearer at rest are left out: dhat + xi [length]
@@ -74,9 +100,10 @@ module self_contact
     integer :: rank_up = MPI_PROC_NULL          !< the rank owning row ye+1 (none at the top)
     integer :: rank_down = MPI_PROC_NULL        !< the rank owning row ys-1 (none at the bottom)
     ! the candidate list: written at set-up, after an accepted step and by
-    ! the step limit when a node has moved skin/2 since it was made
-    type(self_exchange_t) :: xch                !< the rows fetched from the other ranks
-    integer, allocatable :: rows(:)             !< the present rows, ascending (owned and fetched)
+    ! the step limit when a node has moved skin/2 since it was made (its
+    ! plan of rows, w%xch, is in the work arrays: the gathers write buffers)
+    integer, allocatable :: rows(:)             !< (nrows+) the present rows, ascending (owned and fetched)
+    integer :: nrows = 0                        !< their number
     type(self_pairs_t) :: pairs                 !< candidates within dhat + xi + skin (OWN_TOUCH)
     real(rp), allocatable :: x_list(:, :, :)    !< (3, 0:nx-1, ys:ye) positions the list was made at [length]
     ! the last accepted state's record, over all ranks (the accepted hook)
@@ -89,6 +116,8 @@ module self_contact
     ! counts since the start (checkpointed)
     integer :: limited = 0                      !< updates the step limit shortened (alpha < 1)
     integer :: rebuilt = 0                      !< lists made again within a step (a node moved skin/2)
+    integer :: regrown_setup = 0                !< work arrays' reallocations at set-up (this rank)
+    integer :: regrown = 0                      !< and since, summed over ranks (the accepted hook)
   contains
     procedure :: name => self_name
     procedure :: hints => self_hints
@@ -103,6 +132,7 @@ module self_contact
     procedure :: output => self_output
     procedure :: checkpoint => self_checkpoint
     procedure :: restore => self_restore
+    procedure :: destroy => self_destroy
   end type self_contact_model_t
 
 contains
@@ -137,6 +167,7 @@ contains
     character(*), intent(out) :: errmsg
     integer :: nrank, r, mpierr, node(4)
     integer, allocatable :: strips(:, :)
+    real(rp), allocatable :: dx0(:, :, :)
     real(rp) :: g
     this%sl = self_lattice_t(nx=lat%nx, ny=lat%ny, split=SPLIT_MAIN, ax=lat%ax, ay=lat%ay)
     this%cp = contact_params_t(thickness=2.0_rp * cfg%contact%thickness, dhat=cfg%contact%dhat, &
@@ -151,13 +182,26 @@ contains
       if (strips(1, r) <= strips(2, r) .and. strips(2, r) == lat%ys - 1) this%rank_down = r
     end do
     allocate(this%x_list(3, 0:lat%nx - 1, lat%ys:lat%ye))
+    if (associated(this%w)) deallocate(this%w)
+    allocate(this%w)
+    allocate(this%w%mask(1, 0:lat%nx - 1, lat%ys:lat%ye))
+    allocate(this%w%xd(6, 0:lat%nx - 1, max(lat%ys - 1, 0):min(lat%ye + 1, lat%ny - 1)))
+    this%w%xd = 0.0_rp
+    call self_blocks_reserve(this%w%blocks, 16 * max(lat%nx * (lat%ye - lat%ys + 1) / 4, 1))
     call make_list(this, lat, comm, u(0:2, :, max(lat%ys - 1, 0):min(lat%ye + 1, lat%ny - 1)), ierr)
     errmsg = ''
     if (ierr /= 0) then
       errmsg = 'nuno: self_contact: the exchange of rows between ranks failed at set-up'
       return
     end if
+    ! The step limit's swept plan and candidates sized once here (a null update)
+    allocate(dx0(0:2, 0:lat%nx - 1, lat%ys:lat%ye))
+    dx0 = 0.0_rp
+    call swept_alpha(this, lat, comm, u(0:2, :, lat%ys:lat%ye), dx0, g, ierr)
+    ! and the list's message buffers for the most values a node it sends (6: the step limit's)
+    call self_exchange_gather(this%w%xch, this%w%xd(:, :, lat%ys:lat%ye), this%w%xall(:, :, 1:this%nrows), ierr)
     call smallest_gap(this, lat, comm, u, g, node, ierr)
+    this%regrown_setup = regrown_count(this)
     if (ierr /= 0 .or. g > 0.0_rp) return
     ierr = 1
     errmsg = 'input: &contact: self_contact: the initial state has the cloth at a gap of '//real_brief(g)// &
@@ -176,14 +220,14 @@ contains
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)
     real(rp), intent(inout) :: f(:, 0:, lat%ys:)
     integer, intent(out) :: status
-    real(rp) :: xall(3, 0:lat%nx - 1, size(this%rows)), fall(3, 0:lat%nx - 1, size(this%rows)), e
-    type(self_blocks_t) :: blocks
-    integer :: nact, ierr, i, j
-    call narrow_phase(this, lat, u, .false., xall, fall, e, blocks, nact, ierr)
+    real(rp) :: e
+    integer :: nact, ierr, i, j, off
+    call narrow_phase(this, lat, u, .false., e, nact, ierr)
     status = merge(PM_INFEASIBLE, PM_FEASIBLE, ierr /= 0 .or. e >= huge(1.0_rp))
+    off = row_offset(this, lat)
     do j = lat%ys, lat%ye
       do i = 0, lat%nx - 1
-        if (.not. fixed(i, j)) f(1:3, i, j) = f(1:3, i, j) + fall(:, i, j - lat%ys + 1 + row_offset(this, lat))
+        if (.not. fixed(i, j)) f(1:3, i, j) = f(1:3, i, j) + this%w%fall(1:3, i, j - lat%ys + 1 + off)
       end do
     end do
   end subroutine self_forces
@@ -195,7 +239,7 @@ contains
     type(lattice_t), intent(in) :: lat
     integer :: k
     row_offset = 0
-    do k = 1, size(this%rows)
+    do k = 1, this%nrows
       if (this%rows(k) == lat%ys) then
         row_offset = k - 1
         return
@@ -203,26 +247,28 @@ contains
     end do
   end function row_offset
 
-  !> The candidates' barrier at the ghosted state u: positions of the
-  !> present rows xall (the fetched rows gathered), the forces fall on
-  !> them, the energy e of the pairs counted here (huge: a gap <= 0), the
-  !> blocks (projected: minus the PSD part) and the active pairs counted
-  !> here. Collective (the gather).
-  subroutine narrow_phase(this, lat, u, project, xall, fall, e, blocks, nact, ierr)
+  !> The candidates' barrier at the ghosted state u, into the work
+  !> arrays: positions of the present rows w%xall(1:3) (the fetched rows
+  !> gathered), the forces w%fall on them, the blocks w%blocks (projected:
+  !> minus the PSD part); the energy e of the pairs counted here (huge: a
+  !> gap <= 0) and the active pairs counted here. Collective (the gather).
+  subroutine narrow_phase(this, lat, u, project, e, nact, ierr)
     class(self_contact_model_t), intent(in) :: this
     type(lattice_t), intent(in) :: lat
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)
     logical, intent(in) :: project
-    real(rp), intent(out) :: xall(:, 0:, :), fall(:, 0:, :), e
-    type(self_blocks_t), intent(inout) :: blocks
+    real(rp), intent(out) :: e
     integer, intent(out) :: nact, ierr
-    call self_exchange_gather(this%xch, u(0:2, :, lat%ys:lat%ye), xall, ierr)
-    fall = 0.0_rp
-    e = 0.0_rp
-    nact = 0
-    if (ierr /= 0) return
-    call self_barrier_forces(this%sl, this%rows, xall, this%pairs, lat%ys, lat%ye, this%cp, project, e, fall, &
-                             blocks, nact)
+    associate (w => this%w, n => this%nrows)
+      call self_exchange_gather(w%xch, u(0:2, :, lat%ys:lat%ye), w%xall(1:3, :, 1:n), ierr)
+      w%fall(:, :, 1:n) = 0.0_rp
+      e = 0.0_rp
+      nact = 0
+      w%blocks%n = 0
+      if (ierr /= 0) return
+      call self_barrier_forces(this%sl, this%rows(1:n), w%xall(1:3, :, 1:n), this%pairs, lat%ys, lat%ye, this%cp, &
+                               project, e, w%fall(:, :, 1:n), w%blocks, nact)
+    end associate
   end subroutine narrow_phase
 
   !> The blocks of each active pair on its free owned nodes a (the
@@ -238,15 +284,18 @@ contains
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)
     type(node_blocks_t), intent(inout) :: nodal
     type(pair_blocks_t), intent(inout) :: pairs
-    real(rp) :: xall(3, 0:lat%nx - 1, size(this%rows)), fall(3, 0:lat%nx - 1, size(this%rows)), e, zero(3, 3)
-    ! 1 on a constrained node, owned rows and the fetched ones
-    real(rp) :: mask(1, 0:lat%nx - 1, lat%ys:lat%ye), mall(1, 0:lat%nx - 1, size(this%rows))
-    type(self_blocks_t) :: blocks
+    real(rp) :: e, zero(3, 3)
     integer :: nact, ierr, m, i, j, ib, jb, slot(0:lat%ny - 1)
-    call narrow_phase(this, lat, u, .true., xall, fall, e, blocks, nact, ierr)
-    mask(1, :, :) = merge(1.0_rp, 0.0_rp, fixed(:, lat%ys:lat%ye))
-    call self_exchange_gather(this%xch, mask, mall, ierr)
-    call self_row_slots(this%sl, this%rows, slot)
+    call narrow_phase(this, lat, u, .true., e, nact, ierr)
+    ! 1 on a constrained node, owned rows (mask) and present ones (mall: fall's first row, the forces done)
+    associate (blocks => this%w%blocks, mask => this%w%mask, mall => this%w%fall(1:1, :, 1:this%nrows))
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
+        mask(1, i, j) = merge(1.0_rp, 0.0_rp, fixed(i, j))
+      end do
+    end do
+    call self_exchange_gather(this%w%xch, mask, mall, ierr)
+    call self_row_slots(this%sl, this%rows(1:this%nrows), slot)
     zero = 0.0_rp
     do m = 1, blocks%n
       i = mod(blocks%a(m), lat%nx)
@@ -261,13 +310,21 @@ contains
         call pair_blocks_add(pairs, i, j, ib, jb, mall(1, ib, slot(jb)) > 0.0_rp, blocks%k(:, :, m), zero)
       end if
     end do
+    end associate
   end subroutine self_jacobian
 
-  !> The rows the pair blocks reach: the list's present rows, ascending.
-  subroutine self_pair_rows(this, rows)
+  !> The rows the pair blocks reach: the list's present rows, ascending
+  !> (slot(j): row j's position among them, 0 where absent; n of them).
+  subroutine self_pair_rows(this, slot, n)
     class(self_contact_model_t), intent(in) :: this
-    integer, allocatable, intent(out) :: rows(:)
-    rows = this%rows
+    integer, intent(out) :: slot(0:)
+    integer, intent(out) :: n
+    integer :: k
+    n = this%nrows
+    slot = 0
+    do k = 1, n
+      slot(this%rows(k)) = k
+    end do
   end subroutine self_pair_rows
 
   !> A vector's present rows vall (nv, 0:nx-1, size(rows)) from its owned
@@ -280,17 +337,18 @@ contains
     real(rp), intent(inout) :: vall(:, 0:, :)
     integer, intent(out) :: ierr
     ierr = 0
-    if (size(vall, 3) /= size(this%rows)) then
+    if (size(vall, 3) /= this%nrows) then
       ierr = 1
       return
     end if
-    call self_exchange_gather(this%xch, v, vall, ierr)
+    call self_exchange_gather(this%w%xch, v, vall, ierr)
   end subroutine self_pair_gather
 
   !> Flavour (a): the update x -> x + dx scaled by the smallest ACCD alpha
   !> (a tenth of each gap kept) over the pairs its paths may bring within
   !> xi, the minimum over the ranks. Where every node's path stays within
-  !> skin/2 of the list's positions (both ends: the path is a segment) the
+  !> skin/2 of the list's positions less the mean translation
+  !> (relative_move; both ends: the path is a segment) the
   !> list holds every such pair (they were within xi + skin of each other
   !> at its positions) and its pairs serve; else a swept broad phase with
   !> a plan of rows of its own (swept_alpha), and the list made again at
@@ -305,21 +363,22 @@ contains
     integer, intent(in) :: comm
     real(rp), intent(out) :: alpha
     integer, intent(out) :: status
-    real(rp) :: xd(6, 0:lat%nx - 1, lat%ys:lat%ye), xall(6, 0:lat%nx - 1, size(this%rows)), a, far, gfar
-    integer :: ierr, mpierr
+    real(rp) :: a, gfar
+    integer :: ierr, mpierr, n
+    n = this%nrows
+    associate (xd => this%w%xd(:, :, lat%ys:lat%ye), xall => this%w%xall(:, :, 1:n))
     xd(1:3, :, :) = x(0:2, :, lat%ys:lat%ye)
     xd(4:6, :, :) = dx(0:2, :, lat%ys:lat%ye)
-    far = 0.0_rp
-    if (lat%ye >= lat%ys) far = max(maxval(norm2(xd(1:3, :, :) - this%x_list, dim=1)), &
-                                    maxval(norm2(xd(1:3, :, :) + xd(4:6, :, :) - this%x_list, dim=1)))
-    call MPI_Allreduce(far, gfar, 1, MPI_DOUBLE_PRECISION, MPI_MAX, comm, mpierr)
+    gfar = max(relative_move(this, lat, comm, xd, 0.0_rp), relative_move(this, lat, comm, xd, 1.0_rp))
     if (gfar <= 0.5_rp * this%skin) then
-      call self_exchange_gather(this%xch, xd, xall, ierr)
-      a = self_alpha_ccd(this%sl, this%rows, xall(1:3, :, :), xall(4:6, :, :), this%pairs, this%cp%thickness, ACCD_S)
+      call self_exchange_gather(this%w%xch, xd, xall, ierr)
+      a = self_alpha_ccd(this%sl, this%rows(1:n), xall(1:3, :, :), xall(4:6, :, :), this%pairs, this%cp%thickness, &
+                         ACCD_S)
       call MPI_Allreduce(a, alpha, 1, MPI_DOUBLE_PRECISION, MPI_MIN, comm, mpierr)
     else
       call swept_alpha(this, lat, comm, x, dx, alpha, ierr)
     end if
+    end associate
     status = merge(PM_INFEASIBLE, PM_FEASIBLE, alpha <= 0.0_rp .or. ierr /= 0)
     if (alpha < 1.0_rp) this%limited = this%limited + 1
   end subroutine self_step_limit
@@ -336,32 +395,73 @@ contains
     real(rp), intent(in) :: x(0:, 0:, lat%ys:), dx(0:, 0:, lat%ys:)
     real(rp), intent(out) :: alpha
     integer, intent(out) :: ierr
+    real(rp) :: a, gmoved
+    integer :: mpierr, n
+    associate (w => this%w, xd => this%w%xd)
     ! positions and updates of the owned rows and the rows below and above [length]
-    real(rp) :: xd(6, 0:lat%nx - 1, max(lat%ys - 1, 0):min(lat%ye + 1, lat%ny - 1))
-    type(self_exchange_t) :: swept
-    type(self_pairs_t) :: cand
-    integer, allocatable :: rows(:)
-    real(rp), allocatable :: xall(:, :, :)
-    real(rp) :: a, moved, gmoved
-    integer :: mpierr
     call with_neighbour_rows(this, lat, comm, x, dx, xd)
-    call self_exchange_plan_swept(swept, comm, lat%nx, lat%ny, lat%ys, lat%ye, xd(1:3, :, :), xd(4:6, :, :), &
+    call self_exchange_plan_swept(w%swept, comm, lat%nx, lat%ny, lat%ys, lat%ye, xd(1:3, :, :), xd(4:6, :, :), &
                                   this%cp%thickness, PATCH_ROWS, ierr)
-    call self_exchange_rows(swept, rows)
-    allocate(xall(6, 0:lat%nx - 1, size(rows)))
-    call self_exchange_gather(swept, xd(:, :, lat%ys:lat%ye), xall, ierr)
-    call self_candidates_swept(this%sl, rows, xall(1:3, :, :), xall(4:6, :, :), lat%ys, lat%ye, OWN_LOWEST, &
-                               this%cp%thickness, this%rest_reach, cand)
-    a = self_alpha_ccd(this%sl, rows, xall(1:3, :, :), xall(4:6, :, :), cand, this%cp%thickness, ACCD_S)
+    n = self_exchange_nrows(w%swept)
+    call work_rows(w, lat%nx, n)
+    call grow(w%srows, n, w%regrown)
+    call self_exchange_rows_copy(w%swept, w%srows)
+    call self_exchange_gather(w%swept, xd(:, :, lat%ys:lat%ye), w%xall(:, :, 1:n), ierr)
+    call self_candidates_swept(this%sl, w%srows(1:n), w%xall(1:3, :, 1:n), w%xall(4:6, :, 1:n), lat%ys, lat%ye, &
+                               OWN_LOWEST, this%cp%thickness, this%rest_reach, w%cand)
+    a = self_alpha_ccd(this%sl, w%srows(1:n), w%xall(1:3, :, 1:n), w%xall(4:6, :, 1:n), w%cand, this%cp%thickness, &
+                       ACCD_S)
     call MPI_Allreduce(a, alpha, 1, MPI_DOUBLE_PRECISION, MPI_MIN, comm, mpierr)
-    moved = 0.0_rp
-    if (lat%ye >= lat%ys) moved = maxval(norm2(xd(1:3, :, lat%ys:lat%ye) + alpha * xd(4:6, :, lat%ys:lat%ye) - &
-                                               this%x_list, dim=1))
-    call MPI_Allreduce(moved, gmoved, 1, MPI_DOUBLE_PRECISION, MPI_MAX, comm, mpierr)
+    gmoved = relative_move(this, lat, comm, xd(:, :, lat%ys:lat%ye), alpha)
     if (gmoved <= 0.5_rp * this%skin) return
-    call make_list(this, lat, comm, xd(1:3, :, :) + alpha * xd(4:6, :, :), ierr)
+    ! the limited candidate, in place of the positions (xd is scratch)
+    xd(1:3, :, :) = xd(1:3, :, :) + alpha * xd(4:6, :, :)
+    call make_list(this, lat, comm, xd(1:3, :, :), ierr)
     this%rebuilt = this%rebuilt + 1
+    end associate
   end subroutine swept_alpha
+
+  !> How far the nodes have moved from the list's positions xl apart from
+  !> a common translation: the largest |d_i - T| over all nodes, d_i =
+  !> xd(1:3) + alpha xd(4:6) - xl (a point on the update's path) and T
+  !> the mean of d over the lattice. A pair's distance depends on the
+  !> difference of its nodes' positions, so it has changed by at most
+  !> twice this since the list was made: the Verlet list's test. (The
+  !> largest |d_i| itself made a falling sheet's skin, and its list, grow
+  !> with its speed.) Collective.
+  real(rp) function relative_move(this, lat, comm, xd, alpha) result(gfar)
+    class(self_contact_model_t), intent(in) :: this
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: comm
+    real(rp), intent(in) :: xd(:, 0:, :)         ! (6, 0:nx-1, ys:ye) positions, update [length]
+    real(rp), intent(in) :: alpha                ! [1]
+    real(rp) :: sums(3), gsums(3), d(3), far
+    integer :: i, j, mpierr
+    sums = 0.0_rp
+    do j = 1, size(xd, 3)
+      do i = 0, size(xd, 2) - 1
+        sums = sums + (xd(1:3, i, j) + alpha * xd(4:6, i, j) - this%x_list(:, i, lat%ys + j - 1))
+      end do
+    end do
+    call MPI_Allreduce(sums, gsums, 3, MPI_DOUBLE_PRECISION, MPI_SUM, comm, mpierr)
+    gsums = gsums / real(lat%nx * lat%ny, rp)
+    far = 0.0_rp
+    do j = 1, size(xd, 3)
+      do i = 0, size(xd, 2) - 1
+        d = xd(1:3, i, j) + alpha * xd(4:6, i, j) - this%x_list(:, i, lat%ys + j - 1)
+        far = max(far, norm2(d - gsums))
+      end do
+    end do
+    call MPI_Allreduce(far, gfar, 1, MPI_DOUBLE_PRECISION, MPI_MAX, comm, mpierr)
+  end function relative_move
+
+  !> The work arrays of the present rows at least nrows long.
+  subroutine work_rows(w, nx, nrows)
+    type(self_work_t), intent(inout) :: w
+    integer, intent(in) :: nx, nrows
+    call grow(w%xall, 6, nx, nrows, w%regrown)
+    call grow(w%fall, 3, nx, nrows, w%regrown)
+  end subroutine work_rows
 
   !> The positions and updates (x, dx: 0:2 of (0:5, 0:nx-1, ys:ye)) of
   !> the owned rows and of the rows ys-1 and ye+1 from the ranks below and
@@ -396,17 +496,22 @@ contains
     integer, intent(in) :: comm
     real(rp), intent(in) :: x(:, 0:, max(lat%ys - 1, 0):)
     integer, intent(out) :: ierr
-    real(rp), allocatable :: xall(:, :, :)
-    call self_exchange_plan(this%xch, comm, lat%nx, lat%ny, lat%ys, lat%ye, x, this%rest_reach + this%skin, &
+    integer :: n
+    associate (w => this%w)
+    call self_exchange_plan(w%xch, comm, lat%nx, lat%ny, lat%ys, lat%ye, x, this%rest_reach + this%skin, &
                             PATCH_ROWS, ierr)
     if (ierr /= 0) return
-    call self_exchange_rows(this%xch, this%rows)
-    allocate(xall(3, 0:lat%nx - 1, size(this%rows)))
-    call self_exchange_gather(this%xch, x(1:3, :, lat%ys:lat%ye), xall, ierr)
+    n = self_exchange_nrows(w%xch)
+    this%nrows = n
+    call grow(this%rows, n, w%regrown)
+    call self_exchange_rows_copy(w%xch, this%rows)
+    call work_rows(w, lat%nx, n)
+    call self_exchange_gather(w%xch, x(1:3, :, lat%ys:lat%ye), w%xall(1:3, :, 1:n), ierr)
     if (ierr /= 0) return
-    call self_candidates(this%sl, this%rows, xall, lat%ys, lat%ye, OWN_TOUCH, this%rest_reach + this%skin, &
-                         this%rest_reach, this%pairs)
+    call self_candidates(this%sl, this%rows(1:n), w%xall(1:3, :, 1:n), lat%ys, lat%ye, OWN_TOUCH, &
+                         this%rest_reach + this%skin, this%rest_reach, this%pairs)
     this%x_list = x(1:3, :, lat%ys:lat%ye)
+    end associate
   end subroutine make_list
 
   !> The smallest gap g over the candidate pairs at u, the same on every
@@ -419,10 +524,11 @@ contains
     real(rp), intent(in) :: u(0:, 0:, lat%gys:)
     real(rp), intent(out) :: g
     integer, intent(out) :: node(4), ierr
-    real(rp) :: xall(3, 0:lat%nx - 1, size(this%rows)), gm, loc(2), glob(2)
+    real(rp) :: gm, loc(2), glob(2)
     integer :: slot(0:lat%ny - 1), m, mpierr
-    call self_exchange_gather(this%xch, u(0:2, :, lat%ys:lat%ye), xall, ierr)
-    call self_row_slots(this%sl, this%rows, slot)
+    associate (xall => this%w%xall(1:3, :, 1:this%nrows))
+    call self_exchange_gather(this%w%xch, u(0:2, :, lat%ys:lat%ye), xall, ierr)
+    call self_row_slots(this%sl, this%rows(1:this%nrows), slot)
     g = huge(1.0_rp)
     node = 0
     do m = 1, this%pairs%n
@@ -433,6 +539,7 @@ contains
         node = this%pairs%node(:, m)
       end if
     end do
+    end associate
     loc = [g, 0.0_rp]
     call MPI_Comm_rank(comm, m, mpierr)
     loc(2) = real(m, rp)
@@ -487,34 +594,40 @@ contains
     integer, intent(in) :: comm
     integer, intent(out) :: ierr
     character(*), intent(out) :: errmsg
-    real(rp), allocatable :: xall(:, :, :), fall(:, :, :)
-    type(self_blocks_t) :: blocks
-    real(rp) :: moved, gmoved, e, ge, g
-    integer :: nact, counts(2), gcounts(2), nsrc, npatch, node(4), mpierr
+    real(rp) :: gmoved, e, ge, g
+    integer :: nact, counts(3), gcounts(3), nsrc, npatch, node(4), mpierr, j
     ierr = 0
     errmsg = ''
     if (this%have_last .and. t == this%t_seen) return
-    moved = 0.0_rp
-    if (this%have_last .and. lat%ye >= lat%ys) moved = maxval(norm2(u(0:2, :, lat%ys:lat%ye) - this%x_list, dim=1))
-    call MPI_Allreduce(moved, gmoved, 1, MPI_DOUBLE_PRECISION, MPI_MAX, comm, mpierr)
+    gmoved = 0.0_rp
+    if (this%have_last) then
+      associate (xd => this%w%xd(:, :, lat%ys:lat%ye))
+        do j = lat%ys, lat%ye
+          xd(1:3, :, j - lat%ys + 1) = u(0:2, :, j)
+        end do
+        xd(4:6, :, :) = 0.0_rp
+        gmoved = relative_move(this, lat, comm, xd, 0.0_rp)
+      end associate
+    end if
     this%skin = max(this%cp%dhat, 2.0_rp * gmoved)
     call make_list(this, lat, comm, u(0:2, :, max(lat%ys - 1, 0):min(lat%ye + 1, lat%ny - 1)), ierr)
     if (ierr /= 0) then
       errmsg = 'nuno: self_contact: the exchange of rows between ranks failed at t = '//real_brief(t)
       return
     end if
-    allocate(xall(3, 0:lat%nx - 1, size(this%rows)), fall(3, 0:lat%nx - 1, size(this%rows)))
-    call narrow_phase(this, lat, u, .false., xall, fall, e, blocks, nact, ierr)
-    call self_exchange_counts(this%xch, counts(2), nsrc, npatch)
+    call narrow_phase(this, lat, u, .false., e, nact, ierr)
+    call self_exchange_counts(this%w%xch, counts(2), nsrc, npatch)
     counts(1) = nact
+    counts(3) = regrown_count(this) - this%regrown_setup
     call MPI_Allreduce(e, ge, 1, MPI_DOUBLE_PRECISION, MPI_SUM, comm, mpierr)
-    call MPI_Allreduce(counts, gcounts, 2, MPI_INTEGER, MPI_SUM, comm, mpierr)
+    call MPI_Allreduce(counts, gcounts, 3, MPI_INTEGER, MPI_SUM, comm, mpierr)
     call smallest_gap(this, lat, comm, u, g, node, ierr)
     this%t_seen = t
     this%have_last = .true.
     this%energy = ge
     this%active = gcounts(1)
     this%fetched = gcounts(2)
+    this%regrown = gcounts(3)
     this%min_gap = g
     if (g > 0.0_rp) return
     ierr = 1
@@ -542,6 +655,9 @@ contains
                   'broad phase, summed over the ranks', is_count=.true., count=this%fetched), &
       pm_series_t(name='/self_contact/limited', description='Newton updates and predictors shortened by the '// &
                   'self-contact step limit since the start', is_count=.true., count=this%limited), &
+      pm_series_t(name='/self_contact/regrown', description='work arrays of the self-contact (candidate and '// &
+                  'block lists, hash tables, message buffers) reallocated larger since set-up, summed over the '// &
+                  'ranks', is_count=.true., count=this%regrown), &
       pm_series_t(name='/energy/barrier_self', description='barrier energy of the cloth''s self-contact pairs '// &
                   '(a potential energy of the balance)', units='energy', values=[this%energy, 0.0_rp, 0.0_rp])]
     groups = [pm_group_t(name='/self_contact', description='the cloth''s contact with itself (&contact''s '// &
@@ -572,5 +688,22 @@ contains
     end do
     this%have_last = .false.
   end subroutine self_restore
+
+  !> The work arrays freed.
+  subroutine self_destroy(this)
+    class(self_contact_model_t), intent(inout) :: this
+    if (.not. associated(this%w)) return
+    call self_exchange_free(this%w%xch)
+    call self_exchange_free(this%w%swept)
+    deallocate(this%w)
+  end subroutine self_destroy
+
+  !> This rank's reallocations of work arrays since the model was made
+  !> (the lists', the plans', the hooks').
+  integer function regrown_count(this) result(n)
+    class(self_contact_model_t), intent(in) :: this
+    n = self_pairs_regrown(this%pairs) + self_pairs_regrown(this%w%cand) + self_blocks_regrown(this%w%blocks) + &
+        self_exchange_regrown(this%w%xch) + self_exchange_regrown(this%w%swept) + this%w%regrown
+  end function regrown_count
 
 end module self_contact

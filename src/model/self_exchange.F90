@@ -31,21 +31,49 @@
 module self_exchange
   use mpi
   use kinds, only: rp
+  use work_arrays, only: grow, push
   implicit none
   private
   public :: self_exchange_t, self_exchange_plan, self_exchange_plan_swept, self_exchange_rows
   public :: self_exchange_gather, self_exchange_add, self_exchange_min, self_exchange_free, self_exchange_counts
+  public :: self_exchange_nrows, self_exchange_rows_copy, self_exchange_regrown
 
-  !> One plan: the present rows and the messages that fill them.
+  !> The rows exchanged with other ranks, grouped by rank (CSR: the rows of rank(q) are
+  !> rows(first(q):first(q+1)-1), q = 1..n; the arrays may be longer).
+  type :: msg_list_t
+    integer :: n = 0, nrows = 0
+    integer, allocatable :: rank(:), first(:), rows(:)
+  end type msg_list_t
+
+  !> The plan's tables, kept from one plan to the next (grown when too short).
+  type :: plan_work_t
+    integer, allocatable :: counts(:), displ(:), first(:)   ! (0:nranks-1), (0:nranks-1), (0:nranks) patches a rank
+    integer, allocatable :: vcounts(:)                      ! (0:nranks-1) numbers a rank in an MPI_Allgatherv
+    integer, allocatable :: own_lo(:), own_hi(:)            ! (0:nranks-1) each rank's rows
+    integer, allocatable :: owner(:)                        ! (0:ny-1) each row's rank
+    logical, allocatable :: mark(:)                         ! (0:ny-1) rows needed
+    integer, allocatable :: qlist(:)                        ! (ntot+) patches tested
+    integer, allocatable :: rr(:, :), gr(:, :)              ! (2, np+), (2, ntot+) anchor rows: own, all
+    real(rp), allocatable :: bb(:, :), gb(:, :)             ! (6, np+), (6, ntot+) boxes: own, all [length]
+    real(rp), allocatable :: x1(:, :, :)                    ! (3, 0:nx-1, rows+) a swept plan's end positions [length]
+  end type plan_work_t
+
+  !> One plan: the present rows and the messages that fill them, with the buffers of
+  !> those messages (kept from call to call; regrown counts their reallocations).
   type :: self_exchange_t
     private
     integer :: comm = MPI_COMM_NULL
     integer :: nx = 0, ny = 0, ys = 0, ye = -1
     integer :: npatch_total = 0
-    integer, allocatable :: rows(:)                 ! present rows, ascending: owned and fetched
+    integer :: nrows = 0
+    integer, allocatable :: rows(:)                 ! (nrows+) present rows, ascending: owned and fetched
     integer, allocatable :: slot(:)                 ! (0:ny-1) position in rows, 0 when absent
-    integer, allocatable :: recv_rank(:), recv_first(:), recv_rows(:)   ! fetched rows by owner
-    integer, allocatable :: send_rank(:), send_first(:), send_rows(:)   ! owned rows by the rank they go to
+    type(msg_list_t) :: recv                        ! fetched rows by owner
+    type(msg_list_t) :: send                        ! owned rows by the rank they go to
+    real(rp), allocatable :: rbuf(:), sbuf(:)       ! message buffers
+    integer, allocatable :: req(:)                  ! their requests
+    type(plan_work_t) :: pw
+    integer :: regrown = 0
   end type self_exchange_t
 
   integer, parameter :: TAG_FETCH = 4901, TAG_RETURN = 4902
@@ -57,31 +85,35 @@ contains
   !> and above (x(:, :, max(ys - 1, 0):min(ye + 1, ny - 1)), the DMDA's ghost rows): boxes
   !> grown by reach. Collective.
   subroutine self_exchange_plan(xch, comm, nx, ny, ys, ye, x, reach, patch_rows, ierr)
-    type(self_exchange_t), intent(out) :: xch
+    type(self_exchange_t), intent(inout) :: xch
     integer, intent(in) :: comm, nx, ny, ys, ye
     real(rp), intent(in) :: x(:, 0:, max(ys - 1, 0):)   ! (3+, 0:nx-1, max(ys-1,0):min(ye+1,ny-1)) [length]
     real(rp), intent(in) :: reach                    ! [length], the same on every rank
     integer, intent(in) :: patch_rows                ! anchor rows a patch, >= 1
     integer, intent(out) :: ierr
-    real(rp), allocatable :: lo(:, :), hi(:, :)
+    integer :: np
 
-    call local_boxes(nx, ny, ys, ye, x, x, patch_rows, lo, hi)
-    call plan_from_boxes(xch, comm, nx, ny, ys, ye, patch_rows, lo, hi, reach, ierr)
+    np = local_boxes(ny, ys, ye, x, x, patch_rows, xch%pw%bb, xch%regrown)
+    call plan_from_boxes(xch, comm, nx, ny, ys, ye, patch_rows, np, reach, ierr)
   end subroutine self_exchange_plan
 
   !> As self_exchange_plan for the paths x -> x + dx (boxes over both ends), grown by margin.
   subroutine self_exchange_plan_swept(xch, comm, nx, ny, ys, ye, x, dx, margin, patch_rows, ierr)
-    type(self_exchange_t), intent(out) :: xch
+    type(self_exchange_t), intent(inout) :: xch
     integer, intent(in) :: comm, nx, ny, ys, ye
     real(rp), intent(in) :: x(:, 0:, max(ys - 1, 0):), dx(:, 0:, max(ys - 1, 0):)   ! as x of self_exchange_plan
     real(rp), intent(in) :: margin
     integer, intent(in) :: patch_rows
     integer, intent(out) :: ierr
-    real(rp), allocatable :: lo(:, :), hi(:, :), x1(:, :, :)
+    integer :: np, nr
 
-    x1 = x(1:3, :, :) + dx(1:3, :, :)
-    call local_boxes(nx, ny, ys, ye, x, x1, patch_rows, lo, hi)
-    call plan_from_boxes(xch, comm, nx, ny, ys, ye, patch_rows, lo, hi, margin, ierr)
+    nr = size(x, 3)
+    call grow(xch%pw%x1, 3, nx, nr, xch%regrown)
+    associate (x1 => xch%pw%x1(:, :, 1:nr))
+      x1 = x(1:3, :, :) + dx(1:3, :, :)
+      np = local_boxes(ny, ys, ye, x, x1, patch_rows, xch%pw%bb, xch%regrown)
+    end associate
+    call plan_from_boxes(xch, comm, nx, ny, ys, ye, patch_rows, np, margin, ierr)
   end subroutine self_exchange_plan_swept
 
   !> The present rows (owned and fetched), ascending: the rows of self_broad's arrays.
@@ -89,67 +121,100 @@ contains
     type(self_exchange_t), intent(in) :: xch
     integer, allocatable, intent(out) :: rows(:)
 
-    rows = xch%rows
+    rows = xch%rows(1:xch%nrows)
   end subroutine self_exchange_rows
+
+  !> The number of present rows.
+  pure integer function self_exchange_nrows(xch) result(n)
+    type(self_exchange_t), intent(in) :: xch
+
+    n = xch%nrows
+  end function self_exchange_nrows
+
+  !> rows(1:self_exchange_nrows(xch)) <- the present rows (rows at least that long).
+  subroutine self_exchange_rows_copy(xch, rows)
+    type(self_exchange_t), intent(in) :: xch
+    integer, intent(inout) :: rows(:)
+
+    rows(1:xch%nrows) = xch%rows(1:xch%nrows)
+  end subroutine self_exchange_rows_copy
+
+  !> Times the plan's tables and buffers were reallocated larger since it was made.
+  pure integer function self_exchange_regrown(xch) result(n)
+    type(self_exchange_t), intent(in) :: xch
+
+    n = xch%regrown
+  end function self_exchange_regrown
 
   !> Counts for the diagnostics: rows fetched, ranks they come from, patches of all ranks.
   subroutine self_exchange_counts(xch, nfetched, nsources, npatches)
     type(self_exchange_t), intent(in) :: xch
     integer, intent(out) :: nfetched, nsources, npatches
 
-    nfetched = size(xch%recv_rows)
-    nsources = size(xch%recv_rank)
+    nfetched = xch%recv%nrows
+    nsources = xch%recv%n
     npatches = xch%npatch_total
   end subroutine self_exchange_counts
 
   !> xall(:, :, k) <- the values of row rows(k): the owned rows from x, the others from their
   !> owners (nc = size(x, 1) values a node: 3 positions, 6 with an update, ...). Collective.
   subroutine self_exchange_gather(xch, x, xall, ierr)
-    type(self_exchange_t), intent(in) :: xch
+    type(self_exchange_t), intent(inout) :: xch
     real(rp), intent(in) :: x(:, 0:, xch%ys:)         ! (nc, 0:nx-1, ys:ye) at least
     real(rp), intent(out) :: xall(:, 0:, :)           ! (nc, 0:nx-1, size(rows))
     integer, intent(out) :: ierr
-    real(rp), allocatable :: rbuf(:), sbuf(:)
-    integer, allocatable :: req(:)
-    integer :: nc, nrow, k, q, j, m, nreq
+    integer :: nc, nrow, k, q, j, m, nreq, i
 
     nc = size(x, 1)
     nrow = nc * xch%nx
     do j = xch%ys, xch%ye
       xall(:, :, xch%slot(j)) = x(:, :, j)
     end do
-    allocate(rbuf(nrow * size(xch%recv_rows)), sbuf(nrow * size(xch%send_rows)))
-    allocate(req(size(xch%recv_rank) + size(xch%send_rank)))
+    call buffers(xch, nrow * xch%recv%nrows, nrow * xch%send%nrows)
     nreq = 0
     ierr = 0
-    do q = 1, size(xch%recv_rank)
-      m = xch%recv_first(q + 1) - xch%recv_first(q)
+    do q = 1, xch%recv%n
+      m = xch%recv%first(q + 1) - xch%recv%first(q)
       nreq = nreq + 1
-      call MPI_Irecv(rbuf(nrow * (xch%recv_first(q) - 1) + 1), nrow * m, MPI_DOUBLE_PRECISION, xch%recv_rank(q), &
-                     TAG_FETCH, xch%comm, req(nreq), ierr)
+      call MPI_Irecv(xch%rbuf(nrow * (xch%recv%first(q) - 1) + 1), nrow * m, MPI_DOUBLE_PRECISION, xch%recv%rank(q), &
+                     TAG_FETCH, xch%comm, xch%req(nreq), ierr)
       if (ierr /= MPI_SUCCESS) return
     end do
-    do k = 1, size(xch%send_rows)
-      sbuf(nrow * (k - 1) + 1:nrow * k) = reshape(x(:, :, xch%send_rows(k)), [nrow])
+    do k = 1, xch%send%nrows
+      do i = 0, xch%nx - 1
+        xch%sbuf(nrow * (k - 1) + nc * i + 1:nrow * (k - 1) + nc * (i + 1)) = x(:, i, xch%send%rows(k))
+      end do
     end do
-    do q = 1, size(xch%send_rank)
-      m = xch%send_first(q + 1) - xch%send_first(q)
+    do q = 1, xch%send%n
+      m = xch%send%first(q + 1) - xch%send%first(q)
       nreq = nreq + 1
-      call MPI_Isend(sbuf(nrow * (xch%send_first(q) - 1) + 1), nrow * m, MPI_DOUBLE_PRECISION, xch%send_rank(q), &
-                     TAG_FETCH, xch%comm, req(nreq), ierr)
+      call MPI_Isend(xch%sbuf(nrow * (xch%send%first(q) - 1) + 1), nrow * m, MPI_DOUBLE_PRECISION, xch%send%rank(q), &
+                     TAG_FETCH, xch%comm, xch%req(nreq), ierr)
       if (ierr /= MPI_SUCCESS) return
     end do
-    call MPI_Waitall(nreq, req, MPI_STATUSES_IGNORE, ierr)
+    call MPI_Waitall(nreq, xch%req, MPI_STATUSES_IGNORE, ierr)
     if (ierr /= MPI_SUCCESS) return
-    do k = 1, size(xch%recv_rows)
-      xall(:, :, xch%slot(xch%recv_rows(k))) = reshape(rbuf(nrow * (k - 1) + 1:nrow * k), [nc, xch%nx])
+    do k = 1, xch%recv%nrows
+      do i = 0, xch%nx - 1
+        xall(:, i, xch%slot(xch%recv%rows(k))) = xch%rbuf(nrow * (k - 1) + nc * i + 1:nrow * (k - 1) + nc * (i + 1))
+      end do
     end do
   end subroutine self_exchange_gather
+
+  !> The message buffers at least nr and ns long, and a request for each message.
+  subroutine buffers(xch, nr, ns)
+    type(self_exchange_t), intent(inout) :: xch
+    integer, intent(in) :: nr, ns
+
+    call grow(xch%rbuf, nr, xch%regrown)
+    call grow(xch%sbuf, ns, xch%regrown)
+    call grow(xch%req, xch%recv%n + xch%send%n, xch%regrown)
+  end subroutine buffers
 
   !> f(:, :, ys:ye) += the values of fall on the owned rows, here and on every rank that
   !> fetched them (forces of pairs on fetched nodes go back to their owners). Collective.
   subroutine self_exchange_add(xch, fall, f, ierr)
-    type(self_exchange_t), intent(in) :: xch
+    type(self_exchange_t), intent(inout) :: xch
     real(rp), intent(in) :: fall(:, 0:, :)            ! (nc, 0:nx-1, size(rows))
     real(rp), intent(inout) :: f(:, 0:, xch%ys:)      ! (nc, 0:nx-1, ys:ye)
     integer, intent(out) :: ierr
@@ -160,7 +225,7 @@ contains
   !> d(:, :, ys:ye) <- min(d, the values of dall on the owned rows, here and on every rank
   !> that fetched them) (the per-vertex distances of OGC's bounds). Collective.
   subroutine self_exchange_min(xch, dall, d, ierr)
-    type(self_exchange_t), intent(in) :: xch
+    type(self_exchange_t), intent(inout) :: xch
     real(rp), intent(in) :: dall(:, 0:, :)
     real(rp), intent(inout) :: d(:, 0:, xch%ys:)
     integer, intent(out) :: ierr
@@ -181,40 +246,38 @@ contains
   ! ------------------------------------------------------------------------
 
   !> Boxes of the own patches over the positions x0 and x1 (rows r0..r1+1, the first
-  !> patch from ys-1).
-  subroutine local_boxes(nx, ny, ys, ye, x0, x1, patch_rows, lo, hi)
-    integer, intent(in) :: nx, ny, ys, ye, patch_rows
+  !> patch from ys-1) into bb(1:3, k) (low corner) and bb(4:6, k) (high); their number.
+  integer function local_boxes(ny, ys, ye, x0, x1, patch_rows, bb, regrown) result(np)
+    integer, intent(in) :: ny, ys, ye, patch_rows
     real(rp), intent(in) :: x0(:, 0:, max(ys - 1, 0):), x1(:, 0:, max(ys - 1, 0):)
-    real(rp), allocatable, intent(out) :: lo(:, :), hi(:, :)
-    integer :: np, k, r0, r1, j, i
+    real(rp), allocatable, intent(inout) :: bb(:, :)     ! (6, np+) [length]
+    integer, intent(inout) :: regrown
+    integer :: k, r0, r1, j, i
 
     np = (ye - ys + patch_rows) / max(patch_rows, 1)
-    allocate(lo(3, np), hi(3, np))
+    call grow(bb, 6, np, regrown)
     do k = 1, np
       r0 = ys + (k - 1) * patch_rows
       r1 = min(r0 + patch_rows - 1, ye)
-      lo(:, k) = huge(1.0_rp)
-      hi(:, k) = -huge(1.0_rp)
+      bb(1:3, k) = huge(1.0_rp)
+      bb(4:6, k) = -huge(1.0_rp)
       do j = merge(max(r0 - 1, 0), r0, k == 1), min(r1 + 1, ny - 1)
-        do i = 0, nx - 1
-          lo(:, k) = min(lo(:, k), x0(1:3, i, j), x1(1:3, i, j))
-          hi(:, k) = max(hi(:, k), x0(1:3, i, j), x1(1:3, i, j))
+        do i = 0, size(x0, 2) - 1
+          bb(1:3, k) = min(bb(1:3, k), x0(1:3, i, j), x1(1:3, i, j))
+          bb(4:6, k) = max(bb(4:6, k), x0(1:3, i, j), x1(1:3, i, j))
         end do
       end do
     end do
-  end subroutine local_boxes
+  end function local_boxes
 
-  !> Gather every rank's patch boxes and derive the rows to fetch and to send (header).
-  subroutine plan_from_boxes(xch, comm, nx, ny, ys, ye, patch_rows, lo, hi, reach, ierr)
+  !> Gather every rank's patch boxes (the np own ones in pw%bb) and derive the rows to
+  !> fetch and to send (header).
+  subroutine plan_from_boxes(xch, comm, nx, ny, ys, ye, patch_rows, np, reach, ierr)
     type(self_exchange_t), intent(inout) :: xch
-    integer, intent(in) :: comm, nx, ny, ys, ye, patch_rows
-    real(rp), intent(in) :: lo(:, :), hi(:, :), reach
+    integer, intent(in) :: comm, nx, ny, ys, ye, patch_rows, np
+    real(rp), intent(in) :: reach
     integer, intent(out) :: ierr
-    integer :: nranks, rank, np, ntot, p, k, j, n
-    integer, allocatable :: counts(:), displ(:), rr(:, :), gr(:, :), first(:), own_lo(:), own_hi(:), owner(:)
-    real(rp), allocatable :: bb(:, :), gb(:, :)
-    logical, allocatable :: mark(:)
-    integer, allocatable :: qlist(:)
+    integer :: nranks, rank, ntot, p, k, j, nq
 
     call MPI_Comm_size(comm, nranks, ierr)
     if (ierr /= MPI_SUCCESS) return
@@ -225,122 +288,162 @@ contains
     xch%ny = ny
     xch%ys = ys
     xch%ye = ye
-    np = size(lo, 2)
-    allocate(counts(0:nranks - 1), displ(0:nranks - 1), first(0:nranks))
-    call MPI_Allgather(np, 1, MPI_INTEGER, counts, 1, MPI_INTEGER, comm, ierr)
-    if (ierr /= MPI_SUCCESS) return
-    first(0) = 1
-    do p = 0, nranks - 1
-      first(p + 1) = first(p) + counts(p)
-    end do
-    ntot = first(nranks) - 1
-    xch%npatch_total = ntot
-    ! Boxes (6 numbers) and anchor rows (2) of every patch.
-    allocate(bb(6, np), rr(2, np), gb(6, ntot), gr(2, ntot))
-    do k = 1, np
-      bb(1:3, k) = lo(:, k)
-      bb(4:6, k) = hi(:, k)
-      rr(1, k) = ys + (k - 1) * patch_rows
-      rr(2, k) = min(rr(1, k) + patch_rows - 1, ye)
-    end do
-    displ = 6 * (first(0:nranks - 1) - 1)
-    call MPI_Allgatherv(bb, 6 * np, MPI_DOUBLE_PRECISION, gb, 6 * counts, displ, MPI_DOUBLE_PRECISION, comm, ierr)
-    if (ierr /= MPI_SUCCESS) return
-    displ = 2 * (first(0:nranks - 1) - 1)
-    call MPI_Allgatherv(rr, 2 * np, MPI_INTEGER, gr, 2 * counts, displ, MPI_INTEGER, comm, ierr)
-    if (ierr /= MPI_SUCCESS) return
-    ! Each rank's owned rows, and each row's owner.
-    allocate(own_lo(0:nranks - 1), own_hi(0:nranks - 1), owner(0:ny - 1), mark(0:ny - 1))
-    owner = -1
-    do p = 0, nranks - 1
-      own_lo(p) = huge(1)
-      own_hi(p) = -1
-      do k = first(p), first(p + 1) - 1
-        own_lo(p) = min(own_lo(p), gr(1, k))
-        own_hi(p) = max(own_hi(p), gr(2, k))
+    call plan_tables(xch, nranks, ny)
+    associate (w => xch%pw)
+      call MPI_Allgather(np, 1, MPI_INTEGER, w%counts, 1, MPI_INTEGER, comm, ierr)
+      if (ierr /= MPI_SUCCESS) return
+      w%first(0) = 1
+      do p = 0, nranks - 1
+        w%first(p + 1) = w%first(p) + w%counts(p)
       end do
-      if (own_hi(p) >= own_lo(p)) owner(own_lo(p):own_hi(p)) = p
-    end do
-
-    ! Fetch: the rows of every patch within reach of an own one, less the own rows.
-    qlist = [(k, k = 1, ntot)]
-    call needed_rows(rank, qlist, mark)
-    mark(ys:ye) = .false.
-    call group_by_rank(mark, owner, xch%recv_rank, xch%recv_first, xch%recv_rows)
-
-    ! Send: to each other rank p, the own rows it needs; only own patches and the patch
-    ! that ends just below the strip (its row above is ys) hold own rows.
-    qlist = [(k, k = first(rank), first(rank + 1) - 1)]
-    do k = 1, ntot
-      if (gr(2, k) == ys - 1) qlist = [qlist, k]
-    end do
-    allocate(xch%send_first(1))
-    allocate(xch%send_rank(0), xch%send_rows(0))
-    xch%send_first(1) = 1
-    do p = 0, nranks - 1
-      if (p == rank) cycle
-      call needed_rows(p, qlist, mark)
-      mark(0:ny - 1) = mark(0:ny - 1) .and. owner(0:ny - 1) == rank
-      n = count(mark)
-      if (n == 0) cycle
-      xch%send_rank = [xch%send_rank, p]
-      xch%send_rows = [xch%send_rows, pack([(j, j = 0, ny - 1)], mark)]
-      xch%send_first = [xch%send_first, size(xch%send_rows) + 1]
-    end do
-
-    ! Present rows: own and fetched, ascending.
-    mark = .false.
-    mark(ys:ye) = .true.
-    mark(xch%recv_rows) = .true.
-    xch%rows = pack([(j, j = 0, ny - 1)], mark)
-    allocate(xch%slot(0:ny - 1))
-    xch%slot = 0
-    do k = 1, size(xch%rows)
-      xch%slot(xch%rows(k)) = k
-    end do
-
-  contains
-
-    !> mark = the rows r0..r1+1 of each patch in qs whose box meets a box of rank p grown by reach.
-    subroutine needed_rows(p, qs, mk)
-      integer, intent(in) :: p, qs(:)
-      logical, intent(out) :: mk(0:)
-      integer :: a, b, q
-
-      mk = .false.
-      do a = first(p), first(p + 1) - 1
-        do b = 1, size(qs)
-          q = qs(b)
-          if (any(gb(1:3, a) - reach > gb(4:6, q) .or. gb(1:3, q) > gb(4:6, a) + reach)) cycle
-          mk(gr(1, q):min(gr(2, q) + 1, ny - 1)) = .true.
+      ntot = w%first(nranks) - 1
+      xch%npatch_total = ntot
+      ! Boxes (6 numbers, in bb already) and anchor rows (2) of every patch.
+      call grow(w%rr, 2, np, xch%regrown)
+      call grow(w%gr, 2, ntot, xch%regrown)
+      call grow(w%gb, 6, ntot, xch%regrown)
+      call grow(w%qlist, ntot, xch%regrown)
+      do k = 1, np
+        w%rr(1, k) = ys + (k - 1) * patch_rows
+        w%rr(2, k) = min(w%rr(1, k) + patch_rows - 1, ye)
+      end do
+      w%displ = 6 * (w%first(0:nranks - 1) - 1)
+      w%vcounts = 6 * w%counts
+      call MPI_Allgatherv(w%bb, 6 * np, MPI_DOUBLE_PRECISION, w%gb, w%vcounts, w%displ, MPI_DOUBLE_PRECISION, &
+                          comm, ierr)
+      if (ierr /= MPI_SUCCESS) return
+      w%displ = 2 * (w%first(0:nranks - 1) - 1)
+      w%vcounts = 2 * w%counts
+      call MPI_Allgatherv(w%rr, 2 * np, MPI_INTEGER, w%gr, w%vcounts, w%displ, MPI_INTEGER, comm, ierr)
+      if (ierr /= MPI_SUCCESS) return
+      ! Each rank's owned rows, and each row's owner.
+      w%owner = -1
+      do p = 0, nranks - 1
+        w%own_lo(p) = huge(1)
+        w%own_hi(p) = -1
+        do k = w%first(p), w%first(p + 1) - 1
+          w%own_lo(p) = min(w%own_lo(p), w%gr(1, k))
+          w%own_hi(p) = max(w%own_hi(p), w%gr(2, k))
         end do
+        if (w%own_hi(p) >= w%own_lo(p)) w%owner(w%own_lo(p):w%own_hi(p)) = p
       end do
-    end subroutine needed_rows
 
+      ! Fetch: the rows of every patch within reach of an own one, less the own rows.
+      do k = 1, ntot
+        w%qlist(k) = k
+      end do
+      call needed_rows(w%first, w%gb, w%gr, rank, w%qlist(1:ntot), ny, reach, w%mark)
+      w%mark(ys:ye) = .false.
+      call group_by_rank(w%mark, w%owner, xch%recv, xch%regrown)
+
+      ! Send: to each other rank p, the own rows it needs; only own patches and the patch
+      ! that ends just below the strip (its row above is ys) hold own rows.
+      nq = 0
+      do k = w%first(rank), w%first(rank + 1) - 1
+        nq = nq + 1
+        w%qlist(nq) = k
+      end do
+      do k = 1, ntot
+        if (w%gr(2, k) /= ys - 1) cycle
+        nq = nq + 1
+        w%qlist(nq) = k
+      end do
+      xch%send%n = 0
+      xch%send%nrows = 0
+      call push(xch%send%first, 0, 1, xch%regrown)
+      do p = 0, nranks - 1
+        if (p == rank) cycle
+        call needed_rows(w%first, w%gb, w%gr, p, w%qlist(1:nq), ny, reach, w%mark)
+        if (.not. any(w%mark .and. w%owner == rank)) cycle
+        call push(xch%send%rank, xch%send%n, p, xch%regrown)
+        do j = 0, ny - 1
+          if (.not. (w%mark(j) .and. w%owner(j) == rank)) cycle
+          call push(xch%send%rows, xch%send%nrows, j, xch%regrown)
+          xch%send%nrows = xch%send%nrows + 1
+        end do
+        xch%send%n = xch%send%n + 1
+        call push(xch%send%first, xch%send%n, xch%send%nrows + 1, xch%regrown)
+      end do
+
+      ! Present rows: own and fetched, ascending.
+      w%mark = .false.
+      w%mark(ys:ye) = .true.
+      do k = 1, xch%recv%nrows
+        w%mark(xch%recv%rows(k)) = .true.
+      end do
+      xch%nrows = 0
+      xch%slot = 0
+      do j = 0, ny - 1
+        if (.not. w%mark(j)) cycle
+        call push(xch%rows, xch%nrows, j, xch%regrown)
+        xch%nrows = xch%nrows + 1
+        xch%slot(j) = xch%nrows
+      end do
+    end associate
   end subroutine plan_from_boxes
 
-  !> The marked rows grouped by their owner, ascending (CSR: rows of rank(q) are
-  !> rows(first(q):first(q+1)-1)).
-  subroutine group_by_rank(mark, owner, rank, first, rows)
+  !> The plan's tables of a fixed size, made at the first plan (nranks and ny do not change).
+  subroutine plan_tables(xch, nranks, ny)
+    type(self_exchange_t), intent(inout) :: xch
+    integer, intent(in) :: nranks, ny
+
+    if (allocated(xch%pw%counts)) then
+      if (size(xch%pw%counts) == nranks .and. size(xch%slot) == ny) return
+      deallocate(xch%pw%counts, xch%pw%vcounts, xch%pw%displ, xch%pw%first, xch%pw%own_lo, xch%pw%own_hi, &
+                 xch%pw%owner, xch%pw%mark, xch%slot)
+    end if
+    allocate(xch%pw%counts(0:nranks - 1), xch%pw%vcounts(0:nranks - 1), xch%pw%displ(0:nranks - 1), &
+             xch%pw%first(0:nranks))
+    allocate(xch%pw%own_lo(0:nranks - 1), xch%pw%own_hi(0:nranks - 1))
+    allocate(xch%pw%owner(0:ny - 1), xch%pw%mark(0:ny - 1), xch%slot(0:ny - 1))
+    xch%regrown = xch%regrown + 1
+  end subroutine plan_tables
+
+  !> mk = the rows r0..r1+1 of each patch in qs whose box meets a box of rank p grown by
+  !> reach (first, gb, gr: plan_work_t's).
+  pure subroutine needed_rows(first, gb, gr, p, qs, ny, reach, mk)
+    integer, intent(in) :: first(0:), gr(:, :)
+    real(rp), intent(in) :: gb(:, :)
+    integer, intent(in) :: p, qs(:), ny
+    real(rp), intent(in) :: reach
+    logical, intent(out) :: mk(0:)
+    integer :: a, b, q
+
+    mk = .false.
+    do a = first(p), first(p + 1) - 1
+      do b = 1, size(qs)
+        q = qs(b)
+        if (any(gb(1:3, a) - reach > gb(4:6, q) .or. gb(1:3, q) > gb(4:6, a) + reach)) cycle
+        mk(gr(1, q):min(gr(2, q) + 1, ny - 1)) = .true.
+      end do
+    end do
+  end subroutine needed_rows
+
+  !> The marked rows grouped by their owner, ascending, into ml (rank, first, rows).
+  subroutine group_by_rank(mark, owner, ml, regrown)
     logical, intent(in) :: mark(0:)
     integer, intent(in) :: owner(0:)
-    integer, allocatable, intent(out) :: rank(:), first(:), rows(:)
-    integer :: j, n
+    type(msg_list_t), intent(inout) :: ml
+    integer, intent(inout) :: regrown
+    integer :: j
 
-    allocate(rank(0), rows(0), first(1))
-    first(1) = 1
-    n = 0
+    ml%n = 0
+    ml%nrows = 0
+    call push(ml%first, 0, 1, regrown)
     do j = 0, size(mark) - 1
       if (.not. mark(j)) cycle
-      if (size(rank) == 0) then
-        rank = [owner(j)]
-      else if (rank(size(rank)) /= owner(j)) then
-        first = [first, size(rows) + 1]
-        rank = [rank, owner(j)]
+      if (ml%n == 0) then
+        call push(ml%rank, ml%n, owner(j), regrown)
+        ml%n = 1
+      else if (ml%rank(ml%n) /= owner(j)) then
+        call push(ml%first, ml%n, ml%nrows + 1, regrown)
+        call push(ml%rank, ml%n, owner(j), regrown)
+        ml%n = ml%n + 1
       end if
-      rows = [rows, j]
+      call push(ml%rows, ml%nrows, j, regrown)
+      ml%nrows = ml%nrows + 1
     end do
-    if (size(rank) > 0) first = [first, size(rows) + 1]
+    if (ml%n > 0) call push(ml%first, ml%n, ml%nrows + 1, regrown)
   end subroutine group_by_rank
 
   ! ------------------------------------------------------------------------
@@ -350,56 +453,57 @@ contains
   !> The fetched rows of vall go back to their owners, who combine them (op) into v;
   !> the owned rows of vall are combined here.
   subroutine return_values(xch, vall, v, op, ierr)
-    type(self_exchange_t), intent(in) :: xch
+    type(self_exchange_t), intent(inout) :: xch
     real(rp), intent(in) :: vall(:, 0:, :)
     real(rp), intent(inout) :: v(:, 0:, xch%ys:)
     integer, intent(in) :: op
     integer, intent(out) :: ierr
-    real(rp), allocatable :: rbuf(:), sbuf(:), row(:, :)
-    integer, allocatable :: req(:)
-    integer :: nc, nrow, k, q, j, m, nreq
+    integer :: nc, nrow, k, q, j, m, nreq, i
 
     nc = size(vall, 1)
     nrow = nc * xch%nx
-    allocate(rbuf(nrow * size(xch%send_rows)), sbuf(nrow * size(xch%recv_rows)))
-    allocate(req(size(xch%recv_rank) + size(xch%send_rank)))
+    ! The reverse of the fetch: what was sent comes back (rbuf), what was received goes back.
+    call buffers(xch, nrow * xch%send%nrows, nrow * xch%recv%nrows)
     nreq = 0
     ierr = 0
-    ! The reverse of the fetch: what was sent comes back, what was received goes back.
-    do q = 1, size(xch%send_rank)
-      m = xch%send_first(q + 1) - xch%send_first(q)
+    do q = 1, xch%send%n
+      m = xch%send%first(q + 1) - xch%send%first(q)
       nreq = nreq + 1
-      call MPI_Irecv(rbuf(nrow * (xch%send_first(q) - 1) + 1), nrow * m, MPI_DOUBLE_PRECISION, xch%send_rank(q), &
-                     TAG_RETURN, xch%comm, req(nreq), ierr)
+      call MPI_Irecv(xch%rbuf(nrow * (xch%send%first(q) - 1) + 1), nrow * m, MPI_DOUBLE_PRECISION, xch%send%rank(q), &
+                     TAG_RETURN, xch%comm, xch%req(nreq), ierr)
       if (ierr /= MPI_SUCCESS) return
     end do
-    do k = 1, size(xch%recv_rows)
-      sbuf(nrow * (k - 1) + 1:nrow * k) = reshape(vall(:, :, xch%slot(xch%recv_rows(k))), [nrow])
+    do k = 1, xch%recv%nrows
+      do i = 0, xch%nx - 1
+        xch%sbuf(nrow * (k - 1) + nc * i + 1:nrow * (k - 1) + nc * (i + 1)) = vall(:, i, xch%slot(xch%recv%rows(k)))
+      end do
     end do
-    do q = 1, size(xch%recv_rank)
-      m = xch%recv_first(q + 1) - xch%recv_first(q)
+    do q = 1, xch%recv%n
+      m = xch%recv%first(q + 1) - xch%recv%first(q)
       nreq = nreq + 1
-      call MPI_Isend(sbuf(nrow * (xch%recv_first(q) - 1) + 1), nrow * m, MPI_DOUBLE_PRECISION, xch%recv_rank(q), &
-                     TAG_RETURN, xch%comm, req(nreq), ierr)
+      call MPI_Isend(xch%sbuf(nrow * (xch%recv%first(q) - 1) + 1), nrow * m, MPI_DOUBLE_PRECISION, xch%recv%rank(q), &
+                     TAG_RETURN, xch%comm, xch%req(nreq), ierr)
       if (ierr /= MPI_SUCCESS) return
     end do
     do j = xch%ys, xch%ye
-      call combine(v(:, :, j), vall(:, :, xch%slot(j)))
+      do i = 0, xch%nx - 1
+        call combine(v(:, i, j), vall(:, i, xch%slot(j)))
+      end do
     end do
-    call MPI_Waitall(nreq, req, MPI_STATUSES_IGNORE, ierr)
+    call MPI_Waitall(nreq, xch%req, MPI_STATUSES_IGNORE, ierr)
     if (ierr /= MPI_SUCCESS) return
     ! In the order of the send list: a fixed order, so sums do not depend on arrival.
-    allocate(row(nc, 0:xch%nx - 1))
-    do k = 1, size(xch%send_rows)
-      row = reshape(rbuf(nrow * (k - 1) + 1:nrow * k), [nc, xch%nx])
-      call combine(v(:, :, xch%send_rows(k)), row)
+    do k = 1, xch%send%nrows
+      do i = 0, xch%nx - 1
+        call combine(v(:, i, xch%send%rows(k)), xch%rbuf(nrow * (k - 1) + nc * i + 1:nrow * (k - 1) + nc * (i + 1)))
+      end do
     end do
 
   contains
 
     subroutine combine(a, b)
-      real(rp), intent(inout) :: a(:, :)
-      real(rp), intent(in) :: b(:, :)
+      real(rp), intent(inout) :: a(:)
+      real(rp), intent(in) :: b(:)
 
       if (op == OP_ADD) then
         a = a + b

@@ -15,7 +15,10 @@
 !>     owners, equal the one-rank forces on every owned node (to round-off),
 !>     the energies add up, the pair blocks' count is the one-rank count;
 !>  4. OGC's per-vertex distances, with the minimum taken on the owners,
-!>     equal the one-rank distances.
+!>     equal the one-rank distances;
+!>  5. a plan made again at the same positions, and its gathers of 3 and
+!>     6 values a node, reallocate nothing (the plan keeps its tables and
+!>     message buffers: the time loop's rule) and fetch the same rows.
 !> Run on 1 and 3 ranks by CTest; 2, 4 and 8 ranks by hand (--oversubscribe).
 program test_self_exchange
   use, intrinsic :: iso_fortran_env, only: int64, output_unit
@@ -29,7 +32,7 @@ program test_self_exchange
   use self_step, only: self_alpha_ccd, self_vertex_dmin
   use self_exchange, only: self_exchange_t, self_exchange_plan, self_exchange_plan_swept, self_exchange_rows, &
                            self_exchange_gather, self_exchange_add, self_exchange_min, self_exchange_free, &
-                           self_exchange_counts
+                           self_exchange_counts, self_exchange_regrown
   use self_shapes, only: fold_shape, roll_shape, pair_keys, sort_keys
   use check, only: check_true, check_close_array, check_report, seed_random
   implicit none
@@ -74,10 +77,10 @@ contains
     type(self_blocks_t) :: blocks
     real(rp), allocatable :: xg(:, :, :), dxg(:, :, :), x6(:, :, :), xall(:, :, :), fall(:, :, :), f(:, :, :)
     real(rp), allocatable :: fser(:, :, :), dall(:, :, :), d(:, :, :), dser(:, :, :)
-    integer, allocatable :: rows(:), allrows(:)
+    integer, allocatable :: rows(:), allrows(:), rows2(:)
     integer(int64), allocatable :: keys(:), kser(:)
     real(rp) :: reach, alpha, alpha_ser, e, eser, esum, r
-    integer :: j, i, ys0, ye1, nact, nact_ser, nb, nbsum, nf, ns, np, k0
+    integer :: j, i, ys0, ye1, nact, nact_ser, nb, nbsum, nf, ns, np, k0, n1
     character(len=48) :: what
 
     reach = cp%dhat + cp%thickness
@@ -197,6 +200,21 @@ contains
     call check_true(same_set(keys, kser, what), trim(what)//': swept candidates on P ranks = on one')
     alpha_ser = self_alpha_ccd(lat, allrows, xg, dxg, pairs, cp%thickness, ACCD_S)
     call check_true(alpha == alpha_ser .and. alpha < 1.0_rp, trim(what)//': global alpha = one rank''s (< 1)')
+
+    ! 5. the same plan again: nothing reallocated, the same rows
+    call self_exchange_plan(xch, MPI_COMM_WORLD, lat%nx, lat%ny, ys, ye, xg(:, :, ys0:ye1), reach, patch_rows, ierr)
+    call self_exchange_rows(xch, rows)
+    deallocate(xall)
+    allocate(xall(6, 0:lat%nx - 1, size(rows)))
+    call self_exchange_gather(xch, x6, xall, ierr)
+    n1 = self_exchange_regrown(xch)
+    call self_exchange_plan(xch, MPI_COMM_WORLD, lat%nx, lat%ny, ys, ye, xg(:, :, ys0:ye1), reach, patch_rows, ierr)
+    call self_exchange_gather(xch, x6, xall, ierr)
+    call self_exchange_gather(xch, xg(:, :, ys:ye), xall(1:3, :, :), ierr)
+    call self_exchange_rows(xch, rows2)
+    call check_true(self_exchange_regrown(xch) == n1, trim(what)//': a plan made again reallocates nothing')
+    call check_true(size(rows2) == size(rows) .and. all(rows2 == rows) .and. all(xall(1:3, :, :) == xg(:, :, rows)), &
+                    trim(what)//': a plan made again fetches the same rows')
     call self_exchange_free(xch)
   end subroutine run_case
 

@@ -9,14 +9,16 @@
 !> three bands of rows, the bands' lists are disjoint and make the whole;
 !> the rest-distance rule (a flat sheet at rest has no pair with rest_reach =
 !> reach; its lattice neighbours are pairs without it); each pair once, no
-!> pair with a shared node. Prints the broad phase's cost per vertex on
+!> pair with a shared node; a list called again keeps its tables (no
+!> reallocation where the sizes do not grow: the time loop's rule), with
+!> the same pairs. Prints the broad phase's cost per vertex on
 !> rolled sheets of 129 x 129 and 257 x 257 nodes.
 program test_self_broad
   use, intrinsic :: iso_fortran_env, only: int64, output_unit
   use kinds, only: rp
   use contact_faces, only: SPLIT_MAIN, SPLIT_ANTI
   use self_broad, only: self_lattice_t, self_pairs_t, self_candidates, self_candidates_swept, PAIR_PT, &
-                        OWN_LOWEST, OWN_TOUCH
+                        OWN_LOWEST, OWN_TOUCH, self_pairs_regrown
   use self_shapes, only: roll_shape, fold_shape, crumple_shape, brute_keys, pair_keys
   use check, only: check_true, check_report, seed_random
   implicit none
@@ -28,6 +30,7 @@ program test_self_broad
   end do
   call ownership_bands()
   call rest_rule()
+  call kept_tables()
   call cost(129)
   call cost(257)
   call check_report()
@@ -96,6 +99,39 @@ contains
     call brute_keys(lat, rows, x(:, :, 3:9), x(:, :, 3:9), .false., 0, lat%ny - 1, OWN_LOWEST, reach, reach, kb)
     call check_true(same(kh, kb), trim(what)//': rows 3..9 alone = brute force')
   end subroutine against_brute
+
+  !> The tables stay with the list: a second call of the same size (static, then swept)
+  !> reallocates nothing and finds the same pairs; a smaller one neither; a larger reach
+  !> (more pairs, more cells) grows them.
+  subroutine kept_tables()
+    type(self_lattice_t) :: lat
+    type(self_pairs_t) :: pairs
+    real(rp), allocatable :: x(:, :, :), dx(:, :, :)
+    integer(int64), allocatable :: k1(:), k2(:)
+    integer, allocatable :: rows(:)
+    integer :: j, n1, n2
+
+    lat = self_lattice_t(nx=9, ny=14, split=SPLIT_MAIN, ax=0.01_rp, ay=0.012_rp)
+    allocate(x(3, 0:lat%nx - 1, 0:lat%ny - 1), dx(3, 0:lat%nx - 1, 0:lat%ny - 1))
+    call crumple_shape(lat, 0.02_rp, 4, x)
+    rows = [(j, j = 0, lat%ny - 1)]
+    call self_candidates(lat, rows, x, 0, lat%ny - 1, OWN_LOWEST, 0.004_rp, 0.004_rp, pairs)
+    call pair_keys(lat, pairs, k1)
+    n1 = self_pairs_regrown(pairs)
+    call self_candidates(lat, rows, x, 0, lat%ny - 1, OWN_LOWEST, 0.004_rp, 0.004_rp, pairs)
+    call pair_keys(lat, pairs, k2)
+    call check_true(self_pairs_regrown(pairs) == n1, 'kept tables: a second call reallocates nothing')
+    call check_true(size(k1) > 20 .and. same(k1, k2), 'kept tables: the same pairs again')
+    call self_candidates(lat, rows(3:10), x(:, :, 3:10), 0, lat%ny - 1, OWN_LOWEST, 0.004_rp, 0.004_rp, pairs)
+    call check_true(self_pairs_regrown(pairs) == n1, 'kept tables: fewer rows reallocate nothing')
+    dx = 0.0_rp
+    call self_candidates_swept(lat, rows, x, dx, 0, lat%ny - 1, OWN_LOWEST, 0.001_rp, 0.004_rp, pairs)
+    n2 = self_pairs_regrown(pairs)
+    call self_candidates_swept(lat, rows, x, dx, 0, lat%ny - 1, OWN_LOWEST, 0.001_rp, 0.004_rp, pairs)
+    call check_true(self_pairs_regrown(pairs) == n2, 'kept tables: a second swept call reallocates nothing')
+    call self_candidates(lat, rows, x, 0, lat%ny - 1, OWN_LOWEST, 0.02_rp, 0.004_rp, pairs)
+    call check_true(self_pairs_regrown(pairs) > n2, 'kept tables: a larger reach grows them')
+  end subroutine kept_tables
 
   !> Three bands of owned rows, all rows present: disjoint lists whose union is the whole.
   subroutine ownership_bands()
