@@ -19,7 +19,7 @@
 !> positions). An update that leaves it makes it again in the step limit
 !> from the update's paths (swept candidates: every pair that comes within
 !> the reach anywhere along them), which also serves that update's CCD:
-!> one broad phase a step; the accepted hook keeps a list that still holds
+!> one broad phase a step where the motion is steady; the accepted hook keeps a list that still holds
 !> (the residual is the same function of the state whichever list is
 !> current: every pair within dhat + xi is in it). The distance of zero gap is xi = 2 contact_thickness (two
 !> surfaces, each contact_thickness from its mid-surface), the barrier's
