@@ -12,15 +12,16 @@
 !> with an owned node and adds the forces and blocks of its own nodes
 !> (nothing goes back); counts and energies are those of the pairs whose
 !> lowest node it owns, so sums over ranks count each pair once.
-!> The candidate list (and the plan of rows to fetch) is a Verlet list:
-!> made from the accepted state with the reach dhat + xi + skin (skin:
-!> twice the last step's largest node motion apart from the cloth's mean
-!> translation, at least dhat), valid while no node has moved skin/2 from
-!> where it was made apart from the mean translation (relative_move: a
-!> pair's distance depends on differences of positions), made again by the
-!> step limit, at the limited candidate, when one has (the residual is
-!> then the same function of the state: every pair within dhat + xi is in
-!> the list). The distance of zero gap is xi = 2 contact_thickness (two
+!> The candidate list (and the plan of rows to fetch) is a Verlet list
+!> with the reach dhat + xi + skin (skin = dhat), valid while no node has
+!> moved skin/2 from where it was made apart from the mean translation
+!> (relative_move: a pair's distance depends on differences of
+!> positions). An update that leaves it makes it again in the step limit
+!> from the update's paths (swept candidates: every pair that comes within
+!> the reach anywhere along them), which also serves that update's CCD:
+!> one broad phase a step where the motion is steady; the accepted hook keeps a list that still holds
+!> (the residual is the same function of the state whichever list is
+!> current: every pair within dhat + xi is in it). The distance of zero gap is xi = 2 contact_thickness (two
 !> surfaces, each contact_thickness from its mid-surface), the barrier's
 !> dhat and kappa those of &contact.
 !>
@@ -52,7 +53,7 @@ module self_contact
   use contact, only: contact_params_t
   use contact_ccd, only: ACCD_S
   use contact_faces, only: SPLIT_MAIN
-  use self_broad, only: self_lattice_t, self_pairs_t, OWN_TOUCH, OWN_LOWEST, self_candidates, self_candidates_swept, &
+  use self_broad, only: self_lattice_t, self_pairs_t, OWN_TOUCH, self_candidates, self_candidates_swept, &
                         self_row_slots, self_pair_positions, self_pair_owner_row, self_pairs_regrown
   use self_barrier, only: self_blocks_t, self_barrier_forces, self_pair_gap, self_blocks_reserve, self_blocks_regrown
   use self_step, only: self_alpha_ccd
@@ -77,15 +78,12 @@ module self_contact
   !> function of the state), yet their messages and scratch are written.
   type :: self_work_t
     type(self_exchange_t) :: xch                !< the list's plan of rows and its message buffers
-    type(self_exchange_t) :: swept              !< the step limit's plan beyond the skin
-    type(self_pairs_t) :: cand                  !< the step limit's swept candidates (OWN_LOWEST)
     type(self_blocks_t) :: blocks               !< the narrow phase's blocks
-    integer, allocatable :: srows(:)            !< (nrows+) the swept plan's present rows
     real(rp), allocatable :: xall(:, :, :)      !< (6, 0:nx-1, nrows+) present rows' positions (and update) [length]
     real(rp), allocatable :: fall(:, :, :)      !< (3, 0:nx-1, nrows+) forces on them [force]; (1, ...) masks
     real(rp), allocatable :: mask(:, :, :)      !< (1, 0:nx-1, ys:ye) 1 on a constrained node
     real(rp), allocatable :: xd(:, :, :)        !< (6, 0:nx-1, max(ys-1,0):min(ye+1,ny-1)) positions, update [length]
-    integer :: regrown = 0                      !< reallocations of xall, fall, srows
+    integer :: regrown = 0                      !< reallocations of xall, fall, rows
   end type self_work_t
 
   !> The cloth's self-contact on a rank's strip; written by this module's
@@ -96,11 +94,11 @@ module self_contact
     type(self_lattice_t) :: sl                  !< the lattice as the kernels number it
     type(contact_params_t) :: cp                !< thickness = xi, dhat, kappa
     real(rp) :: rest_reach = 0.0_rp             !< pairs nearer at rest are left out: dhat + xi [length]
-    real(rp) :: skin = 0.0_rp                   !< the Verlet list's margin beyond dhat + xi [length]
+    real(rp) :: skin = 0.0_rp                   !< the Verlet list's margin beyond dhat + xi: dhat [length]
     integer :: rank_up = MPI_PROC_NULL          !< the rank owning row ye+1 (none at the top)
     integer :: rank_down = MPI_PROC_NULL        !< the rank owning row ys-1 (none at the bottom)
-    ! the candidate list: written at set-up, after an accepted step and by
-    ! the step limit when a node has moved skin/2 since it was made (its
+    ! the candidate list: written at set-up, after an accepted step where
+    ! it no longer holds, and by the step limit for an update that leaves it (its
     ! plan of rows, w%xch, is in the work arrays: the gathers write buffers)
     integer, allocatable :: rows(:)             !< (nrows+) the present rows, ascending (owned and fetched)
     integer :: nrows = 0                        !< their number
@@ -116,6 +114,7 @@ module self_contact
     ! counts since the start (checkpointed)
     integer :: limited = 0                      !< updates the step limit shortened (alpha < 1)
     integer :: rebuilt = 0                      !< lists made again within a step (a node moved skin/2)
+    integer :: searches = 0                     !< broad-phase searches since set-up (lists and swept candidates)
     integer :: regrown_setup = 0                !< work arrays' reallocations at set-up (this rank)
     integer :: regrown = 0                      !< and since, summed over ranks (the accepted hook)
   contains
@@ -167,7 +166,6 @@ contains
     character(*), intent(out) :: errmsg
     integer :: nrank, r, mpierr, node(4)
     integer, allocatable :: strips(:, :)
-    real(rp), allocatable :: dx0(:, :, :)
     real(rp) :: g
     this%sl = self_lattice_t(nx=lat%nx, ny=lat%ny, split=SPLIT_MAIN, ax=lat%ax, ay=lat%ay)
     this%cp = contact_params_t(thickness=2.0_rp * cfg%contact%thickness, dhat=cfg%contact%dhat, &
@@ -194,11 +192,7 @@ contains
       errmsg = 'nuno: self_contact: the exchange of rows between ranks failed at set-up'
       return
     end if
-    ! The step limit's swept plan and candidates sized once here (a null update)
-    allocate(dx0(0:2, 0:lat%nx - 1, lat%ys:lat%ye))
-    dx0 = 0.0_rp
-    call swept_alpha(this, lat, comm, u(0:2, :, lat%ys:lat%ye), dx0, g, ierr)
-    ! and the list's message buffers for the most values a node it sends (6: the step limit's)
+    ! The list's message buffers for the most values a node it sends (6: the step limit's)
     call self_exchange_gather(this%w%xch, this%w%xd(:, :, lat%ys:lat%ye), this%w%xall(:, :, 1:this%nrows), ierr)
     call smallest_gap(this, lat, comm, u, g, node, ierr)
     this%regrown_setup = regrown_count(this)
@@ -350,9 +344,9 @@ contains
   !> skin/2 of the list's positions less the mean translation
   !> (relative_move; both ends: the path is a segment) the
   !> list holds every such pair (they were within xi + skin of each other
-  !> at its positions) and its pairs serve; else a swept broad phase with
-  !> a plan of rows of its own (swept_alpha), and the list made again at
-  !> the limited candidate where a node has moved skin/2 from it.
+  !> at its positions) and its pairs serve; else the list is made again
+  !> from the update's paths (list_over_path) and serves, its positions
+  !> then those of the limited end x + alpha dx.
   !> PM_INFEASIBLE where no fraction is allowed. Collective.
   subroutine self_step_limit(this, lat, fixed, t0, t1, x0, x, dx, comm, alpha, status)
     class(self_contact_model_t), intent(inout) :: this
@@ -366,60 +360,67 @@ contains
     real(rp) :: a, gfar
     integer :: ierr, mpierr, n
     n = this%nrows
-    associate (xd => this%w%xd(:, :, lat%ys:lat%ye), xall => this%w%xall(:, :, 1:n))
+    associate (xd => this%w%xd(:, :, lat%ys:lat%ye))
     xd(1:3, :, :) = x(0:2, :, lat%ys:lat%ye)
     xd(4:6, :, :) = dx(0:2, :, lat%ys:lat%ye)
     gfar = max(relative_move(this, lat, comm, xd, 0.0_rp), relative_move(this, lat, comm, xd, 1.0_rp))
-    if (gfar <= 0.5_rp * this%skin) then
-      call self_exchange_gather(this%w%xch, xd, xall, ierr)
-      a = self_alpha_ccd(this%sl, this%rows(1:n), xall(1:3, :, :), xall(4:6, :, :), this%pairs, this%cp%thickness, &
-                         ACCD_S)
-      call MPI_Allreduce(a, alpha, 1, MPI_DOUBLE_PRECISION, MPI_MIN, comm, mpierr)
-    else
-      call swept_alpha(this, lat, comm, x, dx, alpha, ierr)
+    ierr = 0
+    if (gfar > 0.5_rp * this%skin) then
+      call list_over_path(this, lat, comm, x, dx, ierr)
+      n = this%nrows
+      xd(1:3, :, :) = x(0:2, :, lat%ys:lat%ye)
+      xd(4:6, :, :) = dx(0:2, :, lat%ys:lat%ye)
     end if
+    alpha = 0.0_rp
+    if (ierr == 0) then
+      call self_exchange_gather(this%w%xch, xd, this%w%xall(:, :, 1:n), ierr)
+      a = self_alpha_ccd(this%sl, this%rows(1:n), this%w%xall(1:3, :, 1:n), this%w%xall(4:6, :, 1:n), this%pairs, &
+                         this%cp%thickness, ACCD_S)
+      call MPI_Allreduce(a, alpha, 1, MPI_DOUBLE_PRECISION, MPI_MIN, comm, mpierr)
+    end if
+    ! a list made from the paths holds around any point of them: the limited end
+    if (gfar > 0.5_rp * this%skin) this%x_list = xd(1:3, :, :) + alpha * xd(4:6, :, :)
     end associate
     status = merge(PM_INFEASIBLE, PM_FEASIBLE, alpha <= 0.0_rp .or. ierr /= 0)
     if (alpha < 1.0_rp) this%limited = this%limited + 1
   end subroutine self_step_limit
 
-  !> Flavour (a) beyond the list's skin: the rows ys-1 and ye+1 of x and
-  !> dx from the neighbours, a swept plan of rows (margin xi), the swept
-  !> candidates (OWN_LOWEST: each pair once), the smallest ACCD alpha over
-  !> the ranks, and the list made again at x + alpha dx where a node is
-  !> skin/2 from the list's positions there. Collective.
-  subroutine swept_alpha(this, lat, comm, x, dx, alpha, ierr)
+  !> The list made again for an update x -> x + dx that leaves it, from
+  !> the update's paths: the swept candidates (OWN_TOUCH) within the
+  !> reach dhat + xi + skin anywhere along them (ACCD's rate bound, a
+  !> pair's own relative motion: a flat sheet's lattice neighbours moving
+  !> together stay out), with a swept plan of rows. A pair left out stays
+  !> beyond that reach at every point of the paths, so the list serves the
+  !> CCD of this update and, made at any point x + alpha dx of it
+  !> (x_list, set by the caller), the states within skin/2 of that: one
+  !> broad phase where the swept candidates and a list at the limited
+  !> candidate took two. Collective.
+  subroutine list_over_path(this, lat, comm, x, dx, ierr)
     class(self_contact_model_t), intent(inout) :: this
     type(lattice_t), intent(in) :: lat
     integer, intent(in) :: comm
     real(rp), intent(in) :: x(0:, 0:, lat%ys:), dx(0:, 0:, lat%ys:)
-    real(rp), intent(out) :: alpha
     integer, intent(out) :: ierr
-    real(rp) :: a, gmoved
-    integer :: mpierr, n
+    integer :: n
     associate (w => this%w, xd => this%w%xd)
     ! positions and updates of the owned rows and the rows below and above [length]
     call with_neighbour_rows(this, lat, comm, x, dx, xd)
-    call self_exchange_plan_swept(w%swept, comm, lat%nx, lat%ny, lat%ys, lat%ye, xd(1:3, :, :), xd(4:6, :, :), &
-                                  this%cp%thickness, PATCH_ROWS, ierr)
-    n = self_exchange_nrows(w%swept)
+    call self_exchange_plan_swept(w%xch, comm, lat%nx, lat%ny, lat%ys, lat%ye, xd(1:3, :, :), xd(4:6, :, :), &
+                                  this%rest_reach + this%skin, PATCH_ROWS, ierr)
+    if (ierr /= 0) return
+    n = self_exchange_nrows(w%xch)
+    this%nrows = n
+    call grow(this%rows, n, w%regrown)
+    call self_exchange_rows_copy(w%xch, this%rows)
     call work_rows(w, lat%nx, n)
-    call grow(w%srows, n, w%regrown)
-    call self_exchange_rows_copy(w%swept, w%srows)
-    call self_exchange_gather(w%swept, xd(:, :, lat%ys:lat%ye), w%xall(:, :, 1:n), ierr)
-    call self_candidates_swept(this%sl, w%srows(1:n), w%xall(1:3, :, 1:n), w%xall(4:6, :, 1:n), lat%ys, lat%ye, &
-                               OWN_LOWEST, this%cp%thickness, this%rest_reach, w%cand)
-    a = self_alpha_ccd(this%sl, w%srows(1:n), w%xall(1:3, :, 1:n), w%xall(4:6, :, 1:n), w%cand, this%cp%thickness, &
-                       ACCD_S)
-    call MPI_Allreduce(a, alpha, 1, MPI_DOUBLE_PRECISION, MPI_MIN, comm, mpierr)
-    gmoved = relative_move(this, lat, comm, xd(:, :, lat%ys:lat%ye), alpha)
-    if (gmoved <= 0.5_rp * this%skin) return
-    ! the limited candidate, in place of the positions (xd is scratch)
-    xd(1:3, :, :) = xd(1:3, :, :) + alpha * xd(4:6, :, :)
-    call make_list(this, lat, comm, xd(1:3, :, :), ierr)
+    call self_exchange_gather(w%xch, xd(:, :, lat%ys:lat%ye), w%xall(:, :, 1:n), ierr)
+    if (ierr /= 0) return
+    call self_candidates_swept(this%sl, this%rows(1:n), w%xall(1:3, :, 1:n), w%xall(4:6, :, 1:n), lat%ys, lat%ye, &
+                               OWN_TOUCH, this%rest_reach + this%skin, this%rest_reach, this%pairs)
+    this%searches = this%searches + 1
     this%rebuilt = this%rebuilt + 1
     end associate
-  end subroutine swept_alpha
+  end subroutine list_over_path
 
   !> How far the nodes have moved from the list's positions xl apart from
   !> a common translation: the largest |d_i - T| over all nodes, d_i =
@@ -510,6 +511,7 @@ contains
     if (ierr /= 0) return
     call self_candidates(this%sl, this%rows(1:n), w%xall(1:3, :, 1:n), lat%ys, lat%ye, OWN_TOUCH, &
                          this%rest_reach + this%skin, this%rest_reach, this%pairs)
+    this%searches = this%searches + 1
     this%x_list = x(1:3, :, lat%ys:lat%ye)
     end associate
   end subroutine make_list
@@ -599,7 +601,7 @@ contains
     ierr = 0
     errmsg = ''
     if (this%have_last .and. t == this%t_seen) return
-    gmoved = 0.0_rp
+    gmoved = huge(1.0_rp)
     if (this%have_last) then
       associate (xd => this%w%xd(:, :, lat%ys:lat%ye))
         do j = lat%ys, lat%ye
@@ -609,8 +611,10 @@ contains
         gmoved = relative_move(this, lat, comm, xd, 0.0_rp)
       end associate
     end if
-    this%skin = max(this%cp%dhat, 2.0_rp * gmoved)
-    call make_list(this, lat, comm, u(0:2, :, max(lat%ys - 1, 0):min(lat%ye + 1, lat%ny - 1)), ierr)
+    ! a list that still holds at u is kept (the step limit made it over the step's paths)
+    if (gmoved > 0.5_rp * this%skin) then
+      call make_list(this, lat, comm, u(0:2, :, max(lat%ys - 1, 0):min(lat%ye + 1, lat%ny - 1)), ierr)
+    end if
     if (ierr /= 0) then
       errmsg = 'nuno: self_contact: the exchange of rows between ranks failed at t = '//real_brief(t)
       return
@@ -655,6 +659,9 @@ contains
                   'broad phase, summed over the ranks', is_count=.true., count=this%fetched), &
       pm_series_t(name='/self_contact/limited', description='Newton updates and predictors shortened by the '// &
                   'self-contact step limit since the start', is_count=.true., count=this%limited), &
+      pm_series_t(name='/self_contact/searches', description='broad-phase searches of the self-contact since '// &
+                  'set-up (candidate lists and the step limit''s swept candidates; the same on every rank)', &
+                  is_count=.true., count=this%searches), &
       pm_series_t(name='/self_contact/regrown', description='work arrays of the self-contact (candidate and '// &
                   'block lists, hash tables, message buffers) reallocated larger since set-up, summed over the '// &
                   'ranks', is_count=.true., count=this%regrown), &
@@ -694,7 +701,6 @@ contains
     class(self_contact_model_t), intent(inout) :: this
     if (.not. associated(this%w)) return
     call self_exchange_free(this%w%xch)
-    call self_exchange_free(this%w%swept)
     deallocate(this%w)
   end subroutine self_destroy
 
@@ -702,8 +708,8 @@ contains
   !> (the lists', the plans', the hooks').
   integer function regrown_count(this) result(n)
     class(self_contact_model_t), intent(in) :: this
-    n = self_pairs_regrown(this%pairs) + self_pairs_regrown(this%w%cand) + self_blocks_regrown(this%w%blocks) + &
-        self_exchange_regrown(this%w%xch) + self_exchange_regrown(this%w%swept) + this%w%regrown
+    n = self_pairs_regrown(this%pairs) + self_blocks_regrown(this%w%blocks) + self_exchange_regrown(this%w%xch) + &
+        this%w%regrown
   end function regrown_count
 
 end module self_contact
