@@ -408,11 +408,7 @@ contains
     call self_exchange_plan_swept(w%xch, comm, lat%nx, lat%ny, lat%ys, lat%ye, xd(1:3, :, :), xd(4:6, :, :), &
                                   this%rest_reach + this%skin, PATCH_ROWS, ierr)
     if (ierr /= 0) return
-    n = self_exchange_nrows(w%xch)
-    this%nrows = n
-    call grow(this%rows, n, w%regrown)
-    call self_exchange_rows_copy(w%xch, this%rows)
-    call work_rows(w, lat%nx, n)
+    call take_plan_rows(this, lat%nx, n)
     call self_exchange_gather(w%xch, xd(:, :, lat%ys:lat%ye), w%xall(:, :, 1:n), ierr)
     if (ierr /= 0) return
     call self_candidates_swept(this%sl, this%rows(1:n), w%xall(1:3, :, 1:n), w%xall(4:6, :, 1:n), lat%ys, lat%ye, &
@@ -456,13 +452,21 @@ contains
     call MPI_Allreduce(far, gfar, 1, MPI_DOUBLE_PRECISION, MPI_MAX, comm, mpierr)
   end function relative_move
 
-  !> The work arrays of the present rows at least nrows long.
-  subroutine work_rows(w, nx, nrows)
-    type(self_work_t), intent(inout) :: w
-    integer, intent(in) :: nx, nrows
-    call grow(w%xall, 6, nx, nrows, w%regrown)
-    call grow(w%fall, 3, nx, nrows, w%regrown)
-  end subroutine work_rows
+  !> The rows the exchange plan just made present (own and fetched): their
+  !> list kept in the model and the work arrays grown to hold them.
+  subroutine take_plan_rows(this, nx, n)
+    class(self_contact_model_t), intent(inout) :: this
+    integer, intent(in) :: nx
+    integer, intent(out) :: n                    !< rows present on this rank (own and fetched)
+    associate (w => this%w)
+    n = self_exchange_nrows(w%xch)
+    this%nrows = n
+    call grow(this%rows, n, w%regrown)
+    call self_exchange_rows_copy(w%xch, this%rows)
+    call grow(w%xall, 6, nx, n, w%regrown)
+    call grow(w%fall, 3, nx, n, w%regrown)
+    end associate
+  end subroutine take_plan_rows
 
   !> The positions and updates (x, dx: 0:2 of (0:5, 0:nx-1, ys:ye)) of
   !> the owned rows and of the rows ys-1 and ye+1 from the ranks below and
@@ -502,11 +506,7 @@ contains
     call self_exchange_plan(w%xch, comm, lat%nx, lat%ny, lat%ys, lat%ye, x, this%rest_reach + this%skin, &
                             PATCH_ROWS, ierr)
     if (ierr /= 0) return
-    n = self_exchange_nrows(w%xch)
-    this%nrows = n
-    call grow(this%rows, n, w%regrown)
-    call self_exchange_rows_copy(w%xch, this%rows)
-    call work_rows(w, lat%nx, n)
+    call take_plan_rows(this, lat%nx, n)
     call self_exchange_gather(w%xch, x(1:3, :, lat%ys:lat%ye), w%xall(1:3, :, 1:n), ierr)
     if (ierr /= 0) return
     call self_candidates(this%sl, this%rows(1:n), w%xall(1:3, :, 1:n), lat%ys, lat%ye, OWN_TOUCH, &
