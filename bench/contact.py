@@ -139,6 +139,7 @@ def main(argv=None):
     ap.add_argument("--timeout", type=float, default=900, help="seconds a run")
     ap.add_argument("--output", help="also write the markdown table to this file")
     a = ap.parse_args(argv)
+    a.exe = str(Path(a.exe).resolve())  # the runs start in their own folders
     if not Path(a.exe).is_file():
         ap.error(f"--exe {a.exe}: no such file (bash tools/build.sh first)")
     lines = [HEAD, "|" + "---|" * 11]

@@ -286,6 +286,7 @@ def main(argv=None):
     ap.add_argument("--donewhen", metavar="LOG", help="with --replot: the done-when run's log")
     ap.add_argument("--doc", help="with --replot: markdown file whose table markers get the table")
     a = ap.parse_args(argv)
+    a.exe = str(Path(a.exe).resolve())  # the runs start in their own folders
     if a.replot:
         rows = [r for log in a.replot for r in rows_from_table(log)]
         rows = list({(r["mode"], r["bending"], r["n"], r["nranks"]): r for r in rows}.values())
