@@ -24,7 +24,18 @@ the first leaves more than --threshold of the level's residual) and J
 (the same on kaskade). --ends F: the rediscretised levels' bending
 triples that reach an edge scaled by F (a boundary correction); --corners F: their diagonal triples at a
 corner's 2 x 2 nodes scaled by F. --band W: every level's smoothing followed by an
-exact solve of the band W nodes wide along its edges. With --eig it prints the extreme
+exact solve of the band W nodes wide along its edges. --sweeps S: S
+symmetric sweeps a smoothing. --smoother rows|cols|alt|zebra: block-line
+Gauss-Seidel instead of the point sweep, each line's banded block
+(pentadiagonal at reach 2) solved exactly; rows (nuno's strips hold whole
+rows), columns, rows then columns (alternating), or rows in zebra order
+(j mod 3). --deflate K: after each coarse correction the error made
+A-orthogonal to P U (x += W (W^T A W)^-1 W^T r, W = P U), U the K
+softest generalised eigenvectors of (A_c, P^T A P) on each coarse level
+(the corner twists where the rediscretised correction overshoots);
+--deflate-kind window: U the unit vectors of the coarse nodes in
+--window x --window at each of the four corners (W^T A W their Galerkin
+block; --window -c: c bending lengths of each level). With --eig it prints the extreme
 generalised eigenvalues of the rediscretised level 2 against P^T A P and
 where the smallest one's vector peaks (the free nodes; < 1: the
 rediscretised operator is softer there, its correction overshoots by the
@@ -36,7 +47,9 @@ lies near the pins.
 With --pins edge the whole edge j = ny-1 is pinned instead of its corners.
 
   python3 pinload.py [--load gravity|random] [--pins corners|edge] [--cycles KVWCJ]
-      [--levels rg] [--threshold T] [--ends F] [--corners F] [--band W] [--eig | --where] SIZES
+      [--levels rg] [--threshold T] [--ends F] [--corners F] [--band W] [--sweeps S]
+      [--smoother point|rows|cols|alt|zebra] [--deflate K] [--deflate-kind eig|window]
+      [--window W] [--eig | --where] SIZES
 """
 import argparse
 import numpy as np
@@ -52,6 +65,107 @@ PINS = 'corners'
 END_SCALE = 1.0   # the coarse levels' bending triples that reach an edge scaled by it (--ends)
 CORNER_SCALE = 1.0   # the coarse levels' diagonal triples at a corner's 2 x 2 nodes scaled by it (--corners)
 BAND = 0          # after each smoothing, the band this many nodes wide along the edges solved exactly (--band)
+SMOOTHER = 'point'  # point Gauss-Seidel or block-line Gauss-Seidel (--smoother)
+DEFLATE = 0       # coarse modes made exact after each coarse correction (--deflate)
+DEFLATE_KIND = 'eig'  # eig: the softest generalised eigenvectors; window: every coarse node near a corner
+SWEEPS = 1        # symmetric sweeps a smoothing (--sweeps)
+WINDOW = 2        # the corner windows' width in coarse nodes (--window)
+
+
+def line_orders(n, kind):
+    """The lines of a block-line sweep on an n x n lattice (p = i + n j), in
+    the order of the forward sweep: rows (j fixed, nuno's strips hold whole
+    rows: no communication inside a line), columns (i fixed), or the rows
+    in zebra order (j mod 3: with reach 2 a row couples to j +- 1, j +- 2,
+    so three colours decouple)."""
+    rows = [np.arange(n) + n * j for j in range(n)]
+    cols = [i + n * np.arange(n) for i in range(n)]
+    if kind == 'rows':
+        return [rows]
+    if kind == 'cols':
+        return [cols]
+    if kind == 'alt':
+        return [rows, cols]
+    if kind == 'zebra':
+        return [[rows[j] for c in range(3) for j in range(c, n, 3)]]
+    raise ValueError(kind)
+
+
+class LineSweep:
+    """One block Gauss-Seidel sweep over lines: each line's block (banded,
+    pentadiagonal at reach 2) solved exactly with the newest values of the
+    lines before it: x += M^-1 (b - A x), M the block lower triangle of A in
+    the lines' order (factored once; no fill beyond a line's band)."""
+    def __init__(self, A, lines):
+        n = A.shape[0]
+        perm = np.concatenate(lines)
+        blk = np.empty(n, dtype=int)
+        for k, ln in enumerate(lines):
+            blk[ln] = k
+        C = A.tocoo()
+        keep = blk[C.row] >= blk[C.col]
+        M = sp.csc_matrix((C.data[keep], (C.row[keep], C.col[keep])), shape=A.shape)
+        Mp = M[perm][:, perm].tocsc()
+        self.perm = perm
+        self.lu = spla.splu(Mp, permc_spec='NATURAL', diag_pivot_thresh=0.0)
+
+    def apply(self, r):
+        out = np.empty_like(r)
+        out[self.perm] = self.lu.solve(r[self.perm])
+        return out
+
+
+class LineLevel(Level):
+    """A level whose smoother is block-line Gauss-Seidel (SMOOTHER): a
+    symmetric sweep is the lines forward, then backward; 'alt' does rows
+    then columns forward, columns then rows backward."""
+    def __init__(self, A, n):
+        super().__init__(A)
+        self.fwd, self.bwd = [], []
+        for lines in line_orders(n, SMOOTHER):
+            self.fwd.append(LineSweep(self.A, lines))
+            self.bwd.insert(0, LineSweep(self.A, lines[::-1]))
+
+    def sgs(self, x, b, sweeps=1):
+        for _ in range(sweeps):
+            for s in self.fwd + self.bwd:
+                x = x + s.apply(b - self.A @ x)
+        return x
+
+
+def deflation(Af, P, Ac, nc):
+    """W = P U for the coarse vectors U whose correction is made exact:
+    the DEFLATE softest generalised eigenvectors of (Ac, P^T Af P) (where
+    the rediscretised correction overshoots most), or the unit vectors of
+    the coarse nodes in WINDOW x WINDOW windows at the four corners; and
+    the factored W^T Af W = U^T (P^T Af P) U."""
+    G = (P.T @ Af @ P).tocsr()
+    free = np.setdiff1d(np.arange(nc * nc), pins(nc))
+    if DEFLATE_KIND == 'eig':
+        Gf = G[free][:, free].tocsc()
+        Acf = Ac[free][:, free].tocsc()
+        _, V = spla.eigsh(Acf, k=DEFLATE, M=Gf, sigma=0.0, which='LM')
+        U = np.zeros((nc * nc, DEFLATE))
+        U[free] = V
+        U = sp.csr_matrix(U)
+    else:
+        jj, ii = np.mgrid[0:nc, 0:nc]
+        # a fixed width, or (WINDOW < 0) -WINDOW bending lengths of the level
+        w = WINDOW if WINDOW > 0 else int(np.ceil(-WINDOW * (COEF / (A_SHIFT * MASS)) ** 0.25 * (nc - 1)))
+        near = (np.minimum(ii, nc - 1 - ii) < w) & (np.minimum(jj, nc - 1 - jj) < w)
+        idx = np.intersect1d(np.flatnonzero(near.reshape(-1)), free)
+        U = sp.csr_matrix((np.ones(idx.size), (idx, np.arange(idx.size))), shape=(nc * nc, idx.size))
+    W = (P @ U).tocsr()
+    E = (U.T @ G @ U).toarray()
+    return W, sl.cho_factor(E)
+
+
+def deflate(lv, x, b):
+    """x += W (W^T A W)^-1 W^T (b - A x): the error made A-orthogonal to
+    span W (the coarse correction exact in the softest modes' span)."""
+    if lv.W is None:
+        return x
+    return x + lv.W @ sl.cho_solve(lv.E, lv.W.T @ (b - lv.A @ x))
 
 
 class BandLevel(Level):
@@ -96,6 +210,8 @@ def operator(n, end_scale=1.0, corner_scale=1.0):
 def hierarchy(n, galerkin, levels=None):
     levels = levels or int(np.log2(n - 1)) - 1
     make = (lambda A, m: BandLevel(A, m)) if BAND else (lambda A, m: Level(A))
+    if SMOOTHER != 'point':
+        make = LineLevel
     levs, Ps, Rs = [make(operator(n), n)], [], []
     for _ in range(levels - 1):
         nc = (n - 1) // 2 + 1
@@ -111,6 +227,9 @@ def hierarchy(n, galerkin, levels=None):
             for p in pins(nc):
                 G[p, p] = Ac[p, p]
             Ac = G.tocsr()
+        levs[-1].W = None
+        if DEFLATE and not galerkin:
+            levs[-1].W, levs[-1].E = deflation(levs[-1].A, P, Ac, nc)
         levs.append(make(Ac, nc))
         Ps.append(P)
         Rs.append(R)
@@ -148,15 +267,16 @@ def cycle(levs, Ps, Rs, b, l, kind):
     WORK[0] += 4.0 ** -l
     coarse = cycle if kind in 'KVW' or l + 2 >= len(levs) else krylov2
     if kind in 'KJ':
-        return lv.sgs(Ps[l] @ coarse(levs, Ps, Rs, Rs[l] @ b, l + 1, kind), b, 1)
+        return lv.sgs(deflate(lv, Ps[l] @ coarse(levs, Ps, Rs, Rs[l] @ b, l + 1, kind), b), b, SWEEPS)
     if kind == 'C':
-        x = lv.sgs(np.zeros_like(b), b, 1)
+        x = lv.sgs(np.zeros_like(b), b, SWEEPS)
         x = x + Ps[l] @ coarse(levs, Ps, Rs, Rs[l] @ (b - lv.A @ x), l + 1, kind)
-        return lv.sgs(x, b, 1)
-    x = lv.sgs(np.zeros_like(b), b, 1)
+        return lv.sgs(deflate(lv, x, b), b, SWEEPS)
+    x = lv.sgs(np.zeros_like(b), b, SWEEPS)
     for _ in range(2 if kind == 'W' and l + 2 < len(levs) else 1):
         x = x + Ps[l] @ cycle(levs, Ps, Rs, Rs[l] @ (b - lv.A @ x), l + 1, kind)
-    return lv.sgs(x, b, 1)
+        x = deflate(lv, x, b)
+    return lv.sgs(x, b, SWEEPS)
 
 
 def load(n, kind):
@@ -194,12 +314,15 @@ def fgmres(A, M, b, rtol, maxiter=100):
     return maxiter
 
 
-def iterations(n, galerkin, kind, b, rtol=1e-3):
+RTOL = 1e-3      # FGMRES's relative tolerance (--rtol; nuno's bw mode's)
+
+
+def iterations(n, galerkin, kind, b, rtol=None):
     """FGMRES iterations to rtol with one cycle as the preconditioner, and
     the level visits an iteration (WORK)."""
     levs, Ps, Rs = hierarchy(n, galerkin)
     WORK[0] = 0.0
-    its = fgmres(levs[0].A, lambda v: cycle(levs, Ps, Rs, v, 0, kind), b, rtol)
+    its = fgmres(levs[0].A, lambda v: cycle(levs, Ps, Rs, v, 0, kind), b, rtol or RTOL)
     return its, WORK[0] / its
 
 
@@ -245,7 +368,23 @@ def main():
                     help='after each smoothing the band this many nodes wide along the edges solved exactly (0: none)')
     ap.add_argument('--corners', type=float, default=1.0,
                     help="the rediscretised levels' diagonal triples at a corner's 2 x 2 nodes scaled by it")
+    ap.add_argument('--smoother', choices=['point', 'rows', 'cols', 'alt', 'zebra'], default='point',
+                    help='point Gauss-Seidel, or block-line Gauss-Seidel over rows, columns, rows then columns, rows in zebra order (j mod 3)')
+    ap.add_argument('--deflate', type=int, default=0,
+                    help='after each coarse correction the error made A-orthogonal to P U, U the K softest generalised eigenvectors of (A_c, P^T A P) (0: none)')
+    ap.add_argument('--deflate-kind', choices=['eig', 'window'], default='eig',
+                    help='eig: U the softest eigenvectors; window: the unit vectors of the coarse nodes in --window x --window at each corner')
+    ap.add_argument('--rtol', type=float, default=1e-3, help="FGMRES's relative tolerance (1e-3: the bw mode's)")
+    ap.add_argument('--sweeps', type=int, default=1, help='symmetric sweeps a smoothing')
+    ap.add_argument('--window', type=int, default=2, help="the corner windows' width in coarse nodes (< 0: -W bending lengths of the level, at least 1 node)")
     args = ap.parse_args()
+    global SMOOTHER, DEFLATE, DEFLATE_KIND, WINDOW, SWEEPS
+    SWEEPS = args.sweeps
+    global RTOL
+    RTOL = args.rtol
+    SMOOTHER, DEFLATE, DEFLATE_KIND, WINDOW = args.smoother, args.deflate, args.deflate_kind, args.window
+    if args.deflate_kind == 'window' and not DEFLATE:
+        DEFLATE = 1
     global PINS, THRESHOLD, END_SCALE, BAND, CORNER_SCALE
     CORNER_SCALE = args.corners
     BAND = args.band
