@@ -45,6 +45,9 @@ module contact_faces
   integer, parameter :: SPLIT_MAIN = 1, SPLIT_ANTI = 2
   !> IPC's mollifier threshold: eps_x = EE_MOLLIFY_REL |a_rest|^2 |b_rest|^2.
   real(rp), parameter :: EE_MOLLIFY_REL = 1.0e-3_rp
+  !> A gap's loss below its linear prediction that pair_correction takes
+  !> for round-off, relative to the pair's scale (radius + gap + move).
+  real(rp), parameter :: LOSS_ROUND = 1.0e-12_rp
 
 contains
 
@@ -468,32 +471,39 @@ contains
   end subroutine pair_gap_gradient
 
   !> The second-order correction v(:, k) of the update dx of one pair's cloth points (movable:
-  !> those the update may move; the obstacle's are fixed in the pair's frame): where the gap
-  !> at x + dx falls below its linear prediction from x, g0 + grad g . dx (capped at dhat:
-  !> beyond, the barrier is 0), the least move of the movable points that lifts it back to
-  !> that prediction to first order at x + dx, (target - g1) grad g1 / |grad g1|^2 (SQP's
-  !> second-order correction); 0 where the pair passed over its feature (the closest points'
-  !> difference reversed) or the gap is already above the prediction. Its size is capped at
-  !> the largest move of the pair's points: a correction of the update's second order [length].
+  !> those the update may move; the obstacle's are fixed in the pair's frame), SQP's
+  !> second-order correction along the update's path: at t = 1/4, 1/2, 3/4 and 1, where the
+  !> gap at x + t dx falls below its linear prediction from x, g0 + t grad g . dx (capped at
+  !> dhat: beyond, the barrier is 0), by more than round-off (LOSS_ROUND), the least move of
+  !> the movable points that lifts it back to first order there, (target - g_t) grad g_t /
+  !> (t |grad g_t|^2) (t of it is taken at t); v the largest over the four, capped at the
+  !> largest move of the pair's points. A path that bows into the obstacle between ends that
+  !> keep their gaps (a link pivoting over a box's edge) is lifted as well as one whose end
+  !> falls in. None where the pair passed over its feature at t (the closest points'
+  !> difference reversed) [length].
   pure subroutine pair_correction(point_triangle, x, dx, movable, xi, dhat, v)
     logical, intent(in) :: point_triangle, movable(4)
     real(rp), intent(in) :: x(3, 4), dx(3, 4), xi, dhat
     real(rp), intent(out) :: v(3, 4)
-    real(rp) :: g0, gr0(3, 4), g1, gr1(3, 4), target, den, vmax, dmax
-    integer :: k
+    real(rp) :: g0, gr0(3, 4), g1, gr1(3, 4), target, den, vmax, dmax, vs(3, 4), ts
+    integer :: k, m
 
     v = 0.0_rp
     call pair_gap_gradient(point_triangle, x, xi, g0, gr0)
     if (g0 <= 0.0_rp) return
-    call pair_gap_gradient(point_triangle, x + dx, xi, g1, gr1)
-    target = min(g0 + sum(gr0 * dx), dhat)
-    if (g1 >= target .or. sum(gr0 * gr1) <= 0.0_rp) return
-    do k = 1, 4
-      if (.not. movable(k)) gr1(:, k) = 0.0_rp
+    do m = 1, 4
+      ts = 0.25_rp * m
+      call pair_gap_gradient(point_triangle, x + ts * dx, xi, g1, gr1)
+      target = min(g0 + ts * sum(gr0 * dx), dhat)
+      if (target - g1 <= LOSS_ROUND * (xi + abs(g0) + ts * maxval(norm2(dx, dim=1))) .or. sum(gr0 * gr1) <= 0.0_rp) cycle
+      do k = 1, 4
+        if (.not. movable(k)) gr1(:, k) = 0.0_rp
+      end do
+      den = sum(gr1 * gr1)
+      if (den <= 0.0_rp) cycle
+      vs = ((target - g1) / (ts * den)) * gr1
+      if (maxval(norm2(vs, dim=1)) > maxval(norm2(v, dim=1))) v = vs
     end do
-    den = sum(gr1 * gr1)
-    if (den <= 0.0_rp) return
-    v = ((target - g1) / den) * gr1
     dmax = maxval(norm2(dx, dim=1))
     vmax = maxval(norm2(v, dim=1))
     if (vmax > dmax) v = v * (dmax / vmax)
