@@ -16,6 +16,9 @@
 !> pairs; this module gives its force on the 3 (triangle) or 2 (edge) cloth
 !> nodes and the 3 x 3 blocks df_a/dx_b, exact or from the pair's Hessian
 !> projected on the positive semidefinite cone, summed over the pairs.
+!> For a Newton update of the cloth's nodes it gives the pairs' second-order
+!> correction (triangle_correction, edge_correction): the move that lifts a
+!> gap which the update's path loses below its linear prediction back to it.
 !> Pairs are summed as IPC sums them: where a pair's nearest point is a
 !> cloth node, the pair repeats that node's own contact (the energy stays
 !> smooth; the barrier there is stiffer). The obstacle is rigid: its
