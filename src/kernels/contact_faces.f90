@@ -16,6 +16,9 @@
 !> pairs; this module gives its force on the 3 (triangle) or 2 (edge) cloth
 !> nodes and the 3 x 3 blocks df_a/dx_b, exact or from the pair's Hessian
 !> projected on the positive semidefinite cone, summed over the pairs.
+!> For a Newton update of the cloth's nodes it gives the pairs' second-order
+!> correction (triangle_correction, edge_correction): the move that lifts a
+!> gap which the update's path loses below its linear prediction back to it.
 !> Pairs are summed as IPC sums them: where a pair's nearest point is a
 !> cloth node, the pair repeats that node's own contact (the energy stays
 !> smooth; the barrier there is stiffer). The obstacle is rigid: its
@@ -28,12 +31,14 @@ module contact_faces
   use contact, only: obstacle_t, contact_params_t, barrier, signed_distance, SHAPE_PLANE, SHAPE_SPHERE, SHAPE_BOX, &
                      SHAPE_CAPSULE
   use contact_primitives, only: point_triangle_distance, edge_edge_distance, point_triangle_d2, edge_edge_d2, &
-                                edge_edge_mollifier, psd_project, point_triangle_range
+                                edge_edge_mollifier, psd_project, point_triangle_range, point_triangle_closest, &
+                                edge_edge_closest
   implicit none
   private
   public :: SPLIT_MAIN, SPLIT_ANTI, EE_MOLLIFY_REL
   public :: quad_triangles, quad_diagonal, obstacle_points, obstacle_edges, obstacle_radius
   public :: near_obstacle, contact_triangle, contact_edge, contact_quad, triangle_gap, edge_gap
+  public :: triangle_correction, edge_correction
   ! One pair's barrier and the projection in a span: self-contact's pairs (module self_barrier) too.
   public :: pair_barrier, psd_project_in_span
 
@@ -43,6 +48,9 @@ module contact_faces
   integer, parameter :: SPLIT_MAIN = 1, SPLIT_ANTI = 2
   !> IPC's mollifier threshold: eps_x = EE_MOLLIFY_REL |a_rest|^2 |b_rest|^2.
   real(rp), parameter :: EE_MOLLIFY_REL = 1.0e-3_rp
+  !> A gap's loss below its linear prediction that pair_correction takes
+  !> for round-off, relative to the pair's scale (radius + gap + move).
+  real(rp), parameter :: LOSS_ROUND = 1.0e-12_rp
 
 contains
 
@@ -433,6 +441,143 @@ contains
       e = e + ep
     end if
   end subroutine add_energy
+
+  ! ------------------------------------------------------------------------
+  ! Second-order correction of a Newton update (docs/contact.md, "Faces and edges")
+  ! ------------------------------------------------------------------------
+
+  !> Gap (distance - xi) of a pair, points x(:, 1..4) (point-triangle: the point first; edge-edge:
+  !> the cloth edge first), and its gradient gr(:, k) with respect to each point (c_k r/|r|,
+  !> r the difference of the closest points: the envelope of the closest-point problem).
+  pure subroutine pair_gap_gradient(point_triangle, x, xi, gap, gr)
+    logical, intent(in) :: point_triangle
+    real(rp), intent(in) :: x(3, 4), xi
+    real(rp), intent(out) :: gap, gr(3, 4)
+    real(rp) :: c(4), dc(4, 2), r(3), d
+    integer :: ty, m, k
+
+    if (point_triangle) then
+      call point_triangle_closest(x(:, 1), x(:, 2), x(:, 3), x(:, 4), ty, c, dc, m)
+      d = sqrt(point_triangle_d2(x(:, 1), x(:, 2), x(:, 3), x(:, 4)))
+    else
+      call edge_edge_closest(x(:, 1), x(:, 2), x(:, 3), x(:, 4), ty, c, dc, m)
+      d = sqrt(edge_edge_d2(x(:, 1), x(:, 2), x(:, 3), x(:, 4)))
+    end if
+    gap = d - xi
+    r = matmul(x, c)
+    gr = 0.0_rp
+    if (norm2(r) <= 0.0_rp) return
+    r = r / norm2(r)
+    do k = 1, 4
+      gr(:, k) = c(k) * r
+    end do
+  end subroutine pair_gap_gradient
+
+  !> The second-order correction v(:, k) of the update dx of one pair's cloth points (movable:
+  !> those the update may move; the obstacle's are fixed in the pair's frame), SQP's
+  !> second-order correction along the update's path: at t = 1/4, 1/2, 3/4 and 1, where the
+  !> gap at x + t dx falls below its linear prediction from x, g0 + t grad g . dx (capped at
+  !> dhat: beyond, the barrier is 0), by more than round-off (LOSS_ROUND), the least move of
+  !> the movable points that lifts it back to first order there, (target - g_t) grad g_t /
+  !> (t |grad g_t|^2) (t of it is taken at t); v the largest over the four, capped at the
+  !> largest move of the pair's points. A path that bows into the obstacle between ends that
+  !> keep their gaps (a link pivoting over a box's edge) is lifted as well as one whose end
+  !> falls in. None where the pair passed over its feature at t (the closest points'
+  !> difference reversed) [length].
+  pure subroutine pair_correction(point_triangle, x, dx, movable, xi, dhat, v)
+    logical, intent(in) :: point_triangle, movable(4)
+    real(rp), intent(in) :: x(3, 4), dx(3, 4), xi, dhat
+    real(rp), intent(out) :: v(3, 4)
+    real(rp) :: g0, gr0(3, 4), g1, gr1(3, 4), target, den, vmax, dmax, vs(3, 4), ts
+    integer :: k, m
+
+    v = 0.0_rp
+    call pair_gap_gradient(point_triangle, x, xi, g0, gr0)
+    if (g0 <= 0.0_rp) return
+    do m = 1, 4
+      ts = 0.25_rp * m
+      call pair_gap_gradient(point_triangle, x + ts * dx, xi, g1, gr1)
+      target = min(g0 + ts * sum(gr0 * dx), dhat)
+      if (target - g1 <= LOSS_ROUND * (xi + abs(g0) + ts * maxval(norm2(dx, dim=1))) .or. sum(gr0 * gr1) <= 0.0_rp) cycle
+      do k = 1, 4
+        if (.not. movable(k)) gr1(:, k) = 0.0_rp
+      end do
+      den = sum(gr1 * gr1)
+      if (den <= 0.0_rp) cycle
+      vs = ((target - g1) / (ts * den)) * gr1
+      if (maxval(norm2(vs, dim=1)) > maxval(norm2(v, dim=1))) v = vs
+    end do
+    dmax = maxval(norm2(dx, dim=1))
+    vmax = maxval(norm2(v, dim=1))
+    if (vmax > dmax) v = v * (dmax / vmax)
+  end subroutine pair_correction
+
+  !> Keeps, for each of the n nodes, the larger of v(:, a) and vk(:, a) (by length).
+  pure subroutine keep_larger(vk, v)
+    real(rp), intent(in) :: vk(:, :)
+    real(rp), intent(inout) :: v(:, :)
+    integer :: a
+
+    do a = 1, size(v, 2)
+      if (norm2(vk(:, a)) > norm2(v(:, a))) v(:, a) = vk(:, a)
+    end do
+  end subroutine keep_larger
+
+  !> The second-order correction of the update dxt of cloth triangle xt (free: its nodes the
+  !> update moves) against the obstacle's points (pair_correction): v(:, a) the larger of
+  !> its value and each pair's correction of node a [length].
+  pure subroutine triangle_correction(o, cp, xt, dxt, free, v)
+    type(obstacle_t), intent(in) :: o
+    type(contact_params_t), intent(in) :: cp
+    real(rp), intent(in) :: xt(3, 3), dxt(3, 3)   ! [length]
+    logical, intent(in) :: free(3)
+    real(rp), intent(inout) :: v(3, 3)            ! [length]
+    real(rp) :: pts(3, 8), xi, lo(3), hi(3), x(3, 4), dx(3, 4), vk(3, 4)
+    integer :: np, k
+
+    call obstacle_points(o, pts, np)
+    if (np == 0) return
+    xi = obstacle_radius(o) + cp%thickness
+    lo = min(minval(xt, dim=2), minval(xt + dxt, dim=2)) - xi - cp%dhat
+    hi = max(maxval(xt, dim=2), maxval(xt + dxt, dim=2)) + xi + cp%dhat
+    x(:, 2:4) = xt
+    dx(:, 1) = 0.0_rp
+    dx(:, 2:4) = dxt
+    do k = 1, np
+      if (any(pts(:, k) < lo .or. pts(:, k) > hi)) cycle
+      x(:, 1) = pts(:, k)
+      call pair_correction(.true., x, dx, [.false., free], xi, cp%dhat, vk)
+      call keep_larger(vk(:, 2:4), v)
+    end do
+  end subroutine triangle_correction
+
+  !> The same for cloth edge xe moving by dxe against the obstacle's edges (capsule axis,
+  !> box edges).
+  pure subroutine edge_correction(o, cp, xe, dxe, free, v)
+    type(obstacle_t), intent(in) :: o
+    type(contact_params_t), intent(in) :: cp
+    real(rp), intent(in) :: xe(3, 2), dxe(3, 2)   ! [length]
+    logical, intent(in) :: free(2)
+    real(rp), intent(inout) :: v(3, 2)            ! [length]
+    real(rp) :: ea(3, 12), eb(3, 12), xi, lo(3), hi(3), x(3, 4), dx(3, 4), vk(3, 4)
+    integer :: ne, k
+
+    call obstacle_edges(o, ea, eb, ne)
+    if (ne == 0) return
+    xi = obstacle_radius(o) + cp%thickness
+    lo = min(minval(xe, dim=2), minval(xe + dxe, dim=2)) - xi - cp%dhat
+    hi = max(maxval(xe, dim=2), maxval(xe + dxe, dim=2)) + xi + cp%dhat
+    x(:, 1:2) = xe
+    dx(:, 1:2) = dxe
+    dx(:, 3:4) = 0.0_rp
+    do k = 1, ne
+      if (any(min(ea(:, k), eb(:, k)) > hi .or. max(ea(:, k), eb(:, k)) < lo)) cycle
+      x(:, 3) = ea(:, k)
+      x(:, 4) = eb(:, k)
+      call pair_correction(.false., x, dx, [free, .false., .false.], xi, cp%dhat, vk)
+      call keep_larger(vk(:, 1:2), v)
+    end do
+  end subroutine edge_correction
 
   ! ------------------------------------------------------------------------
   ! Gaps (for checks of accepted states and diagnostics)

@@ -29,7 +29,7 @@ module face_contact
                           obstacle_set_pair
   use face_lags, only: face_lag_list_t, lags_clear, lags_take, lags_walk, lags_power
   use face_elements, only: WALK_FORCES, WALK_BLOCKS, WALK_STATS, has_features, elements_walk, elements_gap, elements_ccd, &
-                           elements_mark
+                           elements_mark, elements_correct
   use process_model, only: process_model_t, pm_hints_t, pm_series_t, pm_group_t, pm_energy_t, PM_FEASIBLE, &
                            PM_INFEASIBLE
   use strings, only: real_brief
@@ -79,6 +79,7 @@ module face_contact
     procedure :: forces => faces_forces
     procedure :: jacobian => faces_jacobian
     procedure :: start => faces_start
+    procedure :: correct => faces_correct
     procedure :: step_limit => faces_step_limit
     procedure :: accept => faces_accept
     procedure :: accepted => faces_accepted
@@ -233,7 +234,7 @@ contains
       if (.not. has_features(o1) .or. all(d == 0.0_rp)) cycle
       dl = d + min(norm2(d), LIFT_FRACTION * this%cp%dhat) * d / norm2(d)
       mark = .false.
-      call elements_mark(o0, o1, this%cp, lat, lat%ys - 1, x0a, lat%ys - 1, lat%ye, mark)
+      call elements_mark(o0, o1, core(o0), d, this%cp, lat, lat%ys - 1, x0a, lat%ys - 1, lat%ye, mark)
       do j = lat%ys, lat%ye
         do i = 0, lat%nx - 1
           if (.not. mark(i, j) .or. fixed(i, j)) cycle
@@ -253,20 +254,84 @@ contains
     type(lattice_t), intent(in) :: lat
     real(rp), intent(in) :: x0(0:, 0:, lat%ys:)
     real(rp), intent(out) :: x0a(:, 0:, lat%ys - 1:)
-    real(rp) :: snd(3, 0:lat%nx - 1), rcv(3, 0:lat%nx - 1)
-    integer :: mpierr
     x0a(:, :, lat%ys:lat%ye) = x0(0:2, :, lat%ys:lat%ye)
-    snd = x0(0:2, :, lat%ys)
-    rcv = 0.0_rp
-    call MPI_Sendrecv(snd, size(snd), MPI_DOUBLE_PRECISION, this%rank_down, 48, rcv, size(rcv), MPI_DOUBLE_PRECISION, &
-                      this%rank_up, 48, this%comm, MPI_STATUS_IGNORE, mpierr)
-    x0a(:, :, lat%ye + 1) = rcv
-    snd = x0(0:2, :, lat%ye)
-    rcv = 0.0_rp
-    call MPI_Sendrecv(snd, size(snd), MPI_DOUBLE_PRECISION, this%rank_up, 49, rcv, size(rcv), MPI_DOUBLE_PRECISION, &
-                      this%rank_down, 49, this%comm, MPI_STATUS_IGNORE, mpierr)
-    x0a(:, :, lat%ys - 1) = rcv
+    call exchange_rows(this, lat, this%comm, x0a)
   end subroutine rows_around
+
+  !> The Newton update dx at x (the stage at t1 = t0 + dt) corrected at
+  !> second order for the faces' and edges' pairs (module face_elements'
+  !> elements_correct, the obstacles at t1): where a pair's gap at x + dx
+  !> falls below its linear prediction, the pair's free nodes are moved
+  !> the least that lifts it back (SQP's second-order correction), each
+  !> node by its largest such move, and their velocities by the same over
+  !> dt (backward Euler's x = x_n + dt v holds as before). Newton's
+  !> quadratic model cannot see a triangle's tilt about a node on the
+  !> obstacle closing its gap at second order, far more than the gap:
+  !> uncorrected, the step limit cut each update to a few per cent and
+  !> Newton stalled (docs/contact.md, "Faces and edges"). The correction
+  !> is of the update's second order, so Newton's convergence is kept.
+  !> Collective: the rows around the strip come from the ranks beside.
+  subroutine faces_correct(this, lat, fixed, t0, t1, x, dx, comm, changed)
+    class(face_contact_t), intent(inout) :: this
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t0, t1
+    real(rp), intent(in) :: x(0:, 0:, lat%ys:)
+    real(rp), intent(inout) :: dx(0:, 0:, lat%ys:)
+    integer, intent(in) :: comm
+    logical, intent(out) :: changed
+    ! positions, updates and free flags of the owned rows and those around [length]
+    real(rp) :: xa(7, 0:lat%nx - 1, lat%ys - 1:lat%ye + 1), da(3, 0:lat%nx - 1, lat%ys - 1:lat%ye + 1)
+    real(rp) :: c(3, 0:lat%nx - 1, lat%ys - 1:lat%ye + 1)
+    logical :: free(0:lat%nx - 1, lat%ys - 1:lat%ye + 1), any_c
+    type(obstacle_t) :: o
+    integer :: k, i, j, mpierr
+    changed = .false.
+    if (t1 <= t0) return
+    xa(1:3, :, lat%ys:lat%ye) = x(0:2, :, lat%ys:lat%ye)
+    xa(4:6, :, lat%ys:lat%ye) = dx(0:2, :, lat%ys:lat%ye)
+    xa(7, :, lat%ys:lat%ye) = merge(0.0_rp, 1.0_rp, fixed)
+    call exchange_rows(this, lat, comm, xa)
+    da = xa(4:6, :, :)
+    free = xa(7, :, :) > 0.5_rp
+    c = 0.0_rp
+    do k = 1, obstacle_set_count(this%obstacles)
+      o = obstacle_set_pose(this%obstacles, k, t1)
+      if (has_features(o)) call elements_correct(o, this%cp, lat, lat%ys - 1, xa(1:3, :, :), da, free, c)
+    end do
+    any_c = .false.
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
+        if (fixed(i, j) .or. all(c(:, i, j) == 0.0_rp)) cycle
+        dx(0:2, i, j) = dx(0:2, i, j) + c(:, i, j)
+        dx(3:5, i, j) = dx(3:5, i, j) + c(:, i, j) / (t1 - t0)
+        any_c = .true.
+      end do
+    end do
+    call MPI_Allreduce(any_c, changed, 1, MPI_LOGICAL, MPI_LOR, comm, mpierr)
+  end subroutine faces_correct
+
+  !> The rows ys-1 and ye+1 of v(:, 0:nx-1, ys-1:ye+1) from the ranks
+  !> beside (zero beyond the lattice, where no element reads them), its
+  !> owned rows given. Collective.
+  subroutine exchange_rows(this, lat, comm, v)
+    class(face_contact_t), intent(in) :: this
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: comm
+    real(rp), intent(inout) :: v(:, 0:, lat%ys - 1:)
+    real(rp) :: snd(size(v, 1), 0:lat%nx - 1), rcv(size(v, 1), 0:lat%nx - 1)
+    integer :: mpierr
+    snd = v(:, :, lat%ys)
+    rcv = 0.0_rp
+    call MPI_Sendrecv(snd, size(snd), MPI_DOUBLE_PRECISION, this%rank_down, 50, rcv, size(rcv), MPI_DOUBLE_PRECISION, &
+                      this%rank_up, 50, comm, MPI_STATUS_IGNORE, mpierr)
+    v(:, :, lat%ye + 1) = rcv
+    snd = v(:, :, lat%ye)
+    rcv = 0.0_rp
+    call MPI_Sendrecv(snd, size(snd), MPI_DOUBLE_PRECISION, this%rank_up, 51, rcv, size(rcv), MPI_DOUBLE_PRECISION, &
+                      this%rank_down, 51, comm, MPI_STATUS_IGNORE, mpierr)
+    v(:, :, lat%ys - 1) = rcv
+  end subroutine exchange_rows
 
   !> The Newton update x -> x + dx limited so that no triangle or edge
   !> reaches an obstacle at its pose at t1 (ACCD, keeping a tenth of each

@@ -24,17 +24,20 @@ module face_elements
   use lattice, only: lattice_t
   use contact, only: obstacle_t, contact_params_t, SHAPE_PLANE
   use contact_faces, only: SPLIT_MAIN, near_obstacle, contact_quad, contact_edge, quad_triangles, quad_diagonal, &
-                           triangle_gap, edge_gap
+                           triangle_gap, edge_gap, triangle_correction, edge_correction
   use contact_ccd, only: ccd_triangle, ccd_edge
   use node_blocks, only: node_blocks_t, node_blocks_add_pair
   implicit none
   private
-  public :: has_features, elements_walk, elements_gap, elements_ccd, elements_mark
+  public :: has_features, elements_walk, elements_gap, elements_ccd, elements_mark, elements_correct
 
   integer, parameter :: EL_QUAD = 1, EL_XLINK = 2, EL_YLINK = 3
   !> elements_walk's modes (face_lags' lags_walk takes the same)
   integer, parameter, public :: WALK_FORCES = 1, WALK_BLOCKS = 2, WALK_STATS = 3
   real(rp), parameter :: ZERO33(3, 3) = 0.0_rp
+  !> The fraction of a quad's gap to an obstacle's core that quad_swept's
+  !> ACCD keeps (face_contact's SWEPT_S for the step's path).
+  real(rp), parameter :: SWEPT_KEEP = 1.0e-6_rp
 
 contains
 
@@ -252,23 +255,80 @@ contains
     end do
   end function elements_ccd
 
+  !> The second-order correction c(3, 0:nx-1, xlo:) of the update dx at x (both (3, 0:nx-1,
+  !> xlo:), rows ys-1..ye+1; free(0:nx-1, xlo:) the nodes the update moves) for the elements
+  !> touching the owned rows (as WALK_FORCES takes them) against o: each node's largest
+  !> correction over the pairs of its elements (kernel contact_faces' triangle_correction,
+  !> edge_correction), kept where larger than c's own. Every element that touches an owned
+  !> node is taken on its rank, so an owned node's correction is the same on any number of
+  !> ranks [length].
+  subroutine elements_correct(o, cp, lat, xlo, x, dx, free, c)
+    type(obstacle_t), intent(in) :: o
+    type(contact_params_t), intent(in) :: cp
+    type(lattice_t), intent(in) :: lat
+    integer, intent(in) :: xlo
+    real(rp), intent(in) :: x(:, 0:, xlo:), dx(:, 0:, xlo:)
+    logical, intent(in) :: free(0:, xlo:)
+    real(rp), intent(inout) :: c(:, 0:, xlo:)
+    integer :: kind, i, j, j0, j1, i1, a, nn, ni(4), nj(4), tri(3, 2), ca, cb, t
+    real(rp) :: xq(3, 4), dq(3, 4), path(3, 8), v(3, 4), vt(3, 3), ve(3, 2)
+    logical :: fq(4)
+    call quad_triangles(SPLIT_MAIN, tri)
+    call quad_diagonal(SPLIT_MAIN, ca, cb)
+    do kind = EL_QUAD, EL_YLINK
+      call kind_range(lat, kind, lat%ys - 1, lat%ye, lat%ys, lat%ye, j0, j1, i1)
+      do j = j0, j1
+        do i = 0, i1
+          call element_nodes(kind, i, j, ni, nj, nn)
+          do a = 1, nn
+            xq(:, a) = x(:, ni(a), nj(a))
+            dq(:, a) = dx(:, ni(a), nj(a))
+            fq(a) = free(ni(a), nj(a))
+            path(:, a) = xq(:, a)
+            path(:, nn + a) = xq(:, a) + dq(:, a)
+          end do
+          if (.not. near_obstacle(o, cp%dhat + cp%thickness, path(:, 1:2 * nn))) cycle
+          v = 0.0_rp
+          if (kind == EL_QUAD) then
+            do t = 1, 2
+              vt = v(:, tri(:, t))
+              call triangle_correction(o, cp, xq(:, tri(:, t)), dq(:, tri(:, t)), fq(tri(:, t)), vt)
+              v(:, tri(:, t)) = vt
+            end do
+            ve = v(:, [ca, cb])
+            call edge_correction(o, cp, xq(:, [ca, cb]), dq(:, [ca, cb]), fq([ca, cb]), ve)
+            v(:, [ca, cb]) = ve
+          else
+            call edge_correction(o, cp, xq(:, 1:2), dq(:, 1:2), fq(1:2), v(:, 1:2))
+          end if
+          do a = 1, nn
+            if (norm2(v(:, a)) > norm2(c(:, ni(a), nj(a)))) c(:, ni(a), nj(a)) = v(:, a)
+          end do
+        end do
+      end do
+    end do
+  end subroutine elements_correct
+
   !> Marks (mark(i, j) = .true.) the owned nodes (rows ys..ye) of the
   !> quads anchored at rows jq0..jq1 of x0(3, 0:nx-1, xlo:) that an
-  !> obstacle moving from o0 to o1 reaches: the quad's gap to o1 below
-  !> contact_dhat and below its gap to o0 (the obstacle approaches it), its
-  !> gaps those of its triangles (edges and nodes included). A quad that
-  !> straddles two ranks' strips is marked on both (jq0 = ys-1, jq1 = ye,
-  !> with the rows around the strip), so the start is the same on any
-  !> number of ranks.
-  subroutine elements_mark(o0, o1, cp, lat, xlo, x0, jq0, jq1, mark)
-    type(obstacle_t), intent(in) :: o0, o1
+  !> obstacle moving from o0 to o1 (by d) reaches: the quad's gap to o1
+  !> below contact_dhat and below its gap to o0 (the obstacle approaches
+  !> it), its gaps those of its triangles (edges and nodes included), or
+  !> the obstacle's path passing through the quad (quad_swept, against the
+  !> obstacle's core oc at t0, as the node contact's carried start,
+  !> module obstacle_set): an obstacle that moves more than its size in a
+  !> step, a capsule of radius 2 cm at 5 cm a step, is beyond the reach
+  !> of the quads it passed through at t1. A quad that
+  subroutine elements_mark(o0, o1, oc, d, cp, lat, xlo, x0, jq0, jq1, mark)
+    type(obstacle_t), intent(in) :: o0, o1, oc
+    real(rp), intent(in) :: d(3)              ! the obstacle's translation from o0 to o1 [length]
     type(contact_params_t), intent(in) :: cp
     type(lattice_t), intent(in) :: lat
     integer, intent(in) :: xlo, jq0, jq1
     real(rp), intent(in) :: x0(:, 0:, xlo:)
     logical, intent(inout) :: mark(0:, lat%ys:)
     integer :: i, j, j0, j1, i1, a, nn, ni(4), nj(4), tri(3, 2), t
-    real(rp) :: xq(3, 4), g0, g1
+    real(rp) :: xq(3, 4), g0, g1, path(3, 8)
     call quad_triangles(SPLIT_MAIN, tri)
     call kind_range(lat, EL_QUAD, jq0, jq1, jq0, jq1, j0, j1, i1)
     do j = j0, j1
@@ -277,14 +337,16 @@ contains
         do a = 1, nn
           xq(:, a) = x0(1:3, ni(a), nj(a))
         end do
-        if (.not. near_obstacle(o1, cp%dhat + cp%thickness, xq)) cycle
+        path(:, 1:4) = xq
+        path(:, 5:8) = xq - spread(d, 2, 4)
+        if (.not. near_obstacle(o0, cp%dhat + cp%thickness, path)) cycle
         g0 = huge(1.0_rp)
         g1 = huge(1.0_rp)
         do t = 1, 2
           g0 = min(g0, triangle_gap(o0, cp%thickness, xq(:, tri(:, t))))
           g1 = min(g1, triangle_gap(o1, cp%thickness, xq(:, tri(:, t))))
         end do
-        if (g1 < cp%dhat .and. g1 < g0) then
+        if ((g1 < cp%dhat .and. g1 < g0) .or. quad_swept(oc, xq, d)) then
           do a = 1, nn
             if (nj(a) >= lat%ys .and. nj(a) <= lat%ye) mark(ni(a), nj(a)) = .true.
           end do
@@ -292,6 +354,29 @@ contains
       end do
     end do
   end subroutine elements_mark
+
+  !> Whether quad xq(3, 4) at rest passes through the core oc of an
+  !> obstacle that translates by d over the step: the ACCD of the motion
+  !> relative to it stops short of the whole path for a triangle or a side
+  !> or the diagonal of the quad (keeping SWEPT_KEEP of the gap: only a
+  !> path into the core, or nearly, counts).
+  pure logical function quad_swept(oc, xq, d) result(swept)
+    type(obstacle_t), intent(in) :: oc
+    real(rp), intent(in) :: xq(3, 4), d(3)
+    integer, parameter :: sides(2, 5) = reshape([1, 2, 2, 4, 4, 3, 3, 1, 1, 4], [2, 5])
+    real(rp), parameter :: STILL(3, 3) = 0.0_rp
+    integer :: tri(3, 2), t
+    real(rp) :: a
+    call quad_triangles(SPLIT_MAIN, tri)
+    a = 1.0_rp
+    do t = 1, 2
+      a = min(a, ccd_triangle(oc, 0.0_rp, xq(:, tri(:, t)), STILL, d, SWEPT_KEEP))
+    end do
+    do t = 1, 5
+      a = min(a, ccd_edge(oc, 0.0_rp, xq(:, sides(:, t)), STILL(:, 1:2), d, SWEPT_KEEP))
+    end do
+    swept = a < 1.0_rp
+  end function quad_swept
 
   !> Node (i, j) is owned and free.
   pure logical function owned_free(lat, fixed, i, j)

@@ -29,6 +29,10 @@
 !>   pair_gather each product with S (and each right-hand side): those
 !>               rows of a vector, owned rows from their owners;
 !>               collective
+!>   correct     before the step limits: the model may add to a Newton
+!>               update x -> x + dx a correction of the update's second
+!>               order (a curved constraint's: SQP's second-order
+!>               correction); changed, the same on every rank; collective
 !>   step_limit  the fraction alpha of a Newton update x -> x + dx (from
 !>               the step's start x0 at t0 to a candidate at t1) that it
 !>               allows, and a status: PM_FEASIBLE, or PM_INFEASIBLE when
@@ -156,6 +160,7 @@ module process_model
     procedure :: pair_rows => no_pair_rows
     procedure :: pair_gather => no_pair_gather
     procedure :: start => keep_start
+    procedure :: correct => keep_update
     procedure :: step_limit => no_limit
     procedure :: accept => accept_all
     procedure :: unresolved => all_resolved
@@ -242,6 +247,19 @@ contains
     integer, intent(out) :: moved
     moved = 0
   end subroutine keep_start
+
+  !> The update is left as it is.
+  subroutine keep_update(this, lat, fixed, t0, t1, x, dx, comm, changed)
+    class(process_model_t), intent(inout) :: this
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t0, t1
+    real(rp), intent(in) :: x(0:, 0:, lat%ys:)
+    real(rp), intent(inout) :: dx(0:, 0:, lat%ys:)
+    integer, intent(in) :: comm
+    logical, intent(out) :: changed
+    changed = .false.
+  end subroutine keep_update
 
   !> Any update is allowed in full.
   subroutine no_limit(this, lat, fixed, t0, t1, x0, x, dx, comm, alpha, status)

@@ -31,7 +31,7 @@ module process_solver
   use app_context, only: app_ctx
   use newton_start, only: newton_start_limited
   use newton_state, only: newton_update_limited, newton_start_moved
-  use model_state, only: model_pm_step_limit, model_pm_accept, model_pm_accepted, model_pm_unresolved, &
+  use model_state, only: model_pm_step_limit, model_pm_correct, model_pm_accept, model_pm_accepted, model_pm_unresolved, &
                          model_pm_start_limit, model_pm_start
   use step_errors, only: step_errors_on, step_errors_weighs, step_errors_stage, step_errors_stage_masks, step_errors_tolerances, &
                          step_errors_accepted, step_errors_impacts, step_errors_order_dropped, step_errors_drop_order, &
@@ -249,18 +249,21 @@ contains
     type(tVec) :: x0vec
     real(rp) :: alpha, t0, dt
     real(rp), allocatable :: dx(:, :, :)
-    logical :: infeasible
+    logical :: infeasible, bent
     changed = .false.
     PetscCall(TSGetTime(ctx%ts, t0, ierr))
     PetscCall(TSGetTimeStep(ctx%ts, dt, ierr))
     ! x_n: the TS's solution until the step is accepted
     PetscCall(TSGetSolution(ctx%ts, x0vec, ierr))
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, xvec, x, ierr))
-    PetscCall(DMDAVecGetArrayReadF90(ctx%da, yvec, y, ierr))
+    PetscCall(DMDAVecGetArrayF90(ctx%da, yvec, y, ierr))
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, x0vec, x0, ierr))
     allocate(dx(0:5, 0:ctx%lat%nx - 1, ctx%lat%ys:ctx%lat%ye))
     dx = -y
-    PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, yvec, y, ierr))
+    call model_pm_correct(ctx%model, ctx%pms, ctx%lat, t0, t0 + dt, x, dx, ctx%comm, bent)
+    if (bent) y = -dx
+    changed = bent
+    PetscCall(DMDAVecRestoreArrayF90(ctx%da, yvec, y, ierr))
     call model_pm_step_limit(ctx%model, ctx%pms, ctx%lat, t0, t0 + dt, x0, x, dx, ctx%comm, alpha, infeasible)
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, x0vec, x0, ierr))
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, xvec, x, ierr))

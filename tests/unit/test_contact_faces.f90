@@ -9,13 +9,16 @@
 !> including nearly parallel (mollified) edges; symmetry and the PSD
 !> projection; contact_quad against its triangles and diagonal; and the
 !> decomposition's completeness: triangle_gap equals the smallest gap over a
-!> dense sampling of the triangle at random positions near each shape.
+!> dense sampling of the triangle at random positions near each shape; the
+!> second-order correction of an update (triangle_correction) against the
+!> closed-form gap of a triangle that tilts over a sphere.
 program test_contact_faces
   use kinds, only: rp
   use contact, only: obstacle_t, contact_params_t, signed_distance, barrier, SHAPE_PLANE, SHAPE_SPHERE, SHAPE_BOX, &
                      SHAPE_CAPSULE
   use contact_faces, only: SPLIT_MAIN, SPLIT_ANTI, quad_triangles, quad_diagonal, obstacle_points, obstacle_edges, &
-                           near_obstacle, contact_triangle, contact_edge, contact_quad, triangle_gap
+                           near_obstacle, contact_triangle, contact_edge, contact_quad, triangle_gap, &
+                           triangle_correction
   use contact_primitives, only: point_triangle_d2, psd_project
   use check, only: check_true, check_close, check_close_array, check_report, seed_random
   implicit none
@@ -43,6 +46,7 @@ program test_contact_faces
   do k = 2, 4
     call completeness_random(ob(k))
   end do
+  call correction_cases()
   call check_report()
 
 contains
@@ -466,5 +470,61 @@ contains
     call check_true(nused > 50 .and. nclose > 5 .and. nface > 5, 'completeness: enough triangles, some close, '// &
                     'some whose faces or edges are nearer than their nodes')
   end subroutine completeness_random
+
+  !> A triangle whose apex sits g0 above a sphere (radius R, thickness 0),
+  !> the sphere's centre under its interior near the apex (barycentric
+  !> weights 0.96, 0.02, 0.02), tilts: its corners drop by delta while the
+  !> apex rises so that the gap's linear prediction is 2 g0. The tilt
+  !> closes the gap at second order (the plane's distance from the centre,
+  !> in closed form, falls far below 2 g0, into the sphere); the correction
+  !> must give back at least 90 % of that loss, move a fixed node not at
+  !> all, and be 0 for a pure translation (no second-order loss).
+  subroutine correction_cases()
+    type(obstacle_t) :: s
+    type(contact_params_t) :: c0
+    real(rp), parameter :: r = 0.05_rp, g0 = 1.0e-7_rp, delta = 4.5e-3_rp
+    real(rp) :: xt(3, 3), dxt(3, 3), v(3, 3), u, glin, g1, g2
+    s = obstacle_t(shape=SHAPE_SPHERE, p=[0.002_rp, -0.002_rp, 0.0_rp], r=r)
+    c0 = contact_params_t(thickness=0.0_rp, dhat=1.0e-3_rp, kappa=1.0_rp)
+    xt(:, 1) = [0.0_rp, 0.0_rp, r + g0]
+    xt(:, 2) = [0.1_rp, 0.0_rp, r + g0]
+    xt(:, 3) = [0.0_rp, -0.1_rp, r + g0]
+    glin = 2.0_rp * g0
+    u = (glin - g0 + 0.04_rp * delta) / 0.96_rp
+    dxt = 0.0_rp
+    dxt(3, :) = [u, -delta, -delta]
+    g1 = plane_gap(s, xt + dxt)
+    call check_true(g1 < -10.0_rp * g0, 'correction: the tilt closes the gap at second order')
+    v = 0.0_rp
+    call triangle_correction(s, c0, xt, dxt, [.true., .true., .true.], v)
+    g2 = plane_gap(s, xt + dxt + v)
+    call check_close(g2, glin, 0.0_rp, 0.1_rp * (glin - g1), 'correction: the gap at the corrected update')
+    call check_true(abs(triangle_gap(s, 0.0_rp, xt + dxt + v) - g2) <= 1.0e-12_rp, &
+                    'correction: the closest point stays inside the triangle')
+    v = 0.0_rp
+    call triangle_correction(s, c0, xt, dxt, [.false., .true., .true.], v)
+    call check_true(all(v(:, 1) == 0.0_rp) .and. any(v(:, 2:3) /= 0.0_rp), 'correction: a fixed node is not moved')
+    v = 0.0_rp
+    dxt = 0.0_rp
+    dxt(3, :) = 1.0e-4_rp
+    call triangle_correction(s, c0, xt, dxt, [.true., .true., .true.], v)
+    call check_true(all(v == 0.0_rp), 'correction: none for a translation')
+  end subroutine correction_cases
+
+  !> The gap of triangle y over sphere s: the plane's distance from the
+  !> centre less the radius (the centre's foot inside the triangle).
+  real(rp) function plane_gap(s, y)
+    type(obstacle_t), intent(in) :: s
+    real(rp), intent(in) :: y(3, 3)
+    real(rp) :: n(3)
+    n = cross3(y(:, 2) - y(:, 1), y(:, 3) - y(:, 1))
+    plane_gap = abs(dot_product(n, s%p - y(:, 1))) / norm2(n) - s%r
+  end function plane_gap
+
+  pure function cross3(a, b) result(c)
+    real(rp), intent(in) :: a(3), b(3)
+    real(rp) :: c(3)
+    c = [a(2) * b(3) - a(3) * b(2), a(3) * b(1) - a(1) * b(3), a(1) * b(2) - a(2) * b(1)]
+  end function cross3
 
 end program test_contact_faces
