@@ -105,7 +105,7 @@ contains
   !> 65 x 65) until the solve has settled (jacobian_settled: ||F|| down
   !> 100-fold to within 100 times the convergence test's residual with no
   !> update cut; what is left is round-off and the first inexact solve's,
-  !> and the kept Jacobian takes it to the floor: at 129 and 257, 19-35 %
+  !> and the kept Jacobian takes it to the floor: at 129 and 257, 19-33 %
   !> fewer assemblies, the same Newton iterations), the inexact-Newton forcing guarded (tight wherever the
   !> step limit cut the start or an update, or a moving obstacle carried
   !> the start, and in the next solve's first iteration: its loose inner
