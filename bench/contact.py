@@ -15,8 +15,8 @@ barrier's reach of 1 mm), so every step measured is a step with contact
 (the scenes as shipped fall 5 cm first: the first 100 steps have none).
 Per run: node-steps/s (N^2 times the steps over the time of -log_view's
 TSStep event), Newton and inner (Krylov) iterations a step (the run's
-summary line), the active contacts at the end (the last `contact:` line),
-and the ratio of the contact run's TSStep time to the free one's (the
+summary line), Jacobian assemblies a step (-log_view's SNESJacobianEval),
+the active contacts at the end (the last `contact:` line), and the ratio of the contact run's TSStep time to the free one's (the
 issue's target: at most 1.5 at 257 x 257 in bw mode). Each pair is
 repeated --repeat times and the fastest of each kept.
 
@@ -93,13 +93,14 @@ def run(exe, mpiexec, scene, n, nranks, mode, contact, timeout):
                    last[-1] if last else "?")
         return dict(ok=False, why=why.strip()[:160])
     _, t_step, _ = event(out, "TSStep")
+    jac, _, _ = event(out, "SNESJacobianEval")
     summary = [ln for ln in out.splitlines() if ln.startswith("t =")][-1]
     steps, rejected, newton, linear = map(int, re.findall(
         r"steps\s+(\d+)\s+rejected\s+(\d+)\s+newton\s+(\d+)\s+linear\s+(\d+)", summary)[0])
     act = re.findall(r"contact: t = \S+, active = (\d+)", out)
     limited = re.findall(r"limited updates = (\d+)", out)
     return dict(ok=True, steps=steps, rejected=rejected, newton=newton / max(steps, 1),
-                inner=linear / max(steps, 1), t_step=t_step, rate=n * n * steps / t_step,
+                inner=linear / max(steps, 1), jac=jac / max(steps, 1), t_step=t_step, rate=n * n * steps / t_step,
                 active=int(act[-1]) if act else 0, limited=int(limited[-1]) if limited else None,
                 wall=wall)
 
@@ -110,7 +111,8 @@ def best(tries):
 
 
 HEAD = ("| scene | mode | N | ranks | steps | node-steps/s, contact | node-steps/s, free | time ratio "
-        "| Newton / step, contact / free | inner / step, contact / free | active contacts at the end |")
+        "| Newton / step, contact / free | Jacobians / step, contact / free | inner / step, contact / free "
+        "| active contacts at the end |")
 
 
 def row(scene, mode, n, p, c, f):
@@ -122,6 +124,7 @@ def row(scene, mode, n, p, c, f):
     steps = c["steps"] if c["ok"] else (f["steps"] if f["ok"] else "-")
     return (f"| {scene} | {mode} | {n} | {p} | {steps} | {num(c, 'rate', '{:.3g}')} | {num(f, 'rate', '{:.3g}')} "
             f"| {ratio} | {num(c, 'newton', '{:.2f}')} / {num(f, 'newton', '{:.2f}')} "
+            f"| {num(c, 'jac', '{:.2f}')} / {num(f, 'jac', '{:.2f}')} "
             f"| {num(c, 'inner', '{:.1f}')} / {num(f, 'inner', '{:.1f}')} "
             f"| {c['active'] if c['ok'] else '-'} of {n * n} |" + (f" {fails}" if fails else ""))
 
@@ -142,7 +145,7 @@ def main(argv=None):
     a.exe = str(Path(a.exe).resolve())  # the runs start in their own folders
     if not Path(a.exe).is_file():
         ap.error(f"--exe {a.exe}: no such file (bash tools/build.sh first)")
-    lines = [HEAD, "|" + "---|" * 11]
+    lines = [HEAD, "|" + "---|" * 12]
     print(lines[0] + "\n" + lines[1], flush=True)
     for scene in a.scenes:
         for mode in a.modes:

@@ -82,6 +82,13 @@ module process_model
   type :: pm_hints_t
     !> the Jacobian at every Newton iteration (-snes_lag_jacobian 1)
     logical :: jacobian_every_iteration = .false.
+    !> with jacobian_every_iteration: the Jacobian may be kept for the rest
+    !> of a Newton solve once it has settled (no update or start cut by a
+    !> step limit or carried, ||F|| down 100-fold and within 100 times the
+    !> convergence test's residual: module newton_state's newton_settled);
+    !> the solver keeps it only where every model that asks for the
+    !> Jacobian at every iteration says so
+    logical :: jacobian_settled = .false.
     !> the inexact-Newton forcing only where the model's state has settled:
     !> inner solves to -reduced_ksp_rtol in a Newton solve whose start or
     !> an update a step limit cut or a start hook moved, in the next

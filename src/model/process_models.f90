@@ -120,7 +120,9 @@ contains
   !> What the models need of the solver, together: a hint that one model
   !> gives holds (module process_model's pm_hints_t; ts_types is left
   !> empty: pm_list_ts_refusal asks each model), except smooth_start,
-  !> which holds where every model with feasible_start gives it.
+  !> which holds where every model with feasible_start gives it, and
+  !> jacobian_settled, where every model with jacobian_every_iteration
+  !> gives it.
   function pm_list_hints(list) result(h)
     type(pm_list_t), intent(in) :: list
     type(pm_hints_t) :: h
@@ -128,9 +130,11 @@ contains
     integer :: k
     h = pm_hints_t()
     h%smooth_start = .true.
+    h%jacobian_settled = .true.
     do k = 1, list%n
       e = list%m(k)%pm%hints()
       h%jacobian_every_iteration = h%jacobian_every_iteration .or. e%jacobian_every_iteration
+      h%jacobian_settled = h%jacobian_settled .and. (e%jacobian_settled .or. .not. e%jacobian_every_iteration)
       h%forcing_guarded = h%forcing_guarded .or. e%forcing_guarded
       h%basic_line_search = h%basic_line_search .or. e%basic_line_search
       h%feasible_start = h%feasible_start .or. e%feasible_start

@@ -18,7 +18,7 @@ module newton_state
   public :: newton_take_injected_failure, newton_first_residual, newton_iterated, newton_verdict, newton_inner_rtol, &
             newton_fallback_switched, newton_update_limited, newton_start_moved
   public :: newton_guess, newton_guess_given, newton_forcing_on, newton_floor_est, newton_snorm_prev, newton_fallback, &
-            newton_fallback_pending, newton_has_failed, newton_rate_usable, newton_limited_lately, &
+            newton_fallback_pending, newton_has_failed, newton_rate_usable, newton_limited_lately, newton_settled, newton_set_lag_settled, newton_lag_settled, newton_target, &
             newton_update_floor
 
   !> -nuno_snes_floor's default: stagnation below this relative residual is convergence
@@ -41,6 +41,11 @@ module newton_state
   !> updates the step limit cut, ||F|| rising 7e3 -> 1.5e4) the limited
   !> solve's tolerance stands.
   real(rp), parameter :: NEAR_FLOOR = 1.0e3_rp
+  !> newton_settled: the contraction of ||F|| since the solve's start
+  !> after which its Jacobian is kept for the rest of the solve
+  real(rp), parameter :: SETTLED_CONTRACTION = 1.0e-2_rp
+  !> newton_settled: how far above the convergence test's residual
+  real(rp), parameter :: SETTLED_NEAR = 1.0e2_rp
 
   type :: newton_state_t
     private
@@ -68,6 +73,8 @@ module newton_state
     logical :: carried_solve = .false., carried_solve_prev = .false., carried_start = .false.
     logical :: newton_forcing = .true.          !< inner tolerance from the step's needs (reduced path)
     logical :: forcing_guarded = .false.        !< the forcing only where the process models' state settled
+    !> the Jacobian of a Newton solve kept once it has settled (newton_settled; a process model's hint)
+    logical :: lag_settled = .false.
     integer(c_int) :: guess = GUESS_AUTO        !< -nuno_inner_guess (module inner_guess)
     integer(c_int) :: guess_given = 0           !< 1: set on the command line
     real(rp) :: cquad = 0                       !< estimate of C in ||F_k+1|| ~ C ||F_k||^2; 0 at every window start
@@ -202,6 +209,43 @@ contains
   end function newton_rate_usable
 
   !> A step limit scaled this iteration's update or the one before.
+  !> This Newton solve has settled: no step limit cut its start or an
+  !> update, no moving obstacle carried its start, and ||F|| has fallen
+  !> below SETTLED_CONTRACTION times its start's and within SETTLED_NEAR
+  !> of the residual at which the convergence test stops (target: what
+  !> is left is round-off and the remainder of a Jacobian that hardly
+  !> changes, newton_lag_settled).
+  pure logical function newton_settled(n, fnorm, target)
+    type(newton_state_t), intent(in) :: n
+    real(rp), intent(in) :: fnorm, target
+    newton_settled = .not. (n%limited_solve .or. n%carried_solve) .and. fnorm <= SETTLED_CONTRACTION * n%fnorm0 &
+                     .and. fnorm <= SETTLED_NEAR * target
+  end function newton_settled
+
+  !> The residual at which the convergence test stops: max(atol, rtol
+  !> ||F_0||, and with the floor test FLOOR_FACTOR times floor_est, the
+  !> round-off floor of the last assembly).
+  pure real(rp) function newton_target(n, atol, rtol, floor_est) result(target)
+    type(newton_state_t), intent(in) :: n
+    real(rp), intent(in) :: atol, rtol, floor_est
+    target = max(atol, rtol * n%fnorm0)
+    if (n%snes_floor > 0.0_rp) target = max(target, FLOOR_FACTOR * floor_est)
+  end function newton_target
+
+  !> Keep the Jacobian of a Newton solve once it has settled (on: a process
+  !> model's hint jacobian_settled, without -snes_lag_jacobian given).
+  subroutine newton_set_lag_settled(n, on)
+    type(newton_state_t), intent(inout) :: n
+    logical, intent(in) :: on
+    n%lag_settled = on
+  end subroutine newton_set_lag_settled
+
+  !> The Jacobian of a settled Newton solve is kept (newton_set_lag_settled).
+  pure logical function newton_lag_settled(n)
+    type(newton_state_t), intent(in) :: n
+    newton_lag_settled = n%lag_settled
+  end function newton_lag_settled
+
   pure logical function newton_limited_lately(n)
     type(newton_state_t), intent(in) :: n
     newton_limited_lately = n%limited .or. n%limited_prev
@@ -251,8 +295,7 @@ contains
     real(rp), intent(out) :: eta
     real(rp) :: target
     if (it >= 1) n%cquad = quadratic_constant(n%fnorm_prev, fnorm, lin_rel)
-    target = max(atol, rtol * n%fnorm0)
-    if (n%snes_floor > 0.0_rp) target = max(target, FLOOR_FACTOR * floor_est)
+    target = newton_target(n, atol, rtol, floor_est)
     eta = forcing_term(fnorm, target, n%cquad, rtol0, ETA_MAX)
     if (.not. n%forcing_guarded) return
     if (n%limited_solve .or. (it == 0 .and. n%limited_solve_prev)) eta = max(rtol0, min(eta, ETA_LIMITED))

@@ -30,7 +30,7 @@ module process_solver
   use ghosted_state, only: ghosted_get, ghosted_restore
   use app_context, only: app_ctx
   use newton_start, only: newton_start_limited
-  use newton_state, only: newton_update_limited, newton_start_moved
+  use newton_state, only: newton_update_limited, newton_start_moved, newton_set_lag_settled
   use model_state, only: model_pm_step_limit, model_pm_correct, model_pm_accept, model_pm_accepted, model_pm_unresolved, &
                          model_pm_start_limit, model_pm_start
   use step_errors, only: step_errors_on, step_errors_weighs, step_errors_stage, step_errors_stage_masks, step_errors_tolerances, &
@@ -67,7 +67,9 @@ contains
   !> Before TSSetFromOptions, the process models' hints that are options:
   !> the Jacobian at every Newton iteration (-snes_lag_jacobian 1 unless
   !> given; module solver_options' step_defaults lags it to every other
-  !> iteration otherwise). (A feasible start needs no option: every start
+  !> iteration otherwise), kept once a solve has settled where the models
+  !> allow it (hint jacobian_settled; module newton_policy's
+  !> lag_when_settled; not where -snes_lag_jacobian is given). (A feasible start needs no option: every start
   !> is limited, pm_solver_setup.) Nothing without process models.
   !> Collective.
   subroutine pm_solver_options(ctx, ierr)
@@ -82,6 +84,7 @@ contains
       PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-snes_lag_jacobian', given, ierr))
       if (.not. given) then
         PetscCall(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-snes_lag_jacobian', '1', ierr))
+        call newton_set_lag_settled(ctx%newton, h%jacobian_settled)
       end if
     end if
   end subroutine pm_solver_options
