@@ -128,3 +128,19 @@ def test_one_and_two_ranks_agree(tmp_path):
     _, x1, _, _ = slide(tmp_path, "r1", 0.3, nranks=1)
     _, x2, _, _ = slide(tmp_path, "r2", 0.3, nranks=2)
     assert np.abs(x2 - x1).max() <= 1e-8 * (NY - 1) * A
+
+
+def test_bad_self_mu_is_refused_in_one_line(tmp_path):
+    """A negative or NaN self_mu, and self_mu > 0 without self_contact (it
+    would be ignored): one line naming the key and its value, on 2 ranks,
+    no output (test_contact_input's check; each ran before self_mu existed
+    as an unknown key; NaN is the reader's finite-number check)."""
+    from test_contact_input import refused
+    cases = [("self_contact=.true. self_mu=-0.1", "self_mu = -0.1", "must be a number >= 0"),
+             ("self_contact=.true. self_mu=NaN", "self_mu = NaN", "must be a finite number"),
+             ("self_mu=0.3", "self_mu = 0.3", "needs self_contact = .true.")]
+    for n, (keys, names, says) in enumerate(cases):
+        d = tmp_path / f"case{n}"
+        d.mkdir()
+        line = refused(d, "n_obstacles=0 " + keys)
+        assert f"input: &contact: {names}" in line and says in line, line
