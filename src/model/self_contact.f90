@@ -82,7 +82,8 @@ module self_contact
     type(self_exchange_t) :: xch                !< the list's plan of rows and its message buffers
     type(self_blocks_t) :: blocks               !< the narrow phase's blocks
     type(self_blocks_t) :: fblocks              !< friction's blocks df_a/dv_b [force*time/length]
-    real(rp), allocatable :: xall(:, :, :)      !< (6, 0:nx-1, nrows+) present rows' positions (and update, or velocities)
+    !> (6, 0:nx-1, nrows+) present rows' positions [length] and update [length] or velocities [length/time]
+    real(rp), allocatable :: xall(:, :, :)
     real(rp), allocatable :: fall(:, :, :)      !< (3, 0:nx-1, nrows+) forces on them [force]; (1, ...) masks
     real(rp), allocatable :: mask(:, :, :)      !< (1, 0:nx-1, ys:ye) 1 on a constrained node
     real(rp), allocatable :: xd(:, :, :)        !< (6, 0:nx-1, max(ys-1,0):min(ye+1,ny-1)) positions, update [length]
@@ -191,7 +192,8 @@ contains
     this%w%xd = 0.0_rp
     call self_blocks_reserve(this%w%blocks, 16 * max(lat%nx * (lat%ye - lat%ys + 1) / 4, 1))
     call self_lags_setup(this%lags, cfg%contact%self_mu, cfg%contact%eps_v)
-    if (self_lags_on(this%lags)) call self_blocks_reserve(this%w%fblocks, 16 * max(lat%nx * (lat%ye - lat%ys + 1) / 4, 1))
+    if (self_lags_on(this%lags)) &
+      call self_blocks_reserve(this%w%fblocks, 16 * max(lat%nx * (lat%ye - lat%ys + 1) / 4, 1))
     call make_list(this, lat, comm, u(0:2, :, max(lat%ys - 1, 0):min(lat%ye + 1, lat%ny - 1)), ierr)
     errmsg = ''
     if (ierr /= 0) then

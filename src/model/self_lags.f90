@@ -105,8 +105,8 @@ contains
     call self_row_slots(sl, rows, slot)
     do m = 1, lg%n
       if (.not. active_now(lg, m, sl, slot, x, cp)) cycle
-      call self_pair_friction(lag_of(lg, m), lg%mu, lg%eps_v, self_pair_positions(sl, slot, x(4:6, :, :), lg%node(:, m)), &
-                              fp, kv)
+      call self_pair_friction(lag_of(lg, m), lg%mu, lg%eps_v, &
+                              self_pair_positions(sl, slot, x(4:6, :, :), lg%node(:, m)), fp, kv)
       do a = 1, 4
         associate (fa => f(1:3, mod(lg%node(a, m), sl%nx), slot(lg%node(a, m) / sl%nx)))
           fa = fa + fp(:, a)

@@ -83,7 +83,7 @@ def folded():
     return x
 
 
-def slide(tmp_path, name, self_mu, nranks=1):
+def slide(tmp_path, name, self_mu, nranks=1, t_end=T_END):
     """The flat run, its checkpoint made the folded state, the continued run: times and positions,
     velocities [nt][ny][nx][3] after T0."""
     run(tmp_path, name, nranks=nranks, **groups(self_mu))
@@ -95,7 +95,12 @@ def slide(tmp_path, name, self_mu, nranks=1):
                 continue
             for key in slot:
                 slot[key][...] = x if "position" in key else 0.0
-    run(tmp_path, name, nranks=nranks, options=["-nuno_restart", str(h5)], **groups(self_mu, T_END))
+    run(tmp_path, name, nranks=nranks, options=["-nuno_restart", str(h5)], **groups(self_mu, t_end))
+    return read_after(h5)
+
+
+def read_after(h5):
+    """Times, positions, velocities after T0 in the run's file."""
     with h5py.File(h5, "r") as f:
         n = int(f.attrs["n_output_steps"])
         t = np.array(f["time"][:n])

@@ -62,7 +62,8 @@ program test_self_friction
   call check_true(active, 'EE lag: active')
   call check_close_array(lag%w, w_ee, 1.0e-14_rp, 0.0_rp, 'EE lag: weights (the edges'' parameters)')
   call check_close_array(lag%n, [0.0_rp, 0.0_rp, 1.0_rp], 0.0_rp, 1.0e-14_rp, 'EE lag: normal along z')
-  call check_close(lag%lam, -cp%kappa * db, 1.0e-12_rp, 0.0_rp, 'EE lag: lam = -kappa b''(gap) (crossing: no mollifier)')
+  call check_close(lag%lam, -cp%kappa * db, 1.0e-12_rp, 0.0_rp, &
+                   'EE lag: lam = -kappa b''(gap) (crossing: no mollifier)')
   call check_close(lag%lam, norm2(fb(:, 1) + fb(:, 2)), 1.0e-10_rp, 0.0_rp, 'EE lag: lam = |barrier force on edge a|')
   do k = 1, 3
     call friction_checks(lag, w_ee, SCALES(k), 'EE')
@@ -119,7 +120,8 @@ contains
         m(3 * a - 2:3 * a, 3 * c - 2:3 * c) = kv(:, :, a, c)
       end do
     end do
-    call check_close_array(reshape(m, [144]), reshape(kfd, [144]), 1.0e-5_rp, 0.0_rp, what//' friction: kv against FD of f')
+    call check_close_array(reshape(m, [144]), reshape(kfd, [144]), 1.0e-5_rp, 0.0_rp, &
+                           what//' friction: kv against FD of f')
     call check_close_array(sum(f, dim=2), [0.0_rp, 0.0_rp, 0.0_rp], 0.0_rp, 1.0e-15_rp * maxval(abs(f)), &
                            what//' friction: forces sum to zero')
     ! the slip of the nearest points, from the hand-made weights; z is the normal
