@@ -68,6 +68,9 @@ module config
     !> edges kept apart, the barrier above at distance 2 contact_thickness;
     !> off by default (nothing allocated, nothing run)
     logical :: self_contact = .false.
+    !> Coulomb coefficient of the friction between two pieces of the cloth
+    !> (self-contact's pairs, lagged; module self_lags); 0: frictionless [1]
+    real(rp) :: self_mu = 0.0_rp
     integer :: shape_code(obstacle_max) = 1   !< derived: 1 plane, 2 sphere, 3 box, 4 capsule (the kernel's SHAPE_*)
   end type contact_config
 

@@ -60,6 +60,7 @@ contains
       if (c%self_contact) then
         call check_self_contact(cfg, ierr, msg); if (ierr /= 0) return
       end if
+      call check_self_mu(c, ierr, msg); if (ierr /= 0) return
       ierr = 1
       ! The adjoint would be inexact with contact (docs/identification.md,
       ! "Contact"): friction's lagged normal force is not differentiated, the
@@ -103,6 +104,27 @@ contains
     ierr = 0
     msg = ''
   end subroutine check_self_contact
+
+  !> self_mu: a number >= 0 (NaN refused), and only with self_contact
+  !> (friction between layers acts on the self-contact's pairs: without
+  !> them it would be ignored).
+  subroutine check_self_mu(c, ierr, msg)
+    type(contact_config), intent(in) :: c
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    ierr = 1
+    if (.not. (c%self_mu >= 0.0_rp .and. c%self_mu <= huge(1.0_rp))) then
+      msg = 'input: &contact: self_mu = '//real_short(c%self_mu)//' must be a number >= 0'
+      return
+    end if
+    if (c%self_mu > 0.0_rp .and. .not. c%self_contact) then
+      msg = 'input: &contact: self_mu = '//real_short(c%self_mu)//' needs self_contact = .true. '// &
+            '(friction between layers acts on the self-contact''s pairs)'
+      return
+    end if
+    ierr = 0
+    msg = ''
+  end subroutine check_self_mu
 
   !> Obstacles described beyond n_obstacles: a key of an obstacle k >
   !> n_obstacles with a value other than its default is refused by name,

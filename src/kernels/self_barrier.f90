@@ -33,7 +33,8 @@ module self_barrier
                         self_pair_rest, self_pair_owner_row
   implicit none
   private
-  public :: self_blocks_t, self_pair_barrier, self_barrier_forces, self_pair_gap, self_blocks_reserve, self_blocks_regrown
+  public :: self_blocks_t, self_pair_barrier, self_barrier_forces, self_pair_gap, self_blocks_reserve, self_blocks_regrown, &
+            self_blocks_add
 
   !> Pair blocks: k(:, :, m) = df_a/dx_b [force/length] of nodes a(m), b(m) (global numbers).
   !> The same (a, b) may come several times (one entry a pair): the solver sums them.
@@ -178,6 +179,15 @@ contains
 
     n = blocks%regrown
   end function self_blocks_regrown
+
+  !> Append the block k of nodes a, b (global numbers); the arrays grow (doubled) when full.
+  pure subroutine self_blocks_add(blocks, a, b, k)
+    type(self_blocks_t), intent(inout) :: blocks
+    integer, intent(in) :: a, b
+    real(rp), intent(in) :: k(3, 3)
+
+    call add_block(blocks, a, b, k)
+  end subroutine self_blocks_add
 
   pure subroutine add_block(blocks, a, b, k)
     type(self_blocks_t), intent(inout) :: blocks

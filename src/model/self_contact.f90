@@ -57,6 +57,8 @@ module self_contact
                         self_row_slots, self_pair_positions, self_pair_owner_row, self_pairs_regrown
   use self_barrier, only: self_blocks_t, self_barrier_forces, self_pair_gap, self_blocks_reserve, self_blocks_regrown
   use self_step, only: self_alpha_ccd
+  use self_lags, only: self_lags_t, self_lags_setup, self_lags_on, self_lags_forces, self_lags_step, self_lags_work, &
+                       self_lags_restore, self_lags_regrown
   use self_exchange, only: self_exchange_t, self_exchange_plan, self_exchange_plan_swept, self_exchange_nrows, &
                            self_exchange_rows_copy, self_exchange_gather, self_exchange_counts, self_exchange_regrown, &
                            self_exchange_free
@@ -79,7 +81,9 @@ module self_contact
   type :: self_work_t
     type(self_exchange_t) :: xch                !< the list's plan of rows and its message buffers
     type(self_blocks_t) :: blocks               !< the narrow phase's blocks
-    real(rp), allocatable :: xall(:, :, :)      !< (6, 0:nx-1, nrows+) present rows' positions (and update) [length]
+    type(self_blocks_t) :: fblocks              !< friction's blocks df_a/dv_b [force*time/length]
+    !> (6, 0:nx-1, nrows+) present rows' positions [length] and update [length] or velocities [length/time]
+    real(rp), allocatable :: xall(:, :, :)
     real(rp), allocatable :: fall(:, :, :)      !< (3, 0:nx-1, nrows+) forces on them [force]; (1, ...) masks
     real(rp), allocatable :: mask(:, :, :)      !< (1, 0:nx-1, ys:ye) 1 on a constrained node
     real(rp), allocatable :: xd(:, :, :)        !< (6, 0:nx-1, max(ys-1,0):min(ye+1,ny-1)) positions, update [length]
@@ -103,6 +107,7 @@ module self_contact
     integer, allocatable :: rows(:)             !< (nrows+) the present rows, ascending (owned and fetched)
     integer :: nrows = 0                        !< their number
     type(self_pairs_t) :: pairs                 !< candidates within dhat + xi + skin (OWN_TOUCH)
+    type(self_lags_t) :: lags                   !< friction between layers: the lag of the active pairs, the work
     real(rp), allocatable :: x_list(:, :, :)    !< (3, 0:nx-1, ys:ye) positions the list was made at [length]
     ! the last accepted state's record, over all ranks (the accepted hook)
     real(rp) :: t_seen = -huge(1.0_rp)          !< its time [time]
@@ -186,6 +191,9 @@ contains
     allocate(this%w%xd(6, 0:lat%nx - 1, max(lat%ys - 1, 0):min(lat%ye + 1, lat%ny - 1)))
     this%w%xd = 0.0_rp
     call self_blocks_reserve(this%w%blocks, 16 * max(lat%nx * (lat%ye - lat%ys + 1) / 4, 1))
+    call self_lags_setup(this%lags, cfg%contact%self_mu, cfg%contact%eps_v)
+    if (self_lags_on(this%lags)) &
+      call self_blocks_reserve(this%w%fblocks, 16 * max(lat%nx * (lat%ye - lat%ys + 1) / 4, 1))
     call make_list(this, lat, comm, u(0:2, :, max(lat%ys - 1, 0):min(lat%ye + 1, lat%ny - 1)), ierr)
     errmsg = ''
     if (ierr /= 0) then
@@ -243,9 +251,11 @@ contains
 
   !> The candidates' barrier at the ghosted state u, into the work
   !> arrays: positions of the present rows w%xall(1:3) (the fetched rows
-  !> gathered), the forces w%fall on them, the blocks w%blocks (projected:
-  !> minus the PSD part); the energy e of the pairs counted here (huge: a
-  !> gap <= 0) and the active pairs counted here. Collective (the gather).
+  !> gathered; with friction their velocities too, w%xall(4:6)), the
+  !> forces w%fall on them, the blocks w%blocks (projected: minus the PSD
+  !> part) and friction's w%fblocks (project: the Jacobian); the energy e
+  !> of the pairs counted here (huge: a gap <= 0) and the active pairs
+  !> counted here. Collective (the gather).
   subroutine narrow_phase(this, lat, u, project, e, nact, ierr)
     class(self_contact_model_t), intent(in) :: this
     type(lattice_t), intent(in) :: lat
@@ -253,15 +263,26 @@ contains
     logical, intent(in) :: project
     real(rp), intent(out) :: e
     integer, intent(out) :: nact, ierr
+    integer :: nv
+    nv = merge(6, 3, self_lags_on(this%lags))
     associate (w => this%w, n => this%nrows)
-      call self_exchange_gather(w%xch, u(0:2, :, lat%ys:lat%ye), w%xall(1:3, :, 1:n), ierr)
+      call self_exchange_gather(w%xch, u(0:nv - 1, :, lat%ys:lat%ye), w%xall(1:nv, :, 1:n), ierr)
       w%fall(:, :, 1:n) = 0.0_rp
       e = 0.0_rp
       nact = 0
       w%blocks%n = 0
+      w%fblocks%n = 0
       if (ierr /= 0) return
       call self_barrier_forces(this%sl, this%rows(1:n), w%xall(1:3, :, 1:n), this%pairs, lat%ys, lat%ye, this%cp, &
                                project, e, w%fall(:, :, 1:n), w%blocks, nact)
+      if (nv < 6) return
+      if (project) then
+        call self_lags_forces(this%lags, this%sl, this%rows(1:n), w%xall(:, :, 1:n), this%cp, lat%ys, lat%ye, &
+                              w%fall(:, :, 1:n), w%fblocks)
+      else
+        call self_lags_forces(this%lags, this%sl, this%rows(1:n), w%xall(:, :, 1:n), this%cp, lat%ys, lat%ye, &
+                              w%fall(:, :, 1:n))
+      end if
     end associate
   end subroutine narrow_phase
 
@@ -302,6 +323,21 @@ contains
         ib = mod(blocks%b(m), lat%nx)
         jb = blocks%b(m) / lat%nx
         call pair_blocks_add(pairs, i, j, ib, jb, mall(1, ib, slot(jb)) > 0.0_rp, blocks%k(:, :, m), zero)
+      end if
+    end do
+    end associate
+    ! friction's blocks df_a/dv_b (a owned)
+    associate (blocks => this%w%fblocks, mall => this%w%fall(1:1, :, 1:this%nrows))
+    do m = 1, blocks%n
+      i = mod(blocks%a(m), lat%nx)
+      j = blocks%a(m) / lat%nx
+      if (fixed(i, j)) cycle
+      if (blocks%a(m) == blocks%b(m)) then
+        call node_blocks_add(nodal, i, j, zero, blocks%k(:, :, m))
+      else
+        ib = mod(blocks%b(m), lat%nx)
+        jb = blocks%b(m) / lat%nx
+        call pair_blocks_add(pairs, i, j, ib, jb, mall(1, ib, slot(jb)) > 0.0_rp, zero, blocks%k(:, :, m))
       end if
     end do
     end associate
@@ -620,6 +656,9 @@ contains
       return
     end if
     call narrow_phase(this, lat, u, .false., e, nact, ierr)
+    if (self_lags_on(this%lags)) call self_lags_step(this%lags, this%sl, this%rows(1:this%nrows), &
+                                                     this%w%xall(:, :, 1:this%nrows), this%pairs, this%cp, lat%ys, &
+                                                     lat%ye, t, comm)
     call self_exchange_counts(this%w%xch, counts(2), nsrc, npatch)
     counts(1) = nact
     counts(3) = regrown_count(this) - this%regrown_setup
@@ -667,32 +706,42 @@ contains
                   'ranks', is_count=.true., count=this%regrown), &
       pm_series_t(name='/energy/barrier_self', description='barrier energy of the cloth''s self-contact pairs '// &
                   '(a potential energy of the balance)', units='energy', values=[this%energy, 0.0_rp, 0.0_rp])]
+    if (self_lags_on(this%lags)) series = [series, &
+      pm_series_t(name='/self_contact/friction_work', description='work of the friction between layers since the '// &
+                  'start (&contact''s self_mu; dissipated, >= 0; part of /energy/dissipated)', units='energy', &
+                  values=[self_lags_work(this%lags), 0.0_rp, 0.0_rp])]
     groups = [pm_group_t(name='/self_contact', description='the cloth''s contact with itself (&contact''s '// &
                          'self_contact), per output step')]
-    energy = pm_energy_t(potential=this%energy)
+    energy = pm_energy_t(potential=this%energy, dissipated=self_lags_work(this%lags))
   end subroutine self_output
 
-  !> The counts that go on across a restart (the list is made again from
-  !> the restart's state).
+  !> The counts and the friction work that go on across a restart (the
+  !> list and friction's lag are made again from the restart's state).
   subroutine self_checkpoint(this, values)
     class(self_contact_model_t), intent(in) :: this
     type(named_value_t), allocatable, intent(out) :: values(:)
     values = [named_value('self_contact_limited', [real(this%limited, rp)], .true.), &
-              named_value('self_contact_rebuilt', [real(this%rebuilt, rp)], .true.)]
+              named_value('self_contact_rebuilt', [real(this%rebuilt, rp)], .true.), &
+              named_value('self_contact_friction_work', [self_lags_work(this%lags)], .false.)]
   end subroutine self_checkpoint
 
-  !> A restart's counts from its checkpoint (0 in a file without them).
+  !> A restart's counts and friction work from its checkpoint (0 in a
+  !> file without them).
   subroutine self_restore(this, values)
     class(self_contact_model_t), intent(inout) :: this
     type(named_value_t), intent(in) :: values(:)
     integer :: k
+    real(rp) :: work
     this%limited = 0
     this%rebuilt = 0
+    work = 0.0_rp
     do k = 1, size(values)
       if (size(values(k)%v) < 1) cycle
       if (trim(values(k)%name) == 'self_contact_limited') this%limited = nint(values(k)%v(1))
       if (trim(values(k)%name) == 'self_contact_rebuilt') this%rebuilt = nint(values(k)%v(1))
+      if (trim(values(k)%name) == 'self_contact_friction_work') work = values(k)%v(1)
     end do
+    call self_lags_restore(this%lags, work)
     this%have_last = .false.
   end subroutine self_restore
 
@@ -709,7 +758,7 @@ contains
   integer function regrown_count(this) result(n)
     class(self_contact_model_t), intent(in) :: this
     n = self_pairs_regrown(this%pairs) + self_blocks_regrown(this%w%blocks) + self_exchange_regrown(this%w%xch) + &
-        this%w%regrown
+        this%w%regrown + self_blocks_regrown(this%w%fblocks) + self_lags_regrown(this%lags)
   end function regrown_count
 
 end module self_contact
