@@ -51,6 +51,12 @@ module contact_faces
   !> A gap's loss below its linear prediction that pair_correction takes
   !> for round-off, relative to the pair's scale (radius + gap + move).
   real(rp), parameter :: LOSS_ROUND = 1.0e-12_rp
+  !> The fraction of its predicted gap a pair's path must lose before pair_correction
+  !> lifts it: a smaller loss leaves most of the gap, which the barrier and the step limit
+  !> handle, and a correction there can only fight Newton (where the gap's gradient turns
+  !> at a feature the loss is of first order, and the correction, capped at the update,
+  !> cancelled it at every iteration: gripper with the faces, docs/contact.md).
+  real(rp), parameter :: LOSS_SIGNIFICANT = 0.5_rp
 
 contains
 
@@ -477,7 +483,8 @@ contains
   !> those the update may move; the obstacle's are fixed in the pair's frame), SQP's
   !> second-order correction along the update's path: at t = 1/4, 1/2, 3/4 and 1, where the
   !> gap at x + t dx falls below its linear prediction from x, g0 + t grad g . dx (capped at
-  !> dhat: beyond, the barrier is 0), by more than round-off (LOSS_ROUND), the least move of
+  !> dhat: beyond, the barrier is 0), by more than round-off (LOSS_ROUND) and more than
+  !> LOSS_SIGNIFICANT of that prediction, the least move of
   !> the movable points that lifts it back to first order there, (target - g_t) grad g_t /
   !> (t |grad g_t|^2) (t of it is taken at t); v the largest over the four, capped at the
   !> largest move of the pair's points. A path that bows into the obstacle between ends that
@@ -498,7 +505,8 @@ contains
       ts = 0.25_rp * m
       call pair_gap_gradient(point_triangle, x + ts * dx, xi, g1, gr1)
       target = min(g0 + ts * sum(gr0 * dx), dhat)
-      if (target - g1 <= LOSS_ROUND * (xi + abs(g0) + ts * maxval(norm2(dx, dim=1))) .or. sum(gr0 * gr1) <= 0.0_rp) cycle
+      if (target - g1 <= max(LOSS_ROUND * (xi + abs(g0) + ts * maxval(norm2(dx, dim=1))), LOSS_SIGNIFICANT * target) &
+          .or. sum(gr0 * gr1) <= 0.0_rp) cycle
       do k = 1, 4
         if (.not. movable(k)) gr1(:, k) = 0.0_rp
       end do
