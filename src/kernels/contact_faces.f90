@@ -56,7 +56,7 @@ module contact_faces
   !> handle, and a correction there can only fight Newton (where the gap's gradient turns
   !> at a feature the loss is of first order, and the correction, capped at the update,
   !> cancelled it at every iteration: gripper with the faces, docs/contact.md).
-  real(rp), parameter :: LOSS_SIGNIFICANT = 0.5_rp
+  real(rp), parameter :: LOSS_SIGNIFICANT = 0.01_rp
 
 contains
 

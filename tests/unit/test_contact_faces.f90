@@ -509,21 +509,22 @@ contains
     dxt(3, :) = 1.0e-4_rp
     call triangle_correction(s, c0, xt, dxt, [.true., .true., .true.], v)
     call check_true(all(v == 0.0_rp), 'correction: none for a translation')
-    ! The same tilt from a gap of 0.3 mm: it loses some 5e-5 m of the 0.6 mm
-    ! predicted, a loss that leaves most of the gap to the barrier and the step
-    ! limit; a correction there only fights Newton (where the gap's gradient
-    ! turns at a feature, a first-order loss, capped at the update, cancelled
-    ! it at every iteration: gripper with the faces, docs/contact.md).
+    ! A tilt ten times smaller from a gap of 0.3 mm: it loses some 5e-7 m of
+    ! the 0.6 mm predicted, a loss that leaves nearly all of the gap to the
+    ! barrier and the step limit; a correction there only fights Newton (where
+    ! the gap's gradient turns at a feature, a first-order loss, capped at the
+    ! update, cancelled it at every iteration: gripper with the faces,
+    ! docs/contact.md).
     xt(3, :) = r + 3.0e-4_rp
     glin = 6.0e-4_rp
-    u = (glin - 3.0e-4_rp + 0.04_rp * delta) / 0.96_rp
+    u = (glin - 3.0e-4_rp + 0.004_rp * delta) / 0.96_rp
     dxt = 0.0_rp
-    dxt(3, :) = [u, -delta, -delta]
+    dxt(3, :) = [u, -0.1_rp * delta, -0.1_rp * delta]
     g1 = plane_gap(s, xt + dxt)
-    call check_true(g1 < glin - 1.0e-5_rp .and. g1 > 0.5_rp * glin, 'correction: a loss of less than half the gap')
+    call check_true(g1 < glin - 1.0e-7_rp .and. g1 > 0.99_rp * glin, 'correction: a loss below 1 % of the gap')
     v = 0.0_rp
     call triangle_correction(s, c0, xt, dxt, [.true., .true., .true.], v)
-    call check_true(all(v == 0.0_rp), 'correction: none where the path keeps more than half its predicted gap')
+    call check_true(all(v == 0.0_rp), 'correction: none where the path keeps 99 % of its predicted gap')
   end subroutine correction_cases
 
   !> The gap of triangle y over sphere s: the plane's distance from the
