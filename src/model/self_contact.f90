@@ -13,7 +13,8 @@
 !> (nothing goes back); counts and energies are those of the pairs whose
 !> lowest node it owns, so sums over ranks count each pair once.
 !> The candidate list (and the plan of rows to fetch) is a Verlet list
-!> with the reach dhat + xi + skin (skin = dhat), valid while no node has
+!> with the reach dhat + xi + skin (skin = dhat, capped below the
+!> lattice's own rest gaps: SKIN_SHARE), valid while no node has
 !> moved skin/2 from where it was made apart from the mean translation
 !> (relative_move: a pair's distance depends on differences of
 !> positions). An update that leaves it makes it again in the step limit
@@ -54,7 +55,7 @@ module self_contact
   use contact_ccd, only: ACCD_S
   use contact_faces, only: SPLIT_MAIN
   use self_broad, only: self_lattice_t, self_pairs_t, OWN_TOUCH, self_candidates, self_candidates_swept, &
-                        self_row_slots, self_pair_positions, self_pair_owner_row, self_pairs_regrown
+                        self_row_slots, self_pair_positions, self_pair_owner_row, self_pairs_regrown, self_rest_gap
   use self_barrier, only: self_blocks_t, self_barrier_forces, self_pair_gap, self_blocks_reserve, self_blocks_regrown
   use self_step, only: self_alpha_ccd
   use self_exchange, only: self_exchange_t, self_exchange_plan, self_exchange_plan_swept, self_exchange_nrows, &
@@ -71,6 +72,15 @@ module self_contact
   !> Anchor rows of a patch of module self_exchange: its boxes are a few
   !> rows tall, so a fold fetches the rows near it, not whole strips.
   integer, parameter :: PATCH_ROWS = 4
+  !> The Verlet list's skin: dhat, at most this share of the room between
+  !> the reach dhat + xi and the lattice's smallest rest gap g0 between
+  !> primitives that share no node (self_rest_gap: 0.707 spacings on a
+  !> square lattice). A list at rest then holds none of the lattice's own
+  !> pairs (at 257 x 257 with skin = dhat every node's were in it and the
+  !> narrow phase ran on them at every residual), and a sheet may shorten
+  !> them by the other half of the room before they enter it. Any skin > 0
+  !> keeps the list's guarantee; a smaller one only makes it more often.
+  real(rp), parameter :: SKIN_SHARE = 0.5_rp
 
   !> The hooks' messages and scratch, kept from call to call (grown only
   !> when too small). Reached through a pointer: the forces, Jacobian,
@@ -94,7 +104,7 @@ module self_contact
     type(self_lattice_t) :: sl                  !< the lattice as the kernels number it
     type(contact_params_t) :: cp                !< thickness = xi, dhat, kappa
     real(rp) :: rest_reach = 0.0_rp             !< pairs nearer at rest are left out: dhat + xi [length]
-    real(rp) :: skin = 0.0_rp                   !< the Verlet list's margin beyond dhat + xi: dhat [length]
+    real(rp) :: skin = 0.0_rp                   !< the Verlet list's margin beyond dhat + xi (SKIN_SHARE) [length]
     integer :: rank_up = MPI_PROC_NULL          !< the rank owning row ye+1 (none at the top)
     integer :: rank_down = MPI_PROC_NULL        !< the rank owning row ys-1 (none at the bottom)
     ! the candidate list: written at set-up, after an accepted step where
@@ -110,6 +120,7 @@ module self_contact
     real(rp) :: min_gap = huge(1.0_rp)          !< smallest gap of a candidate pair [length]
     real(rp) :: energy = 0.0_rp                 !< barrier energy of the pairs [energy]
     integer :: active = 0                       !< pairs with a gap below dhat
+    integer :: candidates = 0                   !< pairs in the list, each once (its lowest node's owner)
     integer :: fetched = 0                      !< rows fetched from other ranks, summed over ranks
     ! counts since the start (checkpointed)
     integer :: limited = 0                      !< updates the step limit shortened (alpha < 1)
@@ -171,7 +182,8 @@ contains
     this%cp = contact_params_t(thickness=2.0_rp * cfg%contact%thickness, dhat=cfg%contact%dhat, &
                                kappa=cfg%contact%stiffness, eps_v=cfg%contact%eps_v)
     this%rest_reach = this%cp%dhat + this%cp%thickness
-    this%skin = this%cp%dhat
+    ! the skin below the lattice's own rest gaps: a list at rest holds none of them
+    this%skin = min(this%cp%dhat, SKIN_SHARE * (self_rest_gap(this%sl, this%rest_reach) - this%rest_reach))
     call MPI_Comm_size(comm, nrank, mpierr)
     allocate(strips(2, 0:nrank - 1))
     call MPI_Allgather([lat%ys, lat%ye], 2, MPI_INTEGER, strips, 2, MPI_INTEGER, comm, mpierr)
@@ -597,7 +609,7 @@ contains
     integer, intent(out) :: ierr
     character(*), intent(out) :: errmsg
     real(rp) :: gmoved, e, ge, g
-    integer :: nact, counts(3), gcounts(3), nsrc, npatch, node(4), mpierr, j
+    integer :: nact, counts(4), gcounts(4), nsrc, npatch, node(4), mpierr, j, m
     ierr = 0
     errmsg = ''
     if (this%have_last .and. t == this%t_seen) return
@@ -623,8 +635,13 @@ contains
     call self_exchange_counts(this%w%xch, counts(2), nsrc, npatch)
     counts(1) = nact
     counts(3) = regrown_count(this) - this%regrown_setup
+    counts(4) = 0
+    do m = 1, this%pairs%n
+      j = self_pair_owner_row(this%sl, this%pairs%node(:, m))
+      if (j >= lat%ys .and. j <= lat%ye) counts(4) = counts(4) + 1
+    end do
     call MPI_Allreduce(e, ge, 1, MPI_DOUBLE_PRECISION, MPI_SUM, comm, mpierr)
-    call MPI_Allreduce(counts, gcounts, 3, MPI_INTEGER, MPI_SUM, comm, mpierr)
+    call MPI_Allreduce(counts, gcounts, 4, MPI_INTEGER, MPI_SUM, comm, mpierr)
     call smallest_gap(this, lat, comm, u, g, node, ierr)
     this%t_seen = t
     this%have_last = .true.
@@ -632,6 +649,7 @@ contains
     this%active = gcounts(1)
     this%fetched = gcounts(2)
     this%regrown = gcounts(3)
+    this%candidates = gcounts(4)
     this%min_gap = g
     if (g > 0.0_rp) return
     ierr = 1
@@ -652,6 +670,9 @@ contains
     series = [ &
       pm_series_t(name='/self_contact/active', description='point-triangle and edge-edge pairs of the cloth with '// &
                   'a gap below contact_dhat', is_count=.true., count=this%active), &
+      pm_series_t(name='/self_contact/candidates', description='candidate pairs of the cloth in the Verlet '// &
+                  'list at the state (within dhat + 2 contact_thickness + the skin when it was made), each once', &
+                  is_count=.true., count=this%candidates), &
       pm_series_t(name='/self_contact/min_gap', description='smallest gap (distance - 2 contact_thickness) of a '// &
                   'candidate pair of the cloth (the candidates'' reach where none is nearer)', units='length', &
                   values=[g, 0.0_rp, 0.0_rp]), &
