@@ -18,9 +18,11 @@
 !> moved skin/2 from where it was made apart from the mean translation
 !> (relative_move: a pair's distance depends on differences of
 !> positions). An update that leaves it makes it again in the step limit
-!> from the update's paths (swept candidates: every pair that comes within
-!> the reach anywhere along them), which also serves that update's CCD:
-!> one broad phase a step where the motion is steady; the accepted hook keeps a list that still holds
+!> from the update's paths looked ahead, x -> x + LOOKAHEAD dx (swept
+!> candidates: every pair that comes within the reach anywhere along
+!> them), which also serves that update's CCD and, where the motion is
+!> steady, the next steps' (relative_move measures the nodes against the
+!> nearest point of the paths); the accepted hook keeps a list that still holds
 !> (the residual is the same function of the state whichever list is
 !> current: every pair within dhat + xi is in it). The distance of zero gap is xi = 2 contact_thickness (two
 !> surfaces, each contact_thickness from its mid-surface), the barrier's
@@ -81,6 +83,11 @@ module self_contact
   !> them by the other half of the room before they enter it. Any skin > 0
   !> keeps the list's guarantee; a smaller one only makes it more often.
   real(rp), parameter :: SKIN_SHARE = 0.5_rp
+  !> A list made from an update's paths x -> x + dx covers x -> x +
+  !> LOOKAHEAD dx: where the motion is steady (a swing) the next step's
+  !> predictor and update lie along that path (relative_move's tau), so
+  !> the list serves LOOKAHEAD steps instead of one.
+  real(rp), parameter :: LOOKAHEAD = 3.0_rp
 
   !> The hooks' messages and scratch, kept from call to call (grown only
   !> when too small). Reached through a pointer: the forces, Jacobian,
@@ -114,6 +121,7 @@ module self_contact
     integer :: nrows = 0                        !< their number
     type(self_pairs_t) :: pairs                 !< candidates within dhat + xi + skin (OWN_TOUCH)
     real(rp), allocatable :: x_list(:, :, :)    !< (3, 0:nx-1, ys:ye) positions the list was made at [length]
+    real(rp), allocatable :: dx_list(:, :, :)   !< (3, 0:nx-1, ys:ye) and its paths x_list + tau dx_list (0: static) [length]
     ! the last accepted state's record, over all ranks (the accepted hook)
     real(rp) :: t_seen = -huge(1.0_rp)          !< its time [time]
     logical :: have_last = .false.
@@ -191,7 +199,7 @@ contains
       if (strips(1, r) <= strips(2, r) .and. strips(1, r) == lat%ye + 1) this%rank_up = r
       if (strips(1, r) <= strips(2, r) .and. strips(2, r) == lat%ys - 1) this%rank_down = r
     end do
-    allocate(this%x_list(3, 0:lat%nx - 1, lat%ys:lat%ye))
+    allocate(this%x_list(3, 0:lat%nx - 1, lat%ys:lat%ye), this%dx_list(3, 0:lat%nx - 1, lat%ys:lat%ye))
     if (associated(this%w)) deallocate(this%w)
     allocate(this%w)
     allocate(this%w%mask(1, 0:lat%nx - 1, lat%ys:lat%ye))
@@ -390,8 +398,11 @@ contains
                          this%cp%thickness, ACCD_S)
       call MPI_Allreduce(a, alpha, 1, MPI_DOUBLE_PRECISION, MPI_MIN, comm, mpierr)
     end if
-    ! a list made from the paths holds around any point of them: the limited end
-    if (gfar > 0.5_rp * this%skin) this%x_list = xd(1:3, :, :) + alpha * xd(4:6, :, :)
+    ! a list made from the paths holds around any point of them (relative_move's tau)
+    if (gfar > 0.5_rp * this%skin) then
+      this%x_list = xd(1:3, :, :)
+      this%dx_list = LOOKAHEAD * xd(4:6, :, :)
+    end if
     end associate
     status = merge(PM_INFEASIBLE, PM_FEASIBLE, alpha <= 0.0_rp .or. ierr /= 0)
     if (alpha < 1.0_rp) this%limited = this%limited + 1
@@ -417,6 +428,7 @@ contains
     associate (w => this%w, xd => this%w%xd)
     ! positions and updates of the owned rows and the rows below and above [length]
     call with_neighbour_rows(this, lat, comm, x, dx, xd)
+    xd(4:6, :, :) = LOOKAHEAD * xd(4:6, :, :)
     call self_exchange_plan_swept(w%xch, comm, lat%nx, lat%ny, lat%ys, lat%ye, xd(1:3, :, :), xd(4:6, :, :), &
                                   this%rest_reach + this%skin, PATCH_ROWS, ierr)
     if (ierr /= 0) return
@@ -430,35 +442,46 @@ contains
     end associate
   end subroutine list_over_path
 
-  !> How far the nodes have moved from the list's positions xl apart from
-  !> a common translation: the largest |d_i - T| over all nodes, d_i =
-  !> xd(1:3) + alpha xd(4:6) - xl (a point on the update's path) and T
-  !> the mean of d over the lattice. A pair's distance depends on the
-  !> difference of its nodes' positions, so it has changed by at most
-  !> twice this since the list was made: the Verlet list's test. (The
-  !> largest |d_i| itself made a falling sheet's skin, and its list, grow
-  !> with its speed.) Collective.
+  !> How far the nodes have moved from the list's paths apart from a
+  !> common translation: the largest |d_i - T| over all nodes, d_i =
+  !> p_i - (x_list_i + tau dx_list_i), p_i = xd(1:3) + alpha xd(4:6) (a
+  !> point on the update's path), tau in [0, 1] the least-squares fit of
+  !> p - x_list to dx_list over the lattice (0 for a static list) and T the
+  !> mean of d. Every pair outside the list was beyond its reach at every
+  !> common tau of the list's paths, and a pair's distance depends on
+  !> differences of positions, so it has changed by at most twice this
+  !> from there; along the update's path d - T is linear, so its ends
+  !> bound it: the Verlet list's test. (The largest |d_i| itself made a
+  !> falling sheet's skin, and its list, grow with its speed.) Collective.
   real(rp) function relative_move(this, lat, comm, xd, alpha) result(gfar)
     class(self_contact_model_t), intent(in) :: this
     type(lattice_t), intent(in) :: lat
     integer, intent(in) :: comm
     real(rp), intent(in) :: xd(:, 0:, :)         ! (6, 0:nx-1, ys:ye) positions, update [length]
     real(rp), intent(in) :: alpha                ! [1]
-    real(rp) :: sums(3), gsums(3), d(3), far
-    integer :: i, j, mpierr
+    real(rp) :: sums(8), gsums(8), d(3), far, tau
+    integer :: i, j, jl, mpierr
     sums = 0.0_rp
     do j = 1, size(xd, 3)
+      jl = lat%ys + j - 1
       do i = 0, size(xd, 2) - 1
-        sums = sums + (xd(1:3, i, j) + alpha * xd(4:6, i, j) - this%x_list(:, i, lat%ys + j - 1))
+        d = xd(1:3, i, j) + alpha * xd(4:6, i, j) - this%x_list(:, i, jl)
+        sums(1:3) = sums(1:3) + d
+        sums(4:6) = sums(4:6) + this%dx_list(:, i, jl)
+        sums(7) = sums(7) + dot_product(d, this%dx_list(:, i, jl))
+        sums(8) = sums(8) + dot_product(this%dx_list(:, i, jl), this%dx_list(:, i, jl))
       end do
     end do
-    call MPI_Allreduce(sums, gsums, 3, MPI_DOUBLE_PRECISION, MPI_SUM, comm, mpierr)
-    gsums = gsums / real(lat%nx * lat%ny, rp)
+    call MPI_Allreduce(sums, gsums, 8, MPI_DOUBLE_PRECISION, MPI_SUM, comm, mpierr)
+    tau = 0.0_rp
+    if (gsums(8) > 0.0_rp) tau = min(max(gsums(7) / gsums(8), 0.0_rp), 1.0_rp)
+    gsums(1:3) = (gsums(1:3) - tau * gsums(4:6)) / real(lat%nx * lat%ny, rp)
     far = 0.0_rp
     do j = 1, size(xd, 3)
+      jl = lat%ys + j - 1
       do i = 0, size(xd, 2) - 1
-        d = xd(1:3, i, j) + alpha * xd(4:6, i, j) - this%x_list(:, i, lat%ys + j - 1)
-        far = max(far, norm2(d - gsums))
+        d = xd(1:3, i, j) + alpha * xd(4:6, i, j) - this%x_list(:, i, jl) - tau * this%dx_list(:, i, jl)
+        far = max(far, norm2(d - gsums(1:3)))
       end do
     end do
     call MPI_Allreduce(far, gfar, 1, MPI_DOUBLE_PRECISION, MPI_MAX, comm, mpierr)
@@ -525,6 +548,7 @@ contains
                          this%rest_reach + this%skin, this%rest_reach, this%pairs)
     this%searches = this%searches + 1
     this%x_list = x(1:3, :, lat%ys:lat%ye)
+    this%dx_list = 0.0_rp
     end associate
   end subroutine make_list
 
