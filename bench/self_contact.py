@@ -95,7 +95,7 @@ def run(exe, mpiexec, n, nranks, mode, on, timeout, dhat, kappa, t_end=T_END):
         return dict(ok=False, why=why.strip()[:160])
     prog = [(float(t), int(s), float(w)) for t, s, w in re.findall(
         r"^t = (\S+)\s+steps\s+(\d+).*?wall_s\s+(\S+)", out, re.M)]
-    t1 = min(prog, key=lambda r: abs(r[0] - min(T_WINDOW, t_end / 2)))
+    t1 = min(prog, key=lambda r: abs(r[0] - (T_WINDOW if t_end > T_WINDOW else t_end / 2)))
     t2 = prog[-1]
     per_step = (t2[2] - t1[2]) / max(t2[1] - t1[1], 1)
     _, t_step, _ = event(out, "TSStep")
