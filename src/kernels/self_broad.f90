@@ -59,7 +59,7 @@ module self_broad
   public :: self_lattice_t, self_pairs_t, PAIR_PT, PAIR_EE, OWN_LOWEST, OWN_TOUCH
   public :: self_row_slots, self_candidates, self_candidates_swept
   public :: self_pair_positions, self_pair_rest, self_pairs_clear, self_pair_owner_row
-  public :: self_pair_distance2, self_pairs_reserve, self_pairs_regrown
+  public :: self_pair_distance2, self_pairs_reserve, self_pairs_regrown, self_rest_gap
 
   !> Pair kinds (the same codes as contact_ccd's rate bound).
   integer, parameter :: PAIR_PT = 1, PAIR_EE = 2
@@ -504,37 +504,76 @@ contains
     end if
   end function rest_near
 
-  !> The rest rule's table: each offset's pair placed on a lattice of its own (the same
-  !> split and spacing) and measured with self_pair_rest, as the pair itself would be.
+  !> The rest rule's table: the pairs nearer than rest_reach at rest (rest_pattern_d2).
   !> A primitive spans one index, so offsets beyond rest_reach / spacing + 1 are never near.
   subroutine build_rest_table(lat, rest_reach, rt)
     type(self_lattice_t), intent(in) :: lat
     real(rp), intent(in) :: rest_reach
     type(rest_table_t), intent(out) :: rt
-    type(self_lattice_t) :: lv
-    integer :: qt(3, 2), ca, cb, t, ka, kb, di, dj, ga, gb, ea(2), eb(2)
+    real(rp), allocatable :: dpt(:, :, :), dee(:, :, :, :)
 
     if (.not. rest_reach > 0.0_rp) return
     rt%ri = min(int(rest_reach / lat%ax) + 2, lat%nx)
     rt%rj = min(int(rest_reach / lat%ay) + 2, lat%ny)
+    call rest_pattern_d2(lat, rt%ri, rt%rj, dpt, dee)
+    ! allocated with dpt's bounds (an expression's would start at 1)
     allocate(rt%pt(2, -rt%ri:rt%ri, -rt%rj:rt%rj), rt%ee(0:2, 0:2, -rt%ri:rt%ri, -rt%rj:rt%rj))
+    rt%pt = dpt < rest_reach**2
+    rt%ee = dee < rest_reach**2
+  end subroutine build_rest_table
+
+  !> The smallest distance at rest between a point and a triangle, or two edges, that
+  !> share no node and that the rest rule keeps (rest distance >= rest_reach) [length];
+  !> huge where the offsets searched hold none. A primitive spans one index, so pairs
+  !> (di, dj) apart are at least (|di| - 1) ax and (|dj| - 1) ay apart: the offsets
+  !> searched hold every pair within rest_reach + max(ax, ay), and the pair of a node and
+  !> the diagonal of a quad beside it (ax ay / sqrt(ax^2 + ay^2)) is nearer than that.
+  !> On a square lattice with rest_reach below 0.707 spacings: 0.707 spacings.
+  function self_rest_gap(lat, rest_reach) result(g)
+    type(self_lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: rest_reach
+    real(rp) :: g
+    real(rp), allocatable :: dpt(:, :, :), dee(:, :, :, :)
+    real(rp) :: r2
+
+    r2 = max(rest_reach, 0.0_rp)**2
+    call rest_pattern_d2(lat, int((rest_reach + max(lat%ax, lat%ay)) / lat%ax) + 2, &
+                         int((rest_reach + max(lat%ax, lat%ay)) / lat%ay) + 2, dpt, dee)
+    g = huge(1.0_rp)
+    if (any(dpt >= r2)) g = min(g, sqrt(minval(dpt, mask=dpt >= r2)))
+    if (any(dee >= r2)) g = min(g, sqrt(minval(dee, mask=dee >= r2)))
+  end function self_rest_gap
+
+  !> Squared rest distances of the pairs by index offsets (rest_table_t's layout), -1
+  !> where the two share a node: each offset's pair placed on a lattice of its own (the
+  !> same split and spacing) and measured with self_pair_rest, as the pair itself would be.
+  subroutine rest_pattern_d2(lat, ri, rj, dpt, dee)
+    type(self_lattice_t), intent(in) :: lat
+    integer, intent(in) :: ri, rj                          ! offsets held along x and y
+    real(rp), allocatable, intent(out) :: dpt(:, :, :)      ! (2, -ri:ri, -rj:rj) [length^2]
+    real(rp), allocatable, intent(out) :: dee(:, :, :, :)   ! (0:2, 0:2, -ri:ri, -rj:rj) [length^2]
+    type(self_lattice_t) :: lv
+    integer :: qt(3, 2), ca, cb, t, ka, kb, di, dj, ga, gb, ea(2), eb(2), nt(3)
+
+    allocate(dpt(2, -ri:ri, -rj:rj), dee(0:2, 0:2, -ri:ri, -rj:rj))
     lv = lat
-    lv%nx = 2 * rt%ri + 4
+    lv%nx = 2 * ri + 4
     call quad_triangles(lat%split, qt)
     call quad_diagonal(lat%split, ca, cb)
-    ga = (rt%ri + 1) + lv%nx * (rt%rj + 1)
-    do dj = -rt%rj, rt%rj
-      do di = -rt%ri, rt%ri
+    ga = (ri + 1) + lv%nx * (rj + 1)
+    do dj = -rj, rj
+      do di = -ri, ri
         gb = ga + di + lv%nx * dj
         do t = 1, 2
-          rt%pt(t, di, dj) = self_pair_distance2(PAIR_PT, self_pair_rest(lv, [gb, quad_node(ga, qt(:, t))])) &
-                             < rest_reach**2
+          nt = quad_node(ga, qt(:, t))
+          dpt(t, di, dj) = merge(-1.0_rp, self_pair_distance2(PAIR_PT, self_pair_rest(lv, [gb, nt])), any(nt == gb))
         end do
         do kb = 0, 2
           eb = edge_nodes(gb, kb)
           do ka = 0, 2
             ea = edge_nodes(ga, ka)
-            rt%ee(ka, kb, di, dj) = self_pair_distance2(PAIR_EE, self_pair_rest(lv, [ea, eb])) < rest_reach**2
+            dee(ka, kb, di, dj) = merge(-1.0_rp, self_pair_distance2(PAIR_EE, self_pair_rest(lv, [ea, eb])), &
+                                        any(ea(1) == eb) .or. any(ea(2) == eb))
           end do
         end do
       end do
@@ -566,7 +605,7 @@ contains
       end select
     end function edge_nodes
 
-  end subroutine build_rest_table
+  end subroutine rest_pattern_d2
 
   !> The primitives of the present rows (module header), as global node numbers (the
   !> arrays grown where too short).

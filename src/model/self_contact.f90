@@ -13,13 +13,16 @@
 !> (nothing goes back); counts and energies are those of the pairs whose
 !> lowest node it owns, so sums over ranks count each pair once.
 !> The candidate list (and the plan of rows to fetch) is a Verlet list
-!> with the reach dhat + xi + skin (skin = dhat), valid while no node has
+!> with the reach dhat + xi + skin (skin = dhat, capped below the
+!> lattice's own rest gaps: SKIN_SHARE), valid while no node has
 !> moved skin/2 from where it was made apart from the mean translation
 !> (relative_move: a pair's distance depends on differences of
 !> positions). An update that leaves it makes it again in the step limit
-!> from the update's paths (swept candidates: every pair that comes within
-!> the reach anywhere along them), which also serves that update's CCD:
-!> one broad phase a step where the motion is steady; the accepted hook keeps a list that still holds
+!> from the update's paths looked ahead, x -> x + LOOKAHEAD dx (swept
+!> candidates: every pair that comes within the reach anywhere along
+!> them), which also serves that update's CCD and, where the motion is
+!> steady, the next steps' (relative_move measures the nodes against the
+!> nearest point of the paths); the accepted hook keeps a list that still holds
 !> (the residual is the same function of the state whichever list is
 !> current: every pair within dhat + xi is in it). The distance of zero gap is xi = 2 contact_thickness (two
 !> surfaces, each contact_thickness from its mid-surface), the barrier's
@@ -54,7 +57,7 @@ module self_contact
   use contact_ccd, only: ACCD_S
   use contact_faces, only: SPLIT_MAIN
   use self_broad, only: self_lattice_t, self_pairs_t, OWN_TOUCH, self_candidates, self_candidates_swept, &
-                        self_row_slots, self_pair_positions, self_pair_owner_row, self_pairs_regrown
+                        self_row_slots, self_pair_positions, self_pair_owner_row, self_pairs_regrown, self_rest_gap
   use self_barrier, only: self_blocks_t, self_barrier_forces, self_pair_gap, self_blocks_reserve, self_blocks_regrown
   use self_step, only: self_alpha_ccd
   use self_lags, only: self_lags_t, self_lags_setup, self_lags_on, self_lags_forces, self_lags_step, self_lags_work, &
@@ -73,6 +76,20 @@ module self_contact
   !> Anchor rows of a patch of module self_exchange: its boxes are a few
   !> rows tall, so a fold fetches the rows near it, not whole strips.
   integer, parameter :: PATCH_ROWS = 4
+  !> The Verlet list's skin: dhat, at most this share of the room between
+  !> the reach dhat + xi and the lattice's smallest rest gap g0 between
+  !> primitives that share no node (self_rest_gap: 0.707 spacings on a
+  !> square lattice). A list at rest then holds none of the lattice's own
+  !> pairs (at 257 x 257 with skin = dhat every node's were in it and the
+  !> narrow phase ran on them at every residual), and a sheet may shorten
+  !> them by the other half of the room before they enter it. Any skin > 0
+  !> keeps the list's guarantee; a smaller one only makes it more often.
+  real(rp), parameter :: SKIN_SHARE = 0.5_rp
+  !> A list made from an update's paths x -> x + dx covers x -> x +
+  !> LOOKAHEAD dx: where the motion is steady (a swing) the next step's
+  !> predictor and update lie along that path (relative_move's tau), so
+  !> the list serves LOOKAHEAD steps instead of one.
+  real(rp), parameter :: LOOKAHEAD = 3.0_rp
 
   !> The hooks' messages and scratch, kept from call to call (grown only
   !> when too small). Reached through a pointer: the forces, Jacobian,
@@ -98,7 +115,7 @@ module self_contact
     type(self_lattice_t) :: sl                  !< the lattice as the kernels number it
     type(contact_params_t) :: cp                !< thickness = xi, dhat, kappa
     real(rp) :: rest_reach = 0.0_rp             !< pairs nearer at rest are left out: dhat + xi [length]
-    real(rp) :: skin = 0.0_rp                   !< the Verlet list's margin beyond dhat + xi: dhat [length]
+    real(rp) :: skin = 0.0_rp                   !< the Verlet list's margin beyond dhat + xi (SKIN_SHARE) [length]
     integer :: rank_up = MPI_PROC_NULL          !< the rank owning row ye+1 (none at the top)
     integer :: rank_down = MPI_PROC_NULL        !< the rank owning row ys-1 (none at the bottom)
     ! the candidate list: written at set-up, after an accepted step where
@@ -109,12 +126,14 @@ module self_contact
     type(self_pairs_t) :: pairs                 !< candidates within dhat + xi + skin (OWN_TOUCH)
     type(self_lags_t) :: lags                   !< friction between layers: the lag of the active pairs, the work
     real(rp), allocatable :: x_list(:, :, :)    !< (3, 0:nx-1, ys:ye) positions the list was made at [length]
+    real(rp), allocatable :: dx_list(:, :, :)   !< (3, 0:nx-1, ys:ye) and its paths x_list + tau dx_list (0: static) [length]
     ! the last accepted state's record, over all ranks (the accepted hook)
     real(rp) :: t_seen = -huge(1.0_rp)          !< its time [time]
     logical :: have_last = .false.
     real(rp) :: min_gap = huge(1.0_rp)          !< smallest gap of a candidate pair [length]
     real(rp) :: energy = 0.0_rp                 !< barrier energy of the pairs [energy]
     integer :: active = 0                       !< pairs with a gap below dhat
+    integer :: candidates = 0                   !< pairs in the list, each once (its lowest node's owner)
     integer :: fetched = 0                      !< rows fetched from other ranks, summed over ranks
     ! counts since the start (checkpointed)
     integer :: limited = 0                      !< updates the step limit shortened (alpha < 1)
@@ -176,7 +195,8 @@ contains
     this%cp = contact_params_t(thickness=2.0_rp * cfg%contact%thickness, dhat=cfg%contact%dhat, &
                                kappa=cfg%contact%stiffness, eps_v=cfg%contact%eps_v)
     this%rest_reach = this%cp%dhat + this%cp%thickness
-    this%skin = this%cp%dhat
+    ! the skin below the lattice's own rest gaps: a list at rest holds none of them
+    this%skin = min(this%cp%dhat, SKIN_SHARE * (self_rest_gap(this%sl, this%rest_reach) - this%rest_reach))
     call MPI_Comm_size(comm, nrank, mpierr)
     allocate(strips(2, 0:nrank - 1))
     call MPI_Allgather([lat%ys, lat%ye], 2, MPI_INTEGER, strips, 2, MPI_INTEGER, comm, mpierr)
@@ -184,7 +204,7 @@ contains
       if (strips(1, r) <= strips(2, r) .and. strips(1, r) == lat%ye + 1) this%rank_up = r
       if (strips(1, r) <= strips(2, r) .and. strips(2, r) == lat%ys - 1) this%rank_down = r
     end do
-    allocate(this%x_list(3, 0:lat%nx - 1, lat%ys:lat%ye))
+    allocate(this%x_list(3, 0:lat%nx - 1, lat%ys:lat%ye), this%dx_list(3, 0:lat%nx - 1, lat%ys:lat%ye))
     if (associated(this%w)) deallocate(this%w)
     allocate(this%w)
     allocate(this%w%mask(1, 0:lat%nx - 1, lat%ys:lat%ye))
@@ -414,8 +434,11 @@ contains
                          this%cp%thickness, ACCD_S)
       call MPI_Allreduce(a, alpha, 1, MPI_DOUBLE_PRECISION, MPI_MIN, comm, mpierr)
     end if
-    ! a list made from the paths holds around any point of them: the limited end
-    if (gfar > 0.5_rp * this%skin) this%x_list = xd(1:3, :, :) + alpha * xd(4:6, :, :)
+    ! a list made from the paths holds around any point of them (relative_move's tau)
+    if (gfar > 0.5_rp * this%skin) then
+      this%x_list = xd(1:3, :, :)
+      this%dx_list = LOOKAHEAD * xd(4:6, :, :)
+    end if
     end associate
     status = merge(PM_INFEASIBLE, PM_FEASIBLE, alpha <= 0.0_rp .or. ierr /= 0)
     if (alpha < 1.0_rp) this%limited = this%limited + 1
@@ -441,6 +464,7 @@ contains
     associate (w => this%w, xd => this%w%xd)
     ! positions and updates of the owned rows and the rows below and above [length]
     call with_neighbour_rows(this, lat, comm, x, dx, xd)
+    xd(4:6, :, :) = LOOKAHEAD * xd(4:6, :, :)
     call self_exchange_plan_swept(w%xch, comm, lat%nx, lat%ny, lat%ys, lat%ye, xd(1:3, :, :), xd(4:6, :, :), &
                                   this%rest_reach + this%skin, PATCH_ROWS, ierr)
     if (ierr /= 0) return
@@ -454,35 +478,46 @@ contains
     end associate
   end subroutine list_over_path
 
-  !> How far the nodes have moved from the list's positions xl apart from
-  !> a common translation: the largest |d_i - T| over all nodes, d_i =
-  !> xd(1:3) + alpha xd(4:6) - xl (a point on the update's path) and T
-  !> the mean of d over the lattice. A pair's distance depends on the
-  !> difference of its nodes' positions, so it has changed by at most
-  !> twice this since the list was made: the Verlet list's test. (The
-  !> largest |d_i| itself made a falling sheet's skin, and its list, grow
-  !> with its speed.) Collective.
+  !> How far the nodes have moved from the list's paths apart from a
+  !> common translation: the largest |d_i - T| over all nodes, d_i =
+  !> p_i - (x_list_i + tau dx_list_i), p_i = xd(1:3) + alpha xd(4:6) (a
+  !> point on the update's path), tau in [0, 1] the least-squares fit of
+  !> p - x_list to dx_list over the lattice (0 for a static list) and T the
+  !> mean of d. Every pair outside the list was beyond its reach at every
+  !> common tau of the list's paths, and a pair's distance depends on
+  !> differences of positions, so it has changed by at most twice this
+  !> from there; along the update's path d - T is linear, so its ends
+  !> bound it: the Verlet list's test. (The largest |d_i| itself made a
+  !> falling sheet's skin, and its list, grow with its speed.) Collective.
   real(rp) function relative_move(this, lat, comm, xd, alpha) result(gfar)
     class(self_contact_model_t), intent(in) :: this
     type(lattice_t), intent(in) :: lat
     integer, intent(in) :: comm
     real(rp), intent(in) :: xd(:, 0:, :)         ! (6, 0:nx-1, ys:ye) positions, update [length]
     real(rp), intent(in) :: alpha                ! [1]
-    real(rp) :: sums(3), gsums(3), d(3), far
-    integer :: i, j, mpierr
+    real(rp) :: sums(8), gsums(8), d(3), far, tau
+    integer :: i, j, jl, mpierr
     sums = 0.0_rp
     do j = 1, size(xd, 3)
+      jl = lat%ys + j - 1
       do i = 0, size(xd, 2) - 1
-        sums = sums + (xd(1:3, i, j) + alpha * xd(4:6, i, j) - this%x_list(:, i, lat%ys + j - 1))
+        d = xd(1:3, i, j) + alpha * xd(4:6, i, j) - this%x_list(:, i, jl)
+        sums(1:3) = sums(1:3) + d
+        sums(4:6) = sums(4:6) + this%dx_list(:, i, jl)
+        sums(7) = sums(7) + dot_product(d, this%dx_list(:, i, jl))
+        sums(8) = sums(8) + dot_product(this%dx_list(:, i, jl), this%dx_list(:, i, jl))
       end do
     end do
-    call MPI_Allreduce(sums, gsums, 3, MPI_DOUBLE_PRECISION, MPI_SUM, comm, mpierr)
-    gsums = gsums / real(lat%nx * lat%ny, rp)
+    call MPI_Allreduce(sums, gsums, 8, MPI_DOUBLE_PRECISION, MPI_SUM, comm, mpierr)
+    tau = 0.0_rp
+    if (gsums(8) > 0.0_rp) tau = min(max(gsums(7) / gsums(8), 0.0_rp), 1.0_rp)
+    gsums(1:3) = (gsums(1:3) - tau * gsums(4:6)) / real(lat%nx * lat%ny, rp)
     far = 0.0_rp
     do j = 1, size(xd, 3)
+      jl = lat%ys + j - 1
       do i = 0, size(xd, 2) - 1
-        d = xd(1:3, i, j) + alpha * xd(4:6, i, j) - this%x_list(:, i, lat%ys + j - 1)
-        far = max(far, norm2(d - gsums))
+        d = xd(1:3, i, j) + alpha * xd(4:6, i, j) - this%x_list(:, i, jl) - tau * this%dx_list(:, i, jl)
+        far = max(far, norm2(d - gsums(1:3)))
       end do
     end do
     call MPI_Allreduce(far, gfar, 1, MPI_DOUBLE_PRECISION, MPI_MAX, comm, mpierr)
@@ -549,6 +584,7 @@ contains
                          this%rest_reach + this%skin, this%rest_reach, this%pairs)
     this%searches = this%searches + 1
     this%x_list = x(1:3, :, lat%ys:lat%ye)
+    this%dx_list = 0.0_rp
     end associate
   end subroutine make_list
 
@@ -633,7 +669,7 @@ contains
     integer, intent(out) :: ierr
     character(*), intent(out) :: errmsg
     real(rp) :: gmoved, e, ge, g
-    integer :: nact, counts(3), gcounts(3), nsrc, npatch, node(4), mpierr, j
+    integer :: nact, counts(4), gcounts(4), nsrc, npatch, node(4), mpierr, j, m
     ierr = 0
     errmsg = ''
     if (this%have_last .and. t == this%t_seen) return
@@ -662,8 +698,13 @@ contains
     call self_exchange_counts(this%w%xch, counts(2), nsrc, npatch)
     counts(1) = nact
     counts(3) = regrown_count(this) - this%regrown_setup
+    counts(4) = 0
+    do m = 1, this%pairs%n
+      j = self_pair_owner_row(this%sl, this%pairs%node(:, m))
+      if (j >= lat%ys .and. j <= lat%ye) counts(4) = counts(4) + 1
+    end do
     call MPI_Allreduce(e, ge, 1, MPI_DOUBLE_PRECISION, MPI_SUM, comm, mpierr)
-    call MPI_Allreduce(counts, gcounts, 3, MPI_INTEGER, MPI_SUM, comm, mpierr)
+    call MPI_Allreduce(counts, gcounts, 4, MPI_INTEGER, MPI_SUM, comm, mpierr)
     call smallest_gap(this, lat, comm, u, g, node, ierr)
     this%t_seen = t
     this%have_last = .true.
@@ -671,6 +712,7 @@ contains
     this%active = gcounts(1)
     this%fetched = gcounts(2)
     this%regrown = gcounts(3)
+    this%candidates = gcounts(4)
     this%min_gap = g
     if (g > 0.0_rp) return
     ierr = 1
@@ -691,6 +733,9 @@ contains
     series = [ &
       pm_series_t(name='/self_contact/active', description='point-triangle and edge-edge pairs of the cloth with '// &
                   'a gap below contact_dhat', is_count=.true., count=this%active), &
+      pm_series_t(name='/self_contact/candidates', description='candidate pairs of the cloth in the Verlet '// &
+                  'list at the state (within dhat + 2 contact_thickness + the skin when it was made), each once', &
+                  is_count=.true., count=this%candidates), &
       pm_series_t(name='/self_contact/min_gap', description='smallest gap (distance - 2 contact_thickness) of a '// &
                   'candidate pair of the cloth (the candidates'' reach where none is nearer)', units='length', &
                   values=[g, 0.0_rp, 0.0_rp]), &

@@ -133,3 +133,25 @@ def test_one_broad_phase_a_step_at_most(tmp_path):
         assert f["self_contact/active"][:].max() > 0      # the halves did meet
     assert steps[-1] >= 300
     assert (np.diff(searches) <= np.diff(steps)).all(), (searches, steps)
+
+
+def test_a_flat_cloth_lists_none_of_its_own_lattice_pairs(tmp_path):
+    # A 33 x 33 cloth of 64 mm (spacing a = 2 mm) falling flat, contact_dhat
+    # = 1 mm, contact_thickness 0: the nearest pairs of the lattice that
+    # share no node (a node and the diagonal of a quad beside it) lie
+    # a / sqrt(2) = 1.41 mm apart at rest. The Verlet list's reach is dhat +
+    # skin with the skin capped at half the room between dhat and that gap
+    # (docs/self-contact.md, "Candidate pairs"): 1.21 mm, so the list holds
+    # none of them, and the smallest gap written is that reach. With skin =
+    # dhat (reach 2 mm, the build before) every node's neighbours were
+    # candidates, evaluated at every residual: the smallest gap was 1.41 mm.
+    n, side, dhat = 33, 0.064, 1.0e-3
+    a = side / (n - 1)
+    reach = dhat + min(dhat, 0.5 * (a / np.sqrt(2.0) - dhat))
+    groups = dict(GROUPS, lattice=f"nx={n} ny={n} lx={side} ly={side} total_mass=0.001 mass_distribution='area'",
+                  time="t_end=5.0e-3 dt=1.0e-3")
+    _, h5 = run(tmp_path, "flat", contact=f"contact_dhat={dhat} self_contact=.true.", **groups)
+    with h5py.File(h5, "r") as f:
+        assert np.allclose(f["self_contact/min_gap"][:], reach, rtol=1e-12, atol=0.0), f["self_contact/min_gap"][:]
+        assert (f["self_contact/active"][:] == 0).all()
+        assert (f["self_contact/candidates"][:] == 0).all()

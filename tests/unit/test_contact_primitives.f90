@@ -15,6 +15,7 @@ program test_contact_primitives
                                 point_triangle_type, edge_edge_type, edge_edge_mollifier, psd_project, &
                                 PT_P_T0, PT_P_E01, PT_P_PLANE, EE_A1_B0, EE_LINES
   use check, only: check_true, check_close, check_close_array, check_report, seed_random
+  use strings, only: itoa
   implicit none
   real(rp) :: d2, g(12), h(12, 12), r(3), rot(3, 3), sh(3), hh
   integer :: ty
@@ -81,6 +82,9 @@ program test_contact_primitives
                           [0.01_rp, 0.03_rp, 0.0_rp], d2, g, h, ty)
   call check_close(d2, 2.0e-4_rp, 1.0e-12_rp, 0.0_rp, 'parallel lattice diagonals: d2 = (sqrt 2 spacing)^2')
 
+  ! ---- lattice diagonals of rounded coordinates: parallel and collinear --------
+  call lattice_diagonals()
+
   ! ---- every type: random configurations -----------------------------------
   call random_types_pt()
   call random_types_ee()
@@ -106,7 +110,69 @@ contains
     end do
   end function rotation
 
+  !> Diagonals of a flat lattice in a random plane: nodes o + R (i a, j a, 0) in floating
+  !> point (the coordinates rounded; the edges' vectors rounded differences, as a sheet
+  !> moved by round-off), at spacings of 0.5 m / 128, / 256, / 1024 and 1 cm, 400 random
+  !> origins, rotations and nodes each: beside each other in the next quad along x
+  !> (parallel, a / sqrt 2 apart) and one quad further along their own line (collinear,
+  !> their ends sqrt 2 a apart), also with the second edge raised off the plane by a
+  !> round-off (1e-15 a). Lagrange's aa bb - ab^2 for |a x b|^2 is round-off there
+  !> (~1e-16 aa bb, above the parallel threshold), and the lines' distance, about 0, was
+  !> taken for the edges' (a gap of 0 on a flat sheet at 257 x 257). Every distance must
+  !> be the exact one to 1e-9 of it, for both diagonal directions.
+  subroutine lattice_diagonals()
+    real(rp), parameter :: spacing(4) = [0.5_rp / 128, 0.5_rp / 256, 0.5_rp / 1024, 0.01_rp]
+    real(rp) :: a, o(3), u(8), d2e, d2, pa(3, 2), pb(3, 2), z(3), rt(3, 3), ax(3)
+    integer :: k, m, i, j, dir, kind, bad, tried
+    bad = 0
+    tried = 0
+    do k = 1, size(spacing)
+      a = spacing(k)
+      do m = 1, 400
+        call random_number(u)
+        o = [u(1) - 0.5_rp, u(2) - 0.5_rp, u(3)]
+        ax = u(5:7) - 0.5_rp
+        rt = rotation(ax / norm2(ax), 6.0_rp * u(8))
+        i = int(u(4) * 1000)
+        j = mod(7 * i + m, 1000)
+        do dir = 1, 2
+          do kind = 1, 3
+            ! the first diagonal: (i, j)-(i+1, j+1), or (i+1, j)-(i, j+1)
+            pa(:, 1) = lattice_node(o, rt, a, i + merge(0, 1, dir == 1), j)
+            pa(:, 2) = lattice_node(o, rt, a, i + merge(1, 0, dir == 1), j + 1)
+            z = merge(1.0e-15_rp * a, 0.0_rp, kind == 3) * rt(:, 3)
+            if (kind == 1) then
+              pb(:, 1) = lattice_node(o, rt, a, i + 1 + merge(0, 1, dir == 1), j)
+              pb(:, 2) = lattice_node(o, rt, a, i + 1 + merge(1, 0, dir == 1), j + 1)
+              d2e = 0.5_rp * a * a
+            else
+              pb(:, 1) = lattice_node(o, rt, a, i + merge(2, -1, dir == 1), j + 2) + z
+              pb(:, 2) = lattice_node(o, rt, a, i + merge(3, -2, dir == 1), j + 3) + z
+              d2e = 2.0_rp * a * a
+            end if
+            d2 = edge_edge_d2(pa(:, 1), pa(:, 2), pb(:, 1), pb(:, 2))
+            tried = tried + 1
+            if (abs(d2 - d2e) > 1.0e-9_rp * d2e) bad = bad + 1
+            call edge_edge_distance(pa(:, 1), pa(:, 2), pb(:, 1), pb(:, 2), d2, g, h, ty)
+            if (abs(d2 - d2e) > 1.0e-9_rp * d2e) bad = bad + 1
+          end do
+        end do
+      end do
+    end do
+    call check_true(bad == 0, 'lattice diagonals, parallel and collinear, rounded coordinates: '// &
+                    'the exact distance in all of 2 x '//itoa(tried)//' (wrong: '//itoa(bad)//')')
+  end subroutine lattice_diagonals
+
+  !> Node (ii, jj) of lattice_diagonals' lattice: o + rt (ii a, jj a, 0) in floating point.
+  pure function lattice_node(o, rt, a, ii, jj) result(p)
+    real(rp), intent(in) :: o(3), rt(3, 3), a
+    integer, intent(in) :: ii, jj
+    real(rp) :: p(3)
+    p = o + matmul(rt, [ii * a, jj * a, 0.0_rp])
+  end function lattice_node
+
   !> Squared distance, gradient, Hessian and type of a pair (kind 1: point-triangle, 2: edge-edge).
+
   subroutine pair(kind, x, d2, g, h, ty)
     integer, intent(in) :: kind
     real(rp), intent(in) :: x(12)

@@ -18,7 +18,7 @@ program test_self_broad
   use kinds, only: rp
   use contact_faces, only: SPLIT_MAIN, SPLIT_ANTI
   use self_broad, only: self_lattice_t, self_pairs_t, self_candidates, self_candidates_swept, PAIR_PT, &
-                        OWN_LOWEST, OWN_TOUCH, self_pairs_regrown
+                        OWN_LOWEST, OWN_TOUCH, self_pairs_regrown, self_rest_gap
   use self_shapes, only: roll_shape, fold_shape, crumple_shape, brute_keys, pair_keys
   use check, only: check_true, check_report, seed_random
   implicit none
@@ -30,6 +30,7 @@ program test_self_broad
   end do
   call ownership_bands()
   call rest_rule()
+  call rest_gap()
   call kept_tables()
   call cost(129)
   call cost(257)
@@ -197,6 +198,45 @@ contains
     call self_candidates(lat, rows, x, 0, lat%ny - 1, OWN_LOWEST, 0.006_rp, 0.0_rp, pairs)
     call check_true(pairs%n == 0, 'flat at rest, reach 0.6 spacing: nothing nearer than 0.707 spacing')
   end subroutine rest_rule
+
+  !> self_rest_gap against the lattice's geometry: a node and the diagonal of a quad beside
+  !> it lie ax ay / sqrt(ax^2 + ay^2) apart (a / sqrt 2 on a square lattice, either split);
+  !> with the rest rule past that, the next pairs are a spacing apart (a node and the
+  !> triangle of the next row, parallel links). And on a flat sheet at rest, a reach just
+  !> below the gap finds no pair, just above it finds some (the Verlet list's cap).
+  subroutine rest_gap()
+    type(self_lattice_t) :: lat
+    type(self_pairs_t) :: pairs
+    real(rp), allocatable :: x(:, :, :)
+    integer, allocatable :: rows(:)
+    real(rp) :: g
+    integer :: i, j, split
+
+    do split = SPLIT_MAIN, SPLIT_ANTI, SPLIT_ANTI - SPLIT_MAIN
+      lat = self_lattice_t(nx=9, ny=7, split=split, ax=0.01_rp, ay=0.01_rp)
+      call check_true(abs(self_rest_gap(lat, 0.005_rp) - 0.01_rp / sqrt(2.0_rp)) < 1.0e-15_rp, &
+                      'rest gap, square lattice: spacing / sqrt 2')
+      call check_true(abs(self_rest_gap(lat, 0.0_rp) - 0.01_rp / sqrt(2.0_rp)) < 1.0e-15_rp, &
+                      'rest gap, no rest rule: spacing / sqrt 2')
+      call check_true(abs(self_rest_gap(lat, 0.0095_rp) - 0.01_rp) < 1.0e-15_rp, &
+                      'rest gap, rest rule past the diagonal: a spacing')
+      lat = self_lattice_t(nx=9, ny=7, split=split, ax=0.01_rp, ay=0.02_rp)
+      g = self_rest_gap(lat, 0.005_rp)
+      call check_true(abs(g - 0.02_rp / sqrt(5.0_rp)) < 1.0e-15_rp, 'rest gap, ax = ay / 2: ax ay / |(ax, ay)|')
+      allocate(x(3, 0:lat%nx - 1, 0:lat%ny - 1))
+      do j = 0, lat%ny - 1
+        do i = 0, lat%nx - 1
+          x(:, i, j) = [i * lat%ax, j * lat%ay, 0.0_rp]
+        end do
+      end do
+      rows = [(j, j = 0, lat%ny - 1)]
+      call self_candidates(lat, rows, x, 0, lat%ny - 1, OWN_LOWEST, 0.999_rp * g, 0.005_rp, pairs)
+      call check_true(pairs%n == 0, 'flat at rest, reach just below the rest gap: no pair')
+      call self_candidates(lat, rows, x, 0, lat%ny - 1, OWN_LOWEST, 1.001_rp * g, 0.005_rp, pairs)
+      call check_true(pairs%n > 0, 'flat at rest, reach just above the rest gap: pairs')
+      deallocate(x)
+    end do
+  end subroutine rest_gap
 
   !> Time of one static broad phase on a rolled n x n sheet, per vertex (printed).
   subroutine cost(n)
