@@ -61,6 +61,9 @@ contains
         call check_self_contact(cfg, ierr, msg); if (ierr /= 0) return
       end if
       call check_self_mu(c, ierr, msg); if (ierr /= 0) return
+      if (c%self_mu > 0.0_rp) then
+        call check_eps_v_range(cfg, ierr, msg); if (ierr /= 0) return
+      end if
       ierr = 1
       ! The adjoint would be inexact with contact (docs/identification.md,
       ! "Contact"): friction's lagged normal force is not differentiated, the
@@ -187,7 +190,8 @@ contains
   !>   contact_stiffness at most 100 m_min / dt^2, and with gravity at
   !>     least the stiffness whose barrier holds m_max g0 at a gap of
   !>     1e-5 contact_dhat (ten times the acceptance floor);
-  !>   friction_eps_v in [1e-7, 1] a / dt where some obstacle has friction.
+  !>   friction_eps_v in [1e-7, 1] a / dt where some obstacle has friction
+  !>   (check_eps_v_range).
   subroutine check_contact_scales(cfg, ierr, msg)
     type(nuno_config), intent(in) :: cfg
     integer, intent(out) :: ierr
@@ -231,19 +235,36 @@ contains
         end if
       end if
       if (any(c%mu(1:c%n_obstacles) > 0.0_rp)) then
-        lo = 1.0e-7_rp * a / dt
-        hi = a / dt
-        if (.not. (c%eps_v >= lo .and. c%eps_v <= hi)) then
-          msg = 'input: &contact: friction_eps_v = '//real_short(c%eps_v)//' must be between 1e-7 and 1 times a/dt = '// &
-                real_short(a / dt)//' (the lattice spacing '//real_short(a)//' a step, dt = '//real_short(dt)//'; '// &
-                real_short(lo)//' .. '//real_short(hi)//'): friction''s smoothing band (input/README.md, "&contact")'
-          return
-        end if
+        call check_eps_v_range(cfg, ierr, msg); if (ierr /= 0) return
+        ierr = 1
       end if
     end associate
     ierr = 0
     msg = ''
   end subroutine check_contact_scales
+
+  !> friction_eps_v in [1e-7, 1] a / dt (a the smaller lattice spacing, dt
+  !> the step): friction's smoothing band, checked where some friction acts
+  !> (an obstacle's obstacle_mu or self_mu > 0).
+  subroutine check_eps_v_range(cfg, ierr, msg)
+    type(nuno_config), intent(in) :: cfg
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    real(rp) :: a, dt, lo, hi
+    ierr = 1
+    a = min(cfg%lattice%ax, cfg%lattice%ay)
+    dt = cfg%time%dt
+    lo = 1.0e-7_rp * a / dt
+    hi = a / dt
+    if (.not. (cfg%contact%eps_v >= lo .and. cfg%contact%eps_v <= hi)) then
+      msg = 'input: &contact: friction_eps_v = '//real_short(cfg%contact%eps_v)//' must be between 1e-7 and 1 times '// &
+            'a/dt = '//real_short(a / dt)//' (the lattice spacing '//real_short(a)//' a step, dt = '//real_short(dt)// &
+            '; '//real_short(lo)//' .. '//real_short(hi)//'): friction''s smoothing band (input/README.md, "&contact")'
+      return
+    end if
+    ierr = 0
+    msg = ''
+  end subroutine check_eps_v_range
 
   !> Obstacle k's geometry by its shape (code: 1 plane, 2 sphere, 3 box,
   !> 4 capsule): a plane's normal and a box's axes normalised (the box's x

@@ -136,14 +136,19 @@ def test_one_and_two_ranks_agree(tmp_path):
 
 
 def test_bad_self_mu_is_refused_in_one_line(tmp_path):
-    """A negative or NaN self_mu, and self_mu > 0 without self_contact (it
-    would be ignored): one line naming the key and its value, on 2 ranks,
+    """A negative or NaN self_mu, self_mu > 0 without self_contact (it
+    would be ignored), and friction_eps_v outside its range with self_mu >
+    0: one line naming the key and its value, on 2 ranks,
     no output (test_contact_input's check; each ran before self_mu existed
     as an unknown key; NaN is the reader's finite-number check)."""
     from test_contact_input import refused
     cases = [("self_contact=.true. self_mu=-0.1", "self_mu = -0.1", "must be a number >= 0"),
              ("self_contact=.true. self_mu=NaN", "self_mu = NaN", "must be a finite number"),
-             ("self_mu=0.3", "self_mu = 0.3", "needs self_contact = .true.")]
+             ("self_mu=0.3", "self_mu = 0.3", "needs self_contact = .true."),
+             # friction's smoothing band against the lattice, as with an
+             # obstacle's friction (ran before: the range was checked only
+             # where an obstacle had friction)
+             ("self_contact=.true. self_mu=0.3 friction_eps_v=1e6", "friction_eps_v = ", "must be between 1e-7 and 1")]
     for n, (keys, names, says) in enumerate(cases):
         d = tmp_path / f"case{n}"
         d.mkdir()
