@@ -124,7 +124,7 @@ KEY_DIMENSIONS = {
     "obstacle_time": "time", "obstacle_offset": "length", "obstacle_close": "length",
     "obstacle_close_dir": "1", "obstacle_mu": "1", "contact_thickness": "length",
     "contact_dhat": "length", "contact_stiffness": "force/length",
-    "friction_eps_v": "length/time",
+    "friction_eps_v": "length/time", "self_mu": "1",
 }
 # A dimension as a unit: (mm g s, SI). '' for none.
 DIMENSION_UNITS = {
