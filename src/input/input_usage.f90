@@ -168,10 +168,11 @@ contains
       '                                               first Newton iteration the last two steps'' first', &
       '                                               corrections extrapolated, the last one, or zero', &
       '                                               (auto: without bending)', &
-      '  -nuno_newton_start auto|linear|cubic         beuler: Newton starts a step from the last two states', &
-      '                                               extrapolated (linear, PETSc''s) or from the polynomial', &
-      '                                               through the last four (cubic; auto: for Newton at', &
-      '                                               fixed steps, linear with -snes_type ksponly)', &
+      '  -nuno_newton_start auto|linear|cubic|consistent  beuler: Newton starts a step from the last two', &
+      '                                               states extrapolated (linear, PETSc''s) or from the', &
+      '                                               polynomial through the last four (cubic; auto: for', &
+      '                                               Newton at fixed steps, linear with -snes_type ksponly);', &
+      '                                               consistent: cubic with positions x_n + dt v', &
       '  -snes_lag_jacobian N                         S assembled every N Newton iterations (default 2: the', &
       '                                               second iteration of a step reuses the first one''s S)', &
       '  -ts_theta_initial_guess_extrapolate          beuler starts Newton from x + dt xdot (default true,', &

@@ -13,7 +13,7 @@ module solver_choices
   public :: INTERP_AUTO, INTERP_LINEAR, INTERP_CUBIC, INTERP_COARSE_CUBIC, INTERP_NAMES
   public :: GUESS_AUTO, GUESS_NONE, GUESS_PREVIOUS, GUESS_EXTRAPOLATE, GUESS_PROJECT, GUESS_NAMES
   public :: FALLBACK_NONE, FALLBACK_BT, FALLBACK_L2, FALLBACK_NAMES
-  public :: START_AUTO, START_LINEAR, START_CUBIC, START_NAMES
+  public :: START_AUTO, START_LINEAR, START_CUBIC, START_CONSISTENT, START_NAMES
   public :: MG_STENCIL, MG_PETSC, MG_NAMES
   public :: CYCLE_V, CYCLE_KASKADE, CYCLE_W, CYCLE_NAMES
   public :: PRODUCT_MIXED, PRODUCT_DOUBLE, PRODUCT_FUSED, PRODUCT_NAMES
@@ -42,8 +42,9 @@ module solver_choices
   character(len=*), parameter :: FALLBACK_NAMES(0:2) = [character(len=4) :: 'none', 'bt', 'l2']
 
   !> -nuno_newton_start: beuler's Newton start (module newton_start).
-  integer, parameter :: START_AUTO = 0, START_LINEAR = 1, START_CUBIC = 2
-  character(len=*), parameter :: START_NAMES(0:2) = [character(len=6) :: 'auto', 'linear', 'cubic']
+  !> consistent: the cubic start with its positions x_n + dt v (docs/performance.md, open problem 6)
+  integer, parameter :: START_AUTO = 0, START_LINEAR = 1, START_CUBIC = 2, START_CONSISTENT = 3
+  character(len=*), parameter :: START_NAMES(0:3) = [character(len=10) :: 'auto', 'linear', 'cubic', 'consistent']
 
   !> -nuno_mg: the inner multigrid where one fits and -reduced_pc_type is
   !> not given (module reduced): nuno's structured one (module stencil_mg)

@@ -9,7 +9,7 @@ module newton_policy
   use petscts
   use petscdmda
   use mpi
-  use, intrinsic :: iso_c_binding, only: c_int
+  use, intrinsic :: iso_c_binding, only: c_int, c_ptr, c_loc, c_f_pointer
   use, intrinsic :: iso_fortran_env, only: output_unit
   use kinds, only: rp
   use newton_control, only: NEWTON_CONVERGED, NEWTON_DIVERGED
@@ -18,7 +18,8 @@ module newton_policy
                           newton_inner_rtol, newton_fallback_switched, newton_forcing_on, newton_floor_est, &
                           newton_snorm_prev, newton_fallback, newton_rate_usable, newton_update_floor, &
                           newton_settled, newton_lag_settled, newton_target
-  use newton_start, only: newton_start_setup, newton_start_smooth_limited
+  use newton_start, only: newton_start_setup, newton_start_smooth_limited, newton_start_consistent
+  use constraints, only: constraints_active, constraint_count, constraint_target, constraint_node
   use process_models, only: pm_list_hints
   use process_model, only: pm_hints_t
   use reduced, only: reduced_set_forcing, reduced_floor_est, reduced_lin_rel, reduced_rtol0
@@ -68,7 +69,38 @@ contains
                  .not. (ctx%cfg%identify%active .or. ctx%cfg%control%active) .and. &
                  (.not. feasible_start .or. h%smooth_start)
     PetscCall(newton_start_setup(ctx%start, ctx%ts, ctx%comm, auto_cubic, ierr))
+    call newton_start_consistent(ctx%start, consistent_positions, c_loc(ctx))
   end subroutine set_newton_start
+
+  !> The start's positions as backward Euler's position rows take them
+  !> from its velocities (module model_state's residual): x = x_n + dt v,
+  !> a prescribed node's x_n + dt vbar(t_n + dt). Collective (none here).
+  subroutine consistent_positions(cp, xvec, ierr)
+    type(c_ptr), value :: cp
+    type(tVec) :: xvec
+    PetscErrorCode, intent(out) :: ierr
+    type(app_ctx), pointer :: ctx
+    type(tVec) :: x0vec
+    PetscScalar, pointer :: x(:, :, :), x0(:, :, :)
+    real(rp) :: t0, dt, xb(3), vb(3)
+    integer :: i, j, k
+    call c_f_pointer(cp, ctx)
+    PetscCall(TSGetTime(ctx%ts, t0, ierr))
+    PetscCall(TSGetTimeStep(ctx%ts, dt, ierr))
+    PetscCall(TSGetSolution(ctx%ts, x0vec, ierr))
+    PetscCall(DMDAVecGetArrayReadF90(ctx%da, x0vec, x0, ierr))
+    PetscCall(DMDAVecGetArrayF90(ctx%da, xvec, x, ierr))
+    x(0:2, :, ctx%lat%ys:ctx%lat%ye) = x0(0:2, :, ctx%lat%ys:ctx%lat%ye) + dt * x(3:5, :, ctx%lat%ys:ctx%lat%ye)
+    if (constraints_active(ctx%cs)) then
+      do k = 1, constraint_count(ctx%cs)
+        call constraint_target(ctx%cs, k, t0 + dt, xb, vb)
+        call constraint_node(ctx%cs, k, i, j)
+        x(0:2, i, j) = x0(0:2, i, j) + dt * vb
+      end do
+    end if
+    PetscCall(DMDAVecRestoreArrayF90(ctx%da, xvec, x, ierr))
+    PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, x0vec, x0, ierr))
+  end subroutine consistent_positions
 
   !> PETSc's residual test, plus the round-off floor of the residual, which
   !> grows with stiffness over mass (like N^5 for hang refined: 1.3e-5 at

@@ -33,12 +33,12 @@ module newton_start
   use petscts
   use, intrinsic :: iso_c_binding, only: c_int, c_char, c_intptr_t, c_ptr, c_loc, c_f_pointer
   use kinds, only: rp
-  use solver_choices, only: START_AUTO, START_LINEAR, START_CUBIC, START_NAMES
+  use solver_choices, only: START_AUTO, START_LINEAR, START_CUBIC, START_CONSISTENT, START_NAMES
   use start_predictor, only: START_KEPT, start_spaced, start_weights, start_linear_weights, start_needs_linear, start_pick
   implicit none
   private
   public :: newton_start_t, newton_start_setup, newton_start_free, newton_start_order, newton_start_limited, &
-            start_limit_i, newton_start_smooth_limited
+            start_limit_i, newton_start_smooth_limited, start_consistent_i, newton_start_consistent
   public :: newton_start_push, newton_start_reset, newton_start_count, newton_start_get, newton_start_put
 
   !> The kept states and the safeguard's state. Written only by this
@@ -61,6 +61,11 @@ module newton_start
     !> the limiter of a feasible start (newton_start_limited), with its context
     procedure(start_limit_i), pointer, nopass :: limit => null()
     type(c_ptr) :: limit_ctx
+    !> the positions of a polynomial start made consistent with its
+    !> velocities (newton_start_consistent), with its context
+    procedure(start_consistent_i), pointer, nopass :: consistent => null()
+    type(c_ptr) :: consistent_ctx
+    logical :: make_consistent = .false.        !< -nuno_newton_start consistent
     PetscInt :: last_step = -1, last_rejects = -1   !< the TS's step and rejections at the last start
     logical :: lwork = .false.                  !< x0w, f0w created
     type(tVec) :: x0w, f0w                      !< the step's start x_n and its residual (limited_pick)
@@ -80,6 +85,15 @@ module newton_start
       logical, intent(out) :: cut
       PetscErrorCode, intent(out) :: ierr
     end subroutine start_limit_i
+    !> The start x's positions made those backward Euler's position rows
+    !> take from its velocities and the step's start x_n (x = x_n + dt v;
+    !> a prescribed node's x_n + dt vbar). Collective.
+    subroutine start_consistent_i(ctx, x, ierr)
+      import :: c_ptr, tVec
+      type(c_ptr), value :: ctx
+      type(tVec) :: x
+      PetscErrorCode, intent(out) :: ierr
+    end subroutine start_consistent_i
   end interface
 
   interface
@@ -127,10 +141,11 @@ contains
     ierr = nuno_newton_start_option(comm, START_NAMES, size(START_NAMES), len(START_NAMES), choice)
     if (ierr /= 0) return
     PetscCall(PetscObjectTypeCompare(ts, TSBEULER, beuler, ierr))
-    if (choice == START_CUBIC .and. .not. beuler) then
+    if ((choice == START_CUBIC .or. choice == START_CONSISTENT) .and. .not. beuler) then
       ierr = PETSC_ERR_ARG_INCOMP
-      SETERRQ(comm, ierr, '-nuno_newton_start cubic needs -ts_type beuler (its Newton solve is for the state at t + dt)')
+      SETERRQ(comm, ierr, '-nuno_newton_start cubic or consistent needs -ts_type beuler (its Newton solve is for the state at t + dt)')
     end if
+    s%make_consistent = choice == START_CONSISTENT
     s%order = 1
     if (choice == START_LINEAR .or. (choice == START_AUTO .and. .not. (auto_cubic .and. beuler))) return
     s%on = .true.
@@ -155,6 +170,23 @@ contains
     s%limit_ctx = ctx
     PetscCall(install(s, ts, ierr))
   end subroutine newton_start_limited
+
+  !> With -nuno_newton_start consistent, the polynomial starts' positions
+  !> made consistent with their velocities by consistent (with its
+  !> context ctx) before any limiter:
+  !> the cubic start extrapolates positions and velocities apart, and its
+  !> positions' miss of backward Euler's x = x_n + dt v, which the first
+  !> Newton iteration puts right in full, moves the nonlinear forces (a
+  !> barrier's most) by more than the velocities' miss does (docs/
+  !> performance.md, open problem 6). s must stay at its address while the
+  !> TS lives.
+  subroutine newton_start_consistent(s, consistent, ctx)
+    type(newton_start_t), intent(inout), target :: s
+    procedure(start_consistent_i) :: consistent
+    type(c_ptr), intent(in) :: ctx
+    s%consistent => consistent
+    s%consistent_ctx = ctx
+  end subroutine newton_start_consistent
 
   !> This module's callback as the SNES's initial guess (once).
   subroutine install(s, ts, ierr)
@@ -314,6 +346,10 @@ contains
       s%work = .true.
     end if
     PetscCall(combine(s, start_weights(p), x, ierr))
+    if (s%make_consistent .and. associated(s%consistent)) then
+      call s%consistent(s%consistent_ctx, x, ierr)
+      if (ierr /= 0) return
+    end if
     PetscCall(limited(s, x, 1.0_rp, ierr))
     PetscCall(SNESComputeFunction(snes, x, s%fc, ierr))
     PetscCall(VecNorm(s%fc, NORM_2, nc, ierr))
