@@ -141,9 +141,13 @@ contains
     ierr = nuno_newton_start_option(comm, START_NAMES, size(START_NAMES), len(START_NAMES), choice)
     if (ierr /= 0) return
     PetscCall(PetscObjectTypeCompare(ts, TSBEULER, beuler, ierr))
-    if ((choice == START_CUBIC .or. choice == START_CONSISTENT) .and. .not. beuler) then
+    if (choice == START_CUBIC .and. .not. beuler) then
       ierr = PETSC_ERR_ARG_INCOMP
-      SETERRQ(comm, ierr, '-nuno_newton_start cubic or consistent needs -ts_type beuler (its Newton solve is for the state at t + dt)')
+      SETERRQ(comm, ierr, '-nuno_newton_start cubic needs -ts_type beuler (its Newton solve is for the state at t + dt)')
+    end if
+    if (choice == START_CONSISTENT .and. .not. beuler) then
+      ierr = PETSC_ERR_ARG_INCOMP
+      SETERRQ(comm, ierr, '-nuno_newton_start consistent needs -ts_type beuler (its positions are x_n + dt v)')
     end if
     s%make_consistent = choice == START_CONSISTENT
     s%order = 1

@@ -154,6 +154,7 @@ def test_bad_solver_option_is_refused_on_every_rank(tmp_path, option, value, wor
     (("-nuno_linesearch_fallback", "l2", "-snes_linesearch_type", "bt"), "-nuno_linesearch_fallback and -snes_linesearch_type: give one"),
     (("-nuno_linesearch_fallback", "bt", "-nuno_jacobian", "full"), "-nuno_linesearch_fallback is for the reduced path"),
     (("-nuno_newton_start", "cubic", "-ts_type", "cn"), "-nuno_newton_start cubic needs -ts_type beuler"),
+    (("-nuno_newton_start", "consistent", "-ts_type", "cn"), "-nuno_newton_start consistent needs -ts_type beuler"),
 ])
 def test_a_line_search_fallback_the_run_cannot_use_is_refused(tmp_path, options, words):
     proc = run_refused(tmp_path, options)
