@@ -20,7 +20,7 @@ module solver_setup
   use app_context, only: app_ctx, nuno_signals_install
   use solver_options, only: nuno_options_read, nuno_linesearch_options_read, nuno_tolerance_options_read, &
                             nuno_options_report_unused, adaptive_default, step_defaults, ts_scheme, petsc_habits
-  use newton_start, only: newton_start_free, newton_start_order
+  use newton_start, only: newton_start_free, newton_start_order, newton_start_is_consistent
   use strings, only: itoa, real_g0, num => real_brief, inum => itoa
   use cloth_model, only: form_ifunction, form_ijacobian
   use model_state, only: model_state_init, model_state_free, assembly_create, assembly_free, assembly_matrix
@@ -551,7 +551,8 @@ contains
       if (.not. step_fixed(ctx%step)) line = trim(line)//', rtol '//num(rtol)//', atol position '// &
         num(atol_x)//' ('//trim(srcx)//'), velocity '//num(atol_v)//' ('//trim(srcv)//')'
       line = trim(line)//', Newton step '//trim(merge('reduced', 'full   ', ctx%use_reduced))
-      if (newton_start_order(ctx%start) == 3) line = trim(line)//', started cubic (-nuno_newton_start)'
+      if (newton_start_order(ctx%start) == 3) line = trim(line)//', started '// &
+        trim(merge('consistent', 'cubic     ', newton_start_is_consistent(ctx%start)))//' (-nuno_newton_start)'
       write(output_unit, '(a)') trim(line)
       if (ctx%use_reduced) write(output_unit, '(a)') 'inner     : '//trim(inner)
       flush(output_unit)

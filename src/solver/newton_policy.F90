@@ -41,16 +41,17 @@ module newton_policy
 contains
 
   !> Newton's start (-nuno_newton_start, module newton_start): auto
-  !> is the cubic start for Newton with beuler at fixed steps (hang 257 x
-  !> 257: one Newton iteration a step instead of two, commit 9f1bf04;
-  !> the linear start where its residual is the
-  !> smaller, as in a membrane's transient), the linear one of PETSc (x_n + dt xdot_n)
+  !> is the consistent start for Newton with beuler at fixed steps (the
+  !> cubic start, hang 257 x 257: one Newton iteration a step instead of
+  !> two, commit 9f1bf04; with its positions x_n + dt v, a falling sheet
+  !> at 129 x 129: 1.02 instead of 1.95; the linear start where its
+  !> residual is the smaller, as in a membrane's transient), the linear one of PETSc (x_n + dt xdot_n)
   !> elsewhere: in the Baraff-Witkin mode (-snes_type ksponly) the start
   !> is the point of the one linearisation and its residual the scale of
   !> the solve's tolerance (163 -> 189 inner iterations over 30 steps
   !> there), adaptive steps change dt, identification and control
   !> runs keep their trajectories as they were, and a process model that
-  !> needs a feasible start takes the cubic start limited by its step
+  !> needs a feasible start takes the consistent start limited by its step
   !> limit where its state moves smoothly (its hint smooth_start:
   !> contact; drape_sphere 129: 2.0 Newton iterations a step instead of
   !> 2.35), else the linear one limited.

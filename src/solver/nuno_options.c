@@ -250,7 +250,7 @@ PetscErrorCode nuno_newton_start_option(MPI_Fint fcomm, const char *names, int n
   PetscCall(choices_from_fortran(names, n, len, &starts));
   PetscOptionsBegin(comm, NULL, "nuno: the Newton start (docs/design.md)", "nuno");
   PetscCall(PetscOptionsEList("-nuno_newton_start",
-                              "beuler: Newton's start, auto (cubic for Newton at fixed steps, linear in the Baraff-Witkin mode -snes_type ksponly, in adaptive, identification and control runs), linear (x_n + dt xdot_n: -ts_theta_initial_guess_extrapolate), cubic (the polynomial through the last four accepted states, or the linear start where its residual is the smaller)",
+                              "beuler: Newton's start, auto (consistent for Newton at fixed steps, linear in the Baraff-Witkin mode -snes_type ksponly, in adaptive, identification and control runs and with self-contact), linear (x_n + dt xdot_n: -ts_theta_initial_guess_extrapolate), cubic (the polynomial through the last four accepted states, or the linear start where its residual is the smaller), consistent (cubic with its positions x_n + dt v, as backward Euler takes them)",
                               "nuno", starts.name, starts.n, starts.name[st], &st, NULL));
   PetscOptionsEnd();
   *choice = (int)st;
