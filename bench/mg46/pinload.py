@@ -16,6 +16,16 @@ Gauss-Seidel sweep a smoothing):
 
   r  the rediscretised coarse levels (nuno's default with bending),
   g  the Galerkin products P^T A P of the same P (pinned rows a m I),
+  s  non-Galerkin: P^T A_l P sparsified onto the rediscretised reach-2
+     stencil, each row's action on the polynomials of degree --degree
+     kept (module sparsify; level l + 1 from the sparsified level l),
+  f  the rediscretised levels with the rows and columns within
+     --fixwidth nodes of an edge taken from s,
+  S, F  as s and f, but each level from the exact Galerkin chain's
+     product P^T G_l P (G_1 = A), not from the sparsified level above,
+  e  diag(a m) plus the coarse bending triples (1, -2, 1) with weights
+     >= 0 fitted to P^T A_l P's row moments of degrees 2-4 (SPD by
+     construction; module sparsify's fitted),
 
 and the cycles (--cycles) K (kaskade), V, W, and the K-cycles of Notay and
 Vassilevski: C (each coarse level but the coarsest solved by at most two
@@ -49,7 +59,7 @@ With --pins edge the whole edge j = ny-1 is pinned instead of its corners.
   python3 pinload.py [--load gravity|random] [--pins corners|edge] [--cycles KVWCJ]
       [--levels rg] [--threshold T] [--ends F] [--corners F] [--band W] [--sweeps S]
       [--smoother point|rows|cols|alt|zebra] [--deflate K] [--deflate-kind eig|window]
-      [--window W] [--eig | --where] SIZES
+      [--window W] [--degree D] [--fixwidth W] [--eig | --where] SIZES
 """
 import argparse
 import numpy as np
@@ -57,6 +67,7 @@ import scipy.linalg as sl
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from model import bending, prolong, Level, ETA_B, K_B, A_SHIFT, MASS
+import sparsify
 
 COEF = ETA_B + K_B / A_SHIFT
 
@@ -70,6 +81,8 @@ DEFLATE = 0       # coarse modes made exact after each coarse correction (--defl
 DEFLATE_KIND = 'eig'  # eig: the softest generalised eigenvectors; window: every coarse node near a corner
 SWEEPS = 1        # symmetric sweeps a smoothing (--sweeps)
 WINDOW = 2        # the corner windows' width in coarse nodes (--window)
+DEGREE = 2        # the sparsified coarse rows keep their action on polynomials of this degree (--degree)
+FIXWIDTH = 2      # variant f: the rows within this many nodes of an edge from the sparsified product (--fixwidth)
 
 
 def line_orders(n, kind):
@@ -197,22 +210,62 @@ def operator(n, end_scale=1.0, corner_scale=1.0):
     end_scale: its bending triples that reach an edge scaled by it;
     corner_scale: its diagonal triples at a corner's 2 x 2 nodes."""
     S = bending(n, COEF, pins=False, end_scale=end_scale, corner_scale=corner_scale).tolil()
-    m = np.full((n, n), MASS / (n - 1) ** 2)
-    m[0, :] *= 0.5; m[-1, :] *= 0.5; m[:, 0] *= 0.5; m[:, -1] *= 0.5
-    m = m.T.reshape(-1)
+    am = mass_diagonal(n)
     for p in pins(n):
         S[p, :] = 0.0
         S[:, p] = 0.0
-        S[p, p] = A_SHIFT * m[p]
+        S[p, p] = am[p]
     return S.tocsr()
 
 
+def mass_diagonal(n):
+    """a m_p, the area masses' part of S_z's diagonal (n^2)."""
+    m = np.full((n, n), MASS / (n - 1) ** 2)
+    m[0, :] *= 0.5; m[-1, :] *= 0.5; m[:, 0] *= 0.5; m[:, -1] *= 0.5
+    return A_SHIFT * m.T.reshape(-1)
+
+
+def coarse_from_product(G, R, nc, kind):
+    """The coarse operator of kind g (the Galerkin product G itself), s (G
+    sparsified onto R's reach-2 pattern, its rows' action on the
+    polynomials of degree DEGREE kept: module sparsify), f (R with the
+    rows and columns within FIXWIDTH nodes of an edge taken from the
+    sparsified G) or e (triples fitted to G's moments); R the
+    rediscretised operator. Pinned rows keep R's."""
+    if kind == 'g':
+        return G
+    free = np.ones(nc * nc, dtype=bool)
+    free[pins(nc)] = False
+    if kind == 'e':
+        A, _ = sparsify.fitted(G, nc, free, COEF * (nc - 1) ** 2, mass_diagonal(nc))
+        return A
+    R = R.tocsr()
+    R.eliminate_zeros()
+    pattern = R
+    if kind == 'b':   # the 5 x 5 box (reach 2 in the max norm, 24 offsets) of G
+        C = G.tocoo()
+        box = (np.abs(C.col % nc - C.row % nc) <= 2) & (np.abs(C.col // nc - C.row // nc) <= 2) & (C.data != 0)
+        pattern = sp.csr_matrix((C.data[box], (C.row[box], C.col[box])), shape=G.shape)
+    S = sparsify.sparsified(G, pattern, nc, DEGREE, keep=free)
+    if kind == 'b':
+        return S
+    if kind == 's':
+        return S
+    return sparsify.fixrows(R, S, sparsify.band(nc, FIXWIDTH) & free)
+
+
 def hierarchy(n, galerkin, levels=None):
+    """The levels, interpolations and restrictions; galerkin: True or 'g'
+    (P^T A P), False or 'r' (rediscretised), 's', 'f' or 'e'
+    (coarse_from_product of the level above's product), 'S' or 'F' (of
+    the exact Galerkin chain's product)."""
+    kind = {True: 'g', False: 'r'}.get(galerkin, galerkin)
     levels = levels or int(np.log2(n - 1)) - 1
     make = (lambda A, m: BandLevel(A, m)) if BAND else (lambda A, m: Level(A))
     if SMOOTHER != 'point':
         make = LineLevel
     levs, Ps, Rs = [make(operator(n), n)], [], []
+    exact = levs[0].A     # the Galerkin chain's operator of this level (kinds S, F)
     for _ in range(levels - 1):
         nc = (n - 1) // 2 + 1
         P = prolong(n, True).tolil()
@@ -222,13 +275,16 @@ def hierarchy(n, galerkin, levels=None):
         R[pins(nc), :] = 0.0
         R = R.tocsr()
         Ac = operator(nc, END_SCALE, CORNER_SCALE)
-        if galerkin:
-            G = (P.T @ levs[-1].A @ P).tolil()
+        if kind != 'r':
+            # s, f, e: from the product of the level above as it is;
+            # S, F: from the exact Galerkin chain's product
+            G = (P.T @ (exact if kind in 'SF' else levs[-1].A) @ P).tolil()
             for p in pins(nc):
                 G[p, p] = Ac[p, p]
-            Ac = G.tocsr()
+            exact = G.tocsr()
+            Ac = coarse_from_product(exact, Ac, nc, kind.lower())
         levs[-1].W = None
-        if DEFLATE and not galerkin:
+        if DEFLATE and kind == 'r':
             levs[-1].W, levs[-1].E = deflation(levs[-1].A, P, Ac, nc)
         levs.append(make(Ac, nc))
         Ps.append(P)
@@ -339,8 +395,10 @@ def where(n, b):
     return np.linalg.norm(r) / np.linalg.norm(b), (r[near] ** 2).sum() / (r ** 2).sum()
 
 
-def level2_eigs(n):
-    (_, r), _, _ = hierarchy(n, False, 2)
+def level2_eigs(n, kind='r'):
+    """The extreme generalised eigenvalues of level 2 of kind `kind`
+    against P^T A P, and the node where the smallest one's vector peaks."""
+    (_, r), _, _ = hierarchy(n, kind, 2)
     (_, g), _, _ = hierarchy(n, True, 2)
     nc = (n - 1) // 2 + 1
     keep = np.setdiff1d(np.arange(nc * nc), pins(nc))
@@ -360,7 +418,11 @@ def main():
     ap.add_argument('--where', action='store_true', help='where one kaskade cycle leaves the residual')
     ap.add_argument('--cycles', default='KVW',
                     help='K kaskade, V, W, C K-cycle (V-cycle on each level, two flexible CG iterations on each coarse one), J K-cycle of kaskade')
-    ap.add_argument('--levels', default='rg', help='r rediscretised, g Galerkin')
+    ap.add_argument('--levels', default='rg',
+                    help='r rediscretised, g Galerkin, s sparsified Galerkin (non-Galerkin, reach 2), f rediscretised with the edge rows from s, S and F the same from the exact Galerkin chain, e triples fitted to the Galerkin moments')
+    ap.add_argument('--degree', type=int, choices=[1, 2, 3], default=2,
+                    help="levels s, f: the sparsified rows keep their action on the polynomials of this degree (3: 2 where the stencil is whole, else 1)")
+    ap.add_argument('--fixwidth', type=int, default=2, help='levels f: the rows within this many nodes of an edge from s')
     ap.add_argument('--threshold', type=float, default=0.25, help="the K-cycle's second inner iteration only if ||r1|| > t ||r0|| (0: always)")
     ap.add_argument('--ends', type=float, default=1.0,
                     help="the rediscretised levels' bending triples that reach an edge scaled by it (per edge)")
@@ -378,7 +440,8 @@ def main():
     ap.add_argument('--sweeps', type=int, default=1, help='symmetric sweeps a smoothing')
     ap.add_argument('--window', type=int, default=2, help="the corner windows' width in coarse nodes (< 0: -W bending lengths of the level, at least 1 node)")
     args = ap.parse_args()
-    global SMOOTHER, DEFLATE, DEFLATE_KIND, WINDOW, SWEEPS
+    global SMOOTHER, DEFLATE, DEFLATE_KIND, WINDOW, SWEEPS, DEGREE, FIXWIDTH
+    DEGREE, FIXWIDTH = args.degree, args.fixwidth
     SWEEPS = args.sweeps
     global RTOL
     RTOL = args.rtol
@@ -393,8 +456,9 @@ def main():
     PINS = args.pins
     for n in args.sizes:
         if args.eig:
-            lo, hi, at = level2_eigs(n)
-            print(f'N={n} level 2: eigenvalues of (P^T A P)^-1 A_redisc {lo:.3f} .. {hi:.3f}, smallest at node {at}')
+            for h in args.levels.replace('g', ''):
+                lo, hi, at = level2_eigs(n, h)
+                print(f'N={n} level 2: eigenvalues of (P^T A P)^-1 A_{h} {lo:.3f} .. {hi:.3f}, smallest at node {at}')
             continue
         b = load(n, args.load)
         if args.where:
@@ -404,7 +468,7 @@ def main():
         out = []
         for h in args.levels:
             for k in args.cycles:
-                its, work = iterations(n, h == 'g', k, b)
+                its, work = iterations(n, h, k, b)
                 out.append(f'{h}-{k} {its} ({work:.2f})')
         print(f'N={n} {args.load}:', '  '.join(out), flush=True)
 
