@@ -9,12 +9,13 @@
 !> Plain arrays only: no PETSc, no MPI, no allocation.
 module contact
   use kinds, only: rp
+  use smoothed_coulomb, only: coulomb_slip, coulomb_power
   implicit none
   private
   public :: SHAPE_PLANE, SHAPE_SPHERE, SHAPE_BOX, SHAPE_CAPSULE
   public :: obstacle_t, contact_params_t
   public :: signed_distance, barrier, time_of_impact, contact_node, friction_power
-  public :: time_of_impact_moving, psd_project3, friction_f1
+  public :: time_of_impact_moving, psd_project3
 
   integer, parameter :: SHAPE_PLANE = 1, SHAPE_SPHERE = 2, SHAPE_BOX = 3, SHAPE_CAPSULE = 4
 
@@ -362,31 +363,12 @@ contains
   ! Node against obstacle: barrier and friction
   ! ------------------------------------------------------------------------
 
-  !> IPC's friction mollifier f1(y) = 2y/eps - y^2/eps^2 below eps_v, 1 above; also f1(y)/y
-  !> (-> 2/eps_v at 0) and d(f1(y)/y)/dy / y times y, i.e. phi'(y) y.
-  pure subroutine friction_f1(y, eps_v, f1, phi, dphi_y)
-    real(rp), intent(in) :: y        ! sliding speed |u| >= 0 [length/time]
-    real(rp), intent(in) :: eps_v    ! > 0 [length/time]
-    real(rp), intent(out) :: f1      ! [1]
-    real(rp), intent(out) :: phi     ! f1(y)/y [time/length]
-    real(rp), intent(out) :: dphi_y  ! phi'(y) y [time/length]
-
-    if (y < eps_v) then
-      f1 = y * (2.0_rp / eps_v - y / eps_v**2)
-      phi = 2.0_rp / eps_v - y / eps_v**2
-      dphi_y = -y / eps_v**2
-    else
-      f1 = 1.0_rp
-      phi = 1.0_rp / y
-      dphi_y = -1.0_rp / y
-    end if
-  end subroutine friction_f1
-
   !> One node against one obstacle: barrier force plus (lagged) smoothed Coulomb friction.
   !> Barrier: f = -kappa b'(gap) g, kx = -kappa (b'' g g^T + b' hd) (exact), fn = -kappa b'.
   !> Friction (when o%mu, lam and cp%eps_v are > 0, whatever the gap now, since lam is
   !> lagged): u = P (v - o%vel), P = I - nlag nlag^T, f = -mu lam f1(|u|) u/|u|,
-  !> kv = -mu lam (phi P + phi'(|u|)/|u| u u^T) (exact; -kv is positive semidefinite).
+  !> kv = -mu lam (phi P + phi'(|u|)/|u| u u^T) (exact; -kv is positive semidefinite;
+  !> module smoothed_coulomb's coulomb_slip).
   !> project = .true.: kx is minus the positive semidefinite part of the barrier's Hessian
   !> kappa (b'' g g^T + b' hd) (eigenvalues clipped at 0), the one to assemble when the
   !> matrix must stay SPD. gap <= 0: e = huge and no barrier force (the caller refuses).
@@ -404,7 +386,7 @@ contains
     real(rp), intent(out) :: fn         ! normal force magnitude now [force]
     logical, intent(out) :: active      ! gap < dhat
     logical, intent(in), optional :: project
-    real(rp) :: d, g(3), hd(3, 3), gap, b, db, d2b, u(3), pm(3, 3), y, f1, phi, dphi_y, c, uh(3)
+    real(rp) :: d, g(3), hd(3, 3), gap, b, db, d2b, u(3), s, c
     integer :: i
 
     f = 0.0_rp
@@ -431,19 +413,8 @@ contains
 
     c = o%mu * lam
     if (c > 0.0_rp .and. cp%eps_v > 0.0_rp) then
-      do i = 1, 3
-        pm(:, i) = EYE(:, i) - nlag * nlag(i)
-      end do
-      u = matmul(pm, v - o%vel)
-      y = norm2(u)
-      call friction_f1(y, cp%eps_v, f1, phi, dphi_y)
-      f = f - c * phi * u
-      uh = 0.0_rp
-      if (y > 0.0_rp) uh = u / y
-      ! phi'(y)/y u u^T = phi'(y) y uh uh^T: bounded as y -> 0.
-      do i = 1, 3
-        kv(:, i) = -c * (phi * pm(:, i) + dphi_y * uh * uh(i))
-      end do
+      call coulomb_slip(c, cp%eps_v, nlag, v - o%vel, u, s, kv)
+      f = f - s * u
     end if
   end subroutine contact_node
 
@@ -453,15 +424,8 @@ contains
     type(contact_params_t), intent(in) :: cp
     real(rp), intent(in) :: v(3), lam, nlag(3)
     real(rp) :: p
-    real(rp) :: u(3), y, f1, phi, dphi_y
 
-    p = 0.0_rp
-    if (o%mu * lam <= 0.0_rp .or. cp%eps_v <= 0.0_rp) return
-    u = v - o%vel
-    u = u - dot_product(nlag, u) * nlag
-    y = norm2(u)
-    call friction_f1(y, cp%eps_v, f1, phi, dphi_y)
-    p = o%mu * lam * f1 * y
+    p = coulomb_power(o%mu * lam, cp%eps_v, nlag, v - o%vel)
   end function friction_power
 
   ! ------------------------------------------------------------------------

@@ -7,15 +7,16 @@
 !> difference of the nearest points) and the normal force lam = -kappa k b'(gap)
 !> (k: the edge-edge mollifier); during the step the sliding velocity of that
 !> point relative to the rigid obstacle is u = (I - n n^T)(sum_a w_a v_a - vel),
-!> its friction force f_c = -mu lam f1(|u|) u/|u| (contact's f1 mollifier,
+!> its friction force f_c = -mu lam f1(|u|) u/|u| (f1 smoothed below
 !> eps_v) acts on node a as w_a f_c, and df_a/dv_b = w_a w_b kv_c with the
-!> node kernel's kv_c. Friction is then implicit in v with a fixed magnitude
+!> node's kv_c (kernel smoothed_coulomb's law and spread). Friction is then implicit in v with a fixed magnitude
 !> and has no x-derivative (as the node contact's). A translating obstacle
 !> moves every point with its velocity o%vel, so the obstacle's side needs no
 !> weights. Plain arrays only: no PETSc, no MPI, no allocation.
 module contact_face_friction
   use kinds, only: rp
-  use contact, only: obstacle_t, contact_params_t, barrier, friction_f1
+  use contact, only: obstacle_t, contact_params_t, barrier
+  use smoothed_coulomb, only: coulomb_slip, coulomb_power, spread_by_weights
   use contact_primitives, only: point_triangle_closest, edge_edge_closest, edge_edge_mollifier
   use contact_faces, only: obstacle_points, obstacle_edges, obstacle_radius, EE_MOLLIFY_REL
   implicit none
@@ -28,9 +29,6 @@ module contact_face_friction
     real(rp) :: n(3) = [0.0_rp, 0.0_rp, 1.0_rp]   !< unit normal of the pair [1]
     real(rp) :: lam = 0.0_rp      !< normal force magnitude [force]
   end type face_lag_t
-
-  real(rp), parameter :: EYE(3, 3) = reshape([1.0_rp, 0.0_rp, 0.0_rp, 0.0_rp, 1.0_rp, 0.0_rp, 0.0_rp, 0.0_rp, 1.0_rp], &
-                                             [3, 3])
 
 contains
 
@@ -100,31 +98,16 @@ contains
     real(rp), intent(in) :: v(:, :)            ! (3, nn) node velocities [length/time]
     real(rp), intent(out) :: f(:, :)           ! (3, nn) [force]
     real(rp), intent(out) :: kv(:, :, :, :)    ! (3, 3, nn, nn) [force*time/length]
-    real(rp) :: cmu, pm(3, 3), u(3), y, f1, phi, dphi_y, uh(3), fc(3), kc(3, 3)
-    integer :: a, b, i
+    real(rp) :: cmu, u(3), s, kc(3, 3)
+    integer :: nn
 
     f = 0.0_rp
     kv = 0.0_rp
     cmu = o%mu * lag%lam
     if (cmu <= 0.0_rp .or. cp%eps_v <= 0.0_rp) return
-    do i = 1, 3
-      pm(:, i) = EYE(:, i) - lag%n * lag%n(i)
-    end do
-    u = matmul(pm, matmul(v, lag%w(1:size(v, 2))) - o%vel)
-    y = norm2(u)
-    call friction_f1(y, cp%eps_v, f1, phi, dphi_y)
-    fc = -cmu * phi * u
-    uh = 0.0_rp
-    if (y > 0.0_rp) uh = u / y
-    do i = 1, 3
-      kc(:, i) = -cmu * (phi * pm(:, i) + dphi_y * uh * uh(i))
-    end do
-    do b = 1, size(v, 2)
-      f(:, b) = lag%w(b) * fc
-      do a = 1, size(v, 2)
-        kv(:, :, a, b) = lag%w(a) * lag%w(b) * kc
-      end do
-    end do
+    nn = size(v, 2)
+    call coulomb_slip(cmu, cp%eps_v, lag%n, matmul(v, lag%w(1:nn)) - o%vel, u, s, kc)
+    call spread_by_weights(lag%w(1:nn), -s * u, kc, f, kv)
   end subroutine pair_friction
 
   !> Power dissipated by one lagged pair's friction (>= 0): mu lam f1(|u|) |u| [energy/time].
@@ -132,16 +115,9 @@ contains
     type(obstacle_t), intent(in) :: o
     type(contact_params_t), intent(in) :: cp
     type(face_lag_t), intent(in) :: lag
-    real(rp), intent(in) :: v(:, :)
-    real(rp) :: u(3), y, f1, phi, dphi_y
+    real(rp), intent(in) :: v(:, :)            ! (3, nn) node velocities [length/time]
 
-    p = 0.0_rp
-    if (o%mu * lag%lam <= 0.0_rp .or. cp%eps_v <= 0.0_rp) return
-    u = matmul(v, lag%w(1:size(v, 2))) - o%vel
-    u = u - dot_product(lag%n, u) * lag%n
-    y = norm2(u)
-    call friction_f1(y, cp%eps_v, f1, phi, dphi_y)
-    p = o%mu * lag%lam * f1 * y
+    p = coulomb_power(o%mu * lag%lam, cp%eps_v, lag%n, matmul(v, lag%w(1:size(v, 2))) - o%vel)
   end function pair_friction_power
 
 end module contact_face_friction

@@ -11,15 +11,17 @@
 !> normal n = r/|r| and the normal force lam = -kappa k b'(gap) (k: the
 !> edge-edge mollifier, 1 for point-triangle). During the step the slip of
 !> the two nearest points is u = (I - n n^T) sum_a w_a v_a, the friction
-!> force on the first side's point f_c = -mu lam f1(|u|) u/|u| (contact's
-!> f1, smoothed below eps_v), on node a w_a f_c (the w sum to zero: the
+!> force on the first side's point f_c = -mu lam f1(|u|) u/|u| (f1
+!> smoothed below eps_v), on node a w_a f_c (the w sum to zero: the
 !> pair's forces sum to zero), and df_a/dv_b = w_a w_b kc with kc = df_c/du
 !> (-kc positive semidefinite, so is the pair's 12 x 12 block matrix,
-!> w w^T times it). Friction is implicit in v with a fixed magnitude and
+!> w w^T times it): kernel smoothed_coulomb's law and spread, as the
+!> obstacles' frictions. Friction is implicit in v with a fixed magnitude and
 !> has no x-derivative. Plain arrays only: no PETSc, no MPI, no allocation.
 module self_friction
   use kinds, only: rp
-  use contact, only: contact_params_t, barrier, friction_f1
+  use contact, only: contact_params_t, barrier
+  use smoothed_coulomb, only: coulomb_slip, coulomb_power, spread_by_weights
   use contact_faces, only: EE_MOLLIFY_REL
   use contact_primitives, only: point_triangle_closest, edge_edge_closest, edge_edge_mollifier
   use self_broad, only: PAIR_PT
@@ -33,9 +35,6 @@ module self_friction
     real(rp) :: n(3) = [0.0_rp, 0.0_rp, 1.0_rp]      !< unit normal r/|r| [1]
     real(rp) :: lam = 0.0_rp                         !< normal force magnitude [force]
   end type self_lag_t
-
-  real(rp), parameter :: EYE(3, 3) = reshape([1.0_rp, 0.0_rp, 0.0_rp, 0.0_rp, 1.0_rp, 0.0_rp, 0.0_rp, 0.0_rp, 1.0_rp], &
-                                             [3, 3])
 
 contains
 
@@ -81,47 +80,22 @@ contains
     real(rp), intent(in) :: v(3, 4)                ! node velocities [length/time]
     real(rp), intent(out) :: f(3, 4)               ! [force]
     real(rp), intent(out) :: kv(3, 3, 4, 4)        ! [force*time/length]
-    real(rp) :: cmu, pm(3, 3), u(3), y, f1, phi, dphi_y, uh(3), fc(3), kc(3, 3)
-    integer :: a, b, i
+    real(rp) :: cmu, u(3), s, kc(3, 3)
 
     f = 0.0_rp
     kv = 0.0_rp
     cmu = mu * lag%lam
     if (cmu <= 0.0_rp .or. eps_v <= 0.0_rp) return
-    do i = 1, 3
-      pm(:, i) = EYE(:, i) - lag%n * lag%n(i)
-    end do
-    u = matmul(pm, matmul(v, lag%w))
-    y = norm2(u)
-    call friction_f1(y, eps_v, f1, phi, dphi_y)
-    fc = -cmu * phi * u
-    uh = 0.0_rp
-    if (y > 0.0_rp) uh = u / y
-    ! phi'(y)/y u u^T = phi'(y) y uh uh^T: bounded as y -> 0
-    do i = 1, 3
-      kc(:, i) = -cmu * (phi * pm(:, i) + dphi_y * uh * uh(i))
-    end do
-    do b = 1, 4
-      f(:, b) = lag%w(b) * fc
-      do a = 1, 4
-        kv(:, :, a, b) = lag%w(a) * lag%w(b) * kc
-      end do
-    end do
+    call coulomb_slip(cmu, eps_v, lag%n, matmul(v, lag%w), u, s, kc)
+    call spread_by_weights(lag%w, -s * u, kc, f, kv)
   end subroutine self_pair_friction
 
   !> Power dissipated by one lagged pair's friction (>= 0): mu lam f1(|u|) |u| [energy/time].
   pure real(rp) function self_pair_friction_power(lag, mu, eps_v, v) result(p)
     type(self_lag_t), intent(in) :: lag
     real(rp), intent(in) :: mu, eps_v, v(3, 4)
-    real(rp) :: u(3), y, f1, phi, dphi_y
 
-    p = 0.0_rp
-    if (mu * lag%lam <= 0.0_rp .or. eps_v <= 0.0_rp) return
-    u = matmul(v, lag%w)
-    u = u - dot_product(lag%n, u) * lag%n
-    y = norm2(u)
-    call friction_f1(y, eps_v, f1, phi, dphi_y)
-    p = mu * lag%lam * f1 * y
+    p = coulomb_power(mu * lag%lam, eps_v, lag%n, matmul(v, lag%w))
   end function self_pair_friction_power
 
 end module self_friction

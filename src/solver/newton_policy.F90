@@ -210,9 +210,7 @@ contains
     PetscReal, intent(in) :: fnorm
     type(app_ctx), intent(inout) :: ctx
     PetscErrorCode, intent(out) :: ierr
-    PetscReal :: atol, rtol, stol
-    PetscInt :: maxit, maxf
-    real(rp) :: floor_est
+    real(rp) :: atol, rtol, floor_est
     character(len=64) :: sntype
     ierr = 0
     PetscCall(SNESGetType(snes, sntype, ierr))
@@ -221,7 +219,7 @@ contains
       PetscCall(SNESSetLagJacobian(snes, 1, ierr))
       return
     end if
-    PetscCall(SNESGetTolerances(snes, atol, rtol, stol, maxit, maxf, ierr))
+    PetscCall(snes_atol_rtol(snes, atol, rtol, ierr))
     floor_est = merge(reduced_floor_est(ctx%red), newton_floor_est(ctx%newton), ctx%use_reduced)
     if (newton_settled(ctx%newton, fnorm, newton_target(ctx%newton, atol, rtol, floor_est))) then
       PetscCall(SNESSetLagJacobian(snes, -1, ierr))
@@ -260,15 +258,24 @@ contains
     PetscReal, intent(in) :: fnorm
     type(app_ctx), intent(inout) :: ctx
     PetscErrorCode, intent(out) :: ierr
-    PetscReal :: atol, rtol, stol
-    PetscInt :: maxit, maxf
-    real(rp) :: eta
+    real(rp) :: atol, rtol, eta
 
-    PetscCall(SNESGetTolerances(snes, atol, rtol, stol, maxit, maxf, ierr))
+    PetscCall(snes_atol_rtol(snes, atol, rtol, ierr))
     call newton_inner_rtol(ctx%newton, int(it), fnorm, reduced_lin_rel(ctx%red), atol, rtol, reduced_floor_est(ctx%red), &
                            reduced_rtol0(ctx%red), eta)
     call reduced_set_forcing(ctx%red, eta)
   end subroutine set_newton_forcing
+
+  !> The SNES's absolute and relative residual tolerances (-snes_atol,
+  !> -snes_rtol), the two of SNESGetTolerances' five that the monitors use.
+  subroutine snes_atol_rtol(snes, atol, rtol, ierr)
+    type(tSNES) :: snes
+    real(rp), intent(out) :: atol, rtol          ! [the residual's norm], [1]
+    PetscErrorCode, intent(out) :: ierr
+    PetscReal :: stol
+    PetscInt :: maxit, maxf
+    PetscCall(SNESGetTolerances(snes, atol, rtol, stol, maxit, maxf, ierr))
+  end subroutine snes_atol_rtol
 
   !> The last Newton update in the weighted RMS norm of the time integrator:
   !> sqrt(mean((du_i / (atol_i + rtol_i |u_i|))^2)) over all unknowns: the

@@ -248,10 +248,9 @@ contains
     type(tVec) :: xvec, yvec
     logical, intent(out) :: changed
     PetscErrorCode, intent(out) :: ierr
-    PetscScalar, pointer :: x(:, :, :), y(:, :, :), x0(:, :, :)
-    type(tVec) :: x0vec
+    PetscScalar, pointer :: x(:, :, :), y(:, :, :), x0(:, :, :), dx(:, :, :)
+    type(tVec) :: x0vec, dxvec
     real(rp) :: alpha, t0, dt
-    real(rp), allocatable :: dx(:, :, :)
     logical :: infeasible, bent
     changed = .false.
     PetscCall(TSGetTime(ctx%ts, t0, ierr))
@@ -261,13 +260,17 @@ contains
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, xvec, x, ierr))
     PetscCall(DMDAVecGetArrayF90(ctx%da, yvec, y, ierr))
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, x0vec, x0, ierr))
-    allocate(dx(0:5, 0:ctx%lat%nx - 1, ctx%lat%ys:ctx%lat%ye))
+    ! the step dx = -y (x - y from x) in a vector of the DM's pool (no allocation an update)
+    PetscCall(DMGetGlobalVector(ctx%da, dxvec, ierr))
+    PetscCall(DMDAVecGetArrayF90(ctx%da, dxvec, dx, ierr))
     dx = -y
     call model_pm_correct(ctx%model, ctx%pms, ctx%lat, t0, t0 + dt, x, dx, ctx%comm, bent)
     if (bent) y = -dx
     changed = bent
     PetscCall(DMDAVecRestoreArrayF90(ctx%da, yvec, y, ierr))
     call model_pm_step_limit(ctx%model, ctx%pms, ctx%lat, t0, t0 + dt, x0, x, dx, ctx%comm, alpha, infeasible)
+    PetscCall(DMDAVecRestoreArrayF90(ctx%da, dxvec, dx, ierr))
+    PetscCall(DMRestoreGlobalVector(ctx%da, dxvec, ierr))
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, x0vec, x0, ierr))
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, xvec, x, ierr))
     if (infeasible) then

@@ -1,0 +1,108 @@
+! SPDX-License-Identifier: BSD-2-Clause
+!> Lagged, smoothed Coulomb friction at one contact point (IPC, Li et al.
+!> 2020, section 5), the one law of the three frictions: a node against an
+!> obstacle (module contact's contact_node), a face pair against an obstacle
+!> (contact_face_friction) and a pair of the cloth against itself
+!> (self_friction). Each caller forms the relative velocity dv of the two
+!> sides at its point and keeps a lagged unit normal n and a lagged
+!> Coulomb bound c = mu lam; the slip is u = (I - n n^T) dv, the force on
+!> the first side -c f1(|u|) u/|u| (f1 smoothed below eps_v) and its
+!> derivative in dv a 3 x 3 block whose negative is positive semidefinite.
+!> A pair's callers then spread the point's force and block over the
+!> pair's nodes by the lag's weights (spread_by_weights). Kept in one
+!> place so that the three stay the same law, to the floating-point
+!> operation. Plain arrays only: no PETSc, no MPI, no allocation.
+module smoothed_coulomb
+  use kinds, only: rp
+  implicit none
+  private
+  public :: friction_f1, coulomb_slip, coulomb_power, spread_by_weights
+
+  real(rp), parameter :: EYE(3, 3) = reshape([1.0_rp, 0.0_rp, 0.0_rp, 0.0_rp, 1.0_rp, 0.0_rp, 0.0_rp, 0.0_rp, 1.0_rp], &
+                                             [3, 3])
+
+contains
+
+  !> IPC's friction mollifier f1(y) = 2y/eps - y^2/eps^2 below eps_v, 1 above; also f1(y)/y
+  !> (-> 2/eps_v at 0) and d(f1(y)/y)/dy / y times y, i.e. phi'(y) y.
+  pure subroutine friction_f1(y, eps_v, f1, phi, dphi_y)
+    real(rp), intent(in) :: y        ! sliding speed |u| >= 0 [length/time]
+    real(rp), intent(in) :: eps_v    ! > 0 [length/time]
+    real(rp), intent(out) :: f1      ! [1]
+    real(rp), intent(out) :: phi     ! f1(y)/y [time/length]
+    real(rp), intent(out) :: dphi_y  ! phi'(y) y [time/length]
+
+    if (y < eps_v) then
+      f1 = y * (2.0_rp / eps_v - y / eps_v**2)
+      phi = 2.0_rp / eps_v - y / eps_v**2
+      dphi_y = -y / eps_v**2
+    else
+      f1 = 1.0_rp
+      phi = 1.0_rp / y
+      dphi_y = -1.0_rp / y
+    end if
+  end subroutine friction_f1
+
+  !> The slip u = P dv (P = I - n n^T) of relative velocity dv, the force's factor s
+  !> (the friction force is -s u, of magnitude c f1(|u|) <= c) and its velocity block
+  !> kc = d(-s u)/d(dv) = -c (phi P + phi'(|u|)/|u| u u^T) (exact; -kc is positive
+  !> semidefinite). For c > 0 and eps_v > 0 (the callers' test: no friction otherwise).
+  pure subroutine coulomb_slip(c, eps_v, n, dv, u, s, kc)
+    real(rp), intent(in) :: c          ! mu lam, the Coulomb bound of the force [force]
+    real(rp), intent(in) :: eps_v      ! smoothing speed [length/time]
+    real(rp), intent(in) :: n(3)       ! lagged unit normal [1]
+    real(rp), intent(in) :: dv(3)      ! velocity of the first side relative to the second [length/time]
+    real(rp), intent(out) :: u(3)      ! slip, dv's tangential part [length/time]
+    real(rp), intent(out) :: s         ! c f1(|u|)/|u| [force*time/length]
+    real(rp), intent(out) :: kc(3, 3)  ! d(-s u)/d(dv) [force*time/length]
+    real(rp) :: pm(3, 3), y, f1, phi, dphi_y, uh(3)
+    integer :: i
+
+    do i = 1, 3
+      pm(:, i) = EYE(:, i) - n * n(i)
+    end do
+    u = matmul(pm, dv)
+    y = norm2(u)
+    call friction_f1(y, eps_v, f1, phi, dphi_y)
+    s = c * phi
+    uh = 0.0_rp
+    if (y > 0.0_rp) uh = u / y
+    ! phi'(y)/y u u^T = phi'(y) y uh uh^T: bounded as y -> 0
+    do i = 1, 3
+      kc(:, i) = -c * (phi * pm(:, i) + dphi_y * uh * uh(i))
+    end do
+  end subroutine coulomb_slip
+
+  !> Power the friction of coulomb_slip dissipates (>= 0): c f1(|u|) |u| = s |u|^2
+  !> [energy/time]; 0 when c or eps_v is not > 0.
+  pure real(rp) function coulomb_power(c, eps_v, n, dv) result(p)
+    real(rp), intent(in) :: c, eps_v, n(3), dv(3)   ! as coulomb_slip's
+    real(rp) :: u(3), y, f1, phi, dphi_y
+
+    p = 0.0_rp
+    if (c <= 0.0_rp .or. eps_v <= 0.0_rp) return
+    u = dv - dot_product(n, dv) * n
+    y = norm2(u)
+    call friction_f1(y, eps_v, f1, phi, dphi_y)
+    p = c * f1 * y
+  end function coulomb_power
+
+  !> A pair's point force fc and block kc on its nn nodes, the point being sum_a w_a x_a:
+  !> f(:, a) = w_a fc, kv(:, :, a, b) = w_a w_b kc (-kv positive semidefinite when -kc is).
+  pure subroutine spread_by_weights(w, fc, kc, f, kv)
+    real(rp), intent(in) :: w(:)                 ! (nn) the point's weights on the nodes [1]
+    real(rp), intent(in) :: fc(3)                ! [force]
+    real(rp), intent(in) :: kc(3, 3)             ! [force*time/length]
+    real(rp), intent(out) :: f(:, :)             ! (3, nn) [force]
+    real(rp), intent(out) :: kv(:, :, :, :)    ! (3, 3, nn, nn) [force*time/length]
+    integer :: a, b
+
+    do b = 1, size(w)
+      f(:, b) = w(b) * fc
+      do a = 1, size(w)
+        kv(:, :, a, b) = w(a) * w(b) * kc
+      end do
+    end do
+  end subroutine spread_by_weights
+
+end module smoothed_coulomb
