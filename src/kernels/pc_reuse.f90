@@ -20,10 +20,20 @@ module pc_reuse
   implicit none
   private
   public :: pc_reuse_t, reuse_init, reuse_due, reuse_rebuilt, reuse_force, reuse_watch, reuse_grown
-  public :: cycles_per_decade, default_pc_lag, MIN_DECADES, PC_GROWTH_DEFAULT
+  public :: cycles_per_decade, default_pc_lag, MIN_DECADES, PC_GROWTH_DEFAULT, PAIRS_PC_LAG
 
   !> -nuno_pc_rebuild_growth's default (docs/performance.md, "Reuse across steps")
   real(rp), parameter :: PC_GROWTH_DEFAULT = 1.5_rp
+
+  !> The longest lag while S has pair blocks (self-contact's pairs in the
+  !> barrier; docs/performance.md, "Self-contact"): their stiffness, kappa
+  !> over the gap squared, changes by orders from step to step where the
+  !> layers meet, and the coarse levels hold only the node blocks of their
+  !> last rebuild. bw at 129 x 129 where the halves meet: 17.6 cycles a
+  !> solve with the cubic interpolation's lag of 20, 8.2 with 3, 7.6 with
+  !> 1 (the safeguard misses it: the first solve after a rebuild is
+  !> already slow, and becomes its reference).
+  integer, parameter :: PAIRS_PC_LAG = 3
 
   !> a solve counts when its rtol is at most 10^-MIN_DECADES
   real(rp), parameter :: MIN_DECADES = 2.0_rp
@@ -51,13 +61,15 @@ contains
     r%since = r%lag
   end subroutine reuse_init
 
-  !> At an assembly: whether to rebuild now (the lag reached, or the
-  !> safeguard asked); counts the assembly.
-  pure subroutine reuse_due(r, due)
+  !> At an assembly: whether to rebuild now (the lag reached, PAIRS_PC_LAG
+  !> reached while S has pair blocks, or the safeguard asked); counts the
+  !> assembly.
+  pure subroutine reuse_due(r, pairs, due)
     type(pc_reuse_t), intent(inout) :: r
+    logical, intent(in) :: pairs       !< S has pair blocks now (the same on every rank)
     logical, intent(out) :: due
     r%since = r%since + 1
-    due = r%since >= r%lag .or. r%grown
+    due = r%since >= r%lag .or. r%grown .or. (pairs .and. r%since >= PAIRS_PC_LAG)
   end subroutine reuse_due
 
   !> The preconditioner was just rebuilt: start the count and the reference afresh.

@@ -29,6 +29,7 @@ module self_step
   implicit none
   private
   public :: self_alpha_ccd, self_vertex_dmin, self_vertex_bounds, self_clamp, OGC_GAMMA
+  public :: self_path_sums, self_path_far
 
   !> OGC's fraction of the distance a node may move (< 1/2; the gap keeps 1 - 2 gamma).
   real(rp), parameter :: OGC_GAMMA = 0.4_rp
@@ -116,5 +117,50 @@ contains
       end do
     end do
   end subroutine self_clamp
+
+  !> The Verlet list's test (module self_contact's relative_move), the local sums over the
+  !> rows of xd: d_i = p_i - x_list_i, p_i = xd(1:3) + alpha xd(4:6) (a point of the update's
+  !> path); sums(1:3) of d_i, (4:6) of dx_list_i, (7) of d_i . dx_list_i, (8) of |dx_list_i|^2
+  !> (the least-squares tau of d against dx_list and the mean translation, once summed over ranks).
+  pure function self_path_sums(xd, alpha, x_list, dx_list) result(sums)
+    real(rp), intent(in) :: xd(:, 0:, :)           ! (6, 0:nx-1, nrows) positions, update [length]
+    real(rp), intent(in) :: alpha                  ! [1]
+    real(rp), intent(in) :: x_list(:, 0:, :)       ! (3, 0:nx-1, nrows) the list's positions [length]
+    real(rp), intent(in) :: dx_list(:, 0:, :)      ! (3, 0:nx-1, nrows) and its paths [length]
+    real(rp) :: sums(8)                            ! [length] (1:6), [length^2] (7:8)
+    real(rp) :: d(3)
+    integer :: i, j
+    sums = 0.0_rp
+    do j = 1, size(xd, 3)
+      do i = 0, size(xd, 2) - 1
+        d = xd(1:3, i, j) + alpha * xd(4:6, i, j) - x_list(:, i, j)
+        sums(1:3) = sums(1:3) + d
+        sums(4:6) = sums(4:6) + dx_list(:, i, j)
+        sums(7) = sums(7) + dot_product(d, dx_list(:, i, j))
+        sums(8) = sums(8) + dot_product(dx_list(:, i, j), dx_list(:, i, j))
+      end do
+    end do
+  end function self_path_sums
+
+  !> The test's local part 2: the largest |p_i - (x_list_i + tau dx_list_i) - shift| over the
+  !> rows of xd (shift: the mean translation).
+  pure function self_path_far(xd, alpha, x_list, dx_list, tau, shift) result(far)
+    real(rp), intent(in) :: xd(:, 0:, :)           ! (6, 0:nx-1, nrows) positions, update [length]
+    real(rp), intent(in) :: alpha                  ! [1]
+    real(rp), intent(in) :: x_list(:, 0:, :)       ! (3, 0:nx-1, nrows) [length]
+    real(rp), intent(in) :: dx_list(:, 0:, :)      ! (3, 0:nx-1, nrows) [length]
+    real(rp), intent(in) :: tau                    ! [1]
+    real(rp), intent(in) :: shift(3)               ! [length]
+    real(rp) :: far                                ! [length]
+    real(rp) :: d(3)
+    integer :: i, j
+    far = 0.0_rp
+    do j = 1, size(xd, 3)
+      do i = 0, size(xd, 2) - 1
+        d = xd(1:3, i, j) + alpha * xd(4:6, i, j) - x_list(:, i, j) - tau * dx_list(:, i, j)
+        far = max(far, norm2(d - shift))
+      end do
+    end do
+  end function self_path_far
 
 end module self_step

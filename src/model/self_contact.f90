@@ -59,7 +59,7 @@ module self_contact
   use self_broad, only: self_lattice_t, self_pairs_t, OWN_TOUCH, self_candidates, self_candidates_swept, &
                         self_row_slots, self_pair_positions, self_pair_owner_row, self_pairs_regrown, self_rest_gap
   use self_barrier, only: self_blocks_t, self_barrier_forces, self_pair_gap, self_blocks_reserve, self_blocks_regrown
-  use self_step, only: self_alpha_ccd
+  use self_step, only: self_alpha_ccd, self_path_sums, self_path_far
   use self_lags, only: self_lags_t, self_lags_setup, self_lags_on, self_lags_forces, self_lags_step, self_lags_work, &
                        self_lags_restore, self_lags_regrown
   use self_exchange, only: self_exchange_t, self_exchange_plan, self_exchange_plan_swept, self_exchange_nrows, &
@@ -495,31 +495,14 @@ contains
     integer, intent(in) :: comm
     real(rp), intent(in) :: xd(:, 0:, :)         ! (6, 0:nx-1, ys:ye) positions, update [length]
     real(rp), intent(in) :: alpha                ! [1]
-    real(rp) :: sums(8), gsums(8), d(3), far, tau
-    integer :: i, j, jl, mpierr
-    sums = 0.0_rp
-    do j = 1, size(xd, 3)
-      jl = lat%ys + j - 1
-      do i = 0, size(xd, 2) - 1
-        d = xd(1:3, i, j) + alpha * xd(4:6, i, j) - this%x_list(:, i, jl)
-        sums(1:3) = sums(1:3) + d
-        sums(4:6) = sums(4:6) + this%dx_list(:, i, jl)
-        sums(7) = sums(7) + dot_product(d, this%dx_list(:, i, jl))
-        sums(8) = sums(8) + dot_product(this%dx_list(:, i, jl), this%dx_list(:, i, jl))
-      end do
-    end do
+    real(rp) :: sums(8), gsums(8), far, tau
+    integer :: mpierr
+    sums = self_path_sums(xd, alpha, this%x_list, this%dx_list)
     call MPI_Allreduce(sums, gsums, 8, MPI_DOUBLE_PRECISION, MPI_SUM, comm, mpierr)
     tau = 0.0_rp
     if (gsums(8) > 0.0_rp) tau = min(max(gsums(7) / gsums(8), 0.0_rp), 1.0_rp)
     gsums(1:3) = (gsums(1:3) - tau * gsums(4:6)) / real(lat%nx * lat%ny, rp)
-    far = 0.0_rp
-    do j = 1, size(xd, 3)
-      jl = lat%ys + j - 1
-      do i = 0, size(xd, 2) - 1
-        d = xd(1:3, i, j) + alpha * xd(4:6, i, j) - this%x_list(:, i, jl) - tau * this%dx_list(:, i, jl)
-        far = max(far, norm2(d - gsums(1:3)))
-      end do
-    end do
+    far = self_path_far(xd, alpha, this%x_list, this%dx_list, tau, gsums(1:3))
     call MPI_Allreduce(far, gfar, 1, MPI_DOUBLE_PRECISION, MPI_MAX, comm, mpierr)
   end function relative_move
 

@@ -67,7 +67,7 @@ PetscErrorCode nuno_options_read(MPI_Fint fcomm, const char *jac_names, int jac_
   PetscOptionsBegin(comm, NULL, "nuno: the Newton step (docs/design.md, input/README.md)", "nuno");
   PetscCall(PetscOptionsEList("-nuno_jacobian", "reduced: assemble only the 3-dof velocity system and eliminate around it; full: the 6-dof Jacobian",
                               "nuno", jacobians.name, jacobians.n, jacobians.name[jac], &jac, NULL));
-  PetscCall(PetscOptionsInt("-nuno_pc_lag", "rebuild the inner (reduced_) preconditioner every N assemblies (0: with the default multigrid 3, or 20 with cubic interpolation; 1 otherwise)", "nuno", lag, &lag, NULL));
+  PetscCall(PetscOptionsInt("-nuno_pc_lag", "rebuild the inner (reduced_) preconditioner every N assemblies (0: with the default multigrid 3, or 20 with cubic interpolation; 1 otherwise; at most 3 while self-contact's pair blocks are in S)", "nuno", lag, &lag, NULL));
   PetscCall(PetscOptionsReal("-nuno_pc_rebuild_growth", "also rebuild a reused inner preconditioner at the next assembly when a solve's cycles per decade of residual reduction pass this factor times those of the first solve after its last rebuild (0: only every -nuno_pc_lag assemblies)",
                              "nuno", growth, &growth, NULL));
   PetscCall(PetscOptionsEList("-nuno_mg_interpolation", "interpolation of the inner multigrid: auto (coarse_cubic with bending, linear without), linear, cubic (every level), coarse_cubic (every level but the finest; nuno's multigrid interpolates the finest level's correction cubic too)",

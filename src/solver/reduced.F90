@@ -596,7 +596,7 @@ contains
   end subroutine estimate_floor
 
   !> Preconditioner reuse after an assembly at the state u: rebuild every
-  !> pc_lag assemblies, when a solve's cycles a decade grew (module
+  !> pc_lag assemblies (at most PAIRS_PC_LAG while S has pair blocks), when a solve's cycles a decade grew (module
   !> pc_reuse; watched in solve_s) and after a failed inner solve (see
   !> reduced_pc_apply), nuno's multigrid's coarse levels and GAMG's
   !> rigid-body modes with it; else keep it (the coarse levels made if they
@@ -605,8 +605,10 @@ contains
     type(reduced_t), intent(inout) :: red
     real(rp), intent(in) :: u(0:, 0:, red%lat%gys:)
     PetscErrorCode, intent(out) :: ierr
-    logical :: due
-    call reuse_due(red%pcc%reuse, due)
+    logical :: due, pairs
+    pairs = .false.
+    if (associated(red%pms)) pairs = pm_list_pairs_on(red%pms)
+    call reuse_due(red%pcc%reuse, pairs, due)
     if (due) then
       call reuse_rebuilt(red%pcc%reuse)
       PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_FALSE, ierr))
