@@ -98,12 +98,17 @@ contains
 
   !> What the node contact asks (contact_model's contact_hints): a barrier
   !> needs a feasible start, limited updates and the Jacobian at every
-  !> iteration, whichever of the two models holds a node.
+  !> iteration, whichever of the two models holds a node. Unlike the
+  !> node contact's diagonal blocks, an element's barrier couples its nodes
+  !> (a link across a box's rim: the barrier's stiffness times the two
+  !> nodes' weights), across a strip boundary too (docs/contact.md, "Faces
+  !> and edges").
   pure function faces_hints(this) result(h)
     class(face_contact_t), intent(in) :: this
     type(pm_hints_t) :: h
     h = pm_hints_t(jacobian_every_iteration=.true., forcing_guarded=.true., basic_line_search=.true., &
-                   feasible_start=.true., smooth_start=.true., velocity_blocks=.true., state_blocks=.true., ts_types='beuler')
+                   feasible_start=.true., smooth_start=.true., velocity_blocks=.true., state_blocks=.true., &
+                   stiff_neighbour_blocks=.true., ts_types='beuler')
   end function faces_hints
 
   !> Set-up: the obstacles and the barrier's parameters from &contact, the

@@ -114,6 +114,12 @@ module process_model
     !> it gives pair blocks (nodes that are not stencil neighbours): S's
     !> product and the reduced right-hand side add them (module reduced)
     logical :: pair_blocks = .false.
+    !> its blocks between stencil neighbours are stiff (a barrier across an
+    !> element: the faces' contact): where the strips' block Jacobi would be
+    !> the inner preconditioner, on several ranks it drops those that cross
+    !> a strip boundary and the inner solve stalls, so the strips overlap
+    !> (additive Schwarz, module reduced_mg's default_preconditioner)
+    logical :: stiff_neighbour_blocks = .false.
     !> the TS schemes it allows, separated by commas ('': any): a TS type,
     !> or bdf with its order ('bdf2': -ts_type bdf -ts_bdf_order 2)
     character(len=128) :: ts_types = ''

@@ -142,6 +142,7 @@ contains
       h%velocity_blocks = h%velocity_blocks .or. e%velocity_blocks
       h%state_blocks = h%state_blocks .or. e%state_blocks
       h%pair_blocks = h%pair_blocks .or. e%pair_blocks
+      h%stiff_neighbour_blocks = h%stiff_neighbour_blocks .or. e%stiff_neighbour_blocks
     end do
   end function pm_list_hints
 

@@ -358,7 +358,7 @@ contains
                 (cfg%material%bending_code == BEND_NONE .or. (cfg%material%bending_code == BEND_ENERGY .and. &
                  (cfg%material%eta_b == 0.0_rp .or. opt%gn /= 0)))
     constant = cfg%material%spring_code == SPRING_LINEAR .and. cfg%material%bending_code == BEND_NONE .and. .not. hints%state_blocks
-    PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, pm_list_nodal(ctx%pms), symmetric, constant, damping, opt%cl /= 0, opt%gn /= 0, opt%pc_lag, opt%pc_growth, opt%mg_interp, ierr))
+    PetscCall(reduced_create(ctx%red, ctx%da, ctx%lat, pm_list_nodal(ctx%pms), symmetric, hints%stiff_neighbour_blocks, constant, damping, opt%cl /= 0, opt%gn /= 0, opt%pc_lag, opt%pc_growth, opt%mg_interp, ierr))
     ! blocks of nodes that are not stencil neighbours (self-contact): S's product adds them
     if (hints%pair_blocks) then
       PetscCall(reduced_set_pairs(ctx%red, ctx%pms, ierr))

@@ -82,6 +82,7 @@ module reduced
     type(tVec) :: coords                   !< 3-dof node positions (GAMG near-null space)
     logical :: use_nullspace = .false.     !< inner PC is GAMG: give it the rigid-body modes
     logical :: use_mg = .false.            !< inner PC is nuno's structured multigrid (module stencil_mg)
+    logical :: overlap = .false.           !< S has stiff blocks across strips: overlapping strips, not block Jacobi
     integer :: interp = 1                  !< multigrid interpolation: INTERP_LINEAR, _CUBIC, _COARSE_CUBIC
     type(pc_reuse_t) :: reuse              !< when to rebuild it (module pc_reuse)
   end type inner_pc_t
@@ -143,13 +144,16 @@ contains
   !> reduced_) with its preconditioner, S with its exact box-stencil
   !> preallocation (or by stencil offset for nuno's multigrid), the 6-dof
   !> MATSHELL and the element model's arrays. symmetric selects the
-  !> default inner Krylov method (CG or GMRES). Collective.
-  subroutine reduced_create(red, da6, lat, nodal, symmetric, constant, damping, clamp, gauss_newton, pc_lag, pc_growth, mg_interpolation, ierr)
+  !> default inner Krylov method (CG or GMRES); overlap, that the default
+  !> block Jacobi of small lattices overlaps the strips (a process model's
+  !> stiff blocks between neighbours). Collective.
+  subroutine reduced_create(red, da6, lat, nodal, symmetric, overlap, constant, damping, clamp, gauss_newton, pc_lag, pc_growth, &
+                            mg_interpolation, ierr)
     type(reduced_t), intent(inout), target :: red
     type(tDM), intent(in) :: da6
     type(lattice_t), intent(in), target :: lat
     type(node_blocks_t), intent(in), target :: nodal   !< the node blocks every assembly adds (app_ctx's)
-    logical, intent(in) :: symmetric, constant, damping, clamp, gauss_newton
+    logical, intent(in) :: symmetric, overlap, constant, damping, clamp, gauss_newton
     integer, intent(in) :: pc_lag                  !< rebuild the inner preconditioner every pc_lag assemblies (>= 1; 0: default)
     real(rp), intent(in) :: pc_growth              !< and when a solve's cycles a decade grow past pc_growth x (0: never; module pc_reuse)
     integer, intent(in) :: mg_interpolation        !< multigrid interpolation: 0 auto, else an INTERP_ code
@@ -163,6 +167,7 @@ contains
 
     red%lat => lat
     red%nodal => nodal
+    red%pcc%overlap = overlap
     red%da6 = da6
     PetscCall(register_events(red, ev_galerkin, ev_cycle, ierr))
     PetscCall(PetscObjectGetComm(da6, comm, ierr))
@@ -292,7 +297,7 @@ contains
       if (symmetric) then
         PetscCall(KSPSetType(red%ksp, KSPCG, ierr))
       end if
-      PetscCall(default_preconditioner(levels_that_fit(nx, ny, w, nranks), ierr))
+      PetscCall(default_preconditioner(levels_that_fit(nx, ny, w, nranks), red%pcc%overlap .and. nranks > 1, symmetric, ierr))
     end if
   end subroutine inner_pc_choose
 

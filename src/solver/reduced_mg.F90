@@ -331,16 +331,29 @@ contains
   !> -reduced_pc_type is given: PETSc's geometric multigrid on the DMDA
   !> (Galerkin coarse operators, one SSOR sweep as smoother) with the given
   !> levels; block Jacobi/ILU(0) where fewer than three fit (small
-  !> lattices, for which it is the cheaper). Set in the options database,
-  !> so that -help shows them and every one can be overridden.
-  subroutine default_preconditioner(levels, ierr)
+  !> lattices, for which it is the cheaper), or with overlap additive
+  !> Schwarz/ILU(0), each strip's block grown by the rows its matrix rows
+  !> reach (PETSc's overlap 1; symmetric: the basic variant, for CG).
+  !> Block Jacobi drops the blocks between strips: where one is stiff (the
+  !> faces' barrier on a link across a strip boundary, orders of magnitude
+  !> above the links' own) the preconditioned S has eigenvalues near the
+  !> ratio of soft to stiff, and the inner solve stalls at its cap
+  !> (docs/contact.md, "Faces and edges"). Set in the options database, so
+  !> that -help shows them and every one can be overridden.
+  subroutine default_preconditioner(levels, overlap, symmetric, ierr)
     integer, intent(in) :: levels
+    logical, intent(in) :: overlap, symmetric
     PetscErrorCode, intent(out) :: ierr
     PetscBool :: set
     character(len=16) :: txt
 
     PetscCall(PetscOptionsHasName(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_pc_type', set, ierr))
     if (set) return
+    if (levels < 3 .and. overlap) then
+      PetscCall(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-reduced_pc_type', 'asm', ierr))
+      if (symmetric) call set_default('-reduced_pc_asm_type', 'basic')
+      return
+    end if
     if (levels < 3) then
       PetscCall(PetscOptionsSetValue(PETSC_NULL_OPTIONS, '-reduced_pc_type', 'bjacobi', ierr))
       return

@@ -156,7 +156,7 @@ contains
     PetscCallA(DMDAVecRestoreArrayF90(da6, ud, uda, ierr))
     PetscCallA(DMDAVecRestoreArrayF90(da6, u, ua, ierr))
 
-    PetscCallA(reduced_create(red, da6, lat, nodal, .false., .false., .true., .false., .false., 1, 0.0_rp, 0, ierr))
+    PetscCallA(reduced_create(red, da6, lat, nodal, .false., .false., .false., .true., .false., .false., 1, 0.0_rp, 0, ierr))
     da3 = reduced_dm(red)
     jac = reduced_jacobian(red)
     PetscCallA(reduced_set_fixed(red, fixed, ierr))
@@ -174,7 +174,7 @@ contains
     ! buffer through MatSetValues sums the same terms in another order: the
     ! two must agree to round-off, on every rank count.
     call check_true(reduced_writes_directly(red), label//': AIJ S is written directly')
-    PetscCallA(reduced_create(red2, da6, lat, nodal, .false., .false., .true., .false., .false., 1, 0.0_rp, 0, ierr))
+    PetscCallA(reduced_create(red2, da6, lat, nodal, .false., .false., .false., .true., .false., .false., 1, 0.0_rp, 0, ierr))
     call reduced_use_buffer(red2)
     PetscCallA(reduced_set_fixed(red2, fixed, ierr))
     PetscCallA(reduced_assemble(red2, ul, udl, a, ierr))
