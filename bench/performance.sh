@@ -2,7 +2,7 @@
 # SPDX-License-Identifier: BSD-2-Clause
 # The benchmark behind docs/performance.md, in one run of one build:
 #   1. bench/solver.py: hang N x N, N = 65 .. 1025, 1 and 2 ranks, modes bw
-#      and newton, with and without bending (about 30 minutes on 2 cores);
+#      and newton, with and without bending (about 5 minutes on 2 idle cores);
 #   2. the done-when run: hang 257 x 257, 1 s of simulated time, 2 ranks, no
 #      options (about 1.5 minutes), under /usr/bin/time -v for its memory;
 #   3. docs/performance-data.json, docs/figures/performance.png and the table
@@ -67,8 +67,8 @@ elif [ $# -ge 2 ]; then
   dw_log=${!#}
 else
   # the logs behind docs/performance.md's table until the next full run
-  bench_logs=("$res/performance-bench-202e62f.log")
-  dw_log=$res/performance-donewhen-202e62f.log
+  bench_logs=("$res/performance-bench-93a0689.log")
+  dw_log=$res/performance-donewhen-93a0689.log
 fi
 
 python3 bench/solver.py --replot "${bench_logs[@]}" --donewhen "$dw_log" \
