@@ -20,7 +20,7 @@ import h5py
 import numpy as np
 import pytest
 
-from nunorun import exe, mpiexec
+from nunorun import exe, mpiexec, signal_env
 
 SMALL = "&lattice nx=9 ny=7 /\n&time t_end=0.02 dt=0.01 /\n"
 LIFT = "&scene scene='lift_release' /\n&lattice nx=9 ny=7 /\n&time t_end=0.1 dt=0.01 /\n"
@@ -292,7 +292,7 @@ def test_a_file_that_is_not_a_nuno_output_is_never_replaced(tmp_path, kind, over
 
 def _interrupt(cwd, args, lines=3, nranks=2):
     """Start nuno, wait for `lines` progress lines, SIGTERM it; return its stdout."""
-    env = dict(os.environ, OMPI_MCA_orte_execute_quiet="1")
+    env = signal_env(OMPI_MCA_orte_execute_quiet="1")
     proc = subprocess.Popen([mpiexec(), "-n", str(nranks), "--oversubscribe", exe(), *args], cwd=cwd, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     seen, out = 0, []
