@@ -27,6 +27,7 @@ module node_blocks
   private
   public :: node_blocks_t, node_blocks_begin, node_blocks_add, node_blocks_add_pair, node_blocks_end, node_blocks_count
   public :: node_blocks_products, node_blocks_sub_row, node_blocks_sub_node, node_blocks_sub_diagonal, node_blocks_lumped
+  public :: node_blocks_between, node_blocks_by_offset
 
   type :: node_blocks_t
     private
@@ -147,6 +148,13 @@ contains
     node_blocks_count = nb%n
   end function node_blocks_count
 
+  !> Some entry is a block between a node and a neighbour (the faces'
+  !> contact), not on a node's diagonal.
+  pure logical function node_blocks_between(nb)
+    type(node_blocks_t), intent(in) :: nb
+    node_blocks_between = any(nb%off(:, 1:nb%n) /= 0)
+  end function node_blocks_between
+
   !> Their products with the ghosted w(0:5, 0:nx-1, gys:gye) into
   !> g(3, 0:nx-1, ys:ye), g -= kx w_x + kv w_v (each block times w at its
   !> column node), and the diagonal blocks' diagonals into kd,
@@ -250,5 +258,29 @@ contains
       end do
     end do
   end subroutine node_blocks_lumped
+
+  !> Each row's blocks by offset (for the Galerkin restriction of the
+  !> rediscretised coarse levels where some blocks are between neighbours,
+  !> module mg_coarse; lumped, a coarse level would see a barrier across
+  !> an element only through its row sums): d(1:9, di, dj, i, j) += kx,
+  !> d(10:18, di, dj, i, j) += kv (column-major 3 x 3) of every entry of
+  !> owned row j at offset (di, dj) whose node and neighbour are free.
+  pure subroutine node_blocks_by_offset(nb, nx, gys, gye, fixedg, d)
+    type(node_blocks_t), intent(in) :: nb
+    integer, intent(in) :: nx, gys, gye              !< d's columns 0..nx-1 and rows gys..gye
+    logical, intent(in) :: fixedg(0:, gys:)
+    real(rp), intent(inout) :: d(18, -1:1, -1:1, 0:nx - 1, gys:gye)
+    integer :: m, i, j, di, dj
+    do j = nb%ys, nb%ye
+      do m = nb%row_start(j), nb%row_start(j + 1) - 1
+        i = nb%col(m)
+        di = nb%off(1, m)
+        dj = nb%off(2, m)
+        if (fixedg(i, j) .or. fixedg(i + di, j + dj)) cycle
+        d(1:9, di, dj, i, j) = d(1:9, di, dj, i, j) + reshape(nb%kx(:, :, m), [9])
+        d(10:18, di, dj, i, j) = d(10:18, di, dj, i, j) + reshape(nb%kv(:, :, m), [9])
+      end do
+    end do
+  end subroutine node_blocks_by_offset
 
 end module node_blocks

@@ -25,7 +25,7 @@ module coarse_lattice
   use lattice, only: lattice_t
   implicit none
   private
-  public :: mass_factors, restrict_factors, inject_rows
+  public :: mass_factors, restrict_factors, inject_rows, restrict_offset_blocks
 
 contains
 
@@ -84,5 +84,53 @@ contains
       end do
     end do
   end subroutine inject_rows
+
+  !> The Galerkin product P^T B P of blocks B between a node and its
+  !> stencil neighbours (offsets -1..1: the faces' contact, module
+  !> node_blocks), P the bilinear interpolation from the coarse lattice:
+  !> coarse row jc's blocks for jc = j0..j1 (the rest of dst untouched),
+  !> dst(:, dI, dJ, I, J) = sum over fine a, b of w_I,J(a) B(a, b)
+  !> w_I+dI,J+dJ(b), w the bilinear weights (1, 1/2 at the fine nodes
+  !> between), from the fine rows src(:, di, dj, i, j) (18 values: kx
+  !> 1:9, kv 10:18) of rows sys..sye (2 jc - 1 .. 2 jc + 1 where they lie
+  !> in the lattice). The coarse offsets stay within -1..1 (a fine
+  !> neighbour pair's coarse parents are at most one coarse node apart).
+  !> A barrier across an element, stiff along a combination of the
+  !> element's nodes, so reaches every coarse mode whose interpolant moves
+  !> that combination, and only those, where its row sums (lumped) reach
+  !> every mode that moves the node.
+  pure subroutine restrict_offset_blocks(nxs, sys, sye, src, nxc, nyc, dys, dye, j0, j1, dst)
+    integer, intent(in) :: nxs, sys, sye               !< src's columns 0..nxs-1 and rows
+    real(rp), intent(in) :: src(18, -1:1, -1:1, 0:nxs - 1, sys:sye)
+    integer, intent(in) :: nxc, nyc                    !< the coarse lattice's nodes a side
+    integer, intent(in) :: dys, dye, j0, j1            !< dst's rows; the rows to make
+    real(rp), intent(inout) :: dst(18, -1:1, -1:1, 0:nxc - 1, dys:dye)
+    integer :: ic, jc, ia, jb, di, dj, bi, bj, ci, cj
+    real(rp) :: wa, wab
+    dst(:, :, :, :, j0:j1) = 0.0_rp
+    do jc = j0, j1
+      do jb = max(2 * jc - 1, sys), min(2 * jc + 1, sye)
+        do ic = 0, nxc - 1
+          do ia = max(2 * ic - 1, 0), min(2 * ic + 1, nxs - 1)
+            wa = (1.0_rp - 0.5_rp * abs(ia - 2 * ic)) * (1.0_rp - 0.5_rp * abs(jb - 2 * jc))
+            do dj = -1, 1
+              do di = -1, 1
+                if (all(src(:, di, dj, ia, jb) == 0.0_rp)) cycle
+                bi = ia + di
+                bj = jb + dj
+                ! the coarse parents of fine node (bi, bj): |b - 2 c| <= 1
+                do cj = bj / 2, min((bj + 1) / 2, nyc - 1)
+                  do ci = bi / 2, min((bi + 1) / 2, nxc - 1)
+                    wab = wa * (1.0_rp - 0.5_rp * abs(bi - 2 * ci)) * (1.0_rp - 0.5_rp * abs(bj - 2 * cj))
+                    dst(:, ci - ic, cj - jc, ic, jc) = dst(:, ci - ic, cj - jc, ic, jc) + wab * src(:, di, dj, ia, jb)
+                  end do
+                end do
+              end do
+            end do
+          end do
+        end do
+      end do
+    end do
+  end subroutine restrict_offset_blocks
 
 end module coarse_lattice

@@ -5,7 +5,10 @@
 !> injected (every 2^(l-1)-th node), with the same constraints, shift and
 !> element model, and the process models' node blocks (contact) lumped
 !> onto their nodes and summed with the bilinear weights level by level
-!> (as the masses are), assembled by the finest level's assembly (module
+!> (as the masses are; where some are blocks between neighbours, the
+!> faces' contact, all of them by the Galerkin product of the bilinear
+!> transfers instead, module coarse_lattice's restrict_offset_blocks),
+!> assembled by the finest level's assembly (module
 !> reduced_assembly's assemble_stencil) straight into the level's operator
 !> (module stencil_mg's mg_level_op). Every level then has the finest
 !> level's reach and offsets (16 blocks a node with bending, 8 without),
@@ -24,9 +27,9 @@ module mg_coarse
   use mpi
   use kinds, only: rp
   use lattice, only: lattice_t, lattice_coarsened
-  use coarse_lattice, only: mass_factors, restrict_factors, inject_rows
+  use coarse_lattice, only: mass_factors, restrict_factors, inject_rows, restrict_offset_blocks
   use node_blocks, only: node_blocks_t, node_blocks_count, node_blocks_lumped, node_blocks_begin, node_blocks_add, &
-                         node_blocks_end
+                         node_blocks_end, node_blocks_between, node_blocks_by_offset, node_blocks_add_pair
   use reduced_assembly, only: assemble_stencil
   use offset_product, only: offset_count
   use mg_kernels, only: stencil_t
@@ -58,6 +61,11 @@ module mg_coarse
     !> (18, 0:nx-1, gys:gye) the process models' node blocks restricted to
     !> this level (kx 1:9, kv 10:18; allocated at the first rebuild with any, then kept)
     real(rp), allocatable :: d(:, :, :)
+    !> (18 x 9, 0:nx-1, gys:gye) the same by offset (-1..1)^2, the Galerkin
+    !> product, where some blocks are between neighbours (allocated at the
+    !> first rebuild with such blocks, then kept); dpn (18 x 9, 0:nx-1,
+    !> j0:j1): its injected rows on a gathered level
+    real(rp), allocatable :: dp(:, :, :), dpn(:, :, :)
     type(node_blocks_t) :: nodal                   !< d as this level's node blocks, for its assembly
   end type coarse_level_t
 
@@ -68,7 +76,14 @@ module mg_coarse
     !> (18, 0:nx-1, gys:gye) the finest level's node blocks lumped onto
     !> their nodes, with ghost rows (allocated at the first rebuild with any, then kept)
     real(rp), allocatable :: df(:, :, :)
+    !> (18 x 9, 0:nx-1, gys:gye) the finest level's node blocks by offset,
+    !> with ghost rows, where some are between neighbours (allocated at the
+    !> first rebuild with such blocks, then kept)
+    real(rp), allocatable :: dfo(:, :, :)
   end type mg_coarse_t
+
+  !> The values a node's blocks take by offset: 18 (kx, kv) for each of 9
+  integer, parameter :: NOFF = 18 * 9
 
 contains
 
@@ -160,16 +175,26 @@ contains
     integer, intent(out) :: ierr
     type(stencil_t), pointer :: op
     integer :: l
-    logical :: blocks
+    ! (1) node blocks on any rank (the restriction exchanges rows: all or
+    ! none), (2) some of them between neighbours
+    logical :: blocks(2)
     ierr = 0
-    ! node blocks on any rank (the restriction exchanges rows: all or none)
-    blocks = node_blocks_count(nodal) > 0
-    if (mc%nranks > 1) call MPI_Allreduce(MPI_IN_PLACE, blocks, 1, MPI_LOGICAL, MPI_LOR, mc%comm, ierr)
-    if (blocks) call lump_finest(mc, fine, nodal, fixedg)
+    blocks(1) = node_blocks_count(nodal) > 0
+    blocks(2) = node_blocks_between(nodal)
+    if (mc%nranks > 1) call MPI_Allreduce(MPI_IN_PLACE, blocks, 2, MPI_LOGICAL, MPI_LOR, mc%comm, ierr)
+    if (blocks(2)) then
+      call finest_by_offset(mc, fine, nodal, fixedg)
+    else if (blocks(1)) then
+      call lump_finest(mc, fine, nodal, fixedg)
+    end if
     do l = 2, mg_levels(mg)
       associate (c => mc%lev(l))
         call inject(mc, l, fine, u, fixedg)
-        call level_blocks(mc, l, fine, blocks)
+        if (blocks(2)) then
+          call level_offset_blocks(mc, l, fine)
+        else
+          call level_blocks(mc, l, fine, blocks(1))
+        end if
         if (.not. c%active) cycle
         op => mg_level_op(mg, l)
         call assemble_stencil(c%lat, c%nodal, c%u, c%fixed, a, damping, clamp, gauss_newton, c%w, c%lb, c%g, c%kd, &
@@ -192,6 +217,73 @@ contains
     if (node_blocks_count(nodal) > 0) call node_blocks_lumped(nodal, fine%gys, fixedg, mc%df)
     if (mc%nranks > 1) call exchange_ghosts(mc%comm, mc%below, mc%above, mc%df, fine%gys, fine%ys, fine%ye, fine%halo)
   end subroutine lump_finest
+
+  !> The finest level's node blocks by offset (dfo), with the neighbours'
+  !> rows in the ghost rows. Collective.
+  subroutine finest_by_offset(mc, fine, nodal, fixedg)
+    type(mg_coarse_t), intent(inout) :: mc
+    type(lattice_t), intent(in) :: fine
+    type(node_blocks_t), intent(in) :: nodal
+    logical, intent(in) :: fixedg(0:, fine%gys:)
+    if (.not. allocated(mc%dfo)) allocate(mc%dfo(NOFF, 0:fine%nx - 1, fine%gys:fine%gye))
+    mc%dfo = 0.0_rp
+    call node_blocks_by_offset(nodal, fine%nx, fine%gys, fine%gye, fixedg, mc%dfo)
+    if (mc%nranks > 1) call exchange_ghosts(mc%comm, mc%below, mc%above, mc%dfo, fine%gys, fine%ys, fine%ye, fine%halo)
+  end subroutine finest_by_offset
+
+  !> Level l's node blocks where some are between neighbours (the faces'
+  !> contact): the Galerkin product of the level above's (dfo for l = 2)
+  !> with the bilinear transfers, by offset, made on the rows injected
+  !> here and shared as the state's rows are. Collective.
+  subroutine level_offset_blocks(mc, l, fine)
+    type(mg_coarse_t), intent(inout), target :: mc
+    integer, intent(in) :: l
+    type(lattice_t), intent(in) :: fine
+    integer :: i, j, di, dj, k
+    associate (c => mc%lev(l))
+      if (.not. allocated(c%dp)) allocate(c%dp(NOFF, 0:c%lat%nx - 1, c%lat%gys:c%lat%gye))
+      c%dp = 0.0_rp
+      if (c%gathered .and. .not. allocated(c%dpn)) allocate(c%dpn(NOFF, 0:c%lat%nx - 1, c%j0:c%j1))
+      if (l == 2) then
+        call restrict_into(fine%nx, fine%gys, fine%gye, mc%dfo)
+      else
+        associate (p => mc%lev(l - 1))
+          call restrict_into(p%lat%nx, p%lat%gys, p%lat%gye, p%dp)
+        end associate
+      end if
+      call share_rows(mc, c, c%dp, c%dpn)
+      if (.not. c%active) return
+      call node_blocks_begin(c%nodal, c%lat%ys, c%lat%ye)
+      do j = c%lat%ys, c%lat%ye
+        do i = 0, c%lat%nx - 1
+          do dj = -1, 1
+            do di = -1, 1
+              k = 18 * (3 * (dj + 1) + di + 1)
+              if (all(c%dp(k + 1:k + 18, i, j) == 0.0_rp)) cycle
+              call node_blocks_add_pair(c%nodal, i, j, di, dj, reshape(c%dp(k + 1:k + 9, i, j), [3, 3]), &
+                                        reshape(c%dp(k + 10:k + 18, i, j), [3, 3]))
+            end do
+          end do
+        end do
+      end do
+      call node_blocks_end(c%nodal)
+    end associate
+  contains
+    !> This rank's injected rows of level l (into dpn where gathered) from
+    !> src, the level above's rows gys..gye by offset.
+    subroutine restrict_into(nxs, gys, gye, src)
+      integer, intent(in) :: nxs, gys, gye
+      real(rp), intent(in) :: src(:, :, :)
+      associate (c => mc%lev(l))
+        if (c%gathered) then
+          c%dpn = 0.0_rp
+          call restrict_offset_blocks(nxs, gys, gye, src, c%lat%nx, c%lat%ny, c%j0, c%j1, c%j0, c%j1, c%dpn)
+        else
+          call restrict_offset_blocks(nxs, gys, gye, src, c%lat%nx, c%lat%ny, c%lat%gys, c%lat%gye, c%j0, c%j1, c%dp)
+        end if
+      end associate
+    end subroutine restrict_into
+  end subroutine level_offset_blocks
 
   !> Level l's node blocks: the level above's (df for l = 2) summed with
   !> the bilinear weights (1 at the coarse node, 1/2 and 1/4 at the fine

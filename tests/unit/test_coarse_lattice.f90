@@ -13,7 +13,7 @@ program test_coarse_lattice
   use config, only: nuno_config, BEND_NONE, BEND_PAPER, BEND_ENERGY, SPRING_AXIAL, SCALING_ELEMENT, SCALING_CONTINUUM, &
                     MASS_AREA, MASS_UNIFORM
   use lattice, only: lattice_t, lattice_init, lattice_coarsened, rest_position, link_constants, triple_constants
-  use coarse_lattice, only: mass_factors, restrict_factors, inject_rows
+  use coarse_lattice, only: mass_factors, restrict_factors, inject_rows, restrict_offset_blocks
   use reduced_assembly, only: assemble_stencil
   use node_blocks, only: node_blocks_t
   use offset_product, only: offset_count, offset_slot
@@ -26,6 +26,7 @@ program test_coarse_lattice
   call masses_and_constants(MASS_UNIFORM, SCALING_ELEMENT, BEND_PAPER, 'uniform masses, element constants, paper bending')
   call masses_and_constants(MASS_AREA, SCALING_CONTINUUM, BEND_ENERGY, 'continuum constants, energy bending')
   call injection()
+  call offset_blocks_galerkin()
   call smooth_energies()
   call check_report()
 
@@ -97,6 +98,77 @@ contains
     call check_true(all(uc(0, :, :) == reshape([(4.0_rp * i, i = 0, 2), (4.0_rp * i, i = 0, 2), (4.0_rp * i, i = 0, 2)], &
                                                [3, 3])) .and. all(uc(1, :, 2) == 800.0_rp), 'injection with stride 4')
   end subroutine injection
+
+  !> Blocks between neighbours (offsets -1..1, every value distinct) on a
+  !> 9 x 7 lattice restricted by restrict_offset_blocks in two strips of
+  !> coarse rows, against the Galerkin product P^T B P formed with dense
+  !> matrices, P the bilinear interpolation from the 5 x 4 lattice (each
+  !> of the 18 values a block holds in turn): equal to round-off, and no
+  !> coarse coupling beyond the offsets -1..1.
+  subroutine offset_blocks_galerkin()
+    integer, parameter :: nxf = 9, nyf = 7, nxc = 5, nyc = 4, nf = nxf * nyf, nc = nxc * nyc
+    real(rp) :: src(18, -1:1, -1:1, 0:nxf - 1, 0:nyf - 1), dst(18, -1:1, -1:1, 0:nxc - 1, 0:nyc - 1)
+    real(rp) :: p(nf, nc), b(nf, nf), c(nc, nc), err, far
+    integer :: i, j, di, dj, ic, jc, s
+    src = 0.0_rp
+    do j = 0, nyf - 1
+      do i = 0, nxf - 1
+        do dj = -1, 1
+          do di = -1, 1
+            if (i + di < 0 .or. i + di > nxf - 1 .or. j + dj < 0 .or. j + dj > nyf - 1) cycle
+            do s = 1, 18
+              src(s, di, dj, i, j) = sin(1.3_rp * i + 0.7_rp * j + 0.31_rp * di - 0.53_rp * dj + 0.17_rp * s)
+            end do
+          end do
+        end do
+      end do
+    end do
+    do jc = 0, nyc - 1
+      do ic = 0, nxc - 1
+        do j = 0, nyf - 1
+          do i = 0, nxf - 1
+            p(1 + i + nxf * j, 1 + ic + nxc * jc) = max(0.0_rp, 1.0_rp - 0.5_rp * abs(i - 2 * ic)) &
+                                                    * max(0.0_rp, 1.0_rp - 0.5_rp * abs(j - 2 * jc))
+          end do
+        end do
+      end do
+    end do
+    dst = -1.0_rp
+    ! coarse rows 0..1 from fine rows 0..3, then 2..3 from fine rows 3..6
+    call restrict_offset_blocks(nxf, 0, 3, src(:, :, :, :, 0:3), nxc, nyc, 0, nyc - 1, 0, 1, dst)
+    call restrict_offset_blocks(nxf, 3, 6, src(:, :, :, :, 3:6), nxc, nyc, 0, nyc - 1, 2, 3, dst)
+    err = 0.0_rp
+    far = 0.0_rp
+    do s = 1, 18
+      b = 0.0_rp
+      do j = 0, nyf - 1
+        do i = 0, nxf - 1
+          do dj = -1, 1
+            do di = -1, 1
+              if (i + di < 0 .or. i + di > nxf - 1 .or. j + dj < 0 .or. j + dj > nyf - 1) cycle
+              b(1 + i + nxf * j, 1 + i + di + nxf * (j + dj)) = src(s, di, dj, i, j)
+            end do
+          end do
+        end do
+      end do
+      c = matmul(transpose(p), matmul(b, p))
+      do jc = 0, nyc - 1
+        do ic = 0, nxc - 1
+          do j = 0, nyc - 1
+            do i = 0, nxc - 1
+              if (abs(i - ic) <= 1 .and. abs(j - jc) <= 1) then
+                err = max(err, abs(c(1 + ic + nxc * jc, 1 + i + nxc * j) - dst(s, i - ic, j - jc, ic, jc)))
+              else
+                far = max(far, abs(c(1 + ic + nxc * jc, 1 + i + nxc * j)))
+              end if
+            end do
+          end do
+        end do
+      end do
+    end do
+    call check_close(err, 0.0_rp, 0.0_rp, 1.0e-13_rp, 'blocks between neighbours: the Galerkin product by offset')
+    call check_close(far, 0.0_rp, 0.0_rp, 1.0e-15_rp, 'blocks between neighbours: no coarse coupling beyond one node')
+  end subroutine offset_blocks_galerkin
 
   !> S on the flat lattice at rest (energy bending, Gauss-Newton, no
   !> damping) of 65 x 65 and its rediscretisation on 33 x 33: the energy
