@@ -16,7 +16,7 @@ module smoothed_coulomb
   use kinds, only: rp
   implicit none
   private
-  public :: friction_f1, coulomb_slip, coulomb_power, spread_by_weights
+  public :: friction_f1, coulomb_slip, coulomb_power, spread_by_weights, coulomb_turn
 
   real(rp), parameter :: EYE(3, 3) = reshape([1.0_rp, 0.0_rp, 0.0_rp, 0.0_rp, 1.0_rp, 0.0_rp, 0.0_rp, 0.0_rp, 1.0_rp], &
                                              [3, 3])
@@ -86,6 +86,35 @@ contains
     call friction_f1(y, eps_v, f1, phi, dphi_y)
     p = c * f1 * y
   end function coulomb_power
+
+  !> The fraction alpha in (0, 1] of a Newton update ddv of the relative
+  !> velocity dv that a friction pair takes where its slip turns: where the
+  !> slip u0 = P dv and u1 = P (dv + ddv) (P = I - n n^T) point opposite
+  !> ways (u0 . u1 < 0) and both are beyond eps_v, the alpha at which
+  !> |u0 + alpha P ddv| is smallest (in (0, 1) there), else 1. Sliding, the
+  !> smoothed law's force has a constant magnitude, so Newton's model has no
+  !> stiffness along the slip and a full update carries the point through
+  !> the sticking band (|u| < eps_v) to the other side, and back at the
+  !> next iteration (docs/contact.md, "Faces and edges"); stopped where the
+  !> slip is least, the point is in the band (or as near it as the update's
+  !> line comes), where the law is stiff and Newton sees the force turn. A
+  !> slip that keeps its way, or starts or ends in the band, is untouched.
+  pure real(rp) function coulomb_turn(eps_v, n, dv, ddv) result(alpha)
+    real(rp), intent(in) :: eps_v      ! smoothing speed [length/time]
+    real(rp), intent(in) :: n(3)       ! lagged unit normal [1]
+    real(rp), intent(in) :: dv(3)      ! relative velocity at the iterate [length/time]
+    real(rp), intent(in) :: ddv(3)     ! its Newton update [length/time]
+    real(rp) :: u0(3), du(3), u1(3)
+
+    alpha = 1.0_rp
+    u0 = dv - dot_product(n, dv) * n
+    du = ddv - dot_product(n, ddv) * n
+    u1 = u0 + du
+    if (dot_product(u0, u1) >= 0.0_rp) return
+    if (norm2(u0) <= eps_v .or. norm2(u1) <= eps_v) return
+    ! u0 . u1 < 0 gives u0 . du < -|u0|^2 < 0 and u1 . du > 0: alpha in (0, 1)
+    alpha = -dot_product(u0, du) / dot_product(du, du)
+  end function coulomb_turn
 
   !> A pair's point force fc and block kc on its nn nodes, the point being sum_a w_a x_a:
   !> f(:, a) = w_a fc, kv(:, :, a, b) = w_a w_b kc (-kv positive semidefinite when -kc is).
