@@ -121,8 +121,9 @@ contains
   end function pair_friction_power
 
   !> The fraction in (0, 1] of a Newton update dv of the nodes' velocities v
-  !> that one lagged pair allows: where its slip turns from beyond eps_v
-  !> to beyond eps_v the other way, the fraction where it is least (kernel
+  !> that one lagged pair allows: where the update turns its slip (the
+  !> velocity of its point by the weights, relative to the obstacle)
+  !> through the sticking band, the fraction where it is least (kernel
   !> smoothed_coulomb's coulomb_turn), else 1; 1 when o%mu, lam or eps_v
   !> is 0.
   pure real(rp) function pair_turn(o, cp, lag, v, dv) result(alpha)

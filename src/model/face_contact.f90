@@ -323,11 +323,12 @@ contains
 
   !> The guard on the Newton update dx at x (the stage at t1) where a face
   !> or edge pair's slip turns (module face_lags' lags_turn, the obstacles'
-  !> velocities at t1): where a pair's slip at x and at x + dx points
-  !> opposite ways, both beyond friction_eps_v, the whole update is
-  !> scaled to the fraction where that pair's slip is least (in the
-  !> sticking band, or as near it as the update passes), the least such
-  !> fraction over the pairs, as a step limit scales it. Sliding, the
+  !> velocities at t1): where the update turns a pair's slip from at
+  !> least friction_eps_v / 2 at x to at least friction_eps_v the other
+  !> way at x + dx through the sticking band, the whole update is scaled
+  !> to the fraction where that pair's slip is least (in the band), the
+  !> least such fraction over the pairs, as the node contact's step limit
+  !> scales it for its nodes (the same kernel, coulomb_turn). Sliding, the
   !> smoothed law's force has a constant magnitude and no stiffness along
   !> the slip, so Newton's model does not see it turn: full updates
   !> carried a pair through the band and back at every iteration

@@ -233,10 +233,10 @@ contains
   end function lags_with_friction
 
   !> The Newton update's guard where a pair's slip turns: for each lagged
-  !> pair whose slip at the velocities vd(1:3, ...) and at those plus the
-  !> update vd(4:6, ...) points opposite ways, both beyond eps_v (kernel
-  !> contact_face_friction's pair_turn), fac of each of its free nodes
-  !> becomes at most the fraction of the update where the slip is least.
+  !> pair whose slip the update vd(4:6, ...) of the velocities vd(1:3, ...)
+  !> turns through the sticking band (kernel contact_face_friction's
+  !> pair_turn), fac of each of its free nodes becomes at most the
+  !> fraction of the update where the slip is least.
   !> vd, free and fac span the rows ys-1..ye+1 (the list's elements touch
   !> the owned rows); fac is 1 where no pair turns (set by the caller).
   subroutine lags_turn(lst, obs, cp, lat, vd, free, fac)

@@ -10,9 +10,9 @@
   law has no stiffness along the slip while sliding) and ||F|| cycled
   through Newton's 50 iterations; the step was retried, and the line search
   bt that the run then falls back on failed 5 more steps near t = 0.49 s.
-  With the guard on the update (where a pair's slip turns from beyond
-  eps_v to beyond eps_v the other way, the update stops where it is least)
-  no step is retried. Before the guard: 6 retried steps (on 2 ranks,
+  With the guard on the update (where it turns a pair's slip from at
+  least eps_v / 2 to at least eps_v the other way through the band, the
+  update stops where the slip is least) no step is retried. Before the guard: 6 retried steps (on 2 ranks,
   where the strips' overlapping preconditioner solves differently, none).
 - a genuine slide with the faces' friction acting: the incline of
   test_contact_friction (tan theta = 0.5, mu = 0.3, tilted gravity) on the

@@ -9,9 +9,10 @@
 !> and block by weights that sum to zero (forces summing to zero, blocks
 !> w_a w_b kc); the Newton update's guard where a slip turns (coulomb_turn):
 !> the fraction where the slip along the update is least, from the closed
-!> form of two numbers' line, when the slip reverses beyond eps_v, and 1
-!> for a slip that keeps its way, speeds up, slows, or starts or ends in the
-!> band.
+!> form of two numbers' line, when the slip reverses from beyond eps_v / 2
+!> to beyond eps_v through the band, and 1 for a slip that keeps its way,
+!> speeds up, slows, starts deeper in the band than eps_v / 2, ends in it,
+!> or turns past it.
 program test_smoothed_coulomb
   use kinds, only: rp
   use smoothed_coulomb, only: coulomb_slip, coulomb_power, spread_by_weights, coulomb_turn
@@ -106,7 +107,14 @@ program test_smoothed_coulomb
   call check_true(coulomb_turn(EPS_V, n, 5.0_rp * EPS_V * t1, -3.0_rp * EPS_V * t1) == 1.0_rp, 'turn: slowing, kept')
   call check_true(coulomb_turn(EPS_V, n, 5.0_rp * EPS_V * t1, EPS_V * (-4.0_rp * t1 + 9.0_rp * t2)) == 1.0_rp, &
                   'turn: turning less than 90 degrees, kept')
-  call check_true(coulomb_turn(EPS_V, n, 0.5_rp * EPS_V * t1, -5.0_rp * EPS_V * t1) == 1.0_rp, 'turn: from the band, kept')
+  call check_true(coulomb_turn(EPS_V, n, 0.4_rp * EPS_V * t1, -5.0_rp * EPS_V * t1) == 1.0_rp, &
+                  'turn: from deeper in the band than eps_v / 2, kept')
+  ! from the band's outer half, 0.8 eps_v to -5 eps_v: least (0) at 0.8/5.8
+  call check_close(coulomb_turn(EPS_V, n, 0.8_rp * EPS_V * t1, -5.8_rp * EPS_V * t1), 0.8_rp / 5.8_rp, 1.0e-13_rp, 0.0_rp, &
+                   'turn: from the band''s outer half, limited')
+  ! a turn that misses the band: (3, 0) eps_v to (-3, 4) eps_v, least |u| = 1.66 eps_v at 18/52
+  call check_true(coulomb_turn(EPS_V, n, 3.0_rp * EPS_V * t1, EPS_V * (-6.0_rp * t1 + 4.0_rp * t2)) == 1.0_rp, &
+                  'turn: past the band, kept')
   call check_true(coulomb_turn(EPS_V, n, 5.0_rp * EPS_V * t1, -5.5_rp * EPS_V * t1) == 1.0_rp, 'turn: into the band, kept')
   call check_true(coulomb_turn(EPS_V, n, 5.0_rp * EPS_V * t1, -10.0_rp * EPS_V * n) == 1.0_rp, &
                   'turn: a normal update, kept')
