@@ -16,12 +16,12 @@
 module contact_face_friction
   use kinds, only: rp
   use contact, only: obstacle_t, contact_params_t, barrier
-  use smoothed_coulomb, only: coulomb_slip, coulomb_power, spread_by_weights
+  use smoothed_coulomb, only: coulomb_slip, coulomb_power, spread_by_weights, coulomb_turn
   use contact_primitives, only: point_triangle_closest, edge_edge_closest, edge_edge_mollifier
   use contact_faces, only: obstacle_points, obstacle_edges, obstacle_radius, EE_MOLLIFY_REL
   implicit none
   private
-  public :: face_lag_t, triangle_lag, edge_lag, pair_friction, pair_friction_power
+  public :: face_lag_t, triangle_lag, edge_lag, pair_friction, pair_friction_power, pair_turn
 
   !> One pair's lagged friction data (taken at the step's start).
   type :: face_lag_t
@@ -119,5 +119,25 @@ contains
 
     p = coulomb_power(o%mu * lag%lam, cp%eps_v, lag%n, matmul(v, lag%w(1:size(v, 2))) - o%vel)
   end function pair_friction_power
+
+  !> The fraction in (0, 1] of a Newton update dv of the nodes' velocities v
+  !> that one lagged pair allows: where the update turns its slip (the
+  !> velocity of its point by the weights, relative to the obstacle)
+  !> through the sticking band, the fraction where it is least (kernel
+  !> smoothed_coulomb's coulomb_turn), else 1; 1 when o%mu, lam or eps_v
+  !> is 0.
+  pure real(rp) function pair_turn(o, cp, lag, v, dv) result(alpha)
+    type(obstacle_t), intent(in) :: o
+    type(contact_params_t), intent(in) :: cp
+    type(face_lag_t), intent(in) :: lag
+    real(rp), intent(in) :: v(:, :)            ! (3, nn) node velocities [length/time]
+    real(rp), intent(in) :: dv(:, :)           ! (3, nn) their Newton update [length/time]
+    integer :: nn
+
+    alpha = 1.0_rp
+    if (o%mu * lag%lam <= 0.0_rp .or. cp%eps_v <= 0.0_rp) return
+    nn = size(v, 2)
+    alpha = coulomb_turn(cp%eps_v, lag%n, matmul(v, lag%w(1:nn)) - o%vel, matmul(dv, lag%w(1:nn)))
+  end function pair_turn
 
 end module contact_face_friction

@@ -16,7 +16,7 @@ module smoothed_coulomb
   use kinds, only: rp
   implicit none
   private
-  public :: friction_f1, coulomb_slip, coulomb_power, spread_by_weights
+  public :: friction_f1, coulomb_slip, coulomb_power, spread_by_weights, coulomb_turn
 
   real(rp), parameter :: EYE(3, 3) = reshape([1.0_rp, 0.0_rp, 0.0_rp, 0.0_rp, 1.0_rp, 0.0_rp, 0.0_rp, 0.0_rp, 1.0_rp], &
                                              [3, 3])
@@ -86,6 +86,40 @@ contains
     call friction_f1(y, eps_v, f1, phi, dphi_y)
     p = c * f1 * y
   end function coulomb_power
+
+  !> The fraction alpha in (0, 1] of a Newton update ddv of the relative
+  !> velocity dv that a friction pair takes where the update turns its
+  !> slip through the sticking band: where the slip u0 = P dv (P = I - n
+  !> n^T) is at least eps_v / 2 and u1 = P (dv + ddv) at least eps_v
+  !> against it (u0 . u1 < 0), and the line between them passes through
+  !> the band (|u| < eps_v), the alpha where |u0 + alpha P ddv| is
+  !> smallest; else 1. Sliding, the smoothed law's force has a constant
+  !> magnitude and no stiffness along the slip (towards the band's edge
+  !> the mollifier's slope goes to zero too), so Newton's model does not
+  !> see the force turn and a full update carries the point through the
+  !> band to the other side, and back at the next iteration (a 2-cycle:
+  !> docs/contact.md, "Friction"); stopped where the slip is least, the
+  !> point is in the band, where the law's block has its full stiffness
+  !> 2 c / eps_v. A point deeper in the band than eps_v / 2 is left to
+  !> Newton's model (limiting those too stalled the gripper's pinch at
+  !> eps_v = 1 mm/s). The node contact's and the faces' guards (modules
+  !> contact_nodes, face_lags).
+  pure real(rp) function coulomb_turn(eps_v, n, dv, ddv) result(alpha)
+    real(rp), intent(in) :: eps_v      ! smoothing speed [length/time]
+    real(rp), intent(in) :: n(3)       ! lagged unit normal [1]
+    real(rp), intent(in) :: dv(3)      ! relative velocity at the iterate [length/time]
+    real(rp), intent(in) :: ddv(3)     ! its Newton update [length/time]
+    real(rp) :: u0(3), du(3), s
+
+    alpha = 1.0_rp
+    u0 = dv - dot_product(dv, n) * n
+    du = ddv - dot_product(ddv, n) * n
+    if (norm2(u0) < 0.5_rp * eps_v .or. norm2(u0 + du) < eps_v) return
+    if (dot_product(u0, u0 + du) >= 0.0_rp) return
+    ! u0 . u1 < 0 gives u0 . du < -|u0|^2 < 0 and u1 . du > 0: s in (0, 1)
+    s = -dot_product(u0, du) / max(dot_product(du, du), tiny(1.0_rp))
+    if (s > 0.0_rp .and. s < 1.0_rp .and. norm2(u0 + s * du) < eps_v) alpha = s
+  end function coulomb_turn
 
   !> A pair's point force fc and block kc on its nn nodes, the point being sum_a w_a x_a:
   !> f(:, a) = w_a fc, kv(:, :, a, b) = w_a w_b kc (-kv positive semidefinite when -kc is).

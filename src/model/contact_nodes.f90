@@ -20,6 +20,7 @@ module contact_nodes
   use contact, only: obstacle_t, contact_params_t, contact_node, time_of_impact, signed_distance, friction_power, &
                      SHAPE_SPHERE, SHAPE_BOX, SHAPE_CAPSULE
   use obstacle_set, only: obstacle_set_t, obstacle_set_count, obstacle_set_poses, obstacle_set_moving
+  use smoothed_coulomb, only: coulomb_turn
   implicit none
   private
   public :: contact_lag_t, lag_init, lag_free, lag_take
@@ -231,8 +232,9 @@ contains
   !> u = 0 friction's block has its full stiffness, 2 mu lam / eps_v, and
   !> Newton's model is good: a node deeper in the band than eps_v / 2 is
   !> left to it (limiting those too stalled the gripper's pinch at
-  !> eps_v = 1 mm/s). The obstacles' velocities at t (the step's end); 1
-  !> when none (this rank).
+  !> eps_v = 1 mm/s). Kernel smoothed_coulomb's coulomb_turn, which the
+  !> faces' pairs share (module face_lags). The obstacles' velocities at t
+  !> (the step's end); 1 when none (this rank).
   real(rp) function strip_slip_limit(set, cp, lag, lat, fixed, t, x, dx) result(a)
     type(obstacle_set_t), intent(in) :: set
     type(contact_params_t), intent(in) :: cp
@@ -242,10 +244,6 @@ contains
     real(rp), intent(in) :: t
     real(rp), intent(in) :: x(0:, 0:, lat%ys:), dx(0:, 0:, lat%ys:)
     integer :: i, j, k
-    real(rp) :: n(3)        ! the lagged normal [1]
-    real(rp) :: u0(3)       ! the tangential velocity relative to the obstacle at x [length/time]
-    real(rp) :: du(3)       ! its change over the whole update [length/time]
-    real(rp) :: s           ! the fraction of the update where |u| is smallest [1]
     type(obstacle_t) :: obs(obstacle_set_count(set))
     a = 1.0_rp
     if (cp%eps_v <= 0.0_rp) return
@@ -255,14 +253,7 @@ contains
         if (fixed(i, j)) cycle
         do k = 1, size(obs)
           if (obs(k)%mu <= 0.0_rp .or. lag%lam(k, i, j) <= 0.0_rp) cycle
-          n = lag%nlag(:, k, i, j)
-          u0 = x(3:5, i, j) - obs(k)%vel
-          u0 = u0 - dot_product(u0, n) * n
-          du = dx(3:5, i, j) - dot_product(dx(3:5, i, j), n) * n
-          if (norm2(u0) < 0.5_rp * cp%eps_v .or. norm2(u0 + du) < cp%eps_v) cycle
-          if (dot_product(u0, u0 + du) >= 0.0_rp) cycle
-          s = -dot_product(u0, du) / max(dot_product(du, du), tiny(1.0_rp))
-          if (s > 0.0_rp .and. s < 1.0_rp .and. norm2(u0 + s * du) < cp%eps_v) a = min(a, s)
+          a = min(a, coulomb_turn(cp%eps_v, lag%nlag(:, k, i, j), x(3:5, i, j) - obs(k)%vel, dx(3:5, i, j)))
         end do
       end do
     end do

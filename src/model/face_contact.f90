@@ -27,7 +27,7 @@ module face_contact
   use contact_ccd, only: ACCD_S
   use obstacle_set, only: obstacle_set_t, obstacle_set_init, obstacle_set_count, obstacle_set_pose, obstacle_set_moves, &
                           obstacle_set_pair
-  use face_lags, only: face_lag_list_t, lags_clear, lags_take, lags_walk, lags_power
+  use face_lags, only: face_lag_list_t, lags_clear, lags_take, lags_walk, lags_power, lags_with_friction, lags_turn
   use face_elements, only: WALK_FORCES, WALK_BLOCKS, WALK_STATS, has_features, elements_walk, elements_gap, elements_ccd, &
                            elements_mark, elements_correct
   use process_model, only: process_model_t, pm_hints_t, pm_series_t, pm_group_t, pm_energy_t, PM_FEASIBLE, &
@@ -72,6 +72,9 @@ module face_contact
     real(rp) :: obstacle_work = 0.0_rp
     real(rp) :: pstart_last = 0.0_rp            !< their power at the last state, the next step's velocities [energy/time]
     logical :: have_last = .false.              !< t_seen, pstart_last hold the last accepted state's
+    !> some rank's lag has a pair with friction: the Newton update's guard
+    !> where a pair's slip turns is on (limit_turns; the same on every rank)
+    logical :: turn_guard = .false.
   contains
     procedure :: name => faces_name
     procedure :: hints => faces_hints
@@ -293,6 +296,7 @@ contains
     integer :: k, i, j, mpierr
     changed = .false.
     if (t1 <= t0) return
+    if (this%turn_guard) call limit_turns(this, lat, fixed, t1, x, dx, comm, changed)
     xa(1:3, :, lat%ys:lat%ye) = x(0:2, :, lat%ys:lat%ye)
     xa(4:6, :, lat%ys:lat%ye) = dx(0:2, :, lat%ys:lat%ye)
     xa(7, :, lat%ys:lat%ye) = merge(0.0_rp, 1.0_rp, fixed)
@@ -313,8 +317,57 @@ contains
         any_c = .true.
       end do
     end do
-    call MPI_Allreduce(any_c, changed, 1, MPI_LOGICAL, MPI_LOR, comm, mpierr)
+    call MPI_Allreduce(MPI_IN_PLACE, any_c, 1, MPI_LOGICAL, MPI_LOR, comm, mpierr)
+    changed = changed .or. any_c
   end subroutine faces_correct
+
+  !> The guard on the Newton update dx at x (the stage at t1) where a face
+  !> or edge pair's slip turns (module face_lags' lags_turn, the obstacles'
+  !> velocities at t1): where the update turns a pair's slip from at
+  !> least friction_eps_v / 2 at x to at least friction_eps_v the other
+  !> way at x + dx through the sticking band, the whole update is scaled
+  !> to the fraction where that pair's slip is least (in the band), the
+  !> least such fraction over the pairs, as the node contact's step limit
+  !> scales it for its nodes (the same kernel, coulomb_turn). Sliding, the
+  !> smoothed law's force has a constant magnitude and no stiffness along
+  !> the slip, so Newton's model does not see it turn: full updates
+  !> carried a pair through the band and back at every iteration
+  !> (drape_sphere with the faces: ||F|| cycling for 50 iterations, the
+  !> step retried; docs/contact.md, "Faces and edges"); in the band the law
+  !> is stiff and Newton converges. Scaling only the pair's own nodes
+  !> instead (the rest of the cloth kept at the full update) made the
+  !> residual grow 10-fold an iteration (the same landing: 3e4 to 1.5e8 in
+  !> 4 iterations), the neighbours' update having been solved for with
+  !> those nodes moving. changed: dx was scaled (the same on every rank).
+  !> Collective: the rows around the strip come from the ranks beside.
+  subroutine limit_turns(this, lat, fixed, t1, x, dx, comm, changed)
+    class(face_contact_t), intent(in) :: this
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t1
+    real(rp), intent(in) :: x(0:, 0:, lat%ys:)
+    real(rp), intent(inout) :: dx(0:, 0:, lat%ys:)
+    integer, intent(in) :: comm
+    logical, intent(out) :: changed
+    ! velocities, their update and the free flags of the owned rows and those around
+    real(rp) :: vd(7, 0:lat%nx - 1, lat%ys - 1:lat%ye + 1)   ! [length/time], [1]
+    real(rp) :: fac(0:lat%nx - 1, lat%ys - 1:lat%ye + 1)     ! each node's fraction of the update [1]
+    real(rp) :: a
+    type(obstacle_t) :: obs(obstacle_set_count(this%obstacles))
+    integer :: k, mpierr
+    vd(1:3, :, lat%ys:lat%ye) = x(3:5, :, lat%ys:lat%ye)
+    vd(4:6, :, lat%ys:lat%ye) = dx(3:5, :, lat%ys:lat%ye)
+    vd(7, :, lat%ys:lat%ye) = merge(0.0_rp, 1.0_rp, fixed)
+    call exchange_rows(this, lat, comm, vd)
+    do k = 1, size(obs)
+      obs(k) = obstacle_set_pose(this%obstacles, k, t1)
+    end do
+    fac = 1.0_rp
+    call lags_turn(this%lags, obs, this%cp, lat, vd(1:6, :, :), vd(7, :, :) > 0.5_rp, fac)
+    call MPI_Allreduce(minval(fac(:, lat%ys:lat%ye)), a, 1, MPI_DOUBLE_PRECISION, MPI_MIN, comm, mpierr)
+    changed = a < 1.0_rp
+    if (changed) dx = a * dx
+  end subroutine limit_turns
 
   !> The rows ys-1 and ye+1 of v(:, 0:nx-1, ys-1:ye+1) from the ranks
   !> beside (zero beyond the lattice, where no element reads them), its
@@ -485,7 +538,7 @@ contains
     integer, intent(out) :: ierr
     character(*), intent(out) :: errmsg
     real(rp) :: gmin, g, e, ge, loc(8), glob(8), pend, pstart
-    integer :: k, nact, gnact, mpierr
+    integer :: k, nact, gnact, gn(2), mpierr
     type(obstacle_t) :: obs(obstacle_set_count(this%obstacles))
     real(rp) :: unused_f(3, 0, 0)             ! (the walk's forces and blocks: untouched here)
     type(node_blocks_t) :: unused_blocks
@@ -512,7 +565,9 @@ contains
     loc(8) = lags_power(this%lags, obs, this%cp, lat, u)
     call MPI_Allreduce(gmin, g, 1, MPI_DOUBLE_PRECISION, MPI_MIN, comm, mpierr)
     call MPI_Allreduce(loc, glob, 8, MPI_DOUBLE_PRECISION, MPI_SUM, comm, mpierr)
-    call MPI_Allreduce(nact, gnact, 1, MPI_INTEGER, MPI_SUM, comm, mpierr)
+    call MPI_Allreduce([nact, lags_with_friction(this%lags, obs)], gn, 2, MPI_INTEGER, MPI_SUM, comm, mpierr)
+    gnact = gn(1)
+    this%turn_guard = gn(2) > 0
     ge = glob(1)
     pend = glob(2)
     pstart = glob(8)

@@ -15,12 +15,12 @@ module face_lags
   use lattice, only: lattice_t
   use contact, only: obstacle_t, contact_params_t
   use contact_faces, only: SPLIT_MAIN, near_obstacle, quad_triangles, quad_diagonal
-  use contact_face_friction, only: face_lag_t, triangle_lag, edge_lag, pair_friction, pair_friction_power
+  use contact_face_friction, only: face_lag_t, triangle_lag, edge_lag, pair_friction, pair_friction_power, pair_turn
   use node_blocks, only: node_blocks_t, node_blocks_add_pair
   use face_elements, only: WALK_BLOCKS
   implicit none
   private
-  public :: face_lag_list_t, lags_clear, lags_take, lags_walk, lags_power, lags_count
+  public :: face_lag_list_t, lags_clear, lags_take, lags_walk, lags_power, lags_count, lags_with_friction, lags_turn
 
   !> The lagged pairs of a strip.
   type :: face_lag_list_t
@@ -220,5 +220,50 @@ contains
       p = p + pair_friction_power(obs(lst%obs(m)), cp, lst%lag(m), v(:, 1:nn))
     end do
   end function lags_power
+
+  !> Pairs in the list whose obstacle has friction (mu > 0).
+  pure integer function lags_with_friction(lst, obs) result(n)
+    type(face_lag_list_t), intent(in) :: lst
+    type(obstacle_t), intent(in) :: obs(:)
+    integer :: m
+    n = 0
+    do m = 1, lst%n
+      if (obs(lst%obs(m))%mu > 0.0_rp) n = n + 1
+    end do
+  end function lags_with_friction
+
+  !> The Newton update's guard where a pair's slip turns: for each lagged
+  !> pair whose slip the update vd(4:6, ...) of the velocities vd(1:3, ...)
+  !> turns through the sticking band (kernel contact_face_friction's
+  !> pair_turn), fac of each of its free nodes becomes at most the
+  !> fraction of the update where the slip is least.
+  !> vd, free and fac span the rows ys-1..ye+1 (the list's elements touch
+  !> the owned rows); fac is 1 where no pair turns (set by the caller).
+  subroutine lags_turn(lst, obs, cp, lat, vd, free, fac)
+    type(face_lag_list_t), intent(in) :: lst
+    type(obstacle_t), intent(in) :: obs(:)
+    type(contact_params_t), intent(in) :: cp
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: vd(:, 0:, lat%ys - 1:)       ! (6, 0:nx-1, ys-1:ye+1) velocities, their update [length/time]
+    logical, intent(in) :: free(0:, lat%ys - 1:)         ! (0:nx-1, ys-1:ye+1) the node is not constrained
+    real(rp), intent(inout) :: fac(0:, lat%ys - 1:)      ! (0:nx-1, ys-1:ye+1) each node's fraction [1]
+    integer :: m, a, nn, i, j
+    real(rp) :: v(3, 3), dv(3, 3), alpha
+    do m = 1, lst%n
+      if (obs(lst%obs(m))%mu <= 0.0_rp) cycle
+      nn = lst%nn(m)
+      do a = 1, nn
+        v(:, a) = vd(1:3, lst%node(1, a, m), lst%node(2, a, m))
+        dv(:, a) = vd(4:6, lst%node(1, a, m), lst%node(2, a, m))
+      end do
+      alpha = pair_turn(obs(lst%obs(m)), cp, lst%lag(m), v(:, 1:nn), dv(:, 1:nn))
+      if (alpha >= 1.0_rp) cycle
+      do a = 1, nn
+        i = lst%node(1, a, m)
+        j = lst%node(2, a, m)
+        if (free(i, j)) fac(i, j) = min(fac(i, j), alpha)
+      end do
+    end do
+  end subroutine lags_turn
 
 end module face_lags

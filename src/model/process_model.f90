@@ -32,7 +32,9 @@
 !>   correct     before the step limits: the model may add to a Newton
 !>               update x -> x + dx a correction of the update's second
 !>               order (a curved constraint's: SQP's second-order
-!>               correction); changed, the same on every rank; collective
+!>               correction), or shorten the update of some nodes (a
+!>               friction pair whose slip the update turns); changed,
+!>               the same on every rank; collective
 !>   step_limit  the fraction alpha of a Newton update x -> x + dx (from
 !>               the step's start x0 at t0 to a candidate at t1) that it
 !>               allows, and a status: PM_FEASIBLE, or PM_INFEASIBLE when

@@ -6,12 +6,14 @@
 !> lam with the mollifier); pair_friction's blocks against finite
 !> differences of its forces in the sticking and sliding regimes, its
 !> forces tangential, distributed by the weights, of size mu lam when
-!> sliding, -kv positive semidefinite; the power against -f . u.
+!> sliding, -kv positive semidefinite; the power against -f . u; the
+!> Newton update's guard where a pair's slip turns (pair_turn) at the
+!> point's velocity by the weights, relative to the moving obstacle.
 program test_contact_face_friction
   use kinds, only: rp
   use contact, only: obstacle_t, contact_params_t, barrier, SHAPE_SPHERE, SHAPE_CAPSULE
   use contact_faces, only: contact_triangle, contact_edge
-  use contact_face_friction, only: face_lag_t, triangle_lag, edge_lag, pair_friction, pair_friction_power
+  use contact_face_friction, only: face_lag_t, triangle_lag, edge_lag, pair_friction, pair_friction_power, pair_turn
   use check, only: check_true, check_close, check_close_array, check_report, seed_random
   implicit none
   type(obstacle_t) :: sph, cap
@@ -19,6 +21,8 @@ program test_contact_face_friction
   type(face_lag_t) :: lags(8), elags(12)
   real(rp) :: xt(3, 3), xe(3, 2), e, f(3, 3), kx(3, 3, 3, 3), fe(3, 2), ke(3, 3, 2, 2), hgt, b, db, d2b, u(3)
   integer :: nlag, na, k
+  real(rp) :: vt(3, 3), dvt(3, 3)
+  type(obstacle_t) :: smooth
   real(rp), parameter :: SCALES(3) = [0.3_rp, 3.0_rp, 300.0_rp]   ! sliding speeds / eps_v
 
   call seed_random(5)
@@ -63,6 +67,24 @@ program test_contact_face_friction
   lags(2) = face_lag_t(w=[0.2_rp, 0.3_rp, 0.5_rp], n=[0.0_rp, 0.0_rp, 1.0_rp], lam=0.0_rp)
   call pair_friction(sph, cp, lags(2), reshape([(1.0_rp, k = 1, 9)], [3, 3]), f, kx)
   call check_true(all(f == 0.0_rp) .and. all(kx == 0.0_rp), 'lam = 0: no friction')
+
+  ! the guard where the slip turns: the point (weights 0.2, 0.3, 0.5) slides at
+  ! 5 eps_v along x relative to the sphere, the update takes it to -5.5 eps_v,
+  ! all of it on the third node (0.5 of -21 eps_v): least at 5/10.5
+  lags(2) = face_lag_t(w=[0.2_rp, 0.3_rp, 0.5_rp], n=[0.0_rp, 0.0_rp, 1.0_rp], lam=2.0_rp)
+  do k = 1, 3
+    vt(:, k) = sph%vel + [5.0e-3_rp, 0.0_rp, 0.0_rp]
+  end do
+  dvt = 0.0_rp
+  dvt(:, 3) = [-21.0e-3_rp, 0.0_rp, 0.0_rp]
+  call check_close(pair_turn(sph, cp, lags(2), vt, dvt), 5.0_rp / 10.5_rp, 1.0e-12_rp, 0.0_rp, &
+                   'turn: the point''s slip by the weights, relative to the obstacle')
+  dvt(:, 3) = [-11.0e-3_rp, 0.0_rp, 0.0_rp]
+  call check_true(pair_turn(sph, cp, lags(2), vt, dvt) == 1.0_rp, 'turn: into the band, kept')
+  smooth = sph
+  smooth%mu = 0.0_rp
+  dvt(:, 3) = [-21.0e-3_rp, 0.0_rp, 0.0_rp]
+  call check_true(pair_turn(smooth, cp, lags(2), vt, dvt) == 1.0_rp, 'turn: no friction, kept')
 
   call check_report()
 

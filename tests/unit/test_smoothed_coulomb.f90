@@ -7,16 +7,21 @@
 !> times the tangent projector at no slip; -kc positive semidefinite; the
 !> power -f . u, and 0 without friction; the spread of a pair's point force
 !> and block by weights that sum to zero (forces summing to zero, blocks
-!> w_a w_b kc).
+!> w_a w_b kc); the Newton update's guard where a slip turns (coulomb_turn):
+!> the fraction where the slip along the update is least, from the closed
+!> form of two numbers' line, when the slip reverses from beyond eps_v / 2
+!> to beyond eps_v through the band, and 1 for a slip that keeps its way,
+!> speeds up, slows, starts deeper in the band than eps_v / 2, ends in it,
+!> or turns past it.
 program test_smoothed_coulomb
   use kinds, only: rp
-  use smoothed_coulomb, only: coulomb_slip, coulomb_power, spread_by_weights
+  use smoothed_coulomb, only: coulomb_slip, coulomb_power, spread_by_weights, coulomb_turn
   use check, only: check_true, check_close, check_close_array, check_report, seed_random
   implicit none
   real(rp), parameter :: C = 0.7_rp, EPS_V = 1.0e-3_rp          ! [force], [length/time]
   real(rp), parameter :: SCALES(4) = [0.05_rp, 0.4_rp, 3.0_rp, 300.0_rp]   ! slip speeds / eps_v
   real(rp) :: n(3), dv(3), u(3), s, kc(3, 3), pm(3, 3), fd(3, 3), fp(3), fm(3), up(3), sp, kp(3, 3), h, y, z(3)
-  real(rp) :: w(4), f(3, 4), kv(3, 3, 4, 4)
+  real(rp) :: w(4), f(3, 4), kv(3, 3, 4, 4), t1(3), t2(3), al
   integer :: k, i, trial, a, b
 
   call seed_random(11)
@@ -84,6 +89,35 @@ program test_smoothed_coulomb
                              'spread: kv_ab = w_a w_b kc')
     end do
   end do
+
+  ! the guard where a slip turns: in the tangent plane of n (t1, t2), the
+  ! normal parts of dv and its update ignored
+  t1 = [n(2), -n(1), 0.0_rp] / hypot(n(1), n(2))
+  t2 = [n(2) * t1(3) - n(3) * t1(2), n(3) * t1(1) - n(1) * t1(3), n(1) * t1(2) - n(2) * t1(1)]
+  ! straight reversal, 5 eps_v to -5.5 eps_v: least (0) at 5/10.5 of the update
+  al = coulomb_turn(EPS_V, n, EPS_V * (5.0_rp * t1 + 2.0_rp * n), EPS_V * (-10.5_rp * t1 - 7.0_rp * n))
+  call check_close(al, 5.0_rp / 10.5_rp, 1.0e-13_rp, 0.0_rp, 'turn: a reversal stops where the slip is 0')
+  ! a turn past the band: (3, 0) eps_v to (-3, 2) eps_v, du = (-6, 2): least at 18/40, slip (0.3, 0.9) eps_v
+  al = coulomb_turn(EPS_V, n, 3.0_rp * EPS_V * t1, EPS_V * (-6.0_rp * t1 + 2.0_rp * t2))
+  call check_close(al, 0.45_rp, 1.0e-13_rp, 0.0_rp, 'turn: the fraction where the slip is least')
+  call coulomb_slip(C, EPS_V, n, 3.0_rp * EPS_V * t1 + al * EPS_V * (-6.0_rp * t1 + 2.0_rp * t2), u, s, kc)
+  call check_close(norm2(u), EPS_V * sqrt(0.9_rp), 1.0e-12_rp, 0.0_rp, 'turn: there the slip is in the band')
+  ! untouched: keeps its way (faster, slower, sideways), or starts or ends in the band
+  call check_true(coulomb_turn(EPS_V, n, 5.0_rp * EPS_V * t1, 3.0_rp * EPS_V * t1) == 1.0_rp, 'turn: speeding up, kept')
+  call check_true(coulomb_turn(EPS_V, n, 5.0_rp * EPS_V * t1, -3.0_rp * EPS_V * t1) == 1.0_rp, 'turn: slowing, kept')
+  call check_true(coulomb_turn(EPS_V, n, 5.0_rp * EPS_V * t1, EPS_V * (-4.0_rp * t1 + 9.0_rp * t2)) == 1.0_rp, &
+                  'turn: turning less than 90 degrees, kept')
+  call check_true(coulomb_turn(EPS_V, n, 0.4_rp * EPS_V * t1, -5.0_rp * EPS_V * t1) == 1.0_rp, &
+                  'turn: from deeper in the band than eps_v / 2, kept')
+  ! from the band's outer half, 0.8 eps_v to -5 eps_v: least (0) at 0.8/5.8
+  call check_close(coulomb_turn(EPS_V, n, 0.8_rp * EPS_V * t1, -5.8_rp * EPS_V * t1), 0.8_rp / 5.8_rp, 1.0e-13_rp, 0.0_rp, &
+                   'turn: from the band''s outer half, limited')
+  ! a turn that misses the band: (3, 0) eps_v to (-3, 4) eps_v, least |u| = 1.66 eps_v at 18/52
+  call check_true(coulomb_turn(EPS_V, n, 3.0_rp * EPS_V * t1, EPS_V * (-6.0_rp * t1 + 4.0_rp * t2)) == 1.0_rp, &
+                  'turn: past the band, kept')
+  call check_true(coulomb_turn(EPS_V, n, 5.0_rp * EPS_V * t1, -5.5_rp * EPS_V * t1) == 1.0_rp, 'turn: into the band, kept')
+  call check_true(coulomb_turn(EPS_V, n, 5.0_rp * EPS_V * t1, -10.0_rp * EPS_V * n) == 1.0_rp, &
+                  'turn: a normal update, kept')
   call check_report()
 
 contains
