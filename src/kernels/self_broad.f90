@@ -30,8 +30,7 @@
 !>   - are near: the distance is below reach (self_candidates), or the two
 !>     paths from x to x + dx may come within margin of each other
 !>     (self_candidates_swept: boxes of both ends overlap and the start
-!>     distance minus ACCD's rate bound is below margin; self_candidates_swept2: along
-!>     either of two sets of paths, in one walk).
+!>     distance minus ACCD's rate bound is below margin).
 !> Point-triangle pairs are (p, t0, t1, t2) with the triangle's corners in
 !> quad_triangles' order; edge-edge pairs (a0, a1, b0, b1) with the edge of
 !> the smaller number first, each edge's nodes in anchor order.
@@ -55,11 +54,10 @@ module self_broad
   use contact_primitives, only: point_triangle_d2, edge_edge_d2
   use contact_ccd, only: accd_rate_bound
   use work_arrays, only: grow, grow_from0
-  use self_hash, only: grid_t, cell_of, cell_key, bucket, build_grid
   implicit none
   private
   public :: self_lattice_t, self_pairs_t, PAIR_PT, PAIR_EE, OWN_LOWEST, OWN_TOUCH
-  public :: self_row_slots, self_candidates, self_candidates_swept, self_candidates_swept2
+  public :: self_row_slots, self_candidates, self_candidates_swept
   public :: self_pair_positions, self_pair_rest, self_pairs_clear, self_pair_owner_row
   public :: self_pair_distance2, self_pairs_reserve, self_pairs_regrown, self_rest_gap
 
@@ -86,6 +84,15 @@ module self_broad
     logical, allocatable :: ee(:, :, :, :)     ! (0:2, 0:2, -ri:ri, -rj:rj)
   end type rest_table_t
 
+  !> The spatial hash of one set of boxes (arrays at least as long as used).
+  type :: grid_t
+    integer :: nbucket = 0                 ! a power of 2
+    integer, allocatable :: first(:)       ! (0:nbucket+) start of each bucket in item
+    integer, allocatable :: item(:)        ! (n+) box number of each entry
+    integer(int64), allocatable :: key(:)  ! (n+) the entry's cell, packed (cell_key)
+    integer, allocatable :: fill(:)        ! (0:nbucket-1+) the counting sort's counters
+  end type grid_t
+
   !> The broad phase's tables, kept between calls (each array at least as long as the
   !> last call needed; the first ntri, ned, npt columns used).
   type :: broad_work_t
@@ -111,10 +118,10 @@ module self_broad
     integer :: regrown = 0                 !< times an array here was reallocated larger (self_pairs_regrown)
     type(broad_work_t), allocatable, private :: work
     real(rp), allocatable, private :: x1(:, :, :)   !< (3, 0:nx-1, nr+) a swept call's end positions [length]
-    real(rp), allocatable, private :: y1(:, :, :)   !< (3, 0:nx-1, nr+) and of its second paths [length]
   end type self_pairs_t
 
   real(rp), parameter :: CELL_FACTOR = 1.0_rp
+  integer(int64), parameter :: P1 = 73856093_int64, P2 = 19349663_int64, P3 = 83492791_int64
 
 contains
 
@@ -280,41 +287,12 @@ contains
     end associate
   end subroutine self_candidates_swept
 
-  !> Candidate pairs for two sets of straight paths of every node, x -> x + dx and y -> y +
-  !> dy: a pair is kept where it may come within margin along either set (the union of two
-  !> self_candidates_swept calls, each pair once, in one walk of the hash over boxes that
-  !> hold both paths). For an update's own paths and a look-ahead along the step's motion
-  !> (module self_contact); pairs is emptied.
-  subroutine self_candidates_swept2(lat, rows, x, dx, y, dy, own_lo, own_hi, own_rule, margin, rest_reach, pairs)
-    type(self_lattice_t), intent(in) :: lat
-    integer, intent(in) :: rows(:)
-    real(rp), intent(in) :: x(:, 0:, :), dx(:, 0:, :)   ! (3, 0:nx-1, nr) first paths' start, displacement [length]
-    real(rp), intent(in) :: y(:, 0:, :), dy(:, 0:, :)   ! (3, 0:nx-1, nr) second paths' [length]
-    integer, intent(in) :: own_lo, own_hi, own_rule
-    real(rp), intent(in) :: margin                      ! [length]
-    real(rp), intent(in) :: rest_reach                  ! [length]
-    type(self_pairs_t), intent(inout) :: pairs
-    integer :: nr
-
-    nr = size(rows)
-    call grow(pairs%x1, 3, lat%nx, nr, pairs%regrown)
-    call grow(pairs%y1, 3, lat%nx, nr, pairs%regrown)
-    associate (x1 => pairs%x1(:, :, 1:nr), y1 => pairs%y1(:, :, 1:nr))
-      x1 = x(1:3, :, 1:nr) + dx(1:3, :, 1:nr)
-      y1 = y(1:3, :, 1:nr) + dy(1:3, :, 1:nr)
-      call find_pairs(lat, rows, x, x1, .true., own_lo, own_hi, own_rule, margin, rest_reach, pairs, y, y1)
-    end associate
-  end subroutine self_candidates_swept2
-
-  !> The broad phase proper: boxes over the start x0 and the end x1 of each primitive (and
-  !> over y0 and y1, a second set of paths, where given: a swept pair is kept where it may
-  !> come near along either). The tables are pairs' own, moved out for the call
-  !> (move_alloc: no copy) and back.
-  subroutine find_pairs(lat, rows, x0, x1, swept, own_lo, own_hi, own_rule, reach, rest_reach, pairs, y0, y1)
+  !> The broad phase proper: boxes over the start x0 and the end x1 of each primitive. The
+  !> tables are pairs' own, moved out for the call (move_alloc: no copy) and back.
+  subroutine find_pairs(lat, rows, x0, x1, swept, own_lo, own_hi, own_rule, reach, rest_reach, pairs)
     type(self_lattice_t), intent(in) :: lat
     integer, intent(in) :: rows(:)
     real(rp), intent(in) :: x0(:, 0:, :), x1(:, 0:, :)
-    real(rp), intent(in), optional :: y0(:, 0:, :), y1(:, 0:, :)
     logical, intent(in) :: swept
     integer, intent(in) :: own_lo, own_hi, own_rule
     real(rp), intent(in) :: reach, rest_reach
@@ -329,7 +307,7 @@ contains
       pairs%regrown = pairs%regrown + 1
     end if
     call move_alloc(pairs%work, w)
-    call prepare_tables(w, lat, rows, x0, x1, reach, rest_reach, pairs%regrown, ntri, ned, npt, origin, h, y0, y1)
+    call prepare_tables(w, lat, rows, x0, x1, reach, rest_reach, pairs%regrown, ntri, ned, npt, origin, h)
     if (npt > 0) then
       call point_triangle_pairs()
       call edge_edge_pairs()
@@ -408,7 +386,6 @@ contains
     subroutine consider(kind, node, ida, idb)
       integer, intent(in) :: kind, node(4), ida, idb
       real(rp) :: xa(3, 4), xb(3, 4), d2
-      logical :: near
       integer :: jown
 
       if (own_rule == OWN_TOUCH) then
@@ -424,15 +401,7 @@ contains
       d2 = self_pair_distance2(kind, xa)
       if (swept) then
         xb = self_pair_positions(lat, w%slot, x1, node)
-        if (present(y0)) then
-          ! the boxes held both sets of paths: each set's own boxes and bound
-          near = paths_near(kind, xa, xb, reach)
-          if (.not. near) near = paths_near(kind, self_pair_positions(lat, w%slot, y0, node), &
-                                            self_pair_positions(lat, w%slot, y1, node), reach)
-        else
-          near = sqrt(d2) - accd_rate_bound(kind, xb - xa) < reach
-        end if
-        if (.not. near) return
+        if (sqrt(d2) - accd_rate_bound(kind, xb - xa) >= reach) return
       else
         if (d2 >= reach**2) return
       end if
@@ -441,33 +410,14 @@ contains
 
   end subroutine find_pairs
 
-  !> Whether a pair's paths from xa to xb (its 4 nodes) may come within reach: the two
-  !> primitives' boxes over both ends, one grown by reach, meet, and the start distance
-  !> minus ACCD's rate bound is below reach.
-  pure logical function paths_near(kind, xa, xb, reach) result(near)
-    integer, intent(in) :: kind
-    real(rp), intent(in) :: xa(3, 4), xb(3, 4), reach
-    real(rp) :: lo1(3), hi1(3), lo2(3), hi2(3)
-    integer :: na
-
-    na = merge(1, 2, kind == PAIR_PT)
-    lo1 = min(minval(xa(:, 1:na), dim=2), minval(xb(:, 1:na), dim=2))
-    hi1 = max(maxval(xa(:, 1:na), dim=2), maxval(xb(:, 1:na), dim=2))
-    lo2 = min(minval(xa(:, na + 1:4), dim=2), minval(xb(:, na + 1:4), dim=2)) - reach
-    hi2 = max(maxval(xa(:, na + 1:4), dim=2), maxval(xb(:, na + 1:4), dim=2)) + reach
-    near = .not. any(lo1 > hi2 .or. lo2 > hi1)
-    if (near) near = sqrt(self_pair_distance2(kind, xa)) - accd_rate_bound(kind, xb - xa) < reach
-  end function paths_near
-
   !> The tables of one call in w (grown where too short): the present rows' slots, the
-  !> primitives and their boxes over x0 and x1 (and y0, y1 where given), the hash's cell h
-  !> and origin, the two grids (boxes grown by reach) and the rest rule's table.
-  subroutine prepare_tables(w, lat, rows, x0, x1, reach, rest_reach, regrown, ntri, ned, npt, origin, h, y0, y1)
+  !> primitives and their boxes over x0 and x1, the hash's cell h and origin, the two grids
+  !> (boxes grown by reach) and the rest rule's table.
+  subroutine prepare_tables(w, lat, rows, x0, x1, reach, rest_reach, regrown, ntri, ned, npt, origin, h)
     type(broad_work_t), intent(inout) :: w
     type(self_lattice_t), intent(in) :: lat
     integer, intent(in) :: rows(:)
     real(rp), intent(in) :: x0(:, 0:, :), x1(:, 0:, :)
-    real(rp), intent(in), optional :: y0(:, 0:, :), y1(:, 0:, :)
     real(rp), intent(in) :: reach, rest_reach          ! [length]
     integer, intent(inout) :: regrown
     integer, intent(out) :: ntri, ned, npt
@@ -484,10 +434,10 @@ contains
     call grow(w%ehi, 3, ned, regrown)
     call grow(w%plo, 3, npt, regrown)
     call grow(w%phi, 3, npt, regrown)
-    call boxes(lat, w%slot, x0, x1, w%tri(:, 1:ntri), w%tlo, w%thi, y0, y1)
-    call boxes(lat, w%slot, x0, x1, w%edg(:, 1:ned), w%elo, w%ehi, y0, y1)
+    call boxes(lat, w%slot, x0, x1, w%tri(:, 1:ntri), w%tlo, w%thi)
+    call boxes(lat, w%slot, x0, x1, w%edg(:, 1:ned), w%elo, w%ehi)
     do p = 1, npt
-      call node_box(lat, w%slot, x0, x1, w%pts(p:p), w%plo(:, p), w%phi(:, p), y0, y1)
+      call node_box(lat, w%slot, x0, x1, w%pts(p:p), w%plo(:, p), w%phi(:, p))
     end do
     h = cell_size(w%tlo(:, 1:ntri), w%thi(:, 1:ntri), w%elo(:, 1:ned), w%ehi(:, 1:ned), w%plo(:, 1:npt), &
                   w%phi(:, 1:npt), reach)
@@ -711,28 +661,26 @@ contains
 
   end subroutine list_primitives
 
-  !> Boxes of primitives (a column of nodes each) over their nodes' positions at x0 and x1
-  !> (and y0, y1 where given), into the first size(nodes, 2) columns of lo and hi.
-  pure subroutine boxes(lat, slot, x0, x1, nodes, lo, hi, y0, y1)
+  !> Boxes of primitives (a column of nodes each) over their nodes' positions at x0 and x1,
+  !> into the first size(nodes, 2) columns of lo and hi.
+  pure subroutine boxes(lat, slot, x0, x1, nodes, lo, hi)
     type(self_lattice_t), intent(in) :: lat
     integer, intent(in) :: slot(0:), nodes(:, :)
     real(rp), intent(in) :: x0(:, 0:, :), x1(:, 0:, :)
     real(rp), intent(inout) :: lo(:, :), hi(:, :)      ! (3, size(nodes, 2)+) [length]
-    real(rp), intent(in), optional :: y0(:, 0:, :), y1(:, 0:, :)
     integer :: k
 
     do k = 1, size(nodes, 2)
-      call node_box(lat, slot, x0, x1, nodes(:, k), lo(:, k), hi(:, k), y0, y1)
+      call node_box(lat, slot, x0, x1, nodes(:, k), lo(:, k), hi(:, k))
     end do
   end subroutine boxes
 
-  !> Box of the nodes' positions at x0 and x1 (and y0, y1 where given).
-  pure subroutine node_box(lat, slot, x0, x1, nodes, lo, hi, y0, y1)
+  !> Box of the nodes' positions at x0 and x1.
+  pure subroutine node_box(lat, slot, x0, x1, nodes, lo, hi)
     type(self_lattice_t), intent(in) :: lat
     integer, intent(in) :: slot(0:), nodes(:)
     real(rp), intent(in) :: x0(:, 0:, :), x1(:, 0:, :)
     real(rp), intent(out) :: lo(3), hi(3)
-    real(rp), intent(in), optional :: y0(:, 0:, :), y1(:, 0:, :)
     integer :: k, i, s
 
     lo = huge(1.0_rp)
@@ -742,11 +690,89 @@ contains
       s = slot(nodes(k) / lat%nx)
       lo = min(lo, x0(1:3, i, s), x1(1:3, i, s))
       hi = max(hi, x0(1:3, i, s), x1(1:3, i, s))
-      if (.not. present(y0)) cycle
-      lo = min(lo, y0(1:3, i, s), y1(1:3, i, s))
-      hi = max(hi, y0(1:3, i, s), y1(1:3, i, s))
     end do
   end subroutine node_box
+
+  ! ------------------------------------------------------------------------
+  ! The spatial hash
+  ! ------------------------------------------------------------------------
+
+  pure function cell_of(y, origin, h) result(c)
+    real(rp), intent(in) :: y(3), origin(3), h
+    integer(int64) :: c(3)
+
+    c = floor((y - origin) / h, kind=int64)
+  end function cell_of
+
+  !> A cell's coordinates (each in 0..2^21-1: cell_size keeps them there) in one integer.
+  pure integer(int64) function cell_key(c) result(k)
+    integer(int64), intent(in) :: c(3)
+
+    k = c(1) + ishft(c(2), 21) + ishft(c(3), 42)
+  end function cell_key
+
+  pure integer function bucket(g, c) result(b)
+    type(grid_t), intent(in) :: g
+    integer(int64), intent(in) :: c(3)
+
+    b = int(iand(ieor(ieor(c(1) * P1, c(2) * P2), c(3) * P3), int(g%nbucket - 1, int64)))
+  end function bucket
+
+  !> The hash of boxes lo(:, k) - pad..hi(:, k) + pad: each box in every cell it overlaps
+  !> (counting sort); g's arrays grown where too short.
+  pure subroutine build_grid(g, lo, hi, pad, origin, h, regrown)
+    type(grid_t), intent(inout) :: g
+    real(rp), intent(in) :: lo(:, :), hi(:, :), pad, origin(3), h
+    integer, intent(inout) :: regrown
+    integer(int64) :: clo(3), chi(3), c(3)
+    integer :: k, n, b, cx, cy, cz, pass
+
+    n = 0
+    do k = 1, size(lo, 2)
+      clo = cell_of(lo(:, k) - pad, origin, h)
+      chi = cell_of(hi(:, k) + pad, origin, h)
+      n = n + int(product(chi - clo + 1))
+    end do
+    g%nbucket = 1
+    do while (g%nbucket < n)
+      g%nbucket = 2 * g%nbucket
+    end do
+    call grow_from0(g%first, g%nbucket, regrown)
+    call grow_from0(g%fill, g%nbucket - 1, regrown)
+    call grow(g%item, n, regrown)
+    call grow(g%key, n, regrown)
+    associate (fill => g%fill)
+      fill(0:g%nbucket - 1) = 0
+      do pass = 1, 2
+        do k = 1, size(lo, 2)
+          clo = cell_of(lo(:, k) - pad, origin, h)
+          chi = cell_of(hi(:, k) + pad, origin, h)
+          do cz = 0, int(chi(3) - clo(3))
+            do cy = 0, int(chi(2) - clo(2))
+              do cx = 0, int(chi(1) - clo(1))
+                c = clo + [cx, cy, cz]
+                b = bucket(g, c)
+                if (pass == 1) then
+                  fill(b) = fill(b) + 1
+                else
+                  g%item(fill(b)) = k
+                  g%key(fill(b)) = cell_key(c)
+                  fill(b) = fill(b) + 1
+                end if
+              end do
+            end do
+          end do
+        end do
+        if (pass == 1) then
+          g%first(0) = 1
+          do b = 0, g%nbucket - 1
+            g%first(b + 1) = g%first(b) + fill(b)
+          end do
+          fill(0:g%nbucket - 1) = g%first(0:g%nbucket - 1)
+        end if
+      end do
+    end associate
+  end subroutine build_grid
 
   ! ------------------------------------------------------------------------
   ! The tables kept between calls

@@ -5,9 +5,7 @@
 !> random rolled (spiral, turns closer than the reach), crumpled (random
 !> smooth modes, self-intersecting) and folded sheets, with both quad splits,
 !> at positions (self_candidates) and along random updates
-!> (self_candidates_swept), and along either of two sets of random updates
-!> from different starts (self_candidates_swept2: the union of the two
-!> brute forces); on a subset of rows; split by ownership into
+!> (self_candidates_swept); on a subset of rows; split by ownership into
 !> three bands of rows, the bands' lists are disjoint and make the whole;
 !> the rest-distance rule (a flat sheet at rest has no pair with rest_reach =
 !> reach; its lattice neighbours are pairs without it); each pair once, no
@@ -20,7 +18,6 @@ program test_self_broad
   use kinds, only: rp
   use contact_faces, only: SPLIT_MAIN, SPLIT_ANTI
   use self_broad, only: self_lattice_t, self_pairs_t, self_candidates, self_candidates_swept, PAIR_PT, &
-                        self_candidates_swept2, &
                         OWN_LOWEST, OWN_TOUCH, self_pairs_regrown, self_rest_gap
   use self_shapes, only: roll_shape, fold_shape, crumple_shape, brute_keys, pair_keys
   use check, only: check_true, check_report, seed_random
@@ -46,8 +43,8 @@ contains
     integer, intent(in) :: trial
     type(self_lattice_t) :: lat
     type(self_pairs_t) :: pairs
-    real(rp), allocatable :: x(:, :, :), dx(:, :, :), y(:, :, :), dy(:, :, :)
-    integer(int64), allocatable :: kb(:), kh(:), kb2(:)
+    real(rp), allocatable :: x(:, :, :), dx(:, :, :)
+    integer(int64), allocatable :: kb(:), kh(:)
     integer, allocatable :: rows(:)
     real(rp) :: reach
     character(len=40) :: what
@@ -86,21 +83,6 @@ contains
     call brute_keys(lat, rows, x, x + dx, .true., 0, lat%ny - 1, OWN_LOWEST, 0.001_rp, reach, kb)
     call check_true(size(kb) > 20, trim(what)//': paths come near')
     call check_true(same(kh, kb), trim(what)//': swept candidates = brute force')
-
-    ! Two sets of paths (a Newton update from its iterate x, and the step's motion from
-    ! another start y): the pairs of either, each once.
-    allocate(y, dy, mold=x)
-    call random_number(y)
-    y = x + 0.003_rp * (2.0_rp * y - 1.0_rp)
-    call random_number(dy)
-    dy = 0.012_rp * (2.0_rp * dy - 1.0_rp)
-    call self_candidates_swept2(lat, rows, x, dx, y, dy, 0, lat%ny - 1, OWN_LOWEST, 0.001_rp, reach, pairs)
-    call pair_keys(lat, pairs, kh)
-    call brute_keys(lat, rows, y, y + dy, .true., 0, lat%ny - 1, OWN_LOWEST, 0.001_rp, reach, kb2)
-    call check_true(size(kb2) > 20 .and. size(union(kb, kb2)) > max(size(kb), size(kb2)), &
-                    trim(what)//': the two sets of paths bring different pairs near')
-    call check_true(same(kh, union(kb, kb2)), trim(what)//': swept candidates of two sets = the brute forces'' union')
-    call check_true(all(kh(2:) > kh(:size(kh) - 1)), trim(what)//': two sets, each pair once')
 
     ! Reach and rest rule beyond the spacing: the rule's table of index offsets against
     ! the rest distance of each pair.
@@ -289,38 +271,6 @@ contains
     same = size(a) == size(b)
     if (same) same = all(a == b)
   end function same
-
-  !> The union of two ascending lists of keys, ascending, each key once.
-  function union(a, b) result(u)
-    integer(int64), intent(in) :: a(:), b(:)
-    integer(int64), allocatable :: u(:)
-    integer :: i, j, n
-    allocate(u(size(a) + size(b)))
-    i = 1
-    j = 1
-    n = 0
-    do while (i <= size(a) .or. j <= size(b))
-      n = n + 1
-      if (j > size(b)) then
-        u(n) = a(i)
-        i = i + 1
-      else if (i > size(a)) then
-        u(n) = b(j)
-        j = j + 1
-      else if (a(i) < b(j)) then
-        u(n) = a(i)
-        i = i + 1
-      else if (b(j) < a(i)) then
-        u(n) = b(j)
-        j = j + 1
-      else
-        u(n) = a(i)
-        i = i + 1
-        j = j + 1
-      end if
-    end do
-    u = u(1:n)
-  end function union
 
   logical function no_shared(pairs)
     type(self_pairs_t), intent(in) :: pairs
