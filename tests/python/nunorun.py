@@ -74,20 +74,24 @@ def signal_env(**extra):
     (1 s by default; input/README.md tells users to raise it): on a loaded
     machine 1 s was sometimes too short for the ranks to end their step and
     write the checkpoint, and the run died without its 'interrupted' line.
-    5 s, as a user's batch script would set it."""
+    5 s, as a user's batch script would set it; the signal then reaches the
+    ranks 5 s late, so only for runs that last that much longer (a shorter
+    one ends before and exits 0 or without its line)."""
     return dict(os.environ, OMPI_MCA_odls_base_sigkill_timeout="5", **extra)
 
 
-def start_running(tmp_path, name, nranks=2, lines=3, **groups):
+def start_running(tmp_path, name, nranks=2, lines=3, env=None, **groups):
     """Launch nuno in the background and return (Popen, h5 path) once it has
-    printed `lines` progress lines ('t = ...'): the time loop is running."""
+    printed `lines` progress lines ('t = ...'): the time loop is running.
+    env: the run's environment (signal_env() for a run long enough to go on
+    for its seconds after a SIGTERM to mpiexec), else this process's."""
     import time
     tmp_path = Path(tmp_path)
     h5 = tmp_path / f"{name}.h5"
     nml = tmp_path / f"{name}.nml"
     nml.write_text(namelist(h5.name, **groups))
     proc = subprocess.Popen([mpiexec(), "-n", str(nranks), "--oversubscribe", exe(), str(nml)], cwd=tmp_path,
-                            env=signal_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     seen = 0
     deadline = time.time() + 120
     while seen < lines and time.time() < deadline:

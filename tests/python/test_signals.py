@@ -12,13 +12,13 @@ import time
 import numpy as np
 import pytest
 
-from nunorun import read_run, start_running
+from nunorun import read_run, signal_env, start_running
 
 
 def start(tmp_path, name, interval=0.005):
     # Long enough that it is still running when the signal comes; two
     # progress lines after t = 0: the time loop is running.
-    return start_running(tmp_path, name, scene="scene='hang'", lattice="nx=33 ny=33",
+    return start_running(tmp_path, name, env=signal_env(), scene="scene='hang'", lattice="nx=33 ny=33",
                          time="t_end=50 dt=1e-3", output=f"output_interval={interval}")
 
 
