@@ -67,6 +67,17 @@ def run(tmp_path, name, nranks=1, options=(), timeout=300, check=True, **groups)
     return proc, h5
 
 
+def slide_acceleration(t, x, min_speed):
+    """The acceleration of a slide x(t) (output times, a coordinate of the
+    centre of mass): twice the leading coefficient of a parabola fitted from
+    the first output where the speed (finite difference) exceeds min_speed
+    (far above friction's smoothing speed); at least 20 outputs after it."""
+    speed = np.diff(x) / np.diff(t)
+    k0 = int(np.argmax(speed > min_speed))
+    assert speed[k0] > min_speed and len(t) - k0 > 20, (k0, speed[:5])
+    return 2.0 * np.polyfit(t[k0:], x[k0:], 2)[0]
+
+
 def signal_env(**extra):
     """The environment of a run that a test stops with SIGTERM sent to
     mpiexec: Open MPI's mpirun forwards the signal to the ranks after
