@@ -1,15 +1,23 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: BSD-2-Clause
-"""The fast-solver benchmark (issue 7): hang at N x N on 1 and 2 ranks, for
+"""The fast-solver benchmark (issues 7 and 46): hang at N x N on 1 and 2
+ranks, on issue 46's protocol (hang with energy bending, dt = 1/600 s, its
+table's steps from rest: 60 at 65 x 65 and 129 x 129, 30 at 257, 20 at
+513, 10 at 1025), for
   bw      the Baraff-Witkin mode: one linearised solve a step
-          (-snes_type ksponly), inner relative tolerance 1e-3, dt = 1/600 s;
-  newton  full Newton at the default tolerances, dt = 1 ms (the defaults:
-          nuno's structured multigrid, Newton forcing, lagged S);
+          (-snes_type ksponly), inner relative tolerance 1e-3;
+  newton  full Newton at the default tolerances (nuno's structured
+          multigrid, Newton forcing, lagged S), at issue 46's dt = 1/600 s
+          too, so that both of its targets are measured as it states them;
   pcmg    the same with PETSc's PCMG as the inner preconditioner
           (-nuno_mg petsc, the default before nuno's multigrid);
   full6   the old 6-dof assembled path (-nuno_jacobian full, GMRES + ILU),
-          dt = 1 ms, where it runs (65 x 65);
+          dt = 1 ms (hang's own), where it runs (65 x 65);
 and, with --bending no|both, the same cloth without bending (3 x 3 stencil).
+With --peer N:THREADS, the implicit peer (bench/peer_taichi.py) at that N
+on that many threads, the same steps, right after nuno's bw rows with
+bending at that N, so that nuno/peer comes from runs minutes apart on the
+same machine; its line ("peer N=...") goes into the output with nuno's.
 Per run: node-steps/s of TSStep (from -log_view), Newton and Krylov
 iterations per step, set-up time (wall time before the first step), peak
 memory per node (-memory_view, summed over ranks), and the rates of the two
@@ -21,15 +29,18 @@ wanders by 20-30 %).
 Writes a JSON file of the raw numbers, a markdown table, and a plot.
 
     source tools/env.sh
-    bash bench/performance.sh          # the benchmark behind docs/performance.md (~35 min)
+    bash bench/performance.sh          # the benchmark behind docs/performance.md (~15 min)
+    bash bench/performance.sh --quick  # the same script at 65 and 129 only (~2 min)
     python3 bench/solver.py --sizes 65 129 --modes bw      # a quick look
     python3 bench/solver.py --replot LOG... --donewhen LOG \
         --output docs/performance-data.json --plot docs/figures/performance.png --doc docs/performance.md
 
---replot reads the tables printed by earlier runs (later logs win for the
-same case), --donewhen the log of the done-when run (hang 257 x 257, 1 s,
-2 ranks, no options, under /usr/bin/time -v), and writes the JSON, the
-figure and the table between docs/performance.md's markers from them.
+--replot reads the tables and the peer's lines printed by earlier runs
+(later logs win for the same case), --donewhen the log of the done-when
+run (hang 257 x 257, 1 s, 2 ranks, no options, under /usr/bin/time -v;
+smaller with performance.sh --quick), and writes the JSON, the figure and
+the table between docs/performance.md's markers from them (with the peer:
+its node-steps/s and nuno/peer on the bw rows with bending at its N).
 """
 import argparse
 import json
@@ -45,12 +56,13 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 from postprocess import namelist  # noqa: E402
 
-# steps per run: enough to average, few enough for 1025 x 1025
-STEPS = {65: 30, 129: 20, 257: 10, 513: 10, 1025: 10}
+# steps from rest per run: those of issue 46's table (its protocol)
+STEPS = {65: 60, 129: 60, 257: 30, 513: 20, 1025: 10}
+# dt [s] and options of each mode: issue 46's targets are at dt = 1/600 s
 MODES = {
     "bw": (1.0 / 600.0, ["-snes_type", "ksponly", "-reduced_ksp_rtol", "1e-3"]),
-    "newton": (1.0e-3, []),
-    "pcmg": (1.0e-3, ["-nuno_mg", "petsc"]),
+    "newton": (1.0 / 600.0, []),
+    "pcmg": (1.0 / 600.0, ["-nuno_mg", "petsc"]),
     "full6": (1.0e-3, ["-nuno_jacobian", "full"]),
 }
 
@@ -140,6 +152,51 @@ def run(exe, mpiexec, n, nranks, mode, bending, timeout):
                 assemble_share=t_asm / t_step if n_cyc else float("nan"))
 
 
+# the line bench/peer_taichi.py prints (and this script copies into its output)
+PEER_LINE = re.compile(r"^peer N=(\d+) threads=(\d+) steps=(\d+) cg_iterations_per_step=([0-9.eE+-]+) "
+                       r"node_steps_per_s=([0-9.eE+-]+)\s*$", re.M)
+
+
+def peer_from_match(m):
+    return dict(ok=True, n=int(m.group(1)), threads=int(m.group(2)), steps=int(m.group(3)),
+                cg_iterations_per_step=float(m.group(4)), node_steps_per_s=float(m.group(5)))
+
+
+def peer_run(n, threads, steps, timeout):
+    """The peer (bench/peer_taichi.py, in its venv under runs/) at N x N on
+    threads threads, steps steps at bw's dt: its numbers, or ok=False."""
+    cmd = [sys.executable, str(ROOT / "bench" / "peer_taichi.py"), "--n", str(n), "--steps", str(steps),
+           "--threads", str(threads), "--dt", repr(MODES["bw"][0])]
+    try:
+        p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return dict(ok=False, n=n, threads=threads, why=f"no result in {timeout} s")
+    m = PEER_LINE.search(p.stdout)
+    if p.returncode != 0 or not m:
+        last = (p.stdout + p.stderr).strip().splitlines()
+        return dict(ok=False, n=n, threads=threads, why=(last[-1] if last else "?")[:160])
+    return peer_from_match(m)
+
+
+def peer_line(r):
+    """The peer's line as bench/peer_taichi.py prints it (what --replot reads)."""
+    if not r["ok"]:
+        return f"peer N={r['n']} threads={r['threads']} failed: {r['why']}"
+    return (f"peer N={r['n']} threads={r['threads']} steps={r['steps']} "
+            f"cg_iterations_per_step={r['cg_iterations_per_step']:.2f} node_steps_per_s={r['node_steps_per_s']:.4g}")
+
+
+def peer_spec(text):
+    """--peer's N:THREADS as (N, THREADS)."""
+    try:
+        n, threads = (int(x) for x in text.split(":"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--peer takes N:THREADS, got {text!r}") from None
+    if n < 3 or threads < 1:
+        raise argparse.ArgumentTypeError(f"--peer needs N >= 3 and THREADS >= 1, got {text!r}")
+    return n, threads
+
+
 def table(rows, bw1, bw2):
     head = ("| mode | bending | N | ranks | steps | node-steps/s | Newton/step | Krylov/step | set-up [s] "
             "| memory [KB/node] | Jacobian | KSP | MatMult GB/s (of triad) | MG cycle GB/s (of triad) |\n|" + "---|" * 14)
@@ -159,7 +216,7 @@ def table(rows, bw1, bw2):
     return "\n".join(out)
 
 
-def plot(rows, path):
+def plot(rows, path, peers=None):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -173,12 +230,19 @@ def plot(rows, path):
                      if r["ok"] and (r["mode"], r["bending"], r["nranks"]) == (mode, bending, nranks))
         ax.loglog(*zip(*pts), ("o-" if nranks == 1 else "s--"), color=colors[(mode, bending)],
                   label=f"{mode}, {'bending' if bending else 'no bending'}, {nranks} rank(s)")
-    ax.axhline(1.0e5, color="k", lw=0.8, ls=":")   # bench/peer.sh, docs/performance.md "The peer"
-    ax.text(70, 1.1e5, "peer (bench/peer_taichi.py): 0.1 M per core (257 x 257, 2-hop springs)", fontsize=8)
+    peers = sorted((r["n"], r["node_steps_per_s"] / r["threads"]) for r in peers or [])
+    if peers:
+        # the peer measured in the same run (--peer): node-steps/s per thread
+        ax.loglog(*zip(*peers), "k:", marker="x", lw=1.2,
+                  label="peer (peer_taichi.py), per thread")
+    else:
+        # logs without the peer: its rate from bench/peer.sh (docs/performance.md "The peer")
+        ax.axhline(1.0e5, color="k", lw=0.8, ls=":")
+        ax.text(70, 1.1e5, "peer (bench/peer_taichi.py): 0.1 M per core (257 x 257, 2-hop springs)", fontsize=8)
     ax.set_xlabel("N (lattice N x N)")
     ax.set_ylabel("node-steps / s (TSStep)")
     ax.axhline(1.2e6, color="k", lw=0.8, ls="--")
-    ax.text(70, 1.32e6, "target (a) without bending: 1.2 M per core", fontsize=8)
+    ax.text(70, 1.32e6, "issue 46's target, bw with bending, 257 x 257 on 1 core: 1.2 M", fontsize=8)
     builds = sorted({m.group(1) for r in rows for m in [re.search(r"-([0-9a-f]{7,})", r.get("log", ""))] if m})
     ax.set_title("nuno reduced solve, hang scene, this 2-core machine"
                  + (f" (builds {', '.join(builds)})" if builds else ""), fontsize=10)
@@ -203,6 +267,11 @@ def rows_from_table(path):
     return rows
 
 
+def peers_from_log(path):
+    """The peer's lines of a log (--peer), each with the name of its log."""
+    return [dict(peer_from_match(m), log=Path(path).name) for m in PEER_LINE.finditer(Path(path).read_text())]
+
+
 def log_source(path):
     """A log's notes ('#' lines) and triad line: where its numbers come from."""
     lines = Path(path).read_text().splitlines()
@@ -222,7 +291,10 @@ def donewhen_from_log(path):
     elapsed = re.search(r"^real\s+(\d+)m([0-9.]+)s", text, re.M)
     rss = re.search(r"Maximum resident set size \(kbytes\):\s+(\d+)", text)
     _, t_step, _ = event(text, "TSStep")
-    return dict(log=Path(path).name, steps=steps, rejected=rejected, newton=newton, linear=linear,
+    # its lattice and t_end [s] from the log's first line (--quick runs a smaller one)
+    case = re.search(r"nx = ny = (\d+), t_end = ([0-9.]+)", text)
+    return dict(log=Path(path).name, n=int(case.group(1)) if case else 257,
+                t_end_s=float(case.group(2)) if case else 1.0, steps=steps, rejected=rejected, newton=newton, linear=linear,
                 wall_time_s=float(wall.group(1)) if wall else None,
                 elapsed_s=(60 * int(elapsed.group(1)) + float(elapsed.group(2))) if elapsed else None,
                 tsstep_s=t_step, max_rss_mb=int(rss.group(1)) / 1024 if rss else None)
@@ -230,15 +302,37 @@ def donewhen_from_log(path):
 
 def doc_table(data):
     """The markdown of docs/performance.md's table (between its markers):
-    one row a (bending, mode, N), the two rank counts side by side."""
+    one row a (bending, mode, N), the two rank counts side by side; with the
+    peer's runs (data["peer"]), two columns more on the bw rows with bending
+    at the peer's N: its node-steps/s and nuno's over it at as many ranks as
+    the peer had threads."""
     runs = {(r["mode"], r["bending"], r["n"], r["nranks"]): r for r in data["runs"]}
+    peers = data.get("peer") or []
 
     def cell(r, key, fmt):
         return fmt.format(r[key]) if r else "-"
 
-    out = ["| bending | mode | N | node-steps/s, 1 rank | node-steps/s, 2 ranks | Newton / step (2 ranks) "
-           "| Krylov / step (2 ranks) | KB / node, 1 rank | KB / node, 2 ranks | log |",
-           "|---|---|---|---|---|---|---|---|---|---|"]
+    def peer_cells(bending, mode, n):
+        here = sorted((q for q in peers if q["n"] == n), key=lambda q: q["threads"]) \
+            if bending and mode == "bw" else []
+        if not here:
+            return "| - | - "
+        rates, ratios = [], []
+        for q in here:
+            s = "" if q["threads"] == 1 else "s"
+            rates.append(f"{q['node_steps_per_s']:.3g} ({q['threads']} thread{s})")
+            nuno = runs.get((mode, bending, n, q["threads"]))
+            ratios.append(f"{nuno['node_steps_per_s'] / q['node_steps_per_s']:.2f} ({q['threads']} rank{s})"
+                          if nuno else "-")
+        return f"| {'; '.join(rates)} | {'; '.join(ratios)} "
+
+    head = "| bending | mode | N | node-steps/s, 1 rank | node-steps/s, 2 ranks "
+    rule = "|---|---|---|---|---"
+    if peers:
+        head += "| peer node-steps/s | nuno / peer "
+        rule += "|---|---"
+    out = [head + "| Newton / step (2 ranks) | Krylov / step (2 ranks) | KB / node, 1 rank | KB / node, 2 ranks | log |",
+           rule + "|---|---|---|---|---|"]
     keys = sorted({(b, m, n) for m, b, n, _ in runs}, key=lambda k: (not k[0], k[1], k[2]))
     for bending, mode, n in keys:
         one, two = runs.get((mode, bending, n, 1)), runs.get((mode, bending, n, 2))
@@ -247,11 +341,13 @@ def doc_table(data):
         kb2 = dict(kb=two["bytes_per_node"] / 1024) if two else None
         out.append(f"| {'yes' if bending else 'no'} | {mode} | {n} "
                    f"| {cell(one, 'node_steps_per_s', '{:.3g}')} | {cell(two, 'node_steps_per_s', '{:.3g}')} "
-                   f"| {ref['newton_per_step']:.2f} | {ref['krylov_per_step']:.1f} "
+                   + (peer_cells(bending, mode, n) if peers else "")
+                   + f"| {ref['newton_per_step']:.2f} | {ref['krylov_per_step']:.1f} "
                    f"| {cell(kb1, 'kb', '{:.2f}')} | {cell(kb2, 'kb', '{:.2f}')} | {ref.get('log', '')} |")
     d = data.get("donewhen")
     if d:
-        out += ["", f"Done-when run (hang 257 x 257, 1 s, 2 ranks, no options; {d['log']}): "
+        n, t_end = d.get("n", 257), d.get("t_end_s", 1.0)
+        out += ["", f"Done-when run (hang {n} x {n}, {t_end:g} s, 2 ranks, no options; {d['log']}): "
                 f"{d['elapsed_s']:.1f} s elapsed, TSStep {d['tsstep_s']:.1f} s, {d['steps']} steps, "
                 f"{d['rejected']} rejected, {d['newton']} Newton and {d['linear']} Krylov iterations, "
                 + (f"{d['max_rss_mb']:.0f} MB resident at most (the largest process)."
@@ -276,8 +372,11 @@ def main(argv=None):
     ap.add_argument("--modes", nargs="+", default=["bw", "newton", "full6"], choices=sorted(MODES))
     ap.add_argument("--bending", choices=["yes", "no", "both"], default="yes",
                     help="hang's energy bending (yes), the same cloth without bending (no), or both")
+    ap.add_argument("--peer", type=peer_spec, nargs="+", default=[], metavar="N:THREADS",
+                    help="run the peer (bench/peer_taichi.py) at N on THREADS threads, the steps of N, "
+                         "after nuno's bw rows with bending at N (issue 46: 257:1 1025:2)")
     ap.add_argument("--timeout", type=float, default=900, help="seconds per run")
-    ap.add_argument("--repeat", type=int, default=2, help="runs of each case, the fastest kept")
+    ap.add_argument("--repeat", type=int, default=2, help="runs of each case (and of the peer), the fastest kept")
     ap.add_argument("--output", help="JSON file of the raw numbers")
     ap.add_argument("--plot", help="PNG of node-steps/s against N")
     ap.add_argument("--replot", nargs="+", metavar="LOG",
@@ -290,13 +389,17 @@ def main(argv=None):
     if a.replot:
         rows = [r for log in a.replot for r in rows_from_table(log)]
         rows = list({(r["mode"], r["bending"], r["n"], r["nranks"]): r for r in rows}.values())
+        peers = [q for log in a.replot for q in peers_from_log(log)]
+        peers = list({(q["n"], q["threads"]): q for q in peers}.values())
         data = dict(sources=[log_source(log) for log in a.replot], runs=rows)
+        if peers:
+            data["peer"] = peers
         if a.donewhen:
             data["donewhen"] = donewhen_from_log(a.donewhen)
         if a.output:
             Path(a.output).write_text(json.dumps(data, indent=1) + "\n")
         if a.plot:
-            plot(rows, a.plot)
+            plot(rows, a.plot, peers)
         if a.doc:
             replace_between(a.doc, doc_table(data))
         else:
@@ -304,7 +407,7 @@ def main(argv=None):
         return 0
     bw1, bw2 = triad(1), triad(2)
     print(f"triad: {bw1:.1f} GB/s on 1 core, {bw2:.1f} GB/s on 2", flush=True)
-    rows = []
+    rows, peers = [], []
     for bending in {"yes": [True], "no": [False], "both": [True, False]}[a.bending]:
         for mode in a.modes:
             for n in a.sizes:
@@ -319,12 +422,20 @@ def main(argv=None):
                     r.update(n=n, nranks=p, mode=mode, bending=bending)
                     rows.append(r)
                     print(table([r], bw1, bw2).splitlines()[-1], flush=True)
+                for pn, threads in a.peer:
+                    if (pn, mode, bending) == (n, "bw", True):
+                        tries = [peer_run(n, threads, STEPS.get(n, 3), a.timeout) for _ in range(a.repeat)]
+                        good = [t for t in tries if t["ok"]]
+                        peers.append(max(good, key=lambda t: t["node_steps_per_s"]) if good else tries[0])
+                        print(peer_line(peers[-1]), flush=True)
     print()
     print(table(rows, bw1, bw2))
+    for q in peers:
+        print(peer_line(q))
     if a.output:
-        Path(a.output).write_text(json.dumps(dict(triad_gbs=[bw1, bw2], runs=rows), indent=1))
+        Path(a.output).write_text(json.dumps(dict(triad_gbs=[bw1, bw2], runs=rows, peer=peers), indent=1))
     if a.plot:
-        plot(rows, a.plot)
+        plot(rows, a.plot, [q for q in peers if q["ok"]])
     return 0
 
 

@@ -114,3 +114,78 @@ def test_performance_table_is_its_data():
     assert table == solver.doc_table(data)
     for source in data["sources"] + [data["donewhen"]]:
         assert (ROOT / "bench" / "results" / source["log"]).exists(), source["log"]
+
+
+def _solver():
+    sys.path.insert(0, str(ROOT / "bench"))
+    try:
+        import solver
+    finally:
+        sys.path.pop(0)
+    return solver
+
+
+def _bench_row(mode, bending, n, nranks, rate):
+    """One row as bench/solver.py prints it (14 cells; the last four are not read back)."""
+    return (f"| {mode} | {bending} | {n} | {nranks} | 10 | {rate:.3g} | 1.00 | 5.0 | 0.10 | 3.50 "
+            f"| 30 % | 60 % | nan (nan %) | 12.0 (30 %) |")
+
+
+DONEWHEN_LOG = """# bash bench/performance.sh: the done-when run, input/hang.nml at nx = ny = 65, t_end = 0.1;
+t = 1.00000E-01  steps      100  rejected     0  newton      108  linear        454  retries     0
+nuno: complete at t =  1.00000E-01: 100 steps, 0 rejected, wall time  1.000E+00 s
+TSStep               100 1.0 9.0000e-01 1.0 1.48e+08 1.0 1.2e+04 2.3e+04 1.2e+04 96 100 86 84 92  96 100 86 84 92   759
+\tMaximum resident set size (kbytes): 61440
+real\t0m1.500s
+"""
+
+
+def test_performance_table_peer_columns(tmp_path):
+    """bench/solver.py --replot of a log with the peer's lines (bench/performance.sh
+    runs the peer with nuno, issue 46): the bw rows with bending at the peer's N get
+    its node-steps/s and nuno/peer at as many ranks as the peer had threads, every
+    other row '-'; a later log wins for the same (N, threads); a log without the
+    peer gives today's ten columns. Synthetic logs; the ratios by hand."""
+    solver = _solver()
+    first = tmp_path / "performance-bench-aaaaaaa.log"
+    first.write_text("\n".join([
+        "triad: 40.0 GB/s on 1 core, 50.0 GB/s on 2",
+        _bench_row("bw", "yes", 257, 1, 6.0e5), _bench_row("bw", "yes", 257, 2, 1.1e6),
+        "peer N=257 threads=1 steps=30 cg_iterations_per_step=102.43 node_steps_per_s=3e+05",
+        _bench_row("bw", "yes", 1025, 1, 4.0e5), _bench_row("bw", "yes", 1025, 2, 9.0e5),
+        "peer N=1025 threads=2 steps=10 cg_iterations_per_step=318.10 node_steps_per_s=1.8e+05",
+        _bench_row("newton", "yes", 257, 1, 4.0e5), _bench_row("bw", "no", 257, 1, 2.0e6)]) + "\n")
+    later = tmp_path / "performance-bench-bbbbbbb.log"
+    later.write_text("peer N=257 threads=1 steps=30 cg_iterations_per_step=102.43 node_steps_per_s=1.5e+05\n")
+    dw = tmp_path / "performance-donewhen-aaaaaaa.log"
+    dw.write_text(DONEWHEN_LOG)
+    doc = tmp_path / "performance.md"
+    doc.write_text("before\n<!-- table begin (bench/solver.py) -->\nold\n<!-- table end -->\nafter\n")
+    out = tmp_path / "data.json"
+    args = ["--replot", str(first), str(later), "--donewhen", str(dw), "--output", str(out), "--doc", str(doc)]
+    pytest.importorskip("matplotlib")
+    assert solver.main(args + ["--plot", str(tmp_path / "p.png")]) == 0
+    assert (tmp_path / "p.png").stat().st_size > 0
+    lines = doc.read_text().splitlines()
+    assert lines[0] == "before" and lines[-1] == "after"
+    head = [c.strip() for c in lines[2].strip("|").split("|")]
+    assert head[5:7] == ["peer node-steps/s", "nuno / peer"] and len(head) == 12
+    cells = {tuple(c.strip() for c in line.strip("|").split("|"))[:3]: [c.strip() for c in line.strip("|").split("|")]
+             for line in lines[4:] if line.startswith("| yes") or line.startswith("| no")}
+    # 6.0e5 / 1.5e5 = 4 (the later log's peer), 9.0e5 / 1.8e5 = 5 on 2 ranks against 2 threads
+    assert cells[("yes", "bw", "257")][5:7] == ["1.5e+05 (1 thread)", "4.00 (1 rank)"]
+    assert cells[("yes", "bw", "1025")][5:7] == ["1.8e+05 (2 threads)", "5.00 (2 ranks)"]
+    assert cells[("yes", "newton", "257")][5:7] == ["-", "-"]
+    assert cells[("no", "bw", "257")][5:7] == ["-", "-"]
+    assert any(line.startswith("Done-when run (hang 65 x 65, 0.1 s, 2 ranks") for line in lines)
+    data = json.loads(out.read_text())
+    assert sorted((q["n"], q["threads"], q["node_steps_per_s"]) for q in data["peer"]) == \
+        [(257, 1, 1.5e5), (1025, 2, 1.8e5)]
+    assert solver.doc_table(data) == lines[2:-2]
+
+    # without the peer's lines: no peer columns, no "peer" in the data
+    first.write_text("\n".join(l for l in first.read_text().splitlines() if not l.startswith("peer ")) + "\n")
+    assert solver.main(["--replot", str(first), "--donewhen", str(dw), "--output", str(out), "--doc", str(doc)]) == 0
+    head = [c.strip() for c in doc.read_text().splitlines()[2].strip("|").split("|")]
+    assert len(head) == 10 and "peer node-steps/s" not in head
+    assert "peer" not in json.loads(out.read_text())
