@@ -386,6 +386,10 @@ def main(argv=None):
     ap.add_argument("--doc", help="with --replot: markdown file whose table markers get the table")
     a = ap.parse_args(argv)
     a.exe = str(Path(a.exe).resolve())  # the runs start in their own folders
+    lost = [f"{n}:{t}" for n, t in a.peer if n not in a.sizes or "bw" not in a.modes or a.bending == "no"]
+    if lost and not a.replot:
+        ap.error(f"--peer {' '.join(lost)} runs after nuno's bw rows with bending at its N, "
+                 "which these --sizes, --modes and --bending do not run")
     if a.replot:
         rows = [r for log in a.replot for r in rows_from_table(log)]
         rows = list({(r["mode"], r["bending"], r["n"], r["nranks"]): r for r in rows}.values())
