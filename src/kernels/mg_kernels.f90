@@ -54,7 +54,10 @@ contains
   !> coarse levels): the rows below a row are not changed between its two
   !> visits. Not for the first r rows of a strip, whose rows below are the
   !> neighbour rank's, refreshed between the sweeps.
-  subroutine gs_sweep(st, h, x, rhs, forward, t, low, xs, acc, ds, y)
+  !>
+  !> rows (j0, j1; without low and the product): only rows j0..j1 of the
+  !> strip (stencil_mg's seam sweep).
+  subroutine gs_sweep(st, h, x, rhs, forward, t, low, xs, acc, ds, y, rows)
     type(stencil_t), intent(in) :: st
     integer, intent(in) :: h
     real(mp), intent(inout), contiguous :: x(-h:, :, st%ys - h:)
@@ -66,7 +69,8 @@ contains
     real(rp), intent(inout), optional :: acc(0:, :)
     real(mp), intent(inout), optional :: ds(0:, :)
     real(rp), intent(inout), optional :: y(:, 0:, st%ys:)
-    integer :: j, jj, k, nx, nlow, kbeg
+    integer, intent(in), optional :: rows(2)
+    integer :: j, jj, k, nx, nlow, kbeg, j0, j1
     integer :: dik(st%nr)                         ! the offsets along the row, by k
 
     nx = st%nx
@@ -78,8 +82,14 @@ contains
     nlow = count(st%odj(st%kv(1:st%nv)) < 0)
     ! the padding columns of the product's rows stay zero
     if (present(y)) xs = 0.0_rp
-    do jj = 0, st%ye - st%ys
-      j = merge(st%ys + jj, st%ye - jj, forward)
+    j0 = st%ys
+    j1 = st%ye
+    if (present(rows)) then
+      j0 = rows(1)
+      j1 = rows(2)
+    end if
+    do jj = 0, j1 - j0
+      j = merge(j0 + jj, j1 - jj, forward)
       kbeg = 1
       if (present(low)) then
         if (forward) then

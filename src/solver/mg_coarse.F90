@@ -33,7 +33,7 @@ module mg_coarse
   use reduced_assembly, only: assemble_stencil
   use offset_product, only: offset_count
   use mg_kernels, only: stencil_t
-  use stencil_mg, only: stencil_mg_t, mg_levels, mg_level_rows, mg_level_links, mg_level_op, mg_set_level_fixed, &
+  use stencil_mg, only: stencil_mg_t, mg_set_seam, mg_levels, mg_level_rows, mg_level_links, mg_level_op, mg_set_level_fixed, &
                         mg_factor_coarsest
   use mg_gather, only: row_plan_t, plan_create, plan_copy_dp, natural_rows
   implicit none
@@ -182,6 +182,10 @@ contains
     blocks(1) = node_blocks_count(nodal) > 0
     blocks(2) = node_blocks_between(nodal)
     if (mc%nranks > 1) call MPI_Allreduce(MPI_IN_PLACE, blocks, 2, MPI_LOGICAL, MPI_LOR, mc%comm, ierr)
+    ! blocks between neighbours, the faces' barrier across an element, are
+    ! of rank one: the smoother's Jacobi between strips does not damp them
+    ! (stencil_mg's seam sweeps)
+    call mg_set_seam(mg, blocks(2))
     if (blocks(2)) then
       call finest_by_offset(mc, fine, nodal, fixedg)
     else if (blocks(1)) then

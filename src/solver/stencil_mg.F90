@@ -40,7 +40,7 @@ module stencil_mg
                        natural_rows
   implicit none
   private
-  public :: stencil_mg_t, mg_create, mg_destroy, mg_set_fine_row, mg_set_fine, mg_fine_level, mg_build_coarse, mg_apply, mg_describe, &
+  public :: stencil_mg_t, mg_set_seam, mg_create, mg_destroy, mg_set_fine_row, mg_set_fine, mg_fine_level, mg_build_coarse, mg_apply, mg_describe, &
             mg_product, mg_levels, mg_level_rows, mg_level_links, mg_level_op, mg_set_level_fixed, mg_factor_coarsest
   type :: mg_level_t
     type(stencil_t) :: a                         !< the operator (rows ys..ye)
@@ -86,6 +86,7 @@ module stencil_mg
     !> the lattice's reach and offsets, mg_level_op) instead of Galerkin
     !> products (mg_build_coarse)
     logical :: rediscretize = .false.
+    logical :: seam = .false.                    !< seam sweeps (smooth; set by module mg_coarse)
     type(mg_level_t), allocatable :: lev(:)
     ! the coarsest level's banded LU (LAPACK dgbtrf), same on every rank
     integer :: n = 0, kl = 0
@@ -494,6 +495,13 @@ contains
     call strip_exchange(mg%comm, lv%below, lv%above, lv%x, lv%a%ys, lv%a%ye, lv%h)
   end subroutine exchange
 
+  !> Seam sweeps (smooth) on or off, the same on every rank.
+  subroutine mg_set_seam(mg, on)
+    type(stencil_mg_t), intent(inout) :: mg
+    logical, intent(in) :: on
+    mg%seam = on
+  end subroutine mg_set_seam
+
   !> One symmetric Gauss-Seidel smoothing (forward, then backward sweep),
   !> the ghost rows exchanged before each: within a strip lexicographic,
   !> between strips block Jacobi, as PETSc's SOR. (Rows coloured by j mod
@@ -505,27 +513,52 @@ contains
   !> (kernel stencil_product_mixed); the backward sweep forms the rows
   !> whose neighbours it has finished on this strip, the first and last r
   !> rows follow after one more exchange. ax(3, 0:nx-1, ys:ye).
+  !>
+  !> Seam sweeps (mg%seam, several ranks): then, after an exchange, the
+  !> first r rows of each strip above another forward once more, so that a
+  !> pair coupled across the boundary by a rank-one barrier block (the
+  !> faces') is smoothed in turn, not side by side: Jacobi's iteration
+  !> leaves its stiff mode near -1 (docs/contact.md, "Faces and edges").
   subroutine smooth(mg, lv, ax)
     type(stencil_mg_t), intent(inout) :: mg
     type(mg_level_t), intent(inout) :: lv
     real(rp), intent(inout), optional :: ax(:, 0:, lv%a%ys:)
-    integer :: ys, ye, r
+    integer :: ys, ye, r, jb
+    logical :: seam
     if (lv%a%ye < lv%a%ys) return
+    ys = lv%a%ys
+    ye = lv%a%ye
+    r = lv%a%r
+    seam = mg%seam .and. mg%nranks > 1 .and. .not. lv%replicated
     call exchange(mg, lv)
     call gs_sweep(lv%a, lv%h, lv%x, lv%rhs, .true., lv%t, lv%low)
     call exchange(mg, lv)
     if (.not. present(ax)) then
       call gs_sweep(lv%a, lv%h, lv%x, lv%rhs, .false., lv%t, lv%low)
+      if (seam) then
+        call exchange(mg, lv)
+        call seam_sweep(lv)
+      end if
       return
     end if
     call gs_sweep(lv%a, lv%h, lv%x, lv%rhs, .false., lv%t, lv%low, mg%pxs, mg%pacc, mg%pds, ax)
     call exchange(mg, lv)
-    ys = lv%a%ys
-    ye = lv%a%ye
-    r = lv%a%r
-    call level_product_rows(lv%a, lv%h, lv%x, ys, min(ys + r - 1, ye), mg%pxs, mg%pacc, mg%pds, ax)
-    call level_product_rows(lv%a, lv%h, lv%x, max(ye - r + 1, ys + r), ye, mg%pxs, mg%pacc, mg%pds, ax)
+    jb = ys + r - 1                    ! the first rows' products need the neighbours' rows
+    if (seam) then
+      call seam_sweep(lv)
+      call exchange(mg, lv)
+      jb = ys + 2 * r - 1
+    end if
+    call level_product_rows(lv%a, lv%h, lv%x, ys, min(jb, ye), mg%pxs, mg%pacc, mg%pds, ax)
+    call level_product_rows(lv%a, lv%h, lv%x, max(ye - r + 1, jb + 1), ye, mg%pxs, mg%pacc, mg%pds, ax)
   end subroutine smooth
+
+  !> Rows ys..ys+r-1 forward where a strip lies below (smooth).
+  subroutine seam_sweep(lv)
+    type(mg_level_t), intent(inout) :: lv
+    if (lv%below == MPI_PROC_NULL) return
+    call gs_sweep(lv%a, lv%h, lv%x, lv%rhs, .true., lv%t, rows=[lv%a%ys, min(lv%a%ys + lv%a%r - 1, lv%a%ye)])
+  end subroutine seam_sweep
 
   !> Restrict level l's residual (or, with from_rhs, its right-hand side)
   !> into level l + 1's right-hand side.

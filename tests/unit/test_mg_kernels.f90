@@ -451,6 +451,20 @@ contains
     call dense_gs_sweep(nx, ny, ad, bd, xd, .false., r == 1)
     call check_close(error_to_ref(nx, ny, r, x, xd), 0.0_rp, 0.0_rp, 1.0e-5_rp * maxval(abs(xd)), &
                      'a backward sweep is block Gauss-Seidel in reverse order' // trim(tag))
+    ! A forward sweep of rows 2..3 only (stencil_mg's seam sweep): block
+    ! Gauss-Seidel over their nodes, the other rows kept.
+    x = x0
+    do j = 0, ny - 1
+      do i = 0, nx - 1
+        do c = 1, 3
+          xd(gidx(nx, i, j, c)) = real(x0(i, c, j), rp)
+        end do
+      end do
+    end do
+    call gs_sweep(st, r, x, rhs, .true., t, rows=[2, 3])
+    call dense_gs_sweep(nx, ny, ad, bd, xd, .true., r == 1, rows=[2, 3])
+    call check_close(error_to_ref(nx, ny, r, x, xd), 0.0_rp, 0.0_rp, 1.0e-5_rp * maxval(abs(xd)), &
+                     'a forward sweep of rows 2..3 is block Gauss-Seidel of their nodes' // trim(tag))
   end subroutine test_smoother
 
   !> The product in double precision from the single-precision difference
@@ -693,7 +707,7 @@ contains
   !> One block Gauss-Seidel sweep on the dense matrix a (node order of
   !> gidx): x_p = A_pp^-1 (b_p - sum_{q /= p} A_pq x_q), nodes in
   !> lexicographic order (rows slowest) or its reverse.
-  subroutine dense_gs_sweep(nx, ny, a, b, x, forward, colours)
+  subroutine dense_gs_sweep(nx, ny, a, b, x, forward, colours, rows)
     integer, intent(in) :: nx, ny
     real(rp), intent(in) :: a(:, :), b(:)
     real(rp), intent(inout) :: x(:)
@@ -701,10 +715,17 @@ contains
     !> the points of a row in two colours (rows of reach 1: the odd
     !> points, then the even ones; backward the reverse)
     logical, intent(in) :: colours
+    integer, intent(in), optional :: rows(2)   !< only the nodes of rows rows(1)..rows(2)
     real(rp) :: app(3, 3), s(3)
-    integer :: m, mm, p, c, ip(3), info, ipiv(3), order(0:nx * ny - 1), j, i, n
+    integer :: m, mm, p, c, ip(3), info, ipiv(3), order(0:nx * ny - 1), j, i, n, j0, j1
+    j0 = 0
+    j1 = ny - 1
+    if (present(rows)) then
+      j0 = rows(1)
+      j1 = rows(2)
+    end if
     n = 0
-    do j = 0, ny - 1
+    do j = j0, j1
       if (colours) then
         do i = 1, nx - 1, 2
           order(n) = i + nx * j
@@ -721,8 +742,8 @@ contains
         end do
       end if
     end do
-    do mm = 0, nx * ny - 1
-      m = merge(mm, nx * ny - 1 - mm, forward)
+    do mm = 0, n - 1
+      m = merge(mm, n - 1 - mm, forward)
       p = order(m)
       ip = [(3 * p + c, c = 1, 3)]
       s = b(ip) - matmul(a(ip, :), x) + matmul(a(ip, ip), x(ip))
