@@ -317,18 +317,21 @@ contains
 
   !> energy_power for n triples at once (the same eta_b), from their edges
   !> and edge rates as energy_force_lanes takes them: pw(i) = eta_b |J v|^2
-  !> of lane i (0 for a degenerate triple), up to round-off. Vectorised
-  !> over the lanes as energy_force_lanes.
-  pure subroutine energy_power_lanes(n, ld, eta_b, e1, e2, de, pw)
+  !> of lane i (0 for a degenerate triple, ok(i) false), up to round-off.
+  !> Vectorised over the lanes as energy_force_lanes.
+  pure subroutine energy_power_lanes(n, ld, eta_b, e1, e2, de, pw, ok)
     integer, intent(in) :: n              ! lanes 1..n of arrays of leading dimension ld >= n
     integer, intent(in) :: ld
     real(rp), intent(in) :: eta_b         ! [energy*time]
     real(rp), intent(in) :: e1(ld, 3), e2(ld, 3)  ! [length]
     real(rp), intent(in) :: de(ld, 6)     ! [length/time]
     real(rp), intent(inout) :: pw(ld)     ! [energy/time] (lanes 1..n set)
+    ! whether lane i's triple is not degenerate (lanes 1..n set); an
+    ! argument, as the other lane kernels', not a local: sized by ld, gfortran
+    ! allocated it on the heap at every call (some 9000 mallocs a step at 257 x 257)
+    logical, intent(inout) :: ok(ld)
     real(rp) :: a(3), b(3), dl(6), l1, l2, ipsi, il1, il2, kb(3), gpsi(6), je(3, 6), kbdot(3), keep
     real(rp) :: psi, z(3)                 ! (work of lane_geometry.inc)
-    logical :: ok(ld)
     integer :: i, q, c
 
     !GCC$ ivdep

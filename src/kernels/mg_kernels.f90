@@ -70,13 +70,9 @@ contains
     real(mp), intent(inout), optional :: ds(0:, :)
     real(rp), intent(inout), optional :: y(:, 0:, st%ys:)
     integer, intent(in), optional :: rows(2)
-    integer :: j, jj, k, nx, nlow, kbeg, j0, j1
-    integer :: dik(st%nr)                         ! the offsets along the row, by k
+    integer :: j, jj, nx, nlow, kbeg, j0, j1
 
     nx = st%nx
-    do k = 1, st%nr
-      dik(k) = st%odi(st%kr(k))
-    end do
     ! the offsets to other rows are in lexicographic order: those to the
     ! rows below first
     nlow = count(st%odj(st%kv(1:st%nv)) < 0)
@@ -106,7 +102,7 @@ contains
       ! the other rows: below already visited in a forward sweep, above not
       call subtract_rows(kbeg, st%nv, j, t)
       ! along the row, point by point: the points on one side visited already
-      call point_row(nx, h, st%nr, dik, st%br(:, :, :, :, j), st%ainv(:, :, :, j), t, x(:, :, j), forward)
+      call point_row(nx, h, st%nr, st%dik, st%br(:, :, :, :, j), st%ainv(:, :, :, j), t, x(:, :, j), forward)
       if (present(y) .and. .not. forward) then
         call ring_row(st, h, x, j, xs)
         if (j + 2 * st%r <= st%ye) call product_row(st, j + st%r, xs, acc, ds, y)
@@ -478,12 +474,8 @@ contains
     real(mp), intent(inout) :: ds(0:, :)
     real(rp), intent(inout) :: y(:, 0:, st%ys:)
     integer :: nx, r, k, di, dj, c1, c2, sj, sq
-    integer :: dik(st%nr)
     nx = st%nx
     r = st%r
-    do k = 1, st%nr
-      dik(k) = st%odi(st%kr(k))
-    end do
     sj = modulo(j, 2 * r + 1)
     do c1 = 1, 3
       acc(0:nx - 1, c1) = st%d(:, c1, 1, j) * xs(0:nx - 1, 1, sj) + st%d(:, c1, 2, j) * xs(0:nx - 1, 2, sj) &
@@ -511,7 +503,7 @@ contains
     end do
     ! within the row, node by node (as the smoother keeps these blocks),
     ! and the row of y
-    call product_within_row(nx, r, st%nr, dik, st%br(:, :, :, :, j), xs(:, :, sj), acc, y(:, :, j))
+    call product_within_row(nx, r, st%nr, st%dik, st%br(:, :, :, :, j), xs(:, :, sj), acc, y(:, :, j))
   end subroutine product_row
 
   !> product_row's sum for one offset o = (di, dj) to another row of a

@@ -52,6 +52,9 @@ module mg_stencil
     integer, allocatable :: slot(:)              !< (nb) index of offset k in b (dj /= 0) or br (dj == 0)
     integer :: nv = 0, nr = 0                    !< offsets to other rows, within the row
     integer, allocatable :: kv(:), kr(:)         !< (nv), (nr) their k
+    integer, allocatable :: dik(:)               !< (nr) di of the offsets within the row, odi(kr(:)) (the
+                                                 !< kernels' point loops take it whole; a copy of the
+                                                 !< size nr in each sweep was a malloc and a free)
     !> A(p, p + o) = A(p + o, p) for every offset o (block for block, not
     !> transposed): S without bending, whose every element is a link with
     !> f_q = -f_p a function of x_q - x_p and v_q - v_p, and the Galerkin
@@ -87,7 +90,7 @@ contains
     st%ys = ys
     st%ye = ye
     st%r = r
-    if (allocated(st%odi)) deallocate(st%odi, st%odj, st%slot, st%kv, st%kr, st%kmir, st%b, st%br, st%d, st%ainv)
+    if (allocated(st%odi)) deallocate(st%odi, st%odj, st%slot, st%kv, st%kr, st%dik, st%kmir, st%b, st%br, st%d, st%ainv)
     st%paired = .false.
     do pass = 1, 2
       k = 0
@@ -125,6 +128,7 @@ contains
         st%slot(k) = st%nv
       end if
     end do
+    st%dik = st%odi(st%kr)
     ! the stored offsets are symmetric about 0 (the square, or the lines)
     allocate(st%kmir(st%nv))
     do kk = 1, st%nv

@@ -25,19 +25,25 @@ contains
     real(rp), intent(in) :: src(0:nx - 1, 9, 4)      !< the link blocks kept at their lower ends
     logical, intent(in) :: fixed_p(0:nx - 1), fixed_q(0:nx - 1)
     real(rp), intent(inout) :: dst(0:nx - 1, 9, nslot)
-    integer :: i, e
-    real(rp) :: keep(0:nx - 1)
-    ! the test once per node, as a factor 1 or 0 (inside the loop over the
-    ! entries it was compiled into a gather of fixed_q for every entry, a
-    ! quarter of csr_assemble's own time without bending; a logical mask
-    ! there, into scalar branches)
-    do i = ilo, ihi
-      keep(i) = merge(0.0_rp, 1.0_rp, fixed_p(i) .or. fixed_q(i + di))
-    end do
-    do e = 1, 9
-      do i = ilo, ihi
-        dst(i, e, sd) = dst(i, e, sd) - src(i + dil, e, k)
-        dst(i, e, sl) = keep(i) * src(i + dil, e, k)
+    ! nodes a tile: keep sized by a constant (sized by nx, gfortran put it
+    ! on the heap: a malloc and a free a call, eight a row)
+    integer, parameter :: TILE = 64
+    integer :: i, e, i0, i1
+    real(rp) :: keep(TILE)
+    do i0 = ilo, ihi, TILE
+      i1 = min(i0 + TILE - 1, ihi)
+      ! the test once per node, as a factor 1 or 0 (inside the loop over the
+      ! entries it was compiled into a gather of fixed_q for every entry, a
+      ! quarter of csr_assemble's own time without bending; a logical mask
+      ! there, into scalar branches)
+      do i = i0, i1
+        keep(i - i0 + 1) = merge(0.0_rp, 1.0_rp, fixed_p(i) .or. fixed_q(i + di))
+      end do
+      do e = 1, 9
+        do i = i0, i1
+          dst(i, e, sd) = dst(i, e, sd) - src(i + dil, e, k)
+          dst(i, e, sl) = keep(i - i0 + 1) * src(i + dil, e, k)
+        end do
       end do
     end do
   end subroutine put_link_blocks

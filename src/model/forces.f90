@@ -445,13 +445,14 @@ contains
       integer, intent(in) :: j0
       integer, parameter :: NL = TRIPLE_LANES
       real(rp) :: e1(NL, 3), e2(NL, 3), de(NL, 6), pw(NL)
+      logical :: okl(NL)
       integer :: k, ilo, ihi, i0, nl1
       do k = 1, 4
         call triple_lane_setup(lat, j0, k, ilo, ihi, kb, etab)
         if (etab == 0.0_rp) cycle
         do i0 = ilo, ihi, NL
           call triple_lane_edges(lat%nx, us, j0, k, i0, ihi, NL, nl1, e1, e2, de)
-          call energy_power_lanes(nl1, NL, etab, e1, e2, de, pw)
+          call energy_power_lanes(nl1, NL, etab, e1, e2, de, pw, okl)
           power = power + sum(pw(1:nl1))
         end do
       end do

@@ -436,7 +436,7 @@ contains
         call energy_jacobian_lanes(nl1, NL, kb, etab, e1, e2, de, p%gauss_newton, ke, ce, okl)
         if (.not. p%with_damping) ce = 0.0_rp
         if (p%mode /= S_CSR) then
-          call add_triple_lanes(p, lat, ws, fixedg, j0, k, i0, nl1, NL, ke, ce, g, kd, st)
+          call add_triple_lanes(p, lat, ws, fixedg, j0, k, i0, nl1, ke, ce, g, kd, st)
           cycle
         end if
         do l = 1, nl1
@@ -492,12 +492,16 @@ contains
   !> forming and adding them, they filled the L1 cache with ke and ce, and
   !> the adds into S's ring of rows (past the L2 cache) waited on them.
   !> S_NONE: g and kd alone.
-  subroutine add_triple_lanes(p, lat, ws, fixedg, j0, kdir, i0, nl, ld, ke, ce, g, kd, st)
+  subroutine add_triple_lanes(p, lat, ws, fixedg, j0, kdir, i0, nl, ke, ce, g, kd, st)
     type(pass_t), intent(in) :: p
     type(lattice_t), intent(in) :: lat
     real(rp), intent(in) :: ws(0:lat%nx - 1, 0:5, 0:RING_ROWS - 1)
     logical, intent(in) :: fixedg(0:, lat%gys:)
-    integer, intent(in) :: j0, kdir, i0, nl, ld   ! kdir: the line direction, line_dir(:, kdir)
+    integer, intent(in) :: j0, kdir, i0, nl       ! kdir: the line direction, line_dir(:, kdir)
+    ! the lanes' leading dimension, a constant: gfortran allocates arrays
+    ! sized by a dummy argument on the heap (four mallocs and frees a call,
+    ! about 15 ns a node of the assembly at 257 x 257)
+    integer, parameter :: ld = TRIPLE_LANES
     real(rp), intent(in) :: ke(ld, 6, 6), ce(ld, 6, 6)
     real(rp), intent(inout) :: g(:, 0:, lat%ys:), kd(:, 0:, lat%ys:)
     real(rp), intent(inout), contiguous :: st(0:, :, :, :, 0:)

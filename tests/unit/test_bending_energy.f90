@@ -113,7 +113,7 @@ contains
       end do
       call check_true(all(fl(N + 1:, :) == -7.0_rp), 'force lanes beyond n untouched')
       pwl = -7.0_rp
-      call energy_power_lanes(N, LD, eta_l, e1, e2, de, pwl)
+      call energy_power_lanes(N, LD, eta_l, e1, e2, de, pwl, okl)
       do l = 1, N
         write(tag, '(a,i0,a,i0)') ' (power lanes: case ', m, ', lane ', l
         call check_close(pwl(l), energy_power(eta_l, x(:, l), v(:, l)), 1.0e-12_rp, 0.0_rp, 'power'//trim(tag)//')')
