@@ -59,25 +59,27 @@ OGC_US = 0.21 / 246000 * 1e6   # OGC's published step: 246 000 vertices in 0.21 
 DT = {"bw": 1.0 / 600.0, "newton": 1.0e-3}
 
 
-def scene_text(n, mode, on, dhat=1.0e-3, kappa=1.0, t_end=T_END):
-    """The scene's namelist at n x n nodes for `mode`, self-contact on or off."""
+def scene_text(n, mode, on, dhat=1.0e-3, kappa=1.0, t_end=T_END, step="accd"):
+    """The scene's namelist at n x n nodes for `mode`, self-contact on or off (step: its
+    self_step, the step guarantee)."""
     dt = DT[mode]
     return f"""&scene scene='flat' units='SI' gravity=0.0,0.0,-9.81 /
 &lattice nx={n} ny={n} lx=0.5 ly=0.5 total_mass=0.05 mass_distribution='area' /
 &material e_s=100.0 eta_s=0.1 e_d=100.0 eta_d=0.1 bending_model='energy' k_b=1.0e-3 eta_b=1.0e-5 /
 &contact n_obstacles=1 obstacle_shape(1)='capsule' obstacle_point(:,1)=0.26,-0.1,-0.0255
   obstacle_end(:,1)=0.26,0.6,-0.0255 obstacle_radius(1)=0.02 contact_dhat={dhat!r} contact_stiffness={kappa!r}
-  self_contact={'.true.' if on else '.false.'} /
+  self_contact={'.true.' if on else '.false.'}{f" self_step='{step}'" if on and step != "accd" else ""} /
 &time t_end={t_end!r} dt={dt!r} /
 &output output_interval={min(0.02, t_end / 2)!r} write_velocity=.false. output_file='b.h5' /
 """
 
 
-def run(exe, mpiexec, n, nranks, mode, on, timeout, dhat, kappa, t_end=T_END):
+def run(exe, mpiexec, n, nranks, mode, on, timeout, dhat, kappa, t_end=T_END, step="accd"):
     """One run: a dict of its numbers, or ok=False with why."""
     _, opts = MODES[mode]
+    guard = {}
     with tempfile.TemporaryDirectory() as d:
-        (Path(d) / "b.nml").write_text(scene_text(n, mode, on, dhat, kappa, t_end))
+        (Path(d) / "b.nml").write_text(scene_text(n, mode, on, dhat, kappa, t_end, step))
         cmd = [mpiexec, "-n", str(nranks), "--oversubscribe", exe, "b.nml", "-log_view", *opts]
         t0 = time.perf_counter()
         try:
@@ -91,6 +93,10 @@ def run(exe, mpiexec, n, nranks, mode, on, timeout, dhat, kappa, t_end=T_END):
                 active = int(f["self_contact/active"][:].max())
                 candidates = int(f["self_contact/candidates"][:].max())
                 searches = int(f["self_contact/searches"][-1])
+                # the step guarantee's counts (bench/self_step.py)
+                guard = dict(limited=int(f["self_contact/limited"][-1]), min_gap=float(f["self_contact/min_gap"][:].min()),
+                             clamped=int(f["self_contact/clamped"][-1]) if "self_contact/clamped" in f else 0,
+                             rejected=int(f["diagnostics/rejected_steps"][-1]))
     out = p.stdout
     if p.returncode != 0:
         last = (p.stdout + p.stderr).strip().splitlines()
@@ -108,7 +114,16 @@ def run(exe, mpiexec, n, nranks, mode, on, timeout, dhat, kappa, t_end=T_END):
     return dict(ok=True, steps=steps, window=t2[1] - t1[1], per_step=per_step, rate=n * n / per_step,
                 us=per_step * nranks / (n * n) * 1e6, t_step=t_step, newton=newton / max(steps, 1),
                 inner=linear / max(steps, 1), active=active, candidates=candidates,
-                searches=None if searches is None else searches / max(steps, 1), wall=wall)
+                searches=None if searches is None else searches / max(steps, 1), wall=wall,
+                newton_window=newton_in_window(out, t1[1]), **guard)
+
+
+def newton_in_window(out, step0):
+    """Newton iterations from step step0 to the end, from the progress lines."""
+    rows = [(int(s), int(k)) for s, k in re.findall(r"^t = \S+\s+steps\s+(\d+)\s+rejected\s+\d+\s+newton\s+(\d+)",
+                                                     out, re.M)]
+    at = [k for s, k in rows if s == step0]
+    return rows[-1][1] - at[0] if at else None
 
 
 def best(tries):

@@ -71,6 +71,10 @@ module config
     !> Coulomb coefficient of the friction between two pieces of the cloth
     !> (self-contact's pairs, lagged; module self_lags); 0: frictionless [1]
     real(rp) :: self_mu = 0.0_rp
+    !> self-contact's step guarantee (docs/self-contact.md, "The step
+    !> guarantee"): 'accd', every update scaled by the global ACCD alpha, or
+    !> 'ogc', each node's update shortened to its own bound
+    character(label_len) :: self_step = 'accd'
     integer :: shape_code(obstacle_max) = 1   !< derived: 1 plane, 2 sphere, 3 box, 4 capsule (the kernel's SHAPE_*)
   end type contact_config
 

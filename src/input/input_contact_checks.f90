@@ -61,6 +61,7 @@ contains
         call check_self_contact(cfg, ierr, msg); if (ierr /= 0) return
       end if
       call check_self_mu(c, ierr, msg); if (ierr /= 0) return
+      call check_self_step(c, ierr, msg); if (ierr /= 0) return
       if (c%self_mu > 0.0_rp) then
         call check_eps_v_range(cfg, ierr, msg); if (ierr /= 0) return
       end if
@@ -128,6 +129,23 @@ contains
     ierr = 0
     msg = ''
   end subroutine check_self_mu
+
+  !> self_step: 'accd' or 'ogc' (lower-cased here), and 'ogc' only with
+  !> self_contact (it would be ignored).
+  subroutine check_self_step(c, ierr, msg)
+    type(contact_config), intent(inout) :: c
+    integer, intent(out) :: ierr
+    character(*), intent(out) :: msg
+    integer :: code
+    c%self_step = lower(adjustl(c%self_step))
+    call check_choice('contact', 'self_step', c%self_step, choices('self_step'), code, ierr, msg)
+    if (ierr /= 0) return
+    if (code /= 1 .and. .not. c%self_contact) then
+      ierr = 1
+      msg = "input: &contact: self_step = '"//trim(c%self_step)//"' needs self_contact = .true. "// &
+            '(without it there is no self-contact step to limit)'
+    end if
+  end subroutine check_self_step
 
   !> Obstacles described beyond n_obstacles: a key of an obstacle k >
   !> n_obstacles with a value other than its default is refused by name,

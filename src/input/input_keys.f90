@@ -46,7 +46,7 @@ module input_keys
     character(96) :: meaning   !< one line
   end type key_info
 
-  integer, parameter :: n_keys = 68
+  integer, parameter :: n_keys = 69
   type(key_info), parameter :: keys(n_keys) = [ &
     ! &lattice
     key_info('nx', 'lattice', KEY_INTEGER, 1, '', '11; hang 21', '>= 3', 'nodes along x'), &
@@ -180,7 +180,9 @@ module input_keys
     key_info('self_contact', 'contact', KEY_LOGICAL, 1, '', '.false.', 'contact_dhat + 2 contact_thickness < 0.7 lattice spacing', &
              'the cloth''s triangles and edges kept apart from each other (self-contact)'), &
     key_info('self_mu', 'contact', KEY_REAL, 1, '1', '0', '>= 0, with self_contact', &
-             'Coulomb friction coefficient between two pieces of the cloth (self-contact)')]
+             'Coulomb friction coefficient between two pieces of the cloth (self-contact)'), &
+    key_info('self_step', 'contact', KEY_STRING, 1, '', "'accd'", 'accd, ogc', &
+             'self-contact''s step guarantee: the global ACCD fraction of each update, or OGC''s per-node bounds')]
 
 contains
 

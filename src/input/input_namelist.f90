@@ -84,7 +84,7 @@ contains
     logical, pointer :: write_velocity, contact_faces, self_contact
     real(rp), pointer :: self_mu
     character(label_len), pointer :: mass_distribution, lattice_scaling, spring_model, bending_model, &
-                                     wave_nodes, units, components, obstacle_shape(:)
+                                     wave_nodes, units, components, obstacle_shape(:), self_step
     character(label_len), pointer :: scene_name   ! the key `scene` (renamed by module input_scan)
     character(path_len), pointer :: output_file, observed_file, target_file
     character(len(cfg%output%petsc_options)), pointer :: petsc_options
@@ -99,7 +99,7 @@ contains
     namelist /identify/ observed_file, fit, fit_lower, fit_upper, tikhonov
     namelist /control/ target_file, components, max_speed, velocity_weight, keyframe_tikhonov
     namelist /contact/ n_obstacles, obstacle_shape, obstacle_point, obstacle_normal, obstacle_radius, obstacle_mu, &
-                       contact_thickness, contact_dhat, contact_stiffness, friction_eps_v, contact_faces, self_contact, self_mu, &
+                       contact_thickness, contact_dhat, contact_stiffness, friction_eps_v, contact_faces, self_contact, self_mu, self_step, &
                        obstacle_half_size, obstacle_axis, obstacle_end, obstacle_n_keyframes, obstacle_time, &
                        obstacle_offset, obstacle_close, obstacle_close_dir
 
@@ -128,6 +128,7 @@ contains
     contact_thickness => cfg%contact%thickness; contact_dhat => cfg%contact%dhat
     contact_stiffness => cfg%contact%stiffness; friction_eps_v => cfg%contact%eps_v
     contact_faces => cfg%contact%faces; self_contact => cfg%contact%self_contact; self_mu => cfg%contact%self_mu
+    self_step => cfg%contact%self_step
     obstacle_half_size => cfg%contact%half_size; obstacle_axis => cfg%contact%axis; obstacle_end => cfg%contact%end_pt
     obstacle_n_keyframes => cfg%contact%n_keyframes; obstacle_time => cfg%contact%key_time
     obstacle_offset => cfg%contact%key_offset; obstacle_close => cfg%contact%key_close

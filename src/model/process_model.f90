@@ -35,6 +35,10 @@
 !>               correction), or shorten the update of some nodes (a
 !>               friction pair whose slip the update turns); changed,
 !>               the same on every rank; collective
+!>   limit_nodes after correct, before the step limits, on every Newton
+!>               update and every predictor: the model may shorten the
+!>               update of each node on its own (self-contact's per-node
+!>               bounds, OGC); changed, the same on every rank; collective
 !>   step_limit  the fraction alpha of a Newton update x -> x + dx (from
 !>               the step's start x0 at t0 to a candidate at t1) that it
 !>               allows, and a status: PM_FEASIBLE, or PM_INFEASIBLE when
@@ -59,7 +63,8 @@
 !>               changes; collective
 !>   destroy     at the end
 !> Only setup, forces and jacobian must be written; the others default to
-!> "nothing" (no hints, alpha = 1, feasible, no series, no state).
+!> "nothing" (no hints, the update kept, alpha = 1, feasible, no series,
+!> no state).
 !> Status flags, never NaN: an infeasible state is PM_INFEASIBLE, and the
 !> solver (module process_solver) alone turns it into PETSc's domain
 !> error.
@@ -176,6 +181,7 @@ module process_model
     procedure :: pair_gather => no_pair_gather
     procedure :: start => keep_start
     procedure :: correct => keep_update
+    procedure :: limit_nodes => keep_nodes
     procedure :: step_limit => no_limit
     procedure :: accept => accept_all
     procedure :: unresolved => all_resolved
@@ -275,6 +281,20 @@ contains
     logical, intent(out) :: changed
     changed = .false.
   end subroutine keep_update
+
+  !> No node's update is shortened (x: the update's start, dx (0:5,
+  !> 0:nx-1, ys:ye) the update, positions and velocities).
+  subroutine keep_nodes(this, lat, fixed, t0, t1, x, dx, comm, changed)
+    class(process_model_t), intent(inout) :: this
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t0, t1
+    real(rp), intent(in) :: x(0:, 0:, lat%ys:)
+    real(rp), intent(inout) :: dx(0:, 0:, lat%ys:)
+    integer, intent(in) :: comm
+    logical, intent(out) :: changed
+    changed = .false.
+  end subroutine keep_nodes
 
   !> Any update is allowed in full.
   subroutine no_limit(this, lat, fixed, t0, t1, x0, x, dx, comm, alpha, status)

@@ -31,7 +31,7 @@ module process_models
   private
   public :: pm_list_t, pm_list_add, pm_list_on, pm_list_count, pm_list_name, pm_list_hints, pm_list_ts_refusal
   public :: pm_list_setup, pm_list_forces, pm_list_infeasible, pm_list_jacobian, pm_list_step_limit, pm_list_accept
-  public :: pm_list_correct
+  public :: pm_list_correct, pm_list_limit_nodes
   public :: pm_list_unresolved, pm_list_start_limit
   public :: pm_list_accepted, pm_list_output, pm_list_checkpoint, pm_list_restore, pm_list_check_state, pm_list_destroy
   public :: pm_list_nodal, pm_list_rejection, pm_list_take, pm_list_start
@@ -377,6 +377,29 @@ contains
       changed = changed .or. ch
     end do
   end subroutine pm_list_correct
+
+  !> Every model's per-node limit of the update dx from x (a Newton
+  !> update, or a predictor from the step's start), in the list's order,
+  !> after the corrections and before the step limits; changed: some model
+  !> shortened a node's update (the same on every rank). A model that
+  !> does not write the hook costs a call. Collective.
+  subroutine pm_list_limit_nodes(list, lat, fixed, t0, t1, x, dx, comm, changed)
+    type(pm_list_t), intent(inout) :: list
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    real(rp), intent(in) :: t0, t1
+    real(rp), intent(in) :: x(0:, 0:, lat%ys:)
+    real(rp), intent(inout) :: dx(0:, 0:, lat%ys:)
+    integer, intent(in) :: comm
+    logical, intent(out) :: changed
+    integer :: k
+    logical :: ch
+    changed = .false.
+    do k = 1, list%n
+      call list%m(k)%pm%limit_nodes(lat, fixed, t0, t1, x, dx, comm, ch)
+      changed = changed .or. ch
+    end do
+  end subroutine pm_list_limit_nodes
 
   !> The fraction alpha of the move from the step's start x0 to a Newton
   !> start x0 + dx (a predictor) that every model allows, and infeasible:

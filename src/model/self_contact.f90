@@ -28,10 +28,12 @@
 !> surfaces, each contact_thickness from its mid-surface), the barrier's
 !> dhat and kappa those of &contact.
 !>
-!> The step guarantee is flavour (a) of docs/self-contact.md: every
+!> The step guarantee (submodule self_contact_step; &contact's
+!> self_step) is flavour (a) of docs/self-contact.md by default: every
 !> Newton update (and every predictor) is scaled by the smallest ACCD
-!> alpha over the candidates of its swept paths on all ranks, so no gap
-!> closes along an accepted path; the accept hook checks the end state's
+!> alpha over the candidates of its swept paths on all ranks; with 'ogc',
+!> flavour (b): each node's update shortened to its own bound (hook
+!> limit_nodes). Either way no gap closes along an accepted path; the accept hook checks the end state's
 !> smallest gap once more, naming the pair where it is <= 0. The Jacobian
 !> gives each pair's diagonal blocks df_a/dx_a as node blocks and the
 !> blocks between its different nodes df_a/dx_b as pair blocks, which
@@ -104,8 +106,18 @@ module self_contact
     real(rp), allocatable :: fall(:, :, :)      !< (3, 0:nx-1, nrows+) forces on them [force]; (1, ...) masks
     real(rp), allocatable :: mask(:, :, :)      !< (1, 0:nx-1, ys:ye) 1 on a constrained node
     real(rp), allocatable :: xd(:, :, :)        !< (6, 0:nx-1, max(ys-1,0):min(ye+1,ny-1)) positions, update [length]
-    integer :: regrown = 0                      !< reallocations of xall, fall, rows
+    real(rp), allocatable :: dmin(:, :)         !< (nx, nrows+) 'ogc': each present node's nearest pair [length]
+    integer :: regrown = 0                      !< reallocations of xall, fall, dmin, rows
   end type self_work_t
+
+  !> The step guarantee (docs/self-contact.md, "The step guarantee: two
+  !> flavours"): which, and its counts since the start (checkpointed).
+  type :: self_guard_t
+    logical :: ogc = .false.           !< &contact self_step = 'ogc': per-node bounds (flavour (b))
+    logical :: accd_needed = .false.   !< 'ogc': a constrained node's update passed its bound: (a)'s alpha too
+    integer :: limited = 0             !< updates and predictors shortened (alpha < 1, or nodes clamped)
+    integer :: clamped = 0             !< 'ogc': node updates shortened to their bounds, summed over ranks
+  end type self_guard_t
 
   !> The cloth's self-contact on a rank's strip; written by this module's
   !> procedures alone.
@@ -136,7 +148,7 @@ module self_contact
     integer :: candidates = 0                   !< pairs in the list, each once (its lowest node's owner)
     integer :: fetched = 0                      !< rows fetched from other ranks, summed over ranks
     ! counts since the start (checkpointed)
-    integer :: limited = 0                      !< updates the step limit shortened (alpha < 1)
+    type(self_guard_t) :: g                     !< the step guarantee's flavour and counts (limited, clamped)
     integer :: rebuilt = 0                      !< lists made again within a step (a node moved skin/2)
     integer :: searches = 0                     !< broad-phase searches since set-up (lists and swept candidates)
     integer :: regrown_setup = 0                !< work arrays' reallocations at set-up (this rank)
@@ -149,6 +161,7 @@ module self_contact
     procedure :: jacobian => self_jacobian
     procedure :: pair_rows => self_pair_rows
     procedure :: pair_gather => self_pair_gather
+    procedure :: limit_nodes => self_limit_nodes
     procedure :: step_limit => self_step_limit
     procedure :: accept => self_accept
     procedure :: accepted => self_accepted
@@ -157,6 +170,51 @@ module self_contact
     procedure :: restore => self_restore
     procedure :: destroy => self_destroy
   end type self_contact_model_t
+
+  ! The step guarantee, both flavours, and the list's test (submodule self_contact_step)
+  interface
+    !> The fraction of the update x -> x + dx from x0 that the cloth allows
+    !> (flavour (a): the ACCD alpha; with 'ogc', 1 unless a constrained node
+    !> moves past its bound). Collective.
+    module subroutine self_step_limit(this, lat, fixed, t0, t1, x0, x, dx, comm, alpha, status)
+      class(self_contact_model_t), intent(inout) :: this
+      type(lattice_t), intent(in) :: lat
+      logical, intent(in) :: fixed(0:, lat%ys:)
+      real(rp), intent(in) :: t0, t1
+      real(rp), intent(in) :: x0(0:, 0:, lat%ys:), x(0:, 0:, lat%ys:), dx(0:, 0:, lat%ys:)
+      integer, intent(in) :: comm
+      real(rp), intent(out) :: alpha
+      integer, intent(out) :: status
+    end subroutine self_step_limit
+    !> How far the nodes at xd(1:3) + alpha xd(4:6) have moved from the
+    !> list's paths apart from a common translation [length]. Collective.
+    module function relative_move(this, lat, comm, xd, alpha) result(gfar)
+      class(self_contact_model_t), intent(in) :: this
+      type(lattice_t), intent(in) :: lat
+      integer, intent(in) :: comm
+      real(rp), intent(in) :: xd(:, 0:, :)       ! (6, 0:nx-1, ys:ye) positions, update [length]
+      real(rp), intent(in) :: alpha              ! [1]
+      real(rp) :: gfar
+    end function relative_move
+    !> The rows the exchange plan just made present, n of them, taken.
+    module subroutine take_plan_rows(this, nx, n)
+      class(self_contact_model_t), intent(inout) :: this
+      integer, intent(in) :: nx
+      integer, intent(out) :: n
+    end subroutine take_plan_rows
+    !> With 'ogc' (flavour (b)): each free node's update shortened to its
+    !> bound; changed the same on every rank. Collective.
+    module subroutine self_limit_nodes(this, lat, fixed, t0, t1, x, dx, comm, changed)
+      class(self_contact_model_t), intent(inout) :: this
+      type(lattice_t), intent(in) :: lat
+      logical, intent(in) :: fixed(0:, lat%ys:)
+      real(rp), intent(in) :: t0, t1
+      real(rp), intent(in) :: x(0:, 0:, lat%ys:)
+      real(rp), intent(inout) :: dx(0:, 0:, lat%ys:)
+      integer, intent(in) :: comm
+      logical, intent(out) :: changed
+    end subroutine self_limit_nodes
+  end interface
 
 contains
 
@@ -195,6 +253,7 @@ contains
     this%cp = contact_params_t(thickness=2.0_rp * cfg%contact%thickness, dhat=cfg%contact%dhat, &
                                kappa=cfg%contact%stiffness, eps_v=cfg%contact%eps_v)
     this%rest_reach = this%cp%dhat + this%cp%thickness
+    this%g%ogc = trim(cfg%contact%self_step) == 'ogc'
     ! the skin below the lattice's own rest gaps: a list at rest holds none of them
     this%skin = min(this%cp%dhat, SKIN_SHARE * (self_rest_gap(this%sl, this%rest_reach) - this%rest_reach))
     call MPI_Comm_size(comm, nrank, mpierr)
@@ -394,158 +453,6 @@ contains
     call self_exchange_gather(this%w%xch, v, vall, ierr)
   end subroutine self_pair_gather
 
-  !> Flavour (a): the update x -> x + dx scaled by the smallest ACCD alpha
-  !> (a tenth of each gap kept) over the pairs its paths may bring within
-  !> xi, the minimum over the ranks. Where every node's path stays within
-  !> skin/2 of the list's positions less the mean translation
-  !> (relative_move; both ends: the path is a segment) the
-  !> list holds every such pair (they were within xi + skin of each other
-  !> at its positions) and its pairs serve; else the list is made again
-  !> from the update's paths (list_over_path) and serves, its positions
-  !> then those of the limited end x + alpha dx.
-  !> PM_INFEASIBLE where no fraction is allowed. Collective.
-  subroutine self_step_limit(this, lat, fixed, t0, t1, x0, x, dx, comm, alpha, status)
-    class(self_contact_model_t), intent(inout) :: this
-    type(lattice_t), intent(in) :: lat
-    logical, intent(in) :: fixed(0:, lat%ys:)
-    real(rp), intent(in) :: t0, t1
-    real(rp), intent(in) :: x0(0:, 0:, lat%ys:), x(0:, 0:, lat%ys:), dx(0:, 0:, lat%ys:)
-    integer, intent(in) :: comm
-    real(rp), intent(out) :: alpha
-    integer, intent(out) :: status
-    real(rp) :: a, gfar
-    integer :: ierr, mpierr, n
-    n = this%nrows
-    associate (xd => this%w%xd(:, :, lat%ys:lat%ye))
-    xd(1:3, :, :) = x(0:2, :, lat%ys:lat%ye)
-    xd(4:6, :, :) = dx(0:2, :, lat%ys:lat%ye)
-    gfar = max(relative_move(this, lat, comm, xd, 0.0_rp), relative_move(this, lat, comm, xd, 1.0_rp))
-    ierr = 0
-    if (gfar > 0.5_rp * this%skin) then
-      call list_over_path(this, lat, comm, x, dx, ierr)
-      n = this%nrows
-      xd(1:3, :, :) = x(0:2, :, lat%ys:lat%ye)
-      xd(4:6, :, :) = dx(0:2, :, lat%ys:lat%ye)
-    end if
-    alpha = 0.0_rp
-    if (ierr == 0) then
-      call self_exchange_gather(this%w%xch, xd, this%w%xall(:, :, 1:n), ierr)
-      a = self_alpha_ccd(this%sl, this%rows(1:n), this%w%xall(1:3, :, 1:n), this%w%xall(4:6, :, 1:n), this%pairs, &
-                         this%cp%thickness, ACCD_S)
-      call MPI_Allreduce(a, alpha, 1, MPI_DOUBLE_PRECISION, MPI_MIN, comm, mpierr)
-    end if
-    ! a list made from the paths holds around any point of them (relative_move's tau)
-    if (gfar > 0.5_rp * this%skin) then
-      this%x_list = xd(1:3, :, :)
-      this%dx_list = LOOKAHEAD * xd(4:6, :, :)
-    end if
-    end associate
-    status = merge(PM_INFEASIBLE, PM_FEASIBLE, alpha <= 0.0_rp .or. ierr /= 0)
-    if (alpha < 1.0_rp) this%limited = this%limited + 1
-  end subroutine self_step_limit
-
-  !> The list made again for an update x -> x + dx that leaves it, from
-  !> the update's paths: the swept candidates (OWN_TOUCH) within the
-  !> reach dhat + xi + skin anywhere along them (ACCD's rate bound, a
-  !> pair's own relative motion: a flat sheet's lattice neighbours moving
-  !> together stay out), with a swept plan of rows. A pair left out stays
-  !> beyond that reach at every point of the paths, so the list serves the
-  !> CCD of this update and, made at any point x + alpha dx of it
-  !> (x_list, set by the caller), the states within skin/2 of that: one
-  !> broad phase where the swept candidates and a list at the limited
-  !> candidate took two. Collective.
-  subroutine list_over_path(this, lat, comm, x, dx, ierr)
-    class(self_contact_model_t), intent(inout) :: this
-    type(lattice_t), intent(in) :: lat
-    integer, intent(in) :: comm
-    real(rp), intent(in) :: x(0:, 0:, lat%ys:), dx(0:, 0:, lat%ys:)
-    integer, intent(out) :: ierr
-    integer :: n
-    associate (w => this%w, xd => this%w%xd)
-    ! positions and updates of the owned rows and the rows below and above [length]
-    call with_neighbour_rows(this, lat, comm, x, dx, xd)
-    xd(4:6, :, :) = LOOKAHEAD * xd(4:6, :, :)
-    call self_exchange_plan_swept(w%xch, comm, lat%nx, lat%ny, lat%ys, lat%ye, xd(1:3, :, :), xd(4:6, :, :), &
-                                  this%rest_reach + this%skin, PATCH_ROWS, ierr)
-    if (ierr /= 0) return
-    call take_plan_rows(this, lat%nx, n)
-    call self_exchange_gather(w%xch, xd(:, :, lat%ys:lat%ye), w%xall(:, :, 1:n), ierr)
-    if (ierr /= 0) return
-    call self_candidates_swept(this%sl, this%rows(1:n), w%xall(1:3, :, 1:n), w%xall(4:6, :, 1:n), lat%ys, lat%ye, &
-                               OWN_TOUCH, this%rest_reach + this%skin, this%rest_reach, this%pairs)
-    this%searches = this%searches + 1
-    this%rebuilt = this%rebuilt + 1
-    end associate
-  end subroutine list_over_path
-
-  !> How far the nodes have moved from the list's paths apart from a
-  !> common translation: the largest |d_i - T| over all nodes, d_i =
-  !> p_i - (x_list_i + tau dx_list_i), p_i = xd(1:3) + alpha xd(4:6) (a
-  !> point on the update's path), tau in [0, 1] the least-squares fit of
-  !> p - x_list to dx_list over the lattice (0 for a static list) and T the
-  !> mean of d. Every pair outside the list was beyond its reach at every
-  !> common tau of the list's paths, and a pair's distance depends on
-  !> differences of positions, so it has changed by at most twice this
-  !> from there; along the update's path d - T is linear, so its ends
-  !> bound it: the Verlet list's test. (The largest |d_i| itself made a
-  !> falling sheet's skin, and its list, grow with its speed.) Collective.
-  real(rp) function relative_move(this, lat, comm, xd, alpha) result(gfar)
-    class(self_contact_model_t), intent(in) :: this
-    type(lattice_t), intent(in) :: lat
-    integer, intent(in) :: comm
-    real(rp), intent(in) :: xd(:, 0:, :)         ! (6, 0:nx-1, ys:ye) positions, update [length]
-    real(rp), intent(in) :: alpha                ! [1]
-    real(rp) :: sums(8), gsums(8), far, tau
-    integer :: mpierr
-    sums = self_path_sums(xd, alpha, this%x_list, this%dx_list)
-    call MPI_Allreduce(sums, gsums, 8, MPI_DOUBLE_PRECISION, MPI_SUM, comm, mpierr)
-    tau = 0.0_rp
-    if (gsums(8) > 0.0_rp) tau = min(max(gsums(7) / gsums(8), 0.0_rp), 1.0_rp)
-    gsums(1:3) = (gsums(1:3) - tau * gsums(4:6)) / real(lat%nx * lat%ny, rp)
-    far = self_path_far(xd, alpha, this%x_list, this%dx_list, tau, gsums(1:3))
-    call MPI_Allreduce(far, gfar, 1, MPI_DOUBLE_PRECISION, MPI_MAX, comm, mpierr)
-  end function relative_move
-
-  !> The rows the exchange plan just made present (own and fetched): their
-  !> list kept in the model and the work arrays grown to hold them.
-  subroutine take_plan_rows(this, nx, n)
-    class(self_contact_model_t), intent(inout) :: this
-    integer, intent(in) :: nx
-    integer, intent(out) :: n                    !< rows present on this rank (own and fetched)
-    associate (w => this%w)
-    n = self_exchange_nrows(w%xch)
-    this%nrows = n
-    call grow(this%rows, n, w%regrown)
-    call self_exchange_rows_copy(w%xch, this%rows)
-    call grow(w%xall, 6, nx, n, w%regrown)
-    call grow(w%fall, 3, nx, n, w%regrown)
-    end associate
-  end subroutine take_plan_rows
-
-  !> The positions and updates (x, dx: 0:2 of (0:5, 0:nx-1, ys:ye)) of
-  !> the owned rows and of the rows ys-1 and ye+1 from the ranks below and
-  !> above, into xd(1:3, ...) and xd(4:6, ...). Collective.
-  subroutine with_neighbour_rows(this, lat, comm, x, dx, xd)
-    class(self_contact_model_t), intent(in) :: this
-    type(lattice_t), intent(in) :: lat
-    integer, intent(in) :: comm
-    real(rp), intent(in) :: x(0:, 0:, lat%ys:), dx(0:, 0:, lat%ys:)
-    real(rp), intent(out) :: xd(:, 0:, max(lat%ys - 1, 0):)
-    real(rp) :: snd(6, 0:lat%nx - 1), rcv(6, 0:lat%nx - 1)
-    integer :: mpierr
-    xd(1:3, :, lat%ys:lat%ye) = x(0:2, :, lat%ys:lat%ye)
-    xd(4:6, :, lat%ys:lat%ye) = dx(0:2, :, lat%ys:lat%ye)
-    ! row ys down (the row above of the rank below), row ye up
-    snd = xd(:, :, lat%ys)
-    call MPI_Sendrecv(snd, size(snd), MPI_DOUBLE_PRECISION, this%rank_down, 4903, rcv, size(rcv), &
-                      MPI_DOUBLE_PRECISION, this%rank_up, 4903, comm, MPI_STATUS_IGNORE, mpierr)
-    if (this%rank_up /= MPI_PROC_NULL) xd(:, :, lat%ye + 1) = rcv
-    snd = xd(:, :, lat%ye)
-    call MPI_Sendrecv(snd, size(snd), MPI_DOUBLE_PRECISION, this%rank_up, 4904, rcv, size(rcv), &
-                      MPI_DOUBLE_PRECISION, this%rank_down, 4904, comm, MPI_STATUS_IGNORE, mpierr)
-    if (this%rank_down /= MPI_PROC_NULL) xd(:, :, lat%ys - 1) = rcv
-  end subroutine with_neighbour_rows
-
   !> The plan of rows and the candidate list at positions x (3, 0:nx-1,
   !> max(ys-1,0):min(ye+1,ny-1)) with the reach dhat + xi + skin, and
   !> the positions it was made at. Collective.
@@ -725,7 +632,7 @@ contains
       pm_series_t(name='/self_contact/rows_fetched', description='lattice rows fetched from other ranks for the '// &
                   'broad phase, summed over the ranks', is_count=.true., count=this%fetched), &
       pm_series_t(name='/self_contact/limited', description='Newton updates and predictors shortened by the '// &
-                  'self-contact step limit since the start', is_count=.true., count=this%limited), &
+                  'self-contact step limit since the start', is_count=.true., count=this%g%limited), &
       pm_series_t(name='/self_contact/searches', description='broad-phase searches of the self-contact since '// &
                   'set-up (candidate lists and the step limit''s swept candidates; the same on every rank)', &
                   is_count=.true., count=this%searches), &
@@ -738,6 +645,10 @@ contains
       pm_series_t(name='/self_contact/friction_work', description='work of the friction between layers since the '// &
                   'start (&contact''s self_mu; dissipated, >= 0; part of /energy/dissipated)', units='energy', &
                   values=[self_lags_work(this%lags), 0.0_rp, 0.0_rp])]
+    if (this%g%ogc) series = [series, &
+      pm_series_t(name='/self_contact/clamped', description='node updates shortened to their OGC bounds since '// &
+                  'the start (&contact''s self_step = ''ogc''), summed over the ranks', is_count=.true., &
+                  count=this%g%clamped)]
     groups = [pm_group_t(name='/self_contact', description='the cloth''s contact with itself (&contact''s '// &
                          'self_contact), per output step')]
     energy = pm_energy_t(potential=this%energy, dissipated=self_lags_work(this%lags))
@@ -748,9 +659,10 @@ contains
   subroutine self_checkpoint(this, values)
     class(self_contact_model_t), intent(in) :: this
     type(named_value_t), allocatable, intent(out) :: values(:)
-    values = [named_value('self_contact_limited', [real(this%limited, rp)], .true.), &
+    values = [named_value('self_contact_limited', [real(this%g%limited, rp)], .true.), &
               named_value('self_contact_rebuilt', [real(this%rebuilt, rp)], .true.), &
               named_value('self_contact_friction_work', [self_lags_work(this%lags)], .false.)]
+    if (this%g%ogc) values = [values, named_value('self_contact_clamped', [real(this%g%clamped, rp)], .true.)]
   end subroutine self_checkpoint
 
   !> A restart's counts and friction work from its checkpoint (0 in a
@@ -760,13 +672,15 @@ contains
     type(named_value_t), intent(in) :: values(:)
     integer :: k
     real(rp) :: work
-    this%limited = 0
+    this%g%limited = 0
+    this%g%clamped = 0
     this%rebuilt = 0
     work = 0.0_rp
     do k = 1, size(values)
       if (size(values(k)%v) < 1) cycle
-      if (trim(values(k)%name) == 'self_contact_limited') this%limited = nint(values(k)%v(1))
+      if (trim(values(k)%name) == 'self_contact_limited') this%g%limited = nint(values(k)%v(1))
       if (trim(values(k)%name) == 'self_contact_rebuilt') this%rebuilt = nint(values(k)%v(1))
+      if (trim(values(k)%name) == 'self_contact_clamped') this%g%clamped = nint(values(k)%v(1))
       if (trim(values(k)%name) == 'self_contact_friction_work') work = values(k)%v(1)
     end do
     call self_lags_restore(this%lags, work)

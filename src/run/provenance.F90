@@ -209,6 +209,7 @@ contains
     integer, intent(inout) :: e
     character(len=*), intent(inout) :: errmsg
     call output_config_key(out, 'contact', 'self_contact', 1, e, errmsg)
+    call output_config_key(out, 'contact', 'self_step', trim(cfg%contact%self_step), e, errmsg)
     if (cfg%contact%n_obstacles > 0) return
     call output_config_key(out, 'contact', 'n_obstacles', 0, e, errmsg)
     call output_config_key(out, 'contact', 'contact_thickness', [cfg%contact%thickness], e, errmsg)

@@ -21,7 +21,7 @@ module model_state
   use reduced, only: reduced_t, reduced_set_fixed
   use node_blocks, only: node_blocks_t
   use process_models, only: pm_list_t, pm_list_on, pm_list_forces, pm_list_jacobian, pm_list_step_limit, pm_list_correct, pm_list_accept, &
-                            pm_list_accepted, pm_list_unresolved, pm_list_start_limit, pm_list_start
+                            pm_list_limit_nodes, pm_list_accepted, pm_list_unresolved, pm_list_start_limit, pm_list_start
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   implicit none
   private
@@ -29,7 +29,7 @@ module model_state
             model_force_rows
   public :: model_gravity, model_moving, model_singular
   public :: model_fixed_to_reduced, model_pm_jacobian, model_pm_step_limit, model_pm_correct, model_pm_accept, model_pm_accepted, &
-            model_pm_unresolved, model_pm_start_limit
+            model_pm_unresolved, model_pm_start_limit, model_pm_limit_nodes
   public :: model_pm_start
   public :: assembly_t, assembly_create, assembly_free, assembly_matrix, model_assemble_full
 
@@ -256,6 +256,20 @@ contains
     logical, intent(out) :: changed
     call pm_list_correct(pms, lat, m%fixed, t0, t1, x, dx, comm, changed)
   end subroutine model_pm_correct
+
+  !> The process models' per-node limit of the update dx from x (module
+  !> process_models' pm_list_limit_nodes). Collective.
+  subroutine model_pm_limit_nodes(m, pms, lat, t0, t1, x, dx, comm, changed)
+    type(model_state_t), intent(in) :: m
+    type(pm_list_t), intent(inout) :: pms
+    type(lattice_t), intent(in) :: lat
+    real(rp), intent(in) :: t0, t1
+    real(rp), intent(in) :: x(0:, 0:, lat%ys:)
+    real(rp), intent(inout) :: dx(0:, 0:, lat%ys:)
+    integer, intent(in) :: comm
+    logical, intent(out) :: changed
+    call pm_list_limit_nodes(pms, lat, m%fixed, t0, t1, x, dx, comm, changed)
+  end subroutine model_pm_limit_nodes
 
   !> The fraction alpha of the Newton update x -> x + dx (from x0 at t0 to
   !> the step's end t1) that the process models allow, and infeasible:

@@ -32,7 +32,7 @@ module process_solver
   use newton_start, only: newton_start_limited
   use newton_state, only: newton_update_limited, newton_start_moved, newton_set_lag_settled
   use model_state, only: model_pm_step_limit, model_pm_correct, model_pm_accept, model_pm_accepted, model_pm_unresolved, &
-                         model_pm_start_limit, model_pm_start
+                         model_pm_start_limit, model_pm_start, model_pm_limit_nodes
   use step_errors, only: step_errors_on, step_errors_weighs, step_errors_stage, step_errors_stage_masks, step_errors_tolerances, &
                          step_errors_accepted, step_errors_impacts, step_errors_order_dropped, step_errors_drop_order, &
                          step_errors_take_scale, step_errors_min_step, step_errors_save_scale, &
@@ -160,7 +160,8 @@ contains
   end subroutine pm_domain_error
 
   !> A Newton start x limited (module newton_start's limiter): x_n +
-  !> alpha (x - x_n), x_n the step's start (the TS's solution), alpha the
+  !> alpha (x - x_n), each node's x - x_n first shortened by the models'
+  !> per-node limits (model_pm_limit_nodes), x_n the step's start (the TS's solution), alpha the
   !> largest fraction the process models' step limits allow from x_n
   !> (their time of impact, as for every Newton update), 0 where they
   !> allow none; then moved into the models' domains by their start hooks
@@ -177,7 +178,7 @@ contains
     type(tVec) :: x0vec, dxvec
     PetscScalar, pointer :: x(:, :, :), x0(:, :, :), dx(:, :, :)
     real(rp) :: alpha, t0, dt
-    logical :: infeasible
+    logical :: infeasible, clamped
     integer :: moved, mpierr
     call c_f_pointer(cp, ctx)
     PetscCall(TSGetTime(ctx%ts, t0, ierr))
@@ -187,11 +188,13 @@ contains
     PetscCall(DMGetGlobalVector(ctx%da, dxvec, ierr))
     PetscCall(VecWAXPY(dxvec, -1.0_rp, x0vec, xvec, ierr))
     PetscCall(DMDAVecGetArrayReadF90(ctx%da, x0vec, x0, ierr))
-    PetscCall(DMDAVecGetArrayReadF90(ctx%da, dxvec, dx, ierr))
+    PetscCall(DMDAVecGetArrayF90(ctx%da, dxvec, dx, ierr))
     PetscCall(DMDAVecGetArrayF90(ctx%da, xvec, x, ierr))
+    ! the models' per-node limits first (self-contact's OGC bounds), then their fractions
+    call model_pm_limit_nodes(ctx%model, ctx%pms, ctx%lat, t0, t0 + dt, x0, dx, ctx%comm, clamped)
     call model_pm_start_limit(ctx%model, ctx%pms, ctx%lat, t0, t0 + dt, x0, dx, ctx%comm, alpha, infeasible)
     if (infeasible) alpha = 0.0_rp
-    cut = alpha < 1.0_rp
+    cut = alpha < 1.0_rp .or. clamped
     if (cut) x = x0 + alpha * dx
     call model_pm_start(ctx%model, ctx%pms, ctx%lat, t0, t0 + dt, x0, x, moved)
     ! (a start cut short or carried by an obstacle is a contact's onset:
@@ -200,7 +203,7 @@ contains
     call MPI_Allreduce(MPI_IN_PLACE, moved, 1, MPI_INTEGER, MPI_MAX, ctx%comm, mpierr)
     call newton_start_moved(ctx%newton, cut, moved > 0)
     PetscCall(DMDAVecRestoreArrayF90(ctx%da, xvec, x, ierr))
-    PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, dxvec, dx, ierr))
+    PetscCall(DMDAVecRestoreArrayF90(ctx%da, dxvec, dx, ierr))
     PetscCall(DMDAVecRestoreArrayReadF90(ctx%da, x0vec, x0, ierr))
     PetscCall(DMRestoreGlobalVector(ctx%da, dxvec, ierr))
   end subroutine pm_limit_start
@@ -238,8 +241,11 @@ contains
   end subroutine pm_precheck
 
   !> The Newton update y at x (the step is x - y, from the step's start
-  !> x_n, the TS's solution, at t_n to t_n + dt) scaled by the fraction
-  !> the process models allow (module model_state's model_pm_step_limit);
+  !> x_n, the TS's solution, at t_n to t_n + dt) corrected and shortened
+  !> node by node by the process models (model_pm_correct,
+  !> model_pm_limit_nodes: y written back, changed set, so that the line
+  !> search and SNES take the new direction), then scaled by the fraction
+  !> they allow (module model_state's model_pm_step_limit);
   !> where they allow none, y = 0 and the list's flag makes the candidate,
   !> and so the stage, infeasible (the step is retried smaller). changed:
   !> y was altered (the same on every rank). Collective.
@@ -251,7 +257,7 @@ contains
     PetscScalar, pointer :: x(:, :, :), y(:, :, :), x0(:, :, :), dx(:, :, :)
     type(tVec) :: x0vec, dxvec
     real(rp) :: alpha, t0, dt
-    logical :: infeasible, bent
+    logical :: infeasible, bent, clamped
     changed = .false.
     PetscCall(TSGetTime(ctx%ts, t0, ierr))
     PetscCall(TSGetTimeStep(ctx%ts, dt, ierr))
@@ -265,8 +271,9 @@ contains
     PetscCall(DMDAVecGetArrayF90(ctx%da, dxvec, dx, ierr))
     dx = -y
     call model_pm_correct(ctx%model, ctx%pms, ctx%lat, t0, t0 + dt, x, dx, ctx%comm, bent)
-    if (bent) y = -dx
-    changed = bent
+    call model_pm_limit_nodes(ctx%model, ctx%pms, ctx%lat, t0, t0 + dt, x, dx, ctx%comm, clamped)
+    changed = bent .or. clamped
+    if (changed) y = -dx
     PetscCall(DMDAVecRestoreArrayF90(ctx%da, yvec, y, ierr))
     call model_pm_step_limit(ctx%model, ctx%pms, ctx%lat, t0, t0 + dt, x0, x, dx, ctx%comm, alpha, infeasible)
     PetscCall(DMDAVecRestoreArrayF90(ctx%da, dxvec, dx, ierr))

@@ -17,7 +17,9 @@ crossings (the check can fail); with it on it finds none, in Newton mode
 with one rank's to the solver's tolerance (1e-8 of the cloth's size in
 Newton mode, 1e-6 in bw: one linear solve a step, whose block-Jacobi
 preconditioner changes with the ranks).
-A start within 2 contact_thickness of itself is refused before the run,
+With self_step = 'ogc' (each node's update shortened to its own bound
+instead of the global ACCD fraction) the same holds on 1, 2 and 3 ranks in
+both modes. A start within 2 contact_thickness of itself is refused before the run,
 naming the pair, and a barrier reach of a lattice spacing is refused by
 name. With contact_dhat = 1 mm (a barrier five times thinner) Newton
 converges only with the blocks between a pair's different nodes in S (the
@@ -47,9 +49,12 @@ CAPSULE = ("n_obstacles=1 obstacle_shape(1)='capsule' obstacle_point(:,1)=0.26,-
            "obstacle_end(:,1)=0.26,0.6,-0.0255 obstacle_radius(1)=0.02 contact_dhat=5.0e-3 contact_stiffness=1.0")
 
 
-def drop(tmp_path, name, on, nranks=1, options=(), dhat=5.0e-3):
-    """The scene with self_contact on or off; the run's positions [nt][ny][nx][3] and file."""
+def drop(tmp_path, name, on, nranks=1, options=(), dhat=5.0e-3, step="accd"):
+    """The scene with self_contact on or off (self_step: its step guarantee); the run's positions
+    [nt][ny][nx][3] and file."""
     contact = CAPSULE.replace("contact_dhat=5.0e-3", f"contact_dhat={dhat}") + (" self_contact=.true." if on else "")
+    if step != "accd":
+        contact += f" self_step='{step}'"
     _, h5 = run(tmp_path, name, nranks=nranks, options=options, timeout=600, contact=contact, **GROUPS)
     r = read_run(str(h5))
     assert r.complete and abs(r.time[-1] - T_END) < 1e-12
@@ -79,6 +84,45 @@ def test_halves_that_cross_without_self_contact_do_not_cross_with_it(tmp_path, m
     size = np.ptp(on[1].reshape(-1, 3), axis=0).max()
     for n in ranks[1:]:
         assert np.abs(on[n] - on[1]).max() <= tol * size, n
+
+
+@pytest.mark.parametrize("mode", ["newton", "bw"])
+def test_per_node_bounds_keep_the_halves_apart_on_any_number_of_ranks(tmp_path, mode):
+    # self_step = 'ogc' (docs/self-contact.md, "The step guarantee: two
+    # flavours"): no global fraction; each node's update shortened to 0.4
+    # of its nearest pair's gap, the ranks' bounds each the owner's. The
+    # same check as the ACCD guarantee's (without self-contact the halves
+    # cross: the test above), on 1, 2 and 3 ranks in both modes; nodes were
+    # shortened (the bounds acted) on every rank count alike
+    options = ("-snes_type", "ksponly") if mode == "bw" else ()
+    on, clamped = {}, {}
+    for n in (1, 2, 3):
+        on[n], h5 = drop(tmp_path, f"ogc_{mode}_{n}", True, nranks=n, options=options, step="ogc")
+        found = crossings(on[n], NEAR)
+        assert not found, (n, found[:5])
+        with h5py.File(h5, "r") as f:
+            assert (f["self_contact/min_gap"][:] > 0).all()
+            assert f["self_contact/active"][:].max() > 0      # the halves did meet
+            clamped[n] = int(f["self_contact/clamped"][-1])
+            assert clamped[n] > 0 and f["self_contact/limited"][-1] > 0
+    tol = 1e-8 if mode == "newton" else 1e-6
+    size = np.ptp(on[1].reshape(-1, 3), axis=0).max()
+    for n in (2, 3):
+        assert np.abs(on[n] - on[1]).max() <= tol * size, n
+
+
+def test_a_bad_self_step_is_refused_in_one_line(tmp_path):
+    """self_step not a choice, and 'ogc' without self_contact (it would be
+    ignored): one line naming the key and its value (test_contact_input's
+    check; both ran as an unknown key before self_step existed)."""
+    from test_contact_input import refused
+    cases = [("self_contact=.true. self_step='global'", "self_step = 'global'", "is not one of accd, ogc"),
+             ("self_step='ogc'", "self_step = 'ogc'", "needs self_contact = .true.")]
+    for n, (keys, names, says) in enumerate(cases):
+        d = tmp_path / f"case{n}"
+        d.mkdir()
+        line = refused(d, "n_obstacles=0 " + keys)
+        assert f"input: &contact: {names}" in line and says in line, line
 
 
 def test_a_thin_barrier_converges_with_the_pair_blocks(tmp_path):
