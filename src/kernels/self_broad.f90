@@ -381,7 +381,7 @@ contains
       end do
     end subroutine edge_edge_pairs
 
-    !> The narrow tests: ownership, rest distance, distance (or the path's bound). ida, idb:
+    !> The narrow tests: ownership, rest distance, distance (or the path's bound: self_far). ida, idb:
     !> the point's node and the triangle's number, or the two edges' numbers.
     subroutine consider(kind, node, ida, idb)
       integer, intent(in) :: kind, node(4), ida, idb
