@@ -52,7 +52,7 @@ module self_broad
   use kinds, only: rp
   use contact_faces, only: quad_triangles, quad_diagonal, SPLIT_MAIN, SPLIT_ANTI
   use contact_primitives, only: point_triangle_d2, edge_edge_d2
-  use contact_ccd, only: accd_rate_bound
+  use self_far, only: self_pair_far
   use work_arrays, only: grow, grow_from0
   implicit none
   private
@@ -381,11 +381,11 @@ contains
       end do
     end subroutine edge_edge_pairs
 
-    !> The narrow tests: ownership, rest distance, distance (or the path's bound). ida, idb:
+    !> The narrow tests: ownership, rest distance, distance (or the path's bound: self_far). ida, idb:
     !> the point's node and the triangle's number, or the two edges' numbers.
     subroutine consider(kind, node, ida, idb)
       integer, intent(in) :: kind, node(4), ida, idb
-      real(rp) :: xa(3, 4), xb(3, 4), d2
+      real(rp) :: xa(3, 4), xb(3, 4)
       integer :: jown
 
       if (own_rule == OWN_TOUCH) then
@@ -398,13 +398,9 @@ contains
         if (rest_near(lat, w%rt, kind, ida, idb)) return
       end if
       xa = self_pair_positions(lat, w%slot, x0, node)
-      d2 = self_pair_distance2(kind, xa)
-      if (swept) then
-        xb = self_pair_positions(lat, w%slot, x1, node)
-        if (sqrt(d2) - accd_rate_bound(kind, xb - xa) >= reach) return
-      else
-        if (d2 >= reach**2) return
-      end if
+      xb = xa
+      if (swept) xb = self_pair_positions(lat, w%slot, x1, node)
+      if (self_pair_far(kind, xa, xb, swept, reach)) return
       call add_pair(pairs, kind, node)
     end subroutine consider
 

@@ -20,6 +20,9 @@ program test_self_broad
   use self_broad, only: self_lattice_t, self_pairs_t, self_candidates, self_candidates_swept, PAIR_PT, &
                         OWN_LOWEST, OWN_TOUCH, self_pairs_regrown, self_rest_gap
   use self_shapes, only: roll_shape, fold_shape, crumple_shape, brute_keys, pair_keys
+  use self_far, only: self_pair_far
+  use contact_primitives, only: point_triangle_d2, edge_edge_d2
+  use contact_ccd, only: accd_rate_bound
   use check, only: check_true, check_report, seed_random
   implicit none
   integer :: trial
@@ -32,6 +35,8 @@ program test_self_broad
   call rest_rule()
   call rest_gap()
   call kept_tables()
+  call far_is_exact()
+  call random_moves()
   call cost(129)
   call cost(257)
   call check_report()
@@ -100,6 +105,92 @@ contains
     call brute_keys(lat, rows, x(:, :, 3:9), x(:, :, 3:9), .false., 0, lat%ny - 1, OWN_LOWEST, reach, reach, kb)
     call check_true(same(kh, kb), trim(what)//': rows 3..9 alone = brute force')
   end subroutine against_brute
+
+  !> self_far's test (the boxes' gap before the exact distance) against the exact test
+  !> alone, sqrt(d2) - ACCD's rate bound >= reach (swept) or d2 >= reach^2, on random
+  !> pairs whose reach is their own distance give or take a few ulps (where a lower bound
+  !> that cut too much would call a needed pair far) or a random one: the same answer on
+  !> every pair.
+  subroutine far_is_exact()
+    real(rp) :: xa(3, 4), xb(3, 4), u(3, 4), r(2), d2, rb, reach
+    integer :: m, kind, bad, nfar
+    logical :: swept, exact
+
+    bad = 0
+    nfar = 0
+    do m = 1, 40000
+      call random_number(u)
+      xa = 0.01_rp * u
+      call random_number(u)
+      xb = xa + 0.004_rp * (2.0_rp * u - 1.0_rp)
+      call random_number(r)
+      kind = merge(PAIR_PT, 2, r(1) < 0.5_rp)
+      swept = r(2) < 0.5_rp
+      if (kind == PAIR_PT) then
+        d2 = point_triangle_d2(xa(:, 1), xa(:, 2), xa(:, 3), xa(:, 4))
+      else
+        d2 = edge_edge_d2(xa(:, 1), xa(:, 2), xa(:, 3), xa(:, 4))
+      end if
+      rb = 0.0_rp
+      if (swept) rb = accd_rate_bound(kind, xb - xa)
+      call random_number(r)
+      if (r(1) < 0.5_rp) then
+        reach = max(sqrt(d2) - rb, 0.0_rp) * (1.0_rp + (2.0_rp * r(2) - 1.0_rp) * 4.0_rp * epsilon(1.0_rp))
+      else
+        reach = 0.01_rp * r(2)
+      end if
+      if (swept) then
+        exact = sqrt(d2) - rb >= reach
+      else
+        exact = d2 >= reach**2
+      end if
+      if (exact .neqv. self_pair_far(kind, xa, xb, swept, reach)) bad = bad + 1
+      if (exact) nfar = nfar + 1
+    end do
+    call check_true(bad == 0, 'self_pair_far = the exact test on 40000 random pairs')
+    write(output_unit, '(a, i0)') 'far pairs of 40000: ', nfar
+    call check_true(nfar > 4000 .and. nfar < 36000, 'the random pairs are near and far')
+  end subroutine far_is_exact
+
+  !> The swept candidates against the brute force for random moves of a folded sheet at
+  !> the benchmark's proportions where the halves meet (reach 0.6 spacings, moves of up
+  !> to 1.5 spacings a node, smooth and noisy), on both ownership rules and two bands:
+  !> a pair left out that the brute force keeps fails it.
+  subroutine random_moves()
+    type(self_lattice_t) :: lat
+    type(self_pairs_t) :: pairs
+    real(rp), allocatable :: x(:, :, :), dx(:, :, :), u(:, :, :)
+    integer(int64), allocatable :: kb(:), kh(:)
+    integer, allocatable :: rows(:)
+    real(rp) :: v(3)
+    integer :: trial, j, i, rule, lo, hi
+    logical :: ok
+
+    lat = self_lattice_t(nx=17, ny=17, split=SPLIT_MAIN, ax=0.01_rp, ay=0.01_rp)
+    allocate(x(3, 0:16, 0:16), dx(3, 0:16, 0:16), u(3, 0:16, 0:16))
+    rows = [(j, j = 0, 16)]
+    ok = .true.
+    do trial = 1, 8
+      call fold_shape(lat, 8, 0.008_rp, x)
+      call random_number(v)
+      call random_number(u)
+      do j = 0, 16
+        do i = 0, 16
+          ! the halves swinging toward each other, plus noise
+          dx(:, i, j) = 0.015_rp * (2.0_rp * v - 1.0_rp) * merge(1.0_rp, -1.0_rp, j < 8) * sin(0.3_rp * (i + j)) &
+                        + 0.004_rp * (2.0_rp * u(:, i, j) - 1.0_rp)
+        end do
+      end do
+      rule = merge(OWN_LOWEST, OWN_TOUCH, mod(trial, 2) == 1)
+      lo = merge(0, 5, trial <= 4)
+      hi = merge(16, 11, trial <= 4)
+      call self_candidates_swept(lat, rows, x, dx, lo, hi, rule, 0.006_rp, 0.005_rp, pairs)
+      call pair_keys(lat, pairs, kh)
+      call brute_keys(lat, rows, x, x + dx, .true., lo, hi, rule, 0.006_rp, 0.005_rp, kb)
+      ok = ok .and. same(kh, kb) .and. size(kb) > 100
+    end do
+    call check_true(ok, 'random moves: swept candidates = brute force (8 moves, both rules, two bands)')
+  end subroutine random_moves
 
   !> The tables stay with the list: a second call of the same size (static, then swept)
   !> reallocates nothing and finds the same pairs; a smaller one neither; a larger reach
