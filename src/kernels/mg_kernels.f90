@@ -70,12 +70,16 @@ contains
     real(mp), intent(inout), optional :: ds(0:, :)
     real(rp), intent(inout), optional :: y(:, 0:, st%ys:)
     integer, intent(in), optional :: rows(2)
-    integer :: j, jj, nx, nlow, kbeg, j0, j1
+    integer :: j, jj, nx, nlow, kbeg, j0, j1, k
 
     nx = st%nx
     ! the offsets to other rows are in lexicographic order: those to the
-    ! rows below first
-    nlow = count(st%odj(st%kv(1:st%nv)) < 0)
+    ! rows below first (counted in a loop: count() over the vector
+    ! subscript made a temporary, a malloc and a free a sweep)
+    nlow = 0
+    do k = 1, st%nv
+      if (st%odj(st%kv(k)) < 0) nlow = nlow + 1
+    end do
     ! the padding columns of the product's rows stay zero
     if (present(y)) xs = 0.0_rp
     j0 = st%ys

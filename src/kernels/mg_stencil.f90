@@ -69,6 +69,8 @@ module mg_stencil
     real(mp), allocatable :: br(:, :, :, :, :)   !< (3, 3, nr, 0:nx-1, ys:ye) A(p, p+o), o within the row
     real(mp), allocatable :: d(:, :, :, :)       !< (0:nx-1, 3, 3, ys:ye) row sums D_p
     real(mp), allocatable :: ainv(:, :, :, :)    !< (3, 3, 0:nx-1, ys:ye) inverse of A_pp
+    real(rp), allocatable :: rsum(:)             !< (0:nx-1) row_sums' work: a local sized by nx was a
+                                                 !< malloc and a free a row of every assembly
   end type stencil_t
 
 
@@ -90,7 +92,7 @@ contains
     st%ys = ys
     st%ye = ye
     st%r = r
-    if (allocated(st%odi)) deallocate(st%odi, st%odj, st%slot, st%kv, st%kr, st%dik, st%kmir, st%b, st%br, st%d, st%ainv)
+    if (allocated(st%odi)) deallocate(st%odi, st%odj, st%slot, st%kv, st%kr, st%dik, st%kmir, st%b, st%br, st%d, st%ainv, st%rsum)
     st%paired = .false.
     do pass = 1, 2
       k = 0
@@ -135,7 +137,7 @@ contains
       st%kmir(kk) = st%slot(offset_index(st, -st%odi(st%kv(kk)), -st%odj(st%kv(kk))))
     end do
     allocate(st%b(0:nx - 1, 3, 3, st%nv, ys:ye), st%br(3, 3, st%nr, 0:nx - 1, ys:ye))
-    allocate(st%d(0:nx - 1, 3, 3, ys:ye), st%ainv(3, 3, 0:nx - 1, ys:ye))
+    allocate(st%d(0:nx - 1, 3, 3, ys:ye), st%ainv(3, 3, 0:nx - 1, ys:ye), st%rsum(0:nx - 1))
     st%b = 0.0_mp
     st%br = 0.0_mp
     st%d = 0.0_mp
@@ -224,7 +226,7 @@ contains
       sk(k) = k + 1
     end do
     do j = st%ys, st%ye
-      call row_sums(st%nx, size(sk), size(sk) - 1, sk, ac(:, :, :, :, :, j), st%d(:, :, :, j))
+      call row_sums(st%nx, size(sk), size(sk) - 1, sk, ac(:, :, :, :, :, j), st%d(:, :, :, j), st%rsum)
       do kk = 1, st%nv
         k = st%kv(kk)
         call to_single(st%nx * 9, ac(:, :, :, st%odi(k), st%odj(k), j), st%b(:, :, :, kk, j))
@@ -256,13 +258,13 @@ contains
   !> The row sums of stencil_row_from_full and stencil_finish: d(:, e) = sum over the slots sk(0:nb)
   !> of full(:, e, slot), in double precision, rounded to kind mp. Along
   !> the whole row (in tiles of 16 nodes, its 81 short loops a tile were
-  !> half of stencil_row_from_full).
-  pure subroutine row_sums(nx, nslot, nb, sk, full, d)
+  !> half of stencil_row_from_full). acc(0:nx-1): work (stencil_t%rsum).
+  pure subroutine row_sums(nx, nslot, nb, sk, full, d, acc)
     integer, intent(in) :: nx, nslot, nb
     integer, intent(in) :: sk(0:nb)
     real(rp), intent(in) :: full(0:nx - 1, 9, nslot)
     real(mp), intent(out) :: d(0:nx - 1, 9)
-    real(rp) :: acc(0:nx - 1)
+    real(rp), intent(inout) :: acc(0:nx - 1)
     integer :: e, k
     do e = 1, 9
       acc = full(:, e, sk(0))
@@ -360,7 +362,7 @@ contains
     end do
     ! the row sums, in double precision before rounding (the small mass
     ! term is what is left of the large stiffness blocks)
-    call row_sums(st%nx, size(full, 4), st%nb, sk(0:st%nb), full, st%d(:, :, :, j))
+    call row_sums(st%nx, size(full, 4), st%nb, sk(0:st%nb), full, st%d(:, :, :, j), st%rsum)
     call row_inverses(st%nx, full(:, :, :, sk(0)), st%ainv(:, :, :, j))
   end subroutine stencil_row_from_full
 

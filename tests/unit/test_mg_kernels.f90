@@ -32,7 +32,14 @@ program test_mg_kernels
                         stencil_from_full, stencil_product_mixed, level_product_rows
   use offset_product, only: stencil_product, offset_count, offset_slot
   use check, only: check_true, check_close, check_report
+  use, intrinsic :: iso_c_binding, only: c_long
   implicit none
+  interface
+    !> malloc calls since the start (tests/unit/malloc_count.c)
+    integer(c_long) function malloc_calls() bind(C, name='nuno_test_malloc_calls')
+      import :: c_long
+    end function malloc_calls
+  end interface
 
   call test_apply(2)
   call test_apply(1)
@@ -547,6 +554,7 @@ contains
     real(mp), allocatable :: ds(:, :), x(:, :, :), rhs(:, :, :), t(:, :), low(:, :, :)
     real(rp) :: rnd(3, 3)
     integer :: i, j, di, dj, c, gys, gye, k0
+    integer(c_long) :: m0
     character(len=96) :: label
     gys = max(0, ys - r)
     gye = min(ny - 1, ye + r)
@@ -580,7 +588,11 @@ contains
     x(nx:, :, :) = 0.0_mp
     call random_number(rhs)
     y = -1.0_rp
+    m0 = malloc_calls()
     call sweep_with_product(st, r, ys, ye, x, rhs, t, low, xs, acc, ds, y)
+    m0 = malloc_calls() - m0
+    write(label, '(a, i0, a, i0, a, i0)') 'no heap allocation in the sweeps and products, reach ', r, ', rows ', ys, '..', ye
+    call check_true(m0 == 0, trim(label))
     call widened(nx, r, ys - r, gys, gye, x, xw)
     call stencil_product_mixed(st, gys, gye, xw, yref, xs, acc, ds)
     write(label, '(a, i0, a, i0, a, i0, a, i0)') 'product formed in the backward sweep, reach ', r, ', rows ', ys, '..', ye, &
@@ -679,7 +691,9 @@ contains
     integer, intent(in) :: r, ys, ye
     real(mp), intent(inout), contiguous :: x(:, :, :)
     real(mp), intent(in) :: rhs(:, :, :)
-    real(mp), intent(inout) :: t(:, :), low(:, :, :), ds(:, :)
+    ! (t contiguous as gs_sweep's: else the call packs it, a malloc)
+    real(mp), intent(inout), contiguous :: t(:, :)
+    real(mp), intent(inout) :: low(:, :, :), ds(:, :)
     real(rp), intent(inout) :: xs(:, :, :), acc(:, :), y(:, :, :)
     call gs_sweep(st, r, x, rhs, .true., t, low)
     call gs_sweep(st, r, x, rhs, .false., t, low, xs, acc, ds, y)
@@ -782,6 +796,7 @@ contains
     real(rp), allocatable :: dense(:, :), full(:, :, :, :, :)
     real(rp) :: blk(3, 3, -r:r, -r:r)
     integer :: i, j, di, dj, c1, c2, k
+    integer(c_long) :: m0
     character(len=16) :: tag
     write(tag, '(a, i0, a)') ' (reach ', r, ')'
     call random_operator(nx, ny, r, 30.0_rp, 1.0_rp, st, dense, lines=.true.)
@@ -811,7 +826,10 @@ contains
       end do
     end do
     call stencil_init(sf, nx, ny, 0, ny - 1, r, lines=.true.)
+    m0 = malloc_calls()
     call stencil_from_full(sf, full)
+    m0 = malloc_calls() - m0
+    call check_true(m0 == 0, 'from full: no heap allocation (the row sums)' // trim(tag))
     call check_true(all(sf%b == st%b) .and. all(sf%br == st%br), 'from full: the blocks' // trim(tag))
     ! (the same formulas in double precision, rounded once; the compiler may
     ! contract them differently in the vector loop: single rounding apart)
