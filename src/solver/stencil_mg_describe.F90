@@ -23,6 +23,11 @@ contains
     n = 1
     write(text(1), '(a, i0, a, a, a, i0, a)') 'levels ', mg%nlev, ', ', trim(cycle_name()), ', ', mg%nu, &
       ' symmetric Gauss-Seidel sweep(s) a smoothing, single precision'
+    if (mg%seam .and. mg%nranks > 1) then
+      n = n + 1
+      text(n) = 'seam sweeps: each smoothing then sweeps the first rows of each strip above another forward once more ' &
+                //'(the faces'' barrier blocks across strips)'
+    end if
     cycle_bytes = 0.0_rp
     do l = 1, mg%nlev
       associate (a => mg%lev(l)%a)
