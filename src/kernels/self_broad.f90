@@ -51,8 +51,7 @@ module self_broad
   use, intrinsic :: iso_fortran_env, only: int64
   use kinds, only: rp
   use contact_faces, only: quad_triangles, quad_diagonal, SPLIT_MAIN, SPLIT_ANTI
-  use contact_primitives, only: point_triangle_d2, edge_edge_d2
-  use self_far, only: self_pair_far
+  use self_far, only: self_pair_far, self_pair_distance2   ! the distance re-exported: self_step and the tests take it from here
   use work_arrays, only: grow, grow_from0
   implicit none
   private
@@ -178,18 +177,6 @@ contains
 
     j = minval(node) / lat%nx
   end function self_pair_owner_row
-
-  !> Squared distance of a pair at positions xp(3, 4) [length^2].
-  pure real(rp) function self_pair_distance2(kind, xp) result(d2)
-    integer, intent(in) :: kind
-    real(rp), intent(in) :: xp(3, 4)
-
-    if (kind == PAIR_PT) then
-      d2 = point_triangle_d2(xp(:, 1), xp(:, 2), xp(:, 3), xp(:, 4))
-    else
-      d2 = edge_edge_d2(xp(:, 1), xp(:, 2), xp(:, 3), xp(:, 4))
-    end if
-  end function self_pair_distance2
 
   !> Empty the list (keeps its storage).
   pure subroutine self_pairs_clear(pairs)

@@ -16,7 +16,7 @@ module self_far
   use contact_ccd, only: accd_rate_bound
   implicit none
   private
-  public :: self_pair_far
+  public :: self_pair_far, self_pair_distance2
 
   !> The pair kind of a point and a triangle (self_broad's PAIR_PT, contact_ccd's code).
   integer, parameter :: KIND_PT = 1
@@ -40,14 +40,16 @@ contains
     if (swept) then
       rb = accd_rate_bound(kind, xb - xa)
       far = BOX_SAFE * sqrt(box_gap2(kind, xa)) - rb >= reach
-      if (.not. far) far = sqrt(distance2(kind, xa)) - rb >= reach
+      if (.not. far) far = sqrt(self_pair_distance2(kind, xa)) - rb >= reach
     else
       far = BOX_SAFE * box_gap2(kind, xa) >= reach**2
-      if (.not. far) far = distance2(kind, xa) >= reach**2
+      if (.not. far) far = self_pair_distance2(kind, xa) >= reach**2
     end if
   end function self_pair_far
 
-  pure real(rp) function distance2(kind, xp) result(d2)
+  !> Squared distance of a pair at positions xp(3, 4) [length^2] (kind: 1
+  !> point-triangle, else edge-edge; columns as self_pair_far's).
+  pure real(rp) function self_pair_distance2(kind, xp) result(d2)
     integer, intent(in) :: kind
     real(rp), intent(in) :: xp(3, 4)
 
@@ -56,7 +58,7 @@ contains
     else
       d2 = edge_edge_d2(xp(:, 1), xp(:, 2), xp(:, 3), xp(:, 4))
     end if
-  end function distance2
+  end function self_pair_distance2
 
   !> The squared gap between the boxes of the pair's two primitives [length^2]: no larger
   !> than the squared distance.
