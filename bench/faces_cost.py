@@ -22,7 +22,8 @@ faces, the smallest triangle or edge gap over the output steps
 run prints [s] (meaningful only on an idle machine: the counts are the
 measurement). The modified namelists (contact_faces, output_file and a
 t_end given by --t-end) and each run's log are kept in --out; input/ is
-not touched. Runs one after the other.
+not touched. Runs one after the other; exit 1 where a run failed (its
+row says where).
 """
 from __future__ import annotations
 
