@@ -96,8 +96,8 @@ elif [ $# -ge 2 ]; then
   dw_log=${!#}
 else
   # the logs behind docs/performance.md's table until the next full run
-  bench_logs=("$res/performance-bench-93a0689.log")
-  dw_log=$res/performance-donewhen-93a0689.log
+  bench_logs=("$res/performance-bench-9ba3bc6.log")
+  dw_log=$res/performance-donewhen-9ba3bc6.log
 fi
 
 python3 bench/solver.py --replot "${bench_logs[@]}" --donewhen "$dw_log" \
