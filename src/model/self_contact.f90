@@ -115,6 +115,7 @@ module self_contact
   type :: self_guard_t
     logical :: ogc = .false.           !< &contact self_step = 'ogc': per-node bounds (flavour (b))
     logical :: accd_needed = .false.   !< 'ogc': a constrained node's update passed its bound: (a)'s alpha too
+    logical :: clamped_now = .false.   !< 'ogc': this update had nodes clamped (counted once in limited)
     integer :: limited = 0             !< updates and predictors shortened (alpha < 1, or nodes clamped)
     integer :: clamped = 0             !< 'ogc': node updates shortened to their bounds, summed over ranks
   end type self_guard_t

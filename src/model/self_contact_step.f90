@@ -71,7 +71,8 @@ contains
     end if
     end associate
     status = merge(PM_INFEASIBLE, PM_FEASIBLE, alpha <= 0.0_rp .or. ierr /= 0)
-    if (alpha < 1.0_rp) this%g%limited = this%g%limited + 1
+    ! an update clamped node by node (self_limit_nodes) is counted there, once
+    if (alpha < 1.0_rp .and. .not. this%g%clamped_now) this%g%limited = this%g%limited + 1
   end subroutine self_step_limit
 
   !> The list made again for an update x -> x + dx that leaves it, from
@@ -134,6 +135,7 @@ contains
     real(rp) :: b, l
     changed = .false.
     this%g%accd_needed = .false.
+    this%g%clamped_now = .false.
     if (.not. this%g%ogc) return
     call list_holds_at(this, lat, comm, x, dx, 0.0_rp, ierr)
     n = this%nrows
@@ -162,6 +164,7 @@ contains
     end associate
     call MPI_Allreduce(counts, gcounts, 2, MPI_INTEGER, MPI_SUM, comm, mpierr)
     changed = gcounts(1) > 0
+    this%g%clamped_now = changed
     this%g%accd_needed = gcounts(2) > 0
     if (changed) then
       this%g%limited = this%g%limited + 1
