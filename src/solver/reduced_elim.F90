@@ -251,7 +251,7 @@ contains
       if (reused) then
         call reuse_rebuilt(red%pcc%reuse)
         PetscCall(KSPSetReusePreconditioner(red%ksp, PETSC_FALSE, ierr))
-        PetscCall(KSPSetOperators(red%ksp, red%s, red%s, ierr))
+        PetscCall(pair_op_set_operators(red%pop, red%s, red%ksp, ierr))
         if (red%pcc%use_mg) then
           PetscCall(mg_coarse_levels(red%mgg, red%nodal, red%el%ujac, red%el%fixedg, red%a, red%el%damping, red%el%clamp, red%el%gauss_newton, ierr))
         end if

@@ -23,7 +23,7 @@ module reduced_pairs
   use shell_context, only: MatShellSetContext, MatShellGetContext
   implicit none
   private
-  public :: pair_op_t, pair_op_create, pair_op_set_shift, pair_op_destroy, pair_product_add
+  public :: pair_op_t, pair_op_create, pair_op_set_shift, pair_op_destroy, pair_product_add, pair_op_set_operators
 
   !> The MATSHELL S + pair blocks over the PETSc matrix s.
   type :: pair_op_t
@@ -64,6 +64,21 @@ contains
     PetscCall(KSPSetOperators(ksp, po%op, s, ierr))
     po%made = .true.
   end subroutine pair_op_create
+
+  !> The inner KSP's operators set again (the preconditioner rebuilt from s
+  !> at the next solve): the MATSHELL with the pair blocks where made, else
+  !> s itself. Collective.
+  subroutine pair_op_set_operators(po, s, ksp, ierr)
+    type(pair_op_t), intent(in) :: po
+    type(tMat), intent(in) :: s
+    type(tKSP), intent(in) :: ksp
+    PetscErrorCode, intent(out) :: ierr
+    if (po%made) then
+      PetscCall(KSPSetOperators(ksp, po%op, s, ierr))
+    else
+      PetscCall(KSPSetOperators(ksp, s, s, ierr))
+    end if
+  end subroutine pair_op_set_operators
 
   !> The shift of the S just assembled.
   subroutine pair_op_set_shift(po, a)

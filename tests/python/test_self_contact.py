@@ -143,6 +143,22 @@ def test_a_thin_barrier_converges_with_the_pair_blocks(tmp_path):
     assert np.abs(on[2] - on[1]).max() <= 1e-8 * size
 
 
+@pytest.mark.parametrize("nranks", [1, 3])
+def test_petsc_pcmg_with_the_pair_blocks_is_refused_before_the_run(tmp_path, nranks):
+    # PETSc's PCMG makes its coarse levels from the assembled S alone and
+    # left them unset beside the MATSHELL with the pair blocks: the run
+    # stopped at its first inner solve ("PetscLayout for columns not yet
+    # setup") after writing the file's head; now one line before the run
+    contact = CAPSULE + " self_contact=.true."
+    proc, h5 = run(tmp_path, "pcmg", nranks=nranks, check=False, options=["-reduced_pc_type", "mg"],
+                   contact=contact, **dict(GROUPS, time="t_end=0.01 dt=1.0e-3"))
+    text = proc.stdout + proc.stderr
+    assert proc.returncode != 0
+    assert "self_contact's pair blocks need nuno's multigrid" in text and "-reduced_pc_type mg" in text, text[-2000:]
+    assert "PetscLayout" not in text
+    assert not h5.exists()
+
+
 def test_a_start_within_the_contact_distance_of_itself_is_refused_naming_the_pair(tmp_path):
     # bend_release's arc closed to 350 degrees (mm): its two ends 1.4 mm
     # apart, less than 2 contact_thickness = 2 mm
