@@ -207,7 +207,8 @@ contains
   !> t1 below contact_dhat and below the gap at t0) start where they sat
   !> relative to it, raised off it by a lift: x0 + d + l d/|d| with
   !> velocity (d + l d/|d|)/(t1 - t0) (d: its translation over the step;
-  !> l = min(|d|, LIFT_FRACTION contact_dhat)), as contact_model carries
+  !> l = min(|d|, LIFT_FRACTION contact_dhat), shortened where another
+  !> obstacle lies along d: carried_lift), as contact_model carries
   !> single nodes: a thin obstacle between two node columns reaches the
   !> edges but no node. Carried along with the obstacle, a quad keeps the
   !> gap of the state before, the barrier's equilibrium under the push
@@ -240,9 +241,10 @@ contains
     do k = 1, obstacle_set_count(this%obstacles)
       call obstacle_set_pair(this%obstacles, k, t0, t1, o0, o1, d)
       if (.not. has_features(o1) .or. all(d == 0.0_rp)) cycle
-      dl = d + min(norm2(d), LIFT_FRACTION * this%cp%dhat) * d / norm2(d)
       mark = .false.
       call elements_mark(o0, o1, core(o0), d, this%cp, lat, lat%ys - 1, x0a, lat%ys - 1, lat%ye, mark)
+      dl = d + carried_lift(this, lat, fixed, k, t1, x0, x, d, mark, min(norm2(d), LIFT_FRACTION * this%cp%dhat)) &
+               * d / norm2(d)
       do j = lat%ys, lat%ye
         do i = 0, lat%nx - 1
           if (.not. mark(i, j) .or. fixed(i, j)) cycle
@@ -253,6 +255,64 @@ contains
       end do
     end do
   end subroutine faces_start
+
+  !> The lift of the quads that obstacle k carries over a step to t1
+  !> (faces_start; the free nodes of mark moved by d, the obstacle's
+  !> translation): the full lift where it keeps at least half the gap
+  !> that the carry alone (x0 + d on those nodes, x elsewhere) leaves
+  !> their quads to the other obstacles at t1; else the lift shortened to
+  !> half that gap, which moving nodes by it cannot close (a point of a
+  !> triangle moves no more than its nodes), and 0 where the carry alone
+  !> leaves none. The lift goes along d, and another obstacle may lie that
+  !> way: gripper_lift's lower finger, rising, carried the pinched quads
+  !> up by its move and lifted them by as much again into the upper
+  !> finger, a tenth of a millimetre above them and rising with it, so
+  !> every start of the step was infeasible and the run failed at t =
+  !> 0.5004 s (docs/contact.md, "Faces and edges"). The same on every rank
+  !> (each quad's gap on the rank of its anchor row). Collective.
+  real(rp) function carried_lift(this, lat, fixed, k, t1, x0, x, d, mark, lift) result(l)
+    class(face_contact_t), intent(in) :: this
+    type(lattice_t), intent(in) :: lat
+    logical, intent(in) :: fixed(0:, lat%ys:)
+    integer, intent(in) :: k
+    real(rp), intent(in) :: t1
+    real(rp), intent(in) :: x0(0:, 0:, lat%ys:), x(0:, 0:, lat%ys:)
+    real(rp), intent(in) :: d(3)                ! obstacle k's translation over the step [length]
+    logical, intent(in) :: mark(0:, lat%ys:)
+    real(rp), intent(in) :: lift                ! the full lift [length]
+    ! the start carried without the lift, and its carried flags, on the owned rows and those around [length], [1]
+    real(rp) :: xc(4, 0:lat%nx - 1, lat%ys - 1:lat%ye + 1)
+    logical :: moved(0:lat%nx - 1, lat%ys - 1:lat%ye + 1)
+    real(rp) :: g(2), gg(2)                     ! smallest gap without and with the lift [length]
+    type(obstacle_t) :: o
+    integer :: i, j, m, c, mpierr
+    do j = lat%ys, lat%ye
+      do i = 0, lat%nx - 1
+        xc(4, i, j) = merge(1.0_rp, 0.0_rp, mark(i, j) .and. .not. fixed(i, j))
+        xc(1:3, i, j) = merge(x0(0:2, i, j) + d, x(0:2, i, j), xc(4, i, j) > 0.5_rp)
+      end do
+    end do
+    call exchange_rows(this, lat, this%comm, xc)
+    moved = xc(4, :, :) > 0.5_rp
+    g = huge(1.0_rp)
+    do c = 1, 2
+      if (c == 2) then
+        do j = lat%ys - 1, lat%ye + 1
+          do i = 0, lat%nx - 1
+            if (moved(i, j)) xc(1:3, i, j) = xc(1:3, i, j) + lift * d / norm2(d)
+          end do
+        end do
+      end if
+      do m = 1, obstacle_set_count(this%obstacles)
+        if (m == k) cycle
+        o = obstacle_set_pose(this%obstacles, m, t1)
+        g(c) = min(g(c), elements_gap(o, this%cp, lat, lat%ys - 1, xc, lat%ys, lat%ye, moved))
+      end do
+    end do
+    call MPI_Allreduce(g, gg, 2, MPI_DOUBLE_PRECISION, MPI_MIN, this%comm, mpierr)
+    l = lift
+    if (gg(2) < 0.5_rp * gg(1)) l = max(0.0_rp, min(lift, 0.5_rp * gg(1)))
+  end function carried_lift
 
   !> The positions of x0 (0:5, 0:nx-1, ys:ye) on the owned rows and the
   !> rows ys-1 and ye+1 of the ranks beside (zero beyond the lattice,

@@ -187,13 +187,15 @@ contains
   !> The smallest gap (distance - radius - thickness) of the cloth's
   !> triangles, their edges and nodes included, to o over the quads
   !> anchored at rows jq0..jq1 of x(3, 0:nx-1, xlo:) (huge where none is
-  !> within reach + thickness) [length].
-  real(rp) function elements_gap(o, cp, lat, xlo, x, jq0, jq1) result(gmin)
+  !> within reach + thickness), only those with a node where only(0:nx-1,
+  !> xlo:) holds if given [length].
+  real(rp) function elements_gap(o, cp, lat, xlo, x, jq0, jq1, only) result(gmin)
     type(obstacle_t), intent(in) :: o
     type(contact_params_t), intent(in) :: cp
     type(lattice_t), intent(in) :: lat
     integer, intent(in) :: xlo, jq0, jq1
     real(rp), intent(in) :: x(:, 0:, xlo:)
+    logical, intent(in), optional :: only(0:, xlo:)
     integer :: i, j, j0, j1, i1, a, nn, ni(4), nj(4), tri(3, 2), t
     real(rp) :: xq(3, 4)
     gmin = huge(1.0_rp)
@@ -202,6 +204,9 @@ contains
     do j = j0, j1
       do i = 0, i1
         call element_nodes(EL_QUAD, i, j, ni, nj, nn)
+        if (present(only)) then
+          if (.not. any([(only(ni(a), nj(a)), a = 1, nn)])) cycle
+        end if
         do a = 1, nn
           xq(:, a) = x(1:3, ni(a), nj(a))
         end do
