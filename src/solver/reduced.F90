@@ -449,24 +449,11 @@ contains
     type(reduced_t), intent(inout), target :: red
     type(pm_list_t), intent(in), target :: pms
     PetscErrorCode, intent(out) :: ierr
-    character(len=32) :: pctype
-    PetscBool :: set
-    MPI_Comm :: comm
     ierr = 0
     red%pms => pms
     if (red%pcc%use_mg) then
       call mg_glue_set_pairs(red%mgg, pms)
       return
-    end if
-    ! PETSc's PCMG (-nuno_mg petsc or -reduced_pc_type mg) makes its coarse
-    ! levels from the assembled S alone (Galerkin 'pmat') and leaves their
-    ! operators unset where the Krylov operator (S with the pair blocks, a
-    ! MATSHELL) differs from it: refused here, not a failure at the first solve
-    PetscCall(PetscOptionsGetString(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_pc_type', pctype, set, ierr))
-    if (set .and. trim(pctype) == 'mg') then
-      PetscCall(PetscObjectGetComm(red%da3, comm, ierr))
-      ierr = PETSC_ERR_ARG_INCOMP
-      SETERRQ(comm, ierr, 'nuno: self_contact''s pair blocks need nuno''s multigrid (-nuno_mg stencil, the default) or a one-level -reduced_pc_type: PETSc''s PCMG (-nuno_mg petsc, -reduced_pc_type mg) cannot take them')
     end if
     PetscCall(pair_op_create(red%pop, red%s, red%da3, red%lat, pms, red%ksp, ierr))
   end subroutine reduced_set_pairs

@@ -40,7 +40,7 @@ module reduced_pairs
 contains
 
   !> The MATSHELL over s (same sizes) adding the pair blocks of pms, made
-  !> the operator of ksp, s its preconditioner's matrix. Collective.
+  !> the operator of ksp, s its preconditioner's matrix; refused with PETSc's PCMG. Collective.
   subroutine pair_op_create(po, s, da3, lat, pms, ksp, ierr)
     type(pair_op_t), intent(inout), target :: po
     type(tMat), intent(in) :: s
@@ -51,6 +51,16 @@ contains
     PetscErrorCode, intent(out) :: ierr
     PetscInt :: m, n, mg, ng
     MPI_Comm :: comm
+    character(len=32) :: pctype             !< -reduced_pc_type (default_preconditioner's 'mg' with -nuno_mg petsc)
+    PetscBool :: set
+    ! PETSc's PCMG: its Galerkin 'pmat' levels are left without operators
+    ! beside this MATSHELL, refused here, not a failure at the first solve
+    PetscCall(PetscOptionsGetString(PETSC_NULL_OPTIONS, PETSC_NULL_CHARACTER, '-reduced_pc_type', pctype, set, ierr))
+    if (set .and. trim(pctype) == 'mg') then
+      PetscCall(PetscObjectGetComm(da3, comm, ierr))
+      ierr = PETSC_ERR_ARG_INCOMP
+      SETERRQ(comm, ierr, 'nuno: self_contact''s pair blocks need nuno''s multigrid (-nuno_mg stencil, the default) or a one-level -reduced_pc_type: PETSc''s PCMG (-nuno_mg petsc, -reduced_pc_type mg) cannot take them')
+    end if
     po%s = s
     po%da3 = da3
     po%lat => lat
