@@ -71,8 +71,8 @@ contains
     PetscCall(MatCreateShell(comm, m, n, mg, ng, PETSC_NULL_INTEGER, po%op, ierr))
     PetscCall(MatShellSetContext(po%op, po, ierr))
     PetscCall(MatShellSetOperation(po%op, MATOP_MULT, pair_op_mult, ierr))
-    PetscCall(KSPSetOperators(ksp, po%op, s, ierr))
     po%made = .true.
+    PetscCall(pair_op_set_operators(po, s, ksp, ierr))
   end subroutine pair_op_create
 
   !> The inner KSP's operators set again (the preconditioner rebuilt from s
